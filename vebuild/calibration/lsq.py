@@ -1,0 +1,50 @@
+"""Small helpers shared by the calibration solvers: Jacobians and covariances."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+from numpy.typing import NDArray
+
+Array = NDArray[np.float64]
+
+
+def numeric_jacobian(fun: Callable[[Array], Array], x: Array, step: Array | float = 1e-6) -> Array:
+    """Central-difference Jacobian of fun at x, shape (m, n)."""
+    x = np.asarray(x, float)
+    h = np.broadcast_to(np.asarray(step, float), x.shape)
+    cols = []
+    for i in range(x.size):
+        dx = np.zeros_like(x)
+        dx[i] = h[i]
+        cols.append((fun(x + dx) - fun(x - dx)) / (2 * h[i]))
+    return np.column_stack(cols)
+
+
+def covariance_from_jacobian(J: Array) -> Array:
+    """(JᵀJ)⁻¹ for whitened residuals, through the SVD of J for numerical stability.
+
+    Directions that the data do not determine (singular values below 1e-10 of the largest) get an
+    infinite variance, so that no reported 1σ is silently small or NaN.
+    """
+    _, s, Vt = np.linalg.svd(J, full_matrices=False)
+    ok = s > 1e-10 * s.max()
+    cov = (Vt[ok].T / s[ok] ** 2) @ Vt[ok]
+    if not np.all(ok):
+        undetermined = np.any(np.abs(Vt[~ok]) > 1e-6, axis=0)
+        cov[undetermined, :] = np.inf
+        cov[:, undetermined] = np.inf
+    return cov
+
+
+def variance_factor(whitened_residuals: Array, n_params: int) -> float:
+    """A-posteriori variance factor σ0² = χ² / dof, floored at 1.
+
+    Floored so that reported uncertainties are never smaller than the stated click noise implies;
+    raised when the marks fit worse than that noise.
+    """
+    dof = whitened_residuals.size - n_params
+    if dof <= 0:
+        return 1.0
+    return max(1.0, float(whitened_residuals @ whitened_residuals) / dof)

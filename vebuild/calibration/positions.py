@@ -1,0 +1,461 @@
+"""Camera positions and marker positions in one metric world frame (paper §2.1).
+
+The start is the paper's construction:
+
+1. the origin marker fixes the world origin; for each photo that sees it, the camera lies on the
+   ray from the origin in direction t̂ = −Rᵀ K⁻¹ u₀ (eq. 4 solved up to scale);
+2. one such photo is put at unit distance; another photo k sharing ≥ 2 markers with a placed
+   photo j gets the unit baseline B̂ⱼₖ as the eigenvector of the smallest eigenvalue of
+   Γ = Σ Ĉᵢ Ĉᵢᵀ, Ĉᵢ = M̂ⱼᵢ × M̂ₖᵢ (eqs. 5–7), its sign fixed by cheirality (the markers lie in
+   front of both cameras), and Cₖ is where the line from the origin along t̂ₖ meets the line from
+   Cⱼ along B̂ⱼₖ (Figure 4);
+3. markers seen by two placed photos are triangulated, and photos without the origin marker are
+   placed from ≥ 2 markers of known position (resection with K and R known);
+4. the reference distances fix the metric scale.
+
+Then one robust least-squares solve refines every camera position and marker position over all
+marker observations and scale distances. Each photo's focal length, principal point and rotation
+take part too, held by a Gaussian prior equal to their vanishing-point estimate and covariance, so
+that the positions' uncertainty includes theirs.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.optimize import least_squares
+from scipy.spatial.transform import Rotation
+
+from ..camera import intrinsic_matrix, pixel_rays_world, project, skew
+from ..errors import CalibrationError
+from .lsq import covariance_from_jacobian, numeric_jacobian, variance_factor
+
+Array = NDArray[np.float64]
+
+#: Whitened residual beyond which an observation is reported as an outlier (and the robust loss
+#: has already discounted it).
+OUTLIER_SIGMAS = 4.0
+#: Scale of the robust loss, in units of the stated noise: below it the loss is quadratic.
+ROBUST_SCALE = 3.0
+#: Lines meeting at a smaller angle than this (degrees) do not fix a point along them well enough
+#: to start from (with 1 px clicks at f ≈ 1500 px a 2° parallax leaves ~2 % depth error).
+MIN_INTERSECTION_ANGLE_DEG = 2.0
+
+
+@dataclass(frozen=True)
+class PhotoInput:
+    """What placement needs from one calibrated photo.
+
+    covariance : (6, 6) over (f, cx, cy, ω) from the vanishing-point calibration.
+    markers : marker name → observed pixel (u, v).
+    """
+
+    id: str
+    K: Array
+    R: Array
+    covariance: Array
+    markers: Mapping[str, Array]
+
+
+@dataclass(frozen=True)
+class ReferenceDistance:
+    a: str
+    b: str
+    distance: float
+    sigma: float = 0.002
+    role: str = "scale"  # "scale" fixes the scale; "check" is only reported
+
+
+@dataclass(frozen=True)
+class PlacedCamera:
+    """covariance : (9, 9) over (f, cx, cy, ωx, ωy, ωz, Cx, Cy, Cz), R_true = exp([ω]×) R."""
+
+    id: str
+    K: Array
+    R: Array
+    C: Array
+    covariance: Array
+    marker_residuals_px: dict[str, Array]
+    outliers: list[str] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class MeasuredDistance:
+    reference: ReferenceDistance
+    measured: float
+    measured_sigma: float
+
+
+@dataclass(frozen=True)
+class Placement:
+    cameras: dict[str, PlacedCamera]
+    markers: dict[str, tuple[Array, Array]]  # name → (position, 3×3 covariance)
+    distances: list[MeasuredDistance]
+    origin: str
+    variance_factor: float
+
+
+def _left_jacobian(w: Array) -> Array:
+    """J_l(ω) of SO(3): exp(ω + δ) ≈ exp(J_l(ω) δ) exp(ω)."""
+    t = float(np.linalg.norm(w))
+    W = skew(w)
+    if t < 1e-8:
+        return np.eye(3) + 0.5 * W
+    return np.eye(3) + (1 - np.cos(t)) / t**2 * W + (t - np.sin(t)) / t**3 * (W @ W)
+
+
+def _skew_rows(v: Array) -> Array:
+    """[vᵢ]× for each row of v, shape (n, 3, 3)."""
+    S = np.zeros((len(v), 3, 3))
+    S[:, 0, 1], S[:, 0, 2] = -v[:, 2], v[:, 1]
+    S[:, 1, 0], S[:, 1, 2] = v[:, 2], -v[:, 0]
+    S[:, 2, 0], S[:, 2, 1] = -v[:, 1], v[:, 0]
+    return S
+
+
+def intersect_lines(points: Array, dirs: Array) -> Array:
+    """The point nearest, in least squares, to the lines pᵢ + t dᵢ (dᵢ unit), shape (3,)."""
+    A = np.zeros((3, 3))
+    b = np.zeros(3)
+    for p, d in zip(points, dirs, strict=True):
+        M = np.eye(3) - np.outer(d, d)
+        A += M
+        b += M @ p
+    return np.linalg.solve(A, b)
+
+
+def _max_angle_deg(dirs: Array) -> float:
+    c = np.clip(np.abs(dirs @ dirs.T), -1.0, 1.0)
+    return float(np.degrees(np.arccos(c.min())))
+
+
+def unit_baseline(rays_j: Array, rays_k: Array) -> Array:
+    """Unit baseline B̂ from camera j to camera k from shared-marker rays (eqs. 5–7).
+
+    The smallest eigenvector of Γ = Σ (M̂ⱼ × M̂ₖ)(M̂ⱼ × M̂ₖ)ᵀ, signed so that the markers lie in
+    front of both cameras: X = Cⱼ + a M̂ⱼ = Cₖ + b M̂ₖ with a, b > 0.
+    """
+    Cc = np.cross(rays_j, rays_k)
+    Gamma = Cc.T @ Cc
+    _, vecs = np.linalg.eigh(Gamma)
+    B = vecs[:, 0]
+    votes = 0.0
+    for mj, mk in zip(rays_j, rays_k, strict=True):
+        ab, *_ = np.linalg.lstsq(np.column_stack([mj, -mk]), B, rcond=None)
+        votes += np.sign(ab[0]) + np.sign(ab[1])
+    return B if votes >= 0 else -B
+
+
+def place_cameras(
+    photos: Sequence[PhotoInput],
+    *,
+    origin: str | None = None,
+    known_markers: Mapping[str, Array] | None = None,
+    distances: Sequence[ReferenceDistance] = (),
+    click_sigma_px: float = 1.0,
+) -> Placement:
+    """Camera and marker positions in metres, with covariances (paper §2.1, then refined).
+
+    Raises CalibrationError when a marker is seen once only, when a photo cannot be placed, or
+    when nothing fixes the metric scale.
+    """
+    known = {k: np.asarray(v, float) for k, v in (known_markers or {}).items()}
+    seen: dict[str, list[str]] = {}
+    for p in photos:
+        for name in p.markers:
+            seen.setdefault(name, []).append(p.id)
+    for name, ids in sorted(seen.items()):
+        if len(ids) < 2 and name not in known:
+            raise CalibrationError(
+                ids[0],
+                f"marker '{name}' is observed in this photo only; a marker needs observations in at "
+                "least two photos (or a surveyed position) to be placed: mark it in another photo or "
+                "remove it",
+            )
+    if origin is None:
+        origin = max(sorted(seen), key=lambda n: len(seen[n])) if seen else None
+    if origin is None or origin not in seen:
+        raise CalibrationError(
+            photos[0].id if photos else "?",
+            f"the origin marker '{origin}' is not observed in any photo; mark it in at least one",
+        )
+    scale_refs = [d for d in distances if d.role == "scale"]
+    if not scale_refs and len([k for k in known if k != origin]) == 0:
+        raise CalibrationError(
+            origin,
+            "nothing fixes the metric scale: add a reference distance (role 'scale') between two "
+            "markers, measured at the scene, or a surveyed marker position",
+        )
+    for d in distances:
+        for n in (d.a, d.b):
+            if n not in seen and n not in known:
+                raise CalibrationError(
+                    "?", f"reference distance {d.a}–{d.b}: marker '{n}' is not observed in any photo"
+                )
+
+    by_id = {p.id: p for p in photos}
+    C, X = _initial_positions(photos, origin, known)
+    s = _metric_scale(X, known, scale_refs, origin)
+    C = {k: v * s for k, v in C.items()}
+    X = {k: (known[k] if k in known else v * s) for k, v in X.items()}
+    return _refine(by_id, C, X, origin, known, distances, click_sigma_px)
+
+
+def _rays(p: PhotoInput, names: Sequence[str]) -> Array:
+    return pixel_rays_world(p.K, p.R, np.array([p.markers[n] for n in names]))
+
+
+def _initial_positions(
+    photos: Sequence[PhotoInput], origin: str, known: Mapping[str, Array]
+) -> tuple[dict[str, Array], dict[str, Array]]:
+    """Unit-scale positions by the paper's construction, then triangulation and resection."""
+    with_origin = [p for p in photos if origin in p.markers]
+    first = max(with_origin, key=lambda p: len(p.markers))
+    C: dict[str, Array] = {first.id: -_rays(first, [origin])[0]}
+    X: dict[str, Array] = {origin: np.zeros(3)}
+    # Known positions are metric while the start is unit-scale: they join after scaling.
+    pending = [p for p in photos if p.id != first.id]
+    while pending:
+        for p in pending:
+            placed = _place_by_baseline(p, C, X, photos)
+            if placed is None:
+                placed = _resect(p, X)
+            if placed is not None:
+                C[p.id] = placed
+                pending.remove(p)
+                _triangulate_all(photos, C, X)
+                break
+        else:
+            break
+    if pending:
+        p = pending[0]
+        n_known = sum(1 for n in p.markers if n in X)
+        raise CalibrationError(
+            p.id,
+            f"the camera cannot be placed: it sees {n_known} marker(s) whose position is known from "
+            "other photos and does not share two markers with a placed photo; mark at least two "
+            "markers that other photos also show",
+        )
+    _triangulate_all(photos, C, X)
+    return C, X
+
+
+def _place_by_baseline(p: PhotoInput, C: Mapping[str, Array], X: Mapping[str, Array],
+                       photos: Sequence[PhotoInput]) -> Array | None:
+    """Figure 4: meet the line from a placed marker back along p's ray with the baseline line.
+
+    The paper's placed marker is the origin; any marker already placed serves the same way, so a
+    photo without the origin is placed as soon as it shares two markers with a placed photo and
+    sees one placed marker.
+    """
+    best = None
+    for q in photos:
+        if q.id not in C:
+            continue
+        shared = sorted(set(p.markers) & set(q.markers))
+        if len(shared) >= 2 and (best is None or len(shared) > len(best[1])):
+            best = (q, shared)
+    if best is None:
+        return None
+    q, shared = best
+    B = unit_baseline(_rays(q, shared), _rays(p, shared))
+    anchors = [n for n in sorted(p.markers) if n in X]
+    if not anchors:
+        return None
+    t_all = -_rays(p, anchors)
+    # The anchor whose line meets the baseline at the widest angle fixes the position best.
+    k = int(np.argmin(np.abs(t_all @ B)))
+    t, anchor = t_all[k], X[anchors[k]]
+    if np.degrees(np.arccos(min(1.0, abs(float(B @ t))))) < MIN_INTERSECTION_ANGLE_DEG:
+        return None  # marker, camera j and camera k in a line: the two lines do not meet
+    # Line 1: anchor + s t (s > 0); line 2: C_q + r B.
+    (s, r), *_ = np.linalg.lstsq(np.column_stack([t, -B]), C[q.id] - anchor, rcond=None)
+    if s <= 0:
+        return None
+    return 0.5 * (anchor + s * t + C[q.id] + r * B)
+
+
+def _resect(p: PhotoInput, X: Mapping[str, Array]) -> Array | None:
+    """Camera centre from ≥ 2 markers of known position, K and R known."""
+    names = [n for n in sorted(p.markers) if n in X]
+    if len(names) < 2:
+        return None
+    rays = _rays(p, names)
+    if _max_angle_deg(rays) < MIN_INTERSECTION_ANGLE_DEG:
+        return None
+    return intersect_lines(np.array([X[n] for n in names]), rays)
+
+
+def _triangulate_all(photos: Sequence[PhotoInput], C: Mapping[str, Array], X: dict[str, Array]) -> None:
+    names = sorted({n for p in photos for n in p.markers})
+    for n in names:
+        if n in X:
+            continue
+        obs = [p for p in photos if n in p.markers and p.id in C]
+        if len(obs) < 2:
+            continue
+        rays = np.array([_rays(p, [n])[0] for p in obs])
+        if _max_angle_deg(rays) < MIN_INTERSECTION_ANGLE_DEG:
+            continue
+        X[n] = intersect_lines(np.array([C[p.id] for p in obs]), rays)
+
+
+def _metric_scale(X: Mapping[str, Array], known: Mapping[str, Array], refs: Sequence[ReferenceDistance],
+                  origin: str) -> float:
+    """Least-squares scale factor from the reference distances and surveyed markers."""
+    num = den = 0.0
+    for d in refs:
+        if d.a in X and d.b in X:
+            cur = float(np.linalg.norm(X[d.a] - X[d.b]))
+            w = 1.0 / d.sigma**2
+            num += w * cur * d.distance
+            den += w * cur * cur
+    for k, pos in known.items():
+        if k in X and k != origin:
+            cur = X[k] - X[origin]
+            num += float(cur @ pos) / 1e-6
+            den += float(cur @ cur) / 1e-6
+    if den == 0.0:
+        raise CalibrationError(origin, "no reference distance joins two markers that could be placed; "
+                               "add one between markers seen in two photos or more")
+    return num / den
+
+
+def _refine(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mapping[str, Array], origin: str,
+            known: Mapping[str, Array], distances: Sequence[ReferenceDistance], click_sigma: float) -> Placement:
+    ids = list(photos)
+    free_markers = [n for n in sorted(X0) if n != origin and n not in known]
+    fixed = {origin: np.zeros(3), **known}
+    n_cam = 9 * len(ids)
+    n_par = n_cam + 3 * len(free_markers)
+    col = {n: n_cam + 3 * i for i, n in enumerate(free_markers)}
+
+    # Priors from each photo's vanishing-point calibration: whiten (q − q̂) with Σ^(−1/2).
+    q0 = {i: np.r_[photos[i].K[0, 0], photos[i].K[:2, 2]] for i in ids}
+    L_inv = {}
+    for i in ids:
+        cov = photos[i].covariance
+        w, V = np.linalg.eigh(0.5 * (cov + cov.T))
+        L_inv[i] = (V / np.sqrt(np.maximum(w, 1e-18))).T
+    obs = [(i, n, np.asarray(uv, float)) for i in ids for n, uv in sorted(photos[i].markers.items()) if n in X0]
+    scale_refs = [d for d in distances if d.role == "scale" and d.a in X0 and d.b in X0]
+
+    all_markers = sorted(X0)
+    m_index = {n: j for j, n in enumerate(all_markers)}
+    obs_cam = np.array([ids.index(i) for i, _, _ in obs], dtype=int)
+    obs_mark = np.array([m_index[n] for _, n, _ in obs], dtype=int)
+    obs_uv = np.array([uv for _, _, uv in obs]).reshape(-1, 2)
+    ref_ab = np.array([[m_index[d.a], m_index[d.b]] for d in scale_refs], dtype=int).reshape(-1, 2)
+    ref_d = np.array([d.distance for d in scale_refs])
+    ref_s = np.array([d.sigma for d in scale_refs])
+    L_stack = np.array([L_inv[i] for i in ids])
+    R0 = np.array([photos[i].R for i in ids])
+    q0_stack = np.array([q0[i] for i in ids])
+    free_rows = np.array([m_index[n] for n in free_markers], dtype=int)
+    X_fixed = np.zeros((len(all_markers), 3))
+    for n, pos in fixed.items():
+        if n in m_index:
+            X_fixed[m_index[n]] = pos
+
+    def unpack(x: Array) -> tuple[Array, Array, Array, Array]:
+        """Per-camera (f, cx, cy), rotations, centres; all marker positions."""
+        cam = x[:n_cam].reshape(-1, 9)
+        fc = q0_stack + cam[:, 0:3]
+        R = np.einsum("kij,kjl->kil", Rotation.from_rotvec(cam[:, 3:6]).as_matrix(), R0)
+        X = X_fixed.copy()
+        X[free_rows] = x[n_cam:].reshape(-1, 3)
+        return fc, R, cam[:, 6:9], X
+
+    def residuals(x: Array) -> Array:
+        fc, R, C, X = unpack(x)
+        xc = np.einsum("nij,nj->ni", R[obs_cam], X[obs_mark] - C[obs_cam])
+        uv = fc[obs_cam, 0:1] * xc[:, :2] / xc[:, 2:3] + fc[obs_cam, 1:3]
+        reproj = ((uv - obs_uv) / click_sigma).ravel()
+        prior = np.einsum("kij,kj->ki", L_stack, x[:n_cam].reshape(-1, 9)[:, :6]).ravel()
+        dist = (np.linalg.norm(X[ref_ab[:, 0]] - X[ref_ab[:, 1]], axis=1) - ref_d) / ref_s
+        return np.concatenate([reproj, prior, dist])
+
+    n_obs, n_ref = len(obs), len(scale_refs)
+    rows_obs = np.arange(2 * n_obs).reshape(-1, 2)
+    free_col = {m_index[n]: col[n] for n in free_markers}
+
+    def jacobian(x: Array) -> Array:
+        """Analytic Jacobian of residuals (dense: the problem has tens of parameters)."""
+        fc, R, C, X = unpack(x)
+        cam = x[:n_cam].reshape(-1, 9)
+        J = np.zeros((2 * n_obs + 6 * len(ids) + n_ref, n_par))
+        d = X[obs_mark] - C[obs_cam]
+        xc = np.einsum("nij,nj->ni", R[obs_cam], d)
+        z = xc[:, 2]
+        f = fc[obs_cam, 0]
+        # ∂(u, v)/∂x_cam for u = f x/z + cx, v = f y/z + cy
+        A = np.zeros((n_obs, 2, 3))
+        A[:, 0, 0] = A[:, 1, 1] = f / z
+        A[:, 0, 2] = -f * xc[:, 0] / z**2
+        A[:, 1, 2] = -f * xc[:, 1] / z**2
+        A /= click_sigma
+        Jl = np.array([_left_jacobian(w) for w in cam[:, 3:6]])
+        dxc_dw = -np.einsum("nij,njk->nik", _skew_rows(xc), Jl[obs_cam])
+        for r, k, m, a_, dw, Rk, p in zip(rows_obs, obs_cam, obs_mark, A, dxc_dw, R[obs_cam], xc, strict=True):
+            o = 9 * k
+            J[r, o] = p[:2] / p[2] / click_sigma
+            J[r[0], o + 1] = J[r[1], o + 2] = 1.0 / click_sigma
+            J[r, o + 3 : o + 6] = a_ @ dw
+            J[r, o + 6 : o + 9] = -a_ @ Rk
+            if m in free_col:
+                J[r, free_col[m] : free_col[m] + 3] = a_ @ Rk
+        r0 = 2 * n_obs
+        for k in range(len(ids)):
+            J[r0 + 6 * k : r0 + 6 * k + 6, 9 * k : 9 * k + 6] = L_stack[k]
+        r0 += 6 * len(ids)
+        for j, (ia, ib) in enumerate(ref_ab):
+            diff = X[ia] - X[ib]
+            u = diff / max(np.linalg.norm(diff), 1e-12) / ref_s[j]
+            if ia in free_col:
+                J[r0 + j, free_col[ia] : free_col[ia] + 3] += u
+            if ib in free_col:
+                J[r0 + j, free_col[ib] : free_col[ib] + 3] -= u
+        return J
+
+    x0 = np.zeros(n_par)
+    for k, i in enumerate(ids):
+        x0[9 * k + 6 : 9 * k + 9] = C0[i]
+    for n in free_markers:
+        x0[col[n] : col[n] + 3] = X0[n]
+    sol = least_squares(residuals, x0, jac=jacobian, loss="soft_l1", f_scale=ROBUST_SCALE,
+                        x_scale="jac", method="trf", xtol=1e-10, ftol=1e-10)
+    x = sol.x
+    res = residuals(x)
+    s2 = variance_factor(res, n_par)
+    cov = covariance_from_jacobian(jacobian(x)) * s2
+
+    fc, R, C, Xa = unpack(x)
+    X = {n: Xa[m_index[n]] for n in all_markers}
+    cameras = {}
+    for k, i in enumerate(ids):
+        sl = slice(9 * k, 9 * k + 9)
+        K = intrinsic_matrix(*fc[k])
+        resid = {n: project(K, R[k], C[k], X[n]) - uv for j, n, uv in obs if j == i}
+        outl = [n for n, d in resid.items() if np.linalg.norm(d) / click_sigma > OUTLIER_SIGMAS]
+        cameras[i] = PlacedCamera(i, K, R[k].copy(), C[k].copy(), cov[sl, sl].copy(), resid, outl)
+    markers = {}
+    for n in sorted(X):
+        c3 = cov[col[n] : col[n] + 3, col[n] : col[n] + 3].copy() if n in col else np.zeros((3, 3))
+        markers[n] = (np.asarray(X[n], float).copy(), c3)
+    measured = []
+    for d in distances:
+        if d.a not in X or d.b not in X:
+            continue
+        diff = X[d.a] - X[d.b]
+        dist = float(np.linalg.norm(diff))
+        g = np.zeros(n_par)
+        u = diff / max(dist, 1e-12)
+        if d.a in col:
+            g[col[d.a] : col[d.a] + 3] += u
+        if d.b in col:
+            g[col[d.b] : col[d.b] + 3] -= u
+        measured.append(MeasuredDistance(d, dist, float(np.sqrt(max(g @ cov @ g, 0.0)))))
+    return Placement(cameras, markers, measured, origin, s2)

@@ -1,0 +1,116 @@
+"""The pinhole camera of DESIGN.md, in one place.
+
+``K = [[f, 0, cx], [0, f, cy], [0, 0, 1]]`` in pixels (zero skew, square pixels); ``R`` rotates
+world into camera coordinates; ``C`` is the camera centre; ``x_cam = R (X - C)``; the camera looks
+along +z_cam and image v grows along +y_cam; ``u ~ K x_cam``. Pixel (u, v) has its origin at the
+top-left corner of the image, so pixel column i, row j has its centre at (i + 0.5, j + 0.5).
+
+Free functions over numpy arrays; nothing here does I/O or GL.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.spatial.transform import Rotation
+
+Array = NDArray[np.float64]
+
+#: A level camera looking along world +X: its x (image right) is world -Y, its y (image down) is
+#: world -Z, its optical axis world +X. Columns are the camera axes in world coordinates.
+LEVEL_CAMERA_TO_WORLD: Array = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
+LEVEL_CAMERA_TO_WORLD.flags.writeable = False  # shared constant: nobody may edit it in place
+
+AXES = ("x", "y", "z")
+
+
+def intrinsic_matrix(f: float, cx: float, cy: float) -> Array:
+    """K = [[f, 0, cx], [0, f, cy], [0, 0, 1]]."""
+    return np.array([[f, 0.0, cx], [0.0, f, cy], [0.0, 0.0, 1.0]])
+
+
+def project(K: ArrayLike, R: ArrayLike, C: ArrayLike, X_world: ArrayLike) -> Array:
+    """Pixel coordinates u = π(K R (X - C)) of world points.
+
+    Parameters
+    ----------
+    K, R : (3, 3) intrinsics and world→camera rotation.
+    C : (3,) camera centre.
+    X_world : (..., 3) points.
+
+    Returns
+    -------
+    (..., 2) pixel coordinates (u, v), origin at the image's top-left corner.
+    """
+    x_cam = (np.asarray(X_world, float) - np.asarray(C, float)) @ np.asarray(R, float).T
+    h = x_cam @ np.asarray(K, float).T
+    return h[..., :2] / h[..., 2:3]
+
+
+def pixel_rays_world(K: ArrayLike, R: ArrayLike, uv: ArrayLike) -> Array:
+    """Unit viewing directions in the world of pixels uv, shape (..., 2) → (..., 3).
+
+    d_world = Rᵀ K⁻¹ [u, v, 1]ᵀ, normalised (paper eq. 5).
+    """
+    uv = np.asarray(uv, float)
+    h = np.concatenate([uv, np.ones(uv.shape[:-1] + (1,))], axis=-1)
+    d_cam = np.linalg.solve(np.asarray(K, float), h.reshape(-1, 3).T).T.reshape(h.shape)
+    d = d_cam @ np.asarray(R, float)  # row-vector form of Rᵀ d_cam
+    return d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+
+def skew(w: ArrayLike) -> Array:
+    """[w]×, the matrix with [w]× v = w × v."""
+    x, y, z = np.asarray(w, float)
+    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+
+
+def exp_so3(w: ArrayLike) -> Array:
+    """exp([w]×): the rotation by |w| radians about w."""
+    return Rotation.from_rotvec(np.asarray(w, float)).as_matrix()
+
+
+def log_so3(R: ArrayLike) -> Array:
+    """The rotation vector w with exp([w]×) = R."""
+    return Rotation.from_matrix(np.asarray(R, float)).as_rotvec()
+
+
+def nearest_rotation(M: ArrayLike) -> Array:
+    """The rotation closest to M in the Frobenius norm (polar decomposition), det +1."""
+    U, _, Vt = np.linalg.svd(np.asarray(M, float))
+    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))])
+    return U @ D @ Vt
+
+
+def _rz(a: float) -> Array:
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def _ry(a: float) -> Array:
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+
+
+def rotation_from_ypr(yaw: float, pitch: float, roll: float) -> Array:
+    """World→camera rotation R from yaw, pitch, roll in radians.
+
+    camera→world = Rz(yaw) · Ry(−pitch) · B · Rz(roll), B = LEVEL_CAMERA_TO_WORLD. Yaw turns the
+    optical axis counter-clockwise from +X about +Z; pitch raises it (positive looking up); roll
+    turns the camera clockwise about its optical axis as seen from behind.
+    """
+    cam2world = _rz(yaw) @ _ry(-pitch) @ LEVEL_CAMERA_TO_WORLD @ _rz(roll)
+    return cam2world.T
+
+
+def ypr_from_rotation(R: ArrayLike) -> Array:
+    """(yaw, pitch, roll) in radians of a world→camera rotation; inverse of rotation_from_ypr."""
+    cam2world = np.asarray(R, float).T
+    d = cam2world[:, 2]  # optical axis in the world
+    yaw = np.arctan2(d[1], d[0])
+    pitch = np.arcsin(np.clip(d[2], -1.0, 1.0))
+    # What is left after undoing yaw and pitch is B · Rz(roll).
+    rest = LEVEL_CAMERA_TO_WORLD.T @ _ry(pitch) @ _rz(-yaw) @ cam2world
+    roll = np.arctan2(rest[1, 0], rest[0, 0])
+    return np.array([yaw, pitch, roll])
+

@@ -1,0 +1,39 @@
+"""Errors a user can act on.
+
+Every error raised for bad input is a :class:`VebuildError`: the command line prints its message
+(no traceback) and exits with status 2. Messages say where (file, JSON path, photo, axis), what was
+expected and what was found.
+"""
+
+from __future__ import annotations
+
+
+class VebuildError(Exception):
+    """Base class of every error caused by the user's input rather than by a bug."""
+
+
+class ProjectError(VebuildError):
+    """The project file or a file it names is malformed, missing or changed.
+
+    Parameters
+    ----------
+    file : the file concerned (project file or photo).
+    where : a JSON path inside the project file such as ``$.photos[2].width`` ('' for the file).
+    message : what was expected and what was found.
+    """
+
+    def __init__(self, file: object, where: str, message: str) -> None:
+        self.file = str(file)
+        self.where = where
+        self.detail = message
+        loc = f"{self.file}: {where}: " if where else f"{self.file}: "
+        super().__init__(loc + message)
+
+
+class CalibrationError(VebuildError):
+    """The marks on a photo cannot determine its camera; the message says which marks to add or fix."""
+
+    def __init__(self, photo: str, message: str) -> None:
+        self.photo = photo
+        self.detail = message
+        super().__init__(f"photo '{photo}': {message}")

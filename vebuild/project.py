@@ -1,0 +1,556 @@
+"""The project file: load, validate, save; photo hashes and EXIF (layer 3, project I/O).
+
+The format is specified in ``scenes/FORMAT.md`` and, for machines, in the JSON Schema shipped as
+``vebuild/schema/project-v1.schema.json``. Every problem with the file or a photo it names is a
+:class:`~vebuild.errors.ProjectError` that says where (JSON path), what was expected and what was
+found, in words meant for the person who made the project rather than for a programmer.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import difflib
+import hashlib
+import json
+import math
+import os
+import re
+import secrets
+from dataclasses import dataclass
+from functools import cache
+from importlib import resources
+from pathlib import Path, PurePosixPath
+from typing import Any
+
+import jsonschema
+from PIL import Image, UnidentifiedImageError
+
+from . import __version__
+from .errors import ProjectError
+
+FORMAT = "vebuild-project"
+VERSION = 1
+#: Values of ``settings`` that a project does not give (FORMAT.md, "settings").
+DEFAULT_SETTINGS: dict[str, float] = {
+    "click_sigma_px": 1.0,
+    "principal_point_sigma_rel": 0.01,
+    "exif_focal_sigma_rel": 0.01,
+}
+#: Top-level keys written by vebuild's stages; they are not input, so the input hash skips them.
+RESULT_KEYS = ("calibration",)
+
+_CHUNK = 1 << 20
+_ID_UNSAFE = re.compile(r"[^A-Za-z0-9_.-]+")
+_HASH_SHOWN = 12  # hex digits of a hash quoted in a message: enough to tell two apart
+
+
+@dataclass
+class Project:
+    """A loaded project file.
+
+    Attributes
+    ----------
+    path : the project file.
+    data : the JSON document, as plain dicts and lists.
+    """
+
+    path: Path
+    data: dict[str, Any]
+
+    @property
+    def folder(self) -> Path:
+        """The folder that photo paths are relative to."""
+        return self.path.parent
+
+    @property
+    def settings(self) -> dict[str, float]:
+        """``settings`` merged over :data:`DEFAULT_SETTINGS`."""
+        return {**DEFAULT_SETTINGS, **self.data.get("settings", {})}
+
+    def photo(self, photo_id: str) -> dict[str, Any]:
+        """The photo object with this id; ProjectError if there is none."""
+        for photo in self.data["photos"]:
+            if photo["id"] == photo_id:
+                return photo
+        known = _listing(p["id"] for p in self.data["photos"])
+        raise ProjectError(self.path, "$.photos",
+                           f"no photo has the id {photo_id!r} (the photos are: {known})")
+
+    def photo_path(self, photo_or_id: dict[str, Any] | str) -> Path:
+        """Where a photo's image file is: its ``file`` taken relative to :attr:`folder`."""
+        photo = self.photo(photo_or_id) if isinstance(photo_or_id, str) else photo_or_id
+        return self.folder.joinpath(*PurePosixPath(photo["file"]).parts)
+
+    def marker_names(self) -> list[str]:
+        """The marker names, in file order."""
+        return [m["name"] for m in self.data["markers"]]
+
+
+# --------------------------------------------------------------------------------------------------
+# Load and save
+
+
+def load_project(path: str | os.PathLike[str], *, verify_photos: bool = True) -> Project:
+    """Read and validate a project file.
+
+    Parameters
+    ----------
+    path : the project file.
+    verify_photos : also check that every photo exists, is unchanged (SHA-256) and has the
+        recorded pixel size.
+
+    Raises
+    ------
+    ProjectError : the file is missing, not JSON, of another format or version, does not match the
+        schema, is inconsistent (duplicate or unknown names), or a photo is missing or changed.
+    """
+    path = Path(path)
+    try:
+        text = path.read_bytes().decode("utf-8")
+    except FileNotFoundError:
+        raise ProjectError(path, "", "project file not found") from None
+    except UnicodeDecodeError as e:
+        raise ProjectError(path, "", f"not a text file in UTF-8 (byte {e.start} cannot be read)") from None
+    except OSError as e:
+        raise ProjectError(path, "", f"cannot read the project file: {e.strerror}") from None
+    try:
+        data = json.loads(text, object_pairs_hook=lambda pairs: _unique_keys(path, pairs),
+                          parse_constant=lambda name: _reject_constant(path, name))
+    except json.JSONDecodeError as e:
+        where = f"line {e.lineno}, column {e.colno}"
+        raise ProjectError(path, "", f"not valid JSON: {e.msg} at {where}") from None
+    validate(data, path)
+    project = Project(path, data)
+    if verify_photos:
+        for i, photo in enumerate(data["photos"]):
+            _verify_photo(project, i, photo)
+    return project
+
+
+def save_project(project_or_path: Project | str | os.PathLike[str],
+                 data: dict[str, Any] | None = None) -> Path:
+    """Validate a document and write it atomically.
+
+    Parameters
+    ----------
+    project_or_path : a Project (its path, and its data unless ``data`` is given) or a file path.
+    data : the document to write; required when a path is given.
+
+    Returns
+    -------
+    The path written. Nothing is written if the document is invalid; if writing fails for any
+    reason the old file is left as it was and no temporary file remains.
+
+    Raises
+    ------
+    ProjectError : the document is invalid, or the file system refused the write.
+    """
+    if isinstance(project_or_path, Project):
+        path = project_or_path.path
+        data = project_or_path.data if data is None else data
+    else:
+        path = Path(project_or_path)
+        if data is None:
+            raise TypeError("save_project(path, data): data is required when a path is given")
+    validate(data, path)
+
+    # Write beside the target so that os.replace is a rename within one file system: readers then
+    # see the old file or the new one, never a half-written one, even after a crash.
+    tmp = path.with_name(f".{path.name}.{secrets.token_hex(4)}.tmp")
+    try:
+        # os.open honours the umask (mkstemp would make the file private); keep an old file's mode.
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+        with open(fd, "w", encoding="utf-8", newline="\n") as f:
+            json.dump(data, f, indent=2, ensure_ascii=False, allow_nan=False)
+            f.write("\n")
+            f.flush()
+            os.fsync(f.fileno())
+        with contextlib.suppress(FileNotFoundError):
+            os.chmod(tmp, path.stat().st_mode & 0o7777)
+        os.replace(tmp, path)
+    except BaseException as e:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        if isinstance(e, OSError):
+            raise ProjectError(path, "", f"cannot write the project file ({e.strerror or e}); "
+                               "the file on disk is unchanged") from e
+        raise
+    _fsync_folder(path.parent)
+    return path
+
+
+def new_project(name: str) -> dict[str, Any]:
+    """An empty, valid project document with the default settings written out."""
+    return {
+        "format": FORMAT,
+        "version": VERSION,
+        "name": name,
+        "settings": dict(DEFAULT_SETTINGS),
+        "photos": [],
+        "markers": [],
+        "reference_distances": [],
+    }
+
+
+def canonical_input_hash(data: dict[str, Any]) -> str:
+    """SHA-256 (hex) of the document without its results: the provenance of what a stage read."""
+    inputs = {k: v for k, v in data.items() if k not in RESULT_KEYS}
+    text = json.dumps(inputs, sort_keys=True, separators=(",", ":"), allow_nan=False)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+# --------------------------------------------------------------------------------------------------
+# Validation
+
+
+@cache
+def schema() -> dict[str, Any]:
+    """The JSON Schema of format version 1."""
+    text = resources.files("vebuild.schema").joinpath("project-v1.schema.json").read_text("utf-8")
+    return json.loads(text)
+
+
+@cache
+def _validator() -> jsonschema.Draft202012Validator:
+    return jsonschema.Draft202012Validator(schema())
+
+
+def validate(data: Any, file: str | os.PathLike[str]) -> None:
+    """Check a document against format version 1; ProjectError naming ``file`` if it does not match.
+
+    Checked in order: that it is a vebuild project of version 1 (so that a file of another version
+    gets that message rather than a list of schema differences), the schema, then what a schema
+    cannot say (unique names, names that refer to something, finite numbers, relative paths).
+    """
+    _check_format_version(data, file)
+    errors = list(_validator().iter_errors(data))
+    if errors:
+        raise _schema_error(errors, file)
+    _check_finite(data, file, "$")
+    _check_semantics(data, file)
+
+
+def _check_format_version(data: Any, file: Any) -> None:
+    if not isinstance(data, dict):
+        raise ProjectError(file, "$", f"expected a JSON object {{...}} at the top, found {_describe(data)}")
+    if data.get("format") != FORMAT:
+        found = _describe(data["format"]) if "format" in data else "no \"format\" key"
+        raise ProjectError(file, "$.format", f"not a vebuild project file: expected \"format\": "
+                           f"\"{FORMAT}\", found {found}")
+    version = data.get("version")
+    if "version" not in data:
+        raise ProjectError(file, "$.version",
+                           f"no \"version\" key; this vebuild reads format version {VERSION}")
+    if type(version) is not int:
+        raise ProjectError(file, "$.version", f"expected the format version as a whole number (this vebuild "
+                           f"reads version {VERSION}), found {_describe(version)}")
+    if version != VERSION:
+        hint = "; it was written by a newer vebuild: upgrade vebuild to open it" if version > VERSION else ""
+        raise ProjectError(file, "$.version", f"this file is format version {version}, but this vebuild "
+                           f"({__version__}) reads format version {VERSION} only{hint}")
+
+
+def _check_semantics(data: dict[str, Any], file: Any) -> None:
+    def unique(items: list[dict[str, Any]], key: str, where: str, what: str) -> None:
+        first: dict[str, int] = {}
+        for i, item in enumerate(items):
+            if item[key] in first:
+                raise ProjectError(file, f"{where}[{i}].{key}",
+                                   f"the {what} {item[key]!r} is already used by "
+                                   f"{where}[{first[item[key]]}]; each {what} must be unique")
+            first[item[key]] = i
+
+    def known_marker(name: str, where: str) -> None:
+        if name not in markers:
+            raise ProjectError(file, where, f"names the marker {name!r}, but $.markers has no marker of that "
+                               f"name (the markers are: {_listing(markers)})")
+
+    markers = [m["name"] for m in data["markers"]]
+    unique(data["photos"], "id", "$.photos", "photo id")
+    unique(data["markers"], "name", "$.markers", "marker name")
+    for i, photo in enumerate(data["photos"]):
+        _check_relative_path(photo["file"], file, f"$.photos[{i}].file")
+        for name in photo.get("marker_observations", {}):
+            known_marker(name, f"$.photos[{i}].marker_observations{_key(name)}")
+    for i, ref in enumerate(data["reference_distances"]):
+        known_marker(ref["a"], f"$.reference_distances[{i}].a")
+        known_marker(ref["b"], f"$.reference_distances[{i}].b")
+        if ref["a"] == ref["b"]:
+            raise ProjectError(file, f"$.reference_distances[{i}]",
+                               f"runs from the marker {ref['a']!r} to itself; expected two different markers")
+    if "origin_marker" in data:
+        known_marker(data["origin_marker"], "$.origin_marker")
+
+
+def _check_relative_path(file_field: str, file: Any, where: str) -> None:
+    # Photos live in the project folder so that the two move together; an absolute path, a
+    # Windows separator or '..' would tie the project to one machine's folders.
+    p = PurePosixPath(file_field)
+    if "\\" in file_field or p.is_absolute() or ".." in p.parts or re.match(r"^[A-Za-z]:", file_field):
+        raise ProjectError(file, where, "expected a path inside the project folder, relative to it and with "
+                           f"forward slashes (such as \"photos/door.jpg\"), found {file_field!r}")
+
+
+def _check_finite(value: Any, file: Any, where: str) -> None:
+    # JSON has no NaN or infinity, and a NaN slips through every numeric schema test.
+    if isinstance(value, float) and not math.isfinite(value):
+        raise ProjectError(file, where, f"expected a finite number, found {value!r}")
+    if isinstance(value, dict):
+        for k, v in value.items():
+            _check_finite(v, file, where + _key(k))
+    elif isinstance(value, list):
+        for i, v in enumerate(value):
+            _check_finite(v, file, f"{where}[{i}]")
+
+
+def _schema_error(errors: list[jsonschema.ValidationError], file: Any) -> ProjectError:
+    # Report one error: the shallowest (the most is wrong there), and at one level an unexpected
+    # key before a missing one, since that is usually the same key misspelt.
+    error = min(errors, key=lambda e: (len(e.absolute_path), e.validator != "additionalProperties"))
+    return ProjectError(file, json_path(error.absolute_path), _explain(error))
+
+
+def _explain(error: jsonschema.ValidationError) -> str:
+    """What a schema error means, in plain words: expected ..., found ...."""
+    v, arg, inst, sch = error.validator, error.validator_value, error.instance, error.schema
+    found = _describe(inst)
+    about = f" ({sch['description']})" if isinstance(sch, dict) and "description" in sch else ""
+    if v == "required":
+        missing = [k for k in arg if k not in inst]
+        return f"the key {missing[0]!r} is required but missing"
+    if v == "additionalProperties":
+        allowed = list(sch.get("properties", {}))
+        extra = [k for k in inst if k not in allowed]
+        close = difflib.get_close_matches(extra[0], allowed, n=1)
+        hint = f"; did you mean {close[0]!r}?" if close else f"; the allowed keys are: {', '.join(allowed)}"
+        return f"unexpected key {extra[0]!r}{hint}"
+    if v == "type":
+        types = [arg] if isinstance(arg, str) else arg
+        return f"expected {' or '.join(_TYPE_WORDS[t] for t in types)}{about}, found {found}"
+    if v in ("minItems", "maxItems"):
+        lo, hi = sch.get("minItems"), sch.get("maxItems")
+        count = f"exactly {lo}" if lo == hi else f"at least {lo}" if v == "minItems" else f"at most {hi}"
+        return f"expected {sch.get('description', 'a list')} with {count} items, found {found}"
+    if v in ("minimum", "exclusiveMinimum"):
+        bound = f"at least {arg}" if v == "minimum" else f"greater than {arg}"
+        return f"expected a number {bound}, found {found}"
+    if v in ("const", "enum"):
+        values = [arg] if v == "const" else arg
+        expected = sch.get("description") or " or ".join(json.dumps(x) for x in values)
+        return f"expected {expected}, found {found}"
+    if v in ("pattern", "minLength"):
+        return f"expected {sch.get('description', 'different text')}, found {found}"
+    return error.message  # keywords this schema does not use
+
+
+_TYPE_WORDS = {
+    "number": "a number", "integer": "a whole number", "string": "text in quotes", "array": "a list [...]",
+    "object": "an object {...}", "boolean": "true or false", "null": "null",
+}
+
+
+def _describe(value: Any) -> str:
+    """A short description of a JSON value for messages."""
+    if isinstance(value, bool) or value is None:
+        return json.dumps(value)
+    if isinstance(value, int | float):
+        return f"the number {value!r}"
+    if isinstance(value, str):
+        shown = value if len(value) <= 40 else value[:37] + "..."
+        return f"the text {json.dumps(shown, ensure_ascii=False)}"
+    if isinstance(value, list):
+        return f"a list of {len(value)} item{'s' if len(value) != 1 else ''}"
+    if isinstance(value, dict):
+        return "an object {...}"
+    return f"a {type(value).__name__}"
+
+
+def json_path(parts: Any) -> str:
+    """A JSON path such as ``$.photos[2].vanishing_segments.x[0]`` from path components."""
+    return "$" + "".join(f"[{p}]" if isinstance(p, int) else _key(p) for p in parts)
+
+
+def _key(name: str) -> str:
+    if re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name):
+        return f".{name}"
+    return f"[{json.dumps(name, ensure_ascii=False)}]"
+
+
+def _listing(names: Any, limit: int = 10) -> str:
+    names = list(names)
+    if not names:
+        return "none"
+    shown = ", ".join(repr(n) for n in names[:limit])
+    return shown + (f" and {len(names) - limit} more" if len(names) > limit else "")
+
+
+def _unique_keys(file: Path, pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    # json.loads would silently keep the last of two equal keys: a hand edit lost without a word.
+    out: dict[str, Any] = {}
+    for k, v in pairs:
+        if k in out:
+            raise ProjectError(file, "", f"the key {k!r} appears twice in one object; keep only one")
+        out[k] = v
+    return out
+
+
+def _reject_constant(file: Path, name: str) -> None:
+    raise ProjectError(file, "", f"not valid JSON: {name} is not a JSON number")
+
+
+# --------------------------------------------------------------------------------------------------
+# Photos
+
+
+def _verify_photo(project: Project, i: int, photo: dict[str, Any]) -> None:
+    where = f"$.photos[{i}]"
+    image = project.photo_path(photo)
+    if not image.is_file():
+        raise ProjectError(project.path, f"{where}.file", f"photo file not found: {photo['file']!r} "
+                           f"(looked for {image})")
+    found = sha256_file(image)
+    if found != photo["sha256"]:
+        raise ProjectError(project.path, f"{where}.sha256",
+                           f"the photo {photo['file']!r} has changed since it was added to the project: "
+                           f"expected SHA-256 {photo['sha256'][:_HASH_SHOWN]}..., found "
+                           f"{found[:_HASH_SHOWN]}...; vebuild will not use a changed photo, since the marks "
+                           "made on it may no longer fit. Restore the original file, or add the photo again")
+    size = _image_size(image, project.path, f"{where}.file")
+    if size != (photo["width"], photo["height"]):
+        raise ProjectError(project.path, f"{where}.width",
+                           f"the photo {photo['file']!r} is {size[0]}×{size[1]} pixels, "
+                           f"but the project says {photo['width']}×{photo['height']}")
+
+
+def _image_size(image: Path, file: Any, where: str) -> tuple[int, int]:
+    # Image.open reads the header only; the size is known without decoding the pixels.
+    try:
+        with Image.open(image) as img:
+            return img.size
+    except FileNotFoundError:
+        raise ProjectError(file, where, f"photo file not found: {image}") from None
+    except (UnidentifiedImageError, Image.DecompressionBombError, OSError) as e:
+        raise ProjectError(file, where, f"cannot open {image} as an image: {e}") from None
+
+
+def sha256_file(path: str | os.PathLike[str]) -> str:
+    """SHA-256 (lowercase hex) of a file's bytes, read in 1 MiB chunks."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        while chunk := f.read(_CHUNK):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+# EXIF tags (EXIF 2.3): Make and Model in IFD0; the rest in the Exif IFD.
+_MAKE, _MODEL, _EXIF_IFD = 0x010F, 0x0110, 0x8769
+_FOCAL_LENGTH, _FOCAL_35MM, _FOCAL_PLANE_XRES, _FOCAL_PLANE_UNIT = 37386, 41989, 41486, 41488
+#: FocalPlaneResolutionUnit → millimetres per unit (2 inch, the default, 3 cm, 4 mm, 5 µm).
+_MM_PER_UNIT = {2: 25.4, 3: 10.0, 4: 1.0, 5: 0.001}
+
+
+def read_exif(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """What the camera recorded about a photo's focal length.
+
+    Returns
+    -------
+    dict with the keys of FORMAT.md's ``exif`` object that the file gives (``{}`` for none):
+    make, model, focal_length_mm, focal_length_35mm, focal_plane_x_resolution_per_mm, and the
+    derived focal_length_px, preferably f_mm × resolution, else from the 35 mm equivalent over the
+    image diagonal. The focal-plane resolution is taken to refer to the image as stored.
+    """
+    with Image.open(path) as img:
+        width, height = img.size
+        try:
+            exif = img.getexif()
+            sub = exif.get_ifd(_EXIF_IFD)
+        except Exception:  # noqa: BLE001 -- EXIF is advisory: a damaged block must not stop the photo
+            return {}
+    out: dict[str, Any] = {}
+    for key, tag in (("make", _MAKE), ("model", _MODEL)):
+        if text := _text(exif.get(tag)):
+            out[key] = text
+    # EXIF writes 0 for "unknown"; only positive values are kept.
+    if (f_mm := _positive(sub.get(_FOCAL_LENGTH))) is not None:
+        out["focal_length_mm"] = f_mm
+    if (f_35 := _positive(sub.get(_FOCAL_35MM))) is not None:
+        out["focal_length_35mm"] = f_35
+    res = _positive(sub.get(_FOCAL_PLANE_XRES))
+    mm_per_unit = _MM_PER_UNIT.get(sub.get(_FOCAL_PLANE_UNIT, 2))
+    if res is not None and mm_per_unit is not None:
+        out["focal_plane_x_resolution_per_mm"] = res / mm_per_unit
+    if f_mm is not None and "focal_plane_x_resolution_per_mm" in out:
+        out["focal_length_px"] = f_mm * out["focal_plane_x_resolution_per_mm"]
+    elif f_35 is not None:
+        # The 35 mm equivalent matches the diagonals of the image and of a 36 × 24 mm frame.
+        out["focal_length_px"] = f_35 * math.hypot(width, height) / math.hypot(36.0, 24.0)
+    return out
+
+
+def _positive(value: Any) -> float | None:
+    try:
+        x = float(value)  # IFDRational and int alike; a 0/0 rational gives nan
+    except (TypeError, ValueError, ZeroDivisionError):
+        return None
+    return x if math.isfinite(x) and x > 0 else None
+
+
+def _text(value: Any) -> str:
+    if isinstance(value, bytes):
+        value = value.decode("utf-8", "replace")
+    return value.strip("\x00 ") if isinstance(value, str) else ""
+
+
+def new_photo_entry(project_folder: str | os.PathLike[str], image_path: str | os.PathLike[str],
+                    photo_id: str | None = None) -> dict[str, Any]:
+    """A photo object for an image inside the project folder, with no marks yet.
+
+    Parameters
+    ----------
+    project_folder : the folder of the project file.
+    image_path : the image (relative paths are taken from the current directory).
+    photo_id : default the file's stem, with characters other than ``[A-Za-z0-9_.-]`` made ``_``.
+
+    Raises
+    ------
+    ProjectError : the image lies outside the project folder or cannot be opened as an image.
+    """
+    # abspath, not resolve: a symbolic link inside the project folder stays inside it.
+    folder = Path(os.path.abspath(project_folder))
+    image = Path(os.path.abspath(image_path))
+    if not image.is_relative_to(folder):
+        raise ProjectError(image, "", f"the photo lies outside the project folder {folder}; copy it into "
+                           "that folder (or a folder inside it) so that the project and its photos move "
+                           "together")
+    if photo_id is None:
+        photo_id = _ID_UNSAFE.sub("_", image.stem) or "photo"
+    elif not re.fullmatch(r"[A-Za-z0-9_.-]+", photo_id):
+        raise ProjectError(image, "", f"expected a photo id made of letters, digits, '_', '.' and '-' only, "
+                           f"found {photo_id!r}")
+    width, height = _image_size(image, image, "")
+    entry: dict[str, Any] = {
+        "id": photo_id,
+        "file": image.relative_to(folder).as_posix(),
+        "width": width,
+        "height": height,
+        "sha256": sha256_file(image),
+    }
+    if exif := read_exif(image):
+        entry["exif"] = exif
+    entry["vanishing_segments"] = {}
+    entry["marker_observations"] = {}
+    return entry
+
+
+def _fsync_folder(folder: Path) -> None:
+    # Make the rename itself durable (POSIX); folders cannot be opened this way on Windows.
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)

@@ -1,0 +1,207 @@
+"""Seeded synthetic scenes with known answers, for tests and benchmarks.
+
+Random cameras inside a room look at random edges along the world axes and at named markers;
+the "user's" clicks are the true projections plus Gaussian noise. The projection here is written
+out independently of :mod:`vebuild.camera` (as P = K [R | −RC] with a homogeneous division), so a
+convention slip in the product is not silently repeated by its test data.
+
+The kinds of photo:
+
+- ``3vp``: the camera is tilted, all three axes recede;
+- ``2vp``: a level camera, verticals are parallel in the image (vertical vanishing point at infinity);
+- ``1vp``: a level camera facing a wall squarely: only one vanishing point is finite, the focal length
+  comes from EXIF.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+Array = NDArray[np.float64]
+
+ROOM = np.array([6.0, 5.0, 2.8])  # x, y, z extent of the synthetic room, metres
+
+
+@dataclass
+class SyntheticPhoto:
+    """A known camera and the marks a careful user would make on its photo."""
+
+    id: str
+    kind: str
+    width: int
+    height: int
+    K: Array
+    R: Array  # world → camera
+    C: Array
+    segments: dict[str, Array] = field(default_factory=dict)
+    markers: dict[str, Array] = field(default_factory=dict)
+    exif_focal_px: float | None = None
+
+
+def projection_matrix(K: Array, R: Array, C: Array) -> Array:
+    """P = K [R | −R C]."""
+    return K @ np.hstack([R, -(R @ C)[:, None]])
+
+
+def _project(P: Array, X: Array) -> tuple[Array, Array]:
+    """Pixels and depths of world points X (n, 3) under the 3×4 P."""
+    h = np.hstack([X, np.ones((len(X), 1))]) @ P.T
+    return h[:, :2] / h[:, 2:3], h[:, 2]
+
+
+def _rotation(yaw: float, pitch: float, roll: float) -> Array:
+    """World→camera rotation built from the camera's axes in the world (written out directly).
+
+    The optical axis points at heading `yaw` with elevation `pitch`; image right is horizontal
+    before roll; roll turns right/down about the optical axis (clockwise seen from behind).
+    """
+    fwd = np.array([np.cos(pitch) * np.cos(yaw), np.cos(pitch) * np.sin(yaw), np.sin(pitch)])
+    right0 = np.array([np.sin(yaw), -np.cos(yaw), 0.0])
+    down0 = np.cross(fwd, right0)
+    right = np.cos(roll) * right0 + np.sin(roll) * down0
+    down = np.cross(fwd, right)
+    return np.vstack([right, down, fwd])  # rows: camera axes in the world
+
+
+def random_camera(rng: np.random.Generator, kind: str, width: int = 1600, height: int = 1200,
+                  photo_id: str = "p") -> SyntheticPhoto:
+    """A random camera of the given kind standing in the synthetic room."""
+    f = width * rng.uniform(0.6, 1.5)
+    c = np.array([width / 2, height / 2]) + rng.normal(0.0, 0.01 * width, 2)
+    C = np.array([rng.uniform(1.0, ROOM[0] - 1.0), rng.uniform(1.0, ROOM[1] - 1.0), rng.uniform(1.2, 1.9)])
+    if kind == "3vp":
+        yaw = rng.uniform(0, 2 * np.pi)
+        pitch = np.radians(rng.uniform(12, 40)) * rng.choice([-1, 1])
+        roll = np.radians(rng.normal(0.0, 3.0))
+    elif kind == "2vp":
+        yaw = rng.uniform(0, 2 * np.pi)
+        pitch = np.radians(rng.uniform(-1.5, 1.5))
+        roll = np.radians(rng.normal(0.0, 2.0))
+    elif kind == "1vp":
+        yaw = np.radians(90.0 * rng.integers(4) + rng.uniform(-1.0, 1.0))
+        pitch = np.radians(rng.uniform(-1.0, 1.0))
+        roll = np.radians(rng.normal(0.0, 1.0))
+    else:
+        raise ValueError(f"kind must be 3vp, 2vp or 1vp, got {kind!r}")
+    K = np.array([[f, 0.0, c[0]], [0.0, f, c[1]], [0.0, 0.0, 1.0]])
+    return SyntheticPhoto(photo_id, kind, width, height, K, _rotation(yaw, pitch, roll), C)
+
+
+def add_segments(photo: SyntheticPhoto, rng: np.random.Generator, noise_px: float = 0.7,
+                 per_axis: tuple[int, int] = (4, 6), min_length_rel: float = 0.2) -> None:
+    """Mark 4–6 directed segments per axis along long edges the camera sees.
+
+    A careful user marks long edges: each segment spans at least min_length_rel of the image's
+    longer side.
+    """
+    min_length_px = min_length_rel * max(photo.width, photo.height)
+    P = projection_matrix(photo.K, photo.R, photo.C)
+    for i, axis in enumerate("xyz"):
+        n_want = rng.integers(per_axis[0], per_axis[1] + 1)
+        out: list[Array] = []
+        for _ in range(20000):
+            if len(out) == n_want:
+                break
+            # A point 1.5–7 m ahead, off the optical axis, and an edge through it along the axis.
+            depth = rng.uniform(1.5, 7.0)
+            lateral = np.linalg.solve(photo.K, np.r_[rng.uniform(0, photo.width), rng.uniform(0, photo.height), 1.0])
+            mid = photo.C + depth * (photo.R.T @ (lateral / lateral[2]))
+            half = rng.uniform(0.3, 2.5)
+            e = np.eye(3)[i]
+            ends = np.array([mid - half * e, mid + half * e])
+            uv, z = _project(P, ends)
+            if np.any(z < 0.5) or not _inside(uv, photo.width, photo.height, 5.0):
+                continue
+            if np.linalg.norm(uv[1] - uv[0]) < min_length_px:
+                continue
+            out.append((uv + rng.normal(0.0, noise_px, uv.shape)).reshape(4))
+        photo.segments[axis] = np.array(out)
+
+
+def _inside(uv: Array, w: float, h: float, margin: float) -> bool:
+    return bool(np.all((uv[:, 0] >= margin) & (uv[:, 0] <= w - margin) & (uv[:, 1] >= margin) & (uv[:, 1] <= h - margin)))
+
+
+def observe_markers(photo: SyntheticPhoto, markers: dict[str, Array], rng: np.random.Generator,
+                    noise_px: float = 0.7) -> None:
+    """Record every marker in front of the camera and inside the image (no occluders here)."""
+    P = projection_matrix(photo.K, photo.R, photo.C)
+    names = list(markers)
+    uv, z = _project(P, np.array([markers[n] for n in names]))
+    for n, p, d in zip(names, uv, z, strict=True):
+        if d > 0.3 and _inside(p[None], photo.width, photo.height, 5.0):
+            photo.markers[n] = p + rng.normal(0.0, noise_px, 2)
+
+
+def random_markers(rng: np.random.Generator, n: int = 12) -> dict[str, Array]:
+    """The origin marker O at a floor corner, and n − 1 markers around the room."""
+    pts = {"O": np.zeros(3)}
+    for k in range(1, n):
+        pts[f"M{k}"] = rng.uniform([0.2, 0.2, 0.0], ROOM - 0.2)
+    return pts
+
+
+def random_scene(rng: np.random.Generator, kinds: tuple[str, ...] = ("3vp", "3vp", "2vp", "3vp"),
+                 width: int = 1600, height: int = 1200, noise_px: float = 0.7,
+                 n_markers: int = 12) -> tuple[list[SyntheticPhoto], dict[str, Array]]:
+    """Several photos of one synthetic room sharing markers, the origin marker seen by most.
+
+    Cameras of kind 3vp and 2vp look toward the origin corner region; a 1vp camera faces a wall
+    squarely (and may not see the origin).
+    """
+    markers = random_markers(rng, n_markers)
+    photos: list[SyntheticPhoto] = []
+    for k, kind in enumerate(kinds):
+        for _ in range(2000):
+            cam = random_camera(rng, kind, width, height, f"p{k + 1}")
+            if kind == "1vp":
+                # Face a wall squarely, back toward the origin corner, where the markers are.
+                cam.R = _rotation(np.radians(rng.choice([180.0, 270.0]) + rng.uniform(-1.0, 1.0)),
+                                  np.radians(rng.uniform(-1.0, 1.0)), np.radians(rng.normal(0.0, 1.0)))
+            if kind in ("3vp", "2vp"):
+                # Aim at a point near the origin corner so the cameras share markers.
+                target = rng.uniform([0.5, 0.5, 0.0], [3.0, 2.5, 1.0])
+                cam.C = np.array([rng.uniform(2.5, ROOM[0] - 0.3), rng.uniform(2.0, ROOM[1] - 0.3), cam.C[2]])
+                d = target - cam.C
+                yaw = np.arctan2(d[1], d[0])
+                if kind == "3vp":
+                    pitch = np.arctan2(d[2], np.hypot(d[0], d[1]))
+                    pitch = np.clip(pitch, -np.radians(40), -np.radians(14))
+                else:
+                    pitch = np.radians(rng.uniform(-1.5, 1.5))
+                cam.R = _rotation(yaw, pitch, np.radians(rng.normal(0.0, 2.0)))
+            observe_markers(cam, markers, rng, noise_px)
+            shared = set(cam.markers) & {n for p in photos for n in p.markers}
+            if kind == "1vp" and len(shared) >= 3 and photos:
+                break
+            if kind != "1vp" and len(cam.markers) >= 4 and "O" in cam.markers:
+                break
+        else:
+            raise RuntimeError(f"no {kind} camera found that sees enough markers")
+        add_segments(cam, rng, noise_px)
+        cam.exif_focal_px = float(cam.K[0, 0])
+        photos.append(cam)
+    # A user marks a marker only where it helps: in two photos or more.
+    counts: dict[str, int] = {}
+    for p in photos:
+        for n in p.markers:
+            counts[n] = counts.get(n, 0) + 1
+    for p in photos:
+        p.markers = {n: uv for n, uv in p.markers.items() if counts[n] >= 2}
+    return photos, {n: X for n, X in markers.items() if counts.get(n, 0) >= 2}
+
+
+def scale_reference(photos: list[SyntheticPhoto], markers: dict[str, Array]) -> tuple[str, str, float]:
+    """The distance a careful user would tape: from O to the best-observed marker far from it.
+
+    Markers seen by more photos are preferred (their positions are better determined), then the
+    longer distance (a tape's error is a smaller share of it).
+    """
+    def score(n: str) -> tuple[int, float]:
+        return (sum(n in p.markers for p in photos), float(np.linalg.norm(markers[n])))
+
+    best = max((n for n in markers if n != "O"), key=score)
+    return "O", best, float(np.linalg.norm(markers[best] - markers["O"]))
