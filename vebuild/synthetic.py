@@ -16,6 +16,7 @@ The kinds of photo:
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
@@ -205,3 +206,40 @@ def scale_reference(photos: list[SyntheticPhoto], markers: dict[str, Array]) -> 
 
     best = max((n for n in markers if n != "O"), key=score)
     return "O", best, float(np.linalg.norm(markers[best] - markers["O"]))
+
+
+def write_project(folder: Path, photos: list[SyntheticPhoto], markers: dict[str, Array],
+                  check: tuple[str, str] | None = None) -> Path:
+    """Write a project file for a synthetic scene, with plain grey photos of the right size.
+
+    The photos carry no picture (calibration reads only the marks) but are real JPEG files whose
+    hashes the project records. Returns the project file's path.
+    """
+    from PIL import Image
+
+    from .project import new_photo_entry, new_project, save_project
+
+    folder = Path(folder)
+    (folder / "photos").mkdir(parents=True, exist_ok=True)
+    data = new_project("synthetic scene")
+    data["settings"]["click_sigma_px"] = 0.7
+    for p in photos:
+        img = folder / "photos" / f"{p.id}.jpg"
+        Image.new("RGB", (p.width, p.height), (128, 128, 128)).save(img, quality=90)
+        entry = new_photo_entry(folder, img, p.id)
+        entry["vanishing_segments"] = {a: [[float(x) for x in s] for s in seg] for a, seg in p.segments.items()}
+        entry["marker_observations"] = {n: [float(uv[0]), float(uv[1])] for n, uv in p.markers.items()}
+        if p.kind == "1vp" and p.exif_focal_px:
+            entry["focal_px"] = {"value": p.exif_focal_px, "sigma": 0.01 * p.exif_focal_px}
+        data["photos"].append(entry)
+    data["markers"] = [{"name": n} for n in sorted(markers)]
+    data["origin_marker"] = "O"
+    a, b, d = scale_reference(photos, markers)
+    data["reference_distances"] = [{"a": a, "b": b, "distance": round(d, 4), "sigma": 0.002, "role": "scale"}]
+    if check:
+        dc = float(np.linalg.norm(markers[check[0]] - markers[check[1]]))
+        data["reference_distances"].append({"a": check[0], "b": check[1], "distance": round(dc, 4),
+                                            "sigma": 0.002, "role": "check"})
+    path = folder / "synthetic.vebuild.json"
+    save_project(path, data)
+    return path

@@ -263,6 +263,28 @@ def calibrate_photo(
     )
 
 
+def closed_form_calibration(
+    segments: Mapping[str, ArrayLike], width: int, height: int, *, photo: str = "photo",
+    focal: FocalPrior | None = None,
+) -> tuple[Array, Array]:
+    """The paper's method alone (§2): per-axis vanishing points, then K and R in closed form.
+
+    Principal point at the orthocentre when three vanishing points are finite, else at the image
+    centre; f from two finite vanishing points, else the given focal length. No prior, no joint
+    refinement, no uncertainty: the reference that ``vebuild bench calibration`` compares with.
+    """
+    segs = {a: check_segments(s, a, photo) for a, s in segments.items() if len(np.asarray(s).reshape(-1)) > 0}
+    axes = [a for a in AXES if a in segs]
+    fits = {a: fit_vanishing_point(segs[a], width, height, axis=a, photo=photo) for a in axes}
+    N = normalising_transform(width, height)
+    finite = [a for a in axes if abs((N @ fits[a].point)[2]) / np.linalg.norm(N @ fits[a].point)
+              > 1.0 / FINITE_VP_MAX_RADIUS]
+    f, c = _closed_form_start(fits, finite, np.array([width / 2.0, height / 2.0]), photo, focal)
+    K = intrinsic_matrix(f, *c)
+    R, _ = rotation_from_vanishing_points(K, {a: fits[a].point for a in axes}, segs)
+    return K, R
+
+
 def _closed_form_start(
     fits: Mapping, finite: list[str], c0: Array, photo: str, prior: FocalPrior | None
 ) -> tuple[float, Array]:
@@ -271,7 +293,7 @@ def _closed_form_start(
     if len(finite) == 3:
         c = orthocentre(pts["x"], pts["y"], pts["z"])
         f2 = focal_squared(pts["x"], pts["y"], c)
-        if f2 > 0 and np.linalg.norm(c - c0) < 0.5 * np.linalg.norm(c0) * 2:
+        if f2 > 0 and np.linalg.norm(c - c0) < np.linalg.norm(c0):  # inside the image's circumcircle
             return float(np.sqrt(f2)), c
     bad = []
     for a, b in combinations(finite, 2):

@@ -1,0 +1,180 @@
+"""Calibrate every photo of a project and place the cameras: ``vebuild calibrate``.
+
+Reads the marks from the project document, runs :func:`calibrate_photo` per photo and
+:func:`place_cameras` over all of them, and writes the results into ``data["calibration"]``
+(see scenes/FORMAT.md). The caller saves the project.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+from typing import Any
+
+import numpy as np
+
+from .. import __version__
+from ..calibration.photo import FocalPrior, PhotoCalibration, calibrate_photo, ypr_with_sigma
+from ..calibration.positions import Placement, PhotoInput, ReferenceDistance, place_cameras
+from ..errors import CalibrationError
+from ..project import Project, canonical_input_hash
+
+#: EXIF focal lengths from the physical focal length and from the 35 mm equivalent that disagree
+#: by more than this (relative) are not trusted to 1 %: the larger discrepancy becomes the 1σ.
+EXIF_FOCAL_DISAGREEMENT = 0.03
+
+
+def exif_focal_prior(photo: dict[str, Any], sigma_rel: float) -> FocalPrior | None:
+    """The EXIF focal length in pixels as a prior, or None when EXIF has none."""
+    exif = photo.get("exif") or {}
+    f = exif.get("focal_length_px")
+    if not f:
+        return None
+    f35 = exif.get("focal_length_35mm")
+    if f35:
+        f_from_35 = f35 * np.hypot(photo["width"], photo["height"]) / np.hypot(36.0, 24.0)
+        sigma_rel = max(sigma_rel, abs(f_from_35 - f) / f if abs(f_from_35 - f) / f > EXIF_FOCAL_DISAGREEMENT else 0)
+    return FocalPrior(float(f), float(f) * sigma_rel, "exif")
+
+
+def calibrate_photos(project: Project, progress: Callable[[Iterable], Iterable] = iter) -> dict[str, PhotoCalibration]:
+    """Intrinsics and rotation of every photo that has vanishing segments."""
+    settings = project.settings
+    out = {}
+    for photo in progress(project.data["photos"]):
+        segs = {a: np.asarray(s, float) for a, s in (photo.get("vanishing_segments") or {}).items() if s}
+        if not segs:
+            continue
+        focal = None
+        if "focal_px" in photo:
+            focal = FocalPrior(photo["focal_px"]["value"], photo["focal_px"]["sigma"], "user")
+        pp = None
+        if "principal_point" in photo:
+            pp = (np.asarray(photo["principal_point"]["value"], float), float(photo["principal_point"]["sigma"]))
+        out[photo["id"]] = calibrate_photo(
+            segs,
+            photo["width"],
+            photo["height"],
+            photo=photo["id"],
+            click_sigma_px=settings["click_sigma_px"],
+            principal_point=pp,
+            principal_point_sigma_rel=settings["principal_point_sigma_rel"],
+            focal=focal,
+            exif_focal=exif_focal_prior(photo, settings["exif_focal_sigma_rel"]),
+        )
+    return out
+
+
+def calibrate_project(project: Project, progress: Callable[[Iterable], Iterable] = iter) -> dict[str, Any]:
+    """Calibrate all photos, place the cameras, write and return ``project.data["calibration"]``.
+
+    Raises CalibrationError naming the photo (or marker) whose marks are insufficient.
+    """
+    data = project.data
+    photos = calibrate_photos(project, progress)
+    missing = [p["id"] for p in data["photos"] if p["id"] not in photos]
+    if missing:
+        raise CalibrationError(missing[0], "has no vanishing segments; mark segments along two world axes at least")
+    known = {m["name"]: np.asarray(m["position"], float) for m in data.get("markers", []) if "position" in m}
+    refs = [
+        ReferenceDistance(d["a"], d["b"], float(d["distance"]), float(d.get("sigma", 0.002)), d.get("role", "scale"))
+        for d in data.get("reference_distances", [])
+    ]
+    inputs = [
+        PhotoInput(pid, cal.K, cal.R, cal.covariance,
+                   {n: np.asarray(uv, float) for n, uv in (_photo(data, pid).get("marker_observations") or {}).items()})
+        for pid, cal in photos.items()
+    ]
+    placement = place_cameras(
+        inputs,
+        origin=data.get("origin_marker"),
+        known_markers=known,
+        distances=refs,
+        click_sigma_px=project.settings["click_sigma_px"],
+    )
+    result = _results(data, photos, placement)
+    data["calibration"] = result
+    return result
+
+
+def _photo(data: dict[str, Any], pid: str) -> dict[str, Any]:
+    return next(p for p in data["photos"] if p["id"] == pid)
+
+
+def _vs(value: Any, sigma: Any) -> dict[str, Any]:
+    return {"value": _round(value), "sigma": _round(sigma)}
+
+
+def _round(x: Any) -> Any:
+    """Plain JSON numbers; infinite σ (an undetermined quantity) is written as null."""
+    a = np.asarray(x, float)
+    if a.ndim == 0:
+        return None if not np.isfinite(a) else float(a)
+    return [_round(v) for v in a]
+
+
+def _results(data: dict[str, Any], photos: dict[str, PhotoCalibration], placement: Placement) -> dict[str, Any]:
+    cameras = {}
+    warnings = []
+    for pid, cal in photos.items():
+        cam = placement.cameras[pid]
+        cov = cam.covariance
+        sig = np.sqrt(np.maximum(np.diag(cov), 0.0))
+        ypr, ypr_sig = ypr_with_sigma(cam.R, cov[3:6, 3:6])
+        marker_res = {n: _round(d) for n, d in cam.marker_residuals_px.items()}
+        seg_res = np.concatenate(list(cal.segment_residuals_px.values()))
+        mark = np.concatenate([np.asarray(d).ravel() for d in cam.marker_residuals_px.values()] or [np.zeros(0)])
+        all_res = np.concatenate([seg_res, mark])
+        vps = {}
+        for a, v in cal.vanishing_points.items():
+            # Report the vanishing point where the refined camera puts it.
+            vp = cam.K @ cam.R[:, "xyz".index(a)]
+            res = cal.segment_residuals_px[a]
+            vps[a] = {"point": _round(vp / np.linalg.norm(vp)), "residuals_px": _round(res),
+                      "rms_px": float(np.sqrt(np.mean(res**2)))}
+        cameras[pid] = {
+            "mode": cal.mode,
+            "mode_reason": cal.mode_reason,
+            "focal_source": cal.focal_source,
+            "K": _round(cam.K),
+            "R": _round(cam.R),
+            "focal_px": _vs(cam.K[0, 0], sig[0]),
+            "principal_point": _vs(cam.K[:2, 2], sig[1:3]),
+            "ypr_deg": _vs(np.degrees(ypr), np.degrees(ypr_sig)),
+            "position": _vs(cam.C, sig[6:9]),
+            "covariance": _round(cov),
+            "vanishing_points": vps,
+            "marker_residuals_px": marker_res,
+            "rms_px": float(np.sqrt(np.mean(all_res**2))),
+        }
+        exif = (_photo(data, pid).get("exif") or {}).get("focal_length_px")
+        if exif and "exif" not in cal.focal_source:
+            diff = (cam.K[0, 0] - exif) / exif
+            cameras[pid]["exif_focal_check"] = {"exif_focal_px": float(exif), "difference_rel": float(diff)}
+            if abs(diff) > 3 * max(sig[0] / cam.K[0, 0], 0.01):
+                warnings.append(f"photo '{pid}': the focal length from the vanishing points differs from EXIF by "
+                                f"{100 * diff:+.1f} % (more than 3σ): check the segments, or the photo was cropped")
+        for n in cam.outliers:
+            warnings.append(f"photo '{pid}': marker '{n}' lies {np.linalg.norm(cam.marker_residuals_px[n]):.1f} px "
+                            "from where the other photos put it: check its placement")
+    markers = {n: {"position": _round(x), "sigma": _round(np.sqrt(np.maximum(np.diag(c), 0.0)))}
+               for n, (x, c) in placement.markers.items()}
+    distances = []
+    for m in placement.distances:
+        d = m.reference
+        distances.append({"a": d.a, "b": d.b, "distance": d.distance, "sigma": d.sigma, "role": d.role,
+                          "measured": m.measured, "measured_sigma": m.measured_sigma})
+        if d.role == "check":
+            z = (m.measured - d.distance) / np.hypot(m.measured_sigma, d.sigma)
+            if abs(z) > 3:
+                warnings.append(f"check distance {d.a}–{d.b}: measured {m.measured:.3f} m against {d.distance:.3f} m "
+                                f"known ({z:+.1f}σ): the reconstruction disagrees with the tape")
+    return {
+        "software": f"vebuild {__version__}",
+        "input_sha256": canonical_input_hash(data),
+        "origin_marker": placement.origin,
+        "variance_factor": placement.variance_factor,
+        "cameras": cameras,
+        "markers": markers,
+        "reference_distances": distances,
+        "warnings": warnings,
+    }

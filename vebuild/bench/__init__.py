@@ -1,0 +1,10 @@
+"""Benchmarks run by ``vebuild bench NAME``: each module has ``run(quick, progress) -> figures``
+(a flat dict whose keys name the quantity and its unit) and ``table(figures) -> str``."""
+
+from __future__ import annotations
+
+from types import ModuleType
+
+from . import calibration
+
+BENCHES: dict[str, ModuleType] = {"calibration": calibration}

@@ -1,0 +1,143 @@
+"""The ``vebuild`` command line: thin shells over the library's actions.
+
+Every command loads what it needs, calls one library function, and prints. Errors caused by the
+input (:class:`~vebuild.errors.VebuildError`) are printed as one clear message and exit status 2,
+never as a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+from . import __version__
+from .errors import VebuildError
+
+
+def _cmd_calibrate(args: argparse.Namespace) -> int:
+    from tqdm import tqdm
+
+    from .actions.calibrate import calibrate_project
+    from .project import load_project, save_project
+    from .report_text import calibration_table
+
+    project = load_project(args.project)
+    result = calibrate_project(project, progress=lambda it: tqdm(it, desc="calibrating", unit="photo",
+                                                                 disable=not _progress_wanted(args)))
+    save_project(project)
+    print(calibration_table(result))
+    print(f"\ncameras written to {project.path}")
+    return 0
+
+
+def _cmd_check(args: argparse.Namespace) -> int:
+    from .project import load_project
+
+    project = load_project(args.project)
+    photos = project.data["photos"]
+    print(f"{project.path}: valid vebuild project (format version {project.data['version']}), "
+          f"{len(photos)} photo(s), hashes verified")
+    for p in photos:
+        n_seg = sum(len(v) for v in (p.get("vanishing_segments") or {}).values())
+        print(f"  {p['id']:<10} {p['file']:<28} {p['width']}×{p['height']}  sha256 {p['sha256'][:16]}…  "
+              f"{n_seg} segments, {len(p.get('marker_observations') or {})} markers")
+    return 0
+
+
+def _cmd_new(args: argparse.Namespace) -> int:
+    from .project import new_photo_entry, new_project, save_project
+
+    path = Path(args.project)
+    if path.exists() and not args.force:
+        raise VebuildError(f"{path}: already exists; choose another name or pass --force to replace it")
+    data = new_project(args.name or path.name.split(".")[0])
+    data["photos"] = [new_photo_entry(path.parent, img) for img in args.photos]
+    save_project(path, data)
+    print(f"created {path} with {len(data['photos'])} photo(s)")
+    return 0
+
+
+def _cmd_demo(args: argparse.Namespace) -> int:
+    from .actions.demo import run_demo
+
+    return run_demo(Path(args.out), progress=_progress_wanted(args))
+
+
+def _cmd_bench(args: argparse.Namespace) -> int:
+    from .bench import BENCHES
+
+    bench = BENCHES[args.name]
+    figures = bench.run(quick=args.quick, progress=_progress_wanted(args))
+    print(bench.table(figures))
+    if args.json:
+        out = Path(args.json)
+        tmp = out.with_name(out.name + ".tmp")
+        tmp.write_text(json.dumps(figures, indent=2) + "\n")
+        os.replace(tmp, out)
+        print(f"figures written to {out}")
+    return 0
+
+
+def _progress_wanted(args: argparse.Namespace) -> bool:
+    return not getattr(args, "quiet", False) and sys.stderr.isatty()
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from .bench import BENCHES
+
+    parser = argparse.ArgumentParser(
+        prog="vebuild",
+        description="Rebuild a real place as a measurable virtual environment from a few photographs.",
+    )
+    parser.add_argument("--version", action="version", version=f"vebuild {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    p = sub.add_parser("demo", help="run the whole pipeline on the bundled example room")
+    p.add_argument("--out", default="vebuild-demo", help="folder to copy the example into (default: %(default)s)")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.set_defaults(func=_cmd_demo)
+
+    p = sub.add_parser("calibrate", help="calibrate every photo and place the cameras (paper §2)")
+    p.add_argument("project", help="the project file (NAME.vebuild.json)")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.set_defaults(func=_cmd_calibrate)
+
+    p = sub.add_parser("check", help="validate a project file and verify its photos' hashes")
+    p.add_argument("project")
+    p.set_defaults(func=_cmd_check)
+
+    p = sub.add_parser("new", help="start a project from photos (records their size, SHA-256 and EXIF)")
+    p.add_argument("project", help="the project file to create (NAME.vebuild.json), next to the photos")
+    p.add_argument("photos", nargs="+", help="image files inside the project's folder")
+    p.add_argument("--name", help="title of the project (default: from the file name)")
+    p.add_argument("--force", action="store_true", help="replace an existing project file")
+    p.set_defaults(func=_cmd_new)
+
+    p = sub.add_parser("bench", help="measure accuracy and speed (prints a table; --json writes the figures)")
+    p.add_argument("name", choices=sorted(BENCHES))
+    p.add_argument("--quick", action="store_true", help="a smaller run, for a quick look")
+    p.add_argument("--json", metavar="OUT", help="write the figures to OUT as JSON")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.set_defaults(func=_cmd_bench)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args))
+    except VebuildError as e:
+        print(f"vebuild {args.command}: error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

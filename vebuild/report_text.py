@@ -1,0 +1,55 @@
+"""Plain-text tables of results, for the terminal."""
+
+from __future__ import annotations
+
+from typing import Any
+
+
+def _pm(vs: dict[str, Any], fmt: str, scale: float = 1.0) -> str:
+    """'value ± sigma' of a {"value", "sigma"} object; '?' where σ is undetermined."""
+    v, s = vs["value"], vs["sigma"]
+    if isinstance(v, list):
+        vals = ", ".join(format(x * scale, fmt) for x in v)
+        sig = ", ".join("?" if x is None else format(x * scale, fmt) for x in s)
+        return f"({vals}) ± ({sig})"
+    return f"{format(v * scale, fmt)} ± {'?' if s is None else format(s * scale, fmt)}"
+
+
+def calibration_table(result: dict[str, Any]) -> str:
+    """Per photo: mode, f, principal point, yaw/pitch/roll, position, their 1σ, and residuals."""
+    lines = [f"calibration ({result['software']}); origin marker '{result['origin_marker']}'; "
+             "values ± 1σ", ""]
+    for pid, cam in result["cameras"].items():
+        lines += [
+            f"photo {pid}: mode {cam['mode']} — {cam['mode_reason']}",
+            f"  focal length     {_pm(cam['focal_px'], '.1f')} px   (from {cam['focal_source']})",
+            f"  principal point  {_pm(cam['principal_point'], '.1f')} px",
+            f"  yaw/pitch/roll   {_pm(cam['ypr_deg'], '.3f')} °",
+            f"  position         {_pm(cam['position'], '.3f')} m",
+        ]
+        vp = "  ".join(f"{a}: {v['rms_px']:.2f} px ({len(v['residuals_px'])} segments)"
+                       for a, v in cam["vanishing_points"].items())
+        lines.append(f"  residuals        segments {vp}")
+        if cam["marker_residuals_px"]:
+            worst = max(cam["marker_residuals_px"].items(), key=lambda kv: kv[1][0] ** 2 + kv[1][1] ** 2)
+            lines.append(f"                   markers: {len(cam['marker_residuals_px'])}, largest "
+                         f"{(worst[1][0] ** 2 + worst[1][1] ** 2) ** 0.5:.2f} px ({worst[0]}); all, RMS "
+                         f"{cam['rms_px']:.2f} px")
+        if "exif_focal_check" in cam:
+            c = cam["exif_focal_check"]
+            lines.append(f"  EXIF check       EXIF says f = {c['exif_focal_px']:.1f} px "
+                         f"({100 * c['difference_rel']:+.2f} % from the estimate)")
+        lines.append("")
+    lines.append("markers (m):")
+    for n, m in result["markers"].items():
+        sig = ", ".join("?" if s is None else f"{s:.3f}" for s in m["sigma"])
+        lines.append(f"  {n:<12} ({', '.join(f'{x:.3f}' for x in m['position'])}) ± ({sig})")
+    if result["reference_distances"]:
+        lines += ["", "reference distances (m):"]
+        for d in result["reference_distances"]:
+            lines.append(f"  {d['a']}–{d['b']:<10} {d['role']:<6} known {d['distance']:.3f} ± {d['sigma']:.3f}   "
+                         f"measured {d['measured']:.3f} ± {d['measured_sigma']:.3f}   "
+                         f"difference {1000 * (d['measured'] - d['distance']):+.1f} mm")
+    if result["warnings"]:
+        lines += ["", "warnings:"] + [f"  - {w}" for w in result["warnings"]]
+    return "\n".join(lines)

@@ -1,0 +1,24 @@
+"""Where the files that ship with vebuild live: GLSL shaders and the bundled example project.
+
+An installed wheel carries them under ``vebuild/_data`` (see pyproject.toml); a source checkout
+(or an editable install) has them at the top of the repository.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+_PACKAGE = Path(__file__).resolve().parent
+
+
+def data_dir(name: str) -> Path:
+    """The folder ``name`` (e.g. 'shaders', 'scenes/room'), installed or in the checkout."""
+    for base in (_PACKAGE / "_data", _PACKAGE.parent):
+        if (base / name).is_dir():
+            return base / name
+    raise FileNotFoundError(f"vebuild's data folder '{name}' is missing from this installation")
+
+
+def example_project_dir() -> Path:
+    """The bundled example room: photos, project file and ground truth."""
+    return data_dir("scenes/room")
