@@ -14,7 +14,7 @@ import numpy as np
 
 from .. import __version__
 from ..calibration.photo import FocalPrior, PhotoCalibration, calibrate_photo, ypr_with_sigma
-from ..calibration.positions import Placement, PhotoInput, ReferenceDistance, place_cameras
+from ..calibration.positions import PhotoInput, Placement, ReferenceDistance, place_cameras
 from ..errors import CalibrationError
 from ..project import Project, canonical_input_hash
 
@@ -125,7 +125,7 @@ def _results(data: dict[str, Any], photos: dict[str, PhotoCalibration], placemen
         mark = np.concatenate([np.asarray(d).ravel() for d in cam.marker_residuals_px.values()] or [np.zeros(0)])
         all_res = np.concatenate([seg_res, mark])
         vps = {}
-        for a, v in cal.vanishing_points.items():
+        for a in cal.vanishing_points:
             # Report the vanishing point where the refined camera puts it.
             vp = cam.K @ cam.R[:, "xyz".index(a)]
             res = cal.segment_residuals_px[a]

@@ -144,7 +144,8 @@ def table(fig: dict[str, Any]) -> str:
         lines.append(f"{label + ' (' + unit + ')':<30}{k * fig[name + '_median']:>16.3f}{k * fig[name + '_p95']:>10.3f}"
                      f"{k * fig['reference_' + name + '_median']:>17.3f}{k * fig['reference_' + name + '_p95']:>10.3f}"
                      f"{fig[name + '_median_ratio_vs_reference']:>8.2f}")
-    lines.append(f"{'position error (m)':<30}{fig['position_error_m_median']:>16.4f}{fig['position_error_m_p95']:>10.4f}")
+    lines.append(f"{'position error (m)':<30}{fig['position_error_m_median']:>16.4f}"
+                 f"{fig['position_error_m_p95']:>10.4f}")
     lines.append(f"{'position error (% of room)':<30}{100 * fig['position_rel_error_median']:>16.3f}"
                  f"{100 * fig['position_rel_error_p95']:>10.3f}")
     lines += ["",

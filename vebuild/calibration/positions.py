@@ -31,7 +31,7 @@ from scipy.spatial.transform import Rotation
 
 from ..camera import intrinsic_matrix, pixel_rays_world, project, skew
 from ..errors import CalibrationError
-from .lsq import covariance_from_jacobian, numeric_jacobian, variance_factor
+from .lsq import covariance_from_jacobian, variance_factor
 
 Array = NDArray[np.float64]
 

@@ -1,0 +1,203 @@
+"""Calibration from vanishing points (paper §2) on seeded synthetic cameras with known answers.
+
+Tolerances are the issue's accuracy claims for 0.7 px click noise: focal length within 1 %,
+rotation within 0.3°, camera position within 1 % of the scene's size. They are asserted on the
+median over a batch of random cameras of each kind; every single camera must in addition lie
+within UNCERTAINTY_BOUND of its own reported 1σ, so a camera that is less accurate says so.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from vebuild.calibration.photo import FocalPrior, calibrate_photo, closed_form_calibration
+from vebuild.calibration.positions import PhotoInput, ReferenceDistance, place_cameras
+from vebuild.calibration.vanishing import fit_vanishing_point
+from vebuild.camera import log_so3
+from vebuild.synthetic import CLICK_NOISE_PX, ROOM, add_segments, random_camera, random_scene, scale_reference
+
+FOCAL_TOL_REL = 0.01  # the issue's claim for 0.7 px clicks
+ROTATION_TOL_DEG = 0.3
+POSITION_TOL_REL = 0.01  # of the room's diagonal
+#: |error| / reported 1σ that no camera may exceed: 4.5σ happens by chance about once in 10⁵
+#: draws of a Gaussian, so a larger ratio means the reported uncertainty is wrong.
+UNCERTAINTY_BOUND = 4.5
+#: RMS of error / reported 1σ over a batch: 1 for honest uncertainties. The band allows for the
+#: sampling spread of an RMS over ~100 values and for the floor on the variance factor, which
+#: errs on the side of reporting too much uncertainty.
+Z_RMS_BAND = (0.5, 1.3)
+N_PER_KIND = 40
+
+
+def _calibrate_batch(kind: str, rng: np.random.Generator):
+    out = []
+    for _ in range(N_PER_KIND):
+        cam = random_camera(rng, kind)
+        add_segments(cam, rng, CLICK_NOISE_PX)
+        f = cam.K[0, 0]
+        exif = FocalPrior(f, 0.01 * f, "exif")
+        cal = calibrate_photo(cam.segments, cam.width, cam.height, click_sigma_px=CLICK_NOISE_PX, exif_focal=exif)
+        out.append((cam, cal))
+    return out
+
+
+@pytest.mark.parametrize("kind", ["3vp", "2vp", "1vp"])
+def test_intrinsics_and_rotation_accuracy(kind: str, rng: np.random.Generator) -> None:
+    batch = _calibrate_batch(kind, rng)
+    f_err = np.array([(cal.f - cam.K[0, 0]) / cam.K[0, 0] for cam, cal in batch])
+    w_err = np.array([log_so3(cam.R @ cal.R.T) for cam, cal in batch])
+    rot_deg = np.degrees(np.linalg.norm(w_err, axis=1))
+    assert np.median(np.abs(f_err)) < FOCAL_TOL_REL
+    assert np.median(rot_deg) < ROTATION_TOL_DEG
+    z_f = np.array([(cal.f - cam.K[0, 0]) / cal.f_sigma for cam, cal in batch])
+    z_w = np.concatenate([w / cal.rotation_sigma_rad for w, (_, cal) in zip(w_err, batch, strict=True)])
+    assert np.max(np.abs(z_f)) < UNCERTAINTY_BOUND
+    assert np.max(np.abs(z_w)) < UNCERTAINTY_BOUND
+    assert Z_RMS_BAND[0] < np.sqrt(np.mean(z_w**2)) < Z_RMS_BAND[1]
+    if kind != "1vp":  # in 1vp mode f is EXIF's, whose 1σ (1 %) is deliberately generous
+        assert Z_RMS_BAND[0] < np.sqrt(np.mean(z_f**2)) < Z_RMS_BAND[1]
+
+
+def test_mode_follows_the_geometry(rng: np.random.Generator) -> None:
+    modes = {kind: [cal.mode for _, cal in _calibrate_batch(kind, rng)] for kind in ("3vp", "2vp", "1vp")}
+    # A tilted camera mostly gets f and c from its vanishing points (a weak third one cedes c to the prior).
+    assert modes["3vp"].count("3vp") >= N_PER_KIND // 2
+    assert "1vp" not in modes["3vp"]
+    # A level camera: verticals at infinity, never 3vp.
+    assert "3vp" not in modes["2vp"] and modes["2vp"].count("2vp") >= 0.8 * N_PER_KIND
+    # A frontal view: f must come from EXIF.
+    assert modes["1vp"].count("1vp") >= 0.9 * N_PER_KIND
+
+
+def test_frontal_view_uses_exif_and_says_so(rng: np.random.Generator) -> None:
+    cam = random_camera(rng, "1vp")
+    add_segments(cam, rng, CLICK_NOISE_PX)
+    f = cam.K[0, 0]
+    cal = calibrate_photo(cam.segments, cam.width, cam.height, click_sigma_px=CLICK_NOISE_PX,
+                          exif_focal=FocalPrior(f * 1.004, 0.01 * f, "exif"))
+    assert cal.mode == "1vp" and cal.focal_source == "exif"
+    assert "EXIF" in cal.mode_reason or "exif" in cal.mode_reason
+    # The focal length is EXIF's, not invented: within EXIF's 1σ of what EXIF said.
+    assert abs(cal.f - f * 1.004) < 0.01 * f
+
+
+def test_principal_point_prior_beats_both_pure_modes(rng: np.random.Generator) -> None:
+    """Orthocentre alone (paper) wanders; the prior alone ignores the data; the joint fit is better than either."""
+    errs_joint, errs_ortho, errs_centre = [], [], []
+    for _ in range(N_PER_KIND):
+        cam = random_camera(rng, "3vp")
+        add_segments(cam, rng, CLICK_NOISE_PX)
+        cal = calibrate_photo(cam.segments, cam.width, cam.height, click_sigma_px=CLICK_NOISE_PX)
+        K_paper, _ = closed_form_calibration(cam.segments, cam.width, cam.height)
+        c_true = cam.K[:2, 2]
+        errs_joint.append(np.linalg.norm(cal.principal_point - c_true))
+        errs_ortho.append(np.linalg.norm(K_paper[:2, 2] - c_true))
+        errs_centre.append(np.linalg.norm(np.array([cam.width, cam.height]) / 2 - c_true))
+    assert np.median(errs_joint) < np.median(errs_ortho)
+    assert np.median(errs_joint) < np.median(errs_centre)
+
+
+def test_vanishing_point_fit_recovers_a_known_point_and_reports_residuals(rng: np.random.Generator) -> None:
+    v = np.array([2400.0, 350.0])
+    segs = []
+    for _ in range(5):
+        a = rng.uniform([100, 100], [1500, 1100])
+        b = a + 0.4 * (v - a)
+        segs.append(np.r_[a, b] + rng.normal(0, CLICK_NOISE_PX, 4))
+    fit = fit_vanishing_point(np.array(segs), 1600, 1200)
+    p = fit.finite_point()
+    assert p is not None
+    # The point lies ~1.5 image widths away; its position error scales with that lever arm.
+    assert np.linalg.norm(p - v) < 0.02 * np.linalg.norm(v - [800, 600])
+    assert fit.residuals_px.shape == (5,)
+    # Residuals of end points with 0.7 px noise: RMS about 0.7/√2 ≈ 0.5 px, never many pixels.
+    assert fit.rms_px < 4 * CLICK_NOISE_PX
+
+
+def test_parallel_segments_give_a_point_at_infinity() -> None:
+    segs = np.array([[100.0, 100.0, 900.0, 140.0], [120.0, 700.0, 920.0, 740.0], [300, 400, 700, 420]])
+    fit = fit_vanishing_point(segs, 1600, 1200)
+    assert fit.finite_point() is None or np.linalg.norm(fit.finite_point()) > 1e6
+    d = fit.point[:2] / np.linalg.norm(fit.point[:2])
+    assert abs(abs(d @ np.array([800.0, 40.0]) / np.hypot(800, 40)) - 1) < 1e-9
+    assert fit.rms_px < 1e-6
+
+
+def test_segment_direction_fixes_the_rotation_signs(rng: np.random.Generator) -> None:
+    cam = random_camera(rng, "2vp")
+    add_segments(cam, rng, CLICK_NOISE_PX)
+    segs = {a: cam.segments[a] for a in ("x", "y")}
+    R1 = calibrate_photo(segs, cam.width, cam.height, click_sigma_px=CLICK_NOISE_PX).R
+    flipped = {"x": segs["x"][:, [2, 3, 0, 1]], "y": segs["y"]}
+    R2 = calibrate_photo(flipped, cam.width, cam.height, click_sigma_px=CLICK_NOISE_PX).R
+    # A wrong sign puts the camera 180° off; with two axes and the principal point a few tens of
+    # pixels from the centre, the right answer is within a couple of degrees (Δc / f).
+    assert np.degrees(np.linalg.norm(log_so3(cam.R @ R1.T))) < 5.0
+    # Drawing x backwards means +x is the other way: the x column flips, and z with it.
+    assert R2[:, 0] == pytest.approx(-R1[:, 0], abs=1e-6)
+    assert np.linalg.det(R2) == pytest.approx(1.0)
+
+
+def _place_scene(rng: np.random.Generator, kinds=("3vp", "3vp", "2vp", "1vp")):
+    photos, markers = random_scene(rng, kinds, noise_px=CLICK_NOISE_PX)
+    inputs = []
+    for ph in photos:
+        exif = FocalPrior(ph.exif_focal_px, 0.01 * ph.exif_focal_px, "exif")
+        cal = calibrate_photo(ph.segments, ph.width, ph.height, photo=ph.id, click_sigma_px=CLICK_NOISE_PX,
+                              exif_focal=exif)
+        inputs.append(PhotoInput(ph.id, cal.K, cal.R, cal.covariance, ph.markers))
+    a, b, d = scale_reference(photos, markers)
+    placement = place_cameras(inputs, origin="O", distances=[ReferenceDistance(a, b, d, 0.002)],
+                              click_sigma_px=CLICK_NOISE_PX)
+    return photos, markers, placement
+
+
+def test_camera_positions_metric_and_honest(rng: np.random.Generator) -> None:
+    diag = float(np.linalg.norm(ROOM))
+    errs, zs, errs_by_kind = [], [], {}
+    for _ in range(12):
+        photos, markers, placement = _place_scene(rng)
+        for ph in photos:
+            cam = placement.cameras[ph.id]
+            e = cam.C - ph.C
+            sig = np.sqrt(np.diag(cam.covariance)[6:9])
+            errs.append(np.linalg.norm(e))
+            errs_by_kind.setdefault(ph.kind, []).append(np.linalg.norm(e))
+            zs.append(e / sig)
+            assert np.all(np.abs(e / sig) < UNCERTAINTY_BOUND)
+        for n, (x, cov) in placement.markers.items():
+            if n != "O":
+                assert np.all(np.abs(x - markers[n]) / np.sqrt(np.diag(cov)) < UNCERTAINTY_BOUND)
+    for kind, e in errs_by_kind.items():
+        assert np.median(e) < POSITION_TOL_REL * diag, kind
+    assert Z_RMS_BAND[0] < np.sqrt(np.mean(np.square(zs))) < Z_RMS_BAND[1]
+
+
+def test_photo_without_origin_is_placed_from_markers(rng: np.random.Generator) -> None:
+    photos, markers, placement = _place_scene(rng, ("3vp", "3vp", "1vp"))
+    frontal = photos[2]
+    assert frontal.id in placement.cameras
+    assert np.linalg.norm(placement.cameras[frontal.id].C - frontal.C) < POSITION_TOL_REL * np.linalg.norm(ROOM) * 3
+
+
+def test_check_distance_is_not_used_but_reported(rng: np.random.Generator) -> None:
+    photos, markers, _ = _place_scene(rng)
+    inputs = []
+    for ph in photos:
+        cal = calibrate_photo(ph.segments, ph.width, ph.height, photo=ph.id, click_sigma_px=CLICK_NOISE_PX,
+                              exif_focal=FocalPrior(ph.exif_focal_px, 0.01 * ph.exif_focal_px, "exif"))
+        inputs.append(PhotoInput(ph.id, cal.K, cal.R, cal.covariance, ph.markers))
+    a, b, d = scale_reference(photos, markers)
+    others = [n for n in markers if n not in (a, b)]
+    true_check = float(np.linalg.norm(markers[others[0]] - markers[others[1]]))
+    scale = ReferenceDistance(a, b, d, 0.002)
+    wrong_check = ReferenceDistance(others[0], others[1], 2 * true_check, 0.002, "check")
+    p1 = place_cameras(inputs, origin="O", distances=[scale], click_sigma_px=CLICK_NOISE_PX)
+    p2 = place_cameras(inputs, origin="O", distances=[scale, wrong_check], click_sigma_px=CLICK_NOISE_PX)
+    # A check distance, however wrong, does not move anything...
+    for pid in p1.cameras:
+        assert p2.cameras[pid].C == pytest.approx(p1.cameras[pid].C, abs=1e-9)
+    # ...and is reported as measured against known, the measurement agreeing with the truth.
+    m = next(m for m in p2.distances if m.reference.role == "check")
+    assert abs(m.measured - true_check) < UNCERTAINTY_BOUND * m.measured_sigma

@@ -1,0 +1,167 @@
+"""Every bad input the calibration issue names gets a clear CalibrationError (or ProjectError),
+naming the photo or file and what was expected; none gets a traceback or a silent answer."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from vebuild.calibration.photo import calibrate_photo
+from vebuild.calibration.positions import PhotoInput, ReferenceDistance, place_cameras
+from vebuild.errors import CalibrationError
+from vebuild.synthetic import CLICK_NOISE_PX, add_segments, random_camera, random_scene, write_project
+
+W, H = 1600, 1200
+
+
+def _segments_toward(v: np.ndarray, rng: np.random.Generator, n: int = 3) -> np.ndarray:
+    out = []
+    for _ in range(n):
+        a = rng.uniform([200, 200], [1400, 1000])
+        out.append(np.r_[a, a + 0.3 * (v - a)])
+    return np.array(out)
+
+
+@pytest.fixture
+def good(rng: np.random.Generator) -> dict[str, np.ndarray]:
+    cam = random_camera(rng, "3vp")
+    add_segments(cam, rng, CLICK_NOISE_PX)
+    return cam.segments
+
+
+def test_fewer_than_two_segments_on_an_axis(good: dict) -> None:
+    segs = dict(good, z=good["z"][:1])
+    with pytest.raises(CalibrationError, match=r"photo 'p7': axis z has 1 vanishing segment; .*at least two"):
+        calibrate_photo(segs, W, H, photo="p7")
+
+
+def test_zero_length_segment(good: dict) -> None:
+    z = good["z"].copy()
+    z[1, 2:4] = z[1, 0:2]
+    with pytest.raises(CalibrationError, match=r"axis z, segment 1: its end points are 0.00 px apart"):
+        calibrate_photo(dict(good, z=z), W, H, photo="p7")
+
+
+def test_coincident_segments(good: dict) -> None:
+    s = good["y"][0]
+    y = np.array([s, s + 1e-3, np.r_[s[0:2] + 0.25 * (s[2:4] - s[0:2]), s[2:4]]])
+    with pytest.raises(CalibrationError, match=r"axis y: all 3 segments lie on one image line \(coincident\)"):
+        calibrate_photo(dict(good, y=y), W, H, photo="p7")
+
+
+def test_parallel_segments_without_a_focal_length(rng: np.random.Generator) -> None:
+    """Parallel segments are a vanishing point at infinity, which is valid; but when that leaves
+    the focal length undetermined and nothing else gives it, the user is told what to add."""
+    x = np.array([[100.0, 300.0, 900.0, 300.0], [100.0, 900.0, 900.0, 900.0]])
+    z = np.array([[300.0, 1000.0, 300.0, 200.0], [1200.0, 1000.0, 1200.0, 200.0]])
+    y = _segments_toward(np.array([800.0, 600.0]), rng)
+    with pytest.raises(CalibrationError, match=r"focal length"):
+        calibrate_photo({"x": x, "y": y, "z": z}, W, H, photo="frontal")
+
+
+def test_two_axes_with_the_same_vanishing_point(rng: np.random.Generator) -> None:
+    v = np.array([2600.0, 500.0])
+    segs = {"x": _segments_toward(v, rng), "y": _segments_toward(v + [20, 5], rng),
+            "z": _segments_toward(np.array([700.0, 6000.0]), rng)}
+    with pytest.raises(CalibrationError, match=r"axes x and y meet at the same vanishing point"):
+        calibrate_photo(segs, W, H, photo="p3")
+
+
+def test_focal_squared_not_positive(rng: np.random.Generator) -> None:
+    # Both vanishing points to the right of the centre: no real focal length makes them orthogonal.
+    segs = {"x": _segments_toward(np.array([2400.0, 300.0]), rng),
+            "y": _segments_toward(np.array([3000.0, 1400.0]), rng)}
+    with pytest.raises(CalibrationError, match=r"give f² = .* ≤ 0"):
+        calibrate_photo(segs, W, H, photo="p3")
+
+
+def test_left_handed_frame(good: dict) -> None:
+    flipped = dict(good, z=good["z"][:, [2, 3, 0, 1]])
+    with pytest.raises(CalibrationError, match=r"left-handed frame.*drawn backwards"):
+        calibrate_photo(flipped, W, H, photo="p1")
+
+
+def test_only_one_axis_marked(good: dict) -> None:
+    with pytest.raises(CalibrationError, match=r"marked on 1 axis \(x\).*mark a second direction"):
+        calibrate_photo({"x": good["x"]}, W, H, photo="p1")
+
+
+def _inputs(rng: np.random.Generator):
+    photos, markers = random_scene(rng, ("3vp", "3vp", "2vp"))
+    inputs = []
+    for p in photos:
+        cal = calibrate_photo(p.segments, p.width, p.height, photo=p.id, click_sigma_px=CLICK_NOISE_PX)
+        inputs.append(PhotoInput(p.id, cal.K, cal.R, cal.covariance, dict(p.markers)))
+    return inputs, markers
+
+
+def test_marker_seen_in_one_photo_only(rng: np.random.Generator) -> None:
+    inputs, markers = _inputs(rng)
+    inputs[1].markers["lonely"] = np.array([400.0, 300.0])
+    with pytest.raises(CalibrationError, match=r"photo 'p2': marker 'lonely' is observed in this photo only"):
+        place_cameras(inputs, origin="O", distances=[ReferenceDistance("O", "M1", 1.0)])
+
+
+def test_no_scale(rng: np.random.Generator) -> None:
+    inputs, _ = _inputs(rng)
+    with pytest.raises(CalibrationError, match=r"nothing fixes the metric scale"):
+        place_cameras(inputs, origin="O")
+
+
+def _project(tmp_path: Path, rng: np.random.Generator) -> Path:
+    photos, markers = random_scene(rng, ("3vp", "3vp", "2vp"))
+    return write_project(tmp_path, photos, markers)
+
+
+def _cli(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "vebuild.cli", *args], capture_output=True, text=True, timeout=120)
+
+
+def test_cli_reports_a_changed_photo_without_traceback(tmp_path: Path, rng: np.random.Generator) -> None:
+    path = _project(tmp_path, rng)
+    photo = tmp_path / "photos" / "p2.jpg"
+    data = bytearray(photo.read_bytes())
+    data[-10] ^= 0xFF
+    photo.write_bytes(bytes(data))
+    r = _cli("calibrate", str(path))
+    assert r.returncode == 2
+    assert "Traceback" not in r.stderr
+    assert "p2.jpg" in r.stderr and "changed" in r.stderr
+
+
+def test_cli_reports_a_missing_photo(tmp_path: Path, rng: np.random.Generator) -> None:
+    path = _project(tmp_path, rng)
+    (tmp_path / "photos" / "p1.jpg").unlink()
+    r = _cli("calibrate", str(path))
+    assert r.returncode == 2 and "Traceback" not in r.stderr and "not found" in r.stderr
+
+
+def test_cli_reports_malformed_json_and_wrong_version(tmp_path: Path, rng: np.random.Generator) -> None:
+    path = _project(tmp_path, rng)
+    text = path.read_text()
+    path.write_text(text[: len(text) // 2])
+    r = _cli("calibrate", str(path))
+    assert r.returncode == 2 and "Traceback" not in r.stderr and "line" in r.stderr
+    data = json.loads(text)
+    data["version"] = 99
+    path.write_text(json.dumps(data))
+    r = _cli("calibrate", str(path))
+    assert r.returncode == 2 and "Traceback" not in r.stderr and "99" in r.stderr
+
+
+def test_cli_reports_a_calibration_error_and_leaves_the_project_untouched(tmp_path: Path,
+                                                                           rng: np.random.Generator) -> None:
+    path = _project(tmp_path, rng)
+    data = json.loads(path.read_text())
+    data["photos"][0]["vanishing_segments"]["z"] = data["photos"][0]["vanishing_segments"]["z"][:1]
+    path.write_text(json.dumps(data, indent=2))
+    before = path.read_bytes()
+    r = _cli("calibrate", str(path))
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert "photo 'p1': axis z has 1 vanishing segment" in r.stderr
+    assert path.read_bytes() == before

@@ -1,0 +1,78 @@
+"""Every command run end to end, as a user would, on generated projects."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from vebuild.camera import log_so3
+from vebuild.cli import main
+from vebuild.project import load_project
+from vebuild.synthetic import random_scene, write_project
+
+POSITION_TOL_M = 0.1  # 1.3 % of the synthetic room's diagonal: a single scene, not a median
+
+
+def test_help_lists_the_commands(capsys: pytest.CaptureFixture) -> None:
+    with pytest.raises(SystemExit) as e:
+        main(["--help"])
+    assert e.value.code == 0
+    out = capsys.readouterr().out
+    for cmd in ("demo", "calibrate", "check", "new", "bench"):
+        assert cmd in out
+
+
+def test_calibrate_writes_cameras_into_the_project(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    rng = np.random.default_rng(7)
+    photos, markers = random_scene(rng, ("3vp", "3vp", "2vp", "1vp"))
+    path = write_project(tmp_path, photos, markers, check=tuple(sorted(n for n in markers if n != "O"))[:2])
+    assert main(["calibrate", str(path), "--quiet"]) == 0
+    out = capsys.readouterr().out
+    for p in photos:
+        assert f"photo {p.id}: mode" in out
+    assert "±" in out and "check" in out
+    project = load_project(path)
+    cal = project.data["calibration"]
+    assert cal["software"].startswith("vebuild ")
+    for p in photos:
+        cam = cal["cameras"][p.id]
+        assert np.linalg.norm(np.asarray(cam["position"]["value"]) - p.C) < POSITION_TOL_M
+        assert np.degrees(np.linalg.norm(log_so3(p.R @ np.asarray(cam["R"]).T))) < 1.0
+        assert all(s is not None and s > 0 for s in cam["position"]["sigma"])
+    # Re-running gives the same numbers: the output is reproducible.
+    first = json.dumps(cal, sort_keys=True)
+    assert main(["calibrate", str(path), "--quiet"]) == 0
+    assert json.dumps(load_project(path).data["calibration"], sort_keys=True) == first
+
+
+def test_new_and_check(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    for i in range(2):
+        Image.new("RGB", (64, 48), (10 * i, 20, 30)).save(tmp_path / f"img{i}.jpg")
+    path = tmp_path / "case.vebuild.json"
+    assert main(["new", str(path), str(tmp_path / "img0.jpg"), str(tmp_path / "img1.jpg")]) == 0
+    assert main(["check", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "hashes verified" in out and "img1" in out
+    # Refuses to overwrite an existing project without --force.
+    assert main(["new", str(path), str(tmp_path / "img0.jpg")]) == 2
+
+
+def test_bench_calibration_quick_writes_named_figures(tmp_path: Path) -> None:
+    out = tmp_path / "figures.json"
+    r = subprocess.run([sys.executable, "-m", "vebuild.cli", "bench", "calibration", "--quick", "--quiet",
+                        "--json", str(out)], capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    assert "focal length error" in r.stdout
+    fig = json.loads(out.read_text())
+    for key in ("focal_rel_error_median", "focal_rel_error_p95", "rotation_error_deg_median",
+                "principal_point_error_px_p95", "position_rel_error_median", "time_per_photo_ms",
+                "time_ratio_vs_reference", "third_vp_near_infinity_share", "failures"):
+        assert key in fig
+    assert fig["failures"] == 0
+    assert fig["cameras"] >= 40
