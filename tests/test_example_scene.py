@@ -95,6 +95,10 @@ def test_camera_kinds(truth):
     for pid in ("p3", "p4"):
         assert ph[pid]["pitch_deg"] == 0 and ph[pid]["roll_deg"] == 0
         assert ph[pid]["principal_point"] == [ph[pid]["width"] / 2, ph[pid]["height"] / 2]
+    # p3 is a two-point view: its optical axis is well away from both horizontal world axes, so
+    # the x and y vanishing points are both finite (and z's is at infinity)
+    fwd3 = np.array(ph["p3"]["R"])[2]
+    assert min(abs(fwd3[0]), abs(fwd3[1])) > math.sin(math.radians(15)) and abs(fwd3[2]) < 1e-12
     R4 = np.array(ph["p4"]["R"])
     np.testing.assert_allclose(R4[2], [0, 1, 0], atol=1e-12)  # optical axis along +y
     for p in ph.values():

@@ -39,7 +39,7 @@ def truth_comparison(result: dict, truth: dict) -> str:
     lines = ["comparison with the ground truth (error, and error / reported 1σ):",
              f"  {'photo':<6}{'mode':<6}{'focal':>16}{'rotation':>16}{'position':>22}"]
     for pid, cam in result["cameras"].items():
-        t = truth["cameras"][pid]
+        t = truth["photos"][pid]
         f_t = t["K"][0][0]
         df = (cam["focal_px"]["value"] - f_t) / f_t
         zf = abs(cam["focal_px"]["value"] - f_t) / cam["focal_px"]["sigma"]
