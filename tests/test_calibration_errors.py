@@ -109,8 +109,20 @@ def test_marker_seen_in_one_photo_only(rng: np.random.Generator) -> None:
 
 def test_no_scale(rng: np.random.Generator) -> None:
     inputs, _ = _inputs(rng)
-    with pytest.raises(CalibrationError, match=r"nothing fixes the metric scale"):
+    with pytest.raises(CalibrationError, match=r"^nothing fixes the metric scale: add a reference distance"):
         place_cameras(inputs, origin="O")
+
+
+def test_reference_distance_to_an_unobserved_marker(rng: np.random.Generator) -> None:
+    inputs, _ = _inputs(rng)
+    with pytest.raises(CalibrationError, match=r"^reference distance O–ghost: marker 'ghost' is not observed"):
+        place_cameras(inputs, origin="O", distances=[ReferenceDistance("O", "ghost", 2.0)])
+
+
+def test_origin_marker_not_observed(rng: np.random.Generator) -> None:
+    inputs, _ = _inputs(rng)
+    with pytest.raises(CalibrationError, match=r"^the origin marker 'nowhere' is not observed in any photo"):
+        place_cameras(inputs, origin="nowhere", distances=[ReferenceDistance("O", "M1", 2.0)])
 
 
 def _project(tmp_path: Path, rng: np.random.Generator) -> Path:
@@ -163,5 +175,5 @@ def test_cli_reports_a_calibration_error_and_leaves_the_project_untouched(tmp_pa
     before = path.read_bytes()
     r = _cli("calibrate", str(path))
     assert r.returncode == 2 and "Traceback" not in r.stderr
-    assert "photo 'p1': axis z has 1 vanishing segment" in r.stderr
+    assert f"{path}: $.photos[0] photo 'p1': axis z has 1 vanishing segment" in r.stderr
     assert path.read_bytes() == before

@@ -31,9 +31,13 @@ class ProjectError(VebuildError):
 
 
 class CalibrationError(VebuildError):
-    """The marks on a photo cannot determine its camera; the message says which marks to add or fix."""
+    """The marks cannot determine a camera; the message says which marks to add or fix.
 
-    def __init__(self, photo: str, message: str) -> None:
+    ``photo`` names the photo concerned, or is None when the problem is the project's as a whole
+    (no reference distance, say).
+    """
+
+    def __init__(self, photo: str | None, message: str) -> None:
         self.photo = photo
         self.detail = message
-        super().__init__(f"photo '{photo}': {message}")
+        super().__init__(f"photo '{photo}': {message}" if photo else message)

@@ -69,6 +69,22 @@ def calibrate_project(project: Project, progress: Callable[[Iterable], Iterable]
 
     Raises CalibrationError naming the photo (or marker) whose marks are insufficient.
     """
+    try:
+        return _calibrate(project, progress)
+    except CalibrationError as e:
+        raise _located(project, e) from None
+
+
+def _located(project: Project, e: CalibrationError) -> CalibrationError:
+    """The same error, prefixed with the project file and the JSON path of the photo concerned."""
+    ids = [p["id"] for p in project.data["photos"]]
+    where = f"$.photos[{ids.index(e.photo)}] " if e.photo in ids else ""
+    located = CalibrationError(e.photo, e.detail)
+    located.args = (f"{project.path}: {where}{e}",)
+    return located
+
+
+def _calibrate(project: Project, progress: Callable[[Iterable], Iterable]) -> dict[str, Any]:
     data = project.data
     photos = calibrate_photos(project, progress)
     missing = [p["id"] for p in data["photos"] if p["id"] not in photos]

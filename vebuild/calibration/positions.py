@@ -179,13 +179,12 @@ def place_cameras(
         origin = max(sorted(seen), key=lambda n: len(seen[n])) if seen else None
     if origin is None or origin not in seen:
         raise CalibrationError(
-            photos[0].id if photos else "?",
-            f"the origin marker '{origin}' is not observed in any photo; mark it in at least one",
+            None, f"the origin marker '{origin}' is not observed in any photo; mark it in at least one",
         )
     scale_refs = [d for d in distances if d.role == "scale"]
     if not scale_refs and len([k for k in known if k != origin]) == 0:
         raise CalibrationError(
-            origin,
+            None,
             "nothing fixes the metric scale: add a reference distance (role 'scale') between two "
             "markers, measured at the scene, or a surveyed marker position",
         )
@@ -193,7 +192,7 @@ def place_cameras(
         for n in (d.a, d.b):
             if n not in seen and n not in known:
                 raise CalibrationError(
-                    "?", f"reference distance {d.a}–{d.b}: marker '{n}' is not observed in any photo"
+                    None, f"reference distance {d.a}–{d.b}: marker '{n}' is not observed in any photo"
                 )
 
     by_id = {p.id: p for p in photos}
@@ -319,7 +318,7 @@ def _metric_scale(X: Mapping[str, Array], known: Mapping[str, Array], refs: Sequ
             num += float(cur @ pos) / 1e-6
             den += float(cur @ cur) / 1e-6
     if den == 0.0:
-        raise CalibrationError(origin, "no reference distance joins two markers that could be placed; "
+        raise CalibrationError(None, "no reference distance joins two markers that could be placed; "
                                "add one between markers seen in two photos or more")
     return num / den
 
