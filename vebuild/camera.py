@@ -65,6 +65,26 @@ def skew(w: ArrayLike) -> Array:
     return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
 
 
+def skew_batch(v: ArrayLike) -> Array:
+    """[vᵢ]× for each row of v (n, 3), shape (n, 3, 3)."""
+    v = np.asarray(v, float)
+    S = np.zeros((len(v), 3, 3))
+    S[:, 0, 1], S[:, 0, 2] = -v[:, 2], v[:, 1]
+    S[:, 1, 0], S[:, 1, 2] = v[:, 2], -v[:, 0]
+    S[:, 2, 0], S[:, 2, 1] = -v[:, 1], v[:, 0]
+    return S
+
+
+def so3_left_jacobian(w: ArrayLike) -> Array:
+    """J_l(ω) of SO(3): exp([ω + δ]×) ≈ exp([J_l(ω) δ]×) exp([ω]×)."""
+    w = np.asarray(w, float)
+    t = float(np.linalg.norm(w))
+    W = skew(w)
+    if t < 1e-8:
+        return np.eye(3) + 0.5 * W
+    return np.eye(3) + (1 - np.cos(t)) / t**2 * W + (t - np.sin(t)) / t**3 * (W @ W)
+
+
 def exp_so3(w: ArrayLike) -> Array:
     """exp([w]×): the rotation by |w| radians about w."""
     return Rotation.from_rotvec(np.asarray(w, float)).as_matrix()

@@ -37,7 +37,7 @@ DEFAULT_SETTINGS: dict[str, float] = {
     "exif_focal_sigma_rel": 0.01,
 }
 #: Top-level keys written by vebuild's stages; they are not input, so the input hash skips them.
-RESULT_KEYS = ("calibration",)
+RESULT_KEYS = ("calibration", "model_solution")
 
 _CHUNK = 1 << 20
 _ID_UNSAFE = re.compile(r"[^A-Za-z0-9_.-]+")
@@ -272,14 +272,37 @@ def _check_semantics(data: dict[str, Any], file: Any) -> None:
         _check_relative_path(photo["file"], file, f"$.photos[{i}].file")
         for name in photo.get("marker_observations", {}):
             known_marker(name, f"$.photos[{i}].marker_observations{_key(name)}")
+    model = data.get("model") or {}
+    nodes = [n["name"] for n in model.get("nodes", [])]
+    photo_ids = [p["id"] for p in data["photos"]]
+
+    def known_point(name: str, where: str) -> None:
+        # A reference distance may end on a marker or on a model handle written 'node:handle'.
+        if ":" in name:
+            node = name.split(":", 1)[0]
+            if node not in nodes:
+                raise ProjectError(file, where, f"names the handle {name!r} of node {node!r}, but $.model.nodes has "
+                                   f"no node of that name (the nodes are: {_listing(nodes)})")
+        else:
+            known_marker(name, where)
+
     for i, ref in enumerate(data["reference_distances"]):
-        known_marker(ref["a"], f"$.reference_distances[{i}].a")
-        known_marker(ref["b"], f"$.reference_distances[{i}].b")
+        known_point(ref["a"], f"$.reference_distances[{i}].a")
+        known_point(ref["b"], f"$.reference_distances[{i}].b")
         if ref["a"] == ref["b"]:
             raise ProjectError(file, f"$.reference_distances[{i}]",
                                f"runs from the marker {ref['a']!r} to itself; expected two different markers")
     if "origin_marker" in data:
         known_marker(data["origin_marker"], "$.origin_marker")
+    unique(model.get("nodes", []), "name", "$.model.nodes", "node name")
+    for key in ("pins", "edge_observations"):
+        for i, obs in enumerate(model.get(key, [])):
+            if obs["photo"] not in photo_ids:
+                raise ProjectError(file, f"$.model.{key}[{i}].photo", f"names the photo {obs['photo']!r}, but "
+                                   f"$.photos has no photo of that id (the photos are: {_listing(photo_ids)})")
+            if obs["node"] not in nodes:
+                raise ProjectError(file, f"$.model.{key}[{i}].node", f"names the node {obs['node']!r}, but "
+                                   f"$.model.nodes has no node of that name (the nodes are: {_listing(nodes)})")
 
 
 def _check_relative_path(file_field: str, file: Any, where: str) -> None:

@@ -246,3 +246,54 @@ def write_project(folder: Path, photos: list[SyntheticPhoto], markers: dict[str,
     path = folder / "synthetic.vebuild.json"
     save_project(path, data)
     return path
+
+
+def model_scene(rng: np.random.Generator, n_boxes: int = 3, n_photos: int = 8, noise_px: float = CLICK_NOISE_PX,
+                width: int = 1600, height: int = 1200) -> tuple[dict, dict, list[dict], dict[str, SyntheticPhoto]]:
+    """A floor (tied to the origin marker) with boxes resting on it, seen by known cameras.
+
+    Returns the true model nodes, a perturbed starting model (sizes and positions off by ~15 %,
+    yaws by ~8°, as a user's first placement), the fixed pins (every box corner visible in a photo,
+    with noise) and the photos. Room-sized: boxes within a 6 × 5 m floor.
+    """
+    from .model.scene import model_from_dict
+
+    truth = [{"name": "floor", "primitive": {"type": "quad", "params": {"width": float(ROOM[0]), "depth": float(ROOM[1])}},
+              "joint": {"type": "marker", "marker": "O", "handle": "v0", "yaw_deg": 0.0}}]
+    start = [dict(truth[0])]
+    for k in range(n_boxes):
+        size = rng.uniform([0.3, 0.3, 0.3], [1.2, 1.2, 1.8])
+        pos = rng.uniform([-2.2, -1.7], [2.2, 1.7])
+        yaw = rng.uniform(-45, 45)
+        node = {"name": f"box{k}", "parent": "floor",
+                "primitive": {"type": "box", "params": dict(zip(("width", "depth", "height"), map(float, size)))},
+                "joint": {"type": "rests_on", "face": "top", "position": [float(pos[0]), float(pos[1])], "yaw_deg": yaw}}
+        truth.append(node)
+        guess = {**node, "primitive": {"type": "box", "params": {k2: v * rng.uniform(0.85, 1.15)
+                                                                  for k2, v in node["primitive"]["params"].items()}},
+                 "joint": {**node["joint"], "position": [float(p + rng.normal(0, 0.1)) for p in pos],
+                           "yaw_deg": yaw + rng.normal(0, 8.0)}}
+        start.append(guess)
+    photos: dict[str, SyntheticPhoto] = {}
+    for i in range(n_photos):
+        cam = random_camera(rng, "3vp", width, height, f"p{i + 1}")
+        ang = 2 * np.pi * i / n_photos + rng.uniform(-0.2, 0.2)
+        cam.C = np.array([ROOM[0] / 2 + 2.6 * np.cos(ang), ROOM[1] / 2 + 2.1 * np.sin(ang), rng.uniform(1.4, 1.9)])
+        d = np.array([ROOM[0] / 2, ROOM[1] / 2, 0.4]) - cam.C
+        cam.R = _rotation(np.arctan2(d[1], d[0]), np.arctan2(d[2], np.hypot(d[0], d[1])), np.radians(rng.normal(0, 2)))
+        photos[cam.id] = cam
+    model = model_from_dict(truth, {"O": np.zeros(3)})
+    T = model.world_transforms()
+    pins = []
+    for cam in photos.values():
+        P = projection_matrix(cam.K, cam.R, cam.C)
+        for node in model.nodes:
+            if node.primitive is None:
+                continue
+            hs = node.primitive.handles() @ T[node.name][:3, :3].T + T[node.name][:3, 3]
+            uv, z = _project(P, hs)
+            for h, p, d in zip(node.primitive.handle_names(), uv, z, strict=True):
+                if d > 0.3 and _inside(p[None], cam.width, cam.height, 5.0):
+                    pins.append({"photo": cam.id, "node": node.name, "handle": h,
+                                 "uv": [float(v) for v in p + rng.normal(0, noise_px, 2)], "fixed": True})
+    return {"nodes": truth}, {"nodes": start}, pins, photos

@@ -95,11 +95,12 @@ def _calibrate(project: Project, progress: Callable[[Iterable], Iterable]) -> di
         ReferenceDistance(d["a"], d["b"], float(d["distance"]), float(d.get("sigma", 0.002)), d.get("role", "scale"))
         for d in data.get("reference_distances", [])
     ]
-    inputs = [
-        PhotoInput(pid, cal.K, cal.R, cal.covariance,
-                   {n: np.asarray(uv, float) for n, uv in (_photo(data, pid).get("marker_observations") or {}).items()})
-        for pid, cal in photos.items()
-    ]
+    shared = _pinned_handles(data)
+    inputs = []
+    for pid, cal in photos.items():
+        obs = {n: np.asarray(uv, float) for n, uv in (_photo(data, pid).get("marker_observations") or {}).items()}
+        obs.update(shared.get(pid, {}))
+        inputs.append(PhotoInput(pid, cal.K, cal.R, cal.covariance, obs))
     placement = place_cameras(
         inputs,
         origin=data.get("origin_marker"),
@@ -110,6 +111,24 @@ def _calibrate(project: Project, progress: Callable[[Iterable], Iterable]) -> di
     result = _results(data, photos, placement)
     data["calibration"] = result
     return result
+
+
+def _pinned_handles(data: dict[str, Any]) -> dict[str, dict[str, np.ndarray]]:
+    """Fixed model pins seen in two photos or more, as extra shared points named 'node:handle'.
+
+    A model vertex pinned in several photos ties them together exactly as a marker does, so the
+    cameras can be placed from the origin marker and the model's pins alone.
+    """
+    pins = [p for p in (data.get("model") or {}).get("pins", []) if p.get("fixed", True)]
+    photos_of: dict[str, set[str]] = {}
+    for p in pins:
+        photos_of.setdefault(f"{p['node']}:{p['handle']}", set()).add(p["photo"])
+    out: dict[str, dict[str, np.ndarray]] = {}
+    for p in pins:
+        name = f"{p['node']}:{p['handle']}"
+        if len(photos_of[name]) >= 2:
+            out.setdefault(p["photo"], {})[name] = np.asarray(p["uv"], float)
+    return out
 
 
 def _photo(data: dict[str, Any], pid: str) -> dict[str, Any]:
@@ -136,7 +155,7 @@ def _results(data: dict[str, Any], photos: dict[str, PhotoCalibration], placemen
         cov = cam.covariance
         sig = np.sqrt(np.maximum(np.diag(cov), 0.0))
         ypr, ypr_sig = ypr_with_sigma(cam.R, cov[3:6, 3:6])
-        marker_res = {n: _round(d) for n, d in cam.marker_residuals_px.items()}
+        marker_res = {n: _round(d) for n, d in cam.marker_residuals_px.items() if ":" not in n}
         seg_res = np.concatenate(list(cal.segment_residuals_px.values()))
         mark = np.concatenate([np.asarray(d).ravel() for d in cam.marker_residuals_px.values()] or [np.zeros(0)])
         all_res = np.concatenate([seg_res, mark])
@@ -173,7 +192,7 @@ def _results(data: dict[str, Any], photos: dict[str, PhotoCalibration], placemen
             warnings.append(f"photo '{pid}': marker '{n}' lies {np.linalg.norm(cam.marker_residuals_px[n]):.1f} px "
                             "from where the other photos put it: check its placement")
     markers = {n: {"position": _round(x), "sigma": _round(np.sqrt(np.maximum(np.diag(c), 0.0)))}
-               for n, (x, c) in placement.markers.items()}
+               for n, (x, c) in placement.markers.items() if ":" not in n}
     distances = []
     for m in placement.distances:
         d = m.reference

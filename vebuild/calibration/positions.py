@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
-from ..camera import intrinsic_matrix, pixel_rays_world, project, skew
+from ..camera import intrinsic_matrix, pixel_rays_world, project, skew_batch, so3_left_jacobian
 from ..errors import CalibrationError
 from .lsq import covariance_from_jacobian, variance_factor
 
@@ -96,24 +96,6 @@ class Placement:
     distances: list[MeasuredDistance]
     origin: str
     variance_factor: float
-
-
-def _left_jacobian(w: Array) -> Array:
-    """J_l(ω) of SO(3): exp(ω + δ) ≈ exp(J_l(ω) δ) exp(ω)."""
-    t = float(np.linalg.norm(w))
-    W = skew(w)
-    if t < 1e-8:
-        return np.eye(3) + 0.5 * W
-    return np.eye(3) + (1 - np.cos(t)) / t**2 * W + (t - np.sin(t)) / t**3 * (W @ W)
-
-
-def _skew_rows(v: Array) -> Array:
-    """[vᵢ]× for each row of v, shape (n, 3, 3)."""
-    S = np.zeros((len(v), 3, 3))
-    S[:, 0, 1], S[:, 0, 2] = -v[:, 2], v[:, 1]
-    S[:, 1, 0], S[:, 1, 2] = v[:, 2], -v[:, 0]
-    S[:, 2, 0], S[:, 2, 1] = -v[:, 1], v[:, 0]
-    return S
 
 
 def intersect_lines(points: Array, dirs: Array) -> Array:
@@ -396,8 +378,8 @@ def _refine(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mappi
         A[:, 0, 2] = -f * xc[:, 0] / z**2
         A[:, 1, 2] = -f * xc[:, 1] / z**2
         A /= click_sigma
-        Jl = np.array([_left_jacobian(w) for w in cam[:, 3:6]])
-        dxc_dw = -np.einsum("nij,njk->nik", _skew_rows(xc), Jl[obs_cam])
+        Jl = np.array([so3_left_jacobian(w) for w in cam[:, 3:6]])
+        dxc_dw = -np.einsum("nij,njk->nik", skew_batch(xc), Jl[obs_cam])
         for r, k, m, a_, dw, Rk, p in zip(rows_obs, obs_cam, obs_mark, A, dxc_dw, R[obs_cam], xc, strict=True):
             o = 9 * k
             J[r, o] = p[:2] / p[2] / click_sigma

@@ -1,0 +1,207 @@
+"""Solve the model from the pins in the project: ``vebuild solve [--recalibrate]`` (paper §3.1, §3.2).
+
+Reads the calibrated cameras and markers (``vebuild calibrate``), the model and its observations,
+solves every node's joint and parameters (with ``recalibrate`` jointly with the cameras and
+markers), writes the solved values back into ``model.nodes`` and the uncertainties and residuals
+into ``model_solution`` (see scenes/FORMAT.md). The caller saves the project.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .. import __version__
+from ..calibration.photo import ypr_with_sigma
+from ..errors import ProjectError, VebuildError
+from ..model.scene import Model, ModelError, model_from_dict
+from ..model.solver import (
+    FINAL_PRIOR_SCALE,
+    Camera,
+    Distance,
+    EdgeObservation,
+    MarkerObservation,
+    Pin,
+    Problem,
+    handle_covariances,
+)
+from ..project import Project
+
+#: A pinned handle must project in front of its camera and no farther outside the image than this
+#: share of its size; otherwise the pin is on a vertex that camera cannot see.
+VISIBLE_MARGIN = 0.25
+Z95 = 1.959964  # two-sided 95 % of a Gaussian
+
+
+def cameras_from_calibration(project: Project) -> dict[str, Camera]:
+    cal = project.data.get("calibration")
+    if not cal or not cal.get("cameras"):
+        raise VebuildError(f"{project.path}: the project has no calibrated cameras; run `vebuild calibrate` first")
+    out = {}
+    for p in project.data["photos"]:
+        c = cal["cameras"].get(p["id"])
+        if c is None:
+            continue
+        cov = np.array([[np.inf if v is None else v for v in row] for row in c["covariance"]], float)
+        out[p["id"]] = Camera(p["id"], np.asarray(c["K"], float), np.asarray(c["R"], float),
+                              np.asarray(c["position"]["value"], float), cov, p["width"], p["height"])
+    return out
+
+
+def load_model(project: Project) -> tuple[Model, list[Pin], list[EdgeObservation]]:
+    """The model and its observations, checked; errors name the file and the JSON path."""
+    data = project.data
+    if not data.get("model", {}).get("nodes"):
+        raise VebuildError(f"{project.path}: $.model: the project has no model nodes to solve")
+    markers = {n: np.asarray(m["position"], float) for n, m in (data.get("calibration") or {}).get("markers", {}).items()}
+    try:
+        model = model_from_dict(data["model"]["nodes"], markers)
+    except ModelError as e:
+        raise ProjectError(project.path, "$.model.nodes", str(e)) from None
+    pins, edges = [], []
+    for i, p in enumerate(data["model"].get("pins", [])):
+        prim = model.node(p["node"]).primitive
+        if prim is None or p["handle"] not in prim.handle_names():
+            have = ", ".join(prim.handle_names()) if prim else "none (a group has no handles)"
+            raise ProjectError(project.path, f"$.model.pins[{i}].handle",
+                               f"node '{p['node']}' has no handle '{p['handle']}'; its handles are: {have}")
+        pins.append(Pin(p["photo"], p["node"], p["handle"], np.asarray(p["uv"], float), bool(p.get("fixed", True))))
+    for i, e in enumerate(data["model"].get("edge_observations", [])):
+        prim = model.node(e["node"]).primitive
+        names = [n for n, _, _ in prim.edges()] if prim else []
+        if e["edge"] not in names:
+            raise ProjectError(project.path, f"$.model.edge_observations[{i}].edge",
+                               f"node '{e['node']}' has no edge '{e['edge']}'; its edges are: {', '.join(names) or 'none'}")
+        edges.append(EdgeObservation(e["photo"], e["node"], e["edge"], np.asarray(e["points"], float)))
+    return model, pins, edges
+
+
+def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics: bool = False) -> dict[str, Any]:
+    """Solve the model (and with ``recalibrate`` the cameras and markers); write and return results."""
+    data = project.data
+    cameras = cameras_from_calibration(project)
+    model, pins, edges = load_model(project)
+    cal = data["calibration"]
+    origin = cal.get("origin_marker")
+    markers = {n: np.asarray(m["position"], float) for n, m in cal.get("markers", {}).items()}
+    marker_obs, distances = [], []
+    if recalibrate:
+        for p in data["photos"]:
+            for n, uv in (p.get("marker_observations") or {}).items():
+                if n in markers:
+                    marker_obs.append(MarkerObservation(p["id"], n, np.asarray(uv, float)))
+        for d in data.get("reference_distances", []):
+            if d["role"] == "scale":
+                distances.append(Distance(d["a"], d["b"], float(d["distance"]), float(d.get("sigma", 0.002))))
+    surveyed = [m["name"] for m in data.get("markers", []) if "position" in m]
+    problem = Problem(model, cameras, [p for p in pins if p.fixed], edges,
+                      click_sigma_px=project.settings["click_sigma_px"], prior_scale=FINAL_PRIOR_SCALE,
+                      recalibrate=recalibrate, refine_intrinsics=refine_intrinsics, markers=markers,
+                      fixed_markers=[origin, *surveyed], marker_observations=marker_obs, distances=distances)
+    sol = problem.solve(robust=recalibrate)
+    solution = problem.solution(sol.x, sol.nfev)
+    if solution.undetermined:
+        raise VebuildError(
+            f"{project.path}: $.model: too few observations: the pins and edges do not determine "
+            f"{', '.join(solution.undetermined[:12])}{' …' if len(solution.undetermined) > 12 else ''}; "
+            "pin more vertices of those nodes in a second photo, or mark them solve: false")
+    xm = problem.model_vector(sol.x)
+    _check_visible(project, problem, xm, solution.cameras)
+    model.set_vector(xm)
+    data["model"]["nodes"] = model.to_dict()
+    result = _results(problem, solution, model, xm, recalibrate)
+    if recalibrate:
+        _write_cameras(data, solution)
+    data["model_solution"] = result
+    return result
+
+
+def _check_visible(project: Project, problem: Problem, xm: np.ndarray, cameras: dict[str, Camera]) -> None:
+    T = problem.model.world_transforms(xm)
+    for i, p in enumerate(project.data["model"].get("pins", [])):
+        cam = cameras.get(p["photo"])
+        if cam is None:
+            continue
+        X = problem.model.handle_world(p["node"], p["handle"], xm, T)
+        h = cam.K @ (cam.R @ (X - cam.C))
+        uv = h[:2] / h[2] if h[2] > 0 else None
+        w, hgt = cam.width, cam.height
+        if uv is None or not (-VISIBLE_MARGIN * w <= uv[0] <= (1 + VISIBLE_MARGIN) * w
+                              and -VISIBLE_MARGIN * hgt <= uv[1] <= (1 + VISIBLE_MARGIN) * hgt):
+            where = "behind the camera" if uv is None else f"at ({uv[0]:.0f}, {uv[1]:.0f}), outside the image"
+            raise ProjectError(project.path, f"$.model.pins[{i}]",
+                               f"pins {p['node']}:{p['handle']} in photo '{p['photo']}', but the solved model puts "
+                               f"that vertex {where}: the pin is on a vertex this camera cannot see (wrong handle "
+                               "or wrong photo?)")
+
+
+def _vs(v: Any, s: Any) -> dict[str, Any]:
+    v, s = np.asarray(v, float), np.asarray(s, float)
+    conv = (lambda a: None if not np.isfinite(a) else float(a))
+    if v.ndim == 0:
+        return {"value": float(v), "sigma": conv(s), "ci95": [float(v - Z95 * s), float(v + Z95 * s)]
+                if np.isfinite(s) else None}
+    return {"value": [float(a) for a in v], "sigma": [conv(a) for a in s]}
+
+
+def _results(problem: Problem, solution: Any, model: Model, xm: np.ndarray, recalibrate: bool) -> dict[str, Any]:
+    sig = np.sqrt(np.maximum(np.diag(solution.covariance), 0.0))
+    handles = handle_covariances(problem, solution.x, solution.covariance)
+    by_name = {n: j for j, n in enumerate(problem.names)}
+    nodes = {}
+    for n in model.nodes:
+        sq, sp = model.slices[n.name]
+        entry: dict[str, Any] = {"joint": n.joint.type, "dofs": {}, "params": {}, "handles": {}}
+        for k, dof in enumerate(n.joint.dof_names):
+            j = by_name.get(f"{n.name}.{dof}")
+            value, s = xm[sq][k], (sig[j] if j is not None else 0.0)
+            if dof in ("yaw", "angle", "wx", "wy", "wz"):
+                value, s, dof = np.degrees(value), np.degrees(s), dof + "_deg"
+            entry["dofs"][dof] = _vs(value, s)
+        if n.primitive is not None:
+            for k, pname in enumerate(n.primitive.PARAMS):
+                j = by_name.get(f"{n.name}.{pname}")
+                entry["params"][pname] = _vs(xm[sp][k], sig[j] if j is not None else 0.0)
+            for h in n.primitive.handle_names():
+                pos, cov = handles[f"{n.name}:{h}"]
+                entry["handles"][h] = _vs(pos, np.sqrt(np.maximum(np.diag(cov), 0.0)))
+        nodes[n.name] = entry
+    pins = [{"photo": p.photo, "node": p.node, "handle": p.handle, "residual_px": [float(a) for a in d]}
+            for p, d in zip(problem.pins, solution.residuals_px["pins"], strict=True)]
+    edges = [{"photo": e.photo, "node": e.node, "edge": e.edge, "residual_px": [float(a) for a in d]}
+             for e, d in zip(problem.edges, solution.residuals_px["edges"], strict=True)]
+    all_res = np.concatenate([np.ravel(d) for k in ("pins", "edges", "markers") for d in solution.residuals_px[k]]
+                             or [np.zeros(0)])
+    return {
+        "software": f"vebuild {__version__}",
+        "recalibrated": recalibrate,
+        "nodes": nodes,
+        "pins": pins,
+        "edge_observations": edges,
+        "rms_px": float(np.sqrt(np.mean(all_res**2))) if all_res.size else 0.0,
+        "variance_factor": solution.variance_factor,
+        "outliers": solution.outliers,
+        "iterations": solution.iterations,
+    }
+
+
+def _write_cameras(data: dict[str, Any], solution: Any) -> None:
+    """Re-calibrated cameras and markers replace the calibration's (paper §3.2)."""
+    cal = data["calibration"]
+    for cid, cam in solution.cameras.items():
+        c = cal["cameras"][cid]
+        cov = cam.covariance
+        s = np.sqrt(np.maximum(np.diag(cov), 0.0))
+        ypr, ypr_s = ypr_with_sigma(cam.R, cov[3:6, 3:6])
+        c["K"] = cam.K.tolist()
+        c["R"] = cam.R.tolist()
+        c["focal_px"] = {"value": float(cam.K[0, 0]), "sigma": float(s[0])}
+        c["ypr_deg"] = {"value": np.degrees(ypr).tolist(), "sigma": np.degrees(ypr_s).tolist()}
+        c["position"] = {"value": cam.C.tolist(), "sigma": s[6:9].tolist()}
+        c["covariance"] = [[None if not np.isfinite(v) else float(v) for v in row] for row in cov]
+        c["recalibrated"] = True
+    for name, pos in solution.markers.items():
+        if name in cal["markers"] and name in solution.marker_covariance:
+            cal["markers"][name] = {"position": [float(v) for v in pos],
+                                    "sigma": np.sqrt(np.maximum(np.diag(solution.marker_covariance[name]), 0)).tolist()}

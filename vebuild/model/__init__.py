@@ -1,0 +1,29 @@
+"""Modelling: parametric primitives (and, beside them, the scene graph in ``scene``)."""
+
+from .primitives import (
+    PRIMITIVE_TYPES,
+    Box,
+    Cylinder,
+    Frame,
+    Frustum,
+    Mesh,
+    Primitive,
+    Quad,
+    Sphere,
+    Wedge,
+    primitive_from_dict,
+)
+
+__all__ = [
+    "PRIMITIVE_TYPES",
+    "Box",
+    "Cylinder",
+    "Frame",
+    "Frustum",
+    "Mesh",
+    "Primitive",
+    "Quad",
+    "Sphere",
+    "Wedge",
+    "primitive_from_dict",
+]

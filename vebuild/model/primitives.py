@@ -1,0 +1,688 @@
+"""Parametric primitives: the shapes a user places over the photographs (paper §3).
+
+A primitive is a few named sizes in metres (``PARAMS``) and nothing else. Its handles, edges,
+restable faces, outlines and textured mesh are all derived from the parameters on demand, so the
+solver can try new parameters and ask again (as trimesh's primitives keep their parameters apart
+from their mesh). Instances are immutable: ``with_params`` returns a new one.
+
+Local frame (scenes/FORMAT.md, "The model"): origin at the centre of the bottom face (a quad's
+centre; a sphere's lowest point), +z up, metres. Names, fixed by the file format:
+
+=========  ===============================================  ==========================================
+type       handles                                          edges
+=========  ===============================================  ==========================================
+quad       v0 (−x,−y), v1 (+x,−y), v2 (+x,+y), v3 (−x,+y)  e0 v0-v1, e1 v1-v2, e2 v2-v3, e3 v3-v0
+           at z = 0 (counter-clockwise seen from +z)
+box        v0…v3 bottom ring as the quad, v4…v7 the same     e0…e3 bottom ring, e4…e7 top ring
+           ring at z = height                               (v4-v5, v5-v6, v6-v7, v7-v4), e8…e11
+                                                            verticals v0-v4, v1-v5, v2-v6, v3-v7
+wedge      v0…v3 bottom ring as the quad, v4 above v3 and   e0…e3 bottom ring, e4 v4-v5 (top edge),
+           v5 above v2: the top edge is the back (+y) edge  e5 v2-v5, e6 v3-v4 (back verticals),
+           and the ramp rises from the front edge v0-v1     e7 v0-v4, e8 v1-v5 (sides of the slope)
+cylinder   b0…b3 bottom rim at 0°, 90°, 180°, 270° from     e0…e3 b_i-t_i (the circles come from
+           +x, t0…t3 the top rim likewise, bc, tc centres   ``outline_points``)
+frustum    as the cylinder (radius_top = 0 is a cone)       as the cylinder
+sphere     bottom, top, px, nx, py, ny (equator at z = r)   none (``outline_points``: equator, meridian)
+=========  ===============================================  ==========================================
+
+Restable flat faces (``faces``): quad ``top``; box ``top``, ``bottom``; wedge ``bottom``, ``back``
+(it has no top; its tilted slope is not named); cylinder and frustum ``top`` (not for a cone) and
+``bottom``; sphere none.
+
+Logical mesh faces (``Mesh.face_ids``, 1-based): quad 1 top; box 1 front (−y), 2 right (+x),
+3 back (+y), 4 left (−x), 5 top, 6 bottom (side face i + 1 stands on bottom edge e_i); wedge
+1 right, 2 back, 3 left, 4 slope, 5 bottom; cylinder and frustum 1 side, 2 top, 3 bottom (a cone:
+1 side, 2 bottom); sphere 1 surface.
+
+Every handle here is a linear function of the parameters (rim angles are fixed), so
+``handles(p) = A p`` exactly and ``handle_jacobian`` is the constant tensor A. A future primitive
+whose handles are not linear must override ``handle_jacobian``; the tests compare it with finite
+differences for every type.
+
+Layer 1 (DESIGN.md): numpy only; no GL, no file I/O.
+"""
+
+from __future__ import annotations
+
+import functools
+import numbers
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, ClassVar, Self
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+Array = NDArray[np.float64]
+#: A face frame: origin (3,), x axis (3,), y axis (3,), outward normal (3,); x × y = normal.
+Frame = tuple[Array, Array, Array, Array]
+
+#: Gutter between atlas charts, in texels when a density is given (enough for bilinear filtering
+#: and a couple of mip levels without bleeding between faces).
+GUTTER_TEXELS = 4
+#: Gutter as a fraction of √(total chart area) when no density is given.
+GUTTER_FRACTION = 1.0 / 128.0
+
+_EX, _EY, _EZ = np.eye(3)
+#: Quad corners v0…v3 as multiples of (width, depth): counter-clockwise from (−x, −y) seen from +z.
+_CORNERS = np.array([[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]])
+#: Rim handle directions at 0°, 90°, 180°, 270° from +x, exact (no cos(π/2) ≈ 6e-17).
+_RIM = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])
+
+_REGISTRY: dict[str, type[Primitive]] = {}
+
+
+# ----------------------------------------------------------------------------------------------
+# The mesh
+
+
+@dataclass(frozen=True)
+class Mesh:
+    """A primitive's triangle mesh with a texture atlas; vertices are duplicated along face borders.
+
+    Attributes
+    ----------
+    vertices : (n, 3) float64, local frame, metres.
+    faces : (m, 3) int32, counter-clockwise seen from outside (outward normals).
+    face_ids : (m,) int32, the 1-based logical face of each triangle (0 is "nothing" in GPU buffers).
+    face_names : list of F names; ``face_names[i - 1]`` names logical face i.
+    normals : (n, 3) float64 unit outward normals (per face on flat faces, smooth on curved ones).
+    uv : (n, 2) float64 texture coordinates in [0, 1]²: u along a face's x axis, v along its y axis;
+        (0, 0) is the start of the texture's first row in memory, so texel (i, j) of an N×N
+        texture covers [i/N, (i+1)/N) × [j/N, (j+1)/N).
+    chart_size_m : (F, 2) float64 width and height in metres of each logical face's chart.
+    chart_uv : (F, 4) float64 each chart's rectangle (u0, v0, u1, v1) in the atlas; charts do not
+        overlap and are separated by a gutter.
+    atlas_size_m : the side of the square atlas in metres: an N×N texture with
+        N = atlas_size_m × texels_per_metre gives that density on every face (an integer N when
+        ``mesh`` was given ``texels_per_metre``: charts then start on texel boundaries).
+    """
+
+    vertices: Array
+    faces: NDArray[np.int32]
+    face_ids: NDArray[np.int32]
+    face_names: list[str]
+    normals: Array
+    uv: Array
+    chart_size_m: Array
+    chart_uv: Array
+    atlas_size_m: float
+
+
+@dataclass(frozen=True)
+class _Patch:
+    """One logical face before packing: its own vertices and chart coordinates in metres."""
+
+    name: str
+    points: Array  # (v, 3)
+    normals: Array  # (v, 3)
+    chart: Array  # (v, 2) metres from the chart's lower-left corner
+    size: Array  # (2,) chart width, height in metres
+    triangles: NDArray[np.intp]  # (t, 3) into points, counter-clockwise seen from outside
+
+
+def _polygon_patch(name: str, corners: Array, x_axis: Array | None = None) -> _Patch | None:
+    """A flat convex polygon, corners (k, 3) counter-clockwise seen from outside.
+
+    Repeated consecutive corners are dropped (a wedge is a box whose top front edge has collapsed
+    onto its bottom front edge); None when fewer than three remain. The chart's x axis is
+    ``x_axis`` or the first edge's direction, its y axis normal × x, so side faces stand upright.
+    """
+    kept: list[Array] = []
+    for c in corners:
+        if not kept or not np.array_equal(c, kept[-1]):
+            kept.append(c)
+    if len(kept) > 1 and np.array_equal(kept[-1], kept[0]):
+        kept.pop()
+    if len(kept) < 3:
+        return None
+    pts = np.array(kept)
+    k = len(pts)
+    normal = np.cross(pts, np.roll(pts, -1, axis=0)).sum(axis=0)  # Newell's method
+    normal /= np.linalg.norm(normal)
+    x = pts[1] - pts[0] if x_axis is None else np.asarray(x_axis, float)
+    x = x - (x @ normal) * normal
+    x /= np.linalg.norm(x)
+    y = np.cross(normal, x)
+    if k > 4:  # a disc: fan from its centre rather than from one corner (no slivers)
+        pts = np.vstack([pts, pts.mean(axis=0)])
+        tris = np.array([[k, i, (i + 1) % k] for i in range(k)])
+    else:
+        tris = np.array([[0, i, i + 1] for i in range(1, k - 1)])
+    local = pts @ np.stack([x, y]).T
+    lo = local.min(axis=0)
+    return _Patch(name, pts, np.tile(normal, (len(pts), 1)), local - lo, local.max(axis=0) - lo, tris)
+
+
+def _circle(segments: int) -> tuple[Array, Array, Array]:
+    """Angles 0…2π at segments + 1 points and their cos, sin; the last point is the first, exactly."""
+    theta = np.linspace(0.0, 2.0 * np.pi, segments + 1)
+    c, s = np.cos(theta), np.sin(theta)
+    c[-1], s[-1] = c[0], s[0]  # the seam's two copies must coincide bit for bit to close the mesh
+    return theta, c, s
+
+
+def _revolution_patch(name: str, radius: Array, z: Array, n_r: Array, n_z: Array, segments: int) -> _Patch:
+    """A surface of revolution about +z from a profile of rows bottom to top.
+
+    radius, z : (rows,) the profile; n_r, n_z : (rows,) its outward unit normal in the (r, z) plane.
+    The grid has segments + 1 columns (the seam is duplicated so u runs 0…1). The chart is
+    2π·max(radius) wide and as tall as the profile's length, so no part of the surface gets fewer
+    texels per metre than the nominal density (smaller rims and the sphere's high latitudes get more).
+    """
+    theta, c, s = _circle(segments)
+    rows, cols = len(radius), segments + 1
+    pts = np.stack(np.broadcast_arrays(radius[:, None] * c, radius[:, None] * s, z[:, None]), axis=-1)
+    nrm = np.stack(np.broadcast_arrays(n_r[:, None] * c, n_r[:, None] * s, n_z[:, None]), axis=-1)
+    arc = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(radius), np.diff(z)))])
+    width = 2.0 * np.pi * radius.max()
+    chart = np.stack(np.broadcast_arrays(theta / (2.0 * np.pi) * width, arc[:, None]), axis=-1)
+    # Quad (j, i) → (j, i+1) → (j+1, i+1) → (j+1, i) runs counter-clockwise seen from outside.
+    a = (np.arange(rows - 1)[:, None] * cols + np.arange(segments)).ravel()
+    tris = np.concatenate([np.stack([a, a + 1, a + cols + 1], 1), np.stack([a, a + cols + 1, a + cols], 1)])
+    return _Patch(name, pts.reshape(-1, 3), nrm.reshape(-1, 3), chart.reshape(-1, 2), np.array([width, arc[-1]]),
+                  tris)
+
+
+def _pack(sizes: Array, texels_per_metre: float | None) -> tuple[Array, float]:
+    """Shelf-pack charts (F, 2) into a square; returns their lower-left corners (F, 2) and the side.
+
+    Tallest charts first, rows about √(total area) wide. With a density every corner is snapped up
+    to a texel boundary and the side to a whole number of texels.
+    """
+    if texels_per_metre is None:
+        gutter = GUTTER_FRACTION * np.sqrt(np.prod(sizes, axis=1).sum())
+
+        def snap(v: float) -> float:
+            return v
+    else:
+        gutter = GUTTER_TEXELS / texels_per_metre
+
+        def snap(v: float) -> float:
+            return float(np.ceil(v * texels_per_metre - 1e-9) / texels_per_metre)
+
+    row_width = max(sizes[:, 0].max(), np.sqrt(((sizes + gutter).prod(axis=1)).sum()))
+    origins = np.zeros_like(sizes)
+    x = y = snap(gutter)
+    shelf = width = 0.0
+    for i in np.argsort(-sizes[:, 1], kind="stable"):
+        w, h = sizes[i]
+        if x > snap(gutter) and x + w > gutter + row_width:
+            x, y, shelf = snap(gutter), snap(y + shelf + gutter), 0.0
+        origins[i] = x, y
+        x = snap(x + w + gutter)
+        shelf, width = max(shelf, h), max(width, x)
+    return origins, snap(max(width, snap(y + shelf + gutter)))
+
+
+def _assemble(patches: Sequence[_Patch | None], texels_per_metre: float | None) -> Mesh:
+    """Join logical faces into one Mesh, dropping collapsed triangles, and lay out their atlas."""
+    patches = [p for p in patches if p is not None]
+    verts, norms, charts, faces, ids = [], [], [], [], []
+    offset = 0
+    for fid, p in enumerate(patches, start=1):
+        t = p.triangles
+        # A collapsed ring (a cone's apex, a sphere's poles) leaves triangles with two corners on
+        # one point: drop them, then the vertices nothing uses any more.
+        c = p.points[t]
+        flat = np.zeros(len(t), bool)
+        for i, j in ((0, 1), (1, 2), (2, 0)):
+            flat |= np.all(c[:, i] == c[:, j], axis=1)
+        used, inverse = np.unique(t[~flat].ravel(), return_inverse=True)
+        verts.append(p.points[used])
+        norms.append(p.normals[used])
+        charts.append(p.chart[used])
+        faces.append(inverse.reshape(-1, 3) + offset)
+        ids.append(np.full(len(faces[-1]), fid))
+        offset += len(used)
+    sizes = np.array([p.size for p in patches])
+    origins, side = _pack(sizes, texels_per_metre)
+    counts = [len(v) for v in verts]
+    uv = (np.concatenate(charts) + np.repeat(origins, counts, axis=0)) / side
+    return Mesh(
+        vertices=np.concatenate(verts),
+        faces=np.concatenate(faces).astype(np.int32),
+        face_ids=np.concatenate(ids).astype(np.int32),
+        face_names=[p.name for p in patches],
+        normals=np.concatenate(norms),
+        uv=uv,
+        chart_size_m=sizes,
+        chart_uv=np.hstack([origins, origins + sizes]) / side,
+        atlas_size_m=float(side),
+    )
+
+
+# ----------------------------------------------------------------------------------------------
+# Small vectorised builders shared by the handle formulas: (...,) parameter arrays → (..., n, 3)
+
+
+def _points(x: ArrayLike, y: ArrayLike, z: ArrayLike) -> Array:
+    return np.stack(np.broadcast_arrays(x, y, z), axis=-1)
+
+
+def _ring(w: Array, d: Array, z: Array) -> Array:
+    """The four corners v0…v3 of a w × d rectangle at height z: (...,) → (..., 4, 3)."""
+    return _points(w[..., None] * _CORNERS[:, 0], d[..., None] * _CORNERS[:, 1], z[..., None])
+
+
+def _rim(r: Array, z: Array) -> Array:
+    """Rim points at 0°, 90°, 180°, 270° from +x, radius r, height z: (...,) → (..., 4, 3)."""
+    return _points(r[..., None] * _RIM[:, 0], r[..., None] * _RIM[:, 1], z[..., None])
+
+
+def _level_frame(z: float, up: bool = True) -> Frame:
+    """A level face centred on the z axis; a downward face keeps +x and so takes −y (right-handed)."""
+    if up:
+        return np.array([0.0, 0.0, z]), _EX.copy(), _EY.copy(), _EZ.copy()
+    return np.array([0.0, 0.0, z]), _EX.copy(), -_EY, -_EZ
+
+
+@functools.cache
+def _handle_matrix(cls: type[Primitive]) -> Array:
+    """The constant A (n, 3, k) with handles(p) = A p: the handle formulas at the unit vectors."""
+    A = np.moveaxis(cls._handles_of(np.eye(len(cls.PARAMS))), 0, -1)
+    A.flags.writeable = False
+    return A
+
+
+# ----------------------------------------------------------------------------------------------
+# The primitives
+
+
+class Primitive:
+    """Base of all primitives: parameters in, geometry out.
+
+    Subclasses set ``TYPE``, ``PARAMS``, ``HANDLE_NAMES``, ``EDGES``, ``_RESTABLE`` and implement
+    ``_handles_of``, ``_face_frame``, ``_patches`` (and ``_outlines`` when they are curved). Each parameter is also
+    a read-only float attribute (``box.height``).
+    """
+
+    TYPE: ClassVar[str] = ""
+    PARAMS: ClassVar[tuple[str, ...]] = ()
+    HANDLE_NAMES: ClassVar[tuple[str, ...]] = ()
+    EDGES: ClassVar[tuple[tuple[str, str, str], ...]] = ()
+    _RESTABLE: ClassVar[tuple[str, ...]] = ()  # names of the flat faces others can rest on
+    _MAY_BE_ZERO: ClassVar[frozenset[str]] = frozenset()  # sizes allowed to be 0 (a cone's top)
+
+    _p: Array
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        for i, name in enumerate(cls.PARAMS):
+            setattr(cls, name, property(lambda self, i=i: float(self._p[i]), doc=f"The {name} parameter."))
+        if cls.TYPE:
+            _REGISTRY[cls.TYPE] = cls
+
+    def __init__(self, *args: float, **kwargs: float) -> None:
+        if len(args) > len(self.PARAMS):
+            raise TypeError(f"{self.TYPE} takes {len(self.PARAMS)} params ({', '.join(self.PARAMS)}), got {len(args)}")
+        named = dict(zip(self.PARAMS, args, strict=False))
+        if twice := named.keys() & kwargs.keys():
+            raise TypeError(f"{self.TYPE}: {', '.join(sorted(twice))} given twice")
+        object.__setattr__(self, "_p", self._checked(self._from_mapping({**named, **kwargs})))
+
+    # -- parameters ----------------------------------------------------------------------------
+
+    @classmethod
+    def _from_mapping(cls, params: Mapping[str, Any]) -> list[float]:
+        """Parameter values in PARAMS order from a name → value mapping; ValueError names the problem."""
+        if unknown := [k for k in params if k not in cls.PARAMS]:
+            raise ValueError(f"{cls.TYPE}: unknown param {unknown[0]!r}; expected {', '.join(cls.PARAMS)}")
+        if missing := [k for k in cls.PARAMS if k not in params]:
+            raise ValueError(f"{cls.TYPE} needs params {', '.join(cls.PARAMS)}; missing {', '.join(missing)}")
+        for name in cls.PARAMS:
+            v = params[name]
+            if isinstance(v, bool) or not isinstance(v, numbers.Real):
+                raise ValueError(f"{cls.TYPE}: {name} must be a number, got {v!r}")
+        return [float(params[name]) for name in cls.PARAMS]
+
+    @classmethod
+    def _checked(cls, values: ArrayLike) -> Array:
+        """A read-only float array of valid sizes: finite, > 0 (>= 0 where allowed)."""
+        p = np.array(values, dtype=float)
+        if p.shape != (len(cls.PARAMS),):
+            names = ", ".join(cls.PARAMS)
+            raise ValueError(f"{cls.TYPE}: expected {len(cls.PARAMS)} params ({names}), got shape {p.shape}")
+        for name, v in zip(cls.PARAMS, p, strict=True):
+            if not np.isfinite(v):
+                raise ValueError(f"{cls.TYPE}: {name} must be a finite number, got {v}")
+            if name in cls._MAY_BE_ZERO and v < 0:
+                raise ValueError(f"{cls.TYPE}: {name} must be >= 0, got {v}")
+            if name not in cls._MAY_BE_ZERO and v <= 0:
+                raise ValueError(f"{cls.TYPE}: {name} must be > 0, got {v}")
+        p.flags.writeable = False
+        return p
+
+    @property
+    def params(self) -> Array:
+        """(k,) the parameters in PARAMS order, a read-only view."""
+        return self._p.view()
+
+    def with_params(self, params: ArrayLike | Mapping[str, float]) -> Self:
+        """A new primitive of this type: a full (k,) array, or a mapping of the names to change."""
+        if isinstance(params, Mapping):
+            params = self._from_mapping({**self.to_dict()["params"], **params})
+        return type(self)(*self._checked(params))
+
+    def _as_params(self, params: ArrayLike | None) -> Array:
+        """Trial parameters for the geometry methods (not validated: the solver may probe anything)."""
+        if params is None:
+            return self._p
+        p = np.asarray(params, dtype=float)
+        if p.shape != (len(self.PARAMS),):
+            raise ValueError(f"{self.TYPE}: expected params of shape ({len(self.PARAMS)},), got {p.shape}")
+        return p
+
+    def to_dict(self) -> dict[str, Any]:
+        """``{"type": ..., "params": {name: value}}`` as in the project file."""
+        return {"type": self.TYPE, "params": {n: float(v) for n, v in zip(self.PARAMS, self._p, strict=True)}}
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> Primitive:
+        """The primitive a project-file dict describes; on a subclass the type must be that subclass's."""
+        prim = primitive_from_dict(d)
+        if cls is not Primitive and not isinstance(prim, cls):
+            raise ValueError(f"expected type {cls.TYPE!r}, got {prim.TYPE!r}")
+        return prim
+
+    # -- handles -------------------------------------------------------------------------------
+
+    @classmethod
+    def handle_names(cls) -> tuple[str, ...]:
+        return cls.HANDLE_NAMES
+
+    @classmethod
+    def _handles_of(cls, P: Array) -> Array:
+        """Handle positions (..., n, 3) of parameter vectors P (..., k); linear in P."""
+        raise NotImplementedError
+
+    def handles(self, params: ArrayLike | None = None) -> Array:
+        """(n, 3) local handle positions in ``handle_names()`` order, for ``params`` (k,) or our own."""
+        return self._handles_of(self._as_params(params))
+
+    def handles_batch(self, P: ArrayLike) -> Array:
+        """(m, n, 3) handle positions of m parameter vectors P (m, k) in one vectorised call."""
+        P = np.asarray(P, dtype=float)
+        if P.ndim != 2 or P.shape[1] != len(self.PARAMS):
+            raise ValueError(f"{self.TYPE}: expected params of shape (m, {len(self.PARAMS)}), got {P.shape}")
+        return self._handles_of(P)
+
+    def handle_jacobian(self, params: ArrayLike | None = None) -> Array:
+        """(n, 3, k) ∂handle/∂param at ``params``; exact (the handles are linear in the params)."""
+        self._as_params(params)  # the same shape check as everywhere; the value does not matter
+        return _handle_matrix(type(self)).copy()
+
+    # -- edges, outlines, faces ----------------------------------------------------------------
+
+    @classmethod
+    def edges(cls) -> list[tuple[str, str, str]]:
+        """[(name, handle_a, handle_b)]: the straight edges an overlay draws and an edge observation names."""
+        return list(cls.EDGES)
+
+    def outline_points(self, n: int = 48, params: ArrayLike | None = None) -> list[Array]:
+        """Closed polylines (n + 1, 3) (last point = first) of curved outlines; [] for flat primitives."""
+        return self._outlines(self._as_params(params), int(n))
+
+    def _outlines(self, p: Array, n: int) -> list[Array]:
+        return []
+
+    def _restable(self) -> tuple[str, ...]:
+        return self._RESTABLE
+
+    def faces(self) -> dict[str, Frame]:
+        """{name: (origin, x_axis, y_axis, normal)} of the restable faces at our own params.
+
+        The origin is the face's centre, the axes are unit, x × y = normal, the normal points out.
+        """
+        return {name: self.face_frame(name) for name in self._restable()}
+
+    def face_frame(self, name: str, params: ArrayLike | None = None) -> Frame:
+        """The frame of face ``name`` (as in ``faces``) at trial ``params`` (k,), or at our own."""
+        if name not in self._restable():
+            have = ", ".join(self._restable()) or "none"
+            raise ValueError(f"{self.TYPE} has no face {name!r}; its faces: {have}")
+        return self._face_frame(name, self._as_params(params))
+
+    def _face_frame(self, name: str, p: Array) -> Frame:
+        raise NotImplementedError
+
+    # -- mesh ----------------------------------------------------------------------------------
+
+    def mesh(self, texels_per_metre: float | None = None, segments: int = 32) -> Mesh:
+        """The triangle mesh with its texture atlas (see ``Mesh``).
+
+        Parameters
+        ----------
+        texels_per_metre : the intended texture density; when given, the atlas gutter is
+            ``GUTTER_TEXELS`` texels and charts start on texel boundaries.
+        segments : facets around curved surfaces (a sphere has segments // 2 bands of latitude).
+            Curved surfaces are inscribed polyhedra: a cylinder's or frustum's volume falls short
+            by the fraction 1 − sin(2π/s)/(2π/s) ≈ (2π/s)²/6 (0.64 % at s = 32), a sphere's by
+            about 2.5 times that (1.6 % at 32).
+        """
+        if segments < 3:
+            raise ValueError(f"segments must be at least 3, got {segments}")
+        if texels_per_metre is not None and not (np.isfinite(texels_per_metre) and texels_per_metre > 0):
+            raise ValueError(f"texels_per_metre must be > 0, got {texels_per_metre}")
+        return _assemble(self._patches(self._p, int(segments)), texels_per_metre)
+
+    def _patches(self, p: Array, segments: int) -> list[_Patch | None]:
+        raise NotImplementedError
+
+    # -- value semantics -----------------------------------------------------------------------
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        raise AttributeError(f"{type(self).__name__} is immutable; use with_params")
+
+    def __reduce__(self) -> tuple[Any, ...]:  # copy, deepcopy and pickle go through __init__
+        return type(self), tuple(self._p.tolist())
+
+    def __eq__(self, other: object) -> bool:
+        return type(other) is type(self) and np.array_equal(self._p, other._p)  # type: ignore[attr-defined]
+
+    def __hash__(self) -> int:
+        return hash((self.TYPE, tuple(self._p.tolist())))
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({', '.join(f'{n}={v:g}' for n, v in zip(self.PARAMS, self._p, strict=True))})"
+
+
+def primitive_from_dict(d: Mapping[str, Any]) -> Primitive:
+    """Build a primitive from ``{"type": T, "params": {...}}``; ValueError says what is wrong."""
+    if not isinstance(d, Mapping):
+        raise ValueError(f"expected an object {{type, params}}, got {type(d).__name__}")
+    kind = d.get("type")
+    cls = _REGISTRY.get(kind) if isinstance(kind, str) else None
+    if cls is None:
+        raise ValueError(f"expected one of {', '.join(_REGISTRY)}; got {kind!r}")
+    params = d.get("params", {})
+    if not isinstance(params, Mapping):
+        raise ValueError(f"{kind}: params must be an object {{{', '.join(cls.PARAMS)}}}, got {type(params).__name__}")
+    return cls(**params)
+
+
+class Quad(Primitive):
+    """A flat rectangle in z = 0, ``width`` along x, ``depth`` along y, centred on the origin (a floor)."""
+
+    TYPE = "quad"
+    PARAMS = ("width", "depth")
+    HANDLE_NAMES = ("v0", "v1", "v2", "v3")
+    EDGES = (("e0", "v0", "v1"), ("e1", "v1", "v2"), ("e2", "v2", "v3"), ("e3", "v3", "v0"))
+    _RESTABLE = ("top",)
+
+    @classmethod
+    def _handles_of(cls, P):
+        return _ring(P[..., 0], P[..., 1], np.zeros_like(P[..., 0]))
+
+    def _face_frame(self, name, p):
+        return _level_frame(0.0)
+
+    def _patches(self, p, segments):
+        return [_polygon_patch("top", self._handles_of(p))]
+
+
+class _Prism(Primitive):
+    """Box and wedge: a bottom ring v0…v3 and a 'top ring' over it, joined by four sides.
+
+    A wedge is the box whose top front edge has collapsed onto the bottom front edge, so one
+    builder makes both meshes (collapsed faces disappear).
+    """
+
+    PARAMS = ("width", "depth", "height")
+    _MESH_FACES: ClassVar[tuple[str, ...]]  # names for sides 0…3, top, bottom; "" for a collapsed one
+
+    @classmethod
+    def _top_ring(cls, P: Array) -> Array:
+        raise NotImplementedError
+
+    def _patches(self, p, segments):
+        b = _ring(p[0], p[1], np.zeros(()))
+        t = self._top_ring(p)
+        polys = [np.array([b[i], b[(i + 1) % 4], t[(i + 1) % 4], t[i]]) for i in range(4)] + [t, b[::-1]]
+        return [_polygon_patch(name, c) for name, c in zip(self._MESH_FACES, polys, strict=True) if name]
+
+
+class Box(_Prism):
+    """An axis-aligned box: ``width`` (x) × ``depth`` (y) × ``height`` (z), standing on z = 0."""
+
+    TYPE = "box"
+    HANDLE_NAMES = tuple(f"v{i}" for i in range(8))
+    EDGES = tuple((f"e{i}", f"v{i}", f"v{(i + 1) % 4}") for i in range(4)) + tuple(
+        (f"e{i + 4}", f"v{i + 4}", f"v{(i + 1) % 4 + 4}") for i in range(4)) + tuple(
+        (f"e{i + 8}", f"v{i}", f"v{i + 4}") for i in range(4))
+    _RESTABLE = ("top", "bottom")
+    _MESH_FACES = ("front", "right", "back", "left", "top", "bottom")
+
+    @classmethod
+    def _handles_of(cls, P):
+        w, d, h = P[..., 0], P[..., 1], P[..., 2]
+        return np.concatenate([_ring(w, d, np.zeros_like(h)), _ring(w, d, h)], axis=-2)
+
+    @classmethod
+    def _top_ring(cls, P):
+        return cls._handles_of(P)[..., 4:, :]
+
+    def _face_frame(self, name, p):
+        return _level_frame(p[2]) if name == "top" else _level_frame(0.0, up=False)
+
+
+class Wedge(_Prism):
+    """A ramp on a ``width`` × ``depth`` base, rising from its front (−y) edge to ``height`` at its back (+y)."""
+
+    TYPE = "wedge"
+    HANDLE_NAMES = tuple(f"v{i}" for i in range(6))
+    EDGES = (("e0", "v0", "v1"), ("e1", "v1", "v2"), ("e2", "v2", "v3"), ("e3", "v3", "v0"), ("e4", "v4", "v5"),
+             ("e5", "v2", "v5"), ("e6", "v3", "v4"), ("e7", "v0", "v4"), ("e8", "v1", "v5"))
+    _RESTABLE = ("bottom", "back")
+    _MESH_FACES = ("", "right", "back", "left", "slope", "bottom")
+
+    @classmethod
+    def _handles_of(cls, P):
+        w, d, h = P[..., 0], P[..., 1], P[..., 2]
+        top = _ring(w, d, h)[..., [3, 2], :]  # v4 above v3, v5 above v2: the back top edge
+        return np.concatenate([_ring(w, d, np.zeros_like(h)), top], axis=-2)
+
+    @classmethod
+    def _top_ring(cls, P):
+        v = cls._handles_of(P)
+        return v[..., [0, 1, 5, 4], :]  # the slope: front edge stays down, back edge is up
+
+    def _face_frame(self, name, p):
+        if name == "bottom":
+            return _level_frame(0.0, up=False)
+        # The back wall seen from behind (+y): x runs toward −x so that x × up = +y.
+        return np.array([0.0, p[1] / 2, p[2] / 2]), -_EX, _EZ.copy(), _EY.copy()
+
+
+class _Round(Primitive):
+    """Cylinder and frustum: a solid of revolution between a bottom and a top circle."""
+
+    HANDLE_NAMES = ("b0", "b1", "b2", "b3", "t0", "t1", "t2", "t3", "bc", "tc")
+    EDGES = tuple((f"e{i}", f"b{i}", f"t{i}") for i in range(4))
+
+    @classmethod
+    def _radii(cls, P: Array) -> tuple[Array, Array, Array]:
+        """(radius_bottom, radius_top, height), each (...,)."""
+        raise NotImplementedError
+
+    @classmethod
+    def _handles_of(cls, P):
+        rb, rt, h = cls._radii(P)
+        zero = np.zeros_like(h)
+        centres = np.stack([_points(zero, zero, zero), _points(zero, zero, h)], axis=-2)
+        return np.concatenate([_rim(rb, zero), _rim(rt, h), centres], axis=-2)
+
+    def _restable(self):
+        # A cone has no top face to rest on.
+        return ("top", "bottom") if self._radii(self._p)[1] > 0 else ("bottom",)
+
+    def _face_frame(self, name, p):
+        return _level_frame(self._radii(p)[2]) if name == "top" else _level_frame(0.0, up=False)
+
+    def _outlines(self, p, n):
+        rb, rt, h = (float(v) for v in self._radii(p))
+        _, c, s = _circle(n)
+        return [_points(r * c, r * s, z) for r, z in ((rb, 0.0), (rt, h)) if r > 0]
+
+    def _patches(self, p, segments):
+        rb, rt, h = (float(v) for v in self._radii(p))
+        slant = np.hypot(h, rb - rt)
+        side = _revolution_patch("side", np.array([rb, rt]), np.array([0.0, h]), np.full(2, h / slant),
+                                 np.full(2, (rb - rt) / slant), segments)
+        _, c, s = _circle(segments)
+        c, s = c[:-1], s[:-1]  # the caps' rings, the very same numbers as the side's rims
+        top = _polygon_patch("top", _points(rt * c, rt * s, h), _EX)  # None for a cone
+        bottom = _polygon_patch("bottom", _points(rb * c, rb * s, 0.0)[::-1], _EX)
+        return [side, top, bottom]
+
+
+class Cylinder(_Round):
+    """An upright cylinder of ``radius`` and ``height`` standing on z = 0."""
+
+    TYPE = "cylinder"
+    PARAMS = ("radius", "height")
+
+    @classmethod
+    def _radii(cls, P):
+        return P[..., 0], P[..., 0], P[..., 1]
+
+
+class Frustum(_Round):
+    """An upright truncated cone; ``radius_top`` = 0 makes a cone."""
+
+    TYPE = "frustum"
+    PARAMS = ("radius_bottom", "radius_top", "height")
+    _MAY_BE_ZERO = frozenset({"radius_top"})
+
+    @classmethod
+    def _radii(cls, P):
+        return P[..., 0], P[..., 1], P[..., 2]
+
+
+class Sphere(Primitive):
+    """A sphere of ``radius`` resting on z = 0: its lowest point is the origin, its centre (0, 0, r)."""
+
+    TYPE = "sphere"
+    PARAMS = ("radius",)
+    HANDLE_NAMES = ("bottom", "top", "px", "nx", "py", "ny")
+    _UNIT_HANDLES = np.array([[0, 0, 0], [0, 0, 2], [1, 0, 1], [-1, 0, 1], [0, 1, 1], [0, -1, 1]], float)
+
+    @classmethod
+    def _handles_of(cls, P):
+        return P[..., 0, None, None] * cls._UNIT_HANDLES
+
+    def _outlines(self, p, n):
+        r = float(p[0])
+        _, c, s = _circle(n)
+        return [_points(r * c, r * s, r), _points(r * c, 0.0, r + r * s)]  # equator, meridian in xz
+
+    def _patches(self, p, segments):
+        r = float(p[0])
+        phi = np.linspace(-np.pi / 2, np.pi / 2, max(2, segments // 2) + 1)
+        cos_phi, sin_phi = np.cos(phi), np.sin(phi)
+        cos_phi[[0, -1]] = 0.0  # exact poles, so their triangles collapse and are dropped
+        return [_revolution_patch("surface", r * cos_phi, r * (1.0 + sin_phi), cos_phi, sin_phi, segments)]
+
+
+#: The primitive types by their project-file name, in the order FORMAT.md lists them.
+PRIMITIVE_TYPES: Mapping[str, type[Primitive]] = _REGISTRY
