@@ -34,6 +34,19 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_solve(args: argparse.Namespace) -> int:
+    from .actions.solve import solve_project
+    from .project import load_project, save_project
+    from .report_text import model_table
+
+    project = load_project(args.project)
+    result = solve_project(project, recalibrate=args.recalibrate, refine_intrinsics=not args.fixed_intrinsics)
+    save_project(project)
+    print(model_table(result))
+    print(f"\nmodel written to {project.path}")
+    return 0
+
+
 def _cmd_check(args: argparse.Namespace) -> int:
     from .project import load_project
 
@@ -105,6 +118,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("project", help="the project file (NAME.vebuild.json)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=_cmd_calibrate)
+
+    p = sub.add_parser("solve", help="fit the model's primitives to the pins (paper §3.1); --recalibrate: §3.2")
+    p.add_argument("project")
+    p.add_argument("--recalibrate", action="store_true",
+                   help="solve cameras and markers jointly with the model (robust; cameras held by their calibration)")
+    p.add_argument("--fixed-intrinsics", action="store_true",
+                   help="with --recalibrate: keep focal lengths and principal points as calibrated")
+    p.set_defaults(func=_cmd_solve)
 
     p = sub.add_parser("check", help="validate a project file and verify its photos' hashes")
     p.add_argument("project")

@@ -53,3 +53,26 @@ def calibration_table(result: dict[str, Any]) -> str:
     if result["warnings"]:
         lines += ["", "warnings:"] + [f"  - {w}" for w in result["warnings"]]
     return "\n".join(lines)
+
+
+def model_table(result: dict[str, Any]) -> str:
+    """Per node: its joint's degrees of freedom and its dimensions, ± 1σ, then the residuals."""
+    lines = [f"model ({result['software']}{', re-calibrated' if result['recalibrated'] else ''}); values ± 1σ", ""]
+    for name, node in result["nodes"].items():
+        dofs = ", ".join(f"{k} {_pm(v, '.3f')}" for k, v in node["dofs"].items())
+        lines.append(f"{name}  [{node['joint']}{': ' + dofs if dofs else ''}]")
+        if node["params"]:
+            dims = ", ".join(f"{k} {v['value']:.4f} m (held)" if v["sigma"] == 0 else f"{k} {_pm(v, '.4f')} m"
+                             for k, v in node["params"].items())
+            lines.append(f"    {dims}")
+    res = [(p["photo"], p["node"], p["handle"], (p["residual_px"][0] ** 2 + p["residual_px"][1] ** 2) ** 0.5)
+           for p in result["pins"]]
+    lines += ["", f"residuals: {len(result['pins'])} pins, {len(result['edge_observations'])} edge observations, "
+              f"RMS {result['rms_px']:.2f} px"]
+    if res:
+        worst = max(res, key=lambda r: r[3])
+        lines.append(f"    largest pin residual {worst[3]:.2f} px ({worst[1]}:{worst[2]} in photo '{worst[0]}')")
+    if result["outliers"]:
+        lines += ["", "outliers (more than 4σ from the solved model; check these marks):"]
+        lines += [f"  - {o}" for o in result["outliers"]]
+    return "\n".join(lines)

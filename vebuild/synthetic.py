@@ -258,7 +258,8 @@ def model_scene(rng: np.random.Generator, n_boxes: int = 3, n_photos: int = 8, n
     """
     from .model.scene import model_from_dict
 
-    truth = [{"name": "floor", "primitive": {"type": "quad", "params": {"width": float(ROOM[0]), "depth": float(ROOM[1])}},
+    floor = {"width": float(ROOM[0]), "depth": float(ROOM[1])}
+    truth = [{"name": "floor", "primitive": {"type": "quad", "params": floor},
               "joint": {"type": "marker", "marker": "O", "handle": "v0", "yaw_deg": 0.0}}]
     start = [dict(truth[0])]
     for k in range(n_boxes):
@@ -266,8 +267,10 @@ def model_scene(rng: np.random.Generator, n_boxes: int = 3, n_photos: int = 8, n
         pos = rng.uniform([-2.2, -1.7], [2.2, 1.7])
         yaw = rng.uniform(-45, 45)
         node = {"name": f"box{k}", "parent": "floor",
-                "primitive": {"type": "box", "params": dict(zip(("width", "depth", "height"), map(float, size)))},
-                "joint": {"type": "rests_on", "face": "top", "position": [float(pos[0]), float(pos[1])], "yaw_deg": yaw}}
+                "primitive": {"type": "box", "params": dict(zip(("width", "depth", "height"), map(float, size),
+                                                                 strict=True))},
+                "joint": {"type": "rests_on", "face": "top", "position": [float(pos[0]), float(pos[1])],
+                          "yaw_deg": yaw}}
         truth.append(node)
         guess = {**node, "primitive": {"type": "box", "params": {k2: v * rng.uniform(0.85, 1.15)
                                                                   for k2, v in node["primitive"]["params"].items()}},

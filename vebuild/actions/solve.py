@@ -54,7 +54,8 @@ def load_model(project: Project) -> tuple[Model, list[Pin], list[EdgeObservation
     data = project.data
     if not data.get("model", {}).get("nodes"):
         raise VebuildError(f"{project.path}: $.model: the project has no model nodes to solve")
-    markers = {n: np.asarray(m["position"], float) for n, m in (data.get("calibration") or {}).get("markers", {}).items()}
+    calibrated = (data.get("calibration") or {}).get("markers", {})
+    markers = {n: np.asarray(m["position"], float) for n, m in calibrated.items()}
     try:
         model = model_from_dict(data["model"]["nodes"], markers)
     except ModelError as e:
@@ -72,13 +73,19 @@ def load_model(project: Project) -> tuple[Model, list[Pin], list[EdgeObservation
         names = [n for n, _, _ in prim.edges()] if prim else []
         if e["edge"] not in names:
             raise ProjectError(project.path, f"$.model.edge_observations[{i}].edge",
-                               f"node '{e['node']}' has no edge '{e['edge']}'; its edges are: {', '.join(names) or 'none'}")
+                               f"node '{e['node']}' has no edge '{e['edge']}'; its edges are: "
+                               f"{', '.join(names) or 'none'}")
         edges.append(EdgeObservation(e["photo"], e["node"], e["edge"], np.asarray(e["points"], float)))
     return model, pins, edges
 
 
-def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics: bool = False) -> dict[str, Any]:
-    """Solve the model (and with ``recalibrate`` the cameras and markers); write and return results."""
+def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics: bool = True) -> dict[str, Any]:
+    """Solve the model (and with ``recalibrate`` the cameras and markers); write and return results.
+
+    When re-calibrating, each camera's focal length and principal point take part too, held by
+    their calibration covariance (``refine_intrinsics``), so that their uncertainty reaches the
+    model's; without, they are taken as exact.
+    """
     data = project.data
     cameras = cameras_from_calibration(project)
     model, pins, edges = load_model(project)
@@ -99,7 +106,7 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
                       click_sigma_px=project.settings["click_sigma_px"], prior_scale=FINAL_PRIOR_SCALE,
                       recalibrate=recalibrate, refine_intrinsics=refine_intrinsics, markers=markers,
                       fixed_markers=[origin, *surveyed], marker_observations=marker_obs, distances=distances)
-    sol = problem.solve(robust=recalibrate)
+    sol = problem.solve(robust=True)
     solution = problem.solution(sol.x, sol.nfev)
     if solution.undetermined:
         raise VebuildError(
@@ -138,7 +145,10 @@ def _check_visible(project: Project, problem: Problem, xm: np.ndarray, cameras: 
 
 def _vs(v: Any, s: Any) -> dict[str, Any]:
     v, s = np.asarray(v, float), np.asarray(s, float)
-    conv = (lambda a: None if not np.isfinite(a) else float(a))
+
+    def conv(a: float) -> float | None:
+        return None if not np.isfinite(a) else float(a)
+
     if v.ndim == 0:
         return {"value": float(v), "sigma": conv(s), "ci95": [float(v - Z95 * s), float(v + Z95 * s)]
                 if np.isfinite(s) else None}

@@ -98,8 +98,12 @@ class DragSession:
         h = cam.K @ (cam.R @ (start - cam.C))
         self.pin = Pin(photo, node, handle, h[:2] / h[2], fixed=False)
         obs = [p for p in self.other_pins if p.node in moved and p.fixed] + [self.pin]
+        # Paper Figure 7: until a vertex of the node is fixed, a drag moves the node as a whole
+        # (its joint's degrees of freedom); once one is, its sizes may change as well.
+        held = () if any(p.node == node for p in obs[:-1]) else \
+            [f"{node}.{name}" for name in prim.PARAMS]
         self.problem = Problem(model, cameras, obs, [e for e in edges if e.node in moved],
-                               free_nodes=self.free, click_sigma_px=click_sigma_px)
+                               free_nodes=self.free, click_sigma_px=click_sigma_px, held=held)
         self._pin_index = len(self.problem.pins) - 1
         self.x = self.problem.x0()
         self.x_start = self.x.copy()

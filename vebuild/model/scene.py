@@ -167,7 +167,8 @@ class HingeJoint(Joint):
         return np.array([self.limits[0]]), np.array([self.limits[1]])
 
     def transform(self, q, parent, parent_params, node, node_params):
-        return translation(self.axis_point) @ _axis_rotation(self.axis, q[0]) @ translation(-self.axis_point) @ self.base
+        turn = _axis_rotation(self.axis, q[0])
+        return translation(self.axis_point) @ turn @ translation(-self.axis_point) @ self.base
 
     def to_dict(self):
         return {"type": "hinge", "axis_point": [float(v) for v in self.axis_point],
@@ -332,7 +333,8 @@ class Model:
             if parent is not None and parent.primitive is not None:
                 p_params = x[self.slices[parent.name][1]]
             node_params = x[sp] if n.primitive is not None else None
-            T = n.joint.transform(x[sq], None if parent is None else parent.primitive, p_params, n.primitive, node_params)
+            parent_prim = None if parent is None else parent.primitive
+            T = n.joint.transform(x[sq], parent_prim, p_params, n.primitive, node_params)
             out[n.name] = T if parent is None else out[parent.name] @ T
         return out
 

@@ -21,7 +21,7 @@ sightings), so its cost grows with the number of observations, not with their sq
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -146,6 +146,7 @@ class Problem:
         refine_intrinsics: bool = False,
         markers: Mapping[str, Array] | None = None,
         fixed_markers: Sequence[str] = (),
+        held: Collection[str] = (),
         marker_observations: Sequence[MarkerObservation] = (),
         distances: Sequence[Distance] = (),
     ):
@@ -154,6 +155,10 @@ class Problem:
         self.cameras = dict(cameras)
         self.sigma = click_sigma_px
         self.pins = [p for p in pins if p.photo in self.cameras]
+        for p in self.pins:
+            if np.shape(p.uv) != (2,) or not np.all(np.isfinite(p.uv)):
+                raise ValueError(f"pin {p.node}:{p.handle} in photo '{p.photo}': expected a finite pixel (u, v), "
+                                 f"got {p.uv}")
         self.edges = [e for e in edges if e.photo in self.cameras]
         self.x_model0 = model.vector()
         names = model.parameter_names()
@@ -164,7 +169,8 @@ class Problem:
                 sq, sp = model.slices[n.name]
                 names_n = list(n.joint.dof_names) + list(n.primitive.PARAMS if n.primitive is not None else ())
                 idx = list(range(sq.start, sq.stop)) + list(range(sp.start, sp.stop))
-                self.free_idx += [i for i, nm in zip(idx, names_n, strict=True) if nm not in n.hold]
+                self.free_idx += [i for i, nm in zip(idx, names_n, strict=True)
+                                  if nm not in n.hold and f"{n.name}.{nm}" not in held]
         self.free_idx = np.array(self.free_idx, dtype=int)
         lo, hi = model.bounds()
         self.names = [names[i] for i in self.free_idx]
@@ -307,8 +313,9 @@ class Problem:
             owner = self.owner[j]
             if owner not in subtree_cache:
                 nodes = model.subtree(owner)
-                hrows = np.concatenate([np.arange(self.h_offset[n], self.h_offset[n] + len(model.node(n).primitive.handle_names()))
-                                        for n in nodes if n in self.h_offset] or [np.zeros(0, dtype=int)])
+                hrows = np.concatenate(
+                    [np.arange(self.h_offset[n], self.h_offset[n] + len(model.node(n).primitive.handle_names()))
+                     for n in nodes if n in self.h_offset] or [np.zeros(0, dtype=int)])
                 subtree_cache[owner] = (
                     (nodes, hrows),
                     (np.flatnonzero(np.isin(self.pin_row, hrows)),
@@ -456,7 +463,7 @@ class Problem:
                 put(self.rows_dist[dist_sel], j, (d1 - d0) / h / self.dist_sigma[dist_sel])
 
         if self.recalibrate:
-            for k, cid in enumerate(self.cam_ids):
+            for k in range(len(self.cam_ids)):
                 o = self.n_model + k * self.n_cam
                 oc = o + (3 if self.refine_intrinsics else 0)
                 w = x[oc : oc + 3]
@@ -520,20 +527,16 @@ class Problem:
               tol: float = 1e-10, damping: float = 1e-4) -> LMResult:
         """Bounded Levenberg–Marquardt from x0 (default: the model's values).
 
-        The normal equations JᵀJ have a few hundred unknowns at most and are solved directly; a
-        robust fit starts from the plain one and reweights (soft-L1 loss) only the observation rows.
+        The normal equations JᵀJ are solved directly (sparse when large); a robust fit uses the
+        soft-L1 loss on the observation rows (not on the priors).
         """
         x0 = self.x0() if x0 is None else x0
         lo, hi = self.bounds()
-        res = levenberg_marquardt(self.residuals, self.jacobian, np.clip(x0, lo, hi), lo, hi, max_iterations,
-                                  tol=tol, damping=damping)
-        if robust:
-            it = res.iterations
-            n_obs = self.n_data + len(self.distances)
-            res = levenberg_marquardt(self.residuals, self.jacobian, res.x, lo, hi, max_iterations,
-                                      robust_rows=n_obs, robust_scale=ROBUST_SCALE)
-            res.iterations += it
-        return res
+        # A robust fit reweights from the first iteration, so that a wrong mark is discounted
+        # before it can drag the model (or the cameras) toward it.
+        robust_rows = self.n_data + len(self.distances) if robust else 0
+        return levenberg_marquardt(self.residuals, self.jacobian, np.clip(x0, lo, hi), lo, hi, max_iterations,
+                                   tol=tol, damping=damping, robust_rows=robust_rows)
 
     def solution(self, x: Array, iterations: int = 0) -> Solution:
         """Covariance, residuals per observation, outliers and undetermined parameters at x."""
