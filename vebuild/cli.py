@@ -47,6 +47,21 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_register(args: argparse.Namespace) -> int:
+    from .actions.register import register_photos
+    from .project import load_project, save_project
+    from .report_text import calibration_table
+
+    project = load_project(args.project)
+    done = register_photos(project, args.photos or None)
+    save_project(project)
+    cal = project.data["calibration"]
+    print(calibration_table({**cal, "cameras": {pid: cal["cameras"][pid] for pid in done},
+                             "markers": {}, "reference_distances": [], "warnings": []}))
+    print(f"{len(done)} photo(s) registered in {project.path}")
+    return 0
+
+
 def _cmd_check(args: argparse.Namespace) -> int:
     from .project import load_project
 
@@ -126,6 +141,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--fixed-intrinsics", action="store_true",
                    help="with --recalibrate: keep focal lengths and principal points as calibrated")
     p.set_defaults(func=_cmd_solve)
+
+    p = sub.add_parser("register", help="place further photos from known points (paper §3.2)")
+    p.add_argument("project")
+    p.add_argument("photos", nargs="*", help="photo ids (default: every photo without a camera)")
+    p.set_defaults(func=_cmd_register)
 
     p = sub.add_parser("check", help="validate a project file and verify its photos' hashes")
     p.add_argument("project")

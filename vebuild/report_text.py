@@ -29,7 +29,8 @@ def calibration_table(result: dict[str, Any]) -> str:
         ]
         vp = "  ".join(f"{a}: {v['rms_px']:.2f} px ({len(v['residuals_px'])} segments)"
                        for a, v in cam["vanishing_points"].items())
-        lines.append(f"  residuals        segments {vp}")
+        if vp:
+            lines.append(f"  residuals        segments {vp}")
         if cam["marker_residuals_px"]:
             worst = max(cam["marker_residuals_px"].items(), key=lambda kv: kv[1][0] ** 2 + kv[1][1] ** 2)
             lines.append(f"                   markers: {len(cam['marker_residuals_px'])}, largest "

@@ -88,27 +88,41 @@ def _calibrate(project: Project, progress: Callable[[Iterable], Iterable]) -> di
     data = project.data
     photos = calibrate_photos(project, progress)
     missing = [p["id"] for p in data["photos"] if p["id"] not in photos]
-    if missing:
-        raise CalibrationError(missing[0], "has no vanishing segments; mark segments along two world axes at least")
+    if not photos:
+        raise CalibrationError(None, "no photo has vanishing segments; mark segments along two world axes at least")
     known = {m["name"]: np.asarray(m["position"], float) for m in data.get("markers", []) if "position" in m}
     refs = [
         ReferenceDistance(d["a"], d["b"], float(d["distance"]), float(d.get("sigma", 0.002)), d.get("role", "scale"))
         for d in data.get("reference_distances", [])
     ]
     shared = _pinned_handles(data)
-    inputs = []
-    for pid, cal in photos.items():
+    obs_of = {}
+    for pid in photos:
         obs = {n: np.asarray(uv, float) for n, uv in (_photo(data, pid).get("marker_observations") or {}).items()}
         obs.update(shared.get(pid, {}))
-        inputs.append(PhotoInput(pid, cal.K, cal.R, cal.covariance, obs))
+        obs_of[pid] = obs
+    # A point seen once among the calibrated photos but again in a photo left for registration
+    # waits for that photo; one seen once in the whole project stays, to be reported.
+    in_project = _observation_counts(data)
+    in_calibrated: dict[str, int] = {}
+    for obs in obs_of.values():
+        for n in obs:
+            in_calibrated[n] = in_calibrated.get(n, 0) + 1
+    waiting = {n for n, k in in_calibrated.items() if k < 2 and in_project.get(n, 0) >= 2 and n not in known}
+    inputs = [PhotoInput(pid, cal.K, cal.R, cal.covariance,
+                         {n: uv for n, uv in obs_of[pid].items() if n not in waiting})
+              for pid, cal in photos.items()]
     placement = place_cameras(
         inputs,
         origin=data.get("origin_marker"),
         known_markers=known,
-        distances=refs,
+        distances=[d for d in refs if d.a not in waiting and d.b not in waiting],
         click_sigma_px=project.settings["click_sigma_px"],
     )
     result = _results(data, photos, placement)
+    for pid in missing:
+        result["warnings"].append(f"photo '{pid}' has no vanishing segments and is not calibrated: mark segments, "
+                                  "or register it to the solved model (`vebuild register`, from 4 known points)")
     data["calibration"] = result
     return result
 
@@ -129,6 +143,19 @@ def _pinned_handles(data: dict[str, Any]) -> dict[str, dict[str, np.ndarray]]:
         if len(photos_of[name]) >= 2:
             out.setdefault(p["photo"], {})[name] = np.asarray(p["uv"], float)
     return out
+
+
+def _observation_counts(data: dict[str, Any]) -> dict[str, int]:
+    """In how many photos of the project each marker and each pinned handle is marked."""
+    counts: dict[str, int] = {}
+    for p in data["photos"]:
+        for n in p.get("marker_observations") or {}:
+            counts[n] = counts.get(n, 0) + 1
+    seen = {(p["photo"], f"{p['node']}:{p['handle']}") for p in (data.get("model") or {}).get("pins", [])
+            if p.get("fixed", True)}
+    for _, n in seen:
+        counts[n] = counts.get(n, 0) + 1
+    return counts
 
 
 def _photo(data: dict[str, Any], pid: str) -> dict[str, Any]:

@@ -98,8 +98,11 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
             for n, uv in (p.get("marker_observations") or {}).items():
                 if n in markers:
                     marker_obs.append(MarkerObservation(p["id"], n, np.asarray(uv, float)))
+        node_names = {n.name for n in model.nodes}
         for d in data.get("reference_distances", []):
-            if d["role"] == "scale":
+            # A distance to a marker that no calibrated photo places yet waits for that photo.
+            ends_known = all(e in markers or e.split(":", 1)[0] in node_names for e in (d["a"], d["b"]))
+            if d["role"] == "scale" and ends_known:
                 distances.append(Distance(d["a"], d["b"], float(d["distance"]), float(d.get("sigma", 0.002))))
     surveyed = [m["name"] for m in data.get("markers", []) if "position" in m]
     problem = Problem(model, cameras, [p for p in pins if p.fixed], edges,

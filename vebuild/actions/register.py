@@ -1,0 +1,99 @@
+"""Register further photos to the model (paper §3.2): ``vebuild register PROJECT [PHOTO ...]``.
+
+A photo that could not be calibrated with the others (no origin marker, no shared markers, or no
+vanishing segments at all) is placed from the points whose positions are now known: calibrated
+markers and the solved model's vertices (``model_solution``). The camera is written into
+``calibration.cameras`` like any other, its mode saying how it was found.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..calibration.photo import calibrate_photo, ypr_with_sigma
+from ..calibration.register import Registered, register_from_points, register_with_vanishing_points
+from ..errors import CalibrationError, VebuildError
+from ..project import Project
+from .calibrate import exif_focal_prior
+
+
+def known_points(data: dict[str, Any]) -> dict[str, np.ndarray]:
+    """Positions known after calibration and solving: markers, and model vertices as 'node:handle'."""
+    pts = {n: np.asarray(m["position"], float) for n, m in (data.get("calibration") or {}).get("markers", {}).items()}
+    for node, entry in (data.get("model_solution") or {}).get("nodes", {}).items():
+        for h, v in entry["handles"].items():
+            pts[f"{node}:{h}"] = np.asarray(v["value"], float)
+    return pts
+
+
+def register_photos(project: Project, photo_ids: list[str] | None = None) -> dict[str, Registered]:
+    data = project.data
+    cal = data.get("calibration")
+    if not cal:
+        raise VebuildError(f"{project.path}: nothing to register to: run `vebuild calibrate` (and `vebuild solve`) first")
+    ids = [p["id"] for p in data["photos"]]
+    targets = photo_ids or [pid for pid in ids if pid not in cal["cameras"]]
+    pts = known_points(data)
+    settings = project.settings
+    out = {}
+    for pid in targets:
+        if pid not in ids:
+            raise VebuildError(f"{project.path}: no photo with id '{pid}' (the photos are: {', '.join(ids)})")
+        photo = next(p for p in data["photos"] if p["id"] == pid)
+        obs = {n: uv for n, uv in (photo.get("marker_observations") or {}).items() if n in pts}
+        for pin in (data.get("model") or {}).get("pins", []):
+            name = f"{pin['node']}:{pin['handle']}"
+            if pin["photo"] == pid and pin.get("fixed", True) and name in pts:
+                obs[name] = pin["uv"]
+        names = sorted(obs)
+        X = np.array([pts[n] for n in names]).reshape(-1, 3)
+        uv = np.array([obs[n] for n in names], float).reshape(-1, 2)
+        segs = {a: np.asarray(s, float) for a, s in (photo.get("vanishing_segments") or {}).items() if s}
+        exif = exif_focal_prior(photo, settings["exif_focal_sigma_rel"])
+        try:
+            if len(segs) >= 2:
+                vp = calibrate_photo(segs, photo["width"], photo["height"], photo=pid,
+                                     click_sigma_px=settings["click_sigma_px"],
+                                     principal_point_sigma_rel=settings["principal_point_sigma_rel"],
+                                     exif_focal=exif)
+                reg = register_with_vanishing_points(vp, X, uv, click_sigma_px=settings["click_sigma_px"])
+                reason = f"{vp.mode} vanishing-point calibration, placed from {len(X)} known points"
+            else:
+                reg = register_from_points(X, uv, photo["width"], photo["height"], photo=pid,
+                                           click_sigma_px=settings["click_sigma_px"],
+                                           principal_point_sigma_rel=settings["principal_point_sigma_rel"],
+                                           focal=exif)
+                reason = f"no usable vanishing points: the whole camera from {len(X)} known points"
+        except CalibrationError as e:
+            raise VebuildError(f"{project.path}: $.photos[{ids.index(pid)}] {e}") from None
+        cal["cameras"][pid] = _record(reg, names, reason)
+        out[pid] = reg
+    return out
+
+
+def _record(reg: Registered, names: list[str], reason: str) -> dict[str, Any]:
+    cov = reg.covariance
+    s = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    ypr, ypr_s = ypr_with_sigma(reg.R, cov[3:6, 3:6])
+
+    def num(v: float) -> float | None:
+        return float(v) if np.isfinite(v) else None
+
+    return {
+        "mode": "registered",
+        "mode_reason": reason,
+        "focal_source": reg.method,
+        "K": reg.K.tolist(),
+        "R": reg.R.tolist(),
+        "focal_px": {"value": float(reg.K[0, 0]), "sigma": num(s[0])},
+        "principal_point": {"value": reg.K[:2, 2].tolist(), "sigma": [num(s[1]), num(s[2])]},
+        "ypr_deg": {"value": np.degrees(ypr).tolist(), "sigma": np.degrees(ypr_s).tolist()},
+        "position": {"value": reg.C.tolist(), "sigma": [num(v) for v in s[6:9]]},
+        "covariance": [[num(v) for v in row] for row in cov],
+        "vanishing_points": {},
+        "marker_residuals_px": {n: [float(a) for a in r] for n, r in zip(names, reg.residuals_px, strict=True)
+                                if ":" not in n},
+        "rms_px": float(np.sqrt(np.mean(reg.residuals_px**2))),
+    }

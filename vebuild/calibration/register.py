@@ -1,0 +1,143 @@
+"""Register a further photo to known 3D points (paper §3.2).
+
+Two ways, chosen by what the photo offers:
+
+- with vanishing segments: intrinsics and rotation from them (:func:`calibrate_photo`), then the
+  camera centre from ≥ 2 points of known position (the lines back from the points along their
+  rays meet at the camera), refined over all points;
+- without usable vanishing points: from ≥ 4 points of known position alone. The camera's focal
+  length, principal point (held near the image centre by its prior), rotation and position are
+  found by least squares, started from the best of a coarse search over headings, tilts and focal
+  lengths (for each, the centre follows linearly from the points).
+
+Both return the camera with the covariance of (f, cx, cy, ω, C) from the Jacobian.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.optimize import least_squares
+
+from ..camera import exp_so3, intrinsic_matrix, pixel_rays_world, project, rotation_from_ypr
+from ..errors import CalibrationError
+from .lsq import covariance_from_jacobian, numeric_jacobian, variance_factor
+from .photo import FocalPrior, PhotoCalibration
+from .positions import intersect_lines
+
+Array = NDArray[np.float64]
+
+#: Coarse search of the start: headings every 30°, these tilts and these focal lengths (× the
+#: image's longer side), which span hand-held photos from wide angle to short telephoto.
+SEARCH_YAW_DEG = np.arange(0.0, 360.0, 30.0)
+SEARCH_PITCH_DEG = (-50.0, -25.0, 0.0, 25.0)
+SEARCH_FOCAL_REL = (0.6, 0.9, 1.3, 1.9, 2.8)
+
+
+@dataclass(frozen=True)
+class Registered:
+    K: Array
+    R: Array
+    C: Array
+    covariance: Array  # (9, 9) over (f, cx, cy, ω, C)
+    residuals_px: Array  # (n, 2)
+    method: str
+
+
+def _whitener(cov: Array) -> Array:
+    w, V = np.linalg.eigh(0.5 * (cov + cov.T))
+    return (V / np.sqrt(np.maximum(w, 1e-18))).T
+
+
+def _refine(points: Array, pixels: Array, K0: Array, R0: Array, C0: Array, click_sigma: float,
+            prior: Array, prior_cov: Array) -> tuple[Array, Array, Array, Array, Array]:
+    """Least squares over x = (f, cx, cy, ω, C), R = exp([ω]×) R0, with a Gaussian prior on the
+    first six (intrinsics and rotation): mean ``prior``, covariance ``prior_cov`` (∞ = free)."""
+    free = ~np.isfinite(np.diag(prior_cov))
+    held = np.flatnonzero(~free)
+    L = _whitener(prior_cov[np.ix_(held, held)]) if len(held) else np.zeros((0, 0))
+
+    def residuals(x: Array) -> Array:
+        K = intrinsic_matrix(*x[:3])
+        r = ((project(K, exp_so3(x[3:6]) @ R0, x[6:9], points) - pixels) / click_sigma).ravel()
+        return np.concatenate([r, L @ (x[held] - prior[held])])
+
+    x0 = np.r_[K0[0, 0], K0[0, 2], K0[1, 2], 0.0, 0.0, 0.0, C0]
+    sol = least_squares(residuals, x0, method="trf", x_scale="jac")
+    R = exp_so3(sol.x[3:6]) @ R0
+    # Re-linearise about the solution (ω = 0 there) for the covariance.
+    prior_at = prior.copy()
+    prior_at[3:6] -= sol.x[3:6]
+    x_at = np.r_[sol.x[:3], 0.0, 0.0, 0.0, sol.x[6:9]]
+
+    def res_at(x: Array) -> Array:
+        K = intrinsic_matrix(*x[:3])
+        r = ((project(K, exp_so3(x[3:6]) @ R, x[6:9], points) - pixels) / click_sigma).ravel()
+        return np.concatenate([r, L @ (x[held] - prior_at[held])])
+
+    r = res_at(x_at)
+    cov = covariance_from_jacobian(numeric_jacobian(res_at, x_at, 1e-6)) * variance_factor(r, 9)
+    K = intrinsic_matrix(*sol.x[:3])
+    return K, R, sol.x[6:9].copy(), cov, project(K, R, sol.x[6:9], points) - pixels
+
+
+def register_from_points(points: ArrayLike, pixels: ArrayLike, width: int, height: int, *, photo: str = "photo",
+                         click_sigma_px: float = 1.0, principal_point_sigma_rel: float = 0.01,
+                         focal: FocalPrior | None = None) -> Registered:
+    """A photo's whole camera from ≥ 4 points of known position and their pixels."""
+    X = np.asarray(points, float).reshape(-1, 3)
+    uv = np.asarray(pixels, float).reshape(-1, 2)
+    if len(X) < 4:
+        raise CalibrationError(photo, f"registration without vanishing points needs at least 4 marked points of "
+                               f"known position (model vertices or markers); this photo has {len(X)}")
+    s = max(width, height)
+    c = (width / 2.0, height / 2.0)
+    focals = [focal.value] if focal is not None else [k * s for k in SEARCH_FOCAL_REL]
+    best: list[tuple[float, Array, Array, Array]] = []
+    for f in focals:
+        K = intrinsic_matrix(f, *c)
+        for yaw in SEARCH_YAW_DEG:
+            for pitch in SEARCH_PITCH_DEG:
+                R = rotation_from_ypr(np.radians(yaw), np.radians(pitch), 0.0)
+                d = pixel_rays_world(K, R, uv)
+                C = intersect_lines(X, d)
+                depth = (X - C) @ R[2]
+                if np.any(depth <= 0):
+                    continue
+                err = float(np.sqrt(np.mean((project(K, R, C, X) - uv) ** 2)))
+                best.append((err, K, R, C))
+    if not best:
+        raise CalibrationError(photo, "no camera in front of all the marked points explains them; check that "
+                               "the marked points are the right ones")
+    best.sort(key=lambda t: t[0])
+    candidates = []
+    # Priors: the principal point near the centre; f from the user or EXIF if known; ω free.
+    prior = np.r_[0.0, c, 0.0, 0.0, 0.0]
+    prior_cov = np.diag([np.inf, (principal_point_sigma_rel * s) ** 2, (principal_point_sigma_rel * s) ** 2,
+                         np.inf, np.inf, np.inf])
+    if focal is not None:
+        prior[0], prior_cov[0, 0] = focal.value, focal.sigma**2
+    candidates = []
+    for _, K, R, C in best[:5]:
+        Kr, Rr, Cr, cov, res = _refine(X, uv, K, R, C, click_sigma_px, prior, prior_cov)
+        candidates.append((float(np.sqrt(np.mean(res**2))), Kr, Rr, Cr, cov, res))
+    rms, K, R, C, cov, res = min(candidates, key=lambda t: t[0])
+    return Registered(K, R, C, cov, res, "points")
+
+
+def register_with_vanishing_points(cal: PhotoCalibration, points: ArrayLike, pixels: ArrayLike, *,
+                                   click_sigma_px: float = 1.0) -> Registered:
+    """Position (and a refined rotation) of a photo whose K and R came from its vanishing points,
+    from ≥ 2 points of known position."""
+    X = np.asarray(points, float).reshape(-1, 3)
+    uv = np.asarray(pixels, float).reshape(-1, 2)
+    if len(X) < 2:
+        raise CalibrationError(cal.photo, f"placing the camera needs at least 2 marked points of known position "
+                               f"(model vertices or markers); this photo has {len(X)}")
+    C0 = intersect_lines(X, pixel_rays_world(cal.K, cal.R, uv))
+    # Intrinsics and rotation held by their vanishing-point estimate and covariance.
+    prior = np.r_[cal.f, cal.principal_point, 0.0, 0.0, 0.0]
+    K, R, C, cov, res = _refine(X, uv, cal.K, cal.R, C0, click_sigma_px, prior, cal.covariance)
+    return Registered(K, R, C, cov, res, "vanishing points + points")
