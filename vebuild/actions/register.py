@@ -32,7 +32,8 @@ def register_photos(project: Project, photo_ids: list[str] | None = None) -> dic
     data = project.data
     cal = data.get("calibration")
     if not cal:
-        raise VebuildError(f"{project.path}: nothing to register to: run `vebuild calibrate` (and `vebuild solve`) first")
+        raise VebuildError(f"{project.path}: nothing to register to: run `vebuild calibrate` "
+                           "(and `vebuild solve`) first")
     ids = [p["id"] for p in data["photos"]]
     targets = photo_ids or [pid for pid in ids if pid not in cal["cameras"]]
     pts = known_points(data)
