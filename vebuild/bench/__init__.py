@@ -5,6 +5,6 @@ from __future__ import annotations
 
 from types import ModuleType
 
-from . import calibration
+from . import calibration, solver
 
-BENCHES: dict[str, ModuleType] = {"calibration": calibration}
+BENCHES: dict[str, ModuleType] = {"calibration": calibration, "solver": solver}
