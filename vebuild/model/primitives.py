@@ -44,6 +44,7 @@ Layer 1 (DESIGN.md): numpy only; no GL, no file I/O.
 
 from __future__ import annotations
 
+import abc
 import functools
 import numbers
 from collections.abc import Mapping, Sequence
@@ -289,7 +290,7 @@ def _handle_matrix(cls: type[Primitive]) -> Array:
 # The primitives
 
 
-class Primitive:
+class Primitive(abc.ABC):
     """Base of all primitives: parameters in, geometry out.
 
     Subclasses set ``TYPE``, ``PARAMS``, ``HANDLE_NAMES``, ``EDGES``, ``_RESTABLE`` and implement
@@ -392,9 +393,9 @@ class Primitive:
         return cls.HANDLE_NAMES
 
     @classmethod
+    @abc.abstractmethod
     def _handles_of(cls, P: Array) -> Array:
         """Handle positions (..., n, 3) of parameter vectors P (..., k); linear in P."""
-        raise NotImplementedError
 
     def handles(self, params: ArrayLike | None = None) -> Array:
         """(n, 3) local handle positions in ``handle_names()`` order, for ``params`` (k,) or our own."""
@@ -444,7 +445,8 @@ class Primitive:
         return self._face_frame(name, self._as_params(params))
 
     def _face_frame(self, name: str, p: Array) -> Frame:
-        raise NotImplementedError
+        """The frame of a flat face; primitives with flat faces override this (a sphere has none)."""
+        raise ValueError(f"{self.TYPE} has no flat face {name!r}")
 
     # -- mesh ----------------------------------------------------------------------------------
 
@@ -466,8 +468,9 @@ class Primitive:
             raise ValueError(f"texels_per_metre must be > 0, got {texels_per_metre}")
         return _assemble(self._patches(self._p, int(segments)), texels_per_metre)
 
+    @abc.abstractmethod
     def _patches(self, p: Array, segments: int) -> list[_Patch | None]:
-        raise NotImplementedError
+        """Each concrete primitive defines this."""
 
     # -- value semantics -----------------------------------------------------------------------
 
@@ -532,8 +535,9 @@ class _Prism(Primitive):
     _MESH_FACES: ClassVar[tuple[str, ...]]  # names for sides 0…3, top, bottom; "" for a collapsed one
 
     @classmethod
+    @abc.abstractmethod
     def _top_ring(cls, P: Array) -> Array:
-        raise NotImplementedError
+        """Each concrete primitive defines this."""
 
     def _patches(self, p, segments):
         b = _ring(p[0], p[1], np.zeros(()))
@@ -601,9 +605,9 @@ class _Round(Primitive):
     EDGES = tuple((f"e{i}", f"b{i}", f"t{i}") for i in range(4))
 
     @classmethod
+    @abc.abstractmethod
     def _radii(cls, P: Array) -> tuple[Array, Array, Array]:
         """(radius_bottom, radius_top, height), each (...,)."""
-        raise NotImplementedError
 
     @classmethod
     def _handles_of(cls, P):
