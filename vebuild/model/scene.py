@@ -12,7 +12,6 @@ a node attached to the world has the world as parent. Lengths in metres, angles 
 
 from __future__ import annotations
 
-import copy
 from collections.abc import Collection, Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -270,9 +269,6 @@ class Model:
             self.slices[n.name] = (slice(k, k + nq), slice(k + nq, k + nq + npar))
             k += nq + npar
         self.size = k
-
-    def copy(self) -> Model:
-        return Model(copy.deepcopy(self.nodes))
 
     def node(self, name: str) -> Node:
         try:
