@@ -42,9 +42,23 @@ def project(K: ArrayLike, R: ArrayLike, C: ArrayLike, X_world: ArrayLike) -> Arr
     -------
     (..., 2) pixel coordinates (u, v), origin at the image's top-left corner.
     """
-    x_cam = (np.asarray(X_world, float) - np.asarray(C, float)) @ np.asarray(R, float).T
-    h = x_cam @ np.asarray(K, float).T
+    h = world_to_camera(R, C, X_world) @ np.asarray(K, float).T
     return h[..., :2] / h[..., 2:3]
+
+
+def world_to_camera(R: ArrayLike, C: ArrayLike, X_world: ArrayLike) -> Array:
+    """x_cam = R (X − C) of world points (..., 3); its z is the depth in front of the camera."""
+    return (np.asarray(X_world, float) - np.asarray(C, float)) @ np.asarray(R, float).T
+
+
+def project_each(Ks: ArrayLike, Rs: ArrayLike, Cs: ArrayLike, X_world: ArrayLike) -> Array:
+    """Pixels of n world points, point i seen by camera i: Ks, Rs (n, 3, 3), Cs, X (n, 3) → (n, 2).
+
+    The same projection as :func:`project`, batched over many cameras (a solve's observations).
+    """
+    x_cam = np.einsum("nij,nj->ni", np.asarray(Rs, float), np.asarray(X_world, float) - np.asarray(Cs, float))
+    h = np.einsum("nij,nj->ni", np.asarray(Ks, float), x_cam)
+    return h[:, :2] / h[:, 2:3]
 
 
 def pixel_rays_world(K: ArrayLike, R: ArrayLike, uv: ArrayLike) -> Array:

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import __version__
+from .. import __version__, camera
 from ..calibration.photo import ypr_with_sigma
 from ..errors import ProjectError, VebuildError
 from ..model.scene import Model, ModelError, model_from_dict
@@ -134,8 +134,8 @@ def _check_visible(project: Project, problem: Problem, xm: np.ndarray, cameras: 
         if cam is None:
             continue
         X = problem.model.handle_world(p["node"], p["handle"], xm, T)
-        h = cam.K @ (cam.R @ (X - cam.C))
-        uv = h[:2] / h[2] if h[2] > 0 else None
+        in_front = camera.world_to_camera(cam.R, cam.C, X)[2] > 0
+        uv = camera.project(cam.K, cam.R, cam.C, X) if in_front else None
         w, hgt = cam.width, cam.height
         if uv is None or not (-VISIBLE_MARGIN * w <= uv[0] <= (1 + VISIBLE_MARGIN) * w
                               and -VISIBLE_MARGIN * hgt <= uv[1] <= (1 + VISIBLE_MARGIN) * hgt):

@@ -21,7 +21,7 @@ import numpy as np
 from scipy.optimize import least_squares
 from tqdm import tqdm
 
-from ..camera import exp_so3
+from ..camera import exp_so3, project
 from ..model.edit import DragSession
 from ..model.scene import model_from_dict
 from ..model.solver import FINAL_PRIOR_SCALE, Camera, Pin, Problem
@@ -30,11 +30,6 @@ from ..synthetic import model_scene
 GOALS = {"drag_update_ms_p95": 5.0, "recalibration_s_50": 1.0}
 MOVES = 60
 MARKERS = {"O": np.zeros(3)}
-
-
-def _project(cam: Camera, X: np.ndarray) -> np.ndarray:
-    h = cam.K @ (cam.R @ (X - cam.C))
-    return h[:2] / h[2]
 
 
 def _scipy_move(session: DragSession) -> None:
@@ -56,7 +51,8 @@ def drags(seed: int = 7) -> dict[str, Any]:
         model = model_from_dict(start_nodes["nodes"], MARKERS)
         fixed: list[Pin] = []
         for n_fixed, handle in ((0, "v0"), (1, "v6"), (2, "v1")):
-            target = _project(cams["p1"], truth.handle_world("box0", handle))
+            cam = cams["p1"]
+            target = project(cam.K, cam.R, cam.C, truth.handle_world("box0", handle))
             s = DragSession(model, cams, fixed, [], "p1", "box0", handle, click_sigma_px=0.7)
             start = s.pin.uv.copy()
             times, worst = [], 0.0

@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 
-from ..camera import exp_so3, intrinsic_matrix, pixel_rays_world, project, rotation_from_ypr
+from ..camera import exp_so3, intrinsic_matrix, pixel_rays_world, project, rotation_from_ypr, world_to_camera
 from ..errors import CalibrationError
 from .lsq import covariance_from_jacobian, numeric_jacobian, variance_factor
 from .photo import FocalPrior, PhotoCalibration
@@ -103,7 +103,7 @@ def register_from_points(points: ArrayLike, pixels: ArrayLike, width: int, heigh
                 R = rotation_from_ypr(np.radians(yaw), np.radians(pitch), 0.0)
                 d = pixel_rays_world(K, R, uv)
                 C = intersect_lines(X, d)
-                depth = (X - C) @ R[2]
+                depth = world_to_camera(R, C, X)[:, 2]
                 if np.any(depth <= 0):
                     continue
                 err = float(np.sqrt(np.mean((project(K, R, C, X) - uv) ** 2)))

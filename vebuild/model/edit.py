@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from ..camera import project, world_to_camera
 from .scene import Model
 from .solver import Camera, EdgeObservation, Pin, Problem
 
@@ -52,12 +53,11 @@ def project_edges(model: Model, camera: Camera, nodes: Sequence[str], x: Array |
             continue
         hs = node.primitive.handles(x[model.slices[name][1]])
         world = hs @ T[name][:3, :3].T + T[name][:3, 3]
-        cam = (world - camera.C) @ camera.R.T
-        px = cam @ camera.K.T
-        uv = px[:, :2] / px[:, 2:3]
+        depth = world_to_camera(camera.R, camera.C, world)[:, 2]
+        uv = project(camera.K, camera.R, camera.C, world)
         idx = {h: i for i, h in enumerate(node.primitive.handle_names())}
         out[name] = [(e, (*uv[idx[a]], *uv[idx[b]])) for e, a, b in node.primitive.edges()
-                     if cam[idx[a], 2] > 0 and cam[idx[b], 2] > 0]
+                     if depth[idx[a]] > 0 and depth[idx[b]] > 0]
     return out
 
 
@@ -93,10 +93,9 @@ class DragSession:
         # The grabbed handle replaces any pin it had in this photo; other pins of the moving
         # subtree (fixed vertices) and its edge observations stay in the problem.
         self.other_pins = [p for p in pins if not (p.photo == photo and p.node == node and p.handle == handle)]
-        start = model.handle_world(node, handle)
         cam = cameras[photo]
-        h = cam.K @ (cam.R @ (start - cam.C))
-        self.pin = Pin(photo, node, handle, h[:2] / h[2], fixed=False)
+        self.pin = Pin(photo, node, handle, project(cam.K, cam.R, cam.C, model.handle_world(node, handle)),
+                       fixed=False)
         obs = [p for p in self.other_pins if p.node in moved and p.fixed] + [self.pin]
         # Paper Figure 7: until a vertex of the node is fixed, a drag moves the node as a whole
         # (its joint's degrees of freedom); once one is, its sizes may change as well.
@@ -118,13 +117,12 @@ class DragSession:
         xm = self.problem.model_vector(self.x)
         T = self.model.world_transforms(xm)
         edges = {cid: project_edges(self.model, cam, self.moved, xm, T) for cid, cam in self.cameras.items()}
-        r = self.problem.evaluate(self.x) * self.problem.sigma
+        r = sol.residuals * self.problem.sigma  # the solve's own final residuals: no second evaluation
         fixed = [np.linalg.norm(r[self.problem.rows_pin[i]]) for i, p in enumerate(self.problem.pins)
                  if p is not self.pin]
         cam = self.cameras[self.photo]
-        X = self.model.handle_world(self.node, self.handle, xm, T)
-        h = cam.K @ (cam.R @ (X - cam.C))
-        return DragResult(xm, self.moved, edges, h[:2] / h[2], max(fixed, default=0.0))
+        handle_px = project(cam.K, cam.R, cam.C, self.model.handle_world(self.node, self.handle, xm, T))
+        return DragResult(xm, self.moved, edges, handle_px, max(fixed, default=0.0))
 
     def release(self) -> Pin:
         """Keep the result in the model and return the grabbed handle as a fixed pin."""

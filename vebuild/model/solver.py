@@ -30,7 +30,7 @@ from scipy import sparse
 from scipy.sparse.linalg import spsolve
 
 from ..calibration.lsq import variance_factor
-from ..camera import exp_so3, skew_batch, so3_left_jacobian
+from ..camera import exp_so3, project_each, skew_batch, so3_left_jacobian
 from .scene import Model
 
 Array = NDArray[np.float64]
@@ -378,15 +378,17 @@ class Problem:
         M = self._marker_array(x)
         r = np.zeros(self.m)
         if len(self.pins):
-            r[self.rows_pin.ravel()] = ((_project(Ks, Rs, Cs, self.pin_cam, H[self.pin_row]) - self.pin_uv)
-                                        / self.sigma).ravel()
+            c = self.pin_cam
+            uv = project_each(Ks[c], Rs[c], Cs[c], H[self.pin_row])
+            r[self.rows_pin.ravel()] = ((uv - self.pin_uv) / self.sigma).ravel()
         if len(self.edges):
             idx = np.arange(len(self.edges))
             r[self.rows_edge.ravel()] = self._edge_residuals(H[self.edge_rows[:, 0]], H[self.edge_rows[:, 1]],
                                                              Ks, Rs, Cs, idx).ravel()
         if len(self.marker_obs):
-            r[self.rows_marker.ravel()] = ((_project(Ks, Rs, Cs, self.mo_cam, M[self.mo_marker]) - self.mo_uv)
-                                           / self.sigma).ravel()
+            c = self.mo_cam
+            uv = project_each(Ks[c], Rs[c], Cs[c], M[self.mo_marker])
+            r[self.rows_marker.ravel()] = ((uv - self.mo_uv) / self.sigma).ravel()
         if len(self.distances):
             pa = self._ends(self.dist_ends[:, 0], H, M)
             pb = self._ends(self.dist_ends[:, 1], H, M)
@@ -598,6 +600,7 @@ class LMResult:
     cost: float
     iterations: int
     converged: bool
+    residuals: Array  # r(x) at the solution, whitened
 
     @property
     def nfev(self) -> int:  # the name scipy uses, kept for callers that report it
@@ -680,14 +683,7 @@ def levenberg_marquardt(fun, jac, x0: Array, lo: Array, hi: Array, max_iteration
         if small_step or small_gain:
             converged = True
             break
-    return LMResult(x, cost, it, converged)
-
-
-def _project(Ks: Array, Rs: Array, Cs: Array, cam: Array, X: Array) -> Array:
-    """Pixels of world points X (n, 3), each seen by camera cam[i]."""
-    xc = np.einsum("nij,nj->ni", Rs[cam], X - Cs[cam])
-    h = np.einsum("nij,nj->ni", Ks[cam], xc)
-    return h[:, :2] / h[:, 2:3]
+    return LMResult(x, cost, it, converged, r)
 
 
 def _inverse(A: Array | sparse.spmatrix) -> Array:
