@@ -218,3 +218,13 @@ def test_pin_on_a_vertex_the_camera_cannot_see(tmp_path: Path) -> None:
     calibrate_project(project)
     with pytest.raises(ProjectError, match=r"pins cabinet:v0 in photo 'p4'.*cannot see"):
         solve_project(project)
+
+
+def test_recalibrated_camera_records_agree_with_their_matrices(origin_only) -> None:
+    """Re-calibration refines f and the principal point: every field written must say so."""
+    project, _, _ = origin_only
+    for pid, cam in project.data["calibration"]["cameras"].items():
+        assert cam["recalibrated"] is True, pid
+        assert cam["focal_px"]["value"] == pytest.approx(cam["K"][0][0])
+        assert cam["principal_point"]["value"] == pytest.approx([cam["K"][0][2], cam["K"][1][2]])
+        assert all(s is not None and s > 0 for s in cam["principal_point"]["sigma"])

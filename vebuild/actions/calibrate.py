@@ -13,10 +13,11 @@ from typing import Any
 import numpy as np
 
 from .. import __version__
-from ..calibration.photo import FocalPrior, PhotoCalibration, calibrate_photo, ypr_with_sigma
+from ..calibration.photo import FocalPrior, PhotoCalibration, calibrate_photo
 from ..calibration.positions import PhotoInput, Placement, ReferenceDistance, place_cameras
 from ..errors import CalibrationError
 from ..project import Project, canonical_input_hash
+from .records import camera_record, json_values
 
 #: EXIF focal lengths from the physical focal length and from the 35 mm equivalent that disagree
 #: by more than this (relative) are not trusted to 1 %: the larger discrepancy becomes the 1σ.
@@ -162,18 +163,6 @@ def _photo(data: dict[str, Any], pid: str) -> dict[str, Any]:
     return next(p for p in data["photos"] if p["id"] == pid)
 
 
-def _vs(value: Any, sigma: Any) -> dict[str, Any]:
-    return {"value": _round(value), "sigma": _round(sigma)}
-
-
-def _round(x: Any) -> Any:
-    """Plain JSON numbers; infinite σ (an undetermined quantity) is written as null."""
-    a = np.asarray(x, float)
-    if a.ndim == 0:
-        return None if not np.isfinite(a) else float(a)
-    return [_round(v) for v in a]
-
-
 def _results(data: dict[str, Any], photos: dict[str, PhotoCalibration], placement: Placement) -> dict[str, Any]:
     cameras = {}
     warnings = []
@@ -181,8 +170,7 @@ def _results(data: dict[str, Any], photos: dict[str, PhotoCalibration], placemen
         cam = placement.cameras[pid]
         cov = cam.covariance
         sig = np.sqrt(np.maximum(np.diag(cov), 0.0))
-        ypr, ypr_sig = ypr_with_sigma(cam.R, cov[3:6, 3:6])
-        marker_res = {n: _round(d) for n, d in cam.marker_residuals_px.items() if ":" not in n}
+        marker_res = {n: json_values(d) for n, d in cam.marker_residuals_px.items() if ":" not in n}
         seg_res = np.concatenate(list(cal.segment_residuals_px.values()))
         mark = np.concatenate([np.asarray(d).ravel() for d in cam.marker_residuals_px.values()] or [np.zeros(0)])
         all_res = np.concatenate([seg_res, mark])
@@ -191,19 +179,13 @@ def _results(data: dict[str, Any], photos: dict[str, PhotoCalibration], placemen
             # Report the vanishing point where the refined camera puts it.
             vp = cam.K @ cam.R[:, "xyz".index(a)]
             res = cal.segment_residuals_px[a]
-            vps[a] = {"point": _round(vp / np.linalg.norm(vp)), "residuals_px": _round(res),
+            vps[a] = {"point": json_values(vp / np.linalg.norm(vp)), "residuals_px": json_values(res),
                       "rms_px": float(np.sqrt(np.mean(res**2)))}
         cameras[pid] = {
             "mode": cal.mode,
             "mode_reason": cal.mode_reason,
             "focal_source": cal.focal_source,
-            "K": _round(cam.K),
-            "R": _round(cam.R),
-            "focal_px": _vs(cam.K[0, 0], sig[0]),
-            "principal_point": _vs(cam.K[:2, 2], sig[1:3]),
-            "ypr_deg": _vs(np.degrees(ypr), np.degrees(ypr_sig)),
-            "position": _vs(cam.C, sig[6:9]),
-            "covariance": _round(cov),
+            **camera_record(cam.K, cam.R, cam.C, cov),
             "vanishing_points": vps,
             "marker_residuals_px": marker_res,
             "rms_px": float(np.sqrt(np.mean(all_res**2))),
@@ -218,7 +200,7 @@ def _results(data: dict[str, Any], photos: dict[str, PhotoCalibration], placemen
         for n in cam.outliers:
             warnings.append(f"photo '{pid}': marker '{n}' lies {np.linalg.norm(cam.marker_residuals_px[n]):.1f} px "
                             "from where the other photos put it: check its placement")
-    markers = {n: {"position": _round(x), "sigma": _round(np.sqrt(np.maximum(np.diag(c), 0.0)))}
+    markers = {n: {"position": json_values(x), "sigma": json_values(np.sqrt(np.maximum(np.diag(c), 0.0)))}
                for n, (x, c) in placement.markers.items() if ":" not in n}
     distances = []
     for m in placement.distances:

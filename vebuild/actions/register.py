@@ -12,11 +12,12 @@ from typing import Any
 
 import numpy as np
 
-from ..calibration.photo import calibrate_photo, ypr_with_sigma
+from ..calibration.photo import calibrate_photo
 from ..calibration.register import Registered, register_from_points, register_with_vanishing_points
 from ..errors import CalibrationError, VebuildError
 from ..project import Project
 from .calibrate import exif_focal_prior
+from .records import camera_record, json_values
 
 
 def known_points(data: dict[str, Any]) -> dict[str, np.ndarray]:
@@ -75,26 +76,13 @@ def register_photos(project: Project, photo_ids: list[str] | None = None) -> dic
 
 
 def _record(reg: Registered, names: list[str], reason: str) -> dict[str, Any]:
-    cov = reg.covariance
-    s = np.sqrt(np.maximum(np.diag(cov), 0.0))
-    ypr, ypr_s = ypr_with_sigma(reg.R, cov[3:6, 3:6])
-
-    def num(v: float) -> float | None:
-        return float(v) if np.isfinite(v) else None
-
     return {
         "mode": "registered",
         "mode_reason": reason,
         "focal_source": reg.method,
-        "K": reg.K.tolist(),
-        "R": reg.R.tolist(),
-        "focal_px": {"value": float(reg.K[0, 0]), "sigma": num(s[0])},
-        "principal_point": {"value": reg.K[:2, 2].tolist(), "sigma": [num(s[1]), num(s[2])]},
-        "ypr_deg": {"value": np.degrees(ypr).tolist(), "sigma": np.degrees(ypr_s).tolist()},
-        "position": {"value": reg.C.tolist(), "sigma": [num(v) for v in s[6:9]]},
-        "covariance": [[num(v) for v in row] for row in cov],
+        **camera_record(reg.K, reg.R, reg.C, reg.covariance),
         "vanishing_points": {},
-        "marker_residuals_px": {n: [float(a) for a in r] for n, r in zip(names, reg.residuals_px, strict=True)
+        "marker_residuals_px": {n: json_values(r) for n, r in zip(names, reg.residuals_px, strict=True)
                                 if ":" not in n},
         "rms_px": float(np.sqrt(np.mean(reg.residuals_px**2))),
     }

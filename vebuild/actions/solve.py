@@ -13,7 +13,6 @@ from typing import Any
 import numpy as np
 
 from .. import __version__, camera
-from ..calibration.photo import ypr_with_sigma
 from ..errors import ProjectError, VebuildError
 from ..model.scene import Model, ModelError, model_from_dict
 from ..model.solver import (
@@ -27,6 +26,7 @@ from ..model.solver import (
     handle_covariances,
 )
 from ..project import Project
+from .records import camera_record, json_values, value_sigma
 
 #: A pinned handle must project in front of its camera and no farther outside the image than this
 #: share of its size; otherwise the pin is on a vertex that camera cannot see.
@@ -147,15 +147,11 @@ def _check_visible(project: Project, problem: Problem, xm: np.ndarray, cameras: 
 
 
 def _vs(v: Any, s: Any) -> dict[str, Any]:
-    v, s = np.asarray(v, float), np.asarray(s, float)
-
-    def conv(a: float) -> float | None:
-        return None if not np.isfinite(a) else float(a)
-
-    if v.ndim == 0:
-        return {"value": float(v), "sigma": conv(s), "ci95": [float(v - Z95 * s), float(v + Z95 * s)]
-                if np.isfinite(s) else None}
-    return {"value": [float(a) for a in v], "sigma": [conv(a) for a in s]}
+    """value, 1σ and, for a scalar with a finite σ, its 95 % interval."""
+    out = value_sigma(v, s)
+    if np.ndim(v) == 0:
+        out["ci95"] = [float(v - Z95 * s), float(v + Z95 * s)] if np.isfinite(s) else None
+    return out
 
 
 def _results(problem: Problem, solution: Any, model: Model, xm: np.ndarray, recalibrate: bool) -> dict[str, Any]:
@@ -203,18 +199,8 @@ def _write_cameras(data: dict[str, Any], solution: Any) -> None:
     """Re-calibrated cameras and markers replace the calibration's (paper §3.2)."""
     cal = data["calibration"]
     for cid, cam in solution.cameras.items():
-        c = cal["cameras"][cid]
-        cov = cam.covariance
-        s = np.sqrt(np.maximum(np.diag(cov), 0.0))
-        ypr, ypr_s = ypr_with_sigma(cam.R, cov[3:6, 3:6])
-        c["K"] = cam.K.tolist()
-        c["R"] = cam.R.tolist()
-        c["focal_px"] = {"value": float(cam.K[0, 0]), "sigma": float(s[0])}
-        c["ypr_deg"] = {"value": np.degrees(ypr).tolist(), "sigma": np.degrees(ypr_s).tolist()}
-        c["position"] = {"value": cam.C.tolist(), "sigma": s[6:9].tolist()}
-        c["covariance"] = [[None if not np.isfinite(v) else float(v) for v in row] for row in cov]
-        c["recalibrated"] = True
+        cal["cameras"][cid].update(camera_record(cam.K, cam.R, cam.C, cam.covariance), recalibrated=True)
     for name, pos in solution.markers.items():
         if name in cal["markers"] and name in solution.marker_covariance:
-            cal["markers"][name] = {"position": [float(v) for v in pos],
-                                    "sigma": np.sqrt(np.maximum(np.diag(solution.marker_covariance[name]), 0)).tolist()}
+            sigma = np.sqrt(np.maximum(np.diag(solution.marker_covariance[name]), 0.0))
+            cal["markers"][name] = {"position": json_values(pos), "sigma": json_values(sigma)}

@@ -1,0 +1,41 @@
+"""How results are written into the project file: plain JSON numbers, and one camera record.
+
+A quantity the data do not determine has an infinite variance; JSON has no infinity, so it is
+written as null (FORMAT.md: "null where the quantity is not determined by the data").
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..calibration.photo import ypr_with_sigma
+
+
+def json_values(x: Any) -> Any:
+    """A number or nested list of numbers as plain JSON; non-finite values become null."""
+    a = np.asarray(x, float)
+    if a.ndim == 0:
+        return float(a) if np.isfinite(a) else None
+    return [json_values(v) for v in a]
+
+
+def value_sigma(value: Any, sigma: Any) -> dict[str, Any]:
+    return {"value": json_values(value), "sigma": json_values(sigma)}
+
+
+def camera_record(K: np.ndarray, R: np.ndarray, C: np.ndarray, covariance: np.ndarray) -> dict[str, Any]:
+    """A camera's K, R, focal length, principal point, yaw/pitch/roll and position, each with its 1σ
+    from ``covariance`` (9×9 over f, cx, cy, ω, C), and the covariance itself."""
+    sig = np.sqrt(np.maximum(np.diag(covariance), 0.0))
+    ypr, ypr_sig = ypr_with_sigma(R, covariance[3:6, 3:6])
+    return {
+        "K": json_values(K),
+        "R": json_values(R),
+        "focal_px": value_sigma(K[0, 0], sig[0]),
+        "principal_point": value_sigma(K[:2, 2], sig[1:3]),
+        "ypr_deg": value_sigma(np.degrees(ypr), np.degrees(ypr_sig)),
+        "position": value_sigma(C, sig[6:9]),
+        "covariance": json_values(covariance),
+    }
