@@ -13,12 +13,12 @@ from typing import Any
 import numpy as np
 
 from .. import __version__, camera
+from ..calibration.positions import ReferenceDistance
 from ..errors import ProjectError, VebuildError
 from ..model.scene import Model, ModelError, model_from_dict
 from ..model.solver import (
     FINAL_PRIOR_SCALE,
     Camera,
-    Distance,
     EdgeObservation,
     MarkerObservation,
     Pin,
@@ -103,7 +103,7 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
             # A distance to a marker that no calibrated photo places yet waits for that photo.
             ends_known = all(e in markers or e.split(":", 1)[0] in node_names for e in (d["a"], d["b"]))
             if d["role"] == "scale" and ends_known:
-                distances.append(Distance(d["a"], d["b"], float(d["distance"]), float(d.get("sigma", 0.002))))
+                distances.append(ReferenceDistance(d["a"], d["b"], float(d["distance"]), float(d.get("sigma", 0.002))))
     surveyed = [m["name"] for m in data.get("markers", []) if "position" in m]
     problem = Problem(model, cameras, [p for p in pins if p.fixed], edges,
                       click_sigma_px=project.settings["click_sigma_px"], prior_scale=FINAL_PRIOR_SCALE,

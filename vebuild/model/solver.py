@@ -30,6 +30,7 @@ from scipy import sparse
 from scipy.sparse.linalg import spsolve
 
 from ..calibration.lsq import variance_factor
+from ..calibration.positions import ReferenceDistance  # ends: marker names or 'node:handle'
 from ..camera import exp_so3, project_each, skew_batch, so3_left_jacobian
 from .scene import Model
 
@@ -90,16 +91,6 @@ class MarkerObservation:
 
 
 @dataclass
-class Distance:
-    """A reference distance between two points, each a marker name or 'node:handle'."""
-
-    a: str
-    b: str
-    distance: float
-    sigma: float
-
-
-@dataclass
 class Solution:
     """What a solve found: the vector, cameras, markers, covariance and per-observation residuals."""
 
@@ -148,7 +139,7 @@ class Problem:
         fixed_markers: Sequence[str] = (),
         held: Collection[str] = (),
         marker_observations: Sequence[MarkerObservation] = (),
-        distances: Sequence[Distance] = (),
+        distances: Sequence[ReferenceDistance] = (),
     ):
         self.model = model
         self.cam_ids = list(cameras)
