@@ -148,3 +148,39 @@ def ypr_from_rotation(R: ArrayLike) -> Array:
     roll = np.arctan2(rest[1, 0], rest[0, 0])
     return np.array([yaw, pitch, roll])
 
+
+
+def gl_projection(K: ArrayLike, width: int, height: int, near: float, far: float, flip_y: bool = False) -> Array:
+    """The one conversion from this camera to OpenGL clip space: a (4, 4) matrix P with
+    ``clip = P @ [x_cam, 1]`` (DESIGN.md, "OpenGL").
+
+    Clip x, y map pixel u ∈ [0, width] and v ∈ [0, height] onto NDC [−1, 1]; w = z_cam (depth in
+    front of the camera); NDC z runs from −1 at ``near`` to +1 at ``far``. The principal point
+    (K's cx, cy) is honoured, so the frustum is off-axis when it is off-centre.
+
+    By default (``flip_y=False``) image row v lands on framebuffer row v: a framebuffer read back
+    into numpy is in image order (row 0 at the top), and a photo uploaded row 0 first is sampled
+    at t = v / height. A window shows framebuffer row 0 at the bottom, so rendering for display
+    uses ``flip_y=True`` (then NDC y = 1 − 2v/height).
+    """
+    K = np.asarray(K, float)
+    if not (0 < near < far):
+        raise ValueError(f"need 0 < near < far, got near={near}, far={far}")
+    f_u, f_v, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
+    P = np.zeros((4, 4))
+    P[0, 0], P[0, 2] = 2.0 * f_u / width, 2.0 * cx / width - 1.0
+    P[1, 1], P[1, 2] = 2.0 * f_v / height, 2.0 * cy / height - 1.0
+    if flip_y:
+        P[1] = -P[1]
+    P[2, 2], P[2, 3] = (far + near) / (far - near), -2.0 * far * near / (far - near)
+    P[3, 2] = 1.0
+    return P
+
+
+def view_matrix(R: ArrayLike, C: ArrayLike) -> Array:
+    """(4, 4) world → camera: ``[x_cam, 1] = V @ [X, 1]`` with x_cam = R (X − C)."""
+    R = np.asarray(R, float)
+    V = np.eye(4)
+    V[:3, :3] = R
+    V[:3, 3] = -R @ np.asarray(C, float)
+    return V

@@ -47,6 +47,38 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_texture(args: argparse.Namespace) -> int:
+    from tqdm import tqdm
+
+    from .actions.texture import texture_project
+    from .project import load_project, save_project
+    from .report_text import texture_table
+    from .texture.gpu import Options
+
+    project = load_project(args.project)
+    options = Options(texels_per_metre=args.density, max_face_texels=args.max_face_texels, mode=args.mode,
+                      fill=args.fill, erode_px=0.0 if args.no_erode else args.erode_px,
+                      drop_ratio=0.0 if args.no_drop else args.drop_ratio,
+                      detail_sharpness=1.0 if args.no_detail else Options.detail_sharpness,
+                      exposure=not args.no_exposure)
+    bar = tqdm(total=None, desc="texturing", unit="photo", disable=not _progress_wanted(args))
+
+    def progress(done: int, total: int, photo: str) -> None:
+        bar.total = total
+        bar.n = done
+        bar.set_postfix_str(photo)
+        bar.refresh()
+
+    try:
+        record, _ = texture_project(project, options, progress)
+    finally:
+        bar.close()
+    save_project(project)
+    print(texture_table(record))
+    print(f"\ntextures written to {project.folder / 'textures'}; recorded in {project.path}")
+    return 0
+
+
 def _cmd_register(args: argparse.Namespace) -> int:
     from .actions.register import register_photos
     from .project import load_project, save_project
@@ -141,6 +173,29 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--fixed-intrinsics", action="store_true",
                    help="with --recalibrate: keep focal lengths and principal points as calibrated")
     p.set_defaults(func=_cmd_solve)
+
+    p = sub.add_parser("texture", help="extract textures from the photos onto the model (paper §4)")
+    p.add_argument("project")
+    p.add_argument("--density", type=float, default=200.0, metavar="T",
+                   help="texels per metre on every face (default: %(default)s)")
+    p.add_argument("--max-face-texels", type=int, default=2048, metavar="N",
+                   help="at most N texels along a face's side (default: %(default)s)")
+    p.add_argument("--mode", choices=("texture", "average"), default="texture",
+                   help="'average': one colour per face (paper Figure 9, middle)")
+    p.add_argument("--fill", choices=("push-pull", "average"), default="push-pull",
+                   help="how texels no photo saw are filled: smoothly from the seen ones, or with "
+                        "the face's average colour (the paper)")
+    p.add_argument("--erode-px", type=float, default=2.0, metavar="PX",
+                   help="keep texels this far from occluding edges (default: %(default)s)")
+    p.add_argument("--drop-ratio", type=float, default=0.25, metavar="R",
+                   help="ignore a view where it is R times worse than the texel's best (default: %(default)s)")
+    p.add_argument("--no-erode", action="store_true", help="take texels right up to occluding edges")
+    p.add_argument("--no-drop", action="store_true", help="average every view, however poor")
+    p.add_argument("--no-detail", action="store_true",
+                   help="plain weighted average (the paper) instead of detail from the best view")
+    p.add_argument("--no-exposure", action="store_true", help="do not compensate exposure between photos")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.set_defaults(func=_cmd_texture)
 
     p = sub.add_parser("register", help="place further photos from known points (paper §3.2)")
     p.add_argument("project")

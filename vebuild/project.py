@@ -37,7 +37,7 @@ DEFAULT_SETTINGS: dict[str, float] = {
     "exif_focal_sigma_rel": 0.01,
 }
 #: Top-level keys written by vebuild's stages; they are not input, so the input hash skips them.
-RESULT_KEYS = ("calibration", "model_solution")
+RESULT_KEYS = ("calibration", "model_solution", "textures")
 
 _CHUNK = 1 << 20
 _ID_UNSAFE = re.compile(r"[^A-Za-z0-9_.-]+")
@@ -454,6 +454,11 @@ def _image_size(image: Path, file: Any, where: str) -> tuple[int, int]:
         raise ProjectError(file, where, f"photo file not found: {image}") from None
     except (UnidentifiedImageError, Image.DecompressionBombError, OSError) as e:
         raise ProjectError(file, where, f"cannot open {image} as an image: {e}") from None
+
+
+def sha256_bytes(data: bytes) -> str:
+    """SHA-256 (lowercase hex) of bytes already in memory."""
+    return hashlib.sha256(data).hexdigest()
 
 
 def sha256_file(path: str | os.PathLike[str]) -> str:

@@ -77,3 +77,22 @@ def model_table(result: dict[str, Any]) -> str:
         lines += ["", "outliers (more than 4σ from the solved model; check these marks):"]
         lines += [f"  - {o}" for o in result["outliers"]]
     return "\n".join(lines)
+
+
+def texture_table(record: dict[str, Any]) -> str:
+    """The faces' coverage and the photos' gains of a ``textures`` record."""
+    lines = [f"{'face':<28} {'texels':>11} {'t/m':>6} {'seen':>6}  photos"]
+    for f in record["faces"]:
+        w, h = f["rect"][2:]
+        lines.append(f"{f['node'] + '.' + f['face']:<28} {f'{w}×{h}':>11} {f['texels_per_metre'][0]:>6.0f} "
+                     f"{100 * f['seen_fraction']:>5.1f}%  {', '.join(f['photos']) or '-'}")
+    lines.append("")
+    lines.append(f"{'photo':<10} {'order':>5} {'gain r, g, b':>22} {'overlap':>8}")
+    for p in record["photos"]:
+        g = ", ".join(f"{v:.3f}" for v in p["gain"])
+        lines.append(f"{p['id']:<10} {p['order']:>5} {g:>22} {p['overlap_texels']:>8}")
+    lines.append("")
+    lines += [f"atlas page {k}: {p['width']}×{p['height']}  {p['atlas']}  (coverage: {p['coverage']})"
+              for k, p in enumerate(record["pages"])]
+    lines += [f"warning: {w}" for w in record.get("warnings", [])]
+    return "\n".join(lines)

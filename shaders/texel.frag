@@ -1,0 +1,117 @@
+#version 330 core
+// Pass 2: project a texel into the photo, test it against the ID buffer, sample the photo over
+// its footprint and weight it (definitions: vebuild/texture/__init__.py).
+//
+// MODE 0 accumulate (additive blending): 0 = (sum w l/g, sum w), 1 = (sum w^s (c-l)/g, sum w^s)
+//        over kept views, 2 = (sum w c/g, sum w) over dropped views, 3 = (kept, dropped) counts
+// MODE 1 one view: 0 = (c, w), 1 = (l, face id where seen, else 0), 2 = accumulated low band so far (rgb, seen before)
+// MODE 2 best weight (max blending): 0 = w
+// MODE 3 geometry: 0 = (position, face), 1 = (normal, 1)
+#define MAX_LEVELS 16
+uniform mat3 K;
+uniform mat3 R;
+uniform vec3 C;
+uniform vec2 image_size;
+uniform float weight_scale;   // photo pixels per ID-buffer pixel (2 for a half-size pre-pass)
+uniform float depth_tolerance;
+uniform sampler2D id_depth;   // RG32F (face id, depth), nearest
+uniform sampler2D photo;      // level 0, sRGB, linear filtering
+uniform sampler2D pyramid_odd;
+uniform sampler2D pyramid_even;
+uniform vec2 odd_size;
+uniform vec2 even_size;
+uniform int levels;
+uniform vec2 level_size[MAX_LEVELS];
+uniform float level_y0[MAX_LEVELS];
+uniform float detail_levels;
+uniform vec3 inverse_gain;
+uniform float sharpness;
+uniform float drop_ratio;
+uniform sampler2D best_weight;  // R32F per atlas texel (MODE 0 with drop_ratio > 0)
+uniform sampler2D accumulated;  // target 0 of MODE 0 (MODE 1)
+uniform float atlas_scale;
+
+in vec3 v_position;
+in vec3 v_normal;
+flat in float v_face;
+flat in vec3 v_eu;
+flat in vec3 v_ev;
+layout(location = 0) out vec4 out0;
+layout(location = 1) out vec4 out1;
+layout(location = 2) out vec4 out2;
+layout(location = 3) out vec4 out3;
+
+vec3 sample_level(int k, vec2 p) {
+    if (k == 0) return texture(photo, p / image_size).rgb;
+    vec2 q = clamp(p / exp2(float(k)), vec2(0.5), level_size[k] - 0.5) + vec2(0.0, level_y0[k]);
+    if ((k & 1) == 1) return texture(pyramid_odd, q / odd_size).rgb;
+    return texture(pyramid_even, q / even_size).rgb;
+}
+
+vec3 trilinear(vec2 p, float lod) {
+    lod = clamp(lod, 0.0, float(levels - 1));
+    int k = int(floor(lod));
+    float t = lod - float(k);
+    vec3 c = sample_level(k, p);
+    if (t > 0.0 && k + 1 < levels) c = mix(c, sample_level(k + 1, p), t);
+    return c;
+}
+
+bool same_face(vec2 p) {
+    if (any(lessThan(p, vec2(0.0))) || any(greaterThanEqual(p, image_size))) return false;
+    return texelFetch(id_depth, ivec2(floor(p)), 0).r == v_face;
+}
+
+void main() {
+    out0 = vec4(0.0); out1 = vec4(0.0); out2 = vec4(0.0); out3 = vec4(0.0);
+#if MODE == 3
+    out0 = vec4(v_position, v_face);
+    out1 = vec4(normalize(v_normal), 1.0);
+    return;
+#else
+    vec3 x = R * (v_position - C);
+    if (x.z <= 0.0) return;
+    vec3 to_camera = C - v_position;
+    float cos_theta = dot(normalize(v_normal), to_camera) / length(to_camera);
+    if (cos_theta <= 0.0) return;
+    vec3 h = K * x;
+    vec2 p = h.xy / h.z;
+    if (any(lessThan(p, vec2(0.0))) || any(greaterThanEqual(p, image_size))) return;
+    vec2 id_z = texelFetch(id_depth, ivec2(floor(p)), 0).rg;
+    if (id_z.r != v_face || x.z > (1.0 + depth_tolerance) * id_z.g) return;
+    // The Jacobian of the projection: pixels per metre along the texel's steps e_u, e_v.
+    mat3 Kc = K;
+    vec3 ju = vec3(Kc[0][0], Kc[1][0], Kc[2][0]);  // first row of K
+    vec3 jv = vec3(Kc[0][1], Kc[1][1], Kc[2][1]);  // second row of K
+    vec3 du = R * v_eu, dv = R * v_ev;
+    vec2 a = (vec2(dot(ju, du), dot(jv, du)) - p * du.z) / x.z;
+    vec2 b = (vec2(dot(ju, dv), dot(jv, dv)) - p * dv.z) / x.z;
+    if (!(same_face(p + a + b) && same_face(p + a - b) && same_face(p - a + b) && same_face(p - a - b))) return;
+    float w = sqrt(abs(a.x * b.y - a.y * b.x)) * cos_theta * weight_scale;
+#if MODE == 2
+    out0 = vec4(w, 0.0, 0.0, 0.0);
+    return;
+#else
+    float lod = log2(max(max(length(a), length(b)), 1e-6));
+    vec3 c = trilinear(p, lod);
+    vec3 l = trilinear(p, lod + detail_levels);
+#if MODE == 1
+    out0 = vec4(c, w);
+    out1 = vec4(l, v_face);
+    vec4 acc = texelFetch(accumulated, ivec2(floor(gl_FragCoord.xy / atlas_scale)), 0);
+    out2 = acc.a > 0.0 ? vec4(acc.rgb / acc.a, 1.0) : vec4(0.0);
+#else
+    bool keep = drop_ratio <= 0.0 || w >= drop_ratio * texelFetch(best_weight, ivec2(gl_FragCoord.xy), 0).r;
+    if (keep) {
+        float ws = pow(clamp(w, 1e-4, 1e4), sharpness);
+        out0 = vec4(w * l * inverse_gain, w);
+        out1 = vec4(ws * (c - l) * inverse_gain, ws);
+        out3 = vec4(1.0, 0.0, 0.0, 0.0);
+    } else {
+        out2 = vec4(w * c * inverse_gain, w);
+        out3 = vec4(0.0, 1.0, 0.0, 0.0);
+    }
+#endif
+#endif
+#endif
+}

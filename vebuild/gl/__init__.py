@@ -1,0 +1,6 @@
+"""The GL layer (DESIGN.md layer 4): the one place that makes OpenGL contexts and loads shaders."""
+
+from vebuild.gl.context import GLUnavailableError, headless_context, max_texture_size
+from vebuild.gl.shaders import load_program
+
+__all__ = ["GLUnavailableError", "headless_context", "load_program", "max_texture_size"]

@@ -1,0 +1,156 @@
+"""Texture extraction from start to end: layout, photos streamed through the GPU, merge.
+
+:func:`extract` takes plain data (the model, the calibrated cameras, a function that decodes one
+photo) and returns the atlases in memory; :mod:`vebuild.actions.texture` adds the project file,
+the PNGs and the record.
+"""
+
+from __future__ import annotations
+
+import io
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+from PIL import Image, UnidentifiedImageError
+
+from vebuild.errors import ProjectError
+from vebuild.gl import headless_context, max_texture_size
+from vebuild.model.scene import Model
+from vebuild.project import sha256_bytes
+from vebuild.texture import layout as lay
+from vebuild.texture.gpu import Extractor, Options, PhotoCamera, Timings
+from vebuild.texture.merge import FaceStats, colours, coverage_image, fill_page, linear_to_srgb8
+
+Array = NDArray[np.float64]
+Progress = Callable[[str], None]
+
+
+@dataclass
+class PhotoSource:
+    """Where one photo's pixels come from, and the SHA-256 they must have."""
+
+    id: str
+    path: Path
+    sha256: str | None = None
+    where: str = ""  # JSON path of the photo's entry, for errors
+    project_file: str = ""
+
+
+@dataclass
+class TextureResult:
+    faces: list[lay.Face]
+    atlases: list[NDArray[np.uint8]]  # (h, w, 3) sRGB per page
+    coverage: list[NDArray[np.uint8]]  # (h, w, 4) per page
+    face_stats: dict[int, FaceStats]
+    face_photos: dict[int, list[str]]  # photos that gave each face texels
+    gains: dict[str, Array]
+    overlap: dict[str, int]
+    order: list[str]
+    exposure_scale: float
+    page_size: int
+    timings: Timings = field(default_factory=Timings)
+
+    @property
+    def unseen_faces(self) -> list[lay.Face]:
+        return [f for f in self.faces if self.face_stats[f.id].seen_fraction == 0.0]
+
+
+def read_photo(src: PhotoSource, cam: PhotoCamera, timings: Timings | None = None) -> NDArray[np.uint8]:
+    """Read, check and decode one photo: its bytes must hash to ``src.sha256`` and decode to the
+    camera's size. The bytes that are hashed are the bytes that are decoded."""
+    timings = timings or Timings()
+    with timings.stage("read"):
+        try:
+            data = src.path.read_bytes()
+        except OSError as e:
+            raise ProjectError(src.project_file or src.path, f"{src.where}.file" if src.where else "",
+                               f"photo '{src.id}' cannot be read: {e.strerror or e} ({src.path})") from None
+    with timings.stage("hash"):
+        if src.sha256 is not None and sha256_bytes(data) != src.sha256:
+            raise ProjectError(src.project_file or src.path, f"{src.where}.sha256" if src.where else "",
+                               f"the photo {src.path.name!r} has changed since calibration (its SHA-256 differs "
+                               "from the project's); textures are not taken from a changed photo")
+    with timings.stage("decode"):
+        pixels = decode(data, src)
+    if pixels.shape[:2] != (cam.height, cam.width):
+        raise ProjectError(src.project_file or src.path, f"{src.where}.width" if src.where else "",
+                           f"photo '{src.id}' is {pixels.shape[1]}×{pixels.shape[0]} pixels, but its camera was "
+                           f"calibrated for {cam.width}×{cam.height}")
+    return pixels
+
+
+def decode(data: bytes, src: PhotoSource | None = None) -> NDArray[np.uint8]:
+    """JPEG/PNG/... bytes → (h, w, 3) uint8 RGB."""
+    try:
+        with Image.open(io.BytesIO(data)) as img:
+            if img.mode != "RGB":
+                img = img.convert("RGB")
+            return np.asarray(img)
+    except (UnidentifiedImageError, OSError, Image.DecompressionBombError) as e:
+        name = src.path if src else "photo"
+        raise ProjectError(src.project_file or name if src else name, f"{src.where}.file" if src and src.where else "",
+                           f"cannot decode {name} as an image: {e}") from None
+
+
+def photo_order(ex: Extractor, cameras: Sequence[PhotoCamera]) -> list[PhotoCamera]:
+    """Photos ordered so that each overlaps those before it as much as possible (the first sees
+    the most faces): exposure is compensated against what is already accumulated."""
+    sets = {c.id: ex._visible_faces(c) for c in cameras}
+    todo = list(cameras)
+    first = max(todo, key=lambda c: (len(sets[c.id]), -todo.index(c)))
+    order, seen = [first], set(sets[first.id])
+    todo.remove(first)
+    while todo:
+        nxt = max(todo, key=lambda c: (len(sets[c.id] & seen), -todo.index(c)))
+        order.append(nxt)
+        seen |= sets[nxt.id]
+        todo.remove(nxt)
+    return order
+
+
+def extract(model: Model, cameras: Sequence[PhotoCamera], sources: dict[str, PhotoSource], options: Options,
+            progress: Callable[[int, int, str], None] | None = None, timings: Timings | None = None) -> TextureResult:
+    """Extract and merge the textures of every face of ``model`` from the photos of ``cameras``."""
+    ctx = headless_context()
+    page_size = min(int(options.page_size), max_texture_size(ctx))
+    faces = lay.layout(model, options.texels_per_metre, options.max_face_texels, page_size)
+    mesh = lay.scene_mesh(model, faces)
+    profile = timings is not None
+    timings = timings or Timings()
+    ex = Extractor(ctx, mesh, options, timings if profile else None)
+    try:
+        order = photo_order(ex, cameras)
+        if options.drop_ratio > 0:
+            ex.best_weights(list(order))
+        contributions: dict[str, dict[int, int]] = {}
+        for k, cam in enumerate(order):
+            if progress:
+                progress(k, len(order), cam.id)
+            pixels = read_photo(sources[cam.id], cam, timings)
+            ex.add_photo(cam, pixels)
+            del pixels  # one decoded photo at a time
+            contributions[cam.id] = ex.last_contributions
+        if progress:
+            progress(len(order), len(order), "")
+        with timings.stage("merge", ctx if profile else None):
+            gains = dict(ex.gains)
+            scale = float(np.exp(np.mean([np.log(g).mean() for g in gains.values()]))) if gains else 1.0
+            atlases, coverage, stats = [], [], {}
+            for p in range(len(mesh.pages)):
+                sums = ex.sums(p)
+                face_map = ex.geometry(p)["face"]
+                colour, seen, weight = colours(sums, scale)
+                on_page = [f for f in faces if f.page == p]
+                filled, st = fill_page(colour, seen, weight, face_map, on_page, options.fill,
+                                       options.mode == "average")
+                stats.update(st)
+                atlases.append(linear_to_srgb8(filled))
+                coverage.append(coverage_image(sums["counts"], seen, face_map))
+    finally:
+        ex.release()
+    face_photos = {f.id: [c.id for c in order if contributions[c.id].get(f.id, 0) > 0] for f in faces}
+    return TextureResult(faces, atlases, coverage, stats, face_photos, gains, dict(ex.overlap),
+                         [c.id for c in order], scale, page_size, timings)

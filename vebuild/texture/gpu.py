@@ -1,0 +1,518 @@
+"""Texture extraction on the GPU: ID buffers, pyramid, texel projection and accumulation.
+
+The definitions are in :mod:`vebuild.texture`; this module draws them with moderngl. One photo is
+on the GPU at a time; per-texel sums for all photos stay on the GPU until :meth:`Extractor.result`
+reads them back once.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import defaultdict
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+
+import moderngl
+import numpy as np
+from numpy.typing import NDArray
+
+from vebuild.camera import gl_projection, view_matrix, world_to_camera
+from vebuild.gl import load_program
+from vebuild.texture import DEPTH_TOLERANCE
+from vebuild.texture.layout import SceneMesh
+
+Array = NDArray[np.float64]
+
+GL_SRGB8 = 0x8C41
+MAX_LEVELS = 16
+#: Exposure statistics are taken on the atlas reduced this much per side.
+STATS_SCALE = 0.25
+#: Fewer overlapping (reduced) texels than this and a photo's gain is not estimated.
+MIN_OVERLAP = 64
+#: Texels darker than this (linear) are left out of exposure statistics.
+DARK = 0.01
+#: Edges are moved this share of their depth toward the camera so that they win the depth test
+#: against their own faces (the same pixel, slightly nearer).
+EDGE_SHRINK = 1.0 - 2e-3
+#: Scale of the pre-pass that finds each texel's best weight.
+BEST_WEIGHT_SCALE = 0.5
+
+
+@dataclass(frozen=True)
+class PhotoCamera:
+    """A calibrated photo: K, R, C in the convention of DESIGN.md, and its size in pixels."""
+
+    id: str
+    K: Array
+    R: Array
+    C: Array
+    width: int
+    height: int
+
+    def scaled(self, s: float) -> PhotoCamera:
+        """The same camera for an image scaled by s (pixel corners stay at corners)."""
+        K = np.array(self.K, float)
+        K[:2] *= s
+        return PhotoCamera(self.id, K, self.R, self.C, max(1, round(self.width * s)), max(1, round(self.height * s)))
+
+
+@dataclass
+class Options:
+    """The extraction's choices; each improvement over the paper can be switched off."""
+
+    texels_per_metre: float = 200.0
+    max_face_texels: int = 2048
+    page_size: int = 4096
+    erode_px: float = 2.0  # 0: no erosion of the ID mask at id/depth discontinuities
+    drop_ratio: float = 0.25  # 0: keep every view; else drop views below this share of the best
+    detail_levels: float = 2.0  # the low band is this many pyramid levels coarser
+    detail_sharpness: float = 8.0  # 1: the paper's plain weighted average
+    exposure: bool = True  # compensate exposure differences between photos
+    fill: str = "push-pull"  # or "average" (the paper: the face's average colour)
+    mode: str = "texture"  # or "average": one colour per face (paper Figure 9, middle)
+
+    def as_dict(self) -> dict[str, object]:
+        return dict(self.__dict__)
+
+
+@dataclass
+class Timings:
+    """Seconds spent per stage, summed over photos."""
+
+    seconds: dict[str, float] = field(default_factory=lambda: defaultdict(float))
+
+    @contextmanager
+    def stage(self, name: str, ctx: moderngl.Context | None = None) -> Iterator[None]:
+        t = time.perf_counter()
+        yield
+        if ctx is not None:
+            ctx.finish()
+        self.seconds[name] += time.perf_counter() - t
+
+
+def _set(prog: moderngl.Program, **values: object) -> None:
+    """Set the uniforms a program uses (the compiler drops those a MODE does not need)."""
+    for k, v in values.items():
+        if k in prog:
+            if isinstance(v, np.ndarray):
+                prog[k].write(np.ascontiguousarray(v, dtype="f4").tobytes())
+            else:
+                prog[k].value = v
+
+
+def _mat3(M: Array) -> NDArray[np.float32]:
+    return np.asarray(M, "f4").T.copy()  # GLSL is column-major
+
+
+class Extractor:
+    """Streams photos through the ID and texel passes into per-page sums on the GPU."""
+
+    def __init__(self, ctx: moderngl.Context, mesh: SceneMesh, options: Options, timings: Timings | None = None):
+        self.ctx, self.mesh, self.opt = ctx, mesh, options
+        self.timings = timings or Timings()
+        self._profile = timings is not None
+        ctx.disable(moderngl.CULL_FACE)
+        self._programs = {
+            "id": load_program(ctx, "id"),
+            "edges": load_program(ctx, "edges"),
+            "pyramid": load_program(ctx, "pyramid"),
+            **{m: load_program(ctx, "texel", {"MODE": i})
+               for i, m in enumerate(("accumulate", "view", "best", "geometry"))},
+        }
+        # Pass 1's mesh: world vertices with their face ids.
+        ids = np.column_stack([mesh.vertices, mesh.face_of_vertex]).astype("f4")
+        self._id_vbo = ctx.buffer(ids.tobytes())
+        self._id_ibo = ctx.buffer(mesh.triangles.astype("i4").tobytes())
+        self._id_vao = ctx.vertex_array(self._programs["id"], [(self._id_vbo, "3f 1f", "in_position", "in_face")],
+                                        self._id_ibo)
+        self._border, self._interior = mesh.boundary_edges()
+        self._edge_vbo = ctx.buffer(reserve=max(1, (len(self._border) + len(self._interior)) * 2 * 12))
+        self._edge_vao = ctx.vertex_array(self._programs["edges"], [(self._edge_vbo, "3f", "in_position")])
+        # Pass 2's mesh: a triangle soup in atlas space, grouped by page and face.
+        soup = mesh.triangle_soup()
+        order = np.lexsort((soup["face"], soup["page"]))
+        soup = {k: v[order] for k, v in soup.items()}
+        self._soup_face = soup["face"]
+        self._soup_page = soup["page"]
+        data = np.column_stack([soup["position"], soup["normal"], soup["atlas"], soup["face"], soup["e_u"],
+                                soup["e_v"]]).astype("f4")
+        self._soup_vbo = ctx.buffer(data.tobytes())
+        self._face_normal_ok = self._flat_normals()
+        self._pages = [self._make_page(size) for size in mesh.pages]
+        self._photo_tex: moderngl.Texture | None = None
+        self._pyramid: tuple[moderngl.Texture, moderngl.Texture, list[tuple[int, int, int]]] | None = None
+        self._id_fbos: dict[tuple[int, int], tuple[moderngl.Framebuffer, moderngl.Texture]] = {}
+        self.gains: dict[str, NDArray[np.float64]] = {}
+        self.last_contributions: dict[int, int] = {}
+        self.overlap: dict[str, int] = {}
+
+    # -- set-up ------------------------------------------------------------------------------
+
+    def _flat_normals(self) -> dict[int, tuple[Array, Array]]:
+        """For each face, its vertices and normals (for culling faces a photo cannot see)."""
+        out = {}
+        for f in self.mesh.faces:
+            sel = self.mesh.face_of_vertex == f.id
+            out[f.id] = (self.mesh.vertices[sel], self.mesh.normals[sel])
+        return out
+
+    def _make_page(self, size: tuple[int, int]) -> dict[str, object]:
+        ctx = self.ctx
+        acc = [ctx.texture(size, 4, dtype="f4") for _ in range(3)] + [ctx.texture(size, 2, dtype="f4")]
+        for t in acc:
+            t.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        fbo = ctx.framebuffer(color_attachments=acc)
+        fbo.clear(0.0, 0.0, 0.0, 0.0)
+        best = ctx.texture(size, 1, dtype="f4")
+        best.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        best_fbo = ctx.framebuffer(color_attachments=[best])
+        best_fbo.clear(0.0, 0.0, 0.0, 0.0)
+        return {"size": size, "acc": acc, "fbo": fbo, "best": best, "best_fbo": best_fbo}
+
+    def _id_target(self, width: int, height: int) -> tuple[moderngl.Framebuffer, moderngl.Texture]:
+        key = (width, height)
+        if key not in self._id_fbos:
+            for fbo, tex in self._id_fbos.values():  # one size at a time: photos rarely differ
+                fbo.release()
+                tex.release()
+            self._id_fbos.clear()
+            tex = self.ctx.texture(key, 2, dtype="f4")
+            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+            depth = self.ctx.depth_renderbuffer(key)
+            self._id_fbos[key] = (self.ctx.framebuffer(color_attachments=[tex], depth_attachment=depth), tex)
+        return self._id_fbos[key]
+
+    # -- pass 1 ------------------------------------------------------------------------------
+
+    def _near_far(self, cam: PhotoCamera) -> tuple[float, float]:
+        z = world_to_camera(cam.R, cam.C, self.mesh.vertices)[:, 2]
+        far = max(1.0, float(z.max()) * 1.5 + 1.0)
+        return max(1e-3, far * 1e-5), far
+
+    def id_pass(self, cam: PhotoCamera, erode_px: float) -> moderngl.Texture:
+        """Render the ID buffer (face id, depth) of ``cam``; returns its texture."""
+        ctx = self.ctx
+        fbo, tex = self._id_target(cam.width, cam.height)
+        near, far = self._near_far(cam)
+        V = view_matrix(cam.R, cam.C).astype("f4").T.copy()
+        P = gl_projection(cam.K, cam.width, cam.height, near, far).astype("f4").T.copy()
+        fbo.use()
+        fbo.viewport = (0, 0, cam.width, cam.height)
+        fbo.clear(0.0, 3.0e38, 0.0, 0.0, depth=1.0)
+        ctx.enable(moderngl.DEPTH_TEST)
+        ctx.disable(moderngl.BLEND)
+        ctx.depth_func = "<"
+        fbo.depth_mask = True
+        _set(self._programs["id"], view=V, projection=P)
+        self._id_vao.render(moderngl.TRIANGLES)
+        if erode_px > 0:
+            lines = self._edge_lines(cam, near)
+            if len(lines):
+                self._edge_vbo.orphan(max(self._edge_vbo.size, lines.nbytes))
+                self._edge_vbo.write(lines.tobytes())
+                _set(self._programs["edges"], view=V, projection=P, shrink=EDGE_SHRINK,
+                     viewport=(float(cam.width), float(cam.height)), half_width=float(erode_px))
+                ctx.depth_func = "<="
+                fbo.depth_mask = False
+                self._edge_vao.render(moderngl.LINES, vertices=len(lines))
+                fbo.depth_mask = True
+        ctx.disable(moderngl.DEPTH_TEST)
+        return tex
+
+    def _edge_lines(self, cam: PhotoCamera, near: float) -> NDArray[np.float32]:
+        """Face borders and the silhouettes of curved faces seen from ``cam``, clipped to z > near."""
+        V = self.mesh.vertices
+        t = self.mesh.triangles
+        if len(self._interior):
+            tri_n = np.cross(V[t[:, 1]] - V[t[:, 0]], V[t[:, 2]] - V[t[:, 0]])
+            facing = np.einsum("ij,ij->i", tri_n, cam.C - V[t[:, 0]]) > 0
+            sil = self._interior[facing[self._interior[:, 2]] != facing[self._interior[:, 3]], :2]
+            edges = np.concatenate([self._border, sil])
+        else:
+            edges = self._border
+        a, b = V[edges[:, 0]], V[edges[:, 1]]
+        za = world_to_camera(cam.R, cam.C, a)[:, 2]
+        zb = world_to_camera(cam.R, cam.C, b)[:, 2]
+        z0 = 1.01 * near / EDGE_SHRINK
+        keep = (za > z0) | (zb > z0)
+        a, b, za, zb = a[keep], b[keep], za[keep], zb[keep]
+        # Move an end behind the near plane onto it.
+        t_a = np.where(za < z0, (z0 - za) / (zb - za), 0.0)[:, None]
+        t_b = np.where(zb < z0, (z0 - zb) / (za - zb), 0.0)[:, None]
+        a, b = a + t_a * (b - a), b + t_b * (a - b)
+        return np.stack([a, b], axis=1).reshape(-1, 3).astype("f4")
+
+    # -- the photo -----------------------------------------------------------------------------
+
+    def upload(self, pixels: NDArray[np.uint8]) -> None:
+        """Put a photo (height, width, 3) uint8 sRGB on the GPU and build its pyramid."""
+        h, w = pixels.shape[:2]
+        with self.timings.stage("upload", self.ctx if self._profile else None):
+            if self._photo_tex is None or self._photo_tex.size != (w, h):
+                if self._photo_tex is not None:
+                    self._photo_tex.release()
+                self._photo_tex = self.ctx.texture((w, h), 3, internal_format=GL_SRGB8)
+                self._photo_tex.repeat_x = self._photo_tex.repeat_y = False
+            self._photo_tex.write(np.ascontiguousarray(pixels))
+        with self.timings.stage("pyramid", self.ctx if self._profile else None):
+            self._build_pyramid(w, h)
+
+    def _build_pyramid(self, w: int, h: int) -> None:
+        sizes = [(w, h)]
+        while len(sizes) < MAX_LEVELS and max(sizes[-1]) > 1:
+            sizes.append(((sizes[-1][0] + 1) // 2, (sizes[-1][1] + 1) // 2))
+        y0 = [0] * len(sizes)
+        heights = {1: 0, 0: 0}
+        for k in range(1, len(sizes)):
+            y0[k] = heights[k & 1]
+            heights[k & 1] += sizes[k][1]
+        need = ((sizes[1][0] if len(sizes) > 1 else 1, max(1, heights[1])),
+                (sizes[2][0] if len(sizes) > 2 else 1, max(1, heights[0])))
+        if self._pyramid is None or (self._pyramid[0].size, self._pyramid[1].size) != need:
+            if self._pyramid is not None:
+                for t in self._pyramid[:2]:
+                    t.release()
+            odd, even = (self.ctx.texture(s, 4, dtype="f2") for s in need)
+            for t in (odd, even):
+                t.repeat_x = t.repeat_y = False
+            self._pyramid = (odd, even, [])
+            self._pyr_fbos = [self.ctx.framebuffer(color_attachments=[t]) for t in (odd, even)]
+        odd, even, _ = self._pyramid
+        self._pyramid = (odd, even, [(s[0], s[1], y) for s, y in zip(sizes, y0, strict=True)])
+        prog = self._programs["pyramid"]
+        self.ctx.disable(moderngl.BLEND)
+        self.ctx.disable(moderngl.DEPTH_TEST)
+        vao = self._fullscreen(prog)
+        for k in range(1, len(sizes)):
+            src = self._photo_tex if k == 1 else (odd if (k - 1) & 1 else even)
+            fbo = self._pyr_fbos[0 if k & 1 else 1]
+            fbo.use()
+            fbo.viewport = (0, y0[k], sizes[k][0], sizes[k][1])
+            src.use(0)
+            _set(prog, source=0, source_size=(float(sizes[k - 1][0]), float(sizes[k - 1][1])),
+                 source_y0=float(y0[k - 1] if k > 1 else 0), source_texture=(float(src.width), float(src.height)),
+                 target_y0=float(y0[k]))
+            vao.render(moderngl.TRIANGLES, vertices=3)
+
+    def _fullscreen(self, prog: moderngl.Program) -> moderngl.VertexArray:
+        key = f"_fs_{id(prog)}"
+        if not hasattr(self, key):
+            setattr(self, key, self.ctx.vertex_array(prog, []))
+        return getattr(self, key)
+
+    # -- pass 2 ------------------------------------------------------------------------------
+
+    def _visible_faces(self, cam: PhotoCamera) -> set[int]:
+        """Faces that may show in ``cam``: some vertex faces it and is in front, and their image
+        bounds meet the image."""
+        out = set()
+        for fid, (P, N) in self._face_normal_ok.items():
+            x = world_to_camera(cam.R, cam.C, P)
+            front = x[:, 2] > 1e-6
+            if not front.any() or not (np.einsum("ij,ij->i", N, cam.C - P) > 0).any():
+                continue
+            if front.all():
+                uv = x[:, :2] / x[:, 2:3] * [cam.K[0, 0], cam.K[1, 1]] + cam.K[:2, 2]
+                if (uv[:, 0].max() < 0 or uv[:, 1].max() < 0 or uv[:, 0].min() > cam.width
+                        or uv[:, 1].min() > cam.height):
+                    continue
+            out.add(fid)
+        return out
+
+    def _texel_vao(self, prog: moderngl.Program, page: int, faces: set[int] | None) -> moderngl.VertexArray | None:
+        sel = self._soup_page == page
+        if faces is not None:
+            sel &= np.isin(self._soup_face, list(faces))
+        idx = np.flatnonzero(sel).astype("i4")
+        if not len(idx):
+            return None
+        ibo = self.ctx.buffer(idx.tobytes())
+        vao = self.ctx.vertex_array(prog, [(self._soup_vbo, "3f 3f 2f 1f 3f 3f", "in_position", "in_normal",
+                                            "in_atlas", "in_face", "in_eu", "in_ev")], ibo,
+                                     skip_errors=True)
+        vao._vebuild_ibo = ibo  # released with the vao
+        return vao
+
+    def _draw_texels(self, prog: moderngl.Program, page: int, faces: set[int] | None) -> None:
+        vao = self._texel_vao(prog, page, faces)
+        if vao is not None:
+            vao.render(moderngl.TRIANGLES)
+            vao._vebuild_ibo.release()
+            vao.release()
+
+    def _texel_uniforms(self, prog: moderngl.Program, cam: PhotoCamera, id_tex: moderngl.Texture,
+                        page_size: tuple[int, int], atlas_scale: float = 1.0, weight_scale: float = 1.0) -> None:
+        id_tex.use(0)
+        values: dict[str, object] = dict(
+            K=_mat3(cam.K), R=_mat3(cam.R), C=np.asarray(cam.C, "f4"),
+            image_size=(float(cam.width), float(cam.height)), weight_scale=float(weight_scale),
+            depth_tolerance=DEPTH_TOLERANCE, id_depth=0, page_size=(float(page_size[0]), float(page_size[1])),
+            atlas_scale=float(atlas_scale), detail_levels=float(self.opt.detail_levels),
+            sharpness=float(self.opt.detail_sharpness), drop_ratio=float(self.opt.drop_ratio),
+        )
+        if self._pyramid is not None and "photo" in prog:
+            odd, even, levels = self._pyramid
+            self._photo_tex.use(1)
+            odd.use(2)
+            even.use(3)
+            sizes = np.zeros((MAX_LEVELS, 2), "f4")
+            y0 = np.zeros(MAX_LEVELS, "f4")
+            for k, (w, h, y) in enumerate(levels):
+                sizes[k], y0[k] = (w, h), y
+            values.update(photo=1, pyramid_odd=2, pyramid_even=3, odd_size=(float(odd.width), float(odd.height)),
+                          even_size=(float(even.width), float(even.height)), levels=len(levels),
+                          level_size=sizes, level_y0=y0)
+        _set(prog, **values)
+
+    def best_weights(self, cameras: list[PhotoCamera]) -> None:
+        """Pre-pass (no photo needed): each texel's best weight over all photos, for dropping
+        views far worse than the best."""
+        prog = self._programs["best"]
+        for cam in cameras:
+            small = cam.scaled(BEST_WEIGHT_SCALE)
+            with self.timings.stage("best_weight", self.ctx if self._profile else None):
+                id_tex = self.id_pass(small, max(1.0, self.opt.erode_px * BEST_WEIGHT_SCALE))
+                faces = self._visible_faces(cam)
+                self.ctx.enable(moderngl.BLEND)
+                self.ctx.blend_func = moderngl.ONE, moderngl.ONE
+                self.ctx.blend_equation = moderngl.MAX
+                for k, page in enumerate(self._pages):
+                    page["best_fbo"].use()
+                    page["best_fbo"].viewport = (0, 0, *page["size"])
+                    self._texel_uniforms(prog, small, id_tex, page["size"], weight_scale=1.0 / BEST_WEIGHT_SCALE)
+                    self._draw_texels(prog, k, faces)
+                self.ctx.blend_equation = moderngl.FUNC_ADD
+                self.ctx.disable(moderngl.BLEND)
+
+    def add_photo(self, cam: PhotoCamera, pixels: NDArray[np.uint8]) -> None:
+        """Pass 1 and pass 2 for one photo; its texels join the sums."""
+        if pixels.shape[:2] != (cam.height, cam.width):
+            raise ValueError(f"photo {cam.id}: pixels are {pixels.shape[1]}×{pixels.shape[0]}, "
+                             f"the camera is for {cam.width}×{cam.height}")
+        self.upload(pixels)
+        with self.timings.stage("id_pass", self.ctx if self._profile else None):
+            id_tex = self.id_pass(cam, self.opt.erode_px)
+            faces = self._visible_faces(cam)
+        with self.timings.stage("texel_pass", self.ctx if self._profile else None):
+            gain = self._reduced_view(cam, id_tex, faces)
+            self.gains[cam.id] = gain
+            prog = self._programs["accumulate"]
+            self.ctx.enable(moderngl.BLEND)
+            self.ctx.blend_func = moderngl.ONE, moderngl.ONE
+            self.ctx.blend_equation = moderngl.FUNC_ADD
+            for k, page in enumerate(self._pages):
+                page["fbo"].use()
+                page["fbo"].viewport = (0, 0, *page["size"])
+                page["best"].use(4)
+                self._texel_uniforms(prog, cam, id_tex, page["size"])
+                _set(prog, best_weight=4, inverse_gain=(1.0 / gain).astype("f4"))
+                self._draw_texels(prog, k, faces)
+            self.ctx.disable(moderngl.BLEND)
+
+    def _reduced_view(self, cam: PhotoCamera, id_tex: moderngl.Texture, faces: set[int]) -> NDArray[np.float64]:
+        """This photo on the atlas reduced by STATS_SCALE: which faces it gives texels to
+        (``last_contributions``) and its exposure relative to the sums so far, the median ratio
+        of its low band to the accumulated low band over texels both saw (1 for the first photo,
+        or with fewer than MIN_OVERLAP such texels)."""
+        ratios, counts = [], np.zeros(len(self.mesh.faces) + 1, np.int64)
+        for k in range(len(self._pages)):
+            view = self.view(cam, id_tex, k, faces, STATS_SCALE, with_accumulated=True)
+            face = np.rint(view["seen"]).astype(np.int64)
+            counts += np.bincount(face.ravel(), minlength=len(counts))
+            ok = (face > 0) & (view["accumulated_seen"] > 0)
+            ok &= (view["low"].min(axis=-1) > DARK) & (view["accumulated"].min(axis=-1) > DARK)
+            ratios.append(np.log(view["low"][ok]) - np.log(view["accumulated"][ok]))
+        self.last_contributions = {i: int(n) for i, n in enumerate(counts) if i > 0 and n > 0}
+        r = np.concatenate(ratios) if ratios else np.zeros((0, 3))
+        self.overlap[cam.id] = len(r)
+        if not self.opt.exposure or not self.gains or len(r) < MIN_OVERLAP:
+            return np.ones(3)
+        return np.exp(np.median(r, axis=0))
+
+    def view(self, cam: PhotoCamera, id_tex: moderngl.Texture, page: int, faces: set[int] | None = None,
+             atlas_scale: float = 1.0, with_accumulated: bool = False) -> dict[str, NDArray[np.float32]]:
+        """One photo's texels on one page (MODE 1): colour c, weight w, low band l, and in 'seen'
+        the face id where the texel is seen (0 elsewhere)."""
+        p = self._pages[page]
+        size = (max(1, round(p["size"][0] * atlas_scale)), max(1, round(p["size"][1] * atlas_scale)))
+        targets = [self.ctx.texture(size, 4, dtype="f4") for _ in range(3)]
+        fbo = self.ctx.framebuffer(color_attachments=targets)
+        try:
+            fbo.use()
+            fbo.viewport = (0, 0, *size)
+            fbo.clear(0.0, 0.0, 0.0, 0.0)
+            self.ctx.disable(moderngl.BLEND)
+            prog = self._programs["view"]
+            p["acc"][0].use(5)
+            self._texel_uniforms(prog, cam, id_tex, p["size"], atlas_scale=atlas_scale)
+            _set(prog, accumulated=5)
+            vao = self._texel_vao(prog, page, faces)
+            if vao is not None:
+                # The atlas is drawn at its full page_size extent in NDC; the viewport scales it.
+                vao.render(moderngl.TRIANGLES)
+                vao._vebuild_ibo.release()
+                vao.release()
+            out = [np.frombuffer(fbo.read(components=4, dtype="f4", attachment=i), "f4").reshape(size[1], size[0], 4)
+                   for i in range(3 if with_accumulated else 2)]
+        finally:
+            fbo.release()
+            for t in targets:
+                t.release()
+        res = {"colour": out[0][..., :3], "weight": out[0][..., 3], "low": out[1][..., :3], "seen": out[1][..., 3]}
+        if with_accumulated:
+            res["accumulated"], res["accumulated_seen"] = out[2][..., :3], out[2][..., 3]
+        return res
+
+    # -- results -------------------------------------------------------------------------------
+
+    def geometry(self, page: int) -> dict[str, NDArray[np.float32]]:
+        """Each texel's world position, face id (0 off every face) and normal on ``page``."""
+        p = self._pages[page]
+        size = p["size"]
+        targets = [self.ctx.texture(size, 4, dtype="f4") for _ in range(2)]
+        fbo = self.ctx.framebuffer(color_attachments=targets)
+        try:
+            fbo.use()
+            fbo.viewport = (0, 0, *size)
+            fbo.clear(0.0, 0.0, 0.0, 0.0)
+            self.ctx.disable(moderngl.BLEND)
+            prog = self._programs["geometry"]
+            _set(prog, page_size=(float(size[0]), float(size[1])), atlas_scale=1.0)
+            self._draw_texels(prog, page, None)
+            out = [np.frombuffer(fbo.read(components=4, dtype="f4", attachment=i), "f4").reshape(size[1], size[0], 4)
+                   for i in range(2)]
+        finally:
+            fbo.release()
+            for t in targets:
+                t.release()
+        return {"position": out[0][..., :3], "face": out[0][..., 3].astype(np.int32), "normal": out[1][..., :3]}
+
+    def sums(self, page: int) -> dict[str, NDArray[np.float32]]:
+        """The per-texel sums of ``page`` (MODE 0's four targets), read back."""
+        p = self._pages[page]
+        w, h = p["size"]
+        fbo = p["fbo"]
+        out = [np.frombuffer(fbo.read(components=4 if i < 3 else 2, dtype="f4", attachment=i), "f4")
+               .reshape(h, w, 4 if i < 3 else 2) for i in range(4)]
+        return {"low": out[0], "detail": out[1], "dropped": out[2], "counts": out[3]}
+
+    def release(self) -> None:
+        for page in self._pages:
+            for t in page["acc"]:
+                t.release()
+            page["fbo"].release()
+            page["best"].release()
+            page["best_fbo"].release()
+        for fbo, tex in self._id_fbos.values():
+            fbo.release()
+            tex.release()
+        if self._photo_tex is not None:
+            self._photo_tex.release()
+        if self._pyramid is not None:
+            for t in self._pyramid[:2]:
+                t.release()
+            for f in self._pyr_fbos:
+                f.release()
+        for b in (self._id_vbo, self._id_ibo, self._edge_vbo, self._soup_vbo):
+            b.release()

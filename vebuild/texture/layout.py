@@ -1,0 +1,225 @@
+"""The scene as one world-space triangle mesh, and its texture atlas layout (pure numpy).
+
+Every logical face of every primitive node (``Mesh.face_ids``) becomes one global face with a
+1-based id, in model order; id 0 is "nothing" in GPU buffers. Each face gets a chart of whole
+texels on one atlas page; pages are at most ``page_size`` texels on a side (the GL maximum texture
+size or less), so a scene whose texels do not fit one texture is split over several.
+
+Used by texture extraction, and by anything that later draws the textured scene: given the same
+model and the face records of an extraction, :func:`scene_mesh` rebuilds the same atlas coordinates.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vebuild.model.scene import Model
+
+Array = NDArray[np.float64]
+
+#: Texels between charts and around a page's border; each chart bleeds into half of it.
+GUTTER = 4
+#: Facets around curved surfaces.
+SEGMENTS = 32
+
+
+@dataclass(frozen=True)
+class Face:
+    """One logical face: ``node``'s face ``name``, on ``page`` at texel rectangle ``rect``."""
+
+    id: int  # 1-based global id
+    node: str
+    name: str
+    size_m: tuple[float, float]  # chart width, height in metres
+    page: int
+    rect: tuple[int, int, int, int]  # x0, y0, width, height in texels
+
+    @property
+    def texels_per_metre(self) -> tuple[float, float]:
+        return (self.rect[2] / self.size_m[0], self.rect[3] / self.size_m[1])
+
+
+@dataclass(frozen=True)
+class SceneMesh:
+    """The model's primitives in world coordinates, one mesh, with atlas coordinates.
+
+    vertices, normals : (n, 3) world positions (metres) and unit normals.
+    triangles : (m, 3) int32 into vertices, counter-clockwise seen from outside.
+    face_of_vertex : (n,) int32 global face id (vertices are not shared between faces).
+    atlas : (n, 2) float64 position in texels on its face's page.
+    faces : the faces, ``faces[id - 1]`` has that id.
+    pages : (width, height) of each page in texels.
+    """
+
+    vertices: Array
+    normals: Array
+    triangles: NDArray[np.int32]
+    face_of_vertex: NDArray[np.int32]
+    atlas: Array
+    faces: list[Face]
+    pages: list[tuple[int, int]]
+
+    @property
+    def triangle_faces(self) -> NDArray[np.int32]:
+        return self.face_of_vertex[self.triangles[:, 0]]
+
+    def triangle_soup(self) -> dict[str, Array]:
+        """Per-corner arrays for drawing in atlas space, three rows per triangle.
+
+        position, normal (3), atlas (2), face (1), page (1), and the triangle's world steps of one
+        atlas texel e_u, e_v (3 each). Triangles with no area in the atlas are left out.
+        """
+        t = self.triangles
+        P, A = self.vertices[t], self.atlas[t]  # (m, 3, 3), (m, 3, 2)
+        dP = np.stack([P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]], axis=2)  # (m, 3, 2)
+        dA = np.stack([A[:, 1] - A[:, 0], A[:, 2] - A[:, 0]], axis=2)  # (m, 2, 2)
+        det = dA[:, 0, 0] * dA[:, 1, 1] - dA[:, 0, 1] * dA[:, 1, 0]
+        ok = np.abs(det) > 1e-9
+        inv = np.zeros_like(dA)
+        inv[ok] = np.linalg.inv(dA[ok])
+        E = dP @ inv  # (m, 3, 2): columns dP/dx, dP/dy
+        faces = self.triangle_faces[ok]
+        pages = np.array([f.page for f in self.faces], dtype=np.int32)[faces - 1]
+        rep = lambda a: np.repeat(a, 3, axis=0)  # noqa: E731
+        return {
+            "position": P[ok].reshape(-1, 3),
+            "normal": self.normals[t[ok]].reshape(-1, 3),
+            "atlas": A[ok].reshape(-1, 2),
+            "face": rep(faces),
+            "page": rep(pages),
+            "e_u": rep(E[ok, :, 0]),
+            "e_v": rep(E[ok, :, 1]),
+        }
+
+    def boundary_edges(self) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+        """Edges of the faces, welded by position: (k, 2) vertex pairs on a face's border (one
+        triangle of that face uses them), and (e, 4) interior edges as (a, b, triangle 1,
+        triangle 2) for finding silhouettes of curved faces."""
+        key = np.round(self.vertices, 9)
+        _, weld = np.unique(np.column_stack([key, self.face_of_vertex]), axis=0, return_inverse=True)
+        weld = weld.ravel()
+        t = self.triangles
+        e = np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]])
+        tri = np.tile(np.arange(len(t)), 3)
+        w = np.sort(weld[e], axis=1)
+        _, inv, counts = np.unique(w, axis=0, return_inverse=True, return_counts=True)
+        inv = inv.ravel()
+        border = counts[inv] == 1
+        order = np.argsort(inv, kind="stable")
+        pairs = order[counts[inv[order]] == 2].reshape(-1, 2)  # two uses of one welded edge
+        interior = np.column_stack([e[pairs[:, 0]], tri[pairs[:, 0]], tri[pairs[:, 1]]])
+        return e[border], interior
+
+
+def plan_faces(model: Model, texels_per_metre: float, max_face_texels: int,
+               page_size: int) -> list[tuple[str, str, tuple[float, float], tuple[int, int]]]:
+    """(node, face name, chart size in metres, chart size in texels) of every face, model order."""
+    cap = max(1, min(int(max_face_texels), int(page_size) - 2 * GUTTER))
+    out = []
+    for node in model.nodes:
+        if node.primitive is None:
+            continue
+        mesh = node.primitive.mesh(None, SEGMENTS)
+        for name, (w, h) in zip(mesh.face_names, mesh.chart_size_m, strict=True):
+            n = (min(cap, max(1, math.ceil(w * texels_per_metre - 1e-9))),
+                 min(cap, max(1, math.ceil(h * texels_per_metre - 1e-9))))
+            out.append((node.name, name, (float(w), float(h)), n))
+    return out
+
+
+def pack(sizes: Sequence[tuple[int, int]], page_size: int) -> tuple[list[tuple[int, int, int]], list[tuple[int, int]]]:
+    """Shelf-pack charts (w, h) in texels into pages of at most ``page_size``; tallest first.
+
+    Returns each chart's (page, x0, y0) and each page's (width, height). Rows are about
+    √(total area) wide so that a scene that fits one page packs into a near-square one.
+    """
+    sizes = [(int(w), int(h)) for w, h in sizes]
+    if any(w + 2 * GUTTER > page_size or h + 2 * GUTTER > page_size for w, h in sizes):
+        raise ValueError("a chart is larger than a page")
+    area = sum((w + GUTTER) * (h + GUTTER) for w, h in sizes)
+    widest = max((w for w, _ in sizes), default=1)
+    row_width = min(page_size - GUTTER, max(widest + GUTTER, math.ceil(1.1 * math.sqrt(area))))
+    place: list[tuple[int, int, int]] = [(0, 0, 0)] * len(sizes)
+    pages: list[list[int]] = [[GUTTER, GUTTER]]  # used width, height per page
+    x = y = GUTTER
+    shelf = 0
+    for i in sorted(range(len(sizes)), key=lambda k: (-sizes[k][1], k)):
+        w, h = sizes[i]
+        if x > GUTTER and x + w + GUTTER > row_width + GUTTER:
+            x, y, shelf = GUTTER, y + shelf + GUTTER, 0
+        if y + h + GUTTER > page_size:
+            pages.append([GUTTER, GUTTER])
+            x, y, shelf = GUTTER, GUTTER, 0
+        place[i] = (len(pages) - 1, x, y)
+        x += w + GUTTER
+        shelf = max(shelf, h)
+        pages[-1][0] = max(pages[-1][0], x)
+        pages[-1][1] = max(pages[-1][1], y + h + GUTTER)
+    return place, [(int(w), int(h)) for w, h in pages]
+
+
+def layout(model: Model, texels_per_metre: float, max_face_texels: int, page_size: int) -> list[Face]:
+    """Faces with charts packed into pages."""
+    plan = plan_faces(model, texels_per_metre, max_face_texels, page_size)
+    place, _ = pack([n for *_, n in plan], page_size)
+    return [Face(i + 1, node, name, size, page, (x, y, n[0], n[1]))
+            for i, ((node, name, size, n), (page, x, y)) in enumerate(zip(plan, place, strict=True))]
+
+
+def page_sizes(faces: Sequence[Face]) -> list[tuple[int, int]]:
+    """Each page's size: the extent of its charts plus the gutter."""
+    out: dict[int, list[int]] = {}
+    for f in faces:
+        x0, y0, w, h = f.rect
+        p = out.setdefault(f.page, [GUTTER, GUTTER])
+        p[0], p[1] = max(p[0], x0 + w + GUTTER), max(p[1], y0 + h + GUTTER)
+    return [tuple(out[k]) for k in sorted(out)]  # type: ignore[misc]
+
+
+def scene_mesh(model: Model, faces: Sequence[Face]) -> SceneMesh:
+    """The world mesh of ``model`` with atlas coordinates from ``faces`` (as :func:`layout` gave)."""
+    transforms = model.world_transforms()
+    by_key = {(f.node, f.name): f for f in faces}
+    verts, norms, tris, fov, atlas = [], [], [], [], []
+    offset = 0
+    for node in model.nodes:
+        if node.primitive is None:
+            continue
+        mesh = node.primitive.mesh(None, SEGMENTS)
+        T = transforms[node.name]
+        vid = np.zeros(len(mesh.vertices), dtype=np.int32)
+        vid[mesh.faces.ravel()] = np.repeat(mesh.face_ids, 3)
+        gid = np.empty(len(mesh.vertices), dtype=np.int32)
+        uv_tex = np.empty((len(mesh.vertices), 2))
+        for k, name in enumerate(mesh.face_names, start=1):
+            face = by_key.get((node.name, name))
+            if face is None:
+                raise ValueError(f"the texture layout has no face {node.name}.{name}")
+            sel = vid == k
+            u0, v0, u1, v1 = mesh.chart_uv[k - 1]
+            x0, y0, w, h = face.rect
+            uv = mesh.uv[sel]
+            uv_tex[sel, 0] = x0 + (uv[:, 0] - u0) / (u1 - u0) * w
+            uv_tex[sel, 1] = y0 + (uv[:, 1] - v0) / (v1 - v0) * h
+            gid[sel] = face.id
+        verts.append(mesh.vertices @ T[:3, :3].T + T[:3, 3])
+        norms.append(mesh.normals @ T[:3, :3].T)
+        tris.append(mesh.faces + offset)
+        fov.append(gid)
+        atlas.append(uv_tex)
+        offset += len(mesh.vertices)
+    faces = sorted(faces, key=lambda f: f.id)
+    return SceneMesh(
+        vertices=np.concatenate(verts) if verts else np.zeros((0, 3)),
+        normals=np.concatenate(norms) if norms else np.zeros((0, 3)),
+        triangles=np.concatenate(tris).astype(np.int32) if tris else np.zeros((0, 3), np.int32),
+        face_of_vertex=np.concatenate(fov).astype(np.int32) if fov else np.zeros(0, np.int32),
+        atlas=np.concatenate(atlas) if atlas else np.zeros((0, 2)),
+        faces=list(faces),
+        pages=page_sizes(faces),
+    )
