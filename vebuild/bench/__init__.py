@@ -5,6 +5,6 @@ from __future__ import annotations
 
 from types import ModuleType
 
-from . import calibration, solver
+from . import calibration, solver, texture
 
-BENCHES: dict[str, ModuleType] = {"calibration": calibration, "solver": solver}
+BENCHES: dict[str, ModuleType] = {"calibration": calibration, "solver": solver, "texture": texture}

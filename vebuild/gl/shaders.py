@@ -23,25 +23,26 @@ def shader_dir() -> Path:
 
 
 def load_program(ctx: moderngl.Context, name: str, defines: Mapping[str, object] | None = None,
-                 varyings: tuple[str, ...] = ()) -> moderngl.Program:
+                 vertex: str | None = None) -> moderngl.Program:
     """The program ``NAME.vert`` (+ ``NAME.geom``) + ``NAME.frag``, compiled once per context.
 
-    ``defines`` become ``#define KEY VALUE`` lines after each stage's ``#version`` line.
+    ``vertex`` names a shared vertex stage instead (``fullscreen``: one triangle over the
+    viewport). ``defines`` become ``#define KEY VALUE`` lines after each stage's ``#version`` line.
     """
     key_defs = tuple(sorted((k, str(v)) for k, v in (defines or {}).items()))
-    key = (id(ctx), name, key_defs)
+    key = (id(ctx), f"{vertex or name}+{name}", key_defs)
     if key in _cache:
         return _cache[key]
     folder = shader_dir()
     sources = {}
     for ext, arg in _STAGES.items():
-        path = folder / f"{name}.{ext}"
+        path = folder / f"{vertex if (vertex and ext == 'vert') else name}.{ext}"
         if path.is_file():
             sources[arg] = _with_defines(path.read_text("utf-8"), key_defs)
     if "vertex_shader" not in sources:
-        raise ShaderError(f"shader program '{name}' not found: expected {folder / (name + '.vert')}")
+        raise ShaderError(f"shader program '{name}' not found: expected {folder / ((vertex or name) + '.vert')}")
     try:
-        prog = ctx.program(**sources, varyings=varyings)
+        prog = ctx.program(**sources)
     except Exception as e:
         raise ShaderError(f"shader program '{name}' in {folder} does not compile: {e}") from None
     _cache[key] = prog

@@ -22,7 +22,7 @@ from vebuild.model.scene import Model
 from vebuild.project import sha256_bytes
 from vebuild.texture import layout as lay
 from vebuild.texture.gpu import Extractor, Options, PhotoCamera, Timings
-from vebuild.texture.merge import FaceStats, colours, coverage_image, fill_page, linear_to_srgb8
+from vebuild.texture.merge import FaceStats, fill_page
 
 Array = NDArray[np.float64]
 Progress = Callable[[str], None]
@@ -140,15 +140,13 @@ def extract(model: Model, cameras: Sequence[PhotoCamera], sources: dict[str, Pho
             scale = float(np.exp(np.mean([np.log(g).mean() for g in gains.values()]))) if gains else 1.0
             atlases, coverage, stats = [], [], {}
             for p in range(len(mesh.pages)):
-                sums = ex.sums(p)
-                face_map = ex.geometry(p)["face"]
-                colour, seen, weight = colours(sums, scale)
+                r = ex.resolve(p, scale)
                 on_page = [f for f in faces if f.page == p]
-                filled, st = fill_page(colour, seen, weight, face_map, on_page, options.fill,
+                filled, st = fill_page(r["colour"], r["seen"], r["face"], on_page, options.fill,
                                        options.mode == "average")
                 stats.update(st)
-                atlases.append(linear_to_srgb8(filled))
-                coverage.append(coverage_image(sums["counts"], seen, face_map))
+                atlases.append(filled)
+                coverage.append(r["coverage"])
     finally:
         ex.release()
     face_photos = {f.id: [c.id for c in order if contributions[c.id].get(f.id, 0) > 0] for f in faces}

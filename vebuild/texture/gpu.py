@@ -116,7 +116,8 @@ class Extractor:
         self._programs = {
             "id": load_program(ctx, "id"),
             "edges": load_program(ctx, "edges"),
-            "pyramid": load_program(ctx, "pyramid"),
+            "pyramid": load_program(ctx, "pyramid", vertex="fullscreen"),
+            "resolve": load_program(ctx, "resolve", vertex="fullscreen"),
             **{m: load_program(ctx, "texel", {"MODE": i})
                for i, m in enumerate(("accumulate", "view", "best", "geometry"))},
         }
@@ -238,8 +239,9 @@ class Extractor:
         keep = (za > z0) | (zb > z0)
         a, b, za, zb = a[keep], b[keep], za[keep], zb[keep]
         # Move an end behind the near plane onto it.
-        t_a = np.where(za < z0, (z0 - za) / (zb - za), 0.0)[:, None]
-        t_b = np.where(zb < z0, (z0 - zb) / (za - zb), 0.0)[:, None]
+        with np.errstate(divide="ignore", invalid="ignore"):  # where() drops the unused quotients
+            t_a = np.where(za < z0, (z0 - za) / (zb - za), 0.0)[:, None]
+            t_b = np.where(zb < z0, (z0 - zb) / (za - zb), 0.0)[:, None]
         a, b = a + t_a * (b - a), b + t_b * (a - b)
         return np.stack([a, b], axis=1).reshape(-1, 3).astype("f4")
 
@@ -466,27 +468,65 @@ class Extractor:
 
     # -- results -------------------------------------------------------------------------------
 
-    def geometry(self, page: int) -> dict[str, NDArray[np.float32]]:
-        """Each texel's world position, face id (0 off every face) and normal on ``page``."""
+    def _geometry_targets(self, page: int) -> tuple[moderngl.Framebuffer, list[moderngl.Texture]]:
         p = self._pages[page]
         size = p["size"]
         targets = [self.ctx.texture(size, 4, dtype="f4") for _ in range(2)]
+        for t in targets:
+            t.filter = (moderngl.NEAREST, moderngl.NEAREST)
         fbo = self.ctx.framebuffer(color_attachments=targets)
+        fbo.use()
+        fbo.viewport = (0, 0, *size)
+        fbo.clear(0.0, 0.0, 0.0, 0.0)
+        self.ctx.disable(moderngl.BLEND)
+        prog = self._programs["geometry"]
+        _set(prog, page_size=(float(size[0]), float(size[1])), atlas_scale=1.0)
+        self._draw_texels(prog, page, None)
+        return fbo, targets
+
+    def geometry(self, page: int) -> dict[str, NDArray[np.float32]]:
+        """Each texel's world position, face id (0 off every face) and normal on ``page``."""
+        w, h = self._pages[page]["size"]
+        fbo, targets = self._geometry_targets(page)
         try:
-            fbo.use()
-            fbo.viewport = (0, 0, *size)
-            fbo.clear(0.0, 0.0, 0.0, 0.0)
-            self.ctx.disable(moderngl.BLEND)
-            prog = self._programs["geometry"]
-            _set(prog, page_size=(float(size[0]), float(size[1])), atlas_scale=1.0)
-            self._draw_texels(prog, page, None)
-            out = [np.frombuffer(fbo.read(components=4, dtype="f4", attachment=i), "f4").reshape(size[1], size[0], 4)
+            out = [np.frombuffer(fbo.read(components=4, dtype="f4", attachment=i), "f4").reshape(h, w, 4)
                    for i in range(2)]
         finally:
             fbo.release()
             for t in targets:
                 t.release()
         return {"position": out[0][..., :3], "face": out[0][..., 3].astype(np.int32), "normal": out[1][..., :3]}
+
+    def resolve(self, page: int, exposure_scale: float) -> dict[str, NDArray]:
+        """The merge on the GPU: 'colour' (h, w, 3) uint8 sRGB, 'seen' (h, w) bool, 'coverage'
+        (h, w, 4) uint8 (colours: vebuild.texture.merge.COVERAGE_*) and 'face' (h, w) int32."""
+        from vebuild.texture.merge import COVERAGE_DROPPED_ONLY, COVERAGE_UNSEEN, COVERAGE_VIEWS
+
+        p = self._pages[page]
+        w, h = p["size"]
+        gfbo, gtex = self._geometry_targets(page)
+        targets = [self.ctx.texture((w, h), 4) for _ in range(2)]
+        fbo = self.ctx.framebuffer(color_attachments=targets)
+        try:
+            fbo.use()
+            fbo.viewport = (0, 0, w, h)
+            prog = self._programs["resolve"]
+            for unit, tex in enumerate([*p["acc"], gtex[0]]):
+                tex.use(unit)
+            rgba = lambda c: tuple(v / 255.0 for v in c)  # noqa: E731
+            _set(prog, low_sum=0, detail_sum=1, dropped_sum=2, counts=3, geometry=4,
+                 exposure_scale=float(exposure_scale), coverage_unseen=rgba(COVERAGE_UNSEEN),
+                 coverage_dropped_only=rgba(COVERAGE_DROPPED_ONLY),
+                 coverage_views=np.array([rgba(c) for c in COVERAGE_VIEWS], "f4"))
+            self._fullscreen(prog).render(moderngl.TRIANGLES, vertices=3)
+            colour = np.frombuffer(fbo.read(components=4, attachment=0), np.uint8).reshape(h, w, 4)
+            coverage = np.frombuffer(fbo.read(components=4, attachment=1), np.uint8).reshape(h, w, 4).copy()
+            face = np.frombuffer(gfbo.read(components=4, dtype="f4", attachment=0), "f4").reshape(h, w, 4)[..., 3]
+        finally:
+            for obj in (fbo, gfbo, *targets, *gtex):
+                obj.release()
+        return {"colour": colour[..., :3].copy(), "seen": colour[..., 3] > 127, "coverage": coverage,
+                "face": face.astype(np.int32)}
 
     def sums(self, page: int) -> dict[str, NDArray[np.float32]]:
         """The per-texel sums of ``page`` (MODE 0's four targets), read back."""

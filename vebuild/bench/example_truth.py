@@ -1,0 +1,114 @@
+"""The example room's ground truth, for texture tests and benchmarks.
+
+The true model (ground_truth.json's nodes), the true cameras, the photos, and the true texture of
+every texel, from the scene's own generator (scenes/generate_room.py, imported by path: it does not
+import vebuild, so it is an independent witness).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import sys
+from functools import cache
+from pathlib import Path
+from types import ModuleType
+
+import numpy as np
+
+from vebuild.model.scene import Model, model_from_dict
+from vebuild.resources import data_dir, example_project_dir
+from vebuild.texture.gpu import PhotoCamera
+
+ROOM = example_project_dir()
+
+
+@cache
+def generator() -> ModuleType:
+    """scenes/generate_room.py, imported by path (it is data, not part of the vebuild package)."""
+    spec = importlib.util.spec_from_file_location("generate_room", data_dir("scenes") / "generate_room.py")
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules["generate_room"] = mod
+    spec.loader.exec_module(mod)
+    return mod
+
+
+@cache
+def ground_truth() -> dict:
+    return json.loads((ROOM / "ground_truth.json").read_text())
+
+
+def true_model() -> Model:
+    gt = ground_truth()
+    markers = {k: np.asarray(v, float) for k, v in gt["markers"].items()}
+    return model_from_dict(gt["model"]["nodes"], markers)
+
+
+def true_cameras() -> list[PhotoCamera]:
+    gt = ground_truth()
+    return [PhotoCamera(pid, np.asarray(p["K"], float), np.asarray(p["R"], float), np.asarray(p["C"], float),
+                        int(p["width"]), int(p["height"])) for pid, p in gt["photos"].items()]
+
+
+def photo_path(photo_id: str) -> Path:
+    return ROOM / "photos" / f"{photo_id}.jpg"
+
+
+#: Samples per texel side when averaging the true texture over a texel's area.
+TRUTH_SUPERSAMPLE = 4
+
+
+def truth_texels(mesh, geometry: dict, faces) -> tuple[np.ndarray, np.ndarray]:
+    """The true linear colour (before exposure) of every texel of one page, averaged over the
+    texel's square (TRUTH_SUPERSAMPLE² samples): the ideal texel at this density. Also the mask of
+    texels that lie on a quad of the generator's scene (every model face does, except hidden ones).
+
+    ``geometry`` is an extractor's ``geometry(page)`` (position, face, normal per texel); the
+    texel's steps along atlas x and y come from its face's rectangle.
+    """
+    gen = generator()
+    scene = gen.build_scene()
+    X = geometry["position"].astype(float)
+    F = geometry["face"]
+    N = geometry["normal"].astype(float)
+    h, w = F.shape
+    e_u = np.zeros((h, w, 3))
+    e_v = np.zeros((h, w, 3))
+    for f in faces:  # flat faces: one step per face, from its chart's corners
+        x0, y0, fw, fh = f.rect
+        P = X[y0:y0 + fh, x0:x0 + fw]
+        on = F[y0:y0 + fh, x0:x0 + fw] == f.id
+        if on.sum() < 4 or fw < 2 or fh < 2:
+            continue
+        du = (P[:, 1:] - P[:, :-1])[on[:, 1:] & on[:, :-1]]
+        dv = (P[1:] - P[:-1])[on[1:] & on[:-1]]
+        if len(du) and len(dv):
+            e_u[y0:y0 + fh, x0:x0 + fw] = np.median(du, axis=0)
+            e_v[y0:y0 + fh, x0:x0 + fw] = np.median(dv, axis=0)
+    flat = (F > 0).ravel()
+    Xf, Nf, eu, ev = X.reshape(-1, 3)[flat], N.reshape(-1, 3)[flat], e_u.reshape(-1, 3)[flat], e_v.reshape(-1, 3)[flat]
+    quad = np.full(len(Xf), -1)
+    for qi, q in enumerate(scene["quads"]):
+        rel = Xf - q["corner"]
+        a = rel @ q["edge1"] / (q["edge1"] @ q["edge1"])
+        b = rel @ q["edge2"] / (q["edge2"] @ q["edge2"])
+        on = (np.abs(rel @ q["normal"]) < 2e-3) & (Nf @ q["normal"] > 0.99)
+        on &= (a >= -1e-3) & (a <= 1 + 1e-3) & (b >= -1e-3) & (b <= 1 + 1e-3)
+        quad[on & (quad < 0)] = qi
+    ok = quad >= 0
+    colour = np.zeros((len(Xf), 3))
+    offs = (np.arange(TRUTH_SUPERSAMPLE) + 0.5) / TRUTH_SUPERSAMPLE - 0.5
+    for du in offs:
+        for dv in offs:
+            colour[ok] += gen.shade_hits(scene, quad[ok], Xf[ok] + du * eu[ok] + dv * ev[ok])
+    colour /= TRUTH_SUPERSAMPLE**2
+    out = np.zeros((h * w, 3))
+    mask = np.zeros(h * w, bool)
+    out[flat], mask[flat] = colour, ok
+    return out.reshape(h, w, 3), mask.reshape(h, w)
+
+
+def psnr(a: np.ndarray, b: np.ndarray) -> float:
+    """Peak signal-to-noise ratio of two 8-bit colour arrays (n, 3), in dB."""
+    mse = np.mean((a.astype(float) - b.astype(float)) ** 2)
+    return float(10 * np.log10(255.0**2 / mse))

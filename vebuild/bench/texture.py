@@ -1,0 +1,267 @@
+"""``vebuild bench texture``: speed, memory and quality of texture extraction (paper §4).
+
+Speed: 12-megapixel JPEG photos (the example room's five photos enlarged 2.5× with mild sensor
+noise, JPEG quality 92, each used four times for 20 photos) of the example room's true model with
+nine more boxes (109 faces). Per photo: read + hash, decode, upload, pyramid, ID pass, texel pass
+(including the exposure statistics), and the merge (once, divided by the number of photos). The
+references, in the same process: decoding the same JPEG alone (the floor: a photo must be decoded
+once) and the numpy CPU reference of passes 1–2 (:mod:`vebuild.texture.reference`) on the same
+photos.
+
+Memory: peak resident memory of the process during an extraction (Linux VmHWM, reset before each
+run) for 5 and 20 photos, and for 20 photos at twice the density (four times the texels).
+
+Quality: on the example room at its true geometry and cameras, the PSNR of the extracted textures
+against the true textures (averaged over each texel's square) over texels some photo saw, with
+every improvement on, and with each switched off in turn; also from the solved model and cameras
+(``vebuild calibrate`` + ``solve --recalibrate`` on the noisy marks).
+"""
+
+from __future__ import annotations
+
+import io
+import shutil
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from PIL import Image
+from tqdm import tqdm
+
+from ..gl.context import headless_context, renderer_name
+from ..model.scene import Model, model_from_dict
+from ..project import sha256_file
+from ..texture import layout as lay
+from ..texture.extract import PhotoSource, extract
+from ..texture.gpu import Extractor, Options, PhotoCamera, Timings
+from ..texture.merge import COVERAGE_UNSEEN, linear_to_srgb8
+from . import example_truth as truth
+
+GOALS = {"total_over_decode": 2.0, "speedup_over_cpu_reference": 10.0, "psnr_db": 30.0}
+SCALE = 2.5  # 1600×1200 → 4000×3000 = 12 megapixels
+NOISE_SIGMA = 2.0  # 8-bit levels of added sensor noise, so that the JPEGs are not unnaturally smooth
+EXTRA_BOXES = 9
+STAGES = ("read", "hash", "decode", "upload", "pyramid", "id_pass", "texel_pass")
+
+
+def bench_model(extra_boxes: int = EXTRA_BOXES) -> Model:
+    """The true room model plus small boxes on the floor (6 faces each)."""
+    gt = truth.ground_truth()
+    nodes = list(gt["model"]["nodes"])
+    rng = np.random.default_rng(7)
+    for k in range(extra_boxes):
+        nodes.append({"name": f"extra{k}", "parent": "floor",
+                      "primitive": {"type": "box", "params": {"width": 0.2, "depth": 0.15, "height": 0.1}},
+                      "joint": {"type": "rests_on", "face": "top",
+                                "position": [float(rng.uniform(-2.2, 2.2)), float(rng.uniform(-1.8, 1.8))],
+                                "yaw_deg": float(rng.uniform(0, 90))}})
+    markers = {k: np.asarray(v, float) for k, v in gt["markers"].items()}
+    return model_from_dict(nodes, markers)
+
+
+def make_photos(folder: Path, scale: float, n_photos: int) -> tuple[list[PhotoCamera], dict[str, PhotoSource]]:
+    """Enlarged example photos as JPEGs in ``folder``, with their cameras."""
+    rng = np.random.default_rng(11)
+    base = truth.true_cameras()
+    cams, sources, hashes = [], {}, {}
+    for cam in base:
+        img = Image.open(truth.photo_path(cam.id)).convert("RGB")
+        w, h = round(cam.width * scale), round(cam.height * scale)
+        big = np.asarray(img.resize((w, h), Image.Resampling.BICUBIC), np.float32)
+        big = np.clip(big + rng.normal(0, NOISE_SIGMA, big.shape), 0, 255).astype(np.uint8)
+        Image.fromarray(big).save(folder / f"{cam.id}.jpg", quality=92)
+        hashes[cam.id] = sha256_file(folder / f"{cam.id}.jpg")
+    for k in range(n_photos):
+        cam = base[k % len(base)]
+        s = cam.scaled(scale)
+        pid = f"{cam.id}_{k}"
+        cams.append(PhotoCamera(pid, s.K, s.R, s.C, s.width, s.height))
+        sources[pid] = PhotoSource(pid, folder / f"{cam.id}.jpg", hashes[cam.id])
+    return cams, sources
+
+
+def _reset_peak() -> bool:
+    try:
+        Path("/proc/self/clear_refs").write_text("5")
+        return True
+    except OSError:
+        return False
+
+
+def _peak_mb() -> float:
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1]) / 1024.0
+    return float("nan")
+
+
+def speed(n_photos: int, progress: bool) -> dict[str, Any]:
+    model = bench_model()
+    fig: dict[str, Any] = {"photos": n_photos, "photo_megapixels": 0.0}
+    with tempfile.TemporaryDirectory(prefix="vebuild-bench-texture-") as tmp:
+        cams, sources = make_photos(Path(tmp), SCALE, n_photos)
+        fig["photo_megapixels"] = cams[0].width * cams[0].height / 1e6
+        fig["jpeg_mb_mean"] = float(np.mean([p.stat().st_size for p in Path(tmp).glob("*.jpg")]) / 1e6)
+        opts = Options()
+        # Warm up: compile the shaders, make the context.
+        extract(model, cams[:1], sources, opts)
+        bar = tqdm(total=n_photos, desc="bench texture: GPU", unit="photo", disable=not progress)
+        timings = Timings()
+        t0 = time.perf_counter()
+        res = extract(model, cams, sources, opts, progress=lambda k, n, _: bar.update(k - bar.n), timings=timings)
+        total = time.perf_counter() - t0
+        bar.close()
+        fig["faces"] = len(res.faces)
+        fig["atlas_texels_millions"] = sum(a.shape[0] * a.shape[1] for a in res.atlases) / 1e6
+        for st in (*STAGES, "best_weight", "merge"):
+            fig[f"{st}_ms_per_photo"] = 1e3 * timings.seconds.get(st, 0.0) / n_photos
+        fig["total_ms_per_photo"] = 1e3 * total / n_photos
+        # The floor: the same JPEGs decoded alone, the way vebuild decodes them.
+        dec = []
+        for cam in cams:
+            data = sources[cam.id].path.read_bytes()
+            t = time.perf_counter()
+            with Image.open(io.BytesIO(data)) as img:
+                np.asarray(img.convert("RGB") if img.mode != "RGB" else img)
+            dec.append(time.perf_counter() - t)
+        fig["jpeg_decode_alone_ms"] = 1e3 * float(np.median(dec))
+        fig["total_over_decode"] = fig["total_ms_per_photo"] / fig["jpeg_decode_alone_ms"]
+        # The CPU reference on the first photos (it is slow: a few suffice for a per-photo time).
+        from ..texture import reference
+
+        n_ref = 1 if n_photos <= 5 else 2
+        faces = res.faces
+        mesh = lay.scene_mesh(model, faces)
+        pix = [np.asarray(Image.open(sources[c.id].path).convert("RGB")) for c in cams[:n_ref]]
+        t = time.perf_counter()
+        reference.accumulate(mesh, cams[:n_ref], iter(pix), opts, gains=None)
+        fig["cpu_reference_ms_per_photo"] = 1e3 * (time.perf_counter() - t) / n_ref
+        gpu_work = sum(timings.seconds.get(s, 0.0) for s in ("upload", "pyramid", "id_pass", "texel_pass",
+                                                              "best_weight", "merge")) / n_photos
+        fig["gpu_passes_ms_per_photo"] = 1e3 * gpu_work
+        fig["speedup_over_cpu_reference"] = fig["cpu_reference_ms_per_photo"] / fig["gpu_passes_ms_per_photo"]
+    return fig
+
+
+def memory(progress: bool, quick: bool) -> dict[str, Any]:
+    model = bench_model()
+    fig: dict[str, Any] = {}
+    if not _reset_peak():
+        return {"peak_memory_note": "peak memory needs Linux /proc/self/clear_refs"}
+    with tempfile.TemporaryDirectory(prefix="vebuild-bench-texture-") as tmp:
+        scale = 1.0 if quick else SCALE
+        cams, sources = make_photos(Path(tmp), scale, 20)
+        runs = (("5_photos", 5, 200.0), ("20_photos", 20, 200.0), ("20_photos_4x_texels", 20, 400.0))
+        for label, n, density in tqdm(runs, desc="bench texture: memory", unit="run", disable=not progress):
+            _reset_peak()
+            before = _peak_mb()
+            extract(model, cams[:n], sources, Options(texels_per_metre=density))
+            fig[f"peak_rss_mb_{label}"] = _peak_mb()
+            fig[f"baseline_rss_mb_{label}"] = before
+        fig["memory_photos_scale"] = scale
+    return fig
+
+
+def quality(progress: bool, quick: bool) -> dict[str, Any]:
+    model, cams = truth.true_model(), truth.true_cameras()
+    sources = {c.id: PhotoSource(c.id, truth.photo_path(c.id)) for c in cams}
+    exposures = truth.ground_truth()["photos"]
+    variants = {"all": {}, "no_exposure": {"exposure": False}, "no_detail": {"detail_sharpness": 1.0},
+                "no_drop": {"drop_ratio": 0.0}, "no_erode": {"erode_px": 0.0},
+                "paper": {"exposure": False, "detail_sharpness": 1.0, "drop_ratio": 0.0, "erode_px": 0.0}}
+    if quick:
+        variants = {k: variants[k] for k in ("all", "paper")}
+    fig: dict[str, Any] = {}
+    truth_cache: dict[str, Any] = {}
+    for name, kw in tqdm(variants.items(), desc="bench texture: quality", unit="variant", disable=not progress):
+        fig.update({f"{k}_{name}": v for k, v in _psnr(model, cams, sources, Options(**kw), exposures,
+                                                       truth_cache).items()})
+    # The whole pipeline: calibrated and solved from the noisy marks.
+    solved_model, solved_cams, solved_sources = _solved_example()
+    if solved_model is not None:
+        fig.update({f"{k}_solved": v for k, v in _psnr(solved_model, solved_cams, solved_sources, Options(),
+                                                       exposures, {}).items()})
+    return fig
+
+
+def _psnr(model, cams, sources, opts, exposures, cache) -> dict[str, float]:
+    res = extract(model, cams, sources, opts)
+    if "truth" not in cache:
+        mesh = lay.scene_mesh(model, res.faces)
+        ex = Extractor(headless_context(), mesh, opts)
+        try:
+            pages = [(ex.geometry(p), p) for p in range(len(mesh.pages))]
+        finally:
+            ex.release()
+        cache["truth"] = [truth.truth_texels(mesh, g, [f for f in res.faces if f.page == p]) for g, p in pages]
+    G = float(np.exp(np.mean(np.log([exposures[c]["exposure"] for c in res.order]))))
+    got, want = [], []
+    for p, (colour, on_quad) in enumerate(cache["truth"]):
+        cov = res.coverage[p]
+        seen = on_quad & (cov[..., 3] > 0) & ~np.all(cov == COVERAGE_UNSEEN, axis=-1)
+        got.append(res.atlases[p][seen])
+        want.append(linear_to_srgb8(colour * G)[seen])
+    got_a, want_a = np.concatenate(got), np.concatenate(want)
+    on_face = sum(int((c[..., 3] > 0).sum()) for c in res.coverage)
+    return {"psnr_db": truth.psnr(got_a, want_a), "seen_texel_share": len(got_a) / max(1, on_face)}
+
+
+def _solved_example() -> tuple[Model | None, list[PhotoCamera], dict[str, PhotoSource]]:
+    from ..actions.calibrate import calibrate_project
+    from ..actions.solve import cameras_from_calibration, load_model, solve_project
+    from ..project import load_project
+
+    tmp = Path(tempfile.mkdtemp(prefix="vebuild-bench-texture-"))
+    try:
+        shutil.copytree(truth.ROOM, tmp / "room")
+        project = load_project(next((tmp / "room").glob("*.vebuild.json")))
+        calibrate_project(project)
+        solve_project(project, recalibrate=True)
+        model, _, _ = load_model(project)
+        cams = []
+        for pid, c in cameras_from_calibration(project).items():
+            p = project.photo(pid)
+            cams.append(PhotoCamera(pid, c.K, c.R, c.C, p["width"], p["height"]))
+        sources = {c.id: PhotoSource(c.id, truth.photo_path(c.id)) for c in cams}
+        # The solved model's faces match the true model's one for one (same nodes, same order).
+        return model, cams, sources
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def run(quick: bool = False, progress: bool = True) -> dict[str, Any]:
+    fig: dict[str, Any] = {"renderer": renderer_name(headless_context())}
+    fig.update(speed(5 if quick else 20, progress))
+    fig.update(memory(progress, quick))
+    fig.update(quality(progress, quick))
+    fig["goals_met"] = bool(fig["total_over_decode"] <= GOALS["total_over_decode"]
+                            and fig["speedup_over_cpu_reference"] >= GOALS["speedup_over_cpu_reference"]
+                            and fig["psnr_db_all"] >= GOALS["psnr_db"])
+    return fig
+
+
+def table(fig: dict[str, Any]) -> str:
+    lines = [f"texture benchmark on {fig['renderer']}", "",
+             f"{fig['photos']} photos of {fig['photo_megapixels']:.1f} MP (JPEG {fig['jpeg_mb_mean']:.1f} MB), "
+             f"{fig['faces']} faces, atlas {fig['atlas_texels_millions']:.2f} M texels", "",
+             f"{'per photo (ms)':<34}{'time':>10}"]
+    for st in (*STAGES, "best_weight", "merge"):
+        lines.append(f"{'  ' + st.replace('_', ' '):<34}{fig[f'{st}_ms_per_photo']:>10.1f}")
+    lines += [f"{'  total':<34}{fig['total_ms_per_photo']:>10.1f}",
+              f"{'JPEG decode alone (reference)':<34}{fig['jpeg_decode_alone_ms']:>10.1f}",
+              f"{'total / decode alone':<34}{fig['total_over_decode']:>10.2f}   (goal ≤ 2)",
+              f"{'GPU passes per photo':<34}{fig['gpu_passes_ms_per_photo']:>10.1f}",
+              f"{'CPU reference per photo':<34}{fig['cpu_reference_ms_per_photo']:>10.1f}",
+              f"{'speed-up over the CPU reference':<34}{fig['speedup_over_cpu_reference']:>10.1f}   (goal ≥ 10)", ""]
+    if "peak_rss_mb_5_photos" in fig:
+        lines += [f"peak memory (MB, photos at scale {fig['memory_photos_scale']}): 5 photos "
+                  f"{fig['peak_rss_mb_5_photos']:.0f}, 20 photos {fig['peak_rss_mb_20_photos']:.0f}, "
+                  f"20 photos with 4× the texels {fig['peak_rss_mb_20_photos_4x_texels']:.0f}", ""]
+    lines.append(f"{'quality on the example room':<34}{'PSNR (dB)':>10}{'seen':>8}")
+    for k in sorted(k[len('psnr_db_'):] for k in fig if k.startswith("psnr_db_")):
+        lines.append(f"{'  ' + k.replace('_', ' '):<34}{fig[f'psnr_db_{k}']:>10.2f}{100 * fig[f'seen_texel_share_{k}']:>7.1f}%")
+    lines.append(f"goals (total ≤ 2× decode, ≥ 10× the CPU reference, PSNR ≥ 30 dB): "
+                 f"{'met' if fig['goals_met'] else 'NOT met'}")
+    return "\n".join(lines)
