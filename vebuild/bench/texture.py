@@ -261,7 +261,8 @@ def table(fig: dict[str, Any]) -> str:
                   f"20 photos with 4× the texels {fig['peak_rss_mb_20_photos_4x_texels']:.0f}", ""]
     lines.append(f"{'quality on the example room':<34}{'PSNR (dB)':>10}{'seen':>8}")
     for k in sorted(k[len('psnr_db_'):] for k in fig if k.startswith("psnr_db_")):
-        lines.append(f"{'  ' + k.replace('_', ' '):<34}{fig[f'psnr_db_{k}']:>10.2f}{100 * fig[f'seen_texel_share_{k}']:>7.1f}%")
+        share = 100 * fig[f"seen_texel_share_{k}"]
+        lines.append(f"{'  ' + k.replace('_', ' '):<34}{fig[f'psnr_db_{k}']:>10.2f}{share:>7.1f}%")
     lines.append(f"goals (total ≤ 2× decode, ≥ 10× the CPU reference, PSNR ≥ 30 dB): "
                  f"{'met' if fig['goals_met'] else 'NOT met'}")
     return "\n".join(lines)

@@ -65,9 +65,9 @@ def _upsample(img: NDArray[np.float32], shape: tuple[int, int]) -> NDArray[np.fl
         pad = [(0, 0)] * img.ndim
         pad[axis] = (1, 1)
         p = np.pad(img, pad, mode="edge")
-        take = lambda a, b: np.take(p, np.arange(a, a + n), axis=axis)  # noqa: E731
-        even = 0.75 * take(1, n) + 0.25 * take(0, n)
-        odd = 0.75 * take(1, n) + 0.25 * take(2, n)
+        prev, mid, nxt = (np.take(p, np.arange(k, k + n), axis=axis) for k in range(3))
+        even = 0.75 * mid + 0.25 * prev
+        odd = 0.75 * mid + 0.25 * nxt
         img = np.stack([even, odd], axis=axis + 1).reshape(img.shape[:axis] + (2 * n,) + img.shape[axis + 1:])
     return img[: shape[0], : shape[1]]
 
