@@ -7,6 +7,8 @@
 // MODE 1 one view: 0 = (c, w), 1 = (l, face id where seen, else 0), 2 = accumulated low band so far (rgb, seen before)
 // MODE 2 best weight (max blending): 0 = w
 // MODE 3 geometry: 0 = (position, face), 1 = (normal, 1)
+// A texel the photo does not see is discarded: it adds nothing, and occlusion queries count the
+// seen texels of each face.
 #define MAX_LEVELS 16
 uniform mat3 K;
 uniform mat3 R;
@@ -70,15 +72,15 @@ void main() {
     return;
 #else
     vec3 x = R * (v_position - C);
-    if (x.z <= 0.0) return;
+    if (x.z <= 0.0) discard;
     vec3 to_camera = C - v_position;
     float cos_theta = dot(normalize(v_normal), to_camera) / length(to_camera);
-    if (cos_theta <= 0.0) return;
+    if (cos_theta <= 0.0) discard;
     vec3 h = K * x;
     vec2 p = h.xy / h.z;
-    if (any(lessThan(p, vec2(0.0))) || any(greaterThanEqual(p, image_size))) return;
+    if (any(lessThan(p, vec2(0.0))) || any(greaterThanEqual(p, image_size))) discard;
     vec2 id_z = texelFetch(id_depth, ivec2(floor(p)), 0).rg;
-    if (id_z.r != v_face || x.z > (1.0 + depth_tolerance) * id_z.g) return;
+    if (id_z.r != v_face || x.z > (1.0 + depth_tolerance) * id_z.g) discard;
     // The Jacobian of the projection: pixels per metre along the texel's steps e_u, e_v.
     mat3 Kc = K;
     vec3 ju = vec3(Kc[0][0], Kc[1][0], Kc[2][0]);  // first row of K
@@ -86,7 +88,7 @@ void main() {
     vec3 du = R * v_eu, dv = R * v_ev;
     vec2 a = (vec2(dot(ju, du), dot(jv, du)) - p * du.z) / x.z;
     vec2 b = (vec2(dot(ju, dv), dot(jv, dv)) - p * dv.z) / x.z;
-    if (!(same_face(p + a + b) && same_face(p + a - b) && same_face(p - a + b) && same_face(p - a - b))) return;
+    if (!(same_face(p + a + b) && same_face(p + a - b) && same_face(p - a + b) && same_face(p - a - b))) discard;
     float w = sqrt(abs(a.x * b.y - a.y * b.x)) * cos_theta * weight_scale;
 #if MODE == 2
     out0 = vec4(w, 0.0, 0.0, 0.0);

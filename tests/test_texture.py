@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from PIL import Image
-from texture_scene import generator, ground_truth, photo_path, psnr, true_cameras, true_model, truth_texels
+from texture_scene import generator, ground_truth, photo_path, texture_psnr, true_cameras, true_model
 
 from vebuild.camera import gl_projection, project, rotation_from_ypr, view_matrix
 from vebuild.cli import main
@@ -24,7 +24,7 @@ from vebuild.project import sha256_file
 from vebuild.texture import layout as lay
 from vebuild.texture.extract import PhotoSource, extract, read_photo
 from vebuild.texture.gpu import Extractor, Options, PhotoCamera
-from vebuild.texture.merge import COVERAGE_UNSEEN, linear_to_srgb8, push_pull, srgb8_to_linear
+from vebuild.texture.merge import COVERAGE_UNSEEN, push_pull, srgb8_to_linear
 
 #: The issue's goal for extracted vs true textures over texels some photo saw (measured: 35.7 dB
 #: with every improvement on, 34.0 dB as in the paper; bench texture has the figures).
@@ -37,22 +37,7 @@ def _sources(cams):
 
 
 def _psnr_of(res, model) -> float:
-    exposures = ground_truth()["photos"]
-    G = float(np.exp(np.mean(np.log([exposures[c]["exposure"] for c in res.order]))))
-    mesh = lay.scene_mesh(model, res.faces)
-    ex = Extractor(headless_context(), mesh, Options())
-    try:
-        geo = [ex.geometry(p) for p in range(len(mesh.pages))]
-    finally:
-        ex.release()
-    got, want = [], []
-    for p, g in enumerate(geo):
-        colour, on_quad = truth_texels(mesh, g, [f for f in res.faces if f.page == p])
-        cov = res.coverage[p]
-        seen = on_quad & (cov[..., 3] > 0) & ~np.all(cov == COVERAGE_UNSEEN, axis=-1)
-        got.append(res.atlases[p][seen])
-        want.append(linear_to_srgb8(colour * G)[seen])
-    return psnr(np.concatenate(got), np.concatenate(want))
+    return texture_psnr(model, res, {p: v["exposure"] for p, v in ground_truth()["photos"].items()})
 
 
 @pytest.fixture(scope="module")

@@ -6,6 +6,7 @@ from vebuild.bench.example_truth import (  # noqa: F401
     ground_truth,
     photo_path,
     psnr,
+    texture_psnr,
     true_cameras,
     true_model,
     truth_texels,

@@ -1,5 +1,6 @@
 """``vebuild demo``: the whole pipeline on the bundled example room, checked against its truth:
-calibration (paper §2), then the model solved with re-calibration (§3.1–3.2).
+calibration (paper §2), then the model solved with re-calibration (§3.1–3.2), then its textures
+extracted from the photos (§4).
 
 The example (scenes/room) was rendered from a known scene by a generator independent of vebuild,
 with the marks a careful user would make (0.7 px noise). The demo copies it to a folder of the
@@ -18,10 +19,11 @@ from tqdm import tqdm
 from ..camera import log_so3
 from ..errors import VebuildError
 from ..project import load_project, save_project
-from ..report_text import calibration_table, model_table
+from ..report_text import calibration_table, model_table, texture_table
 from ..resources import example_project_dir
 from .calibrate import calibrate_project
 from .solve import solve_project
+from .texture import texture_project
 
 PROJECT_NAME = "room.vebuild.json"
 
@@ -74,8 +76,44 @@ def run_demo(out: Path, progress: bool = True) -> int:
     if truth and "model" in truth:
         print()
         print(model_comparison(model, truth))
-    print(f"\nresults written to {project_file}")
+    print("\n" + "-" * 80 + "\ntexturing: ID buffers and texel projection on the GPU, weighted merge\n")
+    bar = tqdm(total=None, desc="texturing", unit="photo", disable=not progress)
+
+    def step(done: int, total: int, _: str) -> None:
+        bar.total, bar.n = total, done
+        bar.refresh()
+
+    try:
+        record, textures = texture_project(project, progress=step)
+    finally:
+        bar.close()
+    save_project(project)
+    print(texture_table(record))
+    if truth:
+        print()
+        print(texture_comparison(project, textures, truth))
+    print(f"\nresults written to {project_file}; textures in {out / 'textures'}")
     return 0
+
+
+def texture_comparison(project, textures, truth: dict) -> str:
+    """Gains against the photos' true exposures; PSNR of the textures against the true ones."""
+    from ..bench.example_truth import texture_psnr
+
+    first = truth["photos"][textures.order[0]]["exposure"]
+    lines = ["comparison with the ground truth:",
+             "  exposure gain (relative to " + textures.order[0] + "): " + ", ".join(
+                 f"{pid} {g[0]:.3f} (true {truth['photos'][pid]['exposure'] / first:.3f})"
+                 for pid, g in textures.gains.items())]
+    try:
+        from .solve import load_model
+
+        model, _, _ = load_model(project)
+        value = texture_psnr(model, textures, {p: v["exposure"] for p, v in truth["photos"].items()})
+        lines.append(f"  PSNR of the textures against the true textures, over texels a photo saw: {value:.1f} dB")
+    except FileNotFoundError:  # the scene generator is not installed alongside: no true textures
+        pass
+    return "\n".join(lines)
 
 
 def model_comparison(result: dict, truth: dict) -> str:

@@ -112,3 +112,29 @@ def psnr(a: np.ndarray, b: np.ndarray) -> float:
     """Peak signal-to-noise ratio of two 8-bit colour arrays (n, 3), in dB."""
     mse = np.mean((a.astype(float) - b.astype(float)) ** 2)
     return float(10 * np.log10(255.0**2 / mse))
+
+
+def texture_psnr(model: Model, result, exposures: dict[str, float]) -> float:
+    """PSNR (dB) of an extraction's atlases against the true textures over the texels some photo
+    saw, the truth scaled to the photos' geometric-mean exposure (the level the merge normalises
+    to; absolute exposure is not observable from the photos)."""
+    from vebuild.gl import headless_context
+    from vebuild.texture import layout as lay
+    from vebuild.texture.gpu import Extractor, Options
+    from vebuild.texture.merge import COVERAGE_UNSEEN, linear_to_srgb8
+
+    G = float(np.exp(np.mean(np.log([exposures[c] for c in result.order]))))
+    mesh = lay.scene_mesh(model, result.faces)
+    ex = Extractor(headless_context(), mesh, Options())
+    try:
+        geo = [ex.geometry(p) for p in range(len(mesh.pages))]
+    finally:
+        ex.release()
+    got, want = [], []
+    for p, g in enumerate(geo):
+        colour, on_quad = truth_texels(mesh, g, [f for f in result.faces if f.page == p])
+        cov = result.coverage[p]
+        seen = on_quad & (cov[..., 3] > 0) & ~np.all(cov == COVERAGE_UNSEEN, axis=-1)
+        got.append(result.atlases[p][seen])
+        want.append(linear_to_srgb8(colour * G)[seen])
+    return psnr(np.concatenate(got), np.concatenate(want))

@@ -35,8 +35,8 @@ from ..model.scene import Model, model_from_dict
 from ..project import sha256_file
 from ..texture import layout as lay
 from ..texture.extract import PhotoSource, extract
-from ..texture.gpu import Extractor, Options, PhotoCamera, Timings
-from ..texture.merge import COVERAGE_UNSEEN, linear_to_srgb8
+from ..texture.gpu import Options, PhotoCamera, Timings
+from ..texture.merge import COVERAGE_UNSEEN
 from . import example_truth as truth
 
 GOALS = {"total_over_decode": 2.0, "speedup_over_cpu_reference": 10.0, "psnr_db": 30.0}
@@ -174,38 +174,22 @@ def quality(progress: bool, quick: bool) -> dict[str, Any]:
     if quick:
         variants = {k: variants[k] for k in ("all", "paper")}
     fig: dict[str, Any] = {}
-    truth_cache: dict[str, Any] = {}
     for name, kw in tqdm(variants.items(), desc="bench texture: quality", unit="variant", disable=not progress):
-        fig.update({f"{k}_{name}": v for k, v in _psnr(model, cams, sources, Options(**kw), exposures,
-                                                       truth_cache).items()})
+        fig.update({f"{k}_{name}": v for k, v in _psnr(model, cams, sources, Options(**kw), exposures).items()})
     # The whole pipeline: calibrated and solved from the noisy marks.
     solved_model, solved_cams, solved_sources = _solved_example()
     if solved_model is not None:
         fig.update({f"{k}_solved": v for k, v in _psnr(solved_model, solved_cams, solved_sources, Options(),
-                                                       exposures, {}).items()})
+                                                       exposures).items()})
     return fig
 
 
-def _psnr(model, cams, sources, opts, exposures, cache) -> dict[str, float]:
+def _psnr(model, cams, sources, opts, exposures) -> dict[str, float]:
     res = extract(model, cams, sources, opts)
-    if "truth" not in cache:
-        mesh = lay.scene_mesh(model, res.faces)
-        ex = Extractor(headless_context(), mesh, opts)
-        try:
-            pages = [(ex.geometry(p), p) for p in range(len(mesh.pages))]
-        finally:
-            ex.release()
-        cache["truth"] = [truth.truth_texels(mesh, g, [f for f in res.faces if f.page == p]) for g, p in pages]
-    G = float(np.exp(np.mean(np.log([exposures[c]["exposure"] for c in res.order]))))
-    got, want = [], []
-    for p, (colour, on_quad) in enumerate(cache["truth"]):
-        cov = res.coverage[p]
-        seen = on_quad & (cov[..., 3] > 0) & ~np.all(cov == COVERAGE_UNSEEN, axis=-1)
-        got.append(res.atlases[p][seen])
-        want.append(linear_to_srgb8(colour * G)[seen])
-    got_a, want_a = np.concatenate(got), np.concatenate(want)
+    value = truth.texture_psnr(model, res, {p: v["exposure"] for p, v in exposures.items()})
+    seen = sum(int((c[..., 3] > 0).sum() - np.all(c == COVERAGE_UNSEEN, axis=-1).sum()) for c in res.coverage)
     on_face = sum(int((c[..., 3] > 0).sum()) for c in res.coverage)
-    return {"psnr_db": truth.psnr(got_a, want_a), "seen_texel_share": len(got_a) / max(1, on_face)}
+    return {"psnr_db": value, "seen_texel_share": seen / max(1, on_face)}
 
 
 def _solved_example() -> tuple[Model | None, list[PhotoCamera], dict[str, PhotoSource]]:
