@@ -125,16 +125,15 @@ def extract(model: Model, cameras: Sequence[PhotoCamera], sources: dict[str, Pho
         order = photo_order(ex, cameras)
         if options.drop_ratio > 0:
             ex.best_weights(list(order))
-        contributions: dict[str, dict[int, int]] = {}
         for k, cam in enumerate(order):
             if progress:
                 progress(k, len(order), cam.id)
             pixels = read_photo(sources[cam.id], cam, timings)
             ex.add_photo(cam, pixels)
             del pixels  # one decoded photo at a time
-            contributions[cam.id] = ex.last_contributions
         if progress:
             progress(len(order), len(order), "")
+        contributions = ex.contributions()
         with timings.stage("merge", ctx if profile else None):
             gains = dict(ex.gains)
             scale = float(np.exp(np.mean([np.log(g).mean() for g in gains.values()]))) if gains else 1.0

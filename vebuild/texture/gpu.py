@@ -153,8 +153,9 @@ class Extractor:
         self._pyramid: tuple[moderngl.Texture, moderngl.Texture, list[tuple[int, int, int]]] | None = None
         self._id_fbos: dict[tuple[int, int], tuple[moderngl.Framebuffer, moderngl.Texture]] = {}
         self.gains: dict[str, NDArray[np.float64]] = {}
-        self.last_contributions: dict[int, int] = {}
         self._queries: dict[int, moderngl.Query] = {}  # one per face, reused photo after photo
+        self._pending: tuple[str, dict[int, moderngl.Query]] | None = None
+        self._contributions: dict[str, dict[int, int]] = {}
         self.overlap: dict[str, int] = {}
 
     # -- set-up ------------------------------------------------------------------------------
@@ -401,6 +402,7 @@ class Extractor:
         if pixels.shape[:2] != (cam.height, cam.width):
             raise ValueError(f"photo {cam.id}: pixels are {pixels.shape[1]}×{pixels.shape[0]}, "
                              f"the camera is for {cam.width}×{cam.height}")
+        self._collect()
         self.upload(pixels)
         with self.timings.stage("id_pass", self.ctx if self._profile else None):
             id_tex = self.id_pass(cam, self.opt.erode_px)
@@ -423,14 +425,26 @@ class Extractor:
                     if self._face_page[fid] != k or fid not in self._face_range:
                         continue
                     first, count = self._face_range[fid]
-                    if fid not in self._queries:
+                    if fid not in self._queries:  # the last photo's were read at the start
                         self._queries[fid] = self.ctx.query(samples=True)
                     q = queries[fid] = self._queries[fid]
                     with q:
                         self._accumulate_vao.render(moderngl.TRIANGLES, vertices=count, first=first)
             self.ctx.disable(moderngl.BLEND)
-            #: Texels this photo gave each face (kept or dropped), counted by occlusion queries.
-            self.last_contributions = {fid: q.samples for fid, q in queries.items() if q.samples > 0}
+            # Read at the next photo (or by `contributions`): reading now would wait for the GPU
+            # instead of letting it finish this photo while the next one is decoded.
+            self._pending = (cam.id, queries)
+
+    def _collect(self) -> None:
+        if self._pending is not None:
+            pid, queries = self._pending
+            self._contributions[pid] = {fid: q.samples for fid, q in queries.items() if q.samples > 0}
+            self._pending = None
+
+    def contributions(self) -> dict[str, dict[int, int]]:
+        """Per photo, the texels it gave each face (kept or dropped), counted by occlusion queries."""
+        self._collect()
+        return dict(self._contributions)
 
     def _exposure_gain(self, cam: PhotoCamera, id_tex: moderngl.Texture, faces: set[int]) -> NDArray[np.float64]:
         """This photo's exposure relative to the sums so far: the median ratio of its low band to
