@@ -310,3 +310,14 @@ def test_vebuild_texture_rejects_bad_options(solved_room, capsys):
     _, proj = solved_room
     assert main(["texture", proj, "--quiet", "--density", "-5"]) == 2
     assert "texels_per_metre: expected a positive number" in capsys.readouterr().err
+
+
+def test_vebuild_texture_without_gl_names_what_to_install(solved_room, monkeypatch, capsys):
+    _, proj = solved_room
+    before = Path(proj).read_bytes()
+    monkeypatch.setattr(gl_context, "_context", None)
+    monkeypatch.setenv("VEBUILD_GL_BACKEND", "no-such-backend")
+    assert main(["texture", proj, "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "cannot create an OpenGL 3.3 context" in err and "libegl1" in err and "Traceback" not in err
+    assert Path(proj).read_bytes() == before
