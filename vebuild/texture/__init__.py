@@ -45,3 +45,13 @@ Merge (over photos)
 #: A texel may lie this much (relative) behind the depth in the ID buffer and still be seen: the
 #: buffer's depth is at the pixel centre, the texel up to half a pixel away on a sloping face.
 DEPTH_TOLERANCE = 0.02
+#: Pyramid levels at most.
+MAX_LEVELS = 16
+#: Scale of the pre-pass that finds each texel's best weight (its ID buffer is this much smaller).
+BEST_WEIGHT_SCALE = 0.5
+
+
+def pre_pass_erosion(erode_px: float) -> float:
+    """Erosion of the best-weight pre-pass: half the main pass's, at least 1 px (0: off)."""
+    return max(1.0, erode_px * BEST_WEIGHT_SCALE) if erode_px > 0 else 0.0
+

@@ -1,0 +1,576 @@
+"""The CPU reference of texture extraction: passes 1–2 and the per-texel sums, in numpy.
+
+The same definitions as the GPU path (:mod:`vebuild.texture.gpu`, ``shaders/id.*``,
+``shaders/pyramid.frag``, ``shaders/texel.frag``), stated once in :mod:`vebuild.texture`, computed
+here in float64 without OpenGL. It is the yardstick the GPU is tested against and the baseline the
+texture benchmark compares it with, so it is written to be right first and reasonably fast second:
+every pass is vectorised over pixels or texels and works in chunks of at most :data:`CHUNK`
+elements, and :func:`accumulate` holds one photo (its pyramid and ID buffer) at a time.
+
+Where the GPU path is an approximation of a definition, this module says which way it goes:
+
+* Rasterisation (ID buffer and atlas) samples at pixel centres and counts a centre lying exactly
+  on a triangle's edge as inside (GL's tie rule picks one of two triangles sharing the edge; the
+  two agree on the face there, so the choice only matters at rounding level).
+* Depth is compared exactly in float64 (GL compares a 24-bit window depth); among equal depths the
+  triangle drawn first wins, as with GL's ``<`` depth test.
+* Erosion is morphological (see :func:`rasterise_ids`) where the GPU draws every visible face
+  border and silhouette as a band ``erode_px`` wide either side, depth-tested against the faces.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Iterator, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vebuild.camera import world_to_camera
+from vebuild.texture import BEST_WEIGHT_SCALE, DEPTH_TOLERANCE, MAX_LEVELS, pre_pass_erosion
+from vebuild.texture.layout import SceneMesh
+
+if TYPE_CHECKING:  # gpu.py imports moderngl; the reference must run without it
+    from vebuild.texture.gpu import Options, PhotoCamera
+
+Array = NDArray[np.float64]
+
+#: Pixels, texels or samples processed at once: bounds the temporary arrays (a few hundred bytes
+#: each, so ~100 MB at most).
+CHUNK = 1 << 18
+#: A pixel centre this far (in barycentric units) outside a triangle still counts as inside, so
+#: that a centre on an edge shared by two triangles is never missed by both through rounding.
+EDGE_EPS = 1e-12
+
+
+# -- colour --------------------------------------------------------------------------------------
+
+
+def srgb_to_linear(c: Array) -> Array:
+    """IEC 61966-2-1 decoding of c ∈ [0, 1]."""
+    c = np.asarray(c, float)
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+_SRGB_LUT = srgb_to_linear(np.arange(256) / 255.0)
+
+
+def pyramid(pixels_uint8: NDArray[np.uint8]) -> list[Array]:
+    """The photo's box pyramid in linear light (float64, (h, w, channels) per level).
+
+    Level 0 is the photo decoded from 8-bit sRGB with the exact formula; level k + 1 is
+    ``ceil(W_k / 2) × ceil(H_k / 2)`` and its texel (i, j) is the mean of the level-k texels
+    {2i, min(2i + 1, W_k − 1)} × {2j, min(2j + 1, H_k − 1)}. Up to :data:`MAX_LEVELS` levels, or
+    until a level is 1 × 1.
+    """
+    px = np.asarray(pixels_uint8)
+    if px.dtype != np.uint8:
+        raise ValueError(f"expected uint8 pixels, got {px.dtype}")
+    if px.ndim == 2:
+        px = px[..., None]
+    levels = [_SRGB_LUT[px]]
+    while len(levels) < MAX_LEVELS and max(levels[-1].shape[:2]) > 1:
+        a = levels[-1]
+        h, w = a.shape[:2]
+        if w % 2:
+            a = np.concatenate([a, a[:, -1:]], axis=1)
+        if h % 2:
+            a = np.concatenate([a, a[-1:]], axis=0)
+        levels.append(0.25 * ((a[0::2, 0::2] + a[0::2, 1::2]) + (a[1::2, 0::2] + a[1::2, 1::2])))
+    return levels
+
+
+def _bilinear(level: Array, q: Array) -> Array:
+    """Bilinear sample of one level at q (n, 2) in its texel units: texel centres at half-integers,
+    q clamped to [0.5, size − 0.5] per axis (which is GL's clamp-to-edge)."""
+    h, w = level.shape[:2]
+    flat = level.reshape(h * w, -1)
+    x = np.clip(q[:, 0], 0.5, w - 0.5) - 0.5
+    y = np.clip(q[:, 1], 0.5, h - 0.5) - 0.5
+    i0 = np.floor(x).astype(np.intp)
+    j0 = np.floor(y).astype(np.intp)
+    fx = (x - i0)[:, None]
+    fy = (y - j0)[:, None]
+    i1 = np.minimum(i0 + 1, w - 1)
+    j1 = np.minimum(j0 + 1, h - 1)
+    top = flat[j0 * w + i0] * (1.0 - fx) + flat[j0 * w + i1] * fx
+    bottom = flat[j1 * w + i0] * (1.0 - fx) + flat[j1 * w + i1] * fx
+    return top * (1.0 - fy) + bottom * fy
+
+
+def trilinear(levels: Sequence[Array], p: Array, lod: Array) -> Array:
+    """Trilinear samples of a :func:`pyramid` at level-0 pixel positions p (..., 2) and levels of
+    detail lod (...): lod is clamped to [0, L − 1]; level k is sampled bilinearly at p / 2^k (see
+    :func:`_bilinear`); the result mixes levels floor(lod) and floor(lod) + 1 by lod's fraction."""
+    p = np.asarray(p, float)
+    lod = np.broadcast_to(np.asarray(lod, float), p.shape[:-1])
+    shape = p.shape[:-1]
+    p, lod = p.reshape(-1, 2), lod.reshape(-1)
+    channels = levels[0].shape[2] if levels[0].ndim == 3 else 1
+    out = np.zeros((len(p), channels))
+    lod = np.clip(lod, 0.0, float(len(levels) - 1))
+    k = np.floor(lod).astype(np.intp)
+    t = lod - k
+    for m, level in enumerate(levels):
+        lo = np.flatnonzero(k == m)
+        hi = np.flatnonzero((k + 1 == m) & (t > 0.0))
+        sel = np.concatenate([lo, hi])
+        if not len(sel):
+            continue
+        s = _bilinear(level, p[sel] / 2.0**m)
+        wt = np.concatenate([1.0 - t[lo], t[hi]])[:, None]
+        out[sel] += wt * s  # lo and hi are disjoint (k = m and k = m − 1)
+    return out.reshape(*shape, channels)
+
+
+# -- rasterisation ---------------------------------------------------------------------------------
+
+
+def _scan(uv: Array, width: int, height: int) -> Iterator[tuple[NDArray[np.intp], NDArray[np.intp], Array]]:
+    """The pixel centres (i + ½, j + ½) of a width × height grid covered by one triangle with
+    screen corners uv (3, 2), in chunks: (i, j, barycentric coordinates (n, 3)).
+
+    A scanline rasteriser: for each row, the span of x where all three barycentric coordinates are
+    ≥ 0 is solved for, widened by a pixel, and every centre in it tested exactly.
+    """
+    u, v = uv[:, 0], uv[:, 1]
+    den = (u[1] - u[0]) * (v[2] - v[0]) - (u[2] - u[0]) * (v[1] - v[0])
+    if not np.isfinite(den) or abs(den) < 1e-12:
+        return
+    # λ_k(x, y) = A_k x + B_k y + C_k, the barycentric coordinate of corner k.
+    A = np.array([v[1] - v[2], v[2] - v[0], v[0] - v[1]]) / den
+    B = np.array([u[2] - u[1], u[0] - u[2], u[1] - u[0]]) / den
+    C = np.array([u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]]) / den
+    j_lo = max(0, int(np.ceil(v.min() - 0.5)))
+    j_hi = min(height - 1, int(np.floor(v.max() - 0.5)))
+    if j_hi < j_lo or u.max() < 0.5 - 1 or u.min() > width + 1:
+        return
+    j = np.arange(j_lo, j_hi + 1)
+    y = j + 0.5
+    x_lo = np.full(len(j), -np.inf)
+    x_hi = np.full(len(j), np.inf)
+    empty = np.zeros(len(j), bool)
+    for k in range(3):
+        rest = B[k] * y + C[k]
+        if A[k] > 0:
+            x_lo = np.maximum(x_lo, -rest / A[k])
+        elif A[k] < 0:
+            x_hi = np.minimum(x_hi, -rest / A[k])
+        else:
+            empty |= rest < -EDGE_EPS
+    with np.errstate(invalid="ignore"):
+        i_lo = np.maximum(0, np.ceil(np.clip(x_lo, -2.0, width + 2.0) - 0.5) - 1).astype(np.intp)
+        i_hi = np.minimum(width - 1, np.floor(np.clip(x_hi, -2.0, width + 2.0) - 0.5) + 1).astype(np.intp)
+    n = np.where(empty, 0, np.maximum(0, i_hi - i_lo + 1))
+    keep = n > 0
+    j, i_lo, n = j[keep], i_lo[keep], n[keep]
+    if not len(j):
+        return
+    ends = np.cumsum(n)
+    start = 0
+    while start < len(j):
+        # rows [start, stop) with at most CHUNK candidates (at least one row)
+        base = ends[start - 1] if start else 0
+        stop = max(start + 1, int(np.searchsorted(ends, base + CHUNK, side="right")))
+        counts = n[start:stop]
+        rows = np.repeat(j[start:stop], counts)
+        offs = np.arange(int(counts.sum())) - np.repeat(np.cumsum(counts) - counts, counts)
+        cols = np.repeat(i_lo[start:stop], counts) + offs
+        x = cols + 0.5
+        yc = j[start:stop] + 0.5
+        inside = np.ones(len(cols), bool)
+        lam = []
+        for k in range(3):
+            lk = A[k] * x + np.repeat(B[k] * yc + C[k], counts)
+            inside &= lk >= -EDGE_EPS
+            lam.append(lk)
+        if inside.all():
+            yield cols, rows, np.column_stack(lam)
+        elif inside.any():
+            yield cols[inside], rows[inside], np.column_stack([lk[inside] for lk in lam])
+        start = stop
+
+
+def _near_plane(mesh: SceneMesh, cam: PhotoCamera) -> float:
+    """The near plane the GPU's ID pass uses (``Extractor._near_far``)."""
+    z = world_to_camera(cam.R, cam.C, mesh.vertices)[:, 2]
+    far = max(1.0, float(z.max()) * 1.5 + 1.0) if len(z) else 1.0
+    return max(1e-3, far * 1e-5)
+
+
+def _clip_near(X: Array, near: float) -> tuple[Array, NDArray[np.intp]]:
+    """Triangles in camera coordinates (m, 3, 3) clipped to z ≥ near: the pieces (k, 3, 3) and
+    the index of the triangle each came from, in draw order."""
+    inside = X[:, :, 2] >= near
+    n_in = inside.sum(axis=1)
+    pieces, origin = [X[n_in == 3]], [np.flatnonzero(n_in == 3)]
+
+    def cut(P: Array, Q: Array) -> Array:  # where segment P → Q meets z = near
+        t = (near - P[:, 2]) / (Q[:, 2] - P[:, 2])
+        return P + t[:, None] * (Q - P)
+
+    one = np.flatnonzero(n_in == 1)
+    if len(one):
+        k = np.argmax(inside[one], axis=1)  # the corner in front
+        Xi = X[one, k]
+        Xj = X[one, (k + 1) % 3]
+        Xk = X[one, (k + 2) % 3]
+        pieces.append(np.stack([Xi, cut(Xi, Xj), cut(Xi, Xk)], axis=1))
+        origin.append(one)
+    two = np.flatnonzero(n_in == 2)
+    if len(two):
+        k = np.argmin(inside[two], axis=1)  # the corner behind
+        Xi = X[two, k]
+        Xj = X[two, (k + 1) % 3]
+        Xk = X[two, (k + 2) % 3]
+        a, b = cut(Xj, Xi), cut(Xk, Xi)  # on edges i–j and k–i
+        pieces += [np.stack([a, Xj, Xk], axis=1), np.stack([a, Xk, b], axis=1)]
+        origin += [two, two]
+    P = np.concatenate(pieces)
+    o = np.concatenate(origin)
+    order = np.argsort(o, kind="stable")
+    return P[order], o[order]
+
+
+def rasterise_ids(mesh: SceneMesh, cam: PhotoCamera, erode_px: float = 0.0) -> tuple[NDArray[np.int32], Array]:
+    """Pass 1, the ID buffer of ``cam``: (H, W) int32 1-based face id of the nearest triangle at
+    each pixel centre (0: nothing) and (H, W) float64 camera depth z there (+inf: nothing).
+
+    Triangles are clipped to the GPU's near plane (z ≥ near, so a triangle partly behind the camera
+    keeps its visible part), projected, and scan-converted at pixel centres; depth is interpolated
+    perspective-correctly (1/z is affine in the image), the nearest wins and among equal depths the
+    one drawn first (mesh order).
+
+    Erosion (``erode_px`` = r > 0) is morphological: a pixel is set to id 0 when some pixel whose
+    centre lies at most r pixels from its own centre has a different id (image borders are no
+    discontinuity). This approximates the GPU, which draws every visible face border and
+    silhouette as a band r pixels either side of the edge, depth-tested with the faces: the band
+    reaches r from the edge itself, the morphological mask r from the first centre across it (so
+    about ½ px less on average), and the GPU's band is not drawn where a sloping face lies more
+    than 0.2 % nearer than the edge (``EDGE_SHRINK``: measured on the example room, the near side
+    of a silhouette of a face seen obliquely keeps its pixels), nor across id changes that are no
+    edge (two faces passing through each other), where the morphological mask erodes regardless;
+    the GPU also erodes next to edges just outside the image, which this mask cannot see.
+    """
+    w, h = int(cam.width), int(cam.height)
+    ids = np.zeros(h * w, np.int32)
+    depth = np.full(h * w, np.inf)
+    if len(mesh.triangles):
+        near = _near_plane(mesh, cam)
+        Xc = world_to_camera(cam.R, cam.C, mesh.vertices)[mesh.triangles]  # (m, 3, 3)
+        pieces, origin = _clip_near(Xc, near)
+        faces = mesh.triangle_faces[origin]
+        H = pieces @ np.asarray(cam.K, float).T
+        uv = H[:, :, :2] / H[:, :, 2:3]
+        inv_z = 1.0 / pieces[:, :, 2]
+        for t in range(len(pieces)):
+            for i, j, lam in _scan(uv[t], w, h):
+                z = 1.0 / (lam[:, 0] * inv_z[t, 0] + lam[:, 1] * inv_z[t, 1] + lam[:, 2] * inv_z[t, 2])
+                idx = j * w + i
+                nearer = z < depth[idx]
+                depth[idx[nearer]] = z[nearer]
+                ids[idx[nearer]] = faces[t]
+    ids = ids.reshape(h, w)
+    depth = depth.reshape(h, w)
+    if erode_px > 0:
+        ids = np.where(_near_id_change(ids, erode_px), 0, ids).astype(np.int32)
+    return ids, depth
+
+
+def _near_id_change(ids: NDArray[np.int32], r: float) -> NDArray[np.bool_]:
+    """Pixels with a pixel of another id at most r pixels (centre to centre) away; pixels outside
+    the image do not count. One comparison per pair of opposite offsets in the disk."""
+    h, w = ids.shape
+    out = np.zeros((h, w), bool)
+    n = int(np.floor(r))
+    for dy in range(0, n + 1):
+        for dx in range(-n, n + 1):
+            if (dy == 0 and dx <= 0) or dx * dx + dy * dy > r * r:
+                continue  # (dy, dx) and (−dy, −dx) are one comparison
+            a = (slice(0, h - dy), slice(max(0, -dx), w - max(0, dx)))  # pixel (j, i)
+            b = (slice(dy, h), slice(max(0, dx), w - max(0, -dx)))  # pixel (j + dy, i + dx)
+            if a[0].start >= a[0].stop or a[1].start >= a[1].stop:
+                continue
+            differ = ids[a] != ids[b]
+            out[a] |= differ
+            out[b] |= differ
+    return out
+
+
+# -- the atlas -------------------------------------------------------------------------------------
+
+
+@dataclass
+class PageTexels:
+    """The texels of one page that lie on a face, as flat arrays (n, ...) in row-major order of
+    the page (``index`` = j · width + i)."""
+
+    shape: tuple[int, int]  # (h, w)
+    index: NDArray[np.intp]
+    position: Array
+    normal: Array  # unit
+    face: NDArray[np.int32]
+    e_u: Array
+    e_v: Array
+
+    def __len__(self) -> int:
+        return len(self.index)
+
+    def dense(self) -> dict[str, NDArray]:
+        h, w = self.shape
+        out: dict[str, NDArray] = {}
+        for name in ("position", "normal", "e_u", "e_v"):
+            a = np.zeros((h * w, 3))
+            a[self.index] = getattr(self, name)
+            out[name] = a.reshape(h, w, 3)
+        f = np.zeros(h * w, np.int32)
+        f[self.index] = self.face
+        out["face"] = f.reshape(h, w)
+        return out
+
+    @classmethod
+    def from_dense(cls, g: dict[str, NDArray]) -> PageTexels:
+        face = np.asarray(g["face"])
+        h, w = face.shape
+        index = np.flatnonzero(face.ravel() > 0)
+        take = lambda name: np.asarray(g[name], float).reshape(h * w, 3)[index]  # noqa: E731
+        n = take("normal")
+        return cls((h, w), index, take("position"), n / np.linalg.norm(n, axis=1, keepdims=True),
+                   face.ravel()[index].astype(np.int32), take("e_u"), take("e_v"))
+
+
+def page_texels(mesh: SceneMesh, page: int, soup: dict[str, Array] | None = None) -> PageTexels:
+    """The atlas triangles of ``page`` rasterised at texel centres (compact form of
+    :func:`texel_geometry`)."""
+    soup = mesh.triangle_soup() if soup is None else soup
+    w, h = mesh.pages[page]
+    tri_page = soup["page"][0::3]
+    tris = np.flatnonzero(tri_page == page)
+    A = soup["atlas"].reshape(-1, 3, 2)
+    owner = np.full(h * w, -1, np.intp)
+    for t in tris:
+        for i, j, _ in _scan(A[t], w, h):
+            idx = j * w + i
+            free = owner[idx] < 0  # a centre on a shared edge keeps its first triangle
+            owner[idx[free]] = t
+    index = np.flatnonzero(owner >= 0)
+    tri = owner[index]
+    # Position and normal are affine in atlas space on each triangle: values = [x, y, 1] @ G[t].
+    corners = np.concatenate([A, np.ones((len(A), 3, 1))], axis=2)  # (m, 3, 3)
+    values = np.concatenate([soup["position"].reshape(-1, 3, 3), soup["normal"].reshape(-1, 3, 3)], axis=2)
+    G = np.zeros((len(A), 3, 6))
+    G[tris] = np.linalg.solve(corners[tris], values[tris])
+    pos = np.empty((len(index), 3))
+    nor = np.empty((len(index), 3))
+    for lo, hi in _chunks(len(index)):
+        t = tri[lo:hi]
+        x = (index[lo:hi] % w + 0.5)[:, None]
+        y = (index[lo:hi] // w + 0.5)[:, None]
+        v = x * G[t, 0] + y * G[t, 1] + G[t, 2]
+        pos[lo:hi] = v[:, :3]
+        nor[lo:hi] = v[:, 3:] / np.sqrt(np.einsum("ij,ij->i", v[:, 3:], v[:, 3:]))[:, None]
+    return PageTexels((h, w), index, pos, nor, soup["face"][3 * tri].astype(np.int32),
+                      soup["e_u"][3 * tri].astype(float), soup["e_v"][3 * tri].astype(float))
+
+
+def texel_geometry(mesh: SceneMesh, page: int) -> dict[str, NDArray]:
+    """Each texel of ``page``: 'position' (h, w, 3) world point, 'normal' (h, w, 3) unit normal,
+    'face' (h, w) int32 (0: on no face), 'e_u', 'e_v' (h, w, 3) world steps of one texel along
+    atlas x and y. The page's triangles (``mesh.triangle_soup()``) are rasterised in atlas space at
+    texel centres (i + ½, j + ½) and their corners' values interpolated linearly (normals then
+    normalised); texels on no face are zero."""
+    return page_texels(mesh, page).dense()
+
+
+# -- pass 2 ----------------------------------------------------------------------------------------
+
+
+@dataclass
+class _Projected:
+    """Where the seen texels of a chunk project: their positions in the chunk, p, a, b, w."""
+
+    sel: NDArray[np.intp]
+    p: Array
+    a: Array
+    b: Array
+    weight: Array
+
+
+def _rows(X: Array, M: Array) -> Array:
+    """X @ M.T for many rows X (n, k) and a small matrix M (m, k) (einsum: BLAS is slow at this
+    shape)."""
+    return np.einsum("nk,mk->nm", X, M)
+
+
+def _project(tx: PageTexels, lo: int, hi: int, cam: PhotoCamera, ids: NDArray[np.int32], depth: Array,
+             weight_scale: float = 1.0) -> _Projected:
+    """texel.frag up to the weight, for texels lo:hi of ``tx``: the seen test and w."""
+    K = np.asarray(cam.K, float)
+    R = np.asarray(cam.R, float)
+    C = np.asarray(cam.C, float)
+    width, height = int(cam.width), int(cam.height)
+    P, N, F = tx.position[lo:hi], tx.normal[lo:hi], tx.face[lo:hi]
+    to_cam = C - P
+    x = _rows(-to_cam, R)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cos = np.einsum("ij,ij->i", N, to_cam) / np.sqrt(np.einsum("ij,ij->i", to_cam, to_cam))
+        ok = (x[:, 2] > 0) & (cos > 0)
+        hh = _rows(x, K)
+        p = hh[:, :2] / hh[:, 2:3]
+    ok &= (p[:, 0] >= 0) & (p[:, 1] >= 0) & (p[:, 0] < width) & (p[:, 1] < height)
+    sel = np.flatnonzero(ok)
+    x, p, F, cos = x[sel], p[sel], F[sel], cos[sel]
+    pix = np.floor(p[:, 1]).astype(np.intp) * width + np.floor(p[:, 0]).astype(np.intp)
+    ids_flat, depth_flat = ids.reshape(-1), depth.reshape(-1)
+    ok = (ids_flat[pix] == F) & (x[:, 2] <= (1.0 + DEPTH_TOLERANCE) * depth_flat[pix])
+    sel, x, p, F, cos = sel[ok], x[ok], p[ok], F[ok], cos[ok]
+    # The Jacobian of the projection at the texel applied to its steps: a = J e_u, b = J e_v.
+    du = _rows(tx.e_u[lo:hi][sel], R)
+    dv = _rows(tx.e_v[lo:hi][sel], R)
+    z = x[:, 2:3]
+    a = (_rows(du, K[:2]) - p * du[:, 2:3]) / z
+    b = (_rows(dv, K[:2]) - p * dv[:, 2:3]) / z
+    ok = np.ones(len(sel), bool)
+    for sa in (1.0, -1.0):
+        for sb in (1.0, -1.0):
+            q = p + sa * a + sb * b
+            inside = (q[:, 0] >= 0) & (q[:, 1] >= 0) & (q[:, 0] < width) & (q[:, 1] < height)
+            q = np.where(inside[:, None], q, 0.0)
+            ok &= inside & (ids_flat[np.floor(q[:, 1]).astype(np.intp) * width
+                                     + np.floor(q[:, 0]).astype(np.intp)] == F)
+    w = np.sqrt(np.abs(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])) * cos * weight_scale
+    return _Projected(sel[ok], p[ok], a[ok], b[ok], w[ok])
+
+
+def _lod(pr: _Projected) -> Array:
+    size = np.maximum(np.linalg.norm(pr.a, axis=1), np.linalg.norm(pr.b, axis=1))
+    return np.log2(np.maximum(size, 1e-6))
+
+
+def _chunks(n: int) -> Iterator[tuple[int, int]]:
+    for lo in range(0, n, CHUNK):
+        yield lo, min(n, lo + CHUNK)
+
+
+def texel_view(mesh: SceneMesh, cam: PhotoCamera, levels: Sequence[Array], ids: NDArray[np.int32], depth: Array,
+               page: int, detail_levels: float = 2.0,
+               geometry: dict[str, NDArray] | PageTexels | None = None) -> dict[str, NDArray]:
+    """One photo's texels on one page (texel.frag, MODE 1, atlas_scale 1, weight_scale 1).
+
+    Returns 'colour' (h, w, 3) c, 'weight' (h, w) w, 'low' (h, w, 3) l and 'seen' (h, w) bool;
+    zeros where not seen. ``levels`` is the photo's :func:`pyramid`, ``ids``/``depth`` its
+    :func:`rasterise_ids`; ``geometry`` (:func:`texel_geometry` or :func:`page_texels` of this
+    page) saves rasterising the page again.
+    """
+    if geometry is None:
+        tx = page_texels(mesh, page)
+    elif isinstance(geometry, PageTexels):
+        tx = geometry
+    else:
+        tx = PageTexels.from_dense(geometry)
+    h, w = tx.shape
+    colour = np.zeros((h * w, 3))
+    low = np.zeros((h * w, 3))
+    weight = np.zeros(h * w)
+    seen = np.zeros(h * w, bool)
+    for lo, hi in _chunks(len(tx)):
+        pr = _project(tx, lo, hi, cam, ids, depth)
+        if not len(pr.sel):
+            continue
+        idx = tx.index[lo + pr.sel]
+        lod = _lod(pr)
+        colour[idx] = trilinear(levels, pr.p, lod)[:, :3]
+        low[idx] = trilinear(levels, pr.p, lod + detail_levels)[:, :3]
+        weight[idx] = pr.weight
+        seen[idx] = True
+    return {"colour": colour.reshape(h, w, 3), "weight": weight.reshape(h, w), "low": low.reshape(h, w, 3),
+            "seen": seen.reshape(h, w)}
+
+
+def best_weights(mesh: SceneMesh, cameras: Iterable[PhotoCamera], erode_px: float,
+                 pages: Sequence[PageTexels] | None = None) -> list[Array]:
+    """The pre-pass of :func:`accumulate` (texel.frag MODE 2, as ``Extractor.best_weights``):
+    per page, each face texel's (compact order) best weight over ``cameras``, each seen through an
+    ID buffer at half resolution (``cam.scaled(0.5)``, erosion ``gpu.pre_pass_erosion``) with weights
+    doubled so that they are on the full-resolution scale."""
+    pages = [page_texels(mesh, k) for k in range(len(mesh.pages))] if pages is None else pages
+    best = [np.zeros(len(t)) for t in pages]
+    for cam in cameras:
+        small = cam.scaled(BEST_WEIGHT_SCALE)
+        ids, depth = rasterise_ids(mesh, small, pre_pass_erosion(erode_px))
+        for tx, b in zip(pages, best, strict=True):
+            for lo, hi in _chunks(len(tx)):
+                pr = _project(tx, lo, hi, small, ids, depth, weight_scale=1.0 / BEST_WEIGHT_SCALE)
+                b[lo + pr.sel] = np.maximum(b[lo + pr.sel], pr.weight)
+    return best
+
+
+def accumulate(mesh: SceneMesh, cameras: Sequence[PhotoCamera], photos: Iterable[NDArray[np.uint8]],
+               options: Options, gains: dict[str, NDArray] | None = None) -> list[dict[str, NDArray]]:
+    """Passes 1–2 for every photo, summed per texel: per page the four arrays of
+    ``Extractor.sums`` (texel.frag MODE 0), float64:
+
+    'low' (h, w, 4) = (Σ w l/g, Σ w) and 'detail' (h, w, 4) = (Σ w^s (c − l)/g, Σ w^s) over kept
+    views, 'dropped' (h, w, 4) = (Σ w c/g, Σ w) over dropped views, 'counts' (h, w, 2) = (kept,
+    dropped) views; s = ``options.detail_sharpness`` with w clamped to [1e-4, 1e4] first, g the
+    photo's gain (``gains[id]``, (3,); 1 when ``gains`` is None).
+
+    With ``options.drop_ratio`` > 0 a view is kept when w ≥ drop_ratio × the texel's best weight
+    from :func:`best_weights` (the GPU's half-resolution pre-pass). Photos are consumed one at a
+    time (``photos`` may be a generator): one photo's pyramid and ID buffer are in memory at once.
+    """
+    cameras = list(cameras)
+    soup = mesh.triangle_soup()
+    pages = [page_texels(mesh, k, soup) for k in range(len(mesh.pages))]
+    drop = float(options.drop_ratio)
+    best = best_weights(mesh, cameras, float(options.erode_px), pages) if drop > 0 else None
+    sums = [np.zeros((len(t), 14)) for t in pages]  # low 4, detail 4, dropped 4, counts 2
+    s = float(options.detail_sharpness)
+    for cam, pixels in zip(cameras, photos, strict=True):
+        pixels = np.asarray(pixels)
+        if pixels.shape[:2] != (cam.height, cam.width):
+            raise ValueError(f"photo {cam.id}: pixels are {pixels.shape[1]}×{pixels.shape[0]}, "
+                             f"the camera is for {cam.width}×{cam.height}")
+        if gains is None:
+            inv_gain = np.ones(3)
+        elif cam.id in gains:
+            inv_gain = 1.0 / np.asarray(gains[cam.id], float).reshape(3)
+        else:
+            raise ValueError(f"no gain for photo {cam.id}")
+        levels = pyramid(pixels)
+        del pixels
+        ids, depth = rasterise_ids(mesh, cam, float(options.erode_px))
+        for k, tx in enumerate(pages):
+            acc = sums[k]
+            for lo, hi in _chunks(len(tx)):
+                pr = _project(tx, lo, hi, cam, ids, depth)
+                if not len(pr.sel):
+                    continue
+                lod = _lod(pr)
+                c = trilinear(levels, pr.p, lod)[:, :3]
+                low = trilinear(levels, pr.p, lod + float(options.detail_levels))[:, :3]
+                w = pr.weight
+                rows = lo + pr.sel
+                keep = np.ones(len(w), bool) if best is None else w >= drop * best[k][rows]
+                wk, rk = w[keep], rows[keep]
+                ws = np.clip(wk, 1e-4, 1e4) ** s
+                acc[rk, 0:3] += wk[:, None] * low[keep] * inv_gain
+                acc[rk, 3] += wk
+                acc[rk, 4:7] += ws[:, None] * (c[keep] - low[keep]) * inv_gain
+                acc[rk, 7] += ws
+                acc[rk, 12] += 1.0
+                wd, rd = w[~keep], rows[~keep]
+                acc[rd, 8:11] += wd[:, None] * c[~keep] * inv_gain
+                acc[rd, 11] += wd
+                acc[rd, 13] += 1.0
+        del levels, ids, depth
+    out = []
+    for tx, acc in zip(pages, sums, strict=True):
+        h, w = tx.shape
+        dense = np.zeros((h * w, 14))
+        dense[tx.index] = acc
+        dense = dense.reshape(h, w, 14)
+        out.append({"low": dense[..., 0:4], "detail": dense[..., 4:8], "dropped": dense[..., 8:12],
+                    "counts": dense[..., 12:14]})
+    return out
