@@ -1,7 +1,7 @@
 """Texture extraction from start to end: layout, photos streamed through the GPU, merge.
 
-:func:`extract` takes plain data (the model, the calibrated cameras, a function that decodes one
-photo) and returns the atlases in memory; :mod:`vebuild.actions.texture` adds the project file,
+:func:`extract` takes plain data (the model, the calibrated cameras, where each photo is and
+the SHA-256 it must have) and returns the atlases in memory; :mod:`vebuild.actions.texture` adds the project file,
 the PNGs and the record.
 """
 
@@ -25,7 +25,6 @@ from vebuild.texture.gpu import Extractor, Options, PhotoCamera, Timings
 from vebuild.texture.merge import FaceStats, fill_page
 
 Array = NDArray[np.float64]
-Progress = Callable[[str], None]
 
 
 @dataclass

@@ -148,7 +148,7 @@ class Extractor:
         self._accumulate_vao = ctx.vertex_array(
             self._programs["accumulate"], [(self._soup_vbo, "3f 3f 2f 1f 3f 3f", "in_position", "in_normal",
                                             "in_atlas", "in_face", "in_eu", "in_ev")], skip_errors=True)
-        self._face_normal_ok = self._flat_normals()
+        self._face_points = self._face_vertices()
         self._pages = [self._make_page(size) for size in mesh.pages]
         self._photo_tex: moderngl.Texture | None = None
         self._pyramid: tuple[moderngl.Texture, moderngl.Texture, list[tuple[int, int, int]]] | None = None
@@ -161,7 +161,7 @@ class Extractor:
 
     # -- set-up ------------------------------------------------------------------------------
 
-    def _flat_normals(self) -> dict[int, tuple[Array, Array]]:
+    def _face_vertices(self) -> dict[int, tuple[Array, Array]]:
         """For each face, its vertices and normals (for culling faces a photo cannot see)."""
         out = {}
         for f in self.mesh.faces:
@@ -322,7 +322,7 @@ class Extractor:
         """Faces that may show in ``cam``: some vertex faces it and is in front, and their image
         bounds meet the image."""
         out = set()
-        for fid, (P, N) in self._face_normal_ok.items():
+        for fid, (P, N) in self._face_points.items():
             x = world_to_camera(cam.R, cam.C, P)
             front = x[:, 2] > 1e-6
             if not front.any() or not (np.einsum("ij,ij->i", N, cam.C - P) > 0).any():
