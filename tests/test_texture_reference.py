@@ -131,12 +131,9 @@ def _distance_to_edge(ids: np.ndarray) -> np.ndarray:
 
 @pytest.fixture(scope="module")
 def gl():
-    from vebuild.gl import GLUnavailableError, headless_context
+    from vebuild.gl import headless_context
 
-    try:
-        return headless_context()
-    except GLUnavailableError as e:  # the reference itself needs no GL; only these comparisons do
-        pytest.skip(str(e))
+    return headless_context()  # CI installs Mesa's EGL: these comparisons never skip
 
 
 @pytest.fixture(scope="module")

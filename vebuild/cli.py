@@ -48,9 +48,7 @@ def _cmd_solve(args: argparse.Namespace) -> int:
 
 
 def _cmd_texture(args: argparse.Namespace) -> int:
-    from tqdm import tqdm
-
-    from .actions.texture import texture_project
+    from .actions.texture import progress_bar, texture_project
     from .project import load_project, save_project
     from .report_text import texture_table
     from .texture.gpu import Options
@@ -61,18 +59,8 @@ def _cmd_texture(args: argparse.Namespace) -> int:
                       drop_ratio=0.0 if args.no_drop else args.drop_ratio,
                       detail_sharpness=1.0 if args.no_detail else Options.detail_sharpness,
                       exposure=not args.no_exposure)
-    bar = tqdm(total=None, desc="texturing", unit="photo", disable=not _progress_wanted(args))
-
-    def progress(done: int, total: int, photo: str) -> None:
-        bar.total = total
-        bar.n = done
-        bar.set_postfix_str(photo)
-        bar.refresh()
-
-    try:
+    with progress_bar(_progress_wanted(args)) as progress:
         record, _ = texture_project(project, options, progress)
-    finally:
-        bar.close()
     save_project(project)
     print(texture_table(record))
     print(f"\ntextures written to {project.folder / 'textures'}; recorded in {project.path}")

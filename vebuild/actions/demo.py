@@ -23,7 +23,7 @@ from ..report_text import calibration_table, model_table, texture_table
 from ..resources import example_project_dir
 from .calibrate import calibrate_project
 from .solve import solve_project
-from .texture import texture_project
+from .texture import progress_bar, texture_project
 
 PROJECT_NAME = "room.vebuild.json"
 
@@ -77,16 +77,8 @@ def run_demo(out: Path, progress: bool = True) -> int:
         print()
         print(model_comparison(model, truth))
     print("\n" + "-" * 80 + "\ntexturing: ID buffers and texel projection on the GPU, weighted merge\n")
-    bar = tqdm(total=None, desc="texturing", unit="photo", disable=not progress)
-
-    def step(done: int, total: int, _: str) -> None:
-        bar.total, bar.n = total, done
-        bar.refresh()
-
-    try:
+    with progress_bar(progress) as step:
         record, textures = texture_project(project, progress=step)
-    finally:
-        bar.close()
     save_project(project)
     print(texture_table(record))
     if truth:

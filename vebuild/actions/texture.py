@@ -9,7 +9,8 @@ file is written to a temporary name first and moved into place.
 from __future__ import annotations
 
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -25,6 +26,24 @@ from vebuild.texture.gpu import Options, PhotoCamera, Timings
 from vebuild.texture.merge import linear_to_srgb8
 
 TEXTURE_DIR = "textures"
+
+
+@contextmanager
+def progress_bar(enabled: bool) -> Iterator[Callable[[int, int, str], None]]:
+    """A tqdm bar over photos, as the ``progress`` callback of :func:`texture_project`."""
+    from tqdm import tqdm
+
+    bar = tqdm(total=None, desc="texturing", unit="photo", disable=not enabled)
+
+    def step(done: int, total: int, photo: str) -> None:
+        bar.total, bar.n = total, done
+        bar.set_postfix_str(photo)
+        bar.refresh()
+
+    try:
+        yield step
+    finally:
+        bar.close()
 
 
 def texture_project(project: Project, options: Options | None = None,
