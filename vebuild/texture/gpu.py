@@ -135,19 +135,15 @@ class Extractor:
         soup = mesh.triangle_soup()
         order = np.lexsort((soup["face"], soup["page"]))
         soup = {k: v[order] for k, v in soup.items()}
-        self._soup_face = soup["face"]
-        self._soup_page = soup["page"]
         data = np.column_stack([soup["position"], soup["normal"], soup["atlas"], soup["face"], soup["e_u"],
                                 soup["e_v"]]).astype("f4")
         self._soup_vbo = ctx.buffer(data.tobytes())
-        starts = np.flatnonzero(np.r_[True, np.diff(self._soup_face) != 0])
-        ends = np.r_[starts[1:], len(self._soup_face)]
-        #: Each face's run of soup vertices: (first, count).
-        self._face_range = {int(self._soup_face[a]): (int(a), int(b - a)) for a, b in zip(starts, ends, strict=True)}
+        starts = np.flatnonzero(np.r_[True, np.diff(soup["face"]) != 0])
+        ends = np.r_[starts[1:], len(soup["face"])]
+        #: Each face's run of soup vertices: (first, count); faces with no area in the atlas have none.
+        self._face_range = {int(soup["face"][a]): (int(a), int(b - a)) for a, b in zip(starts, ends, strict=True)}
         self._face_page = {f.id: f.page for f in mesh.faces}
-        self._accumulate_vao = ctx.vertex_array(
-            self._programs["accumulate"], [(self._soup_vbo, "3f 3f 2f 1f 3f 3f", "in_position", "in_normal",
-                                            "in_atlas", "in_face", "in_eu", "in_ev")], skip_errors=True)
+        self._soup_vaos: dict[str, moderngl.VertexArray] = {}
         self._face_points = self._face_vertices()
         self._pages = [self._make_page(size) for size in mesh.pages]
         self._photo_tex: moderngl.Texture | None = None
@@ -335,26 +331,28 @@ class Extractor:
             out.add(fid)
         return out
 
-    def _texel_vao(self, prog: moderngl.Program, page: int, faces: set[int] | None) -> moderngl.VertexArray | None:
-        sel = self._soup_page == page
-        if faces is not None:
-            sel &= np.isin(self._soup_face, list(faces))
-        idx = np.flatnonzero(sel).astype("i4")
-        if not len(idx):
-            return None
-        ibo = self.ctx.buffer(idx.tobytes())
-        vao = self.ctx.vertex_array(prog, [(self._soup_vbo, "3f 3f 2f 1f 3f 3f", "in_position", "in_normal",
-                                            "in_atlas", "in_face", "in_eu", "in_ev")], ibo,
-                                     skip_errors=True)
-        vao._vebuild_ibo = ibo  # released with the vao
-        return vao
-
-    def _draw_texels(self, prog: moderngl.Program, page: int, faces: set[int] | None) -> None:
-        vao = self._texel_vao(prog, page, faces)
-        if vao is not None:
-            vao.render(moderngl.TRIANGLES)
-            vao._vebuild_ibo.release()
-            vao.release()
+    def _draw_texels(self, mode: str, page: int, faces: set[int] | None,
+                     queries: dict[int, moderngl.Query] | None = None) -> None:
+        """Draw the texels of ``faces`` (all when None) on ``page`` with the texel program of
+        ``mode``, one face's run of the soup at a time; with ``queries``, each face inside an
+        occlusion query of its own (kept across photos, see add_photo)."""
+        if mode not in self._soup_vaos:
+            self._soup_vaos[mode] = self.ctx.vertex_array(
+                self._programs[mode], [(self._soup_vbo, "3f 3f 2f 1f 3f 3f", "in_position", "in_normal",
+                                        "in_atlas", "in_face", "in_eu", "in_ev")], skip_errors=True)
+        vao = self._soup_vaos[mode]
+        for fid in sorted(self._face_range if faces is None else faces):
+            if self._face_page[fid] != page or fid not in self._face_range:
+                continue
+            first, count = self._face_range[fid]
+            if queries is None:
+                vao.render(moderngl.TRIANGLES, vertices=count, first=first)
+                continue
+            if fid not in self._queries:
+                self._queries[fid] = self.ctx.query(samples=True)
+            q = queries[fid] = self._queries[fid]
+            with q:
+                vao.render(moderngl.TRIANGLES, vertices=count, first=first)
 
     def _texel_uniforms(self, prog: moderngl.Program, cam: PhotoCamera, id_tex: moderngl.Texture,
                         page_size: tuple[int, int], atlas_scale: float = 1.0, weight_scale: float = 1.0) -> None:
@@ -396,7 +394,7 @@ class Extractor:
                     page["best_fbo"].use()
                     page["best_fbo"].viewport = (0, 0, *page["size"])
                     self._texel_uniforms(prog, small, id_tex, page["size"], weight_scale=1.0 / BEST_WEIGHT_SCALE)
-                    self._draw_texels(prog, k, faces)
+                    self._draw_texels("best", k, faces)
                 self.ctx.blend_equation = moderngl.FUNC_ADD
                 self.ctx.disable(moderngl.BLEND)
 
@@ -424,15 +422,7 @@ class Extractor:
                 page["best"].use(4)
                 self._texel_uniforms(prog, cam, id_tex, page["size"])
                 _set(prog, best_weight=4, inverse_gain=(1.0 / gain).astype("f4"))
-                for fid in sorted(faces):
-                    if self._face_page[fid] != k or fid not in self._face_range:
-                        continue
-                    first, count = self._face_range[fid]
-                    if fid not in self._queries:  # the last photo's were read at the start
-                        self._queries[fid] = self.ctx.query(samples=True)
-                    q = queries[fid] = self._queries[fid]
-                    with q:
-                        self._accumulate_vao.render(moderngl.TRIANGLES, vertices=count, first=first)
+                self._draw_texels("accumulate", k, faces, queries)  # last photo's queries were read
             self.ctx.disable(moderngl.BLEND)
             # Read at the next photo (or by `contributions`): reading now would wait for the GPU
             # instead of letting it finish this photo while the next one is decoded.
@@ -487,12 +477,8 @@ class Extractor:
             p["acc"][0].use(5)
             self._texel_uniforms(prog, cam, id_tex, p["size"], atlas_scale=atlas_scale)
             _set(prog, accumulated=5)
-            vao = self._texel_vao(prog, page, faces)
-            if vao is not None:
-                # The atlas is drawn at its full page_size extent in NDC; the viewport scales it.
-                vao.render(moderngl.TRIANGLES)
-                vao._vebuild_ibo.release()
-                vao.release()
+            # The atlas is drawn at its full page_size extent in NDC; the viewport scales it.
+            self._draw_texels("view", page, faces)
             out = [np.frombuffer(fbo.read(components=4, dtype="f4", attachment=i), "f4").reshape(size[1], size[0], 4)
                    for i in range(3 if with_accumulated else 2)]
         finally:
@@ -519,7 +505,7 @@ class Extractor:
         self.ctx.disable(moderngl.BLEND)
         prog = self._programs["geometry"]
         _set(prog, page_size=(float(size[0]), float(size[1])), atlas_scale=1.0)
-        self._draw_texels(prog, page, None)
+        self._draw_texels("geometry", page, None)
         return fbo, targets
 
     def geometry(self, page: int) -> dict[str, NDArray[np.float32]]:
@@ -592,6 +578,7 @@ class Extractor:
                 t.release()
             for f in self._pyr_fbos:
                 f.release()
-        self._accumulate_vao.release()
+        for vao in self._soup_vaos.values():
+            vao.release()
         for b in (self._id_vbo, self._id_ibo, self._edge_vbo, self._soup_vbo):
             b.release()

@@ -30,6 +30,7 @@ from numpy.typing import NDArray
 from vebuild.camera import world_to_camera
 from vebuild.texture import BEST_WEIGHT_SCALE, DEPTH_TOLERANCE, MAX_LEVELS, pre_pass_erosion
 from vebuild.texture.layout import SceneMesh
+from vebuild.texture.merge import srgb8_to_linear
 
 if TYPE_CHECKING:  # gpu.py imports moderngl; the reference must run without it
     from vebuild.texture.gpu import Options, PhotoCamera
@@ -47,13 +48,7 @@ EDGE_EPS = 1e-12
 # -- colour --------------------------------------------------------------------------------------
 
 
-def srgb_to_linear(c: Array) -> Array:
-    """IEC 61966-2-1 decoding of c ∈ [0, 1]."""
-    c = np.asarray(c, float)
-    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
-
-
-_SRGB_LUT = srgb_to_linear(np.arange(256) / 255.0)
+_SRGB_LUT = srgb8_to_linear(np.arange(256, dtype=np.uint8))
 
 
 def pyramid(pixels_uint8: NDArray[np.uint8]) -> list[Array]:
