@@ -10,6 +10,8 @@ Free functions over numpy arrays; nothing here does I/O or GL.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
@@ -177,6 +179,19 @@ def gl_projection(K: ArrayLike, width: int, height: int, near: float, far: float
     return P
 
 
+def gl_orthographic(R: ArrayLike, lo: ArrayLike, hi: ArrayLike) -> Array:
+    """(4, 4) world → clip of an orthographic view along R's z axis (a directional light's shadow
+    map): x_cam = R X, and the box lo ≤ x_cam ≤ hi maps onto NDC [−1, 1]³, rows as in
+    :func:`gl_projection` without ``flip_y`` (camera y grows with the framebuffer row)."""
+    R, lo, hi = np.asarray(R, float), np.asarray(lo, float), np.asarray(hi, float)
+    if np.any(hi <= lo):
+        raise ValueError(f"need lo < hi on every axis, got lo={lo.tolist()}, hi={hi.tolist()}")
+    S = np.eye(4)
+    S[:3, :3] = np.diag(2.0 / (hi - lo)) @ R
+    S[:3, 3] = -(hi + lo) / (hi - lo)
+    return S
+
+
 def view_matrix(R: ArrayLike, C: ArrayLike) -> Array:
     """(4, 4) world → camera: ``[x_cam, 1] = V @ [X, 1]`` with x_cam = R (X − C)."""
     R = np.asarray(R, float)
@@ -184,3 +199,81 @@ def view_matrix(R: ArrayLike, C: ArrayLike) -> Array:
     V[:3, :3] = R
     V[:3, 3] = -R @ np.asarray(C, float)
     return V
+
+
+@dataclass(frozen=True)
+class ImageCamera:
+    """A camera with an image: K, R, C in the convention above and the image's size in pixels.
+
+    A calibrated photo, a named evidence view, or one eye of a stereo pair; ``id`` names it.
+    """
+
+    id: str
+    K: Array
+    R: Array
+    C: Array
+    width: int
+    height: int
+
+    def scaled(self, s: float) -> ImageCamera:
+        """The same camera for an image scaled by s (pixel corners stay at corners)."""
+        K = np.array(self.K, float)
+        K[:2] *= s
+        return ImageCamera(self.id, K, self.R, self.C, max(1, round(self.width * s)), max(1, round(self.height * s)))
+
+    def resized(self, width: int, height: int) -> ImageCamera:
+        """The same view at another image size: the horizontal field of view is kept, and the
+        principal point keeps its place relative to the image (a different aspect ratio shows more
+        or less above and below)."""
+        s = width / self.width
+        K = np.array(self.K, float)
+        K[0, 0] *= s
+        K[1, 1] *= s
+        K[0, 2] *= s
+        K[1, 2] = (K[1, 2] / self.height) * height
+        return ImageCamera(self.id, K, self.R, self.C, int(width), int(height))
+
+
+def look_rotation(direction: ArrayLike, roll: float = 0.0) -> Array:
+    """World→camera R of a camera looking along ``direction`` (world), image up toward +Z.
+
+    ``roll`` (radians) turns the camera clockwise about its optical axis as seen from behind, as in
+    :func:`rotation_from_ypr`. A camera looking straight up or down has no "up"; its image right is
+    then taken along world −Y (the heading +X, as a level camera's).
+    """
+    d = np.asarray(direction, float)
+    n = float(np.linalg.norm(d))
+    if not np.isfinite(n) or n == 0.0:
+        raise ValueError(f"a look direction must be a non-zero vector, got {d.tolist()}")
+    d = d / n
+    yaw = float(np.arctan2(d[1], d[0])) if np.hypot(d[0], d[1]) > 1e-12 else 0.0
+    return rotation_from_ypr(yaw, float(np.arcsin(np.clip(d[2], -1.0, 1.0))), roll)
+
+
+def fov_to_focal(fov: float, size: float) -> float:
+    """Focal length in pixels of a field of view ``fov`` (radians) across ``size`` pixels."""
+    return 0.5 * size / np.tan(0.5 * fov)
+
+
+def stereo_pair(cam: ImageCamera, separation: float, convergence: float) -> tuple[ImageCamera, ImageCamera]:
+    """Left and right eyes of a parallel stereo rig centred on ``cam`` (off-axis, not toe-in).
+
+    Both eyes keep ``cam``'s orientation and are moved ∓ separation/2 along its image x axis; their
+    principal points are shifted by ± f·separation / (2·convergence) so that a point at depth
+    ``convergence`` in front of ``cam`` lands on the same pixel in both images (zero parallax, the
+    screen plane). A point at depth z then has parallax u_right − u_left = f·separation·(1/convergence −
+    1/z): negative (in front of the screen) nearer, positive (behind it) farther.
+    """
+    if not separation > 0.0:
+        raise ValueError(f"the eye separation must be > 0 m, got {separation}")
+    if not convergence > 0.0:
+        raise ValueError(f"the convergence distance must be > 0 m, got {convergence}")
+    x_axis = np.asarray(cam.R, float)[0]  # image right, in the world
+    shift = cam.K[0, 0] * separation / (2.0 * convergence)
+    eyes = []
+    for side, sign in (("left", -1.0), ("right", 1.0)):
+        K = np.array(cam.K, float)
+        K[0, 2] += sign * shift
+        C = np.asarray(cam.C, float) + sign * 0.5 * separation * x_axis
+        eyes.append(ImageCamera(f"{cam.id}:{side}", K, cam.R, C, cam.width, cam.height))
+    return eyes[0], eyes[1]

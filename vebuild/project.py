@@ -303,6 +303,57 @@ def _check_semantics(data: dict[str, Any], file: Any) -> None:
             if obs["node"] not in nodes:
                 raise ProjectError(file, f"$.model.{key}[{i}].node", f"names the node {obs['node']!r}, but "
                                    f"$.model.nodes has no node of that name (the nodes are: {_listing(nodes)})")
+    views = data.get("views", [])
+    unique(views, "name", "$.views", "view name")
+    for i, view in enumerate(views):
+        _check_view(view, file, f"$.views[{i}]")
+    presets = (data.get("lighting") or {}).get("presets", [])
+    unique(presets, "name", "$.lighting.presets", "lighting preset name")
+    for i, preset in enumerate(presets):
+        where = f"$.lighting.presets[{i}]"
+        if preset["name"] == AS_PHOTOGRAPHED:
+            raise ProjectError(file, f"{where}.name", f"{AS_PHOTOGRAPHED!r} is the built-in preset (the photos' "
+                               "own light, unlit textures); choose another name")
+        for j, light in enumerate(preset.get("lights", [])):
+            _check_light(light, file, f"{where}.lights[{j}]")
+
+
+#: The built-in lighting preset: the extracted textures shown as photographed, without lighting.
+AS_PHOTOGRAPHED = "as-photographed"
+
+
+def _nonzero(vector: list[float], file: Any, where: str, what: str) -> None:
+    if not any(vector):
+        raise ProjectError(file, where, f"expected {what} (a non-zero vector [x, y, z]), found [0, 0, 0]")
+
+
+def _check_view(view: dict[str, Any], file: Any, where: str) -> None:
+    aims = [k for k in ("look_at", "direction") if k in view]
+    if len(aims) != 1:
+        found = "both" if aims else "neither"
+        raise ProjectError(file, where, f"expected exactly one of \"look_at\" (a point to look at) or \"direction\" "
+                           f"(a look direction), found {found}")
+    if "look_at" in view and view["look_at"] == view["position"]:
+        raise ProjectError(file, f"{where}.look_at", "expected a point other than the view's position, found the "
+                           "position itself")
+    if "direction" in view:
+        _nonzero(view["direction"], file, f"{where}.direction", "a look direction")
+    if "fov_deg" in view and "focal_length_mm" in view:
+        raise ProjectError(file, where, "expected at most one of \"fov_deg\" (horizontal field of view) or "
+                           "\"focal_length_mm\" (35 mm-equivalent focal length), found both")
+
+
+def _check_light(light: dict[str, Any], file: Any, where: str) -> None:
+    needs = {"directional": ("direction",), "point": ("position",), "spot": ("position", "direction")}[light["type"]]
+    for key in needs:
+        if key not in light:
+            raise ProjectError(file, where, f"a {light['type']} light needs \"{key}\" [x, y, z], which is missing")
+    if "direction" in light:
+        _nonzero(light["direction"], file, f"{where}.direction", "the direction the light shines in")
+    inner, outer = light.get("inner_cone_deg"), light.get("outer_cone_deg")
+    if inner is not None and outer is not None and inner > outer:
+        raise ProjectError(file, f"{where}.inner_cone_deg", f"expected the inner cone ({inner}°) to be no wider than "
+                           f"the outer cone ({outer}°)")
 
 
 def _check_relative_path(file_field: str, file: Any, where: str) -> None:

@@ -19,10 +19,11 @@ from PIL import Image
 
 from vebuild import __version__
 from vebuild.actions.solve import cameras_from_calibration, load_model
+from vebuild.camera import ImageCamera
 from vebuild.errors import VebuildError
 from vebuild.project import Project, canonical_input_hash, sha256_file
 from vebuild.texture.extract import PhotoSource, TextureResult, extract
-from vebuild.texture.gpu import Options, PhotoCamera, Timings
+from vebuild.texture.gpu import Options, Timings
 from vebuild.texture.merge import linear_to_srgb8
 
 TEXTURE_DIR = "textures"
@@ -62,7 +63,7 @@ def texture_project(project: Project, options: Options | None = None,
         if p["id"] not in cams:
             continue
         c = cams[p["id"]]
-        cameras.append(PhotoCamera(p["id"], c.K, c.R, c.C, p["width"], p["height"]))
+        cameras.append(ImageCamera(p["id"], c.K, c.R, c.C, p["width"], p["height"]))
         sources[p["id"]] = PhotoSource(p["id"], project.photo_path(p), p["sha256"], f"$.photos[{i}]", str(project.path))
     result = extract(model, cameras, sources, options, progress, timings)
     record = _write(project, result, options)

@@ -16,9 +16,9 @@ from types import ModuleType
 
 import numpy as np
 
+from vebuild.camera import ImageCamera
 from vebuild.model.scene import Model, model_from_dict
 from vebuild.resources import data_dir, example_project_dir
-from vebuild.texture.gpu import PhotoCamera
 
 ROOM = example_project_dir()
 
@@ -44,9 +44,9 @@ def true_model() -> Model:
     return model_from_dict(gt["model"]["nodes"], markers)
 
 
-def true_cameras() -> list[PhotoCamera]:
+def true_cameras() -> list[ImageCamera]:
     gt = ground_truth()
-    return [PhotoCamera(pid, np.asarray(p["K"], float), np.asarray(p["R"], float), np.asarray(p["C"], float),
+    return [ImageCamera(pid, np.asarray(p["K"], float), np.asarray(p["R"], float), np.asarray(p["C"], float),
                         int(p["width"]), int(p["height"])) for pid, p in gt["photos"].items()]
 
 

@@ -32,12 +32,13 @@ import numpy as np
 from PIL import Image
 from tqdm import tqdm
 
+from ..camera import ImageCamera
 from ..gl.context import headless_context, renderer_name
 from ..model.scene import Model, model_from_dict
 from ..project import sha256_file
 from ..texture import layout as lay
 from ..texture.extract import PhotoSource, extract
-from ..texture.gpu import Options, PhotoCamera, Timings
+from ..texture.gpu import Options, Timings
 from ..texture.merge import COVERAGE_UNSEEN
 from . import example_truth as truth
 
@@ -63,7 +64,7 @@ def bench_model(extra_boxes: int = EXTRA_BOXES) -> Model:
     return model_from_dict(nodes, markers)
 
 
-def make_photos(folder: Path, scale: float, n_photos: int) -> tuple[list[PhotoCamera], dict[str, PhotoSource]]:
+def make_photos(folder: Path, scale: float, n_photos: int) -> tuple[list[ImageCamera], dict[str, PhotoSource]]:
     """Enlarged example photos as JPEGs in ``folder``, with their cameras."""
     rng = np.random.default_rng(11)
     base = truth.true_cameras()
@@ -79,7 +80,7 @@ def make_photos(folder: Path, scale: float, n_photos: int) -> tuple[list[PhotoCa
         cam = base[k % len(base)]
         s = cam.scaled(scale)
         pid = f"{cam.id}_{k}"
-        cams.append(PhotoCamera(pid, s.K, s.R, s.C, s.width, s.height))
+        cams.append(ImageCamera(pid, s.K, s.R, s.C, s.width, s.height))
         sources[pid] = PhotoSource(pid, folder / f"{cam.id}.jpg", hashes[cam.id])
     return cams, sources
 
@@ -199,7 +200,7 @@ def _psnr(model, cams, sources, opts, exposures) -> dict[str, float]:
     return {"psnr_db": value, "seen_texel_share": seen / max(1, on_face)}
 
 
-def _solved_example() -> tuple[Model | None, list[PhotoCamera], dict[str, PhotoSource]]:
+def _solved_example() -> tuple[Model | None, list[ImageCamera], dict[str, PhotoSource]]:
     from ..actions.calibrate import calibrate_project
     from ..actions.solve import cameras_from_calibration, load_model, solve_project
     from ..project import load_project
@@ -214,7 +215,7 @@ def _solved_example() -> tuple[Model | None, list[PhotoCamera], dict[str, PhotoS
         cams = []
         for pid, c in cameras_from_calibration(project).items():
             p = project.photo(pid)
-            cams.append(PhotoCamera(pid, c.K, c.R, c.C, p["width"], p["height"]))
+            cams.append(ImageCamera(pid, c.K, c.R, c.C, p["width"], p["height"]))
         sources = {c.id: PhotoSource(c.id, truth.photo_path(c.id)) for c in cams}
         # The solved model's faces match the true model's one for one (same nodes, same order).
         return model, cams, sources

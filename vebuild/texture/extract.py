@@ -16,12 +16,13 @@ import numpy as np
 from numpy.typing import NDArray
 from PIL import Image, UnidentifiedImageError
 
+from vebuild.camera import ImageCamera
 from vebuild.errors import ProjectError
 from vebuild.gl import headless_context, max_texture_size
 from vebuild.model.scene import Model
 from vebuild.project import sha256_bytes
 from vebuild.texture import layout as lay
-from vebuild.texture.gpu import Extractor, Options, PhotoCamera, Timings
+from vebuild.texture.gpu import Extractor, Options, Timings
 from vebuild.texture.merge import FaceStats, fill_page
 
 Array = NDArray[np.float64]
@@ -57,7 +58,7 @@ class TextureResult:
         return [f for f in self.faces if self.face_stats[f.id].seen_fraction == 0.0]
 
 
-def read_photo(src: PhotoSource, cam: PhotoCamera, timings: Timings | None = None) -> NDArray[np.uint8]:
+def read_photo(src: PhotoSource, cam: ImageCamera, timings: Timings | None = None) -> NDArray[np.uint8]:
     """Read, check and decode one photo: its bytes must hash to ``src.sha256`` and decode to the
     camera's size. The bytes that are hashed are the bytes that are decoded."""
     timings = timings or Timings()
@@ -94,7 +95,7 @@ def decode(data: bytes, src: PhotoSource | None = None) -> NDArray[np.uint8]:
                            f"cannot decode {name} as an image: {e}") from None
 
 
-def photo_order(ex: Extractor, cameras: Sequence[PhotoCamera]) -> list[PhotoCamera]:
+def photo_order(ex: Extractor, cameras: Sequence[ImageCamera]) -> list[ImageCamera]:
     """Photos ordered so that each overlaps those before it as much as possible (the first sees
     the most faces): exposure is compensated against what is already accumulated."""
     sets = {c.id: ex._visible_faces(c) for c in cameras}
@@ -110,7 +111,7 @@ def photo_order(ex: Extractor, cameras: Sequence[PhotoCamera]) -> list[PhotoCame
     return order
 
 
-def extract(model: Model, cameras: Sequence[PhotoCamera], sources: dict[str, PhotoSource], options: Options,
+def extract(model: Model, cameras: Sequence[ImageCamera], sources: dict[str, PhotoSource], options: Options,
             progress: Callable[[int, int, str], None] | None = None, timings: Timings | None = None) -> TextureResult:
     """Extract and merge the textures of every face of ``model`` from the photos of ``cameras``."""
     ctx = headless_context()

@@ -17,7 +17,7 @@ import moderngl
 import numpy as np
 from numpy.typing import NDArray
 
-from vebuild.camera import gl_projection, view_matrix, world_to_camera
+from vebuild.camera import ImageCamera, gl_projection, view_matrix, world_to_camera
 from vebuild.gl import load_program
 from vebuild.texture import BEST_WEIGHT_SCALE, DEPTH_TOLERANCE, MAX_LEVELS, pre_pass_erosion
 from vebuild.texture.layout import SceneMesh
@@ -38,24 +38,6 @@ DARK = 0.01
 #: at 0.3 % per pixel). An edge hidden less than 0.5 % behind a nearer surface (1.5 cm at 3 m) is
 #: drawn too: a little more erosion there. 1 % drew the legs' hidden tops through the table top.
 EDGE_SHRINK = 1.0 - 5e-3
-
-
-@dataclass(frozen=True)
-class PhotoCamera:
-    """A calibrated photo: K, R, C in the convention of DESIGN.md, and its size in pixels."""
-
-    id: str
-    K: Array
-    R: Array
-    C: Array
-    width: int
-    height: int
-
-    def scaled(self, s: float) -> PhotoCamera:
-        """The same camera for an image scaled by s (pixel corners stay at corners)."""
-        K = np.array(self.K, float)
-        K[:2] *= s
-        return PhotoCamera(self.id, K, self.R, self.C, max(1, round(self.width * s)), max(1, round(self.height * s)))
 
 
 @dataclass
@@ -193,12 +175,12 @@ class Extractor:
 
     # -- pass 1 ------------------------------------------------------------------------------
 
-    def _near_far(self, cam: PhotoCamera) -> tuple[float, float]:
+    def _near_far(self, cam: ImageCamera) -> tuple[float, float]:
         z = world_to_camera(cam.R, cam.C, self.mesh.vertices)[:, 2]
         far = max(1.0, float(z.max()) * 1.5 + 1.0)
         return max(1e-3, far * 1e-5), far
 
-    def id_pass(self, cam: PhotoCamera, erode_px: float) -> moderngl.Texture:
+    def id_pass(self, cam: ImageCamera, erode_px: float) -> moderngl.Texture:
         """Render the ID buffer (face id, depth) of ``cam``; returns its texture."""
         ctx = self.ctx
         fbo, tex = self._id_target(cam.width, cam.height)
@@ -228,7 +210,7 @@ class Extractor:
         ctx.disable(moderngl.DEPTH_TEST)
         return tex
 
-    def _edge_lines(self, cam: PhotoCamera, near: float) -> NDArray[np.float32]:
+    def _edge_lines(self, cam: ImageCamera, near: float) -> NDArray[np.float32]:
         """Face borders and the silhouettes of curved faces seen from ``cam``, clipped to z > near."""
         V = self.mesh.vertices
         t = self.mesh.triangles
@@ -314,7 +296,7 @@ class Extractor:
 
     # -- pass 2 ------------------------------------------------------------------------------
 
-    def _visible_faces(self, cam: PhotoCamera) -> set[int]:
+    def _visible_faces(self, cam: ImageCamera) -> set[int]:
         """Faces that may show in ``cam``: some vertex faces it and is in front, and their image
         bounds meet the image."""
         out = set()
@@ -354,7 +336,7 @@ class Extractor:
             with q:
                 vao.render(moderngl.TRIANGLES, vertices=count, first=first)
 
-    def _texel_uniforms(self, prog: moderngl.Program, cam: PhotoCamera, id_tex: moderngl.Texture,
+    def _texel_uniforms(self, prog: moderngl.Program, cam: ImageCamera, id_tex: moderngl.Texture,
                         page_size: tuple[int, int], atlas_scale: float = 1.0, weight_scale: float = 1.0) -> None:
         id_tex.use(0)
         values: dict[str, object] = dict(
@@ -378,7 +360,7 @@ class Extractor:
                           level_size=sizes, level_y0=y0)
         _set(prog, **values)
 
-    def best_weights(self, cameras: list[PhotoCamera]) -> None:
+    def best_weights(self, cameras: list[ImageCamera]) -> None:
         """Pre-pass (no photo needed): each texel's best weight over all photos, for dropping
         views far worse than the best."""
         prog = self._programs["best"]
@@ -398,7 +380,7 @@ class Extractor:
                 self.ctx.blend_equation = moderngl.FUNC_ADD
                 self.ctx.disable(moderngl.BLEND)
 
-    def add_photo(self, cam: PhotoCamera, pixels: NDArray[np.uint8]) -> None:
+    def add_photo(self, cam: ImageCamera, pixels: NDArray[np.uint8]) -> None:
         """Pass 1 and pass 2 for one photo; its texels join the sums."""
         if pixels.shape[:2] != (cam.height, cam.width):
             raise ValueError(f"photo {cam.id}: pixels are {pixels.shape[1]}×{pixels.shape[0]}, "
@@ -439,7 +421,7 @@ class Extractor:
         self._collect()
         return dict(self._contributions)
 
-    def _exposure_gain(self, cam: PhotoCamera, id_tex: moderngl.Texture, faces: set[int]) -> NDArray[np.float64]:
+    def _exposure_gain(self, cam: ImageCamera, id_tex: moderngl.Texture, faces: set[int]) -> NDArray[np.float64]:
         """This photo's exposure relative to the sums so far: the median ratio of its low band to
         the accumulated low band over texels both saw, on the atlas reduced by STATS_SCALE (1 for
         the first photo, or with fewer than MIN_OVERLAP such texels)."""
@@ -460,7 +442,7 @@ class Extractor:
         # scatter by a few percent (measured on the example room: 0.94/0.95/0.98 for a true 0.97).
         return np.full(3, np.exp(np.median(r.mean(axis=1))))
 
-    def view(self, cam: PhotoCamera, id_tex: moderngl.Texture, page: int, faces: set[int] | None = None,
+    def view(self, cam: ImageCamera, id_tex: moderngl.Texture, page: int, faces: set[int] | None = None,
              atlas_scale: float = 1.0, with_accumulated: bool = False) -> dict[str, NDArray[np.float32]]:
         """One photo's texels on one page (MODE 1): colour c, weight w, low band l, and in 'seen'
         the face id where the texel is seen (0 elsewhere)."""

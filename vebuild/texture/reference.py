@@ -33,7 +33,8 @@ from vebuild.texture.layout import SceneMesh
 from vebuild.texture.merge import srgb8_to_linear
 
 if TYPE_CHECKING:  # gpu.py imports moderngl; the reference must run without it
-    from vebuild.texture.gpu import Options, PhotoCamera
+    from vebuild.camera import ImageCamera
+    from vebuild.texture.gpu import Options
 
 Array = NDArray[np.float64]
 
@@ -187,7 +188,7 @@ def _scan(uv: Array, width: int, height: int) -> Iterator[tuple[NDArray[np.intp]
         start = stop
 
 
-def _near_plane(mesh: SceneMesh, cam: PhotoCamera) -> float:
+def _near_plane(mesh: SceneMesh, cam: ImageCamera) -> float:
     """The near plane the GPU's ID pass uses (``Extractor._near_far``)."""
     z = world_to_camera(cam.R, cam.C, mesh.vertices)[:, 2]
     far = max(1.0, float(z.max()) * 1.5 + 1.0) if len(z) else 1.0
@@ -228,7 +229,7 @@ def _clip_near(X: Array, near: float) -> tuple[Array, NDArray[np.intp]]:
     return P[order], o[order]
 
 
-def rasterise_ids(mesh: SceneMesh, cam: PhotoCamera, erode_px: float = 0.0) -> tuple[NDArray[np.int32], Array]:
+def rasterise_ids(mesh: SceneMesh, cam: ImageCamera, erode_px: float = 0.0) -> tuple[NDArray[np.int32], Array]:
     """Pass 1, the ID buffer of ``cam``: (H, W) int32 1-based face id of the nearest triangle at
     each pixel centre (0: nothing) and (H, W) float64 camera depth z there (+inf: nothing).
 
@@ -398,7 +399,7 @@ def _rows(X: Array, M: Array) -> Array:
     return np.einsum("nk,mk->nm", X, M)
 
 
-def _project(tx: PageTexels, lo: int, hi: int, cam: PhotoCamera, ids: NDArray[np.int32], depth: Array,
+def _project(tx: PageTexels, lo: int, hi: int, cam: ImageCamera, ids: NDArray[np.int32], depth: Array,
              weight_scale: float = 1.0) -> _Projected:
     """texel.frag up to the weight, for texels lo:hi of ``tx``: the seen test and w."""
     K = np.asarray(cam.K, float)
@@ -448,7 +449,7 @@ def _chunks(n: int) -> Iterator[tuple[int, int]]:
         yield lo, min(n, lo + CHUNK)
 
 
-def texel_view(mesh: SceneMesh, cam: PhotoCamera, levels: Sequence[Array], ids: NDArray[np.int32], depth: Array,
+def texel_view(mesh: SceneMesh, cam: ImageCamera, levels: Sequence[Array], ids: NDArray[np.int32], depth: Array,
                page: int, detail_levels: float = 2.0,
                geometry: dict[str, NDArray] | PageTexels | None = None) -> dict[str, NDArray]:
     """One photo's texels on one page (texel.frag, MODE 1, atlas_scale 1, weight_scale 1).
@@ -483,7 +484,7 @@ def texel_view(mesh: SceneMesh, cam: PhotoCamera, levels: Sequence[Array], ids: 
             "seen": seen.reshape(h, w)}
 
 
-def best_weights(mesh: SceneMesh, cameras: Iterable[PhotoCamera], erode_px: float,
+def best_weights(mesh: SceneMesh, cameras: Iterable[ImageCamera], erode_px: float,
                  pages: Sequence[PageTexels] | None = None) -> list[Array]:
     """The pre-pass of :func:`accumulate` (texel.frag MODE 2, as ``Extractor.best_weights``):
     per page, each face texel's (compact order) best weight over ``cameras``, each seen through an
@@ -501,7 +502,7 @@ def best_weights(mesh: SceneMesh, cameras: Iterable[PhotoCamera], erode_px: floa
     return best
 
 
-def accumulate(mesh: SceneMesh, cameras: Sequence[PhotoCamera], photos: Iterable[NDArray[np.uint8]],
+def accumulate(mesh: SceneMesh, cameras: Sequence[ImageCamera], photos: Iterable[NDArray[np.uint8]],
                options: Options, gains: dict[str, NDArray] | None = None) -> list[dict[str, NDArray]]:
     """Passes 1–2 for every photo, summed per texel: per page the four arrays of
     ``Extractor.sums`` (texel.frag MODE 0), float64:

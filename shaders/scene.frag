@@ -1,0 +1,98 @@
+#version 330 core
+// Shading (renderer.py; the units are vebuild.render.lighting's). Unlit ("as photographed"): the
+// texture as extracted. Re-lit: the texture is the surface colour (albedo) under ambient light
+// plus directional, point and spot lights, each optionally shadowed through the shadow atlas.
+// Output is linear light; the composite pass encodes sRGB after the multisample resolve.
+#ifndef MAX_LIGHTS
+#define MAX_LIGHTS 8
+#endif
+#ifndef MAX_TILES
+#define MAX_TILES 24
+#endif
+uniform sampler2D atlas;          // an sRGB page: the sampler returns linear values
+uniform bool textured;
+uniform bool lit;
+uniform vec3 ambient;
+uniform vec3 eye;                 // camera centre, world
+uniform int n_lights;
+uniform vec4 light_colour[MAX_LIGHTS];     // rgb irradiance at 1 m, w = type (0 dir, 1 point, 2 spot)
+uniform vec4 light_position[MAX_LIGHTS];   // xyz, w = first shadow tile (-1: casts none)
+uniform vec4 light_direction[MAX_LIGHTS];  // xyz where the light travels, w = cos(outer cone)
+uniform float light_cos_inner[MAX_LIGHTS];
+uniform sampler2DShadow shadow_atlas;
+uniform mat4 shadow_matrix[MAX_TILES];     // world -> the tile's clip space
+uniform vec4 shadow_rect[MAX_TILES];       // the tile in atlas coordinates: x0, y0, width, height
+uniform vec2 shadow_texel[MAX_TILES];      // world size of one shadow texel: x at 1 m (y = 1) or flat (y = 0)
+uniform int highlight_node;                // -1: none
+uniform vec3 highlight_colour;
+in vec3 v_world;
+in vec3 v_normal;
+in vec2 v_uv;
+in vec3 v_colour;
+flat in int v_node;
+layout(location = 0) out vec4 out_colour;
+
+float shadow_factor(int tile, vec3 P, vec3 N, float dist) {
+    // Normal offset (1.5 shadow texels along the normal) keeps a lit surface from shadowing itself.
+    float texel = shadow_texel[tile].x * (shadow_texel[tile].y > 0.5 ? dist : 1.0);
+    vec4 c = shadow_matrix[tile] * vec4(P + N * (1.5 * texel), 1.0);
+    if (c.w <= 0.0) return 1.0;
+    vec3 ndc = c.xyz / c.w;
+    if (abs(ndc.x) > 1.0 || abs(ndc.y) > 1.0 || ndc.z > 1.0) return 1.0;  // outside the light's map
+    vec4 r = shadow_rect[tile];
+    vec2 size = vec2(textureSize(shadow_atlas, 0));
+    vec2 uv = r.xy + (ndc.xy * 0.5 + 0.5) * r.zw;
+    vec2 lo = r.xy + 1.5 / size, hi = r.xy + r.zw - 1.5 / size;  // taps stay inside the tile
+    float ref = ndc.z * 0.5 + 0.5;
+    float s = 0.0;
+    // Four bilinear comparisons half a texel apart: a 3x3-texel percentage-closer filter.
+    for (int k = 0; k < 4; ++k) {
+        vec2 o = vec2((k & 1) == 0 ? -0.5 : 0.5, (k & 2) == 0 ? -0.5 : 0.5) / size;
+        s += texture(shadow_atlas, vec3(clamp(uv + o, lo, hi), ref));
+    }
+    return s * 0.25;
+}
+
+int cube_face(vec3 d) {  // +x, -x, +y, -y, +z, -z: the order of a point light's six tiles
+    vec3 a = abs(d);
+    if (a.x >= a.y && a.x >= a.z) return d.x > 0.0 ? 0 : 1;
+    if (a.y >= a.z) return d.y > 0.0 ? 2 : 3;
+    return d.z > 0.0 ? 4 : 5;
+}
+
+void main() {
+    vec3 albedo = textured ? texture(atlas, v_uv).rgb : v_colour;
+    vec3 colour = albedo;
+    if (lit) {
+        vec3 N = normalize(v_normal);
+        if (dot(N, eye - v_world) < 0.0) N = -N;  // a face seen from behind is lit on that side
+        vec3 E = ambient;
+        for (int i = 0; i < n_lights; ++i) {
+            int type = int(light_colour[i].w + 0.5);
+            vec3 L;
+            float fall = 1.0, dist = 1.0;
+            if (type == 0) {
+                L = -light_direction[i].xyz;
+            } else {
+                vec3 d = light_position[i].xyz - v_world;
+                dist = max(length(d), 1e-4);
+                L = d / dist;
+                fall = 1.0 / (dist * dist);
+                if (type == 2)
+                    fall *= smoothstep(light_direction[i].w, light_cos_inner[i], dot(-L, light_direction[i].xyz));
+            }
+            float ndl = dot(N, L);
+            if (ndl <= 0.0 || fall <= 0.0) continue;
+            int tile = int(light_position[i].w);
+            float s = 1.0;
+            if (tile >= 0) {
+                if (type == 1) tile += cube_face(-L);
+                s = shadow_factor(tile, v_world, N, dist);
+            }
+            E += light_colour[i].rgb * (ndl * fall * s);
+        }
+        colour = albedo * E;
+    }
+    if (v_node == highlight_node) colour = mix(colour, highlight_colour, 0.5);
+    out_colour = vec4(colour, 1.0);
+}

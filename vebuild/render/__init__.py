@@ -1,0 +1,7 @@
+"""Rendering the reconstructed scene (paper §5): evidence views, stereo, lighting, export.
+
+:mod:`.views` and :mod:`.lighting` turn the project's named views and lighting presets into
+cameras and lights (pure numpy); :mod:`.scene` gathers the model's mesh and its extracted textures;
+:mod:`.renderer` draws them with moderngl, off-screen or into a window. Nothing here imports GL
+until a renderer is made.
+"""

@@ -1,0 +1,447 @@
+"""The renderer (paper §5): the textured model drawn with moderngl, off-screen or into a window.
+
+One :class:`Renderer` serves the headless context (evidence views, videos, benchmarks) and a
+window's (the walk-through): it draws an :class:`~vebuild.camera.ImageCamera`'s view through the
+one camera-to-clip conversion (:func:`vebuild.camera.gl_projection`) into a multisampled linear
+(half-float) target, resolves it, and a composite pass encodes sRGB into the destination: a
+read-back buffer in image order (row 0 at the top), or a window's framebuffer (flipped).
+
+Two modes: unlit, the extracted textures as photographed (the built-in ``as-photographed``
+preset), and re-lit, the textures as surface colour under a preset's lights
+(:mod:`vebuild.render.lighting`), with shadow maps for the lights that cast them: one tile of a
+shared depth atlas for a directional light (orthographic, fitted to the scene) or a spot light
+(perspective, its cone), six for a point light (one per cube face). Shadow maps are rendered when
+the scene or the lighting changes, not every frame.
+
+Stereo (:func:`vebuild.camera.stereo_pair`): parallel eyes with off-axis frusta, composed
+side by side (``sbs``, the left eye left), top and bottom (``tb``, the left eye on top), as a
+red-cyan anaglyph with Dubois's least-squares matrices, or into a window's left and right back
+buffers (``quad``) where its context offers quad-buffered stereo.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import moderngl
+import numpy as np
+from numpy.typing import NDArray
+
+from vebuild.camera import (
+    ImageCamera,
+    gl_orthographic,
+    gl_projection,
+    look_rotation,
+    stereo_pair,
+    view_matrix,
+    world_to_camera,
+)
+from vebuild.errors import VebuildError
+from vebuild.gl import load_program
+from vebuild.gl.context import max_texture_size
+from vebuild.render.lighting import AS_PHOTOGRAPHED_LIGHTING, Light, Lighting
+from vebuild.render.scene import RenderScene
+from vebuild.texture.merge import srgb8_to_linear
+
+Array = NDArray[np.float64]
+
+GL_SRGB8 = 0x8C41
+MAX_LIGHTS = 8
+#: Shadow tiles at most: a directional or spot light takes one, a point light six.
+MAX_TILES = 24
+STEREO_MODES = ("sbs", "tb", "anaglyph", "quad")
+#: Red-cyan anaglyph matrices (E. Dubois, "A projection method to generate anaglyph stereo
+#: images", ICASSP 2001): the least-squares fit of the perceived colours through red and cyan
+#: filters to those of the two views; rows give (r, g, b) out, columns (r, g, b) of each eye.
+ANAGLYPH_LEFT = np.array([[0.456, 0.500, 0.176], [-0.040, -0.038, -0.016], [-0.015, -0.021, -0.005]])
+ANAGLYPH_RIGHT = np.array([[-0.043, -0.088, -0.002], [0.378, 0.734, -0.018], [-0.072, -0.113, 1.226]])
+ANAGLYPH_LEFT.flags.writeable = ANAGLYPH_RIGHT.flags.writeable = False  # shared constants
+#: A point light's tiles look along these directions, in the order scene.frag's cube_face uses.
+CUBE_DIRECTIONS = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], float)
+#: Pixels kept free around a point light's 90° cube face inside its tile, for the shadow filter.
+CUBE_MARGIN_PX = 2.0
+
+
+@dataclass(frozen=True)
+class RenderOptions:
+    """Choices that hold for every frame of a renderer."""
+
+    samples: int = 4  # multisample anti-aliasing (1: off)
+    shadows: bool = True  # draw the shadows of lights that cast them
+    shadow_size: int = 1024  # texels along a shadow tile's side
+    background_srgb: tuple[int, int, int] = (38, 38, 44)
+    highlight_srgb: tuple[int, int, int] = (255, 190, 0)
+
+
+@dataclass(frozen=True)
+class Stereo:
+    """A stereo pair: composition mode, eye separation (m) and convergence distance (m; None: the
+    depth of the scene's centre in front of the camera, at least 0.5 m)."""
+
+    mode: str
+    separation: float = 0.063
+    convergence: float | None = None
+
+
+class Renderer:
+    """Draws one :class:`RenderScene` from any camera (see the module's docstring)."""
+
+    def __init__(self, ctx: moderngl.Context, scene: RenderScene, options: RenderOptions | None = None):
+        self.ctx = ctx
+        self.options = options or RenderOptions()
+        self.program = load_program(ctx, "scene", {"MAX_LIGHTS": MAX_LIGHTS, "MAX_TILES": MAX_TILES})
+        self.shadow_program = load_program(ctx, "shadow")
+        self.composite = load_program(ctx, "composite", vertex="fullscreen")
+        self._fullscreen = ctx.vertex_array(self.composite, [])
+        self._blank = ctx.texture((1, 1), 3, bytes([255, 255, 255]))
+        self._shadow_blank = ctx.depth_texture((1, 1))
+        self._shadow_blank.compare_func = "<="
+        self._targets: dict[tuple[int, int, int], tuple[moderngl.Framebuffer, moderngl.Framebuffer,
+                                                        moderngl.Texture]] = {}
+        self._outputs: dict[tuple[int, int], moderngl.Framebuffer] = {}
+        self._shadow: tuple[moderngl.Texture, moderngl.Framebuffer] | None = None
+        self._shadow_state: dict[str, object] | None = None
+        self.lighting: Lighting = AS_PHOTOGRAPHED_LIGHTING
+        self.highlight: str | None = None
+        self._pages: list[moderngl.Texture] = []
+        self._resources: list[moderngl.Buffer | moderngl.VertexArray] = []
+        self.scene: RenderScene
+        self._upload_pages(scene)
+        self.set_scene(scene)
+
+    # -- scene and lighting ------------------------------------------------------------------------
+
+    def _upload_pages(self, scene: RenderScene) -> None:
+        limit = max_texture_size(self.ctx)
+        for page in scene.pages:
+            h, w = page.shape[:2]
+            if max(w, h) > limit:
+                raise VebuildError(f"an atlas page of {w}×{h} texels is larger than this GPU's largest texture "
+                                   f"({limit}); extract the textures again on this machine (`vebuild texture`)")
+            tex = self.ctx.texture((w, h), 3, np.ascontiguousarray(page).tobytes(), internal_format=GL_SRGB8)
+            tex.build_mipmaps()
+            tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+            tex.anisotropy = 8.0
+            tex.repeat_x = tex.repeat_y = False
+            self._pages.append(tex)
+
+    def set_scene(self, scene: RenderScene) -> None:
+        """Draw ``scene`` from now on (objects moved, say); its textures must be the same pages."""
+        for r in self._resources:
+            r.release()
+        mesh = scene.mesh
+        self.scene = scene
+        faces = mesh.face_of_vertex - 1
+        page_of_face = np.array([f.page for f in mesh.faces], np.int32)
+        sizes = np.array(mesh.pages if scene.textured else [(1, 1)], float)
+        vpage = page_of_face[faces] if scene.textured else np.zeros(len(faces), np.int32)
+        uv = mesh.atlas / sizes[vpage] if scene.textured else np.zeros((len(faces), 2))
+        data = np.hstack([mesh.vertices, mesh.normals, uv, scene.face_colour[faces],
+                          scene.node_of_face[faces][:, None]]).astype("f4")
+        tri_page = vpage[mesh.triangles[:, 0]] if len(mesh.triangles) else np.zeros(0, np.int32)
+        order = np.argsort(tri_page, kind="stable")
+        index = mesh.triangles[order].astype("i4")
+        counts = np.bincount(tri_page, minlength=max(1, len(self._pages)))
+        starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+        self._ranges = [(int(p), int(3 * s), int(3 * c)) for p, (s, c) in enumerate(zip(starts, counts, strict=True))
+                        if c > 0]
+        vbo = self.ctx.buffer(data.tobytes())
+        ibo = self.ctx.buffer(index.tobytes())
+        vao = self.ctx.vertex_array(self.program, [(vbo, "3f 3f 2f 3f 1f", "in_position", "in_normal", "in_uv",
+                                                    "in_colour", "in_node")], index_buffer=ibo)
+        shadow_vao = self.ctx.vertex_array(self.shadow_program, [(vbo, "3f 48x", "in_position")], index_buffer=ibo)
+        self._vao, self._shadow_vao = vao, shadow_vao
+        self._resources = [vao, shadow_vao, vbo, ibo]
+        self._n_indices = int(index.size)
+        self._bounds = scene.bounds()
+        self._shadow_state = None  # the geometry moved: shadows are drawn again
+
+    def set_lighting(self, lighting: Lighting) -> None:
+        """Use a lighting preset from now on (``AS_PHOTOGRAPHED_LIGHTING``: unlit)."""
+        if len(lighting.lights) > MAX_LIGHTS:
+            raise VebuildError(f"lighting preset {lighting.name!r} has {len(lighting.lights)} lights; the renderer "
+                               f"draws at most {MAX_LIGHTS}")
+        tiles = sum(6 if light.type == "point" else 1 for light in lighting.shadow_casters)
+        if self.options.shadows and tiles > MAX_TILES:
+            raise VebuildError(f"lighting preset {lighting.name!r} needs {tiles} shadow maps (a point light takes "
+                               f"six); the renderer has {MAX_TILES}: set \"shadows\": false on some lights")
+        self.lighting = lighting
+        self._shadow_state = None
+
+    # -- shadows ---------------------------------------------------------------------------------
+
+    def _light_tiles(self, light: Light, size: int) -> list[tuple[Array, tuple[float, float]]]:
+        """(world → clip matrix, shadow texel size (at 1 m, perspective?)) of each of a light's tiles."""
+        lo, hi = self._bounds
+        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        if light.type == "directional":
+            R = look_rotation(light.direction)
+            xc = corners @ R.T
+            pad = 0.01 * max(1e-3, float(np.ptp(xc, axis=0).max())) + 1e-3
+            a, b = xc.min(axis=0) - pad, xc.max(axis=0) + pad
+            return [(gl_orthographic(R, a, b), (float((b - a)[:2].max()) / size, 0.0))]
+        far = float(np.linalg.norm(corners - light.position, axis=1).max()) * 1.05 + 0.1
+        near = min(0.02, 0.5 * far)
+        if light.type == "spot":
+            half = min(light.outer_cone + math.radians(2.0), math.radians(89.0))
+            f = 0.5 * size / math.tan(half)
+            dirs = [light.direction]
+        else:
+            f = 0.5 * size - CUBE_MARGIN_PX
+            dirs = list(CUBE_DIRECTIONS)
+        K = np.array([[f, 0.0, size / 2], [0.0, f, size / 2], [0.0, 0.0, 1.0]])
+        P = gl_projection(K, size, size, near, far)
+        return [(P @ view_matrix(look_rotation(d), light.position), (1.0 / f, 1.0)) for d in dirs]
+
+    def _update_shadows(self) -> None:
+        shadows = self.options.shadows and self.lighting.lit
+        tiles: list[tuple[Array, tuple[float, float]]] = []
+        first: dict[int, int] = {}
+        size = int(self.options.shadow_size)
+        for i, light in enumerate(self.lighting.lights):
+            if shadows and light.shadows:
+                first[i] = len(tiles)
+                tiles += self._light_tiles(light, size)
+        state: dict[str, object] = {"first": first, "n": len(tiles)}
+        if tiles:
+            cols = math.ceil(math.sqrt(len(tiles)))
+            rows = math.ceil(len(tiles) / cols)
+            limit = max_texture_size(self.ctx)
+            size = min(size, limit // cols, limit // rows)
+            W, H = cols * size, rows * size
+            if self._shadow is None or self._shadow[0].size != (W, H):
+                if self._shadow is not None:
+                    self._shadow[1].release()
+                    self._shadow[0].release()
+                depth = self.ctx.depth_texture((W, H))
+                depth.compare_func = "<="
+                depth.filter = (moderngl.LINEAR, moderngl.LINEAR)
+                depth.repeat_x = depth.repeat_y = False
+                self._shadow = (depth, self.ctx.framebuffer(depth_attachment=depth))
+            depth, fbo = self._shadow
+            fbo.use()
+            fbo.viewport = (0, 0, W, H)
+            fbo.clear(depth=1.0)
+            self.ctx.enable(moderngl.DEPTH_TEST)
+            rects = []
+            for k, (M, _) in enumerate(tiles):
+                x, y = (k % cols) * size, (k // cols) * size
+                fbo.viewport = (x, y, size, size)
+                self.shadow_program["light_matrix"].write(M.T.astype("f4").tobytes())
+                self._shadow_vao.render(moderngl.TRIANGLES, vertices=self._n_indices)
+                rects.append((x / W, y / H, size / W, size / H))
+            self.ctx.disable(moderngl.DEPTH_TEST)
+            texel = np.zeros((MAX_TILES, 2), "f4")
+            texel[: len(tiles)] = [t for _, t in tiles]
+            mats = np.zeros((MAX_TILES, 4, 4), "f4")
+            mats[: len(tiles)] = [M.T for M, _ in tiles]
+            rect = np.zeros((MAX_TILES, 4), "f4")
+            rect[: len(tiles)] = rects
+            state.update(matrices=mats, rects=rect, texels=texel)
+        self._shadow_state = state
+
+    # -- drawing ---------------------------------------------------------------------------------
+
+    def _near_far(self, cam: ImageCamera) -> tuple[float, float]:
+        lo, hi = self._bounds
+        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        far = max(1.0, float(world_to_camera(cam.R, cam.C, corners)[:, 2].max()) * 1.05 + 0.5)
+        return max(1e-3, far * 2e-5), far
+
+    def default_convergence(self, cam: ImageCamera) -> float:
+        """Depth of the scene's centre in front of ``cam``, at least 0.5 m (the default screen plane)."""
+        centre = 0.5 * (self._bounds[0] + self._bounds[1])
+        return max(0.5, float(world_to_camera(cam.R, cam.C, centre)[2]))
+
+    def _set_uniforms(self, cam: ImageCamera) -> None:
+        prog = self.program
+        near, far = self._near_far(cam)
+        light = self.lighting
+        values: dict[str, object] = {
+            "view": view_matrix(cam.R, cam.C).T,
+            "projection": gl_projection(cam.K, cam.width, cam.height, near, far).T,
+            "eye": np.asarray(cam.C, float),
+            "lit": light.lit,
+            "ambient": light.ambient,
+            "n_lights": len(light.lights),
+            "highlight_colour": srgb8_to_linear(np.array(self.options.highlight_srgb, np.uint8)),
+            "highlight_node": self.scene.node_names.index(self.highlight)
+            if self.highlight in self.scene.node_names else -1,
+        }
+        if light.lit:
+            if self._shadow_state is None:
+                self._update_shadows()
+            state = self._shadow_state or {}
+            first: dict[int, int] = state.get("first", {})  # type: ignore[assignment]
+            arr = {k: np.zeros((MAX_LIGHTS, 4), "f4") for k in ("light_colour", "light_position", "light_direction")}
+            inner = np.zeros(MAX_LIGHTS, "f4")
+            for i, li in enumerate(light.lights):
+                arr["light_colour"][i] = [*li.colour, ("directional", "point", "spot").index(li.type)]
+                pos = li.position if li.position is not None else np.zeros(3)
+                arr["light_position"][i] = [*pos, first.get(i, -1)]
+                d = li.direction if li.direction is not None else np.array([0.0, 0.0, -1.0])
+                arr["light_direction"][i] = [*d, math.cos(li.outer_cone)]
+                inner[i] = math.cos(li.inner_cone)
+            values.update(arr)
+            values["light_cos_inner"] = inner
+            if state.get("n"):
+                values.update(shadow_matrix=state["matrices"], shadow_rect=state["rects"],
+                              shadow_texel=state["texels"])
+        for name, v in values.items():
+            if name in prog:
+                u = prog[name]
+                if isinstance(v, bool | int | np.integer):
+                    u.value = int(v)
+                else:
+                    u.write(np.ascontiguousarray(v, dtype="f4").tobytes())
+        for name, unit in (("atlas", 0), ("shadow_atlas", 1)):
+            if name in prog:
+                prog[name].value = unit
+
+    def _eye_target(self, w: int, h: int, eye: int) -> tuple[moderngl.Framebuffer, moderngl.Framebuffer,
+                                                              moderngl.Texture]:
+        key = (w, h, eye)
+        if key not in self._targets:
+            ctx = self.ctx
+            samples = max(1, min(int(self.options.samples), int(ctx.info.get("GL_MAX_SAMPLES", 1))))
+            resolved = ctx.texture((w, h), 4, dtype="f2")
+            resolved.filter = (moderngl.NEAREST, moderngl.NEAREST)
+            if samples > 1:
+                draw = ctx.framebuffer([ctx.renderbuffer((w, h), 4, samples=samples, dtype="f2")],
+                                       ctx.depth_renderbuffer((w, h), samples=samples))
+                resolve = ctx.framebuffer([resolved])
+            else:
+                draw = resolve = ctx.framebuffer([resolved], ctx.depth_renderbuffer((w, h)))
+            self._targets[key] = (draw, resolve, resolved)
+        return self._targets[key]
+
+    def _draw_eye(self, cam: ImageCamera, eye: int) -> moderngl.Texture:
+        """The view of ``cam`` in linear light, resolved, in a half-float texture (image order)."""
+        ctx = self.ctx
+        draw, resolve, resolved = self._eye_target(cam.width, cam.height, eye)
+        self._set_uniforms(cam)  # may render shadow maps, so before binding the target
+        draw.use()
+        draw.viewport = (0, 0, cam.width, cam.height)
+        bg = srgb8_to_linear(np.array(self.options.background_srgb, np.uint8))
+        draw.clear(float(bg[0]), float(bg[1]), float(bg[2]), 1.0, depth=1.0)
+        ctx.enable(moderngl.DEPTH_TEST)
+        ctx.disable(moderngl.CULL_FACE)
+        shadow_tex = self._shadow[0] if (self._shadow is not None and (self._shadow_state or {}).get("n")) \
+            else self._shadow_blank
+        shadow_tex.use(location=1)
+        for page, first, count in self._ranges:
+            if "textured" in self.program:
+                self.program["textured"].value = int(self.scene.textured)
+            (self._pages[page] if self.scene.textured else self._blank).use(location=0)
+            self._vao.render(moderngl.TRIANGLES, vertices=count, first=first)
+        ctx.disable(moderngl.DEPTH_TEST)
+        if draw is not resolve:
+            ctx.copy_framebuffer(resolve, draw)
+        return resolved
+
+    def _compose(self, target: moderngl.Framebuffer, viewport: tuple[int, int, int, int], left: moderngl.Texture,
+                 right: moderngl.Texture | None, flip: bool) -> None:
+        prog = self.composite
+        target.use()
+        target.viewport = viewport
+        left.use(location=0)
+        (right or left).use(location=1)
+        values = {"left": 0, "right": 1, "mode": int(right is not None), "flip": int(flip),
+                  "origin": viewport[:2]}
+        for name, v in values.items():
+            if name in prog:
+                prog[name].value = v
+        if right is not None:
+            prog["anaglyph_left"].write(ANAGLYPH_LEFT.T.astype("f4").tobytes())
+            prog["anaglyph_right"].write(ANAGLYPH_RIGHT.T.astype("f4").tobytes())
+        self._fullscreen.render(moderngl.TRIANGLES, vertices=3)
+
+    def output_size(self, cam: ImageCamera, stereo: Stereo | None = None) -> tuple[int, int]:
+        """Width and height of the composed image."""
+        w, h = cam.width, cam.height
+        mode = stereo.mode if stereo else None
+        return (2 * w, h) if mode == "sbs" else (w, 2 * h) if mode == "tb" else (w, h)
+
+    def eyes(self, cam: ImageCamera, stereo: Stereo | None) -> list[ImageCamera]:
+        """The cameras drawn: ``cam`` alone, or its stereo pair (left, right)."""
+        if stereo is None:
+            return [cam]
+        if stereo.mode not in STEREO_MODES:
+            raise VebuildError(f"unknown stereo mode {stereo.mode!r}; expected one of {', '.join(STEREO_MODES)}")
+        conv = stereo.convergence if stereo.convergence is not None else self.default_convergence(cam)
+        try:
+            return list(stereo_pair(cam, stereo.separation, conv))
+        except ValueError as e:
+            raise VebuildError(f"stereo: {e}") from None
+
+    def draw(self, target: moderngl.Framebuffer, cam: ImageCamera, stereo: Stereo | None = None, flip: bool = False,
+             origin: tuple[int, int] = (0, 0), select_buffer: Callable[[str], None] | None = None) -> None:
+        """Draw ``cam``'s view (or its stereo composition) into ``target`` at ``origin``.
+
+        ``flip``: the target is a window's framebuffer (image row 0 at the top of the screen).
+        ``select_buffer``: for ``quad`` stereo, selects the window's "left" or "right" back buffer.
+        """
+        eyes = self.eyes(cam, stereo)
+        images = [self._draw_eye(e, k) for k, e in enumerate(eyes)]
+        w, h = cam.width, cam.height
+        x, y = origin
+        mode = stereo.mode if stereo else None
+        if mode is None:
+            self._compose(target, (x, y, w, h), images[0], None, flip)
+        elif mode == "anaglyph":
+            self._compose(target, (x, y, w, h), images[0], images[1], flip)
+        elif mode == "quad":
+            if select_buffer is None:
+                raise VebuildError("quad-buffered stereo needs a window whose OpenGL context offers it; off-screen, "
+                                   "use sbs, tb or anaglyph")
+            for side, img in zip(("left", "right"), images, strict=True):
+                select_buffer(side)
+                self._compose(target, (x, y, w, h), img, None, flip)
+        else:
+            # Places in image coordinates (the left eye first: left, or on top), then in the target.
+            first_at_low_row = not flip  # off-screen, framebuffer row 0 is the image's top row
+            if mode == "sbs":
+                rects = [(x, y), (x + w, y)]
+            else:
+                rects = [(x, y), (x, y + h)] if first_at_low_row else [(x, y + h), (x, y)]
+            for (rx, ry), img in zip(rects, images, strict=True):
+                self._compose(target, (rx, ry, w, h), img, None, flip)
+
+    def render(self, cam: ImageCamera, stereo: Stereo | None = None) -> NDArray[np.uint8]:
+        """The composed image as (height, width, 3) sRGB uint8, row 0 at the top."""
+        W, H = self.output_size(cam, stereo)
+        fbo = self.frame(cam, stereo)
+        data = fbo.read(viewport=(0, 0, W, H), components=3, alignment=1)
+        return np.frombuffer(data, np.uint8).reshape(H, W, 3).copy()
+
+    def frame(self, cam: ImageCamera, stereo: Stereo | None = None) -> moderngl.Framebuffer:
+        """Draw one frame off-screen (no read-back) and return the framebuffer holding it."""
+        W, H = self.output_size(cam, stereo)
+        if (W, H) not in self._outputs:
+            self._outputs[(W, H)] = self.ctx.framebuffer([self.ctx.renderbuffer((W, H), 4)])
+        fbo = self._outputs[(W, H)]
+        self.draw(fbo, cam, stereo)
+        return fbo
+
+    def release(self) -> None:
+        """Free the GPU resources."""
+        for r in self._resources:
+            r.release()
+        self._resources = []
+        for t in self._pages:
+            t.release()
+        for draw, resolve, tex in self._targets.values():
+            if draw is not resolve:
+                draw.release()
+            resolve.release()
+            tex.release()
+        self._targets.clear()
+        for fbo in self._outputs.values():
+            fbo.release()
+        self._outputs.clear()
+        if self._shadow is not None:
+            self._shadow[1].release()
+            self._shadow[0].release()
+            self._shadow = None

@@ -1,0 +1,156 @@
+"""What the renderer draws: the model's world mesh with its extracted textures (numpy, no GL).
+
+:func:`load_scene` reads the project's solved model and its ``textures`` record. Textures that
+are missing (never extracted, a page file gone, or made for another model) are not an error: the
+scene is drawn untextured, each face in its recorded average colour or a neutral grey, and
+:attr:`RenderScene.warnings` says so. A page whose bytes changed since extraction is an error: a
+render must never show an image other than the one the project records.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path, PurePosixPath
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from PIL import Image
+
+from vebuild.errors import ProjectError, VebuildError
+from vebuild.model.scene import Model
+from vebuild.project import Project, sha256_file
+from vebuild.texture import layout as lay
+from vebuild.texture.merge import srgb8_to_linear
+
+Array = NDArray[np.float64]
+
+#: sRGB colour of a face with no texture and no recorded average colour.
+UNTEXTURED_SRGB = (190, 190, 190)
+
+
+@dataclass
+class RenderScene:
+    """The model as one world mesh, and what colours it.
+
+    mesh : world mesh with atlas coordinates (texels on each face's page).
+    pages : sRGB atlas pages (h, w, 3) uint8, one per page; empty when untextured.
+    face_colour : (n_faces, 3) linear RGB of each face, used where there is no texture.
+    model : the scene graph the mesh was built from (for moving objects, naming picks).
+    textured : whether the atlas pages are drawn.
+    warnings : what the user should know (textures missing, faces drawn untextured).
+    """
+
+    mesh: lay.SceneMesh
+    pages: list[NDArray[np.uint8]]
+    face_colour: Array
+    model: Model
+    textured: bool
+    warnings: list[str] = field(default_factory=list)
+    page_hashes: list[str] = field(default_factory=list)
+
+    @property
+    def node_names(self) -> list[str]:
+        """Names of the nodes that have faces, in face order; ``node_index`` indexes this."""
+        return list(dict.fromkeys(f.node for f in self.mesh.faces))
+
+    @property
+    def node_of_face(self) -> NDArray[np.int32]:
+        """(n_faces,) index into :attr:`node_names` of each face (by face id − 1)."""
+        index = {n: i for i, n in enumerate(self.node_names)}
+        return np.array([index[f.node] for f in self.mesh.faces], np.int32)
+
+    def bounds(self) -> tuple[Array, Array]:
+        v = self.mesh.vertices
+        if len(v) == 0:
+            return np.zeros(3), np.zeros(3)
+        return v.min(axis=0), v.max(axis=0)
+
+    def with_model(self, model: Model) -> RenderScene:
+        """The same scene with its objects where ``model`` puts them (same faces, same textures)."""
+        mesh = lay.scene_mesh(model, self.mesh.faces)
+        return RenderScene(mesh, self.pages, self.face_colour, model, self.textured, list(self.warnings),
+                           list(self.page_hashes))
+
+
+def untextured_faces(model: Model) -> list[lay.Face]:
+    """A face list for a model that has no texture layout (atlas coordinates are then unused)."""
+    return lay.layout(model, texels_per_metre=1.0, max_face_texels=1, page_size=1 << 20)
+
+
+def scene_from_model(model: Model, record: dict[str, Any] | None = None,
+                     pages: Sequence[NDArray[np.uint8]] = (), warnings: Sequence[str] = ()) -> RenderScene:
+    """A scene from a model and, optionally, a ``textures`` record with its decoded pages."""
+    warnings = list(warnings)
+    faces: list[lay.Face] | None = None
+    if record is not None and pages:
+        faces = [lay.Face(int(f["id"]), f["node"], f["face"], tuple(f["size_m"]), int(f["page"]), tuple(f["rect"]))
+                 for f in record["faces"]]
+        try:
+            mesh = lay.scene_mesh(model, faces)
+        except ValueError:
+            mesh = None
+        if mesh is None or len(faces) != len(untextured_faces(model)):
+            warnings.append("the textures were extracted for another model (its faces differ from the model's "
+                            "now); drawing untextured; run `vebuild texture` again")
+            faces = None
+    if faces is None:
+        mesh = lay.scene_mesh(model, untextured_faces(model))
+        pages = []
+    colour = np.tile(srgb8_to_linear(np.array(UNTEXTURED_SRGB, np.uint8)), (len(mesh.faces), 1))
+    if record is not None:
+        by_key = {(f["node"], f["face"]): f.get("average_colour_srgb") for f in record.get("faces", [])}
+        for i, f in enumerate(mesh.faces):
+            c = by_key.get((f.node, f.name))
+            if c is not None:
+                colour[i] = srgb8_to_linear(np.array(c, np.uint8))
+    return RenderScene(mesh, list(pages), colour, model, bool(pages), warnings)
+
+
+def load_scene(project: Project) -> RenderScene:
+    """The project's model (as last solved) with its textures; see the module's docstring."""
+    from vebuild.actions.solve import load_model
+
+    data = project.data
+    if not (data.get("model") or {}).get("nodes"):
+        raise VebuildError(f"{project.path}: $.model: the project has no model yet; build one (`vebuild solve`) "
+                           "before rendering it")
+    model, _, _ = load_model(project)
+    if not any(n.primitive is not None for n in model.nodes):
+        raise VebuildError(f"{project.path}: $.model.nodes: the model has no primitives to render")
+    record = data.get("textures")
+    if record is None:
+        return scene_from_model(model, None, (), ["the project has no textures yet; drawing untextured "
+                                                  "(run `vebuild texture` to extract them from the photos)"])
+    pages, hashes, missing = [], [], []
+    for k, page in enumerate(record["pages"]):
+        path = project.folder.joinpath(*PurePosixPath(page["atlas"]).parts)
+        if not path.is_file():
+            missing.append(str(path))
+            continue
+        digest = sha256_file(path)
+        if digest != page["atlas_sha256"]:
+            raise ProjectError(path, f"$.textures.pages[{k}].atlas_sha256",
+                               f"this atlas page changed since `vebuild texture` wrote it (SHA-256 {digest[:12]}…, "
+                               f"recorded {page['atlas_sha256'][:12]}…); run `vebuild texture` again")
+        pages.append(_read_page(path, page, k))
+        hashes.append(digest)
+    if missing:
+        return scene_from_model(model, record, (), [f"texture page(s) missing: {', '.join(missing)}; drawing "
+                                                    "untextured (run `vebuild texture` again)"])
+    scene = scene_from_model(model, record, pages)
+    scene.page_hashes = hashes if scene.textured else []
+    return scene
+
+
+def _read_page(path: Path, page: dict[str, Any], k: int) -> NDArray[np.uint8]:
+    try:
+        with Image.open(path) as im:
+            img = np.asarray(im.convert("RGB"))
+    except OSError as e:
+        raise ProjectError(path, f"$.textures.pages[{k}].atlas", f"cannot read the atlas page: {e}") from None
+    if img.shape[:2] != (page["height"], page["width"]):
+        raise ProjectError(path, f"$.textures.pages[{k}]", f"expected a {page['width']}×{page['height']} image, "
+                           f"found {img.shape[1]}×{img.shape[0]}")
+    return img
