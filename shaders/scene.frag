@@ -2,7 +2,11 @@
 // Shading (renderer.py; the units are vebuild.render.lighting's). Unlit ("as photographed"): the
 // texture as extracted. Re-lit: the texture is the surface colour (albedo) under ambient light
 // plus directional, point and spot lights, each optionally shadowed through the shadow atlas.
-// Output is linear light; the composite pass encodes sRGB after the multisample resolve.
+// Lighting is computed in linear light and the result encoded to sRGB here, once.
+// LIT (0 or 1, set by the renderer) compiles the unlit or the re-lit variant.
+#ifndef LIT
+#define LIT 1
+#endif
 #ifndef MAX_LIGHTS
 #define MAX_LIGHTS 8
 #endif
@@ -11,7 +15,6 @@
 #endif
 uniform sampler2D atlas;          // an sRGB page: the sampler returns linear values
 uniform bool textured;
-uniform bool lit;
 uniform vec3 ambient;
 uniform vec3 eye;                 // camera centre, world
 uniform int n_lights;
@@ -32,6 +35,12 @@ in vec3 v_colour;
 flat in int v_node;
 layout(location = 0) out vec4 out_colour;
 
+vec3 to_srgb(vec3 c) {
+    c = clamp(c, 0.0, 1.0);
+    return mix(c * 12.92, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), c));
+}
+
+#if LIT
 float shadow_factor(int tile, vec3 P, vec3 N, float dist) {
     // Normal offset (1.5 shadow texels along the normal) keeps a lit surface from shadowing itself.
     float texel = shadow_texel[tile].x * (shadow_texel[tile].y > 0.5 ? dist : 1.0);
@@ -59,11 +68,13 @@ int cube_face(vec3 d) {  // +x, -x, +y, -y, +z, -z: the order of a point light's
     if (a.y >= a.z) return d.y > 0.0 ? 2 : 3;
     return d.z > 0.0 ? 4 : 5;
 }
+#endif
 
 void main() {
     vec3 albedo = textured ? texture(atlas, v_uv).rgb : v_colour;
     vec3 colour = albedo;
-    if (lit) {
+#if LIT
+    {
         vec3 N = normalize(v_normal);
         if (dot(N, eye - v_world) < 0.0) N = -N;  // a face seen from behind is lit on that side
         vec3 E = ambient;
@@ -93,6 +104,7 @@ void main() {
         }
         colour = albedo * E;
     }
+#endif
     if (v_node == highlight_node) colour = mix(colour, highlight_colour, 0.5);
-    out_colour = vec4(colour, 1.0);
+    out_colour = vec4(to_srgb(colour), 1.0);
 }

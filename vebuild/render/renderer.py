@@ -2,9 +2,10 @@
 
 One :class:`Renderer` serves the headless context (evidence views, videos, benchmarks) and a
 window's (the walk-through): it draws an :class:`~vebuild.camera.ImageCamera`'s view through the
-one camera-to-clip conversion (:func:`vebuild.camera.gl_projection`) into a multisampled linear
-(half-float) target, resolves it, and a composite pass encodes sRGB into the destination: a
-read-back buffer in image order (row 0 at the top), or a window's framebuffer (flipped).
+one camera-to-clip conversion (:func:`vebuild.camera.gl_projection`) straight into the
+destination: off-screen a multisampled 8-bit target resolved into a texture in image order (row 0
+at the top), or a window's framebuffer (``flip_y``). Shading is computed in linear light and
+encoded to sRGB once, in the fragment shader; textures are sRGB, decoded by the sampler.
 
 Two modes: unlit, the extracted textures as photographed (the built-in ``as-photographed``
 preset), and re-lit, the textures as surface colour under a preset's lights
@@ -69,10 +70,16 @@ class RenderOptions:
     """Choices that hold for every frame of a renderer."""
 
     samples: int = 4  # multisample anti-aliasing (1: off)
+    anisotropy: float = 8.0  # anisotropic texture filtering (1: trilinear only; costly on software GL)
     shadows: bool = True  # draw the shadows of lights that cast them
     shadow_size: int = 1024  # texels along a shadow tile's side
     background_srgb: tuple[int, int, int] = (38, 38, 44)
     highlight_srgb: tuple[int, int, int] = (255, 190, 0)
+
+    @classmethod
+    def interactive(cls) -> RenderOptions:
+        """Settings for a frame loop on software GL (no GPU): no multisampling, trilinear filtering."""
+        return cls(samples=1, anisotropy=1.0)
 
 
 @dataclass(frozen=True)
@@ -91,16 +98,17 @@ class Renderer:
     def __init__(self, ctx: moderngl.Context, scene: RenderScene, options: RenderOptions | None = None):
         self.ctx = ctx
         self.options = options or RenderOptions()
-        self.program = load_program(ctx, "scene", {"MAX_LIGHTS": MAX_LIGHTS, "MAX_TILES": MAX_TILES})
+        # Two variants of the scene program: unlit (as photographed) and re-lit.
+        self._programs = {lit: load_program(ctx, "scene", {"LIT": int(lit), "MAX_LIGHTS": MAX_LIGHTS,
+                                                           "MAX_TILES": MAX_TILES}) for lit in (False, True)}
         self.shadow_program = load_program(ctx, "shadow")
-        self.composite = load_program(ctx, "composite", vertex="fullscreen")
+        self.composite = load_program(ctx, "anaglyph", vertex="fullscreen")
         self._fullscreen = ctx.vertex_array(self.composite, [])
         self._blank = ctx.texture((1, 1), 3, bytes([255, 255, 255]))
         self._shadow_blank = ctx.depth_texture((1, 1))
         self._shadow_blank.compare_func = "<="
-        self._targets: dict[tuple[int, int, int], tuple[moderngl.Framebuffer, moderngl.Framebuffer,
+        self._targets: dict[tuple[int, int, str], tuple[moderngl.Framebuffer, moderngl.Framebuffer,
                                                         moderngl.Texture]] = {}
-        self._outputs: dict[tuple[int, int], moderngl.Framebuffer] = {}
         self._shadow: tuple[moderngl.Texture, moderngl.Framebuffer] | None = None
         self._shadow_state: dict[str, object] | None = None
         self.lighting: Lighting = AS_PHOTOGRAPHED_LIGHTING
@@ -123,7 +131,7 @@ class Renderer:
             tex = self.ctx.texture((w, h), 3, np.ascontiguousarray(page).tobytes(), internal_format=GL_SRGB8)
             tex.build_mipmaps()
             tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
-            tex.anisotropy = 8.0
+            tex.anisotropy = float(self.options.anisotropy)
             tex.repeat_x = tex.repeat_y = False
             self._pages.append(tex)
 
@@ -149,11 +157,9 @@ class Renderer:
                         if c > 0]
         vbo = self.ctx.buffer(data.tobytes())
         ibo = self.ctx.buffer(index.tobytes())
-        vao = self.ctx.vertex_array(self.program, [(vbo, "3f 3f 2f 3f 1f", "in_position", "in_normal", "in_uv",
-                                                    "in_colour", "in_node")], index_buffer=ibo)
-        shadow_vao = self.ctx.vertex_array(self.shadow_program, [(vbo, "3f 48x", "in_position")], index_buffer=ibo)
-        self._vao, self._shadow_vao = vao, shadow_vao
-        self._resources = [vao, shadow_vao, vbo, ibo]
+        self._vaos = {lit: _vertex_array(self.ctx, prog, vbo, ibo) for lit, prog in self._programs.items()}
+        self._shadow_vao = _vertex_array(self.ctx, self.shadow_program, vbo, ibo)
+        self._resources = [*self._vaos.values(), self._shadow_vao, vbo, ibo]
         self._n_indices = int(index.size)
         self._bounds = scene.bounds()
         self._shadow_state = None  # the geometry moved: shadows are drawn again
@@ -255,15 +261,19 @@ class Renderer:
         centre = 0.5 * (self._bounds[0] + self._bounds[1])
         return max(0.5, float(world_to_camera(cam.R, cam.C, centre)[2]))
 
-    def _set_uniforms(self, cam: ImageCamera) -> None:
+    @property
+    def program(self) -> moderngl.Program:
+        """The scene program of the current lighting (unlit or re-lit)."""
+        return self._programs[self.lighting.lit]
+
+    def _set_uniforms(self, cam: ImageCamera, flip: bool) -> None:
         prog = self.program
         near, far = self._near_far(cam)
         light = self.lighting
         values: dict[str, object] = {
             "view": view_matrix(cam.R, cam.C).T,
-            "projection": gl_projection(cam.K, cam.width, cam.height, near, far).T,
+            "projection": gl_projection(cam.K, cam.width, cam.height, near, far, flip_y=flip).T,
             "eye": np.asarray(cam.C, float),
-            "lit": light.lit,
             "ambient": light.ambient,
             "n_lights": len(light.lights),
             "highlight_colour": srgb8_to_linear(np.array(self.options.highlight_srgb, np.uint8)),
@@ -300,62 +310,67 @@ class Renderer:
             if name in prog:
                 prog[name].value = unit
 
-    def _eye_target(self, w: int, h: int, eye: int) -> tuple[moderngl.Framebuffer, moderngl.Framebuffer,
-                                                              moderngl.Texture]:
-        key = (w, h, eye)
-        if key not in self._targets:
+    def _target(self, w: int, h: int, key: str) -> tuple[moderngl.Framebuffer, moderngl.Framebuffer,
+                                                         moderngl.Texture]:
+        """(draw, resolve, image) of size w × h: a multisampled sRGB 8-bit target with depth, and the
+        single-sample texture it resolves into (the same framebuffer without multisampling)."""
+        k = (w, h, key)
+        if k not in self._targets:
             ctx = self.ctx
             samples = max(1, min(int(self.options.samples), int(ctx.info.get("GL_MAX_SAMPLES", 1))))
-            resolved = ctx.texture((w, h), 4, dtype="f2")
-            resolved.filter = (moderngl.NEAREST, moderngl.NEAREST)
+            image = ctx.texture((w, h), 4)
+            image.filter = (moderngl.NEAREST, moderngl.NEAREST)
             if samples > 1:
-                draw = ctx.framebuffer([ctx.renderbuffer((w, h), 4, samples=samples, dtype="f2")],
+                draw = ctx.framebuffer([ctx.renderbuffer((w, h), 4, samples=samples)],
                                        ctx.depth_renderbuffer((w, h), samples=samples))
-                resolve = ctx.framebuffer([resolved])
+                resolve = ctx.framebuffer([image])
             else:
-                draw = resolve = ctx.framebuffer([resolved], ctx.depth_renderbuffer((w, h)))
-            self._targets[key] = (draw, resolve, resolved)
-        return self._targets[key]
+                draw = resolve = ctx.framebuffer([image], ctx.depth_renderbuffer((w, h)))
+            self._targets[k] = (draw, resolve, image)
+        return self._targets[k]
 
-    def _draw_eye(self, cam: ImageCamera, eye: int) -> moderngl.Texture:
-        """The view of ``cam`` in linear light, resolved, in a half-float texture (image order)."""
+    def _draw_scene(self, cam: ImageCamera, target: moderngl.Framebuffer, origin: tuple[int, int],
+                    flip: bool) -> None:
+        """One view of the scene into ``target``'s viewport at ``origin`` (sRGB encoded)."""
         ctx = self.ctx
-        draw, resolve, resolved = self._eye_target(cam.width, cam.height, eye)
-        self._set_uniforms(cam)  # may render shadow maps, so before binding the target
-        draw.use()
-        draw.viewport = (0, 0, cam.width, cam.height)
-        bg = srgb8_to_linear(np.array(self.options.background_srgb, np.uint8))
-        draw.clear(float(bg[0]), float(bg[1]), float(bg[2]), 1.0, depth=1.0)
+        self._set_uniforms(cam, flip)  # may render shadow maps, so before binding the target
+        viewport = (origin[0], origin[1], cam.width, cam.height)
+        target.use()
+        target.viewport = viewport
+        bg = np.array(self.options.background_srgb, float) / 255.0
+        target.clear(float(bg[0]), float(bg[1]), float(bg[2]), 1.0, depth=1.0, viewport=viewport)
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.disable(moderngl.CULL_FACE)
         shadow_tex = self._shadow[0] if (self._shadow is not None and (self._shadow_state or {}).get("n")) \
             else self._shadow_blank
         shadow_tex.use(location=1)
+        if "textured" in self.program:
+            self.program["textured"].value = int(self.scene.textured)
+        vao = self._vaos[self.lighting.lit]
         for page, first, count in self._ranges:
-            if "textured" in self.program:
-                self.program["textured"].value = int(self.scene.textured)
             (self._pages[page] if self.scene.textured else self._blank).use(location=0)
-            self._vao.render(moderngl.TRIANGLES, vertices=count, first=first)
+            vao.render(moderngl.TRIANGLES, vertices=count, first=first)
         ctx.disable(moderngl.DEPTH_TEST)
-        if draw is not resolve:
-            ctx.copy_framebuffer(resolve, draw)
-        return resolved
 
-    def _compose(self, target: moderngl.Framebuffer, viewport: tuple[int, int, int, int], left: moderngl.Texture,
-                 right: moderngl.Texture | None, flip: bool) -> None:
+    def _anaglyph(self, target: moderngl.Framebuffer, origin: tuple[int, int], left: ImageCamera,
+                  right: ImageCamera, flip: bool) -> None:
+        images = []
+        for side, cam in (("left", left), ("right", right)):
+            draw, resolve, image = self._target(cam.width, cam.height, f"anaglyph-{side}")
+            self._draw_scene(cam, draw, (0, 0), flip=False)
+            if draw is not resolve:
+                self.ctx.copy_framebuffer(resolve, draw)
+            images.append(image)
         prog = self.composite
         target.use()
-        target.viewport = viewport
-        left.use(location=0)
-        (right or left).use(location=1)
-        values = {"left": 0, "right": 1, "mode": int(right is not None), "flip": int(flip),
-                  "origin": viewport[:2]}
-        for name, v in values.items():
+        target.viewport = (origin[0], origin[1], left.width, left.height)
+        images[0].use(location=0)
+        images[1].use(location=1)
+        for name, v in {"left": 0, "right": 1, "flip": int(flip), "origin": origin}.items():
             if name in prog:
                 prog[name].value = v
-        if right is not None:
-            prog["anaglyph_left"].write(ANAGLYPH_LEFT.T.astype("f4").tobytes())
-            prog["anaglyph_right"].write(ANAGLYPH_RIGHT.T.astype("f4").tobytes())
+        prog["anaglyph_left"].write(ANAGLYPH_LEFT.T.astype("f4").tobytes())
+        prog["anaglyph_right"].write(ANAGLYPH_RIGHT.T.astype("f4").tobytes())
         self._fullscreen.render(moderngl.TRIANGLES, vertices=3)
 
     def output_size(self, cam: ImageCamera, stereo: Stereo | None = None) -> tuple[int, int]:
@@ -380,50 +395,50 @@ class Renderer:
              origin: tuple[int, int] = (0, 0), select_buffer: Callable[[str], None] | None = None) -> None:
         """Draw ``cam``'s view (or its stereo composition) into ``target`` at ``origin``.
 
-        ``flip``: the target is a window's framebuffer (image row 0 at the top of the screen).
+        ``flip``: the target is a window's framebuffer (image row 0 at the top of the screen);
+        off-screen, framebuffer row 0 is the image's top row so that a read-back is in image order.
         ``select_buffer``: for ``quad`` stereo, selects the window's "left" or "right" back buffer.
         """
         eyes = self.eyes(cam, stereo)
-        images = [self._draw_eye(e, k) for k, e in enumerate(eyes)]
         w, h = cam.width, cam.height
         x, y = origin
         mode = stereo.mode if stereo else None
         if mode is None:
-            self._compose(target, (x, y, w, h), images[0], None, flip)
+            self._draw_scene(cam, target, origin, flip)
         elif mode == "anaglyph":
-            self._compose(target, (x, y, w, h), images[0], images[1], flip)
+            self._anaglyph(target, origin, eyes[0], eyes[1], flip)
         elif mode == "quad":
             if select_buffer is None:
                 raise VebuildError("quad-buffered stereo needs a window whose OpenGL context offers it; off-screen, "
                                    "use sbs, tb or anaglyph")
-            for side, img in zip(("left", "right"), images, strict=True):
+            for side, eye in zip(("left", "right"), eyes, strict=True):
                 select_buffer(side)
-                self._compose(target, (x, y, w, h), img, None, flip)
+                self._draw_scene(eye, target, origin, flip)
         else:
-            # Places in image coordinates (the left eye first: left, or on top), then in the target.
-            first_at_low_row = not flip  # off-screen, framebuffer row 0 is the image's top row
+            # The left eye goes left (sbs) or on top (tb): the image's top is framebuffer row 0
+            # off-screen and the last row in a window.
             if mode == "sbs":
-                rects = [(x, y), (x + w, y)]
+                places = [(x, y), (x + w, y)]
             else:
-                rects = [(x, y), (x, y + h)] if first_at_low_row else [(x, y + h), (x, y)]
-            for (rx, ry), img in zip(rects, images, strict=True):
-                self._compose(target, (rx, ry, w, h), img, None, flip)
+                places = [(x, y + h), (x, y)] if flip else [(x, y), (x, y + h)]
+            for place, eye in zip(places, eyes, strict=True):
+                self._draw_scene(eye, target, place, flip)
+
+    def frame(self, cam: ImageCamera, stereo: Stereo | None = None) -> moderngl.Texture:
+        """Draw one frame off-screen (no read-back); returns the texture holding it (image order)."""
+        W, H = self.output_size(cam, stereo)
+        draw, resolve, image = self._target(W, H, "output")
+        self.draw(draw, cam, stereo)
+        if draw is not resolve:
+            self.ctx.copy_framebuffer(resolve, draw)
+        return image
 
     def render(self, cam: ImageCamera, stereo: Stereo | None = None) -> NDArray[np.uint8]:
         """The composed image as (height, width, 3) sRGB uint8, row 0 at the top."""
         W, H = self.output_size(cam, stereo)
-        fbo = self.frame(cam, stereo)
-        data = fbo.read(viewport=(0, 0, W, H), components=3, alignment=1)
-        return np.frombuffer(data, np.uint8).reshape(H, W, 3).copy()
-
-    def frame(self, cam: ImageCamera, stereo: Stereo | None = None) -> moderngl.Framebuffer:
-        """Draw one frame off-screen (no read-back) and return the framebuffer holding it."""
-        W, H = self.output_size(cam, stereo)
-        if (W, H) not in self._outputs:
-            self._outputs[(W, H)] = self.ctx.framebuffer([self.ctx.renderbuffer((W, H), 4)])
-        fbo = self._outputs[(W, H)]
-        self.draw(fbo, cam, stereo)
-        return fbo
+        image = self.frame(cam, stereo)
+        data = image.read(alignment=1)
+        return np.frombuffer(data, np.uint8).reshape(H, W, 4)[..., :3].copy()
 
     def release(self) -> None:
         """Free the GPU resources."""
@@ -432,16 +447,25 @@ class Renderer:
         self._resources = []
         for t in self._pages:
             t.release()
-        for draw, resolve, tex in self._targets.values():
+        for draw, resolve, image in self._targets.values():
             if draw is not resolve:
                 draw.release()
             resolve.release()
-            tex.release()
+            image.release()
         self._targets.clear()
-        for fbo in self._outputs.values():
-            fbo.release()
-        self._outputs.clear()
         if self._shadow is not None:
             self._shadow[1].release()
             self._shadow[0].release()
             self._shadow = None
+
+
+#: The scene's vertex layout: attribute names and float counts, in buffer order.
+VERTEX_LAYOUT = (("in_position", 3), ("in_normal", 3), ("in_uv", 2), ("in_colour", 3), ("in_node", 1))
+
+
+def _vertex_array(ctx: moderngl.Context, prog: moderngl.Program, vbo: moderngl.Buffer,
+                  ibo: moderngl.Buffer) -> moderngl.VertexArray:
+    """A vertex array over the scene's buffer for ``prog``, skipping attributes it does not use."""
+    fmt = " ".join(f"{n}f" if name in prog else f"{4 * n}x" for name, n in VERTEX_LAYOUT)
+    names = [name for name, _ in VERTEX_LAYOUT if name in prog]
+    return ctx.vertex_array(prog, [(vbo, fmt, *names)], index_buffer=ibo)

@@ -1,10 +1,8 @@
 #version 330 core
-// Final pass (renderer.py): a resolved linear image (or a stereo pair) to sRGB 8-bit output.
-// mode 0: one image; mode 1: red-cyan anaglyph from the left and right images through
-// least-squares colour matrices (applied in linear light).
+// Red-cyan anaglyph (renderer.py): the left and right eyes' sRGB images, decoded to linear light,
+// mixed through least-squares colour matrices, encoded to sRGB again.
 uniform sampler2D left;
 uniform sampler2D right;
-uniform int mode;
 uniform mat3 anaglyph_left;
 uniform mat3 anaglyph_right;
 uniform ivec2 origin;   // lower-left corner of the viewport in the target
@@ -16,11 +14,15 @@ vec3 to_srgb(vec3 c) {
     return mix(c * 12.92, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), c));
 }
 
+vec3 to_linear(vec3 s) {
+    return mix(s / 12.92, pow((s + 0.055) / 1.055, vec3(2.4)), step(vec3(0.04045), s));
+}
+
 void main() {
     ivec2 size = textureSize(left, 0);
     ivec2 p = ivec2(gl_FragCoord.xy) - origin;
     if (flip == 1) p.y = size.y - 1 - p.y;
-    vec3 c = texelFetch(left, p, 0).rgb;
-    if (mode == 1) c = anaglyph_left * c + anaglyph_right * texelFetch(right, p, 0).rgb;
-    out_colour = vec4(to_srgb(c), 1.0);
+    vec3 l = to_linear(texelFetch(left, p, 0).rgb);
+    vec3 r = to_linear(texelFetch(right, p, 0).rgb);
+    out_colour = vec4(to_srgb(anaglyph_left * l + anaglyph_right * r), 1.0);
 }
