@@ -1309,6 +1309,33 @@ def reference_distances(scene: dict) -> list[dict]:
     ]
 
 
+#: Named evidence views of the example (FORMAT.md, "views"): where a witness stood, with eyes at 1.6 m.
+EXAMPLE_VIEWS = [
+    {"name": "doorway", "description": "standing in the doorway, looking at the table",
+     "position": [3.7, 0.3, 1.6], "look_at": [2.2, 2.7, 0.74], "fov_deg": 65.0, "width": 1280, "height": 720},
+    {"name": "by the cabinet", "description": "beside the cabinet, looking across the room to the door",
+     "position": [0.8, 1.2, 1.6], "look_at": [3.8, 0.3, 1.0], "fov_deg": 70.0, "width": 1280, "height": 720},
+    {"name": "overview", "description": "from the far corner, high",
+     "position": [4.8, 3.8, 2.4], "look_at": [2.3, 1.8, 0.3], "focal_length_mm": 24.0, "width": 1280,
+     "height": 720},
+]
+#: Lighting presets of the example (FORMAT.md, "lighting"): irradiance 1 shows a texture as extracted.
+EXAMPLE_LIGHTING = {"presets": [
+    {"name": "daylight", "description": "sun through the window, as when the photos were taken",
+     "ambient": [0.35, 0.35, 0.37],
+     "lights": [{"type": "directional", "name": "sun", "direction": (-LIGHT_DIR).round(4).tolist(),
+                 "colour": [1.0, 0.97, 0.92], "intensity": 0.9}]},
+    {"name": "ceiling lamp", "description": "one bulb under the ceiling's centre, nothing else",
+     "ambient": [0.03, 0.03, 0.03],
+     "lights": [{"type": "point", "name": "bulb", "position": [2.5, 2.0, 2.5], "colour": [1.0, 0.85, 0.65],
+                 "intensity": 4.0}]},
+    {"name": "night, torch", "description": "dark room; a torch held in the doorway, aimed at the table",
+     "ambient": [0.005, 0.005, 0.006],
+     "lights": [{"type": "spot", "name": "torch", "position": [3.7, 0.3, 1.5], "direction": [-1.5, 2.4, -0.76],
+                 "inner_cone_deg": 10.0, "outer_cone_deg": 16.0, "intensity": 6.0}]},
+]}
+
+
 def project_json(scene: dict, cams: list[dict], anns: list[dict], photo_files: dict) -> dict:
     """The vebuild project document (scenes/FORMAT.md). photo_files: id → {file, sha256, exif}."""
     seen = {n for a in anns for n in a["marker_observations"]}
@@ -1327,6 +1354,8 @@ def project_json(scene: dict, cams: list[dict], anns: list[dict], photo_files: d
         "origin_marker": "O",
         "reference_distances": reference_distances(scene),
         "model": model_json(scene, cams),
+        "views": EXAMPLE_VIEWS,
+        "lighting": EXAMPLE_LIGHTING,
     }
 
 

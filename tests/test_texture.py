@@ -14,7 +14,7 @@ import pytest
 from PIL import Image
 from texture_scene import generator, ground_truth, photo_path, texture_psnr, true_cameras, true_model
 
-from vebuild.camera import gl_projection, project, rotation_from_ypr, view_matrix
+from vebuild.camera import ImageCamera, gl_projection, project, rotation_from_ypr, view_matrix
 from vebuild.cli import main
 from vebuild.errors import ProjectError
 from vebuild.gl import context as gl_context
@@ -23,7 +23,7 @@ from vebuild.model.scene import model_from_dict
 from vebuild.project import sha256_file
 from vebuild.texture import layout as lay
 from vebuild.texture.extract import PhotoSource, extract, read_photo
-from vebuild.texture.gpu import Extractor, Options, PhotoCamera
+from vebuild.texture.gpu import Extractor, Options
 from vebuild.texture.merge import COVERAGE_UNSEEN, push_pull, srgb8_to_linear
 
 #: The issue's goal for extracted vs true textures over texels some photo saw (measured: 35.7 dB
@@ -163,7 +163,7 @@ def _occlusion_scene(tmp: Path):
         img = gen.render_photo(scene, cam, 640, 480, supersample=2)
         path = tmp / f"o{k}.jpg"
         Image.fromarray(img).save(path, quality=92)
-        cams.append(PhotoCamera(f"o{k}", K, R, C, 640, 480))
+        cams.append(ImageCamera(f"o{k}", K, R, C, 640, 480))
         sources[f"o{k}"] = PhotoSource(f"o{k}", path)
     model = model_from_dict([
         {"name": "wall", "primitive": {"type": "quad", "params": {"width": 4.0, "depth": 2.5}},

@@ -47,6 +47,38 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_render(args: argparse.Namespace) -> int:
+    from .actions.render import RenderRequest, parse_size, render_evidence
+    from .project import load_project
+    from .render.lighting import preset_names
+
+    project = load_project(args.project)
+    if args.list:
+        views = project.data.get("views", [])
+        print("views:" + ("" if views else " none (add them under \"views\" in the project file)"))
+        for v in views:
+            print(f"  {v['name']:<24} {v['width']}×{v['height']}  {v.get('description', '')}")
+        print("photos: " + ", ".join(p["id"] for p in project.data["photos"]))
+        print("lighting presets: " + ", ".join(preset_names(project)))
+        return 0
+    if not args.out:
+        raise VebuildError("render: --out FILE.png is required (or --list to see the views and presets)")
+    req = RenderRequest(out=Path(args.out), view=args.view, photo=args.photo,
+                        size=parse_size(args.size) if args.size else None, lighting=args.lighting,
+                        stereo=args.stereo, eye_separation=args.eye_separation, convergence=args.convergence,
+                        samples=args.samples, shadows=not args.no_shadows, validate=args.validate)
+    result = render_evidence(project, req)
+    for w in result.warnings:
+        print(f"warning: {w}")
+    what = f"view '{args.view}'" if args.view else f"photo '{result.camera.id}'"
+    print(f"{what}, lighting '{result.lighting}', {result.size[0]}×{result.size[1]} written to {result.out}")
+    if result.overlay is not None:
+        print(f"overlay of the photo written to {result.overlay}")
+        print(f"RMS colour difference over the {100 * result.covered_fraction:.1f} % of pixels the model covers: "
+              f"{result.rms_colour_difference:.1f} sRGB levels (after an exposure gain of {result.exposure_gain:.3f})")
+    return 0
+
+
 def _cmd_texture(args: argparse.Namespace) -> int:
     from .actions.texture import progress_bar, texture_project
     from .project import load_project, save_project
@@ -79,6 +111,30 @@ def _cmd_register(args: argparse.Namespace) -> int:
     print(calibration_table({**cal, "cameras": {pid: cal["cameras"][pid] for pid in done},
                              "markers": {}, "reference_distances": [], "warnings": []}))
     print(f"{len(done)} photo(s) registered in {project.path}")
+    return 0
+
+
+def _cmd_export(args: argparse.Namespace) -> int:
+    from .project import load_project
+    from .render.export import export_model
+
+    project = load_project(args.project)
+    r = export_model(project, args.out)
+    what = {"glb": "glTF 2.0 binary", "obj": "Wavefront OBJ + MTL"}[r.format]
+    size = sum(f.stat().st_size for f in r.files)
+    print(f"wrote {r.path} ({what}, {size / 1e6:.2f} MB)")
+    print(f"  {r.nodes} node(s), {r.meshes} mesh(es) in {r.primitives} primitive(s), {r.triangles} triangles")
+    if r.format == "glb":
+        print(f"  {len(r.cameras)} camera(s)" + (f": {', '.join(r.cameras)}" if r.cameras else ""))
+    if r.textured:
+        how = "embedded" if r.format == "glb" else "copied next to it"
+        print(f"  {len(r.pages)} texture page(s), {how}: {', '.join(str(p) for p in r.pages)}")
+    else:
+        print("  untextured (face colours)")
+    if len(r.files) > 1:
+        print("  files: " + ", ".join(str(f) for f in r.files))
+    for w in r.warnings:
+        print(f"warning: {w}")
     return 0
 
 
@@ -162,6 +218,29 @@ def build_parser() -> argparse.ArgumentParser:
                    help="with --recalibrate: keep focal lengths and principal points as calibrated")
     p.set_defaults(func=_cmd_solve)
 
+    p = sub.add_parser("render", help="render an evidence view or a photo's camera to a PNG with its provenance")
+    p.add_argument("project")
+    which = p.add_mutually_exclusive_group()
+    which.add_argument("--view", metavar="NAME", help="a named view of the project")
+    which.add_argument("--photo", metavar="ID", help="a photo's calibrated camera (its id, or its number from 1)")
+    which.add_argument("--list", action="store_true", help="list the views, photos and lighting presets")
+    p.add_argument("--out", metavar="FILE.png", help="the image to write")
+    p.add_argument("--size", metavar="WxH", help="image size in pixels (default: the view's or photo's)")
+    p.add_argument("--lighting", metavar="PRESET",
+                   help="a lighting preset of the project (default: as-photographed, the textures unlit)")
+    p.add_argument("--stereo", choices=("sbs", "tb", "anaglyph"),
+                   help="a stereo pair: side by side, top and bottom, or red-cyan anaglyph")
+    p.add_argument("--eye-separation", type=float, default=0.063, metavar="M",
+                   help="distance between the eyes in metres (default: %(default)s)")
+    p.add_argument("--convergence", type=float, metavar="M",
+                   help="distance of the screen plane (zero parallax) in metres (default: the scene's centre)")
+    p.add_argument("--samples", type=int, default=4, metavar="N", help="anti-aliasing samples (default: %(default)s)")
+    p.add_argument("--no-shadows", action="store_true", help="lights cast no shadows")
+    p.add_argument("--validate", action="store_true",
+                   help="with --photo: also write the photo overlaid on the render and print the RMS colour "
+                        "difference")
+    p.set_defaults(func=_cmd_render)
+
     p = sub.add_parser("texture", help="extract textures from the photos onto the model (paper §4)")
     p.add_argument("project")
     p.add_argument("--density", type=float, default=200.0, metavar="T",
@@ -189,6 +268,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("project")
     p.add_argument("photos", nargs="*", help="photo ids (default: every photo without a camera)")
     p.set_defaults(func=_cmd_register)
+
+    p = sub.add_parser("export", help="write the textured model as glTF 2.0 binary (.glb) or OBJ + MTL (.obj)")
+    p.add_argument("project")
+    p.add_argument("--out", required=True, metavar="FILE",
+                   help="FILE.glb (model, textures, views and photo cameras) or FILE.obj (model and textures)")
+    p.set_defaults(func=_cmd_export)
 
     p = sub.add_parser("check", help="validate a project file and verify its photos' hashes")
     p.add_argument("project")

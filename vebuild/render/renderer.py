@@ -338,7 +338,8 @@ class Renderer:
         target.use()
         target.viewport = viewport
         bg = np.array(self.options.background_srgb, float) / 255.0
-        target.clear(float(bg[0]), float(bg[1]), float(bg[2]), 1.0, depth=1.0, viewport=viewport)
+        # Alpha is cleared to 0 and drawn as 1: off-screen, it is the share of each pixel the model covers.
+        target.clear(float(bg[0]), float(bg[1]), float(bg[2]), 0.0, depth=1.0, viewport=viewport)
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.disable(moderngl.CULL_FACE)
         shadow_tex = self._shadow[0] if (self._shadow is not None and (self._shadow_state or {}).get("n")) \
@@ -435,10 +436,15 @@ class Renderer:
 
     def render(self, cam: ImageCamera, stereo: Stereo | None = None) -> NDArray[np.uint8]:
         """The composed image as (height, width, 3) sRGB uint8, row 0 at the top."""
+        return self.render_rgba(cam, stereo)[..., :3].copy()
+
+    def render_rgba(self, cam: ImageCamera, stereo: Stereo | None = None) -> NDArray[np.uint8]:
+        """(height, width, 4): the image and, in alpha, the share of each pixel the model covers
+        (255 inside, fractions at anti-aliased silhouettes, 0 on the background; 255 everywhere
+        for an anaglyph)."""
         W, H = self.output_size(cam, stereo)
-        image = self.frame(cam, stereo)
-        data = image.read(alignment=1)
-        return np.frombuffer(data, np.uint8).reshape(H, W, 4)[..., :3].copy()
+        data = self.frame(cam, stereo).read(alignment=1)
+        return np.frombuffer(data, np.uint8).reshape(H, W, 4).copy()
 
     def release(self) -> None:
         """Free the GPU resources."""

@@ -1,0 +1,230 @@
+"""``vebuild render``: an evidence view or a photo's own camera rendered headless to a PNG.
+
+The PNG carries its provenance in text chunks (:data:`PROVENANCE_KEYS`): the SHA-256 of the
+project file it was made from, the camera (named view or photo, with K, R, C and size), the
+lighting preset and its lights, the stereo settings, the texture pages' hashes and the software
+version, and no time stamp, so that the same project and options give the same file, byte for
+byte. Rendering a photo's own camera with ``validate`` also writes an overlay of the photo on the
+render and measures how well the model explains the photo: the RMS colour difference over the
+pixels the model covers.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from PIL import Image, PngImagePlugin
+
+from vebuild import __version__
+from vebuild.camera import ImageCamera
+from vebuild.errors import VebuildError
+from vebuild.project import Project, sha256_file
+from vebuild.texture.merge import linear_to_srgb8, srgb8_to_linear
+
+#: Text keys written into every rendered PNG.
+PROVENANCE_KEYS = ("Software", "vebuild:project", "vebuild:project_sha256", "vebuild:camera", "vebuild:lighting",
+                   "vebuild:stereo", "vebuild:textures", "vebuild:options")
+#: Share of a pixel the model must cover to count in the validation's colour difference.
+FULL_COVERAGE = 0.999
+
+
+@dataclass
+class RenderRequest:
+    """What to render. Exactly one of ``view`` and ``photo``."""
+
+    out: Path
+    view: str | None = None
+    photo: str | None = None
+    size: tuple[int, int] | None = None
+    lighting: str | None = None
+    stereo: str | None = None
+    eye_separation: float = 0.063
+    convergence: float | None = None
+    samples: int = 4
+    shadows: bool = True
+    validate: bool = False
+
+
+@dataclass
+class RenderResult:
+    out: Path
+    camera: ImageCamera
+    size: tuple[int, int]
+    lighting: str
+    warnings: list[str] = field(default_factory=list)
+    overlay: Path | None = None
+    rms_colour_difference: float | None = None  # sRGB levels (0–255), over covered pixels
+    exposure_gain: float | None = None  # photo / render, linear, fitted before the difference
+    covered_fraction: float | None = None
+
+
+def parse_size(text: str) -> tuple[int, int]:
+    """'1280x720' → (1280, 720); an error saying what was expected otherwise."""
+    m = re.fullmatch(r"\s*(\d+)\s*[x×X]\s*(\d+)\s*", text or "")
+    if not m or int(m[1]) < 1 or int(m[2]) < 1:
+        raise VebuildError(f"--size: expected WIDTHxHEIGHT in pixels, each at least 1 (such as 1280x720), "
+                           f"got {text!r}")
+    return int(m[1]), int(m[2])
+
+
+def check_output(path: Path, suffixes: tuple[str, ...] = (".png",)) -> Path:
+    """Fail early, before any work, if ``path`` cannot be written as an output file."""
+    path = Path(path)
+    if path.suffix.lower() not in suffixes:
+        raise VebuildError(f"{path}: expected an output file ending in {' or '.join(suffixes)}")
+    if path.is_dir():
+        raise VebuildError(f"{path}: is a folder; expected a file name for the output")
+    folder = path.parent if str(path.parent) else Path(".")
+    if not folder.is_dir():
+        raise VebuildError(f"{path}: the folder {folder} does not exist; create it first or choose another path")
+    if not os.access(folder, os.W_OK):
+        raise VebuildError(f"{path}: the folder {folder} cannot be written to (permission denied)")
+    if path.exists() and not os.access(path, os.W_OK):
+        raise VebuildError(f"{path}: the existing file cannot be overwritten (permission denied)")
+    return path
+
+
+def write_png(path: Path, image: NDArray[np.uint8], text: dict[str, str]) -> None:
+    """Write an RGB image with text chunks atomically (temp file, then rename)."""
+    info = PngImagePlugin.PngInfo()
+    for k, v in text.items():
+        info.add_itxt(k, v) if not v.isascii() else info.add_text(k, v)
+    tmp = path.with_name(f".{path.name}.tmp")
+    try:
+        Image.fromarray(image, "RGB").save(tmp, format="PNG", pnginfo=info)
+        os.replace(tmp, path)
+    except OSError as e:
+        tmp.unlink(missing_ok=True)
+        raise VebuildError(f"{path}: cannot write the image ({e.strerror or e})") from None
+
+
+def _camera_record(cam: ImageCamera, kind: str) -> dict[str, Any]:
+    return {"kind": kind, "name": cam.id, "width": cam.width, "height": cam.height,
+            "K": np.round(cam.K, 9).tolist(), "R": np.round(cam.R, 12).tolist(), "C": np.round(cam.C, 9).tolist()}
+
+
+def _lighting_record(project: Project, name: str) -> dict[str, Any]:
+    for rec in (project.data.get("lighting") or {}).get("presets", []):
+        if rec["name"] == name:
+            return rec
+    return {"name": name}
+
+
+def provenance(project: Project, cam: ImageCamera, kind: str, lighting: str, stereo: dict[str, Any] | None,
+               page_hashes: list[str], options: dict[str, Any]) -> dict[str, str]:
+    """The PNG text chunks of a render (:data:`PROVENANCE_KEYS`)."""
+    def js(x: Any) -> str:
+        return json.dumps(x, sort_keys=True, ensure_ascii=False)
+    return {
+        "Software": f"vebuild {__version__}",
+        "vebuild:project": project.path.name,
+        "vebuild:project_sha256": sha256_file(project.path),
+        "vebuild:camera": js(_camera_record(cam, kind)),
+        "vebuild:lighting": js(_lighting_record(project, lighting)),
+        "vebuild:stereo": js(stereo),
+        "vebuild:textures": js(page_hashes),
+        "vebuild:options": js(options),
+    }
+
+
+def render_evidence(project: Project, req: RenderRequest) -> RenderResult:
+    """Render ``req`` and write its PNG (and overlay); see the module's docstring."""
+    from vebuild.gl import headless_context
+    from vebuild.render.lighting import find_preset
+    from vebuild.render.renderer import STEREO_MODES, Renderer, RenderOptions, Stereo
+    from vebuild.render.scene import load_scene
+    from vebuild.render.views import find_view, photo_camera
+
+    out = check_output(Path(req.out))
+    if (req.view is None) == (req.photo is None):
+        raise VebuildError("render: give exactly one of a view (--view NAME) or a photo (--photo ID)")
+    if req.stereo is not None and req.stereo not in STEREO_MODES[:3]:
+        raise VebuildError(f"--stereo: expected one of sbs, tb, anaglyph (quad-buffered stereo needs a window), "
+                           f"got {req.stereo!r}")
+    if req.validate and (req.photo is None or req.stereo is not None):
+        raise VebuildError("--validate compares a render with its photo: use it with --photo and without --stereo")
+    if not (req.eye_separation > 0):
+        raise VebuildError(f"--eye-separation: expected a distance > 0 m, got {req.eye_separation}")
+    if req.convergence is not None and not (req.convergence > 0):
+        raise VebuildError(f"--convergence: expected a distance > 0 m, got {req.convergence}")
+    if req.samples < 1:
+        raise VebuildError(f"--samples: expected 1 or more, got {req.samples}")
+    kind = "view" if req.view is not None else "photo"
+    cam = find_view(project, req.view) if req.view is not None else photo_camera(project, str(req.photo))
+    if req.size is not None:
+        cam = cam.resized(*req.size)
+    lighting = find_preset(project, req.lighting)
+    scene = load_scene(project)
+    ctx = headless_context()
+    stereo = Stereo(req.stereo, req.eye_separation, req.convergence) if req.stereo else None
+    renderer = Renderer(ctx, scene, RenderOptions(samples=req.samples, shadows=req.shadows))
+    try:
+        W, H = renderer.output_size(cam, stereo)
+        _check_size(ctx, W, H)
+        renderer.set_lighting(lighting)
+        rgba = renderer.render_rgba(cam, stereo)
+        stereo_rec = None
+        if stereo is not None:
+            conv = stereo.convergence if stereo.convergence is not None else renderer.default_convergence(cam)
+            stereo_rec = {"mode": stereo.mode, "eye_separation_m": stereo.separation, "convergence_m": conv}
+    finally:
+        renderer.release()
+    options = {"samples": req.samples, "shadows": req.shadows, "size": [cam.width, cam.height]}
+    text = provenance(project, cam, kind, lighting.name, stereo_rec, scene.page_hashes, options)
+    result = RenderResult(out, cam, (W, H), lighting.name, list(scene.warnings))
+    if req.validate:
+        _validate(project, str(req.photo), cam, rgba, out, text, result)
+    write_png(out, rgba[..., :3], text)
+    return result
+
+
+def _check_size(ctx: Any, width: int, height: int) -> None:
+    limit = min(int(ctx.info["GL_MAX_RENDERBUFFER_SIZE"]), int(ctx.info["GL_MAX_TEXTURE_SIZE"]),
+                *(int(v) for v in ctx.info["GL_MAX_VIEWPORT_DIMS"]))
+    if width > limit or height > limit:
+        raise VebuildError(f"--size: a {width}×{height} image is larger than this OpenGL can draw (at most "
+                           f"{limit} pixels on a side); choose a smaller size")
+
+
+def _validate(project: Project, photo_id: str, cam: ImageCamera, rgba: NDArray[np.uint8], out: Path,
+              text: dict[str, str], result: RenderResult) -> None:
+    """Overlay the photo on its render and measure the colour difference where the model covers."""
+    from vebuild.texture.extract import PhotoSource, read_photo
+
+    i = [p["id"] for p in project.data["photos"]].index(photo_id)
+    photo = project.data["photos"][i]
+    src = PhotoSource(photo_id, project.photo_path(photo), photo["sha256"], f"$.photos[{i}]", str(project.path))
+    pixels = read_photo(src, ImageCamera(photo_id, cam.K, cam.R, cam.C, photo["width"], photo["height"]))
+    if pixels.shape[:2] != (cam.height, cam.width):
+        pixels = np.asarray(Image.fromarray(pixels).resize((cam.width, cam.height), Image.Resampling.BOX))
+    render, cover = rgba[..., :3], rgba[..., 3].astype(float) / 255.0
+    full = cover >= FULL_COVERAGE
+    result.covered_fraction = float(full.mean())
+    if not full.any():
+        raise VebuildError(f"photo {photo_id!r}: the model covers no pixel of this photo; nothing to compare")
+    # One exposure gain (linear light) between photo and render, fitted by least squares over the
+    # covered pixels: the textures are at the photos' average exposure, not this photo's.
+    lp, lr = srgb8_to_linear(pixels[full]), srgb8_to_linear(render[full])
+    gain = float((lp * lr).sum() / max((lr * lr).sum(), 1e-12))
+    matched = linear_to_srgb8(np.clip(lr * gain, 0.0, 1.0)).astype(float)
+    rms = float(np.sqrt(np.mean((matched - pixels[full].astype(float)) ** 2)))
+    result.rms_colour_difference, result.exposure_gain = rms, gain
+    # The overlay: the photo and the render half and half where the model covers, the photo
+    # dimmed elsewhere.
+    alpha = 0.5 * cover[..., None]
+    overlay = pixels.astype(float) * (1.0 - alpha) * np.where(cover[..., None] > 0, 1.0, 0.6) \
+        + render.astype(float) * alpha
+    result.overlay = out.with_name(out.stem + "-overlay.png")
+    text = {**text, "vebuild:validation": json.dumps({"photo": photo_id, "photo_sha256": photo["sha256"],
+                                                      "rms_colour_difference_srgb_levels": round(rms, 4),
+                                                      "exposure_gain": round(gain, 6),
+                                                      "covered_fraction": round(result.covered_fraction, 6)},
+                                                     sort_keys=True)}
+    write_png(result.overlay, np.clip(np.rint(overlay), 0, 255).astype(np.uint8), text)
