@@ -77,10 +77,10 @@ def parse_size(text: str) -> tuple[int, int]:
 def check_output(path: Path, suffixes: tuple[str, ...] = (".png",)) -> Path:
     """Fail early, before any work, if ``path`` cannot be written as an output file."""
     path = Path(path)
-    if path.suffix.lower() not in suffixes:
-        raise VebuildError(f"{path}: expected an output file ending in {' or '.join(suffixes)}")
     if path.is_dir():
         raise VebuildError(f"{path}: is a folder; expected a file name for the output")
+    if path.suffix.lower() not in suffixes:
+        raise VebuildError(f"{path}: expected an output file ending in {' or '.join(suffixes)}")
     folder = path.parent if str(path.parent) else Path(".")
     if not folder.is_dir():
         raise VebuildError(f"{path}: the folder {folder} does not exist; create it first or choose another path")
