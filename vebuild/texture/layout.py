@@ -12,12 +12,13 @@ model and the face records of an extraction, :func:`scene_mesh` rebuilds the sam
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
+from vebuild.model.primitives import Mesh
 from vebuild.model.scene import Model
 
 Array = NDArray[np.float64]
@@ -181,6 +182,31 @@ def page_sizes(faces: Sequence[Face]) -> list[tuple[int, int]]:
     return [tuple(out[k]) for k in sorted(out)]  # type: ignore[misc]
 
 
+def node_atlas(node: str, mesh: Mesh, faces: Mapping[tuple[str, str], Face]) -> tuple[NDArray[np.int32], Array]:
+    """Each vertex's global face id and atlas position of primitive node ``node``'s local ``mesh``.
+
+    ``faces`` maps (node name, face name) to the face's record (as :func:`layout` gave). The atlas
+    position is in texels on the face's page (row 0 is the page's top row): the mesh's chart
+    coordinates scaled to the face's ``rect``. Raises ValueError if a face has no record.
+    """
+    vid = np.zeros(len(mesh.vertices), dtype=np.int32)
+    vid[mesh.faces.ravel()] = np.repeat(mesh.face_ids, 3)
+    gid = np.empty(len(mesh.vertices), dtype=np.int32)
+    uv_tex = np.empty((len(mesh.vertices), 2))
+    for k, name in enumerate(mesh.face_names, start=1):
+        face = faces.get((node, name))
+        if face is None:
+            raise ValueError(f"the texture layout has no face {node}.{name}")
+        sel = vid == k
+        u0, v0, u1, v1 = mesh.chart_uv[k - 1]
+        x0, y0, w, h = face.rect
+        uv = mesh.uv[sel]
+        uv_tex[sel, 0] = x0 + (uv[:, 0] - u0) / (u1 - u0) * w
+        uv_tex[sel, 1] = y0 + (uv[:, 1] - v0) / (v1 - v0) * h
+        gid[sel] = face.id
+    return gid, uv_tex
+
+
 def scene_mesh(model: Model, faces: Sequence[Face]) -> SceneMesh:
     """The world mesh of ``model`` with atlas coordinates from ``faces`` (as :func:`layout` gave)."""
     transforms = model.world_transforms()
@@ -192,21 +218,7 @@ def scene_mesh(model: Model, faces: Sequence[Face]) -> SceneMesh:
             continue
         mesh = node.primitive.mesh(None, SEGMENTS)
         T = transforms[node.name]
-        vid = np.zeros(len(mesh.vertices), dtype=np.int32)
-        vid[mesh.faces.ravel()] = np.repeat(mesh.face_ids, 3)
-        gid = np.empty(len(mesh.vertices), dtype=np.int32)
-        uv_tex = np.empty((len(mesh.vertices), 2))
-        for k, name in enumerate(mesh.face_names, start=1):
-            face = by_key.get((node.name, name))
-            if face is None:
-                raise ValueError(f"the texture layout has no face {node.name}.{name}")
-            sel = vid == k
-            u0, v0, u1, v1 = mesh.chart_uv[k - 1]
-            x0, y0, w, h = face.rect
-            uv = mesh.uv[sel]
-            uv_tex[sel, 0] = x0 + (uv[:, 0] - u0) / (u1 - u0) * w
-            uv_tex[sel, 1] = y0 + (uv[:, 1] - v0) / (v1 - v0) * h
-            gid[sel] = face.id
+        gid, uv_tex = node_atlas(node.name, mesh, by_key)
         verts.append(mesh.vertices @ T[:3, :3].T + T[:3, 3])
         norms.append(mesh.normals @ T[:3, :3].T)
         tris.append(mesh.faces + offset)
