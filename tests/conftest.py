@@ -9,3 +9,40 @@ import pytest
 @pytest.fixture
 def rng() -> np.random.Generator:
     return np.random.default_rng(20261122)
+
+
+@pytest.fixture(scope="session")
+def xvfb_display():
+    """A virtual X server for window tests (Debian's xvfb; CI's .ci/run installs it)."""
+    import os
+    import shutil
+    import subprocess
+    import time
+    from pathlib import Path
+
+    exe = shutil.which("Xvfb")
+    if exe is None:
+        pytest.fail("window tests need a virtual X server: `sudo apt-get install xvfb` (CI's .ci/run installs it)")
+    for n in range(90, 140):
+        if Path(f"/tmp/.X11-unix/X{n}").exists() or Path(f"/tmp/.X{n}-lock").exists():
+            continue
+        proc = subprocess.Popen([exe, f":{n}", "-screen", "0", "1600x1200x24", "-nolisten", "tcp"],
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        for _ in range(100):
+            if Path(f"/tmp/.X11-unix/X{n}").exists() or proc.poll() is not None:
+                break
+            time.sleep(0.05)
+        if proc.poll() is None:
+            old = os.environ.get("DISPLAY")
+            os.environ["DISPLAY"] = f":{n}"
+            try:
+                yield f":{n}"
+            finally:
+                proc.terminate()
+                proc.wait(10)
+                if old is None:
+                    os.environ.pop("DISPLAY", None)
+                else:
+                    os.environ["DISPLAY"] = old
+            return
+    pytest.fail("could not start Xvfb on any display from :90 to :139")
