@@ -1,6 +1,7 @@
 """``vebuild demo``: the whole pipeline on the bundled example room, checked against its truth:
 calibration (paper §2), then the model solved with re-calibration (§3.1–3.2), then its textures
-extracted from the photos (§4).
+extracted from the photos (§4), then its named views rendered under each lighting preset and each
+photo's camera rendered over its photo (§5).
 
 The example (scenes/room) was rendered from a known scene by a generator independent of vebuild,
 with the marks a careful user would make (0.7 px noise). The demo copies it to a folder of the
@@ -84,8 +85,36 @@ def run_demo(out: Path, progress: bool = True) -> int:
     if truth:
         print()
         print(texture_comparison(project, textures, truth))
-    print(f"\nresults written to {project_file}; textures in {out / 'textures'}")
+    print("\n" + "-" * 80 + "\nrendering: the named views, and each photo's camera against its photo\n")
+    print(render_views(project, out / "renders"))
+    print(f"\nresults written to {project_file}; textures in {out / 'textures'}; renders in {out / 'renders'}")
     return 0
+
+
+def render_views(project, folder: Path) -> str:
+    """Every named view (as photographed and under each lighting preset) to PNG, and each photo's
+    camera overlaid on its photo with the RMS colour difference."""
+    from .render import RenderRequest, render_evidence
+
+    folder.mkdir(exist_ok=True)
+    lines = []
+    presets = [None] + [p["name"] for p in (project.data.get("lighting") or {}).get("presets", [])]
+    for view in project.data.get("views", []):
+        for preset in presets:
+            stem = "_".join((view["name"] + ("-" + preset if preset else "")).replace(",", "").split())
+            res = render_evidence(project, RenderRequest(out=folder / f"{stem}.png", view=view["name"],
+                                                         lighting=preset))
+            lines.append(f"  {res.out.relative_to(folder.parent)}")
+    lines.append("  how well the model explains each photo (RMS colour difference where the model covers it):")
+    for photo in project.data["photos"]:
+        if photo["id"] not in (project.data.get("calibration") or {}).get("cameras", {}):
+            continue
+        res = render_evidence(project, RenderRequest(out=folder / f"photo-{photo['id']}.png", photo=photo["id"],
+                                                     validate=True))
+        lines.append(f"    {photo['id']}: {res.rms_colour_difference:5.1f} sRGB levels over "
+                     f"{100 * res.covered_fraction:.0f} % of the photo (overlay: "
+                     f"{res.overlay.relative_to(folder.parent)})")
+    return "\n".join(lines)
 
 
 def texture_comparison(project, textures, truth: dict) -> str:
