@@ -174,7 +174,8 @@ def _collect(project: Project) -> _Contents:
     model = scene.model
     world = model.world_transforms()
     by_key = {(f.node, f.name): f for f in scene.mesh.faces}
-    pages = _pages(project, scene) if scene.textured else []
+    face_page = np.array([f.page for f in scene.mesh.faces], np.int64)
+    pages = _pages(project) if scene.textured else []
     if not scene.textured:
         warnings.append("exported untextured: each face in its recorded average colour, or grey where there is none "
                         "(glTF: vertex colours COLOR_0; OBJ: one material per face)")
@@ -189,7 +190,6 @@ def _collect(project: Project) -> _Contents:
             mesh = node.primitive.mesh(None, lay.SEGMENTS)
             gid, atlas = lay.node_atlas(node.name, mesh, by_key)
             tri_face = gid[mesh.faces[:, 0]]
-            face_page = np.array([f.page for f in scene.mesh.faces], np.int64)
             tri_page = face_page[tri_face - 1] if scene.textured else np.full(len(tri_face), -1)
             for page in np.unique(tri_page):
                 tris = mesh.faces[tri_page == page]
@@ -208,7 +208,7 @@ def _collect(project: Project) -> _Contents:
     return _Contents(project, scene, nodes, cameras, pages, warnings)
 
 
-def _pages(project: Project, scene: RenderScene) -> list[Page]:
+def _pages(project: Project) -> list[Page]:
     """The atlas pages' bytes, checked against the hashes the project records."""
     out = []
     for k, page in enumerate(project.data["textures"]["pages"]):
