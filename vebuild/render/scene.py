@@ -93,7 +93,7 @@ def scene_from_model(model: Model, record: dict[str, Any] | None = None,
             mesh = None
         if mesh is None or len(faces) != len(untextured_faces(model)):
             warnings.append("the textures were extracted for another model (its faces differ from the model's "
-                            "now); drawing untextured; run `vebuild texture` again")
+                            "now); the model is shown untextured; run `vebuild texture` again")
             faces = None
     if faces is None:
         mesh = lay.scene_mesh(model, untextured_faces(model))
@@ -115,13 +115,13 @@ def load_scene(project: Project) -> RenderScene:
     data = project.data
     if not (data.get("model") or {}).get("nodes"):
         raise VebuildError(f"{project.path}: $.model: the project has no model yet; build one (`vebuild solve`) "
-                           "before rendering it")
+                           "first")
     model, _, _ = load_model(project)
     if not any(n.primitive is not None for n in model.nodes):
         raise VebuildError(f"{project.path}: $.model.nodes: the model has no primitives to render")
     record = data.get("textures")
     if record is None:
-        return scene_from_model(model, None, (), ["the project has no textures yet; drawing untextured "
+        return scene_from_model(model, None, (), ["the project has no textures yet; the model is shown untextured "
                                                   "(run `vebuild texture` to extract them from the photos)"])
     pages, hashes, missing = [], [], []
     for k, page in enumerate(record["pages"]):
@@ -137,8 +137,8 @@ def load_scene(project: Project) -> RenderScene:
         pages.append(_read_page(path, page, k))
         hashes.append(digest)
     if missing:
-        return scene_from_model(model, record, (), [f"texture page(s) missing: {', '.join(missing)}; drawing "
-                                                    "untextured (run `vebuild texture` again)"])
+        return scene_from_model(model, record, (), [f"texture page(s) missing: {', '.join(missing)}; the model is "
+                                                    "shown untextured (run `vebuild texture` again)"])
     scene = scene_from_model(model, record, pages)
     scene.page_hashes = hashes if scene.textured else []
     return scene
