@@ -99,6 +99,29 @@ def _cmd_texture(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_video(args: argparse.Namespace) -> int:
+    from .actions.render import parse_size
+    from .actions.texture import progress_bar
+    from .project import load_project
+    from .render.video import Timing, VideoRequest, parse_views, render_video
+
+    project = load_project(args.project)
+    timing = Timing(fps=args.fps, speed=args.speed, seconds=args.seconds, hold=args.hold,
+                    turn_rate_deg=args.turn_rate)
+    request = VideoRequest(parse_views(args.views), Path(args.out) if args.out else None,
+                           parse_size(args.size) if args.size else None, timing, args.lighting, args.stereo, args.crf)
+    with progress_bar(_progress_wanted(args), desc="video", unit="frame") as progress:
+        r = render_video(project, request, progress)
+    for w in r.warnings:
+        print(f"warning: {w}")
+    print(f"wrote {r.out} (H.264 {r.encoder}, {r.width}×{r.height}, {r.fps:g} fps, {r.frames} frames, "
+          f"{r.duration:.1f} s, {r.bytes / 1e6:.2f} MB)")
+    print(f"  {r.length:.2f} m of path, lighting {r.lighting}; "
+          f"{r.render_seconds / r.frames:.3f} s per frame rendered and encoded")
+    print("  views at frames: " + ", ".join(f"{name} {k}" for name, k in r.keyframes))
+    return 0
+
+
 def _cmd_register(args: argparse.Namespace) -> int:
     from .actions.register import register_photos
     from .project import load_project, save_project
@@ -263,6 +286,28 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-exposure", action="store_true", help="do not compensate exposure between photos")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=_cmd_texture)
+
+    p = sub.add_parser("video", help="render a walk-through through named views to an MP4 (H.264)")
+    p.add_argument("project")
+    p.add_argument("--views", required=True, metavar="A,B,C",
+                   help="the views to walk through, in order, by name (at least two)")
+    p.add_argument("--out", metavar="FILE.mp4", help="the video (default: videos/<views>.mp4 beside the project)")
+    p.add_argument("--size", metavar="WxH", help="image size, even (default: the first view's)")
+    p.add_argument("--fps", type=float, default=30.0, help="frames per second (default: %(default)g)")
+    how = p.add_mutually_exclusive_group()
+    how.add_argument("--speed", type=float, metavar="M_PER_S", help="walking speed (default: 1 m/s)")
+    how.add_argument("--seconds", type=float, metavar="S",
+                     help="seconds for each segment between two views, whatever its length")
+    p.add_argument("--hold", type=float, default=0.0, metavar="S", help="seconds to stay at each view (default: 0)")
+    p.add_argument("--turn-rate", type=float, default=45.0, metavar="DEG_PER_S",
+                   help="fastest turn (or zoom), which sets the time of segments that turn more than they "
+                        "move (default: %(default)g)")
+    p.add_argument("--lighting", metavar="PRESET", help="a lighting preset (default: as photographed)")
+    p.add_argument("--stereo", choices=("sbs", "tb", "anaglyph"), help="stereo: side by side, top and bottom, "
+                   "or red-cyan anaglyph")
+    p.add_argument("--crf", type=int, default=18, help="x264 quality, 0 (best) to 51 (default: %(default)s)")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.set_defaults(func=_cmd_video)
 
     p = sub.add_parser("register", help="place further photos from known points (paper §3.2)")
     p.add_argument("project")

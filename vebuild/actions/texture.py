@@ -30,11 +30,13 @@ TEXTURE_DIR = "textures"
 
 
 @contextmanager
-def progress_bar(enabled: bool) -> Iterator[Callable[[int, int, str], None]]:
-    """A tqdm bar over photos, as the ``progress`` callback of :func:`texture_project`."""
+def progress_bar(enabled: bool, desc: str = "texturing",
+                 unit: str = "photo") -> Iterator[Callable[[int, int, str], None]]:
+    """A tqdm bar, as a ``progress(done, total, label)`` callback: over photos for
+    :func:`texture_project`, over frames for a video (``desc``, ``unit``)."""
     from tqdm import tqdm
 
-    bar = tqdm(total=None, desc="texturing", unit="photo", disable=not enabled)
+    bar = tqdm(total=None, desc=desc, unit=unit, disable=not enabled)
 
     def step(done: int, total: int, photo: str) -> None:
         bar.total, bar.n = total, done
