@@ -73,6 +73,11 @@ int cube_face(vec3 d) {  // +x, -x, +y, -y, +z, -z: the order of a point light's
 void main() {
     vec3 albedo = textured ? texture(atlas, v_uv).rgb : v_colour;
     vec3 colour = albedo;
+#if !LIT
+    // Untextured faces would be one flat colour: shade them by the angle to the eye so that
+    // shapes read (a face squarely in view at full colour, at grazing angles half of it).
+    if (!textured) colour *= 0.5 + 0.5 * abs(dot(normalize(v_normal), normalize(eye - v_world)));
+#endif
 #if LIT
     {
         vec3 N = normalize(v_normal);

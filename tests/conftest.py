@@ -46,3 +46,27 @@ def xvfb_display():
                     os.environ["DISPLAY"] = old
             return
     pytest.fail("could not start Xvfb on any display from :90 to :139")
+
+
+@pytest.fixture(scope="session")
+def textured_room(tmp_path_factory):
+    """The example room calibrated, solved and textured (100 texels per metre), once per session.
+    Tests that change it work on a copy."""
+    import shutil
+    from pathlib import Path
+
+    from vebuild.actions.texture import texture_project
+    from vebuild.cli import main
+    from vebuild.project import load_project, save_project
+    from vebuild.texture.gpu import Options
+
+    room = Path(__file__).resolve().parents[1] / "scenes" / "room"
+    folder = tmp_path_factory.mktemp("render") / "room"
+    shutil.copytree(room, folder)
+    proj = folder / "room.vebuild.json"
+    assert main(["calibrate", str(proj), "--quiet"]) == 0
+    assert main(["solve", str(proj)]) == 0
+    project = load_project(proj)
+    texture_project(project, Options(texels_per_metre=100.0))
+    save_project(project)
+    return proj

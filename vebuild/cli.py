@@ -47,6 +47,17 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_view(args: argparse.Namespace) -> int:
+    from .actions.render import parse_size
+    from .project import load_project
+    from .viewer.app import run_viewer
+
+    project = load_project(args.project)
+    run_viewer(project, parse_size(args.size), hypothesis=args.hypothesis, view=args.view, samples=args.samples,
+               quad_stereo=args.quad_stereo)
+    return 0
+
+
 def _cmd_render(args: argparse.Namespace) -> int:
     from .actions.render import RenderRequest, parse_size, render_evidence
     from .project import load_project
@@ -66,7 +77,8 @@ def _cmd_render(args: argparse.Namespace) -> int:
     req = RenderRequest(out=Path(args.out), view=args.view, photo=args.photo,
                         size=parse_size(args.size) if args.size else None, lighting=args.lighting,
                         stereo=args.stereo, eye_separation=args.eye_separation, convergence=args.convergence,
-                        samples=args.samples, shadows=not args.no_shadows, validate=args.validate)
+                        samples=args.samples, shadows=not args.no_shadows, validate=args.validate,
+                        hypothesis=args.hypothesis)
     result = render_evidence(project, req)
     for w in result.warnings:
         print(f"warning: {w}")
@@ -259,10 +271,23 @@ def build_parser() -> argparse.ArgumentParser:
                    help="distance of the screen plane (zero parallax) in metres (default: the scene's centre)")
     p.add_argument("--samples", type=int, default=4, metavar="N", help="anti-aliasing samples (default: %(default)s)")
     p.add_argument("--no-shadows", action="store_true", help="lights cast no shadows")
+    p.add_argument("--hypothesis", metavar="NAME",
+                   help="the objects arranged as in this hypothesis (the image is labelled as one)")
     p.add_argument("--validate", action="store_true",
                    help="with --photo: also write the photo overlaid on the render and print the RMS colour "
                         "difference")
     p.set_defaults(func=_cmd_render)
+
+    p = sub.add_parser("view", help="walk through the scene in a window, move objects as their joints allow")
+    p.add_argument("project")
+    p.add_argument("--size", default="1280x720", metavar="WxH", help="window size (default: %(default)s)")
+    p.add_argument("--view", metavar="NAME", help="start at this named view (default: the first)")
+    p.add_argument("--hypothesis", metavar="NAME", help="start with the objects arranged as in this hypothesis")
+    p.add_argument("--samples", type=int, default=1, metavar="N",
+                   help="anti-aliasing samples (default: %(default)s; more cost frame rate without a GPU)")
+    p.add_argument("--quad-stereo", action="store_true",
+                   help="ask the display for quad-buffered stereo (shutter glasses; B switches to it if given)")
+    p.set_defaults(func=_cmd_view)
 
     p = sub.add_parser("texture", help="extract textures from the photos onto the model (paper §4)")
     p.add_argument("project")

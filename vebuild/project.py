@@ -316,6 +316,19 @@ def _check_semantics(data: dict[str, Any], file: Any) -> None:
                                "own light, unlit textures); choose another name")
         for j, light in enumerate(preset.get("lights", [])):
             _check_light(light, file, f"{where}.lights[{j}]")
+    hypotheses = data.get("hypotheses", [])
+    unique(hypotheses, "name", "$.hypotheses", "hypothesis name")
+    types = {n["name"]: n["joint"]["type"] for n in model.get("nodes", [])}
+    for i, hyp in enumerate(hypotheses):
+        for name, joint in hyp["joints"].items():
+            where = f"$.hypotheses[{i}].joints{_key(name)}"
+            if name not in types:
+                raise ProjectError(file, where, f"names the node {name!r}, but $.model.nodes has no node of that "
+                                   f"name (the nodes are: {_listing(nodes)})")
+            if joint["type"] != types[name]:
+                raise ProjectError(file, f"{where}.type", f"expected the node's own joint type "
+                                   f"{types[name]!r} (a hypothesis moves objects, it does not re-attach them), "
+                                   f"found {joint['type']!r}")
 
 
 #: The built-in lighting preset: the extracted textures shown as photographed, without lighting.

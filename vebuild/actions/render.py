@@ -50,6 +50,7 @@ class RenderRequest:
     samples: int = 4
     shadows: bool = True
     validate: bool = False
+    hypothesis: str | None = None
 
 
 @dataclass
@@ -103,6 +104,21 @@ def write_png(path: Path, image: NDArray[np.uint8], text: dict[str, str]) -> Non
     except OSError as e:
         tmp.unlink(missing_ok=True)
         raise VebuildError(f"{path}: cannot write the image ({e.strerror or e})") from None
+
+
+def stamp(image: NDArray[np.uint8], text: str) -> NDArray[np.uint8]:
+    """The image with ``text`` in a red band across its top (how a hypothesis is labelled)."""
+    from PIL import ImageDraw, ImageFont
+
+    img = Image.fromarray(image, "RGB")
+    size = max(12, img.height // 28)
+    font = ImageFont.load_default(size=size)
+    draw = ImageDraw.Draw(img)
+    box = draw.textbbox((0, 0), text, font=font)
+    pad = size // 2
+    draw.rectangle((0, 0, img.width, box[3] + 2 * pad), fill=(170, 20, 20))
+    draw.text((pad, pad), text, fill=(255, 255, 255), font=font)
+    return np.asarray(img)
 
 
 def _camera_record(cam: ImageCamera, kind: str) -> dict[str, Any]:
@@ -162,6 +178,10 @@ def render_evidence(project: Project, req: RenderRequest) -> RenderResult:
         cam = cam.resized(*req.size)
     lighting = find_preset(project, req.lighting)
     scene = load_scene(project)
+    if req.hypothesis is not None:
+        from vebuild.actions.hypothesis import find_hypothesis, model_with
+
+        scene = scene.with_model(model_with(scene.model, find_hypothesis(project, req.hypothesis)["joints"]))
     ctx = headless_context()
     stereo = Stereo(req.stereo, req.eye_separation, req.convergence) if req.stereo else None
     renderer = Renderer(ctx, scene, RenderOptions(samples=req.samples, shadows=req.shadows))
@@ -181,7 +201,13 @@ def render_evidence(project: Project, req: RenderRequest) -> RenderResult:
     result = RenderResult(out, cam, (W, H), lighting.name, list(scene.warnings))
     if req.validate:
         _validate(project, str(req.photo), cam, rgba, out, text, result)
-    write_png(out, rgba[..., :3], text)
+    image = rgba[..., :3]
+    if req.hypothesis is not None:
+        from vebuild.actions.hypothesis import label
+
+        image = stamp(image, label(req.hypothesis))
+        text["vebuild:hypothesis"] = req.hypothesis
+    write_png(out, image, text)
     return result
 
 

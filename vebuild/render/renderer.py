@@ -102,6 +102,8 @@ class Renderer:
         self._programs = {lit: load_program(ctx, "scene", {"LIT": int(lit), "MAX_LIGHTS": MAX_LIGHTS,
                                                            "MAX_TILES": MAX_TILES}) for lit in (False, True)}
         self.shadow_program = load_program(ctx, "shadow")
+        self.pick_program = load_program(ctx, "id")  # the ID-buffer pass of texture extraction
+        self._pick_target: moderngl.Framebuffer | None = None
         self.composite = load_program(ctx, "anaglyph", vertex="fullscreen")
         self._fullscreen = ctx.vertex_array(self.composite, [])
         self._blank = ctx.texture((1, 1), 3, bytes([255, 255, 255]))
@@ -147,7 +149,7 @@ class Renderer:
         vpage = page_of_face[faces] if scene.textured else np.zeros(len(faces), np.int32)
         uv = mesh.atlas / sizes[vpage] if scene.textured else np.zeros((len(faces), 2))
         data = np.hstack([mesh.vertices, mesh.normals, uv, scene.face_colour[faces],
-                          scene.node_of_face[faces][:, None]]).astype("f4")
+                          scene.node_of_face[faces][:, None], mesh.face_of_vertex[:, None]]).astype("f4")
         tri_page = vpage[mesh.triangles[:, 0]] if len(mesh.triangles) else np.zeros(0, np.int32)
         order = np.argsort(tri_page, kind="stable")
         index = mesh.triangles[order].astype("i4")
@@ -159,7 +161,8 @@ class Renderer:
         ibo = self.ctx.buffer(index.tobytes())
         self._vaos = {lit: _vertex_array(self.ctx, prog, vbo, ibo) for lit, prog in self._programs.items()}
         self._shadow_vao = _vertex_array(self.ctx, self.shadow_program, vbo, ibo)
-        self._resources = [*self._vaos.values(), self._shadow_vao, vbo, ibo]
+        self._pick_vao = _vertex_array(self.ctx, self.pick_program, vbo, ibo)
+        self._resources = [*self._vaos.values(), self._shadow_vao, self._pick_vao, vbo, ibo]
         self._n_indices = int(index.size)
         self._bounds = scene.bounds()
         self._shadow_state = None  # the geometry moved: shadows are drawn again
@@ -446,6 +449,37 @@ class Renderer:
         data = self.frame(cam, stereo).read(alignment=1)
         return np.frombuffer(data, np.uint8).reshape(H, W, 4).copy()
 
+    def pick(self, cam: ImageCamera, u: float, v: float) -> tuple[str | None, Array | None]:
+        """The node and the world point seen at pixel position (u, v) of ``cam``'s view, through an
+        ID buffer of that one pixel (the camera's frustum narrowed to it); (None, None) on the
+        background."""
+        i, j = math.floor(u), math.floor(v)
+        if not (0 <= i < cam.width and 0 <= j < cam.height):
+            return None, None
+        near, far = self._near_far(cam)
+        K = np.array(cam.K, float)  # (u, v) at the centre of a 1 × 1 image
+        K[0, 2] -= u - 0.5
+        K[1, 2] -= v - 0.5
+        if self._pick_target is None:
+            tex = self.ctx.texture((1, 1), 2, dtype="f4")
+            self._pick_target = self.ctx.framebuffer([tex], self.ctx.depth_renderbuffer((1, 1)))
+        fbo = self._pick_target
+        fbo.use()
+        fbo.viewport = (0, 0, 1, 1)
+        fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        prog = self.pick_program
+        prog["view"].write(view_matrix(cam.R, cam.C).T.astype("f4").tobytes())
+        prog["projection"].write(gl_projection(K, 1, 1, near, far).T.astype("f4").tobytes())
+        self.ctx.enable(moderngl.DEPTH_TEST)
+        self._pick_vao.render(moderngl.TRIANGLES, vertices=self._n_indices)
+        self.ctx.disable(moderngl.DEPTH_TEST)
+        face, depth = np.frombuffer(fbo.color_attachments[0].read(), "f4")
+        if face < 0.5:
+            return None, None
+        node = self.scene.mesh.faces[int(round(face)) - 1].node
+        ray = np.linalg.solve(cam.K, [u, v, 1.0])  # camera coordinates at depth 1
+        return node, np.asarray(cam.C, float) + float(depth) * (np.asarray(cam.R, float).T @ ray)
+
     def release(self) -> None:
         """Free the GPU resources."""
         for r in self._resources:
@@ -466,7 +500,7 @@ class Renderer:
 
 
 #: The scene's vertex layout: attribute names and float counts, in buffer order.
-VERTEX_LAYOUT = (("in_position", 3), ("in_normal", 3), ("in_uv", 2), ("in_colour", 3), ("in_node", 1))
+VERTEX_LAYOUT = (("in_position", 3), ("in_normal", 3), ("in_uv", 2), ("in_colour", 3), ("in_node", 1), ("in_face", 1))
 
 
 def _vertex_array(ctx: moderngl.Context, prog: moderngl.Program, vbo: moderngl.Buffer,

@@ -1,0 +1,627 @@
+"""``vebuild view``: the walk-through window (paper §5, Figure 13).
+
+Keys and mouse follow games and 3-D viewers (the panel lists them, :data:`KEYS`):
+
+========================  ==========================================================================
+W A S D / arrow keys      walk (parallel to the floor; walls and furniture stop you, you slide along)
+Shift                     run
+right mouse button, drag  look around
+F                         fly (Space up, C down; through everything) / walk again
+left click                select the object under the cursor (its name, group and joint in the panel)
+left drag                 move the object as its joint allows (slide on the floor, swing on a hinge,
+                          slide on a runner); it takes its children and stops at walls and furniture
+mouse wheel, Q / E        turn the selected object about the vertical (objects resting or free)
+Ctrl+Z / Ctrl+Y           undo / redo a move
+R / Shift+R               put the selected object / every object back where it was measured
+Esc                       cancel a drag, or clear the selection
+V / Shift+V               next / previous named view
+P / Shift+P               next / previous photo: its camera, with the photo over the view
+[ / ]                     photo overlay more transparent / more opaque
+L                         next lighting preset (as photographed, then the project's presets)
+B                         next stereo mode (off, anaglyph, side by side, top and bottom, quad-buffered
+                          where the display offers it)
+F1                        show or hide the panel
+F12                       screenshot (PNG with provenance, labelled if a hypothesis is shown)
+========================  ==========================================================================
+
+The panel also saves the current view as a named view, and the current arrangement as a named
+hypothesis, which it lists for loading; while objects are not where they were measured, the window
+says "HYPOTHESIS" in red. All of it is written to the project file, the measured model untouched.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+from typing import Any
+
+import glfw
+import moderngl
+import numpy as np
+from numpy.typing import NDArray
+
+from vebuild.actions.hypothesis import LABEL, find_hypothesis, label, save_hypothesis
+from vebuild.camera import ImageCamera, pixel_rays_world
+from vebuild.errors import VebuildError
+from vebuild.gl import load_program
+from vebuild.gl.window import Window
+from vebuild.project import Project, save_project
+from vebuild.render.lighting import find_preset, preset_names
+from vebuild.render.renderer import Renderer, RenderOptions, Stereo
+from vebuild.render.scene import RenderScene, load_scene
+from vebuild.render.views import photo_camera, view_camera, view_record
+from vebuild.viewer.collide import Footprint, footprints, local_vertices
+from vebuild.viewer.manipulate import CannotMove, ObjectMover
+from vebuild.viewer.walk import Walker
+
+KEYS = [
+    ("W A S D, arrows", "walk"), ("Shift", "run"), ("right drag", "look around"),
+    ("F", "fly / walk (fly: Space up, C down)"), ("left click", "select"),
+    ("left drag", "move the object as its joint allows"), ("wheel, Q / E", "turn the selected object"),
+    ("Ctrl+Z / Ctrl+Y", "undo / redo"), ("R / Shift+R", "reset selected / all"), ("Esc", "cancel, deselect"),
+    ("V / Shift+V", "next / previous view"), ("P / Shift+P", "next / previous photo"),
+    ("[ / ]", "photo overlay opacity"), ("L", "next lighting"), ("B", "next stereo mode"), ("F1", "panel"),
+    ("F12", "screenshot"),
+]
+STEREO_CYCLE: list[str | None] = [None, "anaglyph", "sbs", "tb"]
+TURN_STEP = math.radians(5.0)
+#: A press and release closer than this (pixels) is a click, not a drag.
+CLICK_SLOP_PX = 3.0
+
+
+class Viewer:
+    """The walk-through over one project in one window; :meth:`frame` draws one frame."""
+
+    def __init__(self, project: Project, window: Window, options: RenderOptions | None = None,
+                 hypothesis: str | None = None, view: str | None = None):
+        self.project = project
+        self.window = window
+        self.ctx = window.ctx
+        scene = load_scene(project)
+        self.scene: RenderScene = scene
+        self.messages: list[str] = list(scene.warnings)
+        self.mover = ObjectMover(scene.model)
+        self.renderer = Renderer(self.ctx, scene, options or RenderOptions.interactive())
+        self._local = local_vertices(scene.model)
+        self._obstacles: list[Footprint] = footprints(scene.model, local=self._local)
+        self.walker = Walker()
+        self.lightings = preset_names(project)
+        self.lighting_index = 0
+        self.stereo_modes = STEREO_CYCLE + (["quad"] if window.stereo else [])
+        self.stereo_index = 0
+        self.selection: str | None = None
+        self.hypothesis_name: str | None = None
+        self.photo: str | None = None
+        self.photo_opacity = 0.5
+        self._photo_tex: moderngl.Texture | None = None
+        self._overlay = load_program(self.ctx, "overlay", vertex="fullscreen")
+        self._overlay_vao = self.ctx.vertex_array(self._overlay, [])
+        self.view_index = -1
+        self.photo_index = -1
+        self.show_panel = True
+        self.fps = 0.0
+        self._held: set[int] = set()
+        self._mods = 0
+        self._cursor = (0.0, 0.0)
+        self._look_from: tuple[float, float] | None = None
+        self._press: tuple[float, float] | None = None
+        self._press_pick: tuple[str | None, NDArray[np.float64] | None] = (None, None)
+        self._dragging = False
+        self._last = time.perf_counter()
+        self._new_view_name = ""
+        self._new_hypothesis_name = ""
+        self.screenshots = 0
+        self.gui = None
+        self._install_callbacks()
+        views = project.data.get("views", [])
+        if view is not None:
+            self.jump_to_view(view)
+        elif views:
+            self.jump_to_view(views[0]["name"])
+        else:
+            lo, hi = scene.bounds()
+            self.walker.place(0.5 * (lo + hi))
+        if hypothesis is not None:
+            self.load_hypothesis(hypothesis)
+
+    # -- GUI is optional so that tests can drive the logic without Dear ImGui ----------------------
+
+    def enable_gui(self) -> None:
+        from vebuild.viewer.gui import Gui
+
+        self.gui = Gui(self.ctx, self.window.handle)
+
+    # -- state ------------------------------------------------------------------------------------
+
+    @property
+    def lighting(self) -> str:
+        return self.lightings[self.lighting_index]
+
+    @property
+    def stereo(self) -> str | None:
+        return self.stereo_modes[self.stereo_index]
+
+    @property
+    def model(self) -> Any:
+        return self.mover.model
+
+    def arranged(self) -> bool:
+        """Whether the objects are not where they were measured."""
+        return bool(self.mover.arrangement())
+
+    def banner(self) -> str | None:
+        """The hypothesis label to show, or None for the measured scene."""
+        if not self.arranged():
+            return None
+        return label(self.hypothesis_name or "unsaved arrangement")
+
+    def say(self, text: str) -> None:
+        self.messages = (self.messages + [text])[-4:]
+
+    def _model_changed(self) -> None:
+        self.renderer.set_scene(self.scene.with_model(self.model))
+        self._obstacles = footprints(self.model, local=self._local)
+
+    # -- cameras ----------------------------------------------------------------------------------
+
+    def viewport(self) -> tuple[int, int, int, int]:
+        """Where the scene is drawn in the window: all of it, or the photo's shape inside it."""
+        W, H = self.window.framebuffer_size()
+        if self.photo is None:
+            return 0, 0, W, H
+        p = self.project.photo(self.photo)
+        s = min(W / p["width"], H / p["height"])
+        w, h = max(1, round(p["width"] * s)), max(1, round(p["height"] * s))
+        return (W - w) // 2, (H - h) // 2, w, h
+
+    def camera(self) -> ImageCamera:
+        """The camera of the (whole, mono) view being shown."""
+        x, y, w, h = self.viewport()
+        if self.photo is not None:
+            cam = photo_camera(self.project, self.photo)
+            return cam.scaled(w / cam.width)
+        return self.walker.camera(w, h)
+
+    def eye_camera(self) -> ImageCamera:
+        """The camera handed to the renderer: a stereo mode splits the window between the eyes."""
+        cam = self.camera()
+        if self.stereo == "sbs":
+            return cam.resized(max(1, cam.width // 2), cam.height)
+        if self.stereo == "tb":
+            return cam.resized(cam.width, max(1, cam.height // 2))
+        return cam
+
+    def cursor_image(self) -> tuple[float, float] | None:
+        """The cursor in the mono view's image coordinates (None outside it)."""
+        x, y = self._cursor
+        W, H = self.window.framebuffer_size()
+        ww, wh = glfw.get_window_size(self.window.handle)
+        sx, sy = W / max(ww, 1), H / max(wh, 1)
+        vx, vy, vw, vh = self.viewport()
+        u, v = x * sx - vx, y * sy - (H - vy - vh)
+        if self.stereo in ("sbs", "tb"):
+            return None  # picking needs a mono view
+        if 0 <= u < vw and 0 <= v < vh:
+            return u, v
+        return None
+
+    def jump_to_view(self, name: str) -> None:
+        views = self.project.data.get("views", [])
+        names = [v["name"] for v in views]
+        if name not in names:
+            raise VebuildError(f"no view is called {name!r}; the views are: {', '.join(map(repr, names)) or 'none'}")
+        cam = view_camera(views[names.index(name)])
+        self.photo = None
+        self.walker.fov_deg = math.degrees(2 * math.atan(0.5 * cam.width / cam.K[0, 0]))
+        self.walker.place(cam.C, cam.R)
+        if abs(cam.C[2] - self.walker.eye_height) > 0.05:
+            self.walker.set_fly(True)  # a view above or below eye height is kept as it is
+            self.walker.position = np.asarray(cam.C, float).copy()
+        self.view_index = names.index(name)
+        self.say(f"view '{name}'")
+
+    def jump_to_photo(self, photo_id: str) -> None:
+        from vebuild.texture.extract import PhotoSource, read_photo
+
+        cam = photo_camera(self.project, photo_id)
+        i = [p["id"] for p in self.project.data["photos"]].index(photo_id)
+        p = self.project.data["photos"][i]
+        src = PhotoSource(photo_id, self.project.photo_path(p), p["sha256"], f"$.photos[{i}]", str(self.project.path))
+        pixels = read_photo(src, cam)
+        if self._photo_tex is not None:
+            self._photo_tex.release()
+        self._photo_tex = self.ctx.texture((cam.width, cam.height), 3, np.ascontiguousarray(pixels).tobytes())
+        self._photo_tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+        self.photo = photo_id
+        self.walker.set_fly(True)
+        self.walker.place(cam.C, cam.R)
+        self.say(f"photo '{photo_id}': its calibrated camera, the photo {100 * self.photo_opacity:.0f} % over the view")
+
+    def leave_photo(self) -> None:
+        if self.photo is not None:
+            self.photo = None
+            self.walker.set_fly(False)
+
+    # -- objects ----------------------------------------------------------------------------------
+
+    def pick(self) -> tuple[str | None, NDArray[np.float64] | None]:
+        uv = self.cursor_image()
+        if uv is None:
+            return None, None
+        return self.renderer.pick(self.camera(), *uv)
+
+    def ray(self) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
+        uv = self.cursor_image()
+        if uv is None:
+            return None
+        cam = self.camera()
+        return np.asarray(cam.C, float), pixel_rays_world(cam.K, cam.R, np.array(uv))
+
+    def select(self, node: str | None) -> None:
+        self.selection = node
+        self.renderer.highlight = node
+        if node is not None:
+            self.say(f"selected '{node}'")
+
+    def describe(self, node: str) -> str:
+        n = self.model.node(node)
+        group = n.parent or "the world"
+        j = n.joint
+        values = ", ".join(f"{name} {v:.3f}" if name not in ("yaw", "angle") else f"{name} {math.degrees(v):.1f}°"
+                           for name, v in zip(j.dof_names, j.values(), strict=True))
+        try:
+            moves = self.mover.movable(node)
+            how = "" if moves == node else f" (moves '{moves}')"
+        except CannotMove:
+            how = " (cannot move)"
+        return f"{node} in {group}; joint {j.type}{': ' + values if values else ''}{how}"
+
+    def turn_selection(self, angle: float) -> None:
+        if self.selection is None:
+            return
+        try:
+            if self.mover.turn(self.selection, angle):
+                self._model_changed()
+        except CannotMove as e:
+            self.say(str(e))
+
+    def undo(self) -> None:
+        if self.mover.undo():
+            self._model_changed()
+
+    def redo(self) -> None:
+        if self.mover.redo():
+            self._model_changed()
+
+    def reset(self, everything: bool = False) -> None:
+        if everything or self.selection is None:
+            self.mover.reset()
+            self.hypothesis_name = None
+        else:
+            self.mover.reset(self.mover.movable(self.selection))
+        self._model_changed()
+
+    def load_hypothesis(self, name: str) -> None:
+        rec = find_hypothesis(self.project, name)
+        self.mover.reset()
+        self.mover.apply(rec["joints"])
+        self.hypothesis_name = name
+        self._model_changed()
+        self.say(label(name))
+
+    def save_hypothesis(self, name: str) -> None:
+        save_hypothesis(self.project, name, self.mover.arrangement())
+        save_project(self.project)
+        self.hypothesis_name = name
+        self.say(f"hypothesis '{name}' saved in {self.project.path.name} (the measured model is unchanged)")
+
+    def save_view(self, name: str) -> None:
+        if not name.strip():
+            raise VebuildError("a view needs a name")
+        rec = view_record(self.camera(), name.strip())
+        views = [v for v in self.project.data.get("views", []) if v["name"] != rec["name"]]
+        self.project.data["views"] = views + [rec]
+        save_project(self.project)
+        self.say(f"view '{rec['name']}' saved in {self.project.path.name}")
+
+    def screenshot(self, folder: Path | None = None) -> Path:
+        """The current view rendered off the window's context to a PNG with provenance."""
+        from PIL import Image
+
+        from vebuild.actions.render import provenance, stamp, write_png
+
+        cam = self.camera()
+        stereo = Stereo(self.stereo) if self.stereo not in (None, "quad") else None
+        img = self.renderer.render(cam if stereo is None else self.eye_camera(), stereo)
+        text = provenance(self.project, cam, "viewer", self.lighting, {"mode": self.stereo} if stereo else None,
+                          self.scene.page_hashes, {"samples": self.renderer.options.samples})
+        if self.banner():
+            img = stamp(img, self.banner())
+            text["vebuild:hypothesis"] = self.hypothesis_name or "unsaved arrangement"
+        folder = folder or self.project.folder / "screenshots"
+        folder.mkdir(exist_ok=True)
+        self.screenshots += 1
+        path = folder / f"{self.project.path.name.split('.')[0]}-{self.screenshots:03d}.png"
+        while path.exists():
+            self.screenshots += 1
+            path = folder / f"{self.project.path.name.split('.')[0]}-{self.screenshots:03d}.png"
+        write_png(path, np.asarray(Image.fromarray(img)), text)
+        self.say(f"screenshot {path}")
+        return path
+
+    # -- input ------------------------------------------------------------------------------------
+
+    def _install_callbacks(self) -> None:
+        h = self.window.handle
+        glfw.set_key_callback(h, lambda w, key, sc, action, mods: self.on_key(key, action, mods))
+        glfw.set_char_callback(h, lambda w, c: self.gui.on_char(c) if self.gui else None)
+        glfw.set_cursor_pos_callback(h, lambda w, x, y: self.on_cursor(x, y))
+        glfw.set_mouse_button_callback(h, lambda w, b, action, mods: self.on_button(b, action, mods))
+        glfw.set_scroll_callback(h, lambda w, dx, dy: self.on_scroll(dx, dy))
+
+    def on_key(self, key: int, action: int, mods: int) -> None:
+        if self.gui is not None:
+            self.gui.on_key(key, action, mods)
+            if self.gui.wants_keyboard():
+                return
+        self._mods = mods
+        if action == glfw.PRESS:
+            self._held.add(key)
+        elif action == glfw.RELEASE:
+            self._held.discard(key)
+            return
+        if action != glfw.PRESS:
+            return
+        try:
+            self._key_command(key, mods)
+        except VebuildError as e:
+            self.say(str(e))
+
+    def _key_command(self, key: int, mods: int) -> None:
+        shift, ctrl = bool(mods & glfw.MOD_SHIFT), bool(mods & glfw.MOD_CONTROL)
+        views = self.project.data.get("views", [])
+        photos = [p["id"] for p in self.project.data["photos"]
+                  if p["id"] in ((self.project.data.get("calibration") or {}).get("cameras") or {})]
+        if ctrl and key == glfw.KEY_Z:
+            self.redo() if shift else self.undo()
+        elif ctrl and key == glfw.KEY_Y:
+            self.redo()
+        elif key == glfw.KEY_F:
+            self.leave_photo()
+            self.walker.set_fly(not self.walker.fly)
+            self.say("flying" if self.walker.fly else "walking")
+        elif key == glfw.KEY_R:
+            self.reset(everything=shift)
+        elif key == glfw.KEY_ESCAPE:
+            if self._dragging:
+                self.mover.cancel()
+                self._dragging = False
+                self._model_changed()
+            else:
+                self.select(None)
+        elif key == glfw.KEY_V and views:
+            self.view_index = (self.view_index + (-1 if shift else 1)) % len(views)
+            self.jump_to_view(views[self.view_index]["name"])
+        elif key == glfw.KEY_P and photos:
+            self.photo_index = (self.photo_index + (-1 if shift else 1)) % len(photos)
+            self.jump_to_photo(photos[self.photo_index])
+        elif key == glfw.KEY_LEFT_BRACKET:
+            self.photo_opacity = max(0.0, self.photo_opacity - 0.1)
+        elif key == glfw.KEY_RIGHT_BRACKET:
+            self.photo_opacity = min(1.0, self.photo_opacity + 0.1)
+        elif key == glfw.KEY_L:
+            self.set_lighting((self.lighting_index + 1) % len(self.lightings))
+        elif key == glfw.KEY_B:
+            self.stereo_index = (self.stereo_index + 1) % len(self.stereo_modes)
+            self.say(f"stereo: {self.stereo or 'off'}")
+        elif key in (glfw.KEY_Q, glfw.KEY_E):
+            self.turn_selection(TURN_STEP if key == glfw.KEY_Q else -TURN_STEP)
+        elif key == glfw.KEY_F1:
+            self.show_panel = not self.show_panel
+        elif key == glfw.KEY_F12:
+            self.screenshot()
+
+    def set_lighting(self, index: int) -> None:
+        self.lighting_index = index
+        self.renderer.set_lighting(find_preset(self.project, self.lighting))
+        self.say(f"lighting: {self.lighting}")
+
+    def on_cursor(self, x: float, y: float) -> None:
+        if self.gui is not None:
+            self.gui.on_cursor(x, y)
+        dx, dy = x - self._cursor[0], y - self._cursor[1]
+        self._cursor = (x, y)
+        if self._look_from is not None:
+            if self.photo is not None:
+                self.leave_photo()
+            self.walker.look(dx, dy)
+        if self._press is not None and self.selection is not None:
+            if not self._dragging and math.hypot(x - self._press[0], y - self._press[1]) > CLICK_SLOP_PX:
+                self._begin_drag()
+            if self._dragging:
+                ray = self.ray()
+                if ray is not None and self.mover.drag(*ray):
+                    self._model_changed()
+
+    def _begin_drag(self) -> None:
+        node, point = self._press_pick
+        if node is None or node != self.selection:
+            return
+        try:
+            self.mover.begin(node, point)
+            self._dragging = True
+        except CannotMove as e:
+            self.say(str(e))
+            self._press = None
+
+    def on_button(self, button: int, action: int, mods: int) -> None:
+        if self.gui is not None:
+            self.gui.on_button(button, action)
+            if self.gui.wants_mouse() and action == glfw.PRESS:
+                return
+        if button == glfw.MOUSE_BUTTON_RIGHT:
+            self._look_from = self._cursor if action == glfw.PRESS else None
+        elif button == glfw.MOUSE_BUTTON_LEFT:
+            if action == glfw.PRESS:
+                self._press = self._cursor
+                self._press_pick = self.pick()
+                node = self._press_pick[0]
+                if node is not None:
+                    self.select(node)
+                    self.say(self.describe(node))
+            else:
+                if self._dragging:
+                    self.mover.end()
+                    self._dragging = False
+                    self._model_changed()
+                elif self._press is not None and self._press_pick[0] is None:
+                    self.select(None)
+                self._press = None
+
+    def on_scroll(self, dx: float, dy: float) -> None:
+        if self.gui is not None:
+            self.gui.on_scroll(dx, dy)
+            if self.gui.wants_mouse():
+                return
+        self.turn_selection(dy * TURN_STEP)
+
+    # -- frames -----------------------------------------------------------------------------------
+
+    def update(self, dt: float) -> None:
+        """Move the walker for the keys held during ``dt`` seconds."""
+        held = self._held
+        forward = float(glfw.KEY_W in held or glfw.KEY_UP in held) - float(glfw.KEY_S in held or glfw.KEY_DOWN in held)
+        right = float(glfw.KEY_D in held or glfw.KEY_RIGHT in held) - float(glfw.KEY_A in held or glfw.KEY_LEFT in held)
+        up = float(glfw.KEY_SPACE in held) - float(glfw.KEY_C in held)
+        if forward or right or up:
+            self.leave_photo()
+            run = glfw.KEY_LEFT_SHIFT in held or glfw.KEY_RIGHT_SHIFT in held
+            self.walker.move(forward, right, up if self.walker.fly else 0.0, dt, run, self._obstacles)
+
+    def frame(self) -> None:
+        """Poll events, move, draw the scene, the photo overlay and the panel, and swap."""
+        now = time.perf_counter()
+        dt = min(0.1, now - self._last)
+        self._last = now
+        if dt > 0:
+            self.fps = 1.0 / dt if self.fps == 0 else 0.9 * self.fps + 0.1 / dt
+        self.window.poll()
+        self.update(dt)
+        self.draw()
+        self.window.swap()
+
+    def draw(self) -> None:
+        ctx = self.ctx
+        screen = ctx.screen
+        W, H = self.window.framebuffer_size()
+        screen.use()
+        screen.viewport = (0, 0, W, H)
+        screen.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
+        x, y, _, _ = self.viewport()
+        stereo = Stereo(self.stereo) if self.stereo else None
+        self.renderer.draw(screen, self.eye_camera(), stereo, flip=True, origin=(x, y),
+                           select_buffer=self.window.select_buffer if self.stereo == "quad" else None)
+        if self.photo is not None and self._photo_tex is not None and self.photo_opacity > 0:
+            self._draw_overlay()
+        if self.gui is not None:
+            self._draw_panel()
+
+    def _draw_overlay(self) -> None:
+        ctx = self.ctx
+        x, y, w, h = self.viewport()
+        ctx.screen.viewport = (x, y, w, h)
+        ctx.enable(moderngl.BLEND)
+        ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
+        self._photo_tex.use(location=0)
+        for name, value in (("photo", 0), ("opacity", float(self.photo_opacity)), ("origin", (x, y)),
+                            ("size", (w, h))):
+            if name in self._overlay:
+                self._overlay[name].value = value
+        self._overlay_vao.render(moderngl.TRIANGLES, vertices=3)
+        ctx.disable(moderngl.BLEND)
+
+    def _draw_panel(self) -> None:
+        from imgui_bundle import imgui
+
+        gui = self.gui
+        gui.new_frame()
+        banner = self.banner()
+        if banner:
+            imgui.set_next_window_pos(imgui.ImVec2(10, 10))
+            imgui.begin("##hypothesis", None, imgui.WindowFlags_.no_decoration | imgui.WindowFlags_.always_auto_resize
+                        | imgui.WindowFlags_.no_inputs)
+            imgui.text_colored(imgui.ImVec4(1.0, 0.25, 0.2, 1.0), banner)
+            imgui.end()
+        if self.show_panel:
+            W, _ = glfw.get_window_size(self.window.handle)
+            imgui.set_next_window_pos(imgui.ImVec2(W - 370, 10), imgui.Cond_.first_use_ever)
+            imgui.set_next_window_size(imgui.ImVec2(360, 0), imgui.Cond_.first_use_ever)
+            imgui.begin(f"vebuild: {self.project.data.get('name', self.project.path.name)}")
+            p = self.walker.position
+            imgui.text(f"{self.fps:5.1f} fps   {'flying' if self.walker.fly else 'walking'}   "
+                       f"({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f}) m")
+            imgui.text(f"lighting: {self.lighting}   (L)")
+            imgui.text(f"stereo: {self.stereo or 'off'}   (B)")
+            if self.photo is not None:
+                imgui.text(f"photo {self.photo}, overlay {100 * self.photo_opacity:.0f} %  ([ ])")
+            imgui.separator()
+            imgui.text_wrapped("selection: " + (self.describe(self.selection) if self.selection else "none"))
+            if banner:
+                imgui.text_colored(imgui.ImVec4(1.0, 0.25, 0.2, 1.0), LABEL)
+            for m in self.messages[-3:]:
+                imgui.text_wrapped(m)
+            if imgui.collapsing_header("Keys"):
+                for k, what in KEYS:
+                    imgui.text(f"{k:<16} {what}")
+            if imgui.collapsing_header("Views"):
+                for v in self.project.data.get("views", []):
+                    if imgui.button(v["name"]):
+                        self.jump_to_view(v["name"])
+                _, self._new_view_name = imgui.input_text("name##view", self._new_view_name)
+                if imgui.button("save the current view"):
+                    self._guarded(self.save_view, self._new_view_name)
+            if imgui.collapsing_header("Hypotheses"):
+                if imgui.button("measured scene"):
+                    self.reset(everything=True)
+                for h in self.project.data.get("hypotheses", []):
+                    if imgui.button(h["name"]):
+                        self._guarded(self.load_hypothesis, h["name"])
+                _, self._new_hypothesis_name = imgui.input_text("name##hyp", self._new_hypothesis_name)
+                if imgui.button("save this arrangement as a hypothesis"):
+                    self._guarded(self.save_hypothesis, self._new_hypothesis_name)
+            imgui.end()
+        gui.render()
+
+    def _guarded(self, fn: Any, *args: Any) -> None:
+        try:
+            fn(*args)
+        except VebuildError as e:
+            self.say(str(e))
+
+    def close(self) -> None:
+        if self.gui is not None:
+            self.gui.release()
+            self.gui = None
+        if self._photo_tex is not None:
+            self._photo_tex.release()
+        self.renderer.release()
+
+
+def run_viewer(project: Project, size: tuple[int, int] = (1280, 720), hypothesis: str | None = None,
+               view: str | None = None, samples: int = 1, quad_stereo: bool = False,
+               frames: int | None = None) -> None:
+    """Open the window and run until it is closed (or for ``frames`` frames)."""
+    with Window(size[0], size[1], f"vebuild — {project.path.name}", stereo=quad_stereo) as window:
+        viewer = Viewer(project, window, RenderOptions(samples=samples, anisotropy=1.0 if samples <= 1 else 8.0),
+                        hypothesis=hypothesis, view=view)
+        if window.stereo_note:
+            viewer.say(window.stereo_note)
+        viewer.enable_gui()
+        try:
+            n = 0
+            while not window.should_close() and (frames is None or n < frames):
+                viewer.frame()
+                n += 1
+        finally:
+            viewer.close()
