@@ -5,6 +5,6 @@ from __future__ import annotations
 
 from types import ModuleType
 
-from . import calibration, solver, texture
+from . import calibration, render, solver, texture
 
-BENCHES: dict[str, ModuleType] = {"calibration": calibration, "solver": solver, "texture": texture}
+BENCHES: dict[str, ModuleType] = {"calibration": calibration, "render": render, "solver": solver, "texture": texture}
