@@ -497,6 +497,11 @@ class Renderer:
             self._shadow[1].release()
             self._shadow[0].release()
             self._shadow = None
+        if self._pick_target is not None:
+            for t in self._pick_target.color_attachments:
+                t.release()
+            self._pick_target.release()
+            self._pick_target = None
 
 
 #: The scene's vertex layout: attribute names and float counts, in buffer order.
