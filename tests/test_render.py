@@ -17,7 +17,7 @@ import trimesh
 from PIL import Image
 
 from vebuild.actions.render import PROVENANCE_KEYS, RenderRequest, parse_size, render_evidence
-from vebuild.camera import ImageCamera, look_rotation, stereo_pair
+from vebuild.camera import ImageCamera, look_rotation, project, stereo_pair
 from vebuild.cli import main
 from vebuild.errors import ProjectError, VebuildError
 from vebuild.gl import headless_context
@@ -440,3 +440,25 @@ def test_a_renderer_can_draw_its_scene_moved(ctx):
 def test_load_scene_of_the_example_reads_its_textures(textured_room):
     scene = load_scene(load_project(textured_room))
     assert scene.textured and not scene.warnings and len(scene.pages) == len(scene.page_hashes) >= 1
+
+
+def test_the_id_buffer_and_picking_agree_with_ray_queries(ctx):
+    scene = scene_from_model(_model())
+    cam = _camera([2.3, -1.2, 1.9], [2.1, 1.4, 0.2])
+    r = Renderer(ctx, scene, EXACT)
+    faces, depth = r.id_buffer(cam)
+    mask = r.node_mask(cam, "box")
+    tri, points, _ = _trace(scene, cam)
+    want = np.where(tri >= 0, scene.mesh.triangle_faces[np.maximum(tri, 0)], 0)
+    assert np.mean(faces == want) > 0.995  # all but pixel centres within rounding of an edge
+    box_faces = [f.id for f in scene.mesh.faces if f.node == "box"]
+    assert np.mean(mask == np.isin(want, box_faces)) > 0.995 and mask.sum() > 1000
+    hit = tri >= 0
+    z = ((points[hit] - cam.C) @ cam.R.T)[:, 2]
+    assert np.median(np.abs(depth[hit] - z)) < 1e-5
+    for (u, v) in ((160.25, 120.75), (60.5, 200.5)):
+        node, X = r.pick(cam, u, v)
+        j, i = int(v), int(u)
+        assert node == scene.mesh.faces[want[j, i] - 1].node
+        np.testing.assert_allclose(project(cam.K, cam.R, cam.C, X), [u, v], atol=1e-3)
+    r.release()

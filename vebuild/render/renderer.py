@@ -254,6 +254,8 @@ class Renderer:
     # -- drawing ---------------------------------------------------------------------------------
 
     def _near_far(self, cam: ImageCamera) -> tuple[float, float]:
+        if isinstance(cam, _NarrowCamera):
+            return cam.near, cam.far
         lo, hi = self._bounds
         corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
         far = max(1.0, float(world_to_camera(cam.R, cam.C, corners)[:, 2].max()) * 1.05 + 0.5)
@@ -449,36 +451,59 @@ class Renderer:
         data = self.frame(cam, stereo).read(alignment=1)
         return np.frombuffer(data, np.uint8).reshape(H, W, 4).copy()
 
+    def id_buffer(self, cam: ImageCamera) -> tuple[NDArray[np.int32], NDArray[np.float32]]:
+        """The ID buffer of ``cam``'s view (the texture-extraction pass, paper Figure 8): per pixel
+        the 1-based global face id seen at its centre (0: nothing) and that face's camera depth."""
+        near, far = self._near_far(cam)
+        key = (cam.width, cam.height)
+        if self._pick_target is None or self._pick_target.size != key:
+            self._release_pick_target()
+            tex = self.ctx.texture(key, 2, dtype="f4")
+            self._pick_target = self.ctx.framebuffer([tex], self.ctx.depth_renderbuffer(key))
+        fbo = self._pick_target
+        fbo.use()
+        fbo.viewport = (0, 0, cam.width, cam.height)
+        fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        prog = self.pick_program
+        prog["view"].write(view_matrix(cam.R, cam.C).T.astype("f4").tobytes())
+        prog["projection"].write(gl_projection(cam.K, cam.width, cam.height, near, far).T.astype("f4").tobytes())
+        self.ctx.enable(moderngl.DEPTH_TEST)
+        self._pick_vao.render(moderngl.TRIANGLES, vertices=self._n_indices)
+        self.ctx.disable(moderngl.DEPTH_TEST)
+        data = np.frombuffer(fbo.color_attachments[0].read(), "f4").reshape(cam.height, cam.width, 2)
+        return np.rint(data[..., 0]).astype(np.int32), data[..., 1].copy()
+
+    def node_mask(self, cam: ImageCamera, node: str) -> NDArray[np.bool_]:
+        """(height, width) pixels of ``cam``'s view where ``node`` (or a part of it) is what is seen."""
+        faces, _ = self.id_buffer(cam)
+        names = set(self.scene.model.subtree(node))
+        of_node = np.array([False] + [f.node in names for f in self.scene.mesh.faces])
+        return of_node[faces]
+
     def pick(self, cam: ImageCamera, u: float, v: float) -> tuple[str | None, Array | None]:
         """The node and the world point seen at pixel position (u, v) of ``cam``'s view, through an
         ID buffer of that one pixel (the camera's frustum narrowed to it); (None, None) on the
         background."""
-        i, j = math.floor(u), math.floor(v)
-        if not (0 <= i < cam.width and 0 <= j < cam.height):
+        if not (0 <= u < cam.width and 0 <= v < cam.height):
             return None, None
         near, far = self._near_far(cam)
-        K = np.array(cam.K, float)  # (u, v) at the centre of a 1 × 1 image
+        K = np.array(cam.K, float)  # (u, v) at the centre of a 1 × 1 image, same near and far planes
         K[0, 2] -= u - 0.5
         K[1, 2] -= v - 0.5
-        if self._pick_target is None:
-            tex = self.ctx.texture((1, 1), 2, dtype="f4")
-            self._pick_target = self.ctx.framebuffer([tex], self.ctx.depth_renderbuffer((1, 1)))
-        fbo = self._pick_target
-        fbo.use()
-        fbo.viewport = (0, 0, 1, 1)
-        fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-        prog = self.pick_program
-        prog["view"].write(view_matrix(cam.R, cam.C).T.astype("f4").tobytes())
-        prog["projection"].write(gl_projection(K, 1, 1, near, far).T.astype("f4").tobytes())
-        self.ctx.enable(moderngl.DEPTH_TEST)
-        self._pick_vao.render(moderngl.TRIANGLES, vertices=self._n_indices)
-        self.ctx.disable(moderngl.DEPTH_TEST)
-        face, depth = np.frombuffer(fbo.color_attachments[0].read(), "f4")
-        if face < 0.5:
+        faces, depth = self.id_buffer(_NarrowCamera(cam.id, K, cam.R, cam.C, 1, 1, near, far))
+        face = int(faces[0, 0])
+        if face == 0:
             return None, None
-        node = self.scene.mesh.faces[int(round(face)) - 1].node
+        node = self.scene.mesh.faces[face - 1].node
         ray = np.linalg.solve(cam.K, [u, v, 1.0])  # camera coordinates at depth 1
-        return node, np.asarray(cam.C, float) + float(depth) * (np.asarray(cam.R, float).T @ ray)
+        return node, np.asarray(cam.C, float) + float(depth[0, 0]) * (np.asarray(cam.R, float).T @ ray)
+
+    def _release_pick_target(self) -> None:
+        if self._pick_target is not None:
+            for t in self._pick_target.color_attachments:
+                t.release()
+            self._pick_target.release()
+            self._pick_target = None
 
     def release(self) -> None:
         """Free the GPU resources."""
@@ -497,11 +522,7 @@ class Renderer:
             self._shadow[1].release()
             self._shadow[0].release()
             self._shadow = None
-        if self._pick_target is not None:
-            for t in self._pick_target.color_attachments:
-                t.release()
-            self._pick_target.release()
-            self._pick_target = None
+        self._release_pick_target()
 
 
 #: The scene's vertex layout: attribute names and float counts, in buffer order.
@@ -514,3 +535,12 @@ def _vertex_array(ctx: moderngl.Context, prog: moderngl.Program, vbo: moderngl.B
     fmt = " ".join(f"{n}f" if name in prog else f"{4 * n}x" for name, n in VERTEX_LAYOUT)
     names = [name for name, _ in VERTEX_LAYOUT if name in prog]
     return ctx.vertex_array(prog, [(vbo, fmt, *names)], index_buffer=ibo)
+
+
+@dataclass(frozen=True)
+class _NarrowCamera(ImageCamera):
+    """A camera narrowed to part of another's image, keeping that camera's near and far planes (so
+    that depths agree with the whole view's)."""
+
+    near: float = 0.0
+    far: float = 0.0
