@@ -316,6 +316,12 @@ def _check_semantics(data: dict[str, Any], file: Any) -> None:
                                "own light, unlit textures); choose another name")
         for j, light in enumerate(preset.get("lights", [])):
             _check_light(light, file, f"{where}.lights[{j}]")
+    evidence = data.get("evidence_markers", [])
+    unique(evidence, "label", "$.evidence_markers", "evidence marker label")
+    for i, m in enumerate(evidence):
+        if m["node"] not in nodes:
+            raise ProjectError(file, f"$.evidence_markers[{i}].node", f"names the node {m['node']!r}, but "
+                               f"$.model.nodes has no node of that name (the nodes are: {_listing(nodes)})")
     hypotheses = data.get("hypotheses", [])
     unique(hypotheses, "name", "$.hypotheses", "hypothesis name")
     types = {n["name"]: n["joint"]["type"] for n in model.get("nodes", [])}

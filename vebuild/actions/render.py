@@ -51,6 +51,7 @@ class RenderRequest:
     shadows: bool = True
     validate: bool = False
     hypothesis: str | None = None
+    markers: bool = True  # draw the project's evidence markers (mono views)
 
 
 @dataclass
@@ -190,6 +191,11 @@ def render_evidence(project: Project, req: RenderRequest) -> RenderResult:
         _check_size(ctx, W, H)
         renderer.set_lighting(lighting)
         rgba = renderer.render_rgba(cam, stereo)
+        placed = []
+        if req.markers and stereo is None and project.data.get("evidence_markers"):
+            from vebuild.analysis.markers import visible_markers
+
+            placed = visible_markers(renderer, cam, project.data["evidence_markers"])
         stereo_rec = None
         if stereo is not None:
             conv = stereo.convergence if stereo.convergence is not None else renderer.default_convergence(cam)
@@ -202,6 +208,11 @@ def render_evidence(project: Project, req: RenderRequest) -> RenderResult:
     if req.validate:
         _validate(project, str(req.photo), cam, rgba, out, text, result)
     image = rgba[..., :3]
+    if placed:
+        from vebuild.analysis.markers import draw_markers
+
+        image = draw_markers(image, placed)
+        text["vebuild:evidence_markers"] = json.dumps([m["label"] for m, _, _ in placed], ensure_ascii=False)
     if req.hypothesis is not None:
         from vebuild.actions.hypothesis import label
 

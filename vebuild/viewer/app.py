@@ -546,6 +546,7 @@ class Viewer:
 
         gui = self.gui
         gui.new_frame()
+        self._draw_markers(imgui)
         banner = self.banner()
         if banner:
             imgui.set_next_window_pos(imgui.ImVec2(10, 10))
@@ -592,6 +593,28 @@ class Viewer:
                     self._guarded(self.save_hypothesis, self._new_hypothesis_name)
             imgui.end()
         gui.render()
+
+    def _draw_markers(self, imgui: Any) -> None:
+        """The project's evidence markers over the view: a filled pin where seen, hollow where hidden."""
+        from vebuild.analysis.markers import MARKER_COLOUR, visible_markers
+
+        markers = self.project.data.get("evidence_markers", [])
+        if not markers or self.stereo is not None:
+            return
+        W, H = self.window.framebuffer_size()
+        ww, wh = glfw.get_window_size(self.window.handle)
+        sx, sy = W / max(ww, 1), H / max(wh, 1)
+        vx, vy, vw, vh = self.viewport()
+        dl = imgui.get_foreground_draw_list()
+        colour = imgui.get_color_u32(imgui.ImVec4(*(c / 255 for c in MARKER_COLOUR), 1.0))
+        white = imgui.get_color_u32(imgui.ImVec4(1.0, 1.0, 1.0, 1.0))
+        for m, (u, v), visible in visible_markers(self.renderer, self.camera(), markers):
+            p = imgui.ImVec2((vx + u) / sx, (H - vy - vh + v) / sy)
+            if visible:
+                dl.add_circle_filled(p, 6.0, colour)
+            else:
+                dl.add_circle(p, 6.0, colour, 0, 2.0)
+            dl.add_text(imgui.ImVec2(p.x + 9, p.y - 8), white, m["label"] + ("" if visible else " (hidden)"))
 
     def _guarded(self, fn: Any, *args: Any) -> None:
         try:

@@ -1,0 +1,114 @@
+"""Evidence markers (paper §5.1): labelled points placed on the model's surfaces, shown in every view.
+
+A marker (FORMAT.md, ``evidence_markers``) has a label, a world position on a surface and the node
+it lies on. It is placed from a pixel of a photo or a named view (the surface seen there, through
+the renderer's ID buffer) or from a world point, which must lie on a surface (within
+:data:`ON_SURFACE_M`). Drawn over a rendered image, a marker is a numbered pin with its label;
+one hidden behind something from that view is drawn hollow.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from PIL import Image, ImageDraw, ImageFont
+
+from vebuild.camera import ImageCamera, project, world_to_camera
+from vebuild.errors import VebuildError
+from vebuild.render.renderer import Renderer
+from vebuild.render.scene import RenderScene
+
+#: A world point farther than this from every surface is not "on a surface".
+ON_SURFACE_M = 0.01
+#: A marker is visible from a view when nothing lies more than this in front of it.
+OCCLUSION_MARGIN_M = 0.02
+MARKER_COLOUR = (230, 30, 200)
+
+
+def nearest_surface(scene: RenderScene, point: NDArray[np.float64]) -> tuple[str, NDArray[np.float64], float]:
+    """The node whose surface is nearest to a world point, the nearest surface point, its distance."""
+    import trimesh
+
+    mesh = trimesh.Trimesh(scene.mesh.vertices, scene.mesh.triangles, process=False)
+    closest, dist, tri = trimesh.proximity.closest_point(mesh, np.asarray(point, float)[None])
+    face = scene.mesh.triangle_faces[int(tri[0])]
+    return scene.mesh.faces[face - 1].node, closest[0], float(dist[0])
+
+
+def marker_at_point(scene: RenderScene, label: str, point: Any, description: str = "") -> dict[str, Any]:
+    node, closest, dist = nearest_surface(scene, np.asarray(point, float))
+    if dist > ON_SURFACE_M:
+        shown = [round(float(v), 4) for v in point]
+        raise VebuildError(f"evidence marker {label!r}: the point {shown} is {dist:.3f} m from "
+                           f"the nearest surface ({node!r}); expected a point on a surface (within "
+                           f"{ON_SURFACE_M} m). Place it from a pixel of a photo or view instead")
+    return _record(label, closest, node, description)
+
+
+def marker_at_pixel(renderer: Renderer, cam: ImageCamera, label: str, uv: Sequence[float],
+                    description: str = "") -> dict[str, Any]:
+    node, point = renderer.pick(cam, float(uv[0]), float(uv[1]))
+    if node is None:
+        raise VebuildError(f"evidence marker {label!r}: pixel ({uv[0]}, {uv[1]}) of {cam.id!r} shows no surface of "
+                           "the model (a point off every surface)")
+    return _record(label, point, node, description)
+
+
+def _record(label: str, point: Any, node: str, description: str) -> dict[str, Any]:
+    rec: dict[str, Any] = {"label": label, "position": [round(float(v), 6) for v in point], "node": node}
+    if description:
+        rec["description"] = description
+    return rec
+
+
+def add_marker(project: Any, rec: dict[str, Any]) -> None:
+    """Add (or replace, by label) a marker in the project's data; the caller saves the file."""
+    markers = [m for m in project.data.get("evidence_markers", []) if m["label"] != rec["label"]]
+    project.data["evidence_markers"] = markers + [rec]
+
+
+def visible_markers(renderer: Renderer, cam: ImageCamera,
+                    markers: Sequence[dict[str, Any]]) -> list[tuple[dict[str, Any], NDArray[np.float64], bool]]:
+    """Markers in the image: each with its pixel position and whether it is seen (not hidden)."""
+    if not markers:
+        return []
+    _, depth = renderer.id_buffer(cam)
+    out = []
+    for m in markers:
+        X = np.asarray(m["position"], float)
+        z = float(world_to_camera(cam.R, cam.C, X)[2])
+        if z <= 0:
+            continue
+        uv = project(cam.K, cam.R, cam.C, X)
+        if not (0 <= uv[0] < cam.width and 0 <= uv[1] < cam.height):
+            continue
+        seen_depth = float(depth[int(uv[1]), int(uv[0])])
+        visible = seen_depth <= 0 or z <= seen_depth + OCCLUSION_MARGIN_M
+        out.append((m, uv, visible))
+    return out
+
+
+def draw_markers(image: NDArray[np.uint8], placed: Sequence[tuple[dict[str, Any], NDArray[np.float64], bool]]
+                 ) -> NDArray[np.uint8]:
+    """Pins with labels over an image; hidden markers hollow."""
+    if not placed:
+        return image
+    img = Image.fromarray(image, "RGB")
+    draw = ImageDraw.Draw(img)
+    size = max(11, img.height // 45)
+    font = ImageFont.load_default(size=size)
+    r = max(4, size // 2)
+    for m, (u, v), visible in placed:
+        box = (u - r, v - r, u + r, v + r)
+        if visible:
+            draw.ellipse(box, fill=MARKER_COLOUR, outline=(255, 255, 255), width=2)
+        else:
+            draw.ellipse(box, outline=MARKER_COLOUR, width=2)
+        text = m["label"] + ("" if visible else " (hidden)")
+        tb = draw.textbbox((u + r + 3, v - size), text, font=font)
+        draw.rectangle((tb[0] - 2, tb[1] - 1, tb[2] + 2, tb[3] + 1), fill=(255, 255, 255))
+        draw.text((u + r + 3, v - size), text, fill=(0, 0, 0), font=font)
+    return np.asarray(img)
