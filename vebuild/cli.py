@@ -362,6 +362,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", metavar="OUT", help="write the figures to OUT as JSON")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=_cmd_bench)
+
+    from .analysis.cli import add_analyse_parsers
+
+    add_analyse_parsers(sub)
     return parser
 
 

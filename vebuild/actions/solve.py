@@ -192,7 +192,34 @@ def _results(problem: Problem, solution: Any, model: Model, xm: np.ndarray, reca
         "variance_factor": solution.variance_factor,
         "outliers": solution.outliers,
         "iterations": solution.iterations,
+        "covariance": covariance_record(problem, solution),
     }
+
+
+#: Degrees of freedom that are angles (radians in the code, degrees in the file).
+ANGLE_DOFS = ("yaw", "angle", "wx", "wy", "wz")
+
+
+def covariance_record(problem: Problem, solution: Any) -> dict[str, Any]:
+    """The joint covariance of the solved model parameters (and re-calibrated markers), for
+    measurements between any two points (their correlations matter): names in file units
+    (``node.param`` metres, ``node.dof_deg`` degrees, ``marker:NAME.x`` metres) and the matrix.
+    Cameras are left out: no point of the model moves with them."""
+    n_marker = 3 * len(problem.free_markers)
+    o = problem.n_model + problem.n_cam * len(problem.cam_ids)
+    keep = np.r_[np.arange(problem.n_model), np.arange(o, o + n_marker)].astype(int)
+    names, scale = [], []
+    for name in problem.names:
+        node, dof = name.rsplit(".", 1)
+        angle = dof in ANGLE_DOFS
+        names.append(f"{node}.{dof}_deg" if angle else name)
+        scale.append(np.degrees(1.0) if angle else 1.0)
+    for m in problem.free_markers:
+        names += [f"marker:{m}.{c}" for c in "xyz"]
+        scale += [1.0] * 3
+    s = np.asarray(scale)
+    cov = solution.covariance[np.ix_(keep, keep)] * s[:, None] * s[None, :]
+    return {"parameters": names, "matrix": json_values(cov)}
 
 
 def _write_cameras(data: dict[str, Any], solution: Any) -> None:
