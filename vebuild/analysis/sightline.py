@@ -1,0 +1,558 @@
+"""Sight lines and viewsheds (paper §5.1, witness statement evaluation).
+
+A witness's eye is a world point, or a person standing (eyes :data:`STANDING_EYE_M` above the
+floor) or sitting (:data:`SITTING_EYE_M`) at a floor spot. A target is a world point, or an object
+(a node of the model and its descendants). Visibility is decided by exact ray casting against the
+model's triangles (:mod:`vebuild.analysis.rays`), never by sampling an image:
+
+- a target point is visible when the segment from the eye to it crosses no surface (surfaces within
+  1 mm of either end do not count, so a mark on a wall is seen from the wall's front);
+- an object's visible share is the share of its surface area seen from the eye: its faces are
+  sampled uniformly by area (a seeded, reproducible sample of :data:`OBJECT_SAMPLES` points); a
+  sample is seen when it faces the eye and the segment to it is clear. The share carries its 95 %
+  sampling interval (Wilson score interval).
+
+A viewshed is the same question asked from every cell of a grid over the floor (the model's
+upward faces at z = 0), eyes at a given height: which places see the target point, or how much of
+the object each place sees. Cells where a person cannot be (inside the footprint of something that
+rises from the floor to below eye height: a wall, a table, a cabinet) are left out of the figures.
+The witness's view is rendered headless with the target highlighted, and the viewshed drawn as a
+top-view map; both PNGs carry their provenance.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vebuild.analysis.rays import Occluders
+from vebuild.camera import ImageCamera, fov_to_focal, look_rotation, project, world_to_camera
+from vebuild.errors import VebuildError
+from vebuild.render.scene import RenderScene
+
+Array = NDArray[np.float64]
+
+STANDING_EYE_M = 1.6
+SITTING_EYE_M = 1.2
+#: Samples of an object's surface for a sight line, and per cell for a viewshed.
+OBJECT_SAMPLES = 4000
+VIEWSHED_OBJECT_SAMPLES = 256
+#: Seed of the surface samples (the same project gives the same figures).
+SAMPLE_SEED = 0
+#: Faces within this of z = 0 and facing up are the floor.
+FLOOR_TOLERANCE_M = 1e-3
+#: Things lower than this (a rug, the floor itself) do not stop a person standing on them.
+FLOOR_CLEARANCE_M = 0.02
+#: z of the 95 % two-sided normal interval.
+Z95 = 1.959963984540054
+DEFAULT_FOV_DEG = 60.0
+
+
+# -- inputs ------------------------------------------------------------------------------------
+
+def parse_floats(text: str, n: int, option: str) -> Array:
+    """'1.5,2,0.3' → array of ``n`` floats; a clear error naming ``option`` otherwise."""
+    parts = [p for p in str(text).replace(" ", "").split(",")]
+    try:
+        values = [float(p) for p in parts]
+    except ValueError:
+        values = []
+    if len(values) != n or not all(math.isfinite(v) for v in values):
+        shape = ",".join("XYZ"[:n]) if n <= 3 else f"{n} numbers"
+        raise VebuildError(f"{option}: expected {shape} in metres, separated by commas (such as "
+                           f"{','.join(['1.5', '2.0', '1.6'][:n])}), got {text!r}")
+    return np.array(values)
+
+
+@dataclass(frozen=True)
+class Eye:
+    """Where the witness's eye is: ``position`` (world, m); ``kind`` 'point', 'standing' or
+    'sitting'; the floor ``spot`` (x, y) and eye height for a person."""
+
+    position: Array
+    kind: str = "point"
+    spot: tuple[float, float] | None = None
+    height: float | None = None
+
+    @classmethod
+    def person(cls, x: float, y: float, posture: str = "standing") -> Eye:
+        h = {"standing": STANDING_EYE_M, "sitting": SITTING_EYE_M}.get(posture)
+        if h is None:
+            raise VebuildError(f"posture: expected standing or sitting, got {posture!r}")
+        return cls(np.array([x, y, h], float), posture, (float(x), float(y)), h)
+
+    def record(self) -> dict[str, Any]:
+        d: dict[str, Any] = {"kind": self.kind, "position_m": _r(self.position)}
+        if self.spot is not None:
+            d["spot_m"] = _r(self.spot)
+            d["eye_height_m"] = self.height
+        return d
+
+
+@dataclass(frozen=True)
+class Target:
+    """A target: a world ``point``, or the object ``node`` (its ``nodes``: it and its descendants
+    that have faces)."""
+
+    point: Array | None = None
+    node: str | None = None
+    nodes: tuple[str, ...] = ()
+
+    @property
+    def label(self) -> str:
+        return f"'{self.node}'" if self.node is not None else "(" + ", ".join(f"{v:.3f}" for v in self.point) + ")"
+
+    def record(self) -> dict[str, Any]:
+        if self.node is not None:
+            return {"object": self.node, "nodes": list(self.nodes)}
+        return {"point_m": _r(self.point)}
+
+
+def _r(v: Any, nd: int = 6) -> list[float]:
+    return [round(float(x), nd) + 0.0 for x in v]  # + 0.0: no "-0.0"
+
+
+def scene_margin(occ: Occluders) -> float:
+    """How far outside the scene's bounding box a point may be: the box's diagonal (a witness in
+    the street outside a window is fine; one 100 m away is a typing error)."""
+    lo, hi = occ.bounds()
+    return float(np.linalg.norm(hi - lo))
+
+
+def check_in_scene(occ: Occluders, point: Array, what: str) -> None:
+    """An error if ``point`` is off the scene (see :func:`scene_margin`) or below the floor."""
+    lo, hi = occ.bounds()
+    m = scene_margin(occ)
+    p = np.asarray(point, float)
+    if np.any(p < lo - m) or np.any(p > hi + m):
+        raise VebuildError(f"{what} ({', '.join(f'{v:g}' for v in p)}) is off the scene: the model spans "
+                           f"x {lo[0]:.2f}…{hi[0]:.2f}, y {lo[1]:.2f}…{hi[1]:.2f}, z {lo[2]:.2f}…{hi[2]:.2f} m "
+                           f"(points up to {m:.1f} m outside it are accepted)")
+    if p[2] < -1e-9 and len(p) == 3:
+        raise VebuildError(f"{what} ({', '.join(f'{v:g}' for v in p)}) is below the floor (z < 0)")
+
+
+def check_eye(occ: Occluders, eye: Eye) -> None:
+    """An error if the eye is off the scene or inside an object."""
+    what = f"the eye of the person {eye.kind} at ({eye.spot[0]:g}, {eye.spot[1]:g})" if eye.spot else "the eye point"
+    check_in_scene(occ, eye.position, what)
+    inside = occ.inside(eye.position)[0]
+    if inside is not None:
+        raise VebuildError(f"{what} ({', '.join(f'{v:g}' for v in eye.position)}) is inside the object "
+                           f"'{inside}'; a witness cannot see from there; choose another place")
+
+
+def target_point(occ: Occluders, point: Sequence[float]) -> Target:
+    p = np.asarray(point, float)
+    check_in_scene(occ, p, "the target point")
+    inside = occ.inside(p)[0]
+    if inside is not None:
+        raise VebuildError(f"the target point ({', '.join(f'{v:g}' for v in p)}) is inside the object "
+                           f"'{inside}' and cannot be seen; choose a point on its surface, or the object "
+                           f"itself (--object {inside})")
+    return Target(point=p)
+
+
+def target_object(occ: Occluders, node: str) -> Target:
+    model = occ.scene.model
+    if node not in model.index:
+        known = ", ".join(n for n in occ.node_names)
+        raise VebuildError(f"--object: the model has no node called {node!r}; the objects are: {known}")
+    nodes = tuple(n for n in model.subtree(node) if len(occ.triangles_of(n)))
+    if not nodes:
+        raise VebuildError(f"--object: the node {node!r} has no surfaces (no primitive, nor any below it)")
+    return Target(node=node, nodes=nodes)
+
+
+def sample_surface(occ: Occluders, nodes: Sequence[str], n: int, seed: int = SAMPLE_SEED) -> tuple[Array, Array]:
+    """``n`` points uniformly by area over the nodes' triangles, and their outward normals."""
+    tris = np.concatenate([occ.triangles_of(x) for x in nodes])
+    area = occ.area[tris]
+    rng = np.random.default_rng(seed)
+    pick = tris[rng.choice(len(tris), size=n, p=area / area.sum())]
+    a, b = rng.random(n), rng.random(n)
+    flip = a + b > 1.0
+    a[flip], b[flip] = 1.0 - a[flip], 1.0 - b[flip]
+    P = occ.v0[pick] + a[:, None] * occ.e1[pick] + b[:, None] * occ.e2[pick]
+    return P, occ.normal[pick]
+
+
+def wilson95(k: int, n: int) -> tuple[float, float]:
+    """95 % Wilson score interval of a proportion k / n."""
+    if n == 0:
+        return (0.0, 1.0)
+    p, z2 = k / n, Z95 ** 2
+    c = (p + z2 / (2 * n)) / (1 + z2 / n)
+    h = Z95 * math.sqrt(p * (1 - p) / n + z2 / (4 * n * n)) / (1 + z2 / n)
+    return max(0.0, c - h), min(1.0, c + h)
+
+
+# -- one sight line ----------------------------------------------------------------------------
+
+@dataclass
+class SightLine:
+    """The answer for one eye and one target (see the module's docstring).
+
+    visible : a point: whether it is seen; an object: whether any of it is seen.
+    visible_share, share_ci95, samples : an object: the share of its surface area seen, its 95 %
+        sampling interval and the number of samples (None for a point).
+    distance_m : eye to the target point, or to the centre of the object's surface.
+    blocker : the nearest surface in the way: node, face, distance from the eye (m), point (None if
+        nothing blocks: a visible point, or an object whose every front-facing sample is seen).
+    blocked_by : an object: the share of its samples hidden by each node (first surface in the way).
+    """
+
+    eye: Eye
+    target: Target
+    visible: bool
+    distance_m: float
+    visible_share: float | None = None
+    share_ci95: tuple[float, float] | None = None
+    samples: int | None = None
+    facing_share: float | None = None
+    blocker: dict[str, Any] | None = None
+    blocked_by: dict[str, float] = field(default_factory=dict)
+
+    def record(self) -> dict[str, Any]:
+        d: dict[str, Any] = {"eye": self.eye.record(), "target": self.target.record(), "visible": self.visible,
+                             "distance_m": round(self.distance_m, 6)}
+        if self.visible_share is not None:
+            d.update({"visible_share": round(self.visible_share, 6),
+                      "visible_share_ci95": [round(v, 6) for v in self.share_ci95],
+                      "facing_share": round(self.facing_share, 6), "samples": self.samples,
+                      "blocked_share_by_node": {k: round(v, 6) for k, v in self.blocked_by.items()}})
+        d["blocker"] = self.blocker
+        return d
+
+
+def _blocker(occ: Occluders, eye: Array, t: float, tri: int) -> dict[str, Any]:
+    return {"node": occ.node_of(tri), "face": occ.face_of(tri), "distance_from_eye_m": round(float(t), 6),
+            "point_m": None}
+
+
+def sight_line(occ: Occluders, eye: Eye, target: Target, samples: int = OBJECT_SAMPLES,
+               seed: int = SAMPLE_SEED) -> SightLine:
+    """Is ``target`` visible from ``eye``? (See :class:`SightLine`.) Checks the eye first."""
+    check_eye(occ, eye)
+    E = eye.position
+    if target.point is not None:
+        T = target.point
+        blocked, t, tri = occ.segments_blocked(E[None], T[None])
+        res = SightLine(eye, target, not bool(blocked[0]), float(np.linalg.norm(T - E)))
+        if blocked[0]:
+            res.blocker = _with_point(_blocker(occ, E, t[0], tri[0]), E, T, t[0])
+        return res
+    P, N = sample_surface(occ, target.nodes, samples, seed)
+    facing = np.einsum("ij,ij->i", E - P, N) > 0.0
+    vis = np.zeros(len(P), bool)
+    t = np.full(len(P), np.inf)
+    tri = np.full(len(P), -1, np.intp)
+    idx = np.flatnonzero(facing)
+    if len(idx):
+        b, t[idx], tri[idx] = occ.segments_blocked(np.broadcast_to(E, (len(idx), 3)), P[idx])
+        vis[idx] = ~b
+    k = int(vis.sum())
+    centre = P.mean(axis=0)
+    res = SightLine(eye, target, k > 0, float(np.linalg.norm(centre - E)), k / len(P), wilson95(k, len(P)),
+                    len(P), float(facing.mean()))
+    hidden = np.flatnonzero(facing & ~vis)
+    if len(hidden):
+        nodes = [occ.node_of(i) for i in tri[hidden]]
+        names, counts = np.unique(nodes, return_counts=True)
+        res.blocked_by = {str(a): float(c) / len(P) for a, c in sorted(zip(names, counts, strict=True),
+                                                                        key=lambda x: -x[1])}
+        j = hidden[np.argmin(t[hidden])]
+        res.blocker = _with_point(_blocker(occ, E, t[j], tri[j]), E, P[j], t[j])
+    return res
+
+
+def _with_point(b: dict[str, Any], E: Array, T: Array, t: float) -> dict[str, Any]:
+    d = (T - E) / np.linalg.norm(T - E)
+    b["point_m"] = _r(E + t * d)
+    return b
+
+
+# -- the witness's view ------------------------------------------------------------------------
+
+def witness_camera(eye: Eye, look_at: Array, fov_deg: float = DEFAULT_FOV_DEG,
+                   size: tuple[int, int] = (1280, 720)) -> ImageCamera:
+    """An :class:`ImageCamera` at the eye looking at ``look_at`` (horizontal field of view ``fov_deg``)."""
+    if not 1.0 <= fov_deg <= 170.0:
+        raise VebuildError(f"--fov: expected a horizontal field of view of 1–170°, got {fov_deg:g}")
+    w, h = size
+    f = fov_to_focal(math.radians(fov_deg), w)
+    K = np.array([[f, 0.0, w / 2], [0.0, f, h / 2], [0.0, 0.0, 1.0]])
+    return ImageCamera("witness", K, look_rotation(np.asarray(look_at, float) - eye.position), eye.position, w, h)
+
+
+def target_centre(occ: Occluders, target: Target) -> Array:
+    if target.point is not None:
+        return target.point
+    tris = np.concatenate([occ.triangles_of(x) for x in target.nodes])
+    c = occ.v0[tris] + (occ.e1[tris] + occ.e2[tris]) / 3.0
+    return (c * occ.area[tris, None]).sum(axis=0) / occ.area[tris].sum()
+
+
+def draw_point_marker(image: NDArray[np.uint8], cam: ImageCamera, point: Array, visible: bool,
+                      colour: tuple[int, int, int] = (255, 190, 0)) -> NDArray[np.uint8]:
+    """A cross-hair ring at a world point (solid if visible, dashed otherwise)."""
+    from PIL import Image, ImageDraw
+
+    if world_to_camera(cam.R, cam.C, point)[2] <= 0:
+        return image
+    u, v = project(cam.K, cam.R, cam.C, point)
+    img = Image.fromarray(image)
+    d = ImageDraw.Draw(img)
+    r = max(6, cam.width // 80)
+    w = max(2, cam.width // 400)
+    for k in range(0, 360, 1 if visible else 30):
+        d.arc((u - r, v - r, u + r, v + r), k, k + (1 if visible else 18), fill=colour, width=w)
+    for a, b in (((u - 2 * r, v), (u - r / 2, v)), ((u + r / 2, v), (u + 2 * r, v)),
+                 ((u, v - 2 * r), (u, v - r / 2)), ((u, v + r / 2), (u, v + 2 * r))):
+        d.line((a, b), fill=colour, width=w)
+    return np.asarray(img)
+
+
+def render_witness_view(project: Any, scene: RenderScene, result: SightLine, out: Path,
+                        fov_deg: float = DEFAULT_FOV_DEG, size: tuple[int, int] = (1280, 720),
+                        lighting: str | None = None, samples: int = 4,
+                        extra_text: dict[str, str] | None = None) -> ImageCamera:
+    """Render the witness's view of ``result`` to ``out`` (PNG with provenance); the target object
+    is highlighted (for a group, its largest part: the renderer highlights one node), a target
+    point marked by a ring (dashed when hidden)."""
+    from vebuild.actions.render import check_output, provenance, write_png
+    from vebuild.gl import headless_context
+    from vebuild.render.lighting import find_preset
+    from vebuild.render.renderer import Renderer, RenderOptions
+
+    out = check_output(Path(out))
+    occ = Occluders(scene)
+    cam = witness_camera(result.eye, target_centre(occ, result.target), fov_deg, size)
+    preset = find_preset(project, lighting)
+    renderer = Renderer(headless_context(), scene, RenderOptions(samples=samples))
+    try:
+        renderer.set_lighting(preset)
+        if result.target.node is not None:
+            renderer.highlight = max(result.target.nodes, key=lambda n: occ.area[occ.triangles_of(n)].sum())
+        image = renderer.render(cam)
+    finally:
+        renderer.release()
+    if result.target.point is not None:
+        image = draw_point_marker(image, cam, result.target.point, result.visible)
+    options = {"samples": samples, "size": [cam.width, cam.height], "fov_deg": fov_deg}
+    text = provenance(project, cam, "witness", preset.name, None, scene.page_hashes, options)
+    text["vebuild:sightline"] = json.dumps(result.record(), sort_keys=True, ensure_ascii=False)
+    text.update(extra_text or {})
+    write_png(out, image, text)
+    return cam
+
+
+# -- viewsheds ---------------------------------------------------------------------------------
+
+#: Cell states of a viewshed.
+OUTSIDE, OCCUPIED, PLACE = 0, 1, 2
+
+
+@dataclass
+class Viewshed:
+    """A viewshed over the floor (see the module's docstring).
+
+    origin : (x, y) of the grid's lower-left corner; cell : its side (m); states (ny, nx): OUTSIDE
+    the floor, OCCUPIED (no place to stand) or PLACE; share (ny, nx): the target point seen (1 or
+    0) or the object's visible share, NaN where not a place. Row j is y = origin[1] + (j + ½) cell.
+    """
+
+    target: Target
+    eye_height: float
+    origin: tuple[float, float]
+    cell: float
+    states: NDArray[np.int8]
+    share: Array
+    samples: int | None = None
+
+    def centres(self) -> tuple[Array, Array]:
+        ny, nx = self.states.shape
+        return (self.origin[0] + (np.arange(nx) + 0.5) * self.cell, self.origin[1] + (np.arange(ny) + 0.5) * self.cell)
+
+    @property
+    def seeing(self) -> NDArray[np.bool_]:
+        return (self.states == PLACE) & (np.nan_to_num(self.share) > 0.0)
+
+    def figures(self) -> dict[str, Any]:
+        a = self.cell ** 2
+        places = self.states == PLACE
+        floor_area = float((self.states != OUTSIDE).sum() * a)
+        place_area = float(places.sum() * a)
+        seeing = float(self.seeing.sum() * a)
+        d: dict[str, Any] = {"target": self.target.record(), "eye_height_m": self.eye_height, "cell_m": self.cell,
+                             "grid": {"origin_m": _r(self.origin), "nx": int(self.states.shape[1]),
+                                      "ny": int(self.states.shape[0])},
+                             "floor_area_m2": round(floor_area, 6), "place_area_m2": round(place_area, 6),
+                             "occupied_area_m2": round(floor_area - place_area, 6),
+                             "seeing_area_m2": round(seeing, 6),
+                             "seeing_share_of_place_area": round(seeing / place_area, 6) if place_area else None}
+        if self.target.node is not None:
+            d["samples_per_cell"] = self.samples
+            d["mean_visible_share"] = round(float(np.nanmean(np.where(places, self.share, np.nan))), 6) \
+                if places.any() else None
+        return d
+
+
+def floor_grid(occ: Occluders, cell: float, eye_height: float) -> tuple[tuple[float, float], NDArray[np.int8]]:
+    """The grid over the floor (upward faces at z = 0) and each cell's state."""
+    from vebuild.viewer.collide import footprints
+
+    if not cell > 0:
+        raise VebuildError(f"--cell: expected a cell size > 0 m, got {cell:g}")
+    if not eye_height > 0:
+        raise VebuildError(f"--height: expected an eye height > 0 m, got {eye_height:g}")
+    P = np.stack([occ.v0, occ.v0 + occ.e1, occ.v0 + occ.e2], axis=1)
+    floor = np.flatnonzero(np.all(np.abs(P[:, :, 2]) < FLOOR_TOLERANCE_M, axis=1) & (occ.normal[:, 2] > 0.99))
+    if not len(floor):
+        raise VebuildError("the model has no floor: no upward face lies at z = 0 (DESIGN.md: the floor is z = 0)")
+    lo, hi = P[floor, :, :2].reshape(-1, 2).min(axis=0), P[floor, :, :2].reshape(-1, 2).max(axis=0)
+    nx, ny = max(1, math.ceil((hi[0] - lo[0]) / cell - 1e-9)), max(1, math.ceil((hi[1] - lo[1]) / cell - 1e-9))
+    if nx * ny > 4_000_000:
+        raise VebuildError(f"--cell: {cell:g} m gives {nx}×{ny} cells over the floor; choose a larger cell")
+    xs, ys = lo[0] + (np.arange(nx) + 0.5) * cell, lo[1] + (np.arange(ny) + 0.5) * cell
+    X, Y = np.meshgrid(xs, ys)
+    Q = np.stack([X.ravel(), Y.ravel()], axis=1)
+    on_floor = np.zeros(len(Q), bool)
+    for a, b, c in P[floor, :, :2]:
+        on_floor |= _in_triangle(Q, a, b, c)
+    states = np.where(on_floor, PLACE, OUTSIDE).astype(np.int8)
+    for fp in footprints(occ.scene.model):
+        if fp.z_hi <= FLOOR_CLEARANCE_M or fp.z_lo >= eye_height:
+            continue
+        inside = _in_convex(Q, fp.hull)
+        states[inside & on_floor] = OCCUPIED
+    return (float(lo[0]), float(lo[1])), states.reshape(ny, nx)
+
+
+def _in_triangle(Q: Array, a: Array, b: Array, c: Array) -> NDArray[np.bool_]:
+    def side(p, q):
+        return (q[0] - p[0]) * (Q[:, 1] - p[1]) - (q[1] - p[1]) * (Q[:, 0] - p[0])
+    s1, s2, s3 = side(a, b), side(b, c), side(c, a)
+    tol = 1e-12
+    return ((s1 >= -tol) & (s2 >= -tol) & (s3 >= -tol)) | ((s1 <= tol) & (s2 <= tol) & (s3 <= tol))
+
+
+def _in_convex(Q: Array, hull: Array) -> NDArray[np.bool_]:
+    a, b = hull, np.roll(hull, -1, axis=0)
+    cross = (b[:, 0] - a[:, 0]) * (Q[:, 1, None] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (Q[:, 0, None] - a[:, 0])
+    return np.all(cross > 1e-9, axis=1)
+
+
+def viewshed(occ: Occluders, target: Target, eye_height: float = STANDING_EYE_M, cell: float = 0.1,
+             samples: int = VIEWSHED_OBJECT_SAMPLES, seed: int = SAMPLE_SEED) -> Viewshed:
+    """Which places on the floor see ``target`` (see :class:`Viewshed`)."""
+    origin, states = floor_grid(occ, cell, eye_height)
+    ny, nx = states.shape
+    xs = origin[0] + (np.arange(nx) + 0.5) * cell
+    ys = origin[1] + (np.arange(ny) + 0.5) * cell
+    X, Y = np.meshgrid(xs, ys)
+    places = np.flatnonzero(states.ravel() == PLACE)
+    E = np.stack([X.ravel()[places], Y.ravel()[places], np.full(len(places), eye_height)], axis=1)
+    share = np.full(nx * ny, np.nan)
+    if target.point is not None:
+        blocked, _, _ = occ.segments_blocked(E, np.broadcast_to(target.point, E.shape))
+        share[places] = (~blocked).astype(float)
+        return Viewshed(target, eye_height, origin, cell, states, share.reshape(ny, nx))
+    P, N = sample_surface(occ, target.nodes, samples, seed)
+    seen = np.zeros(len(places))
+    # One cell's eye against all samples per batch: the segments share the eye, so their bounding box
+    # (the eye and the object) prunes the triangles well.
+    for i, e in enumerate(E):
+        facing = np.flatnonzero(np.einsum("ij,ij->i", e - P, N) > 0.0)
+        if len(facing):
+            b, _, _ = occ.segments_blocked(np.broadcast_to(e, (len(facing), 3)), P[facing])
+            seen[i] = float((~b).sum()) / len(P)
+    share[places] = seen
+    return Viewshed(target, eye_height, origin, cell, states, share.reshape(ny, nx), samples)
+
+
+def viewshed_image(vs: Viewshed, occ: Occluders, px_per_cell: int | None = None) -> NDArray[np.uint8]:
+    """A top-view map of a viewshed: +y up, places that see the target green (an object: shaded by
+    its visible share), places that do not dark slate, occupied cells light grey, the footprints of
+    the model's objects outlined, the target marked in red, a 1 m scale bar and a caption."""
+    from PIL import Image, ImageDraw, ImageFont
+
+    from vebuild.viewer.collide import footprints
+
+    ny, nx = vs.states.shape
+    s = px_per_cell or int(max(2, min(16, 900 // max(nx, ny))))
+    no, yes = np.array([70, 76, 96], float), np.array([60, 185, 90], float)
+    share = np.nan_to_num(vs.share)
+    if vs.target.node is not None and np.nanmax(np.where(vs.states == PLACE, vs.share, 0.0), initial=0.0) > 0:
+        share = share / np.nanmax(np.where(vs.states == PLACE, vs.share, 0.0))  # shade relative to the best place
+        share = np.where(np.nan_to_num(vs.share) > 0, 0.25 + 0.75 * share, 0.0)
+    rgb = no[None, None] * (1 - share[..., None]) + yes[None, None] * share[..., None]
+    rgb[vs.states == OCCUPIED] = (200, 200, 200)
+    rgb[vs.states == OUTSIDE] = (250, 250, 250)
+    cells = np.repeat(np.repeat(rgb[::-1].astype(np.uint8), s, axis=0), s, axis=1)
+    fps = [fp for fp in footprints(occ.scene.model) if fp.z_hi > FLOOR_CLEARANCE_M]
+    g_lo = np.array(vs.origin)
+    g_hi = g_lo + vs.cell * np.array([nx, ny])
+    lo = np.min([g_lo, *(fp.hull.min(axis=0) for fp in fps)], axis=0)
+    hi = np.max([g_hi, *(fp.hull.max(axis=0) for fp in fps)], axis=0)
+    if vs.target.point is not None:
+        lo, hi = np.minimum(lo, vs.target.point[:2]), np.maximum(hi, vs.target.point[:2])
+    k = s / vs.cell  # pixels per metre
+    pad, top = 20, 48
+    W = int(math.ceil((hi[0] - lo[0]) * k)) + 2 * pad
+    H = int(math.ceil((hi[1] - lo[1]) * k)) + pad + top + 28
+    img = Image.new("RGB", (max(W, 560), H), (255, 255, 255))
+
+    def to_px(xy: Array) -> list[tuple[float, float]]:
+        xy = np.atleast_2d(xy)
+        return [(pad + (x - lo[0]) * k, top + (hi[1] - y) * k) for x, y in xy]
+
+    (gx, gy), = to_px(np.array([g_lo[0], g_hi[1]]))
+    img.paste(Image.fromarray(cells), (int(round(gx)), int(round(gy))))
+    d = ImageDraw.Draw(img)
+    target_nodes = set(vs.target.nodes)
+    for fp in fps:
+        if fp.node in target_nodes:
+            continue
+        d.polygon(to_px(fp.hull), outline=(20, 20, 20))
+    red = (220, 30, 30)
+    if vs.target.point is not None:
+        (u, v), = to_px(vs.target.point[:2])
+        r = max(5, s)
+        d.ellipse((u - r, v - r, u + r, v + r), outline=red, width=3)
+        d.line((u - 2 * r, v, u + 2 * r, v), fill=red, width=2)
+        d.line((u, v - 2 * r, u, v + 2 * r), fill=red, width=2)
+    else:
+        for fp in footprints(occ.scene.model, nodes=target_nodes):
+            d.polygon(to_px(fp.hull), outline=red, width=3)
+    font = ImageFont.load_default(size=14)
+    fig = vs.figures()
+    share_txt = "—" if fig["seeing_share_of_place_area"] is None else f"{100 * fig['seeing_share_of_place_area']:.1f} %"
+    d.text((pad, 6), f"viewshed of {vs.target.label}, eyes at {vs.eye_height:g} m: {share_txt} of the floor "
+                     f"where one can stand sees it", fill=(0, 0, 0), font=font)
+    d.text((pad, 26), f"green: sees it · slate: does not · grey: no place to stand · cell {vs.cell:g} m · +y up",
+           fill=(80, 80, 80), font=ImageFont.load_default(size=11))
+    x0, y0 = pad, H - 16
+    d.line((x0, y0, x0 + k, y0), fill=(0, 0, 0), width=3)
+    d.text((x0 + k + 6, y0 - 7), "1 m", fill=(0, 0, 0), font=font)
+    return np.asarray(img)
+
+
+def write_viewshed_png(project: Any, vs: Viewshed, occ: Occluders, out: Path) -> None:
+    """The viewshed's map as a PNG carrying its provenance and figures."""
+    from vebuild import __version__
+    from vebuild.actions.render import check_output, write_png
+    from vebuild.project import sha256_file
+
+    out = check_output(Path(out))
+    text = {"Software": f"vebuild {__version__}", "vebuild:project": project.path.name,
+            "vebuild:project_sha256": sha256_file(project.path),
+            "vebuild:viewshed": json.dumps(vs.figures(), sort_keys=True, ensure_ascii=False)}
+    write_png(out, viewshed_image(vs, occ), text)
