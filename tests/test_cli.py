@@ -24,8 +24,21 @@ def test_help_lists_the_commands(capsys: pytest.CaptureFixture) -> None:
         main(["--help"])
     assert e.value.code == 0
     out = capsys.readouterr().out
-    for cmd in ("demo", "calibrate", "check", "new", "bench"):
+    for cmd in ("demo", "calibrate", "check", "new", "bench", "render", "export", "video", "view", "report",
+                "analyse"):
         assert cmd in out
+
+
+@pytest.mark.parametrize("words", [
+    ["render"], ["export"], ["video"], ["view"], ["report"], ["texture"], ["solve"], ["bench"],
+    *[["analyse", "p.vebuild.json", a] for a in ("distance", "height", "dimensions", "checks", "sightline",
+                                                 "viewshed", "trajectory", "lighting")],
+])
+def test_every_command_explains_itself(words, capsys: pytest.CaptureFixture) -> None:
+    with pytest.raises(SystemExit) as e:
+        main([*words, "--help"])
+    assert e.value.code == 0
+    assert "usage: vebuild" in capsys.readouterr().out
 
 
 def test_calibrate_writes_cameras_into_the_project(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:

@@ -58,6 +58,26 @@ def _cmd_view(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_report(args: argparse.Namespace) -> int:
+    from tqdm import tqdm
+
+    from .actions.report import write_report
+    from .project import load_project
+
+    project = load_project(args.project)
+    bar = tqdm(total=8 - int(args.no_pdf), desc="report", unit="section", disable=not _progress_wanted(args))
+
+    def step(what: str) -> None:
+        bar.set_postfix_str(what)
+        bar.update(1)
+    try:
+        page = write_report(project, Path(args.out), pdf=not args.no_pdf, progress=step)
+    finally:
+        bar.close()
+    print(f"report written to {page}" + ("" if args.no_pdf else f" and {page.with_suffix('.pdf')}"))
+    return 0
+
+
 def _cmd_render(args: argparse.Namespace) -> int:
     from .actions.render import RenderRequest, parse_size, render_evidence
     from .project import load_project
@@ -288,6 +308,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quad-stereo", action="store_true",
                    help="ask the display for quad-buffered stereo (shutter glasses; B switches to it if given)")
     p.set_defaults(func=_cmd_view)
+
+    p = sub.add_parser("report", help="an HTML (and PDF) report another examiner can reproduce from the project")
+    p.add_argument("project")
+    p.add_argument("--out", required=True, metavar="DIR", help="the folder to write (replaced if it exists)")
+    p.add_argument("--no-pdf", action="store_true", help="only the HTML and its images")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=_cmd_report)
 
     p = sub.add_parser("texture", help="extract textures from the photos onto the model (paper §4)")
     p.add_argument("project")

@@ -36,7 +36,7 @@ def add_analyse_parsers(sub: Any) -> None:
     p.add_argument("project", help="the project file (NAME.vebuild.json), calibrated and solved")
     asub = p.add_subparsers(dest="analysis", required=True, metavar="ANALYSIS")
 
-    q = _subcommand(asub, "distance", "distance between two points, with 1σ and 95 % interval", _distance)
+    q = _subcommand(asub, "distance", "distance between two points, with 1σ and 95 %% interval", _distance)
     q.add_argument("a", help="the first point")
     q.add_argument("b", help="the second point")
     q = _subcommand(asub, "height", "height of a point above the floor (z = 0) or above a flat face", _height)
@@ -51,11 +51,20 @@ def add_analyse_parsers(sub: Any) -> None:
 
     add_geometry_parsers(asub, _subcommand)  # sightline, viewshed, trajectory
 
+    q = _subcommand(asub, "lighting", "one view under several lighting presets side by side, with the target's "
+                    "luminance under each", _lighting)
+    q.add_argument("--view", required=True, metavar="NAME", help="a named view")
+    q.add_argument("--preset", dest="presets", action="append", required=True, metavar="NAME",
+                   help="a lighting preset, once per preset (as-photographed is the photos' own light)")
+    q.add_argument("--target", required=True, metavar="NODE", help="the object whose luminance is compared")
+    q.add_argument("--size", metavar="WxH", help="size of each view (default: the view's)")
+    q.add_argument("--out", metavar="STRIP.png", help="write the views side by side, the target outlined")
+
 
 def _subcommand(asub: Any, name: str, help: str, handler: Handler) -> argparse.ArgumentParser:
     q = asub.add_parser(name, help=help, description=help)
     q.add_argument("--json", metavar="OUT", help="write the figures to OUT as JSON")
-    q.set_defaults(func=lambda args: _run(args, name, handler))
+    q.set_defaults(func=lambda args: _run(args, name, handler), handler=handler, analysis_name=name)
     return q
 
 
@@ -157,3 +166,41 @@ def _checks(args: argparse.Namespace, project: Any) -> tuple[str, dict[str, Any]
                          f"{c.measured.source}")
         text = "\n".join(lines)
     return text, {**_solution_figures(solved), "checks": [c.to_json() for c in checks]}
+
+
+def _lighting(args: argparse.Namespace, project: Any) -> tuple[str, dict[str, Any]]:
+    from ..actions.render import check_output, parse_size, provenance, write_png
+    from ..gl import headless_context
+    from ..render.renderer import Renderer
+    from ..render.scene import load_scene
+    from ..render.views import find_view
+    from .lighting import LUMINANCE_WEIGHTS, compare_lighting, side_by_side
+
+    if args.out:
+        check_output(Path(args.out))
+    presets = list(args.presets)
+    cam = find_view(project, args.view)
+    if args.size:
+        cam = cam.resized(*parse_size(args.size))
+    scene = load_scene(project)
+    renderer = Renderer(headless_context(), scene)
+    try:
+        results = compare_lighting(project, scene, renderer, cam, presets, args.target)
+        mask = renderer.node_mask(cam, args.target)
+    finally:
+        renderer.release()
+    lines = [f"{args.target} seen from view '{args.view}' ({int(mask.sum())} pixels); relative luminance "
+             "(1 = a white surface under irradiance 1):",
+             f"  {'lighting':<24} {'mean':>8} {'10th pct':>9} {'90th pct':>9}"]
+    lines += [f"  {r.preset:<24} {r.luminance:8.4f} {r.luminance_p10:9.4f} {r.luminance_p90:9.4f}" for r in results]
+    figures: dict[str, Any] = {
+        "view": args.view, "target": args.target, "target_pixels": int(mask.sum()),
+        "luminance_weights_rgb": LUMINANCE_WEIGHTS.tolist(),
+        "presets": [{"preset": r.preset, "luminance_relative": r.luminance, "luminance_p10_relative": r.luminance_p10,
+                     "luminance_p90_relative": r.luminance_p90} for r in results]}
+    if args.out:
+        text = provenance(project, cam, "view", ",".join(presets), None, scene.page_hashes, {"target": args.target})
+        write_png(Path(args.out), side_by_side(results, mask), text)
+        lines.append(f"views side by side written to {args.out}")
+        figures["strip_png"] = str(args.out)
+    return "\n".join(lines), figures
