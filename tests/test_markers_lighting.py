@@ -116,3 +116,26 @@ def test_lighting_comparison_errors(room, renderer):
         compare_lighting(room, renderer.scene, renderer, find_view(room, "facing the west wall"), ["lamp"], "door")
     with pytest.raises(ProjectError, match="no lighting preset is called 'moon'"):
         compare_lighting(room, renderer.scene, renderer, cam, ["moon"], "box")
+
+
+def test_vebuild_mark_places_and_removes_markers(room, capsys):
+    from vebuild.cli import main
+
+    cam = find_view(room, "at the box")
+    u, v = project_points(cam.K, cam.R, cam.C, np.array([2.0, 2.0, 0.5]))
+    assert main(["mark", str(room.path), "A", "--at", f"view:at the box@{u:.2f},{v:.2f}",
+                 "--description", "a knife"]) == 0
+    assert "on 'box'" in capsys.readouterr().out
+    assert main(["mark", str(room.path), "B", "--at", "2.0,1.0,0.0"]) == 0
+    data = json.loads(room.path.read_text())
+    assert [m["label"] for m in data["evidence_markers"]] == ["A", "B"]
+    assert data["evidence_markers"][0]["description"] == "a knife"
+    for args, message in ((["C", "--at", "3,2.5,1.2"], "from the nearest surface"),
+                          (["C", "--at", "view:entrance@320,2"], "a point off every surface"),
+                          (["C", "--at", "here"], "expected X,Y,Z in metres"),
+                          (["Z", "--remove"], "no marker is labelled 'Z'")):
+        assert main(["mark", str(room.path), *args]) == 2
+        err = capsys.readouterr().err
+        assert message in err and "Traceback" not in err
+    assert main(["mark", str(room.path), "A", "--remove"]) == 0
+    assert [m["label"] for m in json.loads(room.path.read_text())["evidence_markers"]] == ["B"]

@@ -315,3 +315,19 @@ def test_a_photo_is_shown_over_its_own_camera(textured_room, driver_factory):
     rendered = d.screen()[:, 80:560].astype(float)
     # Without the overlay the model from the photo's camera still looks like the photo where it covers it.
     assert np.abs(rendered - photo).mean() > 2
+
+
+def test_markers_and_recorded_trajectories_are_drawn_in_the_window(room, driver_factory):
+    data = json.loads(room.read_text())
+    data["evidence_markers"] = [{"label": "A", "position": [2.0, 2.0, 0.5], "node": "box"}]
+    data["analyses"] = [{"name": "shot", "command": ["trajectory", "--from", "1.0,0.5,1.0", "--to", "2.0,1.0,0.8"]}]
+    room.write_text(json.dumps(data))
+    d = driver_factory(room, "entrance")
+    v = d.viewer
+    assert len(v.trajectories()) == 1
+    img = d.screen().astype(int)
+    u, w = (int(round(c)) for c in d.where([2.0, 2.0, 0.5]))
+    assert np.abs(img[w - 2:w + 3, u - 2:u + 3] - [230, 30, 200]).sum(-1).min() < 40  # the marker's pin
+    mid = d.where([1.5, 0.75, 0.9])  # a point of the path between the holes
+    patch = img[int(mid[1]) - 3:int(mid[1]) + 4, int(mid[0]) - 3:int(mid[0]) + 4]
+    assert np.any((patch[..., 0] > 180) & (patch[..., 1] < 80))  # the red path

@@ -58,6 +58,30 @@ def _cmd_view(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_mark(args: argparse.Namespace) -> int:
+    from .analysis.markers import add_marker, place_marker
+    from .project import load_project, save_project
+
+    project = load_project(args.project)
+    markers = project.data.get("evidence_markers", [])
+    if args.remove:
+        if args.label not in [m["label"] for m in markers]:
+            raise VebuildError(f"{project.path}: $.evidence_markers: no marker is labelled {args.label!r}")
+        project.data["evidence_markers"] = [m for m in markers if m["label"] != args.label]
+        save_project(project)
+        print(f"evidence marker {args.label!r} removed from {project.path}")
+        return 0
+    if not args.at:
+        raise VebuildError("mark: --at is required (X,Y,Z, photo:ID@u,v or view:NAME@u,v), or --remove")
+    rec = place_marker(project, args.label, args.at, args.description or "")
+    add_marker(project, rec)
+    save_project(project)
+    x, y, z = rec["position"]
+    print(f"evidence marker {args.label!r} on {rec['node']!r} at ({x:.3f}, {y:.3f}, {z:.3f}) m, written to "
+          f"{project.path}")
+    return 0
+
+
 def _cmd_report(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
@@ -308,6 +332,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quad-stereo", action="store_true",
                    help="ask the display for quad-buffered stereo (shutter glasses; B switches to it if given)")
     p.set_defaults(func=_cmd_view)
+
+    p = sub.add_parser("mark", help="place (or remove) a labelled evidence marker on a surface of the model")
+    p.add_argument("project")
+    p.add_argument("label", help="the marker's label, such as A or \"cartridge case\"")
+    p.add_argument("--at", metavar="WHERE", help="X,Y,Z (a point on a surface, metres), photo:ID@u,v or view:NAME@u,v "
+                   "(the surface seen at that pixel)")
+    p.add_argument("--description", help="what the marker marks")
+    p.add_argument("--remove", action="store_true", help="remove the marker with this label")
+    p.set_defaults(func=_cmd_mark)
 
     p = sub.add_parser("report", help="an HTML (and PDF) report another examiner can reproduce from the project")
     p.add_argument("project")

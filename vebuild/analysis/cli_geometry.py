@@ -185,27 +185,17 @@ def _viewshed(args: argparse.Namespace, project: Any) -> tuple[str, dict[str, An
     return "\n".join(lines), {"viewshed": f}
 
 
-def _trajectory(args: argparse.Namespace, project: Any) -> tuple[str, dict[str, Any]]:
-    from vebuild.actions.render import check_output
-    from vebuild.render.views import find_view
-
-    from .rays import Occluders
+def trajectory_from_args(args: argparse.Namespace, occ: Any) -> Any:
+    """The trajectory that ``vebuild analyse … trajectory`` arguments describe, against ``occ``
+    (also used by the viewer to draw the trajectories a project records)."""
     from .sightline import parse_floats
-    from .trajectory import direction_from_angles, parse_point, render_trajectory_view, trajectory
+    from .trajectory import direction_from_angles, parse_point, trajectory
 
-    if (args.view is None) != (args.out is None):
-        raise VebuildError("trajectory: --view NAME and --out FILE.png go together (the view to draw it in)")
-    cam = None
-    if args.out:
-        check_output(Path(args.out))
-        cam = find_view(project, args.view)
     if (args.to is None) == (args.azimuth is None):
         raise VebuildError("trajectory: give the exit hole (--to) or a direction (--azimuth and --elevation), "
                            "not both")
     if args.azimuth is not None and args.elevation is None:
         raise VebuildError("trajectory: --azimuth needs --elevation (degrees above the horizontal)")
-    scene = _scene(project, args.hypothesis)
-    occ = Occluders(scene)
     A = parse_point(occ, args.start, "--from")
     sigma = None
     if args.sigma is not None:
@@ -216,10 +206,27 @@ def _trajectory(args: argparse.Namespace, project: Any) -> tuple[str, dict[str, 
                                f"0.005,0.01), got {args.sigma!r}")
         sigma = (float(s[0]), float(s[-1]))
     if args.to is not None:
-        tr = trajectory(occ, A, parse_point(occ, args.to, "--to"), sigma=sigma, cone_deg=args.cone)
-    else:
-        tr = trajectory(occ, A, direction=direction_from_angles(args.azimuth, args.elevation), sigma=sigma,
-                        cone_deg=args.cone)
+        return trajectory(occ, A, parse_point(occ, args.to, "--to"), sigma=sigma, cone_deg=args.cone)
+    return trajectory(occ, A, direction=direction_from_angles(args.azimuth, args.elevation), sigma=sigma,
+                      cone_deg=args.cone)
+
+
+def _trajectory(args: argparse.Namespace, project: Any) -> tuple[str, dict[str, Any]]:
+    from vebuild.actions.render import check_output
+    from vebuild.render.views import find_view
+
+    from .rays import Occluders
+    from .trajectory import render_trajectory_view
+
+    if (args.view is None) != (args.out is None):
+        raise VebuildError("trajectory: --view NAME and --out FILE.png go together (the view to draw it in)")
+    cam = None
+    if args.out:
+        check_output(Path(args.out))
+        cam = find_view(project, args.view)
+    scene = _scene(project, args.hypothesis)
+    occ = Occluders(scene)
+    tr = trajectory_from_args(args, occ)
     rec = tr.record()
     lines = [f"path: from ({', '.join(f'{v:.3f}' for v in tr.entry)})"
              + (f" to ({', '.join(f'{v:.3f}' for v in tr.exit)}), {tr.length:.3f} m apart" if tr.length else "")

@@ -64,6 +64,40 @@ def _record(label: str, point: Any, node: str, description: str) -> dict[str, An
     return rec
 
 
+def place_marker(project: Any, label: str, at: str, description: str = "") -> dict[str, Any]:
+    """A marker at ``at``: ``X,Y,Z`` (a world point on a surface), ``photo:ID@u,v`` or
+    ``view:NAME@u,v`` (the surface seen at that pixel of a photo's camera or a named view)."""
+    from vebuild.gl import headless_context
+    from vebuild.render.renderer import RenderOptions
+    from vebuild.render.scene import load_scene
+    from vebuild.render.views import find_view, photo_camera
+
+    scene = load_scene(project)
+    kind, _, rest = at.partition(":")
+    if kind in ("photo", "view") and "@" in rest:
+        name, _, uv_text = rest.rpartition("@")
+        try:
+            uv = [float(x) for x in uv_text.split(",")]
+        except ValueError:
+            uv = []
+        if len(uv) != 2:
+            raise VebuildError(f"--at {at!r}: expected {kind}:{'ID' if kind == 'photo' else 'NAME'}@u,v with u, v in "
+                               "pixels")
+        cam = photo_camera(project, name) if kind == "photo" else find_view(project, name)
+        renderer = Renderer(headless_context(), scene, RenderOptions(samples=1))
+        try:
+            return marker_at_pixel(renderer, cam, label, uv, description)
+        finally:
+            renderer.release()
+    try:
+        point = [float(x) for x in at.split(",")]
+    except ValueError:
+        point = []
+    if len(point) != 3:
+        raise VebuildError(f"--at {at!r}: expected X,Y,Z in metres, photo:ID@u,v or view:NAME@u,v")
+    return marker_at_point(scene, label, point, description)
+
+
 def add_marker(project: Any, rec: dict[str, Any]) -> None:
     """Add (or replace, by label) a marker in the project's data; the caller saves the file."""
     markers = [m for m in project.data.get("evidence_markers", []) if m["label"] != rec["label"]]

@@ -547,6 +547,7 @@ class Viewer:
         gui = self.gui
         gui.new_frame()
         self._draw_markers(imgui)
+        self._draw_trajectories(imgui)
         banner = self.banner()
         if banner:
             imgui.set_next_window_pos(imgui.ImVec2(10, 10))
@@ -615,6 +616,53 @@ class Viewer:
             else:
                 dl.add_circle(p, 6.0, colour, 0, 2.0)
             dl.add_text(imgui.ImVec2(p.x + 9, p.y - 8), white, m["label"] + ("" if visible else " (hidden)"))
+
+    def trajectories(self) -> list[Any]:
+        """The trajectories the project records (``analyses``), against the objects as they are now."""
+        from vebuild.analysis.cli_geometry import trajectory_from_args
+        from vebuild.analysis.rays import Occluders
+        from vebuild.analysis.report_sections import parse
+
+        records = [r for r in self.project.data.get("analyses") or [] if r["command"][:1] == ["trajectory"]]
+        if not records:
+            return []
+        key = (id(self.renderer.scene), len(records))
+        if getattr(self, "_trajectory_key", None) != key:
+            occ = Occluders(self.renderer.scene)
+            out = []
+            for rec in records:
+                try:
+                    out.append(trajectory_from_args(parse(str(self.project.path), rec["command"]), occ))
+                except VebuildError as e:
+                    self.say(f"trajectory {rec['name']!r}: {e}")
+            self._trajectory_key, self._trajectory_cache = key, out
+        return self._trajectory_cache
+
+    def _draw_trajectories(self, imgui: Any) -> None:
+        """Recorded trajectories over the view: the path in red, its uncertainty cone in orange (not
+        depth-tested: drawn over what hides them)."""
+        from vebuild.analysis.trajectory import path_polylines
+
+        trs = self.trajectories()
+        if not trs or self.stereo is not None:
+            return
+        cam = self.camera()
+        W, H = self.window.framebuffer_size()
+        ww, wh = glfw.get_window_size(self.window.handle)
+        sx, sy = W / max(ww, 1), H / max(wh, 1)
+        vx, vy, vw, vh = self.viewport()
+        dl = imgui.get_foreground_draw_list()
+        colours = {"path": imgui.get_color_u32(imgui.ImVec4(0.9, 0.1, 0.1, 1.0)),
+                   "cone": imgui.get_color_u32(imgui.ImVec4(1.0, 0.6, 0.1, 0.8))}
+        for tr in trs:
+            for kind, lines in path_polylines(tr).items():
+                for P in lines:
+                    xc = (np.asarray(P, float) - cam.C) @ np.asarray(cam.R, float).T
+                    ok = xc[:, 2] > 0.05
+                    uv = (xc[ok] / xc[ok, 2:3]) @ np.asarray(cam.K, float).T
+                    pts = [imgui.ImVec2((vx + u) / sx, (H - vy - vh + v) / sy) for u, v in uv[:, :2]]
+                    for a, b in zip(pts[:-1], pts[1:], strict=True):
+                        dl.add_line(a, b, colours.get(kind, colours["cone"]), 2.0 if kind == "path" else 1.0)
 
     def _guarded(self, fn: Any, *args: Any) -> None:
         try:
