@@ -49,6 +49,12 @@ def load_program(ctx: moderngl.Context, name: str, defines: Mapping[str, object]
     return prog
 
 
+def forget_context(ctx: moderngl.Context) -> None:
+    """Drop the programs compiled for ``ctx`` (a window's context, about to be destroyed)."""
+    for key in [k for k in _cache if k[0] == id(ctx)]:
+        del _cache[key]
+
+
 def _with_defines(source: str, defines: tuple[tuple[str, str], ...]) -> str:
     if not defines:
         return source

@@ -137,6 +137,9 @@ class Window:
     def close(self) -> None:
         """Destroy the window; an off-screen context made before it is current again."""
         if self.handle is not None:
+            from vebuild.gl.shaders import forget_context
+
+            forget_context(self.ctx)
             self.ctx.release()
             glfw.destroy_window(self.handle)
             self.handle = None
