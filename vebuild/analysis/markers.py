@@ -106,10 +106,8 @@ def add_marker(project: Any, rec: dict[str, Any]) -> None:
 
 def visible_markers(renderer: Renderer, cam: ImageCamera,
                     markers: Sequence[dict[str, Any]]) -> list[tuple[dict[str, Any], NDArray[np.float64], bool]]:
-    """Markers in the image: each with its pixel position and whether it is seen (not hidden)."""
-    if not markers:
-        return []
-    _, depth = renderer.id_buffer(cam)
+    """Markers in the image: each with its pixel position and whether it is seen (not hidden).
+    Each is tested through a one-pixel ID buffer at its own pixel, so a frame loop can afford it."""
     out = []
     for m in markers:
         X = np.asarray(m["position"], float)
@@ -119,9 +117,9 @@ def visible_markers(renderer: Renderer, cam: ImageCamera,
         uv = project(cam.K, cam.R, cam.C, X)
         if not (0 <= uv[0] < cam.width and 0 <= uv[1] < cam.height):
             continue
-        seen_depth = float(depth[int(uv[1]), int(uv[0])])
-        visible = seen_depth <= 0 or z <= seen_depth + OCCLUSION_MARGIN_M
-        out.append((m, uv, visible))
+        _, seen = renderer.pick(cam, float(uv[0]), float(uv[1]))
+        seen_depth = float(world_to_camera(cam.R, cam.C, seen)[2]) if seen is not None else np.inf
+        out.append((m, uv, z <= seen_depth + OCCLUSION_MARGIN_M))
     return out
 
 

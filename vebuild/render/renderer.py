@@ -71,6 +71,7 @@ class RenderOptions:
 
     samples: int = 4  # multisample anti-aliasing (1: off)
     anisotropy: float = 8.0  # anisotropic texture filtering (1: trilinear only; costly on software GL)
+    trilinear: bool = True  # blend between mipmap levels (False: the nearest level, ~20 % faster on llvmpipe)
     shadows: bool = True  # draw the shadows of lights that cast them
     shadow_size: int = 1024  # texels along a shadow tile's side
     background_srgb: tuple[int, int, int] = (38, 38, 44)
@@ -78,8 +79,9 @@ class RenderOptions:
 
     @classmethod
     def interactive(cls) -> RenderOptions:
-        """Settings for a frame loop on software GL (no GPU): no multisampling, trilinear filtering."""
-        return cls(samples=1, anisotropy=1.0)
+        """Settings for a frame loop on software GL (no GPU): no multisampling, no anisotropic
+        filtering, the nearest mipmap level."""
+        return cls(samples=1, anisotropy=1.0, trilinear=False)
 
 
 @dataclass(frozen=True)
@@ -132,7 +134,8 @@ class Renderer:
                                    f"({limit}); extract the textures again on this machine (`vebuild texture`)")
             tex = self.ctx.texture((w, h), 3, np.ascontiguousarray(page).tobytes(), internal_format=GL_SRGB8)
             tex.build_mipmaps()
-            tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+            tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR if self.options.trilinear else moderngl.LINEAR_MIPMAP_NEAREST,
+                          moderngl.LINEAR)
             tex.anisotropy = float(self.options.anisotropy)
             tex.repeat_x = tex.repeat_y = False
             self._pages.append(tex)

@@ -635,16 +635,16 @@ class Viewer:
                     out.append(trajectory_from_args(parse(str(self.project.path), rec["command"]), occ))
                 except VebuildError as e:
                     self.say(f"trajectory {rec['name']!r}: {e}")
-            self._trajectory_key, self._trajectory_cache = key, out
-        return self._trajectory_cache
+            from vebuild.analysis.trajectory import path_polylines
+
+            self._trajectory_key = key
+            self._trajectory_cache = [(tr, path_polylines(tr)) for tr in out]
+        return [tr for tr, _ in self._trajectory_cache]
 
     def _draw_trajectories(self, imgui: Any) -> None:
         """Recorded trajectories over the view: the path in red, its uncertainty cone in orange (not
         depth-tested: drawn over what hides them)."""
-        from vebuild.analysis.trajectory import path_polylines
-
-        trs = self.trajectories()
-        if not trs or self.stereo is not None:
+        if not self.trajectories() or self.stereo is not None:
             return
         cam = self.camera()
         W, H = self.window.framebuffer_size()
@@ -654,8 +654,8 @@ class Viewer:
         dl = imgui.get_foreground_draw_list()
         colours = {"path": imgui.get_color_u32(imgui.ImVec4(0.9, 0.1, 0.1, 1.0)),
                    "cone": imgui.get_color_u32(imgui.ImVec4(1.0, 0.6, 0.1, 0.8))}
-        for tr in trs:
-            for kind, lines in path_polylines(tr).items():
+        for _, polylines in self._trajectory_cache:
+            for kind, lines in polylines.items():
                 for P in lines:
                     xc = (np.asarray(P, float) - cam.C) @ np.asarray(cam.R, float).T
                     ok = xc[:, 2] > 0.05
@@ -684,8 +684,8 @@ def run_viewer(project: Project, size: tuple[int, int] = (1280, 720), hypothesis
                frames: int | None = None) -> None:
     """Open the window and run until it is closed (or for ``frames`` frames)."""
     with Window(size[0], size[1], f"vebuild — {project.path.name}", stereo=quad_stereo) as window:
-        viewer = Viewer(project, window, RenderOptions(samples=samples, anisotropy=1.0 if samples <= 1 else 8.0),
-                        hypothesis=hypothesis, view=view)
+        options = RenderOptions.interactive() if samples <= 1 else RenderOptions(samples=samples)
+        viewer = Viewer(project, window, options, hypothesis=hypothesis, view=view)
         if window.stereo_note:
             viewer.say(window.stereo_note)
         viewer.enable_gui()
