@@ -29,7 +29,9 @@ The modelling stage (paper §3) is simulated too: ``ground_truth.json`` holds th
 graph in the project format (``model``) and the world position of every primitive handle it implies
 (``model_handles``, from this file's own forward kinematics, which the tests hold to the rendered
 corners); the project holds the rough model a user has after dropping primitives onto the photos,
-the handles a careful user pins to visible corners, and a few edge observations.
+the handles a careful user pins to visible corners, and a few edge observations. The walls are in
+the model too, as boxes a measured thickness thick behind the rendered wall planes, with the
+doorway left open; the user places them from measurements taken in the room, not from the photos.
 """
 
 from __future__ import annotations
@@ -67,6 +69,12 @@ LIGHT_DIR = np.array([0.55, 0.35, 0.76]) / np.linalg.norm([0.55, 0.35, 0.76])  #
 # jamb, the panel swung DOOR_AJAR_DEG into the room.
 DOOR_X0, DOOR_X1, DOOR_H = 3.30, 4.20, 2.05
 DOOR_AJAR_DEG = 25.0
+# The walls as the model has them (the renderer draws them as the planes below, which is all a
+# photo from inside shows): boxes WALL_THICK thick standing outside the room, each inner face a
+# rendered wall plane, so that neighbouring walls meet along the room's corner lines. The square
+# column outside each corner is left out: nothing inside reaches it, and walls run on into it
+# would hide edges just behind the visible corners. The south wall is three pieces around the doorway.
+WALL_THICK = 0.10
 TABLE_CENTRE, TABLE_SIZE, TABLE_TOP_Z = (2.20, 2.70), (1.40, 0.80), 0.76
 TABLE_TOP_THICK, TABLE_LEG, TABLE_LEG_INSET = 0.04, 0.06, 0.06
 CABINET_Y = (1.50, 2.50)  # against the west wall, x∈[0, CABINET_DEPTH]
@@ -892,6 +900,13 @@ def annotate(scene: dict, cam: dict, rng: np.random.Generator) -> dict:
 # is shut against the stop in the frame, and at about 153° its free edge would meet the east wall.
 DOOR_HINGE_AXIS = (0.0, 0.0, -1.0)
 DOOR_LIMITS_DEG = (0.0, 150.0)
+# The walls' nodes (true_walls). No photo shows a wall's thickness, its outer faces or (the ajar
+# panel hides them) the doorway's corners, so the user places the walls from what was measured in
+# the room: its size (5 × 4 m, 2.6 m high), the walls' thickness at the doorway, the doorway's width,
+# height and distance from the west wall. In the project they are "solve": false (FORMAT.md) at those
+# values; they rest on the floor, so they follow the floor as solved. They take no pins.
+WALL_NODES = ("wall_west", "wall_north", "wall_east", "wall_south", "wall_south.west", "wall_south.east",
+              "wall_south.lintel")
 PIN_PROBE_M = 0.02  # a corner is clicked only where ≥ 2 of its edges are seen this far from it
 PIN_MIN_SEP_PX = 8.0  # … and no other seen corner of that primitive lies this near it (scale 1)
 ROUGH_SIZE_REL = (0.10, 0.25)  # a dropped primitive's sizes (and position, × its extent) are this far off
@@ -1065,6 +1080,47 @@ def true_model(scene: dict) -> list[dict]:
                             "translation": _c(hinge + shut @ (bottom("door") - hinge) - floor_c),
                             "rotation_deg": [0.0, 0.0, _c(door["yaw_deg"] + door["ajar_deg"])],
                             "angle_deg": _c(door["ajar_deg"]), "limits_deg": list(DOOR_LIMITS_DEG)}})
+    nodes += true_walls(scene)
+    return nodes
+
+
+def true_walls(scene: dict) -> list[dict]:
+    """The walls' nodes (WALL_NODES), read off the wall quads build_scene rendered: a box WALL_THICK
+    thick behind each, its front face (local −y) the quad itself, toward the room, its local +x left
+    to right as seen from the room. The west, north and east walls rest on the floor; the south wall is a group
+    resting on the floor (its origin at the floor-level centre line of the whole wall, turned as its
+    pieces are) whose pieces beside and above the doorway are fixed in it."""
+    X, Y, _ = ROOM
+    floor_c = np.array([X / 2, Y / 2, 0.0])
+    quads = {q["name"]: q for q in scene["quads"]}
+
+    def wall(name):
+        """(primitive, bottom centre, yaw in degrees) of the box behind the quad ``name``."""
+        q = quads[name]
+        e1, e2, n = q["edge1"], q["edge2"], q["normal"]
+        assert abs(e1[2]) < 1e-12 and abs(e2[0]) + abs(e2[1]) < 1e-12 and e2[2] > 0, f"{name} is not upright"
+        prim = {"type": "box", "params": {"width": _c(np.linalg.norm(e1)), "depth": WALL_THICK, "height": _c(e2[2])}}
+        centre = q["corner"] + e1 / 2 - n * (WALL_THICK / 2)
+        yaw = math.degrees(math.atan2(n[0] + 0.0, -n[1] + 0.0))  # turns local −y onto n (+ 0.0: no −0.0)
+        return prim, centre, yaw
+
+    nodes = []
+    for name in ("wall_west", "wall_north", "wall_east"):
+        prim, centre, yaw = wall(name)
+        nodes.append({"name": name, "parent": "floor", "primitive": prim,
+                      "joint": {"type": "rests_on", "face": "top", "position": _c((centre - floor_c)[:2]),
+                                "yaw_deg": _c(yaw)}})
+    south, south_yaw = np.array([X / 2, -WALL_THICK / 2, 0.0]), 180.0
+    nodes.append({"name": "wall_south", "parent": "floor",
+                  "joint": {"type": "rests_on", "face": "top", "position": _c((south - floor_c)[:2]),
+                            "yaw_deg": south_yaw}})
+    for part in ("west", "east", "lintel"):
+        prim, centre, yaw = wall(f"wall_south.{part}")
+        assert yaw == south_yaw
+        nodes.append({"name": f"wall_south.{part}", "parent": "wall_south", "primitive": prim,
+                      "joint": {"type": "fixed", "translation": _c(_axis_rotation((0, 0, 1), -yaw) @ (centre - south)),
+                                "rotation_deg": [0.0, 0.0, 0.0]}})
+    assert [n["name"] for n in nodes] == list(WALL_NODES)
     return nodes
 
 
@@ -1075,7 +1131,8 @@ def rough_model(nodes: list[dict], rng: np.random.Generator) -> list[dict]:
     and the hinge angle by 8–12°, each in a random sense. Fixed joints and a hinge's axis and shut
     pose are kept: they have no degree of freedom, so a wrong value there could never be solved
     away (the user states them as the object's known make-up). Every node draws the same numbers
-    whatever its kind, so the streams stay stable.
+    whatever its kind, so the streams stay stable. The walls (WALL_NODES) are placed at their
+    measured values and marked "solve": false.
     """
     out = json.loads(json.dumps(nodes))
     extent = {n["name"]: max(n["primitive"]["params"]["width"], n["primitive"]["params"]["depth"])
@@ -1086,6 +1143,9 @@ def rough_model(nodes: list[dict], rng: np.random.Generator) -> list[dict]:
         shift, phi = rng.uniform(*ROUGH_SIZE_REL), rng.uniform(0.0, 2 * math.pi)
         dyaw = rng.uniform(*ROUGH_YAW_DEG) * rng.choice([-1.0, 1.0])
         dhinge = rng.uniform(*ROUGH_HINGE_DEG) * rng.choice([-1.0, 1.0])
+        if n["name"] in WALL_NODES:
+            n["solve"] = False
+            continue
         prim, j = n.get("primitive"), n["joint"]
         if prim is not None:
             for k, key in enumerate(prim["params"]):
@@ -1139,14 +1199,15 @@ def pinnable(scene: dict, cam: dict, prim: dict, handles: dict[str, np.ndarray])
 
 def choose_pins(scene: dict, cams: list[dict], nodes: list[dict]) -> list[dict]:
     """Every handle a careful user would pin, photo k's clicks from the stream default_rng([SEED, 1, k])
-    (N(0, 0.7 px · scale) per coordinate, drawn for every handle so that the streams stay stable)."""
+    (N(0, 0.7 px · scale) per coordinate, drawn for every handle so that the streams stay stable).
+    The walls, placed from measurements, take none (they come last, so no stream moves)."""
     handles = model_handles_world(nodes, scene_markers(scene))
     pins = []
     for k, cam in enumerate(cams):
         rng = np.random.default_rng([SEED, 1, k])
         sigma = CLICK_SIGMA_PX * cam["width"] / BASE_WIDTH
         for n in nodes:
-            if n.get("primitive") is None:
+            if n.get("primitive") is None or n["name"] in WALL_NODES:
                 continue
             hw = handles[n["name"]]
             uv, _ = project(cam, np.array(list(hw.values())))
@@ -1208,8 +1269,13 @@ def check_model_coverage(model: dict, truth_nodes: list[dict]) -> None:
     """Every primitive but the legs is pinned in ≥ 2 photos with ≥ 3 distinct handles, spanning
     both signs of local x and y, and a box has a top handle too. At least two legs have ≥ 3 handles
     spanning x and y: their tops hide under the table top, and most photos frame them out, but a
-    leg's bottom corners lie on the floor, so one photo places them."""
-    prims = {n["name"]: n["primitive"] for n in truth_nodes if n.get("primitive")}
+    leg's bottom corners lie on the floor, so one photo places them. The walls, placed from
+    measurements ("solve": false), take no pins at all."""
+    prims = {n["name"]: n["primitive"] for n in truth_nodes if n.get("primitive") and n["name"] not in WALL_NODES}
+    if any(p["node"] in WALL_NODES for p in model["pins"]):
+        raise AssertionError("a wall is pinned; the walls are placed from measurements")
+    if any(n.get("solve", True) for n in model["nodes"] if n["name"] in WALL_NODES):
+        raise AssertionError('every wall node must be "solve": false')
     legs_ok = 0
     for name, prim in prims.items():
         pins = [p for p in model["pins"] if p["node"] == name]

@@ -318,6 +318,14 @@ BOX_FACE_HANDLES = {"+x": ("v1", "v2", "v6", "v5"), "-x": ("v3", "v0", "v4", "v7
                     "+z": ("v4", "v5", "v6", "v7"), "-z": ("v3", "v2", "v1", "v0")}
 PRIMITIVE_NODES = ("floor", "cabinet", "box", "table.top", "table.leg1", "table.leg2", "table.leg3",
                    "table.leg4", "door")
+#: The walls (boxes placed from measurements, "solve": false) and the rendered wall quad each one's
+#: front face (local −y, toward the room) holds.
+WALL_QUADS = {"wall_west": "wall_west", "wall_north": "wall_north", "wall_east": "wall_east",
+              "wall_south.west": "wall_south.west", "wall_south.east": "wall_south.east",
+              "wall_south.lintel": "wall_south.lintel"}
+#: The front face's corners in the order of a rendered wall quad's corners (corner, + edge1,
+#: + edge1 + edge2, + edge2: edge1 runs left to right as seen from the room, as local +x does).
+WALL_FRONT = ("v0", "v1", "v5", "v4")
 PIN_TOL = 3.0  # px: |(N(0, 0.7), N(0, 0.7))| > 3 px has probability 1e-4; ~80 pins
 
 
@@ -382,6 +390,17 @@ def test_true_model_is_the_rendered_geometry(truth, scene, true_handles):
     rendered for that object (to 1e-9 m); every handle is checked, and the generator's own forward
     kinematics and the shipped model_handles agree."""
     checked = set()
+    for node, quad in WALL_QUADS.items():
+        q = next(q for q in scene["quads"] if q["name"] == quad)
+        hs = true_handles[node]
+        corners = q["corner"] + np.array([[0, 0], [1, 0], [1, 1], [0, 1]]) @ np.array([q["edge1"], q["edge2"]])
+        for h, c in zip(WALL_FRONT, corners, strict=True):
+            np.testing.assert_allclose(hs[h], c, atol=1e-9, rtol=0, err_msg=f"{node} {h}")
+            # the back corner behind it: WALL_THICK away, out of the room
+            back = {"v0": "v3", "v1": "v2", "v4": "v7", "v5": "v6"}[h]
+            np.testing.assert_allclose(hs[back], c - gen.WALL_THICK * q["normal"], atol=1e-9, rtol=0,
+                                       err_msg=f"{node} {back}")
+            checked |= {(node, h), (node, back)}
     for q in scene["quads"]:
         if q["name"] == "floor":
             node, labels = "floor", ("v0", "v1", "v2", "v3")
@@ -395,12 +414,51 @@ def test_true_model_is_the_rendered_geometry(truth, scene, true_handles):
             np.testing.assert_allclose(true_handles[node][h], c, atol=1e-9, rtol=0, err_msg=f"{q['name']} {h}")
             checked.add((node, h))
     assert checked == {(n, h) for n, hs in true_handles.items() for h in hs}
-    assert set(true_handles) == set(PRIMITIVE_NODES)
+    assert set(true_handles) == set(PRIMITIVE_NODES) | set(WALL_QUADS)
     theirs = gen.model_handles_world(truth["model"]["nodes"], {n: np.array(p) for n, p in truth["markers"].items()})
     for n, hs in true_handles.items():
         for h, x in hs.items():
             np.testing.assert_allclose(theirs[n][h], x, atol=1e-12, rtol=0)
             np.testing.assert_allclose(truth["model_handles"][n][h], x, atol=1e-12, rtol=0)
+
+
+def test_walls_close_the_room_but_for_the_doorway(true_handles):
+    """Just outside the room's boundary (1 mm out, all the way round, floor to ceiling) every point
+    lies inside a wall, except in the doorway (x ∈ [3.30, 4.20], z < 2.05), which is open through
+    the wall's whole thickness; neighbouring walls meet along the room's corner lines; no wall
+    reaches into the room."""
+    X, Y, Z = gen.ROOM
+    boxes = []  # every wall stands square to the room: its handles' bounds are the box
+    for node in WALL_QUADS:
+        P = np.array(list(true_handles[node].values()))
+        boxes.append((P.min(axis=0), P.max(axis=0)))
+        assert np.all(P[:, 2] >= -1e-12) and np.all(P[:, 2] <= Z + 1e-12), node
+        assert (P[:, 0].max() <= 1e-9 or P[:, 0].min() >= X - 1e-9 or P[:, 1].max() <= 1e-9
+                or P[:, 1].min() >= Y - 1e-9), f"{node} reaches into the room"
+
+    def in_wall(p):
+        return any(np.all(p >= lo - 1e-12) and np.all(p <= hi + 1e-12) for lo, hi in boxes)
+
+    out = 1e-3
+    zs = np.linspace(0.0, Z, 27)
+    xs, ys = np.linspace(0.0, X, 101), np.linspace(0.0, Y, 81)
+    ring = [(x, -out) for x in xs] + [(x, Y + out) for x in xs] + [(-out, y) for y in ys] + [(X + out, y) for y in ys]
+    for x, y in ring:
+        if y < 0 and min(abs(x - gen.DOOR_X0), abs(x - gen.DOOR_X1)) < 1e-9:
+            continue  # on a jamb itself
+        for z in zs:
+            doorway = y < 0 and gen.DOOR_X0 < x < gen.DOOR_X1 and z < gen.DOOR_H
+            assert in_wall(np.array([x, y, z])) != doorway, (x, y, z)
+    # the doorway is open through the whole thickness; the lintel closes it above the door's height
+    for y in np.linspace(-gen.WALL_THICK, 0.0, 5):
+        for x in np.linspace(gen.DOOR_X0 + out, gen.DOOR_X1 - out, 9):
+            assert not any(in_wall(np.array([x, y, z])) for z in np.linspace(0.0, gen.DOOR_H - out, 21))
+            assert in_wall(np.array([x, y, gen.DOOR_H + out]))
+    # two walls meet along each of the room's corner lines (the column outside a corner is not modelled)
+    for x, y in ((0.0, 0.0), (X, 0.0), (0.0, Y), (X, Y)):
+        for z in zs:
+            assert sum(np.all(np.array([x, y, z]) >= lo - 1e-9) and np.all(np.array([x, y, z]) <= hi + 1e-9)
+                       for lo, hi in boxes) == 2, (x, y, z)
 
 
 def test_true_door_hinge_sign(truth):
@@ -439,8 +497,11 @@ def test_model_structure_matches_truth(project, truth):
     assert kinds == {"floor": ("marker", "quad"), "cabinet": ("rests_on", "box"), "box": ("rests_on", "box"),
                      "table": ("rests_on", None), "table.top": ("fixed", "box"), "table.leg1": ("fixed", "box"),
                      "table.leg2": ("fixed", "box"), "table.leg3": ("fixed", "box"), "table.leg4": ("fixed", "box"),
-                     "door": ("hinge", "box")}
-    assert all(n.get("parent") == ("table" if n["name"].startswith("table.") else "floor")
+                     "door": ("hinge", "box"), "wall_west": ("rests_on", "box"), "wall_north": ("rests_on", "box"),
+                     "wall_east": ("rests_on", "box"), "wall_south": ("rests_on", None),
+                     "wall_south.west": ("fixed", "box"), "wall_south.east": ("fixed", "box"),
+                     "wall_south.lintel": ("fixed", "box")}
+    assert all(n.get("parent") == (n["name"].split(".")[0] if "." in n["name"] else "floor")
                for n in true if n["name"] != "floor")
 
 
@@ -451,6 +512,10 @@ def test_rough_model_is_a_rough_start(project, truth):
     top = true["table.top"]["primitive"]["params"]
     for n in project["model"]["nodes"]:
         t = true[n["name"]]
+        if n["name"].startswith("wall"):  # placed from measurements taken in the room: exact, not solved
+            assert n == {**t, "solve": False}, n["name"]
+            continue
+        assert n.get("solve", True), n["name"]
         if "primitive" in n:
             for k, v in n["primitive"]["params"].items():
                 rel = abs(v / t["primitive"]["params"][k] - 1)

@@ -382,7 +382,10 @@ def test_untextured_exports_face_colours_and_says_so(textured, tmp_path, how):
         d, k = tree.query(np.c_[X, N])
         assert d.max() < 1e-4
         colour = _accessor(doc, binary, prim["attributes"]["COLOR_0"])
-        np.testing.assert_allclose(colour, scene.face_colour[scene.mesh.face_of_vertex[k] - 1], atol=1e-6)
+        # Abutting faces of one orientation (the pieces of a wall) share corners: any of those faces.
+        for c, near in zip(colour, tree.query_ball_point(np.c_[X, N], 1e-4), strict=True):
+            want = scene.face_colour[scene.mesh.face_of_vertex[near] - 1]
+            assert np.abs(want - c).max(axis=1).min() < 1e-6
         n += len(X)
     assert n == len(scene.mesh.vertices)
     if how == "page missing":  # the recorded average colours, not all grey
@@ -457,9 +460,9 @@ def test_vebuild_export_runs_end_to_end(textured, tmp_path, capsys):
     assert main(["export", str(textured), "--out", str(glb)]) == 0
     out = capsys.readouterr().out
     assert f"wrote {glb} (glTF 2.0 binary" in out
-    assert "10 node(s), 9 mesh(es)" in out and "98 triangles" in out
+    assert "17 node(s), 15 mesh(es)" in out and "170 triangles" in out
     views = ", ".join(v["name"] for v in load_project(textured).data["views"])
-    assert f"camera(s): {views}, photo p1, photo p2" in out and "3 texture page(s), embedded" in out
+    assert f"camera(s): {views}, photo p1, photo p2" in out and "12 texture page(s), embedded" in out
     assert main(["export", str(textured), "--out", str(obj)]) == 0
     out = capsys.readouterr().out
     assert f"wrote {obj} (Wavefront OBJ + MTL" in out and "room_atlas_2.png" in out

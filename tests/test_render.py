@@ -334,7 +334,7 @@ def test_rendering_a_photo_explains_the_photo(textured_room, tmp_path):
     # The model explains the photo where it covers it to within JPEG, texture and exposure noise
     # (measured 8.8 levels at full size); a camera turned by 1° does not.
     assert good.rms_colour_difference < 14.0
-    assert 0.3 < good.covered_fraction < 0.9
+    assert good.covered_fraction > 0.95  # the floor, the furniture and the walls fill p1's view
     assert good.overlay.is_file()
     meta = json.loads(Image.open(good.overlay).text["vebuild:validation"])
     assert meta["photo"] == "p1" and meta["rms_colour_difference_srgb_levels"] == pytest.approx(
