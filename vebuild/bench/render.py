@@ -387,6 +387,7 @@ def run(quick: bool = False, progress: bool = True) -> dict[str, Any]:
     settings = ("frame_loop", "render") if quick else ("frame_loop", "render", "stills")
     views = ("mono",) if quick else tuple(VIEWS)
     density = 50.0 if quick else 200.0
+    platform = os.environ.get("PYOPENGL_PLATFORM")
     pyrender, why = _import_pyrender()
     fig["pyrender_version"] = getattr(pyrender, "__version__", None) if pyrender else None
     if not pyrender:
@@ -425,6 +426,8 @@ def run(quick: bool = False, progress: bool = True) -> dict[str, Any]:
                         fig[f"{c}_shadows_redrawn_speedup_over_pyrender"] = fig[f"{c}_render_shadows_redrawn_fps"] / ref
         del scene
     bar.close()
+    if platform is None:  # set for pyrender's contexts only: leave the environment as it was
+        os.environ.pop("PYOPENGL_PLATFORM", None)
     _current(ctx)
     fig["load_average_end"] = os.getloadavg()[0]
     loop = [fig[f"{p}_{lname}_mono_frame_loop_fps"] for p in SCENES for lname in ("unlit", "lit")]
