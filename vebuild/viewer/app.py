@@ -42,7 +42,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vebuild.actions.hypothesis import LABEL, find_hypothesis, label, save_hypothesis
-from vebuild.camera import ImageCamera, pixel_rays_world
+from vebuild.camera import ImageCamera, pixel_rays_world, project, world_to_camera
 from vebuild.errors import VebuildError
 from vebuild.gl import load_program
 from vebuild.gl.window import Window
@@ -657,10 +657,10 @@ class Viewer:
         for _, polylines in self._trajectory_cache:
             for kind, lines in polylines.items():
                 for P in lines:
-                    xc = (np.asarray(P, float) - cam.C) @ np.asarray(cam.R, float).T
-                    ok = xc[:, 2] > 0.05
-                    uv = (xc[ok] / xc[ok, 2:3]) @ np.asarray(cam.K, float).T
-                    pts = [imgui.ImVec2((vx + u) / sx, (H - vy - vh + v) / sy) for u, v in uv[:, :2]]
+                    P = np.asarray(P, float)
+                    ok = world_to_camera(cam.R, cam.C, P)[:, 2] > 0.05  # in front of the camera
+                    uv = project(cam.K, cam.R, cam.C, P[ok])
+                    pts = [imgui.ImVec2((vx + u) / sx, (H - vy - vh + v) / sy) for u, v in uv]
                     for a, b in zip(pts[:-1], pts[1:], strict=True):
                         dl.add_line(a, b, colours.get(kind, colours["cone"]), 2.0 if kind == "path" else 1.0)
 
