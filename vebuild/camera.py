@@ -255,6 +255,12 @@ def fov_to_focal(fov: float, size: float) -> float:
     return 0.5 * size / np.tan(0.5 * fov)
 
 
+def focal_to_fov(f: float, size: float) -> float:
+    """Field of view (radians) across ``size`` pixels of a focal length ``f`` in pixels; inverse of
+    :func:`fov_to_focal`."""
+    return float(2.0 * np.arctan(0.5 * size / f))
+
+
 def stereo_pair(cam: ImageCamera, separation: float, convergence: float) -> tuple[ImageCamera, ImageCamera]:
     """Left and right eyes of a parallel stereo rig centred on ``cam`` (off-axis, not toe-in).
 

@@ -33,7 +33,7 @@ from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
 from vebuild import __version__
-from vebuild.camera import ImageCamera
+from vebuild.camera import ImageCamera, focal_to_fov
 from vebuild.errors import ProjectError, VebuildError
 from vebuild.project import Project, sha256_bytes, sha256_file
 from vebuild.render.scene import RenderScene, load_scene
@@ -363,7 +363,7 @@ def gltf_document(contents: _Contents) -> tuple[dict[str, Any], bytes]:
         extras = {"source": kind, "K": np.asarray(cam.K, float).tolist(), "width": int(cam.width),
                   "height": int(cam.height), "principal_point_offset_px": offset}
         cameras.append({"name": name, "type": "perspective",
-                        "perspective": {"yfov": float(2.0 * np.arctan(0.5 * cam.height / f)),
+                        "perspective": {"yfov": focal_to_fov(f, cam.height),
                                         "aspectRatio": float(cam.width / cam.height), "znear": ZNEAR_M},
                         "extras": extras})
         pose = np.eye(4)

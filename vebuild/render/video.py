@@ -45,7 +45,7 @@ from scipy.interpolate import CubicSpline, PchipInterpolator
 from scipy.spatial.transform import Rotation, RotationSpline
 
 from vebuild import __version__
-from vebuild.camera import ImageCamera
+from vebuild.camera import ImageCamera, focal_to_fov
 from vebuild.errors import ProjectError, VebuildError
 
 if TYPE_CHECKING:
@@ -140,7 +140,7 @@ class ArcLengthSpline:
 
 def horizontal_fov(cam: ImageCamera) -> float:
     """The horizontal field of view (radians) of a camera with square pixels."""
-    return float(2.0 * np.arctan(0.5 * cam.width / cam.K[0, 0]))
+    return focal_to_fov(cam.K[0, 0], cam.width)
 
 
 class CameraPath:

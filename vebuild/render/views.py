@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from vebuild.camera import ImageCamera, fov_to_focal, look_rotation, ypr_from_rotation
+from vebuild.camera import ImageCamera, focal_to_fov, fov_to_focal, look_rotation, ypr_from_rotation
 from vebuild.errors import ProjectError
 from vebuild.project import Project
 
@@ -41,7 +41,7 @@ def view_record(cam: ImageCamera, name: str, description: str | None = None) -> 
     horizontal field of view (the principal point is taken as the image centre)."""
     R = np.asarray(cam.R, float)
     roll = float(np.degrees(ypr_from_rotation(R)[2]))
-    fov = float(np.degrees(2.0 * np.arctan(0.5 * cam.width / cam.K[0, 0])))
+    fov = float(np.degrees(focal_to_fov(cam.K[0, 0], cam.width)))
     out: dict[str, Any] = {"name": name, "position": [float(v) for v in cam.C],
                            "direction": [float(v) for v in R[2]], "roll_deg": roll,
                            "fov_deg": fov, "width": int(cam.width), "height": int(cam.height)}

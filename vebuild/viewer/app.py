@@ -42,7 +42,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vebuild.actions.hypothesis import LABEL, find_hypothesis, label, save_hypothesis
-from vebuild.camera import ImageCamera, pixel_rays_world, project, world_to_camera
+from vebuild.camera import ImageCamera, focal_to_fov, pixel_rays_world, project, world_to_camera
 from vebuild.errors import VebuildError
 from vebuild.gl import load_program
 from vebuild.gl.window import Window
@@ -213,7 +213,7 @@ class Viewer:
             raise VebuildError(f"no view is called {name!r}; the views are: {', '.join(map(repr, names)) or 'none'}")
         cam = view_camera(views[names.index(name)])
         self.photo = None
-        self.walker.fov_deg = math.degrees(2 * math.atan(0.5 * cam.width / cam.K[0, 0]))
+        self.walker.fov_deg = math.degrees(focal_to_fov(cam.K[0, 0], cam.width))
         self.walker.place(cam.C, cam.R)
         if abs(cam.C[2] - self.walker.eye_height) > 0.05:
             self.walker.set_fly(True)  # a view above or below eye height is kept as it is
