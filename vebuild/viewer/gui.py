@@ -2,12 +2,17 @@
 
 imgui-bundle's own Python back ends draw through PyOpenGL; vebuild draws everything through
 moderngl, so this module feeds ImGui the window's events and draws its lists with a moderngl
-program (shaders/imgui.*), including the textures ImGui asks for (its font atlas).
+program (shaders/imgui.*), including the textures ImGui asks for (its font atlas) and the ones the
+application shows (:meth:`Gui.texture_ref`: photos, thumbnails, an off-screen render).
+
+A Gui without a window (``window=None``) draws into a given framebuffer at a given display size,
+with events fed by the caller: the modelling screen's benchmark and tests run it off-screen.
 """
 
 from __future__ import annotations
 
 import ctypes
+import time
 from typing import Any
 
 import glfw
@@ -25,16 +30,29 @@ _KEYS = {glfw.KEY_TAB: imgui.Key.tab, glfw.KEY_LEFT: imgui.Key.left_arrow, glfw.
          glfw.KEY_LEFT_CONTROL: imgui.Key.left_ctrl, glfw.KEY_RIGHT_CONTROL: imgui.Key.right_ctrl,
          glfw.KEY_LEFT_SHIFT: imgui.Key.left_shift, glfw.KEY_RIGHT_SHIFT: imgui.Key.right_shift,
          glfw.KEY_A: imgui.Key.a, glfw.KEY_C: imgui.Key.c, glfw.KEY_V: imgui.Key.v, glfw.KEY_X: imgui.Key.x,
-         glfw.KEY_Y: imgui.Key.y, glfw.KEY_Z: imgui.Key.z}
+         glfw.KEY_Y: imgui.Key.y, glfw.KEY_Z: imgui.Key.z, glfw.KEY_PAGE_UP: imgui.Key.page_up,
+         glfw.KEY_PAGE_DOWN: imgui.Key.page_down}
+#: Ids of the application's textures (:meth:`Gui.texture_ref`) start here, above any GL object name.
+_USER_TEXTURE_IDS = 1 << 40
 
 
 class Gui:
     """One ImGui context drawn into one window. Call the ``on_*`` methods from the window's glfw
-    callbacks; :meth:`wants_mouse`/:meth:`wants_keyboard` say when ImGui took an event."""
+    callbacks; :meth:`wants_mouse`/:meth:`wants_keyboard` say when ImGui took an event.
 
-    def __init__(self, ctx: moderngl.Context, window: Any):
+    ``window`` is a glfw window handle, or None for a Gui drawn off-screen: then ``display_size``
+    (width, height in pixels) is its size and ``target`` the framebuffer it draws into (the
+    context's screen when not given).
+    """
+
+    def __init__(self, ctx: moderngl.Context, window: Any, *, display_size: tuple[int, int] | None = None,
+                 target: moderngl.Framebuffer | None = None):
+        if window is None and display_size is None:
+            raise ValueError("a Gui without a window needs its display_size")
         self.ctx = ctx
         self.window = window
+        self.display_size = display_size
+        self.target = target
         self.context = imgui.create_context()
         imgui.set_current_context(self.context)
         io = imgui.get_io()
@@ -50,6 +68,8 @@ class Gui:
         self._vao = ctx.vertex_array(self.program, [(self._vbo, "2f 2f 4f1", "in_position", "in_uv", "in_colour")],
                                      index_buffer=self._ibo, index_element_size=imgui.INDEX_SIZE)
         self._textures: dict[int, moderngl.Texture] = {}
+        self._samplers: dict[int, moderngl.Sampler] = {}
+        self._user_ids: dict[tuple[int, bool], int] = {}
         self._time: float | None = None
 
     # -- input ----------------------------------------------------------------------------------
@@ -83,13 +103,27 @@ class Gui:
 
     # -- frames ---------------------------------------------------------------------------------
 
-    def new_frame(self) -> None:
-        io = imgui.get_io()
+    def size(self) -> tuple[int, int]:
+        """The display size (window coordinates, where ImGui and the mouse live)."""
+        if self.window is None:
+            return self.display_size
         w, h = glfw.get_window_size(self.window)
-        fw, fh = glfw.get_framebuffer_size(self.window)
+        return int(w), int(h)
+
+    def framebuffer_size(self) -> tuple[int, int]:
+        if self.window is None:
+            return self.target.size if self.target is not None else self.display_size
+        w, h = glfw.get_framebuffer_size(self.window)
+        return int(w), int(h)
+
+    def new_frame(self) -> None:
+        imgui.set_current_context(self.context)
+        io = imgui.get_io()
+        w, h = self.size()
+        fw, fh = self.framebuffer_size()
         io.display_size = imgui.ImVec2(max(w, 1), max(h, 1))
         io.display_framebuffer_scale = imgui.ImVec2(fw / max(w, 1), fh / max(h, 1))
-        now = glfw.get_time()
+        now = glfw.get_time() if self.window is not None else time.perf_counter()
         io.delta_time = max(1e-4, now - self._time) if self._time is not None else 1.0 / 60.0
         self._time = now
         imgui.new_frame()
@@ -106,8 +140,9 @@ class Gui:
             return
         data.scale_clip_rects(io.display_framebuffer_scale)
         ctx = self.ctx
-        ctx.screen.use()
-        ctx.screen.viewport = (0, 0, fw, fh)
+        target = self.target if self.target is not None else ctx.screen
+        target.use()
+        target.viewport = (0, 0, fw, fh)
         ctx.enable(moderngl.BLEND)
         ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
         ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
@@ -122,13 +157,19 @@ class Gui:
             self._vbo.write(ctypes.string_at(commands.vtx_buffer.data_address(), vsize))
             self._ibo.write(ctypes.string_at(commands.idx_buffer.data_address(), isize))
             for cmd in commands.cmd_buffer:
-                tex = self._textures.get(int(cmd.tex_ref.get_tex_id()))
+                key = int(cmd.tex_ref.get_tex_id())
+                tex = self._textures.get(key)
                 if tex is None or cmd.elem_count == 0:
                     continue
                 tex.use(location=0)
+                sampler = self._samplers.get(key)
+                if sampler is not None:
+                    sampler.use(location=0)
                 x0, y0, x1, y1 = cmd.clip_rect.x, cmd.clip_rect.y, cmd.clip_rect.z, cmd.clip_rect.w
                 ctx.scissor = (int(x0), int(fh - y1), int(x1 - x0), int(y1 - y0))
                 self._vao.render(moderngl.TRIANGLES, vertices=cmd.elem_count, first=cmd.idx_offset)
+                if sampler is not None:
+                    sampler.clear(location=0)
         ctx.scissor = None
         ctx.disable(moderngl.BLEND)
 
@@ -158,10 +199,42 @@ class Gui:
                 tex.set_tex_id(0)
                 tex.status = imgui.ImTextureStatus.destroyed
 
+    def texture_ref(self, texture: moderngl.Texture, nearest: bool = False) -> imgui.ImTextureRef:
+        """An id under which ImGui draws one of the application's textures (``imgui.image``,
+        ``ImDrawList.add_image``). ``nearest``: sampled with nearest-texel filtering (magnified
+        pixels stay square), whatever the texture's own filter. The texture stays the caller's;
+        :meth:`forget_texture` before releasing it."""
+        key = (texture.glo, bool(nearest))
+        tid = self._user_ids.get(key)
+        if tid is None or self._textures.get(tid) is not texture:
+            tid = _USER_TEXTURE_IDS + 2 * texture.glo + int(nearest)
+            self._user_ids[key] = tid
+            self._textures[tid] = texture
+            if nearest and tid not in self._samplers:
+                sampler = self.ctx.sampler(filter=(moderngl.NEAREST, moderngl.NEAREST), repeat_x=False,
+                                           repeat_y=False)
+                self._samplers[tid] = sampler
+        return imgui.ImTextureRef(tid)
+
+    def forget_texture(self, texture: moderngl.Texture) -> None:
+        """Stop drawing ``texture`` (about to be released)."""
+        for nearest in (False, True):
+            tid = self._user_ids.pop((texture.glo, nearest), None)
+            if tid is not None:
+                self._textures.pop(tid, None)
+                sampler = self._samplers.pop(tid, None)
+                if sampler is not None:
+                    sampler.release()
+
     def release(self) -> None:
-        for t in self._textures.values():
-            t.release()
+        for key, t in self._textures.items():
+            if key < _USER_TEXTURE_IDS:
+                t.release()  # the application's textures are its own to release
         self._textures.clear()
+        for sampler in self._samplers.values():
+            sampler.release()
+        self._samplers.clear()
+        self._user_ids.clear()
         self._vao.release()
         self._vbo.release()
         self._ibo.release()
