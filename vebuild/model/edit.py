@@ -98,8 +98,10 @@ class DragSession:
                        fixed=False)
         obs = [p for p in self.other_pins if p.node in moved and p.fixed] + [self.pin]
         # Paper Figure 7: until a vertex of the node is fixed, a drag moves the node as a whole
-        # (its joint's degrees of freedom); once one is, its sizes may change as well.
-        held = () if any(p.node == node for p in obs[:-1]) else \
+        # (its joint's degrees of freedom); once one is, its sizes may change as well. A node tied
+        # to a marker has one already: its anchor handle sits on the marker.
+        anchored = model.node(node).joint.type == "marker"
+        held = () if anchored or any(p.node == node for p in obs[:-1]) else \
             [f"{node}.{name}" for name in prim.PARAMS]
         self.problem = Problem(model, cameras, obs, [e for e in edges if e.node in moved],
                                free_nodes=self.free, click_sigma_px=click_sigma_px, held=held)

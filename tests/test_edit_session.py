@@ -1,0 +1,251 @@
+"""The modelling screen's edit logic without a window (vebuild.edit.session): the example room
+rebuilt from nothing through the calls the screen's tools make, checked against its ground truth,
+and every edit's undo, autosave and the clear messages for bad input."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from edit_scene import DISTANCES, PHOTOS, assert_box_matches, assert_cameras_match, make_plan, photo_file, rebuild
+
+from vebuild.edit.session import FOLLOW_TOL_PX, EditError, EditSession
+from vebuild.project import load_project
+
+
+@pytest.fixture(scope="module")
+def rebuilt(tmp_path_factory):
+    plan = make_plan(tmp_path_factory.mktemp("edit") / "room")
+    session = EditSession.open(plan.project)
+    feedback = rebuild(plan, session, np.random.default_rng(5))
+    return plan, session, feedback
+
+
+def test_rebuilt_cameras_and_box_match_the_ground_truth(rebuilt):
+    plan, session, feedback = rebuilt
+    assert_cameras_match(plan, session.cameras)
+    assert all(f.ok for f in feedback), [f.reason for f in feedback if not f.ok]
+    assert_box_matches(plan, session.model)
+    floor = session.model.node("floor").primitive
+    assert floor.params == pytest.approx([5.0, 4.0], abs=0.05)  # 1 cm per metre
+    # The final solve over every fixed vertex keeps the box within the same tolerances.
+    result = session.solve()
+    assert result["outliers"] == []
+    assert_box_matches(plan, session.model)
+
+
+def test_every_edit_is_saved_beside_the_project_and_recovered_after_a_crash(rebuilt):
+    plan, session, _ = rebuilt
+    side = plan.project.with_name(plan.project.name + ".autosave")
+    assert side.exists()
+    assert json.loads(side.read_text()) == session.data
+    # The project file itself is untouched until saved: a new session offers the autosave.
+    assert load_project(plan.project).data["photos"] == []
+    again = EditSession.open(plan.project)
+    assert again.recovery_available
+    again.recover()
+    assert again.data == session.data
+    assert sorted(again.cameras) == sorted(PHOTOS)
+
+
+def test_save_writes_the_project_and_removes_the_side_file(tmp_path):
+    plan = make_plan(tmp_path / "room")
+    s = EditSession.open(plan.project)
+    s.add_photo(photo_file(plan, "p1"))
+    assert s.autosave_path.exists() and s.dirty
+    s.save()
+    assert not s.autosave_path.exists() and not s.dirty
+    data = load_project(plan.project).data
+    assert [p["id"] for p in data["photos"]] == ["p1"]
+    assert len(data["photos"][0]["sha256"]) == 64
+    assert not EditSession.open(plan.project).recovery_available
+
+
+def test_undo_and_redo_every_kind_of_edit(tmp_path):
+    plan = make_plan(tmp_path / "room")
+    s = EditSession.open(plan.project)
+    rebuild(plan, s, np.random.default_rng(1))
+    states = []
+    while True:
+        states.append(json.dumps(s.data, sort_keys=True))
+        if not s.undo():
+            break
+    assert json.loads(states[-1])["photos"] == []  # back to the empty project
+    for expected in reversed(states[:-1]):
+        assert s.redo()
+        assert json.dumps(s.data, sort_keys=True) == expected
+    assert not s.redo()
+
+
+def test_a_zero_length_segment_is_refused_and_changes_nothing(tmp_path):
+    plan = make_plan(tmp_path / "room")
+    s = EditSession.open(plan.project)
+    s.add_photo(photo_file(plan, "p1"))
+    rev, label = s.revision, s.undo_label
+    with pytest.raises(EditError, match=r"x segment is 0\.0 px long.*at least 2 px apart"):
+        s.add_segment("p1", "x", (100.0, 200.0), (100.0, 200.0))
+    assert s.revision == rev and s.undo_label == label
+    assert not (s.photo("p1").get("vanishing_segments") or {}).get("x")
+
+
+def test_a_vanishing_point_that_cannot_be_fitted_yet_says_why(tmp_path):
+    plan = make_plan(tmp_path / "room")
+    s = EditSession.open(plan.project)
+    s.add_photo(photo_file(plan, "p1"))
+    s.add_segment("p1", "z", (100, 100), (100, 300))
+    vs = s.vanishing("p1", "z")
+    assert vs.point is None and "1 segment; a vanishing point needs two or more" in vs.problem
+    s.add_segment("p1", "z", (100, 400), (100, 600))  # on the same image line: no vanishing point
+    vs = s.vanishing("p1", "z")
+    assert vs.point is None and "all 2 segments lie on one image line" in vs.problem
+    assert any("lie on one image line" in n for n in s.overlay("p1").notes)
+    with pytest.raises(EditError, match="no photo has vanishing segments|axis z"):
+        s.calibrate()
+
+
+def test_a_drag_the_constraints_cannot_follow_leaves_the_box_and_says_why(rebuilt):
+    plan, session, _ = rebuilt
+    before = session.model.vector().copy()
+    uv = next(uv for n, h, uv, _ in session.handles("p3") if (n, h) == ("box", "v4"))
+    session.begin_drag("p3", "box", "v4")
+    # The box rests on the floor and v0, v1, v3 are fixed: its top corner cannot go 150 px sideways.
+    fb = session.drag_to((uv[0] + 150.0, uv[1]))
+    assert not fb.ok
+    assert "box:v4 cannot go there" in fb.reason and "rests on the 'floor' top" in fb.reason
+    assert "fixed vertices" in fb.reason
+    assert np.hypot(fb.handle_px[0] - uv[0], fb.handle_px[1] - uv[1]) < FOLLOW_TOL_PX  # it stayed
+    session.cancel_drag()
+    assert np.array_equal(session.model.vector(), before)
+
+
+def test_a_photo_that_fails_to_load_names_its_file(tmp_path):
+    plan = make_plan(tmp_path / "room")
+    s = EditSession.open(plan.project)
+    s.add_photo(photo_file(plan, "p1"))
+    assert s.photo_pixels("p1").shape == (1200, 1600, 3)
+    photo_file(plan, "p1").write_bytes(b"not an image any more")
+    with pytest.raises(EditError, match=r"photo 'p1' fails to load: .*p1.*(changed|SHA-256)"):
+        s.photo_pixels("p1")
+    photo_file(plan, "p1").unlink()
+    with pytest.raises(EditError, match=r"photo 'p1' fails to load: .*cannot be read"):
+        s.photo_pixels("p1")
+
+
+def test_adding_a_photo_from_outside_the_project_folder_is_refused(tmp_path):
+    plan = make_plan(tmp_path / "room")
+    s = EditSession.open(plan.project)
+    outside = tmp_path / "elsewhere.png"
+    outside.write_bytes(photo_file(plan, "p1").read_bytes())
+    with pytest.raises(EditError, match="outside the project folder"):
+        s.add_photo(outside)
+    assert s.photo_ids == []
+
+
+def test_overlay_shows_segments_by_axis_vanishing_points_horizon_edges_and_handles(rebuilt):
+    plan, session, _ = rebuilt
+    ov = session.overlay("p3", selected="box")
+    segs, _ = ov.of_kind("segment")
+    assert {ln.key[0] for ln in segs} == {"x", "y", "z"}
+    assert all(ln.label and ln.label.endswith("px") for ln in segs)  # each segment's residual
+    assert ov.of_kind("horizon")[0] and len(ov.of_kind("axis")[0]) == 3
+    edges, _ = ov.of_kind("edge")
+    assert {ln.key[0] for ln in edges} == {"floor", "box"}
+    box_white = [ln for ln in edges if ln.key[0] == "floor"]
+    assert all(ln.colour[:3] == (1.0, 1.0, 1.0) for ln in box_white)
+    _, pins = ov.of_kind("pin")
+    assert {p.key for p in pins} >= {("box", "v0"), ("box", "v1"), ("box", "v3"), ("box", "v4")}
+    # The horizon is the image of the horizontal planes at infinity: every x and y vanishing point on it.
+    cam = session.cameras["p3"]
+    h = np.linalg.inv(cam.K).T @ cam.R[:, 2]
+    for k in (0, 1):
+        vp = cam.K @ cam.R[:, k]
+        assert abs(h @ vp) / (np.linalg.norm(h[:2]) * np.linalg.norm(vp)) < 1e-9
+
+
+def test_user_edges_are_red_and_pull_the_model(rebuilt):
+    plan, session, _ = rebuilt
+    cam = session.cameras["p5"]
+    from vebuild.camera import project as project_points
+
+    a, b = (project_points(cam.K, cam.R, cam.C, plan.vertex("box", h)) for h in ("v1", "v5"))
+    assert session.nearest_edge("p5", a, b, node="box") == ("box", "e9")
+    session.add_edge_observation("p5", "box", "e9", a, b)
+    red = session.overlay("p5").of_kind("user-edge")[0]
+    assert len(red) == 1 and red[0].colour[:3] == (1.0, 0.15, 0.15)
+    result = session.solve()
+    assert any(e["edge"] == "e9" for e in result["edge_observations"])
+    session.undo()
+    session.undo()
+
+
+def test_recalibration_reports_residuals_and_highlights_an_outlier(tmp_path):
+    plan = make_plan(tmp_path / "room")
+    s = EditSession.open(plan.project)
+    rebuild(plan, s, np.random.default_rng(2))
+    uv = next(uv for n, h, uv, _ in s.handles("p5") if (n, h) == ("box", "v6"))
+    s.fix("p5", "box", "v6", (uv[0] + 25.0, uv[1]))  # a slip: the vertex fixed 25 px off
+    steps = []
+    result = s.solve(recalibrate=True, progress=lambda f, t: steps.append(f))
+    assert steps[0] == 0.0 and steps[-1] == 1.0
+    assert any("box:v6 in photo 'p5'" in o for o in result["outliers"])
+    assert len(result["pins"]) == sum(1 for p in s.data["model"]["pins"])
+    flagged = [ln for ln in s.overlay("p5").of_kind("residual")[0] if ln.key == ("box", "v6")]
+    assert flagged and "outlier" in flagged[0].label
+
+
+def test_register_another_photo_from_known_points(tmp_path):
+    import shutil
+
+    from edit_scene import EXAMPLE
+
+    plan = make_plan(tmp_path / "room")
+    session = EditSession.open(plan.project)
+    rebuild(plan, session, np.random.default_rng(6))
+    src = json.loads((EXAMPLE / "room.vebuild.json").read_text())
+    p2 = next(p for p in src["photos"] if p["id"] == "p2")
+    shutil.copy(EXAMPLE / p2["file"], plan.folder / p2["file"])
+    session.add_photo(plan.folder / p2["file"])
+    rng = np.random.default_rng(3)
+    for name in ("O", "T1", "T2", "C1", "C2"):
+        if name in session.project.marker_names():
+            session.place_marker("p2", name, plan.pixel("p2", plan.truth["markers"][name], rng))
+    for h in ("v0", "v4", "v5", "v1"):
+        session.fix("p2", "box", h, plan.pixel("p2", plan.vertex("box", h), rng))
+    session.solve()
+    session.register("p2")
+    cam = session.cameras["p2"]
+    K, R, C = plan.camera("p2")
+    assert session.data["calibration"]["cameras"]["p2"]["mode"] == "registered"
+    assert np.linalg.norm(cam.C - C) < 0.01 * np.linalg.norm(plan.truth["room"])  # as a calibrated camera
+    assert abs(cam.K[0, 0] - K[0, 0]) / K[0, 0] < 0.01
+
+
+def test_group_keeps_the_parts_where_they_are(tmp_path):
+    plan = make_plan(tmp_path / "room")
+    s = EditSession.open(plan.project)
+    rebuild(plan, s, np.random.default_rng(4))
+    at = plan.pixel("p3", plan.vertex("box", "v2"), np.random.default_rng(0))
+    s.add_primitive("cylinder", name="bin", parent="floor", at=("p3", at))
+    before = {n: s.model.world_transforms()[n] for n in ("box", "bin")}
+    s.group(["box", "bin"], "things")
+    after = s.model.world_transforms()
+    for n, T in before.items():
+        assert np.allclose(after[n], T, atol=1e-9)
+        assert s.model.node(n).parent == "things"
+    with pytest.raises(EditError, match="a group needs a new name"):
+        s.group(["floor"], "things")
+
+
+def test_distances_and_markers_are_checked(tmp_path):
+    plan = make_plan(tmp_path / "room")
+    s = EditSession.open(plan.project)
+    s.add_photo(photo_file(plan, "p1"))
+    s.place_marker("p1", "O", (10, 10))
+    assert s.data["origin_marker"] == "O"
+    with pytest.raises(EditError, match="positive number of metres"):
+        s.add_distance("O", "X5", -1.0)
+    with pytest.raises(EditError, match="no marker of that name"):
+        s.add_distance("O", "nowhere", 1.0)
+    assert s.data["reference_distances"] == []
+    assert DISTANCES
