@@ -35,7 +35,21 @@ from vebuild.model.scene import Model, ModelError, model_from_dict
 from vebuild.model.solver import Camera, EdgeObservation, Pin
 from vebuild.project import Project, load_project, new_photo_entry, save_project, validate
 
-from .overlay import AXIS_COLOURS, CYAN, GREY, MAGENTA, ORANGE, RED, WHITE, YELLOW, Line, Overlay, Point
+from .overlay import (
+    AXIS_COLOURS,
+    CYAN,
+    GREY,
+    MAGENTA,
+    ORANGE,
+    RED,
+    WHITE,
+    YELLOW,
+    Line,
+    Overlay,
+    Point,
+    horizon_and_axes,
+    vanishing_rays,
+)
 
 Array = NDArray[np.float64]
 Progress = Callable[[float, str], None]
@@ -971,12 +985,12 @@ class EditSession:
                                      "segment", (axis, i), None if r is None else
                                      (f"{axis}{i}: {r:+.2f} px" + (" outlier" if outlier else "")), arrow=True))
             if vs.point is not None:
-                _vp_rays(ov, vs, colour, p["width"], p["height"])
+                vanishing_rays(ov, vs, p["width"], p["height"])
             elif vs.problem and len(vs.segments):
                 ov.notes.append(vs.problem)
         cam = self.cameras.get(photo)
         if cam is not None:
-            _horizon_and_axes(ov, cam, p["width"], p["height"])
+            horizon_and_axes(ov, cam, p["width"], p["height"])
         self._markers_overlay(ov, photo, cam)
         self._model_overlay(ov, photo, cam, selected)
         self._cache[key] = ov
@@ -1070,66 +1084,3 @@ def _iterating(progress: Progress | None, text: str) -> Callable[[Iterable[Any]]
         if progress:
             progress(1.0, text)
     return wrap
-
-
-def _clip_line(line: Array, width: float, height: float) -> tuple[float, float, float, float] | None:
-    """The part of the homogeneous image line inside the image rectangle, or None."""
-    a, b, c = line
-    pts = []
-    for u in (0.0, width):
-        if abs(b) > 1e-12:
-            v = -(a * u + c) / b
-            if 0 <= v <= height:
-                pts.append((u, v))
-    for v in (0.0, height):
-        if abs(a) > 1e-12:
-            u = -(b * v + c) / a
-            if 0 <= u <= width:
-                pts.append((u, v))
-    if len(pts) < 2:
-        return None
-    pts.sort()
-    return (*pts[0], *pts[-1])
-
-
-def _vp_rays(ov: Overlay, vs: VanishingState, colour: tuple, width: float, height: float) -> None:
-    """Thin lines from each segment's midpoint toward the vanishing point (paper Figure 2)."""
-    v = vs.point
-    faint = (*colour[:3], 0.45)
-    reach = 3.0 * math.hypot(width, height)
-    for s in vs.segments:
-        m = 0.5 * (s[:2] + s[2:])
-        if abs(v[2]) > 1e-12 and np.linalg.norm(v[:2] / v[2] - m) < reach:
-            end = v[:2] / v[2]
-        else:
-            d = v[:2] if abs(v[2]) <= 1e-12 else v[:2] / v[2] - m
-            d = d / max(np.linalg.norm(d), 1e-12)
-            d = d if np.dot(d, s[2:] - s[:2]) >= 0 else -d
-            end = m + reach * d
-        ov.lines.append(Line((float(m[0]), float(m[1]), float(end[0]), float(end[1])), faint, 1.0, "vp-ray", vs.axis))
-    if abs(v[2]) > 1e-12:
-        q = v[:2] / v[2]
-        if np.all(np.abs(q - [width / 2, height / 2]) < reach):
-            ov.points.append(Point((float(q[0]), float(q[1])), vs.axis and AXIS_COLOURS[vs.axis], 6.0, False, "vp",
-                                   vs.axis, f"VP {vs.axis}  rms {np.sqrt(np.mean(vs.residuals_px ** 2)):.2f} px"))
-
-
-def _horizon_and_axes(ov: Overlay, cam: Camera, width: float, height: float) -> None:
-    """The calibrated camera's horizon (the image of the horizontal planes' line at infinity) and
-    the world axes, 1 m long from the origin."""
-    horizon = np.linalg.inv(cam.K).T @ cam.R[:, 2]
-    seg = _clip_line(horizon, width, height)
-    if seg is not None:
-        ov.lines.append(Line(seg, CYAN, 1.0, "horizon", None, "horizon"))
-    origin = np.zeros(3)
-    if cam_math.world_to_camera(cam.R, cam.C, origin)[2] <= 0:
-        return
-    o = cam_math.project(cam.K, cam.R, cam.C, origin)
-    for k, axis in enumerate(AXES):
-        E = np.eye(3)[k]
-        if cam_math.world_to_camera(cam.R, cam.C, E)[2] <= 0:
-            continue
-        e = cam_math.project(cam.K, cam.R, cam.C, E)
-        ov.lines.append(Line((float(o[0]), float(o[1]), float(e[0]), float(e[1])), AXIS_COLOURS[axis], 3.0, "axis",
-                             axis, f"+{axis} 1 m", arrow=True))
-    ov.points.append(Point((float(o[0]), float(o[1])), WHITE, 4.0, True, "origin", None, "origin"))
