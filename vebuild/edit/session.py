@@ -193,9 +193,11 @@ class EditSession:
             validate(self.data, self.project.path)
         except VebuildError as e:
             self.project.data = before
+            self._cache.clear()
             raise e if isinstance(e, EditError) else EditError(str(e)) from None
         except BaseException:
             self.project.data = before
+            self._cache.clear()
             raise
         self._undo = (self._undo + [(label, before)])[-UNDO_DEPTH:]
         self._redo.clear()
