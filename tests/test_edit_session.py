@@ -237,6 +237,17 @@ def test_group_keeps_the_parts_where_they_are(tmp_path):
         s.group(["floor"], "things")
 
 
+def test_a_primitive_hung_on_a_marker_has_that_handle_on_it(rebuilt):
+    plan, session, _ = rebuilt
+    session.add_primitive("sphere", name="ball", marker="T2")
+    X = session.model.handle_world("ball", "bottom")
+    assert np.allclose(X, session.data["calibration"]["markers"]["T2"]["position"], atol=1e-12)
+    with pytest.raises(EditError, match="marker 'nowhere' has no calibrated position yet"):
+        session.add_primitive("box", marker="nowhere")
+    session.undo()
+    assert "ball" not in session.model.index
+
+
 def test_distances_and_markers_are_checked(tmp_path):
     plan = make_plan(tmp_path / "room")
     s = EditSession.open(plan.project)

@@ -525,10 +525,11 @@ class EditSession:
 
     def add_primitive(self, kind: str, *, name: str | None = None, parent: str | None = None,
                       at: tuple[str, Sequence[float]] | None = None,
-                      params: dict[str, float] | None = None) -> str:
-        """Add a primitive, attached to ``parent`` (resting on its top) or, for the first one, to
-        the origin marker (paper §3.1); ``at`` = (photo, (u, v)) puts it where that pixel's ray
-        meets the surface it rests on."""
+                      params: dict[str, float] | None = None, marker: str | None = None) -> str:
+        """Add a primitive, attached to ``parent`` (resting on its top), to a calibrated ``marker``
+        (its first handle on the marker; the first primitive goes on the origin marker, paper §3.1),
+        or else resting on the floor; ``at`` = (photo, (u, v)) puts it where that pixel's ray meets
+        the surface it rests on."""
         if kind not in DEFAULT_PARAMS:
             raise EditError(f"a primitive is one of {', '.join(DEFAULT_PARAMS)}, not {kind!r}")
         ptype = "frustum" if kind == "cone" else kind
@@ -546,13 +547,18 @@ class EditSession:
         values = dict(DEFAULT_PARAMS[kind]) | (params or {})
         joint: dict[str, Any]
         origin = self.data.get("origin_marker") or (self.data.get("calibration") or {}).get("origin_marker")
-        if parent is None and not existing:
+        if marker is not None and parent is not None:
+            raise EditError(f"'{name}' can hang on a parent or on a marker, not both")
+        if parent is None and (marker is not None or not existing):
             if not self.cameras:
                 raise EditError("calibrate first: the first primitive is placed on the origin marker, which the "
                                 "calibration locates")
-            if origin not in self._markers_placed():
-                raise EditError("the first primitive sits on the origin marker; mark the origin and calibrate")
-            joint = {"type": "marker", "marker": origin, "handle": ANCHOR_HANDLE[ptype], "yaw_deg": 0.0}
+            anchor = marker if marker is not None else origin
+            if anchor not in self._markers_placed():
+                raise EditError(f"marker '{anchor}' has no calibrated position yet: mark it in two photos and "
+                                "calibrate" if marker is not None else
+                                "the first primitive sits on the origin marker; mark the origin and calibrate")
+            joint = {"type": "marker", "marker": anchor, "handle": ANCHOR_HANDLE[ptype], "yaw_deg": 0.0}
         else:
             joint = {"type": "rests_on", "position": [0.0, 0.0], "yaw_deg": 0.0}
             if parent is not None:
