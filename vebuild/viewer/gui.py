@@ -33,7 +33,7 @@ _KEYS = {glfw.KEY_TAB: imgui.Key.tab, glfw.KEY_LEFT: imgui.Key.left_arrow, glfw.
          glfw.KEY_Y: imgui.Key.y, glfw.KEY_Z: imgui.Key.z, glfw.KEY_PAGE_UP: imgui.Key.page_up,
          glfw.KEY_PAGE_DOWN: imgui.Key.page_down}
 #: Ids of the application's textures (:meth:`Gui.texture_ref`) start here, above any GL object name.
-_USER_TEXTURE_IDS = 1 << 40
+_USER_TEXTURE_IDS = 1 << 30  # ImTextureID is 32 bits here; GL names stay far below
 
 
 class Gui:
@@ -42,11 +42,12 @@ class Gui:
 
     ``window`` is a glfw window handle, or None for a Gui drawn off-screen: then ``display_size``
     (width, height in pixels) is its size and ``target`` the framebuffer it draws into (the
-    context's screen when not given).
+    context's screen when not given). ``font``: a TrueType file to draw text with, at
+    ``font_size_px`` (default: ImGui's own font).
     """
 
     def __init__(self, ctx: moderngl.Context, window: Any, *, display_size: tuple[int, int] | None = None,
-                 target: moderngl.Framebuffer | None = None):
+                 target: moderngl.Framebuffer | None = None, font: str | None = None, font_size_px: float = 15.0):
         if window is None and display_size is None:
             raise ValueError("a Gui without a window needs its display_size")
         self.ctx = ctx
@@ -61,6 +62,8 @@ class Gui:
         limit = int(ctx.info["GL_MAX_TEXTURE_SIZE"])
         imgui.get_platform_io().renderer_texture_max_width = limit
         imgui.get_platform_io().renderer_texture_max_height = limit
+        if font is not None:  # a TrueType font (ImGui's own covers Latin-1 only: no –, …, σ, ≥)
+            io.fonts.add_font_from_file_ttf(str(font), font_size_px)
         imgui.style_colors_dark()
         self.program = load_program(ctx, "imgui")
         self._vbo = ctx.buffer(reserve=1 << 16, dynamic=True)
