@@ -1,0 +1,361 @@
+"""The modelling screen (``vebuild edit``) driven for real: a virtual X server (Xvfb) and input
+events sent with xdotool, as a user's mouse and keyboard would (CI's .ci/run installs both).
+
+Widgets are found by :attr:`Editor.widget_rects` (each drawn ImGui widget's rectangle by its label)
+and photo points by :meth:`Editor.image_to_window`, so the clicks land on what is drawn.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from vebuild.cli import main
+from vebuild.edit.screen import MAX_ZOOM, PICK_RADIUS_PX, WHEEL_STEP, Editor, run_editor
+from vebuild.edit.session import EditSession
+from vebuild.gl.surface import WindowSurface
+from vebuild.gl.window import Window
+from vebuild.resources import example_project_dir
+
+pytestmark = pytest.mark.usefixtures("xvfb_display")
+TITLE = "vebuild edit test"
+W, H = 1200, 780
+
+
+@pytest.fixture(scope="module")
+def xdotool():
+    exe = shutil.which("xdotool")
+    if exe is None:
+        pytest.fail("the window tests send input events with xdotool: `sudo apt-get install xdotool` "
+                    "(CI's .ci/run installs it)")
+    return exe
+
+
+@pytest.fixture
+def bare(tmp_path):
+    """A new project of the example room's five photos: no marks, no calibration, no model."""
+    folder = tmp_path / "bare"
+    shutil.copytree(example_project_dir() / "photos", folder / "photos")
+    path = folder / "bare.vebuild.json"
+    assert main(["new", str(path), *sorted(str(p) for p in (folder / "photos").glob("*.jpg"))]) == 0
+    return path
+
+
+@pytest.fixture(scope="module")
+def solved_room(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("edit") / "room"
+    shutil.copytree(example_project_dir(), folder)
+    path = folder / "room.vebuild.json"
+    assert main(["calibrate", str(path), "--quiet"]) == 0
+    assert main(["solve", str(path)]) == 0
+    return path
+
+
+@pytest.fixture
+def room(solved_room, tmp_path):
+    """The example room calibrated and solved, a copy per test."""
+    shutil.copytree(solved_room.parent, tmp_path / "room")
+    return tmp_path / "room" / solved_room.name
+
+
+class Driver:
+    """The modelling screen in a real window, and xdotool to type and click into it."""
+
+    def __init__(self, project_file: Path, xdotool: str, recover: bool | None = False):
+        self.window = Window(W, H, TITLE, visible=True)
+        self.session = EditSession.open(project_file, recover=recover)
+        self.editor = Editor(self.session, WindowSurface(self.window))
+        self.xdotool = xdotool
+        self.frames(3)
+        ids = subprocess.run([xdotool, "search", "--name", TITLE], capture_output=True, text=True).stdout.split()
+        self.wid = ids[-1]
+        subprocess.run([xdotool, "windowfocus", "--sync", self.wid], check=True)
+        self.frames(len(self.session.photo_ids) + 2)  # the thumbnails, one a frame
+
+    def frames(self, n: int) -> None:
+        for _ in range(n):
+            self.editor.frame()
+
+    def send(self, *args: str) -> None:
+        """Run one xdotool command line while the window keeps drawing frames (it reads the events)."""
+        proc = subprocess.Popen([self.xdotool, *args])
+        while proc.poll() is None:
+            self.editor.frame()
+        assert proc.returncode == 0
+        self.frames(4)
+
+    def move_to(self, x: float, y: float) -> list[str]:
+        return ["mousemove", "--window", self.wid, str(int(round(x))), str(int(round(y)))]
+
+    def at(self, label: str) -> list[str]:
+        x0, y0, x1, y1 = self.editor.widget_rects[label]
+        return self.move_to(0.5 * (x0 + x1), 0.5 * (y0 + y1))
+
+    def click(self, label: str) -> None:
+        self.send(*self.at(label), "sleep", "0.05", "click", "1")
+
+    def screen(self) -> np.ndarray:
+        self.editor.draw()
+        return self.editor.surface.read()
+
+    def close(self) -> None:
+        self.editor.close()
+        self.window.close()
+
+
+@pytest.fixture
+def driver_factory(xdotool):
+    made = []
+
+    def make(project_file, **kw):
+        d = Driver(project_file, xdotool, **kw)
+        made.append(d)
+        return d
+    yield make
+    for d in made:
+        d.close()
+
+
+def _view_centre(editor):
+    x0, y0, x1, y1 = editor.view_rect()
+    return 0.5 * (x0 + x1), 0.5 * (y0 + y1)
+
+
+def test_zoom_and_pan_map_window_and_photo_pixels_exactly(bare, driver_factory):
+    d = driver_factory(bare)
+    e = d.editor
+    assert e.photo == "p1"
+    fit = e.zoom
+    assert fit == pytest.approx(min((e.view_rect()[2] - e.view_rect()[0]) / 1600,
+                                    (e.view_rect()[3] - e.view_rect()[1]) / 1200))
+    # The mapping and its inverse agree exactly, sub-pixel.
+    for uv in ((0.0, 0.0), (1600.0, 1200.0), (123.25, 456.75)):
+        assert e.window_to_image(*e.image_to_window("p1", uv)) == pytest.approx(uv, abs=1e-9)
+    # The wheel zooms about the cursor: the photo point under it stays under it.
+    cx, cy = 431, 377
+    d.send(*d.move_to(cx, cy))
+    uv = e.window_to_image(cx, cy)
+    d.send("click", "4", "sleep", "0.05", "click", "4", "sleep", "0.05", "click", "4")
+    assert e.zoom == pytest.approx(fit * WHEEL_STEP**3)
+    assert e.window_to_image(cx, cy) == pytest.approx(uv, abs=1e-9)
+    d.send("click", "--repeat", "20", "--delay", "20", "4")
+    assert e.zoom == MAX_ZOOM
+    assert e.window_to_image(cx, cy) == pytest.approx(uv, abs=1e-9)
+    # At 16× every photo pixel is a 16×16 block of exactly its colour (nearest-texel filtering).
+    img = d.screen()
+    photo = d.session.photo_pixels("p1")
+    i0, j0 = int(uv[0]), int(uv[1])
+    for i in range(i0 - 3, i0 + 4):
+        for j in range(j0 - 3, j0 + 4):
+            x, y = e.image_to_window("p1", (i + 0.5, j + 0.5))
+            np.testing.assert_array_equal(img[int(y), int(x)], photo[j, i])
+            x, y = e.image_to_window("p1", (i + 0.05, j + 0.95))  # a corner of the same block
+            np.testing.assert_array_equal(img[int(y), int(x)], photo[j, i])
+    # Middle-drag pans by exactly the mouse's movement.
+    pan = e.pan
+    d.send("mousedown", "2", "sleep", "0.05", *d.move_to(cx - 100, cy + 40), "sleep", "0.05",
+           *d.move_to(cx - 120, cy + 50), "sleep", "0.05", "mouseup", "2")
+    assert e.pan == pytest.approx((pan[0] - 120, pan[1] + 50))
+    assert e.window_to_image(cx - 120, cy + 50) == pytest.approx(uv, abs=1e-9)
+    # Space + left drag pans too; Home fits the photo again.
+    pan = e.pan
+    d.send("keydown", "space", *d.move_to(cx, cy), "mousedown", "1", "sleep", "0.05", *d.move_to(cx + 30, cy + 30),
+           "sleep", "0.05", "mouseup", "1", "keyup", "space")
+    assert e.pan == pytest.approx((pan[0] + 30, pan[1] + 30))
+    assert d.session.revision == 0  # panning edits nothing
+    d.send("key", "Home")
+    assert e.zoom == pytest.approx(fit)
+
+
+def test_a_segment_is_drawn_by_dragging_and_undone_by_keys(bare, driver_factory):
+    d = driver_factory(bare)
+    e, s = d.editor, d.session
+    d.send("key", "1")
+    assert e.tool == "x"
+    a, b = (300, 520), (520, 470)
+    d.send(*d.move_to(*a), "sleep", "0.05")
+    assert e.magnifier_visible() and "magnifier" in e.widget_rects  # sub-pixel placement under the cursor
+    d.send("mousedown", "1", "sleep", "0.05", *d.move_to(400, 500), "sleep", "0.05", *d.move_to(*b), "sleep",
+           "0.05", "mouseup", "1")
+    segs = s.photo("p1")["vanishing_segments"]["x"]
+    assert len(segs) == 1
+    np.testing.assert_allclose(segs[0], [*e.window_to_image(*a), *e.window_to_image(*b)], atol=1e-9)
+    # Drawn in the x colour (red) with its arrow head at the second end, above the photo.
+    img = d.screen().astype(int)
+    mid = (int(round((a[0] + b[0]) / 2)), int(round((a[1] + b[1]) / 2)))
+    patch = img[mid[1] - 2:mid[1] + 3, mid[0] - 2:mid[0] + 3].reshape(-1, 3)
+    assert np.any((patch[:, 0] > 200) & (patch[:, 1] < 110))
+    # Undo / redo by keys, and by the toolbar's buttons.
+    d.send("key", "ctrl+z")
+    assert not (s.photo("p1").get("vanishing_segments") or {}).get("x")
+    d.send("key", "ctrl+y")
+    assert len(s.photo("p1")["vanishing_segments"]["x"]) == 1
+    d.send("key", "ctrl+z", "key", "ctrl+shift+z")
+    assert len(s.photo("p1")["vanishing_segments"]["x"]) == 1
+    d.click("Undo")
+    assert not (s.photo("p1").get("vanishing_segments") or {}).get("x")
+    d.click("Redo")
+    assert len(s.photo("p1")["vanishing_segments"]["x"]) == 1
+    # The Delete tool removes it by a click on it.
+    d.send("key", "Delete", *d.move_to(400, 500), "sleep", "0.05")
+    d.send(*d.move_to(*e.image_to_window("p1", np.add(segs[0][:2], segs[0][2:]) / 2)), "sleep", "0.05", "click", "1")
+    assert not (s.photo("p1").get("vanishing_segments") or {}).get("x")
+    assert "deleted x segment 0" in s.messages[-1]
+
+
+def test_a_zero_length_segment_says_so_on_screen_and_adds_nothing(bare, driver_factory):
+    d = driver_factory(bare)
+    e, s = d.editor, d.session
+    d.send("key", "2", *d.move_to(500, 400), "sleep", "0.05", "click", "1")
+    assert e.tool == "y"
+    assert not (s.photo("p1").get("vanishing_segments") or {}).get("y")
+    assert "0.0 px long" in s.messages[-1] and "at least 2 px apart" in s.messages[-1]
+    assert s.revision == 0 and s.undo_label is None
+    # The message area is drawn over the photo view's bottom-left, light text on a dark box.
+    x0, y0, x1, y1 = (int(v) for v in e.widget_rects["messages"])
+    assert e.view_rect()[0] <= x0 and y1 <= e.view_rect()[3]
+    box = d.screen()[y0:y1, x0:x1].astype(int)
+    assert np.median(box) < 90 and box.max() > 200
+
+
+def test_a_photo_that_fails_to_load_shows_a_message_and_a_placeholder(bare, driver_factory):
+    (bare.parent / "photos" / "p2.jpg").write_bytes(b"not a jpeg")
+    d = driver_factory(bare)
+    e, s = d.editor, d.session
+    assert "photo:p2" in e.widget_rects
+    d.click("photo:p2")
+    assert e.photo == "p2"
+    assert any("photo 'p2' fails to load" in m for m in s.messages)
+    img = d.screen().astype(int)
+    x, y = (int(v) for v in e.image_to_window("p2", (400, 200)))
+    assert np.all(np.abs(img[y, x] - 64) < 12)  # the grey placeholder, the photo's size
+    # The screen goes on: the next photo (PageDown) shows.
+    d.send("key", "Next")
+    assert e.photo == "p3"
+    x, y = (int(v) for v in e.image_to_window("p3", (800.5, 600.5)))
+    assert np.abs(d.screen()[y, x].astype(int) - s.photo_pixels("p3")[600, 800]).max() <= 40
+    d.send("key", "Prior", "key", "Prior")
+    assert e.photo == "p1"
+
+
+def test_panels_respond_to_clicks(bare, driver_factory):
+    shutil.copy(bare.parent / "photos" / "p1.jpg", bare.parent / "photos" / "extra.jpg")
+    d = driver_factory(bare)
+    e, s = d.editor, d.session
+    d.click("Segment Z")
+    assert e.tool == "z"
+    d.click("Marker")
+    assert e.tool == "marker"
+    d.click("photo:p4")
+    assert e.photo == "p4"
+    # Typing a file name and pressing "Add photo" adds it, hash and all, and shows it.
+    d.click("add photo file")
+    d.send("type", "--delay", "30", "photos/extra.jpg")
+    d.click("Add photo")
+    assert s.photo_ids[-1] == "extra" and e.photo == "extra"
+    assert s.photo("extra")["sha256"] == s.photo("p1")["sha256"]
+    d.frames(3)
+    assert "photo:extra" in e.widget_rects
+    # A marker is placed where clicked, with the name from the toolbar's field.
+    d.send(*d.move_to(420, 300), "sleep", "0.05", "click", "1")
+    assert s.photo("extra")["marker_observations"]["M1"] == pytest.approx(e.window_to_image(420, 300))
+    assert e.marker_name == "M2"
+    # Calibrating with too few marks shows why in the panel, no traceback.
+    d.click("Calibrate")
+    assert e.calibration_error and e.calibration_result is None
+    d.click("tab:Model")
+    assert "Add at centre" in e.widget_rects and "Calibrate" not in e.widget_rects
+    d.click("Add at centre")
+    assert "calibrate first" in s.messages[-1]
+    # Ctrl+S saves the project file; the autosave side file goes.
+    assert s.autosave_path.exists()
+    d.send("key", "ctrl+s")
+    assert not s.dirty and not s.autosave_path.exists()
+    assert "extra" in [p["id"] for p in json.loads(bare.read_text())["photos"]]
+
+
+def test_dragging_a_vertex_solves_live_and_esc_cancels(room, driver_factory):
+    d = driver_factory(room)
+    e, s = d.editor, d.session
+    node = s.add_primitive("box", name="crate", parent="floor", at=("p1", (800.0, 1000.0)))
+    e.select(node)
+    d.frames(2)
+
+    def handle(h):
+        return next(p for n, k, p, _ in s.handles("p1") if (n, k) == (node, h))
+    before = s.data["model"]["nodes"][-1]["joint"]["position"]
+    start = e.image_to_window("p1", handle("v0"))
+    # Esc during a drag puts it back.
+    d.send(*d.move_to(*start), "sleep", "0.05", "mousedown", "1", "sleep", "0.05",
+           *d.move_to(start[0] - 20, start[1] + 10), "sleep", "0.1", "key", "Escape", "mouseup", "1")
+    assert not s.dragging and s.undo_label == "add box crate"
+    assert handle("v0") == pytest.approx(e.window_to_image(*start), abs=PICK_RADIUS_PX / e.zoom)
+    # A drag: the solver moves the box with the mouse, live; on release the corner is fixed there.
+    moves = []
+    for k in range(1, 6):
+        moves += [*d.move_to(start[0] - 8 * k, start[1] + 4 * k), "sleep", "0.08"]
+    d.send(*d.move_to(*start), "sleep", "0.05", "mousedown", "1", "sleep", "0.05", *moves)
+    end = e.window_to_image(round(start[0] - 40), round(start[1] + 20))  # where xdotool put the mouse
+    assert s.dragging and e.last_feedback.ok
+    assert np.hypot(*np.subtract(e.last_feedback.handle_px, end)) < 2.0  # the session's "it follows"
+    d.send("mouseup", "1")
+    assert not s.dragging and s.undo_label.startswith("drag crate:v0")
+    assert np.hypot(*np.subtract(handle("v0"), end)) < 2.0
+    assert s.data["model"]["nodes"][-1]["joint"]["position"] != before
+    pin = [p for p in s.data["model"]["pins"] if (p["node"], p["handle"]) == (node, "v0")]
+    assert pin and pin[0]["uv"] == pytest.approx(end)
+    # F over a vertex fixes it, F again unfixes it.
+    at = e.image_to_window("p1", handle("v6"))
+    d.send(*d.move_to(*at), "sleep", "0.05", "key", "f")
+    assert any((n, h, f) == (node, "v6", True) for n, h, _, f in s.handles("p1"))
+    d.send("key", "f")
+    assert not any((n, h, f) == (node, "v6", True) for n, h, _, f in s.handles("p1"))
+    # The 3-D preview followed the model after the drag.
+    assert e._preview_key[0] == s.revision and e._preview_tex is not None
+
+
+def test_a_drag_the_constraints_cannot_follow_says_why_and_the_model_stays(room, driver_factory):
+    d = driver_factory(room)
+    e, s = d.editor, d.session
+    e.select("cabinet")
+    uv0 = next(p for n, h, p, _ in s.handles("p1") if (n, h) == ("cabinet", "v0"))
+    x, y = e.image_to_window("p1", uv0)
+    params = dict(s.model.node("cabinet").primitive.to_dict()["params"])
+    d.send(*d.move_to(x, y), "sleep", "0.05", "mousedown", "1", "sleep", "0.05", *d.move_to(x - 30, y + 15),
+           "sleep", "0.1", *d.move_to(x - 60, y + 30), "sleep", "0.1")
+    assert e.drag_problem is not None and "cannot go there" in e.drag_problem
+    assert "it stays where it was" in s.messages[-1]
+    d.send("key", "Escape", "mouseup", "1")
+    assert s.model.node("cabinet").primitive.to_dict()["params"] == params
+
+
+def test_the_recovery_question_is_asked_and_answered(room, driver_factory):
+    data = json.loads(room.read_text())
+    data["name"] = "edited, not saved"
+    side = room.with_name(room.name + ".autosave")
+    side.write_text(json.dumps(data))
+    d = driver_factory(room, recover=None)
+    e, s = d.editor, d.session
+    assert s.recovery_available and "Recover the autosaved edits" in e.widget_rects
+    d.click("Recover the autosaved edits")
+    assert s.data["name"] == "edited, not saved" and not s.recovery_available
+    d.frames(2)
+    assert "Recover the autosaved edits" not in e.widget_rects
+
+
+def test_vebuild_edit_runs_and_without_a_display_names_the_headless_way(bare, monkeypatch, capsys):
+    shutil.copy(bare.parent / "photos" / "p1.jpg", bare.parent / "photos" / "more.jpg")
+    s = run_editor(bare, (640, 480), recover=None, add_photos=["photos/more.jpg", "photos/none.jpg"], frames=5)
+    assert s.photo_ids[-1] == "more"
+    assert any("none.jpg" in m for m in s.messages)
+    assert "unsaved edits are kept in" in capsys.readouterr().err
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    assert main(["edit", str(bare)]) == 2
+    err = capsys.readouterr().err
+    assert "xvfb-run" in err and "Traceback" not in err
