@@ -58,6 +58,15 @@ def _cmd_view(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_edit(args: argparse.Namespace) -> int:
+    from .actions.render import parse_size
+    from .edit.screen import run_editor
+
+    recover = True if args.recover else (False if args.discard_autosave else None)
+    run_editor(args.project, parse_size(args.size), recover=recover, add_photos=args.add_photo or ())
+    return 0
+
+
 def _cmd_mark(args: argparse.Namespace) -> int:
     from .analysis.markers import add_marker, place_marker
     from .project import load_project, save_project
@@ -332,6 +341,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quad-stereo", action="store_true",
                    help="ask the display for quad-buffered stereo (shutter glasses; B switches to it if given)")
     p.set_defaults(func=_cmd_view)
+
+    p = sub.add_parser("edit", help="the modelling screen: mark the photos, calibrate, build and solve the model "
+                       "(paper §2-3)")
+    p.add_argument("project")
+    p.add_argument("--size", default="1400x860", metavar="WxH", help="window size (default: %(default)s)")
+    rec = p.add_mutually_exclusive_group()
+    rec.add_argument("--recover", action="store_true",
+                     help="take the edits an earlier session left in the autosave side file (PROJECT.autosave)")
+    rec.add_argument("--discard-autosave", action="store_true", help="discard the autosave side file's edits")
+    p.add_argument("--add-photo", action="append", metavar="FILE",
+                   help="add this image (in the project's folder) to the project first; repeat for more")
+    p.set_defaults(func=_cmd_edit)
 
     p = sub.add_parser("mark", help="place (or remove) a labelled evidence marker on a surface of the model")
     p.add_argument("project")
