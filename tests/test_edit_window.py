@@ -359,3 +359,17 @@ def test_vebuild_edit_runs_and_without_a_display_names_the_headless_way(bare, mo
     assert main(["edit", str(bare)]) == 2
     err = capsys.readouterr().err
     assert "xvfb-run" in err and "Traceback" not in err
+
+
+def test_the_screen_draws_off_screen_for_its_benchmark():
+    from vebuild.bench import BENCHES
+
+    bench = BENCHES["edit"]
+    fig = bench.run(quick=True, progress=False)
+    for n in bench.SCENARIOS:
+        assert fig[f"drag_moves_not_followed_{n}"] == 0
+        assert 0 < fig[f"drag_solve_ms_median_{n}"] < fig[f"drag_update_ms_median_{n}"]
+    assert fig["drag_update_ms_p95"] >= fig["drag_solve_ms_p95_0_fixed"]
+    assert fig["static_redraw_ms_median"] > 0 and fig["drag_update_ratio_vs_static_redraw"] > 1
+    text = bench.table(fig)
+    assert "goal (drag update p95" in text and "v6, 1 fixed" in text

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from types import ModuleType
 
-from . import calibration, render, solver, texture
+from . import calibration, edit, render, solver, texture
 
-BENCHES: dict[str, ModuleType] = {"calibration": calibration, "render": render, "solver": solver, "texture": texture}
+BENCHES: dict[str, ModuleType] = {"calibration": calibration, "edit": edit, "render": render, "solver": solver,
+                                  "texture": texture}

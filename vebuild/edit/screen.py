@@ -322,8 +322,10 @@ class Editor:
             return None
         key = (self.session.revision, self.photo, self.selected)
         if key != self._overlay_key:
+            t0 = time.perf_counter()
             self._overlay = self._guard(self.session.overlay, self.photo, self.selected)
             self._overlay_key = key
+            self.timings["overlay_ms"] = 1e3 * (time.perf_counter() - t0)
         return self._overlay
 
     def _nearest_line(self, kinds: tuple[str, ...], x: float, y: float, radius: float = PICK_RADIUS_PX) -> Any:
