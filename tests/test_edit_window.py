@@ -373,3 +373,50 @@ def test_the_screen_draws_off_screen_for_its_benchmark():
     assert fig["static_redraw_ms_median"] > 0 and fig["drag_update_ratio_vs_static_redraw"] > 1
     text = bench.table(fig)
     assert "goal (drag update p95" in text and "v6, 1 fixed" in text
+
+
+def test_the_model_panel_adds_places_edits_solves_and_the_edge_tool_draws(room, driver_factory):
+    d = driver_factory(room)
+    e, s = d.editor, d.session
+    d.click("tab:Model")
+    # Add, then a click in the photo: a box standing on the floor where the click's ray meets it.
+    d.click("Add")
+    assert e._placing is not None
+    at = e.image_to_window("p1", (1200.0, 1000.0))
+    d.send(*d.move_to(*at), "sleep", "0.05", "click", "1")
+    assert e.selected == "box1" and "box1" in s.model.index
+    doc = next(n for n in s.data["model"]["nodes"] if n["name"] == "box1")
+    assert doc["joint"]["type"] == "rests_on" and doc["joint"]["position"] != [0.0, 0.0]
+    # The tree lists it; its width is typed into its field.
+    assert "node:box1" in e.widget_rects
+    d.click("node:box1")
+    assert e.selected == "box1"
+    d.click("width (m)##param:width")
+    d.send("key", "ctrl+a", "type", "--delay", "30", "0.8")
+    d.send("key", "Return")
+    assert s.model.node("box1").primitive.to_dict()["params"]["width"] == pytest.approx(0.8)
+    assert s.undo_label == "sizes of box1"
+    # The Edge tool: a stroke along one of the selected box's projected edges observes that edge.
+    e.select("cabinet")
+    d.frames(2)
+    edge = next(ln for ln in e.overlay().lines if ln.kind == "edge" and ln.key == ("cabinet", "e8"))
+    a = e.image_to_window("p1", edge.p[:2])
+    b = e.image_to_window("p1", edge.p[2:])
+    p, q = np.add(a, np.subtract(b, a) * 0.2), np.add(a, np.subtract(b, a) * 0.8)
+    n_edges = len(s.data["model"]["edge_observations"])
+    d.send("key", "e", *d.move_to(*p), "sleep", "0.05", "mousedown", "1", "sleep", "0.05", *d.move_to(*q),
+           "sleep", "0.05", "mouseup", "1")
+    obs = s.data["model"]["edge_observations"]
+    assert len(obs) == n_edges + 1 and (obs[-1]["node"], obs[-1]["edge"]) == ("cabinet", "e8")
+    # Solve: the new box has nothing pinned, which the panel says; removed, the model solves.
+    d.click("Solve")
+    assert "too few observations" in e.solve_error and "box1" in e.solve_error
+    d.send("key", "Escape")  # the Select tool again: a click on one of box1's edges selects it
+    edge = next(ln for ln in e.overlay().lines if ln.kind == "edge" and ln.key == ("box1", "e8"))
+    d.send(*d.move_to(*e.image_to_window("p1", np.add(edge.p[:2], edge.p[2:]) / 2)), "sleep", "0.05", "click", "1")
+    assert e.selected == "box1" and "node:box1" in e.widget_rects  # the tree scrolled to it
+    d.click("Remove##node")
+    assert "box1" not in s.model.index and e.selected is None
+    d.click("Solve")
+    assert e.solve_error is None and e.solve_result["rms_px"] < 2.0
+    assert s.undo_label == "solve" and any(m.startswith("solved: rms") for m in s.messages)

@@ -124,6 +124,7 @@ class Editor:
         self.tool = "select"
         self.selected: str | None = None
         self.selected_nodes: list[str] = []
+        self._scroll_to_selected = False
         self.widget_rects: dict[str, Rect] = {}
         self._rects: dict[str, Rect] = {}
         self.drag_problem: str | None = None
@@ -641,6 +642,7 @@ class Editor:
         else:
             self.selected, self.selected_nodes = node, [node]
         self._param_edits.clear()
+        self._scroll_to_selected = True
 
     def _over_preview(self, x: float, y: float) -> bool:
         r = self.widget_rects.get("preview")
@@ -725,9 +727,15 @@ class Editor:
         self.widget_rects = self._rects
         self.timings["draw_ms"] = 1e3 * (time.perf_counter() - t0)
 
-    def _rect(self, label: str) -> None:
+    def _rect(self, label: str) -> bool:
+        """Record the last item's rectangle under ``label``, the part of it its window shows (an item
+        scrolled out of view is not recorded); returns whether it is wholly shown."""
         mn, mx = imgui.get_item_rect_min(), imgui.get_item_rect_max()
-        self._rects[label] = (mn.x, mn.y, mx.x, mx.y)
+        wp, ws = imgui.get_window_pos(), imgui.get_window_size()
+        x0, y0, x1, y1 = max(mn.x, wp.x), max(mn.y, wp.y), min(mx.x, wp.x + ws.x), min(mx.y, wp.y + ws.y)
+        if x1 > x0 and y1 > y0:
+            self._rects[label] = (x0, y0, x1, y1)
+        return (x0, y0, x1, y1) == (mn.x, mn.y, mx.x, mx.y)
 
     def _button(self, label: str, size: tuple[float, float] | None = None, tip: str | None = None) -> bool:
         clicked = imgui.button(label, size) if size is not None else imgui.button(label)
@@ -931,8 +939,8 @@ class Editor:
                 self._rect(label)
             else:
                 note = "cannot load" if pid in self._photo_errors else "loading"
-                clicked = self._button(f"{pid}\n({note})##{label}", (THUMB_H * 4 / 3, THUMB_H + 6))
-                self._rects[label] = self._rects[f"{pid}\n({note})##{label}"]
+                clicked = imgui.button(f"{pid}\n({note})##{label}", (THUMB_H * 4 / 3, THUMB_H + 6))
+                self._rect(label)
             if current:
                 imgui.pop_style_color()
             imgui.set_item_tooltip(pid + (f": {self._photo_errors[pid]}" if pid in self._photo_errors else ""))
@@ -1186,7 +1194,10 @@ class Editor:
         node = model.node(name)
         what = node.primitive.TYPE if node.primitive is not None else "group"
         opened = imgui.tree_node_ex(f"{name}  ({what}, {node.joint.type})##node:{name}", flags)
-        self._rect(f"node:{name}")
+        if not self._rect(f"node:{name}") and name == self.selected and self._scroll_to_selected:
+            imgui.set_scroll_here_y(0.5)  # a node selected in the photo is shown in the tree
+        if name == self.selected:
+            self._scroll_to_selected = False
         if imgui.is_item_clicked() and not imgui.is_item_toggled_open():
             self.select(name, add=imgui.get_io().key_ctrl)
         if opened:
