@@ -117,6 +117,9 @@ class _Drag:
         self.uv_good = session.pin.uv.copy()
         self.baseline_fixed = 0.0
         self.moved = False
+        self.revision = 0  # counts the moves the model followed
+        self.T0 = model.world_transforms()
+        self.T, self.T_key = self.T0, 0
 
 
 class EditSession:
@@ -718,16 +721,18 @@ class EditSession:
         m = self.model
         return m, (m.vector() if m is not None else None)
 
-    def handles(self, photo: str) -> list[tuple[str, str, tuple[float, float], bool]]:
-        """Every primitive's handles projected into the photo: (node, handle, (u, v), fixed)."""
+    def handles(self, photo: str,
+                nodes: Sequence[str] | None = None) -> list[tuple[str, str, tuple[float, float], bool]]:
+        """Every primitive's handles (or those of ``nodes``) projected into the photo: (node,
+        handle, (u, v), fixed)."""
         cam = self.cameras.get(photo)
         model, x = self._model_now()
         if cam is None or model is None:
             return []
-        T = model.world_transforms(x)
+        T = self._transforms()
         fixed = {(p["node"], p["handle"]) for p in self._pins() if p["photo"] == photo and p.get("fixed", True)}
         out = []
-        for node in model.nodes:
+        for node in model.nodes if nodes is None else [model.node(n) for n in nodes]:
             if node.primitive is None:
                 continue
             hs = node.primitive.handles(x[model.slices[node.name][1]])
@@ -738,6 +743,19 @@ class EditSession:
                 if ok:
                     out.append((node.name, h, (float(p[0]), float(p[1])), (node.name, h) in fixed))
         return out
+
+    def _transforms(self) -> dict[str, Array]:
+        """World transforms of every node as shown; during a drag only the moving subtree is
+        recomputed (the rest cannot move)."""
+        d = self._drag
+        if d is None:
+            if "transforms" not in self._cache:
+                self._cache["transforms"] = self.model.world_transforms()
+            return self._cache["transforms"]
+        if d.T_key != d.revision:
+            d.T = d.model.world_transforms(d.x_good, only=d.session.moved, cache=d.T0)
+            d.T_key = d.revision
+        return d.T
 
     def handle_at(self, photo: str, uv: Sequence[float], radius_px: float,
                   prefer: str | None = None) -> tuple[str, str] | None:
@@ -773,7 +791,7 @@ class EditSession:
         pins, edges = self._observations()
         try:
             ds = DragSession(model, self.cameras, pins, edges, photo, node, handle,
-                             click_sigma_px=self.settings["click_sigma_px"])
+                             click_sigma_px=self.settings["click_sigma_px"], edges_into=())
         except (KeyError, ValueError) as e:
             raise EditError(f"cannot drag {node}:{handle}: {e}") from None
         if ds.x.size == 0:
@@ -807,6 +825,7 @@ class EditSession:
             ok, reach, res = False, float("inf"), None
         if ok:
             d.x_good, d.xp_good, d.uv_good, d.moved = res.x.copy(), ds.x.copy(), uv.copy(), True
+            d.revision += 1
             self.revision += 1
             return DragFeedback(True, None, (float(res.handle_px[0]), float(res.handle_px[1])),
                                 1e3 * (time.perf_counter() - t0))
@@ -980,6 +999,24 @@ class EditSession:
         key = ("overlay", photo, selected, self.revision)
         if key in self._cache:
             return self._cache[key]
+        d = self._drag
+        if d is not None:
+            # During a drag only the moving subtree changes: the rest of the overlay is kept from
+            # the drag's first frame, the moving primitives' edges and handles added per move.
+            still = ("overlay-still", photo, selected, id(d))
+            if still not in self._cache:
+                self._cache[still] = self._overlay(photo, selected, skip=set(d.session.moved))
+            base = self._cache[still]
+            ov = Overlay(photo, list(base.lines), list(base.points), list(base.notes))
+            cam = self.cameras.get(photo)
+            if cam is not None:
+                self._primitives_overlay(ov, photo, cam, selected, d.session.moved)
+        else:
+            ov = self._overlay(photo, selected)
+        self._cache[key] = ov
+        return ov
+
+    def _overlay(self, photo: str, selected: str | None, skip: set[str] | frozenset[str] = frozenset()) -> Overlay:
         ov = Overlay(photo)
         p = self.photo(photo)
         sigma = self.settings["click_sigma_px"]
@@ -1000,8 +1037,7 @@ class EditSession:
         if cam is not None:
             horizon_and_axes(ov, cam, p["width"], p["height"])
         self._markers_overlay(ov, photo, cam)
-        self._model_overlay(ov, photo, cam, selected)
-        self._cache[key] = ov
+        self._model_overlay(ov, photo, cam, selected, skip)
         return ov
 
     def _markers_overlay(self, ov: Overlay, photo: str, cam: Camera | None) -> None:
@@ -1021,24 +1057,34 @@ class EditSession:
                     ov.lines.append(Line((float(uv[0]), float(uv[1]), float(q[0]), float(q[1])), MAGENTA, 1.0,
                                          "residual", ("marker", name)))
 
-    def _model_overlay(self, ov: Overlay, photo: str, cam: Camera | None, selected: str | None) -> None:
+    def _model_overlay(self, ov: Overlay, photo: str, cam: Camera | None, selected: str | None,
+                       skip: set[str] | frozenset[str] = frozenset()) -> None:
         model, x = self._model_now()
         if model is None:
             return
         if cam is None:
             ov.notes.append("this photo has no camera yet: the model is drawn in calibrated photos only")
             return
-        T = model.world_transforms(x)
-        names = [n.name for n in model.nodes if n.primitive is not None]
-        for node, edges in project_edges(model, cam, names, x, T).items():
+        self._primitives_overlay(ov, photo, cam, selected, [n.name for n in model.nodes if n.name not in skip])
+        self._observations_overlay(ov, photo)
+
+    def _primitives_overlay(self, ov: Overlay, photo: str, cam: Camera, selected: str | None,
+                            nodes: Sequence[str]) -> None:
+        """The projected edges (white; the selected node's yellow) and handles (fixed: red) of nodes."""
+        model, x = self._model_now()
+        names = [n for n in nodes if model.node(n).primitive is not None]
+        for node, edges in project_edges(model, cam, names, x, self._transforms()).items():
             colour = YELLOW if node == selected else WHITE
             for e, uv4 in edges:
                 ov.lines.append(Line(tuple(map(float, uv4)), colour, 2.0 if node == selected else 1.5, "edge",
                                      (node, e)))
-        for n, h, uv, fixed in self.handles(photo):
+        for n, h, uv, fixed in self.handles(photo, names):
             ov.points.append(Point(uv, RED if fixed else (YELLOW if n == selected else WHITE),
                                    5.0 if fixed or n == selected else 3.0, fixed or n == selected,
                                    "pin" if fixed else "handle", (n, h), h if n == selected else None))
+
+    def _observations_overlay(self, ov: Overlay, photo: str) -> None:
+        """The user's edges (red) and, after a solve, each fixed vertex's residual (outliers magenta)."""
         for i, e in enumerate(self._edge_docs()):
             if e["photo"] == photo:
                 (u1, v1), (u2, v2) = e["points"]

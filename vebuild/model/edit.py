@@ -23,6 +23,9 @@ Array = NDArray[np.float64]
 
 DRAG_TOL = 1e-8
 DRAG_DAMPING = 1e-6
+#: A warm-started move converges in a few iterations; one the constraints cannot follow may not
+#: converge at all, and must not stall the screen while it tries.
+DRAG_MAX_ITERATIONS = 25
 
 
 @dataclass
@@ -77,7 +80,7 @@ class DragSession:
 
     def __init__(self, model: Model, cameras: Mapping[str, Camera], pins: Sequence[Pin],
                  edges: Sequence[EdgeObservation], photo: str, node: str, handle: str, *,
-                 click_sigma_px: float = 1.0):
+                 click_sigma_px: float = 1.0, edges_into: Sequence[str] | None = None):
         if node not in model.index:
             raise KeyError(f"no node named '{node}'")
         prim = model.node(node).primitive
@@ -85,6 +88,9 @@ class DragSession:
             raise KeyError(f"node '{node}' has no handle '{handle}'")
         self.model = model
         self.cameras = cameras
+        # The photos each move projects the moved edges into (all by default; none for a caller
+        # that draws its own).
+        self.edges_into = list(cameras) if edges_into is None else [c for c in edges_into if c in cameras]
         self.photo, self.node, self.handle = photo, node, handle
         self.free = drag_nodes(model, node)
         root = self.free[-1]
@@ -114,11 +120,11 @@ class DragSession:
         self.problem.set_pin_pixel(self._pin_index, uv)
         # Warm start from the previous mouse position: near-Gauss–Newton steps, and a tolerance
         # far below what a screen shows (a relative cost change of 1e-8 is ~1e-4 px here).
-        sol = self.problem.solve(self.x, tol=DRAG_TOL, damping=DRAG_DAMPING)
+        sol = self.problem.solve(self.x, tol=DRAG_TOL, damping=DRAG_DAMPING, max_iterations=DRAG_MAX_ITERATIONS)
         self.x = sol.x
         xm = self.problem.model_vector(self.x)
         T = self.model.world_transforms(xm)
-        edges = {cid: project_edges(self.model, cam, self.moved, xm, T) for cid, cam in self.cameras.items()}
+        edges = {cid: project_edges(self.model, self.cameras[cid], self.moved, xm, T) for cid in self.edges_into}
         r = sol.residuals * self.problem.sigma  # the solve's own final residuals: no second evaluation
         fixed = [np.linalg.norm(r[self.problem.rows_pin[i]]) for i, p in enumerate(self.problem.pins)
                  if p is not self.pin]

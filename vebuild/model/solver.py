@@ -197,6 +197,14 @@ class Problem:
                 w, V = np.linalg.eigh(0.5 * (c + c.T))
                 self._prior_L[cid] = (V / np.sqrt(np.maximum(w, 1e-18))).T
         self._build_dependencies()
+        # Only the subtrees of nodes with a free parameter move (during a drag, one object of the
+        # scene): every other node's transform and handles are computed once, here.
+        moving: set[str] = set()
+        for name in set(self.owner):
+            moving.update(model.subtree(name))
+        self._moving = None if len(moving) == len(model.nodes) else sorted(moving, key=model.index.__getitem__)
+        self._T0 = model.world_transforms(self.x_model0)
+        self._H0 = self.handle_positions(self.x_model0, self._T0)
 
     # -- parameter blocks ------------------------------------------------------------------
     def x0(self) -> Array:
@@ -360,11 +368,18 @@ class Problem:
         return np.where((ends >= 0)[:, None], H[np.maximum(ends, 0)], M[np.maximum(-1 - ends, 0)]) \
             if len(ends) else np.zeros((0, 3))
 
+    def _posed(self, xm: Array) -> tuple[dict[str, Array], Array]:
+        """World transforms and handle positions for model vector xm (only moving nodes recomputed)."""
+        if self._moving is None:
+            T = self.model.world_transforms(xm)
+            return T, self.handle_positions(xm, T)
+        T = self.model.world_transforms(xm, only=self._moving, cache=self._T0)
+        return T, self.handle_positions(xm, T, self._moving, self._H0.copy())
+
     def evaluate(self, x: Array) -> Array:
         """The whitened residual vector."""
         xm = self.model_vector(x)
-        T = self.model.world_transforms(xm)
-        H = self.handle_positions(xm, T)
+        T, H = self._posed(xm)
         Ks, Rs, Cs = self._camera_arrays(x)
         M = self._marker_array(x)
         r = np.zeros(self.m)
@@ -399,8 +414,7 @@ class Problem:
         """Sparse Jacobian: analytic for cameras and markers; for a model parameter, the handles it
         moves are differenced and chained through the analytic projection derivative."""
         xm = self.model_vector(x)
-        T = self.model.world_transforms(xm)
-        H = self.handle_positions(xm, T)
+        T, H = self._posed(xm)
         Ks, Rs, Cs = self._camera_arrays(x)
         M = self._marker_array(x)
         R_, C_, V_ = [], [], []
