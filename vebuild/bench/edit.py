@@ -4,7 +4,9 @@ One update is what the screen does for one mouse move during a drag: the move ev
 (``EditSession.drag_to``), and the redraw of the whole screen — the photo at its zoom, the overlay
 recomputed for the new model (projected edges, handles), the panels, the 3-D preview when it is due
 (at most ten times a second while dragging) — off-screen on the headless context (llvmpipe where
-there is no GPU), up to ``glFinish``. The goal is a 95th percentile under one 60 Hz frame.
+there is no GPU), up to ``glFinish``. During a drag the screen redraws the photo view only and
+copies the rest from the frame drawn when the vertex was pressed. The goal is a 95th percentile,
+over every move of every drag, under one 60 Hz frame.
 
 Drags, on the example room calibrated and solved (its model and 76 fixed vertices in the solve), in
 photo p1, as in the paper's Figure 7: a box just added on the floor has a bottom corner dragged with
@@ -94,6 +96,7 @@ def run(quick: bool = False, progress: bool = True) -> dict[str, Any]:
     moves = MOVES // 2 if quick else MOVES
     ctx = headless_context()
     fig: dict[str, Any] = {"renderer": renderer_name(ctx), "window_px": f"{SIZE[0]}x{SIZE[1]}", "moves": moves}
+    pooled: dict[str, list[Any]] = {}
     with tempfile.TemporaryDirectory(prefix="vebuild-bench-edit-") as tmp:
         bar = tqdm(total=2 + len(SCENARIOS), desc="bench edit", unit="step", disable=not progress)
         session = _session(Path(tmp))
@@ -118,6 +121,7 @@ def run(quick: bool = False, progress: bool = True) -> dict[str, Any]:
                 red = upd - sol
                 for key, v in (("update", upd), ("solve", sol), ("redraw", red), ("overlay", ov),
                                ("draw", red - ov)):
+                    pooled.setdefault(key, []).append(v)
                     fig[f"drag_{key}_ms_median_{name}"] = float(np.median(v))
                     fig[f"drag_{key}_ms_p95_{name}"] = float(np.percentile(v, 95))
                 fig[f"drag_moves_not_followed_{name}"] = int(sum(r["failed"]))
@@ -126,8 +130,9 @@ def run(quick: bool = False, progress: bool = True) -> dict[str, Any]:
             editor.close()
             surface.release()
             bar.close()
-    for key in ("update", "solve", "redraw", "overlay", "draw"):
-        fig[f"drag_{key}_ms_p95"] = max(fig[f"drag_{key}_ms_p95_{n}"] for n in SCENARIOS)
+    for key in ("update", "solve", "redraw", "overlay", "draw"):  # over every move of every drag
+        fig[f"drag_{key}_ms_p95"] = float(np.percentile(np.concatenate(pooled[key]), 95))
+        fig[f"drag_{key}_ms_median"] = float(np.median(np.concatenate(pooled[key])))
     fig["drag_update_ratio_vs_static_redraw"] = float(np.median([fig[f"drag_update_ms_median_{n}"] for n in SCENARIOS])
                                                       / fig["static_redraw_ms_median"])
     fig["drag_redraw_ratio_vs_static_redraw"] = float(np.median([fig[f"drag_redraw_ms_median_{n}"] for n in SCENARIOS])
@@ -149,6 +154,8 @@ def table(fig: dict[str, Any]) -> str:
                      + "".join(f"{fig[f'drag_{k}_ms_median_{n}']:>8.2f}{fig[f'drag_{k}_ms_p95_{n}']:>7.2f}"
                                for k in ("update", "solve", "redraw", "overlay", "draw"))
                      + f"{fig[f'drag_moves_not_followed_{n}']:>14d}")
+    lines.append(f"{'every move':<16}" + "".join(f"{fig[f'drag_{k}_ms_median']:>8.2f}{fig[f'drag_{k}_ms_p95']:>7.2f}"
+                                                 for k in ("update", "solve", "redraw", "overlay", "draw")))
     lines += ["", f"{'redraw with no drag (reference)':<34}{fig['static_redraw_ms_median']:>9.2f} ms median, "
               f"{fig['static_redraw_ms_p95']:.2f} ms p95",
               f"{'drag update / static redraw':<34}{fig['drag_update_ratio_vs_static_redraw']:>9.2f}",

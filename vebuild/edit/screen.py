@@ -148,6 +148,9 @@ class Editor:
         self._progress_shown = 0.0
         self._recovery_asked = False
         self._close_warned = False
+        self._frame_cache: moderngl.Framebuffer | None = None
+        self._frame_cache_rb: moderngl.Renderbuffer | None = None
+        self._frame_cache_press: int | None = None
         # panel state
         self.marker_name = session.next_marker_name()
         self._marker_name_default = True
@@ -709,23 +712,84 @@ class Editor:
         fw, fh = self.surface.framebuffer_size()
         fbo.use()
         fbo.viewport = (0, 0, fw, fh)
-        fbo.clear(0.11, 0.11, 0.12, 1.0)
+        # During a drag only the photo view changes: the toolbar, strip and panels are copied from the
+        # frame drawn when the vertex was pressed (a plain copy, where drawing them again costs a
+        # software renderer as much as the solve), and updated again on release.
+        live = self._drag_frame_cached((fw, fh))
+        if live:
+            self.ctx.copy_framebuffer(fbo, self._frame_cache)
+            for x0, y0, x1, y1 in self._view_uncovered((fw, fh)):  # the photo covers the rest
+                fbo.clear(0.11, 0.11, 0.12, 1.0, viewport=(x0, fh - y1, x1 - x0, y1 - y0))
+        else:
+            fbo.clear(0.11, 0.11, 0.12, 1.0)
         self.gui.new_frame()
         self._rects = {}
         imgui.begin_disabled(self._busy is not None)
         self._draw_photo_view()
-        self._draw_toolbar()
-        self._draw_strip()
-        self._draw_panels()
-        self._draw_preview()
+        if not live:
+            self._draw_toolbar()
+            self._draw_strip()
+            self._draw_panels()
+            self._draw_preview()
         imgui.end_disabled()
         self._draw_messages()
         self._draw_magnifier()
-        self._draw_recovery()
+        if not live:
+            self._draw_recovery()
         self._draw_busy()
         self.gui.render()
-        self.widget_rects = self._rects
+        self.widget_rects = {**self.widget_rects, **self._rects} if live else self._rects
+        if not live and self._press is not None and self._press.get("kind") == "handle":
+            self._cache_frame((fw, fh))
         self.timings["draw_ms"] = 1e3 * (time.perf_counter() - t0)
+
+    def _view_pixels(self, fb_size: tuple[int, int]) -> tuple[int, int, int, int]:
+        """The photo view in framebuffer pixels (x0, y0, x1, y1), rows from the top."""
+        W, H = self.size()
+        sx, sy = fb_size[0] / max(W, 1), fb_size[1] / max(H, 1)
+        x0, y0, x1, y1 = self.view_rect()
+        return (int(math.floor(x0 * sx)), int(math.floor(y0 * sy)), int(math.ceil(x1 * sx)),
+                int(math.ceil(y1 * sy)))
+
+    def _view_uncovered(self, fb_size: tuple[int, int]) -> list[tuple[int, int, int, int]]:
+        """The parts of the photo view (framebuffer pixels, rows from the top) that the photo does
+        not cover: at most four bands (a software renderer clears a small band much faster than the
+        whole view)."""
+        vx0, vy0, vx1, vy1 = self._view_pixels(fb_size)
+        if self.photo is None or self._photo_tex.get(self.photo) is None:
+            return [(vx0, vy0, vx1, vy1)]
+        W, H = self.size()
+        sx, sy = fb_size[0] / max(W, 1), fb_size[1] / max(H, 1)
+        w, h = self.photo_size()
+        px0, py0 = self.image_to_window(None, (0, 0))
+        px1, py1 = self.image_to_window(None, (w, h))
+        # The photo's inner whole pixels: a band of one pixel overlaps its edge rather than a gap.
+        cx0 = min(max(int(math.ceil(px0 * sx)), vx0), vx1)
+        cy0 = min(max(int(math.ceil(py0 * sy)), vy0), vy1)
+        cx1 = max(min(int(math.floor(px1 * sx)), vx1), cx0)
+        cy1 = max(min(int(math.floor(py1 * sy)), vy1), cy0)
+        bands = [(vx0, vy0, vx1, cy0), (vx0, cy1, vx1, vy1), (vx0, cy0, cx0, cy1), (cx1, cy0, vx1, cy1)]
+        return [b for b in bands if b[2] > b[0] and b[3] > b[1]]
+
+    def _cache_frame(self, fb_size: tuple[int, int]) -> None:
+        """Keep the frame just drawn, for the drag that this press may begin."""
+        if self._frame_cache is None or self._frame_cache.size != fb_size:
+            self._release_frame_cache()
+            self._frame_cache_rb = self.ctx.renderbuffer(fb_size, 4)
+            self._frame_cache = self.ctx.framebuffer(color_attachments=[self._frame_cache_rb])
+        self.ctx.copy_framebuffer(self._frame_cache, self.surface.fbo)
+        self._frame_cache_press = id(self._press)
+
+    def _drag_frame_cached(self, fb_size: tuple[int, int]) -> bool:
+        return (self.session.dragging and self._busy is None and self._frame_cache is not None
+                and self._frame_cache.size == fb_size and self._press is not None
+                and self._frame_cache_press == id(self._press))
+
+    def _release_frame_cache(self) -> None:
+        if self._frame_cache is not None:
+            self._frame_cache.release()
+            self._frame_cache_rb.release()
+        self._frame_cache = None
 
     def _rect(self, label: str) -> bool:
         """Record the last item's rectangle under ``label``, the part of it its window shows (an item
@@ -743,6 +807,19 @@ class Editor:
         if tip:
             imgui.set_item_tooltip(tip)
         return bool(clicked)
+
+    def _combo(self, label: str, index: int, items: list[str]) -> int:
+        """A drop-down list; its rectangle is recorded as ``label`` and, while open, each item's as
+        ``label:item``. Returns the chosen index."""
+        opened = imgui.begin_combo(f"##{label}", items[index] if 0 <= index < len(items) else "")
+        self._rect(label)
+        if opened:
+            for i, item in enumerate(items):
+                if imgui.selectable(f"{item}##{label}{i}", i == index)[0]:
+                    index = i
+                self._rect(f"{label}:{item}")
+            imgui.end_combo()
+        return index
 
     def _fixed_window(self, name: str, rect: Rect, flags: int = 0) -> None:
         imgui.set_next_window_pos((rect[0], rect[1]), imgui.Cond_.always)
@@ -769,7 +846,7 @@ class Editor:
         if tex is not None:
             mag = moderngl.NEAREST if self.zoom >= NEAREST_ABOVE_ZOOM else moderngl.LINEAR
             tex.filter = (moderngl.LINEAR_MIPMAP_NEAREST, mag)  # trilinear costs 20 % of a frame on llvmpipe
-            dl.add_image(self.gui.texture_ref(tex), a, b)
+            dl.add_image(self.gui.texture_ref(tex, opaque=True), a, b)
         else:
             grey, red = _u32((0.25, 0.25, 0.27, 1.0)), _u32((0.8, 0.2, 0.2, 1.0))
             dl.add_rect_filled(a, b, grey)
@@ -807,15 +884,15 @@ class Editor:
 
     @staticmethod
     def _arrow_head(dl: Any, a: tuple[float, float], b: tuple[float, float], col: int, size: float) -> None:
-        d = np.array([b[0] - a[0], b[1] - a[1]])
-        n = float(np.linalg.norm(d))
+        dx, dy = b[0] - a[0], b[1] - a[1]
+        n = math.hypot(dx, dy)
         if n < 1e-6:
             return
-        d /= n
+        dx, dy = dx / n, dy / n
         size = min(size, 0.5 * n)
-        e = np.array([-d[1], d[0]])
-        base = np.array(b) - size * d
-        dl.add_triangle_filled(b, tuple(base + 0.45 * size * e), tuple(base - 0.45 * size * e), col)
+        bx, by = b[0] - size * dx, b[1] - size * dy
+        w = 0.45 * size
+        dl.add_triangle_filled(b, (bx - w * dy, by + w * dx), (bx + w * dy, by - w * dx), col)
 
     def _draw_stroke(self, dl: Any) -> None:
         """The stroke being drawn (a segment, an edge) or the segment end being moved."""
@@ -863,8 +940,8 @@ class Editor:
         imgui.begin("##magnifier", None, imgui.WindowFlags_.no_decoration | imgui.WindowFlags_.always_auto_resize
                     | imgui.WindowFlags_.no_inputs | imgui.WindowFlags_.no_saved_settings
                     | imgui.WindowFlags_.no_focus_on_appearing | imgui.WindowFlags_.no_nav)
-        imgui.image(self.gui.texture_ref(tex, nearest=True), (side, side), ((u - half) / w, (v - half) / h),
-                    ((u + half) / w, (v + half) / h))
+        imgui.image(self.gui.texture_ref(tex, nearest=True, opaque=True), (side, side),
+                    ((u - half) / w, (v - half) / h), ((u + half) / w, (v + half) / h))
         mn = imgui.get_item_rect_min()
         c = (mn.x + 0.5 * side, mn.y + 0.5 * side)
         wdl = imgui.get_window_draw_list()
@@ -1108,14 +1185,12 @@ class Editor:
         model = s.model
         names = [n.name for n in model.nodes] if model is not None else []
         imgui.set_next_item_width(100)
-        _, self.new_kind = imgui.combo("##kind", self.new_kind, KINDS)
-        self._rect("kind")
+        self.new_kind = self._combo("kind", self.new_kind, KINDS)
         imgui.same_line()
         parents = ["(none)"] + names
         self.new_parent = min(self.new_parent, len(parents) - 1)
         imgui.set_next_item_width(110)
-        _, self.new_parent = imgui.combo("##parent", self.new_parent, parents)
-        self._rect("parent")
+        self.new_parent = self._combo("parent", self.new_parent, parents)
         imgui.same_line()
         imgui.set_next_item_width(90)
         _, self.new_name = imgui.input_text("##new name", self.new_name)
@@ -1435,6 +1510,7 @@ class Editor:
     def close(self) -> None:
         if self.session.dragging:
             self.session.cancel_drag()
+        self._release_frame_cache()
         self.gui.release()
         for t in list(self._photo_tex.values()) + [t for t in self._thumbs.values() if t is not None]:
             t.release()

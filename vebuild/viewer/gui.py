@@ -72,7 +72,8 @@ class Gui:
                                      index_buffer=self._ibo, index_element_size=imgui.INDEX_SIZE)
         self._textures: dict[int, moderngl.Texture] = {}
         self._samplers: dict[int, moderngl.Sampler] = {}
-        self._user_ids: dict[tuple[int, bool], int] = {}
+        self._opaque: set[int] = set()
+        self._user_ids: dict[tuple[int, bool, bool], int] = {}
         self._time: float | None = None
 
     # -- input ----------------------------------------------------------------------------------
@@ -170,7 +171,12 @@ class Gui:
                     sampler.use(location=0)
                 x0, y0, x1, y1 = cmd.clip_rect.x, cmd.clip_rect.y, cmd.clip_rect.z, cmd.clip_rect.w
                 ctx.scissor = (int(x0), int(fh - y1), int(x1 - x0), int(y1 - y0))
+                opaque = key in self._opaque
+                if opaque:
+                    ctx.disable(moderngl.BLEND)
                 self._vao.render(moderngl.TRIANGLES, vertices=cmd.elem_count, first=cmd.idx_offset)
+                if opaque:
+                    ctx.enable(moderngl.BLEND)
                 if sampler is not None:
                     sampler.clear(location=0)
         ctx.scissor = None
@@ -202,17 +208,20 @@ class Gui:
                 tex.set_tex_id(0)
                 tex.status = imgui.ImTextureStatus.destroyed
 
-    def texture_ref(self, texture: moderngl.Texture, nearest: bool = False) -> imgui.ImTextureRef:
+    def texture_ref(self, texture: moderngl.Texture, nearest: bool = False, opaque: bool = False) -> imgui.ImTextureRef:
         """An id under which ImGui draws one of the application's textures (``imgui.image``,
         ``ImDrawList.add_image``). ``nearest``: sampled with nearest-texel filtering (magnified
-        pixels stay square), whatever the texture's own filter. The texture stays the caller's;
-        :meth:`forget_texture` before releasing it."""
-        key = (texture.glo, bool(nearest))
+        pixels stay square), whatever the texture's own filter. ``opaque``: drawn without blending
+        (a photo: a software renderer then spends a third less on it). The texture stays the
+        caller's; :meth:`forget_texture` before releasing it."""
+        key = (texture.glo, bool(nearest), bool(opaque))
         tid = self._user_ids.get(key)
         if tid is None or self._textures.get(tid) is not texture:
-            tid = _USER_TEXTURE_IDS + 2 * texture.glo + int(nearest)
+            tid = _USER_TEXTURE_IDS + 4 * texture.glo + 2 * int(opaque) + int(nearest)
             self._user_ids[key] = tid
             self._textures[tid] = texture
+            if opaque:
+                self._opaque.add(tid)
             if nearest and tid not in self._samplers:
                 sampler = self.ctx.sampler(filter=(moderngl.NEAREST, moderngl.NEAREST), repeat_x=False,
                                            repeat_y=False)
@@ -221,10 +230,11 @@ class Gui:
 
     def forget_texture(self, texture: moderngl.Texture) -> None:
         """Stop drawing ``texture`` (about to be released)."""
-        for nearest in (False, True):
-            tid = self._user_ids.pop((texture.glo, nearest), None)
+        for nearest, opaque in ((False, False), (True, False), (False, True), (True, True)):
+            tid = self._user_ids.pop((texture.glo, nearest, opaque), None)
             if tid is not None:
                 self._textures.pop(tid, None)
+                self._opaque.discard(tid)
                 sampler = self._samplers.pop(tid, None)
                 if sampler is not None:
                     sampler.release()
