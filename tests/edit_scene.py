@@ -37,6 +37,7 @@ class Plan:
     folder: Path
     project: Path
     truth: dict
+    noise_px: float = CLICK_NOISE_PX
     segments: dict[str, dict[str, list[tuple[float, float, float, float]]]] = field(default_factory=dict)
     markers: dict[str, dict[str, tuple[float, float]]] = field(default_factory=dict)
 
@@ -46,14 +47,15 @@ class Plan:
 
     def pixel(self, photo: str, X, rng: np.random.Generator) -> np.ndarray:
         """Where a user clicks on world point X in the photo (its true image, with click noise)."""
-        return project_points(*self.camera(photo), np.asarray(X, float)) + rng.normal(0.0, CLICK_NOISE_PX, 2)
+        return project_points(*self.camera(photo), np.asarray(X, float)) + rng.normal(0.0, self.noise_px, 2)
 
     def vertex(self, node: str, handle: str) -> np.ndarray:
         return np.asarray(self.truth["model_handles"][node][handle], float)
 
 
-def make_plan(folder: Path, seed: int = 11) -> Plan:
-    """Copy the photos into ``folder``, start an empty project there, and plan every click."""
+def make_plan(folder: Path, seed: int = 11, noise_px: float = CLICK_NOISE_PX) -> Plan:
+    """Copy the photos into ``folder``, start an empty project there, and plan every click
+    (``noise_px``: 1σ of the noise added to each)."""
     folder.mkdir(parents=True, exist_ok=True)
     example = json.loads((EXAMPLE / "room.vebuild.json").read_text())
     truth = json.loads((EXAMPLE / "ground_truth.json").read_text())
@@ -63,7 +65,7 @@ def make_plan(folder: Path, seed: int = 11) -> Plan:
         shutil.copy(EXAMPLE / photos[pid]["file"], folder / photos[pid]["file"])
     path = folder / "rebuilt.vebuild.json"
     save_project(path, new_project("rebuilt"))
-    plan = Plan(folder, path, truth)
+    plan = Plan(folder, path, truth, noise_px)
     rng = np.random.default_rng(seed)
     for pid in PHOTOS:
         plan.segments[pid] = {}
