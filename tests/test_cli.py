@@ -24,13 +24,13 @@ def test_help_lists_the_commands(capsys: pytest.CaptureFixture) -> None:
         main(["--help"])
     assert e.value.code == 0
     out = capsys.readouterr().out
-    for cmd in ("demo", "calibrate", "check", "new", "bench", "render", "export", "video", "view", "report",
+    for cmd in ("demo", "calibrate", "check", "new", "bench", "render", "export", "video", "view", "edit", "report",
                 "analyse"):
         assert cmd in out
 
 
 @pytest.mark.parametrize("words", [
-    ["render"], ["export"], ["video"], ["view"], ["report"], ["texture"], ["solve"], ["bench"],
+    ["render"], ["export"], ["video"], ["view"], ["edit"], ["report"], ["texture"], ["solve"], ["bench"],
     *[["analyse", "p.vebuild.json", a] for a in ("distance", "height", "dimensions", "checks", "sightline",
                                                  "viewshed", "trajectory", "lighting")],
 ])
@@ -102,3 +102,12 @@ def test_bench_solver_quick_writes_named_figures(tmp_path: Path) -> None:
         assert key in fig
     # The paper's vertex fixing held during every measured drag.
     assert fig["drag_fixed_vertex_error_px_max_2_fixed"] < 0.5
+
+
+def test_edit_names_a_missing_project_and_how_to_start_one(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    missing = tmp_path / "scene.vebuild.json"
+    assert main(["edit", str(missing)]) == 2
+    err = capsys.readouterr().err
+    assert "no such project file" in err and f"vebuild new {missing}" in err
+    assert main(["new", str(missing)]) == 0  # no photos yet: they are added on the screen
+    assert load_project(missing).data["photos"] == []

@@ -63,6 +63,9 @@ def _cmd_edit(args: argparse.Namespace) -> int:
     from .edit.screen import run_editor
 
     recover = True if args.recover else (False if args.discard_autosave else None)
+    if not Path(args.project).exists():
+        raise VebuildError(f"{args.project}: no such project file; start one from photos with "
+                           f"`vebuild new {args.project} PHOTO…` (or with no photos, to add them on the screen)")
     run_editor(args.project, parse_size(args.size), recover=recover, add_photos=args.add_photo or ())
     return 0
 
@@ -344,11 +347,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("edit", help="the modelling screen: mark the photos, calibrate, build and solve the model "
                        "(paper §2-3)")
-    p.add_argument("project")
+    p.add_argument("project", help="the project file (NAME.vebuild.json; `vebuild new` starts one)")
     p.add_argument("--size", default="1400x860", metavar="WxH", help="window size (default: %(default)s)")
     rec = p.add_mutually_exclusive_group()
     rec.add_argument("--recover", action="store_true",
-                     help="take the edits an earlier session left in the autosave side file (PROJECT.autosave)")
+                     help="take the edits an earlier session left in the side file PROJECT.autosave")
     rec.add_argument("--discard-autosave", action="store_true", help="discard the autosave side file's edits")
     p.add_argument("--add-photo", action="append", metavar="FILE",
                    help="add this image (in the project's folder) to the project first; repeat for more")
@@ -432,7 +435,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("new", help="start a project from photos (records their size, SHA-256 and EXIF)")
     p.add_argument("project", help="the project file to create (NAME.vebuild.json), next to the photos")
-    p.add_argument("photos", nargs="+", help="image files inside the project's folder")
+    p.add_argument("photos", nargs="*", help="image files inside the project's folder (or none: add them in "
+                   "`vebuild edit`)")
     p.add_argument("--name", help="title of the project (default: from the file name)")
     p.add_argument("--force", action="store_true", help="replace an existing project file")
     p.set_defaults(func=_cmd_new)
