@@ -169,6 +169,7 @@ class Editor:
         self.preview_size = (PANEL_W - 20, PREVIEW_H - 44)
         self.preview_yaw, self.preview_pitch, self.preview_distance = math.radians(-60.0), math.radians(30.0), None
         self._renderer: Any = None
+        self._renderer_pages: Any = None
         self._preview_key: Any = None
         self._preview_tex: moderngl.Texture | None = None
         self._preview_shape: Any = None
@@ -524,9 +525,9 @@ class Editor:
         r = PICK_RADIUS_PX / self.zoom
         base = {"xy": (x, y), "uv": uv}
         if self._placing is not None:
-            kind, name, parent = self._placing["kind"], self._placing["name"], self._placing["parent"]
-            self._placing = None
-            made = s.add_primitive(kind, name=name or None, parent=parent, at=(photo, uv))
+            place, self._placing = self._placing, None
+            made = s.add_primitive(place["kind"], name=place["name"] or None, parent=place["parent"],
+                                   marker=place.get("marker"), at=(photo, uv))
             self.select(made)
             return
         if self.tool in ("x", "y", "z", "edge", "marker", "delete"):
@@ -647,6 +648,11 @@ class Editor:
         self._param_edits.clear()
         self._scroll_to_selected = True
 
+    def _ctrl_held(self) -> bool:
+        """Whether Ctrl is down (the keys held, as glfw reported them: X11 gives a modifier key's own
+        press without its modifier, which ImGui's key_ctrl then misses)."""
+        return bool({glfw.KEY_LEFT_CONTROL, glfw.KEY_RIGHT_CONTROL} & self._held) or bool(self._mods & glfw.MOD_CONTROL)
+
     def _over_preview(self, x: float, y: float) -> bool:
         r = self.widget_rects.get("preview")
         return r is not None and _inside(r, x, y)
@@ -689,7 +695,23 @@ class Editor:
             lambda progress: self.session.solve(recalibrate=recalibrate, progress=progress))
 
     def extract_textures(self) -> None:
-        self._long("extracting textures", self.session.texture)
+        """Texture extraction draws on the shared off-screen context; the progress frames, and
+        everything after, on the screen's."""
+        from vebuild.gl.context import headless_context
+
+        def work(progress: Callable[[float, str], None]) -> Any:
+            def shown(fraction: float, text: str) -> None:
+                self.surface.make_current()
+                progress(fraction, text)
+                headless_context().__enter__()
+
+            headless_context().__enter__()
+            try:
+                return self.session.texture(shown)
+            finally:
+                self.surface.make_current()
+
+        self._long("extracting textures", work)
 
     # -- frames -------------------------------------------------------------------------------------
 
@@ -811,7 +833,8 @@ class Editor:
     def _combo(self, label: str, index: int, items: list[str]) -> int:
         """A drop-down list; its rectangle is recorded as ``label`` and, while open, each item's as
         ``label:item``. Returns the chosen index."""
-        opened = imgui.begin_combo(f"##{label}", items[index] if 0 <= index < len(items) else "")
+        opened = imgui.begin_combo(f"##{label}", items[index] if 0 <= index < len(items) else "",
+                                   imgui.ComboFlags_.height_largest)  # as many items as the screen holds
         self._rect(label)
         if opened:
             for i, item in enumerate(items):
@@ -1183,11 +1206,10 @@ class Editor:
     def _model_tab(self) -> None:
         s = self.session
         model = s.model
-        names = [n.name for n in model.nodes] if model is not None else []
         imgui.set_next_item_width(100)
         self.new_kind = self._combo("kind", self.new_kind, KINDS)
         imgui.same_line()
-        parents = ["(none)"] + names
+        parents = self._attach_choices()
         self.new_parent = min(self.new_parent, len(parents) - 1)
         imgui.set_next_item_width(110)
         self.new_parent = self._combo("parent", self.new_parent, parents)
@@ -1233,28 +1255,41 @@ class Editor:
             self._properties(model, self.selected)
         self._residuals()
 
+    def _attach_choices(self) -> list[str]:
+        """What a new primitive can hang on: nothing (the first goes on the origin marker, later
+        ones rest on the floor), a node (resting on its top), or a calibrated marker."""
+        model = self.session.model
+        names = [n.name for n in model.nodes] if model is not None else []
+        markers = sorted((self.session.data.get("calibration") or {}).get("markers", {}))
+        return ["(none)"] + names + [f"marker {m}" for m in markers]
+
+    def _attachment(self) -> dict[str, str | None]:
+        choice = self._attach_choices()[self.new_parent] if self.new_parent < len(self._attach_choices()) else ""
+        if choice.startswith("marker "):
+            return {"parent": None, "marker": choice[len("marker "):]}
+        return {"parent": None if choice in ("", "(none)") else choice, "marker": None}
+
     def arm_placement(self) -> None:
         """Add: the next click in the photo places the new primitive there."""
         model = self.session.model
-        names = [n.name for n in model.nodes] if model is not None else []
-        parent = ([None] + names)[self.new_parent] if self.new_parent <= len(names) else None
         kind = KINDS[self.new_kind]
-        if self.photo is None or (model is None and not self.session.cameras):
-            self._guard(self.session.add_primitive, kind, name=self.new_name or None, parent=parent)
+        where = self._attachment()
+        if self.photo is None or (model is None and not self.session.cameras) or where["marker"] is not None:
+            made = self._guard(self.session.add_primitive, kind, name=self.new_name.strip() or None, **where)
+            if made is not None:
+                self.select(made)
             return
-        self._placing = {"kind": kind, "name": self.new_name.strip(), "parent": parent}
+        self._placing = {"kind": kind, "name": self.new_name.strip(), **where}
         self.say(f"click in the photo where the new {kind} stands")
 
     def add_at_centre(self) -> None:
         model = self.session.model
-        names = [n.name for n in model.nodes] if model is not None else []
-        parent = ([None] + names)[self.new_parent] if self.new_parent <= len(names) else None
         at = None
         if self.photo is not None and self.photo in self.session.cameras and model is not None:
             w, h = self.photo_size()
             at = (self.photo, (w / 2, h / 2))
         made = self._guard(self.session.add_primitive, KINDS[self.new_kind], name=self.new_name.strip() or None,
-                           parent=parent, at=at)
+                           at=at, **self._attachment())
         if made is not None:
             self.select(made)
 
@@ -1274,7 +1309,7 @@ class Editor:
         if name == self.selected:
             self._scroll_to_selected = False
         if imgui.is_item_clicked() and not imgui.is_item_toggled_open():
-            self.select(name, add=imgui.get_io().key_ctrl)
+            self.select(name, add=self._ctrl_held())
         if opened:
             for k in kids:
                 self._tree_node(model, k)
@@ -1470,9 +1505,14 @@ class Editor:
 
         try:
             scene = self._preview_scene(model)
+            pages = self._preview_shape[1]
+            if self._renderer is not None and self._renderer_pages != pages:  # new textures: new pages
+                self._renderer.release()
+                self._renderer = None
             if self._renderer is None:
                 self._renderer = Renderer(self.ctx, scene, RenderOptions(samples=1, anisotropy=1.0,
                                                                          trilinear=False, shadows=False))
+                self._renderer_pages = pages
             else:
                 self._renderer.set_scene(scene)
             self._renderer.highlight = self.selected

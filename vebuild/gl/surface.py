@@ -41,6 +41,9 @@ class WindowSurface:
     def framebuffer_size(self) -> tuple[int, int]:
         return self.window.framebuffer_size()
 
+    def make_current(self) -> None:
+        self.window.make_current()
+
     def poll(self) -> None:
         self.window.poll()
 
@@ -73,6 +76,9 @@ class OffscreenSurface:
 
     def size(self) -> tuple[int, int]:
         return self._size
+
+    def make_current(self) -> None:
+        self.ctx.__enter__()  # the shared headless context: what off-screen work uses too
 
     def framebuffer_size(self) -> tuple[int, int]:
         return self._size

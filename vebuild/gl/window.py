@@ -147,6 +147,11 @@ class Window:
             if context._context is not None:
                 context._context.__enter__()  # the shared headless context, current again
 
+    def make_current(self) -> None:
+        """Make the window's context current again (off-screen work, such as texture extraction on
+        the shared headless context, makes that one current)."""
+        glfw.make_context_current(self.handle)
+
     def __enter__(self) -> Window:
         return self
 
