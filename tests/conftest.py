@@ -49,6 +49,18 @@ def xvfb_display():
 
 
 @pytest.fixture(scope="session")
+def xdotool():
+    """The program the window tests send input events with, as a user's keyboard and mouse would."""
+    import shutil
+
+    exe = shutil.which("xdotool")
+    if exe is None:
+        pytest.fail("the window tests send input events with xdotool: `sudo apt-get install xdotool` "
+                    "(CI's .ci/run installs it)")
+    return exe
+
+
+@pytest.fixture(scope="session")
 def textured_room(tmp_path_factory):
     """The example room calibrated, solved and textured (100 texels per metre), once per session.
     Tests that change it work on a copy."""

@@ -14,7 +14,6 @@ tolerances were stated for.
 from __future__ import annotations
 
 import math
-import shutil
 
 import numpy as np
 import pytest
@@ -34,15 +33,6 @@ from edit_scene import (
 from vebuild.edit.screen import CLICK_SLOP_PX, PANEL_W, STRIP_H, TOOLBAR_H
 
 pytestmark = pytest.mark.usefixtures("xvfb_display")
-
-
-@pytest.fixture(scope="module")
-def xdotool():
-    exe = shutil.which("xdotool")
-    if exe is None:
-        pytest.fail("the window tests send input events with xdotool: `sudo apt-get install xdotool` "
-                    "(CI's .ci/run installs it)")
-    return exe
 
 
 class User:

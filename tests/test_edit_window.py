@@ -21,15 +21,6 @@ from vebuild.resources import example_project_dir
 pytestmark = pytest.mark.usefixtures("xvfb_display")
 
 
-@pytest.fixture(scope="module")
-def xdotool():
-    exe = shutil.which("xdotool")
-    if exe is None:
-        pytest.fail("the window tests send input events with xdotool: `sudo apt-get install xdotool` "
-                    "(CI's .ci/run installs it)")
-    return exe
-
-
 @pytest.fixture
 def bare(tmp_path):
     """A new project of the example room's five photos: no marks, no calibration, no model."""

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import json
 import math
-import shutil
 import subprocess
 from pathlib import Path
 
@@ -25,15 +24,6 @@ from vebuild.viewer.walk import BODY_RADIUS_M
 pytestmark = pytest.mark.usefixtures("xvfb_display")
 TITLE = "vebuild viewer test"
 W, H = 640, 360
-
-
-@pytest.fixture(scope="module")
-def xdotool():
-    exe = shutil.which("xdotool")
-    if exe is None:
-        pytest.fail("the viewer tests send input events with xdotool: `sudo apt-get install xdotool` "
-                    "(CI's .ci/run installs it)")
-    return exe
 
 
 @pytest.fixture
