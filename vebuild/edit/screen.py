@@ -973,7 +973,14 @@ class Editor:
         wdl.add_line((c[0] + 4, c[1]), (c[0] + side / 2, c[1]), cross, 1.0)
         wdl.add_line((c[0], c[1] - side / 2), (c[0], c[1] - 4), cross, 1.0)
         wdl.add_line((c[0], c[1] + 4), (c[0], c[1] + side / 2), cross, 1.0)
-        imgui.text(f"({u:.2f}, {v:.2f}) px  ×{MAGNIFIER_ZOOM * self.zoom:.0f}")
+        p = self._press
+        if p is not None and p["kind"] in ("x", "y", "z", "edge"):  # the stroke being drawn, magnified
+            col = _u32(AXIS_COLOURS[p["kind"]] if p["kind"] in AXIS_COLOURS else RED)
+            a = (c[0] + MAGNIFIER_ZOOM * (p["uv"][0] - u), c[1] + MAGNIFIER_ZOOM * (p["uv"][1] - v))
+            wdl.push_clip_rect(mn, (mn.x + side, mn.y + side), True)
+            wdl.add_line(a, c, col, 1.5)
+            wdl.pop_clip_rect()
+        imgui.text(f"({u:.2f}, {v:.2f}) px, {MAGNIFIER_ZOOM:.0f}× the photo")
         self._rects["magnifier"] = (mn.x, mn.y, mn.x + side, mn.y + side)
         imgui.end()
         imgui.pop_style_var()
