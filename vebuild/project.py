@@ -128,13 +128,15 @@ def load_project(path: str | os.PathLike[str], *, verify_photos: bool = True) ->
 
 
 def save_project(project_or_path: Project | str | os.PathLike[str],
-                 data: dict[str, Any] | None = None) -> Path:
+                 data: dict[str, Any] | None = None, *, validated: bool = False) -> Path:
     """Validate a document and write it atomically.
 
     Parameters
     ----------
     project_or_path : a Project (its path, and its data unless ``data`` is given) or a file path.
     data : the document to write; required when a path is given.
+    validated : the caller has just validated this very document (the modelling screen, which
+        validates every edit before autosaving it): not validated twice.
 
     Returns
     -------
@@ -152,7 +154,8 @@ def save_project(project_or_path: Project | str | os.PathLike[str],
         path = Path(project_or_path)
         if data is None:
             raise TypeError("save_project(path, data): data is required when a path is given")
-    validate(data, path)
+    if not validated:
+        validate(data, path)
 
     # Write beside the target so that os.replace is a rename within one file system: readers then
     # see the old file or the new one, never a half-written one, even after a crash.

@@ -215,7 +215,7 @@ class EditSession:
 
     def _write_autosave(self) -> None:
         try:
-            save_project(self.autosave_path, self.data)
+            save_project(self.autosave_path, self.data, validated=True)  # every edit is validated in _edit
         except VebuildError as e:
             self.say(f"could not autosave: {e}")
 
