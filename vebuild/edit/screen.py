@@ -150,7 +150,11 @@ class Editor:
         self._close_warned = False
         self._frame_cache: moderngl.Framebuffer | None = None
         self._frame_cache_rb: moderngl.Renderbuffer | None = None
-        self._frame_cache_press: int | None = None
+        self._frame_cache_press: dict[str, Any] | None = None
+        self._frame_cache_serial = 0
+        self._view_cache: moderngl.Framebuffer | None = None
+        self._view_cache_rb: moderngl.Renderbuffer | None = None
+        self._view_cache_key: Any = None
         # panel state
         self.marker_name = session.next_marker_name()
         self._marker_name_default = True
@@ -737,19 +741,23 @@ class Editor:
         # During a drag only the photo view changes: the toolbar, strip and panels are copied from the
         # frame drawn when the vertex was pressed (a plain copy, where drawing them again costs a
         # software renderer as much as the solve), and updated again on release.
+        # The photo and what does not move are drawn once too, at the drag's first move, and copied
+        # again for every move after it: each move draws only the moving primitives over them.
         live = self._drag_frame_cached((fw, fh))
         if live:
-            self.ctx.copy_framebuffer(fbo, self._frame_cache)
-            for x0, y0, x1, y1 in self._view_uncovered((fw, fh)):  # the photo covers the rest
-                fbo.clear(0.11, 0.11, 0.12, 1.0, viewport=(x0, fh - y1, x1 - x0, y1 - y0))
+            self._cache_still_view(fbo, (fw, fh))
+            self.ctx.copy_framebuffer(fbo, self._view_cache)
+            x0, _, x1, _ = self._view_pixels((fw, fh))  # the toolbar is drawn anew: its status line
+            th = int(math.ceil(TOOLBAR_H * fh / max(self.size()[1], 1)))  # follows the cursor
+            fbo.clear(0.11, 0.11, 0.12, 1.0, viewport=(x0, fh - th, x1 - x0, th))
         else:
             fbo.clear(0.11, 0.11, 0.12, 1.0)
         self.gui.new_frame()
         self._rects = {}
         imgui.begin_disabled(self._busy is not None)
-        self._draw_photo_view()
+        self._draw_photo_view("moving" if live else "all")
+        self._draw_toolbar()
         if not live:
-            self._draw_toolbar()
             self._draw_strip()
             self._draw_panels()
             self._draw_preview()
@@ -800,18 +808,42 @@ class Editor:
             self._frame_cache_rb = self.ctx.renderbuffer(fb_size, 4)
             self._frame_cache = self.ctx.framebuffer(color_attachments=[self._frame_cache_rb])
         self.ctx.copy_framebuffer(self._frame_cache, self.surface.fbo)
-        self._frame_cache_press = id(self._press)
+        self._frame_cache_press = self._press  # the press itself (an id could be reused by the next)
+        self._frame_cache_serial += 1
+
+    def _cache_still_view(self, fbo: moderngl.Framebuffer, fb_size: tuple[int, int]) -> None:
+        """The frame of the press with the photo view redrawn without the moving primitives, kept
+        for the moves of this drag (drawn anew if the view is zoomed or panned meanwhile)."""
+        key = (self._frame_cache_serial, self.photo, self.zoom, self.pan, self.selected, fb_size)
+        if key == self._view_cache_key and self._view_cache is not None:
+            return
+        self.ctx.copy_framebuffer(fbo, self._frame_cache)
+        for x0, y0, x1, y1 in self._view_uncovered(fb_size):  # the photo covers the rest
+            fbo.clear(0.11, 0.11, 0.12, 1.0, viewport=(x0, fb_size[1] - y1, x1 - x0, y1 - y0))
+        self.gui.new_frame()
+        self._draw_photo_view("still")
+        self.gui.render()
+        if self._view_cache is None or self._view_cache.size != fb_size:
+            if self._view_cache is not None:
+                self._view_cache.release()
+                self._view_cache_rb.release()
+            self._view_cache_rb = self.ctx.renderbuffer(fb_size, 4)
+            self._view_cache = self.ctx.framebuffer(color_attachments=[self._view_cache_rb])
+        self.ctx.copy_framebuffer(self._view_cache, fbo)
+        self._view_cache_key = key
 
     def _drag_frame_cached(self, fb_size: tuple[int, int]) -> bool:
         return (self.session.dragging and self._busy is None and self._frame_cache is not None
                 and self._frame_cache.size == fb_size and self._press is not None
-                and self._frame_cache_press == id(self._press))
+                and self._frame_cache_press is self._press)
 
     def _release_frame_cache(self) -> None:
-        if self._frame_cache is not None:
-            self._frame_cache.release()
-            self._frame_cache_rb.release()
-        self._frame_cache = None
+        for fb, rb in ((self._frame_cache, self._frame_cache_rb), (self._view_cache, self._view_cache_rb)):
+            if fb is not None:
+                fb.release()
+                rb.release()
+        self._frame_cache = self._view_cache = None
+        self._view_cache_key = None
 
     def _rect(self, label: str) -> bool:
         """Record the last item's rectangle under ``label``, the part of it its window shows (an item
@@ -854,10 +886,21 @@ class Editor:
 
     # -- the photo view -----------------------------------------------------------------------------
 
-    def _draw_photo_view(self) -> None:
+    def _draw_photo_view(self, layer: str = "all") -> None:
+        """The photo and what is drawn over it; during a drag, ``still`` (the photo and what does
+        not move) or ``moving`` (the moving primitives and the stroke), drawn over the other."""
         dl = imgui.get_background_draw_list()
         x0, y0, x1, y1 = self.view_rect()
         dl.push_clip_rect((x0, y0), (x1, y1), False)
+        if layer == "moving":
+            t0 = time.perf_counter()
+            layers = self._guard(self.session.overlay_layers, self.photo, self.selected)
+            self.timings["overlay_ms"] = 1e3 * (time.perf_counter() - t0)
+            if layers is not None:
+                self._draw_overlay(dl, layers[1])
+            self._draw_stroke(dl)
+            dl.pop_clip_rect()
+            return
         if self.photo is None:
             dl.add_text((x0 + 20, y0 + 20), _u32((1, 1, 1, 1)), "no photos yet: type a file name below and Add photo")
             dl.pop_clip_rect()
@@ -878,6 +921,12 @@ class Editor:
             text = self._photo_errors.get(self.photo, "photo not loaded")
             dl.add_text((max(a[0], x0) + 12, max(a[1], y0) + 12), _u32((1, 0.6, 0.6, 1)),
                         f"photo '{self.photo}' cannot be shown: {text}")
+        if layer == "still":
+            layers = self._guard(self.session.overlay_layers, self.photo, self.selected)
+            if layers is not None:
+                self._draw_overlay(dl, layers[0])
+            dl.pop_clip_rect()
+            return
         ov = self.overlay()
         if ov is not None:
             self._draw_overlay(dl, ov)

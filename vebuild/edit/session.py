@@ -997,24 +997,33 @@ class EditSession:
     def overlay(self, photo: str, selected: str | None = None) -> Overlay:
         """Everything drawn over one photo (see :mod:`vebuild.edit.overlay`)."""
         key = ("overlay", photo, selected, self.revision)
-        if key in self._cache:
-            return self._cache[key]
+        if key not in self._cache:
+            if self._drag is None:
+                self._cache[key] = self._overlay(photo, selected)
+            else:
+                still, moving = self.overlay_layers(photo, selected)
+                self._cache[key] = Overlay(photo, still.lines + moving.lines, still.points + moving.points,
+                                           still.notes + moving.notes)
+        return self._cache[key]
+
+    def overlay_layers(self, photo: str, selected: str | None = None) -> tuple[Overlay, Overlay]:
+        """The overlay as what stays put and what moves: during a drag, everything but the moving
+        primitives (kept from the drag's first frame) and their edges and handles now; otherwise
+        the whole overlay and nothing."""
         d = self._drag
-        if d is not None:
-            # During a drag only the moving subtree changes: the rest of the overlay is kept from
-            # the drag's first frame, the moving primitives' edges and handles added per move.
-            still = ("overlay-still", photo, selected, id(d))
-            if still not in self._cache:
-                self._cache[still] = self._overlay(photo, selected, skip=set(d.session.moved))
-            base = self._cache[still]
-            ov = Overlay(photo, list(base.lines), list(base.points), list(base.notes))
+        if d is None:
+            return self.overlay(photo, selected), Overlay(photo)
+        still = ("overlay-still", photo, selected, id(d))
+        if still not in self._cache:
+            self._cache[still] = self._overlay(photo, selected, skip=set(d.session.moved))
+        key = ("overlay-moving", photo, selected, self.revision)
+        if key not in self._cache:
+            moving = Overlay(photo)
             cam = self.cameras.get(photo)
             if cam is not None:
-                self._primitives_overlay(ov, photo, cam, selected, d.session.moved)
-        else:
-            ov = self._overlay(photo, selected)
-        self._cache[key] = ov
-        return ov
+                self._primitives_overlay(moving, photo, cam, selected, d.session.moved)
+            self._cache[key] = moving
+        return self._cache[still], self._cache[key]
 
     def _overlay(self, photo: str, selected: str | None, skip: set[str] | frozenset[str] = frozenset()) -> Overlay:
         ov = Overlay(photo)
