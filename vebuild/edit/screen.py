@@ -52,6 +52,7 @@ from vebuild.gl.surface import OffscreenSurface, WindowSurface
 from vebuild.viewer.gui import Gui
 
 from .overlay import AXIS_COLOURS, RED, Overlay
+from .panels import Panels
 
 #: Layout, in window pixels.
 TOOLBAR_H = 62
@@ -85,8 +86,6 @@ TOOL_HINTS = {"select": "drag a vertex; click an edge to select its primitive",
               "edge": "press, drag along an edge of the selected primitive, release",
               "delete": "click a segment, marker or drawn edge to remove it"}
 TOOL_KEY_NAMES = {"select": "Esc", "x": "1", "y": "2", "z": "3", "marker": "M", "edge": "E", "delete": "Delete"}
-KINDS = ["quad", "box", "wedge", "cylinder", "cone", "frustum", "sphere"]
-JOINT_TYPES = ["rests_on", "fixed", "hinge", "slider", "free"]
 #: How many messages the message area shows (the latest last).
 MESSAGES_SHOWN = 3
 
@@ -103,7 +102,7 @@ def _inside(rect: Rect, x: float, y: float) -> bool:
     return rect[0] <= x < rect[2] and rect[1] <= y < rect[3]
 
 
-class Editor:
+class Editor(Panels):
     """The modelling screen over one :class:`~vebuild.edit.session.EditSession`, drawing into one
     surface (:class:`~vebuild.gl.surface.WindowSurface` or :class:`~vebuild.gl.surface.OffscreenSurface`).
     :meth:`frame` polls, draws and runs what a button asked for; :meth:`draw` only draws."""
@@ -210,6 +209,11 @@ class Editor:
         """Where the photo is shown, window coordinates (x0, y0, x1, y1)."""
         W, H = self.size()
         return 0.0, float(TOOLBAR_H), float(max(W - PANEL_W, 100)), float(max(H - STRIP_H, TOOLBAR_H + 100))
+
+    def panels_rect(self) -> Rect:
+        """Where the Calibration and Model panels are, window coordinates (x0, y0, x1, y1)."""
+        W, H = self.size()
+        return float(W - PANEL_W), 0.0, float(W), float(H - PREVIEW_H)
 
     def photo_size(self, photo: str | None = None) -> tuple[int, int]:
         p = self.session.photo(photo or self.photo)
@@ -1174,334 +1178,6 @@ class Editor:
         imgui.progress_bar(frac, (320, 0), text)
         self._rect("progress")
         imgui.end()
-
-    # -- panels -------------------------------------------------------------------------------------
-
-    def _draw_panels(self) -> None:
-        W, H = self.size()
-        self._fixed_window("##panels", (W - PANEL_W, 0, W, H - PREVIEW_H), imgui.WindowFlags_.no_title_bar)
-        if imgui.begin_tab_bar("panels"):
-            for name, fn in (("Calibration", self._calibration_tab), ("Model", self._model_tab)):
-                shown, _ = imgui.begin_tab_item(name)
-                self._rect(f"tab:{name}")
-                if shown:
-                    fn()
-                    imgui.end_tab_item()
-            imgui.end_tab_bar()
-        imgui.end()
-
-    def _calibration_tab(self) -> None:
-        s = self.session
-        if self._button("Calibrate", tip="calibrate every photo from its segments and markers (paper §2)"):
-            self._later(self.calibrate)
-        if self.calibration_error:
-            imgui.push_text_wrap_pos(0.0)
-            imgui.text_colored(imgui.ImVec4(1.0, 0.4, 0.35, 1.0), self.calibration_error)
-            imgui.pop_text_wrap_pos()
-        elif self.calibration_result:
-            for pid, c in self.calibration_result.get("cameras", {}).items():
-                imgui.text(f"{pid}: {c.get('mode', '?')}, f {c['focal_px']['value']:.1f} ± "
-                           f"{c['focal_px']['sigma']:.1f} px, rms {c['rms_px']:.2f} px")
-        imgui.separator()
-        if self.photo is not None:
-            imgui.text(f"vanishing points in {self.photo}")
-            for axis in ("x", "y", "z"):
-                vs = self._guard(s.vanishing, self.photo, axis)
-                if vs is None:
-                    continue
-                colour = imgui.ImVec4(*AXIS_COLOURS[axis])
-                if vs.point is not None:
-                    v = vs.point
-                    where = f"({v[0] / v[2]:.0f}, {v[1] / v[2]:.0f})" if abs(v[2]) > 1e-12 else "at infinity"
-                    rms = float(np.sqrt(np.mean(np.asarray(vs.residuals_px) ** 2)))
-                    text = f"{axis}: {len(vs.segments)} segments, VP {where}, rms {rms:.2f} px"
-                else:
-                    text = vs.problem or f"{axis}: {len(vs.segments)} segments"
-                imgui.push_text_wrap_pos(0.0)
-                imgui.text_colored(colour, text)
-                imgui.pop_text_wrap_pos()
-        imgui.separator()
-        origin = s.data.get("origin_marker")
-        imgui.text(f"markers (origin: {origin or 'none'})")
-        imgui.begin_child("markers", (0, 130), imgui.ChildFlags_.borders)
-        observed = (s.photo(self.photo).get("marker_observations") or {}) if self.photo else {}
-        for m in s.data.get("markers", []):
-            name = m["name"]
-            imgui.text(f"{name:<6}{'  in this photo' if name in observed else ''}")
-            imgui.same_line(200)
-            if name == origin:
-                imgui.text("origin")
-            elif self._button(f"origin##{name}", tip=f"the world's origin at {name}"):
-                self._guard(s.set_origin, name)
-        imgui.end_child()
-        imgui.text("reference distances")
-        for i, d in enumerate(s.data.get("reference_distances", [])):
-            imgui.text(f"{d['a']}–{d['b']} {d['distance']:.4f} m ({d.get('role', 'scale')})")
-            imgui.same_line()
-            if self._button(f"remove##distance{i}"):
-                self._guard(s.remove_distance, i)
-        imgui.set_next_item_width(70)
-        _, self.dist_a = imgui.input_text("##distance a", self.dist_a)
-        self._rect("distance a")
-        imgui.same_line()
-        imgui.set_next_item_width(70)
-        _, self.dist_b = imgui.input_text("##distance b", self.dist_b)
-        self._rect("distance b")
-        imgui.same_line()
-        imgui.set_next_item_width(80)
-        _, self.dist_m = imgui.input_float("m##distance", self.dist_m, 0.0, 0.0, "%.4f")
-        self._rect("distance m")
-        imgui.set_next_item_width(90)
-        _, self.dist_role = imgui.combo("role##distance", self.dist_role, ["scale", "check"])
-        self._rect("distance role")
-        imgui.same_line()
-        if self._button("add##distance", tip="a measured distance between two markers (or node:vertex)"):
-            self._guard(s.add_distance, self.dist_a, self.dist_b, float(self.dist_m),
-                        role=["scale", "check"][self.dist_role])
-
-    def _model_tab(self) -> None:
-        s = self.session
-        model = s.model
-        imgui.set_next_item_width(100)
-        self.new_kind = self._combo("kind", self.new_kind, KINDS)
-        imgui.same_line()
-        parents = self._attach_choices()
-        self.new_parent = min(self.new_parent, len(parents) - 1)
-        imgui.set_next_item_width(110)
-        self.new_parent = self._combo("parent", self.new_parent, parents)
-        imgui.same_line()
-        imgui.set_next_item_width(90)
-        _, self.new_name = imgui.input_text("##new name", self.new_name)
-        self._rect("new name")
-        if self._button("Add", tip="then click in the photo where it stands"):
-            self.arm_placement()
-        imgui.same_line()
-        if self._button("Add at centre", tip="where the photo's centre looks at its support"):
-            self.add_at_centre()
-        imgui.separator()
-        if self._button("Solve"):
-            self._later(lambda: self.solve(False))
-        imgui.same_line()
-        if self._button("Re-calibrate", tip="solve the cameras and markers with the model (paper §3.2)"):
-            self._later(lambda: self.solve(True))
-        imgui.same_line()
-        if self._button("Register this photo", tip="place this photo's camera from known points (paper §3.2)"):
-            if self.photo is not None:
-                self._later(lambda: self._guard(s.register, self.photo))
-        if self._button("Extract textures"):
-            self._later(self.extract_textures)
-        imgui.same_line()
-        imgui.set_next_item_width(90)
-        _, self.group_name = imgui.input_text("##group name", self.group_name)
-        self._rect("group name")
-        imgui.same_line()
-        if self._button("Group", tip="the selected nodes (Ctrl+click in the tree) become one object"):
-            if self._guard(s.group, list(self.selected_nodes), self.group_name) is not None:
-                self.select(self.group_name.strip())
-        imgui.separator()
-        imgui.begin_child("tree", (0, 150), imgui.ChildFlags_.borders)
-        if model is None:
-            imgui.text_disabled("no model yet: calibrate, then Add a primitive")
-        else:
-            for n in model.nodes:
-                if n.parent is None:
-                    self._tree_node(model, n.name)
-        imgui.end_child()
-        if self.selected is not None and model is not None and self.selected in model.index:
-            self._properties(model, self.selected)
-        self._residuals()
-
-    def _attach_choices(self) -> list[str]:
-        """What a new primitive can hang on: nothing (the first goes on the origin marker, later
-        ones rest on the floor), a node (resting on its top), or a calibrated marker."""
-        model = self.session.model
-        names = [n.name for n in model.nodes] if model is not None else []
-        markers = sorted((self.session.data.get("calibration") or {}).get("markers", {}))
-        return ["(none)"] + names + [f"marker {m}" for m in markers]
-
-    def _attachment(self) -> dict[str, str | None]:
-        choice = self._attach_choices()[self.new_parent] if self.new_parent < len(self._attach_choices()) else ""
-        if choice.startswith("marker "):
-            return {"parent": None, "marker": choice[len("marker "):]}
-        return {"parent": None if choice in ("", "(none)") else choice, "marker": None}
-
-    def arm_placement(self) -> None:
-        """Add: the next click in the photo places the new primitive there."""
-        model = self.session.model
-        kind = KINDS[self.new_kind]
-        where = self._attachment()
-        if self.photo is None or (model is None and not self.session.cameras) or where["marker"] is not None:
-            made = self._guard(self.session.add_primitive, kind, name=self.new_name.strip() or None, **where)
-            if made is not None:
-                self.select(made)
-            return
-        self._placing = {"kind": kind, "name": self.new_name.strip(), **where}
-        self.say(f"click in the photo where the new {kind} stands")
-
-    def add_at_centre(self) -> None:
-        model = self.session.model
-        at = None
-        if self.photo is not None and self.photo in self.session.cameras and model is not None:
-            w, h = self.photo_size()
-            at = (self.photo, (w / 2, h / 2))
-        made = self._guard(self.session.add_primitive, KINDS[self.new_kind], name=self.new_name.strip() or None,
-                           at=at, **self._attachment())
-        if made is not None:
-            self.select(made)
-
-    def _tree_node(self, model: Any, name: str) -> None:
-        kids = model.children.get(name, [])
-        flags = imgui.TreeNodeFlags_.open_on_arrow | imgui.TreeNodeFlags_.default_open \
-            | imgui.TreeNodeFlags_.span_avail_width
-        if not kids:
-            flags |= imgui.TreeNodeFlags_.leaf
-        if name in self.selected_nodes:
-            flags |= imgui.TreeNodeFlags_.selected
-        node = model.node(name)
-        what = node.primitive.TYPE if node.primitive is not None else "group"
-        opened = imgui.tree_node_ex(f"{name}  ({what}, {node.joint.type})##node:{name}", flags)
-        if not self._rect(f"node:{name}") and name == self.selected and self._scroll_to_selected:
-            imgui.set_scroll_here_y(0.5)  # a node selected in the photo is shown in the tree
-        if name == self.selected:
-            self._scroll_to_selected = False
-        if imgui.is_item_clicked() and not imgui.is_item_toggled_open():
-            self.select(name, add=self._ctrl_held())
-        if opened:
-            for k in kids:
-                self._tree_node(model, k)
-            imgui.tree_pop()
-
-    def _node_doc(self, name: str) -> dict[str, Any] | None:
-        for n in (self.session.data.get("model") or {}).get("nodes", []):
-            if n["name"] == name:
-                return n
-        return None
-
-    def _float_field(self, label: str, value: float, fmt: str = "%.4f") -> float | None:
-        """An input committed by Enter or by leaving it; returns the committed value or None."""
-        shown = self._param_edits.get(label, value)
-        changed, v = imgui.input_float(label, float(shown), 0.0, 0.0, fmt)
-        self._rect(label)
-        if changed:
-            self._param_edits[label] = float(v)
-        if imgui.is_item_deactivated_after_edit():
-            return self._param_edits.pop(label, float(v))
-        return None
-
-    def _properties(self, model: Any, name: str) -> None:
-        s = self.session
-        doc = self._node_doc(name)
-        if doc is None:
-            return
-        imgui.separator()
-        imgui.text(f"{name}" + (f" on {doc['parent']}" if doc.get("parent") else ""))
-        imgui.same_line()
-        if self._button("Remove##node"):
-            self._guard(s.remove_node, name)
-            if s.model is None or name not in s.model.index:
-                self.select(None)
-                return
-        prim = doc.get("primitive")
-        if prim is not None:
-            for k, v in prim["params"].items():
-                imgui.set_next_item_width(110)
-                new = self._float_field(f"{k} (m)##param:{k}", v)
-                if new is not None and new != v:
-                    self._guard(s.set_params, name, {k: new})
-        joint = doc.get("joint", {})
-        jtype = joint.get("type", "fixed")
-        types = JOINT_TYPES + ([jtype] if jtype not in JOINT_TYPES else [])
-        imgui.set_next_item_width(110)
-        changed, idx = imgui.combo("joint##type", types.index(jtype), types)
-        self._rect("joint type")
-        if changed and types[idx] != jtype:
-            self._guard(s.set_joint, name, self._default_joint(model, name, types[idx], joint))
-        for key, value in joint.items():
-            if key in ("type", "limits", "limits_deg") or isinstance(value, str):
-                if isinstance(value, str) and key != "type":
-                    imgui.text(f"{key}: {value}")
-                continue
-            if isinstance(value, (int, float)):
-                imgui.set_next_item_width(110)
-                new = self._float_field(f"{key}##joint:{key}", float(value), "%.3f")
-                if new is not None and new != value:
-                    self._guard(s.set_joint, name, {**joint, key: new})
-            elif isinstance(value, list) and len(value) in (2, 3):
-                imgui.set_next_item_width(200)
-                fn = imgui.input_float2 if len(value) == 2 else imgui.input_float3
-                label = f"{key}##joint:{key}"
-                shown = self._param_edits.get(label, [float(c) for c in value])
-                changed, vec = fn(label, list(shown), "%.3f")
-                self._rect(label)
-                if changed:
-                    self._param_edits[label] = list(vec)
-                if imgui.is_item_deactivated_after_edit():
-                    vec = self._param_edits.pop(label, list(vec))
-                    self._guard(s.set_joint, name, {**joint, key: [float(c) for c in vec]})
-        if jtype in ("hinge", "slider"):
-            key = "limits_deg" if jtype == "hinge" else "limits"
-            lo, hi = joint.get(key, [-180.0, 180.0] if jtype == "hinge" else [-1.0, 1.0])
-            label = f"limits ({'°' if jtype == 'hinge' else 'm'})##limits"
-            shown = self._param_edits.get(label, [float(lo), float(hi)])
-            imgui.set_next_item_width(200)
-            changed, vec = imgui.input_float2(label, list(shown), "%.3f")
-            self._rect("limits")
-            if changed:
-                self._param_edits[label] = list(vec)
-            if imgui.is_item_deactivated_after_edit():
-                vec = self._param_edits.pop(label, list(vec))
-                self._guard(s.set_limits, name, float(vec[0]), float(vec[1]))
-        solve = doc.get("solve", True)
-        changed, on = imgui.checkbox("solve (untick: hold as it is)", bool(solve))
-        self._rect("solve")
-        if changed:
-            self._guard(s.set_solve, name, bool(on))
-
-    def _default_joint(self, model: Any, name: str, jtype: str, old: dict[str, Any]) -> dict[str, Any]:
-        """A joint of another type that keeps the node where it is now, as far as the type allows."""
-        from vebuild.model.scene import pose_to_dict
-
-        node = model.node(name)
-        T = model.world_transforms()
-        rel = T[name] if node.parent is None else np.linalg.inv(T[node.parent]) @ T[name]
-        pose = pose_to_dict(rel)
-        if jtype == "rests_on":
-            j = {"type": "rests_on", "position": [float(rel[0, 3]), float(rel[1, 3])],
-                 "yaw_deg": float(pose["rotation_deg"][2])}
-            if node.parent is not None:
-                j["face"] = "top"
-                j["position"] = old.get("position", [0.0, 0.0])
-            return j
-        if jtype == "hinge":
-            return {"type": "hinge", "axis_point": [0.0, 0.0, 0.0], "axis": [0.0, 0.0, 1.0], **pose,
-                    "angle_deg": 0.0, "limits_deg": [-180.0, 180.0]}
-        if jtype == "slider":
-            return {"type": "slider", "axis": [1.0, 0.0, 0.0], **pose, "offset": 0.0, "limits": [-1.0, 1.0]}
-        return {"type": jtype, **pose}
-
-    def _residuals(self) -> None:
-        if self.solve_error:
-            imgui.push_text_wrap_pos(0.0)
-            imgui.text_colored(imgui.ImVec4(1.0, 0.4, 0.35, 1.0), self.solve_error)
-            imgui.pop_text_wrap_pos()
-        r = self.solve_result
-        if not r:
-            return
-        imgui.separator()
-        imgui.text(f"rms {r.get('rms_px', float('nan')):.2f} px; {len(r.get('outliers', []))} outlier(s)")
-        outliers = " | ".join(r.get("outliers", []))
-        imgui.begin_child("residuals", (0, 0), imgui.ChildFlags_.borders)
-        for kind, items in (("pin", r.get("pins", [])), ("edge", r.get("edge_observations", []))):
-            for o in items:
-                what = o.get("handle") or o.get("edge")
-                res = float(np.hypot(*o["residual_px"][:2])) if len(o["residual_px"]) >= 2 else float("nan")
-                bad = f"{o['node']}:{what}" in outliers and f"'{o['photo']}'" in outliers
-                text = f"{kind} {o['node']}:{what} in {o['photo']}: {res:.2f} px" + ("  OUTLIER" if bad else "")
-                if bad:
-                    imgui.text_colored(imgui.ImVec4(1.0, 0.35, 0.3, 1.0), text)
-                else:
-                    imgui.text(text)
-        imgui.end_child()
 
     # -- 3-D preview --------------------------------------------------------------------------------
 
