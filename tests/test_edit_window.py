@@ -446,3 +446,33 @@ def test_a_drag_frame_shows_what_a_whole_redraw_shows(room):
     finally:
         e.close()
         surface.release()
+
+
+def test_l_hides_and_shows_the_labels_over_the_photo(room):
+    import glfw
+
+    from vebuild.edit.screen import Editor
+    from vebuild.edit.session import EditSession
+    from vebuild.gl.context import headless_context
+    from vebuild.gl.surface import OffscreenSurface
+
+    s = EditSession.open(room, recover=False)
+    surface = OffscreenSurface(headless_context(), 1200, 780)
+    e = Editor(s, surface)
+    try:
+        e.set_photo("p3")
+        for _ in range(len(s.photo_ids) + 3):
+            e.draw()
+        x0, y0, x1, y1 = (int(v) for v in e.view_rect())
+        shown = surface.read()[y0:y1 - 80, x0:x1]
+        e.on_key(glfw.KEY_L, glfw.PRESS, 0)
+        e.on_key(glfw.KEY_L, glfw.RELEASE, 0)
+        e.draw()
+        hidden = surface.read()[y0:y1 - 80, x0:x1]
+        assert not e.show_labels and np.any(shown != hidden)
+        e.on_key(glfw.KEY_L, glfw.PRESS, 0)
+        e.draw()
+        assert e.show_labels and np.array_equal(surface.read()[y0:y1 - 80, x0:x1], shown)
+    finally:
+        e.close()
+        surface.release()

@@ -58,7 +58,7 @@ class Panels:
                 colour = imgui.ImVec4(*AXIS_COLOURS[axis])
                 if vs.point is not None:
                     v = vs.point
-                    where = f"({v[0] / v[2]:.0f}, {v[1] / v[2]:.0f})" if abs(v[2]) > 1e-12 else "at infinity"
+                    where = _vanishing_point_text(v, *self.photo_size())
                     rms = float(np.sqrt(np.mean(np.asarray(vs.residuals_px) ** 2)))
                     text = f"{axis}: {len(vs.segments)} segments, VP {where}, rms {rms:.2f} px"
                 else:
@@ -348,4 +348,19 @@ class Panels:
                 else:
                     imgui.text(text)
         imgui.end_child()
+
+
+def _vanishing_point_text(v: Any, width: float, height: float) -> str:
+    """A vanishing point as pixels, or, far outside the image (beyond ten times its size), as the
+    direction it lies in from the image's centre: a pixel position there says little."""
+    centre = np.array([width / 2, height / 2])
+    if abs(v[2]) > 1e-12:
+        p = np.asarray(v[:2], float) / v[2]
+        if np.all(np.abs(p - centre) < 10 * max(width, height)):
+            return f"({p[0]:.0f}, {p[1]:.0f})"
+        d = p - centre
+        d = d / np.linalg.norm(d)
+        return f"far, toward ({d[0]:+.3f}, {d[1]:+.3f})"
+    d = np.asarray(v[:2], float) / np.linalg.norm(v[:2])
+    return f"at infinity, along ({d[0]:+.3f}, {d[1]:+.3f})"
 

@@ -19,6 +19,7 @@ M                       Marker: click places the marker named in the toolbar's f
 E                       Edge: press, drag along an edge of the selected primitive, release
 Delete                  Delete tool: click a segment, marker or drawn edge to remove it
 F                       fix / unfix the vertex under the cursor
+L                       labels (residuals, names) over the photo on / off; markers' names stay
 Shift                   magnifier (always on with the Segment, Marker and Edge tools)
 PageUp / PageDown       previous / next photo (or click its thumbnail)
 Ctrl+Z, Ctrl+Y          undo, redo (Ctrl+Shift+Z too); Ctrl+S saves
@@ -121,6 +122,7 @@ class Editor(Panels):
         self.zoom = 1.0
         self.pan = (0.0, 0.0)  # window position of the photo's top-left corner
         self.tool = "select"
+        self.show_labels = True  # residuals and names over the photo (L)
         self.selected: str | None = None
         self.selected_nodes: list[str] = []
         self._scroll_to_selected = False
@@ -425,6 +427,8 @@ class Editor(Panels):
             self.step_photo(-1)
         elif key == glfw.KEY_F:
             self.toggle_fix_at(*self._cursor)
+        elif key == glfw.KEY_L:
+            self.show_labels = not self.show_labels
 
     def set_tool(self, tool: str) -> None:
         if tool not in TOOLS:
@@ -946,7 +950,7 @@ class Editor(Panels):
             dl.add_line(a, b, col, ln.width)
             if ln.arrow:
                 self._arrow_head(dl, a, b, col, 6.0 + 2.0 * ln.width)
-            if ln.label and ln.kind in ("segment", "axis", "user-edge", "horizon", "residual"):
+            if ln.label and self.show_labels and ln.kind in ("segment", "axis", "user-edge", "horizon", "residual"):
                 dl.add_text((0.5 * (a[0] + b[0]) + 6, 0.5 * (a[1] + b[1]) + 2), col, ln.label)
         for pt in ov.points:
             c = (px + z * pt.uv[0], py + z * pt.uv[1])
@@ -955,7 +959,7 @@ class Editor(Panels):
                 dl.add_circle_filled(c, pt.radius, col)
             else:
                 dl.add_circle(c, pt.radius, col, 0, 1.5)
-            if pt.label:
+            if pt.label and (self.show_labels or pt.kind == "marker"):
                 dl.add_text((c[0] + pt.radius + 3, c[1] - 7), col, pt.label)
 
     @staticmethod
@@ -1073,6 +1077,10 @@ class Editor(Panels):
         imgui.same_line()
         if self._button("Fit", tip="Home: the whole photo"):
             self.fit()
+        imgui.same_line()
+        _, self.show_labels = imgui.checkbox("labels", self.show_labels)
+        self._rect("labels")
+        imgui.set_item_tooltip("L: residuals and names over the photo (markers' names stay)")
         imgui.same_line()
         status = f"{self.photo or '-'}  ×{self.zoom:.2f}"
         if self._photo_takes(*self._cursor):

@@ -33,7 +33,7 @@ from vebuild.errors import CalibrationError, VebuildError
 from vebuild.model.edit import DragSession, drag_nodes, project_edges
 from vebuild.model.scene import Model, ModelError, model_from_dict
 from vebuild.model.solver import Camera, EdgeObservation, Pin
-from vebuild.project import Project, load_project, new_photo_entry, save_project, validate
+from vebuild.project import RESULT_KEYS, Project, load_project, new_photo_entry, save_project, validate
 
 from .overlay import (
     AXIS_COLOURS,
@@ -193,7 +193,11 @@ class EditSession:
         before = copy.deepcopy(self.data)
         try:
             yield
-            validate(self.data, self.project.path)
+            # Results (calibration, solution, textures) the edit left as they were were valid before
+            # it: only the inputs, and results it changed, are validated again (the covariance
+            # matrices make a whole validation most of an edit's time).
+            kept = [k for k in RESULT_KEYS if k in self.data and self.data[k] == before.get(k)]
+            validate({k: v for k, v in self.data.items() if k not in kept}, self.project.path)
         except VebuildError as e:
             self.project.data = before
             self._cache.clear()
