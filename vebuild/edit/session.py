@@ -118,8 +118,8 @@ class _Drag:
         self.baseline_fixed = 0.0
         self.moved = False
         self.revision = 0  # counts the moves the model followed
-        self.T0 = model.world_transforms()
-        self.T, self.T_key = self.T0, 0
+        self.T = session.problem.transforms(self.x_good)
+        self.T_key = 0
 
 
 class EditSession:
@@ -757,7 +757,7 @@ class EditSession:
                 self._cache["transforms"] = self.model.world_transforms()
             return self._cache["transforms"]
         if d.T_key != d.revision:
-            d.T = d.model.world_transforms(d.x_good, only=d.session.moved, cache=d.T0)
+            d.T = d.session.problem.transforms(d.x_good)
             d.T_key = d.revision
         return d.T
 

@@ -123,7 +123,7 @@ class DragSession:
         sol = self.problem.solve(self.x, tol=DRAG_TOL, damping=DRAG_DAMPING, max_iterations=DRAG_MAX_ITERATIONS)
         self.x = sol.x
         xm = self.problem.model_vector(self.x)
-        T = self.model.world_transforms(xm)
+        T = self.problem.transforms(xm)
         edges = {cid: project_edges(self.model, self.cameras[cid], self.moved, xm, T) for cid in self.edges_into}
         r = sol.residuals * self.problem.sigma  # the solve's own final residuals: no second evaluation
         fixed = [np.linalg.norm(r[self.problem.rows_pin[i]]) for i, p in enumerate(self.problem.pins)

@@ -368,12 +368,17 @@ class Problem:
         return np.where((ends >= 0)[:, None], H[np.maximum(ends, 0)], M[np.maximum(-1 - ends, 0)]) \
             if len(ends) else np.zeros((0, 3))
 
+    def transforms(self, xm: Array) -> dict[str, Array]:
+        """Every node's world transform for model vector xm (only the moving nodes recomputed)."""
+        if self._moving is None:
+            return self.model.world_transforms(xm)
+        return self.model.world_transforms(xm, only=self._moving, cache=self._T0)
+
     def _posed(self, xm: Array) -> tuple[dict[str, Array], Array]:
         """World transforms and handle positions for model vector xm (only moving nodes recomputed)."""
+        T = self.transforms(xm)
         if self._moving is None:
-            T = self.model.world_transforms(xm)
             return T, self.handle_positions(xm, T)
-        T = self.model.world_transforms(xm, only=self._moving, cache=self._T0)
         return T, self.handle_positions(xm, T, self._moving, self._H0.copy())
 
     def evaluate(self, x: Array) -> Array:
