@@ -379,7 +379,7 @@ class Viewshed:
 
     def centres(self) -> tuple[Array, Array]:
         ny, nx = self.states.shape
-        return (self.origin[0] + (np.arange(nx) + 0.5) * self.cell, self.origin[1] + (np.arange(ny) + 0.5) * self.cell)
+        return cell_centres(self.origin, self.cell, nx, ny)
 
     @property
     def seeing(self) -> NDArray[np.bool_]:
@@ -405,6 +405,12 @@ class Viewshed:
         return d
 
 
+def cell_centres(origin: Any, cell: float, nx: int, ny: int) -> tuple[Array, Array]:
+    """The x of each column's and the y of each row's centre of a grid whose lower-left corner is at
+    ``origin``."""
+    return origin[0] + (np.arange(nx) + 0.5) * cell, origin[1] + (np.arange(ny) + 0.5) * cell
+
+
 def floor_grid(occ: Occluders, cell: float, eye_height: float) -> tuple[tuple[float, float], NDArray[np.int8]]:
     """The grid over the floor (upward faces at z = 0) and each cell's state."""
     from vebuild.viewer.collide import footprints
@@ -421,8 +427,7 @@ def floor_grid(occ: Occluders, cell: float, eye_height: float) -> tuple[tuple[fl
     nx, ny = max(1, math.ceil((hi[0] - lo[0]) / cell - 1e-9)), max(1, math.ceil((hi[1] - lo[1]) / cell - 1e-9))
     if nx * ny > 4_000_000:
         raise VebuildError(f"--cell: {cell:g} m gives {nx}×{ny} cells over the floor; choose a larger cell")
-    xs, ys = lo[0] + (np.arange(nx) + 0.5) * cell, lo[1] + (np.arange(ny) + 0.5) * cell
-    X, Y = np.meshgrid(xs, ys)
+    X, Y = np.meshgrid(*cell_centres(lo, cell, nx, ny))
     Q = np.stack([X.ravel(), Y.ravel()], axis=1)
     on_floor = np.zeros(len(Q), bool)
     for a, b, c in P[floor, :, :2]:
@@ -455,9 +460,7 @@ def viewshed(occ: Occluders, target: Target, eye_height: float = STANDING_EYE_M,
     """Which places on the floor see ``target`` (see :class:`Viewshed`)."""
     origin, states = floor_grid(occ, cell, eye_height)
     ny, nx = states.shape
-    xs = origin[0] + (np.arange(nx) + 0.5) * cell
-    ys = origin[1] + (np.arange(ny) + 0.5) * cell
-    X, Y = np.meshgrid(xs, ys)
+    X, Y = np.meshgrid(*cell_centres(origin, cell, nx, ny))
     places = np.flatnonzero(states.ravel() == PLACE)
     E = np.stack([X.ravel()[places], Y.ravel()[places], np.full(len(places), eye_height)], axis=1)
     share = np.full(nx * ny, np.nan)
