@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from claims import FOCAL_TOL_REL, POSITION_TOL_REL, ROTATION_TOL_DEG, dimension_tolerance
 
 from vebuild.camera import project as project_points
 from vebuild.project import new_project, save_project
@@ -88,17 +89,6 @@ def make_plan(folder: Path, seed: int = 11, noise_px: float = CLICK_NOISE_PX) ->
 def photo_file(plan: Plan, photo: str) -> Path:
     example = json.loads((EXAMPLE / "room.vebuild.json").read_text())
     return plan.folder / next(p["file"] for p in example["photos"] if p["id"] == photo)
-
-
-#: The calibration issue's claims for 0.7 px clicks, per photo (as tests/test_example_room.py).
-FOCAL_TOL_REL = 0.01
-ROTATION_TOL_DEG = 0.3
-POSITION_TOL_REL = 0.01  # of the room's diagonal
-
-
-def dimension_tolerance(size_m: float) -> float:
-    """The modelling issue's claim for a dimension: 1 cm per metre, 1 cm below a metre."""
-    return 0.01 * max(size_m, 1.0)
 
 
 def assert_cameras_match(plan: Plan, cameras) -> None:

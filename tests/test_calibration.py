@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from claims import FOCAL_TOL_REL, POSITION_TOL_REL, ROTATION_TOL_DEG
 
 from vebuild.calibration.photo import FocalPrior, calibrate_photo, closed_form_calibration
 from vebuild.calibration.positions import PhotoInput, ReferenceDistance, place_cameras
@@ -17,9 +18,6 @@ from vebuild.calibration.vanishing import fit_vanishing_point
 from vebuild.camera import log_so3
 from vebuild.synthetic import CLICK_NOISE_PX, ROOM, add_segments, random_camera, random_scene, scale_reference
 
-FOCAL_TOL_REL = 0.01  # the claim for 0.7 px clicks
-ROTATION_TOL_DEG = 0.3
-POSITION_TOL_REL = 0.01  # of the room's diagonal
 #: |error| / reported 1σ that no camera may exceed: 4.5σ happens by chance about once in 10⁵
 #: draws of a Gaussian, so a larger ratio means the reported uncertainty is wrong.
 UNCERTAINTY_BOUND = 4.5

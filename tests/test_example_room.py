@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from claims import FOCAL_TOL_REL, POSITION_TOL_REL, ROTATION_TOL_DEG
 
 from vebuild.actions.calibrate import calibrate_project
 from vebuild.camera import log_so3
@@ -20,9 +21,6 @@ from vebuild.cli import main
 from vebuild.project import load_project
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "scenes" / "room"
-FOCAL_TOL_REL = 0.01
-ROTATION_TOL_DEG = 0.3
-POSITION_TOL_REL = 0.01  # of the room's diagonal
 UNCERTAINTY_BOUND = 4.5  # |error| / reported 1σ
 
 

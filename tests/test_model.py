@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from claims import dimension_tolerance
 
 from vebuild.actions.calibrate import calibrate_project
 from vebuild.actions.solve import solve_project
@@ -22,9 +23,6 @@ from vebuild.synthetic import model_scene
 EXAMPLE = Path(__file__).resolve().parents[1] / "scenes" / "room"
 #: The paper's vertex fixing: a fixed vertex stays within this of its pin while others are dragged.
 FIXED_VERTEX_TOL_PX = 0.5
-#: The issue's claim for a box dimension: 1 cm per metre of the dimension, 1 cm below a metre.
-def dimension_tolerance(size_m: float) -> float:
-    return 0.01 * max(size_m, 1.0)
 
 
 BOX = {"name": "b", "parent": "floor", "primitive": {"type": "box", "params": {"width": 1, "depth": 1, "height": 1}},
