@@ -28,6 +28,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 
 from ..camera import AXES, exp_so3, intrinsic_matrix, ypr_from_rotation
+from ..determinism import deterministic
 from ..errors import CalibrationError
 from .intrinsics import focal_squared, orthocentre, rotation_from_vanishing_points
 from .lsq import covariance_from_jacobian, numeric_jacobian, variance_factor
@@ -121,6 +122,7 @@ def ypr_with_sigma(R: Array, cov_omega: Array) -> tuple[Array, Array]:
     return ypr0, np.sqrt(np.maximum(np.diag(J @ cov_omega @ J.T), 0.0))
 
 
+@deterministic
 def calibrate_photo(
     segments: Mapping[str, ArrayLike],
     width: int,
@@ -263,6 +265,7 @@ def calibrate_photo(
     )
 
 
+@deterministic
 def closed_form_calibration(
     segments: Mapping[str, ArrayLike], width: int, height: int, *, photo: str = "photo",
     focal: FocalPrior | None = None,

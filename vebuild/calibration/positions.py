@@ -30,6 +30,7 @@ from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
 from ..camera import intrinsic_matrix, pixel_rays_world, project, skew_batch, so3_left_jacobian
+from ..determinism import deterministic
 from ..errors import CalibrationError
 from .lsq import covariance_from_jacobian, variance_factor
 
@@ -131,6 +132,7 @@ def unit_baseline(rays_j: Array, rays_k: Array) -> Array:
     return B if votes >= 0 else -B
 
 
+@deterministic
 def place_cameras(
     photos: Sequence[PhotoInput],
     *,

@@ -22,6 +22,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 
 from ..camera import exp_so3, intrinsic_matrix, pixel_rays_world, project, rotation_from_ypr, world_to_camera
+from ..determinism import deterministic
 from ..errors import CalibrationError
 from .lsq import covariance_from_jacobian, numeric_jacobian, variance_factor
 from .photo import FocalPrior, PhotoCalibration
@@ -83,6 +84,7 @@ def _refine(points: Array, pixels: Array, K0: Array, R0: Array, C0: Array, click
     return K, R, sol.x[6:9].copy(), cov, project(K, R, sol.x[6:9], points) - pixels
 
 
+@deterministic
 def register_from_points(points: ArrayLike, pixels: ArrayLike, width: int, height: int, *, photo: str = "photo",
                          click_sigma_px: float = 1.0, principal_point_sigma_rel: float = 0.01,
                          focal: FocalPrior | None = None) -> Registered:
@@ -127,6 +129,7 @@ def register_from_points(points: ArrayLike, pixels: ArrayLike, width: int, heigh
     return Registered(K, R, C, cov, res, "points")
 
 
+@deterministic
 def register_with_vanishing_points(cal: PhotoCalibration, points: ArrayLike, pixels: ArrayLike, *,
                                    click_sigma_px: float = 1.0) -> Registered:
     """Position (and a refined rotation) of a photo whose K and R came from its vanishing points,

@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 
+from ..determinism import deterministic
 from ..errors import CalibrationError
 
 Array = NDArray[np.float64]
@@ -140,6 +141,7 @@ def tangent_basis(x: Array) -> tuple[Array, Array]:
     return t1, np.cross(x, t1)
 
 
+@deterministic
 def fit_vanishing_point(
     segments: ArrayLike, width: float, height: float, *, axis: str = "?", photo: str = "photo"
 ) -> VanishingPointFit:

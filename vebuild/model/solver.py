@@ -32,6 +32,7 @@ from scipy.sparse.linalg import spsolve
 from ..calibration.lsq import variance_factor
 from ..calibration.positions import ReferenceDistance  # ends: marker names or 'node:handle'
 from ..camera import exp_so3, project_each, skew_batch, so3_left_jacobian
+from ..determinism import deterministic
 from .scene import Model
 
 Array = NDArray[np.float64]
@@ -535,6 +536,7 @@ class Problem:
         return J.tocsr()
 
     # -- solving -----------------------------------------------------------------------------
+    @deterministic
     def solve(self, x0: Array | None = None, robust: bool = False, max_iterations: int = 100,
               tol: float = 1e-10, damping: float = 1e-4) -> LMResult:
         """Bounded Levenberg–Marquardt from x0 (default: the model's values).
@@ -550,6 +552,7 @@ class Problem:
         return levenberg_marquardt(self.residuals, self.jacobian, np.clip(x0, lo, hi), lo, hi, max_iterations,
                                    tol=tol, damping=damping, robust_rows=robust_rows)
 
+    @deterministic
     def solution(self, x: Array, iterations: int = 0) -> Solution:
         """Covariance, residuals per observation, outliers and undetermined parameters at x."""
         J = self.jacobian(x)
@@ -617,6 +620,7 @@ class LMResult:
         return self.iterations
 
 
+@deterministic
 def levenberg_marquardt(fun, jac, x0: Array, lo: Array, hi: Array, max_iterations: int = 100, *,
                         robust_rows: int = 0, robust_scale: float = ROBUST_SCALE, tol: float = 1e-10,
                         damping: float = 1e-4) -> LMResult:
@@ -707,6 +711,7 @@ def _inverse(A: Array | sparse.spmatrix) -> Array:
         return cov
 
 
+@deterministic
 def handle_covariances(problem: Problem, x: Array, cov: Array) -> dict[str, tuple[Array, Array]]:
     """World position and 3×3 covariance of every handle, propagated from the parameters'.
 

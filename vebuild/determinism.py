@@ -1,0 +1,77 @@
+"""The same figures on any machine: linear algebra on a fixed number of threads.
+
+A multi-threaded BLAS (OpenBLAS, as numpy's and scipy's wheels bundle it) splits a product or a
+factorisation differently for each number of threads, and so adds its partial sums in another
+order: the solved model and cameras then differ in the last digits from one machine to another
+(by up to 1e-5 on the example), and everything made from them (textures, renders, the .glb, the
+report's hashes) differs in its bytes. A second examiner must get the same bytes, so every
+least-squares solve runs with one BLAS/OpenMP thread, whatever the machine has; vebuild's
+problems are small (at most a few hundred unknowns), where more threads gain little.
+
+:func:`fixed_threads` is the one place that does it: a context manager and a decorator, put on
+the solvers' entry points (so the editor's drags, which call them directly, are covered too)
+and around every command of the command line. It nests, and it is safe when solves run in more
+than one thread at once: the first to enter sets one thread, the last to leave restores what was
+there before. The thread counts of the BLAS and OpenMP libraries are process-wide settings, so a
+caller's own numpy work in another thread also runs single-threaded while a solve is under way.
+"""
+
+from __future__ import annotations
+
+import functools
+import threading
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from typing import Any, TypeVar
+
+#: The number of BLAS and OpenMP threads every solve runs with.
+THREADS = 1
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+_lock = threading.Lock()
+_depth = 0
+_limiter: Any = None
+_controller: Any = None
+
+
+def _threadpools() -> Any:
+    """threadpoolctl's controller over the BLAS and OpenMP libraries loaded (made on first use,
+    after numpy's and scipy's BLAS are loaded, so that it finds both: their wheels bring one each)."""
+    global _controller
+    if _controller is None:
+        import numpy  # noqa: F401
+        import scipy.linalg  # noqa: F401
+        from threadpoolctl import ThreadpoolController
+
+        _controller = ThreadpoolController()
+    return _controller
+
+
+@contextmanager
+def fixed_threads() -> Iterator[None]:
+    """Run the body with :data:`THREADS` BLAS and OpenMP threads; restore the count afterwards."""
+    global _depth, _limiter
+    with _lock:
+        if _depth == 0:
+            _limiter = _threadpools().limit(limits=THREADS)
+        _depth += 1
+    try:
+        yield
+    finally:
+        with _lock:
+            _depth -= 1
+            if _depth == 0:
+                _limiter.restore_original_limits()
+                _limiter = None
+
+
+def deterministic(fn: F) -> F:
+    """Decorate a solver's entry point: its body runs under :func:`fixed_threads`."""
+
+    @functools.wraps(fn)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        with fixed_threads():
+            return fn(*args, **kwargs)
+
+    return wrapper  # type: ignore[return-value]
