@@ -458,7 +458,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        return int(args.func(args))
+        from .determinism import fixed_threads
+
+        with fixed_threads():  # every figure, not only the solvers', the same on any machine
+            return int(args.func(args))
     except VebuildError as e:
         print(f"vebuild {args.command}: error: {e}", file=sys.stderr)
         return 2
