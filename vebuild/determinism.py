@@ -55,6 +55,7 @@ def fixed_threads() -> Iterator[None]:
     with _lock:
         if _depth == 0:
             _limiter = _threadpools().limit(limits=THREADS)
+            _release_openblas()
         _depth += 1
     try:
         yield
@@ -64,6 +65,19 @@ def fixed_threads() -> Iterator[None]:
             if _depth == 0:
                 _limiter.restore_original_limits()
                 _limiter = None
+                _release_openblas()
+
+
+def _release_openblas() -> None:
+    """Let the next thread that enters set OpenBLAS's count. threadpoolctl 3.8 lets only the thread
+    that first set a pthreads OpenBLAS's count set it again (others are silently ignored) until
+    that thread clears it; earlier versions have no such rule. Here the lock above already keeps
+    threads from fighting, and the thread that restores the count need not be the one that set it."""
+    import threadpoolctl
+
+    clear = getattr(getattr(threadpoolctl, "OpenBLASController", None), "clear_controlling_thread", None)
+    if clear is not None:
+        clear(force=True)
 
 
 def deterministic(fn: F) -> F:
