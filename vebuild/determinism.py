@@ -5,8 +5,14 @@ factorisation differently for each number of threads, and so adds its partial su
 order: the solved model and cameras then differ in the last digits from one machine to another
 (by up to 1e-5 on the example), and everything made from them (textures, renders, the .glb, the
 report's hashes) differs in its bytes. A second examiner must get the same bytes, so every
-least-squares solve runs with one BLAS/OpenMP thread, whatever the machine has; vebuild's
-problems are small (at most a few hundred unknowns), where more threads gain little.
+least-squares solve runs with one BLAS/OpenMP thread, whatever the machine has. Its matrices are
+small (the example's re-calibration: 320 × 111), where a second thread saves well under a
+millisecond a solve, and on a busy machine OpenBLAS's waiting threads cost far more than that.
+
+What this does not fix: OpenBLAS chooses its kernels for the CPU (``OPENBLAS_CORETYPE``), and a
+CPU given other kernels (AVX2 rather than AVX-512, or another architecture) adds in another order
+even on one thread. The same bytes need the same kernels, as well as the same numpy, scipy and
+Mesa.
 
 :func:`fixed_threads` is the one place that does it: a context manager and a decorator, put on
 the solvers' entry points (so the editor's drags, which call them directly, are covered too)
