@@ -462,9 +462,12 @@ def _primitive(d: Any, human: str, path: str) -> Primitive:
     cls = _PRIMITIVE_TYPES.get(d.get("type")) if isinstance(d.get("type"), str) else None
     for name, value in params.items():
         least = 0.0 if name == "radius_top" else MIN_SIZE_M
-        if cls is not None and name in cls.PARAMS and isinstance(value, int | float) and not value >= least:
-            raise _error(human, f"{path}.params.{name}", f"{cls.TYPE}: {name} must be at least {least:g} m (sizes "
-                         f"stay above {MIN_SIZE_M:g} m, the solver's least), got {value!r}")
+        if cls is None or name not in cls.PARAMS or not isinstance(value, int | float) or value >= least:
+            continue
+        if name != "radius_top" and value <= 0:
+            raise _error(human, f"{path}.params.{name}", f"{cls.TYPE}: {name} must be > 0, got {value!r}")
+        raise _error(human, f"{path}.params.{name}", f"{cls.TYPE}: {name} must be at least {least:g} m (sizes "
+                     f"stay above {MIN_SIZE_M:g} m, the solver's least), got {value!r}")
     try:
         prim = primitive_from_dict(d)
     except (ValueError, TypeError) as e:
