@@ -547,8 +547,9 @@ def test_deep_nesting_in_a_result_record(proj: Path, capsys: pytest.CaptureFixtu
 
 def test_lone_surrogate_in_text_or_key(proj: Path, capsys: pytest.CaptureFixture) -> None:
     edit_text(proj, '"name": "test room"', '"name": "test \\ud800room"')
-    check_refuses(proj, capsys, "$.name: expected text made of characters that can be written in UTF-8, found the "
-                  "lone surrogate \\ud800")
+    for command in ("check", "calibrate"):  # calibrate once failed on saving its results
+        check_refuses(proj, capsys, "$.name: expected text made of characters that can be written in UTF-8, found "
+                      "the lone surrogate \\ud800", command=command)
     edit_text(proj, '"name": "test \\ud800room"', '"name": "test room"')
     edit_text(proj, '"description": "floor corner"', '"description": "floor corner", "\\udc80": 1')
     check_refuses(proj, capsys, "$.markers[0]: expected key made of characters", "\\udc80")
@@ -816,11 +817,17 @@ def test_truncated_jpeg_refused_by_new_and_check(tmp_path: Path, capsys: pytest.
     ((11000, 11000), "is 11000×11000 = 121 megapixels, more than the 120 megapixels vebuild reads"),
     ((20000, 20000), "has more than 120 megapixels, more than vebuild reads"),
 ])
-def test_huge_image_refused_before_decoding(tmp_path: Path, size, expected: str) -> None:
+def test_huge_image_refused_before_decoding(tmp_path: Path, capsys: pytest.CaptureFixture, size,
+                                            expected: str) -> None:
+    from vebuild.cli import main
+
     image = tmp_path / "bomb.png"
     image.write_bytes(_png_header(*size))
-    with pytest.raises(ProjectError, match=re.escape(expected)):
-        new_photo_entry(tmp_path, image)
+    proj = tmp_path / "p.vebuild.json"
+    assert main(["new", str(proj), str(image)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"vebuild new: error: {image}: the image {image} ") and expected in err, err
+    assert "Traceback" not in err and not proj.exists()
 
 
 # -- texture pages: confined to the project folder and bounded like photos
@@ -895,3 +902,23 @@ def test_texture_page_bomb(room: Path, capsys: pytest.CaptureFixture) -> None:
     rewrite(room, lambda d: d["textures"]["pages"][0].update(atlas_sha256=sha256_file(page)))
     check_refuses(room, capsys, "$.textures.pages[0].atlas: the image 'textures/atlas_0.png' has more than 120 "
                   "megapixels")
+
+
+@pytest.mark.parametrize(("face", "where", "expected"), [
+    ({"page": 1}, "$.textures.faces[0].page", "names the atlas page 1, but $.textures.pages has 1 page(s)"),
+    ({"rect": [10, 0, 8, 8]}, "$.textures.faces[0].rect", "expected a rectangle inside its 16×8 atlas page"),
+    ({"average_colour_srgb": [300, 0, 0]}, "$.textures.faces[0].average_colour_srgb[0]",
+     "expected a number at least 0 and at most 255"),
+    ({"page": "0"}, "$.textures.faces[0].page", "expected a whole number"),
+])
+def test_texture_face_records_checked(room: Path, capsys: pytest.CaptureFixture, face, where: str,
+                                      expected: str) -> None:
+    from vebuild.cli import main
+
+    good = {"id": 1, "node": "floor", "face": "top", "page": 0, "rect": [0, 0, 16, 8], "size_m": [6.1, 4.9],
+            "average_colour_srgb": [120, 110, 100]}
+    _textured(room)
+    rewrite(room, lambda d: d["textures"].update(faces=[good]))
+    assert main(["check", str(room)]) == 0
+    rewrite(room, lambda d: d["textures"].update(faces=[{**good, **face}]))
+    check_refuses(room, capsys, f"{where}: {expected}")

@@ -360,6 +360,18 @@ def _check_semantics(data: dict[str, Any], file: Any) -> None:
         for key in ("atlas", "coverage"):
             _check_relative_path(page[key], file, f"$.textures.pages[{k}].{key}")
         _check_pixel_count(page["width"], page["height"], file, f"$.textures.pages[{k}].width", "an atlas page")
+    pages = (data.get("textures") or {}).get("pages", [])
+    for k, face in enumerate((data.get("textures") or {}).get("faces", [])):
+        where = f"$.textures.faces[{k}]"
+        if face["page"] >= len(pages):
+            raise ProjectError(file, f"{where}.page", f"names the atlas page {face['page']}, but $.textures.pages has "
+                               f"{len(pages)} page(s) (numbered from 0); run `vebuild texture` again")
+        x0, y0, w, h = face["rect"]
+        page = pages[face["page"]]
+        if x0 + w > page["width"] or y0 + h > page["height"]:
+            raise ProjectError(file, f"{where}.rect", f"expected a rectangle inside its {page['width']}×"
+                               f"{page['height']} atlas page, found [{x0}, {y0}, {w}, {h}]; run `vebuild texture` "
+                               "again")
     views = data.get("views", [])
     unique(views, "name", "$.views", "view name")
     for i, view in enumerate(views):
