@@ -590,6 +590,9 @@ def test_lone_surrogate_in_text_or_key(proj: Path, capsys: pytest.CaptureFixture
     (lambda d: d.update(views=[{"name": "v", "position": [0, 0, 1.6], "direction": [1e-300, 0, 0],
                                 "width": 64, "height": 48}]), "$.views[0].direction",
      "at least 1e-06 long"),
+    (lambda d: d.update(views=[{"name": "v", "position": [0, 0, 1.6], "look_at": [1e-12, 0, 1.6],
+                                "width": 64, "height": 48}]), "$.views[0].look_at",
+     "a point away from the view's position"),
 ])
 def test_values_outside_physical_sense(proj: Path, capsys: pytest.CaptureFixture, edit, where: str,
                                        expected: str) -> None:

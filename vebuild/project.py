@@ -456,6 +456,9 @@ def _check_view(view: dict[str, Any], file: Any, where: str) -> None:
     if "look_at" in view and view["look_at"] == view["position"]:
         raise ProjectError(file, f"{where}.look_at", "expected a point other than the view's position, found the "
                            "position itself")
+    if "look_at" in view:
+        _nonzero([a - b for a, b in zip(view["look_at"], view["position"], strict=True)], file, f"{where}.look_at",
+                 "a point away from the view's position (the look direction look_at − position)")
     if "direction" in view:
         _nonzero(view["direction"], file, f"{where}.direction", "a look direction")
     if "fov_deg" in view and "focal_length_mm" in view:

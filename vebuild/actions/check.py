@@ -21,6 +21,7 @@ def check_project(project: Project) -> list[str]:
     ProjectError (a VebuildError) naming the file, the JSON path and what was expected.
     """
     from ..render.lighting import preset_from_record
+    from ..render.views import view_camera
     from .solve import cameras_from_calibration, check_markers, load_model
 
     data = project.data
@@ -33,6 +34,8 @@ def check_project(project: Project) -> list[str]:
         lines.append(f"model: {len(model.nodes)} node(s), {len(pins)} pin(s), {len(edges)} edge observation(s)")
     for preset in (data.get("lighting") or {}).get("presets", []):
         preset_from_record(preset)
+    for view in data.get("views", []):
+        view_camera(view)
     _check_analyses(project)
     if data.get("analyses"):
         lines.append(f"analyses: {len(data['analyses'])} recorded command(s), each a `vebuild analyse` command")

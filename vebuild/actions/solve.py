@@ -60,7 +60,8 @@ def cameras_from_calibration(project: Project) -> dict[str, Camera]:
 
 def _check_camera(project: Project, where: str, K: np.ndarray, R: np.ndarray) -> None:
     f, cx, cy = K[0, 0], K[0, 2], K[1, 2]
-    if not (K[1, 1] == f and K[0, 1] == 0 and K[1, 0] == 0 and list(K[2]) == [0, 0, 1]):
+    tol = 1e-9 * abs(f)  # what rounding leaves of a pinhole matrix
+    if not (abs(K[1, 1] - f) <= tol and abs(K[0, 1]) <= tol and abs(K[1, 0]) <= tol and list(K[2]) == [0, 0, 1]):
         raise ProjectError(project.path, f"{where}.K", "expected a pinhole matrix [[f, 0, cx], [0, f, cy], [0, 0, 1]] "
                            f"(square pixels, no skew), found {K.tolist()}")
     if not 1.0 <= f <= 1e7 or not (abs(cx) <= 1e6 and abs(cy) <= 1e6):
