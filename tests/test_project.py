@@ -925,3 +925,14 @@ def test_texture_face_records_checked(room: Path, capsys: pytest.CaptureFixture,
     assert main(["check", str(room)]) == 0
     rewrite(room, lambda d: d["textures"].update(faces=[{**good, **face}]))
     check_refuses(room, capsys, f"{where}: {expected}")
+
+
+def test_a_slider_without_limits_is_written_without_them(room: Path) -> None:
+    from vebuild.model.scene import model_from_dict
+
+    rewrite(room, lambda d: node(d, "box").update(joint={"type": "slider", "axis": [1, 0, 0]}))
+    project = load_project(room, verify_photos=False)
+    project.data["model"]["nodes"] = model_from_dict(project.data["model"]["nodes"],
+                                                     {"O": np.zeros(3)}).to_dict()
+    assert "limits" not in node(project.data, "box")["joint"]
+    save_project(project)  # JSON has no infinity: unlimited is no "limits" key

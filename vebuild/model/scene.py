@@ -211,8 +211,10 @@ class SliderJoint(Joint):
         return translation(self.axis / np.linalg.norm(self.axis) * q[0]) @ self.base
 
     def to_dict(self):
-        return {"type": "slider", "axis": [float(v) for v in self.axis], **pose_to_dict(self.base),
-                "offset": self.offset, "limits": [float(v) for v in self.limits]}
+        d = {"type": "slider", "axis": [float(v) for v in self.axis], **pose_to_dict(self.base), "offset": self.offset}
+        if all(np.isfinite(self.limits)):  # no limits: none written (JSON has no infinity)
+            d["limits"] = [float(v) for v in self.limits]
+        return d
 
 
 @dataclass
