@@ -291,3 +291,13 @@ def test_vebuild_calibrate_names_two_scale_distances_that_disagree(room, capsys)
     assert "Traceback" not in err and "marker" not in err.split("contradict")[0]
     assert time.perf_counter() - t < 20.0  # refused before the full solve
     assert "calibration" not in json.loads(room.read_text())
+
+
+def test_a_focal_prior_of_no_spread_is_named_not_a_scipy_error(rng):
+    from vebuild.calibration.photo import FocalPrior, calibrate_photo
+    from vebuild.synthetic import random_scene
+
+    photos, _ = random_scene(rng, ("3vp", "3vp", "2vp"))
+    p = photos[0]
+    with pytest.raises(VebuildError, match=r"photo 'p1': focal_px: expected a focal length > 0 px with a σ > 0 px"):
+        calibrate_photo(p.segments, p.width, p.height, photo=p.id, focal=FocalPrior(1200.0, 0.0, "user"))
