@@ -19,6 +19,7 @@ from scipy.optimize import least_squares
 
 from ..determinism import deterministic
 from ..errors import CalibrationError
+from .lsq import photo_numeric_failures
 
 Array = NDArray[np.float64]
 
@@ -142,6 +143,8 @@ def tangent_basis(x: Array) -> tuple[Array, Array]:
 
 
 @deterministic
+@photo_numeric_failures("the fit of a vanishing point", "check that axis' segments (straight edges along it, "
+                        "of some length, not all through one point)")
 def fit_vanishing_point(
     segments: ArrayLike, width: float, height: float, *, axis: str = "?", photo: str = "photo"
 ) -> VanishingPointFit:
