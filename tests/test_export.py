@@ -449,7 +449,7 @@ def test_bad_output_paths_are_clear_errors_and_write_nothing(exported, tmp_path)
     finally:
         if ro != Path("/sys"):
             ro.chmod(0o755)
-    assert not list(tmp_path.glob(".*.tmp"))
+    assert not list(tmp_path.glob(".*.tmp")) and not list(tmp_path.glob(".*.vebuild-tmp"))
 
 
 # -- the command -----------------------------------------------------------------------------------
