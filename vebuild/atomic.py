@@ -76,24 +76,31 @@ def staged(target: str | os.PathLike[str]) -> Iterator[Path]:
     file name); when the block ends without an error it is fsync'ed and renamed over ``target``.
     On an error, or if nothing was written, the temporary file is removed and ``target`` is
     untouched."""
-    target = Path(target)
+    with _staged(Path(target), synced=False) as tmp:
+        yield tmp
+
+
+@contextlib.contextmanager
+def _staged(target: Path, synced: bool) -> Iterator[Path]:
     tmp = temp_path(target)
     try:
         yield tmp
-        commit(tmp, target)
+        commit(tmp, target, synced)
     except BaseException:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
         raise
 
 
-def commit(tmp: Path, target: Path) -> None:
-    """fsync ``tmp``, give it the old target's mode, rename it over ``target``, fsync the folder."""
-    fd = os.open(tmp, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
+def commit(tmp: Path, target: Path, synced: bool = False) -> None:
+    """fsync ``tmp`` (unless the writer did: ``synced``), give it the old target's mode, rename
+    it over ``target``, fsync the folder."""
+    if not synced:
+        fd = os.open(tmp, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
     mode = _old_mode(target)
     if mode is not None:
         os.chmod(tmp, mode)
@@ -104,7 +111,7 @@ def commit(tmp: Path, target: Path) -> None:
 def write_with(target: str | os.PathLike[str], writer: Callable[[BinaryIO], None]) -> Path:
     """Atomically write ``target`` with ``writer(fileobj)`` (binary, opened for writing)."""
     target = Path(target)
-    with staged(target) as tmp:
+    with _staged(target, synced=True) as tmp:
         # os.open honours the umask (mkstemp would make the file private).
         fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
         with open(fd, "wb") as f:
