@@ -90,7 +90,7 @@ def texture_project(project: Project, options: Options | None = None,
     result = extract(model, cameras, sources, options, progress, timings)
     old = data.get("textures")
     folder = texture_folder(project, make=True)
-    record, written = _write(project, result, options, folder)
+    record = _write(project, result, options, folder)
     data["textures"] = record
     if not save:
         return record, result
@@ -98,8 +98,7 @@ def texture_project(project: Project, options: Options | None = None,
         save_project(project)
     except BaseException:
         data["textures"] = old
-        for path in written:  # the new pages: nothing refers to them
-            path.unlink(missing_ok=True)
+        remove_unrecorded_pages(project, folder)  # the new pages: nothing refers to them
         raise
     _remove_old_pages(folder, old, record)
     remove_unrecorded_pages(project, folder)
@@ -204,16 +203,13 @@ def _png(img: np.ndarray, mode: str) -> bytes:
     return buf.getvalue()
 
 
-def _write(project: Project, result: TextureResult, options: Options,
-           folder: Path) -> tuple[dict[str, Any], list[Path]]:
-    """Write the pages under fresh names (atomically); returns the record naming them and the
-    files written. On an error the pages written so far are removed (nothing refers to them) and
-    nothing else changes."""
+def _write(project: Project, result: TextureResult, options: Options, folder: Path) -> dict[str, Any]:
+    """Write the pages under fresh names (atomically); returns the record naming them. On an
+    error the pages written so far are removed (nothing refers to them) and nothing else changes."""
     import hashlib
 
     old_names = set(_recorded_names(project.data.get("textures")))
     pages = []
-    written: list[Path] = []
     try:
         for k, (atlas, cov) in enumerate(zip(result.atlases, result.coverage, strict=True)):
             entry: dict[str, Any] = {"width": int(atlas.shape[1]), "height": int(atlas.shape[0])}
@@ -223,17 +219,14 @@ def _write(project: Project, result: TextureResult, options: Options,
                 final = folder / f"{key}_{k}_{digest[:12]}.png"
                 if not (final.name in old_names and final.is_file() and sha256_file(final) == digest):
                     write_bytes(final, data)
-                    written.append(final)
                 entry[key] = f"{TEXTURE_DIR}/{final.name}"
                 entry[f"{key}_sha256"] = digest
             pages.append(entry)
     except OSError as e:
-        for path in written:
-            path.unlink(missing_ok=True)
+        remove_unrecorded_pages(project, folder)  # those written so far: nothing refers to them
         raise VebuildError(f"{folder}: cannot write the textures: {e.strerror or e}") from None
     except BaseException:
-        for path in written:
-            path.unlink(missing_ok=True)
+        remove_unrecorded_pages(project, folder)
         raise
     faces = []
     for f in result.faces:
@@ -255,7 +248,7 @@ def _write(project: Project, result: TextureResult, options: Options,
                 + ", ".join(unseen)] if unseen else []
     warnings += [f"photo {p['id']}: too little overlap with the photos before it to compensate its exposure"
                  for p in photos[1:] if options.exposure and p["overlap_texels"] < 64]
-    return ({
+    return {
         "software": f"vebuild {__version__}",
         "input_hash": canonical_input_hash(project.data),
         "options": options.as_dict(),
@@ -265,4 +258,4 @@ def _write(project: Project, result: TextureResult, options: Options,
         "photos": photos,
         "faces": faces,
         "warnings": warnings,
-    }, written)
+    }
