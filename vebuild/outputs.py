@@ -224,6 +224,9 @@ def check_folder(project: Any, out: str | os.PathLike[str], what: str = "report"
         raise VebuildError(f"{out}: is a symbolic link (to {os.readlink(out)}); choose {example}")
     if out.exists() and not out.is_dir():
         raise VebuildError(f"{out}: is a file; expected a folder for the {what}; choose {example}")
+    owner = _owner(project, out)
+    if owner is not None:
+        raise VebuildError(f"{out}: is {owner}; choose {example}")
     real = os.path.realpath(out)
     cwd = os.path.realpath(os.getcwd())
     if project is not None and real == os.path.realpath(project.folder):
