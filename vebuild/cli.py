@@ -375,7 +375,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("report", help="an HTML (and PDF) report another examiner can reproduce from the project")
     p.add_argument("project")
-    p.add_argument("--out", required=True, metavar="DIR", help="the folder to write (replaced if it exists)")
+    p.add_argument("--out", required=True, metavar="DIR",
+                   help="the folder to write: new, empty, or an earlier report (replaced); never the project's folder")
     p.add_argument("--no-pdf", action="store_true", help="only the HTML and its images")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_report)
