@@ -100,29 +100,37 @@ def bases(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple[Path, dic
     return out
 
 
-def check_consistent(folder: Path, old: dict[str, object], new: dict[str, object], stage: str) -> str:
-    """The folder after a kill: old or new, loadable, its records matching its files. Returns which."""
+def check_loads(folder: Path, stage: str) -> None:
+    """The project loads, its texture record matches its files, its report its manifest."""
     proj = folder / PROJECT
     assert quiet_main(["check", str(proj)]) == 0, f"{stage}: the project no longer loads"
-    data = proj.read_bytes()
-    assert data in (old["project"], new["project"]), f"{stage}: the project file is neither the old nor the new one"
-    which = "old" if data == old["project"] else "new"
-    for k, page in enumerate((json.loads(data).get("textures") or {}).get("pages", [])):
+    for k, page in enumerate((json.loads(proj.read_bytes()).get("textures") or {}).get("pages", [])):
         for key in ("atlas", "coverage"):
             path = folder / page[key]
             assert path.is_file(), f"{stage}: textures.pages[{k}].{key}: {path.name} is missing"
             assert sha256_of(path) == page[f"{key}_sha256"], f"{stage}: {path.name} does not match its record"
+    rep = folder / "report"
+    if rep.is_dir():
+        manifest = read_manifest(rep)
+        assert manifest is not None, f"{stage}: the report has no manifest"
+        for rel, h in manifest["files"].items():
+            assert sha256_of(rep / rel) == h, f"{stage}: report/{rel} does not match the manifest"
+
+
+def check_consistent(folder: Path, old: dict[str, object], new: dict[str, object], stage: str) -> str:
+    """The folder after a kill: loadable, old or new. Returns which ("aside": the old report set
+    aside by a replacement killed between its two renames)."""
+    check_loads(folder, stage)
+    data = (folder / PROJECT).read_bytes()
+    assert data in (old["project"], new["project"]), f"{stage}: the project file is neither the old nor the new one"
+    which = "old" if data == old["project"] else "new"
     if stage == "report":
         rep = folder / "report"
         if rep.is_dir():
-            manifest = read_manifest(rep)
-            assert manifest is not None
-            for rel, h in manifest["files"].items():
-                assert sha256_of(rep / rel) == h
             got = digest(rep)
             assert got in (old["report"], new["report"]), "report: neither the old report nor the new one"
             which = "old" if got == old["report"] else "new"
-        else:  # killed between setting the old one aside and moving the new one in
+        else:
             aside = list(folder.glob(".report.*.vebuild-old"))
             assert len(aside) == 1 and digest(aside[0]) == old["report"], "report: the old report is lost"
             which = "aside"
@@ -162,9 +170,14 @@ def test_sigkill_at_random_moments_leaves_old_or_new(bases, tmp_path):
         _, err = proc.communicate(timeout=300)
         assert proc.returncode == 0, err.decode()
         assert temporaries(folder) == [], f"{stage}: temporaries remain after the next run"
-        after = state(folder)
-        assert after["project"] == new["project"] and after["textures"] == new["textures"]
-        assert after["report"] == new["report"]
+        assert set(textures(folder)) == set(textures_of_record(folder)), f"{stage}: unrecorded pages remain"
+        check_loads(folder, stage)
+        # From the old state, as the reference did, the same result byte for byte; from the new
+        # state (the killed run had committed), calibrate and solve start from their own results
+        # and may differ in the last digits, so there only the consistency above is checked.
+        if which != "new":
+            after = state(folder)
+            assert after == new, f"trial {trial} ({stage}, killed after {delay:.2f} s): not the reference result"
         shutil.rmtree(folder)
     print("\nSIGKILL trials:", SUMMARY)
 
