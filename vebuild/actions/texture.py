@@ -100,7 +100,7 @@ def texture_project(project: Project, options: Options | None = None,
         data["textures"] = old
         remove_unrecorded_pages(project, folder)  # the new pages: nothing refers to them
         raise
-    _remove_old_pages(folder, old, record)
+    _remove_old_pages(project, folder, old, record)
     remove_unrecorded_pages(project, folder)
     return record, result
 
@@ -136,10 +136,16 @@ def _recorded_names(record: dict[str, Any] | None) -> dict[str, str]:
     return out
 
 
-def _remove_old_pages(folder: Path, old: dict[str, Any] | None, new: dict[str, Any]) -> None:
-    """Delete the pages of the old record that the new one does not name, each only if its bytes
-    still hash to the old record's SHA-256."""
-    keep = _recorded_names(new)
+def _remove_old_pages(project: Project, folder: Path, old: dict[str, Any] | None, new: dict[str, Any]) -> None:
+    """Delete the pages of the old record that the new one (and an open modelling session's
+    autosave) does not name, each only if its bytes still hash to the old record's SHA-256."""
+    keep = set(_recorded_names(new))
+    auto = project.path.with_name(project.path.name + ".autosave")
+    if auto.exists():
+        try:
+            keep |= set(_recorded_names(load_project(auto, verify_photos=False).data.get("textures")))
+        except VebuildError:
+            return  # cannot tell what it refers to: touch nothing
     for name, digest in _recorded_names(old).items():
         path = folder / name
         if name in keep or path.is_symlink() or not path.is_file():
