@@ -161,10 +161,12 @@ def _copy_of_a_page(project: Any, path: Path) -> bool:
         return False
 
 
-def check_file(project: Any, path: str | os.PathLike[str], what: str = "output") -> Path:
-    """Refuse (VebuildError) to write the output file ``path`` unless the policy above allows it."""
+def check_file(project: Any, path: str | os.PathLike[str], what: str = "output", suffix: str | None = None) -> Path:
+    """Refuse (VebuildError) to write the output file ``path`` unless the policy above allows it
+    (``suffix``: the kind of file wanted, for the message's example name)."""
     path = Path(path)
-    example = f"a new name such as {Path('renders') / ('vebuild-' + path.name)}" if path.name else "a new file name"
+    stem = path.stem.split(".")[0] or "output"
+    example = f"a new file name such as {Path('renders') / (stem + (suffix or path.suffix))}"
     if path.is_symlink():
         raise VebuildError(f"{path}: is a symbolic link (to {os.readlink(path)}); vebuild does not write over links; "
                            f"choose {example}")

@@ -83,7 +83,7 @@ def check_output(path: Path, suffixes: tuple[str, ...] = (".png",), project: Pro
     from vebuild.outputs import check_file
 
     path = Path(path)
-    check_file(project, path)
+    check_file(project, path, suffix=suffixes[0])
     if path.is_dir():
         raise VebuildError(f"{path}: is a folder; expected a file name for the output")
     if path.suffix.lower() not in suffixes:

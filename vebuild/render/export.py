@@ -124,7 +124,7 @@ class _Contents:
 def export_model(project: Project, path: str | os.PathLike[str], format: str | None = None) -> ExportResult:
     """Write the project's model to ``path`` as glTF binary or OBJ (by ``format``, else its suffix)."""
     path = Path(path)
-    check_file(project, path, "export")
+    check_file(project, path, "export", ".obj" if path.suffix.lower() == ".obj" else ".glb")
     fmt = format or FORMATS.get(path.suffix.lower())
     if fmt not in ("glb", "obj"):
         raise VebuildError(f"{path}: unknown export format {path.suffix or '(no extension)'!r}; expected "

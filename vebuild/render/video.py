@@ -427,7 +427,7 @@ def check_output(path: Path, project: Project | None = None) -> Path:
     from vebuild.outputs import check_file
 
     path = Path(path)
-    check_file(project, path, "video")
+    check_file(project, path, "video", ".mp4")
     if path.suffix.lower() != ".mp4":
         raise VebuildError(f"{path}: --out: expected a file name ending in .mp4")
     if path.is_dir():
