@@ -174,9 +174,7 @@ def check_file(project: Any, path: str | os.PathLike[str], what: str = "output",
     if owner is not None:
         raise VebuildError(f"{path}: is {owner}; vebuild never writes its {what} over the project's own files; "
                            f"choose {example}")
-    if path.exists():
-        if path.is_dir():
-            raise VebuildError(f"{path}: is a folder; expected a file name for the {what}")
+    if path.exists() and not path.is_dir():  # a folder: each command says so in its own words
         if not path.is_file():
             raise VebuildError(f"{path}: is not a regular file; choose {example}")
         if not (written_by_vebuild(path) or _copy_of_a_page(project, path)):
