@@ -206,7 +206,7 @@ def test_glb_meshes_are_local_with_atlas_uvs_one_primitive_per_page(exported):
         several += len(prims) > 1
         n_tris = 0
         for prim in prims:
-            page = int(re.fullmatch(r"atlas_(\d+)\.png", image_of_material[prim["material"]]).group(1))
+            page = int(re.fullmatch(r"atlas_(\d+)_[0-9a-f]{12}\.png", image_of_material[prim["material"]]).group(1))
             a = doc["accessors"][prim["attributes"]["POSITION"]]
             P = _accessor(doc, binary, prim["attributes"]["POSITION"])
             assert np.array_equal(np.float32(a["min"]), P.min(axis=0)) and np.array_equal(np.float32(a["max"]),

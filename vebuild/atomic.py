@@ -147,6 +147,8 @@ def write_many(files: Sequence[tuple[Path, bytes]]) -> None:
     by convention the file that names the others, goes in last). On an error before the renames
     nothing is changed; no temporary file is left in any case."""
     temps: list[tuple[Path, Path]] = []
+    replaced: list[Path] = []
+    final = files[0][0] if files else Path()
     try:
         for final, data in files:
             tmp = temp_path(final)
@@ -161,6 +163,12 @@ def write_many(files: Sequence[tuple[Path, bytes]]) -> None:
             if mode is not None:
                 os.chmod(tmp, mode)
             os.replace(tmp, final)
+            replaced.append(final)
+    except OSError as e:
+        # Name the target, not its temporary; say which targets were already replaced.
+        err = OSError(e.errno, e.strerror or str(e), str(final))
+        err.replaced = replaced  # type: ignore[attr-defined]
+        raise err from e
     finally:
         for tmp, _ in temps:
             with contextlib.suppress(OSError):

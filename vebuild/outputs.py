@@ -8,7 +8,7 @@ is, or over a file vebuild wrote, recognised by what vebuild puts in it:
 PNG        a text chunk ``Software`` that starts with ``vebuild``
 .glb       the glTF JSON's ``asset.generator`` starts with ``vebuild``
 .obj .mtl  the first line starts with ``# vebuild``
-.mp4       the container's ``comment`` metadata starts with ``vebuild``
+.mp4       the container's ``description`` metadata starts with ``vebuild``
 .json      a top-level object whose ``software`` starts with ``vebuild``
 ========== ===========================================================================
 
@@ -116,11 +116,11 @@ def _first_line(path: Path) -> str:
         return f.readline(200).decode("utf-8", "replace")
 
 
-def _mp4_comment(path: Path) -> str:
+def _mp4_description(path: Path) -> str:
     import av
 
     with av.open(str(path)) as c:
-        return str(c.metadata.get("comment", ""))
+        return str(c.metadata.get("description", ""))
 
 
 def _json_software(path: Path) -> str:
@@ -131,7 +131,7 @@ def _json_software(path: Path) -> str:
 
 
 _RECOGNISE = {".png": _png_software, ".glb": _glb_generator, ".obj": _first_line, ".mtl": _first_line,
-              ".mp4": _mp4_comment, ".json": _json_software}
+              ".mp4": _mp4_description, ".json": _json_software}
 
 
 def written_by_vebuild(path: Path) -> bool:

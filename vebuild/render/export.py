@@ -531,4 +531,6 @@ def _write_atomically(files: list[tuple[Path, bytes]]) -> None:
     try:
         write_many(files)
     except OSError as e:
-        raise VebuildError(f"{target}: cannot write {e.filename or target} ({e.strerror or e})") from None
+        done = getattr(e, "replaced", [])
+        written = f"only {', '.join(str(f) for f in done)} were replaced" if done else "nothing was written"
+        raise VebuildError(f"{target}: cannot write {e.filename or target} ({e.strerror or e}); {written}") from None

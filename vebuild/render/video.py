@@ -301,7 +301,7 @@ class Mp4Writer:
         self.rate = Fraction(fps).limit_denominator(1001)
         self.crf, self.preset = int(crf), preset
         self.metadata = dict(metadata or {})
-        self.metadata.setdefault("comment", f"vebuild {__version__}")  # how vebuild knows its own videos
+        self.metadata.setdefault("description", f"vebuild {__version__}")  # how vebuild knows its own videos
         self.tmp = temp_path(self.out)
         self.frames = 0
         self._container: Any = None
