@@ -323,3 +323,32 @@ def test_clean_stale_removes_only_vebuilds_temporaries_of_dead_processes(tmp_pat
     assert sorted(removed) == sorted([stale, folder, begun])
     assert live.exists() and plain.exists() and all(p.exists() for p in users)
     assert (tmp_path / "report" / atomic.MANIFEST).exists() and not aside.exists()  # put back
+
+
+def test_the_demo_folder_is_replaced_only_when_vebuild_wrote_it_and_nobody_changed_it(tmp_path, monkeypatch):
+    from vebuild.actions.demo import PROJECT_NAME, copy_example
+    from vebuild.errors import VebuildError
+
+    monkeypatch.chdir(tmp_path)
+    out = tmp_path / "vebuild-demo"
+    assert copy_example(out) == out / PROJECT_NAME
+    first = snapshot(out)
+    assert copy_example(out) == out / PROJECT_NAME  # an untouched demo folder is made afresh
+    assert snapshot(out) == first and not temporaries(tmp_path)
+
+    (out / PROJECT_NAME).write_text((out / PROJECT_NAME).read_text().replace('Example room', 'My room', 1))
+    edited = snapshot(out)
+    with pytest.raises(VebuildError, match=r"vebuild-demo: holds room.vebuild.json, which vebuild did not write "
+                                           r"there \(or which changed since\)"):
+        copy_example(out)
+    assert snapshot(out) == edited
+
+    other = tmp_path / "notes"
+    other.mkdir()
+    (other / "case.txt").write_text("an examiner's notes")
+    with pytest.raises(VebuildError, match=r"notes: is not empty \(it holds case.txt\)"):
+        copy_example(other)
+    assert snapshot(other) == {"case.txt": hashlib.sha256(b"an examiner's notes").hexdigest()}
+    with pytest.raises(VebuildError, match="is the folder you are working in"):
+        copy_example(Path("."))
+    assert not temporaries(tmp_path)

@@ -30,13 +30,31 @@ PROJECT_NAME = "room.vebuild.json"
 
 
 def copy_example(out: Path) -> Path:
-    """Copy the example project into out (which must not hold another project) and return its file."""
-    src = example_project_dir()
-    target = out / PROJECT_NAME
-    if out.exists() and any(out.iterdir()) and not target.exists():
-        raise VebuildError(f"{out}: the folder exists and is not a vebuild demo folder; choose another with --out")
-    shutil.copytree(src, out, dirs_exist_ok=True)
-    return target
+    """Copy the example project into ``out`` and return its project file.
+
+    ``out`` must be new, empty, or a demo folder vebuild wrote that nobody changed since (its
+    manifest lists every file with its SHA-256; :func:`vebuild.outputs.check_folder`): a project
+    the user went on to edit there, or any other file, is never overwritten. The copy is made
+    beside ``out`` and renamed into place whole.
+    """
+    from ..atomic import clean_stale, remove_tree, replace_folder, temp_path
+    from ..outputs import check_folder, write_manifest
+
+    out = Path(out)
+    if out.parent.is_dir():
+        clean_stale(out.parent)
+    check_folder(None, out, "demo")
+    if not out.parent.is_dir():
+        raise VebuildError(f"{out}: the folder {out.parent} does not exist; create it first or choose another --out")
+    tmp = temp_path(out)
+    try:
+        shutil.copytree(example_project_dir(), tmp)
+        write_manifest(tmp, "demo")
+        replace_folder(tmp, out)
+    except OSError as e:
+        remove_tree(tmp)
+        raise VebuildError(f"{out}: cannot copy the example there ({e.strerror or e})") from None
+    return out / PROJECT_NAME
 
 
 def truth_comparison(result: dict, truth: dict) -> str:
@@ -87,6 +105,9 @@ def run_demo(out: Path, progress: bool = True) -> int:
     print("\n" + "-" * 80 + "\nrendering: the named views, and each photo's camera against its photo\n")
     print(render_views(project, out / "renders"))
     print(f"\nresults written to {project_file}; textures in {out / 'textures'}; renders in {out / 'renders'}")
+    from ..outputs import write_manifest
+
+    write_manifest(out, "demo")  # so that a later demo may replace this folder, unless someone changes it
     return 0
 
 
