@@ -720,9 +720,9 @@ def test_calibration_cameras_checked(room: Path, capsys: pytest.CaptureFixture, 
 @pytest.mark.parametrize(("command", "expected"), [
     (["frobnicate", "x"], "invalid choice: 'frobnicate'"),
     (["distance", "cabinet:v4"], "the following arguments are required: b"),
-    (["distance", "--help"], "'--help' asks for help, which is not an analysis"),
-    (["-h"], "'-h' asks for help"),
-    (["checks", "--hel"], "'--hel' asks for help"),
+    (["distance", "--help"], "the command asks for help ('--help'), which is not an analysis"),
+    (["-h"], "the command asks for help ('-h')"),
+    (["checks", "--hel"], "the command asks for help ('--hel')"),
 ])
 def test_recorded_analyses_must_parse(room: Path, capsys: pytest.CaptureFixture, command, expected: str) -> None:
     rewrite(room, lambda d: d.update(analyses=[{"name": "ok", "command": ["distance", "cabinet:v4", "table.top@top"]},
