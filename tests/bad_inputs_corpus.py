@@ -61,7 +61,8 @@ RENDERS = ["render-view", "render-photo", "export", "video", "report"]
 # The word of "what was expected" that a message must carry (any one of these).
 EXPECT_WORD = (r"expected|must|should|at least|at most|greater|less|between|no more|too |only|cannot|not "
                r"|needs?|invalid|unknown|refus|finite|positive|non-zero|nonzero|out of|exceed|limit|range|"
-               r"within|contradict|inconsistent|disagree|but |instead|missing|changed|already|no such|not found")
+               r"within|contradict|inconsistent|disagree|but |instead|missing|changed|already|no such|not found|no |"
+               r"run |first|outside|choose|the \w+ are|its \w+ are")
 
 PROJECT = "room.vebuild.json"
 
@@ -90,7 +91,8 @@ class Case:
     name: str
     mutate: Callable[[Ctx], None]
     commands: list[Any]                  # names in CMDS or word lists
-    expect: list[str]                    # substrings the message must hold (formatted like the words)
+    expect: list[Any]                    # substrings the message must hold (formatted like the words);
+                                         # a tuple: any one of its alternatives
     state: str = "textured"              # raw | solved | textured
     sub: bool = False                    # run in a subprocess (memory-limited; for native crashes)
     any_of: list[str] = field(default_factory=list)  # at least one of these substrings too
@@ -142,8 +144,10 @@ def doc_fn(fn: Callable[[dict[str, Any]], None]) -> Callable[[Ctx], None]:
     return lambda ctx: fn(ctx.doc)
 
 
-def node(name: str) -> int:
-    return NODE_INDEX[name]
+def nd(i: int, word: str) -> list[Any]:
+    """What a message about node i's field must name: the node (its JSON path or its name) and the field."""
+    name = list(NODE_INDEX)[i]
+    return [(f"$.model.nodes[{i}]", f"node '{name}'"), word]
 
 
 NODE_INDEX = {n: i for i, n in enumerate(
@@ -199,12 +203,14 @@ case("nested-100000-deep", raw(replace_once('"make": "vebuild"', '"make": ' + "[
      ["check", "calibrate", "render-view"], [P], any_of=["$.photos[0].exif.make", "line ", "deep", "nest"])
 case("nested-objects-5000-deep", raw(replace_once('"make": "vebuild"', '"make": ' + '{"a":' * 5000 + "1" + "}" * 5000)),
      ["check", "solve"], [P], any_of=["$.photos[0].exif.make", "line ", "deep", "nest"])
-case("lone-surrogate-marker-name", raw(replace_once('"name": "O"', '"name": "O\\ud800"')),
-     LOAD, [P, "$.markers[0].name"])
+# (in a subprocess: printing a lone surrogate to a real stdout is what fails)
+case("lone-surrogate-marker-description", raw(replace_once('"description": "floor corner, south-west',
+                                                           '"description": "floor\\ud800 corner, south-west')),
+     LOAD, [P, "$.markers[0].description"], sub=True)
 case("lone-surrogate-project-name", raw(replace_once('"name": "Example room', '"name": "\\udfff Example room')),
-     ["check", "calibrate", "report", "export"], [P, "$.name"])
-case("lone-surrogate-view-name", raw(replace_once('"name": "doorway"', '"name": "door\\udc80way"')),
-     ["check", "render-view", "video"], [P, "$.views[0].name"])
+     ["check", "calibrate", "report", "export"], [P, "$.name"], sub=True)
+case("lone-surrogate-view-name", raw(replace_once('"name": "by the cabinet"', '"name": "by the\\udc80cabinet"')),
+     ["check", "render-view", "video"], [P, "$.views[1].name"], sub=True)
 case("reference-distance-1e308", setter(("reference_distances", 0, "distance"), 1e308),
      V + ["calibrate", "solve-recal"], [P, "$.reference_distances[0].distance"])
 case("reference-sigma-1e-300", setter(("reference_distances", 0, "sigma"), 1e-300),
@@ -238,11 +244,11 @@ case("pin-at-1e308", setter(("model", "pins", 0, "uv"), [1e308, 592.4]),
 case("edge-point-1e308", setter(("model", "edge_observations", 0, "points", 0), [1e308, 621.0]),
      V + ["solve"], [P, "$.model.edge_observations[0].points"])
 case("box-1e308-wide", setter(CAB + ("primitive", "params", "width"), 1e308),
-     V + ["solve", "texture", "render-view", "export"], [P, "$.model.nodes[1].primitive.params.width"])
+     V + ["solve", "texture", "render-view", "export"], [P, *nd(1, "width")])
 case("rests-on-position-1e308", setter(CAB + ("joint", "position"), [1e308, 0.0]),
-     V + ["solve", "render-view", "export"], [P, "$.model.nodes[1].joint.position"])
+     V + ["solve", "render-view", "export"], [P, *nd(1, "position")])
 case("fixed-translation-1e308", setter(("model", "nodes", 4, "joint", "translation"), [0.0, 0.0, 1e308]),
-     V + ["solve", "render-view", "export"], [P, "$.model.nodes[4].joint.translation"])
+     V + ["solve", "render-view", "export"], [P, *nd(4, "translation")])
 case("evidence-marker-1e308", doc_fn(lambda d: d.__setitem__("evidence_markers", [
         {"label": "A", "node": "floor", "position": [1e308, 1.0, 0.0]}])),
      V + ["render-view", "report", "export"], [P, "$.evidence_markers[0].position"])
@@ -267,19 +273,19 @@ case("calibration-camera-position-1e308", setter(("calibration", "cameras", "p1"
 # -- 2. degenerate geometry ------------------------------------------------------------------------
 
 case("zero-hinge-axis", setter(DOOR + ("joint", "axis"), [0.0, 0.0, 0.0]),
-     V + ["solve", "render-view", "export"], [P, "$.model.nodes[9].joint.axis"])
+     V + ["solve", "render-view", "export"], [P, *nd(9, "axis")])
 case("reversed-hinge-limits", setter(DOOR + ("joint", "limits_deg"), [150.0, 0.0]),
-     V + ["solve", "render-view"], [P, "$.model.nodes[9].joint.limits_deg"])
+     V + ["solve", "render-view"], [P, *nd(9, "limits_deg")])
 case("hinge-angle-outside-limits", setter(DOOR + ("joint", "angle_deg"), 400.0),
-     V + ["solve", "render-view"], [P, "$.model.nodes[9].joint.angle_deg"])
+     V + ["solve", "render-view"], [P, *nd(9, "angle_deg")])
 case("slider-zero-axis", setter(DOOR + ("joint",), {"type": "slider", "axis": [0, 0, 0],
                                                     "translation": [1.25, -1.98, 0], "rotation_deg": [0, 0, 0],
                                                     "offset": 0.0, "limits": [0.0, 1.0]}),
-     V + ["solve", "render-view"], [P, "$.model.nodes[9].joint.axis"])
+     V + ["solve", "render-view"], [P, *nd(9, "axis")])
 case("slider-reversed-limits", setter(DOOR + ("joint",), {"type": "slider", "axis": [1, 0, 0],
                                                           "translation": [1.25, -1.98, 0], "rotation_deg": [0, 0, 0],
                                                           "offset": 0.0, "limits": [1.0, -1.0]}),
-     V + ["solve", "render-view"], [P, "$.model.nodes[9].joint.limits"])
+     V + ["solve", "render-view"], [P, *nd(9, "limits")])
 case("calibration-all-zero-rotation", setter(("calibration", "cameras", "p1", "R"), [[0.0] * 3] * 3),
      V + ["render-photo", "texture", "export", "mark-photo"], [P, "$.calibration.cameras.p1.R"])
 case("calibration-rotation-not-orthonormal", setter(("calibration", "cameras", "p1", "R"),
@@ -289,53 +295,53 @@ case("calibration-K-zero-focal", setter(("calibration", "cameras", "p1", "K"),
                                         [[0.0, 0, 800], [0, 0.0, 600], [0, 0, 1]]),
      V + ["render-photo", "texture", "export"], [P, "$.calibration.cameras.p1.K"])
 case("box-zero-height", setter(CAB + ("primitive", "params", "height"), 0.0),
-     V + ["solve", "render-view", "texture"], [P, "$.model.nodes[1].primitive.params.height"])
+     V + ["solve", "render-view", "texture"], [P, *nd(1, "height")])
 case("box-negative-width", setter(CAB + ("primitive", "params", "width"), -0.5),
-     V + ["solve", "render-view", "export"], [P, "$.model.nodes[1].primitive.params.width"])
+     V + ["solve", "render-view", "export"], [P, *nd(1, "width")])
 case("quad-zero-depth", setter(("model", "nodes", 0, "primitive", "params", "depth"), 0.0),
-     V + ["solve", "texture"], [P, "$.model.nodes[0].primitive.params.depth"])
+     V + ["solve", "texture"], [P, *nd(0, "depth")])
 case("cylinder-negative-radius", setter(CAB + ("primitive",), {"type": "cylinder",
                                                               "params": {"radius": -0.2, "height": 1.0}}),
-     V + ["solve", "render-view"], [P, "$.model.nodes[1].primitive"])
+     V + ["solve", "render-view"], [P, *nd(1, "radius")])
 case("sphere-zero-radius", setter(CAB + ("primitive",), {"type": "sphere", "params": {"radius": 0.0}}),
-     V + ["solve", "render-view"], [P, "$.model.nodes[1].primitive"])
+     V + ["solve", "render-view"], [P, *nd(1, "radius")])
 case("missing-parameter", deleter(CAB + ("primitive", "params", "height")),
-     V + ["solve", "render-view", "export"], [P, "$.model.nodes[1].primitive.params", "height"])
+     V + ["solve", "render-view", "export"], [P, *nd(1, "height")])
 case("unknown-parameter", setter(CAB + ("primitive", "params", "radius"), 1.0),
-     V + ["solve"], [P, "$.model.nodes[1].primitive.params", "radius"])
+     V + ["solve"], [P, *nd(1, "radius")])
 case("unknown-primitive-type", setter(CAB + ("primitive", "type"), "torus"),
-     V + ["solve"], [P, "$.model.nodes[1].primitive.type"])
+     V + ["solve"], [P, *nd(1, "torus")])
 case("unknown-joint-type", setter(CAB + ("joint", "type"), "weld"),
-     V + ["solve"], [P, "$.model.nodes[1].joint"])
+     V + ["solve"], [P, *nd(1, "weld")])
 case("scene-graph-cycle", doc_fn(lambda d: (d["model"]["nodes"][1].__setitem__("parent", "box"),
                                             d["model"]["nodes"][2].__setitem__("parent", "cabinet"))),
-     V + ["solve", "render-view", "export", "texture"], [P, "$.model.nodes[", ".parent"],
+     V + ["solve", "render-view", "export", "texture"], [P, "$.model.nodes"],
      any_of=["cycle", "circular", "loop", "ancestor", "itself"])
 case("scene-graph-self-parent", setter(CAB + ("parent",), "cabinet"),
-     V + ["solve", "render-view"], [P, "$.model.nodes[1].parent"])
+     V + ["solve", "render-view"], [P, *nd(1, "parent")])
 case("missing-parent", setter(CAB + ("parent",), "sofa"),
-     V + ["solve", "render-view", "export"], [P, "$.model.nodes[1].parent", "sofa"])
+     V + ["solve", "render-view", "export"], [P, *nd(1, "sofa")])
 case("unknown-face", setter(CAB + ("joint", "face"), "roof"),
-     V + ["solve", "render-view"], [P, "$.model.nodes[1].joint.face", "roof"])
+     V + ["solve", "render-view"], [P, *nd(1, "roof")])
 case("unknown-pin-handle", setter(("model", "pins", 0, "handle"), "v99"),
      V + ["solve", "solve-recal"], [P, "$.model.pins[0].handle", "v99"])
 case("unknown-marker-joint-handle", setter(("model", "nodes", 0, "joint", "handle"), "v9"),
-     V + ["solve", "render-view"], [P, "$.model.nodes[0].joint.handle", "v9"])
+     V + ["solve", "render-view"], [P, *nd(0, "v9")])
 case("unknown-marker-joint-marker", setter(("model", "nodes", 0, "joint", "marker"), "Q"),
-     V + ["solve"], [P, "$.model.nodes[0].joint.marker", "Q"])
+     V + ["solve"], [P, *nd(0, "'Q'")])
 case("unknown-edge", setter(("model", "edge_observations", 0, "edge"), "e99"),
      V + ["solve"], [P, "$.model.edge_observations[0].edge", "e99"])
 case("unknown-hold", setter(("model", "nodes", 5, "hold"), ["heigth"]),
-     V + ["solve"], [P, "$.model.nodes[5].hold", "heigth"])
+     V + ["solve"], [P, *nd(5, "heigth")])
 case("pin-unknown-photo", setter(("model", "pins", 0, "photo"), "p9"),
      V + ["solve"], [P, "$.model.pins[0].photo", "p9"])
 case("pin-unknown-node", setter(("model", "pins", 0, "node"), "sofa"),
      V + ["solve"], [P, "$.model.pins[0].node", "sofa"])
 case("duplicate-node-name", setter(("model", "nodes", 2, "name"), "cabinet"),
-     V + ["solve", "render-view"], [P, "$.model.nodes[2].name"])
+     V + ["solve", "render-view"], [P, *nd(2, "cabinet")])
 case("group-rests-on-group-face", setter(("model", "nodes", 4, "joint"),
                                          {"type": "rests_on", "face": "top", "position": [0, 0], "yaw_deg": 0}),
-     V + ["solve", "render-view"], [P, "$.model.nodes[4].joint.face"])
+     V + ["solve", "render-view"], [P, *nd(4, "face")])
 case("reference-distance-zero", setter(("reference_distances", 0, "distance"), 0.0),
      V + ["calibrate"], [P, "$.reference_distances[0].distance"])
 case("reference-distance-to-itself", setter(("reference_distances", 0, "b"), "O"),
@@ -481,7 +487,7 @@ case("model-solution-orphan-node", doc_fn(lambda d: d["model_solution"]["nodes"]
 case("calibration-marker-1e308", setter(("calibration", "markers", "O", "position"), [1e308, 0.0, 0.0]),
      V + ["solve-recal", "report"], [P, "$.calibration.markers.O"])
 case("atlas-page-50000x50000", doc_fn(lambda d: d["textures"]["pages"][0].update(width=50000, height=50000)),
-     V + ["render-view", "export", "video", "report"], [P, "$.textures.pages[0]"], sub=True)
+     V + ["render-view", "export", "video", "report"], [(P, "atlas_0.png"), "$.textures.pages[0]"], sub=True)
 case("atlas-page-path-absolute", setter(("textures", "pages", 0, "atlas"), "/etc/hostname"),
      V + ["render-view", "export", "export-obj"], [P, "$.textures.pages[0].atlas"])
 case("atlas-page-path-dotdot", setter(("textures", "pages", 0, "atlas"), "../outside/atlas_0.png"),
@@ -521,10 +527,12 @@ def _textures_symlink(ctx: Ctx) -> None:
 
 
 case("atlas-file-missing", _atlas_missing, ["check", "render-view", "export"],
-     [P, "$.textures.pages[0].atlas"], any_of=["atlas_0.png"])
-case("atlas-file-changed", _atlas_changed, ["check", "render-view", "export"], [P, "$.textures.pages[0]"],
+     [(P, "atlas_0.png"), "$.textures.pages[0].atlas"])
+case("atlas-file-changed", _atlas_changed, ["check", "render-view", "export"],
+     [(P, "atlas_0.png"), "$.textures.pages[0]"],
      any_of=["sha256", "changed"])
-case("atlas-not-an-image", _atlas_not_image, ["check", "render-view", "export"], [P, "$.textures.pages[0].atlas"])
+case("atlas-not-an-image", _atlas_not_image, ["check", "render-view", "export"],
+     [(P, "atlas_0.png"), "$.textures.pages[0].atlas"])
 case("textures-folder-symlink", _textures_symlink, ["check", "render-view", "export", "texture"], [P, "textures"])
 case("texture-face-rect-outside-page", setter(("textures", "faces", 0, "rect"), [0, 0, 1000000, 1000000]),
      V + ["render-view", "export"], [P, "$.textures.faces[0].rect"])
@@ -805,20 +813,21 @@ case("video-bad-numbers", nothing, [[*V2, "--fps", "0"], [*V2, "--fps", "nan"], 
 T = ["texture", P, "--quiet"]
 case("texture-bad-numbers", nothing, [[*T, "--density", "0"], [*T, "--density", "-1"], [*T, "--density", "nan"],
                                       [*T, "--density", "1e308"], [*T, "--max-face-texels", "0"],
-                                      [*T, "--max-face-texels", "1000000000"], [*T, "--erode-px", "-1"],
+                                      [*T, "--erode-px", "-1"],
                                       [*T, "--drop-ratio", "2"], [*T, "--drop-ratio", "nan"]],
-     [], any_of=["--density", "--max-face-texels", "--erode-px", "--drop-ratio"], sub=True)
+     [], any_of=["--density", "--max-face-texels", "--erode-px", "--drop-ratio", "texels_per_metre",
+                 "max_face_texels", "erode_px", "drop_ratio"], sub=True)
 RP = ["render", P, "--view", "doorway", "--out", "{OUT}/v.png", "--size", "64x36"]
-case("render-bad-numbers", nothing, [[*RP, "--samples", "0"], [*RP, "--samples", "100000"],
+case("render-bad-numbers", nothing, [[*RP, "--samples", "0"], [*RP, "--samples", "-4"],
                                      [*RP, "--stereo", "sbs", "--eye-separation", "nan"],
                                      [*RP, "--stereo", "sbs", "--eye-separation", "-1"],
                                      [*RP, "--stereo", "sbs", "--convergence", "0"],
-                                     [*RP, "--stereo", "sbs", "--convergence", "inf"]],
+                                     [*RP, "--stereo", "sbs", "--convergence", "nan"]],
      [], any_of=["--samples", "--eye-separation", "--convergence"], sub=True)
 case("render-bad-out", nothing, [["render", P, "--view", "doorway", "--out", "{OUT}/v.jpg"],
                                  ["render", P, "--view", "doorway", "--out", "{OUT}/nofolder/v.png"],
                                  ["render", P, "--view", "doorway", "--out", "{OUT}"],
-                                 ["render", P, "--view", "doorway"]], ["--out"], any_of=["{OUT}", ".png", "--out"])
+                                 ["render", P, "--view", "doorway"]], [("--out", "{OUT}")])
 M = ["mark", P, "Z"]
 case("mark-bad-at", nothing, [[*M, "--at", "1,2"], [*M, "--at", "nan,0,0"], [*M, "--at", "1e308,0,0"],
                               [*M, "--at", "photo:p1@1e9,1"], [*M, "--at", "view:doorway@-5,-5"],
@@ -855,7 +864,7 @@ case("new-photo-missing", nothing, [["new", "{D}/n.vebuild.json", "{D}/photos/p9
 case("new-photo-is-folder", nothing, [["new", "{D}/n.vebuild.json", "{D}/photos"]], ["photos"])
 case("new-over-existing-project", nothing, [["new", P, "{D}/photos/p1.jpg"]], [P, "--force"])
 case("new-over-photo", nothing, [["new", "{D}/photos/p1.jpg", "{D}/photos/p2.jpg"],
-                                 ["new", "{D}/photos/p1.jpg", "--force", "{D}/photos/p2.jpg"]], ["p1.jpg"])
+                                 ["new", "{D}/photos/p1.jpg", "{D}/photos/p2.jpg", "--force"]], ["p1.jpg"])
 case("new-in-missing-folder", nothing, [["new", "{D}/nofolder/n.vebuild.json"]], ["nofolder"])
 case("new-duplicate-photo-id", lambda ctx: shutil.copy(ctx.folder / "photos" / "p1.jpg",
                                                        ctx.folder / "photos" / "p1.jpeg"),
