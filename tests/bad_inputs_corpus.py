@@ -487,7 +487,7 @@ case("model-solution-orphan-node", doc_fn(lambda d: d["model_solution"]["nodes"]
 case("calibration-marker-1e308", setter(("calibration", "markers", "O", "position"), [1e308, 0.0, 0.0]),
      V + ["solve-recal", "report"], [P, "$.calibration.markers.O"])
 case("atlas-page-50000x50000", doc_fn(lambda d: d["textures"]["pages"][0].update(width=50000, height=50000)),
-     V + ["render-view", "export", "video", "report"], [(P, "atlas_0.png"), "$.textures.pages[0]"], sub=True)
+     V + ["render-view", "export", "video", "report"], [(P, "textures/atlas_"), "$.textures.pages[0]"], sub=True)
 case("atlas-page-path-absolute", setter(("textures", "pages", 0, "atlas"), "/etc/hostname"),
      V + ["render-view", "export", "export-obj"], [P, "$.textures.pages[0].atlas"])
 case("atlas-page-path-dotdot", setter(("textures", "pages", 0, "atlas"), "../outside/atlas_0.png"),
@@ -527,12 +527,12 @@ def _textures_symlink(ctx: Ctx) -> None:
 
 
 case("atlas-file-missing", _atlas_missing, ["check", "render-view", "export"],
-     [(P, "atlas_0.png"), "$.textures.pages[0].atlas"])
+     [(P, "textures/atlas_"), "$.textures.pages[0].atlas"])
 case("atlas-file-changed", _atlas_changed, ["check", "render-view", "export"],
-     [(P, "atlas_0.png"), "$.textures.pages[0]"],
+     [(P, "textures/atlas_"), "$.textures.pages[0]"],
      any_of=["sha256", "changed"])
 case("atlas-not-an-image", _atlas_not_image, ["check", "render-view", "export"],
-     [(P, "atlas_0.png"), "$.textures.pages[0].atlas"])
+     [(P, "textures/atlas_"), "$.textures.pages[0].atlas"])
 case("textures-folder-symlink", _textures_symlink, ["check", "render-view", "export", "texture"], [P, "textures"])
 case("texture-face-rect-outside-page", setter(("textures", "faces", 0, "rect"), [0, 0, 1000000, 1000000]),
      V + ["render-view", "export"], [P, "$.textures.faces[0].rect"])
