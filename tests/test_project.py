@@ -306,7 +306,7 @@ def test_saved_text_layout(proj: Path) -> None:
 
 
 def _temp_files(folder: Path) -> list[Path]:
-    return [f for f in folder.iterdir() if f.name.endswith(".tmp")]
+    return [f for f in folder.iterdir() if f.name.endswith(".tmp") or f.name.endswith(".vebuild-tmp")]
 
 
 @pytest.mark.parametrize("target", ["json.dump", "os.replace", "os.fsync"])

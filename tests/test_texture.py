@@ -281,7 +281,7 @@ def test_vebuild_texture_writes_atlases_and_records_them(solved_room, capsys):
     assert [p["id"] for p in rec["photos"]] and all(len(p["gain"]) == 3 for p in rec["photos"])
     floor = next(f for f in rec["faces"] if f["node"] == "floor")
     assert floor["seen_fraction"] > 0.5 and len(floor["photos"]) >= 3
-    assert not list(folder.glob("textures/*.tmp"))
+    assert not list(folder.glob("textures/*.tmp")) and not list(folder.glob("textures/.*.vebuild-tmp"))
     # From the solved (not the true) model and cameras the textures still match the truth.
     assert main(["check", proj]) == 0
 

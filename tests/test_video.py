@@ -314,7 +314,8 @@ def test_stereo_and_lighting(room, renderer, tmp_path):
 def test_nothing_is_left_behind_when_interrupted(room, renderer, tmp_path):
     project = load_project(room)
     out = tmp_path / "walk.mp4"
-    out.write_bytes(b"an older video")
+    render_video(project, VideoRequest(["door", "table"], out, (32, 32), Timing(fps=2)), None, renderer)
+    older = out.read_bytes()  # an older video vebuild wrote (it replaces no other file)
 
     def stop(done, total, label):
         if done == 3:
@@ -322,7 +323,7 @@ def test_nothing_is_left_behind_when_interrupted(room, renderer, tmp_path):
 
     with pytest.raises(KeyboardInterrupt):
         render_video(project, VideoRequest(["door", "table"], out, None, Timing(fps=10)), stop, renderer)
-    assert [p.name for p in tmp_path.iterdir()] == ["walk.mp4"] and out.read_bytes() == b"an older video"
+    assert [p.name for p in tmp_path.iterdir()] == ["walk.mp4"] and out.read_bytes() == older
     # The default output's folder, videos/ beside the project, is not left behind either.
     assert not (room.parent / "videos").exists()
     with pytest.raises(KeyboardInterrupt):

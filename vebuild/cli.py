@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -22,10 +21,12 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
     from .actions.calibrate import calibrate_project
+    from .outputs import begin_stage
     from .project import load_project, save_project
     from .report_text import calibration_table
 
     project = load_project(args.project)
+    begin_stage(project)
     result = calibrate_project(project, progress=lambda it: tqdm(it, desc="calibrating", unit="photo",
                                                                  disable=not _progress_wanted(args)))
     save_project(project)
@@ -36,10 +37,12 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
 
 def _cmd_solve(args: argparse.Namespace) -> int:
     from .actions.solve import solve_project
+    from .outputs import begin_stage
     from .project import load_project, save_project
     from .report_text import model_table
 
     project = load_project(args.project)
+    begin_stage(project)
     result = solve_project(project, recalibrate=args.recalibrate, refine_intrinsics=not args.fixed_intrinsics)
     save_project(project)
     print(model_table(result))
@@ -149,7 +152,7 @@ def _cmd_render(args: argparse.Namespace) -> int:
 
 def _cmd_texture(args: argparse.Namespace) -> int:
     from .actions.texture import progress_bar, texture_project
-    from .project import load_project, save_project
+    from .project import load_project
     from .report_text import texture_table
     from .texture.gpu import Options
 
@@ -160,8 +163,7 @@ def _cmd_texture(args: argparse.Namespace) -> int:
                       detail_sharpness=1.0 if args.no_detail else Options.detail_sharpness,
                       exposure=not args.no_exposure)
     with progress_bar(_progress_wanted(args)) as progress:
-        record, _ = texture_project(project, options, progress)
-    save_project(project)
+        record, _ = texture_project(project, options, progress)  # pages, then the project, then old pages
     print(texture_table(record))
     print(f"\ntextures written to {project.folder / 'textures'}; recorded in {project.path}")
     return 0
@@ -263,16 +265,21 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
+    from .atomic import write_text
     from .bench import BENCHES
+    from .outputs import check_file
 
     bench = BENCHES[args.name]
+    if args.json:
+        check_file(None, Path(args.json), "figures")
     figures = bench.run(quick=args.quick, progress=_progress_wanted(args))
     print(bench.table(figures))
     if args.json:
         out = Path(args.json)
-        tmp = out.with_name(out.name + ".tmp")
-        tmp.write_text(json.dumps(figures, indent=2) + "\n")
-        os.replace(tmp, out)
+        try:  # "software" marks the file as vebuild's (vebuild/outputs.py)
+            write_text(out, json.dumps({"software": f"vebuild {__version__}", **figures}, indent=2) + "\n")
+        except OSError as e:
+            raise VebuildError(f"{out}: cannot write the figures ({e.strerror or e})") from None
         print(f"figures written to {out}")
     return 0
 
@@ -368,7 +375,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("report", help="an HTML (and PDF) report another examiner can reproduce from the project")
     p.add_argument("project")
-    p.add_argument("--out", required=True, metavar="DIR", help="the folder to write (replaced if it exists)")
+    p.add_argument("--out", required=True, metavar="DIR",
+                   help="the folder to write: new, empty, or an earlier report (replaced); never the project's folder")
     p.add_argument("--no-pdf", action="store_true", help="only the HTML and its images")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_report)

@@ -8,14 +8,12 @@ found, in words meant for the person who made the project rather than for a prog
 
 from __future__ import annotations
 
-import contextlib
 import difflib
 import hashlib
 import json
 import math
 import os
 import re
-import secrets
 from dataclasses import dataclass
 from functools import cache
 from importlib import resources
@@ -157,28 +155,22 @@ def save_project(project_or_path: Project | str | os.PathLike[str],
     if not validated:
         validate(data, path)
 
-    # Write beside the target so that os.replace is a rename within one file system: readers then
-    # see the old file or the new one, never a half-written one, even after a crash.
-    tmp = path.with_name(f".{path.name}.{secrets.token_hex(4)}.tmp")
+    import io
+
+    from .atomic import write_with  # beside the target, fsync'ed, renamed over it (vebuild/atomic.py)
+
+    def write(f: Any) -> None:
+        text = io.TextIOWrapper(f, encoding="utf-8", newline="\n")
+        json.dump(data, text, indent=2, ensure_ascii=False, allow_nan=False)
+        text.write("\n")
+        text.flush()
+        text.detach()
+
     try:
-        # os.open honours the umask (mkstemp would make the file private); keep an old file's mode.
-        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
-        with open(fd, "w", encoding="utf-8", newline="\n") as f:
-            json.dump(data, f, indent=2, ensure_ascii=False, allow_nan=False)
-            f.write("\n")
-            f.flush()
-            os.fsync(f.fileno())
-        with contextlib.suppress(FileNotFoundError):
-            os.chmod(tmp, path.stat().st_mode & 0o7777)
-        os.replace(tmp, path)
-    except BaseException as e:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        if isinstance(e, OSError):
-            raise ProjectError(path, "", f"cannot write the project file ({e.strerror or e}); "
-                               "the file on disk is unchanged") from e
-        raise
-    _fsync_folder(path.parent)
+        write_with(path, write)
+    except OSError as e:
+        raise ProjectError(path, "", f"cannot write the project file ({e.strerror or e}); "
+                           "the file on disk is unchanged") from e
     return path
 
 
@@ -642,16 +634,3 @@ def new_photo_entry(project_folder: str | os.PathLike[str], image_path: str | os
     entry["marker_observations"] = {}
     return entry
 
-
-def _fsync_folder(folder: Path) -> None:
-    # Make the rename itself durable (POSIX); folders cannot be opened this way on Windows.
-    try:
-        fd = os.open(folder, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        os.fsync(fd)
-    except OSError:
-        pass
-    finally:
-        os.close(fd)

@@ -79,8 +79,7 @@ def run_demo(out: Path, progress: bool = True) -> int:
         print(model_comparison(model, truth))
     print("\n" + "-" * 80 + "\ntexturing: ID buffers and texel projection on the GPU, weighted merge\n")
     with progress_bar(progress) as step:
-        record, textures = texture_project(project, progress=step)
-    save_project(project)
+        record, textures = texture_project(project, progress=step)  # saves the project with its pages
     print(texture_table(record))
     if truth:
         print()

@@ -76,9 +76,14 @@ def parse_size(text: str) -> tuple[int, int]:
     return int(m[1]), int(m[2])
 
 
-def check_output(path: Path, suffixes: tuple[str, ...] = (".png",)) -> Path:
-    """Fail early, before any work, if ``path`` cannot be written as an output file."""
+def check_output(path: Path, suffixes: tuple[str, ...] = (".png",), project: Project | None = None) -> Path:
+    """Fail early, before any work, if ``path`` cannot be written as an output file: also where
+    the output policy (:mod:`vebuild.outputs`: never over the project's own files, only over a
+    file vebuild wrote) forbids it."""
+    from vebuild.outputs import check_file
+
     path = Path(path)
+    check_file(project, path, suffix=suffixes[0])
     if path.is_dir():
         raise VebuildError(f"{path}: is a folder; expected a file name for the output")
     if path.suffix.lower() not in suffixes:
@@ -94,17 +99,21 @@ def check_output(path: Path, suffixes: tuple[str, ...] = (".png",)) -> Path:
 
 
 def write_png(path: Path, image: NDArray[np.uint8], text: dict[str, str]) -> None:
-    """Write an RGB image with text chunks atomically (temp file, then rename)."""
+    """Write an RGB image with text chunks atomically (:mod:`vebuild.atomic`)."""
+    from vebuild.atomic import write_with
+
     info = PngImagePlugin.PngInfo()
     for k, v in text.items():
         info.add_itxt(k, v) if not v.isascii() else info.add_text(k, v)
-    tmp = path.with_name(f".{path.name}.tmp")
     try:
-        Image.fromarray(image, "RGB").save(tmp, format="PNG", pnginfo=info)
-        os.replace(tmp, path)
+        write_with(path, lambda f: Image.fromarray(image, "RGB").save(f, format="PNG", pnginfo=info))
     except OSError as e:
-        tmp.unlink(missing_ok=True)
         raise VebuildError(f"{path}: cannot write the image ({e.strerror or e})") from None
+
+
+def overlay_path(out: Path) -> Path:
+    """Where ``--validate`` writes the photo overlaid on the render of ``out``."""
+    return out.with_name(out.stem + "-overlay.png")
 
 
 def stamp(image: NDArray[np.uint8], text: str) -> NDArray[np.uint8]:
@@ -154,12 +163,16 @@ def provenance(project: Project, cam: ImageCamera, kind: str, lighting: str, ste
 def render_evidence(project: Project, req: RenderRequest) -> RenderResult:
     """Render ``req`` and write its PNG (and overlay); see the module's docstring."""
     from vebuild.gl import headless_context
+    from vebuild.outputs import begin_stage
     from vebuild.render.lighting import find_preset
     from vebuild.render.renderer import STEREO_MODES, Renderer, RenderOptions, Stereo
     from vebuild.render.scene import load_scene
     from vebuild.render.views import find_view, photo_camera
 
-    out = check_output(Path(req.out))
+    out = check_output(Path(req.out), project=project)
+    if req.validate:
+        check_output(overlay_path(out), project=project)
+    begin_stage(project, out.parent if str(out.parent) else ".")
     if (req.view is None) == (req.photo is None):
         raise VebuildError("render: give exactly one of a view (--view NAME) or a photo (--photo ID)")
     if req.stereo is not None and req.stereo not in STEREO_MODES[:3]:
@@ -258,7 +271,7 @@ def _validate(project: Project, photo_id: str, cam: ImageCamera, rgba: NDArray[n
     alpha = 0.5 * cover[..., None]
     overlay = pixels.astype(float) * (1.0 - alpha) * np.where(cover[..., None] > 0, 1.0, 0.6) \
         + render.astype(float) * alpha
-    result.overlay = out.with_name(out.stem + "-overlay.png")
+    result.overlay = overlay_path(out)
     text = {**text, "vebuild:validation": json.dumps({"photo": photo_id, "photo_sha256": photo["sha256"],
                                                       "rms_colour_difference_srgb_levels": round(rms, 4),
                                                       "exposure_gain": round(gain, 6),

@@ -15,7 +15,6 @@ import hashlib
 import html
 import json
 import os
-import shutil
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -89,38 +88,49 @@ def table(header: list[str], rows: list[list[Any]], numeric: set[int] | None = N
 def write_report(project: Project, out: Path, pdf: bool = True,
                  progress: Callable[[str], None] | None = None) -> Path:
     """Write ``out/report.html`` (and ``out/report.pdf``) with its images in ``out/images``."""
-    out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise VebuildError(f"{out}: is a file; expected a folder for the report")
-    if not out.parent.is_dir():
-        raise VebuildError(f"{out}: the folder {out.parent} does not exist; create it first")
+    from vebuild.atomic import MANIFEST, remove_tree, replace_folder, temp_path, write_text
+    from vebuild.outputs import SOFTWARE, begin_stage, check_folder, write_manifest
+
+    given = Path(out)
+    if not given.parent.is_dir():
+        raise VebuildError(f"{given}: the folder {given.parent} does not exist; create it first")
+    check_folder(project, given, "report")
     if not (project.data.get("calibration") or {}).get("cameras"):
         raise VebuildError(f"{project.path}: the project has no calibrated cameras yet; run `vebuild calibrate` "
                            "(and `vebuild solve`) before making a report")
-    # Build in a temporary folder beside the output, then swap it in: never a half-written report.
-    tmp = out.with_name(f".{out.name}.tmp")
-    shutil.rmtree(tmp, ignore_errors=True)
-    (tmp / "images").mkdir(parents=True)
-    rep = Report(tmp)
-    step = progress or (lambda what: None)
+    out = Path(os.path.abspath(given))
+    begin_stage(project, out.parent)
+    # Build under a fresh sibling name, then swap it in (vebuild.atomic.replace_folder): never a
+    # half-written report, and the old one is deleted only once the new one is in place.
+    tmp = temp_path(out)
     try:
+        tmp.mkdir()
+        # The manifest first (no files yet): it marks the folder as vebuild's should this run be killed.
+        write_text(tmp / MANIFEST, json.dumps({"software": SOFTWARE, "kind": "report", "files": {}}) + "\n")
+        (tmp / "images").mkdir()
+        rep = Report(tmp)
+        step = progress or (lambda what: None)
         steps = [("photos", _photos), ("calibration", _calibration), ("model", _model), ("views", _views),
                  ("validation", _validation), ("analyses", _analyses), ("hypotheses", _hypotheses)]
         for name, fn in steps:
             step(name)
             fn(project, rep)
         page = _page(project, rep)
-        (tmp / "report.html").write_text(page, encoding="utf-8")
+        write_text(tmp / "report.html", page)
         if pdf:
             step("pdf")
             _pdf(tmp)
-        if out.exists():
-            shutil.rmtree(out)
-        os.replace(tmp, out)
+        write_manifest(tmp, "report", project)
+        check_folder(project, given, "report")  # again: nothing of the user's was put there meanwhile
+        replace_folder(tmp, out)
+    except OSError as e:
+        remove_tree(tmp)
+        raise VebuildError(f"{given}: cannot write the report ({e.strerror or e}); the old one, if any, "
+                           "is unchanged") from None
     except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
+        remove_tree(tmp)
         raise
-    return out / "report.html"
+    return given / "report.html"
 
 
 def _pdf(folder: Path) -> None:

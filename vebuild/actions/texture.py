@@ -1,32 +1,44 @@
 """``vebuild texture``: extract the model's textures from the photos and record them in the project.
 
-Writes ``textures/atlas_K.png`` (sRGB) and ``textures/coverage_K.png`` (RGBA, see
-:mod:`vebuild.texture.merge`) next to the project file, one pair per atlas page, and the
-``textures`` record (FORMAT.md). Nothing is written unless the whole extraction succeeds; every
-file is written to a temporary name first and moved into place.
+Writes ``textures/atlas_K_HASH.png`` (sRGB) and ``textures/coverage_K_HASH.png`` (RGBA, see
+:mod:`vebuild.texture.merge`) next to the project file, one pair per atlas page (HASH: the first 12
+hex digits of the file's SHA-256), and the ``textures`` record (FORMAT.md).
+
+The stage commits its pages and the project together, in an order that a failure or a kill at any
+moment leaves the last good state whole: the new pages are written under fresh names (atomically,
+:mod:`vebuild.atomic`), then the project is saved pointing at them, then the old pages are deleted,
+each only if its bytes still hash to the SHA-256 the old record gives (a user's file is never
+deleted). Pages that no record refers to (left by a kill) are removed at the next run, only if their
+name is of the pattern above and their bytes match the hash in it.
 """
 
 from __future__ import annotations
 
+import io
 import os
+import re
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from PIL import Image
+from PIL import Image, PngImagePlugin
 
 from vebuild import __version__
 from vebuild.actions.solve import cameras_from_calibration, load_model
+from vebuild.atomic import write_bytes
 from vebuild.camera import ImageCamera
 from vebuild.errors import VebuildError
-from vebuild.project import Project, canonical_input_hash, sha256_file
+from vebuild.outputs import begin_stage
+from vebuild.project import Project, canonical_input_hash, load_project, save_project, sha256_file
 from vebuild.texture.extract import PhotoSource, TextureResult, extract
 from vebuild.texture.gpu import Options, Timings
 from vebuild.texture.merge import linear_to_srgb8
 
 TEXTURE_DIR = "textures"
+#: The name of a page vebuild writes: kind, page number, the first 12 hex digits of its SHA-256.
+PAGE_NAME = re.compile(r"^(atlas|coverage)_(\d+)_([0-9a-f]{12})\.png$")
 
 
 @contextmanager
@@ -51,10 +63,18 @@ def progress_bar(enabled: bool, desc: str = "texturing",
 
 def texture_project(project: Project, options: Options | None = None,
                     progress: Callable[[int, int, str], None] | None = None,
-                    timings: Timings | None = None) -> tuple[dict[str, Any], TextureResult]:
-    """Extract, write the PNGs and set ``project.data['textures']``; returns (record, result)."""
+                    timings: Timings | None = None, save: bool = True) -> tuple[dict[str, Any], TextureResult]:
+    """Extract, write the PNGs, set ``project.data['textures']`` and (``save``) save the project,
+    then delete the old pages; returns (record, result).
+
+    With ``save`` False (the modelling screen, whose project is saved when the user says so) the
+    new pages are written and recorded in ``project.data`` only; the old pages stay, as the project
+    file on disk still refers to them, and are removed by a later run once no record names them.
+    """
     options = options or Options()
     _check_options(project, options)
+    folder = texture_folder(project)
+    begin_stage(project)
     data = project.data
     cams = cameras_from_calibration(project)
     model, _, _ = load_model(project)
@@ -68,9 +88,98 @@ def texture_project(project: Project, options: Options | None = None,
         cameras.append(ImageCamera(p["id"], c.K, c.R, c.C, p["width"], p["height"]))
         sources[p["id"]] = PhotoSource(p["id"], project.photo_path(p), p["sha256"], f"$.photos[{i}]", str(project.path))
     result = extract(model, cameras, sources, options, progress, timings)
-    record = _write(project, result, options)
+    old = data.get("textures")
+    folder = texture_folder(project, make=True)
+    record = _write(project, result, options, folder)
     data["textures"] = record
+    if not save:
+        return record, result
+    try:
+        save_project(project)
+    except BaseException:
+        data["textures"] = old
+        remove_unrecorded_pages(project, folder)  # the new pages: nothing refers to them
+        raise
+    _remove_old_pages(project, folder, old, record)
+    remove_unrecorded_pages(project, folder)
     return record, result
+
+
+def texture_folder(project: Project, make: bool = False) -> Path:
+    """The project's textures/ folder (``make``: made if missing); refused if it is a link or
+    leads outside the project's folder."""
+    folder = project.folder / TEXTURE_DIR
+    if folder.is_symlink():
+        raise VebuildError(f"{folder}: is a symbolic link (to {os.readlink(folder)}); vebuild writes textures only "
+                           "inside the project's folder; replace the link with a real folder (or remove it)")
+    real, home = os.path.realpath(folder), os.path.realpath(project.folder)
+    if os.path.dirname(real) != home:
+        raise VebuildError(f"{folder}: leads outside the project's folder {project.folder} (to {real}); vebuild "
+                           "writes textures only inside it; replace it with a real folder")
+    if folder.exists() and not folder.is_dir():
+        raise VebuildError(f"{folder}: is a file; vebuild keeps the textures in a folder of that name; move it away")
+    if make:
+        try:
+            folder.mkdir(exist_ok=True)
+        except OSError as e:
+            raise VebuildError(f"{folder}: cannot make the textures folder ({e.strerror or e})") from None
+    return folder
+
+
+def _recorded_names(record: dict[str, Any] | None) -> dict[str, str]:
+    """The page files a textures record names (file name → recorded SHA-256)."""
+    out: dict[str, str] = {}
+    for page in (record or {}).get("pages", []):
+        for key in ("atlas", "coverage"):
+            if page.get(key):
+                out[Path(str(page[key])).name] = str(page.get(f"{key}_sha256", ""))
+    return out
+
+
+def _remove_old_pages(project: Project, folder: Path, old: dict[str, Any] | None, new: dict[str, Any]) -> None:
+    """Delete the pages of the old record that the new one (and an open modelling session's
+    autosave) does not name, each only if its bytes still hash to the old record's SHA-256."""
+    keep = set(_recorded_names(new))
+    auto = project.path.with_name(project.path.name + ".autosave")
+    if auto.exists():
+        try:
+            keep |= set(_recorded_names(load_project(auto, verify_photos=False).data.get("textures")))
+        except VebuildError:
+            return  # cannot tell what it refers to: touch nothing
+    for name, digest in _recorded_names(old).items():
+        path = folder / name
+        if name in keep or path.is_symlink() or not path.is_file():
+            continue
+        try:
+            if sha256_file(path) == digest:
+                path.unlink()
+        except OSError:
+            pass  # left for the next run
+
+
+def remove_unrecorded_pages(project: Project, folder: Path) -> list[Path]:
+    """Delete pages vebuild wrote that no record refers to (a run killed before or after its
+    save): names of :data:`PAGE_NAME` whose bytes match the hash in the name, named neither by
+    the project in memory, nor by the project file on disk, nor by its autosave."""
+    names = set(_recorded_names(project.data.get("textures")))
+    for path in (project.path, project.path.with_name(project.path.name + ".autosave")):
+        if path.exists():
+            try:
+                names |= set(_recorded_names(load_project(path, verify_photos=False).data.get("textures")))
+            except VebuildError:
+                return []  # cannot tell what it refers to: touch nothing
+    removed = []
+    for path in sorted(folder.iterdir()):
+        m = PAGE_NAME.match(path.name)
+        if m is None or path.name in names or path.is_symlink() or not path.is_file():
+            continue
+        try:
+            if sha256_file(path).startswith(m[3]):
+                path.unlink()
+                removed.append(path)
+        except OSError:
+            pass
+    return removed
 
 
 def _check_options(project: Project, o: Options) -> None:
@@ -92,35 +201,39 @@ def _check_options(project: Project, o: Options) -> None:
         raise bad("erode_px", "0 or more pixels", o.erode_px)
 
 
-def _write(project: Project, result: TextureResult, options: Options) -> dict[str, Any]:
-    folder = project.folder / TEXTURE_DIR
-    folder.mkdir(exist_ok=True)
-    old = project.data.get("textures") or {}
+def _png(img: np.ndarray, mode: str) -> bytes:
+    info = PngImagePlugin.PngInfo()
+    info.add_text("Software", f"vebuild {__version__}")
+    buf = io.BytesIO()
+    Image.fromarray(img, mode).save(buf, format="PNG", optimize=False, pnginfo=info)
+    return buf.getvalue()
+
+
+def _write(project: Project, result: TextureResult, options: Options, folder: Path) -> dict[str, Any]:
+    """Write the pages under fresh names (atomically); returns the record naming them. On an
+    error the pages written so far are removed (nothing refers to them) and nothing else changes."""
+    import hashlib
+
+    old_names = set(_recorded_names(project.data.get("textures")))
     pages = []
-    written: list[tuple[Path, Path]] = []
     try:
         for k, (atlas, cov) in enumerate(zip(result.atlases, result.coverage, strict=True)):
             entry: dict[str, Any] = {"width": int(atlas.shape[1]), "height": int(atlas.shape[0])}
             for key, img, mode in (("atlas", atlas, "RGB"), ("coverage", cov, "RGBA")):
-                final = folder / f"{key}_{k}.png"
-                tmp = final.with_name(final.name + ".tmp")
-                Image.fromarray(img, mode).save(tmp, format="PNG", optimize=False)
-                written.append((tmp, final))
+                data = _png(img, mode)
+                digest = hashlib.sha256(data).hexdigest()
+                final = folder / f"{key}_{k}_{digest[:12]}.png"
+                if not (final.name in old_names and final.is_file() and sha256_file(final) == digest):
+                    write_bytes(final, data)
                 entry[key] = f"{TEXTURE_DIR}/{final.name}"
-                entry[f"{key}_sha256"] = sha256_file(tmp)
+                entry[f"{key}_sha256"] = digest
             pages.append(entry)
     except OSError as e:
-        for tmp, _ in written:
-            tmp.unlink(missing_ok=True)
+        remove_unrecorded_pages(project, folder)  # those written so far: nothing refers to them
         raise VebuildError(f"{folder}: cannot write the textures: {e.strerror or e}") from None
-    for tmp, final in written:
-        os.replace(tmp, final)
-    keep = {final.name for _, final in written}
-    for page in old.get("pages", []):  # pages of an earlier, larger extraction
-        for key in ("atlas", "coverage"):
-            name = Path(str(page.get(key, ""))).name
-            if name and name not in keep and name.endswith(".png"):
-                (folder / name).unlink(missing_ok=True)
+    except BaseException:
+        remove_unrecorded_pages(project, folder)
+        raise
     faces = []
     for f in result.faces:
         st = result.face_stats[f.id]

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -72,6 +71,10 @@ def _run(args: argparse.Namespace, name: str, handler: Handler) -> int:
     from ..project import load_project
 
     project = load_project(args.project)
+    if args.json:
+        from ..outputs import check_file
+
+        check_file(project, Path(args.json), "figures")
     text, figures = handler(args, project)
     print(text)
     if args.json:
@@ -82,10 +85,14 @@ def _run(args: argparse.Namespace, name: str, handler: Handler) -> int:
 
 
 def write_json(path: Path, doc: dict[str, Any]) -> None:
-    """Write ``doc`` to ``path`` atomically (a temporary file renamed over it)."""
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps(doc, indent=2, allow_nan=False) + "\n")
-    os.replace(tmp, path)
+    """Write ``doc`` to ``path`` atomically (:mod:`vebuild.atomic`)."""
+    from ..atomic import write_text
+    from ..errors import VebuildError
+
+    try:
+        write_text(path, json.dumps(doc, indent=2, allow_nan=False) + "\n")
+    except OSError as e:
+        raise VebuildError(f"{path}: cannot write the figures ({e.strerror or e})") from None
 
 
 # -- measurements --------------------------------------------------------------------------------
@@ -177,7 +184,7 @@ def _lighting(args: argparse.Namespace, project: Any) -> tuple[str, dict[str, An
     from .lighting import LUMINANCE_WEIGHTS, compare_lighting, side_by_side
 
     if args.out:
-        check_output(Path(args.out))
+        check_output(Path(args.out), project=project)
     presets = list(args.presets)
     cam = find_view(project, args.view)
     if args.size:

@@ -107,7 +107,7 @@ def _sightline(args: argparse.Namespace, project: Any) -> tuple[str, dict[str, A
     from .sightline import Eye, parse_floats, render_witness_view, sight_line
 
     if args.out:
-        check_output(Path(args.out))
+        check_output(Path(args.out), project=project)
     size = parse_size(args.size)
     scene = _scene(project, args.hypothesis)
     occ = Occluders(scene)
@@ -159,7 +159,7 @@ def _viewshed(args: argparse.Namespace, project: Any) -> tuple[str, dict[str, An
     from .rays import Occluders
     from .sightline import PLACE, viewshed, write_viewshed_png
 
-    check_output(Path(args.out))
+    check_output(Path(args.out), project=project)
     scene = _scene(project, args.hypothesis)
     occ = Occluders(scene)
     vs = viewshed(occ, _target(occ, args), args.height, args.cell, samples=_samples(args.samples))
@@ -222,7 +222,7 @@ def _trajectory(args: argparse.Namespace, project: Any) -> tuple[str, dict[str, 
         raise VebuildError("trajectory: --view NAME and --out FILE.png go together (the view to draw it in)")
     cam = None
     if args.out:
-        check_output(Path(args.out))
+        check_output(Path(args.out), project=project)
         cam = find_view(project, args.view)
     scene = _scene(project, args.hypothesis)
     occ = Occluders(scene)

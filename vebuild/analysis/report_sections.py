@@ -14,6 +14,7 @@ import shlex
 from typing import Any, NoReturn
 
 from vebuild.actions.report import Report, esc
+from vebuild.atomic import write_text
 from vebuild.errors import ProjectError, VebuildError
 
 #: Analyses that write an image, and whether they need something more to do so (trajectory: a view).
@@ -53,8 +54,8 @@ def analyses(project: Any, rep: Report, records: list[dict[str, Any]]) -> str:
             raise ProjectError(project.path, f"{where}.command", str(e)) from None
         figures = {k: v for k, v in figures.items() if not str(k).endswith("_png")}  # paths of this run
         fig_name = f"figures/analysis-{i + 1}.json"
-        (rep.folder / fig_name).write_text(json.dumps({"analysis": kind, "command": words, **figures}, indent=2,
-                                                      sort_keys=True, allow_nan=False) + "\n")
+        write_text(rep.folder / fig_name, json.dumps({"analysis": kind, "command": words, **figures}, indent=2,
+                                                     sort_keys=True, allow_nan=False) + "\n")
         text = text.replace(str(rep.folder) + "/", "")
         parts.append(f"<h3>{esc(rec['name'])}</h3>")
         if rec.get("description"):

@@ -136,6 +136,10 @@ class EditSession:
         self._cache: dict[Any, Any] = {}
         self._drag: _Drag | None = None
         self.recovery_available = False
+        if autosave:
+            from vebuild.outputs import begin_stage
+
+            begin_stage(project)  # temporaries of a session (or a stage) that was killed
         side = self.autosave_path
         if side.exists():
             try:
@@ -992,7 +996,7 @@ class EditSession:
                 progress(done / max(total, 1), text)
 
         with self._edit("extract textures"):
-            record, _ = texture_project(self.project, opts, progress=step)
+            record, _ = texture_project(self.project, opts, progress=step, save=False)
         self.say(f"textures extracted: {len(record['pages'])} page(s)")
         return record
 

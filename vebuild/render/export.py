@@ -18,11 +18,9 @@ it only when all of them were written, so an error leaves nothing half-written.
 
 from __future__ import annotations
 
-import contextlib
 import json
 import os
 import re
-import secrets
 import struct
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
@@ -35,6 +33,7 @@ from scipy.spatial.transform import Rotation
 from vebuild import __version__
 from vebuild.camera import ImageCamera, focal_to_fov
 from vebuild.errors import ProjectError, VebuildError
+from vebuild.outputs import begin_stage, check_file
 from vebuild.project import Project, sha256_bytes, sha256_file
 from vebuild.render.scene import RenderScene, load_scene
 from vebuild.render.views import photo_camera, view_camera
@@ -125,6 +124,7 @@ class _Contents:
 def export_model(project: Project, path: str | os.PathLike[str], format: str | None = None) -> ExportResult:
     """Write the project's model to ``path`` as glTF binary or OBJ (by ``format``, else its suffix)."""
     path = Path(path)
+    check_file(project, path, "export", ".obj" if path.suffix.lower() == ".obj" else ".glb")
     fmt = format or FORMATS.get(path.suffix.lower())
     if fmt not in ("glb", "obj"):
         raise VebuildError(f"{path}: unknown export format {path.suffix or '(no extension)'!r}; expected "
@@ -135,7 +135,7 @@ def export_model(project: Project, path: str | os.PathLike[str], format: str | N
 def export_glb(project: Project, path: str | os.PathLike[str]) -> ExportResult:
     """Write the model, its textures and its cameras as one glTF 2.0 binary file."""
     path = Path(path)
-    _check_target(path)
+    _check_target(project, path)
     contents = _collect(project)
     doc, binary = gltf_document(contents)
     data = glb_bytes(doc, binary)
@@ -150,9 +150,11 @@ def export_glb(project: Project, path: str | os.PathLike[str]) -> ExportResult:
 def export_obj(project: Project, path: str | os.PathLike[str]) -> ExportResult:
     """Write the model as OBJ (world coordinates, +Y up) with an MTL and copies of the atlas pages."""
     path = Path(path)
-    _check_target(path)
+    _check_target(project, path)
     contents = _collect(project)
     files = obj_files(contents, path)
+    for f, _ in files[:-1]:  # the MTL and the page copies beside it (the OBJ was checked above)
+        check_file(project, f, "export")
     _write_atomically(files)
     warnings = list(contents.warnings)
     if contents.cameras:
@@ -503,7 +505,7 @@ def obj_files(contents: _Contents, path: Path) -> list[tuple[Path, bytes]]:
 # -- writing ---------------------------------------------------------------------------------------
 
 
-def _check_target(path: Path) -> None:
+def _check_target(project: Project, path: Path) -> None:
     folder = path.parent
     if path.is_dir():
         raise VebuildError(f"{path}: is a folder; give a file name ending in .glb or .obj")
@@ -513,33 +515,22 @@ def _check_target(path: Path) -> None:
         raise VebuildError(f"{path}: {folder} is not a folder")
     if not os.access(folder, os.W_OK):
         raise VebuildError(f"{path}: the output folder {folder} cannot be written (permission denied)")
+    check_file(project, path, "export")
+    begin_stage(project, folder)
 
 
 def _write_atomically(files: list[tuple[Path, bytes]]) -> None:
-    """Write every file beside its target, then rename them in order; on error leave nothing behind."""
-    temps: list[tuple[Path, Path]] = []
-    done: list[Path] = []
+    """Write every file beside its target, then rename them in order (:func:`vebuild.atomic.write_many`);
+    on error leave no temporary file behind."""
+    from vebuild.atomic import write_many
+
     target = files[-1][0]
-    current = target
+    for final, _ in files:
+        if final.is_dir():
+            raise VebuildError(f"{target}: cannot write {final} (it is a folder); nothing was written")
     try:
-        for final, data in files:
-            current = final
-            if final.is_dir():
-                raise IsADirectoryError(21, "it is a folder")
-            tmp = final.with_name(f".{final.name}.{secrets.token_hex(4)}.tmp")
-            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
-            temps.append((tmp, final))
-            with open(fd, "wb") as fh:
-                fh.write(data)
-                fh.flush()
-                os.fsync(fh.fileno())
-        for tmp, final in temps:
-            current = final
-            os.replace(tmp, final)
-            done.append(final)
+        write_many(files)
     except OSError as e:
-        for tmp, _ in temps:
-            with contextlib.suppress(OSError):
-                os.unlink(tmp)
-        written = (f"only {', '.join(str(f) for f in done)} were replaced" if done else "nothing was written")
-        raise VebuildError(f"{target}: cannot write {current} ({e.strerror or e}); {written}") from None
+        done = getattr(e, "replaced", [])
+        written = f"only {', '.join(str(f) for f in done)} were replaced" if done else "nothing was written"
+        raise VebuildError(f"{target}: cannot write {e.filename or target} ({e.strerror or e}); {written}") from None

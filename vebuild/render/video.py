@@ -45,6 +45,7 @@ from scipy.interpolate import CubicSpline, PchipInterpolator
 from scipy.spatial.transform import Rotation, RotationSpline
 
 from vebuild import __version__
+from vebuild.atomic import commit, temp_path
 from vebuild.camera import ImageCamera, focal_to_fov
 from vebuild.errors import ProjectError, VebuildError
 
@@ -300,7 +301,8 @@ class Mp4Writer:
         self.rate = Fraction(fps).limit_denominator(1001)
         self.crf, self.preset = int(crf), preset
         self.metadata = dict(metadata or {})
-        self.tmp = self.out.with_name(f".{self.out.name}.{os.getpid()}.tmp")
+        self.metadata.setdefault("description", f"vebuild {__version__}")  # how vebuild knows its own videos
+        self.tmp = temp_path(self.out)
         self.frames = 0
         self._container: Any = None
         self._stream: Any = None
@@ -372,7 +374,7 @@ class Mp4Writer:
             self._mux(self._stream.encode(None))  # flush the encoder's delayed frames
             self._container.close()
             self._container = None
-            os.replace(self.tmp, self.out)
+            commit(self.tmp, self.out)
         except BaseException as e:
             self._abort()
             if isinstance(e, OSError):
@@ -419,9 +421,13 @@ def default_output(project: Project, views: Sequence[str]) -> Path:
     return project.folder / "videos" / f"{slug[:120]}.mp4"
 
 
-def check_output(path: Path) -> Path:
-    """Fail before any rendering if ``path`` cannot be an MP4 written by us."""
+def check_output(path: Path, project: Project | None = None) -> Path:
+    """Fail before any rendering if ``path`` cannot be an MP4 written by us (also where the output
+    policy, :mod:`vebuild.outputs`, forbids it)."""
+    from vebuild.outputs import check_file
+
     path = Path(path)
+    check_file(project, path, "video", ".mp4")
     if path.suffix.lower() != ".mp4":
         raise VebuildError(f"{path}: --out: expected a file name ending in .mp4")
     if path.is_dir():
@@ -466,7 +472,10 @@ def render_video(project: Project, request: VideoRequest,
     else:
         out = Path(request.out)
     try:
-        check_output(out)
+        check_output(out, project)
+        from vebuild.outputs import begin_stage
+
+        begin_stage(project, out.parent)
         return _render(project, request, path, lighting, out, progress, renderer)
     except BaseException:
         if created_folder and not any(out.parent.iterdir()):
