@@ -8,10 +8,12 @@ import os
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 from PIL import Image
 
 from vebuild import project as vp
+from vebuild.actions.records import camera_record
 from vebuild.errors import ProjectError
 from vebuild.project import (
     Project,
@@ -176,7 +178,7 @@ def test_schema_error_missing_key_and_bad_values(proj: Path) -> None:
         load_project(proj)
     rewrite(proj, lambda d: d["reference_distances"][0].update(role="scale", distance=0))
     with pytest.raises(ProjectError, match=re.escape("$.reference_distances[0].distance: expected a number "
-                                                     "greater than 0, found the number 0")):
+                                                     "at least 0.0001 and at most 10000 (a length in metres")):
         load_project(proj)
 
 
@@ -290,7 +292,9 @@ def test_round_trip(proj: Path) -> None:
     p = load_project(proj)
     p.data["photos"][0]["focal_px"] = {"value": 1234.5678901234567, "sigma": 0.1}
     p.data["calibration"] = {"software": "vebuild 0.1.0", "input_sha256": canonical_input_hash(p.data),
-                             "cameras": {"door": {"mode": "3vp", "K": [[1, 0, 2], [0, 1, 3], [0, 0, 1]]}},
+                             "cameras": {"door": {"mode": "3vp", **camera_record(
+                                 np.array([[1.0, 0, 2], [0, 1, 3], [0, 0, 1]]), np.eye(3), np.zeros(3),
+                                 np.eye(9))}},
                              "extra_result": [1, 2]}
     save_project(p)
     again = load_project(proj)
@@ -474,3 +478,461 @@ def test_new_photo_entry_not_an_image(tmp_path: Path) -> None:
         new_photo_entry(tmp_path, tmp_path / "notes.jpg")
     with pytest.raises(ProjectError, match="photo file not found"):
         new_photo_entry(tmp_path, tmp_path / "absent.jpg")
+
+
+# --------------------------------------------------------------------------------------------------
+# `vebuild check` refuses, with the file, the field and what was expected (exit status 2, no
+# traceback), everything a later command would refuse or get wrong.
+
+ROOM = Path(__file__).resolve().parents[1] / "scenes" / "room"
+
+
+@pytest.fixture
+def room(tmp_path: Path) -> Path:
+    """A copy of the example room (model and pins, not calibrated); returns its project file."""
+    import shutil
+
+    shutil.copytree(ROOM, tmp_path / "room")
+    return tmp_path / "room" / "room.vebuild.json"
+
+
+def check_refuses(path: Path, capsys: pytest.CaptureFixture, *parts: str, command: str = "check") -> str:
+    """Run `vebuild COMMAND path`; assert status 2, one message naming the file and holding every part."""
+    from vebuild.cli import main
+
+    capsys.readouterr()
+    assert main([command, str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and err.count("\n") == 1, err
+    assert err.startswith(f"vebuild {command}: error: {path}: "), err
+    for part in parts:
+        assert part in err, f"{part!r} not in {err!r}"
+    return err
+
+
+def edit_text(path: Path, old: str, new: str) -> None:
+    text = path.read_text()
+    assert old in text
+    path.write_text(text.replace(old, new, 1))
+
+
+def node(data: dict, name: str) -> dict:
+    return next(n for n in data["model"]["nodes"] if n["name"] == name)
+
+
+def test_example_project_checks(room: Path, capsys: pytest.CaptureFixture) -> None:
+    from vebuild.cli import main
+
+    assert main(["check", str(room)]) == 0
+    out = capsys.readouterr().out
+    assert "valid vebuild project" in out and "model: 17 node(s), 76 pin(s)" in out
+
+
+def test_whole_number_of_5001_digits(proj: Path, capsys: pytest.CaptureFixture) -> None:
+    edit_text(proj, f'"width": {W}', '"width": ' + "9" * 5001)
+    check_refuses(proj, capsys, "$.photos[0].width: expected a number of at most 20 digits, found a whole number "
+                  "of 5001 digits")
+
+
+@pytest.mark.parametrize("depth", [40, 1200, 100_000])
+def test_deep_nesting(proj: Path, capsys: pytest.CaptureFixture, depth: int) -> None:
+    edit_text(proj, '"name": "test room"', '"name": ' + "[" * depth + "]" * depth)
+    check_refuses(proj, capsys, "$.name", "nested more than 32 deep")
+
+
+def test_deep_nesting_in_a_result_record(proj: Path, capsys: pytest.CaptureFixture) -> None:
+    rewrite(proj, lambda d: d.update(calibration={"anything": json.loads("[" * 200 + "]" * 200)}))
+    check_refuses(proj, capsys, "$.calibration.anything" + "[0]" * 30, "nested more than 32 deep")
+
+
+def test_lone_surrogate_in_text_or_key(proj: Path, capsys: pytest.CaptureFixture) -> None:
+    edit_text(proj, '"name": "test room"', '"name": "test \\ud800room"')
+    for command in ("check", "calibrate"):  # calibrate once failed on saving its results
+        check_refuses(proj, capsys, "$.name: expected text made of characters that can be written in UTF-8, found "
+                      "the lone surrogate \\ud800", command=command)
+    edit_text(proj, '"name": "test \\ud800room"', '"name": "test room"')
+    edit_text(proj, '"description": "floor corner"', '"description": "floor corner", "\\udc80": 1')
+    check_refuses(proj, capsys, "$.markers[0]: expected key made of characters", "\\udc80")
+
+
+@pytest.mark.parametrize(("edit", "where", "expected"), [
+    (lambda d: d["reference_distances"][0].update(distance=1e308), "$.reference_distances[0].distance",
+     "at least 0.0001 and at most 10000 (a length in metres"),
+    (lambda d: d["reference_distances"][1].update(sigma=1e-300), "$.reference_distances[1].sigma",
+     "at least 1e-06 and at most 10000"),
+    (lambda d: d["settings"].update(click_sigma_px=1e-300), "$.settings.click_sigma_px",
+     "at least 0.001 and at most 1000 (a 1σ in pixels"),
+    (lambda d: d["settings"].update(exif_focal_sigma_rel=2.0), "$.settings.exif_focal_sigma_rel",
+     "greater than 0 and at most 1"),
+    (lambda d: d["photos"][0].update(focal_px={"value": 1e308, "sigma": 1.0}), "$.photos[0].focal_px.value",
+     "at least 1 and at most 1e+07 (a focal length in pixels"),
+    (lambda d: d["photos"][0].update(exif={"focal_length_px": 1e308}), "$.photos[0].exif.focal_length_px",
+     "at most 1e+07"),
+    (lambda d: d["markers"][2].update(position=[1e9, 0, 0]), "$.markers[2].position[0]",
+     "at least -10000 and at most 10000 (a coordinate in metres within ±10 km"),
+    (lambda d: d["photos"][0].update(principal_point={"value": [1e308, 3], "sigma": 1}),
+     "$.photos[0].principal_point.value[0]", "at least -1e+06 and at most 1e+06"),
+    (lambda d: d["photos"][0].update(principal_point={"value": [32, 1e5], "sigma": 1}),
+     "$.photos[0].principal_point.value", f"within 4 image sizes of the {W}×{H} photo"),
+    (lambda d: d["photos"][0]["marker_observations"].update(A=[1e9, 3]), "$.photos[0].marker_observations.A[0]",
+     "at most 1e+06"),
+    (lambda d: d["photos"][0]["marker_observations"].update(A=[-300, 3]), "$.photos[0].marker_observations.A",
+     f"(u from {-4 * W} to {5 * W}), found u = -300"),
+    (lambda d: d["photos"][0]["vanishing_segments"]["x"][1].__setitem__(3, 1e5), "$.photos[0].vanishing_segments.x[1]",
+     "within 4 image sizes"),
+    (lambda d: d["photos"][0].update(width=70000), "$.photos[0].width", "at most 65535"),
+    (lambda d: d["photos"][0].update(width=60000, height=60000), "$.photos[0].width",
+     "at most 120 megapixels (more than any camera takes), found 60000×60000"),
+    (lambda d: d.update(views=[{"name": "v", "position": [0, 0, 1.6], "look_at": [1, 0, 1.6], "fov_deg": 1e-300,
+                                "width": 64, "height": 48}]), "$.views[0].fov_deg", "at least 0.1 and at most 170"),
+    (lambda d: d.update(views=[{"name": "v", "position": [0, 0, 1.6], "look_at": [1e308, 0, 1.6],
+                                "width": 64, "height": 48}]), "$.views[0].look_at[0]", "at most 10000"),
+    (lambda d: d.update(views=[{"name": "v", "position": [0, 0, 1.6], "direction": [1e-300, 0, 0],
+                                "width": 64, "height": 48}]), "$.views[0].direction",
+     "at least 1e-06 long"),
+    (lambda d: d.update(views=[{"name": "v", "position": [0, 0, 1.6], "look_at": [1e-12, 0, 1.6],
+                                "width": 64, "height": 48}]), "$.views[0].look_at",
+     "a point away from the view's position"),
+])
+def test_values_outside_physical_sense(proj: Path, capsys: pytest.CaptureFixture, edit, where: str,
+                                       expected: str) -> None:
+    rewrite(proj, edit)
+    check_refuses(proj, capsys, f"{where}: expected ", expected)
+
+
+def _room_edit(room: Path, edit) -> None:
+    rewrite(room, edit)
+
+
+@pytest.mark.parametrize(("edit", "where", "expected"), [
+    (lambda d: node(d, "box")["primitive"]["params"].update(width=1e308),
+     "$.model.nodes[2].primitive.params.width", "at most 10000"),
+    (lambda d: node(d, "box")["primitive"]["params"].update(width=-1),
+     "$.model.nodes[2].primitive.params.width", "at least 0 and at most 10000"),
+    (lambda d: node(d, "box")["joint"].update(position=[1e308, 0]), "$.model.nodes[2].joint.position[0]",
+     "at most 10000"),
+    (lambda d: node(d, "door")["joint"].update(axis=[0, 0, 0]), "$.model.nodes[9].joint.axis",
+     "the axis of the hinge joint (a non-zero vector"),
+    (lambda d: node(d, "door")["joint"].update(limits_deg=[150, 0]), "$.model.nodes[9].joint.limits_deg",
+     "with lo no greater than hi, found [150°, 0°] (reversed?)"),
+    (lambda d: node(d, "box").update(joint={"type": "slider", "axis": [1, 0, 0], "limits": [1, -1]}),
+     "$.model.nodes[2].joint.limits", "found [1 m, -1 m]"),
+    (lambda d: node(d, "box")["joint"].update(yaw_deg=1e308), "$.model.nodes[2].joint.yaw_deg",
+     "within ±3600"),
+    (lambda d: d["model"]["pins"][0].update(uv=[1e9, 0]), "$.model.pins[0].uv[0]", "at most 1e+06"),
+    (lambda d: d["model"]["pins"][0].update(uv=[9000, 0]), "$.model.pins[0].uv",
+     "within 4 image sizes of the 1600×1200 photo"),
+    (lambda d: d["model"]["edge_observations"][0]["points"][1].__setitem__(1, -6000),
+     "$.model.edge_observations[0].points[1]", "v from -4800 to 6000"),
+])
+def test_model_values_refused_at_load(room: Path, capsys: pytest.CaptureFixture, edit, where: str,
+                                      expected: str) -> None:
+    rewrite(room, edit)
+    check_refuses(room, capsys, f"{where}: ", expected)
+    check_refuses(room, capsys, f"{where}: ", expected, command="solve")
+
+
+@pytest.mark.parametrize(("edit", "where", "expected"), [
+    (lambda d: node(d, "table").update(parent="table.top"), "$.model.nodes[3].parent",
+     "the scene graph has a cycle: table → table.top → table"),
+    (lambda d: node(d, "box")["primitive"]["params"].pop("height"),
+     "$.model.nodes[2].primitive.params", "box needs params width, depth, height; missing height"),
+    (lambda d: node(d, "box")["primitive"]["params"].update(width=0),
+     "$.model.nodes[2].primitive.params.width", "box: width must be > 0, got 0"),
+    (lambda d: node(d, "box")["primitive"]["params"].update(width=0.0005),
+     "$.model.nodes[2].primitive.params.width", "box: width must be at least 0.001 m"),
+    (lambda d: node(d, "box")["primitive"]["params"].update(radius=1.0),
+     "$.model.nodes[2].primitive.params", "box: unknown param 'radius'"),
+    (lambda d: node(d, "table.top").update(parent="tabel"), "$.model.nodes[4].parent",
+     "node 'table.top' is attached to parent 'tabel', which is not a node"),
+    (lambda d: node(d, "box")["joint"].update(face="side"), "$.model.nodes[2].joint.face",
+     "node 'box' rests on face 'side' of 'floor', which has faces: top"),
+    (lambda d: d["model"]["pins"][0].update(handle="v9"), "$.model.pins[0].handle",
+     "node 'floor' has no handle 'v9'; its handles are: v0, v1, v2, v3"),
+    (lambda d: d["model"]["edge_observations"][0].update(edge="e9"), "$.model.edge_observations[0].edge",
+     "node 'floor' has no edge 'e9'; its edges are: e0, e1, e2, e3"),
+    (lambda d: node(d, "table.leg1").update(hold=["height", "hieght"]), "$.model.nodes[5].hold[1]",
+     "'hieght' is not a parameter of this node (it has: width, depth, height)"),
+    (lambda d: node(d, "floor")["joint"].update(marker="nowhere"), "$.model.nodes[0].joint.marker",
+     "the joint ties the node to marker 'nowhere', which has no calibrated position"),
+    (lambda d: node(d, "floor")["joint"].update(handle="v7"), "$.model.nodes[0].joint.handle",
+     "handle 'v7' is not a handle of this node's primitive (its handles are: v0, v1, v2, v3)"),
+    (lambda d: node(d, "door")["joint"].update(angle_deg=170), "$.model.nodes[9].joint.angle_deg",
+     "hinge angle 170.0° lies outside its limits [0.0°, 150.0°]"),
+])
+def test_check_decodes_the_model_as_solve_does(room: Path, capsys: pytest.CaptureFixture, edit, where: str,
+                                               expected: str) -> None:
+    rewrite(room, edit)
+    err = check_refuses(room, capsys, f"{where}: {expected}")
+    # solve stops earlier (the example is not calibrated) or with the very same message.
+    from vebuild.cli import main
+
+    assert main(["solve", str(room)]) == 2
+    solve_err = capsys.readouterr().err
+    assert "Traceback" not in solve_err
+    assert solve_err.split(": error: ", 1)[1] == err.split(": error: ", 1)[1] or "calibrat" in solve_err
+
+
+def _calibrate_by_hand(d: dict) -> None:
+    """A calibration record for every photo (not a calibration: cameras where the fields need them)."""
+    from vebuild.actions.records import camera_record
+
+    K = np.array([[1350.0, 0, 800], [0, 1350, 600], [0, 0, 1]])
+    cameras = {p["id"]: {"mode": "1vp", **camera_record(K, np.eye(3), np.array([0.0, -3, 1.5]), np.eye(9) * 1e-4)}
+               for p in d["photos"]}
+    d["calibration"] = {"software": "vebuild test", "cameras": cameras,
+                        "markers": {m["name"]: {"position": [0.0, 0.0, 0.0], "sigma": [0.0, 0.0, 0.0]}
+                                    for m in d["markers"]}}
+
+
+def test_calibrated_example_checks(room: Path, capsys: pytest.CaptureFixture) -> None:
+    from vebuild.cli import main
+
+    rewrite(room, _calibrate_by_hand)
+    assert main(["check", str(room)]) == 0
+    assert "calibration: 5 camera(s)" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(("edit", "where", "expected"), [
+    (lambda d: d["calibration"]["cameras"]["p2"].update(R=[[0, 0, 0]] * 3), "$.calibration.cameras.p2.R",
+     "expected a rotation matrix"),
+    (lambda d: d["calibration"]["cameras"]["p2"].update(R=[[2, 0, 0], [0, 1, 0], [0, 0, 1]]),
+     "$.calibration.cameras.p2.R", "expected a rotation matrix"),
+    (lambda d: d["calibration"]["cameras"]["p2"].update(K=[[0, 0, 800], [0, 0, 600], [0, 0, 1]]),
+     "$.calibration.cameras.p2.K", "expected a focal length from 1 to 1e7 pixels"),
+    (lambda d: d["calibration"]["cameras"]["p2"].update(K=[[1350, 0, 800], [0, 1350, 600], [0, 1, 1]]),
+     "$.calibration.cameras.p2.K", "expected a pinhole matrix"),
+    (lambda d: d["calibration"]["cameras"]["p2"]["position"].update(value=[0, 1e308, 0]),
+     "$.calibration.cameras.p2.position.value[1]", "at most 10000"),
+    (lambda d: d["calibration"]["cameras"]["p2"].pop("covariance"), "$.calibration.cameras.p2",
+     "the key 'covariance' is required"),
+    (lambda d: d["calibration"]["cameras"].update(p9=d["calibration"]["cameras"]["p1"]),
+     "$.calibration.cameras.p9", "a camera for the photo 'p9', but $.photos has no photo of that id"),
+])
+def test_calibration_cameras_checked(room: Path, capsys: pytest.CaptureFixture, edit, where: str,
+                                     expected: str) -> None:
+    rewrite(room, _calibrate_by_hand)
+    rewrite(room, edit)
+    check_refuses(room, capsys, f"{where}: ", expected)
+    check_refuses(room, capsys, f"{where}: ", expected, command="solve")
+
+
+@pytest.mark.parametrize(("command", "expected"), [
+    (["frobnicate", "x"], "invalid choice: 'frobnicate'"),
+    (["distance", "cabinet:v4"], "the following arguments are required: b"),
+    (["distance", "--help"], "'--help' asks for help, which is not an analysis"),
+    (["-h"], "'-h' asks for help"),
+    (["checks", "--hel"], "'--hel' asks for help"),
+])
+def test_recorded_analyses_must_parse(room: Path, capsys: pytest.CaptureFixture, command, expected: str) -> None:
+    rewrite(room, lambda d: d.update(analyses=[{"name": "ok", "command": ["distance", "cabinet:v4", "table.top@top"]},
+                                               {"name": "bad", "command": command}]))
+    check_refuses(room, capsys, "$.analyses[1].command: ", expected)
+
+
+def test_more_lights_than_the_renderer_draws(room: Path, capsys: pytest.CaptureFixture) -> None:
+    from vebuild.render.lighting import MAX_LIGHTS
+
+    assert vp.schema()["$defs"]["lightingPreset"]["properties"]["lights"]["maxItems"] == MAX_LIGHTS
+    lamp = {"type": "point", "position": [1.0, 1.0, 2.5]}
+    rewrite(room, lambda d: d["lighting"]["presets"][0].update(lights=[lamp] * (MAX_LIGHTS + 1)))
+    check_refuses(room, capsys, "$.lighting.presets[0].lights: expected a list of lights (the renderer draws at most "
+                  f"{MAX_LIGHTS}) with at most {MAX_LIGHTS} items, found a list of {MAX_LIGHTS + 1} items")
+
+
+def test_check_imports_no_gl() -> None:
+    import subprocess
+    import sys
+
+    code = ("import sys\nfrom vebuild.project import load_project\nfrom vebuild.actions.check import check_project\n"
+            f"check_project(load_project({str(ROOM / 'room.vebuild.json')!r}))\n"
+            "assert 'moderngl' not in sys.modules, 'check imported moderngl'\n")
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOM.parents[1])
+    assert run.returncode == 0, run.stderr
+
+
+def _solution(**top) -> dict:
+    return {"software": "vebuild test", "recalibrated": False, "rms_px": 0.5, "variance_factor": 1.0,
+            "iterations": 3, "nodes": {"box": {"joint": "rests_on", "dofs": {},
+                                               "params": {"width": {"value": 0.7, "sigma": 0.01, "ci95": [0.68, 0.72]}},
+                                               "handles": {}}},
+            "covariance": {"parameters": ["box.width"], "matrix": [[1e-4]]}, **top}
+
+
+@pytest.mark.parametrize(("solution", "where", "expected"), [
+    (_solution(rms_px="0.5"), "$.model_solution.rms_px", "expected a number"),
+    (_solution(variance_factor="high"), "$.model_solution.variance_factor", "expected a number or null"),
+    (_solution(nodes={"box": {"params": {"width": {"value": "0.7", "sigma": 0.01}}}}),
+     "$.model_solution.nodes.box.params.width.value", "expected a number"),
+    (_solution(covariance={"parameters": ["box.width"], "matrix": [["1e-4"]]}),
+     "$.model_solution.covariance.matrix[0][0]", "expected a number or null"),
+])
+def test_result_records_hold_numbers(room: Path, capsys: pytest.CaptureFixture, solution, where: str,
+                                     expected: str) -> None:
+    from vebuild.cli import main
+
+    rewrite(room, lambda d: d.update(model_solution=_solution()))
+    assert main(["check", str(room)]) == 0
+    rewrite(room, lambda d: d.update(model_solution=solution))
+    check_refuses(room, capsys, f"{where}: {expected}")
+
+
+# -- image files: decoded whole, bounded in pixels before decoding
+
+
+def _png_header(width: int, height: int) -> bytes:
+    """A PNG that declares a size and holds no pixels: what a decompression bomb's header says."""
+    import struct
+    import zlib
+
+    def chunk(kind: bytes, body: bytes) -> bytes:
+        return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body))
+
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0))
+            + chunk(b"IDAT", zlib.compress(b"")) + chunk(b"IEND", b""))
+
+
+def _truncate(path: Path) -> None:
+    data = path.read_bytes()
+    path.write_bytes(data[: len(data) // 2])
+
+
+def test_truncated_jpeg_refused_by_new_and_check(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    from vebuild.cli import main
+
+    image = tmp_path / "photos" / "door.jpg"
+    Image.fromarray(np.random.default_rng(1).integers(0, 255, (480, 640, 3), dtype=np.uint8)).save(image.parent.mkdir()
+                                                                                                   or image)
+    good = image.read_bytes()
+    _truncate(image)
+    proj = tmp_path / "p.vebuild.json"
+    assert main(["new", str(proj), str(image)]) == 2
+    err = capsys.readouterr().err
+    assert "cannot be decoded: it is damaged or truncated" in err and "Traceback" not in err and not proj.exists()
+    image.write_bytes(good)
+    assert main(["new", str(proj), str(image)]) == 0
+    _truncate(image)
+    rewrite(proj, lambda d: d["photos"][0].update(sha256=sha256_file(image)))
+    check_refuses(proj, capsys, "$.photos[0].file: the image", "cannot be decoded: it is damaged or truncated")
+
+
+@pytest.mark.parametrize(("size", "expected"), [
+    ((11000, 11000), "is 11000×11000 = 121 megapixels, more than the 120 megapixels vebuild reads"),
+    ((20000, 20000), "has more than 120 megapixels, more than vebuild reads"),
+])
+def test_huge_image_refused_before_decoding(tmp_path: Path, capsys: pytest.CaptureFixture, size,
+                                            expected: str) -> None:
+    from vebuild.cli import main
+
+    image = tmp_path / "bomb.png"
+    image.write_bytes(_png_header(*size))
+    proj = tmp_path / "p.vebuild.json"
+    assert main(["new", str(proj), str(image)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"vebuild new: error: {image}: the image {image} ") and expected in err, err
+    assert "Traceback" not in err and not proj.exists()
+
+
+# -- texture pages: confined to the project folder and bounded like photos
+
+
+def _textured(proj: Path, atlas: str = "textures/atlas_0.png", size: tuple[int, int] = (16, 8),
+              declared: tuple[int, int] | None = None) -> Path:
+    page = proj.parent / "textures" / "atlas_0.png"
+    page.parent.mkdir(exist_ok=True)
+    Image.new("RGB", size, (10, 20, 30)).save(page)
+    w, h = declared or size
+    rewrite(proj, lambda d: d.update(textures={
+        "software": "vebuild test", "input_hash": "0" * 64, "options": {}, "photos": [], "faces": [],
+        "pages": [{"atlas": atlas, "coverage": "textures/coverage_0.png", "width": w, "height": h,
+                   "atlas_sha256": sha256_file(page), "coverage_sha256": "0" * 64}]}))
+    return page
+
+
+def test_texture_pages_check(room: Path, capsys: pytest.CaptureFixture) -> None:
+    from vebuild.cli import main
+
+    _textured(room)
+    assert main(["check", str(room)]) == 0
+    assert "textures: 1 of 1 atlas page(s) present, hashes verified" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(("key", "bad"), [("atlas", "/etc/passwd"), ("atlas", "../../secret.png"),
+                                          ("coverage", "textures/../../x.png"), ("atlas", "C:/x.png")])
+def test_texture_page_paths_stay_in_the_project_folder(room: Path, capsys: pytest.CaptureFixture, key: str,
+                                                       bad: str) -> None:
+    _textured(room)
+    rewrite(room, lambda d: d["textures"]["pages"][0].update({key: bad}))
+    check_refuses(room, capsys, f"$.textures.pages[0].{key}: expected a path inside the project folder", repr(bad))
+
+
+def test_texture_page_through_a_symlink_out_of_the_folder(room: Path, tmp_path: Path,
+                                                          capsys: pytest.CaptureFixture) -> None:
+    from vebuild.render.export import _pages
+
+    outside = tmp_path / "outside.png"
+    Image.new("RGB", (16, 8)).save(outside)
+    _textured(room, "textures/link.png")
+    (room.parent / "textures" / "link.png").symlink_to(outside)
+    check_refuses(room, capsys, "$.textures.pages[0].atlas: expected a file inside the project folder, found "
+                  "'textures/link.png', which leads outside it through a symbolic link")
+    with pytest.raises(ProjectError, match="leads outside it through a symbolic link"):
+        _pages(load_project(room, verify_photos=False))  # what `vebuild export` reads
+
+
+def test_changed_texture_page_names_no_hash_of_its_bytes(room: Path, capsys: pytest.CaptureFixture) -> None:
+    page = _textured(room)
+    Image.new("RGB", (16, 8), (1, 2, 3)).save(page)
+    err = check_refuses(room, capsys, "$.textures.pages[0].atlas_sha256: the atlas page 'textures/atlas_0.png' "
+                        "changed since `vebuild texture` wrote it")
+    assert sha256_file(page)[:8] not in err
+
+
+@pytest.mark.parametrize(("declared", "expected"), [
+    ((50000, 50000), "$.textures.pages[0].width: expected a number at least 1 and at most 16384"),
+    ((16000, 16000), "$.textures.pages[0].width: expected an atlas page of at most 120 megapixels"),
+    ((32, 8), "$.textures.pages[0]: expected the atlas page 'textures/atlas_0.png' to be 32×8 texels as recorded, "
+              "found 16×8"),
+])
+def test_texture_page_sizes_bounded(room: Path, capsys: pytest.CaptureFixture, declared, expected: str) -> None:
+    _textured(room, declared=declared)
+    check_refuses(room, capsys, expected)
+
+
+def test_texture_page_bomb(room: Path, capsys: pytest.CaptureFixture) -> None:
+    page = _textured(room, declared=(10000, 10000))
+    page.write_bytes(_png_header(20000, 20000))
+    rewrite(room, lambda d: d["textures"]["pages"][0].update(atlas_sha256=sha256_file(page)))
+    check_refuses(room, capsys, "$.textures.pages[0].atlas: the image 'textures/atlas_0.png' has more than 120 "
+                  "megapixels")
+
+
+@pytest.mark.parametrize(("face", "where", "expected"), [
+    ({"page": 1}, "$.textures.faces[0].page", "names the atlas page 1, but $.textures.pages has 1 page(s)"),
+    ({"rect": [10, 0, 8, 8]}, "$.textures.faces[0].rect", "expected a rectangle inside its 16×8 atlas page"),
+    ({"average_colour_srgb": [300, 0, 0]}, "$.textures.faces[0].average_colour_srgb[0]",
+     "expected a number at least 0 and at most 255"),
+    ({"page": "0"}, "$.textures.faces[0].page", "expected a whole number"),
+])
+def test_texture_face_records_checked(room: Path, capsys: pytest.CaptureFixture, face, where: str,
+                                      expected: str) -> None:
+    from vebuild.cli import main
+
+    good = {"id": 1, "node": "floor", "face": "top", "page": 0, "rect": [0, 0, 16, 8], "size_m": [6.1, 4.9],
+            "average_colour_srgb": [120, 110, 100]}
+    _textured(room)
+    rewrite(room, lambda d: d["textures"].update(faces=[good]))
+    assert main(["check", str(room)]) == 0
+    rewrite(room, lambda d: d["textures"].update(faces=[{**good, **face}]))
+    check_refuses(room, capsys, f"{where}: {expected}")
+
+
+def test_a_slider_without_limits_is_written_without_them(room: Path) -> None:
+    from vebuild.model.scene import model_from_dict
+
+    rewrite(room, lambda d: node(d, "box").update(joint={"type": "slider", "axis": [1, 0, 0]}))
+    project = load_project(room, verify_photos=False)
+    project.data["model"]["nodes"] = model_from_dict(project.data["model"]["nodes"],
+                                                     {"O": np.zeros(3)}).to_dict()
+    assert "limits" not in node(project.data, "box")["joint"]
+    save_project(project)  # JSON has no infinity: unlimited is no "limits" key

@@ -232,9 +232,11 @@ def _cmd_export(args: argparse.Namespace) -> int:
 
 
 def _cmd_check(args: argparse.Namespace) -> int:
+    from .actions.check import check_project
     from .project import load_project
 
     project = load_project(args.project)
+    details = check_project(project)
     photos = project.data["photos"]
     print(f"{project.path}: valid vebuild project (format version {project.data['version']}), "
           f"{len(photos)} photo(s), hashes verified")
@@ -242,6 +244,8 @@ def _cmd_check(args: argparse.Namespace) -> int:
         n_seg = sum(len(v) for v in (p.get("vanishing_segments") or {}).values())
         print(f"  {p['id']:<10} {p['file']:<28} {p['width']}×{p['height']}  sha256 {p['sha256'][:16]}…  "
               f"{n_seg} segments, {len(p.get('marker_observations') or {})} markers")
+    for line in details:
+        print(f"  {line}")
     return 0
 
 

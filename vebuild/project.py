@@ -8,12 +8,15 @@ found, in words meant for the person who made the project rather than for a prog
 
 from __future__ import annotations
 
+import contextlib
 import difflib
 import hashlib
 import json
 import math
 import os
 import re
+import warnings
+from collections.abc import Iterator
 from dataclasses import dataclass
 from functools import cache
 from importlib import resources
@@ -36,6 +39,25 @@ DEFAULT_SETTINGS: dict[str, float] = {
 }
 #: Top-level keys written by vebuild's stages; they are not input, so the input hash skips them.
 RESULT_KEYS = ("calibration", "model_solution", "textures")
+
+#: The deepest nesting of lists and objects a project file may have. The deepest the format uses is 7
+#: (``model_solution.nodes.N.handles.H.value``); the bound keeps every reader far from Python's
+#: recursion limit, which a hand-made file nested 1000 deep would otherwise hit.
+MAX_DEPTH = 32
+#: The most digits a whole number in a project file may have: the largest the format holds is a
+#: 64-bit count (20 digits); Python refuses to read more than 4300 digits, and any bound of the
+#: format is far below 10^20.
+MAX_INT_DIGITS = 20
+#: The most pixels an image vebuild reads may have: 120 megapixels, more than the largest camera
+#: sensor in use (100 MP) and below Pillow's decompression-bomb guard (179 MP). Larger images are
+#: refused before they are decoded.
+MAX_IMAGE_PIXELS = 120_000_000
+#: How far outside its photo a pixel position may lie, in image sizes: a mark is placed on the
+#: photo, a vanishing segment or a principal point a little beyond its edge at most.
+PIXEL_MARGIN = 4
+#: The shortest direction or axis vector accepted: any length gives the same direction, but the
+#: components of a shorter one lose it to rounding.
+MIN_DIRECTION_LENGTH = 1e-6
 
 _CHUNK = 1 << 20
 _ID_UNSAFE = re.compile(r"[^A-Za-z0-9_.-]+")
@@ -113,10 +135,14 @@ def load_project(path: str | os.PathLike[str], *, verify_photos: bool = True) ->
         raise ProjectError(path, "", f"cannot read the project file: {e.strerror}") from None
     try:
         data = json.loads(text, object_pairs_hook=lambda pairs: _unique_keys(path, pairs),
-                          parse_constant=lambda name: _reject_constant(path, name))
+                          parse_constant=lambda name: _reject_constant(path, name), parse_int=_parse_int)
     except json.JSONDecodeError as e:
         where = f"line {e.lineno}, column {e.colno}"
         raise ProjectError(path, "", f"not valid JSON: {e.msg} at {where}") from None
+    except RecursionError:
+        where, line, col = _too_deep(text)
+        raise ProjectError(path, where, f"lists and objects are nested more than {MAX_DEPTH} deep (at line {line}, "
+                           f"column {col}); a vebuild project nests at most 7 deep") from None
     validate(data, path)
     project = Project(path, data)
     if verify_photos:
@@ -218,10 +244,10 @@ def validate(data: Any, file: str | os.PathLike[str]) -> None:
     cannot say (unique names, names that refer to something, finite numbers, relative paths).
     """
     _check_format_version(data, file)
+    _check_values(data, file)
     errors = list(_validator().iter_errors(data))
     if errors:
         raise _schema_error(errors, file)
-    _check_finite(data, file, "$")
     _check_semantics(data, file)
 
 
@@ -263,10 +289,21 @@ def _check_semantics(data: dict[str, Any], file: Any) -> None:
     markers = [m["name"] for m in data["markers"]]
     unique(data["photos"], "id", "$.photos", "photo id")
     unique(data["markers"], "name", "$.markers", "marker name")
+    sizes = {}
     for i, photo in enumerate(data["photos"]):
-        _check_relative_path(photo["file"], file, f"$.photos[{i}].file")
-        for name in photo.get("marker_observations", {}):
-            known_marker(name, f"$.photos[{i}].marker_observations{_key(name)}")
+        where = f"$.photos[{i}]"
+        _check_relative_path(photo["file"], file, f"{where}.file")
+        _check_pixel_count(photo["width"], photo["height"], file, f"{where}.width", "a photo")
+        sizes[photo["id"]] = size = (photo["width"], photo["height"])
+        for name, uv in photo.get("marker_observations", {}).items():
+            known_marker(name, f"{where}.marker_observations{_key(name)}")
+            _check_on_photo(uv, size, file, f"{where}.marker_observations{_key(name)}")
+        for axis, segments in (photo.get("vanishing_segments") or {}).items():
+            for k, seg in enumerate(segments):
+                _check_on_photo(seg[:2], size, file, f"{where}.vanishing_segments.{axis}[{k}]")
+                _check_on_photo(seg[2:], size, file, f"{where}.vanishing_segments.{axis}[{k}]")
+        if "principal_point" in photo:
+            _check_on_photo(photo["principal_point"]["value"], size, file, f"{where}.principal_point.value")
     model = data.get("model") or {}
     nodes = [n["name"] for n in model.get("nodes", [])]
     photo_ids = [p["id"] for p in data["photos"]]
@@ -298,6 +335,36 @@ def _check_semantics(data: dict[str, Any], file: Any) -> None:
             if obs["node"] not in nodes:
                 raise ProjectError(file, f"$.model.{key}[{i}].node", f"names the node {obs['node']!r}, but "
                                    f"$.model.nodes has no node of that name (the nodes are: {_listing(nodes)})")
+            for k, uv in enumerate([obs["uv"]] if key == "pins" else obs["points"]):
+                _check_on_photo(uv, sizes[obs["photo"]], file,
+                                f"$.model.{key}[{i}].uv" if key == "pins" else f"$.model.{key}[{i}].points[{k}]")
+    for i, node in enumerate(model.get("nodes", [])):
+        _check_joint(node["joint"], file, f"$.model.nodes[{i}].joint")
+    for i, hyp in enumerate(data.get("hypotheses", [])):
+        for name, joint in hyp["joints"].items():
+            _check_joint(joint, file, f"$.hypotheses[{i}].joints{_key(name)}")
+    cameras = (data.get("calibration") or {}).get("cameras") or {}
+    for pid in cameras:
+        if pid not in sizes:
+            raise ProjectError(file, f"$.calibration.cameras{_key(pid)}", f"a camera for the photo {pid!r}, but "
+                               f"$.photos has no photo of that id (the photos are: {_listing(photo_ids)}); run "
+                               "`vebuild calibrate` again, or add the photo back")
+    for k, page in enumerate((data.get("textures") or {}).get("pages", [])):
+        for key in ("atlas", "coverage"):
+            _check_relative_path(page[key], file, f"$.textures.pages[{k}].{key}")
+        _check_pixel_count(page["width"], page["height"], file, f"$.textures.pages[{k}].width", "an atlas page")
+    pages = (data.get("textures") or {}).get("pages", [])
+    for k, face in enumerate((data.get("textures") or {}).get("faces", [])):
+        where = f"$.textures.faces[{k}]"
+        if face["page"] >= len(pages):
+            raise ProjectError(file, f"{where}.page", f"names the atlas page {face['page']}, but $.textures.pages has "
+                               f"{len(pages)} page(s) (numbered from 0); run `vebuild texture` again")
+        x0, y0, w, h = face["rect"]
+        page = pages[face["page"]]
+        if x0 + w > page["width"] or y0 + h > page["height"]:
+            raise ProjectError(file, f"{where}.rect", f"expected a rectangle inside its {page['width']}×"
+                               f"{page['height']} atlas page, found [{x0}, {y0}, {w}, {h}]; run `vebuild texture` "
+                               "again")
     views = data.get("views", [])
     unique(views, "name", "$.views", "view name")
     for i, view in enumerate(views):
@@ -337,8 +404,40 @@ AS_PHOTOGRAPHED = "as-photographed"
 
 
 def _nonzero(vector: list[float], file: Any, where: str, what: str) -> None:
-    if not any(vector):
-        raise ProjectError(file, where, f"expected {what} (a non-zero vector [x, y, z]), found [0, 0, 0]")
+    length = math.hypot(*vector)
+    if not length >= MIN_DIRECTION_LENGTH:
+        found = "[0, 0, 0]" if not any(vector) else f"a vector {length:.3g} long"
+        raise ProjectError(file, where, f"expected {what} (a non-zero vector [x, y, z], at least "
+                           f"{MIN_DIRECTION_LENGTH:g} long: a shorter one loses its direction to rounding), "
+                           f"found {found}")
+
+
+def _check_joint(joint: dict[str, Any], file: Any, where: str) -> None:
+    # What the solver, the renderer and the viewer would otherwise meet as a division by zero or
+    # an empty range: a hinge or slider needs an axis, and limits [lo, hi] with lo <= hi.
+    if "axis" in joint:
+        _nonzero(joint["axis"], file, f"{where}.axis", f"the axis of the {joint['type']} joint")
+    for key, unit in (("limits_deg", "°"), ("limits", " m")):
+        if key in joint and joint[key][0] > joint[key][1]:
+            lo, hi = joint[key]
+            raise ProjectError(file, f"{where}.{key}", f"expected limits [lo, hi] with lo no greater than hi, found "
+                               f"[{lo}{unit}, {hi}{unit}] (reversed?)")
+
+
+def _check_pixel_count(width: int, height: int, file: Any, where: str, what: str) -> None:
+    if width * height > MAX_IMAGE_PIXELS:
+        raise ProjectError(file, where, f"expected {what} of at most {MAX_IMAGE_PIXELS / 1e6:g} megapixels (more "
+                           f"than any camera takes), found {width}×{height} = {width * height / 1e6:.4g} megapixels")
+
+
+def _check_on_photo(uv: list[float], size: tuple[int, int], file: Any, where: str) -> None:
+    # A mark is made on its photo: a position several image sizes outside it is a typing error (and
+    # would outweigh every other observation in a solve).
+    for value, side, axis in zip(uv, size, "uv", strict=True):
+        if not -PIXEL_MARGIN * side <= value <= (1 + PIXEL_MARGIN) * side:
+            raise ProjectError(file, where, f"expected a pixel position within {PIXEL_MARGIN} image sizes of the "
+                               f"{size[0]}×{size[1]} photo ({axis} from {-PIXEL_MARGIN * side} to "
+                               f"{(1 + PIXEL_MARGIN) * side}), found {axis} = {value!r}")
 
 
 def _check_view(view: dict[str, Any], file: Any, where: str) -> None:
@@ -350,6 +449,9 @@ def _check_view(view: dict[str, Any], file: Any, where: str) -> None:
     if "look_at" in view and view["look_at"] == view["position"]:
         raise ProjectError(file, f"{where}.look_at", "expected a point other than the view's position, found the "
                            "position itself")
+    if "look_at" in view:
+        _nonzero([a - b for a, b in zip(view["look_at"], view["position"], strict=True)], file, f"{where}.look_at",
+                 "a point away from the view's position (the look direction look_at − position)")
     if "direction" in view:
         _nonzero(view["direction"], file, f"{where}.direction", "a look direction")
     if "fov_deg" in view and "focal_length_mm" in view:
@@ -379,16 +481,86 @@ def _check_relative_path(file_field: str, file: Any, where: str) -> None:
                            f"forward slashes (such as \"photos/door.jpg\"), found {file_field!r}")
 
 
-def _check_finite(value: Any, file: Any, where: str) -> None:
-    # JSON has no NaN or infinity, and a NaN slips through every numeric schema test.
-    if isinstance(value, float) and not math.isfinite(value):
-        raise ProjectError(file, where, f"expected a finite number, found {value!r}")
-    if isinstance(value, dict):
-        for k, v in value.items():
-            _check_finite(v, file, where + _key(k))
-    elif isinstance(value, list):
-        for i, v in enumerate(value):
-            _check_finite(v, file, f"{where}[{i}]")
+class _LongInteger(str):
+    """The digits of a whole number too long to be one of the format's (see MAX_INT_DIGITS)."""
+
+
+def _parse_int(digits: str) -> int | _LongInteger:
+    # Keep the digits of a huge number as they are, so that _check_values reports it with its path
+    # (int() of more than 4300 digits raises ValueError, and is quadratic in the digits).
+    if len(digits.lstrip("-")) > MAX_INT_DIGITS:
+        return _LongInteger(digits)
+    return int(digits)
+
+
+def _check_values(data: Any, file: Any) -> None:
+    """What every value must be, whatever its place: nested at most MAX_DEPTH deep, a number finite
+    and of at most MAX_INT_DIGITS digits, text (and keys) writable as UTF-8. Iterative, so that no
+    document can exhaust the stack."""
+    stack: list[tuple[Any, tuple[Any, ...], int]] = [(data, (), 1)]
+    while stack:
+        value, parts, depth = stack.pop()
+        if isinstance(value, _LongInteger):
+            raise ProjectError(file, json_path(parts), f"expected a number of at most {MAX_INT_DIGITS} digits, found "
+                               f"a whole number of {len(value.lstrip('-'))} digits")
+        if isinstance(value, str):
+            _check_text(value, file, parts)
+        elif isinstance(value, float) and not math.isfinite(value):
+            # JSON has no NaN or infinity; 1e999 reads as infinity, and a NaN slips through every numeric test.
+            raise ProjectError(file, json_path(parts), f"expected a finite number, found {value!r}")
+        elif isinstance(value, dict | list):
+            if depth > MAX_DEPTH:
+                raise ProjectError(file, json_path(parts), f"lists and objects are nested more than {MAX_DEPTH} deep "
+                                   "here; a vebuild project nests at most 7 deep")
+            if isinstance(value, dict):
+                for k, v in value.items():
+                    if isinstance(k, str):
+                        _check_text(k, file, parts, key=True)
+                    stack.append((v, (*parts, k), depth + 1))
+            else:
+                stack.extend((v, (*parts, i), depth + 1) for i, v in enumerate(value))
+
+
+def _check_text(text: str, file: Any, parts: tuple[Any, ...], key: bool = False) -> None:
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError as e:
+        # json reads "\ud800" as a lone surrogate: half of a UTF-16 pair, not a character, so it cannot
+        # be saved (UTF-8) or shown; refuse it here rather than when a command saves its results.
+        what = "key" if key else "text"
+        raise ProjectError(file, json_path(parts), f"expected {what} made of characters that can be written in "
+                           f"UTF-8, found the lone surrogate \\u{ord(text[e.start]):04x} (half of a UTF-16 pair) "
+                           f"at character {e.start + 1} of {_ascii_describe(text)}") from None
+
+
+def _ascii_describe(text: str) -> str:
+    shown = text if len(text) <= 40 else text[:37] + "..."
+    return json.dumps(shown)
+
+
+def _too_deep(text: str) -> tuple[str, int, int]:
+    """Where a JSON text first nests deeper than MAX_DEPTH: (JSON path, line, column)."""
+    stack: list[list[Any]] = []  # per open container: [key or index]
+    last_string: str | None = None
+    for m in re.finditer(r'"(?:[^"\\]|\\.)*"|[\[\]{},:]', text):
+        tok = m.group()
+        if tok[0] == '"':
+            last_string = tok
+        elif tok in "[{":
+            if len(stack) >= MAX_DEPTH:
+                line = text.count("\n", 0, m.start()) + 1
+                col = m.start() - text.rfind("\n", 0, m.start())
+                return json_path([e[0] for e in stack if e[0] is not None]), line, col
+            stack.append([0 if tok == "[" else None, tok])
+        elif tok in "]}":
+            if stack:
+                stack.pop()
+        elif tok == "," and stack and stack[-1][1] == "[":
+            stack[-1][0] += 1
+        elif tok == ":" and stack and last_string is not None:
+            with contextlib.suppress(ValueError):
+                stack[-1][0] = json.loads(last_string)
+    return "", 1, 1
 
 
 def _schema_error(errors: list[jsonschema.ValidationError], file: Any) -> ProjectError:
@@ -419,9 +591,11 @@ def _explain(error: jsonschema.ValidationError) -> str:
         lo, hi = sch.get("minItems"), sch.get("maxItems")
         count = f"exactly {lo}" if lo == hi else f"at least {lo}" if v == "minItems" else f"at most {hi}"
         return f"expected {sch.get('description', 'a list')} with {count} items, found {found}"
-    if v in ("minimum", "exclusiveMinimum"):
-        bound = f"at least {arg}" if v == "minimum" else f"greater than {arg}"
-        return f"expected a number {bound}, found {found}"
+    if v in ("minimum", "exclusiveMinimum", "maximum", "exclusiveMaximum"):
+        words = {"minimum": "at least", "exclusiveMinimum": "greater than", "maximum": "at most",
+                 "exclusiveMaximum": "less than"}
+        bounds = [f"{w} {_number(sch[k])}" for k, w in words.items() if isinstance(sch, dict) and k in sch]
+        return f"expected a number {' and '.join(bounds)}{about}, found {found}"
     if v in ("const", "enum"):
         values = [arg] if v == "const" else arg
         expected = sch.get("description") or " or ".join(json.dumps(x) for x in values)
@@ -429,6 +603,10 @@ def _explain(error: jsonschema.ValidationError) -> str:
     if v in ("pattern", "minLength"):
         return f"expected {sch.get('description', 'different text')}, found {found}"
     return error.message  # keywords this schema does not use
+
+
+def _number(x: float) -> str:
+    return f"{x:g}" if isinstance(x, float) else str(x)
 
 
 _TYPE_WORDS = {
@@ -511,14 +689,115 @@ def _verify_photo(project: Project, i: int, photo: dict[str, Any]) -> None:
 
 
 def _image_size(image: Path, file: Any, where: str) -> tuple[int, int]:
-    # Image.open reads the header only; the size is known without decoding the pixels.
+    # The whole image is decoded, so that a truncated or damaged file is refused now rather than
+    # when a later stage reads its pixels.
+    if not image.is_file():
+        raise ProjectError(file, where, f"photo file not found: {image}")
+    with open_image(image, file, where, decode=True) as img:
+        return img.size
+
+
+@contextlib.contextmanager
+def open_image(image: Path | Any, file: Any, where: str, decode: bool = True,
+               max_pixels: int = MAX_IMAGE_PIXELS, label: str | None = None) -> Iterator[Image.Image]:
+    """An image opened with Pillow, its size bounded before its pixels are decoded (``decode``:
+    decoded whole here, so that a damaged file is refused with a clear message).
+
+    Raises
+    ------
+    ProjectError naming ``file`` and ``where`` (the JSON path of the field that names the image):
+    the image is missing, not an image, damaged or truncated, or larger than ``max_pixels``.
+    """
+    shown = label or str(image)
     try:
-        with Image.open(image) as img:
-            return img.size
+        with warnings.catch_warnings():
+            # Pillow warns above 89 MP and refuses above 179 MP; the bound here is checked below.
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            img = Image.open(image)
     except FileNotFoundError:
-        raise ProjectError(file, where, f"photo file not found: {image}") from None
-    except (UnidentifiedImageError, Image.DecompressionBombError, OSError) as e:
-        raise ProjectError(file, where, f"cannot open {image} as an image: {e}") from None
+        raise ProjectError(file, where, f"image file not found: {shown}") from None
+    except Image.DecompressionBombError:
+        raise ProjectError(file, where, f"the image {shown} has more than {max_pixels / 1e6:g} megapixels, more "
+                           "than vebuild reads (a larger one is refused before it is decoded)") from None
+    except (UnidentifiedImageError, OSError, ValueError, SyntaxError) as e:
+        raise ProjectError(file, where, f"cannot open {shown} as an image: {e}") from None
+    with img:
+        w, h = img.size
+        if w * h > max_pixels:
+            raise ProjectError(file, where, f"the image {shown} is {w}×{h} = {w * h / 1e6:.4g} megapixels, more than "
+                               f"the {max_pixels / 1e6:g} megapixels vebuild reads (refused before decoding it)")
+        if decode:
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+                    img.load()
+            except (OSError, ValueError, SyntaxError, Image.DecompressionBombError) as e:
+                raise ProjectError(file, where, f"the image {shown} cannot be decoded: it is damaged or truncated "
+                                   f"({e})") from None
+        yield img
+
+
+# --------------------------------------------------------------------------------------------------
+# Texture pages (FORMAT.md, "Results: textures"): every reader goes through these.
+
+
+def texture_page_path(project: Project, k: int, key: str = "atlas") -> Path:
+    """Where page ``k``'s atlas (``key`` "atlas") or coverage map ("coverage") is.
+
+    The path is confined as a photo's is: relative, inside the project folder, and still inside it
+    once symbolic links are resolved, so that no project makes vebuild read or copy another file.
+    """
+    rel = project.data["textures"]["pages"][k][key]
+    where = f"$.textures.pages[{k}].{key}"
+    _check_relative_path(rel, project.path, where)
+    path = project.folder.joinpath(*PurePosixPath(rel).parts)
+    try:
+        inside = path.resolve().is_relative_to(project.folder.resolve())
+    except (OSError, RuntimeError):  # a loop of symbolic links
+        inside = False
+    if not inside:
+        raise ProjectError(project.path, where, f"expected a file inside the project folder, found {rel!r}, which "
+                           "leads outside it through a symbolic link")
+    return path
+
+
+def read_texture_page(project: Project, k: int) -> tuple[Path, bytes, str]:
+    """Page ``k``'s atlas: its path, bytes and SHA-256, checked against the recorded hash."""
+    page = project.data["textures"]["pages"][k]
+    path = texture_page_path(project, k)
+    try:
+        data = path.read_bytes()
+    except OSError as e:
+        raise ProjectError(project.path, f"$.textures.pages[{k}].atlas",
+                           f"cannot read the atlas page {page['atlas']!r}: {e.strerror or e}") from None
+    digest = sha256_bytes(data)
+    if digest != page["atlas_sha256"]:
+        raise ProjectError(project.path, f"$.textures.pages[{k}].atlas_sha256",
+                           f"the atlas page {page['atlas']!r} changed since `vebuild texture` wrote it (its bytes no "
+                           f"longer hash to the recorded SHA-256 {page['atlas_sha256'][:_HASH_SHOWN]}…); run "
+                           "`vebuild texture` again")
+    return path, data, digest
+
+
+def decode_texture_page(project: Project, k: int, data: bytes) -> Any:
+    """The pixels of page ``k``'s atlas (its bytes, from :func:`read_texture_page`) as an
+    (h, w, 3) uint8 array; its real size must be the recorded one, checked before decoding."""
+    import io
+
+    import numpy as np
+
+    page = project.data["textures"]["pages"][k]
+    where = f"$.textures.pages[{k}].atlas"
+    with open_image(io.BytesIO(data), project.path, where, decode=False, label=repr(page["atlas"])) as im:
+        if im.size != (page["width"], page["height"]):
+            raise ProjectError(project.path, f"$.textures.pages[{k}]", f"expected the atlas page {page['atlas']!r} "
+                               f"to be {page['width']}×{page['height']} texels as recorded, found "
+                               f"{im.size[0]}×{im.size[1]}")
+        try:
+            return np.asarray(im.convert("RGB"))
+        except (OSError, ValueError, SyntaxError) as e:
+            raise ProjectError(project.path, where, f"the atlas page {page['atlas']!r} cannot be decoded: it is "
+                               f"damaged or truncated ({e})") from None
 
 
 def sha256_bytes(data: bytes) -> str:

@@ -25,7 +25,7 @@ from ..model.solver import (
     Problem,
     handle_covariances,
 )
-from ..project import Project
+from ..project import Project, json_path
 from .records import camera_record, json_values, value_sigma
 
 #: A pinned handle must project in front of its camera and no farther outside the image than this
@@ -34,7 +34,14 @@ VISIBLE_MARGIN = 0.25
 Z95 = 1.959964  # two-sided 95 % of a Gaussian
 
 
+#: How far a calibrated R may be from a rotation (|RᵀR − I|, |det R − 1|): rounding in the file's
+#: 17 significant digits is far below; anything more is not a rotation.
+ROTATION_TOLERANCE = 1e-6
+
+
 def cameras_from_calibration(project: Project) -> dict[str, Camera]:
+    """The calibrated cameras by photo id, each checked: K a pinhole matrix with a positive focal
+    length, R a rotation; errors name the file and the JSON path."""
     cal = project.data.get("calibration")
     if not cal or not cal.get("cameras"):
         raise VebuildError(f"{project.path}: the project has no calibrated cameras; run `vebuild calibrate` first")
@@ -43,23 +50,57 @@ def cameras_from_calibration(project: Project) -> dict[str, Camera]:
         c = cal["cameras"].get(p["id"])
         if c is None:
             continue
+        where = json_path(["calibration", "cameras", p["id"]])
+        K, R = np.asarray(c["K"], float), np.asarray(c["R"], float)
+        _check_camera(project, where, K, R)
         cov = np.array([[np.inf if v is None else v for v in row] for row in c["covariance"]], float)
-        out[p["id"]] = Camera(p["id"], np.asarray(c["K"], float), np.asarray(c["R"], float),
-                              np.asarray(c["position"]["value"], float), cov, p["width"], p["height"])
+        out[p["id"]] = Camera(p["id"], K, R, np.asarray(c["position"]["value"], float), cov, p["width"], p["height"])
     return out
 
 
-def load_model(project: Project) -> tuple[Model, list[Pin], list[EdgeObservation]]:
-    """The model and its observations, checked; errors name the file and the JSON path."""
+def _check_camera(project: Project, where: str, K: np.ndarray, R: np.ndarray) -> None:
+    f, cx, cy = K[0, 0], K[0, 2], K[1, 2]
+    tol = 1e-9 * abs(f)  # what rounding leaves of a pinhole matrix
+    if not (abs(K[1, 1] - f) <= tol and abs(K[0, 1]) <= tol and abs(K[1, 0]) <= tol and list(K[2]) == [0, 0, 1]):
+        raise ProjectError(project.path, f"{where}.K", "expected a pinhole matrix [[f, 0, cx], [0, f, cy], [0, 0, 1]] "
+                           f"(square pixels, no skew), found {K.tolist()}")
+    if not 1.0 <= f <= 1e7 or not (abs(cx) <= 1e6 and abs(cy) <= 1e6):
+        raise ProjectError(project.path, f"{where}.K", f"expected a focal length from 1 to 1e7 pixels and a principal "
+                           f"point within ±1e6 pixels, found f = {f:g}, (cx, cy) = ({cx:g}, {cy:g})")
+    with np.errstate(all="ignore"):
+        off = np.abs(R.T @ R - np.eye(3)).max()
+        det = np.linalg.det(R)
+    if not (off <= ROTATION_TOLERANCE and abs(det - 1.0) <= ROTATION_TOLERANCE):
+        raise ProjectError(project.path, f"{where}.R", f"expected a rotation matrix (RᵀR = I within "
+                           f"{ROTATION_TOLERANCE:g}, det R = +1), found one with |RᵀR − I| = {off:.3g} and "
+                           f"det R = {det:.6g}; run `vebuild calibrate` again")
+
+
+def check_markers(project: Project) -> dict[str, np.ndarray]:
+    """The marker positions a marker joint may use: the calibrated ones, or before calibration
+    every marker of ``$.markers`` (at the origin: only its name is checked)."""
+    calibrated = (project.data.get("calibration") or {}).get("markers")
+    if calibrated is not None:
+        return {n: np.asarray(m["position"], float) for n, m in calibrated.items()}
+    return {m["name"]: np.zeros(3) for m in project.data["markers"]}
+
+
+def load_model(project: Project, markers: dict[str, np.ndarray] | None = None
+               ) -> tuple[Model, list[Pin], list[EdgeObservation]]:
+    """The model and its observations, checked; errors name the file and the JSON path.
+
+    ``markers``: the positions marker joints tie to (default: the calibrated ones).
+    """
     data = project.data
     if not data.get("model", {}).get("nodes"):
         raise VebuildError(f"{project.path}: $.model: the project has no model nodes to solve")
-    calibrated = (data.get("calibration") or {}).get("markers", {})
-    markers = {n: np.asarray(m["position"], float) for n, m in calibrated.items()}
+    if markers is None:
+        calibrated = (data.get("calibration") or {}).get("markers", {})
+        markers = {n: np.asarray(m["position"], float) for n, m in calibrated.items()}
     try:
         model = model_from_dict(data["model"]["nodes"], markers)
     except ModelError as e:
-        raise ProjectError(project.path, "$.model.nodes", str(e)) from None
+        raise ProjectError(project.path, e.where or "$.model.nodes", e.detail) from None
     pins, edges = [], []
     for i, p in enumerate(data["model"].get("pins", [])):
         prim = model.node(p["node"]).primitive

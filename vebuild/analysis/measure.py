@@ -205,7 +205,7 @@ class SolvedModel:
         try:
             model = model_from_dict(data["model"]["nodes"], markers)
         except ModelError as e:
-            raise ProjectError(path, "$.model.nodes", str(e)) from None
+            raise ProjectError(path, e.where or "$.model.nodes", e.detail) from None
         index = {n: i for i, n in enumerate(model.parameter_names())}
         xm = model.vector()
         names, values, model_index, scale, mnames = [], [], [], [], []

@@ -9,6 +9,8 @@ shows what the project file gives now, and the command line that reproduces each
 from __future__ import annotations
 
 import argparse
+import contextlib
+import io
 import json
 import shlex
 from typing import Any, NoReturn
@@ -30,9 +32,18 @@ def parse(project_file: str, words: list[str]) -> argparse.Namespace:
     """The ``vebuild analyse`` arguments of one recorded command (errors as VebuildError)."""
     from vebuild.analysis.cli import add_analyse_parsers
 
+    # A recorded command is run, never explained: help would print and exit instead of analysing.
+    for word in words:
+        if word == "-h" or (len(word) >= 3 and "--help".startswith(word)):
+            raise VebuildError(f"{word!r} asks for help, which is not an analysis; record the words of the "
+                               "analysis itself, such as [\"distance\", \"cabinet:v4\", \"table.top@top\"]")
     parser = _Parser(prog="vebuild", add_help=False)
     add_analyse_parsers(parser.add_subparsers(dest="command", parser_class=_Parser))
-    return parser.parse_args(["analyse", project_file, *words])
+    try:
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+            return parser.parse_args(["analyse", project_file, *words])
+    except SystemExit:  # an action that prints and exits (argparse's help or version)
+        raise VebuildError(f"{' '.join(words)!r} is not an analysis command") from None
 
 
 def analyses(project: Any, rep: Report, records: list[dict[str, Any]]) -> str:

@@ -21,6 +21,7 @@ from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
 from ..camera import exp_so3
+from .primitives import _REGISTRY as _PRIMITIVE_TYPES
 from .primitives import Primitive, primitive_from_dict
 
 Array = NDArray[np.float64]
@@ -31,7 +32,22 @@ MIN_SIZE_M = 1e-3
 
 
 class ModelError(ValueError):
-    """The model as written is not a valid scene graph; the message names the node and the field."""
+    """The model as written is not a valid scene graph; the message names the node and the field.
+
+    ``where`` is the JSON path of the field at fault (None where unknown: a model built in code),
+    ``detail`` the message without the location, for errors that name the path separately.
+    """
+
+    def __init__(self, message: str, where: str | None = None, detail: str | None = None) -> None:
+        super().__init__(message)
+        self.where = where
+        self.detail = detail or message
+
+
+def _error(human: str, path: str | None, detail: str) -> ModelError:
+    """A ModelError located by ``human`` in its text ("$.model.nodes[2] (node 'x').joint") and by
+    ``path`` (the JSON path) for the project file's error."""
+    return ModelError(f"{human}: {detail}", path, detail)
 
 
 def translation(t: Array) -> Array:
@@ -195,8 +211,10 @@ class SliderJoint(Joint):
         return translation(self.axis / np.linalg.norm(self.axis) * q[0]) @ self.base
 
     def to_dict(self):
-        return {"type": "slider", "axis": [float(v) for v in self.axis], **pose_to_dict(self.base),
-                "offset": self.offset, "limits": [float(v) for v in self.limits]}
+        d = {"type": "slider", "axis": [float(v) for v in self.axis], **pose_to_dict(self.base), "offset": self.offset}
+        if all(np.isfinite(self.limits)):  # no limits: none written (JSON has no infinity)
+            d["limits"] = [float(v) for v in self.limits]
+        return d
 
 
 @dataclass
@@ -363,30 +381,47 @@ def _topological(nodes: list[Node]) -> list[Node]:
     for n in nodes:
         if n.parent is not None and n.parent not in by_name:
             raise ModelError(f"node '{n.name}': its joint attaches it to parent '{n.parent}', which is not a node")
+    _check_cycles(nodes)
+    # Parents before children, each node after its chain of ancestors (iterative: a long chain
+    # must not exhaust the stack).
     order: list[Node] = []
-    state: dict[str, int] = {}
-
-    def visit(n: Node, path: list[str]) -> None:
-        if state.get(n.name) == 2:
-            return
-        if state.get(n.name) == 1:
-            cycle = " → ".join(path[path.index(n.name):] + [n.name])
-            raise ModelError(f"the scene graph has a cycle: {cycle}; every node needs a path to the world")
-        state[n.name] = 1
-        if n.parent is not None:
-            visit(by_name[n.parent], path + [n.name])
-        state[n.name] = 2
-        order.append(n)
-
+    placed: set[str] = set()
     for n in nodes:
-        visit(n, [])
+        chain: list[Node] = []
+        m: Node | None = n
+        while m is not None and m.name not in placed:
+            chain.append(m)
+            m = by_name[m.parent] if m.parent is not None else None
+        for c in reversed(chain):
+            placed.add(c.name)
+            order.append(c)
     return order
 
 
-def joint_from_dict(d: Mapping[str, Any], where: str, markers: Mapping[str, Array] | None = None) -> Joint:
-    """A joint from its project-file form (degrees); ModelError names ``where`` on bad input."""
+def joint_from_dict(d: Mapping[str, Any], where: str, markers: Mapping[str, Array] | None = None,
+                    path: str | None = None) -> Joint:
+    """A joint from its project-file form (degrees); ModelError names ``where`` (and has the JSON
+    path ``path``) on bad input."""
     kind = d.get("type")
     base = pose_matrix(d.get("translation", [0, 0, 0]), d.get("rotation_deg", [0, 0, 0]))
+
+    def at(key: str) -> str | None:
+        return None if path is None else f"{path}.{key}"
+
+    def axis_of(default: list[float]) -> Array:
+        axis = np.asarray(d.get("axis", default), float)
+        if not np.hypot.reduce(np.abs(axis)) >= 1e-6:
+            raise _error(where, at("axis"), f"the {kind} joint's axis {list(axis)} has no direction; expected a "
+                         "non-zero vector [x, y, z], at least 1e-6 long")
+        return axis
+
+    def limits_of(key: str, default: list[float], unit: str) -> tuple[float, float]:
+        lo, hi = (float(v) for v in d.get(key, default))
+        if lo > hi:
+            raise _error(where, at(key), f"the {kind} joint's limits [{lo:g}{unit}, {hi:g}{unit}] are reversed; "
+                         "expected [lo, hi] with lo no greater than hi")
+        return lo, hi
+
     if kind == "fixed":
         return Joint(base=base)
     if kind == "free":
@@ -396,59 +431,117 @@ def joint_from_dict(d: Mapping[str, Any], where: str, markers: Mapping[str, Arra
         return RestsOnJoint(type="rests_on", face=d.get("face"), s=float(s), t=float(t),
                             yaw=float(np.radians(d.get("yaw_deg", 0.0))))
     if kind == "hinge":
-        lo, hi = np.radians(d.get("limits_deg", [-180.0, 180.0]))
+        axis = axis_of([0, 0, 1])
+        lo, hi = np.radians(limits_of("limits_deg", [-180.0, 180.0], "°"))
         angle = float(np.radians(d.get("angle_deg", 0.0)))
         if not lo <= angle <= hi:
-            raise ModelError(f"{where}: hinge angle {np.degrees(angle):.1f}° lies outside its limits "
-                             f"[{np.degrees(lo):.1f}°, {np.degrees(hi):.1f}°]")
+            raise _error(where, at("angle_deg"), f"hinge angle {np.degrees(angle):.1f}° lies outside its limits "
+                         f"[{np.degrees(lo):.1f}°, {np.degrees(hi):.1f}°]")
         return HingeJoint(type="hinge", base=base, axis_point=np.asarray(d.get("axis_point", [0, 0, 0]), float),
-                          axis=np.asarray(d.get("axis", [0, 0, 1]), float), angle=angle, limits=(float(lo), float(hi)))
+                          axis=axis, angle=angle, limits=(float(lo), float(hi)))
     if kind == "slider":
-        lo, hi = d.get("limits", [-np.inf, np.inf])
+        axis = axis_of([1, 0, 0])
+        lo, hi = limits_of("limits", [-np.inf, np.inf], " m")
         off = float(d.get("offset", 0.0))
         if not lo <= off <= hi:
-            raise ModelError(f"{where}: slider offset {off} lies outside its limits [{lo}, {hi}]")
-        return SliderJoint(type="slider", base=base, axis=np.asarray(d.get("axis", [1, 0, 0]), float),
-                           offset=off, limits=(float(lo), float(hi)))
+            raise _error(where, at("offset"), f"slider offset {off} lies outside its limits [{lo}, {hi}]")
+        return SliderJoint(type="slider", base=base, axis=axis, offset=off, limits=(float(lo), float(hi)))
     if kind == "marker":
         name = d.get("marker", "")
         if markers is None or name not in markers:
-            raise ModelError(f"{where}: the joint ties the node to marker '{name}', which has no calibrated position; "
-                             "run vebuild calibrate first, or name a marker the calibration placed")
+            raise _error(where, at("marker"), f"the joint ties the node to marker '{name}', which has no calibrated "
+                         "position; run vebuild calibrate first, or name a marker the calibration placed")
         return MarkerJoint(type="marker", marker=name, handle=d.get("handle", ""),
                            position=np.asarray(markers[name], float), yaw=float(np.radians(d.get("yaw_deg", 0.0))))
-    raise ModelError(f"{where}: joint type '{kind}' is not one of {', '.join(JOINT_TYPES)}")
+    raise _error(where, at("type"), f"joint type '{kind}' is not one of {', '.join(JOINT_TYPES)}")
+
+
+def _primitive(d: Any, human: str, path: str) -> Primitive:
+    """A node's primitive, its sizes checked with the JSON path of the one at fault."""
+    if not isinstance(d, Mapping) or not isinstance(d.get("params", {}), Mapping):
+        raise _error(human, path, "expected an object {\"type\": T, \"params\": {...}}")
+    params = d.get("params", {})
+    cls = _PRIMITIVE_TYPES.get(d.get("type")) if isinstance(d.get("type"), str) else None
+    for name, value in params.items():
+        least = 0.0 if name == "radius_top" else MIN_SIZE_M
+        if cls is None or name not in cls.PARAMS or not isinstance(value, int | float) or value >= least:
+            continue
+        if name != "radius_top" and value <= 0:
+            raise _error(human, f"{path}.params.{name}", f"{cls.TYPE}: {name} must be > 0, got {value!r}")
+        raise _error(human, f"{path}.params.{name}", f"{cls.TYPE}: {name} must be at least {least:g} m (sizes "
+                     f"stay above {MIN_SIZE_M:g} m, the solver's least), got {value!r}")
+    try:
+        prim = primitive_from_dict(d)
+    except (ValueError, TypeError) as e:
+        raise _error(human, f"{path}.params" if isinstance(d.get("type"), str) else f"{path}.type", str(e)) from None
+    for name, value in zip(prim.PARAMS, prim.params, strict=True):
+        least = 0.0 if name == "radius_top" else MIN_SIZE_M
+        if not value >= least:
+            raise _error(human, f"{path}.params.{name}", f"{prim.TYPE}: {name} must be at least {least:g} m (sizes "
+                         f"stay above {MIN_SIZE_M:g} m, the solver's least), got {params.get(name, value)!r}")
+    return prim
 
 
 def model_from_dict(nodes: list[Mapping[str, Any]], markers: Mapping[str, Array] | None = None) -> Model:
     """The model from the project file's ``model.nodes``; ModelError names the node and the field."""
     out = []
+    index: dict[str, int] = {}
     for i, d in enumerate(nodes):
         where = f"$.model.nodes[{i}] (node '{d.get('name')}')"
+        path = f"$.model.nodes[{i}]"
         prim = None
         if "primitive" in d:
-            try:
-                prim = primitive_from_dict(d["primitive"])
-            except ValueError as e:
-                raise ModelError(f"{where}.primitive: {e}") from None
-        joint = joint_from_dict(d.get("joint", {"type": "fixed"}), f"{where}.joint", markers)
+            prim = _primitive(d["primitive"], f"{where}.primitive", f"{path}.primitive")
+        joint = joint_from_dict(d.get("joint", {"type": "fixed"}), f"{where}.joint", markers, f"{path}.joint")
         if isinstance(joint, MarkerJoint):
             if d.get("parent") is not None:
-                raise ModelError(f"{where}.joint: a marker joint ties a node to the world; this node has a parent")
+                raise _error(f"{where}.joint", f"{path}.parent",
+                             "a marker joint ties a node to the world; this node has a parent")
             if prim is None or joint.handle not in prim.handle_names():
-                raise ModelError(f"{where}.joint: handle '{joint.handle}' is not a handle of this node's primitive")
+                have = ", ".join(prim.handle_names()) if prim is not None else "none (a group has no handles)"
+                raise _error(f"{where}.joint", f"{path}.joint.handle", f"handle '{joint.handle}' is not a handle of "
+                             f"this node's primitive (its handles are: {have})")
         hold = tuple(d.get("hold", ()))
         known = (prim.PARAMS if prim is not None else ()) + joint.dof_names
-        for h in hold:
+        for k, h in enumerate(hold):
             if h not in known:
-                raise ModelError(f"{where}.hold: '{h}' is not a parameter of this node (it has: {', '.join(known)})")
+                raise _error(f"{where}.hold", f"{path}.hold[{k}]",
+                             f"'{h}' is not a parameter of this node (it has: {', '.join(known)})")
+        index.setdefault(d["name"], i)
         out.append(Node(d["name"], d.get("parent"), prim, joint, bool(d.get("solve", True)), hold))
+    for i, n in enumerate(out):
+        if n.parent is not None and n.parent not in index:
+            raise ModelError(f"node '{n.name}': its joint attaches it to parent '{n.parent}', which is not a node",
+                             f"$.model.nodes[{i}].parent",
+                             f"node '{n.name}' is attached to parent '{n.parent}', which is not a node")
+    _check_cycles(out)
     model = Model(out)
     for n in model.nodes:
         if isinstance(n.joint, RestsOnJoint) and n.parent is not None:
             parent = model.node(n.parent).primitive
             if parent is None or n.joint.face not in parent.faces():
                 faces = ", ".join(parent.faces()) if parent is not None else "none (a group)"
-                raise ModelError(f"node '{n.name}': rests on face '{n.joint.face}' of '{n.parent}', which has faces: "
-                                 f"{faces}")
+                detail = f"rests on face '{n.joint.face}' of '{n.parent}', which has faces: {faces}"
+                raise ModelError(f"node '{n.name}': {detail}", f"$.model.nodes[{index[n.name]}].joint.face",
+                                 f"node '{n.name}' {detail}")
     return model
+
+
+def _check_cycles(nodes: list[Node]) -> None:
+    """A cycle in the parents (the first node on it named by its JSON path); iterative."""
+    parent = {n.name: n.parent for n in nodes}
+    index = {n.name: i for i, n in reversed(list(enumerate(nodes)))}
+    done: set[str] = set()
+    for n in nodes:
+        path: list[str] = []
+        seen: set[str] = set()
+        name: str | None = n.name
+        while name is not None and name not in done:
+            if name in seen:
+                cycle = " → ".join(path[path.index(name):] + [name])
+                detail = f"the scene graph has a cycle: {cycle}; every node needs a path to the world"
+                raise ModelError(detail, f"$.model.nodes[{index[name]}].parent", detail)
+            seen.add(name)
+            path.append(name)
+            name = parent.get(name)
+        done.update(path)

@@ -32,9 +32,9 @@ from scipy.spatial.transform import Rotation
 
 from vebuild import __version__
 from vebuild.camera import ImageCamera, focal_to_fov
-from vebuild.errors import ProjectError, VebuildError
+from vebuild.errors import VebuildError
 from vebuild.outputs import begin_stage, check_file
-from vebuild.project import Project, sha256_bytes, sha256_file
+from vebuild.project import Project, read_texture_page, sha256_file
 from vebuild.render.scene import RenderScene, load_scene
 from vebuild.render.views import photo_camera, view_camera
 from vebuild.texture import layout as lay
@@ -214,17 +214,7 @@ def _pages(project: Project) -> list[Page]:
     """The atlas pages' bytes, checked against the hashes the project records."""
     out = []
     for k, page in enumerate(project.data["textures"]["pages"]):
-        path = project.folder.joinpath(*PurePosixPath(page["atlas"]).parts)
-        try:
-            data = path.read_bytes()
-        except OSError as e:
-            raise ProjectError(path, f"$.textures.pages[{k}].atlas",
-                               f"cannot read the atlas page: {e.strerror or e}") from None
-        digest = sha256_bytes(data)
-        if digest != page["atlas_sha256"]:
-            raise ProjectError(path, f"$.textures.pages[{k}].atlas_sha256",
-                               f"this atlas page changed since `vebuild texture` wrote it (SHA-256 {digest[:12]}…, "
-                               f"recorded {page['atlas_sha256'][:12]}…); run `vebuild texture` again")
+        path, data, digest = read_texture_page(project, k)
         out.append(Page(k, path, page["atlas"], data, digest, (int(page["width"]), int(page["height"]))))
     return out
 

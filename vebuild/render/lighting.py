@@ -24,6 +24,9 @@ from vebuild.project import AS_PHOTOGRAPHED, Project
 Array = NDArray[np.float64]
 
 DEFAULT_AMBIENT = (0.15, 0.15, 0.15)
+#: The most lights one preset may have: the renderer's shaders hold this many (the project
+#: schema's ``lights`` has the same ``maxItems``, so that a project with more is refused at load).
+MAX_LIGHTS = 8
 #: Cone of a spot light that gives none (degrees): outer edge, and where the fall-off starts.
 DEFAULT_OUTER_CONE_DEG = 30.0
 DEFAULT_INNER_CONE_FRACTION = 0.8

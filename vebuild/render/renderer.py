@@ -42,14 +42,13 @@ from vebuild.camera import (
 from vebuild.errors import VebuildError
 from vebuild.gl import load_program
 from vebuild.gl.context import max_texture_size
-from vebuild.render.lighting import AS_PHOTOGRAPHED_LIGHTING, Light, Lighting
+from vebuild.render.lighting import AS_PHOTOGRAPHED_LIGHTING, MAX_LIGHTS, Light, Lighting
 from vebuild.render.scene import RenderScene
 from vebuild.texture.merge import srgb8_to_linear
 
 Array = NDArray[np.float64]
 
 GL_SRGB8 = 0x8C41
-MAX_LIGHTS = 8
 #: Shadow tiles at most: a directional or spot light takes one, a point light six.
 MAX_TILES = 24
 STEREO_MODES = ("sbs", "tb", "anaglyph", "quad")

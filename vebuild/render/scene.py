@@ -11,16 +11,14 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from pathlib import Path, PurePosixPath
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from PIL import Image
 
-from vebuild.errors import ProjectError, VebuildError
+from vebuild.errors import VebuildError
 from vebuild.model.scene import Model
-from vebuild.project import Project, sha256_file
+from vebuild.project import Project, decode_texture_page, read_texture_page, texture_page_path
 from vebuild.texture import layout as lay
 from vebuild.texture.merge import srgb8_to_linear
 
@@ -124,17 +122,13 @@ def load_scene(project: Project) -> RenderScene:
         return scene_from_model(model, None, (), ["the project has no textures yet; the model is shown untextured "
                                                   "(run `vebuild texture` to extract them from the photos)"])
     pages, hashes, missing = [], [], []
-    for k, page in enumerate(record["pages"]):
-        path = project.folder.joinpath(*PurePosixPath(page["atlas"]).parts)
+    for k in range(len(record["pages"])):
+        path = texture_page_path(project, k)
         if not path.is_file():
             missing.append(str(path))
             continue
-        digest = sha256_file(path)
-        if digest != page["atlas_sha256"]:
-            raise ProjectError(path, f"$.textures.pages[{k}].atlas_sha256",
-                               f"this atlas page changed since `vebuild texture` wrote it (SHA-256 {digest[:12]}…, "
-                               f"recorded {page['atlas_sha256'][:12]}…); run `vebuild texture` again")
-        pages.append(_read_page(path, page, k))
+        _, raw, digest = read_texture_page(project, k)
+        pages.append(decode_texture_page(project, k, raw))
         hashes.append(digest)
     if missing:
         return scene_from_model(model, record, (), [f"texture page(s) missing: {', '.join(missing)}; the model is "
@@ -142,15 +136,3 @@ def load_scene(project: Project) -> RenderScene:
     scene = scene_from_model(model, record, pages)
     scene.page_hashes = hashes if scene.textured else []
     return scene
-
-
-def _read_page(path: Path, page: dict[str, Any], k: int) -> NDArray[np.uint8]:
-    try:
-        with Image.open(path) as im:
-            img = np.asarray(im.convert("RGB"))
-    except OSError as e:
-        raise ProjectError(path, f"$.textures.pages[{k}].atlas", f"cannot read the atlas page: {e}") from None
-    if img.shape[:2] != (page["height"], page["width"]):
-        raise ProjectError(path, f"$.textures.pages[{k}]", f"expected a {page['width']}×{page['height']} image, "
-                           f"found {img.shape[1]}×{img.shape[0]}")
-    return img

@@ -14,13 +14,13 @@ from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
-from PIL import Image, UnidentifiedImageError
+from PIL import UnidentifiedImageError
 
 from vebuild.camera import ImageCamera
 from vebuild.errors import ProjectError
 from vebuild.gl import headless_context, max_texture_size
 from vebuild.model.scene import Model
-from vebuild.project import sha256_bytes
+from vebuild.project import open_image, sha256_bytes
 from vebuild.texture import layout as lay
 from vebuild.texture.gpu import Extractor, Options, Timings
 from vebuild.texture.merge import FaceStats, fill_page
@@ -84,15 +84,15 @@ def read_photo(src: PhotoSource, cam: ImageCamera, timings: Timings | None = Non
 
 def decode(data: bytes, src: PhotoSource | None = None) -> NDArray[np.uint8]:
     """JPEG/PNG/... bytes → (h, w, 3) uint8 RGB."""
-    try:
-        with Image.open(io.BytesIO(data)) as img:
-            if img.mode != "RGB":
-                img = img.convert("RGB")
-            return np.asarray(img)
-    except (UnidentifiedImageError, OSError, Image.DecompressionBombError) as e:
-        name = src.path if src else "photo"
-        raise ProjectError(src.project_file or name if src else name, f"{src.where}.file" if src and src.where else "",
-                           f"cannot decode {name} as an image: {e}") from None
+    name = src.path if src else "photo"
+    file = src.project_file or name if src else name
+    where = f"{src.where}.file" if src and src.where else ""
+    # Bounded in pixels before decoding, as everywhere vebuild opens an image (project.open_image).
+    with open_image(io.BytesIO(data), file, where, decode=False, label=str(name)) as img:
+        try:
+            return np.asarray(img if img.mode == "RGB" else img.convert("RGB"))
+        except (UnidentifiedImageError, OSError, ValueError, SyntaxError) as e:
+            raise ProjectError(file, where, f"cannot decode {name} as an image: {e}") from None
 
 
 def photo_order(ex: Extractor, cameras: Sequence[ImageCamera]) -> list[ImageCamera]:

@@ -1,0 +1,231 @@
+"""A property-based fuzz of the project loader: whatever the file holds, loading it (and decoding
+the model, cameras, presets, analyses and texture pages from it, as the commands do) either works
+or raises a VebuildError with a message, never any other exception.
+
+Documents are the example project (scenes/room) mutated in a few random places — a sub-value
+replaced by random JSON (huge whole numbers, deep nesting, 1e308, -0.0, 5e-324, lone surrogates,
+wrong types), a key removed, a name swapped for another name of the project — and wholly random
+JSON. The documents are written as text, so that what JSON's own parser meets is tested too.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from vebuild.actions.check import check_project
+from vebuild.actions.records import camera_record
+from vebuild.actions.solve import cameras_from_calibration, load_model
+from vebuild.errors import ProjectError, VebuildError
+from vebuild.project import load_project
+
+ROOM = Path(__file__).resolve().parents[1] / "scenes" / "room" / "room.vebuild.json"
+EXAMPLES = 2000  # per test; each runs in about 30 s on one core
+
+
+class Raw(str):
+    """JSON text put into a document as it is (what json.dumps cannot write: 5000 digits, 1e400)."""
+
+
+def dumps(value: Any) -> str:
+    if isinstance(value, Raw):
+        return str(value)
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{json.dumps(k)}: {dumps(v)}" for k, v in value.items()) + "}"
+    if isinstance(value, list):
+        return "[" + ", ".join(dumps(v) for v in value) + "]"
+    return json.dumps(value)
+
+
+def _base_documents() -> list[dict[str, Any]]:
+    """The example, cut to two photos and a dozen pins (validation time grows with the file), as
+    drawn, and with every kind of result record a command writes."""
+    room = json.loads(ROOM.read_text())
+    ids = [p["id"] for p in room["photos"][:2]]
+    room["photos"] = room["photos"][:2]
+    for p in room["photos"]:
+        p["vanishing_segments"] = {a: s[:2] for a, s in p["vanishing_segments"].items()}
+    room["model"]["pins"] = [p for p in room["model"]["pins"] if p["photo"] in ids][:12]
+    room["model"]["edge_observations"] = [e for e in room["model"]["edge_observations"] if e["photo"] in ids][:3]
+    results = copy.deepcopy(room)
+    K = np.array([[1350.0, 0, 800], [0, 1350, 600], [0, 0, 1]])
+    results["calibration"] = {
+        "software": "vebuild test", "origin_marker": "O",
+        "cameras": {i: {"mode": "1vp", **camera_record(K, np.eye(3), np.array([0.0, -3, 1.5]), np.eye(9))}
+                    for i in ids},
+        "markers": {m["name"]: {"position": [0.5, 0.25, 0.0], "sigma": [0.001, 0.001, None]}
+                    for m in room["markers"]},
+        "reference_distances": [{**d, "measured": 1.0, "measured_sigma": 0.01} for d in room["reference_distances"]]}
+    results["model_solution"] = {
+        "software": "vebuild test", "recalibrated": False, "rms_px": 0.5, "variance_factor": 1.1, "iterations": 4,
+        "nodes": {"box": {"joint": "rests_on", "dofs": {"s": {"value": 0.4, "sigma": 0.01, "ci95": [0.38, 0.42]}},
+                          "params": {"width": {"value": 0.68, "sigma": 0.002, "ci95": [0.676, 0.684]}},
+                          "handles": {"v0": {"value": [0.1, 0.2, 0.0], "sigma": [0.001, 0.001, 0.0]}}}},
+        "pins": [], "edge_observations": [], "outliers": [],
+        "covariance": {"parameters": ["box.s", "box.width"], "matrix": [[1e-4, 0.0], [0.0, 4e-6]]}}
+    results["textures"] = {
+        "software": "vebuild test", "input_hash": "0" * 64, "options": {}, "photos": [], "faces": [],
+        "pages": [{"atlas": "textures/atlas_0.png", "coverage": "textures/coverage_0.png", "width": 64,
+                   "height": 32, "atlas_sha256": "1" * 64, "coverage_sha256": "2" * 64}]}
+    results["analyses"] = [{"name": "box width", "command": ["dimensions", "box"]},
+                           {"name": "span", "command": ["distance", "cabinet:v4", "table.top@top"]}]
+    results["hypotheses"] = [{"name": "moved", "joints": {"box": {"type": "rests_on", "face": "top",
+                                                                  "position": [0.1, 0.2], "yaw_deg": 5.0}}}]
+    results["evidence_markers"] = [{"label": "A", "position": [0.5, 0.5, 0.0], "node": "floor"}]
+    return [room, results]
+
+
+BASES = _base_documents()
+
+
+def _paths(value: Any, prefix: tuple = ()) -> list[tuple]:
+    out = [prefix]
+    if isinstance(value, dict):
+        for k, v in value.items():
+            out += _paths(v, (*prefix, k))
+    elif isinstance(value, list):
+        for i, v in enumerate(value):
+            out += _paths(v, (*prefix, i))
+    return out
+
+
+def _names(value: Any) -> set[str]:
+    out: set[str] = set()
+    if isinstance(value, dict):
+        for k, v in value.items():
+            out.add(k)
+            out |= _names(v)
+    elif isinstance(value, list):
+        for v in value:
+            out |= _names(v)
+    elif isinstance(value, str) and len(value) < 30:
+        out.add(value)
+    return out
+
+
+PATHS = [_paths(b)[1:] for b in BASES]  # not the whole document: test_random_json_loads_or_is_refused
+NAMES = sorted(set().union(*(_names(b) for b in BASES)) | {"v0", "v9", "e1", "e12", "top", "side", "bottom",
+                                                           "hinge", "slider", "--help", "-h", "..", "/etc/passwd"})
+
+SPECIAL_FLOATS = [1e308, -1e308, -0.0, 0.0, 5e-324, -5e-324, 1e-300, 1e9, -1e9, 1e4, 10000.000001, 1e-4, 0.5, 1.0,
+                  -1.0, 2.0, 179.9, 0.1, 65535.0, 1e6]
+SPECIAL_INTS = [0, -1, 1, 2, 3, 8, 9, 64, 65535, 65536, 2**31, 2**63, 10**20, 10**21, -10**20]
+raw = st.one_of(
+    st.integers(21, 6000).map(lambda n: Raw("9" * n)),
+    st.integers(21, 400).map(lambda n: Raw("-" + "1" * n)),
+    st.integers(30, 3000).map(lambda n: Raw("[" * n + "]" * n)),
+    st.integers(30, 1500).map(lambda n: Raw('{"a": ' * n + "1" + "}" * n)),
+    st.sampled_from([Raw("1e400"), Raw("-1e999"), Raw("1" + "0" * 400 + ".0"), Raw('"\\ud800"'), Raw('"a\\udfffb"'),
+                     Raw('"\\udc80\\ud800"'), Raw('{"\\ud800": 1}')]),
+)
+scalars = st.one_of(
+    st.none(), st.booleans(), st.sampled_from(SPECIAL_INTS), st.integers(-(2**70), 2**70),
+    st.sampled_from(SPECIAL_FLOATS), st.floats(allow_nan=False, allow_infinity=False),
+    st.text(max_size=6), st.sampled_from(NAMES), st.sampled_from(["\x00", "é", "\u202e", "a:b", "a@b", " "]), raw,
+)
+json_values = st.recursive(
+    scalars, lambda inner: st.one_of(st.lists(inner, max_size=4),
+                                     st.dictionaries(st.sampled_from(NAMES) | st.text(max_size=4), inner, max_size=4)),
+    max_leaves=8)
+
+
+@st.composite
+def mutated(draw: Any) -> str:
+    k = draw(st.integers(0, len(BASES) - 1))
+    doc = copy.deepcopy(BASES[k])
+    for _ in range(draw(st.sampled_from([1, 1, 1, 2, 2, 3, 4]))):
+        path = draw(st.sampled_from(PATHS[k]))
+        parent: Any = None
+        target: Any = doc
+        try:
+            for part in path:
+                parent, target = target, target[part]
+        except (KeyError, IndexError, TypeError):
+            continue  # an earlier mutation removed it
+        how = draw(st.sampled_from(["replace", "replace", "remove", "grow", "same type", "same type", "same type"]))
+        if how == "remove":
+            del parent[path[-1]]
+            continue
+        if how == "grow" and isinstance(target, list) and target:
+            target.extend(copy.deepcopy(target[: draw(st.integers(1, 9))]))
+            continue
+        if how == "same type" and isinstance(target, str):
+            new: Any = draw(st.sampled_from(NAMES))  # another name of the project, or a near miss
+        elif how == "same type" and isinstance(target, int | float) and not isinstance(target, bool):
+            bound = min(2 * abs(float(target)) + 1, 1e300)  # a number near it, or a special one
+            new = draw(st.sampled_from(SPECIAL_FLOATS + SPECIAL_INTS) | st.floats(-bound, bound))
+        else:
+            new = draw(json_values)
+        parent[path[-1]] = new
+    return dumps(doc)
+
+
+FOLDER = Path(tempfile.mkdtemp(prefix="vebuild-fuzz-"))
+FILE = FOLDER / "fuzz.vebuild.json"
+COUNTS: dict[str, int] = {}
+
+
+def _load_and_decode(text: str) -> str:
+    """The property: ProjectError, or success; and then every decoding a command does succeeds or
+    raises a VebuildError. Any other exception fails the test, with the document."""
+    FILE.write_text(text, encoding="utf-8")
+    try:
+        project = load_project(FILE, verify_photos=False)
+    except ProjectError as e:
+        assert str(e).startswith(str(FILE)), e
+        return "refused at load"
+    outcome = "loaded"
+    for decode in (check_project, load_model, cameras_from_calibration):
+        try:
+            decode(project)
+        except VebuildError:
+            outcome = "loaded, refused by a command's decoding"
+    return outcome
+
+
+@pytest.fixture(scope="module", autouse=True)
+def report():
+    start = time.perf_counter()
+    yield
+    total = sum(COUNTS.values())
+    print(f"\nfuzzed {total} documents in {time.perf_counter() - start:.1f} s: "
+          + ", ".join(f"{n} {k}" for k, n in sorted(COUNTS.items())))
+
+
+def _count(outcome: str) -> None:
+    COUNTS[outcome] = COUNTS.get(outcome, 0) + 1
+
+
+FUZZ = settings(max_examples=EXAMPLES, deadline=None, database=None,
+                suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large, HealthCheck.filter_too_much])
+
+
+@FUZZ
+@given(mutated())
+def test_mutated_example_loads_or_is_refused(text: str) -> None:
+    _count(_load_and_decode(text))
+
+
+@settings(FUZZ, max_examples=EXAMPLES // 4)
+@given(json_values.map(dumps) | st.dictionaries(st.sampled_from(NAMES), json_values, max_size=8).map(
+    lambda d: dumps({"format": "vebuild-project", "version": 1, **d})))
+def test_random_json_loads_or_is_refused(text: str) -> None:
+    _count(_load_and_decode(text))
+
+
+def test_the_unmutated_bases_load() -> None:
+    """The documents mutated are valid: uncalibrated (check passes; solve asks for a calibration), and
+    with every result record (everything decodes)."""
+    for doc in BASES:
+        FILE.write_text(dumps(doc), encoding="utf-8")
+        check_project(load_project(FILE, verify_photos=False))
+    assert _load_and_decode(dumps(BASES[1])) == "loaded"

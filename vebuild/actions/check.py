@@ -1,0 +1,63 @@
+"""``vebuild check``: everything the later commands read from a project, decoded as they decode it.
+
+Loading (:func:`vebuild.project.load_project`) checks the document against the schema and what a
+schema cannot say; this goes on to decode what each command decodes: the model and its
+observations (``solve``, ``render``, ``analyse``), the calibrated cameras, the lighting presets,
+the recorded analyses (``report``) and the texture pages (``render``, ``export``). It uses the
+same functions as those commands, so it reports the very error they would, and imports no GL.
+"""
+
+from __future__ import annotations
+
+from ..errors import ProjectError, VebuildError
+from ..project import Project, decode_texture_page, read_texture_page, texture_page_path
+
+
+def check_project(project: Project) -> list[str]:
+    """Decode everything the commands rely on; lines describing it, for the check's report.
+
+    Raises
+    ------
+    ProjectError (a VebuildError) naming the file, the JSON path and what was expected.
+    """
+    from ..render.lighting import preset_from_record
+    from ..render.views import view_camera
+    from .solve import cameras_from_calibration, check_markers, load_model
+
+    data = project.data
+    lines = []
+    if (data.get("calibration") or {}).get("cameras"):
+        cameras = cameras_from_calibration(project)
+        lines.append(f"calibration: {len(cameras)} camera(s), each a pinhole camera with a rotation")
+    if (data.get("model") or {}).get("nodes"):
+        model, pins, edges = load_model(project, check_markers(project))
+        lines.append(f"model: {len(model.nodes)} node(s), {len(pins)} pin(s), {len(edges)} edge observation(s)")
+    for preset in (data.get("lighting") or {}).get("presets", []):
+        preset_from_record(preset)
+    for view in data.get("views", []):
+        view_camera(view)
+    _check_analyses(project)
+    if data.get("analyses"):
+        lines.append(f"analyses: {len(data['analyses'])} recorded command(s), each a `vebuild analyse` command")
+    pages = (data.get("textures") or {}).get("pages", [])
+    missing = []
+    for k in range(len(pages)):
+        if not texture_page_path(project, k).is_file():
+            missing.append(pages[k]["atlas"])
+            continue
+        _, raw, _ = read_texture_page(project, k)
+        decode_texture_page(project, k, raw)
+    if pages:
+        lines.append(f"textures: {len(pages) - len(missing)} of {len(pages)} atlas page(s) present, hashes verified"
+                     + (f" (missing: {', '.join(missing)}; `vebuild texture` writes them again)" if missing else ""))
+    return lines
+
+
+def _check_analyses(project: Project) -> None:
+    from ..analysis.report_sections import parse
+
+    for i, rec in enumerate(project.data.get("analyses") or []):
+        try:
+            parse(str(project.path), list(rec["command"]))
+        except VebuildError as e:
+            raise ProjectError(project.path, f"$.analyses[{i}].command", str(e)) from None
