@@ -378,7 +378,11 @@ def test_a_changed_atlas_page_is_refused(textured_room, tmp_path, capsys):
                                                        r"'as-photographed', 'daylight'"),
     (["--view", "doorway", "--size", "0x720"], r"--size: expected WIDTHxHEIGHT"),
     (["--view", "doorway", "--size", "big"], r"--size: expected WIDTHxHEIGHT"),
-    (["--view", "doorway", "--size", "90000x720"], r"larger than this OpenGL can draw"),
+    (["--view", "doorway", "--size", "90000x720"], r"--size: a 90000×720 image cannot be rendered: expected each "
+                                                   r"side 1 to 16384 pixels"),
+    (["--view", "doorway", "--size", "9000x9000"], r"--size: .*at most 67,108,864 pixels in all"),
+    (["--view", "doorway", "--size", "10000x720", "--stereo", "sbs"],
+     r"--size, in stereo side by side \(twice the width\): a 20000×720 image cannot be rendered"),
     (["--view", "doorway", "--eye-separation", "0", "--stereo", "sbs"], r"--eye-separation: expected a distance > 0"),
     (["--view", "doorway", "--validate"], r"--validate compares a render with its photo"),
 ])

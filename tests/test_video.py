@@ -334,8 +334,9 @@ def test_nothing_is_left_behind_when_interrupted(room, renderer, tmp_path):
 @pytest.mark.parametrize(("request_kw", "error", "match"), [
     ({"views": ["door", "nowhere"]}, ProjectError, r"\$\.views: no view is called 'nowhere'; the views are: 'door'"),
     ({"views": ["door"]}, VebuildError, r"expected at least two views"),
-    ({"views": ["odd", "door"]}, ProjectError, r"\$\.views\[3\]: view 'odd' sets the video's size \(no --size "
-     r"given\): --size: H.264 \(yuv420p\) needs an even width and height, got 161×121; use --size 160x120"),
+    ({"views": ["odd", "door"]}, ProjectError, r"\$\.views\[3\] \(width × height of view 'odd', which sets the "
+     r"video's size; no --size given\): H.264 \(yuv420p\) needs an even width and height, got 161×121; use "
+     r"--size 160x120"),
     ({"views": ["door", "table"], "lighting": "sunset"}, ProjectError, r"no lighting preset is called 'sunset'"),
     ({"views": ["door", "table"], "stereo": "quad"}, VebuildError, r"--stereo: expected one of sbs, tb, anaglyph"),
     ({"views": ["door", "table"], "timing": Timing(fps=-3)}, VebuildError, r"--fps: expected"),

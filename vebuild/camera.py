@@ -10,7 +10,7 @@ Free functions over numpy arrays; nothing here does I/O or GL.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -206,6 +206,8 @@ class ImageCamera:
     """A camera with an image: K, R, C in the convention above and the image's size in pixels.
 
     A calibrated photo, a named evidence view, or one eye of a stereo pair; ``id`` names it.
+    ``source`` says where its image size came from (``"$.views[2] (width × height)"``,
+    ``"--size"``), for the messages of :mod:`vebuild.render.sizes`; it takes no part in equality.
     """
 
     id: str
@@ -214,24 +216,27 @@ class ImageCamera:
     C: Array
     width: int
     height: int
+    source: str = field(default="", compare=False, repr=False, kw_only=True)
 
     def scaled(self, s: float) -> ImageCamera:
         """The same camera for an image scaled by s (pixel corners stay at corners)."""
         K = np.array(self.K, float)
         K[:2] *= s
-        return ImageCamera(self.id, K, self.R, self.C, max(1, round(self.width * s)), max(1, round(self.height * s)))
+        return ImageCamera(self.id, K, self.R, self.C, max(1, round(self.width * s)), max(1, round(self.height * s)),
+                           source=self.source)
 
-    def resized(self, width: int, height: int) -> ImageCamera:
+    def resized(self, width: int, height: int, source: str | None = None) -> ImageCamera:
         """The same view at another image size: the horizontal field of view is kept, and the
         principal point keeps its place relative to the image (a different aspect ratio shows more
-        or less above and below)."""
+        or less above and below). ``source``: where the new size came from (default: the old's)."""
         s = width / self.width
         K = np.array(self.K, float)
         K[0, 0] *= s
         K[1, 1] *= s
         K[0, 2] *= s
         K[1, 2] = (K[1, 2] / self.height) * height
-        return ImageCamera(self.id, K, self.R, self.C, int(width), int(height))
+        return ImageCamera(self.id, K, self.R, self.C, int(width), int(height),
+                           source=self.source if source is None else source)
 
 
 def look_rotation(direction: ArrayLike, roll: float = 0.0) -> Array:

@@ -43,6 +43,7 @@ class RenderRequest:
     view: str | None = None
     photo: str | None = None
     size: tuple[int, int] | None = None
+    size_source: str = "--size"  # where ``size`` came from, for the messages about it
     lighting: str | None = None
     stereo: str | None = None
     eye_separation: float = 0.063
@@ -73,7 +74,9 @@ def parse_size(text: str) -> tuple[int, int]:
     if not m or int(m[1]) < 1 or int(m[2]) < 1:
         raise VebuildError(f"--size: expected WIDTHxHEIGHT in pixels, each at least 1 (such as 1280x720), "
                            f"got {text!r}")
-    return int(m[1]), int(m[2])
+    from vebuild.render.sizes import check_render_size
+
+    return check_render_size(int(m[1]), int(m[2]), "--size")
 
 
 def check_output(path: Path, suffixes: tuple[str, ...] = (".png",), project: Project | None = None) -> Path:
@@ -167,6 +170,7 @@ def render_evidence(project: Project, req: RenderRequest) -> RenderResult:
     from vebuild.render.lighting import find_preset
     from vebuild.render.renderer import STEREO_MODES, Renderer, RenderOptions, Stereo
     from vebuild.render.scene import load_scene
+    from vebuild.render.sizes import check_camera
     from vebuild.render.views import find_view, photo_camera
 
     out = check_output(Path(req.out), project=project)
@@ -189,7 +193,8 @@ def render_evidence(project: Project, req: RenderRequest) -> RenderResult:
     kind = "view" if req.view is not None else "photo"
     cam = find_view(project, req.view) if req.view is not None else photo_camera(project, str(req.photo))
     if req.size is not None:
-        cam = cam.resized(*req.size)
+        cam = cam.resized(*req.size, source=req.size_source)
+    check_camera(cam, req.stereo)  # before the scene is loaded or GL is asked
     lighting = find_preset(project, req.lighting)
     scene = load_scene(project)
     if req.hypothesis is not None:
@@ -200,8 +205,7 @@ def render_evidence(project: Project, req: RenderRequest) -> RenderResult:
     stereo = Stereo(req.stereo, req.eye_separation, req.convergence) if req.stereo else None
     renderer = Renderer(ctx, scene, RenderOptions(samples=req.samples, shadows=req.shadows))
     try:
-        W, H = renderer.output_size(cam, stereo)
-        _check_size(ctx, W, H)
+        W, H = renderer.check_size(cam, stereo)
         renderer.set_lighting(lighting)
         rgba = renderer.render_rgba(cam, stereo)
         placed = []
@@ -233,14 +237,6 @@ def render_evidence(project: Project, req: RenderRequest) -> RenderResult:
         text["vebuild:hypothesis"] = req.hypothesis
     write_png(out, image, text)
     return result
-
-
-def _check_size(ctx: Any, width: int, height: int) -> None:
-    limit = min(int(ctx.info["GL_MAX_RENDERBUFFER_SIZE"]), int(ctx.info["GL_MAX_TEXTURE_SIZE"]),
-                *(int(v) for v in ctx.info["GL_MAX_VIEWPORT_DIMS"]))
-    if width > limit or height > limit:
-        raise VebuildError(f"--size: a {width}×{height} image is larger than this OpenGL can draw (at most "
-                           f"{limit} pixels on a side); choose a smaller size")
 
 
 def _validate(project: Project, photo_id: str, cam: ImageCamera, rgba: NDArray[np.uint8], out: Path,

@@ -230,20 +230,27 @@ def _renderer(project: Project, scene: Any = None) -> tuple[Any, Any]:
 def _views(project: Project, rep: Report) -> None:
     from vebuild.actions.render import provenance
     from vebuild.analysis.markers import draw_markers, visible_markers
+    from vebuild.render.sizes import check_camera
     from vebuild.render.views import view_camera
 
     views = project.data.get("views", [])
     if not views:
         rep.add("Evidence views", "<p>The project has no named views.</p>")
         return
+    cams = []  # every image's size checked before anything is drawn
+    for i, v in enumerate(views):
+        cam = view_camera(v, f"$.views[{i}]")
+        cam = cam.resized(IMAGE_WIDTH, max(1, round(IMAGE_WIDTH * cam.height / cam.width)),
+                          source=f"the report's image of view {v['name']!r} ({IMAGE_WIDTH} pixels wide, its "
+                          f"height from the aspect of $.views[{i}], {cam.width}×{cam.height})")
+        check_camera(cam)
+        cams.append(cam)
     scene, renderer = _renderer(project)
     rep.warnings += scene.warnings
     markers = project.data.get("evidence_markers", [])
     parts = []
     try:
-        for i, v in enumerate(views):
-            cam = view_camera(v)
-            cam = cam.resized(IMAGE_WIDTH, round(IMAGE_WIDTH * cam.height / cam.width))
+        for i, (v, cam) in enumerate(zip(views, cams, strict=True)):
             img = renderer.render(cam)
             img = draw_markers(img, visible_markers(renderer, cam, markers))
             src = rep.image(f"view-{i + 1}.png", img, provenance(project, cam, "view", "as-photographed", None,
@@ -269,9 +276,11 @@ def _validation(project: Project, rep: Report) -> None:
         if p["id"] not in cams:
             continue
         tmp = rep.folder / "images" / f"photo-{i + 1}.png"
-        res = render_evidence(project, RenderRequest(out=tmp, photo=p["id"], size=(IMAGE_WIDTH,
-                                                     round(IMAGE_WIDTH * p["height"] / p["width"])), validate=True,
-                                                     markers=False))
+        size = (IMAGE_WIDTH, max(1, round(IMAGE_WIDTH * p["height"] / p["width"])))
+        res = render_evidence(project, RenderRequest(
+            out=tmp, photo=p["id"], size=size, validate=True, markers=False,
+            size_source=f"the report's image of photo {p['id']!r} ({IMAGE_WIDTH} pixels wide, its height from "
+                        f"the aspect of $.photos[{i}], {p['width']}×{p['height']})"))
         tmp.unlink()
         rep.images.append(res.overlay)
         rows.append([p["id"], fmt(res.rms_colour_difference, 1), f"{100 * res.covered_fraction:.0f} %",
@@ -310,9 +319,11 @@ def _hypotheses(project: Project, rep: Report) -> None:
                            [[n, json.dumps(j, sort_keys=True)] for n, j in h["joints"].items()]))
         if views:
             path = rep.folder / "images" / f"hypothesis-{i + 1}.png"
-            render_evidence(project, RenderRequest(out=path, view=views[0]["name"], hypothesis=h["name"],
-                                                   size=(IMAGE_WIDTH, round(IMAGE_WIDTH * views[0]["height"]
-                                                                            / views[0]["width"]))))
+            size = (IMAGE_WIDTH, max(1, round(IMAGE_WIDTH * views[0]["height"] / views[0]["width"])))
+            render_evidence(project, RenderRequest(
+                out=path, view=views[0]["name"], hypothesis=h["name"], size=size,
+                size_source=f"the report's image of hypothesis {h['name']!r} ({IMAGE_WIDTH} pixels wide, its "
+                            f"height from the aspect of $.views[0], {views[0]['width']}×{views[0]['height']})"))
             rep.images.append(path)
             parts.append(f"<figure><img src='images/{path.name}'><figcaption>{esc(label(h['name']))}, from view "
                          f"{esc(views[0]['name'])}</figcaption></figure>")

@@ -150,8 +150,20 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
                       click_sigma_px=project.settings["click_sigma_px"], prior_scale=FINAL_PRIOR_SCALE,
                       recalibrate=recalibrate, refine_intrinsics=refine_intrinsics, markers=markers,
                       fixed_markers=[origin, *surveyed], marker_observations=marker_obs, distances=distances)
-    sol = problem.solve(robust=True)
-    solution = problem.solution(sol.x, sol.nfev)
+    try:
+        x0 = problem.x0()
+        problem.check_finite(x0, "at the start of the solve")
+        sol = problem.solve(x0, robust=True)
+        problem.check_finite(sol.x, "at the end of the solve")
+        solution = problem.solution(sol.x, sol.nfev)
+    except VebuildError as e:
+        raise VebuildError(f"{project.path}: $.model: {e}") from None
+    except (ValueError, np.linalg.LinAlgError) as e:
+        text = str(e).lower()
+        if isinstance(e, ValueError) and not any(w in text for w in ("finite", "nan", "inf")):
+            raise
+        raise VebuildError(f"{project.path}: $.model: the solve failed numerically ({e}); an observation or a "
+                           "node's dimensions make it degenerate: check the pins of the nodes last edited") from None
     if solution.undetermined:
         raise VebuildError(
             f"{project.path}: $.model: too few observations: the pins and edges do not determine "

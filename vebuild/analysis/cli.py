@@ -180,6 +180,7 @@ def _lighting(args: argparse.Namespace, project: Any) -> tuple[str, dict[str, An
     from ..gl import headless_context
     from ..render.renderer import Renderer
     from ..render.scene import load_scene
+    from ..render.sizes import check_camera
     from ..render.views import find_view
     from .lighting import LUMINANCE_WEIGHTS, compare_lighting, side_by_side
 
@@ -188,7 +189,8 @@ def _lighting(args: argparse.Namespace, project: Any) -> tuple[str, dict[str, An
     presets = list(args.presets)
     cam = find_view(project, args.view)
     if args.size:
-        cam = cam.resized(*parse_size(args.size))
+        cam = cam.resized(*parse_size(args.size), source="--size")
+    check_camera(cam)
     scene = load_scene(project)
     renderer = Renderer(headless_context(), scene)
     try:

@@ -213,6 +213,7 @@ def trajectory_from_args(args: argparse.Namespace, occ: Any) -> Any:
 
 def _trajectory(args: argparse.Namespace, project: Any) -> tuple[str, dict[str, Any]]:
     from vebuild.actions.render import check_output
+    from vebuild.render.sizes import check_camera
     from vebuild.render.views import find_view
 
     from .rays import Occluders
@@ -224,6 +225,7 @@ def _trajectory(args: argparse.Namespace, project: Any) -> tuple[str, dict[str, 
     if args.out:
         check_output(Path(args.out), project=project)
         cam = find_view(project, args.view)
+        check_camera(cam)
     scene = _scene(project, args.hypothesis)
     occ = Occluders(scene)
     tr = trajectory_from_args(args, occ)

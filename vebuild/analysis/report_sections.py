@@ -9,8 +9,6 @@ shows what the project file gives now, and the command line that reproduces each
 from __future__ import annotations
 
 import argparse
-import contextlib
-import io
 import json
 import shlex
 from typing import Any, NoReturn
@@ -24,26 +22,53 @@ _IMAGE_WHEN = {"sightline": None, "viewshed": None, "lighting": None, "trajector
 
 
 class _Parser(argparse.ArgumentParser):
+    """An argparse parser that never prints or exits: every complaint is a :class:`VebuildError`
+    (the stored words are data in a project file, not a command line a person is typing)."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs["add_help"] = False  # -h/--help would print and exit; refused in :func:`parse`
+        kwargs["exit_on_error"] = False
+        super().__init__(*args, **kwargs)
+
     def error(self, message: str) -> NoReturn:
         raise VebuildError(message)
 
+    def exit(self, status: int = 0, message: str | None = None) -> NoReturn:
+        raise VebuildError(message.strip() if message else f"the command would exit (status {status})")
 
-def parse(project_file: str, words: list[str]) -> argparse.Namespace:
-    """The ``vebuild analyse`` arguments of one recorded command (errors as VebuildError)."""
+    def print_help(self, file: Any = None) -> None:
+        raise VebuildError("the command asks for help (-h/--help); expected the words of an analysis")
+
+    def print_usage(self, file: Any = None) -> None:
+        raise VebuildError("the command asks for its usage; expected the words of an analysis")
+
+
+#: Words that ask for help rather than an analysis.
+_HELP_WORDS = ("-h", "--help")
+
+
+def parse(project_file: str, words: list[str], where: str | None = None) -> argparse.Namespace:
+    """The ``vebuild analyse`` arguments of one recorded command (``where``: its place in the
+    project, ``$.analyses[i]``). It never prints or exits: a bad command, or one that asks for help,
+    is a :class:`VebuildError` saying what was expected."""
     from vebuild.analysis.cli import add_analyse_parsers
 
-    # A recorded command is run, never explained: help would print and exit instead of analysing.
-    for word in words:
-        if word == "-h" or (len(word) >= 3 and "--help".startswith(word)):
-            raise VebuildError(f"{word!r} asks for help, which is not an analysis; record the words of the "
-                               "analysis itself, such as [\"distance\", \"cabinet:v4\", \"table.top@top\"]")
-    parser = _Parser(prog="vebuild", add_help=False)
+    expected = ("expected the words of a `vebuild analyse` command after the project, such as "
+                "[\"distance\", \"cabinet:v4\", \"table.top@top\"]")
+    if not isinstance(words, list) or not all(isinstance(w, str) for w in words):
+        raise VebuildError(f"{where + ': ' if where else ''}{expected}; got {words!r}")
+    at = f"{where}: " if where else ""
+    asks = [w for w in words if w in _HELP_WORDS or (len(w) >= 3 and "--help".startswith(w))]
+    if asks:
+        raise VebuildError(f"{at}the command asks for help ({asks[0]!r}), which is not an analysis; {expected}")
+    parser = _Parser(prog="vebuild")
     add_analyse_parsers(parser.add_subparsers(dest="command", parser_class=_Parser))
     try:
-        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
-            return parser.parse_args(["analyse", project_file, *words])
-    except SystemExit:  # an action that prints and exits (argparse's help or version)
-        raise VebuildError(f"{' '.join(words)!r} is not an analysis command") from None
+        return parser.parse_args(["analyse", project_file, *words])
+    except argparse.ArgumentError as e:
+        raise VebuildError(f"{at}{e}; {expected}") from None
+    except VebuildError as e:
+        raise VebuildError(f"{at}{e}; {expected}") from None
 
 
 def analyses(project: Any, rep: Report, records: list[dict[str, Any]]) -> str:

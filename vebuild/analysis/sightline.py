@@ -282,14 +282,16 @@ def _with_point(b: dict[str, Any], E: Array, T: Array, t: float) -> dict[str, An
 # -- the witness's view ------------------------------------------------------------------------
 
 def witness_camera(eye: Eye, look_at: Array, fov_deg: float = DEFAULT_FOV_DEG,
-                   size: tuple[int, int] = (1280, 720)) -> ImageCamera:
-    """An :class:`ImageCamera` at the eye looking at ``look_at`` (horizontal field of view ``fov_deg``)."""
+                   size: tuple[int, int] = (1280, 720), source: str = "--size") -> ImageCamera:
+    """An :class:`ImageCamera` at the eye looking at ``look_at`` (horizontal field of view ``fov_deg``);
+    ``source``: where ``size`` came from."""
     if not 1.0 <= fov_deg <= 170.0:
         raise VebuildError(f"--fov: expected a horizontal field of view of 1–170°, got {fov_deg:g}")
     w, h = size
     f = fov_to_focal(math.radians(fov_deg), w)
     K = np.array([[f, 0.0, w / 2], [0.0, f, h / 2], [0.0, 0.0, 1.0]])
-    return ImageCamera("witness", K, look_rotation(np.asarray(look_at, float) - eye.position), eye.position, w, h)
+    return ImageCamera("witness", K, look_rotation(np.asarray(look_at, float) - eye.position), eye.position, w, h,
+                       source=source)
 
 
 def target_centre(occ: Occluders, target: Target) -> Array:
@@ -487,6 +489,7 @@ def viewshed_image(vs: Viewshed, occ: Occluders, px_per_cell: int | None = None)
     the model's objects outlined, the target marked in red, a 1 m scale bar and a caption."""
     from PIL import Image, ImageDraw, ImageFont
 
+    from vebuild.render.sizes import check_render_size
     from vebuild.viewer.collide import footprints
 
     ny, nx = vs.states.shape
@@ -499,7 +502,6 @@ def viewshed_image(vs: Viewshed, occ: Occluders, px_per_cell: int | None = None)
     rgb = no[None, None] * (1 - share[..., None]) + yes[None, None] * share[..., None]
     rgb[vs.states == OCCUPIED] = (200, 200, 200)
     rgb[vs.states == OUTSIDE] = (250, 250, 250)
-    cells = np.repeat(np.repeat(rgb[::-1].astype(np.uint8), s, axis=0), s, axis=1)
     fps = [fp for fp in footprints(occ.scene.model) if fp.z_hi > FLOOR_CLEARANCE_M]
     g_lo = np.array(vs.origin)
     g_hi = g_lo + vs.cell * np.array([nx, ny])
@@ -511,6 +513,10 @@ def viewshed_image(vs: Viewshed, occ: Occluders, px_per_cell: int | None = None)
     pad, top = 20, 48
     W = int(math.ceil((hi[0] - lo[0]) * k)) + 2 * pad
     H = int(math.ceil((hi[1] - lo[1]) * k)) + pad + top + 28
+    check_render_size(max(W, 560), H, f"the viewshed map ({nx}×{ny} cells of {vs.cell:g} m, {s} pixels a cell, "
+                      f"over {hi[0] - lo[0]:.3g} m × {hi[1] - lo[1]:.3g} m of floor and objects)",
+                      advice="choose a larger --cell")
+    cells = np.repeat(np.repeat(rgb[::-1].astype(np.uint8), s, axis=0), s, axis=1)
     img = Image.new("RGB", (max(W, 560), H), (255, 255, 255))
 
     def to_px(xy: Array) -> list[tuple[float, float]]:

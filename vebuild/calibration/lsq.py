@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import functools
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from typing import Any, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
 
 Array = NDArray[np.float64]
+F = TypeVar("F", bound=Callable[..., Any])
 
 
 def numeric_jacobian(fun: Callable[[Array], Array], x: Array, step: Array | float = 1e-6) -> Array:
@@ -48,3 +52,39 @@ def variance_factor(whitened_residuals: Array, n_params: int) -> float:
     if dof <= 0:
         return 1.0
     return max(1.0, float(whitened_residuals @ whitened_residuals) / dof)
+
+
+def is_numeric_failure(e: BaseException) -> bool:
+    """A NumPy/SciPy failure caused by the numbers given (not a bug): a singular matrix, or
+    residuals, Jacobians or arrays that are not finite."""
+    if isinstance(e, np.linalg.LinAlgError):
+        return True
+    text = str(e).lower()
+    return isinstance(e, ValueError) and any(w in text for w in ("finite", "nan", "inf"))
+
+
+@contextmanager
+def numeric_failures(photo: str | None, what: str, advice: str) -> Iterator[None]:
+    """Turn a numeric failure inside the block into a CalibrationError naming ``photo`` (or None)
+    and ``what`` failed, with ``advice``; other errors pass unchanged."""
+    from ..errors import CalibrationError, VebuildError
+
+    try:
+        yield
+    except VebuildError:
+        raise
+    except (ValueError, np.linalg.LinAlgError) as e:
+        if not is_numeric_failure(e):
+            raise
+        raise CalibrationError(photo, f"{what} failed numerically ({e}); {advice}") from None
+
+
+def photo_numeric_failures(what: str, advice: str) -> Callable[[F], F]:
+    """Decorator: :func:`numeric_failures` around a function whose ``photo`` keyword names the photo."""
+    def wrap(fn: F) -> F:
+        @functools.wraps(fn)
+        def inner(*args: Any, **kwargs: Any) -> Any:
+            with numeric_failures(kwargs.get("photo", "photo"), what, advice):
+                return fn(*args, **kwargs)
+        return inner  # type: ignore[return-value]
+    return wrap

@@ -30,7 +30,7 @@ from scipy.optimize import least_squares
 from ..camera import AXES, exp_so3, intrinsic_matrix, ypr_from_rotation
 from ..errors import CalibrationError
 from .intrinsics import focal_squared, orthocentre, rotation_from_vanishing_points
-from .lsq import covariance_from_jacobian, numeric_jacobian, variance_factor
+from .lsq import covariance_from_jacobian, numeric_jacobian, photo_numeric_failures, variance_factor
 from .vanishing import check_segments, fit_vanishing_point, normalising_transform, segment_residuals
 
 Array = NDArray[np.float64]
@@ -121,6 +121,8 @@ def ypr_with_sigma(R: Array, cov_omega: Array) -> tuple[Array, Array]:
     return ypr0, np.sqrt(np.maximum(np.diag(J @ cov_omega @ J.T), 0.0))
 
 
+@photo_numeric_failures("its calibration from the vanishing lines", "check its vanishing segments (each along "
+                        "its axis and in its direction, not all parallel, of some length)")
 def calibrate_photo(
     segments: Mapping[str, ArrayLike],
     width: int,

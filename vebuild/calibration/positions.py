@@ -31,7 +31,7 @@ from scipy.spatial.transform import Rotation
 
 from ..camera import intrinsic_matrix, pixel_rays_world, project, skew_batch, so3_left_jacobian
 from ..errors import CalibrationError
-from .lsq import covariance_from_jacobian, variance_factor
+from .lsq import covariance_from_jacobian, is_numeric_failure, variance_factor
 
 Array = NDArray[np.float64]
 
@@ -145,6 +145,7 @@ def place_cameras(
     when nothing fixes the metric scale.
     """
     known = {k: np.asarray(v, float) for k, v in (known_markers or {}).items()}
+    _check_finite_inputs(photos, known, distances)
     seen: dict[str, list[str]] = {}
     for p in photos:
         for name in p.markers:
@@ -179,10 +180,86 @@ def place_cameras(
 
     by_id = {p.id: p for p in photos}
     C, X = _initial_positions(photos, origin, known)
+    _check_finite_start(C, X)
+    check_scale_distances(X, scale_refs)
     s = _metric_scale(X, known, scale_refs, origin)
+    if not (np.isfinite(s) and s > 0):
+        raise CalibrationError(None, f"the reference distances give the scene a scale of {s:g}, not a positive "
+                               "number: check the distances' values and the markers' clicks")
     C = {k: v * s for k, v in C.items()}
     X = {k: (known[k] if k in known else v * s) for k, v in X.items()}
     return _refine(by_id, C, X, origin, known, distances, click_sigma_px)
+
+
+#: Two scale distances whose implied scales differ by more than this factor contradict each other.
+#: The unit-scale start (before the refinement) places markers to within some tens of percent on a
+#: poor geometry, so a factor of 3 is no noise; a slip of units (4 m for 400 cm, 40 for 4) is 10× or more.
+SCALE_DISAGREEMENT = 3.0
+
+
+def check_scale_distances(X: Mapping[str, Array], refs: Sequence[ReferenceDistance]) -> None:
+    """Before the full solve: the scale each reference distance implies from the unit-scale
+    placement ``X`` (its length in metres over its markers' distance there) must agree with the
+    others' to within :data:`SCALE_DISAGREEMENT`; otherwise a CalibrationError names the two that
+    disagree most and by what factor (the solve would spend a minute and then blame a marker)."""
+    implied = []
+    for d in refs:
+        if d.a not in X or d.b not in X:
+            continue
+        cur = float(np.linalg.norm(np.asarray(X[d.a]) - np.asarray(X[d.b])))
+        if not (np.isfinite(cur) and cur > 0):
+            raise CalibrationError(None, f"reference distance {d.a}–{d.b} ({d.distance:g} m): the photos place its "
+                                   f"two markers at the same point; check their clicks (a marker clicked twice "
+                                   "under two names?)")
+        implied.append((d.distance / cur, d, cur))
+    if len(implied) < 2:
+        return
+    lo, hi = min(implied, key=lambda t: t[0]), max(implied, key=lambda t: t[0])
+    factor = hi[0] / lo[0]
+    if factor > SCALE_DISAGREEMENT:
+        (_, a, cur_a), (_, b, cur_b) = hi, lo
+        raise CalibrationError(
+            None,
+            f"the scale distances {a.a}–{a.b} ({a.distance:g} m) and {b.a}–{b.b} ({b.distance:g} m) contradict each "
+            f"other by a factor of {factor:.3g}: where the photos place the markers, {a.a}–{a.b} is "
+            f"{cur_a / cur_b:.3g}× as long as {b.a}–{b.b}, but the distances say {a.distance / b.distance:.3g}×. "
+            "Check both values and their units (m), and that each joins the markers it names")
+
+
+def _check_finite_inputs(photos: Sequence[PhotoInput], known: Mapping[str, Array],
+                         distances: Sequence[ReferenceDistance]) -> None:
+    """Every number going into the placement is finite, else a CalibrationError naming its owner."""
+    for p in photos:
+        for what, v in (("focal length and principal point (K)", p.K), ("rotation (R)", p.R),
+                        ("calibration covariance", p.covariance)):
+            if not np.all(np.isfinite(np.asarray(v, float))):
+                raise CalibrationError(p.id, f"its {what} from the vanishing points is not a finite number; check its "
+                                       "vanishing lines (a near-degenerate set gives an infinite focal length)")
+        for name, uv in p.markers.items():
+            if np.shape(uv) != (2,) or not np.all(np.isfinite(np.asarray(uv, float))):
+                raise CalibrationError(p.id, f"marker '{name}': expected a finite pixel (u, v), got {uv!r}")
+    for name, pos in known.items():
+        if np.shape(pos) != (3,) or not np.all(np.isfinite(pos)):
+            raise CalibrationError(None, f"marker '{name}': its surveyed position is not three finite numbers")
+    for d in distances:
+        if not (np.isfinite(d.distance) and d.distance > 0 and np.isfinite(d.sigma) and d.sigma > 0):
+            raise CalibrationError(None, f"reference distance {d.a}–{d.b}: expected a length > 0 m and a σ > 0 m, "
+                                   f"got {d.distance!r} ± {d.sigma!r}")
+
+
+def _check_finite_start(C: Mapping[str, Array], X: Mapping[str, Array]) -> None:
+    """The construction's camera and marker positions must be finite numbers (a photo's
+    vanishing points or clicks can make a ray parallel to a baseline)."""
+    for pid, c in C.items():
+        if not np.all(np.isfinite(c)):
+            raise CalibrationError(pid, "the camera's position from the construction is not a finite number: its "
+                                   "rays to the markers it shares with other photos are parallel to the baseline; "
+                                   "check its vanishing lines and marker clicks, or mark another shared marker")
+    for name, x in X.items():
+        if not np.all(np.isfinite(x)):
+            raise CalibrationError(None, f"marker '{name}': its position from the photos is not a finite number "
+                                   "(its rays from two photos are parallel); check its clicks, or mark it in a "
+                                   "photo taken from elsewhere")
 
 
 def _rays(p: PhotoInput, names: Sequence[str]) -> Array:
@@ -406,12 +483,39 @@ def _refine(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mappi
         x0[9 * k + 6 : 9 * k + 9] = C0[i]
     for n in free_markers:
         x0[col[n] : col[n] + 3] = X0[n]
-    sol = least_squares(residuals, x0, jac=jacobian, loss="soft_l1", f_scale=ROBUST_SCALE,
-                        x_scale="jac", method="trf", xtol=1e-10, ftol=1e-10)
-    x = sol.x
-    res = residuals(x)
-    s2 = variance_factor(res, n_par)
-    cov = covariance_from_jacobian(jacobian(x)) * s2
+    def culprit(r: Array) -> str:
+        """Who the first non-finite residual belongs to: a photo's marker, a photo, a distance."""
+        k = int(np.flatnonzero(~np.isfinite(r))[0])
+        if k < 2 * n_obs:
+            pid, name, _ = obs[k // 2]
+            return f"photo '{pid}', marker '{name}'"
+        if k < 2 * n_obs + 6 * len(ids):
+            return f"photo '{ids[(k - 2 * n_obs) // 6]}' (its vanishing-point prior)"
+        d = scale_refs[k - 2 * n_obs - 6 * len(ids)]
+        return f"reference distance {d.a}–{d.b} ({d.distance:g} m)"
+
+    with np.errstate(all="ignore"):
+        r0 = residuals(x0)
+    if not np.all(np.isfinite(r0)):
+        raise CalibrationError(None, f"{culprit(r0)}: its residual at the start of the refinement is not a finite "
+                               "number (a marker in the camera's plane, or a camera on a marker); check that marker's "
+                               "clicks and the photo's vanishing lines")
+    try:
+        sol = least_squares(residuals, x0, jac=jacobian, loss="soft_l1", f_scale=ROBUST_SCALE,
+                            x_scale="jac", method="trf", xtol=1e-10, ftol=1e-10)
+        x = sol.x
+        res = residuals(x)
+        if not np.all(np.isfinite(res)):
+            raise CalibrationError(None, f"{culprit(res)}: the refinement of cameras and markers went to a "
+                                   "non-finite value there; check that marker's clicks in that photo")
+        s2 = variance_factor(res, n_par)
+        cov = covariance_from_jacobian(jacobian(x)) * s2
+    except (ValueError, np.linalg.LinAlgError) as e:
+        if not is_numeric_failure(e):
+            raise
+        raise CalibrationError(None, f"the refinement of camera and marker positions failed numerically ({e}); "
+                               "a photo's vanishing lines or marker clicks make it degenerate: check the photos "
+                               "with the fewest markers first") from None
 
     fc, R, C, Xa = unpack(x)
     X = {n: Xa[m_index[n]] for n in all_markers}

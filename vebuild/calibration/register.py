@@ -23,7 +23,13 @@ from scipy.optimize import least_squares
 
 from ..camera import exp_so3, intrinsic_matrix, pixel_rays_world, project, rotation_from_ypr, world_to_camera
 from ..errors import CalibrationError
-from .lsq import covariance_from_jacobian, numeric_jacobian, variance_factor
+from .lsq import (
+    covariance_from_jacobian,
+    numeric_failures,
+    numeric_jacobian,
+    photo_numeric_failures,
+    variance_factor,
+)
 from .photo import FocalPrior, PhotoCalibration
 from .positions import intersect_lines
 
@@ -83,6 +89,8 @@ def _refine(points: Array, pixels: Array, K0: Array, R0: Array, C0: Array, click
     return K, R, sol.x[6:9].copy(), cov, project(K, R, sol.x[6:9], points) - pixels
 
 
+@photo_numeric_failures("its registration to the model", "check the marked points (at least 4, not all on one "
+                        "line) and their known positions")
 def register_from_points(points: ArrayLike, pixels: ArrayLike, width: int, height: int, *, photo: str = "photo",
                          click_sigma_px: float = 1.0, principal_point_sigma_rel: float = 0.01,
                          focal: FocalPrior | None = None) -> Registered:
@@ -139,5 +147,7 @@ def register_with_vanishing_points(cal: PhotoCalibration, points: ArrayLike, pix
     C0 = intersect_lines(X, pixel_rays_world(cal.K, cal.R, uv))
     # Intrinsics and rotation held by their vanishing-point estimate and covariance.
     prior = np.r_[cal.f, cal.principal_point, 0.0, 0.0, 0.0]
-    K, R, C, cov, res = _refine(X, uv, cal.K, cal.R, C0, click_sigma_px, prior, cal.covariance)
+    with numeric_failures(cal.photo, "placing the camera from its known points", "check the marked points "
+                          "(not all on one line through the camera) and their known positions"):
+        K, R, C, cov, res = _refine(X, uv, cal.K, cal.R, C0, click_sigma_px, prior, cal.covariance)
     return Registered(K, R, C, cov, res, "vanishing points + points")

@@ -18,6 +18,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 
 from ..errors import CalibrationError
+from .lsq import photo_numeric_failures
 
 Array = NDArray[np.float64]
 
@@ -140,6 +141,8 @@ def tangent_basis(x: Array) -> tuple[Array, Array]:
     return t1, np.cross(x, t1)
 
 
+@photo_numeric_failures("the fit of a vanishing point", "check that axis' segments (straight edges along it, "
+                        "of some length, not all through one point)")
 def fit_vanishing_point(
     segments: ArrayLike, width: float, height: float, *, axis: str = "?", photo: str = "photo"
 ) -> VanishingPointFit:

@@ -550,6 +550,43 @@ class Problem:
         return levenberg_marquardt(self.residuals, self.jacobian, np.clip(x0, lo, hi), lo, hi, max_iterations,
                                    tol=tol, damping=damping, robust_rows=robust_rows)
 
+    def describe_row(self, row: int) -> str:
+        """What residual ``row`` measures: a pin, an edge, a marker sighting, a distance or a prior."""
+        for rows, items, what in ((self.rows_pin, self.pins, lambda p: f"pin {p.node}:{p.handle} in photo "
+                                   f"'{p.photo}'"),
+                                  (self.rows_edge, self.edges, lambda e: f"edge {e.node}:{e.edge} in photo "
+                                   f"'{e.photo}'"),
+                                  (self.rows_marker, self.marker_obs, lambda m: f"marker '{m.marker}' in photo "
+                                   f"'{m.photo}'")):
+            if len(rows) and rows[0, 0] <= row <= rows[-1, 1]:
+                return what(items[(row - int(rows[0, 0])) // 2])
+        if len(self.rows_dist) and self.rows_dist[0] <= row <= self.rows_dist[-1]:
+            d = self.distances[row - int(self.rows_dist[0])]
+            return f"reference distance {d.a}–{d.b} ({d.distance:g} m)"
+        if len(self.rows_prior_model) and self.rows_prior_model[0] <= row <= self.rows_prior_model[-1]:
+            return f"the model parameter {self.names[row - int(self.rows_prior_model[0])]}"
+        for cid, rows in self.rows_prior_cam.items():
+            if rows[0] <= row <= rows[-1]:
+                return f"the calibration of photo '{cid}'"
+        return f"residual {row}"
+
+    def check_finite(self, x: Array, when: str) -> None:
+        """A :class:`~vebuild.errors.VebuildError` naming the first observation whose residual at
+        ``x`` is not a finite number (a camera on a handle, a handle in a camera's plane, a size
+        beyond floating point), rather than a solve that silently stops or a NumPy traceback."""
+        from vebuild.errors import VebuildError
+
+        with np.errstate(all="ignore"):
+            bad = np.flatnonzero(~np.isfinite(self.residuals(x))) if np.all(np.isfinite(x)) else np.zeros(0, int)
+        if not np.all(np.isfinite(x)):
+            j = int(np.flatnonzero(~np.isfinite(x))[0])
+            what = f"the model parameter {self.names[j]}" if j < self.n_model else "a camera or marker parameter"
+            raise VebuildError(f"{what} is not a finite number {when}; check the values in the project's model")
+        if len(bad):
+            raise VebuildError(f"{self.describe_row(int(bad[0]))}: its residual is not a finite number {when} "
+                               f"({len(bad)} such rows); the point lies in the camera's plane or at no finite place: "
+                               "check that observation and the node's dimensions")
+
     def solution(self, x: Array, iterations: int = 0) -> Solution:
         """Covariance, residuals per observation, outliers and undetermined parameters at x."""
         J = self.jacobian(x)

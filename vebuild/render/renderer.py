@@ -44,6 +44,7 @@ from vebuild.gl import load_program
 from vebuild.gl.context import max_texture_size
 from vebuild.render.lighting import AS_PHOTOGRAPHED_LIGHTING, MAX_LIGHTS, Light, Lighting
 from vebuild.render.scene import RenderScene
+from vebuild.render.sizes import check_camera, gl_limits
 from vebuild.texture.merge import srgb8_to_linear
 
 Array = NDArray[np.float64]
@@ -381,6 +382,12 @@ class Renderer:
         prog["anaglyph_right"].write(ANAGLYPH_RIGHT.T.astype("f4").tobytes())
         self._fullscreen.render(moderngl.TRIANGLES, vertices=3)
 
+    def check_size(self, cam: ImageCamera, stereo: Stereo | None = None) -> tuple[int, int]:
+        """The composed image's width and height, if this context can draw it; otherwise a
+        VebuildError naming where the size came from (``cam.source``) and what is allowed
+        (:mod:`vebuild.render.sizes`). Every image the renderer allocates passes here first."""
+        return check_camera(cam, stereo.mode if stereo else None, **gl_limits(self.ctx))
+
     def output_size(self, cam: ImageCamera, stereo: Stereo | None = None) -> tuple[int, int]:
         """Width and height of the composed image."""
         w, h = cam.width, cam.height
@@ -434,7 +441,7 @@ class Renderer:
 
     def frame(self, cam: ImageCamera, stereo: Stereo | None = None) -> moderngl.Texture:
         """Draw one frame off-screen (no read-back); returns the texture holding it (image order)."""
-        W, H = self.output_size(cam, stereo)
+        W, H = self.check_size(cam, stereo)
         draw, resolve, image = self._target(W, H, "output")
         self.draw(draw, cam, stereo)
         if draw is not resolve:
@@ -456,6 +463,7 @@ class Renderer:
     def id_buffer(self, cam: ImageCamera) -> tuple[NDArray[np.int32], NDArray[np.float32]]:
         """The ID buffer of ``cam``'s view (the texture-extraction pass, paper Figure 8): per pixel
         the 1-based global face id seen at its centre (0: nothing) and that face's camera depth."""
+        self.check_size(cam)
         near, far = self._near_far(cam)
         key = (cam.width, cam.height)
         if self._pick_target is None or self._pick_target.size != key:

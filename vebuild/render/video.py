@@ -156,7 +156,7 @@ class CameraPath:
         timing.check()
         if len(views) < 2:
             raise VebuildError(f"--views: expected at least two views to walk between, got {len(views)}")
-        check_size(width, height)
+        check_size(width, height, views[0].source or "--size")
         self.timing = timing
         self.fps = float(timing.fps)
         self.width, self.height = int(width), int(height)
@@ -244,7 +244,7 @@ class CameraPath:
         f = 0.5 * self.width / np.tan(0.5 * float(self._fov(tau)))
         px, py = self._principal(tau)
         K = np.array([[f, 0.0, px * self.width], [0.0, f, py * self.height], [0.0, 0.0, 1.0]])
-        return ImageCamera(f"frame {frame}", K, R, C, self.width, self.height)
+        return ImageCamera(f"frame {frame}", K, R, C, self.width, self.height, source=self.views[0].source)
 
     def cameras(self) -> Iterator[ImageCamera]:
         """Every frame's camera, in order."""
@@ -261,14 +261,18 @@ def camera_path(views: Sequence[ImageCamera], size: tuple[int, int] | None = Non
     return CameraPath(views, w, h, timing or Timing())
 
 
-def check_size(width: int, height: int) -> None:
+def check_size(width: int, height: int, source: str = "--size") -> None:
     """Even sides of 2 … :data:`MAX_SIDE` pixels (H.264 in yuv420p halves the colour resolution,
-    so it needs even sides); an error saying so otherwise."""
+    so it needs even sides) within the limits of every render (:mod:`vebuild.render.sizes`); an
+    error naming ``source`` (where the size came from) otherwise."""
+    from vebuild.render.sizes import check_render_size
+
     if not all(isinstance(v, int | np.integer) and 2 <= v <= MAX_SIDE for v in (width, height)):
-        raise VebuildError(f"--size: expected a width and height between 2 and {MAX_SIDE} pixels, "
+        raise VebuildError(f"{source}: expected a width and height between 2 and {MAX_SIDE} pixels, "
                            f"got {width}×{height}")
+    check_render_size(width, height, source, max_side=MAX_SIDE)
     if width % 2 or height % 2:
-        raise VebuildError(f"--size: H.264 (yuv420p) needs an even width and height, got {width}×{height}; "
+        raise VebuildError(f"{source}: H.264 (yuv420p) needs an even width and height, got {width}×{height}; "
                            f"use --size {width - width % 2}x{height - height % 2}")
 
 
@@ -450,18 +454,25 @@ def render_video(project: Project, request: VideoRequest,
     lighting is set here); by default one is made on the headless context and released after.
     """
     from vebuild.render.lighting import find_preset
+    from vebuild.render.sizes import check_camera
     from vebuild.render.views import find_view
 
     if request.stereo is not None and request.stereo not in STEREO_MODES:
         raise VebuildError(f"--stereo: expected one of {', '.join(STEREO_MODES)}, got {request.stereo!r}")
     cams = [find_view(project, name) for name in request.views]
-    if request.size is None and len(cams) >= 2:
+    if request.size is not None:
+        cams = [c.resized(*request.size, source="--size") for c in cams]
+    elif cams:
+        first = cams[0].source.replace(" (width × height)", "")
+        source = (f"{first} (width × height of view {request.views[0]!r}, which sets the video's size; "
+                  "no --size given)")
+        cams = [c.resized(c.width, c.height, source=source) for c in cams]
+    if len(cams) >= 2:
         try:
-            check_size(cams[0].width, cams[0].height)
+            check_size(cams[0].width, cams[0].height, cams[0].source)
+            check_camera(cams[0], request.stereo, max_side=MAX_SIDE)
         except VebuildError as e:
-            index = [v["name"] for v in project.data.get("views", [])].index(request.views[0])
-            raise ProjectError(project.path, f"$.views[{index}]", f"view {request.views[0]!r} sets the video's "
-                               f"size (no --size given): {e}") from None
+            raise (e if request.size is not None else ProjectError(project.path, "", str(e))) from None
     path = camera_path(cams, request.size, request.timing)
     lighting = find_preset(project, request.lighting)
     created_folder = False
@@ -485,10 +496,11 @@ def render_video(project: Project, request: VideoRequest,
 
 def _render(project: Project, request: VideoRequest, path: CameraPath, lighting: Any, out: Path,
             progress: Callable[[int, int, str], None] | None, renderer: Renderer | None) -> VideoResult:
-    from vebuild.gl import headless_context, max_texture_size
+    from vebuild.gl import headless_context
     from vebuild.project import sha256_file
     from vebuild.render.renderer import Renderer, Stereo
     from vebuild.render.scene import load_scene
+    from vebuild.render.sizes import check_camera, gl_limits
 
     own = renderer is None
     warnings: list[str] = []
@@ -498,11 +510,9 @@ def _render(project: Project, request: VideoRequest, path: CameraPath, lighting:
         renderer = Renderer(headless_context(), scene)
     try:
         stereo = Stereo(request.stereo) if request.stereo else None
-        W, H = renderer.output_size(path.views[0], stereo)
-        limit = min(MAX_SIDE, max_texture_size(renderer.ctx))
-        if max(W, H) > limit:
-            raise VebuildError(f"--size: the {'stereo ' if stereo else ''}frame would be {W}×{H} pixels; "
-                               f"at most {limit} a side can be rendered and encoded here")
+        limits = gl_limits(renderer.ctx)
+        W, H = check_camera(path.views[0], request.stereo,
+                            **{**limits, "max_side": min(MAX_SIDE, limits.get("max_side", MAX_SIDE))})
         renderer.set_lighting(lighting)
         meta = {"title": " → ".join(request.views), "encoder": f"vebuild {__version__}",
                 "comment": json.dumps({"project": project.path.name, "project_sha256": sha256_file(project.path),

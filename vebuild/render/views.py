@@ -22,8 +22,9 @@ DEFAULT_FOV_DEG = 60.0
 FRAME_35MM_WIDTH_MM = 36.0
 
 
-def view_camera(view: dict[str, Any]) -> ImageCamera:
-    """The camera of one view record (validated by the project's schema)."""
+def view_camera(view: dict[str, Any], where: str = "") -> ImageCamera:
+    """The camera of one view record (validated by the project's schema); ``where``: its JSON path
+    (``$.views[2]``), which the camera's :attr:`~vebuild.camera.ImageCamera.source` names."""
     C = np.asarray(view["position"], float)
     direction = np.asarray(view["look_at"], float) - C if "look_at" in view else np.asarray(view["direction"], float)
     R = look_rotation(direction, np.radians(view.get("roll_deg", 0.0)))
@@ -33,7 +34,8 @@ def view_camera(view: dict[str, Any]) -> ImageCamera:
     else:
         f = fov_to_focal(np.radians(view.get("fov_deg", DEFAULT_FOV_DEG)), w)
     K = np.array([[f, 0.0, w / 2], [0.0, f, h / 2], [0.0, 0.0, 1.0]])
-    return ImageCamera(view["name"], K, R, C, w, h)
+    return ImageCamera(view["name"], K, R, C, w, h,
+                       source=f"{where or 'view ' + repr(view['name'])} (width × height)")
 
 
 def view_record(cam: ImageCamera, name: str, description: str | None = None) -> dict[str, Any]:
@@ -53,9 +55,9 @@ def view_record(cam: ImageCamera, name: str, description: str | None = None) -> 
 def find_view(project: Project, name: str) -> ImageCamera:
     """The camera of the view called ``name``; an error listing the views if there is none."""
     views = project.data.get("views", [])
-    for v in views:
+    for i, v in enumerate(views):
         if v["name"] == name:
-            return view_camera(v)
+            return view_camera(v, f"$.views[{i}]")
     known = ", ".join(repr(v["name"]) for v in views) or "none (add them under \"views\")"
     raise ProjectError(project.path, "$.views", f"no view is called {name!r}; the views are: {known}")
 
@@ -73,5 +75,7 @@ def photo_camera(project: Project, photo: str) -> ImageCamera:
         raise ProjectError(project.path, "$.calibration.cameras",
                            f"photo {photo!r} has no calibrated camera; run `vebuild calibrate` (or `vebuild register`)")
     p = project.photo(photo)
+    i = ids.index(photo)
     return ImageCamera(photo, np.asarray(cam["K"], float), np.asarray(cam["R"], float),
-                       np.asarray(cam["position"]["value"], float), int(p["width"]), int(p["height"]))
+                       np.asarray(cam["position"]["value"], float), int(p["width"]), int(p["height"]),
+                       source=f"$.photos[{i}] (photo {photo!r}: width × height)")

@@ -31,6 +31,7 @@ says "HYPOTHESIS" in red. All of it is written to the project file, the measured
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from pathlib import Path
@@ -178,10 +179,11 @@ class Viewer:
     def camera(self) -> ImageCamera:
         """The camera of the (whole, mono) view being shown."""
         x, y, w, h = self.viewport()
+        where = f"the viewer's window ({w}×{h} pixels)"
         if self.photo is not None:
             cam = photo_camera(self.project, self.photo)
-            return cam.scaled(w / cam.width)
-        return self.walker.camera(w, h)
+            return dataclasses.replace(cam.scaled(w / cam.width), source=where)
+        return dataclasses.replace(self.walker.camera(w, h), source=where)
 
     def eye_camera(self) -> ImageCamera:
         """The camera handed to the renderer: a stereo mode splits the window between the eyes."""
