@@ -62,7 +62,7 @@ RENDERS = ["render-view", "render-photo", "export", "video", "report"]
 EXPECT_WORD = (r"expected|must|should|at least|at most|greater|less|between|no more|too |only|cannot|not "
                r"|needs?|invalid|unknown|refus|finite|positive|non-zero|nonzero|out of|exceed|limit|range|"
                r"within|contradict|inconsistent|disagree|but |instead|missing|changed|already|no such|not found|no |"
-               r"run |first|outside|choose|the \w+ are|its \w+ are")
+               r"run |first|outside|choose|the \w+ are|its \w+ are|required|which has")
 
 PROJECT = "room.vebuild.json"
 
@@ -352,17 +352,17 @@ case("reference-distance-unknown-handle", setter(("reference_distances", 2, "b")
      V + ["calibrate", "solve"], [P, "$.reference_distances[2].b", "v99"])
 case("two-scale-distances-contradict", doc_fn(lambda d: d["reference_distances"].append(
         {"a": "O", "b": "Y4", "distance": 400.0, "sigma": 0.002, "role": "scale"})),
-     ["calibrate", "solve-recal"], [P, "$.reference_distances["])
+     ["calibrate", "solve-recal"], [P, ("$.reference_distances[", "the scale distances")])
 case("scale-distances-contradict-by-100", setter(("reference_distances", 1, "distance"), 400.0),
-     ["calibrate", "solve-recal"], [P, "$.reference_distances["])
+     ["calibrate", "solve-recal"], [P, ("$.reference_distances[", "the scale distances")])
 case("no-scale-distance", setter(("reference_distances",), []),
-     ["calibrate"], [P, "$.reference_distances"], state="raw")
+     ["calibrate"], [P, ("$.reference_distances", "reference distance")], state="raw")
 case("no-photos", setter(("photos",), []), ["calibrate", "register"], [P, "$.photos"], state="raw")
 case("origin-marker-unknown", setter(("origin_marker",), "Q"), V + ["calibrate"], [P, "$.origin_marker", "Q"])
 case("marker-observation-unknown-marker", setter(("photos", 0, "marker_observations", "Q"), [10.0, 10.0]),
      V + ["calibrate"], [P, "$.photos[0].marker_observations", "Q"])
 case("vanishing-segment-zero-length", setter(("photos", 0, "vanishing_segments", "x", 0), [597.6, 610.2, 597.6, 610.2]),
-     V + ["calibrate"], [P, "$.photos[0].vanishing_segments.x[0]"])
+     V + ["calibrate"], [P, ("$.photos[0].vanishing_segments.x[0]", "$.photos[0] photo 'p1': axis x, segment 0")])
 case("vanishing-segments-unknown-axis", setter(("photos", 0, "vanishing_segments", "w"), [[1, 2, 3, 4]]),
      V + ["calibrate"], [P, "$.photos[0].vanishing_segments", "w"])
 case("duplicate-photo-id", setter(("photos", 1, "id"), "p1"), V + ["calibrate", "render-photo"], [P, "$.photos[1].id"])
@@ -459,11 +459,6 @@ case("recorded-analysis-h", _analysis(["-h"]), V + ["report"], [P, "$.analyses[0
 case("recorded-analysis-empty", _analysis([]), V + ["report"], [P, "$.analyses[0].command"])
 case("recorded-analysis-unknown-node", _analysis(["distance", "sofa:v1", "cabinet:v4"]), ["report"],
      [P, "$.analyses[0]", "sofa"])
-case("recorded-analysis-json-into-project", _analysis(["dimensions", "cabinet", "--json", PROJECT]),
-     V + ["report"], [P, "$.analyses[0].command"])
-case("recorded-analysis-out-over-photo", _analysis(["sightline", "--standing", "3.7,0.4", "--object", "box",
-                                                    "--out", "photos/p1.jpg"]),
-     V + ["report"], [P, "$.analyses[0].command"])
 
 # -- 5. results: calibration, model_solution, textures ---------------------------------------------
 
@@ -502,10 +497,6 @@ def _atlas_file(ctx: Ctx) -> Path:
     return ctx.folder / ctx.doc["textures"]["pages"][0]["atlas"]
 
 
-def _atlas_missing(ctx: Ctx) -> None:
-    _atlas_file(ctx).unlink()
-
-
 def _atlas_changed(ctx: Ctx) -> None:
     f = _atlas_file(ctx)
     b = bytearray(f.read_bytes())
@@ -526,14 +517,13 @@ def _textures_symlink(ctx: Ctx) -> None:
     (ctx.folder / "textures").symlink_to(outside, target_is_directory=True)
 
 
-case("atlas-file-missing", _atlas_missing, ["check", "render-view", "export"],
-     [(P, "textures/atlas_"), "$.textures.pages[0].atlas"])
 case("atlas-file-changed", _atlas_changed, ["check", "render-view", "export"],
      [(P, "textures/atlas_"), "$.textures.pages[0]"],
      any_of=["sha256", "changed"])
 case("atlas-not-an-image", _atlas_not_image, ["check", "render-view", "export"],
      [(P, "textures/atlas_"), "$.textures.pages[0].atlas"])
-case("textures-folder-symlink", _textures_symlink, ["check", "render-view", "export", "texture"], [P, "textures"])
+case("textures-folder-symlink", _textures_symlink, ["check", "render-view", "export", "texture"],
+     [(P, "{D}/textures"), "textures"])
 case("texture-face-rect-outside-page", setter(("textures", "faces", 0, "rect"), [0, 0, 1000000, 1000000]),
      V + ["render-view", "export"], [P, "$.textures.faces[0].rect"])
 case("texture-face-unknown-page", setter(("textures", "faces", 0, "page"), 7),
@@ -626,8 +616,6 @@ case("empty-file", write_bytes(b""), LOAD, [P], any_of=["empty", "JSON"])
 case("only-whitespace", write_bytes(b"   \n\n"), ["check"], [P], any_of=["empty", "JSON"])
 case("truncated-json", raw(lambda t: t[: len(t) // 2]), LOAD_SHORT, [P], any_of=["JSON", "line "])
 case("binary-garbage", write_bytes(bytes(range(256)) * 4), ["check", "render-view"], [P], any_of=["UTF-8", "JSON"])
-case("nul-bytes-in-json", raw(replace_once('"name": "Example room', '"name": "Example\\u0000 room')),
-     ["check", "report", "export"], [P, "$.name"])
 case("unknown-top-level-key", setter(("photoes",), []), LOAD_SHORT, [P, "photoes"])
 case("missing-required-key", deleter(("markers",)), LOAD_SHORT, [P, "markers"])
 
@@ -729,15 +717,17 @@ for _parts, _value, _cmds in RESULT_TYPE_ERRORS:
 
 # -- 9. command lines: outputs that would overwrite or delete something, bad options, unknown names -----
 
-case("report-out-project-folder", nothing, [["report", P, "--out", "{D}", "--no-pdf", "--quiet"]], ["--out"])
-case("report-out-photos", nothing, [["report", P, "--out", "{D}/photos", "--no-pdf", "--quiet"]], ["--out"])
-case("report-out-dot-in-project-folder", nothing, [["report", P, "--out", ".", "--no-pdf", "--quiet"]], ["--out"],
-     cwd="project")
+case("report-out-project-folder", nothing, [["report", P, "--out", "{D}", "--no-pdf", "--quiet"]], [("--out", "{D}:")])
+case("report-out-photos", nothing, [["report", P, "--out", "{D}/photos", "--no-pdf", "--quiet"]],
+     [("--out", "{D}/photos")])
+case("report-out-dot-in-project-folder", nothing, [["report", P, "--out", ".", "--no-pdf", "--quiet"]],
+     [("--out", ".:")], cwd="project")
 case("report-out-folder-with-unrelated-file", lambda ctx: (ctx.out / "mine").mkdir() or
      (ctx.out / "mine" / "notes.txt").write_text("the examiner's own notes\n"),
-     [["report", P, "--out", "{OUT}/mine", "--no-pdf", "--quiet"]], ["--out", "mine"])
+     [["report", P, "--out", "{OUT}/mine", "--no-pdf", "--quiet"]], [("--out", "{OUT}/mine")])
 case("report-out-project-file", nothing, [["report", P, "--out", P, "--no-pdf", "--quiet"]], [P])
-case("report-out-parent-of-project", nothing, [["report", P, "--out", "{D}/..", "--no-pdf", "--quiet"]], ["--out"])
+case("report-out-parent-of-project", nothing, [["report", P, "--out", "{D}/..", "--no-pdf", "--quiet"]],
+     [("--out", "{D}/..")])
 
 
 def _photo_as_png(ctx: Ctx) -> None:
@@ -757,13 +747,10 @@ case("render-out-over-photo-png", _photo_as_png,
        "64x36", "--out", "{D}/photos/p1.png"],
       ["analyse", P, "sightline", "--standing", "3.7,0.4", "--object", "box", "--size", "64x36", "--out",
        "{D}/photos/p1.png"]],
-     ["--out", "p1.png"])
-case("render-out-photos-new-png", nothing,
-     [["render", P, "--view", "doorway", "--out", "{D}/photos/p1.png", "--size", "64x36"]], ["--out", "photos"])
+     [("--out", "{D}/photos/p1.png")])
 case("render-out-project-file", nothing, [["render", P, "--view", "doorway", "--out", P, "--size", "64x36"]], [P])
 case("export-out-project-file", nothing, [["export", P, "--out", P]], [P])
 case("export-out-photo", nothing, [["export", P, "--out", "{D}/photos/p1.jpg"]], ["p1.jpg"])
-case("export-obj-into-photos", nothing, [["export", P, "--out", "{D}/photos/p1.obj"]], ["--out", "photos"])
 case("video-out-over-photo", nothing, [["video", P, "--views", "doorway,overview", "--out", "{D}/photos/p1.jpg",
                                         "--size", "64x36", "--fps", "2", "--quiet"]], ["p1.jpg"])
 case("analyse-json-over-project", nothing, [["analyse", P, "dimensions", "cabinet", "--json", P]], [P])
@@ -831,7 +818,8 @@ case("render-bad-out", nothing, [["render", P, "--view", "doorway", "--out", "{O
 M = ["mark", P, "Z"]
 case("mark-bad-at", nothing, [[*M, "--at", "1,2"], [*M, "--at", "nan,0,0"], [*M, "--at", "1e308,0,0"],
                               [*M, "--at", "photo:p1@1e9,1"], [*M, "--at", "view:doorway@-5,-5"],
-                              [*M, "--at", "photo:p1@"], [*M, "--at", "50,50,50"]], ["--at"])
+                              [*M, "--at", "photo:p1@"], [*M, "--at", "50,50,50"]],
+     [("--at", "evidence marker 'Z'")])
 case("mark-remove-unknown", nothing, [["mark", P, "nope", "--remove"]], [P, "$.evidence_markers", "nope"])
 case("mark-empty-label", nothing, [["mark", P, "", "--at", "2,2,0"]], [], any_of=["label", "$.evidence_markers"])
 case("mark-unsolved", nothing, [CMDS["mark"]], [P], any_of=["solve", "model"], state="raw")
@@ -872,4 +860,4 @@ case("new-duplicate-photo-id", lambda ctx: shutil.copy(ctx.folder / "photos" / "
 case("new-same-photo-twice", nothing, [["new", "{D}/n.vebuild.json", "{D}/photos/p1.jpg", "{D}/photos/p1.jpg"]],
      ["p1"])
 case("new-lone-surrogate-name", nothing, [["new", "{D}/n.vebuild.json", "--name", "bad\udc80name"]],
-     ["--name"], any_of=["n.vebuild.json"])
+     [("--name", "$.name")], any_of=["n.vebuild.json"])
