@@ -861,3 +861,135 @@ case("new-same-photo-twice", nothing, [["new", "{D}/n.vebuild.json", "{D}/photos
      ["p1"])
 case("new-lone-surrogate-name", nothing, [["new", "{D}/n.vebuild.json", "--name", "bad\udc80name"]],
      [("--name", "$.name")], any_of=["n.vebuild.json"])
+
+
+# -- cases that still fail with the fixes in flight merged (h-a, h-b, h-c): real findings, kept strict ----
+# Test id (case|command) → what happens and which area it belongs to. Strict: a fix makes the test XPASS,
+# which fails the suite until the entry is removed here.
+
+KNOWN_FAILURES: dict[str, str] = {
+    'principal-point-sigma-rel-1e-300|check':
+        'h-b: check accepts settings.principal_point_sigma_rel = 1e-300 (no lower bound on the relative sigmas)',
+    'principal-point-sigma-rel-1e-300|calibrate':
+        "h-b/h-c: calibrate fails 'numerically' naming $.photos[0], not $.settings.principal_point_sigma_rel",
+    'calibration-all-zero-rotation|render-photo':
+        'h-b: render --photo draws with an all-zero R; only `check` decodes the cameras',
+    'calibration-all-zero-rotation|export':
+        "h-b: export raises ValueError('not a rigid transform') on an all-zero R",
+    'calibration-all-zero-rotation|mark-photo':
+        'h-b: mark --at photo: says the pixel shows no surface, not that $.calibration.cameras.p1.R is no rotation',
+    'calibration-rotation-not-orthonormal|render-photo':
+        'h-b: render --photo draws with a non-orthonormal R; only `check` decodes the cameras',
+    'calibration-K-zero-focal|render-photo':
+        'h-b: render --photo draws with f = 0 in K; only `check` decodes the cameras',
+    'calibration-K-zero-focal|export':
+        'h-b: export raises ZeroDivisionError in focal_to_fov on f = 0',
+    'reference-distance-unknown-handle|check':
+        'h-b: check accepts a reference distance to a handle its node does not have (cabinet:v99)',
+    'reference-distance-unknown-handle|calibrate':
+        "h-b: calibrate's message calls cabinet:v99 an unobserved marker, with no JSON path",
+    'reference-distance-unknown-handle|solve':
+        'h-b: solve accepts a reference distance to a handle its node does not have, and rewrites the project',
+    'two-scale-distances-contradict|solve-recal':
+        'h-c: solve --recalibrate accepts scale distances that contradict (4 m and 400 m) and rewrites the project',
+    'scale-distances-contradict-by-100|solve-recal':
+        'h-c: solve --recalibrate accepts scale distances that contradict by 100x and rewrites the project',
+    'vanishing-segment-zero-length|check':
+        'h-b: check accepts a zero-length vanishing segment (calibrate refuses it)',
+    'view-too-large-20000x1|check':
+        'h-b/h-c: check accepts a 20000x1 view that render refuses',
+    'view-too-large-20000x1|1:render --view big --out':
+        "h-c: render's size message names $.views[3] but not the project file",
+    'view-too-large-40000x40000|check':
+        'h-b/h-c: check accepts a 40000x40000 view that render refuses',
+    'view-too-large-40000x40000|1:render --view big --out':
+        "h-c: render's size message names $.views[3] but not the project file",
+    'view-too-large-sightline-recorded|check':
+        'h-c: check accepts a recorded sight line of 40000x40000 (and a view of that size)',
+    'hypothesis-hinge-beyond-limits|check':
+        "h-b: check accepts a hypothesis whose hinge angle (720 deg) lies outside the joint's limits",
+    'hypothesis-hinge-beyond-limits|1:render --view doorway --hypothesis h':
+        'h-b: render --hypothesis raises ModelError (not a VebuildError): a traceback',
+    'model-solution-covariance-not-square|check':
+        'h-b: check accepts a model_solution covariance that is not square',
+    'model-solution-covariance-not-square|analyse':
+        'h-b: analyse raises ValueError reshaping a non-square covariance',
+    'model-solution-covariance-not-square|report':
+        'h-b: report accepts a model_solution covariance that is not square',
+    'model-solution-orphan-node|check':
+        'h-b: check accepts model_solution.nodes naming a node the model lacks',
+    'model-solution-orphan-node|analyse':
+        'h-b: analyse accepts model_solution.nodes naming a node the model lacks',
+    'model-solution-orphan-node|report':
+        'h-b: report accepts model_solution.nodes naming a node the model lacks',
+    'duplicate-keys|check':
+        "h-b: a duplicate key's message gives no location (no JSON path, no line)",
+    'duplicate-keys|calibrate':
+        "h-b: a duplicate key's message gives no location (no JSON path, no line)",
+    'duplicate-keys|solve':
+        "h-b: a duplicate key's message gives no location (no JSON path, no line)",
+    'duplicate-keys|solve-recal':
+        "h-b: a duplicate key's message gives no location (no JSON path, no line)",
+    'duplicate-keys|texture':
+        "h-b: a duplicate key's message gives no location (no JSON path, no line)",
+    'duplicate-keys|render-view':
+        "h-b: a duplicate key's message gives no location (no JSON path, no line)",
+    'duplicate-keys|render-photo':
+        "h-b: a duplicate key's message gives no location (no JSON path, no line)",
+    'duplicate-keys|report':
+        "h-b: a duplicate key's message gives no location (no JSON path, no line)",
+    'duplicate-keys|export':
+        "h-b: a duplicate key's message gives no location (no JSON path, no line)",
+    'duplicate-keys|video':
+        "h-b: a duplicate key's message gives no location (no JSON path, no line)",
+    'duplicate-keys|analyse':
+        "h-b: a duplicate key's message gives no location (no JSON path, no line)",
+    'duplicate-keys|mark':
+        "h-b: a duplicate key's message gives no location (no JSON path, no line)",
+    'duplicate-keys|register':
+        "h-b: a duplicate key's message gives no location (no JSON path, no line)",
+    'duplicate-keys-nested|check':
+        "h-b: a duplicate key's message gives no location (no JSON path, no line)",
+    'duplicate-keys-nested|calibrate':
+        "h-b: a duplicate key's message gives no location (no JSON path, no line)",
+    'nan-literal|check':
+        "h-b: a NaN literal's message gives no location (no JSON path, no line)",
+    'nan-literal|calibrate':
+        "h-b: a NaN literal's message gives no location (no JSON path, no line)",
+    'nan-literal|solve':
+        "h-b: a NaN literal's message gives no location (no JSON path, no line)",
+    'nan-literal|solve-recal':
+        "h-b: a NaN literal's message gives no location (no JSON path, no line)",
+    'nan-literal|texture':
+        "h-b: a NaN literal's message gives no location (no JSON path, no line)",
+    'nan-literal|render-view':
+        "h-b: a NaN literal's message gives no location (no JSON path, no line)",
+    'nan-literal|render-photo':
+        "h-b: a NaN literal's message gives no location (no JSON path, no line)",
+    'nan-literal|report':
+        "h-b: a NaN literal's message gives no location (no JSON path, no line)",
+    'nan-literal|export':
+        "h-b: a NaN literal's message gives no location (no JSON path, no line)",
+    'nan-literal|video':
+        "h-b: a NaN literal's message gives no location (no JSON path, no line)",
+    'nan-literal|analyse':
+        "h-b: a NaN literal's message gives no location (no JSON path, no line)",
+    'nan-literal|mark':
+        "h-b: a NaN literal's message gives no location (no JSON path, no line)",
+    'nan-literal|register':
+        "h-b: a NaN literal's message gives no location (no JSON path, no line)",
+    'infinity-literal|check':
+        "h-b: an Infinity literal's message gives no location (no JSON path, no line)",
+    'infinity-literal|calibrate':
+        "h-b: an Infinity literal's message gives no location (no JSON path, no line)",
+    'bad-size-empty|0:render --view doorway --out --size':
+        "h-c: render --size '' is taken as no size (the view's own) instead of refused",
+    'bad-size-empty|1:video --views doorway,overview --out --size':
+        "h-c: video --size '' is taken as no size instead of refused",
+    'texture-bad-numbers|3:texture --quiet --density 1e308':
+        'h-c: texture --density 1e308 raises OverflowError in plan_faces (a traceback)',
+    'mark-bad-at|1:mark Z --at nan,0,0':
+        'h-c (no branch owns mark): mark --at nan,0,0 raises ValueError in the k-d tree query (a traceback)',
+    'new-over-photo|1:new --force':
+        'h-a: new PHOTO --force writes the project over the photo photos/p1.jpg',
+}
