@@ -149,3 +149,155 @@ def _report_without_renders(write_report, monkeypatch):
             monkeypatch.setattr(report, section, lambda project, rep: None)
         return write_report(project, out, pdf, progress)
     return run
+
+
+# -- texture layout --------------------------------------------------------------------------------
+
+def _boxes(n: int, side_m: float, first_width_m: float | None = None):
+    from vebuild.model.scene import model_from_dict
+
+    return model_from_dict([
+        {"name": f"box{i}", "primitive": {"type": "box", "params": {
+            "width": first_width_m if (i == 0 and first_width_m is not None) else side_m,
+            "depth": side_m, "height": side_m}},
+         "joint": {"type": "fixed", "translation": [0, 0, 0], "rotation_deg": [0, 0, 0]}} for i in range(n)])
+
+
+def test_a_face_of_no_finite_size_is_named():
+    from vebuild.texture import layout as lay
+
+    with pytest.warns(RuntimeWarning), pytest.raises(VebuildError, match=r"node 'box0' face '\w+': its chart is "
+                                                                          r"nan m × nan m, not a finite size"):
+        lay.layout(_boxes(1, 1.0, first_width_m=1e308), 200.0, 2048, 4096)
+
+
+def test_an_atlas_too_large_is_refused_before_anything_is_allocated():
+    from vebuild.texture import layout as lay
+
+    model = _boxes(300, 20.0)
+    with pytest.raises(VebuildError) as e:
+        lay.layout(model, 100.0, 2048, 4096)
+    msg = str(e.value)
+    assert re.search(r"the texture atlas would need [\d,]+ texels on \d+ page\(s\) of at most 4096² \([\d.]+ GiB", msg)
+    assert f"more than the limit of {lay.MAX_ATLAS_TEXELS:,} texels" in msg
+    assert "node 'box0' face 'front' 2000×2000 texels (20 m × 20 m)" in msg
+    fit = float(re.search(r"Lower --density \(texels per metre\) to ([\d.]+) or less", msg)[1])
+    faces = lay.layout(model, fit, 2048, 4096)  # the density it suggests fits
+    assert sum(w * h for w, h in lay.page_sizes(faces)) <= lay.MAX_ATLAS_TEXELS
+    with pytest.raises(VebuildError, match="Lower --density"):
+        lay.layout(model, fit * 1.05, 2048, 4096)
+    with pytest.raises(VebuildError, match="too many to texture even at one texel each"):
+        lay.layout(model, 1.0, 2048, 4096, max_texels=1000)
+
+
+def test_vebuild_texture_refuses_a_huge_atlas_with_status_2(room, capsys, monkeypatch):
+    from vebuild.actions import texture
+    from vebuild.texture import layout as lay
+
+    def refuse(project, options, progress=None, timings=None):  # the layout alone, on the project's model
+        lay.layout(_boxes(300, 20.0), options.texels_per_metre, options.max_face_texels, 4096)
+    monkeypatch.setattr(texture, "texture_project", refuse)
+    assert main(["texture", str(room), "--density", "100"]) == 2
+    err = capsys.readouterr().err
+    assert "the texture atlas would need" in err and "Lower --density" in err and "Traceback" not in err
+    assert not (room.parent / "textures").exists()
+
+
+# -- calibration numerics --------------------------------------------------------------------------
+
+def _calibration_inputs(rng):
+    from vebuild.calibration.photo import calibrate_photo
+    from vebuild.calibration.positions import PhotoInput
+    from vebuild.synthetic import CLICK_NOISE_PX, random_scene
+
+    photos, markers = random_scene(rng, ("3vp", "3vp", "2vp"))
+    inputs = []
+    for p in photos:
+        cal = calibrate_photo(p.segments, p.width, p.height, photo=p.id, click_sigma_px=CLICK_NOISE_PX)
+        inputs.append(PhotoInput(p.id, cal.K, cal.R, cal.covariance, dict(p.markers)))
+    return inputs, markers
+
+
+def test_contradicting_scale_distances_are_named_before_the_solve(rng):
+    import time
+
+    import numpy as np
+
+    from vebuild.calibration.positions import ReferenceDistance, place_cameras
+
+    inputs, markers = _calibration_inputs(rng)
+    true = lambda a, b: float(np.linalg.norm(markers[a] - markers[b]))  # noqa: E731
+    seen = set.intersection(*(set(p.markers) for p in inputs[:2])) - {"O"}
+    m1, m2, *more = sorted(seen)
+    a, b = (more[0], m2) if more else (m1, m2)
+    good = [ReferenceDistance("O", m1, true("O", m1)), ReferenceDistance(a, b, true(a, b))]
+    place_cameras(inputs, origin="O", distances=good)  # consistent: no complaint
+    bad = [good[0], ReferenceDistance(a, b, 100.0 * true(a, b))]
+    t = time.perf_counter()
+    with pytest.raises(VebuildError, match=rf"the scale distances {a}–{b} \([\d.]+ m\) and O–{m1} \([\d.]+ m\) "
+                                           r"contradict each other by a factor of (9\d|10\d|11\d)(\.\d+)?: .*Check "):
+        place_cameras(inputs, origin="O", distances=bad)
+    assert time.perf_counter() - t < 5.0  # before the full solve (which took 21–80 s to fail)
+
+
+def test_a_non_finite_start_names_the_photo(rng):
+    import numpy as np
+
+    from vebuild.calibration.positions import PhotoInput, ReferenceDistance, place_cameras
+
+    inputs, _ = _calibration_inputs(rng)
+    p = inputs[1]
+    K = p.K.copy()
+    K[0, 0] = np.inf
+    inputs[1] = PhotoInput(p.id, K, p.R, p.covariance, p.markers)
+    m1 = sorted(set(inputs[0].markers) - {"O"})[0]
+    with pytest.raises(VebuildError, match=r"photo 'p2': "):
+        place_cameras(inputs, origin="O", distances=[ReferenceDistance("O", m1, 1.0)])
+
+
+def test_a_solve_that_meets_a_non_finite_residual_names_the_observation():
+    import numpy as np
+
+    from vebuild.model.scene import model_from_dict
+    from vebuild.model.solver import Camera, Pin, Problem
+    from vebuild.synthetic import model_scene
+
+    rng = np.random.default_rng(13)
+    _, start, pins, photos = model_scene(rng, n_boxes=1, n_photos=2)
+    cams = {p.id: Camera(p.id, p.K, p.R, p.C, None, p.width, p.height) for p in photos.values()}
+    model = model_from_dict(start["nodes"], {"O": np.zeros(3)})
+    pin = pins[0]
+    problem = Problem(model, cams, [Pin(p["photo"], p["node"], p["handle"], np.array(p["uv"])) for p in pins])
+    problem.check_finite(problem.x0(), "at the start of the solve")  # a sound start passes
+    cam = cams[pin["photo"]]  # the camera moved onto the pinned handle: no finite projection
+    cams[pin["photo"]] = Camera(cam.id, cam.K, cam.R, model.handle_world(pin["node"], pin["handle"]), None,
+                                cam.width, cam.height)
+    problem = Problem(model, cams, [Pin(p["photo"], p["node"], p["handle"], np.array(p["uv"])) for p in pins])
+    with pytest.raises(VebuildError, match=rf"pin {pin['node']}:{pin['handle']} in photo '{pin['photo']}': its "
+                                           r"residual is not a finite number at the start of the solve"):
+        problem.check_finite(problem.x0(), "at the start of the solve")
+
+
+def test_vebuild_calibrate_names_two_scale_distances_that_disagree(room, capsys):
+    import time
+
+    data = json.loads(room.read_text())
+    data["reference_distances"][1]["distance"] = 400.0  # O–Y4 is 4 m
+    room.write_text(json.dumps(data))
+    t = time.perf_counter()
+    assert main(["calibrate", str(room), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "the scale distances O–Y4 (400 m) and O–X5 (5 m) contradict each other by a factor of" in err, err
+    assert "Traceback" not in err and "marker" not in err.split("contradict")[0]
+    assert time.perf_counter() - t < 20.0  # refused before the full solve
+    assert "calibration" not in json.loads(room.read_text())
+
+
+def test_a_focal_prior_of_no_spread_is_named_not_a_scipy_error(rng):
+    from vebuild.calibration.photo import FocalPrior, calibrate_photo
+    from vebuild.synthetic import random_scene
+
+    photos, _ = random_scene(rng, ("3vp", "3vp", "2vp"))
+    p = photos[0]
+    with pytest.raises(VebuildError, match=r"photo 'p1': focal_px: expected a focal length > 0 px with a σ > 0 px"):
+        calibrate_photo(p.segments, p.width, p.height, photo=p.id, focal=FocalPrior(1200.0, 0.0, "user"))

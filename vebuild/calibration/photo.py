@@ -154,6 +154,15 @@ def calibrate_photo(
     ------
     CalibrationError : when the marks cannot determine the camera; the message says why.
     """
+    for name, prior in (("focal_px", focal), ("the EXIF focal length", exif_focal)):
+        if prior is not None and not (np.isfinite(prior.value) and prior.value > 0 and np.isfinite(prior.sigma)
+                                      and prior.sigma > 0):
+            raise CalibrationError(photo, f"{name}: expected a focal length > 0 px with a σ > 0 px, got "
+                                   f"{prior.value!r} ± {prior.sigma!r}")
+    if principal_point is not None and not (np.all(np.isfinite(np.asarray(principal_point[0], float)))
+                                            and np.isfinite(principal_point[1]) and principal_point[1] > 0):
+        raise CalibrationError(photo, f"principal_point: expected a finite (u, v) with a σ > 0 px, got "
+                               f"{principal_point[0]!r} ± {principal_point[1]!r}")
     segs = {a: check_segments(s, a, photo) for a, s in segments.items() if len(np.asarray(s).reshape(-1)) > 0}
     if len(segs) < 2:
         marked = ", ".join(sorted(segs)) or "none"

@@ -27,6 +27,9 @@ from vebuild.texture.merge import FaceStats, fill_page
 
 Array = NDArray[np.float64]
 
+#: Pixels per band when a decoded photo is copied into its array (a few MB at a time).
+DECODE_BAND_PIXELS = 1 << 20
+
 
 @dataclass
 class PhotoSource:
@@ -90,7 +93,17 @@ def decode(data: bytes, src: PhotoSource | None = None) -> NDArray[np.uint8]:
     # Bounded in pixels before decoding, as everywhere vebuild opens an image (project.open_image).
     with open_image(io.BytesIO(data), file, where, decode=False, label=str(name)) as img:
         try:
-            return np.asarray(img if img.mode == "RGB" else img.convert("RGB"))
+            if img.mode != "RGB":
+                img = img.convert("RGB")
+            img.load()
+            # Copied out in bands of rows: np.asarray(img) of the whole would hold two more copies
+            # of the photo (the image's bytes, then the array) beside the decoded image.
+            w, h = img.size
+            out = np.empty((h, w, 3), np.uint8)
+            band = max(1, DECODE_BAND_PIXELS // max(1, w))
+            for y0 in range(0, h, band):
+                out[y0:y0 + band] = np.asarray(img.crop((0, y0, w, min(h, y0 + band))))
+            return out
         except (UnidentifiedImageError, OSError, ValueError, SyntaxError) as e:
             raise ProjectError(file, where, f"cannot decode {name} as an image: {e}") from None
 
@@ -128,9 +141,14 @@ def extract(model: Model, cameras: Sequence[ImageCamera], sources: dict[str, Pho
         for k, cam in enumerate(order):
             if progress:
                 progress(k, len(order), cam.id)
+            # The least memory at once for a large photo: its ID buffer first, then the decoded
+            # photo onto the GPU, freed before its pyramid is built.
+            ex.photo_id_pass(cam)
             pixels = read_photo(sources[cam.id], cam, timings)
-            ex.add_photo(cam, pixels)
-            del pixels  # one decoded photo at a time
+            ex.upload_photo(cam, pixels)
+            del pixels
+            ex.add_photo(cam)
+        ex.release_photo()  # the photo-sized targets go before the merge makes its own
         if progress:
             progress(len(order), len(order), "")
         contributions = ex.contributions()

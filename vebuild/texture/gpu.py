@@ -88,6 +88,16 @@ def _mat3(M: Array) -> NDArray[np.float32]:
     return np.asarray(M, "f4").T.copy()  # GLSL is column-major
 
 
+#: A photo of this many pixels or more has its ID pass's depth buffer and the driver's staging copy
+#: of its pixels freed at once (waiting for the GPU), not when the driver next flushes: 64 MP of
+#: depth is 256 MiB.
+FREE_NOW_PIXELS = 64 * 2**20
+
+
+#: Texture units the passes bind (and :meth:`Extractor._unbind` rebinds to a 1×1 texture).
+IDLE_UNITS = 8
+
+
 class Extractor:
     """Streams photos through the ID and texel passes into per-page sums on the GPU."""
 
@@ -130,7 +140,12 @@ class Extractor:
         self._pages = [self._make_page(size) for size in mesh.pages]
         self._photo_tex: moderngl.Texture | None = None
         self._pyramid: tuple[moderngl.Texture, moderngl.Texture, list[tuple[int, int, int]]] | None = None
-        self._id_fbos: dict[tuple[int, int], tuple[moderngl.Framebuffer, moderngl.Texture]] = {}
+        self._id_tex: moderngl.Texture | None = None
+        self._id_for: tuple[str, set[int]] | None = None  # the photo whose ID buffer is in _id_tex, its faces
+        self._idle_fbo = ctx.framebuffer(color_attachments=[ctx.texture((1, 1), 4)])
+        self._pyr_fbos: list[moderngl.Framebuffer] = []
+        self._uploaded: str | None = None  # the id of the photo on the GPU
+        self._pyramid_ready = False
         self.gains: dict[str, NDArray[np.float64]] = {}
         self._queries: dict[int, moderngl.Query] = {}  # one per face, reused photo after photo
         self._pending: tuple[str, dict[int, moderngl.Query]] | None = None
@@ -160,18 +175,40 @@ class Extractor:
         best_fbo.clear(0.0, 0.0, 0.0, 0.0)
         return {"size": size, "acc": acc, "fbo": fbo, "best": best, "best_fbo": best_fbo}
 
-    def _id_target(self, width: int, height: int) -> tuple[moderngl.Framebuffer, moderngl.Texture]:
-        key = (width, height)
-        if key not in self._id_fbos:
-            for fbo, tex in self._id_fbos.values():  # one size at a time: photos rarely differ
-                fbo.release()
-                tex.release()
-            self._id_fbos.clear()
-            tex = self.ctx.texture(key, 2, dtype="f4")
-            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
-            depth = self.ctx.depth_renderbuffer(key)
-            self._id_fbos[key] = (self.ctx.framebuffer(color_attachments=[tex], depth_attachment=depth), tex)
-        return self._id_fbos[key]
+    def _unbind(self, free_now: bool = False) -> None:
+        """Draw into a 1×1 target: GL frees a released texture only once no bound framebuffer holds
+        it. ``free_now``: and wait for the GPU, so that what is released next is freed now rather
+        than when the driver next flushes (Mesa keeps it till then)."""
+        self._idle_fbo.use()
+        if free_now:
+            for unit in range(IDLE_UNITS):  # sampler bindings hold textures too
+                self._idle_fbo.color_attachments[0].use(unit)
+            self._idle_fbo.clear(0.0, 0.0, 0.0, 0.0)
+            self.ctx.finish()
+
+    def _release_id_target(self) -> None:
+        if self._id_tex is not None:
+            self._unbind()
+            self._id_tex.release()
+            self._id_tex = None
+        self._id_for = None
+
+    def release_photo(self) -> None:
+        """Free what is the size of a photo (the photo, its pyramid, the ID buffer): after the
+        pre-pass and after the last photo, before the merge allocates its own targets."""
+        self._unbind(free_now=True)
+        self._release_id_target()
+        if self._photo_tex is not None:
+            self._photo_tex.release()
+            self._photo_tex = None
+        if self._pyramid is not None:
+            for t in self._pyramid[:2]:
+                t.release()
+            for f in self._pyr_fbos:
+                f.release()
+            self._pyramid, self._pyr_fbos = None, []
+        self._uploaded = None
+        self._pyramid_ready = False
 
     # -- pass 1 ------------------------------------------------------------------------------
 
@@ -183,7 +220,16 @@ class Extractor:
     def id_pass(self, cam: ImageCamera, erode_px: float) -> moderngl.Texture:
         """Render the ID buffer (face id, depth) of ``cam``; returns its texture."""
         ctx = self.ctx
-        fbo, tex = self._id_target(cam.width, cam.height)
+        key = (cam.width, cam.height)
+        if self._id_tex is None or self._id_tex.size != key:  # one size at a time: photos rarely differ
+            self._release_id_target()
+            self._id_tex = ctx.texture(key, 2, dtype="f4")
+            self._id_tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        tex = self._id_tex
+        # The depth buffer serves this pass only: freed before the photo and its pyramid are made
+        # (for a 169-megapixel photo, 0.6 GiB less at the peak).
+        depth = ctx.depth_renderbuffer(key)
+        fbo = ctx.framebuffer(color_attachments=[tex], depth_attachment=depth)
         near, far = self._near_far(cam)
         V = view_matrix(cam.R, cam.C).astype("f4").T.copy()
         P = gl_projection(cam.K, cam.width, cam.height, near, far).astype("f4").T.copy()
@@ -208,6 +254,10 @@ class Extractor:
                 self._edge_vao.render(moderngl.LINES, vertices=len(lines))
                 fbo.depth_mask = True
         ctx.disable(moderngl.DEPTH_TEST)
+        self._unbind(free_now=key[0] * key[1] >= FREE_NOW_PIXELS)
+        fbo.release()
+        depth.release()
+        self._id_for = None
         return tex
 
     def _edge_lines(self, cam: ImageCamera, near: float) -> NDArray[np.float32]:
@@ -238,7 +288,18 @@ class Extractor:
 
     def upload(self, pixels: NDArray[np.uint8]) -> None:
         """Put a photo (height, width, 3) uint8 sRGB on the GPU and build its pyramid."""
+        self._write_photo(pixels)
+        self._pyramid_stage()
+
+    def _pyramid_stage(self) -> None:
+        assert self._photo_tex is not None
+        with self.timings.stage("pyramid", self.ctx if self._profile else None):
+            self._build_pyramid(*self._photo_tex.size)
+        self._pyramid_ready = True
+
+    def _write_photo(self, pixels: NDArray[np.uint8], finish: bool = False) -> None:
         h, w = pixels.shape[:2]
+        self._pyramid_ready = False
         with self.timings.stage("upload", self.ctx if self._profile else None):
             if self._photo_tex is None or self._photo_tex.size != (w, h):
                 if self._photo_tex is not None:
@@ -246,8 +307,8 @@ class Extractor:
                 self._photo_tex = self.ctx.texture((w, h), 3, internal_format=GL_SRGB8)
                 self._photo_tex.repeat_x = self._photo_tex.repeat_y = False
             self._photo_tex.write(np.ascontiguousarray(pixels))
-        with self.timings.stage("pyramid", self.ctx if self._profile else None):
-            self._build_pyramid(w, h)
+            if finish:
+                self.ctx.finish()
 
     def _build_pyramid(self, w: int, h: int) -> None:
         sizes = [(w, h)]
@@ -264,6 +325,8 @@ class Extractor:
             if self._pyramid is not None:
                 for t in self._pyramid[:2]:
                     t.release()
+                for f in self._pyr_fbos:
+                    f.release()
             odd, even = (self.ctx.texture(s, 4, dtype="f2") for s in need)
             for t in (odd, even):
                 t.repeat_x = t.repeat_y = False
@@ -379,17 +442,43 @@ class Extractor:
                     self._draw_texels("best", k, faces)
                 self.ctx.blend_equation = moderngl.FUNC_ADD
                 self.ctx.disable(moderngl.BLEND)
+        self._unbind(free_now=True)  # its ID buffer is freed before the first photo's is made
+        self._release_id_target()
 
-    def add_photo(self, cam: ImageCamera, pixels: NDArray[np.uint8]) -> None:
-        """Pass 1 and pass 2 for one photo; its texels join the sums."""
+    def photo_id_pass(self, cam: ImageCamera) -> None:
+        """Pass 1 for ``cam`` ahead of its photo (it needs none): :func:`extract` runs it before
+        decoding the photo, so that the ID pass's depth buffer and the decoded photo are never held
+        at once. :meth:`add_photo` runs it if it was not."""
+        with self.timings.stage("id_pass", self.ctx if self._profile else None):
+            self.id_pass(cam, self.opt.erode_px)
+            self._id_for = (cam.id, self._visible_faces(cam))
+
+    def upload_photo(self, cam: ImageCamera, pixels: NDArray[np.uint8]) -> None:
+        """Put ``cam``'s photo on the GPU for :meth:`add_photo`, which builds its pyramid; the
+        caller may free ``pixels`` in between (one copy of the photo fewer at the peak)."""
         if pixels.shape[:2] != (cam.height, cam.width):
             raise ValueError(f"photo {cam.id}: pixels are {pixels.shape[1]}×{pixels.shape[0]}, "
                              f"the camera is for {cam.width}×{cam.height}")
         self._collect()
-        self.upload(pixels)
-        with self.timings.stage("id_pass", self.ctx if self._profile else None):
-            id_tex = self.id_pass(cam, self.opt.erode_px)
-            faces = self._visible_faces(cam)
+        # The driver's staging copy of a large photo goes before the pyramid is made.
+        self._write_photo(pixels, finish=cam.width * cam.height >= FREE_NOW_PIXELS)
+        self._uploaded = cam.id
+
+    def add_photo(self, cam: ImageCamera, pixels: NDArray[np.uint8] | None = None) -> None:
+        """Pass 1 and pass 2 for one photo (its ``pixels``, or those of :meth:`upload_photo`); its
+        texels join the sums."""
+        if pixels is not None:
+            self.upload_photo(cam, pixels)
+        if self._uploaded != cam.id:
+            raise ValueError(f"photo {cam.id}: its pixels are not on the GPU (upload_photo first)")
+        self._uploaded = None
+        self._collect()
+        if not self._pyramid_ready:
+            self._pyramid_stage()
+        if self._id_for is None or self._id_for[0] != cam.id:
+            self.photo_id_pass(cam)
+        assert self._id_tex is not None and self._id_for is not None
+        id_tex, faces = self._id_tex, self._id_for[1]
         with self.timings.stage("texel_pass", self.ctx if self._profile else None):
             gain = self._exposure_gain(cam, id_tex, faces) if self.opt.exposure else np.ones(3)
             self.gains[cam.id] = gain
@@ -544,22 +633,17 @@ class Extractor:
         return {"low": out[0], "detail": out[1], "dropped": out[2], "counts": out[3]}
 
     def release(self) -> None:
+        self._unbind()
         for page in self._pages:
             for t in page["acc"]:
                 t.release()
             page["fbo"].release()
             page["best"].release()
             page["best_fbo"].release()
-        for fbo, tex in self._id_fbos.values():
-            fbo.release()
-            tex.release()
-        if self._photo_tex is not None:
-            self._photo_tex.release()
-        if self._pyramid is not None:
-            for t in self._pyramid[:2]:
-                t.release()
-            for f in self._pyr_fbos:
-                f.release()
+        self.release_photo()
+        for t in self._idle_fbo.color_attachments:
+            t.release()
+        self._idle_fbo.release()
         for vao in self._soup_vaos.values():
             vao.release()
         for b in (self._id_vbo, self._id_ibo, self._edge_vbo, self._soup_vbo):

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from vebuild.errors import VebuildError
 from vebuild.model.primitives import Mesh
 from vebuild.model.scene import Model
 
@@ -27,6 +28,14 @@ Array = NDArray[np.float64]
 GUTTER = 4
 #: Facets around curved surfaces.
 SEGMENTS = 32
+#: Memory the extraction takes per atlas texel: its per-page sums on the GPU (three RGBA and one
+#: RG float32 targets, 56 bytes, and the best view's weight, 4 bytes).
+BYTES_PER_TEXEL = 60
+#: The most atlas texels (gutters included) one extraction lays out: 2 GiB of the sums above, about
+#: two pages of 4096² texels (840 m² of faces at the default 200 texels per metre). The sums live on
+#: the GPU (main memory on llvmpipe) all at once, and each page is read back for the merge; a
+#: layout of 3.2 GB ended in "framebuffer is not complete" on llvmpipe instead of a message.
+MAX_ATLAS_TEXELS = (2 * 2**30) // BYTES_PER_TEXEL
 
 
 @dataclass(frozen=True)
@@ -117,9 +126,21 @@ class SceneMesh:
         return e[border], interior
 
 
+def _texels(length_m: float, texels_per_metre: float, cap: int) -> int:
+    """Texels along a chart side of ``length_m`` (finite, ≥ 0), at most ``cap``, overflow-safe: the
+    product is compared in floating point before it is turned into an integer."""
+    t = length_m * texels_per_metre - 1e-9
+    return cap if not t < cap else max(1, math.ceil(t))
+
+
 def plan_faces(model: Model, texels_per_metre: float, max_face_texels: int,
                page_size: int) -> list[tuple[str, str, tuple[float, float], tuple[int, int]]]:
-    """(node, face name, chart size in metres, chart size in texels) of every face, model order."""
+    """(node, face name, chart size in metres, chart size in texels) of every face, model order.
+
+    A face whose size is not a finite number of metres (a primitive sized beyond floating point)
+    is a :class:`LayoutError` naming it."""
+    if not (math.isfinite(texels_per_metre) and texels_per_metre > 0):
+        raise LayoutError(f"--density: expected a positive number of texels per metre, got {texels_per_metre!r}")
     cap = max(1, min(int(max_face_texels), int(page_size) - 2 * GUTTER))
     out = []
     for node in model.nodes:
@@ -127,10 +148,62 @@ def plan_faces(model: Model, texels_per_metre: float, max_face_texels: int,
             continue
         mesh = node.primitive.mesh(None, SEGMENTS)
         for name, (w, h) in zip(mesh.face_names, mesh.chart_size_m, strict=True):
-            n = (min(cap, max(1, math.ceil(w * texels_per_metre - 1e-9))),
-                 min(cap, max(1, math.ceil(h * texels_per_metre - 1e-9))))
-            out.append((node.name, name, (float(w), float(h)), n))
+            w, h = float(w), float(h)
+            if not (math.isfinite(w) and math.isfinite(h) and w >= 0 and h >= 0):
+                raise LayoutError(f"node '{node.name}' face '{name}': its chart is {w:g} m × {h:g} m, not a finite "
+                                  "size; give the primitive finite dimensions in metres")
+            out.append((node.name, name, (w, h), (_texels(w, texels_per_metre, cap),
+                                                  _texels(h, texels_per_metre, cap))))
     return out
+
+
+class LayoutError(VebuildError):
+    """The faces' textures cannot be laid out: a face of no finite size, or an atlas too large."""
+
+
+def atlas_bytes(texels: int) -> int:
+    """Memory the extraction takes for ``texels`` atlas texels (:data:`BYTES_PER_TEXEL` each)."""
+    return int(texels) * BYTES_PER_TEXEL
+
+
+def _packed_texels(sizes_m: Sequence[tuple[float, float]], texels_per_metre: float, cap: int, page_size: int) -> int:
+    """Texels of the pages that charts of these sizes in metres pack into at a density."""
+    _, pages = pack([(_texels(w, texels_per_metre, cap), _texels(h, texels_per_metre, cap)) for w, h in sizes_m],
+                    page_size)
+    return sum(w * h for w, h in pages)  # Python ints: no overflow
+
+
+def check_atlas(plan: Sequence[tuple[str, str, tuple[float, float], tuple[int, int]]], texels_per_metre: float,
+                max_face_texels: int, page_size: int,
+                max_texels: int) -> tuple[list[tuple[int, int, int]], list[tuple[int, int]]]:
+    """Pack the charts of ``plan`` (:func:`pack`) and refuse pages of more than ``max_texels``
+    texels in all (see :data:`MAX_ATLAS_TEXELS`) before anything is allocated: the message names
+    the largest faces, the texels and pages the layout would need, the limit, and the density that
+    would fit."""
+    place, pages = pack([n for *_, n in plan], page_size)
+    need = sum(w * h for w, h in pages)
+    if need <= max_texels:
+        return place, pages
+    cap = max(1, min(int(max_face_texels), int(page_size) - 2 * GUTTER))
+    sizes_m = [size for _, _, size, _ in plan]
+    biggest = sorted(plan, key=lambda p: -p[3][0] * p[3][1])[:3]
+    faces = "; ".join(f"node '{n}' face '{f}' {w}×{h} texels ({a:g} m × {b:g} m)" for n, f, (a, b), (w, h) in biggest)
+    what = (f"the texture atlas would need {need:,} texels on {len(pages)} page(s) of at most {page_size}² "
+            f"({atlas_bytes(need) / 2**30:.1f} GiB for the extraction's sums at {BYTES_PER_TEXEL} bytes a texel) at "
+            f"{texels_per_metre:g} texels per metre: more than the limit of {max_texels:,} texels "
+            f"({atlas_bytes(max_texels) / 2**30:.0f} GiB); the largest faces: {faces}")
+    if _packed_texels(sizes_m, 1e-300, cap, page_size) > max_texels:
+        raise LayoutError(f"{what}. The model has {len(plan)} faces: too many to texture even at one texel each; "
+                          "texture fewer objects (or use --mode average)")
+    lo, hi = 0.0, float(texels_per_metre)  # the densest that fits, by bisection (the pages grow with density)
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if _packed_texels(sizes_m, mid, cap, page_size) <= max_texels else (lo, mid)
+    digits = 2 - math.floor(math.log10(lo)) if lo > 0 else 3
+    fit = math.floor(lo * 10.0 ** digits) / 10.0 ** digits  # three figures, rounded down
+    while fit > 0 and _packed_texels(sizes_m, fit, cap, page_size) > max_texels:
+        fit = math.floor(fit * 0.99 * 10.0 ** digits) / 10.0 ** digits
+    raise LayoutError(f"{what}. Lower --density (texels per metre) to {fit:g} or less, or lower --max-face-texels")
 
 
 def pack(sizes: Sequence[tuple[int, int]], page_size: int) -> tuple[list[tuple[int, int, int]], list[tuple[int, int]]]:
@@ -164,10 +237,13 @@ def pack(sizes: Sequence[tuple[int, int]], page_size: int) -> tuple[list[tuple[i
     return place, [(int(w), int(h)) for w, h in pages]
 
 
-def layout(model: Model, texels_per_metre: float, max_face_texels: int, page_size: int) -> list[Face]:
-    """Faces with charts packed into pages."""
+def layout(model: Model, texels_per_metre: float, max_face_texels: int, page_size: int,
+           max_texels: int | None = None) -> list[Face]:
+    """Faces with charts packed into pages, once the pages' texels are known to be within
+    ``max_texels`` (default :data:`MAX_ATLAS_TEXELS`; :func:`check_atlas`)."""
     plan = plan_faces(model, texels_per_metre, max_face_texels, page_size)
-    place, _ = pack([n for *_, n in plan], page_size)
+    place, _ = check_atlas(plan, texels_per_metre, max_face_texels, page_size,
+                           MAX_ATLAS_TEXELS if max_texels is None else int(max_texels))
     return [Face(i + 1, node, name, size, page, (x, y, n[0], n[1]))
             for i, ((node, name, size, n), (page, x, y)) in enumerate(zip(plan, place, strict=True))]
 
@@ -198,7 +274,10 @@ def node_atlas(node: str, mesh: Mesh, faces: Mapping[tuple[str, str], Face]) -> 
         if face is None:
             raise ValueError(f"the texture layout has no face {node}.{name}")
         sel = vid == k
-        u0, v0, u1, v1 = mesh.chart_uv[k - 1]
+        u0, v0, u1, v1 = (float(c) for c in mesh.chart_uv[k - 1])
+        if not (math.isfinite(u1 - u0) and math.isfinite(v1 - v0) and u1 != u0 and v1 != v0):
+            raise ValueError(f"face {node}.{name} has an empty or non-finite chart ({u0:g}–{u1:g}, {v0:g}–{v1:g}); "
+                             "its primitive's dimensions are degenerate")
         x0, y0, w, h = face.rect
         uv = mesh.uv[sel]
         uv_tex[sel, 0] = x0 + (uv[:, 0] - u0) / (u1 - u0) * w
