@@ -986,8 +986,6 @@ KNOWN_FAILURES: dict[str, str] = {
         "h-c: render --size '' is taken as no size (the view's own) instead of refused",
     'bad-size-empty|1:video --views doorway,overview --out --size':
         "h-c: video --size '' is taken as no size instead of refused",
-    'texture-bad-numbers|3:texture --quiet --density 1e308':
-        'h-c: texture --density 1e308 raises OverflowError in plan_faces (a traceback)',
     'mark-bad-at|1:mark Z --at nan,0,0':
         'h-c (no branch owns mark): mark --at nan,0,0 raises ValueError in the k-d tree query (a traceback)',
     'new-over-photo|1:new --force':
