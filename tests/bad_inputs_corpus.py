@@ -565,16 +565,17 @@ def _photo_is_folder(ctx: Ctx) -> None:
 
 
 def _photo_png_bomb(ctx: Ctx) -> None:
-    # A valid PNG header that claims 100000 × 100000 pixels (a decompression bomb).
+    # A valid PNG header that claims 60000 × 60000 pixels (a decompression bomb of 3.6 gigapixels; each
+    # side within the schema's 65535, so that it is the image reader that must refuse it).
     import struct
     import zlib
-    ihdr = struct.pack(">IIBBBBB", 100000, 100000, 8, 2, 0, 0, 0)
+    ihdr = struct.pack(">IIBBBBB", 60000, 60000, 8, 2, 0, 0, 0)
     chunk = b"IHDR" + ihdr
     data = (b"\x89PNG\r\n\x1a\n" + struct.pack(">I", len(ihdr)) + chunk
             + struct.pack(">I", zlib.crc32(chunk) & 0xFFFFFFFF))
     ctx.photo(0).write_bytes(data)
     ctx.rehash(0)
-    ctx.doc["photos"][0].update(width=100000, height=100000)
+    ctx.doc["photos"][0].update(width=60000, height=60000)
 
 
 case("truncated-jpeg-photo", _truncate_photo, ["check", "calibrate", "texture", "render-validate", "report"],
