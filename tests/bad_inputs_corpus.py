@@ -757,6 +757,20 @@ case("video-out-over-photo", nothing, [["video", P, "--views", "doorway,overview
 case("analyse-json-over-project", nothing, [["analyse", P, "dimensions", "cabinet", "--json", P]], [P])
 case("analyse-json-over-photo", nothing, [["analyse", P, "checks", "--json", "{D}/photos/p2.jpg"]], ["p2.jpg"])
 
+case("render-out-over-atlas-page", nothing,
+     [["render", P, "--view", "doorway", "--out", "{D}/{ATLAS}", "--size", "64x36"],
+      ["analyse", P, "viewshed", "--target", "1,1,1", "--out", "{D}/{ATLAS}"]],
+     [("--out", "{D}/{ATLAS}", "{ATLAS}")])
+case("report-out-textures", nothing, [["report", P, "--out", "{D}/textures", "--no-pdf", "--quiet"],
+                                      ["report", P, "--out", "{D}/textures/report", "--no-pdf", "--quiet"]],
+     [("--out", "{D}/textures")])
+case("analyse-json-missing-folder", nothing, [["analyse", P, "checks", "--json", "{OUT}/nofolder/c.json"]],
+     [("--json", "{OUT}/nofolder")])
+case("mark-lone-surrogate-label", nothing, [["mark", P, "A\udc80", "--at", "2,2,0"]],
+     [P, ("--label", "$.evidence_markers", "label")])
+case("mark-lone-surrogate-description", nothing, [["mark", P, "A", "--at", "2,2,0", "--description", "x\ud800y"]],
+     [P, ("--description", "$.evidence_markers", "description")])
+
 BAD_SIZES = ["abc", "0x10", "10x0", "-5x5", "10x", "1e3x5", "99999999999999999999x1", "100000x1", "64x36x2", "",
              "64 36", "6.5x4"]
 for _i, _s in enumerate(BAD_SIZES):

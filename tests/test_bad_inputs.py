@@ -160,6 +160,14 @@ def prepare(case: Case, tmp_path: Path, states: dict[str, Path]) -> tuple[Path, 
     return folder, project, out
 
 
+def _atlas(project: Path) -> str:
+    """The first atlas page's path in the project's folder (its name carries a hash), or a stand-in."""
+    try:
+        return str(json.loads(project.read_text("utf-8"))["textures"]["pages"][0]["atlas"])
+    except (OSError, ValueError, KeyError, IndexError, TypeError):
+        return "textures/atlas_0.png"
+
+
 def fill(word: str, subs: dict[str, str]) -> str:
     for k, v in subs.items():
         word = word.replace(k, v)
@@ -169,7 +177,7 @@ def fill(word: str, subs: dict[str, str]) -> str:
 @pytest.mark.parametrize(("case", "k"), PARAMS)
 def test_bad_input(case: Case, k: int, tmp_path: Path, states: dict[str, Path]) -> None:
     folder, project, out = prepare(case, tmp_path, states)
-    subs = {"{P}": str(project), "{D}": str(folder), "{OUT}": str(out)}
+    subs = {"{P}": str(project), "{D}": str(folder), "{OUT}": str(out), "{ATLAS}": _atlas(project)}
     words = [fill(w, subs) for w in _words(case.commands[k])]
     cwd = folder if case.cwd == "project" else tmp_path / "work"
     before = snapshot(tmp_path)
