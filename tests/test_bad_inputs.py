@@ -145,7 +145,9 @@ def _param(c: Case, k: int, cmd: Any) -> Any:
 PARAMS = [_param(c, k, cmd) for c in CASES for k, cmd in enumerate(c.commands)]
 
 
-def prepare(case: Case, tmp_path: Path, states: dict[str, Path]) -> tuple[Path, Path, Path]:
+def prepare(case: Case, tmp_path: Path, states: dict[str, Path]) -> tuple[Path, Path, Path, str]:
+    """The case's state copied to tmp_path/room and mutated: (folder, project file, output folder, and
+    the path of the first atlas page as the unmutated project records it (its name carries a hash))."""
     folder = tmp_path / "room"
     shutil.copytree(states[case.state], folder, symlinks=True)
     out = tmp_path / "out"
@@ -153,19 +155,13 @@ def prepare(case: Case, tmp_path: Path, states: dict[str, Path]) -> tuple[Path, 
     (tmp_path / "work").mkdir()
     project = folder / PROJECT
     ctx = Ctx(folder, project, out, json.loads(project.read_text("utf-8")))
+    pages = (ctx.doc.get("textures") or {}).get("pages") or [{}]
+    atlas = str(pages[0].get("atlas", "textures/atlas_0.png"))
     case.mutate(ctx)
     if ctx.write:
         text = ctx.text if ctx.text is not None else json.dumps(ctx.doc, indent=2, ensure_ascii=False) + "\n"
         project.write_bytes(text.encode("utf-8", "surrogateescape"))
-    return folder, project, out
-
-
-def _atlas(project: Path) -> str:
-    """The first atlas page's path in the project's folder (its name carries a hash), or a stand-in."""
-    try:
-        return str(json.loads(project.read_text("utf-8"))["textures"]["pages"][0]["atlas"])
-    except (OSError, ValueError, KeyError, IndexError, TypeError):
-        return "textures/atlas_0.png"
+    return folder, project, out, atlas
 
 
 def fill(word: str, subs: dict[str, str]) -> str:
@@ -176,8 +172,8 @@ def fill(word: str, subs: dict[str, str]) -> str:
 
 @pytest.mark.parametrize(("case", "k"), PARAMS)
 def test_bad_input(case: Case, k: int, tmp_path: Path, states: dict[str, Path]) -> None:
-    folder, project, out = prepare(case, tmp_path, states)
-    subs = {"{P}": str(project), "{D}": str(folder), "{OUT}": str(out), "{ATLAS}": _atlas(project)}
+    folder, project, out, atlas = prepare(case, tmp_path, states)
+    subs = {"{P}": str(project), "{D}": str(folder), "{OUT}": str(out), "{ATLAS}": atlas}
     words = [fill(w, subs) for w in _words(case.commands[k])]
     cwd = folder if case.cwd == "project" else tmp_path / "work"
     before = snapshot(tmp_path)
