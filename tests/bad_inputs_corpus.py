@@ -921,10 +921,6 @@ KNOWN_FAILURES: dict[str, str] = {
         "h-b: calibrate's message calls cabinet:v99 an unobserved marker, with no JSON path",
     'reference-distance-unknown-handle|solve':
         'h-b: solve accepts a reference distance to a handle its node does not have, and rewrites the project',
-    'two-scale-distances-contradict|solve-recal':
-        'h-c: solve --recalibrate accepts scale distances that contradict (4 m and 400 m) and rewrites the project',
-    'scale-distances-contradict-by-100|solve-recal':
-        'h-c: solve --recalibrate accepts scale distances that contradict by 100x and rewrites the project',
     'vanishing-segment-zero-length|check':
         'h-b: check accepts a zero-length vanishing segment (calibrate refuses it)',
     'view-too-large-20000x1|check':

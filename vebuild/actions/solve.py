@@ -13,8 +13,8 @@ from typing import Any
 import numpy as np
 
 from .. import __version__, camera
-from ..calibration.positions import ReferenceDistance
-from ..errors import ProjectError, VebuildError
+from ..calibration.positions import ReferenceDistance, check_scale_distances
+from ..errors import CalibrationError, ProjectError, VebuildError
 from ..model.scene import Model, ModelError, model_from_dict
 from ..model.solver import (
     FINAL_PRIOR_SCALE,
@@ -145,6 +145,7 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
             ends_known = all(e in markers or e.split(":", 1)[0] in node_names for e in (d["a"], d["b"]))
             if d["role"] == "scale" and ends_known:
                 distances.append(ReferenceDistance(d["a"], d["b"], float(d["distance"]), float(d.get("sigma", 0.002))))
+        check_recalibration_scale(project, model, markers, distances)
     surveyed = [m["name"] for m in data.get("markers", []) if "position" in m]
     problem = Problem(model, cameras, [p for p in pins if p.fixed], edges,
                       click_sigma_px=project.settings["click_sigma_px"], prior_scale=FINAL_PRIOR_SCALE,
@@ -178,6 +179,33 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
         _write_cameras(data, solution)
     data["model_solution"] = result
     return result
+
+
+def check_recalibration_scale(project: Project, model: Model, markers: dict[str, np.ndarray],
+                              distances: list[ReferenceDistance]) -> None:
+    """Before a re-calibrating solve: the scale distances must not contradict each other, as
+    ``vebuild calibrate`` requires (:func:`check_scale_distances`), measured where the calibration
+    places the markers and, once the model has been solved, where the model puts the handles.
+    The ratio of two implied scales does not depend on the present scale, so a contradiction
+    shows there as it did before calibration. Raises a ProjectError at $.reference_distances."""
+    solved = bool(project.data.get("model_solution"))
+    X: dict[str, np.ndarray] = {}
+    for d in distances:
+        for end in (d.a, d.b):
+            if end in X:
+                continue
+            if ":" not in end:
+                if end in markers:
+                    X[end] = markers[end]
+                continue
+            node, handle = end.split(":", 1)
+            prim = model.node(node).primitive if solved and node in {n.name for n in model.nodes} else None
+            if prim is not None and handle in prim.handle_names():
+                X[end] = model.handle_world(node, handle)
+    try:
+        check_scale_distances(X, distances)
+    except CalibrationError as e:
+        raise ProjectError(project.path, "$.reference_distances", e.detail) from None
 
 
 def _check_visible(project: Project, problem: Problem, xm: np.ndarray, cameras: dict[str, Camera]) -> None:
