@@ -925,12 +925,8 @@ KNOWN_FAILURES: dict[str, str] = {
         'h-b: check accepts a zero-length vanishing segment (calibrate refuses it)',
     'view-too-large-20000x1|check':
         'h-b/h-c: check accepts a 20000x1 view that render refuses',
-    'view-too-large-20000x1|1:render --view big --out':
-        "h-c: render's size message names $.views[3] but not the project file",
     'view-too-large-40000x40000|check':
         'h-b/h-c: check accepts a 40000x40000 view that render refuses',
-    'view-too-large-40000x40000|1:render --view big --out':
-        "h-c: render's size message names $.views[3] but not the project file",
     'view-too-large-sightline-recorded|check':
         'h-c: check accepts a recorded sight line of 40000x40000 (and a view of that size)',
     'hypothesis-hinge-beyond-limits|check':

@@ -24,7 +24,7 @@ from PIL import Image, PngImagePlugin
 
 from vebuild import __version__
 from vebuild.camera import ImageCamera
-from vebuild.errors import VebuildError
+from vebuild.errors import ProjectError, VebuildError
 from vebuild.project import Project, sha256_file
 from vebuild.texture.merge import linear_to_srgb8, srgb8_to_linear
 
@@ -194,7 +194,10 @@ def render_evidence(project: Project, req: RenderRequest) -> RenderResult:
     cam = find_view(project, req.view) if req.view is not None else photo_camera(project, str(req.photo))
     if req.size is not None:
         cam = cam.resized(*req.size, source=req.size_source)
-    check_camera(cam, req.stereo)  # before the scene is loaded or GL is asked
+    try:
+        check_camera(cam, req.stereo)  # before the scene is loaded or GL is asked
+    except VebuildError as e:
+        raise _size_error(project, req, e) from None
     lighting = find_preset(project, req.lighting)
     scene = load_scene(project)
     if req.hypothesis is not None:
@@ -205,7 +208,10 @@ def render_evidence(project: Project, req: RenderRequest) -> RenderResult:
     stereo = Stereo(req.stereo, req.eye_separation, req.convergence) if req.stereo else None
     renderer = Renderer(ctx, scene, RenderOptions(samples=req.samples, shadows=req.shadows))
     try:
-        W, H = renderer.check_size(cam, stereo)
+        try:
+            W, H = renderer.check_size(cam, stereo)
+        except VebuildError as e:
+            raise _size_error(project, req, e) from None
         renderer.set_lighting(lighting)
         rgba = renderer.render_rgba(cam, stereo)
         placed = []
@@ -237,6 +243,13 @@ def render_evidence(project: Project, req: RenderRequest) -> RenderResult:
         text["vebuild:hypothesis"] = req.hypothesis
     write_png(out, image, text)
     return result
+
+
+def _size_error(project: Project, req: RenderRequest, e: VebuildError) -> VebuildError:
+    """A refused image size: as it is where ``--size`` (or the caller's ``size_source``) gave the
+    size, which the message names; where the size is the project's (a view's or a photo's, whose
+    JSON path the message names), a ProjectError naming the project file too."""
+    return e if req.size is not None else ProjectError(project.path, "", str(e))
 
 
 def _validate(project: Project, photo_id: str, cam: ImageCamera, rgba: NDArray[np.uint8], out: Path,
