@@ -1005,10 +1005,6 @@ KNOWN_FAILURES: dict[str, str] = {
         "h-b: an Infinity literal's message gives no location (no JSON path, no line)",
     'infinity-literal|calibrate':
         "h-b: an Infinity literal's message gives no location (no JSON path, no line)",
-    'bad-size-empty|0:render --view doorway --out --size':
-        "h-c: render --size '' is taken as no size (the view's own) instead of refused",
-    'bad-size-empty|1:video --views doorway,overview --out --size':
-        "h-c: video --size '' is taken as no size instead of refused",
     'mark-bad-at|1:mark Z --at nan,0,0':
         'h-c (no branch owns mark): mark --at nan,0,0 raises ValueError in the k-d tree query (a traceback)',
     'new-over-photo|1:new --force':

@@ -134,7 +134,7 @@ def _cmd_render(args: argparse.Namespace) -> int:
     if not args.out:
         raise VebuildError("render: --out FILE.png is required (or --list to see the views and presets)")
     req = RenderRequest(out=Path(args.out), view=args.view, photo=args.photo,
-                        size=parse_size(args.size) if args.size else None, lighting=args.lighting,
+                        size=parse_size(args.size) if args.size is not None else None, lighting=args.lighting,
                         stereo=args.stereo, eye_separation=args.eye_separation, convergence=args.convergence,
                         samples=args.samples, shadows=not args.no_shadows, validate=args.validate,
                         hypothesis=args.hypothesis)
@@ -178,8 +178,9 @@ def _cmd_video(args: argparse.Namespace) -> int:
     project = load_project(args.project)
     timing = Timing(fps=args.fps, speed=args.speed, seconds=args.seconds, hold=args.hold,
                     turn_rate_deg=args.turn_rate)
+    size = parse_size(args.size) if args.size is not None else None
     request = VideoRequest(parse_views(args.views), Path(args.out) if args.out else None,
-                           parse_size(args.size) if args.size else None, timing, args.lighting, args.stereo, args.crf)
+                           size, timing, args.lighting, args.stereo, args.crf)
     with progress_bar(_progress_wanted(args), desc="video", unit="frame") as progress:
         r = render_video(project, request, progress)
     for w in r.warnings:

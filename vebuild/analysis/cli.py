@@ -188,7 +188,7 @@ def _lighting(args: argparse.Namespace, project: Any) -> tuple[str, dict[str, An
         check_output(Path(args.out), project=project)
     presets = list(args.presets)
     cam = find_view(project, args.view)
-    if args.size:
+    if args.size is not None:
         cam = cam.resized(*parse_size(args.size), source="--size")
     check_camera(cam)
     scene = load_scene(project)
