@@ -923,12 +923,6 @@ KNOWN_FAILURES: dict[str, str] = {
         'h-b: solve accepts a reference distance to a handle its node does not have, and rewrites the project',
     'vanishing-segment-zero-length|check':
         'h-b: check accepts a zero-length vanishing segment (calibrate refuses it)',
-    'view-too-large-20000x1|check':
-        'h-b/h-c: check accepts a 20000x1 view that render refuses',
-    'view-too-large-40000x40000|check':
-        'h-b/h-c: check accepts a 40000x40000 view that render refuses',
-    'view-too-large-sightline-recorded|check':
-        'h-c: check accepts a recorded sight line of 40000x40000 (and a view of that size)',
     'hypothesis-hinge-beyond-limits|check':
         "h-b: check accepts a hypothesis whose hinge angle (720 deg) lies outside the joint's limits",
     'hypothesis-hinge-beyond-limits|1:render --view doorway --hypothesis h':

@@ -9,6 +9,8 @@ same functions as those commands, so it reports the very error they would, and i
 
 from __future__ import annotations
 
+from typing import Any
+
 from ..errors import ProjectError, VebuildError
 from ..project import Project, decode_texture_page, read_texture_page, texture_page_path
 
@@ -37,6 +39,7 @@ def check_project(project: Project) -> list[str]:
     for view in data.get("views", []):
         view_camera(view)
     _check_analyses(project)
+    check_render_sizes(project)
     if data.get("analyses"):
         lines.append(f"analyses: {len(data['analyses'])} recorded command(s), each a `vebuild analyse` command")
     pages = (data.get("textures") or {}).get("pages", [])
@@ -61,3 +64,41 @@ def _check_analyses(project: Project) -> None:
             parse(str(project.path), list(rec["command"]))
         except VebuildError as e:
             raise ProjectError(project.path, f"$.analyses[{i}].command", str(e)) from None
+
+
+def check_render_sizes(project: Project) -> None:
+    """Every image size a render takes from the project, checked as the render checks it (the
+    GL-free limits of :func:`vebuild.render.sizes.check_render_size`): each view's own size
+    (``render --view``, ``video``), the report's image of each view and of each calibrated photo,
+    and the ``--size`` of each recorded analysis (the report runs it). A photo's own size is not
+    a render's: only its report image is checked."""
+    from ..analysis.report_sections import parse
+    from ..render.sizes import check_render_size
+    from .render import parse_size
+    from .report import IMAGE_WIDTH, image_size
+
+    def located(width: Any, height: Any, source: str) -> None:  # source: the JSON path and what it is
+        try:
+            check_render_size(width, height, source)
+        except VebuildError as e:
+            raise ProjectError(project.path, "", str(e)) from None
+
+    data = project.data
+    for i, v in enumerate(data.get("views", [])):
+        located(v["width"], v["height"], f"$.views[{i}] (width × height)")
+        located(*image_size(v["width"], v["height"]),
+                f"the report's image of view {v['name']!r} ({IMAGE_WIDTH} pixels wide, its height from the "
+                f"aspect of $.views[{i}], {v['width']}×{v['height']})")
+    calibrated = (data.get("calibration") or {}).get("cameras") or {}
+    for i, p in enumerate(data["photos"]):
+        if p["id"] in calibrated:
+            located(*image_size(p["width"], p["height"]),
+                    f"the report's image of photo {p['id']!r} ({IMAGE_WIDTH} pixels wide, its height from the "
+                    f"aspect of $.photos[{i}], {p['width']}×{p['height']})")
+    for i, rec in enumerate(data.get("analyses") or []):
+        size = getattr(parse(str(project.path), list(rec["command"])), "size", None)
+        if size is not None:
+            try:
+                parse_size(size)
+            except VebuildError as e:
+                raise ProjectError(project.path, f"$.analyses[{i}].command", str(e)) from None

@@ -227,6 +227,12 @@ def _renderer(project: Project, scene: Any = None) -> tuple[Any, Any]:
     return scene, Renderer(headless_context(), scene, RenderOptions())
 
 
+def image_size(width: int, height: int) -> tuple[int, int]:
+    """The size of the report's image of a view or photo of ``width`` × ``height`` pixels:
+    :data:`IMAGE_WIDTH` wide, its height from their aspect."""
+    return IMAGE_WIDTH, max(1, round(IMAGE_WIDTH * height / width))
+
+
 def _views(project: Project, rep: Report) -> None:
     from vebuild.actions.render import provenance
     from vebuild.analysis.markers import draw_markers, visible_markers
@@ -240,7 +246,7 @@ def _views(project: Project, rep: Report) -> None:
     cams = []  # every image's size checked before anything is drawn
     for i, v in enumerate(views):
         cam = view_camera(v, f"$.views[{i}]")
-        cam = cam.resized(IMAGE_WIDTH, max(1, round(IMAGE_WIDTH * cam.height / cam.width)),
+        cam = cam.resized(*image_size(cam.width, cam.height),
                           source=f"the report's image of view {v['name']!r} ({IMAGE_WIDTH} pixels wide, its "
                           f"height from the aspect of $.views[{i}], {cam.width}×{cam.height})")
         check_camera(cam)
@@ -276,7 +282,7 @@ def _validation(project: Project, rep: Report) -> None:
         if p["id"] not in cams:
             continue
         tmp = rep.folder / "images" / f"photo-{i + 1}.png"
-        size = (IMAGE_WIDTH, max(1, round(IMAGE_WIDTH * p["height"] / p["width"])))
+        size = image_size(p["width"], p["height"])
         res = render_evidence(project, RenderRequest(
             out=tmp, photo=p["id"], size=size, validate=True, markers=False,
             size_source=f"the report's image of photo {p['id']!r} ({IMAGE_WIDTH} pixels wide, its height from "
@@ -319,7 +325,7 @@ def _hypotheses(project: Project, rep: Report) -> None:
                            [[n, json.dumps(j, sort_keys=True)] for n, j in h["joints"].items()]))
         if views:
             path = rep.folder / "images" / f"hypothesis-{i + 1}.png"
-            size = (IMAGE_WIDTH, max(1, round(IMAGE_WIDTH * views[0]["height"] / views[0]["width"])))
+            size = image_size(views[0]["width"], views[0]["height"])
             render_evidence(project, RenderRequest(
                 out=path, view=views[0]["name"], hypothesis=h["name"], size=size,
                 size_source=f"the report's image of hypothesis {h['name']!r} ({IMAGE_WIDTH} pixels wide, its "
