@@ -999,8 +999,6 @@ KNOWN_FAILURES: dict[str, str] = {
         "h-b: an Infinity literal's message gives no location (no JSON path, no line)",
     'infinity-literal|calibrate':
         "h-b: an Infinity literal's message gives no location (no JSON path, no line)",
-    'mark-bad-at|1:mark Z --at nan,0,0':
-        'h-c (no branch owns mark): mark --at nan,0,0 raises ValueError in the k-d tree query (a traceback)',
     'new-over-photo|1:new --force':
         'h-a: new PHOTO --force writes the project over the photo photos/p1.jpg',
 }

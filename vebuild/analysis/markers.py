@@ -9,6 +9,7 @@ one hidden behind something from that view is drawn hollow.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import Any
 
@@ -26,6 +27,9 @@ ON_SURFACE_M = 0.01
 #: A marker is visible from a view when nothing lies more than this in front of it.
 OCCLUSION_MARGIN_M = 0.02
 MARKER_COLOUR = (230, 30, 200)
+#: The farthest a world point given for a marker may lie from the origin in any axis: a scene is
+#: metres across, and beyond this a point is a typing slip (and its distances overflow).
+MAX_COORDINATE_M = 1e6
 
 
 def nearest_surface(scene: RenderScene, point: NDArray[np.float64]) -> tuple[str, NDArray[np.float64], float]:
@@ -80,9 +84,9 @@ def place_marker(project: Any, label: str, at: str, description: str = "") -> di
             uv = [float(x) for x in uv_text.split(",")]
         except ValueError:
             uv = []
-        if len(uv) != 2:
-            raise VebuildError(f"--at {at!r}: expected {kind}:{'ID' if kind == 'photo' else 'NAME'}@u,v with u, v in "
-                               "pixels")
+        if len(uv) != 2 or not all(math.isfinite(v) for v in uv):
+            raise VebuildError(f"--at {at!r}: evidence marker {label!r}: expected "
+                               f"{kind}:{'ID' if kind == 'photo' else 'NAME'}@u,v with u, v finite numbers of pixels")
         cam = photo_camera(project, name) if kind == "photo" else find_view(project, name)
         renderer = Renderer(headless_context(), scene, RenderOptions(samples=1))
         try:
@@ -95,6 +99,9 @@ def place_marker(project: Any, label: str, at: str, description: str = "") -> di
         point = []
     if len(point) != 3:
         raise VebuildError(f"--at {at!r}: expected X,Y,Z in metres, photo:ID@u,v or view:NAME@u,v")
+    if not all(math.isfinite(v) and abs(v) <= MAX_COORDINATE_M for v in point):
+        raise VebuildError(f"--at {at!r}: evidence marker {label!r}: expected X,Y,Z finite numbers of metres, "
+                           f"each within ±{MAX_COORDINATE_M:g} m")
     return marker_at_point(scene, label, point, description)
 
 
