@@ -27,9 +27,9 @@ ON_SURFACE_M = 0.01
 #: A marker is visible from a view when nothing lies more than this in front of it.
 OCCLUSION_MARGIN_M = 0.02
 MARKER_COLOUR = (230, 30, 200)
-#: The farthest a world point given for a marker may lie from the origin in any axis: a scene is
-#: metres across, and beyond this a point is a typing slip (and its distances overflow).
-MAX_COORDINATE_M = 1e6
+#: The farthest a world point given for a marker may lie from the origin in any axis: the project
+#: file's bound on every position (FORMAT.md, "Bounds"), so that a marker placed is one it can keep.
+MAX_COORDINATE_M = 1e4
 
 
 def nearest_surface(scene: RenderScene, point: NDArray[np.float64]) -> tuple[str, NDArray[np.float64], float]:
