@@ -953,66 +953,6 @@ KNOWN_FAILURES: dict[str, str] = {
         'h-b: analyse accepts model_solution.nodes naming a node the model lacks',
     'model-solution-orphan-node|report':
         'h-b: report accepts model_solution.nodes naming a node the model lacks',
-    'duplicate-keys|check':
-        "h-b: a duplicate key's message gives no location (no JSON path, no line)",
-    'duplicate-keys|calibrate':
-        "h-b: a duplicate key's message gives no location (no JSON path, no line)",
-    'duplicate-keys|solve':
-        "h-b: a duplicate key's message gives no location (no JSON path, no line)",
-    'duplicate-keys|solve-recal':
-        "h-b: a duplicate key's message gives no location (no JSON path, no line)",
-    'duplicate-keys|texture':
-        "h-b: a duplicate key's message gives no location (no JSON path, no line)",
-    'duplicate-keys|render-view':
-        "h-b: a duplicate key's message gives no location (no JSON path, no line)",
-    'duplicate-keys|render-photo':
-        "h-b: a duplicate key's message gives no location (no JSON path, no line)",
-    'duplicate-keys|report':
-        "h-b: a duplicate key's message gives no location (no JSON path, no line)",
-    'duplicate-keys|export':
-        "h-b: a duplicate key's message gives no location (no JSON path, no line)",
-    'duplicate-keys|video':
-        "h-b: a duplicate key's message gives no location (no JSON path, no line)",
-    'duplicate-keys|analyse':
-        "h-b: a duplicate key's message gives no location (no JSON path, no line)",
-    'duplicate-keys|mark':
-        "h-b: a duplicate key's message gives no location (no JSON path, no line)",
-    'duplicate-keys|register':
-        "h-b: a duplicate key's message gives no location (no JSON path, no line)",
-    'duplicate-keys-nested|check':
-        "h-b: a duplicate key's message gives no location (no JSON path, no line)",
-    'duplicate-keys-nested|calibrate':
-        "h-b: a duplicate key's message gives no location (no JSON path, no line)",
-    'nan-literal|check':
-        "h-b: a NaN literal's message gives no location (no JSON path, no line)",
-    'nan-literal|calibrate':
-        "h-b: a NaN literal's message gives no location (no JSON path, no line)",
-    'nan-literal|solve':
-        "h-b: a NaN literal's message gives no location (no JSON path, no line)",
-    'nan-literal|solve-recal':
-        "h-b: a NaN literal's message gives no location (no JSON path, no line)",
-    'nan-literal|texture':
-        "h-b: a NaN literal's message gives no location (no JSON path, no line)",
-    'nan-literal|render-view':
-        "h-b: a NaN literal's message gives no location (no JSON path, no line)",
-    'nan-literal|render-photo':
-        "h-b: a NaN literal's message gives no location (no JSON path, no line)",
-    'nan-literal|report':
-        "h-b: a NaN literal's message gives no location (no JSON path, no line)",
-    'nan-literal|export':
-        "h-b: a NaN literal's message gives no location (no JSON path, no line)",
-    'nan-literal|video':
-        "h-b: a NaN literal's message gives no location (no JSON path, no line)",
-    'nan-literal|analyse':
-        "h-b: a NaN literal's message gives no location (no JSON path, no line)",
-    'nan-literal|mark':
-        "h-b: a NaN literal's message gives no location (no JSON path, no line)",
-    'nan-literal|register':
-        "h-b: a NaN literal's message gives no location (no JSON path, no line)",
-    'infinity-literal|check':
-        "h-b: an Infinity literal's message gives no location (no JSON path, no line)",
-    'infinity-literal|calibrate':
-        "h-b: an Infinity literal's message gives no location (no JSON path, no line)",
     'bad-size-empty|0:render --view doorway --out --size':
         "h-c: render --size '' is taken as no size (the view's own) instead of refused",
     'bad-size-empty|1:video --views doorway,overview --out --size':
