@@ -899,10 +899,6 @@ case("new-lone-surrogate-name", nothing, [["new", "{D}/n.vebuild.json", "--name"
 # which fails the suite until the entry is removed here.
 
 KNOWN_FAILURES: dict[str, str] = {
-    'principal-point-sigma-rel-1e-300|check':
-        'h-b: check accepts settings.principal_point_sigma_rel = 1e-300 (no lower bound on the relative sigmas)',
-    'principal-point-sigma-rel-1e-300|calibrate':
-        "h-b/h-c: calibrate fails 'numerically' naming $.photos[0], not $.settings.principal_point_sigma_rel",
     'calibration-all-zero-rotation|render-photo':
         'h-b: render --photo draws with an all-zero R; only `check` decodes the cameras',
     'calibration-all-zero-rotation|export':
