@@ -899,18 +899,6 @@ case("new-lone-surrogate-name", nothing, [["new", "{D}/n.vebuild.json", "--name"
 # which fails the suite until the entry is removed here.
 
 KNOWN_FAILURES: dict[str, str] = {
-    'calibration-all-zero-rotation|render-photo':
-        'h-b: render --photo draws with an all-zero R; only `check` decodes the cameras',
-    'calibration-all-zero-rotation|export':
-        "h-b: export raises ValueError('not a rigid transform') on an all-zero R",
-    'calibration-all-zero-rotation|mark-photo':
-        'h-b: mark --at photo: says the pixel shows no surface, not that $.calibration.cameras.p1.R is no rotation',
-    'calibration-rotation-not-orthonormal|render-photo':
-        'h-b: render --photo draws with a non-orthonormal R; only `check` decodes the cameras',
-    'calibration-K-zero-focal|render-photo':
-        'h-b: render --photo draws with f = 0 in K; only `check` decodes the cameras',
-    'calibration-K-zero-focal|export':
-        'h-b: export raises ZeroDivisionError in focal_to_fov on f = 0',
     'reference-distance-unknown-handle|check':
         'h-b: check accepts a reference distance to a handle its node does not have (cabinet:v99)',
     'reference-distance-unknown-handle|calibrate':
@@ -921,8 +909,6 @@ KNOWN_FAILURES: dict[str, str] = {
         'h-c: solve --recalibrate accepts scale distances that contradict (4 m and 400 m) and rewrites the project',
     'scale-distances-contradict-by-100|solve-recal':
         'h-c: solve --recalibrate accepts scale distances that contradict by 100x and rewrites the project',
-    'vanishing-segment-zero-length|check':
-        'h-b: check accepts a zero-length vanishing segment (calibrate refuses it)',
     'view-too-large-20000x1|check':
         'h-b/h-c: check accepts a 20000x1 view that render refuses',
     'view-too-large-20000x1|1:render --view big --out':

@@ -304,6 +304,7 @@ def _check_semantics(data: dict[str, Any], file: Any) -> None:
             for k, seg in enumerate(segments):
                 _check_on_photo(seg[:2], size, file, f"{where}.vanishing_segments.{axis}[{k}]")
                 _check_on_photo(seg[2:], size, file, f"{where}.vanishing_segments.{axis}[{k}]")
+                _check_segment_length(seg, file, f"{where}.vanishing_segments.{axis}[{k}]", photo["id"], axis, k)
         if "principal_point" in photo:
             _check_on_photo(photo["principal_point"]["value"], size, file, f"{where}.principal_point.value")
     model = data.get("model") or {}
@@ -424,6 +425,16 @@ def _check_joint(joint: dict[str, Any], file: Any, where: str) -> None:
             lo, hi = joint[key]
             raise ProjectError(file, f"{where}.{key}", f"expected limits [lo, hi] with lo no greater than hi, found "
                                f"[{lo}{unit}, {hi}{unit}] (reversed?)")
+
+
+def _check_segment_length(seg: list[float], file: Any, where: str, photo: str, axis: str, k: int) -> None:
+    # The same refusal as calibrate's (vanishing.check_segments), at load, so that check reports it.
+    from .calibration.vanishing import MIN_SEGMENT_LENGTH_PX
+    length = math.hypot(seg[2] - seg[0], seg[3] - seg[1])
+    if length < MIN_SEGMENT_LENGTH_PX:
+        raise ProjectError(file, where, f"photo {photo!r}: axis {axis}, segment {k}: its end points are "
+                           f"{length:.2f} px apart; expected a segment at least {MIN_SEGMENT_LENGTH_PX:g} px "
+                           "long along an edge")
 
 
 def _check_pixel_count(width: int, height: int, file: Any, where: str, what: str) -> None:
