@@ -899,12 +899,6 @@ case("new-lone-surrogate-name", nothing, [["new", "{D}/n.vebuild.json", "--name"
 # which fails the suite until the entry is removed here.
 
 KNOWN_FAILURES: dict[str, str] = {
-    'reference-distance-unknown-handle|check':
-        'h-b: check accepts a reference distance to a handle its node does not have (cabinet:v99)',
-    'reference-distance-unknown-handle|calibrate':
-        "h-b: calibrate's message calls cabinet:v99 an unobserved marker, with no JSON path",
-    'reference-distance-unknown-handle|solve':
-        'h-b: solve accepts a reference distance to a handle its node does not have, and rewrites the project',
     'two-scale-distances-contradict|solve-recal':
         'h-c: solve --recalibrate accepts scale distances that contradict (4 m and 400 m) and rewrites the project',
     'scale-distances-contradict-by-100|solve-recal':
