@@ -913,10 +913,6 @@ KNOWN_FAILURES: dict[str, str] = {
         "h-c: render's size message names $.views[3] but not the project file",
     'view-too-large-sightline-recorded|check':
         'h-c: check accepts a recorded sight line of 40000x40000 (and a view of that size)',
-    'hypothesis-hinge-beyond-limits|check':
-        "h-b: check accepts a hypothesis whose hinge angle (720 deg) lies outside the joint's limits",
-    'hypothesis-hinge-beyond-limits|1:render --view doorway --hypothesis h':
-        'h-b: render --hypothesis raises ModelError (not a VebuildError): a traceback',
     'model-solution-covariance-not-square|check':
         'h-b: check accepts a model_solution covariance that is not square',
     'model-solution-covariance-not-square|analyse':

@@ -9,8 +9,13 @@ same functions as those commands, so it reports the very error they would, and i
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from ..errors import ProjectError, VebuildError
 from ..project import Project, decode_texture_page, read_texture_page, texture_page_path
+
+if TYPE_CHECKING:
+    from ..model.scene import Model
 
 
 def check_project(project: Project) -> list[str]:
@@ -32,6 +37,7 @@ def check_project(project: Project) -> list[str]:
     if (data.get("model") or {}).get("nodes"):
         model, pins, edges = load_model(project, check_markers(project))
         lines.append(f"model: {len(model.nodes)} node(s), {len(pins)} pin(s), {len(edges)} edge observation(s)")
+        _check_hypotheses(project, model)
     for preset in (data.get("lighting") or {}).get("presets", []):
         preset_from_record(preset)
     for view in data.get("views", []):
@@ -61,3 +67,11 @@ def _check_analyses(project: Project) -> None:
             parse(str(project.path), list(rec["command"]))
         except VebuildError as e:
             raise ProjectError(project.path, f"$.analyses[{i}].command", str(e)) from None
+
+
+def _check_hypotheses(project: Project, model: Model) -> None:
+    # Each hypothesis applied to the model as render --hypothesis applies it (joint limits and all).
+    from .hypothesis import applied_hypothesis
+
+    for i in range(len(project.data.get("hypotheses") or [])):
+        applied_hypothesis(project, model, i)
