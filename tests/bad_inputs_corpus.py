@@ -913,18 +913,6 @@ KNOWN_FAILURES: dict[str, str] = {
         "h-c: render's size message names $.views[3] but not the project file",
     'view-too-large-sightline-recorded|check':
         'h-c: check accepts a recorded sight line of 40000x40000 (and a view of that size)',
-    'model-solution-covariance-not-square|check':
-        'h-b: check accepts a model_solution covariance that is not square',
-    'model-solution-covariance-not-square|analyse':
-        'h-b: analyse raises ValueError reshaping a non-square covariance',
-    'model-solution-covariance-not-square|report':
-        'h-b: report accepts a model_solution covariance that is not square',
-    'model-solution-orphan-node|check':
-        'h-b: check accepts model_solution.nodes naming a node the model lacks',
-    'model-solution-orphan-node|analyse':
-        'h-b: analyse accepts model_solution.nodes naming a node the model lacks',
-    'model-solution-orphan-node|report':
-        'h-b: report accepts model_solution.nodes naming a node the model lacks',
     'bad-size-empty|0:render --view doorway --out --size':
         "h-c: render --size '' is taken as no size (the view's own) instead of refused",
     'bad-size-empty|1:video --views doorway,overview --out --size':

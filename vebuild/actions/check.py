@@ -38,6 +38,7 @@ def check_project(project: Project) -> list[str]:
         model, pins, edges = load_model(project, check_markers(project))
         lines.append(f"model: {len(model.nodes)} node(s), {len(pins)} pin(s), {len(edges)} edge observation(s)")
         _check_hypotheses(project, model)
+    _check_model_solution(project)
     for preset in (data.get("lighting") or {}).get("presets", []):
         preset_from_record(preset)
     for view in data.get("views", []):
@@ -75,3 +76,10 @@ def _check_hypotheses(project: Project, model: Model) -> None:
 
     for i in range(len(project.data.get("hypotheses") or [])):
         applied_hypothesis(project, model, i)
+
+
+def _check_model_solution(project: Project) -> None:
+    # What analyse and report decode of the solution: its nodes and the covariance's shape.
+    from ..analysis.measure import check_model_solution
+
+    check_model_solution(project)
