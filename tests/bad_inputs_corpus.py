@@ -919,6 +919,4 @@ KNOWN_FAILURES: dict[str, str] = {
         "h-c: video --size '' is taken as no size instead of refused",
     'mark-bad-at|1:mark Z --at nan,0,0':
         'h-c (no branch owns mark): mark --at nan,0,0 raises ValueError in the k-d tree query (a traceback)',
-    'new-over-photo|1:new --force':
-        'h-a: new PHOTO --force writes the project over the photo photos/p1.jpg',
 }
