@@ -72,8 +72,13 @@ def test_new_and_check(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
     assert main(["check", str(path)]) == 0
     out = capsys.readouterr().out
     assert "hashes verified" in out and "img1" in out
-    # Refuses to overwrite an existing project without --force.
+    # Refuses to overwrite an existing project without --force; with it, replaces only a project file.
     assert main(["new", str(path), str(tmp_path / "img0.jpg")]) == 2
+    assert main(["new", str(path), str(tmp_path / "img0.jpg"), "--force"]) == 0
+    assert len(json.loads(path.read_text())["photos"]) == 1
+    photo = (tmp_path / "img1.jpg").read_bytes()
+    assert main(["new", str(tmp_path / "img1.jpg"), str(tmp_path / "img0.jpg"), "--force"]) == 2
+    assert (tmp_path / "img1.jpg").read_bytes() == photo
 
 
 def test_bench_calibration_quick_writes_named_figures(tmp_path: Path) -> None:

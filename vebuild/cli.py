@@ -251,11 +251,10 @@ def _cmd_check(args: argparse.Namespace) -> int:
 
 
 def _cmd_new(args: argparse.Namespace) -> int:
+    from .outputs import check_new_project
     from .project import new_photo_entry, new_project, save_project
 
-    path = Path(args.project)
-    if path.exists() and not args.force:
-        raise VebuildError(f"{path}: already exists; choose another name or pass --force to replace it")
+    path = check_new_project(args.project, args.force)
     data = new_project(args.name or path.name.split(".")[0])
     data["photos"] = [new_photo_entry(path.parent, img) for img in args.photos]
     save_project(path, data)
@@ -451,7 +450,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("photos", nargs="*", help="image files inside the project's folder (or none: add them in "
                    "`vebuild edit`)")
     p.add_argument("--name", help="title of the project (default: from the file name)")
-    p.add_argument("--force", action="store_true", help="replace an existing project file")
+    p.add_argument("--force", action="store_true", help="replace an existing vebuild project file (never another file)")
     p.set_defaults(func=_cmd_new)
 
     p = sub.add_parser("bench", help="measure accuracy and speed (prints a table; --json writes the figures)")

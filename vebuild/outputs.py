@@ -183,6 +183,40 @@ def check_file(project: Any, path: str | os.PathLike[str], what: str = "output",
     return path
 
 
+def is_project_file(path: Path) -> bool:
+    """Whether the existing file ``path`` is a vebuild project file: a JSON object whose ``format``
+    is ``vebuild-project`` (of any version)."""
+    from vebuild.project import FORMAT
+
+    try:
+        if path.is_symlink() or not path.is_file() or path.stat().st_size > 256 << 20:
+            return False
+        doc = json.loads(path.read_bytes())
+    except Exception:  # unreadable, not JSON: not a project file
+        return False
+    return isinstance(doc, dict) and doc.get("format") == FORMAT
+
+
+def check_new_project(path: str | os.PathLike[str], force: bool) -> Path:
+    """Refuse (VebuildError) to write a new project file at ``path`` over anything but, with
+    ``force``, an existing vebuild project file (never over a photo, a render or a link)."""
+    path = Path(path)
+    example = f"a new file name such as {path.parent / 'room.vebuild.json'}"
+    if path.is_symlink():
+        raise VebuildError(f"{path}: is a symbolic link (to {os.readlink(path)}); vebuild does not write over links; "
+                           f"choose {example}")
+    if not path.exists():
+        return path
+    if path.is_dir():
+        raise VebuildError(f"{path}: is a folder; choose {example}")
+    if not is_project_file(path):
+        raise VebuildError(f"{path}: already exists and is not a vebuild project file; `vebuild new` (even with "
+                           f"--force) replaces only a project file; move it away or choose {example}")
+    if not force:
+        raise VebuildError(f"{path}: already exists; choose another name or pass --force to replace it")
+    return path
+
+
 # -- folders ---------------------------------------------------------------------------------------
 
 

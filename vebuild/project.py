@@ -134,8 +134,10 @@ def load_project(path: str | os.PathLike[str], *, verify_photos: bool = True) ->
     except OSError as e:
         raise ProjectError(path, "", f"cannot read the project file: {e.strerror}") from None
     try:
-        data = json.loads(text, object_pairs_hook=lambda pairs: _unique_keys(path, pairs),
-                          parse_constant=lambda name: _reject_constant(path, name), parse_int=_parse_int)
+        data = json.loads(text, object_pairs_hook=_unique_keys, parse_constant=_reject_constant,
+                          parse_int=_parse_int)
+    except _JsonFault as fault:
+        raise _located(path, text, fault) from None
     except json.JSONDecodeError as e:
         where = f"line {e.lineno}, column {e.colno}"
         raise ProjectError(path, "", f"not valid JSON: {e.msg} at {where}") from None
@@ -302,6 +304,7 @@ def _check_semantics(data: dict[str, Any], file: Any) -> None:
             for k, seg in enumerate(segments):
                 _check_on_photo(seg[:2], size, file, f"{where}.vanishing_segments.{axis}[{k}]")
                 _check_on_photo(seg[2:], size, file, f"{where}.vanishing_segments.{axis}[{k}]")
+                _check_segment_length(seg, file, f"{where}.vanishing_segments.{axis}[{k}]", photo["id"], axis, k)
         if "principal_point" in photo:
             _check_on_photo(photo["principal_point"]["value"], size, file, f"{where}.principal_point.value")
     model = data.get("model") or {}
@@ -422,6 +425,16 @@ def _check_joint(joint: dict[str, Any], file: Any, where: str) -> None:
             lo, hi = joint[key]
             raise ProjectError(file, f"{where}.{key}", f"expected limits [lo, hi] with lo no greater than hi, found "
                                f"[{lo}{unit}, {hi}{unit}] (reversed?)")
+
+
+def _check_segment_length(seg: list[float], file: Any, where: str, photo: str, axis: str, k: int) -> None:
+    # The same refusal as calibrate's (vanishing.check_segments), at load, so that check reports it.
+    from .calibration.vanishing import MIN_SEGMENT_LENGTH_PX
+    length = math.hypot(seg[2] - seg[0], seg[3] - seg[1])
+    if length < MIN_SEGMENT_LENGTH_PX:
+        raise ProjectError(file, where, f"photo {photo!r}: axis {axis}, segment {k}: its end points are "
+                           f"{length:.2f} px apart; expected a segment at least {MIN_SEGMENT_LENGTH_PX:g} px "
+                           "long along an edge")
 
 
 def _check_pixel_count(width: int, height: int, file: Any, where: str, what: str) -> None:
@@ -650,18 +663,84 @@ def _listing(names: Any, limit: int = 10) -> str:
     return shown + (f" and {len(names) - limit} more" if len(names) > limit else "")
 
 
-def _unique_keys(file: Path, pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+class _JsonFault(Exception):
+    """Raised from the JSON decoder's hooks (which know no position); located afterwards by _locate."""
+
+    def __init__(self, kind: str, name: str) -> None:
+        super().__init__(kind, name)
+        self.kind = kind   # "duplicate" (a key seen twice in one object) or "constant" (NaN, Infinity)
+        self.name = name
+
+
+def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
     # json.loads would silently keep the last of two equal keys: a hand edit lost without a word.
     out: dict[str, Any] = {}
     for k, v in pairs:
         if k in out:
-            raise ProjectError(file, "", f"the key {k!r} appears twice in one object; keep only one")
+            raise _JsonFault("duplicate", k)
         out[k] = v
     return out
 
 
-def _reject_constant(file: Path, name: str) -> None:
-    raise ProjectError(file, "", f"not valid JSON: {name} is not a JSON number")
+def _reject_constant(name: str) -> None:
+    raise _JsonFault("constant", name)
+
+
+def _located(file: Path, text: str, fault: _JsonFault) -> ProjectError:
+    """The error for a fault the decoder's hooks found, with its JSON path, line and column."""
+    found = _locate(text, fault)
+    where, at = "", ""
+    if found is not None:
+        parts, offset = found
+        where = json_path(parts)
+        line = text.count("\n", 0, offset) + 1
+        at = f" (line {line}, column {offset - text.rfind(chr(10), 0, offset)})"
+    if fault.kind == "duplicate":
+        return ProjectError(file, where, f"the key {fault.name!r} appears twice in one object{at}; keep only one")
+    return ProjectError(file, where, f"not valid JSON: {fault.name} is not a JSON number{at}; "
+                                     "expected a finite number")
+
+
+_JSON_TOKEN = re.compile(r'"(?:[^"\\]|\\.)*"|[\[\]{},:]|[^\s\[\]{},:"]+')
+
+
+def _locate(text: str, fault: _JsonFault) -> tuple[list[Any], int] | None:
+    """Where in ``text`` (a JSON text that only the hooks refused) the fault first occurs.
+
+    Returns the JSON path of the value (a duplicate key: the second occurrence's own path) and the
+    character offset of the offending token, or None if the scan does not find it.
+    """
+    # One entry per open container: [is_object, current key or index, keys seen, expecting a key].
+    stack: list[list[Any]] = []
+    for m in _JSON_TOKEN.finditer(text):
+        tok = m.group()
+        top = stack[-1] if stack else None
+        if tok in ("{", "["):
+            stack.append([tok == "{", None if tok == "{" else 0, set(), tok == "{"])
+        elif tok in ("}", "]"):
+            if stack:
+                stack.pop()
+        elif tok == ",":
+            if top is not None:
+                if top[0]:
+                    top[3] = True
+                else:
+                    top[1] += 1
+        elif tok == ":":
+            if top is not None:
+                top[3] = False
+        elif top is not None and top[0] and top[3] and tok[0] == '"':
+            try:
+                key = json.loads(tok)
+            except ValueError:
+                continue
+            top[1] = key
+            if fault.kind == "duplicate" and key == fault.name and key in top[2]:
+                return [e[1] for e in stack], m.start()
+            top[2].add(key)
+        elif fault.kind == "constant" and tok == fault.name:
+            return [e[1] for e in stack], m.start()
+    return None
 
 
 # --------------------------------------------------------------------------------------------------

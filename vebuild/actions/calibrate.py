@@ -18,6 +18,7 @@ from ..calibration.positions import PhotoInput, Placement, ReferenceDistance, pl
 from ..errors import CalibrationError
 from ..project import Project, canonical_input_hash
 from .records import camera_record, json_values
+from .solve import check_reference_handles
 
 #: EXIF focal lengths from the physical focal length and from the 35 mm equivalent that disagree
 #: by more than this (relative) are not trusted to 1 %: the larger discrepancy becomes the 1σ.
@@ -87,6 +88,7 @@ def _located(project: Project, e: CalibrationError) -> CalibrationError:
 
 def _calibrate(project: Project, progress: Callable[[Iterable], Iterable]) -> dict[str, Any]:
     data = project.data
+    check_reference_handles(project)
     photos = calibrate_photos(project, progress)
     missing = [p["id"] for p in data["photos"] if p["id"] not in photos]
     if not photos:

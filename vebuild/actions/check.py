@@ -9,10 +9,13 @@ same functions as those commands, so it reports the very error they would, and i
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..errors import ProjectError, VebuildError
 from ..project import Project, decode_texture_page, read_texture_page, texture_page_path
+
+if TYPE_CHECKING:
+    from ..model.scene import Model
 
 
 def check_project(project: Project) -> list[str]:
@@ -34,6 +37,8 @@ def check_project(project: Project) -> list[str]:
     if (data.get("model") or {}).get("nodes"):
         model, pins, edges = load_model(project, check_markers(project))
         lines.append(f"model: {len(model.nodes)} node(s), {len(pins)} pin(s), {len(edges)} edge observation(s)")
+        _check_hypotheses(project, model)
+    _check_model_solution(project)
     for preset in (data.get("lighting") or {}).get("presets", []):
         preset_from_record(preset)
     for view in data.get("views", []):
@@ -102,3 +107,18 @@ def check_render_sizes(project: Project) -> None:
                 parse_size(size)
             except VebuildError as e:
                 raise ProjectError(project.path, f"$.analyses[{i}].command", str(e)) from None
+
+
+def _check_hypotheses(project: Project, model: Model) -> None:
+    # Each hypothesis applied to the model as render --hypothesis applies it (joint limits and all).
+    from .hypothesis import applied_hypothesis
+
+    for i in range(len(project.data.get("hypotheses") or [])):
+        applied_hypothesis(project, model, i)
+
+
+def _check_model_solution(project: Project) -> None:
+    # What analyse and report decode of the solution: its nodes and the covariance's shape.
+    from ..analysis.measure import check_model_solution
+
+    check_model_solution(project)

@@ -10,8 +10,8 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from vebuild.errors import ProjectError
-from vebuild.model.scene import Model
+from vebuild.errors import ProjectError, VebuildError
+from vebuild.model.scene import Model, ModelError
 from vebuild.project import Project
 
 #: The words put on every image of a hypothesis.
@@ -32,13 +32,40 @@ def find_hypothesis(project: Project, name: str) -> dict[str, Any]:
     raise ProjectError(project.path, "$.hypotheses", f"no hypothesis is called {name!r}; the hypotheses are: {known}")
 
 
-def model_with(model: Model, joints: Mapping[str, Mapping[str, Any]]) -> Model:
-    """A copy of ``model`` with the joints of a hypothesis (the measured model is untouched)."""
+def model_with(model: Model, joints: Mapping[str, Mapping[str, Any]], where: str = "$.hypotheses") -> Model:
+    """A copy of ``model`` with the joints of a hypothesis (the measured model is untouched).
+
+    ``where``: the hypothesis' JSON path, for the messages (:func:`applied_hypothesis` adds the file).
+    """
     from vebuild.viewer.manipulate import ObjectMover
 
     mover = ObjectMover(model)
-    mover.apply(joints)
+    mover.apply(joints, where)
     return mover.model
+
+
+def hypothesis_model(project: Project, model: Model, name: str) -> Model:
+    """A copy of ``model`` arranged as the project's hypothesis ``name``, checked.
+
+    Raises ProjectError naming the file and ``$.hypotheses[i].joints.NODE`` where a joint cannot be
+    applied (another joint type, a value outside the node's joint limits).
+    """
+    rec = find_hypothesis(project, name)
+    return applied_hypothesis(project, model, project.data["hypotheses"].index(rec))
+
+
+def applied_hypothesis(project: Project, model: Model, i: int) -> Model:
+    """``model`` arranged as ``$.hypotheses[i]`` (a copy), every error a ProjectError with its path."""
+    where = f"$.hypotheses[{i}]"
+    rec = project.data["hypotheses"][i]
+    try:
+        return model_with(model, rec["joints"], where)
+    except ModelError as e:
+        raise ProjectError(project.path, e.where or f"{where}.joints", e.detail) from None
+    except ProjectError:
+        raise
+    except VebuildError as e:
+        raise ProjectError(project.path, f"{where}.joints", str(e)) from None
 
 
 def save_hypothesis(project: Project, name: str, joints: Mapping[str, Mapping[str, Any]],

@@ -201,9 +201,9 @@ def render_evidence(project: Project, req: RenderRequest) -> RenderResult:
     lighting = find_preset(project, req.lighting)
     scene = load_scene(project)
     if req.hypothesis is not None:
-        from vebuild.actions.hypothesis import find_hypothesis, model_with
+        from vebuild.actions.hypothesis import hypothesis_model
 
-        scene = scene.with_model(model_with(scene.model, find_hypothesis(project, req.hypothesis)["joints"]))
+        scene = scene.with_model(hypothesis_model(project, scene.model, req.hypothesis))
     ctx = headless_context()
     stereo = Stereo(req.stereo, req.eye_separation, req.convergence) if req.stereo else None
     renderer = Renderer(ctx, scene, RenderOptions(samples=req.samples, shadows=req.shadows))

@@ -195,6 +195,9 @@ def _calibration(project: Project, rep: Report) -> None:
 
 
 def _model(project: Project, rep: Report) -> None:
+    from vebuild.analysis.measure import check_model_solution
+
+    check_model_solution(project)
     sol = project.data.get("model_solution")
     if not sol:
         rep.add("Model", "<p class='warn'>The model has not been solved (`vebuild solve`).</p>")

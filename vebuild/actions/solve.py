@@ -117,7 +117,34 @@ def load_model(project: Project, markers: dict[str, np.ndarray] | None = None
                                f"node '{e['node']}' has no edge '{e['edge']}'; its edges are: "
                                f"{', '.join(names) or 'none'}")
         edges.append(EdgeObservation(e["photo"], e["node"], e["edge"], np.asarray(e["points"], float)))
+    check_reference_handles(project, model)
     return model, pins, edges
+
+
+def check_reference_handles(project: Project, model: Model | None = None) -> None:
+    """Every reference distance's ``node:handle`` end names a handle its node's primitive has.
+
+    ``model``: the decoded model (default: decoded here, with every marker at the origin, only to
+    read the primitives' handles, as before calibration). The load has checked that the node exists.
+    """
+    refs = [(i, key, d[key]) for i, d in enumerate(project.data.get("reference_distances", []))
+            for key in ("a", "b") if ":" in d[key]]
+    if not refs:
+        return
+    if model is None:
+        try:
+            model = model_from_dict(project.data["model"]["nodes"],
+                                    {m["name"]: np.zeros(3) for m in project.data["markers"]})
+        except ModelError as e:
+            raise ProjectError(project.path, e.where or "$.model.nodes", e.detail) from None
+    for i, key, name in refs:
+        node, handle = name.split(":", 1)
+        prim = model.node(node).primitive
+        if prim is None or handle not in prim.handle_names():
+            have = ", ".join(prim.handle_names()) if prim else "none (a group has no handles)"
+            raise ProjectError(project.path, f"$.reference_distances[{i}].{key}",
+                               f"names the handle {name!r}, but node {node!r} has no handle {handle!r}; "
+                               f"its handles are: {have}")
 
 
 def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics: bool = True) -> dict[str, Any]:

@@ -76,9 +76,9 @@ def _scene(project: Any, hypothesis: str | None) -> Any:
 
     scene = load_scene(project)
     if hypothesis is not None:
-        from vebuild.actions.hypothesis import find_hypothesis, model_with
+        from vebuild.actions.hypothesis import hypothesis_model
 
-        scene = scene.with_model(model_with(scene.model, find_hypothesis(project, hypothesis)["joints"]))
+        scene = scene.with_model(hypothesis_model(project, scene.model, hypothesis))
     return scene
 
 

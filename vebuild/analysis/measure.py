@@ -64,6 +64,41 @@ class MeasureError(VebuildError):
 # Points
 
 
+def check_model_solution(project: Any) -> None:
+    """``model_solution`` fits the model: its nodes are nodes of ``model.nodes``, and its covariance
+    matrix is square with one row and one column per entry of its parameter list.
+
+    Raises ProjectError naming the file and the JSON path (nothing to check if the project has not
+    been solved).
+    """
+    from ..project import json_path
+
+    sol = project.data.get("model_solution")
+    if not sol:
+        return
+    path = project.path
+    nodes = [n["name"] for n in (project.data.get("model") or {}).get("nodes", [])]
+    for name in sol.get("nodes") or {}:
+        if name not in nodes:
+            shown = ", ".join(repr(n) for n in nodes[:10]) + (f" and {len(nodes) - 10} more" if len(nodes) > 10 else "")
+            raise ProjectError(path, json_path(["model_solution", "nodes", name]),
+                               f"a solution for the node {name!r}, but $.model.nodes has no node of that name (the "
+                               f"nodes are: {shown or 'none'}); run `vebuild solve` again")
+    rec = sol.get("covariance")
+    if rec:
+        n = len(rec["parameters"])
+        matrix = rec["matrix"]
+        if len(matrix) != n:
+            raise ProjectError(path, "$.model_solution.covariance.matrix",
+                               f"expected a square {n}×{n} matrix (a row per entry of "
+                               f"$.model_solution.covariance.parameters), found {len(matrix)} rows")
+        for k, row in enumerate(matrix):
+            if len(row) != n:
+                raise ProjectError(path, f"$.model_solution.covariance.matrix[{k}]",
+                                   f"expected a square {n}×{n} matrix (a column per entry of "
+                                   f"$.model_solution.covariance.parameters), found a row of {len(row)} entries")
+
+
 @dataclass(frozen=True)
 class Point:
     """A point tied to the model: a handle, a point on a face (normalised coordinates) or a marker."""
@@ -198,6 +233,7 @@ class SolvedModel:
         if not rec:
             raise ProjectError(path, "$.model_solution.covariance", "the solution holds no covariance (written by an "
                                "older vebuild); run `vebuild solve` again")
+        check_model_solution(project)
         cal = data.get("calibration") or {}
         markers = {n: np.asarray(m["position"], float) for n, m in (cal.get("markers") or {}).items()}
         sigma = {n: np.nan_to_num(np.asarray([np.inf if s is None else s for s in m.get("sigma", [0, 0, 0])], float),

@@ -74,8 +74,10 @@ def photo_camera(project: Project, photo: str) -> ImageCamera:
     if cam is None:
         raise ProjectError(project.path, "$.calibration.cameras",
                            f"photo {photo!r} has no calibrated camera; run `vebuild calibrate` (or `vebuild register`)")
+    # Decoded, checked (K a pinhole matrix, R a rotation), by the one decoder every command uses.
+    from vebuild.actions.solve import cameras_from_calibration
+    checked = cameras_from_calibration(project)[photo]
     p = project.photo(photo)
     i = ids.index(photo)
-    return ImageCamera(photo, np.asarray(cam["K"], float), np.asarray(cam["R"], float),
-                       np.asarray(cam["position"]["value"], float), int(p["width"]), int(p["height"]),
+    return ImageCamera(photo, checked.K, checked.R, checked.C, int(p["width"]), int(p["height"]),
                        source=f"$.photos[{i}] (photo {photo!r}: width × height)")

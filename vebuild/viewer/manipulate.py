@@ -245,7 +245,7 @@ class ObjectMover:
         before = self._snapshot()
         for name, rec in joints.items():
             node = self.model.node(name)
-            new = joint_from_dict(rec, f"{where}.joints.{name}", _markers(self.measured))
+            new = joint_from_dict(rec, f"{where}.joints.{name}", _markers(self.measured), f"{where}.joints.{name}")
             if new.type != node.joint.type:
                 raise VebuildError(f"{where}.joints.{name}: a {new.type} joint, but the node's joint is "
                                    f"{node.joint.type}; a hypothesis moves objects, it does not re-attach them")
