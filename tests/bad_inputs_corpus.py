@@ -792,7 +792,8 @@ BAD_SIZES = ["abc", "0x10", "10x0", "-5x5", "10x", "1e3x5", "9999999999999999999
 for _i, _s in enumerate(BAD_SIZES):
     cmds: list[Any] = [["render", P, "--view", "doorway", "--out", "{OUT}/v.png", "--size", _s]]
     if _i % 3 == 0:
-        cmds.append(["video", P, "--views", "doorway,overview", "--out", "{OUT}/w.mp4", "--size", _s, "--quiet"])
+        cmds.append(["video", P, "--views", "doorway,overview", "--out", "{OUT}/w.mp4", "--size", _s, "--fps", "2",
+                     "--quiet"])
     if _i % 3 == 1:
         cmds.append(["analyse", P, "lighting", "--view", "doorway", "--preset", "daylight", "--target", "table.top",
                      "--size", _s])
