@@ -1,7 +1,8 @@
 """Peak memory of texture extraction from one very large photo (a one-off measurement).
 
-``python3 -m vebuild.bench.big_photo [SIDE]`` writes a SIDE × SIDE PNG (default 13000: 169 MP,
-a smooth gradient that compresses to well under a megabyte, as a scan or a stitched panorama
+``python3 -m vebuild.bench.big_photo [SIDE]`` writes a SIDE × SIDE PNG (default 10900: 119 MP, just
+under the 120 MP a project's photo may have; a 13000² photo, 169 MP, is refused before it is
+decoded), a smooth gradient that compresses to well under a megabyte, as a scan or a stitched panorama
 might), and extracts the example room's textures from it alone, in a fresh process so that the
 peak is this run's. It prints the peak resident memory (Linux VmHWM) and its ratio to the photo's
 decoded size (3 bytes a pixel: the least any extraction must hold once), per stage of the run.
@@ -62,7 +63,7 @@ def main(argv: list[str] | None = None) -> int:
     if argv[:1] == ["--child"]:
         print(json.dumps(child(argv[1], int(argv[2]))))
         return 0
-    side = int(argv[0]) if argv else 13000
+    side = int(argv[0]) if argv else 10900
     with tempfile.TemporaryDirectory(prefix="vebuild-big-photo-") as tmp:
         photo = Path(tmp) / "big.png"
         write_photo(photo, side)
