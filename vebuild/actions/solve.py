@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from .. import __version__, camera
+from ..calibration.lsq import is_numeric_failure
 from ..calibration.positions import ReferenceDistance, check_scale_distances
 from ..errors import CalibrationError, ProjectError, VebuildError
 from ..model.scene import Model, ModelError, model_from_dict
@@ -187,8 +188,7 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
     except VebuildError as e:
         raise VebuildError(f"{project.path}: $.model: {e}") from None
     except (ValueError, np.linalg.LinAlgError) as e:
-        text = str(e).lower()
-        if isinstance(e, ValueError) and not any(w in text for w in ("finite", "nan", "inf")):
+        if not is_numeric_failure(e):  # LinAlgError is a ValueError: a singular matrix is numeric too
             raise
         raise VebuildError(f"{project.path}: $.model: the solve failed numerically ({e}); an observation or a "
                            "node's dimensions make it degenerate: check the pins of the nodes last edited") from None
