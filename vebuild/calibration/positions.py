@@ -506,7 +506,8 @@ def _refine(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mappi
         sol = least_squares(residuals, x0, jac=jacobian, loss="soft_l1", f_scale=ROBUST_SCALE,
                             x_scale="jac", method="trf", xtol=1e-10, ftol=1e-10)
         x = sol.x
-        res = residuals(x)
+        with np.errstate(all="ignore"):  # a non-finite residual is reported below, not warned about
+            res = residuals(x)
         if not np.all(np.isfinite(res)):
             raise CalibrationError(None, f"{culprit(res)}: the refinement of cameras and markers went to a "
                                    "non-finite value there; check that marker's clicks in that photo")
