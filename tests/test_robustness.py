@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import re
 import shutil
+import warnings
 from pathlib import Path
 
 import pytest
@@ -301,3 +302,146 @@ def test_a_focal_prior_of_no_spread_is_named_not_a_scipy_error(rng):
     p = photos[0]
     with pytest.raises(VebuildError, match=r"photo 'p1': focal_px: expected a focal length > 0 px with a σ > 0 px"):
         calibrate_photo(p.segments, p.width, p.height, photo=p.id, focal=FocalPrior(1200.0, 0.0, "user"))
+
+
+# -- non-finite values inside the solvers, through the command line --------------------------------
+
+def _failing_calibrate(room, capsys):
+    """`vebuild calibrate` on ``room``: its stderr, after checking status 2, no traceback and the
+    project file untouched."""
+    before = room.read_bytes()
+    assert main(["calibrate", str(room), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err, err
+    assert room.read_bytes() == before
+    return err
+
+
+def test_vebuild_calibrate_names_the_observation_whose_refined_residual_is_not_finite(room, capsys, monkeypatch):
+    """The joint refinement of cameras and markers ending where photo p2's camera sits on marker O
+    (the origin): that sighting's residual is 0/0. No valid input was found that leads the robust
+    refinement there (the start is checked, and it does not step onto a marker), so
+    ``least_squares`` is wrapped to end there."""
+    import numpy as np
+
+    from vebuild.calibration import positions
+
+    real = positions.least_squares
+
+    def onto_the_origin(fun, x0, *args, **kwargs):
+        sol = real(fun, x0, *args, **kwargs)
+        sol.x = sol.x.copy()
+        sol.x[9 * 1 + 6 : 9 * 1 + 9] = 0.0  # photo p2's camera centre (the second camera) on O
+        with np.errstate(all="ignore"):
+            assert not np.all(np.isfinite(fun(sol.x)))
+        return sol
+    monkeypatch.setattr(positions, "least_squares", onto_the_origin)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        err = _failing_calibrate(room, capsys)
+    assert not [w for w in caught if issubclass(w.category, RuntimeWarning)]  # no NumPy warning on stderr
+    assert "photo 'p2', marker 'O': the refinement of cameras and markers went to a non-finite value there; " \
+           "check that marker's clicks in that photo" in err, err
+
+
+@pytest.mark.parametrize("failure", [__import__("numpy").linalg.LinAlgError("SVD did not converge"),
+                                     ValueError("Residuals are not finite in the initial point.")])
+def test_vebuild_calibrate_names_a_numerical_failure_of_the_refinement(room, capsys, monkeypatch, failure):
+    """SciPy giving up inside the refinement (a singular system, a non-finite step): reached by making
+    ``least_squares`` raise what SciPy raises then, since the start is checked for finite residuals
+    before it is called."""
+    from vebuild.calibration import positions
+
+    def fail(*args, **kwargs):
+        raise failure
+    monkeypatch.setattr(positions, "least_squares", fail)
+    err = _failing_calibrate(room, capsys)
+    assert f"the refinement of camera and marker positions failed numerically ({failure}); a photo's vanishing " \
+           "lines or marker clicks make it degenerate: check the photos with the fewest markers first" in err, err
+
+
+def test_vebuild_calibrate_passes_other_errors_of_the_refinement_on(room, monkeypatch):
+    """A ValueError that is not about the numbers (a bug) is not dressed up as the user's fault."""
+    from vebuild.calibration import positions
+
+    def fail(*args, **kwargs):
+        raise ValueError("x0 has the wrong shape")
+    monkeypatch.setattr(positions, "least_squares", fail)
+    with pytest.raises(ValueError, match="x0 has the wrong shape"):
+        main(["calibrate", str(room), "--quiet"])
+
+
+@pytest.fixture
+def calibrated_room(room, capsys):
+    assert main(["calibrate", str(room), "--quiet"]) == 0
+    capsys.readouterr()
+    return room
+
+
+def _failing_solve(room, capsys):
+    before = room.read_bytes()
+    assert main(["solve", str(room)]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err, err
+    assert room.read_bytes() == before
+    return err
+
+
+def test_vebuild_solve_names_a_pin_whose_camera_sits_on_its_handle(calibrated_room, capsys):
+    """A valid project: photo p2's calibrated camera moved onto marker O, where the floor's handle v0
+    rests and which p2 pins; that pin's projection is 0/0 at the start of the solve."""
+    data = json.loads(calibrated_room.read_text())
+    data["calibration"]["cameras"]["p2"]["position"]["value"] = [0.0, 0.0, 0.0]
+    calibrated_room.write_text(json.dumps(data))
+    err = _failing_solve(calibrated_room, capsys)
+    assert f"{calibrated_room}: $.model: pin floor:v0 in photo 'p2': its residual is not a finite number at the " \
+           "start of the solve" in err, err
+
+
+def test_vebuild_solve_names_a_parameter_that_ends_non_finite(calibrated_room, capsys, monkeypatch):
+    """The solve ending on a non-finite parameter: no valid input was found that leads there (the
+    start is checked), so ``Problem.solve`` is wrapped to end there."""
+    import numpy as np
+
+    from vebuild.model.solver import Problem
+
+    real = Problem.solve
+    names = []
+
+    def to_nan(self, x0, *args, **kwargs):
+        sol = real(self, x0, *args, **kwargs)
+        sol.x = sol.x.copy()
+        sol.x[0] = np.nan
+        names.append(self.names[0])
+        return sol
+    monkeypatch.setattr(Problem, "solve", to_nan)
+    err = _failing_solve(calibrated_room, capsys)
+    assert f"$.model: the model parameter {names[0]} is not a finite number at the end of the solve" in err, err
+
+
+@pytest.mark.parametrize("failure", [__import__("numpy").linalg.LinAlgError("Singular matrix"),
+                                     ValueError("array must not contain infs or NaNs")])
+def test_vebuild_solve_names_a_numerical_failure(calibrated_room, capsys, monkeypatch, failure):
+    """SciPy or NumPy giving up inside the solve: reached by making ``Problem.solve`` raise what they
+    raise then, since a singular system is otherwise reported as undetermined parameters. (A
+    LinAlgError is a ValueError, and "Singular matrix" names no non-finite number: it used to
+    escape as a traceback.)"""
+    from vebuild.model.solver import Problem
+
+    def fail(self, *args, **kwargs):
+        raise failure
+    monkeypatch.setattr(Problem, "solve", fail)
+    err = _failing_solve(calibrated_room, capsys)
+    assert f"{calibrated_room}: $.model: the solve failed numerically ({failure}); an observation or a node's " \
+           "dimensions make it degenerate" in err, err
+
+
+def test_vebuild_solve_passes_other_errors_on(calibrated_room, monkeypatch):
+    """A ValueError that is not about the numbers (a bug) is not dressed up as the user's fault."""
+    from vebuild.model.solver import Problem
+
+    def fail(self, *args, **kwargs):
+        raise ValueError("x0 has the wrong shape")
+    monkeypatch.setattr(Problem, "solve", fail)
+    with pytest.raises(ValueError, match="x0 has the wrong shape"):
+        main(["solve", str(calibrated_room)])
