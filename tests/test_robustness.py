@@ -445,3 +445,16 @@ def test_vebuild_solve_passes_other_errors_on(calibrated_room, monkeypatch):
     monkeypatch.setattr(Problem, "solve", fail)
     with pytest.raises(ValueError, match="x0 has the wrong shape"):
         main(["solve", str(calibrated_room)])
+
+
+def test_a_numeric_failure_is_told_apart_by_whole_words():
+    import numpy as np
+
+    from vebuild.calibration.lsq import is_numeric_failure
+
+    for text in ("array must not contain infs or NaNs", "Residuals are not finite in the initial point",
+                 "x0 must only have finite values", "Singular matrix"):
+        exc = np.linalg.LinAlgError(text) if text == "Singular matrix" else ValueError(text)
+        assert is_numeric_failure(exc), text
+    for text in ("x0 is infeasible", "information is missing", "the nanometre grid"):
+        assert not is_numeric_failure(ValueError(text)), text

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+import re
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import Any, TypeVar
@@ -59,8 +60,10 @@ def is_numeric_failure(e: BaseException) -> bool:
     residuals, Jacobians or arrays that are not finite."""
     if isinstance(e, np.linalg.LinAlgError):
         return True
-    text = str(e).lower()
-    return isinstance(e, ValueError) and any(w in text for w in ("finite", "nan", "inf"))
+    # Whole words: "infs or NaNs", "not finite", "inf" — not "infeasible" (a bound, not the numbers).
+    words = set(re.findall(r"[a-z]+", str(e).lower()))
+    return isinstance(e, ValueError) and bool(words & {"finite", "nonfinite", "nan", "nans", "inf", "infs", "infinite",
+                                                       "infinity"})
 
 
 @contextmanager
