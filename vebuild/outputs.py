@@ -34,6 +34,7 @@ from typing import Any
 from vebuild import __version__
 from vebuild.atomic import MANIFEST, clean_stale, is_temp_name, write_text
 from vebuild.errors import VebuildError
+from vebuild.project import autosave_path
 
 #: The marker vebuild's own files carry (see the table above).
 SOFTWARE = f"vebuild {__version__}"
@@ -58,10 +59,10 @@ def protected(project: Any) -> dict[str, str]:
     out: dict[str, str] = {}
     path = Path(project.path)
     out[os.path.realpath(path)] = f"the project file {path.name}"
-    auto = path.with_name(path.name + ".autosave")
+    auto = autosave_path(path)
     out[os.path.realpath(auto)] = f"the project's autosave {auto.name}"
     for p in project.data.get("photos", []):
-        out[os.path.realpath(project.folder / p["file"])] = f"the project's photo {p['file']}"
+        out[os.path.realpath(project.photo_path(p))] = f"the project's photo {p['file']}"
     for page in (project.data.get("textures") or {}).get("pages", []):
         for key in ("atlas", "coverage"):
             if page.get(key):

@@ -36,9 +36,9 @@ from .validation import (
 
 __all__ = [  # what other modules take from here; validation and image files have modules of their own
     "AS_PHOTOGRAPHED", "DEFAULT_SETTINGS", "FORMAT", "MAX_IMAGE_PIXELS", "RESULT_KEYS", "VERSION", "Project",
-    "canonical_input_hash", "decode_texture_page", "json_path", "load_project", "new_photo_entry", "new_project",
-    "open_image", "read_exif", "read_texture_page", "save_project", "schema", "sha256_bytes", "sha256_file",
-    "texture_page_path", "validate",
+    "autosave_path", "canonical_input_hash", "decode_texture_page", "json_path", "load_project",
+    "new_photo_entry", "new_project", "open_image", "read_exif", "read_texture_page", "save_project",
+    "schema", "sha256_bytes", "sha256_file", "texture_page_path", "validate",
 ]
 
 #: Values of ``settings`` that a project does not give (FORMAT.md, "settings").
@@ -180,6 +180,12 @@ def save_project(project_or_path: Project | str | os.PathLike[str],
         raise ProjectError(path, "", f"cannot write the project file ({e.strerror or e}); "
                            "the file on disk is unchanged") from e
     return path
+
+
+def autosave_path(project_path: str | os.PathLike[str]) -> Path:
+    """The modelling screen's side file of a project (``NAME.vebuild.json.autosave``, FORMAT.md)."""
+    path = Path(project_path)
+    return path.with_name(path.name + ".autosave")
 
 
 def new_project(name: str) -> dict[str, Any]:

@@ -31,7 +31,7 @@ from vebuild.atomic import write_bytes
 from vebuild.camera import ImageCamera
 from vebuild.errors import VebuildError
 from vebuild.outputs import begin_stage
-from vebuild.project import Project, canonical_input_hash, load_project, save_project, sha256_file
+from vebuild.project import Project, autosave_path, canonical_input_hash, load_project, save_project, sha256_file
 from vebuild.texture.extract import PhotoSource, TextureResult, extract
 from vebuild.texture.gpu import Options, Timings
 from vebuild.texture.merge import linear_to_srgb8
@@ -136,16 +136,27 @@ def _recorded_names(record: dict[str, Any] | None) -> dict[str, str]:
     return out
 
 
+def _names_recorded_on_disk(project: Project, autosave_only: bool = False) -> set[str] | None:
+    """The page files the project file on disk (unless ``autosave_only``) and its autosave name;
+    None if one of them cannot be read (then nothing may be deleted)."""
+    names: set[str] = set()
+    files = [autosave_path(project.path)] + ([] if autosave_only else [project.path])
+    for path in files:
+        if path.exists():
+            try:
+                names |= set(_recorded_names(load_project(path, verify_photos=False).data.get("textures")))
+            except VebuildError:
+                return None
+    return names
+
+
 def _remove_old_pages(project: Project, folder: Path, old: dict[str, Any] | None, new: dict[str, Any]) -> None:
     """Delete the pages of the old record that the new one (and an open modelling session's
     autosave) does not name, each only if its bytes still hash to the old record's SHA-256."""
-    keep = set(_recorded_names(new))
-    auto = project.path.with_name(project.path.name + ".autosave")
-    if auto.exists():
-        try:
-            keep |= set(_recorded_names(load_project(auto, verify_photos=False).data.get("textures")))
-        except VebuildError:
-            return  # cannot tell what it refers to: touch nothing
+    keep = _names_recorded_on_disk(project, autosave_only=True)
+    if keep is None:
+        return  # cannot tell what the autosave refers to: touch nothing
+    keep |= set(_recorded_names(new))
     for name, digest in _recorded_names(old).items():
         path = folder / name
         if name in keep or path.is_symlink() or not path.is_file():
@@ -161,13 +172,10 @@ def remove_unrecorded_pages(project: Project, folder: Path) -> list[Path]:
     """Delete pages vebuild wrote that no record refers to (a run killed before or after its
     save): names of :data:`PAGE_NAME` whose bytes match the hash in the name, named neither by
     the project in memory, nor by the project file on disk, nor by its autosave."""
-    names = set(_recorded_names(project.data.get("textures")))
-    for path in (project.path, project.path.with_name(project.path.name + ".autosave")):
-        if path.exists():
-            try:
-                names |= set(_recorded_names(load_project(path, verify_photos=False).data.get("textures")))
-            except VebuildError:
-                return []  # cannot tell what it refers to: touch nothing
+    names = _names_recorded_on_disk(project)
+    if names is None:
+        return []  # cannot tell what they refer to: touch nothing
+    names |= set(_recorded_names(project.data.get("textures")))
     removed = []
     for path in sorted(folder.iterdir()):
         m = PAGE_NAME.match(path.name)

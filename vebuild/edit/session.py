@@ -33,7 +33,15 @@ from vebuild.errors import CalibrationError, VebuildError
 from vebuild.model.edit import DragSession, drag_nodes, project_edges
 from vebuild.model.scene import Model, ModelError, model_from_dict
 from vebuild.model.solver import Camera, EdgeObservation, Pin
-from vebuild.project import RESULT_KEYS, Project, load_project, new_photo_entry, save_project, validate
+from vebuild.project import (
+    RESULT_KEYS,
+    Project,
+    autosave_path,
+    load_project,
+    new_photo_entry,
+    save_project,
+    validate,
+)
 
 from .overlay import (
     AXIS_COLOURS,
@@ -168,7 +176,7 @@ class EditSession:
 
     @property
     def autosave_path(self) -> Path:
-        return self.project.path.with_name(self.project.path.name + ".autosave")
+        return autosave_path(self.project.path)
 
     @property
     def photo_ids(self) -> list[str]:
