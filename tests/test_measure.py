@@ -17,7 +17,8 @@ from vebuild.camera import project
 from vebuild.cli import main
 from vebuild.errors import ProjectError
 from vebuild.model.scene import model_from_dict
-from vebuild.model.solver import FINAL_PRIOR_SCALE, Camera, Pin, Problem
+from vebuild.camera import ImageCamera
+from vebuild.model.solver import FINAL_PRIOR_SCALE, Pin, Problem
 from vebuild.synthetic import model_scene
 
 MARKERS = {"O": np.zeros(3)}
@@ -29,7 +30,7 @@ def solved_scene(seed: int):
     """Solve a synthetic scene from its perturbed start; (SolvedModel, true Model, photos)."""
     rng = np.random.default_rng(seed)
     truth, start, pins, photos = model_scene(rng, n_boxes=3, n_photos=6)
-    cams = {p.id: Camera(p.id, p.K, p.R, p.C, None, p.width, p.height) for p in photos.values()}
+    cams = {p.id: ImageCamera(p.id, p.K, p.R, p.C, p.width, p.height) for p in photos.values()}
     problem = Problem(model_from_dict(start["nodes"], MARKERS), cams,
                       [Pin(p["photo"], p["node"], p["handle"], np.asarray(p["uv"])) for p in pins],
                       click_sigma_px=0.7, prior_scale=FINAL_PRIOR_SCALE)

@@ -16,7 +16,8 @@ from vebuild.actions.solve import solve_project
 from vebuild.errors import ProjectError, VebuildError
 from vebuild.model.edit import DragSession
 from vebuild.model.scene import ModelError, model_from_dict
-from vebuild.model.solver import Camera, Pin, Problem
+from vebuild.camera import ImageCamera
+from vebuild.model.solver import Pin, Problem
 from vebuild.project import load_project
 from vebuild.synthetic import model_scene
 
@@ -62,11 +63,11 @@ def test_rests_on_a_face_the_parent_lacks_and_a_marker_joint_with_a_parent() -> 
 def _scene(seed: int, n_boxes: int = 1, n_photos: int = 2):
     rng = np.random.default_rng(seed)
     truth, start, pins, photos = model_scene(rng, n_boxes=n_boxes, n_photos=n_photos)
-    cams = {p.id: Camera(p.id, p.K, p.R, p.C, None, p.width, p.height) for p in photos.values()}
+    cams = {p.id: ImageCamera(p.id, p.K, p.R, p.C, p.width, p.height) for p in photos.values()}
     return (model_from_dict(truth["nodes"], MARKERS), model_from_dict(start["nodes"], MARKERS), pins, cams)
 
 
-def _project(cam: Camera, X: np.ndarray) -> np.ndarray:
+def _project(cam: ImageCamera, X: np.ndarray) -> np.ndarray:
     h = cam.K @ (cam.R @ (X - cam.C))
     return h[:2] / h[2]
 

@@ -260,19 +260,20 @@ def test_a_solve_that_meets_a_non_finite_residual_names_the_observation():
     import numpy as np
 
     from vebuild.model.scene import model_from_dict
-    from vebuild.model.solver import Camera, Pin, Problem
+    from vebuild.camera import ImageCamera
+    from vebuild.model.solver import Pin, Problem
     from vebuild.synthetic import model_scene
 
     rng = np.random.default_rng(13)
     _, start, pins, photos = model_scene(rng, n_boxes=1, n_photos=2)
-    cams = {p.id: Camera(p.id, p.K, p.R, p.C, None, p.width, p.height) for p in photos.values()}
+    cams = {p.id: ImageCamera(p.id, p.K, p.R, p.C, p.width, p.height) for p in photos.values()}
     model = model_from_dict(start["nodes"], {"O": np.zeros(3)})
     pin = pins[0]
     problem = Problem(model, cams, [Pin(p["photo"], p["node"], p["handle"], np.array(p["uv"])) for p in pins])
     problem.check_finite(problem.x0(), "at the start of the solve")  # a sound start passes
     cam = cams[pin["photo"]]  # the camera moved onto the pinned handle: no finite projection
-    cams[pin["photo"]] = Camera(cam.id, cam.K, cam.R, model.handle_world(pin["node"], pin["handle"]), None,
-                                cam.width, cam.height)
+    cams[pin["photo"]] = ImageCamera(cam.id, cam.K, cam.R, model.handle_world(pin["node"], pin["handle"]),
+                                     cam.width, cam.height)
     problem = Problem(model, cams, [Pin(p["photo"], p["node"], p["handle"], np.array(p["uv"])) for p in pins])
     with pytest.raises(VebuildError, match=rf"pin {pin['node']}:{pin['handle']} in photo '{pin['photo']}': its "
                                            r"residual is not a finite number at the start of the solve"):

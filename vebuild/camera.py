@@ -208,6 +208,10 @@ class ImageCamera:
     A calibrated photo, a named evidence view, or one eye of a stereo pair; ``id`` names it.
     ``source`` says where its image size came from (``"$.views[2] (width × height)"``,
     ``"--size"``), for the messages of :mod:`vebuild.render.sizes`; it takes no part in equality.
+    ``covariance``: a calibrated photo's (9, 9) covariance over (f, cx, cy, ω, C) (ω the rotation
+    vector of a small turn, left-multiplied: R' = exp([ω]×) R), or None for a camera given
+    exactly (an evidence view, an eye). A derived camera (scaled, resized, an eye) carries none.
+    The lens-distortion term of a real photo's lens belongs here too, beside K.
     """
 
     id: str
@@ -217,6 +221,7 @@ class ImageCamera:
     width: int
     height: int
     source: str = field(default="", compare=False, repr=False, kw_only=True)
+    covariance: Array | None = field(default=None, compare=False, repr=False, kw_only=True)
 
     def scaled(self, s: float) -> ImageCamera:
         """The same camera for an image scaled by s (pixel corners stay at corners)."""

@@ -13,13 +13,13 @@ from typing import Any
 import numpy as np
 
 from .. import __version__, camera
+from ..camera import ImageCamera
 from ..calibration.lsq import is_numeric_failure
 from ..calibration.positions import ReferenceDistance, check_scale_distances
 from ..errors import CalibrationError, ProjectError, VebuildError
 from ..model.scene import Model, ModelError, model_from_dict
 from ..model.solver import (
     FINAL_PRIOR_SCALE,
-    Camera,
     EdgeObservation,
     MarkerObservation,
     Pin,
@@ -40,7 +40,7 @@ Z95 = 1.959964  # two-sided 95 % of a Gaussian
 ROTATION_TOLERANCE = 1e-6
 
 
-def cameras_from_calibration(project: Project) -> dict[str, Camera]:
+def cameras_from_calibration(project: Project) -> dict[str, ImageCamera]:
     """The calibrated cameras by photo id, each checked: K a pinhole matrix with a positive focal
     length, R a rotation; errors name the file and the JSON path."""
     cal = project.data.get("calibration")
@@ -55,7 +55,7 @@ def cameras_from_calibration(project: Project) -> dict[str, Camera]:
         K, R = np.asarray(c["K"], float), np.asarray(c["R"], float)
         _check_camera(project, where, K, R)
         cov = np.array([[np.inf if v is None else v for v in row] for row in c["covariance"]], float)
-        out[p["id"]] = Camera(p["id"], K, R, np.asarray(c["position"]["value"], float), cov, p["width"], p["height"])
+        out[p["id"]] = ImageCamera(p["id"], K, R, np.asarray(c["position"]["value"], float), p["width"], p["height"], covariance=cov)
     return out
 
 
@@ -235,7 +235,7 @@ def check_recalibration_scale(project: Project, model: Model, markers: dict[str,
         raise ProjectError(project.path, "$.reference_distances", e.detail) from None
 
 
-def _check_visible(project: Project, problem: Problem, xm: np.ndarray, cameras: dict[str, Camera]) -> None:
+def _check_visible(project: Project, problem: Problem, xm: np.ndarray, cameras: dict[str, ImageCamera]) -> None:
     T = problem.model.world_transforms(xm)
     for i, p in enumerate(project.data["model"].get("pins", [])):
         cam = cameras.get(p["photo"])

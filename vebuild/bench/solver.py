@@ -24,7 +24,8 @@ from tqdm import tqdm
 from ..camera import exp_so3, project
 from ..model.edit import DragSession
 from ..model.scene import model_from_dict
-from ..model.solver import FINAL_PRIOR_SCALE, Camera, Pin, Problem
+from ..camera import ImageCamera
+from ..model.solver import FINAL_PRIOR_SCALE, Pin, Problem
 from ..synthetic import model_scene
 
 GOALS = {"drag_update_ms_p95": 5.0, "recalibration_s_50": 1.0}
@@ -45,7 +46,7 @@ def drags(seed: int = 7) -> dict[str, Any]:
     rng = np.random.default_rng(seed)
     truth_nodes, start_nodes, _, photos = model_scene(rng, n_boxes=1, n_photos=2)
     truth = model_from_dict(truth_nodes["nodes"], MARKERS)
-    cams = {p.id: Camera(p.id, p.K, p.R, p.C, None, p.width, p.height) for p in photos.values()}
+    cams = {p.id: ImageCamera(p.id, p.K, p.R, p.C, p.width, p.height) for p in photos.values()}
     out: dict[str, Any] = {}
     for solver in ("vebuild", "reference"):
         model = model_from_dict(start_nodes["nodes"], MARKERS)
@@ -88,7 +89,7 @@ def _recalibration_problem(n_boxes: int, seed: int) -> Problem:
     cams = {}
     for p in photos.values():
         R = exp_so3(rng.normal(0.0, np.radians(0.2), 3)) @ p.R
-        cams[p.id] = Camera(p.id, p.K, R, p.C + rng.normal(0.0, 0.02, 3), cov, p.width, p.height)
+        cams[p.id] = ImageCamera(p.id, p.K, R, p.C + rng.normal(0.0, 0.02, 3), p.width, p.height, covariance=cov)
     model = model_from_dict(start["nodes"], MARKERS)
     return Problem(model, cams, [Pin(p["photo"], p["node"], p["handle"], np.array(p["uv"])) for p in pins],
                    click_sigma_px=0.7, prior_scale=FINAL_PRIOR_SCALE, recalibrate=True, markers=MARKERS,

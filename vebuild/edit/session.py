@@ -32,7 +32,8 @@ from vebuild.calibration.vanishing import MIN_SEGMENT_LENGTH_PX
 from vebuild.errors import CalibrationError, VebuildError
 from vebuild.model.edit import DragSession, drag_nodes, project_edges
 from vebuild.model.scene import Model, ModelError, model_from_dict
-from vebuild.model.solver import Camera, EdgeObservation, Pin
+from vebuild.camera import ImageCamera
+from vebuild.model.solver import EdgeObservation, Pin
 from vebuild.project import (
     RESULT_KEYS,
     Project,
@@ -482,7 +483,7 @@ class EditSession:
         return result
 
     @property
-    def cameras(self) -> dict[str, Camera]:
+    def cameras(self) -> dict[str, ImageCamera]:
         if "cameras" not in self._cache:
             from vebuild.actions.solve import cameras_from_calibration
 
@@ -492,7 +493,7 @@ class EditSession:
                 self._cache["cameras"] = {}
         return self._cache["cameras"]
 
-    def _camera(self, photo: str) -> Camera:
+    def _camera(self, photo: str) -> ImageCamera:
         cam = self.cameras.get(photo)
         if cam is None:
             raise EditError(f"photo '{photo}' has no calibrated camera yet: mark its vanishing segments and "
@@ -1065,7 +1066,7 @@ class EditSession:
         self._model_overlay(ov, photo, cam, selected, skip)
         return ov
 
-    def _markers_overlay(self, ov: Overlay, photo: str, cam: Camera | None) -> None:
+    def _markers_overlay(self, ov: Overlay, photo: str, cam: ImageCamera | None) -> None:
         placed = self._markers_placed()
         origin = self.data.get("origin_marker")
         res = ((self.data.get("calibration") or {}).get("cameras", {}).get(photo) or {}).get("marker_residuals_px", {})
@@ -1082,7 +1083,7 @@ class EditSession:
                     ov.lines.append(Line((float(uv[0]), float(uv[1]), float(q[0]), float(q[1])), MAGENTA, 1.0,
                                          "residual", ("marker", name)))
 
-    def _model_overlay(self, ov: Overlay, photo: str, cam: Camera | None, selected: str | None,
+    def _model_overlay(self, ov: Overlay, photo: str, cam: ImageCamera | None, selected: str | None,
                        skip: set[str] | frozenset[str] = frozenset()) -> None:
         model, x = self._model_now()
         if model is None:
@@ -1093,7 +1094,7 @@ class EditSession:
         self._primitives_overlay(ov, photo, cam, selected, [n.name for n in model.nodes if n.name not in skip])
         self._observations_overlay(ov, photo)
 
-    def _primitives_overlay(self, ov: Overlay, photo: str, cam: Camera, selected: str | None,
+    def _primitives_overlay(self, ov: Overlay, photo: str, cam: ImageCamera, selected: str | None,
                             nodes: Sequence[str]) -> None:
         """The projected edges (white; the selected node's yellow) and handles (fixed: red) of nodes."""
         model, x = self._model_now()

@@ -17,7 +17,8 @@ from numpy.typing import NDArray
 
 from ..camera import project, world_to_camera
 from .scene import Model
-from .solver import Camera, EdgeObservation, Pin, Problem
+from ..camera import ImageCamera
+from .solver import EdgeObservation, Pin, Problem
 
 Array = NDArray[np.float64]
 
@@ -44,7 +45,7 @@ class DragResult:
     fixed_error_px: float
 
 
-def project_edges(model: Model, camera: Camera, nodes: Sequence[str], x: Array | None = None,
+def project_edges(model: Model, camera: ImageCamera, nodes: Sequence[str], x: Array | None = None,
                   transforms: Mapping[str, Array] | None = None) -> dict[str, list[tuple[str, tuple]]]:
     """Every edge of the given primitive nodes projected into one photo (the white edges of §3)."""
     x = model.vector() if x is None else x
@@ -78,7 +79,7 @@ def drag_nodes(model: Model, node: str) -> list[str]:
 class DragSession:
     """One drag of one handle of one node in one photo."""
 
-    def __init__(self, model: Model, cameras: Mapping[str, Camera], pins: Sequence[Pin],
+    def __init__(self, model: Model, cameras: Mapping[str, ImageCamera], pins: Sequence[Pin],
                  edges: Sequence[EdgeObservation], photo: str, node: str, handle: str, *,
                  click_sigma_px: float = 1.0, edges_into: Sequence[str] | None = None):
         if node not in model.index:

@@ -31,7 +31,7 @@ from scipy.sparse.linalg import spsolve
 
 from ..calibration.lsq import variance_factor
 from ..calibration.positions import ReferenceDistance  # ends: marker names or 'node:handle'
-from ..camera import exp_so3, project_each, skew_batch, so3_left_jacobian
+from ..camera import ImageCamera, exp_so3, project_each, skew_batch, so3_left_jacobian
 from ..determinism import deterministic
 from .scene import Model
 
@@ -52,19 +52,6 @@ UNDETERMINED_SIGMA = 1.0
 FD_STEP = 1e-6
 #: Above this many unknowns the normal equations are solved as a sparse system.
 SPARSE_SOLVE_ABOVE = 400
-
-
-@dataclass(frozen=True)
-class Camera:
-    """A calibrated photo: K, R (world→camera), C; covariance (9, 9) over (f, cx, cy, ω, C)."""
-
-    id: str
-    K: Array
-    R: Array
-    C: Array
-    covariance: Array | None = None
-    width: int = 0
-    height: int = 0
 
 
 @dataclass
@@ -98,7 +85,7 @@ class Solution:
     x: Array
     names: list[str]
     covariance: Array
-    cameras: dict[str, Camera]
+    cameras: dict[str, ImageCamera]
     markers: dict[str, Array]
     marker_covariance: dict[str, Array]
     residuals_px: dict[str, list[Array]] = field(default_factory=dict)
@@ -127,7 +114,7 @@ class Problem:
     def __init__(
         self,
         model: Model,
-        cameras: Mapping[str, Camera],
+        cameras: Mapping[str, ImageCamera],
         pins: Sequence[Pin] = (),
         edges: Sequence[EdgeObservation] = (),
         *,
@@ -634,7 +621,7 @@ class Problem:
                 cov_c = np.zeros((9, 9)) if old.covariance is None else np.asarray(old.covariance, float).copy()
                 keep = ([0, 1, 2] if self.refine_intrinsics else []) + [3, 4, 5, 6, 7, 8]
                 cov_c[np.ix_(keep, keep)] = blk
-            cams[cid] = Camera(cid, K, R, np.asarray(C, float).copy(), cov_c, old.width, old.height)
+            cams[cid] = ImageCamera(cid, K, R, np.asarray(C, float).copy(), old.width, old.height, covariance=cov_c)
         markers = self.marker_positions(x)
         mcov = {}
         o = self.n_model + self.n_cam * len(self.cam_ids)
