@@ -14,7 +14,7 @@ from claims import dimension_tolerance
 from vebuild.actions.calibrate import calibrate_project
 from vebuild.actions.solve import solve_project
 from vebuild.errors import ProjectError, VebuildError
-from vebuild.model.edit import DragSession
+from vebuild.model.drag import DragSession
 from vebuild.model.scene import ModelError, model_from_dict
 from vebuild.camera import ImageCamera
 from vebuild.model.solver import Pin, Problem

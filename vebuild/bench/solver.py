@@ -22,7 +22,7 @@ from scipy.optimize import least_squares
 from tqdm import tqdm
 
 from ..camera import exp_so3, project
-from ..model.edit import DragSession
+from ..model.drag import DragSession
 from ..model.scene import model_from_dict
 from ..camera import ImageCamera
 from ..model.solver import FINAL_PRIOR_SCALE, Pin, Problem

@@ -1,4 +1,4 @@
-"""The edit API behind interactive modelling (paper §3, Figures 5 and 7).
+"""Drags: the edit API behind interactive modelling (paper §3, Figures 5 and 7).
 
 A drag is three calls: :class:`DragSession` (start: a handle of a node, grabbed in a photo),
 :meth:`DragSession.move` (the mouse is at a pixel: solve, return the updated model and its
