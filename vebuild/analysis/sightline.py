@@ -33,7 +33,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vebuild.analysis.rays import Occluders
-from vebuild.camera import ImageCamera, fov_to_focal, look_rotation, project, world_to_camera
+from vebuild.camera import ImageCamera, fov_to_focal, intrinsic_matrix, look_rotation, project, world_to_camera
 from vebuild.errors import VebuildError
 from vebuild.render.scene import RenderScene
 
@@ -289,7 +289,7 @@ def witness_camera(eye: Eye, look_at: Array, fov_deg: float = DEFAULT_FOV_DEG,
         raise VebuildError(f"--fov: expected a horizontal field of view of 1–170°, got {fov_deg:g}")
     w, h = size
     f = fov_to_focal(math.radians(fov_deg), w)
-    K = np.array([[f, 0.0, w / 2], [0.0, f, h / 2], [0.0, 0.0, 1.0]])
+    K = intrinsic_matrix(f, w / 2, h / 2)
     return ImageCamera("witness", K, look_rotation(np.asarray(look_at, float) - eye.position), eye.position, w, h,
                        source=source)
 

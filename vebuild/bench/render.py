@@ -50,7 +50,7 @@ import numpy as np
 from numpy.typing import NDArray
 from tqdm import tqdm
 
-from ..camera import ImageCamera, look_rotation
+from ..camera import ImageCamera, intrinsic_matrix, look_rotation
 from ..gl.context import headless_context, renderer_name
 from ..model.scene import Model, model_from_dict
 from ..render.lighting import AS_PHOTOGRAPHED_LIGHTING, Lighting, preset_from_record
@@ -146,7 +146,7 @@ def primitives_scene(texels_per_metre: float = 200.0) -> tuple[RenderScene, Imag
         pages[f.page][y0:y0 + fh, x0:x0 + fw] = (colour * (0.75 + 0.25 * checker[..., None])).astype(np.uint8)
     scene = scene_from_model(model, _record(faces), pages)
     C = np.array([-2.5, -2.5, 2.4])
-    K = np.array([[1000.0, 0.0, WIDTH / 2], [0.0, 1000.0, HEIGHT / 2], [0.0, 0.0, 1.0]])
+    K = intrinsic_matrix(1000.0, WIDTH / 2, HEIGHT / 2)
     target = np.array([FLOOR_M[0] / 2, FLOOR_M[1] / 2, 0.3])
     return scene, ImageCamera("corner", K, look_rotation(target - C), C, WIDTH, HEIGHT)
 

@@ -34,6 +34,7 @@ from vebuild.camera import (
     ImageCamera,
     gl_orthographic,
     gl_projection,
+    intrinsic_matrix,
     look_rotation,
     stereo_pair,
     view_matrix,
@@ -203,7 +204,7 @@ class Renderer:
         else:
             f = 0.5 * size - CUBE_MARGIN_PX
             dirs = list(CUBE_DIRECTIONS)
-        K = np.array([[f, 0.0, size / 2], [0.0, f, size / 2], [0.0, 0.0, 1.0]])
+        K = intrinsic_matrix(f, size / 2, size / 2)
         P = gl_projection(K, size, size, near, far)
         return [(P @ view_matrix(look_rotation(d), light.position), (1.0 / f, 1.0)) for d in dirs]
 

@@ -46,7 +46,7 @@ from scipy.spatial.transform import Rotation, RotationSpline
 
 from vebuild import __version__
 from vebuild.atomic import commit, temp_path
-from vebuild.camera import ImageCamera, focal_to_fov
+from vebuild.camera import ImageCamera, focal_to_fov, intrinsic_matrix
 from vebuild.errors import ProjectError, VebuildError
 
 if TYPE_CHECKING:
@@ -243,7 +243,7 @@ class CameraPath:
         R = self._rotation(tau).as_matrix().T
         f = 0.5 * self.width / np.tan(0.5 * float(self._fov(tau)))
         px, py = self._principal(tau)
-        K = np.array([[f, 0.0, px * self.width], [0.0, f, py * self.height], [0.0, 0.0, 1.0]])
+        K = intrinsic_matrix(f, px * self.width, py * self.height)
         return ImageCamera(f"frame {frame}", K, R, C, self.width, self.height, source=self.views[0].source)
 
     def cameras(self) -> Iterator[ImageCamera]:

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from vebuild.camera import ImageCamera, focal_to_fov, fov_to_focal, look_rotation, ypr_from_rotation
+from vebuild.camera import ImageCamera, focal_to_fov, fov_to_focal, intrinsic_matrix, look_rotation, ypr_from_rotation
 from vebuild.errors import ProjectError
 from vebuild.project import Project
 
@@ -33,7 +33,7 @@ def view_camera(view: dict[str, Any], where: str = "") -> ImageCamera:
         f = view["focal_length_mm"] / FRAME_35MM_WIDTH_MM * w
     else:
         f = fov_to_focal(np.radians(view.get("fov_deg", DEFAULT_FOV_DEG)), w)
-    K = np.array([[f, 0.0, w / 2], [0.0, f, h / 2], [0.0, 0.0, 1.0]])
+    K = intrinsic_matrix(f, w / 2, h / 2)
     return ImageCamera(view["name"], K, R, C, w, h,
                        source=f"{where or 'view ' + repr(view['name'])} (width × height)")
 

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from vebuild.camera import ImageCamera, fov_to_focal, rotation_from_ypr
+from vebuild.camera import ImageCamera, fov_to_focal, intrinsic_matrix, rotation_from_ypr
 from vebuild.viewer.collide import Footprint, circle_push, z_overlap
 
 Array = NDArray[np.float64]
@@ -47,7 +47,7 @@ class Walker:
 
     def camera(self, width: int, height: int, name: str = "walker") -> ImageCamera:
         f = fov_to_focal(math.radians(self.fov_deg), width)
-        K = np.array([[f, 0.0, width / 2], [0.0, f, height / 2], [0.0, 0.0, 1.0]])
+        K = intrinsic_matrix(f, width / 2, height / 2)
         return ImageCamera(name, K, rotation_from_ypr(self.yaw, self.pitch, 0.0), self.position.copy(), width, height)
 
     def look(self, dx_px: float, dy_px: float, sensitivity: float = LOOK_SENSITIVITY) -> None:
