@@ -30,17 +30,13 @@ from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
 from ..camera import intrinsic_matrix, pixel_rays_world, project, skew_batch, so3_left_jacobian
+from ..constants import OUTLIER_SIGMAS, ROBUST_SCALE
 from ..determinism import deterministic
 from ..errors import CalibrationError
 from .lsq import covariance_from_jacobian, is_numeric_failure, variance_factor
 
 Array = NDArray[np.float64]
 
-#: Whitened residual beyond which an observation is reported as an outlier (and the robust loss
-#: has already discounted it).
-OUTLIER_SIGMAS = 4.0
-#: Scale of the robust loss, in units of the stated noise: below it the loss is quadratic.
-ROBUST_SCALE = 3.0
 #: Lines meeting at a smaller angle than this (degrees) do not fix a point along them well enough
 #: to start from (with 1 px clicks at f ≈ 1500 px a 2° parallax leaves ~2 % depth error).
 MIN_INTERSECTION_ANGLE_DEG = 2.0
