@@ -151,6 +151,29 @@ def ypr_from_rotation(R: ArrayLike) -> Array:
     return np.array([yaw, pitch, roll])
 
 
+#: Far plane: this share beyond the farthest point, plus FAR_MARGIN_M, so nothing drawn is clipped.
+FAR_SCALE = 1.05
+FAR_MARGIN_M = 0.5
+#: Near plane: this share of the far plane, but no nearer than MIN_NEAR_M (1 mm: nothing a photo
+#: shows is nearer the lens).
+NEAR_FROM_FAR = 2e-5
+MIN_NEAR_M = 1e-3
+
+
+def depth_range(R: ArrayLike, C: ArrayLike, points: ArrayLike) -> tuple[float, float]:
+    """The near and far planes of :func:`gl_projection` for a camera (R, C) viewing ``points``
+    (world, (n, 3): a scene's vertices or its bounding box's corners).
+
+    The one choice of near and far for every pass (the renderer, the texture's ID buffer and its
+    CPU reference), so that their depths agree: far lies beyond every point (at least 1 m), near is
+    a fixed small share of far. A depth buffer's resolution at depth z is about z²/(near · 2²⁴):
+    with near = 1 mm, some 6 mm at 10 m.
+    """
+    P = np.asarray(points, float).reshape(-1, 3)
+    z_max = float(world_to_camera(R, C, P)[:, 2].max()) if len(P) else 0.0
+    far = max(1.0, z_max * FAR_SCALE + FAR_MARGIN_M)
+    return max(MIN_NEAR_M, far * NEAR_FROM_FAR), far
+
 
 def gl_projection(K: ArrayLike, width: int, height: int, near: float, far: float, flip_y: bool = False) -> Array:
     """The one conversion from this camera to OpenGL clip space: a (4, 4) matrix P with

@@ -50,7 +50,7 @@ import numpy as np
 from numpy.typing import NDArray
 from tqdm import tqdm
 
-from ..camera import ImageCamera, intrinsic_matrix, look_rotation
+from ..camera import ImageCamera, depth_range, intrinsic_matrix, look_rotation
 from ..gl.context import headless_context, renderer_name
 from ..model.scene import Model, model_from_dict
 from ..render.lighting import AS_PHOTOGRAPHED_LIGHTING, Lighting, preset_from_record
@@ -251,9 +251,7 @@ def _gl_pose(R: NDArray[np.float64], C: NDArray[np.float64]) -> NDArray[np.float
 def _near_far(scene: RenderScene, cam: ImageCamera) -> tuple[float, float]:
     lo, hi = scene.bounds()
     corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
-    depth = (corners - cam.C) @ np.asarray(cam.R, float)[2]
-    far = max(1.0, float(depth.max()) * 1.05 + 0.5)
-    return max(1e-3, far * 2e-5), far
+    return depth_range(cam.R, cam.C, corners)
 
 
 def _pyrender_scene(pyrender: Any, scene: RenderScene, lighting: Lighting, background: tuple[int, int, int]) -> Any:

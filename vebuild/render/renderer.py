@@ -32,6 +32,7 @@ from numpy.typing import NDArray
 
 from vebuild.camera import (
     ImageCamera,
+    depth_range,
     gl_orthographic,
     gl_projection,
     intrinsic_matrix,
@@ -262,8 +263,7 @@ class Renderer:
             return cam.near, cam.far
         lo, hi = self._bounds
         corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
-        far = max(1.0, float(world_to_camera(cam.R, cam.C, corners)[:, 2].max()) * 1.05 + 0.5)
-        return max(1e-3, far * 2e-5), far
+        return depth_range(cam.R, cam.C, corners)
 
     def default_convergence(self, cam: ImageCamera) -> float:
         """Depth of the scene's centre in front of ``cam``, at least 0.5 m (the default screen plane)."""

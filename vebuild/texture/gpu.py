@@ -17,7 +17,7 @@ import moderngl
 import numpy as np
 from numpy.typing import NDArray
 
-from vebuild.camera import ImageCamera, gl_projection, view_matrix, world_to_camera
+from vebuild.camera import ImageCamera, depth_range, gl_projection, view_matrix, world_to_camera
 from vebuild.gl import load_program
 from vebuild.texture import BEST_WEIGHT_SCALE, DEPTH_TOLERANCE, MAX_LEVELS, pre_pass_erosion
 from vebuild.texture.layout import SceneMesh
@@ -213,9 +213,7 @@ class Extractor:
     # -- pass 1 ------------------------------------------------------------------------------
 
     def _near_far(self, cam: ImageCamera) -> tuple[float, float]:
-        z = world_to_camera(cam.R, cam.C, self.mesh.vertices)[:, 2]
-        far = max(1.0, float(z.max()) * 1.5 + 1.0)
-        return max(1e-3, far * 1e-5), far
+        return depth_range(cam.R, cam.C, self.mesh.vertices)
 
     def id_pass(self, cam: ImageCamera, erode_px: float) -> moderngl.Texture:
         """Render the ID buffer (face id, depth) of ``cam``; returns its texture."""

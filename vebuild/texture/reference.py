@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from vebuild.camera import world_to_camera
+from vebuild.camera import depth_range, world_to_camera
 from vebuild.texture import BEST_WEIGHT_SCALE, DEPTH_TOLERANCE, MAX_LEVELS, pre_pass_erosion
 from vebuild.texture.layout import SceneMesh
 from vebuild.texture.merge import srgb8_to_linear
@@ -190,9 +190,7 @@ def _scan(uv: Array, width: int, height: int) -> Iterator[tuple[NDArray[np.intp]
 
 def _near_plane(mesh: SceneMesh, cam: ImageCamera) -> float:
     """The near plane the GPU's ID pass uses (``Extractor._near_far``)."""
-    z = world_to_camera(cam.R, cam.C, mesh.vertices)[:, 2]
-    far = max(1.0, float(z.max()) * 1.5 + 1.0) if len(z) else 1.0
-    return max(1e-3, far * 1e-5)
+    return depth_range(cam.R, cam.C, mesh.vertices)[0]
 
 
 def _clip_near(X: Array, near: float) -> tuple[Array, NDArray[np.intp]]:
