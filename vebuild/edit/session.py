@@ -29,10 +29,11 @@ from numpy.typing import NDArray
 
 from vebuild import camera as cam_math
 from vebuild.calibration.vanishing import MIN_SEGMENT_LENGTH_PX
+from vebuild.camera import ImageCamera
 from vebuild.errors import CalibrationError, VebuildError
 from vebuild.model.drag import DragSession, drag_nodes, project_edges
+from vebuild.model.primitives import PRIMITIVE_TYPES, primitive_kinds
 from vebuild.model.scene import Model, ModelError, model_from_dict
-from vebuild.camera import ImageCamera
 from vebuild.model.solver import EdgeObservation, Pin
 from vebuild.project import (
     RESULT_KEYS,
@@ -73,18 +74,10 @@ OUTLIER_SIGMAS = 3.0
 #: primitive stays where it was. Four click σ (1 px each): the least-squares compromise among
 #: consistent clicks stays well inside it, a joint or fixed vertex that blocks the move does not.
 FOLLOW_TOL_PX = 4.0
-#: Default sizes (metres) of a new primitive: something of furniture scale to drag into place.
-DEFAULT_PARAMS: dict[str, dict[str, float]] = {
-    "quad": {"width": 2.0, "depth": 2.0},
-    "box": {"width": 0.5, "depth": 0.5, "height": 0.5},
-    "wedge": {"width": 0.5, "depth": 0.5, "height": 0.5},
-    "cylinder": {"radius": 0.25, "height": 0.5},
-    "frustum": {"radius_bottom": 0.25, "radius_top": 0.15, "height": 0.5},
-    "cone": {"radius_bottom": 0.25, "radius_top": 0.0, "height": 0.5},
-    "sphere": {"radius": 0.25},
-}
-#: The handle a first primitive puts on the origin marker (paper §3.1: the floor's corner).
-ANCHOR_HANDLE = {"quad": "v0", "box": "v0", "wedge": "v0", "cylinder": "bc", "frustum": "bc", "sphere": "bottom"}
+#: Default sizes (metres) of each kind of new primitive, and the handle a first one puts on the
+#: origin marker: facts of the primitive classes.
+DEFAULT_PARAMS: dict[str, dict[str, float]] = {kind: params for kind, (_, params) in primitive_kinds().items()}
+ANCHOR_HANDLE = {name: cls.ANCHOR_HANDLE for name, cls in PRIMITIVE_TYPES.items()}
 
 
 class EditError(VebuildError):

@@ -15,9 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ..camera import project, world_to_camera
+from ..camera import ImageCamera, project, world_to_camera
 from .scene import Model
-from ..camera import ImageCamera
 from .solver import EdgeObservation, Pin, Problem
 
 Array = NDArray[np.float64]

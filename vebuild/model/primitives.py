@@ -71,6 +71,8 @@ _CORNERS = np.array([[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]])
 _RIM = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])
 
 _REGISTRY: dict[str, type[Primitive]] = {}
+#: Sizes never go below this (metres): "sizes stay positive" with a margin the solver can use.
+MIN_SIZE_M = 1e-3
 
 
 # ----------------------------------------------------------------------------------------------
@@ -293,7 +295,8 @@ def _handle_matrix(cls: type[Primitive]) -> Array:
 class Primitive(abc.ABC):
     """Base of all primitives: parameters in, geometry out.
 
-    Subclasses set ``TYPE``, ``PARAMS``, ``HANDLE_NAMES``, ``EDGES``, ``_RESTABLE`` and implement
+    Subclasses set ``TYPE``, ``PARAMS``, ``HANDLE_NAMES``, ``EDGES``, ``_RESTABLE``, the facts a
+    new one needs (``DEFAULT_PARAMS``, ``ANCHOR_HANDLE``, ``VARIANTS``) and implement
     ``_handles_of``, ``_face_frame``, ``_patches`` (and ``_outlines`` when they are curved). Each parameter is also
     a read-only float attribute (``box.height``).
     """
@@ -304,6 +307,12 @@ class Primitive(abc.ABC):
     EDGES: ClassVar[tuple[tuple[str, str, str], ...]] = ()
     _RESTABLE: ClassVar[tuple[str, ...]] = ()  # names of the flat faces others can rest on
     _MAY_BE_ZERO: ClassVar[frozenset[str]] = frozenset()  # sizes allowed to be 0 (a cone's top)
+    #: Sizes (metres) of a new primitive of this type: something of furniture scale to drag into place.
+    DEFAULT_PARAMS: ClassVar[Mapping[str, float]] = {}
+    #: The handle a first primitive puts on the origin marker (paper §3.1: the floor's corner).
+    ANCHOR_HANDLE: ClassVar[str] = ""
+    #: Named variants a user can add: kind → the default parameters it changes (a cone is a frustum).
+    VARIANTS: ClassVar[Mapping[str, Mapping[str, float]]] = {}
 
     _p: Array
 
@@ -385,6 +394,17 @@ class Primitive(abc.ABC):
         if cls is not Primitive and not isinstance(prim, cls):
             raise ValueError(f"expected type {cls.TYPE!r}, got {prim.TYPE!r}")
         return prim
+
+    @classmethod
+    def minimum_size(cls, name: str) -> float:
+        """The least value parameter ``name`` may take in a solve (metres): 0 where a size may
+        vanish (a cone's top radius), MIN_SIZE_M for every other size."""
+        return 0.0 if name in cls._MAY_BE_ZERO else MIN_SIZE_M
+
+    @classmethod
+    def minimum_sizes(cls) -> Array:
+        """(k,) :meth:`minimum_size` of every parameter, in PARAMS order."""
+        return np.array([cls.minimum_size(n) for n in cls.PARAMS])
 
     # -- handles -------------------------------------------------------------------------------
 
@@ -512,6 +532,8 @@ class Quad(Primitive):
     HANDLE_NAMES = ("v0", "v1", "v2", "v3")
     EDGES = (("e0", "v0", "v1"), ("e1", "v1", "v2"), ("e2", "v2", "v3"), ("e3", "v3", "v0"))
     _RESTABLE = ("top",)
+    DEFAULT_PARAMS = {"width": 2.0, "depth": 2.0}
+    ANCHOR_HANDLE = "v0"
 
     @classmethod
     def _handles_of(cls, P):
@@ -532,6 +554,8 @@ class _Prism(Primitive):
     """
 
     PARAMS = ("width", "depth", "height")
+    DEFAULT_PARAMS = {"width": 0.5, "depth": 0.5, "height": 0.5}
+    ANCHOR_HANDLE = "v0"
     _MESH_FACES: ClassVar[tuple[str, ...]]  # names for sides 0…3, top, bottom; "" for a collapsed one
 
     @classmethod
@@ -603,6 +627,7 @@ class _Round(Primitive):
 
     HANDLE_NAMES = ("b0", "b1", "b2", "b3", "t0", "t1", "t2", "t3", "bc", "tc")
     EDGES = tuple((f"e{i}", f"b{i}", f"t{i}") for i in range(4))
+    ANCHOR_HANDLE = "bc"
 
     @classmethod
     @abc.abstractmethod
@@ -645,6 +670,7 @@ class Cylinder(_Round):
 
     TYPE = "cylinder"
     PARAMS = ("radius", "height")
+    DEFAULT_PARAMS = {"radius": 0.25, "height": 0.5}
 
     @classmethod
     def _radii(cls, P):
@@ -657,6 +683,8 @@ class Frustum(_Round):
     TYPE = "frustum"
     PARAMS = ("radius_bottom", "radius_top", "height")
     _MAY_BE_ZERO = frozenset({"radius_top"})
+    DEFAULT_PARAMS = {"radius_bottom": 0.25, "radius_top": 0.15, "height": 0.5}
+    VARIANTS = {"cone": {"radius_top": 0.0}}
 
     @classmethod
     def _radii(cls, P):
@@ -669,6 +697,8 @@ class Sphere(Primitive):
     TYPE = "sphere"
     PARAMS = ("radius",)
     HANDLE_NAMES = ("bottom", "top", "px", "nx", "py", "ny")
+    DEFAULT_PARAMS = {"radius": 0.25}
+    ANCHOR_HANDLE = "bottom"
     _UNIT_HANDLES = np.array([[0, 0, 0], [0, 0, 2], [1, 0, 1], [-1, 0, 1], [0, 1, 1], [0, -1, 1]], float)
 
     @classmethod
@@ -690,3 +720,14 @@ class Sphere(Primitive):
 
 #: The primitive types by their project-file name, in the order FORMAT.md lists them.
 PRIMITIVE_TYPES: Mapping[str, type[Primitive]] = _REGISTRY
+
+
+def primitive_kinds() -> dict[str, tuple[type[Primitive], dict[str, float]]]:
+    """Every kind of primitive a user can add, each with its type and default parameters: the
+    types in PRIMITIVE_TYPES order, each followed by its named variants (``cone`` after ``frustum``)."""
+    out: dict[str, tuple[type[Primitive], dict[str, float]]] = {}
+    for name, cls in _REGISTRY.items():
+        out[name] = (cls, dict(cls.DEFAULT_PARAMS))
+        for variant, changes in cls.VARIANTS.items():
+            out[variant] = (cls, {**cls.DEFAULT_PARAMS, **changes})
+    return out

@@ -21,14 +21,15 @@ from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
 from ..camera import exp_so3
-from .primitives import _REGISTRY as _PRIMITIVE_TYPES
-from .primitives import Primitive, primitive_from_dict
+from .primitives import MIN_SIZE_M, PRIMITIVE_TYPES, Primitive, primitive_from_dict
 
 Array = NDArray[np.float64]
 
 JOINT_TYPES = ("fixed", "free", "rests_on", "hinge", "slider", "marker")
-#: Sizes never go below this (metres): "sizes stay positive" with a margin the solver can use.
-MIN_SIZE_M = 1e-3
+#: What a degree of freedom measures: a position (metres), an angle (radians; degrees in files)
+#: or, for a primitive's parameters, a size (metres). The solver's pull toward the value before a
+#: solve and the file's units follow the kind.
+DOF_KINDS = ("position", "angle", "size")
 
 
 class ModelError(ValueError):
@@ -87,6 +88,8 @@ class Joint:
     base: Array = field(default_factory=lambda: np.eye(4))  # the pose at q = 0 (fixed, free, hinge, slider)
 
     dof_names: tuple[str, ...] = ()
+    #: The kind (DOF_KINDS) of each degree of freedom, in dof_names order.
+    dof_kinds: tuple[str, ...] = ()
 
     def values(self) -> Array:
         return np.zeros(0)
@@ -97,6 +100,12 @@ class Joint:
     def bounds(self) -> tuple[Array, Array]:
         n = len(self.dof_names)
         return np.full(n, -np.inf), np.full(n, np.inf)
+
+    def clip(self, q: Array) -> Array:
+        """The degrees of freedom ``q`` brought within the joint's limits (a hinge's stops, a
+        slider's travel); the solver and the viewer's moves keep a joint in range through this."""
+        lo, hi = self.bounds()
+        return np.clip(np.asarray(q, float), lo, hi)
 
     def transform(self, q: Array, parent: Primitive | None, parent_params: Array | None,
                   node: Primitive | None, node_params: Array | None) -> Array:
@@ -110,6 +119,7 @@ class Joint:
 @dataclass
 class FreeJoint(Joint):
     dof_names: tuple[str, ...] = ("tx", "ty", "tz", "wx", "wy", "wz")
+    dof_kinds: tuple[str, ...] = ("position",) * 3 + ("angle",) * 3
 
     def values(self) -> Array:
         return np.r_[self.base[:3, 3], 0.0, 0.0, 0.0]
@@ -139,6 +149,7 @@ class RestsOnJoint(Joint):
     t: float = 0.0
     yaw: float = 0.0
     dof_names: tuple[str, ...] = ("s", "t", "yaw")
+    dof_kinds: tuple[str, ...] = ("position", "position", "angle")
 
     def values(self):
         return np.array([self.s, self.t, self.yaw])
@@ -171,6 +182,7 @@ class HingeJoint(Joint):
     angle: float = 0.0
     limits: tuple[float, float] = (-np.pi, np.pi)
     dof_names: tuple[str, ...] = ("angle",)
+    dof_kinds: tuple[str, ...] = ("angle",)
 
     def values(self):
         return np.array([self.angle])
@@ -197,6 +209,7 @@ class SliderJoint(Joint):
     offset: float = 0.0
     limits: tuple[float, float] = (-np.inf, np.inf)
     dof_names: tuple[str, ...] = ("offset",)
+    dof_kinds: tuple[str, ...] = ("position",)
 
     def values(self):
         return np.array([self.offset])
@@ -226,6 +239,7 @@ class MarkerJoint(Joint):
     position: Array = field(default_factory=lambda: np.zeros(3))  # the marker's world position
     yaw: float = 0.0
     dof_names: tuple[str, ...] = ("yaw",)
+    dof_kinds: tuple[str, ...] = ("angle",)
 
     def values(self):
         return np.array([self.yaw])
@@ -317,8 +331,18 @@ class Model:
             sq, sp = self.slices[n.name]
             lo[sq], hi[sq] = n.joint.bounds()
             if n.primitive is not None:
-                lo[sp] = [0.0 if p == "radius_top" else MIN_SIZE_M for p in n.primitive.PARAMS]
+                lo[sp] = n.primitive.minimum_sizes()
         return lo, hi
+
+    def clip(self, x: Array) -> Array:
+        """x brought within every joint's limits (by the joint) and above every primitive's least sizes."""
+        x = np.array(x, float)
+        for n in self.nodes:
+            sq, sp = self.slices[n.name]
+            x[sq] = n.joint.clip(x[sq])
+            if n.primitive is not None:
+                x[sp] = np.maximum(x[sp], n.primitive.minimum_sizes())
+        return x
 
     def parameter_names(self) -> list[str]:
         out = []
@@ -326,6 +350,15 @@ class Model:
             out += [f"{n.name}.{d}" for d in n.joint.dof_names]
             if n.primitive is not None:
                 out += [f"{n.name}.{p}" for p in n.primitive.PARAMS]
+        return out
+
+    def parameter_kinds(self) -> list[str]:
+        """The kind (DOF_KINDS) of every parameter, in parameter_names order."""
+        out: list[str] = []
+        for n in self.nodes:
+            out += list(n.joint.dof_kinds)
+            if n.primitive is not None:
+                out += ["size"] * len(n.primitive.PARAMS)
         return out
 
     def world_transforms(self, x: Array | None = None, only: Collection[str] | None = None,
@@ -461,12 +494,14 @@ def _primitive(d: Any, human: str, path: str) -> Primitive:
     if not isinstance(d, Mapping) or not isinstance(d.get("params", {}), Mapping):
         raise _error(human, path, "expected an object {\"type\": T, \"params\": {...}}")
     params = d.get("params", {})
-    cls = _PRIMITIVE_TYPES.get(d.get("type")) if isinstance(d.get("type"), str) else None
+    cls = PRIMITIVE_TYPES.get(d.get("type")) if isinstance(d.get("type"), str) else None
     for name, value in params.items():
-        least = 0.0 if name == "radius_top" else MIN_SIZE_M
-        if cls is None or name not in cls.PARAMS or not isinstance(value, int | float) or value >= least:
+        if cls is None or name not in cls.PARAMS or not isinstance(value, int | float):
             continue
-        if name != "radius_top" and value <= 0:
+        least = cls.minimum_size(name)
+        if value >= least:
+            continue
+        if least > 0 and value <= 0:
             raise _error(human, f"{path}.params.{name}", f"{cls.TYPE}: {name} must be > 0, got {value!r}")
         raise _error(human, f"{path}.params.{name}", f"{cls.TYPE}: {name} must be at least {least:g} m (sizes "
                      f"stay above {MIN_SIZE_M:g} m, the solver's least), got {value!r}")
@@ -474,8 +509,7 @@ def _primitive(d: Any, human: str, path: str) -> Primitive:
         prim = primitive_from_dict(d)
     except (ValueError, TypeError) as e:
         raise _error(human, f"{path}.params" if isinstance(d.get("type"), str) else f"{path}.type", str(e)) from None
-    for name, value in zip(prim.PARAMS, prim.params, strict=True):
-        least = 0.0 if name == "radius_top" else MIN_SIZE_M
+    for name, value, least in zip(prim.PARAMS, prim.params, prim.minimum_sizes(), strict=True):
         if not value >= least:
             raise _error(human, f"{path}.params.{name}", f"{prim.TYPE}: {name} must be at least {least:g} m (sizes "
                          f"stay above {MIN_SIZE_M:g} m, the solver's least), got {params.get(name, value)!r}")

@@ -270,8 +270,8 @@ class Viewer:
         n = self.model.node(node)
         group = n.parent or "the world"
         j = n.joint
-        values = ", ".join(f"{name} {v:.3f}" if name not in ("yaw", "angle") else f"{name} {math.degrees(v):.1f}°"
-                           for name, v in zip(j.dof_names, j.values(), strict=True))
+        values = ", ".join(f"{name} {v:.3f}" if kind != "angle" else f"{name} {math.degrees(v):.1f}°"
+                           for name, kind, v in zip(j.dof_names, j.dof_kinds, j.values(), strict=True))
         try:
             moves = self.mover.movable(node)
             how = "" if moves == node else f" (moves '{moves}')"

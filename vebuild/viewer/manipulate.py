@@ -168,8 +168,7 @@ class ObjectMover:
             if den < 1e-9:
                 return False
             q[0] += (b * (direction @ w) - (a @ w)) / den
-        lo, hi = j.bounds()
-        q = np.clip(q, lo, hi)
+        q = j.clip(q)
         return self._set_limited(g.node, q)
 
     def turn(self, node: str, angle: float) -> bool:
