@@ -13,12 +13,12 @@ import numpy as np
 import pytest
 
 from vebuild.analysis import measure as M
-from vebuild.camera import project
+from vebuild.camera import ImageCamera, project
 from vebuild.cli import main
 from vebuild.errors import ProjectError
+from vebuild.model.residuals import Pin
 from vebuild.model.scene import model_from_dict
-from vebuild.camera import ImageCamera
-from vebuild.model.solver import FINAL_PRIOR_SCALE, Pin, Problem
+from vebuild.model.solver import FINAL_PRIOR_SCALE, Problem, ProblemOptions
 from vebuild.synthetic import model_scene
 
 MARKERS = {"O": np.zeros(3)}
@@ -33,7 +33,7 @@ def solved_scene(seed: int):
     cams = {p.id: ImageCamera(p.id, p.K, p.R, p.C, p.width, p.height) for p in photos.values()}
     problem = Problem(model_from_dict(start["nodes"], MARKERS), cams,
                       [Pin(p["photo"], p["node"], p["handle"], np.asarray(p["uv"])) for p in pins],
-                      click_sigma_px=0.7, prior_scale=FINAL_PRIOR_SCALE)
+                      options=ProblemOptions(click_sigma_px=0.7, prior_scale=FINAL_PRIOR_SCALE))
     r = problem.solve(robust=True)
     solution = problem.solution(r.x, r.iterations)
     if solution.undetermined:  # `vebuild solve` refuses such a scene (a box too few photos see)

@@ -13,11 +13,12 @@ from claims import dimension_tolerance
 
 from vebuild.actions.calibrate import calibrate_project
 from vebuild.actions.solve import solve_project
+from vebuild.camera import ImageCamera
 from vebuild.errors import ProjectError, VebuildError
 from vebuild.model.drag import DragSession
+from vebuild.model.residuals import Pin
 from vebuild.model.scene import ModelError, model_from_dict
-from vebuild.camera import ImageCamera
-from vebuild.model.solver import Pin, Problem
+from vebuild.model.solver import Problem, ProblemOptions
 from vebuild.project import load_project
 from vebuild.synthetic import model_scene
 
@@ -140,7 +141,7 @@ def test_nan_pixels_are_refused() -> None:
 def test_joints_hold_exactly_and_limits_are_kept() -> None:
     truth, model, pins, cams = _scene(14, n_boxes=3, n_photos=6)
     prob = Problem(model, cams, [Pin(p["photo"], p["node"], p["handle"], np.array(p["uv"])) for p in pins],
-                   click_sigma_px=0.7, prior_scale=1e5)
+                   options=ProblemOptions(click_sigma_px=0.7, prior_scale=1e5))
     model.set_vector(prob.model_vector(prob.solve().x))
     for k in range(3):
         for h in ("v0", "v1", "v2", "v3"):  # the bottom rests on the floor exactly

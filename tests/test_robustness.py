@@ -259,9 +259,10 @@ def test_a_non_finite_start_names_the_photo(rng):
 def test_a_solve_that_meets_a_non_finite_residual_names_the_observation():
     import numpy as np
 
-    from vebuild.model.scene import model_from_dict
     from vebuild.camera import ImageCamera
-    from vebuild.model.solver import Pin, Problem
+    from vebuild.model.residuals import Pin
+    from vebuild.model.scene import model_from_dict
+    from vebuild.model.solver import Problem
     from vebuild.synthetic import model_scene
 
     rng = np.random.default_rng(13)

@@ -13,19 +13,14 @@ from typing import Any
 import numpy as np
 
 from .. import __version__, camera
-from ..camera import ImageCamera
 from ..calibration.lsq import is_numeric_failure
 from ..calibration.positions import ReferenceDistance, check_scale_distances
+from ..camera import ImageCamera
 from ..errors import CalibrationError, ProjectError, VebuildError
+from ..model.residuals import EdgeObservation, MarkerObservation, Pin
 from ..model.scene import Model, ModelError, model_from_dict
-from ..model.solver import (
-    FINAL_PRIOR_SCALE,
-    EdgeObservation,
-    MarkerObservation,
-    Pin,
-    Problem,
-    handle_covariances,
-)
+from ..model.solution import handle_covariances
+from ..model.solver import FINAL_PRIOR_SCALE, MarkerData, Problem, ProblemOptions
 from ..project import Project, json_path
 from .records import camera_record, json_values, value_sigma
 
@@ -55,7 +50,8 @@ def cameras_from_calibration(project: Project) -> dict[str, ImageCamera]:
         K, R = np.asarray(c["K"], float), np.asarray(c["R"], float)
         _check_camera(project, where, K, R)
         cov = np.array([[np.inf if v is None else v for v in row] for row in c["covariance"]], float)
-        out[p["id"]] = ImageCamera(p["id"], K, R, np.asarray(c["position"]["value"], float), p["width"], p["height"], covariance=cov)
+        out[p["id"]] = ImageCamera(p["id"], K, R, np.asarray(c["position"]["value"], float), p["width"], p["height"],
+                                   covariance=cov)
     return out
 
 
@@ -176,15 +172,16 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
         check_recalibration_scale(project, model, markers, distances)
     surveyed = [m["name"] for m in data.get("markers", []) if "position" in m]
     problem = Problem(model, cameras, [p for p in pins if p.fixed], edges,
-                      click_sigma_px=project.settings["click_sigma_px"], prior_scale=FINAL_PRIOR_SCALE,
-                      recalibrate=recalibrate, refine_intrinsics=refine_intrinsics, markers=markers,
-                      fixed_markers=[origin, *surveyed], marker_observations=marker_obs, distances=distances)
+                      options=ProblemOptions(click_sigma_px=project.settings["click_sigma_px"],
+                                             prior_scale=FINAL_PRIOR_SCALE, recalibrate=recalibrate,
+                                             refine_intrinsics=refine_intrinsics),
+                      markers=MarkerData(markers, [origin, *surveyed], marker_obs, distances))
     try:
         x0 = problem.x0()
         problem.check_finite(x0, "at the start of the solve")
         sol = problem.solve(x0, robust=True)
         problem.check_finite(sol.x, "at the end of the solve")
-        solution = problem.solution(sol.x, sol.nfev)
+        solution = problem.solution(sol.x, sol.iterations)
     except VebuildError as e:
         raise VebuildError(f"{project.path}: $.model: {e}") from None
     except (ValueError, np.linalg.LinAlgError) as e:
@@ -273,7 +270,7 @@ def _results(problem: Problem, solution: Any, model: Model, xm: np.ndarray, reca
         for k, dof in enumerate(n.joint.dof_names):
             j = by_name.get(f"{n.name}.{dof}")
             value, s = xm[sq][k], (sig[j] if j is not None else 0.0)
-            if dof in ("yaw", "angle", "wx", "wy", "wz"):
+            if n.joint.dof_kinds[k] == "angle":
                 value, s, dof = np.degrees(value), np.degrees(s), dof + "_deg"
             entry["dofs"][dof] = _vs(value, s)
         if n.primitive is not None:
@@ -304,28 +301,15 @@ def _results(problem: Problem, solution: Any, model: Model, xm: np.ndarray, reca
     }
 
 
-#: Degrees of freedom that are angles (radians in the code, degrees in the file).
-ANGLE_DOFS = ("yaw", "angle", "wx", "wy", "wz")
-
-
 def covariance_record(problem: Problem, solution: Any) -> dict[str, Any]:
     """The joint covariance of the solved model parameters (and re-calibrated markers), for
     measurements between any two points (their correlations matter): names in file units
     (``node.param`` metres, ``node.dof_deg`` degrees, ``marker:NAME.x`` metres) and the matrix.
     Cameras are left out: no point of the model moves with them."""
-    n_marker = 3 * len(problem.free_markers)
-    o = problem.n_model + problem.n_cam * len(problem.cam_ids)
-    keep = np.r_[np.arange(problem.n_model), np.arange(o, o + n_marker)].astype(int)
-    names, scale = [], []
-    for name in problem.names:
-        node, dof = name.rsplit(".", 1)
-        angle = dof in ANGLE_DOFS
-        names.append(f"{node}.{dof}_deg" if angle else name)
-        scale.append(np.degrees(1.0) if angle else 1.0)
-    for m in problem.free_markers:
-        names += [f"marker:{m}.{c}" for c in "xyz"]
-        scale += [1.0] * 3
-    s = np.asarray(scale)
+    layout = problem.layout
+    blocks = [layout.model, *layout.markers.values()]
+    keep = layout.model_and_markers()
+    names, s = layout.file_names(blocks), layout.file_scale(blocks)
     cov = solution.covariance[np.ix_(keep, keep)] * s[:, None] * s[None, :]
     return {"parameters": names, "matrix": json_values(cov)}
 

@@ -210,9 +210,8 @@ class SolvedModel:
         """From a :class:`~vebuild.model.solver.Problem` and its ``solution`` (tests, benchmarks)."""
         model = problem.model
         model.set_vector(problem.model_vector(solution.x))
-        o = problem.n_model + problem.n_cam * len(problem.cam_ids)
-        keep = np.r_[np.arange(problem.n_model), np.arange(o, o + 3 * len(problem.free_markers))].astype(int)
-        names = list(problem.names) + [f"marker:{m}.{c}" for m in problem.free_markers for c in "xyz"]
+        keep = problem.layout.model_and_markers()
+        names = [n for b in (problem.layout.model, *problem.layout.markers.values()) for n in b.names]
         photos: dict[str, set[str]] = {}
         for p in problem.pins:
             photos.setdefault(p.node, set()).add(p.photo)

@@ -21,11 +21,11 @@ import numpy as np
 from scipy.optimize import least_squares
 from tqdm import tqdm
 
-from ..camera import exp_so3, project
+from ..camera import ImageCamera, exp_so3, project
 from ..model.drag import DragSession
+from ..model.residuals import Pin
 from ..model.scene import model_from_dict
-from ..camera import ImageCamera
-from ..model.solver import FINAL_PRIOR_SCALE, Pin, Problem
+from ..model.solver import FINAL_PRIOR_SCALE, MarkerData, Problem, ProblemOptions
 from ..synthetic import model_scene
 
 GOALS = {"drag_update_ms_p95": 5.0, "recalibration_s_50": 1.0}
@@ -92,8 +92,8 @@ def _recalibration_problem(n_boxes: int, seed: int) -> Problem:
         cams[p.id] = ImageCamera(p.id, p.K, R, p.C + rng.normal(0.0, 0.02, 3), p.width, p.height, covariance=cov)
     model = model_from_dict(start["nodes"], MARKERS)
     return Problem(model, cams, [Pin(p["photo"], p["node"], p["handle"], np.array(p["uv"])) for p in pins],
-                   click_sigma_px=0.7, prior_scale=FINAL_PRIOR_SCALE, recalibrate=True, markers=MARKERS,
-                   fixed_markers=["O"])
+                   options=ProblemOptions(click_sigma_px=0.7, prior_scale=FINAL_PRIOR_SCALE, recalibrate=True),
+                   markers=MarkerData(MARKERS, fixed=["O"]))
 
 
 def recalibration(sizes: tuple[int, ...], reference_sizes: tuple[int, ...], progress: bool) -> dict[str, Any]:

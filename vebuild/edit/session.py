@@ -33,8 +33,8 @@ from vebuild.camera import ImageCamera
 from vebuild.errors import CalibrationError, VebuildError
 from vebuild.model.drag import DragSession, drag_nodes, project_edges
 from vebuild.model.primitives import PRIMITIVE_TYPES, primitive_kinds
+from vebuild.model.residuals import EdgeObservation, Pin
 from vebuild.model.scene import Model, ModelError, model_from_dict
-from vebuild.model.solver import EdgeObservation, Pin
 from vebuild.project import (
     RESULT_KEYS,
     Project,

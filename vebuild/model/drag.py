@@ -16,8 +16,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..camera import ImageCamera, project, world_to_camera
+from .residuals import EdgeObservation, Pin
 from .scene import Model
-from .solver import EdgeObservation, Pin, Problem
+from .solver import Problem, ProblemOptions
 
 Array = NDArray[np.float64]
 
@@ -110,7 +111,7 @@ class DragSession:
         held = () if anchored or any(p.node == node for p in obs[:-1]) else \
             [f"{node}.{name}" for name in prim.PARAMS]
         self.problem = Problem(model, cameras, obs, [e for e in edges if e.node in moved],
-                               free_nodes=self.free, click_sigma_px=click_sigma_px, held=held)
+                               options=ProblemOptions(click_sigma_px=click_sigma_px, free_nodes=self.free, held=held))
         self._pin_index = len(self.problem.pins) - 1
         self.x = self.problem.x0()
         self.x_start = self.x.copy()

@@ -1,0 +1,138 @@
+"""The solver's unknowns, laid out as blocks: the model's free parameters, then each camera's, then
+each free marker's.
+
+A block knows its slice of the vector, its parameters' names, kinds (DOF_KINDS, plus ``pixel``
+for a camera's intrinsics) and units, how the solve holds it (its prior), and how its values are
+written in the project file (angles in degrees, under a ``_deg`` name). Nothing else computes an
+offset into the vector or decides from a name whether a parameter is an angle.
+
+Camera block: with intrinsics, (δf, δcx, δcy) in pixels; then a small turn ω (radians, left-
+multiplied: R' = exp([ω]×) R) and the centre C (metres), in the order of the calibration's
+(9, 9) covariance over (f, cx, cy, ω, C). Marker block: the position (metres).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+Array = NDArray[np.float64]
+
+#: The unit of each kind of parameter in the solver (radians for angles: DESIGN.md).
+UNITS = {"position": "m", "angle": "rad", "size": "m", "pixel": "px"}
+#: A calibrated camera's parameters in the order of its (9, 9) covariance.
+CAMERA_PARAMS = ("f", "cx", "cy", "wx", "wy", "wz", "x", "y", "z")
+CAMERA_KINDS = ("pixel",) * 3 + ("angle",) * 3 + ("position",) * 3
+#: How a block is held besides by the observations: ``pull`` toward its value before the solve
+#: (the model: PRIOR_SIGMA by kind), ``calibration`` by the camera's calibration covariance,
+#: ``none`` (a marker: its sightings and distances alone place it).
+PRIORS = ("pull", "calibration", "none")
+
+
+@dataclass(frozen=True)
+class Block:
+    """One block of the solver's vector: ``what`` (model, camera, marker) and ``key`` (the photo id
+    or the marker name; "" for the model)."""
+
+    what: str
+    key: str
+    start: int
+    names: tuple[str, ...]  # full names: "box0.yaw", "camera:p1.wx", "marker:M1.x"
+    kinds: tuple[str, ...]
+    prior: str
+    #: A camera block's parameters' places in CAMERA_PARAMS (its calibration covariance's rows).
+    calibration_index: tuple[int, ...] = ()
+
+    def __len__(self) -> int:
+        return len(self.names)
+
+    @property
+    def stop(self) -> int:
+        return self.start + len(self.names)
+
+    @property
+    def slice(self) -> slice:
+        return slice(self.start, self.stop)
+
+    @property
+    def indices(self) -> NDArray[np.intp]:
+        return np.arange(self.start, self.stop)
+
+    @property
+    def units(self) -> tuple[str, ...]:
+        return tuple(UNITS[k] for k in self.kinds)
+
+    @property
+    def intrinsics(self) -> bool:
+        """A camera block with (δf, δcx, δcy) ahead of its pose."""
+        return self.what == "camera" and len(self.names) == 9
+
+    @property
+    def pose_start(self) -> int:
+        """Where a camera block's turn ω begins (its centre follows at + 3)."""
+        return self.start + (3 if self.intrinsics else 0)
+
+    def file_names(self) -> list[str]:
+        """The names in the project file's units: an angle's name gains ``_deg``."""
+        return [f"{n}_deg" if k == "angle" else n for n, k in zip(self.names, self.kinds, strict=True)]
+
+    def file_scale(self) -> Array:
+        """Multiply solver values (and 1σ) by this to get file units (degrees for angles)."""
+        return np.array([np.degrees(1.0) if k == "angle" else 1.0 for k in self.kinds])
+
+
+class ParameterLayout:
+    """The blocks of one solve, in vector order: the model, each camera (when re-calibrating),
+    each free marker."""
+
+    def __init__(self, model_names: Sequence[str], model_kinds: Sequence[str], cameras: Sequence[str] = (),
+                 intrinsics: bool = False, markers: Sequence[str] = ()) -> None:
+        if len(model_names) != len(model_kinds):
+            raise ValueError(f"{len(model_names)} model parameter names for {len(model_kinds)} kinds")
+        self.model = Block("model", "", 0, tuple(model_names), tuple(model_kinds), "pull")
+        k = self.model.stop
+        params = CAMERA_PARAMS if intrinsics else CAMERA_PARAMS[3:]
+        index = tuple(CAMERA_PARAMS.index(p) for p in params)
+        self.cameras: dict[str, Block] = {}
+        for cid in cameras:
+            self.cameras[cid] = Block("camera", cid, k, tuple(f"camera:{cid}.{p}" for p in params),
+                                      tuple(CAMERA_KINDS[i] for i in index), "calibration", index)
+            k += len(params)
+        self.markers: dict[str, Block] = {}
+        for m in markers:
+            self.markers[m] = Block("marker", m, k, tuple(f"marker:{m}.{c}" for c in "xyz"), ("position",) * 3, "none")
+            k += 3
+        self.n = k
+
+    @property
+    def blocks(self) -> list[Block]:
+        return [self.model, *self.cameras.values(), *self.markers.values()]
+
+    @property
+    def names(self) -> list[str]:
+        return [n for b in self.blocks for n in b.names]
+
+    @property
+    def kinds(self) -> list[str]:
+        return [k for b in self.blocks for k in b.kinds]
+
+    def model_and_markers(self) -> NDArray[np.intp]:
+        """Indices of the model's and the markers' parameters: what a point of the model moves
+        with (the cameras left out)."""
+        return np.concatenate([self.model.indices, *[b.indices for b in self.markers.values()]]).astype(np.intp)
+
+    def file_names(self, blocks: Sequence[Block]) -> list[str]:
+        return [n for b in blocks for n in b.file_names()]
+
+    def file_scale(self, blocks: Sequence[Block]) -> Array:
+        return np.concatenate([b.file_scale() for b in blocks] or [np.zeros(0)])
+
+    def block_of(self, index: int) -> Block:
+        """The block holding parameter ``index``."""
+        for b in self.blocks:
+            if b.start <= index < b.stop:
+                return b
+        raise IndexError(f"parameter {index} is outside the layout's {self.n}")

@@ -1,0 +1,442 @@
+"""The residuals of the model solver (paper §3.1, §3.2) and their Jacobian.
+
+Observations are the user's marks: vertex pins (a handle of a node seen at a pixel in a photo)
+and edge observations (the user's red edge: two pixels a model edge must pass through), and,
+when re-calibrating, marker sightings and reference distances. Residuals are in pixels, whitened
+by the click noise, then the priors: each free model parameter pulled toward its value before
+the solve, each re-calibrated camera held by its calibration covariance.
+
+The Jacobian is analytic for cameras and markers; for a model parameter, the handles it moves are
+differenced and chained through the analytic projection derivative, column by column, each
+column re-evaluating only the observations that its parameter can move (the node's subtree), so
+its cost grows with the number of observations, not with their square.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import sparse
+
+from ..calibration.positions import ReferenceDistance  # ends: marker names or 'node:handle'
+from ..camera import ImageCamera, exp_so3, project_each, skew_batch, so3_left_jacobian
+from .layout import ParameterLayout
+from .lm import SPARSE_SOLVE_ABOVE
+from .scene import Model
+
+Array = NDArray[np.float64]
+
+#: Step of the finite differences over a model parameter (relative above 1).
+FD_STEP = 1e-6
+
+
+@dataclass
+class Pin:
+    photo: str
+    node: str
+    handle: str
+    uv: Array
+    fixed: bool = True
+
+
+@dataclass
+class EdgeObservation:
+    photo: str
+    node: str
+    edge: str
+    points: Array  # (2, 2)
+
+
+@dataclass
+class MarkerObservation:
+    photo: str
+    marker: str
+    uv: Array
+
+
+class Residuals:
+    """The residual vector and Jacobian of a :class:`~vebuild.model.solver.Problem`: its rows
+    (pins, edges, marker sightings, distances, then the priors) and what each unknown moves.
+
+    The problem sets up the unknowns (which model parameters are free, the layout of the vector,
+    the observations it keeps, the priors) and then calls :meth:`_build_dependencies`.
+    """
+
+    model: Model
+    layout: ParameterLayout
+    cam_ids: list[str]
+    cameras: dict[str, ImageCamera]
+    sigma: float
+    pins: list[Pin]
+    edges: list[EdgeObservation]
+    marker_obs: list[MarkerObservation]
+    distances: list[ReferenceDistance]
+    markers0: dict[str, Array]
+    free_markers: list[str]
+    x_model0: Array
+    free_idx: NDArray[np.intp]
+    owner: list[str]
+    prior_sigma: Array
+    _prior_L: dict[str, Array]
+
+    # -- the vector's blocks -----------------------------------------------------------------
+    def model_vector(self, x: Array) -> Array:
+        """The whole model's parameter vector (free ones from x, the others as they were)."""
+        xm = self.x_model0.copy()
+        xm[self.free_idx] = x[self.layout.model.slice]
+        return xm
+
+    def camera_matrices(self, x: Array) -> dict[str, tuple[Array, Array, Array]]:
+        """K, R, C of every photo at x (as calibrated where the camera is not being solved)."""
+        out = {}
+        for cid in self.cam_ids:
+            cam = self.cameras[cid]
+            blk = self.layout.cameras.get(cid)
+            if blk is None:
+                out[cid] = (cam.K, cam.R, cam.C)
+                continue
+            K = cam.K.copy()
+            if blk.intrinsics:
+                df, dcx, dcy = x[blk.start : blk.start + 3]
+                K[0, 0] = K[1, 1] = cam.K[0, 0] + df
+                K[0, 2] = cam.K[0, 2] + dcx
+                K[1, 2] = cam.K[1, 2] + dcy
+            o = blk.pose_start
+            out[cid] = (K, exp_so3(x[o : o + 3]) @ cam.R, x[o + 3 : o + 6])
+        return out
+
+    def marker_positions(self, x: Array) -> dict[str, Array]:
+        """Every marker's position at x (the fixed ones as calibrated)."""
+        pos = dict(self.markers0)
+        for k, blk in self.layout.markers.items():
+            pos[k] = x[blk.slice]
+        return pos
+
+    # -- residuals ---------------------------------------------------------------------------
+    def _build_dependencies(self) -> None:
+        """Row layout, index arrays for vectorised evaluation, and what each parameter moves."""
+        model = self.model
+        self.prim_nodes = [n.name for n in model.nodes if n.primitive is not None]
+        self._hmat = {n: model.node(n).primitive.handle_jacobian() for n in self.prim_nodes}
+        self.h_offset: dict[str, int] = {}
+        k = 0
+        for name in self.prim_nodes:
+            self.h_offset[name] = k
+            k += len(model.node(name).primitive.handle_names())
+        self.n_handles = k
+
+        def hrow(node: str, handle: str) -> int:
+            return self.h_offset[node] + model.node(node).primitive.handle_names().index(handle)
+
+        cam_index = {c: i for i, c in enumerate(self.cam_ids)}
+        self.pin_row = np.array([hrow(p.node, p.handle) for p in self.pins], dtype=int)
+        self.pin_cam = np.array([cam_index[p.photo] for p in self.pins], dtype=int)
+        self.pin_uv = np.array([p.uv for p in self.pins], float).reshape(-1, 2)
+        ends = []
+        for e in self.edges:
+            names = {n: (a, b) for n, a, b in model.node(e.node).primitive.edges()}
+            ends.append([hrow(e.node, h) for h in names[e.edge]])
+        self.edge_rows = np.array(ends, dtype=int).reshape(-1, 2)
+        self.edge_cam = np.array([cam_index[e.photo] for e in self.edges], dtype=int)
+        self.edge_pts = np.array([e.points for e in self.edges], float).reshape(-1, 2, 2)
+        self.marker_names = sorted(self.markers0)
+        m_index = {m: i for i, m in enumerate(self.marker_names)}
+        self.mo_marker = np.array([m_index[m.marker] for m in self.marker_obs], dtype=int)
+        self.mo_cam = np.array([cam_index[m.photo] for m in self.marker_obs], dtype=int)
+        self.mo_uv = np.array([m.uv for m in self.marker_obs], float).reshape(-1, 2)
+        # A distance end is a handle row (≥ 0) or a marker, coded −1 − marker index.
+        self.dist_ends = np.array([[hrow(*p.split(":", 1)) if ":" in p else -1 - m_index[p] for p in (d.a, d.b)]
+                                   for d in self.distances], dtype=int).reshape(-1, 2)
+        self.dist_value = np.array([d.distance for d in self.distances], float)
+        self.dist_sigma = np.array([d.sigma for d in self.distances], float)
+
+        rows = 0
+        self.rows_pin = np.arange(rows, rows + 2 * len(self.pins)).reshape(-1, 2)
+        rows += 2 * len(self.pins)
+        self.rows_edge = np.arange(rows, rows + 2 * len(self.edges)).reshape(-1, 2)
+        rows += 2 * len(self.edges)
+        self.rows_marker = np.arange(rows, rows + 2 * len(self.marker_obs)).reshape(-1, 2)
+        rows += 2 * len(self.marker_obs)
+        self.rows_dist = np.arange(rows, rows + len(self.distances))
+        rows += len(self.distances)
+        self.n_data = 2 * (len(self.pins) + len(self.edges) + len(self.marker_obs))
+        n_model = len(self.layout.model)
+        self.rows_prior_model = np.arange(rows, rows + n_model)
+        rows += n_model
+        self.rows_prior_cam: dict[str, Array] = {}
+        for cid, blk in self.layout.cameras.items():
+            self.rows_prior_cam[cid] = np.arange(rows, rows + len(blk))
+            rows += len(blk)
+        self.m = rows
+        # For each free model parameter: the nodes it moves and their handle rows.
+        self.moves = []
+        self.column_rows = []  # per model parameter: the pins, edges and distances it moves
+        subtree_cache: dict[str, tuple] = {}
+        for j in range(n_model):
+            owner = self.owner[j]
+            if owner not in subtree_cache:
+                nodes = model.subtree(owner)
+                hrows = np.concatenate(
+                    [np.arange(self.h_offset[n], self.h_offset[n] + len(model.node(n).primitive.handle_names()))
+                     for n in nodes if n in self.h_offset] or [np.zeros(0, dtype=int)])
+                subtree_cache[owner] = (
+                    (nodes, hrows),
+                    (np.flatnonzero(np.isin(self.pin_row, hrows)),
+                     np.flatnonzero(np.isin(self.edge_rows, hrows).any(axis=1)),
+                     np.flatnonzero(np.isin(self.dist_ends, hrows).any(axis=1))),
+                )
+            self.moves.append(subtree_cache[owner][0])
+            self.column_rows.append(subtree_cache[owner][1])
+
+    def set_pin_pixel(self, i: int, uv: Array) -> None:
+        """Move pin i's observed pixel (the mouse, during a drag) without rebuilding the problem."""
+        uv = np.asarray(uv, float)
+        if uv.shape != (2,) or not np.all(np.isfinite(uv)):
+            raise ValueError(f"pin {self.pins[i].node}:{self.pins[i].handle}: expected a finite pixel (u, v), got {uv}")
+        self.pins[i].uv = uv
+        self.pin_uv[i] = uv
+
+    def handle_positions(self, xm: Array, T: Mapping[str, Array], nodes: Sequence[str] | None = None,
+                         out: Array | None = None) -> Array:
+        """World positions of every handle, stacked (n_handles, 3); only ``nodes`` are recomputed."""
+        H = np.zeros((self.n_handles, 3)) if out is None else out
+        for name in self.prim_nodes if nodes is None else [n for n in nodes if n in self.h_offset]:
+            # Handles are linear in a primitive's parameters: one matrix product per node.
+            hs = self._hmat[name] @ xm[self.model.slices[name][1]]
+            o = self.h_offset[name]
+            H[o : o + len(hs)] = hs @ T[name][:3, :3].T + T[name][:3, 3]
+        return H
+
+    def _camera_arrays(self, x: Array) -> tuple[Array, Array, Array]:
+        cams = self.camera_matrices(x)
+        Ks = np.array([cams[c][0] for c in self.cam_ids]).reshape(-1, 3, 3)
+        Rs = np.array([cams[c][1] for c in self.cam_ids]).reshape(-1, 3, 3)
+        Cs = np.array([cams[c][2] for c in self.cam_ids]).reshape(-1, 3)
+        return Ks, Rs, Cs
+
+    def _marker_array(self, x: Array) -> Array:
+        pos = self.marker_positions(x)
+        return np.array([pos[m] for m in self.marker_names], float).reshape(-1, 3)
+
+    def _edge_residuals(self, Xa: Array, Xb: Array, Ks: Array, Rs: Array, Cs: Array, idx: Array) -> Array:
+        cam = self.edge_cam[idx]
+        ha = np.einsum("nij,nj->ni", Ks[cam], np.einsum("nij,nj->ni", Rs[cam], Xa - Cs[cam]))
+        hb = np.einsum("nij,nj->ni", Ks[cam], np.einsum("nij,nj->ni", Rs[cam], Xb - Cs[cam]))
+        line = np.cross(ha, hb)
+        line /= np.hypot(line[:, 0], line[:, 1])[:, None]
+        pts = np.concatenate([self.edge_pts[idx], np.ones((len(idx), 2, 1))], axis=2)
+        return np.einsum("nkj,nj->nk", pts, line) / self.sigma
+
+    @staticmethod
+    def _ends(ends: Array, H: Array, M: Array) -> Array:
+        return np.where((ends >= 0)[:, None], H[np.maximum(ends, 0)], M[np.maximum(-1 - ends, 0)]) \
+            if len(ends) else np.zeros((0, 3))
+
+    def transforms(self, xm: Array) -> dict[str, Array]:
+        """Every node's world transform for model vector xm (only the moving nodes recomputed)."""
+        if self._moving is None:
+            return self.model.world_transforms(xm)
+        return self.model.world_transforms(xm, only=self._moving, cache=self._T0)
+
+    def _posed(self, xm: Array) -> tuple[dict[str, Array], Array]:
+        """World transforms and handle positions for model vector xm (only moving nodes recomputed)."""
+        T = self.transforms(xm)
+        if self._moving is None:
+            return T, self.handle_positions(xm, T)
+        return T, self.handle_positions(xm, T, self._moving, self._H0.copy())
+
+    def evaluate(self, x: Array) -> Array:
+        """The whitened residual vector."""
+        xm = self.model_vector(x)
+        T, H = self._posed(xm)
+        Ks, Rs, Cs = self._camera_arrays(x)
+        M = self._marker_array(x)
+        r = np.zeros(self.m)
+        if len(self.pins):
+            c = self.pin_cam
+            uv = project_each(Ks[c], Rs[c], Cs[c], H[self.pin_row])
+            r[self.rows_pin.ravel()] = ((uv - self.pin_uv) / self.sigma).ravel()
+        if len(self.edges):
+            idx = np.arange(len(self.edges))
+            r[self.rows_edge.ravel()] = self._edge_residuals(H[self.edge_rows[:, 0]], H[self.edge_rows[:, 1]],
+                                                             Ks, Rs, Cs, idx).ravel()
+        if len(self.marker_obs):
+            c = self.mo_cam
+            uv = project_each(Ks[c], Rs[c], Cs[c], M[self.mo_marker])
+            r[self.rows_marker.ravel()] = ((uv - self.mo_uv) / self.sigma).ravel()
+        if len(self.distances):
+            pa = self._ends(self.dist_ends[:, 0], H, M)
+            pb = self._ends(self.dist_ends[:, 1], H, M)
+            r[self.rows_dist] = (np.linalg.norm(pa - pb, axis=1) - self.dist_value) / self.dist_sigma
+        r[self.rows_prior_model] = (x[self.layout.model.slice] - self.x_model0[self.free_idx]) / self.prior_sigma
+        for cid, blk in self.layout.cameras.items():
+            d = x[blk.slice].copy()
+            d[-3:] -= self.cameras[cid].C
+            r[self.rows_prior_cam[cid]] = self._prior_L[cid] @ d
+        return r
+
+    def residuals(self, x: Array) -> Array:
+        return self.evaluate(x)
+
+    def jacobian(self, x: Array) -> Array | sparse.csr_matrix:
+        """Sparse Jacobian: analytic for cameras and markers; for a model parameter, the handles it
+        moves are differenced and chained through the analytic projection derivative."""
+        xm = self.model_vector(x)
+        T, H = self._posed(xm)
+        Ks, Rs, Cs = self._camera_arrays(x)
+        M = self._marker_array(x)
+        R_, C_, V_ = [], [], []
+        # A drag has a handful of unknowns: a dense matrix is cheaper than sparse bookkeeping.
+        n = self.layout.n
+        dense = np.zeros((self.m, n)) if n <= SPARSE_SOLVE_ABOVE else None
+
+        def put(rows: Array, col: int | Array, vals: Array) -> None:
+            rows = np.asarray(rows).ravel()
+            cols = np.broadcast_to(col, rows.shape).astype(int) if np.ndim(col) == 0 else np.asarray(col).ravel()
+            if dense is not None:
+                dense[rows, cols] = np.asarray(vals).ravel()
+                return
+            R_.append(rows)
+            C_.append(cols)
+            V_.append(np.asarray(vals).ravel())
+
+        # d(residual)/d(world point) for pins and marker sightings: A R, A = ∂π/∂x_cam / σ.
+        def proj_parts(cam: Array, X: Array) -> tuple[Array, Array, Array]:
+            xc = np.einsum("nij,nj->ni", Rs[cam], X - Cs[cam])
+            f = Ks[cam, 0, 0]
+            z = xc[:, 2]
+            A = np.zeros((len(cam), 2, 3))
+            A[:, 0, 0] = A[:, 1, 1] = f / z
+            A[:, 0, 2] = -f * xc[:, 0] / z**2
+            A[:, 1, 2] = -f * xc[:, 1] / z**2
+            A /= self.sigma
+            return A, np.einsum("nij,njk->nik", A, Rs[cam]), xc
+
+        A_p, MR_p, xc_p = proj_parts(self.pin_cam, H[self.pin_row]) if len(self.pins) else (None,) * 3
+        A_m, MR_m, xc_m = proj_parts(self.mo_cam, M[self.mo_marker]) if len(self.marker_obs) else (None,) * 3
+
+        for j in self.layout.model.indices:
+            nodes, hrows = self.moves[j]
+            h = FD_STEP * max(1.0, abs(x[j]))
+            xp = x.copy()
+            xp[j] += h
+            xmp = self.model_vector(xp)
+            Tp = self.model.world_transforms(xmp, only=nodes, cache=T)
+            Hp = self.handle_positions(xmp, Tp, nodes, H.copy())
+            dH = (Hp - H) / h
+            pin_sel, edge_sel, dist_sel = self.column_rows[j]
+            if len(pin_sel):
+                put(self.rows_pin[pin_sel], j, np.einsum("nij,nj->ni", MR_p[pin_sel], dH[self.pin_row[pin_sel]]))
+            if len(edge_sel):
+                a, b = self.edge_rows[edge_sel, 0], self.edge_rows[edge_sel, 1]
+                r0 = self._edge_residuals(H[a], H[b], Ks, Rs, Cs, edge_sel)
+                r1 = self._edge_residuals(Hp[a], Hp[b], Ks, Rs, Cs, edge_sel)
+                put(self.rows_edge[edge_sel], j, (r1 - r0) / h)
+            if len(dist_sel):
+                e = self.dist_ends[dist_sel]
+                d0 = np.linalg.norm(self._ends(e[:, 0], H, M) - self._ends(e[:, 1], H, M), axis=1)
+                d1 = np.linalg.norm(self._ends(e[:, 0], Hp, M) - self._ends(e[:, 1], Hp, M), axis=1)
+                put(self.rows_dist[dist_sel], j, (d1 - d0) / h / self.dist_sigma[dist_sel])
+
+        if self.layout.cameras or self.layout.markers:
+            for k, cid in enumerate(self.cam_ids):
+                blk = self.layout.cameras.get(cid)
+                if blk is None:
+                    continue
+                o, oc = blk.start, blk.pose_start
+                w = x[oc : oc + 3]
+                Jl = so3_left_jacobian(w)
+                for rows_of, cam_of, A, MR, xc in ((self.rows_pin, self.pin_cam, A_p, MR_p, xc_p),
+                                                   (self.rows_marker, self.mo_cam, A_m, MR_m, xc_m)):
+                    if A is None:
+                        continue
+                    sel = np.flatnonzero(cam_of == k)
+                    if not len(sel):
+                        continue
+                    rows = rows_of[sel]  # (n, 2)
+                    dw = -np.einsum("nij,njk->nik", A[sel], skew_batch(xc[sel])) @ Jl
+                    for c in range(3):
+                        put(rows, oc + c, dw[:, :, c])
+                        put(rows, oc + 3 + c, -MR[sel][:, :, c])
+                    if blk.intrinsics:  # u = f x/z + cx, v = f y/z + cy
+                        put(rows, o, xc[sel, :2] / xc[sel, 2:3] / self.sigma)
+                        put(rows[:, 0], o + 1, np.full(len(sel), 1.0 / self.sigma))
+                        put(rows[:, 1], o + 2, np.full(len(sel), 1.0 / self.sigma))
+                sel = np.flatnonzero(self.edge_cam == k)
+                if len(sel):  # few edges: difference them
+                    Xa, Xb = H[self.edge_rows[sel, 0]], H[self.edge_rows[sel, 1]]
+                    x1 = x.copy()
+                    r0 = self._edge_residuals(Xa, Xb, Ks, Rs, Cs, sel)
+                    for c in blk.indices:
+                        x1[c] += FD_STEP
+                        K1, R1, C1 = self._camera_arrays(x1)
+                        put(self.rows_edge[sel], c, (self._edge_residuals(Xa, Xb, K1, R1, C1, sel) - r0) / FD_STEP)
+                        x1[c] = x[c]
+            m_index = {m: i for i, m in enumerate(self.marker_names)}
+            for name, mblk in self.layout.markers.items():
+                mi = m_index[name]
+                sel = np.flatnonzero(self.mo_marker == mi)
+                for c in range(3):
+                    if len(sel):
+                        put(self.rows_marker[sel], mblk.start + c, MR_m[sel][:, :, c])
+                if len(self.distances):
+                    for end, sign in ((0, 1.0), (1, -1.0)):
+                        dsel = np.flatnonzero(self.dist_ends[:, end] == -1 - mi)
+                        if len(dsel):
+                            e = self.dist_ends[dsel]
+                            diff = self._ends(e[:, 0], H, M) - self._ends(e[:, 1], H, M)
+                            u = diff / np.linalg.norm(diff, axis=1, keepdims=True) / self.dist_sigma[dsel, None]
+                            for c in range(3):
+                                put(self.rows_dist[dsel], mblk.start + c, sign * u[:, c])
+        # Prior rows are linear: exact derivatives.
+        put(self.rows_prior_model, self.layout.model.indices, 1.0 / self.prior_sigma)
+        for cid, blk in self.layout.cameras.items():
+            rr, cc = np.meshgrid(self.rows_prior_cam[cid], blk.indices, indexing="ij")
+            put(rr, cc, self._prior_L[cid])
+        if dense is not None:
+            return dense
+        J = sparse.coo_matrix((np.concatenate(V_), (np.concatenate(R_), np.concatenate(C_))), shape=(self.m, n))
+        return J.tocsr()
+
+    def describe_row(self, row: int) -> str:
+        """What residual ``row`` measures: a pin, an edge, a marker sighting, a distance or a prior."""
+        for rows, items, what in ((self.rows_pin, self.pins, lambda p: f"pin {p.node}:{p.handle} in photo "
+                                   f"'{p.photo}'"),
+                                  (self.rows_edge, self.edges, lambda e: f"edge {e.node}:{e.edge} in photo "
+                                   f"'{e.photo}'"),
+                                  (self.rows_marker, self.marker_obs, lambda m: f"marker '{m.marker}' in photo "
+                                   f"'{m.photo}'")):
+            if len(rows) and rows[0, 0] <= row <= rows[-1, 1]:
+                return what(items[(row - int(rows[0, 0])) // 2])
+        if len(self.rows_dist) and self.rows_dist[0] <= row <= self.rows_dist[-1]:
+            d = self.distances[row - int(self.rows_dist[0])]
+            return f"reference distance {d.a}–{d.b} ({d.distance:g} m)"
+        if len(self.rows_prior_model) and self.rows_prior_model[0] <= row <= self.rows_prior_model[-1]:
+            return f"the model parameter {self.layout.model.names[row - int(self.rows_prior_model[0])]}"
+        for cid, rows in self.rows_prior_cam.items():
+            if rows[0] <= row <= rows[-1]:
+                return f"the calibration of photo '{cid}'"
+        return f"residual {row}"
+
+    def check_finite(self, x: Array, when: str) -> None:
+        """A :class:`~vebuild.errors.VebuildError` naming the first observation whose residual at
+        ``x`` is not a finite number (a camera on a handle, a handle in a camera's plane, a size
+        beyond floating point), rather than a solve that silently stops or a NumPy traceback."""
+        from vebuild.errors import VebuildError
+
+        with np.errstate(all="ignore"):
+            bad = np.flatnonzero(~np.isfinite(self.residuals(x))) if np.all(np.isfinite(x)) else np.zeros(0, int)
+        if not np.all(np.isfinite(x)):
+            j = int(np.flatnonzero(~np.isfinite(x))[0])
+            blk = self.layout.block_of(j)
+            what = f"the model parameter {blk.names[j - blk.start]}" if blk.what == "model" else \
+                f"the {blk.what} parameter {blk.names[j - blk.start]}"
+            raise VebuildError(f"{what} is not a finite number {when}; check the values in the project's model")
+        if len(bad):
+            raise VebuildError(f"{self.describe_row(int(bad[0]))}: its residual is not a finite number {when} "
+                               f"({len(bad)} such rows); the point lies in the camera's plane or at no finite place: "
+                               "check that observation and the node's dimensions")
+
