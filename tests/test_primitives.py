@@ -20,7 +20,7 @@ from vebuild.model import (
     Wedge,
     primitive_from_dict,
 )
-from vebuild.model.primitives import GUTTER_TEXELS
+from vebuild.model.mesh import GUTTER_TEXELS
 
 trimesh = pytest.importorskip("trimesh")
 

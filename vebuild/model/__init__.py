@@ -1,12 +1,12 @@
 """Modelling: parametric primitives (and, beside them, the scene graph in ``scene``)."""
 
+from .mesh import Mesh
 from .primitives import (
     PRIMITIVE_TYPES,
     Box,
     Cylinder,
     Frame,
     Frustum,
-    Mesh,
     Primitive,
     Quad,
     Sphere,

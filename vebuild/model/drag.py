@@ -131,7 +131,7 @@ class DragSession:
                  if p is not self.pin]
         cam = self.cameras[self.photo]
         handle_px = project(cam.K, cam.R, cam.C, self.model.handle_world(self.node, self.handle, xm, T))
-        return DragResult(xm, self.moved, edges, handle_px, max(fixed, default=0.0))
+        return DragResult(xm, self.moved, edges, handle_px, float(max(fixed, default=0.0)))
 
     def release(self) -> Pin:
         """Keep the result in the model and return the grabbed handle as a fixed pin."""

@@ -16,18 +16,21 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from scipy import sparse
 
 from ..calibration.positions import ReferenceDistance  # ends: marker names or 'node:handle'
 from ..camera import ImageCamera, exp_so3, project_each, skew_batch, so3_left_jacobian
 from .layout import ParameterLayout
 from .lm import SPARSE_SOLVE_ABOVE
+from .primitives import Primitive
 from .scene import Model
 
 Array = NDArray[np.float64]
+Index = NDArray[np.intp]
 
 #: Step of the finite differences over a model parameter (relative above 1).
 FD_STEP = 1e-6
@@ -81,6 +84,16 @@ class Residuals:
     owner: list[str]
     prior_sigma: Array
     _prior_L: dict[str, Array]
+    _moving: list[str] | None  # the nodes a free parameter moves; None: all of them
+    _T0: dict[str, Array]
+    _H0: Array
+
+    def primitive_of(self, node: str) -> Primitive:
+        """The primitive of node ``node`` (observations name only primitive nodes)."""
+        prim = self.model.node(node).primitive
+        if prim is None:
+            raise ValueError(f"node '{node}' is a group: it has no handles or edges to observe")
+        return prim
 
     # -- the vector's blocks -----------------------------------------------------------------
     def model_vector(self, x: Array) -> Array:
@@ -120,16 +133,16 @@ class Residuals:
         """Row layout, index arrays for vectorised evaluation, and what each parameter moves."""
         model = self.model
         self.prim_nodes = [n.name for n in model.nodes if n.primitive is not None]
-        self._hmat = {n: model.node(n).primitive.handle_jacobian() for n in self.prim_nodes}
+        self._hmat = {n: self.primitive_of(n).handle_jacobian() for n in self.prim_nodes}
         self.h_offset: dict[str, int] = {}
         k = 0
         for name in self.prim_nodes:
             self.h_offset[name] = k
-            k += len(model.node(name).primitive.handle_names())
+            k += len(self.primitive_of(name).handle_names())
         self.n_handles = k
 
         def hrow(node: str, handle: str) -> int:
-            return self.h_offset[node] + model.node(node).primitive.handle_names().index(handle)
+            return self.h_offset[node] + self.primitive_of(node).handle_names().index(handle)
 
         cam_index = {c: i for i, c in enumerate(self.cam_ids)}
         self.pin_row = np.array([hrow(p.node, p.handle) for p in self.pins], dtype=int)
@@ -137,7 +150,7 @@ class Residuals:
         self.pin_uv = np.array([p.uv for p in self.pins], float).reshape(-1, 2)
         ends = []
         for e in self.edges:
-            names = {n: (a, b) for n, a, b in model.node(e.node).primitive.edges()}
+            names = {n: (a, b) for n, a, b in self.primitive_of(e.node).edges()}
             ends.append([hrow(e.node, h) for h in names[e.edge]])
         self.edge_rows = np.array(ends, dtype=int).reshape(-1, 2)
         self.edge_cam = np.array([cam_index[e.photo] for e in self.edges], dtype=int)
@@ -166,7 +179,7 @@ class Residuals:
         n_model = len(self.layout.model)
         self.rows_prior_model = np.arange(rows, rows + n_model)
         rows += n_model
-        self.rows_prior_cam: dict[str, Array] = {}
+        self.rows_prior_cam: dict[str, Index] = {}
         for cid, blk in self.layout.cameras.items():
             self.rows_prior_cam[cid] = np.arange(rows, rows + len(blk))
             rows += len(blk)
@@ -180,7 +193,7 @@ class Residuals:
             if owner not in subtree_cache:
                 nodes = model.subtree(owner)
                 hrows = np.concatenate(
-                    [np.arange(self.h_offset[n], self.h_offset[n] + len(model.node(n).primitive.handle_names()))
+                    [np.arange(self.h_offset[n], self.h_offset[n] + len(self.primitive_of(n).handle_names()))
                      for n in nodes if n in self.h_offset] or [np.zeros(0, dtype=int)])
                 subtree_cache[owner] = (
                     (nodes, hrows),
@@ -191,7 +204,7 @@ class Residuals:
             self.moves.append(subtree_cache[owner][0])
             self.column_rows.append(subtree_cache[owner][1])
 
-    def set_pin_pixel(self, i: int, uv: Array) -> None:
+    def set_pin_pixel(self, i: int, uv: ArrayLike) -> None:
         """Move pin i's observed pixel (the mouse, during a drag) without rebuilding the problem."""
         uv = np.asarray(uv, float)
         if uv.shape != (2,) or not np.all(np.isfinite(uv)):
@@ -221,7 +234,7 @@ class Residuals:
         pos = self.marker_positions(x)
         return np.array([pos[m] for m in self.marker_names], float).reshape(-1, 3)
 
-    def _edge_residuals(self, Xa: Array, Xb: Array, Ks: Array, Rs: Array, Cs: Array, idx: Array) -> Array:
+    def _edge_residuals(self, Xa: Array, Xb: Array, Ks: Array, Rs: Array, Cs: Array, idx: Index) -> Array:
         cam = self.edge_cam[idx]
         ha = np.einsum("nij,nj->ni", Ks[cam], np.einsum("nij,nj->ni", Rs[cam], Xa - Cs[cam]))
         hb = np.einsum("nij,nj->ni", Ks[cam], np.einsum("nij,nj->ni", Rs[cam], Xb - Cs[cam]))
@@ -231,7 +244,7 @@ class Residuals:
         return np.einsum("nkj,nj->nk", pts, line) / self.sigma
 
     @staticmethod
-    def _ends(ends: Array, H: Array, M: Array) -> Array:
+    def _ends(ends: Index, H: Array, M: Array) -> Array:
         return np.where((ends >= 0)[:, None], H[np.maximum(ends, 0)], M[np.maximum(-1 - ends, 0)]) \
             if len(ends) else np.zeros((0, 3))
 
@@ -293,7 +306,7 @@ class Residuals:
         n = self.layout.n
         dense = np.zeros((self.m, n)) if n <= SPARSE_SOLVE_ABOVE else None
 
-        def put(rows: Array, col: int | Array, vals: Array) -> None:
+        def put(rows: NDArray[Any], col: int | NDArray[Any], vals: NDArray[Any] | float) -> None:
             rows = np.asarray(rows).ravel()
             cols = np.broadcast_to(col, rows.shape).astype(int) if np.ndim(col) == 0 else np.asarray(col).ravel()
             if dense is not None:
@@ -315,8 +328,9 @@ class Residuals:
             A /= self.sigma
             return A, np.einsum("nij,njk->nik", A, Rs[cam]), xc
 
-        A_p, MR_p, xc_p = proj_parts(self.pin_cam, H[self.pin_row]) if len(self.pins) else (None,) * 3
-        A_m, MR_m, xc_m = proj_parts(self.mo_cam, M[self.mo_marker]) if len(self.marker_obs) else (None,) * 3
+        none: tuple[Any, Any, Any] = (None, None, None)  # no such observations
+        A_p, MR_p, xc_p = proj_parts(self.pin_cam, H[self.pin_row]) if len(self.pins) else none
+        A_m, MR_m, xc_m = proj_parts(self.mo_cam, M[self.mo_marker]) if len(self.marker_obs) else none
 
         for j in self.layout.model.indices:
             nodes, hrows = self.moves[j]
@@ -416,8 +430,8 @@ class Residuals:
             return f"reference distance {d.a}–{d.b} ({d.distance:g} m)"
         if len(self.rows_prior_model) and self.rows_prior_model[0] <= row <= self.rows_prior_model[-1]:
             return f"the model parameter {self.layout.model.names[row - int(self.rows_prior_model[0])]}"
-        for cid, rows in self.rows_prior_cam.items():
-            if rows[0] <= row <= rows[-1]:
+        for cid, prior_rows in self.rows_prior_cam.items():
+            if prior_rows[0] <= row <= prior_rows[-1]:
                 return f"the calibration of photo '{cid}'"
         return f"residual {row}"
 

@@ -5,7 +5,7 @@ undetermined parameters, the re-calibrated cameras and markers, and the handles'
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -58,7 +58,7 @@ def solution_at(problem: Problem, x: Array, iterations: int = 0) -> Solution:
                       *[problem.rows_prior_cam[c] for c in problem.rows_prior_cam]].astype(int)
     Jd = J[data_rows]
     A = Jd.T @ Jd
-    A = A.toarray() if sparse.issparse(A) else np.asarray(A)
+    A = cast(Any, A).toarray() if sparse.issparse(A) else np.asarray(A)
     ridge = 1e-12 * max(float(np.max(np.diag(A))), 1e-30)
     cov_data = _inverse(A + ridge * np.eye(layout.n))
     undetermined = [layout.model.names[j] for j in range(len(layout.model))
@@ -98,7 +98,7 @@ def solution_at(problem: Problem, x: Array, iterations: int = 0) -> Solution:
 
 def _inverse(A: Array | sparse.spmatrix) -> Array:
     """Inverse of a symmetric positive (semi-)definite normal matrix; ∞ where it is singular."""
-    A = A.toarray() if sparse.issparse(A) else np.asarray(A)
+    A = cast(Any, A).toarray() if sparse.issparse(A) else np.asarray(A)
     try:
         return np.linalg.inv(A)
     except np.linalg.LinAlgError:
@@ -130,7 +130,7 @@ def handle_covariances(problem: Problem, x: Array, cov: Array) -> dict[str, tupl
     out = {}
     for name in problem.prim_nodes:
         o = problem.h_offset[name]
-        for k, hname in enumerate(problem.model.node(name).primitive.handle_names()):
+        for k, hname in enumerate(problem.primitive_of(name).handle_names()):
             g = G[o + k]
             cols = np.flatnonzero(np.any(g != 0, axis=0))
             c = g[:, cols] @ cov[np.ix_(cols, cols)] @ g[:, cols].T if len(cols) else np.zeros((3, 3))

@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vebuild.errors import VebuildError
-from vebuild.model.primitives import Mesh
+from vebuild.model.mesh import Mesh
 from vebuild.model.scene import Model
 
 Array = NDArray[np.float64]
