@@ -381,7 +381,7 @@ def _safe_inverse(info: Array) -> Array | None:
     w = np.linalg.eigvalsh(info)
     if w.min() <= 1e-12 * max(w.max(), 1e-300):
         return None
-    return np.linalg.inv(info)
+    return np.asarray(np.linalg.inv(info), float)
 
 
 def _marginal_sigma(info: Array, keep: list[int], which: int) -> float:

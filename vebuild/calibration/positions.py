@@ -103,7 +103,7 @@ def intersect_lines(points: Array, dirs: Array) -> Array:
         M = np.eye(3) - np.outer(d, d)
         A += M
         b += M @ p
-    return np.linalg.solve(A, b)
+    return np.asarray(np.linalg.solve(A, b), float)
 
 
 def _max_angle_deg(dirs: Array) -> float:
@@ -365,10 +365,10 @@ def _metric_scale(X: Mapping[str, Array], known: Mapping[str, Array], refs: Sequ
     num = den = 0.0
     for d in refs:
         if d.a in X and d.b in X:
-            cur = float(np.linalg.norm(X[d.a] - X[d.b]))
+            length = float(np.linalg.norm(X[d.a] - X[d.b]))
             w = 1.0 / d.sigma**2
-            num += w * cur * d.distance
-            den += w * cur * cur
+            num += w * length * d.distance
+            den += w * length * length
     for k, pos in known.items():
         if k in X and k != origin:
             cur = X[k] - X[origin]
@@ -541,5 +541,5 @@ def _refine(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mappi
             g[col[d.a] : col[d.a] + 3] += u
         if d.b in col:
             g[col[d.b] : col[d.b] + 3] -= u
-        measured.append(MeasuredDistance(d, dist, float(np.sqrt(max(g @ cov @ g, 0.0)))))
+        measured.append(MeasuredDistance(d, dist, float(np.sqrt(max(float(g @ cov @ g), 0.0)))))
     return Placement(cameras, markers, measured, origin, s2)

@@ -122,14 +122,13 @@ def register_from_points(points: ArrayLike, pixels: ArrayLike, width: int, heigh
         raise CalibrationError(photo, "no camera in front of all the marked points explains them; check that "
                                "the marked points are the right ones")
     best.sort(key=lambda t: t[0])
-    candidates = []
     # Priors: the principal point near the centre; f from the user or EXIF if known; ω free.
     prior = np.r_[0.0, c, 0.0, 0.0, 0.0]
     prior_cov = np.diag([np.inf, (principal_point_sigma_rel * s) ** 2, (principal_point_sigma_rel * s) ** 2,
                          np.inf, np.inf, np.inf])
     if focal is not None:
         prior[0], prior_cov[0, 0] = focal.value, focal.sigma**2
-    candidates = []
+    candidates: list[tuple[float, Array, Array, Array, Array, Array]] = []
     for _, K, R, C in best[:5]:
         Kr, Rr, Cr, cov, res = _refine(X, uv, K, R, C, click_sigma_px, prior, prior_cov)
         candidates.append((float(np.sqrt(np.mean(res**2))), Kr, Rr, Cr, cov, res))

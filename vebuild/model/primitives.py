@@ -95,6 +95,11 @@ def _level_frame(z: float, up: bool = True) -> Frame:
     return np.array([0.0, 0.0, z]), _EX.copy(), -_EY, -_EZ
 
 
+def _param_value(self: Primitive, index: int) -> float:
+    """Parameter ``index`` of a primitive (the read-only attribute of each parameter name)."""
+    return float(self._p[index])
+
+
 @functools.cache
 def _handle_matrix(cls: type[Primitive]) -> Array:
     """The constant A (n, 3, k) with handles(p) = A p: the handle formulas at the unit vectors."""
@@ -134,7 +139,7 @@ class Primitive(abc.ABC):
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
         for i, name in enumerate(cls.PARAMS):
-            setattr(cls, name, property(lambda self, i=i: float(self._p[i]), doc=f"The {name} parameter."))
+            setattr(cls, name, property(functools.partial(_param_value, index=i), doc=f"The {name} parameter."))
         if cls.TYPE:
             _REGISTRY[cls.TYPE] = cls
 

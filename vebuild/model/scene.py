@@ -397,8 +397,10 @@ class Model:
         """World position of one handle of a primitive node."""
         x = self.vector() if x is None else x
         T = (transforms or self.world_transforms(x))[name]
-        node = self.node(name)
-        h = node.primitive.handles(x[self.slices[name][1]])[node.primitive.handle_names().index(handle)]
+        prim = self.node(name).primitive
+        if prim is None:
+            raise ModelError(f"node '{name}' is a group: it has no handle '{handle}'")
+        h = prim.handles(x[self.slices[name][1]])[prim.handle_names().index(handle)]
         return T[:3, :3] @ h + T[:3, 3]
 
     def to_dict(self) -> list[dict[str, Any]]:
@@ -494,7 +496,8 @@ def _primitive(d: Any, human: str, path: str) -> Primitive:
     if not isinstance(d, Mapping) or not isinstance(d.get("params", {}), Mapping):
         raise _error(human, path, "expected an object {\"type\": T, \"params\": {...}}")
     params = d.get("params", {})
-    cls = PRIMITIVE_TYPES.get(d.get("type")) if isinstance(d.get("type"), str) else None
+    kind = d.get("type")
+    cls = PRIMITIVE_TYPES.get(kind) if isinstance(kind, str) else None
     for name, value in params.items():
         if cls is None or name not in cls.PARAMS or not isinstance(value, int | float):
             continue
