@@ -13,7 +13,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from ..camera import ImageCamera, project, world_to_camera
 from .residuals import EdgeObservation, Pin
@@ -116,7 +116,7 @@ class DragSession:
         self.x = self.problem.x0()
         self.x_start = self.x.copy()
 
-    def move(self, uv: Sequence[float]) -> DragResult:
+    def move(self, uv: ArrayLike) -> DragResult:
         """The mouse is at uv: solve (warm-started) and return the new state."""
         self.problem.set_pin_pixel(self._pin_index, uv)
         # Warm start from the previous mouse position: near-Gauss–Newton steps, and a tolerance
