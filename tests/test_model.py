@@ -18,6 +18,7 @@ from vebuild.calibration.positions import ReferenceDistance
 from vebuild.camera import ImageCamera
 from vebuild.errors import ProjectError, VebuildError
 from vebuild.model.drag import DragSession
+from vebuild.model.layout import ParameterLayout
 from vebuild.model.residuals import FD_STEP, EdgeObservation, MarkerObservation, Pin
 from vebuild.model.scene import ModelError, model_from_dict
 from vebuild.model.solver import MarkerData, Problem, ProblemOptions
@@ -209,6 +210,26 @@ def test_joints_hold_exactly_and_limits_are_kept() -> None:
     r = problem.solve()
     assert np.degrees(problem.model_vector(r.x)[problem.model.slices["lid"][0]][0]) == pytest.approx(25.0, abs=1e-9)
     assert problem.model.node("lid").joint.clip(np.radians([30.0])) == pytest.approx(np.radians([25.0]))
+
+
+def test_the_parameter_layout_names_every_block_in_file_units() -> None:
+    """Model, camera and marker blocks tile the vector in order; angles (by the joints' declared
+    kinds, not by their names) are written in degrees under a ``_deg`` name."""
+    layout = ParameterLayout(["box.s", "box.t", "box.yaw", "box.width"], ["position", "position", "angle", "size"],
+                             ["p1", "p2"], intrinsics=True, markers=["M"])
+    assert [(b.what, b.key, b.start, b.stop) for b in layout.blocks] == [
+        ("model", "", 0, 4), ("camera", "p1", 4, 13), ("camera", "p2", 13, 22), ("marker", "M", 22, 25)]
+    assert layout.n == 25 and layout.block_of(13).key == "p2"
+    assert layout.cameras["p1"].pose_start == 7 and layout.cameras["p1"].calibration_index == tuple(range(9))
+    assert layout.model.file_names() == ["box.s", "box.t", "box.yaw_deg", "box.width"]
+    assert layout.model.units == ("m", "m", "rad", "m")
+    assert layout.file_scale([layout.model, layout.markers["M"]]) == pytest.approx([1, 1, np.degrees(1)] + [1] * 4)
+    assert list(layout.model_and_markers()) == [0, 1, 2, 3, 22, 23, 24]
+    without = ParameterLayout(["box.width"], ["size"], ["p1"])  # re-calibration without intrinsics
+    assert without.cameras["p1"].calibration_index == (3, 4, 5, 6, 7, 8) and not without.cameras["p1"].intrinsics
+    model = model_from_dict([FLOOR, dict(BOX, joint={"type": "hinge", "angle_deg": 10, "limits_deg": [0, 90]})],
+                            MARKERS)
+    assert model.parameter_kinds() == ["angle", "size", "size", "angle", "size", "size", "size"]
 
 
 def test_the_whole_jacobian_agrees_with_central_differences() -> None:
