@@ -16,7 +16,8 @@ import pytest
 import trimesh
 from PIL import Image
 
-from vebuild.actions.render import PROVENANCE_KEYS, RenderRequest, parse_size, render_evidence
+from vebuild.actions.render import RenderRequest, parse_size, render_evidence
+from vebuild.render.png import PROVENANCE_KEYS
 from vebuild.camera import ImageCamera, look_rotation, project, stereo_pair
 from vebuild.cli import main
 from vebuild.errors import ProjectError, VebuildError

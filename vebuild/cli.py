@@ -151,7 +151,8 @@ def _cmd_render(args: argparse.Namespace) -> int:
 
 
 def _cmd_texture(args: argparse.Namespace) -> int:
-    from .actions.texture import progress_bar, texture_project
+    from .actions.texture import texture_project
+    from .cli_progress import progress_bar
     from .project import load_project
     from .report_text import texture_table
     from .texture.gpu import Options
@@ -171,7 +172,7 @@ def _cmd_texture(args: argparse.Namespace) -> int:
 
 def _cmd_video(args: argparse.Namespace) -> int:
     from .actions.render import parse_size
-    from .actions.texture import progress_bar
+    from .cli_progress import progress_bar
     from .project import load_project
     from .render.video import Timing, VideoRequest, parse_views, render_video
 

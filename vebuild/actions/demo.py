@@ -24,7 +24,8 @@ from ..report_text import calibration_table, model_table, texture_table
 from ..resources import example_project_dir
 from .calibrate import calibrate_project
 from .solve import solve_project
-from .texture import progress_bar, texture_project
+from ..cli_progress import progress_bar
+from .texture import texture_project
 
 PROJECT_NAME = "room.vebuild.json"
 

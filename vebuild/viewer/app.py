@@ -331,7 +331,7 @@ class Viewer:
         """The current view rendered off the window's context to a PNG with provenance."""
         from PIL import Image
 
-        from vebuild.actions.render import provenance, stamp, write_png
+        from vebuild.render.png import provenance, stamp, write_png
 
         cam = self.camera()
         stereo = Stereo(self.stereo) if self.stereo not in (None, "quad") else None
