@@ -13,11 +13,10 @@ import numpy as np
 import pytest
 
 from vebuild.analysis import measure as M
-from vebuild.camera import project
+from vebuild.camera import ImageCamera, project
 from vebuild.cli import main
 from vebuild.errors import ProjectError
 from vebuild.model.scene import model_from_dict
-from vebuild.camera import ImageCamera
 from vebuild.model.solver import FINAL_PRIOR_SCALE, Pin, Problem
 from vebuild.synthetic import model_scene
 

@@ -329,9 +329,9 @@ def render_witness_view(project: Any, scene: RenderScene, result: SightLine, out
     """Render the witness's view of ``result`` to ``out`` (PNG with provenance); the target object
     is highlighted (for a group, its largest part: the renderer highlights one node), a target
     point marked by a ring (dashed when hidden)."""
-    from vebuild.render.png import check_output, provenance, write_png
     from vebuild.gl import headless_context
     from vebuild.render.lighting import find_preset
+    from vebuild.render.png import check_output, provenance, write_png
     from vebuild.render.renderer import Renderer, RenderOptions
 
     out = check_output(Path(out))
@@ -557,8 +557,8 @@ def viewshed_image(vs: Viewshed, occ: Occluders, px_per_cell: int | None = None)
 def write_viewshed_png(project: Any, vs: Viewshed, occ: Occluders, out: Path) -> None:
     """The viewshed's map as a PNG carrying its provenance and figures."""
     from vebuild import __version__
-    from vebuild.render.png import check_output, write_png
     from vebuild.project import sha256_file
+    from vebuild.render.png import check_output, write_png
 
     out = check_output(Path(out))
     text = {"Software": f"vebuild {__version__}", "vebuild:project": project.path.name,

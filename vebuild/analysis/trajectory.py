@@ -327,9 +327,9 @@ def draw_trajectory(image: NDArray[np.uint8], cam: ImageCamera, tr: Trajectory, 
 def render_trajectory_view(project: Any, scene: Any, tr: Trajectory, cam: ImageCamera, out: Path,
                            lighting: str | None = None, samples: int = 4) -> None:
     """Render ``cam``'s view headless, draw the trajectory over it, and write a PNG with provenance."""
-    from vebuild.render.png import check_output, provenance, write_png
     from vebuild.gl import headless_context
     from vebuild.render.lighting import find_preset
+    from vebuild.render.png import check_output, provenance, write_png
     from vebuild.render.renderer import Renderer, RenderOptions
 
     out = check_output(Path(out))
