@@ -81,6 +81,32 @@ def test_new_and_check(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
     assert (tmp_path / "img1.jpg").read_bytes() == photo
 
 
+def test_check_works_where_moderngl_is_missing(tmp_path: Path) -> None:
+    """`vebuild check` needs no GL: the command line registers the benchmarks (and the rest)
+    without importing their modules, so a machine without moderngl can still check a project,
+    including the analyses it records."""
+    import shutil
+
+    room = tmp_path / "room"
+    shutil.copytree(Path(__file__).resolve().parents[1] / "scenes" / "room", room)
+    path = room / "room.vebuild.json"
+    data = json.loads(path.read_text())
+    data["analyses"] = [{"name": "door", "command": ["distance", "0,0,0", "1,0,0"]},
+                        {"name": "witness", "command": ["sightline", "--standing", "1,1", "--target", "2,2,1"]},
+                        {"name": "shot", "command": ["trajectory", "--from", "1,1,1", "--to", "2,2,1"]}]
+    path.write_text(json.dumps(data))
+    shim = tmp_path / "shim"
+    shim.mkdir()
+    (shim / "moderngl.py").write_text('raise ImportError("moderngl is not installed (made unimportable by the test)")\n')
+    code = ("import sys; sys.path.insert(0, sys.argv.pop(1)); from vebuild.cli import main; "
+            "rc = main(sys.argv[1:]); assert 'moderngl' not in sys.modules or sys.modules['moderngl'] is None; "
+            "sys.exit(rc)")
+    r = subprocess.run([sys.executable, "-c", code, str(shim), "check", str(path)], capture_output=True, text=True,
+                       timeout=300, cwd=Path(__file__).resolve().parents[1])
+    assert r.returncode == 0, r.stderr
+    assert "valid vebuild project" in r.stdout and "Traceback" not in r.stderr
+
+
 def test_bench_calibration_quick_writes_named_figures(tmp_path: Path) -> None:
     out = tmp_path / "figures.json"
     r = subprocess.run([sys.executable, "-m", "vebuild.cli", "bench", "calibration", "--quick", "--quiet",
