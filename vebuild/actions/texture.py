@@ -32,8 +32,9 @@ from vebuild.errors import VebuildError
 from vebuild.outputs import begin_stage
 from vebuild.project import Project, autosave_path, canonical_input_hash, load_project, save_project, sha256_file
 from vebuild.texture.extract import PhotoSource, TextureResult, extract
-from vebuild.texture.gpu import Options, Timings
+from vebuild.texture.gpu import Timings
 from vebuild.texture.merge import linear_to_srgb8
+from vebuild.texture.options import Options
 
 TEXTURE_DIR = "textures"
 #: The name of a page vebuild writes: kind, page number, the first 12 hex digits of its SHA-256.
