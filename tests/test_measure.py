@@ -15,6 +15,7 @@ import pytest
 from vebuild.analysis import measure as M
 from vebuild.camera import ImageCamera, project
 from vebuild.cli import main
+from vebuild.constants import Z95
 from vebuild.errors import ProjectError
 from vebuild.model.scene import model_from_dict
 from vebuild.model.solver import FINAL_PRIOR_SCALE, Pin, Problem
@@ -78,7 +79,7 @@ def test_distances_lie_within_their_95_percent_interval_in_at_least_90_percent_o
         true = [np.linalg.norm(true_world(truth, a) - true_world(truth, b)) for a, b in pairs]
         z += list((est.value - true) / est.sigma)
     z = np.asarray(z)
-    coverage = np.mean(np.abs(z) <= M.Z95)
+    coverage = np.mean(np.abs(z) <= Z95)
     print(f"coverage of the 95 % intervals: {coverage:.3f} over {len(z)} distances in {scenes} scenes "
           f"({seed - scenes} of seeds 1…{seed} skipped: undetermined); std of z {np.std(z):.2f}")
     assert len(z) == SEEDS * PER_SEED
@@ -122,7 +123,7 @@ def test_correlations_are_propagated():
     u = (solved.world(b) - solved.world(a)) / d.value
     print(f"σ {d.sigma * 1e3:.3f} mm; corners taken as independent: {np.sqrt(u @ (ca + cb) @ u) * 1e3:.3f} mm")
     assert abs(np.sqrt(u @ (ca + cb) @ u) - d.sigma) > 0.02 * d.sigma
-    assert d.ci95 == pytest.approx((d.value - M.Z95 * d.sigma, d.value + M.Z95 * d.sigma))
+    assert d.ci95 == pytest.approx((d.value - Z95 * d.sigma, d.value + Z95 * d.sigma))
 
 
 def test_height_above_a_face_and_a_pixel_pick():
@@ -206,7 +207,7 @@ def test_example_room_check_distance_and_cli(tmp_path, textured_room, capsys):
     assert 0 < c["measured_sigma_m"] < 0.02
     assert c["difference_m"] == pytest.approx(c["measured_m"] - c["known_m"])
     assert abs(c["difference_m"]) < 0.03  # 3 cm over 2.8 m
-    assert c["within_ci95"] == (abs(c["difference_m"]) <= M.Z95 * c["difference_sigma_m"])
+    assert c["within_ci95"] == (abs(c["difference_m"]) <= Z95 * c["difference_sigma_m"])
     assert set(c["rests_on"]["markers"]) == {"T2", "C1"} and c["rests_on"]["photos"]
 
     assert main(["analyse", proj, "distance", "cabinet:v4", "table.top@top:0.1,0.1",

@@ -40,13 +40,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..camera import pixel_rays_world
+from ..constants import Z95
 from ..errors import ProjectError, VebuildError
 from ..model.primitives import Primitive, Sphere, _Round
 from ..model.scene import Model, ModelError, model_from_dict
 
 Array = NDArray[np.float64]
 
-Z95 = 1.959964  # two-sided 95 % of a Gaussian
 #: Relative finite-difference step of the measurement Jacobian (central differences).
 FD_STEP = 1e-6
 #: Facets around curved surfaces when a pixel's ray is intersected with the model.
@@ -730,6 +730,6 @@ def _face_plane_points(solved: SolvedModel, node: str, face: str) -> list[Point]
             for p in mesh.vertices[tris[0]]]
 
 
-__all__ = ["Z95", "POINT_SYNTAX", "MeasureError", "Point", "SolvedModel", "Estimate", "Measurement", "CheckResult",
+__all__ = ["POINT_SYNTAX", "MeasureError", "Point", "SolvedModel", "Estimate", "Measurement", "CheckResult",
            "propagate", "monte_carlo", "distance", "distances", "height", "dimensions", "check_distances",
            "parse_point", "face_point", "pick", "ray_hit", "to_coords", "from_coords"]

@@ -34,6 +34,7 @@ from numpy.typing import NDArray
 
 from vebuild.analysis.rays import Occluders
 from vebuild.camera import ImageCamera, fov_to_focal, look_rotation, project, world_to_camera
+from vebuild.constants import Z95
 from vebuild.errors import VebuildError
 from vebuild.render.scene import RenderScene
 
@@ -50,8 +51,6 @@ SAMPLE_SEED = 0
 FLOOR_TOLERANCE_M = 1e-3
 #: Things lower than this (a rug, the floor itself) do not stop a person standing on them.
 FLOOR_CLEARANCE_M = 0.02
-#: z of the 95 % two-sided normal interval.
-Z95 = 1.959963984540054
 DEFAULT_FOV_DEG = 60.0
 
 
