@@ -23,7 +23,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
     from .actions.calibrate import calibrate_project
     from .outputs import begin_stage
     from .project import load_project, save_project
-    from .report_text import calibration_table
+    from .report.text import calibration_table
 
     project = load_project(args.project)
     begin_stage(project)
@@ -39,7 +39,7 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     from .actions.solve import solve_project
     from .outputs import begin_stage
     from .project import load_project, save_project
-    from .report_text import model_table
+    from .report.text import model_table
 
     project = load_project(args.project)
     begin_stage(project)
@@ -100,8 +100,8 @@ def _cmd_mark(args: argparse.Namespace) -> int:
 def _cmd_report(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
-    from .actions.report import write_report
     from .project import load_project
+    from .report.write import write_report
 
     project = load_project(args.project)
     bar = tqdm(total=8 - int(args.no_pdf), desc="report", unit="section", disable=not _progress_wanted(args))
@@ -154,7 +154,7 @@ def _cmd_texture(args: argparse.Namespace) -> int:
     from .actions.texture import texture_project
     from .cli_progress import progress_bar
     from .project import load_project
-    from .report_text import texture_table
+    from .report.text import texture_table
     from .texture.options import Options
 
     project = load_project(args.project)
@@ -200,7 +200,7 @@ def _cmd_video(args: argparse.Namespace) -> int:
 def _cmd_register(args: argparse.Namespace) -> int:
     from .actions.register import register_photos
     from .project import load_project, save_project
-    from .report_text import calibration_table
+    from .report.text import calibration_table
 
     project = load_project(args.project)
     done = register_photos(project, args.photos or None)
