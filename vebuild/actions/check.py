@@ -119,6 +119,6 @@ def _check_hypotheses(project: Project, model: Model) -> None:
 
 def _check_model_solution(project: Project) -> None:
     # What analyse and report decode of the solution: its nodes and the covariance's shape.
-    from ..analysis.measure import check_model_solution
+    from ..analysis.solved import check_model_solution
 
     check_model_solution(project)

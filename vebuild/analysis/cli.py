@@ -37,7 +37,7 @@ ToRequest = Callable[[argparse.Namespace], Request]
 
 def add_analyse_parsers(sub: Any) -> None:
     """Add the ``analyse`` command group to the top-level subparsers ``sub``."""
-    from .measure import POINT_SYNTAX
+    from .points import POINT_SYNTAX
 
     p = sub.add_parser("analyse", help="forensic analyses of a solved project: measurements with uncertainty, "
                        "check distances (…; --json OUT writes the figures)",

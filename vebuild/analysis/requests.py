@@ -49,7 +49,8 @@ class Request(Protocol):
 def _solved(project: Any) -> tuple[Any, Callable[[str], Any]]:
     from vebuild.render.views import find_view, photo_camera
 
-    from .measure import SolvedModel, parse_point
+    from .points import parse_point
+    from .solved import SolvedModel
 
     solved = SolvedModel.from_project(project)
 
@@ -83,7 +84,7 @@ class _NoImage:
 
 @dataclass(frozen=True)
 class DistanceRequest(_NoImage):
-    """The distance between two points (:data:`vebuild.analysis.measure.POINT_SYNTAX`)."""
+    """The distance between two points (:data:`vebuild.analysis.points.POINT_SYNTAX`)."""
 
     name: ClassVar[str] = "distance"
     a: str
@@ -107,7 +108,8 @@ class HeightRequest(_NoImage):
     above: str | None = None
 
     def run(self, project: Any) -> AnalysisResult:
-        from .measure import MeasureError, height
+        from .measure import height
+        from .solved import MeasureError
 
         solved, point = _solved(project)
         above = None

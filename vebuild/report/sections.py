@@ -50,7 +50,7 @@ def calibration(project: Project, rep: Report) -> None:
 
 
 def model(project: Project, rep: Report) -> None:
-    from vebuild.analysis.measure import check_model_solution
+    from vebuild.analysis.solved import check_model_solution
 
     check_model_solution(project)
     sol = project.data.get("model_solution")
