@@ -144,6 +144,7 @@ def _cmd_render(args: argparse.Namespace) -> int:
     what = f"view '{args.view}'" if args.view else f"photo '{result.camera.id}'"
     print(f"{what}, lighting '{result.lighting}', {result.size[0]}×{result.size[1]} written to {result.out}")
     if result.overlay is not None:
+        assert result.covered_fraction is not None and result.rms_colour_difference is not None
         print(f"overlay of the photo written to {result.overlay}")
         print(f"RMS colour difference over the {100 * result.covered_fraction:.1f} % of pixels the model covers: "
               f"{result.rms_colour_difference:.1f} sRGB levels (after an exposure gain of {result.exposure_gain:.3f})")

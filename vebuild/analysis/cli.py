@@ -31,6 +31,7 @@ from .requests import (
     Request,
 )
 from .requests_geometry import SightlineRequest, TrajectoryRequest, ViewshedRequest
+from .sightline import SITTING_EYE_M, STANDING_EYE_M
 
 ToRequest = Callable[[argparse.Namespace], Request]
 
@@ -80,8 +81,10 @@ def _add_geometry(asub: Any) -> None:
                                 a.samples, a.hypothesis))
     eye = q.add_mutually_exclusive_group(required=True)
     eye.add_argument("--eye", metavar="X,Y,Z", help="the eye point (metres)")
-    eye.add_argument("--standing", metavar="X,Y", help="a person standing at this floor spot (eyes at 1.6 m)")
-    eye.add_argument("--sitting", metavar="X,Y", help="a person sitting at this floor spot (eyes at 1.2 m)")
+    eye.add_argument("--standing", metavar="X,Y",
+                     help=f"a person standing at this floor spot (eyes at {STANDING_EYE_M:g} m)")
+    eye.add_argument("--sitting", metavar="X,Y",
+                     help=f"a person sitting at this floor spot (eyes at {SITTING_EYE_M:g} m)")
     _target_args(q)
     q.add_argument("--out", metavar="VIEW.png", help="render the witness's view, the target highlighted")
     q.add_argument("--fov", type=float, default=S.fov, metavar="DEG",
@@ -94,7 +97,7 @@ def _add_geometry(asub: Any) -> None:
                     lambda a: V(a.out, a.target, a.object, a.height, a.cell, a.samples, a.hypothesis))
     _target_args(q)
     q.add_argument("--height", type=float, default=V.height, metavar="M",
-                   help="eye height above the floor (default: %(default)g; sitting: 1.2)")
+                   help=f"eye height above the floor (default: %(default)g; sitting: {SITTING_EYE_M:g})")
     q.add_argument("--cell", type=float, default=V.cell, metavar="M", help="grid cell size (default: %(default)g)")
     q.add_argument("--out", required=True, metavar="MAP.png", help="the map to write (a top view)")
     _common(q, V.samples)

@@ -73,7 +73,7 @@ def propagate(solved: SolvedModel, f: Callable[[Array], Array]) -> Estimate:
         cov = Ju @ C @ Ju.T
     else:
         cov = np.full((len(v0), len(v0)), np.inf)
-    owners = sorted({solved.column_owner(j) for j in used})
+    owners = sorted({solved.column_owner(int(j)) for j in used})
     nodes = [o for o in owners if not o.startswith("marker:")]
     markers = [o[len("marker:"):] for o in owners if o.startswith("marker:")]
     photos = sorted({p for o in owners for p in solved.photos_of.get(o, [])})
@@ -195,6 +195,7 @@ def dimensions(solved: SolvedModel, node: str) -> list[Measurement]:
         pts = []
         for m in parts:
             prim = solved.model.node(m).primitive
+            assert prim is not None  # parts are the nodes with primitives
             h = prim.handles(xm[solved.model.slices[m][1]])
             W = h @ T[m][:3, :3].T + T[m][:3, 3]
             pts.append(W @ inv[:3, :3].T + inv[:3, 3])

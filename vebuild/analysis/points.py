@@ -196,6 +196,7 @@ def pick(solved: SolvedModel, K: Array, R: Array, C: Array, uv: Sequence[float],
     inv = np.linalg.inv(T[node])
     local = inv[:3, :3] @ X + inv[:3, 3]
     prim = solved.model.node(node).primitive
+    assert prim is not None  # the ray met one of its faces
     coords = to_coords(prim, local, snap_face=face if _is_curved(prim, face) else None)
     return Point(label, "surface", node=node, face=face, coords=tuple(float(c) for c in coords))
 

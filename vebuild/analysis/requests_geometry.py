@@ -35,7 +35,9 @@ def _target(occ: Any, target: str | None, node: str | None) -> Any:
 
     if node is not None:
         return target_object(occ, node)
-    return target_point(occ, parse_floats(target, 3, "--target"))
+    if target is None:
+        raise VebuildError("expected a target: --target X,Y,Z or --object NODE")
+    return target_point(occ, tuple(parse_floats(target, 3, "--target")))
 
 
 def _samples(n: int) -> int:
@@ -44,8 +46,8 @@ def _samples(n: int) -> int:
     return n
 
 
-def _pct(x: float) -> str:
-    return f"{100 * x:.1f} %"
+def _pct(x: float | None) -> str:
+    return "—" if x is None else f"{100 * x:.1f} %"
 
 
 @dataclass(frozen=True)
@@ -85,7 +87,10 @@ class SightlineRequest:
             eye = Eye(parse_floats(self.eye, 3, "--eye"))
         else:
             posture = "standing" if self.standing else "sitting"
-            x, y = parse_floats(self.standing or self.sitting, 2, f"--{posture}")
+            spot = self.standing or self.sitting
+            if spot is None:
+                raise VebuildError("sightline: expected an eye: --eye X,Y,Z, --standing X,Y or --sitting X,Y")
+            x, y = parse_floats(spot, 2, f"--{posture}")
             eye = Eye.person(x, y, posture)
         res = sight_line(occ, eye, _target(occ, self.target, self.object), samples=_samples(self.samples))
         e = eye.position
@@ -96,6 +101,7 @@ class SightlineRequest:
         if t.node is not None:
             lines.append(f"{'target':<16} object '{t.node}'"
                          + (f" ({', '.join(t.nodes)})" if t.nodes != (t.node,) else ""))
+            assert res.share_ci95 is not None  # set for an object target
             lo, hi = res.share_ci95
             lines.append(f"{'visible':<16} {'yes' if res.visible else 'NO'}: {_pct(res.visible_share)} of its "
                          f"surface (95 %: {_pct(lo)} – {_pct(hi)}; {res.samples} samples; {_pct(res.facing_share)} "
@@ -106,6 +112,7 @@ class SightlineRequest:
                              + " of its surface")
         else:
             p = t.point
+            assert p is not None  # a point target
             lines.append(f"{'target':<16} point ({p[0]:.3f}, {p[1]:.3f}, {p[2]:.3f})")
             lines.append(f"{'visible':<16} {'yes' if res.visible else 'NO'}")
             lines.append(f"{'distance':<16} {res.distance_m:.3f} m")
@@ -221,7 +228,7 @@ class TrajectoryRequest:
             sigma = (float(s[0]), float(s[-1]))
         if self.to is not None:
             return trajectory(occ, A, parse_point(occ, self.to, "--to"), sigma=sigma, cone_deg=self.cone)
-        assert self.elevation is not None
+        assert self.azimuth is not None and self.elevation is not None
         return trajectory(occ, A, direction=direction_from_angles(self.azimuth, self.elevation), sigma=sigma,
                           cone_deg=self.cone)
 
@@ -236,7 +243,7 @@ class TrajectoryRequest:
         if (self.view is None) != (self.out is None):
             raise VebuildError("trajectory: --view NAME and --out FILE.png go together (the view to draw it in)")
         cam = None
-        if self.out:
+        if self.out and self.view:
             check_output(Path(self.out), project=project)
             cam = find_view(project, self.view)
             check_camera(cam)

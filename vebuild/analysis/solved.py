@@ -84,7 +84,7 @@ class Point:
     node: str | None = None
     handle: str | None = None
     face: str | None = None
-    coords: tuple[float, float, float] | None = None
+    coords: tuple[float, ...] | None = None  # normalised local coordinates (3)
     marker: str | None = None
 
 
@@ -273,14 +273,18 @@ class SolvedModel:
         """World position of ``point`` at parameter vector ``x`` (default: the solution)."""
         x = self.x0 if x is None else x
         if point.kind == "marker":
+            assert point.marker is not None
             return self.marker_position(point.marker, x).copy()
         xm, T = state or self._state(x)
-        node = self.model.node(point.node)
+        assert point.node is not None
+        prim = self.model.node(point.node).primitive
+        assert prim is not None  # handles and surface points are on primitives
         params = xm[self.model.slices[point.node][1]]
         if point.kind == "handle":
-            local = node.primitive.handles(params)[node.primitive.handle_names().index(point.handle)]
+            local = prim.handles(params)[prim.handle_names().index(point.handle)]
         else:
-            local = from_coords(node.primitive, params, point.coords)
+            assert point.coords is not None
+            local = from_coords(prim, params, np.asarray(point.coords, float))
         return T[point.node][:3, :3] @ local + T[point.node][:3, 3]
 
     def column_owner(self, j: int) -> str:

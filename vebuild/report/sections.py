@@ -140,6 +140,7 @@ def validation(project: Project, rep: Report) -> None:
             size_source=f"the report's image of photo {p['id']!r} ({IMAGE_WIDTH} pixels wide, its height from "
                         f"the aspect of $.photos[{i}], {p['width']}×{p['height']})"))
         tmp.unlink()
+        assert res.overlay is not None and res.covered_fraction is not None  # validate=True
         rep.images.append(res.overlay)
         rows.append([p["id"], fmt(res.rms_colour_difference, 1), f"{100 * res.covered_fraction:.0f} %",
                      fmt(res.exposure_gain, 3)])
