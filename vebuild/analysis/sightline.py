@@ -106,7 +106,10 @@ class Target:
 
     @property
     def label(self) -> str:
-        return f"'{self.node}'" if self.node is not None else "(" + ", ".join(f"{v:.3f}" for v in self.point) + ")"
+        if self.node is not None:
+            return f"'{self.node}'"
+        assert self.point is not None  # a target is a point or an object
+        return "(" + ", ".join(f"{v:.3f}" for v in self.point) + ")"
 
     def record(self) -> dict[str, Any]:
         if self.node is not None:
@@ -222,7 +225,8 @@ class SightLine:
     def record(self) -> dict[str, Any]:
         d: dict[str, Any] = {"eye": self.eye.record(), "target": self.target.record(), "visible": self.visible,
                              "distance_m": round(self.distance_m, 6)}
-        if self.visible_share is not None:
+        if self.visible_share is not None:  # an object target: its share, interval and facing share
+            assert self.share_ci95 is not None and self.facing_share is not None
             d.update({"visible_share": round(self.visible_share, 6),
                       "visible_share_ci95": [round(v, 6) for v in self.share_ci95],
                       "facing_share": round(self.facing_share, 6), "samples": self.samples,
