@@ -49,6 +49,27 @@ class RenderRequest:
     hypothesis: str | None = None
     markers: bool = True  # draw the project's evidence markers (mono views)
 
+    def __post_init__(self) -> None:
+        """Each option checked when the request is made, its error naming the option (as the
+        command line spells it) and what was expected."""
+        if (self.view is None) == (self.photo is None):
+            raise VebuildError("render: give exactly one of a view (--view NAME) or a photo (--photo ID)")
+        if self.stereo is not None:
+            from vebuild.render.renderer import STEREO_MODES
+
+            if self.stereo not in STEREO_MODES[:3]:
+                raise VebuildError(f"--stereo: expected one of sbs, tb, anaglyph (quad-buffered stereo needs a "
+                                   f"window), got {self.stereo!r}")
+        if self.validate and (self.photo is None or self.stereo is not None):
+            raise VebuildError("--validate compares a render with its photo: use it with --photo and without "
+                               "--stereo")
+        if not (self.eye_separation > 0):
+            raise VebuildError(f"--eye-separation: expected a distance > 0 m, got {self.eye_separation}")
+        if self.convergence is not None and not (self.convergence > 0):
+            raise VebuildError(f"--convergence: expected a distance > 0 m, got {self.convergence}")
+        if self.samples < 1:
+            raise VebuildError(f"--samples: expected 1 or more, got {self.samples}")
+
 
 @dataclass
 class RenderResult:
@@ -84,7 +105,7 @@ def render_evidence(project: Project, req: RenderRequest) -> RenderResult:
     from vebuild.gl import headless_context
     from vebuild.outputs import begin_stage
     from vebuild.render.lighting import find_preset
-    from vebuild.render.renderer import STEREO_MODES, Renderer, RenderOptions, Stereo
+    from vebuild.render.renderer import Renderer, RenderOptions, Stereo
     from vebuild.render.scene import load_scene
     from vebuild.render.sizes import check_camera
     from vebuild.render.views import find_view, photo_camera
@@ -93,19 +114,6 @@ def render_evidence(project: Project, req: RenderRequest) -> RenderResult:
     if req.validate:
         check_output(overlay_path(out), project=project)
     begin_stage(project, out.parent if str(out.parent) else ".")
-    if (req.view is None) == (req.photo is None):
-        raise VebuildError("render: give exactly one of a view (--view NAME) or a photo (--photo ID)")
-    if req.stereo is not None and req.stereo not in STEREO_MODES[:3]:
-        raise VebuildError(f"--stereo: expected one of sbs, tb, anaglyph (quad-buffered stereo needs a window), "
-                           f"got {req.stereo!r}")
-    if req.validate and (req.photo is None or req.stereo is not None):
-        raise VebuildError("--validate compares a render with its photo: use it with --photo and without --stereo")
-    if not (req.eye_separation > 0):
-        raise VebuildError(f"--eye-separation: expected a distance > 0 m, got {req.eye_separation}")
-    if req.convergence is not None and not (req.convergence > 0):
-        raise VebuildError(f"--convergence: expected a distance > 0 m, got {req.convergence}")
-    if req.samples < 1:
-        raise VebuildError(f"--samples: expected 1 or more, got {req.samples}")
     kind = "view" if req.view is not None else "photo"
     cam = find_view(project, req.view) if req.view is not None else photo_camera(project, str(req.photo))
     if req.size is not None:
