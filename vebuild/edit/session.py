@@ -996,7 +996,7 @@ class EditSession:
     def texture(self, progress: Progress | None = None, texels_per_metre: float | None = None) -> dict[str, Any]:
         """Extract the textures now (``vebuild texture``): atlas pages beside the project."""
         from vebuild.actions.texture import texture_project
-        from vebuild.texture.gpu import Options
+        from vebuild.texture.options import Options
 
         opts = Options() if texels_per_metre is None else Options(texels_per_metre=texels_per_metre)
 

@@ -331,7 +331,7 @@ class Viewer:
         """The current view rendered off the window's context to a PNG with provenance."""
         from PIL import Image
 
-        from vebuild.actions.render import provenance, stamp, write_png
+        from vebuild.render.png import provenance, stamp, write_png
 
         cam = self.camera()
         stereo = Stereo(self.stereo) if self.stereo not in (None, "quad") else None
@@ -621,9 +621,8 @@ class Viewer:
 
     def trajectories(self) -> list[Any]:
         """The trajectories the project records (``analyses``), against the objects as they are now."""
-        from vebuild.analysis.cli_geometry import trajectory_from_args
         from vebuild.analysis.rays import Occluders
-        from vebuild.analysis.report_sections import parse
+        from vebuild.analysis.recorded import parse_recorded_trajectory
 
         records = [r for r in self.project.data.get("analyses") or [] if r["command"][:1] == ["trajectory"]]
         if not records:
@@ -634,7 +633,7 @@ class Viewer:
             out = []
             for rec in records:
                 try:
-                    out.append(trajectory_from_args(parse(str(self.project.path), rec["command"]), occ))
+                    out.append(parse_recorded_trajectory(rec["command"]).trajectory(occ))
                 except VebuildError as e:
                     self.say(f"trajectory {rec['name']!r}: {e}")
             from vebuild.analysis.trajectory import path_polylines
