@@ -49,8 +49,8 @@ from imgui_bundle import imgui
 
 from vebuild.camera import ImageCamera, fov_to_focal, intrinsic_matrix, look_rotation
 from vebuild.errors import VebuildError
+from vebuild.gl.imgui import Gui
 from vebuild.gl.surface import OffscreenSurface, WindowSurface
-from vebuild.viewer.gui import Gui
 
 from .overlay import AXIS_COLOURS, RED, Overlay
 from .panels import Panels

@@ -29,10 +29,10 @@ from numpy.typing import NDArray
 
 from vebuild import camera as cam_math
 from vebuild.calibration.vanishing import MIN_SEGMENT_LENGTH_PX
+from vebuild.camera import ImageCamera
 from vebuild.errors import CalibrationError, VebuildError
 from vebuild.model.edit import DragSession, drag_nodes, project_edges
 from vebuild.model.scene import Model, ModelError, model_from_dict
-from vebuild.camera import ImageCamera
 from vebuild.model.solver import EdgeObservation, Pin
 from vebuild.project import (
     RESULT_KEYS,

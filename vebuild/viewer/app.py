@@ -47,13 +47,13 @@ from vebuild.camera import ImageCamera, focal_to_fov, pixel_rays_world, project,
 from vebuild.errors import VebuildError
 from vebuild.gl import load_program
 from vebuild.gl.window import Window
+from vebuild.model.arrange import CannotMove, ObjectMover
+from vebuild.model.collide import Footprint, footprints, local_vertices
 from vebuild.project import Project, save_project
 from vebuild.render.lighting import find_preset, preset_names
 from vebuild.render.renderer import Renderer, RenderOptions, Stereo
 from vebuild.render.scene import RenderScene, load_scene
 from vebuild.render.views import photo_camera, view_camera, view_record
-from vebuild.viewer.collide import Footprint, footprints, local_vertices
-from vebuild.viewer.manipulate import CannotMove, ObjectMover
 from vebuild.viewer.walk import Walker
 
 KEYS = [
@@ -129,7 +129,7 @@ class Viewer:
     # -- GUI is optional so that tests can drive the logic without Dear ImGui ----------------------
 
     def enable_gui(self) -> None:
-        from vebuild.viewer.gui import Gui
+        from vebuild.gl.imgui import Gui
 
         self.gui = Gui(self.ctx, self.window.handle)
 

@@ -31,8 +31,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vebuild.errors import VebuildError
+from vebuild.model.collide import Footprint, footprints, local_vertices, overlap_depth
 from vebuild.model.scene import FreeJoint, HingeJoint, Model, RestsOnJoint, SliderJoint, joint_from_dict
-from vebuild.viewer.collide import Footprint, footprints, local_vertices, overlap_depth
 
 Array = NDArray[np.float64]
 
