@@ -30,6 +30,7 @@ from numpy.typing import NDArray
 from vebuild import camera as cam_math
 from vebuild.calibration.vanishing import MIN_SEGMENT_LENGTH_PX
 from vebuild.camera import ImageCamera
+from vebuild.constants import OUTLIER_SIGMAS
 from vebuild.errors import CalibrationError, VebuildError
 from vebuild.model.edit import DragSession, drag_nodes, project_edges
 from vebuild.model.scene import Model, ModelError, model_from_dict
@@ -66,8 +67,6 @@ Progress = Callable[[float, str], None]
 AXES = ("x", "y", "z")
 #: Undo steps kept; older ones are dropped (the autosave and the project file hold the work).
 UNDO_DEPTH = 200
-#: A segment whose residual exceeds this many click σ is shown as an outlier.
-OUTLIER_SIGMAS = 3.0
 #: During a drag, the grabbed vertex must end within this many pixels of the mouse, and the fixed
 #: vertices within this many pixels of where they were, or the constraints "cannot follow": the
 #: primitive stays where it was. Four click σ (1 px each): the least-squares compromise among
