@@ -52,7 +52,7 @@ class Panels:
         if self.photo is not None:
             imgui.text(f"vanishing points in {self.photo}")
             for axis in ("x", "y", "z"):
-                vs = self._guard(s.vanishing, self.photo, axis)
+                vs = self.guard(s.vanishing, self.photo, axis)
                 if vs is None:
                     continue
                 colour = imgui.ImVec4(*AXIS_COLOURS[axis])
@@ -78,14 +78,14 @@ class Panels:
             if name == origin:
                 imgui.text("origin")
             elif self._button(f"origin##{name}", tip=f"the world's origin at {name}"):
-                self._guard(s.set_origin, name)
+                self.guard(s.set_origin, name)
         imgui.end_child()
         imgui.text("reference distances")
         for i, d in enumerate(s.data.get("reference_distances", [])):
             imgui.text(f"{d['a']}–{d['b']} {d['distance']:.4f} m ({d.get('role', 'scale')})")
             imgui.same_line()
             if self._button(f"remove##distance{i}"):
-                self._guard(s.remove_distance, i)
+                self.guard(s.remove_distance, i)
         imgui.set_next_item_width(70)
         _, self.dist_a = imgui.input_text("##distance a", self.dist_a)
         self._rect("distance a")
@@ -102,7 +102,7 @@ class Panels:
         self._rect("distance role")
         imgui.same_line()
         if self._button("add##distance", tip="a measured distance between two markers (or node:vertex)"):
-            self._guard(s.add_distance, self.dist_a, self.dist_b, float(self.dist_m),
+            self.guard(s.add_distance, self.dist_a, self.dist_b, float(self.dist_m),
                         role=["scale", "check"][self.dist_role])
 
     def _model_tab(self) -> None:
@@ -133,7 +133,7 @@ class Panels:
         imgui.same_line()
         if self._button("Register this photo", tip="place this photo's camera from known points (paper §3.2)"):
             if self.photo is not None:
-                self._later(lambda: self._guard(s.register, self.photo))
+                self._later(lambda: self.guard(s.register, self.photo))
         if self._button("Extract textures"):
             self._later(self.extract_textures)
         imgui.same_line()
@@ -142,7 +142,7 @@ class Panels:
         self._rect("group name")
         imgui.same_line()
         if self._button("Group", tip="the selected nodes (Ctrl+click in the tree) become one object"):
-            if self._guard(s.group, list(self.selected_nodes), self.group_name) is not None:
+            if self.guard(s.group, list(self.selected_nodes), self.group_name) is not None:
                 self.select(self.group_name.strip())
         imgui.separator()
         imgui.begin_child("tree", (0, 150), imgui.ChildFlags_.borders)
@@ -177,7 +177,7 @@ class Panels:
         kind = KINDS[self.new_kind]
         where = self._attachment()
         if self.photo is None or (model is None and not self.session.cameras) or where["marker"] is not None:
-            made = self._guard(self.session.add_primitive, kind, name=self.new_name.strip() or None, **where)
+            made = self.guard(self.session.add_primitive, kind, name=self.new_name.strip() or None, **where)
             if made is not None:
                 self.select(made)
             return
@@ -190,7 +190,7 @@ class Panels:
         if self.photo is not None and self.photo in self.session.cameras and model is not None:
             w, h = self.photo_size()
             at = (self.photo, (w / 2, h / 2))
-        made = self._guard(self.session.add_primitive, KINDS[self.new_kind], name=self.new_name.strip() or None,
+        made = self.guard(self.session.add_primitive, KINDS[self.new_kind], name=self.new_name.strip() or None,
                            at=at, **self._attachment())
         if made is not None:
             self.select(made)
@@ -243,7 +243,7 @@ class Panels:
         imgui.text(f"{name}" + (f" on {doc['parent']}" if doc.get("parent") else ""))
         imgui.same_line()
         if self._button("Remove##node"):
-            self._guard(s.remove_node, name)
+            self.guard(s.remove_node, name)
             if s.model is None or name not in s.model.index:
                 self.select(None)
                 return
@@ -253,7 +253,7 @@ class Panels:
                 imgui.set_next_item_width(110)
                 new = self._float_field(f"{k} (m)##param:{k}", v)
                 if new is not None and new != v:
-                    self._guard(s.set_params, name, {k: new})
+                    self.guard(s.set_params, name, {k: new})
         joint = doc.get("joint", {})
         jtype = joint.get("type", "fixed")
         types = JOINT_TYPES + ([jtype] if jtype not in JOINT_TYPES else [])
@@ -261,7 +261,7 @@ class Panels:
         changed, idx = imgui.combo("joint##type", types.index(jtype), types)
         self._rect("joint type")
         if changed and types[idx] != jtype:
-            self._guard(s.set_joint, name, self._default_joint(model, name, types[idx], joint))
+            self.guard(s.set_joint, name, self._default_joint(model, name, types[idx], joint))
         for key, value in joint.items():
             if key in ("type", "limits", "limits_deg") or isinstance(value, str):
                 if isinstance(value, str) and key != "type":
@@ -271,7 +271,7 @@ class Panels:
                 imgui.set_next_item_width(110)
                 new = self._float_field(f"{key}##joint:{key}", float(value), "%.3f")
                 if new is not None and new != value:
-                    self._guard(s.set_joint, name, {**joint, key: new})
+                    self.guard(s.set_joint, name, {**joint, key: new})
             elif isinstance(value, list) and len(value) in (2, 3):
                 imgui.set_next_item_width(200)
                 fn = imgui.input_float2 if len(value) == 2 else imgui.input_float3
@@ -283,7 +283,7 @@ class Panels:
                     self._param_edits[label] = list(vec)
                 if imgui.is_item_deactivated_after_edit():
                     vec = self._param_edits.pop(label, list(vec))
-                    self._guard(s.set_joint, name, {**joint, key: [float(c) for c in vec]})
+                    self.guard(s.set_joint, name, {**joint, key: [float(c) for c in vec]})
         if jtype in ("hinge", "slider"):
             key = "limits_deg" if jtype == "hinge" else "limits"
             lo, hi = joint.get(key, [-180.0, 180.0] if jtype == "hinge" else [-1.0, 1.0])
@@ -296,12 +296,12 @@ class Panels:
                 self._param_edits[label] = list(vec)
             if imgui.is_item_deactivated_after_edit():
                 vec = self._param_edits.pop(label, list(vec))
-                self._guard(s.set_limits, name, float(vec[0]), float(vec[1]))
+                self.guard(s.set_limits, name, float(vec[0]), float(vec[1]))
         solve = doc.get("solve", True)
         changed, on = imgui.checkbox("solve (untick: hold as it is)", bool(solve))
         self._rect("solve")
         if changed:
-            self._guard(s.set_solve, name, bool(on))
+            self.guard(s.set_solve, name, bool(on))
 
     def _default_joint(self, model: Any, name: str, jtype: str, old: dict[str, Any]) -> dict[str, Any]:
         """A joint of another type that keeps the node where it is now, as far as the type allows."""

@@ -7,23 +7,7 @@ for the tools, the calibration, the model and a 3-D preview. All the edit logic 
 draws. It draws into a :mod:`vebuild.gl.surface`: a window, or an off-screen framebuffer (the
 benchmark, ``vebuild bench edit``).
 
-======================  ===========================================================================
-mouse wheel             zoom about the cursor (up to 16×: single pixels are big); Home: fit the photo
-middle drag, Space+drag pan
-Esc                     cancel a drag or a stroke; then back to the Select tool
-Select (default)        press on a vertex and drag: the solver fits the model live; release keeps it
-                        (the vertex becomes fixed there); press on a segment's end or a marker and
-                        drag to move it; click an edge to select its primitive
-1 / 2 / 3               Segment X / Y / Z: press, drag along an edge toward +axis, release
-M                       Marker: click places the marker named in the toolbar's field
-E                       Edge: press, drag along an edge of the selected primitive, release
-Delete                  Delete tool: click a segment, marker or drawn edge to remove it
-F                       fix / unfix the vertex under the cursor
-L                       labels (residuals, names) over the photo on / off; markers' names stay
-Shift                   magnifier (always on with the Segment, Marker and Edge tools)
-PageUp / PageDown       previous / next photo (or click its thumbnail)
-Ctrl+Z, Ctrl+Y          undo, redo (Ctrl+Shift+Z too); Ctrl+S saves
-======================  ===========================================================================
+Its keys and mouse: :data:`vebuild.edit.keys.EDITOR_KEYS` (the Keys tab lists them).
 
 Tests and the benchmark drive it through :meth:`Editor.on_cursor`, :meth:`Editor.on_button`,
 :meth:`Editor.on_key` (or real events in a window), and find things on screen with
@@ -49,9 +33,11 @@ from imgui_bundle import imgui
 
 from vebuild.camera import ImageCamera, fov_to_focal, intrinsic_matrix, look_rotation
 from vebuild.errors import VebuildError
+from vebuild.gl.app import WindowApp
 from vebuild.gl.imgui import Gui
 from vebuild.gl.surface import OffscreenSurface, WindowSurface
 
+from .keys import EDITOR_KEYS, tool_key
 from .overlay import AXIS_COLOURS, RED, Overlay
 from .panels import Panels
 
@@ -79,14 +65,11 @@ PREVIEW_FOV_DEG = 50.0
 
 TOOLS = {"select": "Select", "x": "Segment X", "y": "Segment Y", "z": "Segment Z", "marker": "Marker",
          "edge": "Edge", "delete": "Delete"}
-TOOL_KEYS = {glfw.KEY_1: "x", glfw.KEY_2: "y", glfw.KEY_3: "z", glfw.KEY_M: "marker", glfw.KEY_E: "edge",
-             glfw.KEY_DELETE: "delete"}
 TOOL_HINTS = {"select": "drag a vertex; click an edge to select its primitive",
               "x": "press, drag along an edge toward +x, release", "y": "press, drag along an edge toward +y, release",
               "z": "press, drag along an edge toward +z (up), release", "marker": "click where the marker is",
               "edge": "press, drag along an edge of the selected primitive, release",
               "delete": "click a segment, marker or drawn edge to remove it"}
-TOOL_KEY_NAMES = {"select": "Esc", "x": "1", "y": "2", "z": "3", "marker": "M", "edge": "E", "delete": "Delete"}
 #: How many messages the message area shows (the latest last).
 MESSAGES_SHOWN = 3
 
@@ -103,12 +86,15 @@ def _inside(rect: Rect, x: float, y: float) -> bool:
     return rect[0] <= x < rect[2] and rect[1] <= y < rect[3]
 
 
-class Editor(Panels):
+class Editor(Panels, WindowApp):
     """The modelling screen over one :class:`~vebuild.edit.session.EditSession`, drawing into one
     surface (:class:`~vebuild.gl.surface.WindowSurface` or :class:`~vebuild.gl.surface.OffscreenSurface`).
     :meth:`frame` polls, draws and runs what a button asked for; :meth:`draw` only draws."""
 
+    keys = EDITOR_KEYS
+
     def __init__(self, session: Any, surface: WindowSurface | OffscreenSurface):
+        super().__init__()
         self.session = session
         self.surface = surface
         self.ctx: moderngl.Context = surface.ctx
@@ -131,9 +117,6 @@ class Editor(Panels):
         self.drag_problem: str | None = None
         self.last_feedback: Any = None
         self.timings: dict[str, float] = {}  # the last frame's drag solve and draw, milliseconds
-        self._cursor = (0.0, 0.0)
-        self._held: set[int] = set()
-        self._mods = 0
         self._press: dict[str, Any] | None = None
         self._pan_from: tuple[float, float] | None = None
         self._pending_drag: tuple[float, float] | None = None
@@ -181,7 +164,7 @@ class Editor(Panels):
         self._preview_pages: tuple[Any, list[Any]] | None = None
         self.preview_note = ""
         if surface.handle is not None:
-            self._install_callbacks(surface.handle)
+            self.install_callbacks(surface.handle)
         if session.photo_ids:
             self.set_photo(session.photo_ids[0])
 
@@ -193,14 +176,6 @@ class Editor(Panels):
 
     def say(self, text: str) -> None:
         self.session.say(text)
-
-    def _guard(self, fn: Callable[..., Any], *args: Any, **kw: Any) -> Any:
-        """Call an edit; a user's mistake (VebuildError) becomes a message on screen."""
-        try:
-            return fn(*args, **kw)
-        except VebuildError as e:
-            self.say(str(e))
-            return None
 
     # -- geometry -----------------------------------------------------------------------------------
 
@@ -338,7 +313,7 @@ class Editor(Panels):
         key = (self.session.revision, self.photo, self.selected)
         if key != self._overlay_key:
             t0 = time.perf_counter()
-            self._overlay = self._guard(self.session.overlay, self.photo, self.selected)
+            self._overlay = self.guard(self.session.overlay, self.photo, self.selected)
             self._overlay_key = key
             self.timings["overlay_ms"] = 1e3 * (time.perf_counter() - t0)
         return self._overlay
@@ -362,15 +337,7 @@ class Editor(Panels):
 
     # -- input --------------------------------------------------------------------------------------
 
-    def _install_callbacks(self, h: Any) -> None:
-        glfw.set_key_callback(h, lambda w, key, sc, action, mods: self.on_key(key, action, mods))
-        glfw.set_char_callback(h, lambda w, c: self.on_char(c))
-        glfw.set_cursor_pos_callback(h, lambda w, x, y: self.on_cursor(x, y))
-        glfw.set_mouse_button_callback(h, lambda w, b, action, mods: self.on_button(b, action, mods))
-        glfw.set_scroll_callback(h, lambda w, dx, dy: self.on_scroll(dx, dy))
-        glfw.set_window_close_callback(h, lambda w: self._on_close(w))
-
-    def _on_close(self, handle: Any) -> None:
+    def on_close(self, handle: Any) -> None:
         if self.session.dirty and not self._close_warned:
             glfw.set_window_should_close(handle, False)
             self._close_warned = True
@@ -383,52 +350,17 @@ class Editor(Panels):
             return False
         return not imgui.is_popup_open("", imgui.PopupFlags_.any_popup_id)
 
-    def on_char(self, char: int) -> None:
-        if not self._busy:
-            self.gui.on_char(char)
+    def input_blocked(self) -> bool:
+        return bool(self._busy)
 
-    def on_key(self, key: int, action: int, mods: int) -> None:
-        if self._busy:
-            return
-        self.gui.on_key(key, action, mods)
-        self._mods = mods
-        if action == glfw.PRESS:
-            self._held.add(key)
-        elif action == glfw.RELEASE:
-            self._held.discard(key)
-            return
-        if self.gui.wants_keyboard():
-            return
-        try:
-            self._key_command(key, mods)
-        except VebuildError as e:
-            self.say(str(e))
+    def toggle_labels(self) -> None:
+        self.show_labels = not self.show_labels
 
-    def _key_command(self, key: int, mods: int) -> None:
-        s = self.session
-        ctrl, shift = bool(mods & glfw.MOD_CONTROL), bool(mods & glfw.MOD_SHIFT)
-        if ctrl and key == glfw.KEY_Z:
-            self.redo() if shift else self.undo()
-        elif ctrl and key == glfw.KEY_Y:
-            self.redo()
-        elif ctrl and key == glfw.KEY_S:
-            s.save()
-        elif ctrl:
-            return
-        elif key in TOOL_KEYS:
-            self.set_tool(TOOL_KEYS[key])
-        elif key == glfw.KEY_ESCAPE:
-            self.escape()
-        elif key == glfw.KEY_HOME:
-            self.fit()
-        elif key == glfw.KEY_PAGE_DOWN:
-            self.step_photo(+1)
-        elif key == glfw.KEY_PAGE_UP:
-            self.step_photo(-1)
-        elif key == glfw.KEY_F:
-            self.toggle_fix_at(*self._cursor)
-        elif key == glfw.KEY_L:
-            self.show_labels = not self.show_labels
+    def fix_under_cursor(self) -> None:
+        self.toggle_fix_at(*self._cursor)
+
+    def save(self) -> None:
+        self.session.save()
 
     def set_tool(self, tool: str) -> None:
         if tool not in TOOLS:
@@ -902,7 +834,7 @@ class Editor(Panels):
         dl.push_clip_rect((x0, y0), (x1, y1), False)
         if layer == "moving":
             t0 = time.perf_counter()
-            layers = self._guard(self.session.overlay_layers, self.photo, self.selected)
+            layers = self.guard(self.session.overlay_layers, self.photo, self.selected)
             self.timings["overlay_ms"] = 1e3 * (time.perf_counter() - t0)
             if layers is not None:
                 self._draw_overlay(dl, layers[1])
@@ -930,7 +862,7 @@ class Editor(Panels):
             dl.add_text((max(a[0], x0) + 12, max(a[1], y0) + 12), _u32((1, 0.6, 0.6, 1)),
                         f"photo '{self.photo}' cannot be shown: {text}")
         if layer == "still":
-            layers = self._guard(self.session.overlay_layers, self.photo, self.selected)
+            layers = self.guard(self.session.overlay_layers, self.photo, self.selected)
             if layers is not None:
                 self._draw_overlay(dl, layers[0])
             dl.pop_clip_rect()
@@ -1051,7 +983,7 @@ class Editor(Panels):
             active = self.tool == tool
             if active:
                 imgui.push_style_color(imgui.Col_.button, imgui.ImVec4(0.85, 0.55, 0.1, 1.0))
-            if self._button(label, tip=f"{TOOL_HINTS[tool]} (key {TOOL_KEY_NAMES[tool]})"):
+            if self._button(label, tip=f"{TOOL_HINTS[tool]} (key {tool_key(tool)})"):
                 self.set_tool(tool)
             if active:
                 imgui.pop_style_color()
@@ -1073,7 +1005,7 @@ class Editor(Panels):
         imgui.end_disabled()
         imgui.same_line()
         if self._button("Save", tip="Ctrl+S: write the project file (the autosave is removed)"):
-            self._guard(s.save)
+            self.guard(s.save)
         imgui.same_line()
         if self._button("Fit", tip="Home: the whole photo"):
             self.fit()
@@ -1113,7 +1045,7 @@ class Editor(Panels):
                 imgui.pop_style_color()
             imgui.set_item_tooltip(pid + (f": {self._photo_errors[pid]}" if pid in self._photo_errors else ""))
             if clicked:
-                self._guard(self.set_photo, pid)
+                self.guard(self.set_photo, pid)
             imgui.same_line()
         imgui.new_line()
         imgui.set_next_item_width(260)
@@ -1121,10 +1053,10 @@ class Editor(Panels):
         self._rect("add photo file")
         imgui.same_line()
         if self._button("Add photo", tip="an image file in the project's folder (its SHA-256 is recorded)"):
-            pid = self._guard(self.session.add_photo, self.add_photo_path.strip())
+            pid = self.guard(self.session.add_photo, self.add_photo_path.strip())
             if pid is not None:
                 self.add_photo_path = ""
-                self._guard(self.set_photo, pid)
+                self.guard(self.set_photo, pid)
         imgui.end()
 
     def _draw_messages(self) -> None:
@@ -1166,11 +1098,11 @@ class Editor(Panels):
         if opened:
             imgui.text(f"{s.autosave_path.name} holds edits that were not saved.")
             if self._button("Recover the autosaved edits"):
-                self._guard(s.recover)
+                self.guard(s.recover)
                 imgui.close_current_popup()
             imgui.same_line()
             if self._button("Discard"):
-                self._guard(s.discard_recovery)
+                self.guard(s.discard_recovery)
                 imgui.close_current_popup()
             imgui.end_popup()
 
@@ -1313,7 +1245,7 @@ def run_editor(path: str | Path, size: tuple[int, int] = (1400, 860), recover: b
     with Window(size[0], size[1], f"vebuild edit — {session.project.path.name}") as window:
         editor = Editor(session, WindowSurface(window))
         for f in add_photos:  # in the window, so that a file that cannot be added says so there
-            pid = editor._guard(session.add_photo, f)
+            pid = editor.guard(session.add_photo, f)
             if pid is not None:
                 editor.set_photo(pid)
         try:
