@@ -21,8 +21,8 @@ import moderngl
 import numpy as np
 from numpy.typing import NDArray
 
-from vebuild.actions.hypothesis import LABEL, find_hypothesis, label, save_hypothesis
-from vebuild.camera import ImageCamera, focal_to_fov, pixel_rays_world, project, world_to_camera
+from vebuild.actions.hypothesis import find_hypothesis, label, save_hypothesis
+from vebuild.camera import ImageCamera, focal_to_fov, pixel_rays_world
 from vebuild.errors import VebuildError
 from vebuild.gl import load_program
 from vebuild.gl.app import WindowApp
@@ -35,6 +35,7 @@ from vebuild.render.renderer import Renderer, RenderOptions, Stereo
 from vebuild.render.scene import RenderScene, load_scene
 from vebuild.render.views import photo_camera, view_camera, view_record
 from vebuild.viewer.keys import TURN_STEP, VIEWER_KEYS
+from vebuild.viewer.panel import ViewerPanel
 from vebuild.viewer.walk import Walker
 
 STEREO_CYCLE: list[str | None] = [None, "anaglyph", "sbs", "tb"]
@@ -82,8 +83,7 @@ class Viewer(WindowApp):
         self._press_pick: tuple[str | None, NDArray[np.float64] | None] = (None, None)
         self._dragging = False
         self._last = time.perf_counter()
-        self._new_view_name = ""
-        self._new_hypothesis_name = ""
+        self.panel = ViewerPanel(self)
         self.screenshots = 0
         self.install_callbacks(window.handle)
         views = project.data.get("views", [])
@@ -468,7 +468,7 @@ class Viewer(WindowApp):
         if self.photo is not None and self._photo_tex is not None and self.photo_opacity > 0:
             self._draw_overlay()
         if self.gui is not None:
-            self._draw_panel()
+            self.panel.draw()
 
     def _draw_overlay(self) -> None:
         ctx = self.ctx
@@ -483,82 +483,6 @@ class Viewer(WindowApp):
                 self._overlay[name].value = value
         self._overlay_vao.render(moderngl.TRIANGLES, vertices=3)
         ctx.disable(moderngl.BLEND)
-
-    def _draw_panel(self) -> None:
-        from imgui_bundle import imgui
-
-        gui = self.gui
-        gui.new_frame()
-        self._draw_markers(imgui)
-        self._draw_trajectories(imgui)
-        banner = self.banner()
-        if banner:
-            imgui.set_next_window_pos(imgui.ImVec2(10, 10))
-            imgui.begin("##hypothesis", None, imgui.WindowFlags_.no_decoration | imgui.WindowFlags_.always_auto_resize
-                        | imgui.WindowFlags_.no_inputs)
-            imgui.text_colored(imgui.ImVec4(1.0, 0.25, 0.2, 1.0), banner)
-            imgui.end()
-        if self.show_panel:
-            W, _ = glfw.get_window_size(self.window.handle)
-            imgui.set_next_window_pos(imgui.ImVec2(W - 370, 10), imgui.Cond_.first_use_ever)
-            imgui.set_next_window_size(imgui.ImVec2(360, 0), imgui.Cond_.first_use_ever)
-            imgui.begin(f"vebuild: {self.project.data.get('name', self.project.path.name)}")
-            p = self.walker.position
-            imgui.text(f"{self.fps:5.1f} fps   {'flying' if self.walker.fly else 'walking'}   "
-                       f"({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f}) m")
-            imgui.text(f"lighting: {self.lighting}   (L)")
-            imgui.text(f"stereo: {self.stereo or 'off'}   (B)")
-            if self.photo is not None:
-                imgui.text(f"photo {self.photo}, overlay {100 * self.photo_opacity:.0f} %  ([ ])")
-            imgui.separator()
-            imgui.text_wrapped("selection: " + (self.describe(self.selection) if self.selection else "none"))
-            if banner:
-                imgui.text_colored(imgui.ImVec4(1.0, 0.25, 0.2, 1.0), LABEL)
-            for m in self.messages[-3:]:
-                imgui.text_wrapped(m)
-            if imgui.collapsing_header("Keys"):
-                for k, what in self.keys.rows():
-                    imgui.text_wrapped(f"{k}: {what}")
-            if imgui.collapsing_header("Views"):
-                for v in self.project.data.get("views", []):
-                    if imgui.button(v["name"]):
-                        self.jump_to_view(v["name"])
-                _, self._new_view_name = imgui.input_text("name##view", self._new_view_name)
-                if imgui.button("save the current view"):
-                    self.guard(self.save_view, self._new_view_name)
-            if imgui.collapsing_header("Hypotheses"):
-                if imgui.button("measured scene"):
-                    self.reset(everything=True)
-                for h in self.project.data.get("hypotheses", []):
-                    if imgui.button(h["name"]):
-                        self.guard(self.load_hypothesis, h["name"])
-                _, self._new_hypothesis_name = imgui.input_text("name##hyp", self._new_hypothesis_name)
-                if imgui.button("save this arrangement as a hypothesis"):
-                    self.guard(self.save_hypothesis, self._new_hypothesis_name)
-            imgui.end()
-        gui.render()
-
-    def _draw_markers(self, imgui: Any) -> None:
-        """The project's evidence markers over the view: a filled pin where seen, hollow where hidden."""
-        from vebuild.analysis.markers import MARKER_COLOUR, visible_markers
-
-        markers = self.project.data.get("evidence_markers", [])
-        if not markers or self.stereo is not None:
-            return
-        W, H = self.window.framebuffer_size()
-        ww, wh = glfw.get_window_size(self.window.handle)
-        sx, sy = W / max(ww, 1), H / max(wh, 1)
-        vx, vy, vw, vh = self.viewport()
-        dl = imgui.get_foreground_draw_list()
-        colour = imgui.get_color_u32(imgui.ImVec4(*(c / 255 for c in MARKER_COLOUR), 1.0))
-        white = imgui.get_color_u32(imgui.ImVec4(1.0, 1.0, 1.0, 1.0))
-        for m, (u, v), visible in visible_markers(self.renderer, self.camera(), markers):
-            p = imgui.ImVec2((vx + u) / sx, (H - vy - vh + v) / sy)
-            if visible:
-                dl.add_circle_filled(p, 6.0, colour)
-            else:
-                dl.add_circle(p, 6.0, colour, 0, 2.0)
-            dl.add_text(imgui.ImVec2(p.x + 9, p.y - 8), white, m["label"] + ("" if visible else " (hidden)"))
 
     def trajectories(self) -> list[Any]:
         """The trajectories the project records (``analyses``), against the objects as they are now."""
@@ -583,29 +507,6 @@ class Viewer(WindowApp):
             self._trajectory_key = key
             self._trajectory_cache = [(tr, path_polylines(tr)) for tr in out]
         return [tr for tr, _ in self._trajectory_cache]
-
-    def _draw_trajectories(self, imgui: Any) -> None:
-        """Recorded trajectories over the view: the path in red, its uncertainty cone in orange (not
-        depth-tested: drawn over what hides them)."""
-        if not self.trajectories() or self.stereo is not None:
-            return
-        cam = self.camera()
-        W, H = self.window.framebuffer_size()
-        ww, wh = glfw.get_window_size(self.window.handle)
-        sx, sy = W / max(ww, 1), H / max(wh, 1)
-        vx, vy, vw, vh = self.viewport()
-        dl = imgui.get_foreground_draw_list()
-        colours = {"path": imgui.get_color_u32(imgui.ImVec4(0.9, 0.1, 0.1, 1.0)),
-                   "cone": imgui.get_color_u32(imgui.ImVec4(1.0, 0.6, 0.1, 0.8))}
-        for _, polylines in self._trajectory_cache:
-            for kind, lines in polylines.items():
-                for P in lines:
-                    P = np.asarray(P, float)
-                    ok = world_to_camera(cam.R, cam.C, P)[:, 2] > 0.05  # in front of the camera
-                    uv = project(cam.K, cam.R, cam.C, P[ok])
-                    pts = [imgui.ImVec2((vx + u) / sx, (H - vy - vh + v) / sy) for u, v in uv]
-                    for a, b in zip(pts[:-1], pts[1:], strict=True):
-                        dl.add_line(a, b, colours.get(kind, colours["cone"]), 2.0 if kind == "path" else 1.0)
 
     def close(self) -> None:
         if self.gui is not None:
