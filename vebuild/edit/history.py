@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from vebuild.errors import VebuildError
+from vebuild.model.undo import UndoStack
 from vebuild.project import RESULT_KEYS, Project, autosave_path, load_project, save_project, validate
 
 if TYPE_CHECKING:
@@ -39,8 +40,7 @@ class SessionState:
     recovery_available: bool
     _cache: dict[Any, Any]
     _drag: Any
-    _undo: list[tuple[str, dict[str, Any]]]
-    _redo: list[tuple[str, dict[str, Any]]]
+    history: UndoStack[dict[str, Any]]
 
     @property
     def data(self) -> dict[str, Any]:
@@ -97,8 +97,7 @@ class History(SessionState):
             self.project.data = before
             self._cache.clear()
             raise
-        self._undo = (self._undo + [(label, before)])[-UNDO_DEPTH:]
-        self._redo.clear()
+        self.history.push(before, label)
         self._changed()
 
     def _changed(self) -> None:
@@ -116,28 +115,26 @@ class History(SessionState):
 
     @property
     def undo_label(self) -> str | None:
-        return self._undo[-1][0] if self._undo else None
+        return self.history.undo_label
 
     @property
     def redo_label(self) -> str | None:
-        return self._redo[-1][0] if self._redo else None
+        return self.history.redo_label
 
     def undo(self) -> bool:
-        if self._drag is not None or not self._undo:
+        step = None if self._drag is not None else self.history.undo(self.data)
+        if step is None:
             return False
-        label, before = self._undo.pop()
-        self._redo.append((label, self.data))
-        self.project.data = before
+        label, self.project.data = step
         self._changed()
         self.say(f"undone: {label}")
         return True
 
     def redo(self) -> bool:
-        if self._drag is not None or not self._redo:
+        step = None if self._drag is not None else self.history.redo(self.data)
+        if step is None:
             return False
-        label, after = self._redo.pop()
-        self._undo.append((label, self.data))
-        self.project.data = after
+        label, self.project.data = step
         self._changed()
         self.say(f"redone: {label}")
         return True

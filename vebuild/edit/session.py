@@ -25,6 +25,7 @@ from numpy.typing import NDArray
 from vebuild import camera as cam_math
 from vebuild.camera import ImageCamera
 from vebuild.errors import VebuildError
+from vebuild.model.undo import UndoStack
 from vebuild.project import Project, load_project, new_photo_entry
 
 from .history import UNDO_DEPTH, EditError
@@ -49,8 +50,7 @@ class EditSession(SessionOverlays):
         self.messages: list[str] = []
         self.revision = 0
         self.dirty = False
-        self._undo: list[tuple[str, dict[str, Any]]] = []
-        self._redo: list[tuple[str, dict[str, Any]]] = []
+        self.history: UndoStack[dict[str, Any]] = UndoStack(UNDO_DEPTH)
         self._cache: dict[Any, Any] = {}
         self._drag: _Drag | None = None
         self.recovery_available = False
