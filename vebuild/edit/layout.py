@@ -6,7 +6,12 @@ picking constants, the tools, colour packing, and :class:`EditorPart`, the base 
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
+
+import moderngl
+
+from .overlay import Overlay
 
 #: Layout, in window pixels.
 TOOLBAR_H = 62
@@ -55,7 +60,69 @@ def inside(rect: Rect, x: float, y: float) -> bool:
 
 class EditorPart:
     """A part of the :class:`~vebuild.edit.screen.Editor`, mixed into it: its methods read and set
-    the editor's state (declared in ``Editor.__init__``)."""
+    the editor's state, declared here and set in ``Editor.__init__``; what one part calls of
+    another is the editor's (the type checker sees it through ``__getattr__``)."""
+
+    session: Any
+    ctx: moderngl.Context
+    _cursor: tuple[float, float]
+    _held: set[int]
+    _mods: int
+    gui: Any
+    panels: Any
+    photo: str | None
+    selected: str | None
+    selected_nodes: list[str]
+    widget_rects: dict[str, Rect]
+    _rects: dict[str, Rect]
+    drag_problem: str | None
+    last_feedback: Any
+    timings: dict[str, float]
+    _press: dict[str, Any] | None
+    _pan_from: tuple[float, float] | None
+    _pending_drag: tuple[float, float] | None
+    _placing: dict[str, Any] | None
+    _photo_tex: dict[str, moderngl.Texture]
+    _photo_errors: dict[str, str]
+    _thumbs: dict[str, moderngl.Texture | None]
+    _overlay_key: Any
+    _overlay: Overlay | None
+    _pending: Callable[[], None] | None
+    _busy: str | None
+    _frame_cache: moderngl.Framebuffer | None
+    _frame_cache_rb: moderngl.Renderbuffer | None
+    _frame_cache_press: dict[str, Any] | None
+    _view_cache: moderngl.Framebuffer | None
+    _view_cache_rb: moderngl.Renderbuffer | None
+    _view_cache_key: Any
+    calibration_result: dict[str, Any] | None
+    calibration_error: str | None
+    solve_result: dict[str, Any] | None
+    solve_error: str | None
+    _renderer: Any
+    _renderer_pages: Any
+    _preview_key: Any
+    _preview_tex: moderngl.Texture | None
+    _preview_shape: Any
+    _preview_pages: tuple[Any, list[Any]] | None
+    zoom: float
+    pan: tuple[float, float]
+    tool: str
+    show_labels: bool
+    _scroll_to_selected: bool
+    _progress: tuple[float, str]
+    _progress_shown: float
+    _recovery_asked: bool
+    _close_warned: bool
+    _frame_cache_serial: int
+    marker_name: str
+    _marker_name_default: bool
+    add_photo_path: str
+    preview_size: tuple[int, int]
+    preview_yaw: float
+    preview_pitch: float
+    preview_distance: float | None
+    preview_note: str
 
     if TYPE_CHECKING:
         def __getattr__(self, name: str) -> Any: ...

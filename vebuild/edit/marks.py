@@ -89,7 +89,8 @@ class Marks(History):
 
     def segment_at(self, photo: str, uv: Sequence[float], radius_px: float) -> tuple[str, int, int | None] | None:
         """The segment near uv: (axis, index, 0/1 for an end point or None for its body)."""
-        best, q = None, np.asarray(uv, float)
+        best: tuple[float, tuple[str, int, int | None], int | None] | None = None
+        q = np.asarray(uv, float)
         for axis, segs in (self.photo(photo).get("vanishing_segments") or {}).items():
             for i, s in enumerate(segs):
                 a, b = np.asarray(s[:2]), np.asarray(s[2:])

@@ -121,6 +121,7 @@ class PhotoView(EditorPart):
         key = (self._frame_cache_serial, self.photo, self.zoom, self.pan, self.selected, fb_size)
         if key == self._view_cache_key and self._view_cache is not None:
             return
+        assert self._frame_cache is not None  # a drag's first frame is cached (_drag_frame_cached)
         self.ctx.copy_framebuffer(fbo, self._frame_cache)
         for x0, y0, x1, y1 in self._view_uncovered(fb_size):  # the photo covers the rest
             fbo.clear(0.11, 0.11, 0.12, 1.0, viewport=(x0, fb_size[1] - y1, x1 - x0, y1 - y0))
@@ -128,7 +129,7 @@ class PhotoView(EditorPart):
         self._draw_photo_view("still")
         self.gui.render()
         if self._view_cache is None or self._view_cache.size != fb_size:
-            if self._view_cache is not None:
+            if self._view_cache is not None and self._view_cache_rb is not None:
                 self._view_cache.release()
                 self._view_cache_rb.release()
             self._view_cache_rb = self.ctx.renderbuffer(fb_size, 4)
@@ -143,7 +144,7 @@ class PhotoView(EditorPart):
 
     def _release_frame_cache(self) -> None:
         for fb, rb in ((self._frame_cache, self._frame_cache_rb), (self._view_cache, self._view_cache_rb)):
-            if fb is not None:
+            if fb is not None and rb is not None:
                 fb.release()
                 rb.release()
         self._frame_cache = self._view_cache = None
@@ -257,7 +258,7 @@ class PhotoView(EditorPart):
         return want and self._photo_takes(x, y) and self._pan_from is None
 
     def _draw_magnifier(self) -> None:
-        if not self.magnifier_visible():
+        if not self.magnifier_visible() or self.photo is None:
             return
         tex = self._photo_texture(self.photo)
         if tex is None:

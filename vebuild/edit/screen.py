@@ -25,7 +25,6 @@ from pathlib import Path
 from typing import Any
 
 import imgui_bundle
-import moderngl
 import numpy as np
 from imgui_bundle import imgui
 
@@ -55,66 +54,66 @@ class Editor(ScreenTools, PhotoView, Bars, Preview, WindowApp):
         super().__init__()
         self.session = session
         self.surface = surface
-        self.ctx: moderngl.Context = surface.ctx
-        font = Path(imgui_bundle.__file__).parent / "assets" / "fonts" / "DroidSans.ttf"
-        font = str(font) if font.is_file() else None  # the messages' –, …, σ, ≥ (ImGui's own font lacks them)
+        self.ctx = surface.ctx
+        font_file = Path(imgui_bundle.__file__).parent / "assets" / "fonts" / "DroidSans.ttf"
+        font = str(font_file) if font_file.is_file() else None  # the messages' –, …, σ, ≥ (ImGui's own font lacks them)
         if surface.handle is not None:
             self.gui = Gui(self.ctx, surface.handle, font=font)
         else:
             self.gui = Gui(self.ctx, None, display_size=surface.size(), target=surface.fbo, font=font)
-        self.photo: str | None = None
+        self.photo = None
         self.zoom = 1.0
         self.pan = (0.0, 0.0)  # window position of the photo's top-left corner
         self.tool = "select"
         self.show_labels = True  # residuals and names over the photo (L)
-        self.selected: str | None = None
-        self.selected_nodes: list[str] = []
+        self.selected = None
+        self.selected_nodes = []
         self._scroll_to_selected = False
-        self.widget_rects: dict[str, Rect] = {}
-        self._rects: dict[str, Rect] = {}
-        self.drag_problem: str | None = None
-        self.last_feedback: Any = None
-        self.timings: dict[str, float] = {}  # the last frame's drag solve and draw, milliseconds
-        self._press: dict[str, Any] | None = None
-        self._pan_from: tuple[float, float] | None = None
-        self._pending_drag: tuple[float, float] | None = None
-        self._placing: dict[str, Any] | None = None
-        self._photo_tex: dict[str, moderngl.Texture] = {}
-        self._photo_errors: dict[str, str] = {}
-        self._thumbs: dict[str, moderngl.Texture | None] = {}
-        self._overlay_key: Any = None
-        self._overlay: Overlay | None = None
-        self._pending: Callable[[], None] | None = None
-        self._busy: str | None = None
+        self.widget_rects = {}
+        self._rects = {}
+        self.drag_problem = None
+        self.last_feedback = None
+        self.timings = {}  # the last frame's drag solve and draw, milliseconds
+        self._press = None
+        self._pan_from = None
+        self._pending_drag = None
+        self._placing = None
+        self._photo_tex = {}
+        self._photo_errors = {}
+        self._thumbs = {}
+        self._overlay_key = None
+        self._overlay = None
+        self._pending = None
+        self._busy = None
         self._progress = (0.0, "")
         self._progress_shown = 0.0
         self._recovery_asked = False
         self._close_warned = False
-        self._frame_cache: moderngl.Framebuffer | None = None
-        self._frame_cache_rb: moderngl.Renderbuffer | None = None
-        self._frame_cache_press: dict[str, Any] | None = None
+        self._frame_cache = None
+        self._frame_cache_rb = None
+        self._frame_cache_press = None
         self._frame_cache_serial = 0
-        self._view_cache: moderngl.Framebuffer | None = None
-        self._view_cache_rb: moderngl.Renderbuffer | None = None
-        self._view_cache_key: Any = None
+        self._view_cache = None
+        self._view_cache_rb = None
+        self._view_cache_key = None
         # panel state
         self.marker_name = session.next_marker_name()
         self._marker_name_default = True
         self.add_photo_path = ""
-        self.calibration_result: dict[str, Any] | None = None
-        self.calibration_error: str | None = None
-        self.solve_result: dict[str, Any] | None = None
-        self.solve_error: str | None = None
+        self.calibration_result = None
+        self.calibration_error = None
+        self.solve_result = None
+        self.solve_error = None
         self.panels = Panels(self)
         # 3-D preview
         self.preview_size = (PANEL_W - 20, PREVIEW_H - 44)
         self.preview_yaw, self.preview_pitch, self.preview_distance = math.radians(-60.0), math.radians(30.0), None
-        self._renderer: Any = None
-        self._renderer_pages: Any = None
-        self._preview_key: Any = None
-        self._preview_tex: moderngl.Texture | None = None
-        self._preview_shape: Any = None
-        self._preview_pages: tuple[Any, list[Any]] | None = None
+        self._renderer = None
+        self._renderer_pages = None
+        self._preview_key = None
+        self._preview_tex = None
+        self._preview_shape = None
+        self._preview_pages = None
         self.preview_note = ""
         if surface.handle is not None:
             self.install_callbacks(surface.handle)
@@ -313,6 +312,7 @@ class Editor(ScreenTools, PhotoView, Bars, Preview, WindowApp):
         live = self._drag_frame_cached((fw, fh))
         if live:
             self._cache_still_view(fbo, (fw, fh))
+            assert self._view_cache is not None  # made by _cache_still_view
             self.ctx.copy_framebuffer(fbo, self._view_cache)
             x0, _, x1, _ = self._view_pixels((fw, fh))  # the toolbar is drawn anew: its status line
             th = int(math.ceil(TOOLBAR_H * fh / max(self.size()[1], 1)))  # follows the cursor

@@ -198,6 +198,8 @@ class ScreenTools(EditorPart):
 
     def _release(self, x: float, y: float) -> None:
         p, self._press = self._press, None
+        if p is None:
+            return
         s, photo = self.session, self.photo
         uv = self.window_to_image(x, y)
         kind = p["kind"]
@@ -286,7 +288,8 @@ class ScreenTools(EditorPart):
                 self.selected_nodes.remove(node)
             else:
                 self.selected_nodes.append(node)
-            self.selected = node if node in self.selected_nodes else (self.selected_nodes or [None])[-1]
+            last = self.selected_nodes[-1] if self.selected_nodes else None
+            self.selected = node if node in self.selected_nodes else last
         else:
             self.selected, self.selected_nodes = node, [node]
         self.panels.forget_edits()

@@ -111,6 +111,9 @@ class WindowApp:
     :meth:`on_cursor`, :meth:`on_button` and :meth:`on_scroll`."""
 
     keys: KeyTable
+    _held: set[int]
+    _mods: int
+    _cursor: tuple[float, float]
     #: Whether keys pressed while an ImGui text field has the keyboard count as held.
     keys_held_while_typing = True
 
