@@ -60,3 +60,11 @@ def test_a_key_bound_without_shift_answers_with_shift_but_not_with_ctrl():
     assert VIEWER_KEYS.find(glfw.KEY_R, SHIFT).args == (True,)
     assert EDITOR_KEYS.find(glfw.KEY_Y, CTRL | SHIFT).command == "redo"
     assert EDITOR_KEYS.find(glfw.KEY_1, CTRL) is None
+
+
+def test_on_screen_hints_name_the_keys_the_table_binds():
+    assert EDITOR_KEYS.key_for("undo") == "Ctrl+Z" and EDITOR_KEYS.key_for("redo") == "Ctrl+Y"
+    assert EDITOR_KEYS.key_for("set_tool", "x") == "1" and EDITOR_KEYS.key_for("escape") == "Esc"
+    assert VIEWER_KEYS.key_for("next_lighting") == "L" and VIEWER_KEYS.key_for("change_opacity", -0.1) == "["
+    with pytest.raises(KeyError):
+        VIEWER_KEYS.key_for("no_such_command")

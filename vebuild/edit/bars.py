@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from imgui_bundle import imgui
 
-from .keys import tool_key
+from .keys import EDITOR_KEYS, tool_key
 from .layout import MESSAGES_SHOWN, STRIP_H, THUMB_H, TOOL_HINTS, TOOLBAR_H, TOOLS, EditorPart
 
 
@@ -31,24 +31,25 @@ class Bars(EditorPart):
             self.marker_name, self._marker_name_default = name, False
         s = self.session
         imgui.begin_disabled(s.undo_label is None)
-        if self.button("Undo", tip=f"Ctrl+Z: undo {s.undo_label or ''}"):
+        if self.button("Undo", tip=f"{EDITOR_KEYS.key_for('undo')}: undo {s.undo_label or ''}"):
             self.undo()
         imgui.end_disabled()
         imgui.same_line()
         imgui.begin_disabled(s.redo_label is None)
-        if self.button("Redo", tip=f"Ctrl+Y: redo {s.redo_label or ''}"):
+        if self.button("Redo", tip=f"{EDITOR_KEYS.key_for('redo')}: redo {s.redo_label or ''}"):
             self.redo()
         imgui.end_disabled()
         imgui.same_line()
-        if self.button("Save", tip="Ctrl+S: write the project file (the autosave is removed)"):
+        if self.button("Save", tip=f"{EDITOR_KEYS.key_for('save')}: write the project file (the autosave is removed)"):
             self.guard(s.save)
         imgui.same_line()
-        if self.button("Fit", tip="Home: the whole photo"):
+        if self.button("Fit", tip=f"{EDITOR_KEYS.key_for('fit')}: the whole photo"):
             self.fit()
         imgui.same_line()
         _, self.show_labels = imgui.checkbox("labels", self.show_labels)
         self.rect("labels")
-        imgui.set_item_tooltip("L: residuals and names over the photo (markers' names stay)")
+        imgui.set_item_tooltip(f"{EDITOR_KEYS.key_for('toggle_labels')}: residuals and names over the photo "
+                               "(markers' names stay)")
         imgui.same_line()
         status = f"{self.photo or '-'}  ×{self.zoom:.2f}"
         if self._photo_takes(*self._cursor):

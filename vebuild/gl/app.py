@@ -95,6 +95,13 @@ class KeyTable:
         """The first chord bound to ``command(*args)`` (for a tooltip's "key …")."""
         return next((c for c in self._chords.values() if c.command == command and c.args == args), None)
 
+    def key_for(self, command: str, *args: Any) -> str:
+        """The key bound to ``command(*args)``, as written (for on-screen hints); KeyError if none."""
+        chord = self.chord_for(command, *args)
+        if chord is None:
+            raise KeyError(f"no key is bound to {command}{args}")
+        return chord.label
+
     def rows(self) -> list[tuple[str, str]]:
         return [(b.keys, b.does) for b in self.bindings]
 

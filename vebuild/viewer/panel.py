@@ -28,7 +28,7 @@ class ViewerPanel:
     def draw(self) -> None:
         from imgui_bundle import imgui
 
-        gui = self.v.gui
+        gui, keys = self.v.gui, self.v.keys
         gui.new_frame()
         self._draw_markers(imgui)
         self._draw_trajectories(imgui)
@@ -47,10 +47,11 @@ class ViewerPanel:
             p = self.v.walker.position
             imgui.text(f"{self.v.fps:5.1f} fps   {'flying' if self.v.walker.fly else 'walking'}   "
                        f"({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f}) m")
-            imgui.text(f"lighting: {self.v.lighting}   (L)")
-            imgui.text(f"stereo: {self.v.stereo or 'off'}   (B)")
+            imgui.text(f"lighting: {self.v.lighting}   ({keys.key_for('next_lighting')})")
+            imgui.text(f"stereo: {self.v.stereo or 'off'}   ({keys.key_for('next_stereo')})")
             if self.v.photo is not None:
-                imgui.text(f"photo {self.v.photo}, overlay {100 * self.v.photo_opacity:.0f} %  ([ ])")
+                opacity = f"{keys.key_for('change_opacity', -0.1)} {keys.key_for('change_opacity', 0.1)}"
+                imgui.text(f"photo {self.v.photo}, overlay {100 * self.v.photo_opacity:.0f} %  ({opacity})")
             imgui.separator()
             imgui.text_wrapped("selection: " + (self.v.describe(self.v.selection) if self.v.selection else "none"))
             if banner:
