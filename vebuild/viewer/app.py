@@ -309,8 +309,9 @@ class Viewer(WindowApp):
         img = self.renderer.render(cam if stereo is None else self.eye_camera(), stereo)
         text = provenance(self.project, cam, "viewer", self.lighting, {"mode": self.stereo} if stereo else None,
                           self.scene.page_hashes, {"samples": self.renderer.options.samples})
-        if self.banner():
-            img = stamp(img, self.banner())
+        banner = self.banner()
+        if banner:
+            img = stamp(img, banner)
             text["vebuild:hypothesis"] = self.hypothesis_name or "unsaved arrangement"
         folder = folder or self.project.folder / "screenshots"
         folder.mkdir(exist_ok=True)
@@ -389,7 +390,7 @@ class Viewer(WindowApp):
 
     def _begin_drag(self) -> None:
         node, point = self._press_pick
-        if node is None or node != self.selection:
+        if node is None or point is None or node != self.selection:
             return
         try:
             self.mover.begin(node, point)
@@ -471,6 +472,8 @@ class Viewer(WindowApp):
             self.panel.draw()
 
     def _draw_overlay(self) -> None:
+        if self._photo_tex is None:
+            return
         ctx = self.ctx
         x, y, w, h = self.viewport()
         ctx.screen.viewport = (x, y, w, h)
@@ -480,7 +483,7 @@ class Viewer(WindowApp):
         for name, value in (("photo", 0), ("opacity", float(self.photo_opacity)), ("origin", (x, y)),
                             ("size", (w, h))):
             if name in self._overlay:
-                self._overlay[name].value = value
+                self._overlay[name].value = value  # type: ignore[union-attr]
         self._overlay_vao.render(moderngl.TRIANGLES, vertices=3)
         ctx.disable(moderngl.BLEND)
 
