@@ -125,6 +125,8 @@ class Marks(History):
             self._cache[key] = state
         return self._cache[key]
 
+    # -- markers and reference distances ----------------------------------------------------------
+
     def next_marker_name(self) -> str:
         names = set(self.project.marker_names())
         k = 1
@@ -190,6 +192,8 @@ class Marks(History):
     def remove_distance(self, index: int) -> None:
         with self._edit("remove distance"):
             del self.data["reference_distances"][index]
+
+    # -- the user's edges (paper §3) ----------------------------------------------------------------
 
     def nearest_edge(self, photo: str, p1: Sequence[float], p2: Sequence[float],
                      node: str | None = None) -> tuple[str, str] | None:

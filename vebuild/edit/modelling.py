@@ -70,6 +70,8 @@ class _Drag:
 class Modelling(Marks):
     """Primitives, joints, drags and fixed vertices (mixed into the session)."""
 
+    # -- the model (paper §3) -----------------------------------------------------------------------
+
     def _markers_placed(self) -> dict[str, Array]:
         cal = (self.data.get("calibration") or {}).get("markers", {})
         return {n: np.asarray(m["position"], float) for n, m in cal.items()}
@@ -296,6 +298,8 @@ class Modelling(Marks):
             self._rebuild_check()
         self.say(f"grouped {', '.join(nodes)} as '{name}': they move together")
         return name
+
+    # -- handles, drags, pins (paper §3.1, Figure 7) ------------------------------------------------
 
     def _model_now(self) -> tuple[Model | None, Array | None]:
         """The model and its vector as shown: during a drag, the drag's live state."""

@@ -30,7 +30,7 @@ from vebuild.project import Project, load_project, new_photo_entry
 
 from .history import UNDO_DEPTH, EditError
 from .marks import AXES, VanishingState
-from .modelling import ANCHOR_HANDLE, DEFAULT_PARAMS, FOLLOW_TOL_PX, DragFeedback, _Drag
+from .modelling import ANCHOR_HANDLE, DEFAULT_PARAMS, FOLLOW_TOL_PX, DragFeedback
 from .photo_overlay import SessionOverlays
 
 Progress = Callable[[float, str], None]
@@ -52,7 +52,7 @@ class EditSession(SessionOverlays):
         self.dirty = False
         self.history: UndoStack[dict[str, Any]] = UndoStack(UNDO_DEPTH)
         self._cache: dict[Any, Any] = {}
-        self._drag: _Drag | None = None
+        self._drag = None  # the drag under way (modelling._Drag)
         self.recovery_available = False
         if autosave:
             from vebuild.outputs import begin_stage
