@@ -418,7 +418,7 @@ def cell_centres(origin: Any, cell: float, nx: int, ny: int) -> tuple[Array, Arr
 
 def floor_grid(occ: Occluders, cell: float, eye_height: float) -> tuple[tuple[float, float], NDArray[np.int8]]:
     """The grid over the floor (upward faces at z = 0) and each cell's state."""
-    from vebuild.viewer.collide import footprints
+    from vebuild.model.collide import footprints
 
     if not cell > 0:
         raise VebuildError(f"--cell: expected a cell size > 0 m, got {cell:g}")
@@ -492,8 +492,8 @@ def viewshed_image(vs: Viewshed, occ: Occluders, px_per_cell: int | None = None)
     the model's objects outlined, the target marked in red, a 1 m scale bar and a caption."""
     from PIL import Image, ImageDraw, ImageFont
 
+    from vebuild.model.collide import footprints
     from vebuild.render.sizes import check_render_size
-    from vebuild.viewer.collide import footprints
 
     ny, nx = vs.states.shape
     s = px_per_cell or int(max(2, min(16, 900 // max(nx, ny))))
