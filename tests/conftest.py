@@ -70,7 +70,7 @@ def textured_room(tmp_path_factory):
     from vebuild.actions.texture import texture_project
     from vebuild.cli import main
     from vebuild.project import load_project, save_project
-    from vebuild.texture.gpu import Options
+    from vebuild.texture.options import Options
 
     room = Path(__file__).resolve().parents[1] / "scenes" / "room"
     folder = tmp_path_factory.mktemp("render") / "room"

@@ -81,6 +81,32 @@ def test_new_and_check(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
     assert (tmp_path / "img1.jpg").read_bytes() == photo
 
 
+def test_check_works_where_moderngl_is_missing(tmp_path: Path) -> None:
+    """`vebuild check` needs no GL: the command line registers the benchmarks (and the rest)
+    without importing their modules, so a machine without moderngl can still check a project,
+    including the analyses it records."""
+    import shutil
+
+    room = tmp_path / "room"
+    shutil.copytree(Path(__file__).resolve().parents[1] / "scenes" / "room", room)
+    path = room / "room.vebuild.json"
+    data = json.loads(path.read_text())
+    data["analyses"] = [{"name": "door", "command": ["distance", "0,0,0", "1,0,0"]},
+                        {"name": "witness", "command": ["sightline", "--standing", "1,1", "--target", "2,2,1"]},
+                        {"name": "shot", "command": ["trajectory", "--from", "1,1,1", "--to", "2,2,1"]}]
+    path.write_text(json.dumps(data))
+    shim = tmp_path / "shim"
+    shim.mkdir()
+    (shim / "moderngl.py").write_text('raise ImportError("moderngl made unimportable by the test")\n')
+    code = ("import sys; sys.path.insert(0, sys.argv.pop(1)); from vebuild.cli import main; "
+            "rc = main(sys.argv[1:]); assert 'moderngl' not in sys.modules or sys.modules['moderngl'] is None; "
+            "sys.exit(rc)")
+    r = subprocess.run([sys.executable, "-c", code, str(shim), "check", str(path)], capture_output=True, text=True,
+                       timeout=300, cwd=Path(__file__).resolve().parents[1])
+    assert r.returncode == 0, r.stderr
+    assert "valid vebuild project" in r.stdout and "Traceback" not in r.stderr
+
+
 def test_bench_calibration_quick_writes_named_figures(tmp_path: Path) -> None:
     out = tmp_path / "figures.json"
     r = subprocess.run([sys.executable, "-m", "vebuild.cli", "bench", "calibration", "--quick", "--quiet",
@@ -116,3 +142,38 @@ def test_edit_names_a_missing_project_and_how_to_start_one(tmp_path: Path, capsy
     assert "no such project file" in err and f"vebuild new {missing}" in err
     assert main(["new", str(missing)]) == 0  # no photos yet: they are added on the screen
     assert load_project(missing).data["photos"] == []
+
+
+def test_recorded_words_and_the_command_line_make_the_same_typed_requests() -> None:
+    """One mapping: the words a project records and `vebuild analyse` give the same request."""
+    from vebuild.analysis.cli import request_from_args
+    from vebuild.analysis.recorded import parse_recorded, parse_recorded_trajectory
+    from vebuild.analysis.requests import DimensionsRequest, DistanceRequest, HeightRequest
+    from vebuild.analysis.requests_geometry import SightlineRequest, TrajectoryRequest, ViewshedRequest
+    from vebuild.cli import build_parser
+    from vebuild.errors import VebuildError
+
+    cases = [
+        (["distance", "cabinet:v4", "table.top@top"], DistanceRequest("cabinet:v4", "table.top@top")),
+        (["height", "T2", "--above", "table.top@top"], HeightRequest("T2", "table.top@top")),
+        (["dimensions", "box", "table"], DimensionsRequest(("box", "table"))),
+        (["sightline", "--standing", "1,1", "--object", "box"],
+         SightlineRequest(standing="1,1", object="box")),
+        (["viewshed", "--target", "1,2,0.5", "--out", "m.png", "--cell", "0.2"],
+         ViewshedRequest("m.png", target="1,2,0.5", cell=0.2)),
+        (["trajectory", "--from", "1,1,1", "--azimuth", "30", "--elevation", "-2", "--cone", "1.5"],
+         TrajectoryRequest("1,1,1", azimuth=30.0, elevation=-2.0, cone=1.5)),
+    ]
+    parser = build_parser()
+    for words, expected in cases:
+        assert parse_recorded(words) == expected
+        assert request_from_args(parser.parse_args(["analyse", "p.vebuild.json", *words])) == expected
+    # Defaults come from the requests themselves.
+    assert parse_recorded(["sightline", "--eye", "0,0,1.6", "--target", "1,1,1"]).samples == SightlineRequest.samples
+    # Only a trajectory draws an image when it is given a view; the viewer asks for trajectories only.
+    assert parse_recorded(["distance", "a", "b"]).with_image("x.png") is None
+    assert parse_recorded(cases[5][0]).with_image("x.png") is None
+    assert parse_recorded([*cases[5][0][:-2], "--view", "v"]).with_image("x.png").out == "x.png"
+    assert isinstance(parse_recorded_trajectory(cases[5][0]), TrajectoryRequest)
+    with pytest.raises(VebuildError, match=r"\$\.analyses\[3\]: expected a trajectory, got a distance analysis"):
+        parse_recorded_trajectory(["distance", "a", "b"], "$.analyses[3]")

@@ -30,7 +30,7 @@ from edit_scene import (
     photo_file,
 )
 
-from vebuild.edit.screen import CLICK_SLOP_PX, PANEL_W, STRIP_H, TOOLBAR_H
+from vebuild.edit.layout import CLICK_SLOP_PX, PANEL_W, STRIP_H, TOOLBAR_H
 
 pytestmark = pytest.mark.usefixtures("xvfb_display")
 

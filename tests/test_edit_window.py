@@ -15,7 +15,8 @@ import pytest
 from edit_driver import Driver
 
 from vebuild.cli import main
-from vebuild.edit.screen import MAX_ZOOM, PICK_RADIUS_PX, WHEEL_STEP, run_editor
+from vebuild.edit.layout import MAX_ZOOM, PICK_RADIUS_PX, WHEEL_STEP
+from vebuild.edit.screen import run_editor
 from vebuild.resources import example_project_dir
 
 pytestmark = pytest.mark.usefixtures("xvfb_display")

@@ -32,8 +32,8 @@ from vebuild.project import load_project, save_project, sha256_file
 from vebuild.render.export import ROOT_NAME, export_model, read_glb
 from vebuild.render.scene import load_scene
 from vebuild.render.views import photo_camera, view_camera
-from vebuild.texture.gpu import Options
 from vebuild.texture.merge import srgb8_to_linear
+from vebuild.texture.options import Options
 
 REPO = Path(__file__).resolve().parents[1]
 ROOM = REPO / "scenes" / "room"

@@ -29,9 +29,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vebuild.actions.report import digest
 from vebuild.cli import main
 from vebuild.outputs import read_manifest, sha256_of, temporaries
+from vebuild.report.write import digest
 
 ROOT = Path(__file__).resolve().parents[1]
 ROOM = ROOT / "scenes" / "room"

@@ -13,8 +13,11 @@ import numpy as np
 import pytest
 
 from vebuild.analysis import measure as M
+from vebuild.analysis import points as P
+from vebuild.analysis import solved as S
 from vebuild.camera import ImageCamera, project
 from vebuild.cli import main
+from vebuild.constants import Z95
 from vebuild.errors import ProjectError
 from vebuild.model.residuals import Pin
 from vebuild.model.scene import model_from_dict
@@ -38,26 +41,26 @@ def solved_scene(seed: int):
     solution = problem.solution(r.x, r.iterations)
     if solution.undetermined:  # `vebuild solve` refuses such a scene (a box too few photos see)
         return None
-    solved = M.SolvedModel.from_problem(problem, solution)
+    solved = S.SolvedModel.from_problem(problem, solution)
     return solved, model_from_dict(truth["nodes"], MARKERS), photos
 
 
-def true_world(true_model, point: M.Point) -> np.ndarray:
+def true_world(true_model, point: S.Point) -> np.ndarray:
     """The point's world position on the true model (same handle, or same normalised coordinates)."""
-    exact = M.SolvedModel.build(true_model, [], np.zeros(0), np.zeros((0, 0)), [], MARKERS)
+    exact = S.SolvedModel.build(true_model, [], np.zeros(0), np.zeros((0, 0)), [], MARKERS)
     return exact.world(point)
 
 
-def random_point(solved, rng) -> M.Point:
+def random_point(solved, rng) -> S.Point:
     """A random box corner, or a random point on a random face of a box."""
     node = f"box{rng.integers(3)}"
     prim = solved.model.node(node).primitive
     if rng.random() < 0.5:
-        return M.parse_point(f"{node}:{rng.choice(prim.handle_names())}", solved)
+        return P.parse_point(f"{node}:{rng.choice(prim.handle_names())}", solved)
     face = str(rng.choice(["front", "right", "back", "left", "top"]))
     size = prim.mesh().chart_size_m[prim.mesh().face_names.index(face)]
     s, t = rng.uniform(-0.45, 0.45, 2) * size
-    return M.face_point(solved, node, face, float(s), float(t))
+    return P.face_point(solved, node, face, float(s), float(t))
 
 
 def test_distances_lie_within_their_95_percent_interval_in_at_least_90_percent_of_cases():
@@ -79,7 +82,7 @@ def test_distances_lie_within_their_95_percent_interval_in_at_least_90_percent_o
         true = [np.linalg.norm(true_world(truth, a) - true_world(truth, b)) for a, b in pairs]
         z += list((est.value - true) / est.sigma)
     z = np.asarray(z)
-    coverage = np.mean(np.abs(z) <= M.Z95)
+    coverage = np.mean(np.abs(z) <= Z95)
     print(f"coverage of the 95 % intervals: {coverage:.3f} over {len(z)} distances in {scenes} scenes "
           f"({seed - scenes} of seeds 1…{seed} skipped: undetermined); std of z {np.std(z):.2f}")
     assert len(z) == SEEDS * PER_SEED
@@ -90,8 +93,8 @@ def test_distances_lie_within_their_95_percent_interval_in_at_least_90_percent_o
 def test_linear_propagation_agrees_with_monte_carlo():
     """σ within 5 % (the Monte Carlo σ of 4000 samples is itself uncertain by ~1.1 %), means within 0.1σ."""
     solved, _, _ = solved_scene(3)
-    a, b = M.parse_point("box0:v4", solved), M.parse_point("box2@top:0.05,-0.05", solved)
-    c = M.face_point(solved, "box1", "front", 0.1, 0.1)
+    a, b = P.parse_point("box0:v4", solved), P.parse_point("box2@top:0.05,-0.05", solved)
+    c = P.face_point(solved, "box1", "front", 0.1, 0.1)
 
     def f(x):
         st = solved._state(x)
@@ -113,7 +116,7 @@ def test_correlations_are_propagated():
     """Two top corners of one box: their distance is the box's width, with the width's σ exactly,
     which the corners' 3×3 covariances alone, taken as independent, do not give."""
     solved, _, _ = solved_scene(4)
-    a, b = M.parse_point("box1:v4", solved), M.parse_point("box1:v5", solved)
+    a, b = P.parse_point("box1:v4", solved), P.parse_point("box1:v5", solved)
     d = M.distance(solved, a, b)
     w = {m.what: m for m in M.dimensions(solved, "box1")}["box1.width"]
     assert d.value == pytest.approx(w.value, abs=1e-9)
@@ -123,12 +126,12 @@ def test_correlations_are_propagated():
     u = (solved.world(b) - solved.world(a)) / d.value
     print(f"σ {d.sigma * 1e3:.3f} mm; corners taken as independent: {np.sqrt(u @ (ca + cb) @ u) * 1e3:.3f} mm")
     assert abs(np.sqrt(u @ (ca + cb) @ u) - d.sigma) > 0.02 * d.sigma
-    assert d.ci95 == pytest.approx((d.value - M.Z95 * d.sigma, d.value + M.Z95 * d.sigma))
+    assert d.ci95 == pytest.approx((d.value - Z95 * d.sigma, d.value + Z95 * d.sigma))
 
 
 def test_height_above_a_face_and_a_pixel_pick():
     solved, truth, photos = solved_scene(3)
-    top = M.face_point(solved, "box0", "top", 0.02, -0.03)
+    top = P.face_point(solved, "box0", "top", 0.02, -0.03)
     m = M.height(solved, top, above=("floor", "top"))
     assert m.value == pytest.approx(M.height(solved, top).value, abs=1e-9)  # the floor is z = 0
     assert m.value == pytest.approx(solved.model.node("box0").primitive.height, abs=1e-9)
@@ -138,7 +141,7 @@ def test_height_above_a_face_and_a_pixel_pick():
         uv = project(cam.K, cam.R, cam.C, X)
         if not (0 <= uv[0] <= cam.width and 0 <= uv[1] <= cam.height):
             continue
-        p = M.pick(solved, cam.K, cam.R, cam.C, uv, f"photo:{cam.id}@{uv[0]:.1f},{uv[1]:.1f}")
+        p = P.pick(solved, cam.K, cam.R, cam.C, uv, f"photo:{cam.id}@{uv[0]:.1f},{uv[1]:.1f}")
         if p.node == "box0":
             assert p.face == "top"
             np.testing.assert_allclose(solved.world(p), X, atol=1e-6)
@@ -149,22 +152,22 @@ def test_height_above_a_face_and_a_pixel_pick():
 
 def test_bad_points_get_clear_errors(tmp_path):
     solved, _, photos = solved_scene(2)
-    with pytest.raises(M.MeasureError, match="no node named 'chair'.*the nodes are: floor, box0"):
-        M.parse_point("chair:v0", solved)
-    with pytest.raises(M.MeasureError, match="'box0' \\(box\\) has no handle 'v9'; its handles are: v0"):
-        M.parse_point("box0:v9", solved)
-    with pytest.raises(M.MeasureError, match="a box has no face 'lid'; its faces are: front, right"):
-        M.parse_point("box0@lid:0,0", solved)
-    with pytest.raises(M.MeasureError, match="lies off that face"):
-        M.parse_point("box0@top:5,0", solved)
-    with pytest.raises(M.MeasureError, match="face coordinates s,t"):
-        M.parse_point("box0@top:0.1", solved)
-    with pytest.raises(M.MeasureError, match="'Q7' is not a marker.*node:handle"):
-        M.parse_point("Q7", solved)
+    with pytest.raises(S.MeasureError, match="no node named 'chair'.*the nodes are: floor, box0"):
+        P.parse_point("chair:v0", solved)
+    with pytest.raises(S.MeasureError, match="'box0' \\(box\\) has no handle 'v9'; its handles are: v0"):
+        P.parse_point("box0:v9", solved)
+    with pytest.raises(S.MeasureError, match="a box has no face 'lid'; its faces are: front, right"):
+        P.parse_point("box0@lid:0,0", solved)
+    with pytest.raises(S.MeasureError, match="lies off that face"):
+        P.parse_point("box0@top:5,0", solved)
+    with pytest.raises(S.MeasureError, match="face coordinates s,t"):
+        P.parse_point("box0@top:0.1", solved)
+    with pytest.raises(S.MeasureError, match="'Q7' is not a marker.*node:handle"):
+        P.parse_point("Q7", solved)
     cam = next(iter(photos.values()))
     up_R = np.eye(3)  # the camera's +z is the world's: it looks straight up, above every box
-    with pytest.raises(M.MeasureError, match="meets no surface of the model"):
-        M.pick(solved, cam.K, up_R, np.array([3.0, 2.5, 2.0]), (800.0, 600.0), "photo:up@800,600")
+    with pytest.raises(S.MeasureError, match="meets no surface of the model"):
+        P.pick(solved, cam.K, up_R, np.array([3.0, 2.5, 2.0]), (800.0, 600.0), "photo:up@800,600")
 
 
 def test_unsolved_project_and_bad_check_distance(tmp_path, textured_room):
@@ -176,9 +179,9 @@ def test_unsolved_project_and_bad_check_distance(tmp_path, textured_room):
     project = load_project(proj)
     del project.data["model_solution"]
     with pytest.raises(ProjectError, match=r"\$\.model_solution: the project has not been solved yet"):
-        M.SolvedModel.from_project(project)
+        S.SolvedModel.from_project(project)
     project = load_project(proj)
-    solved = M.SolvedModel.from_project(project)
+    solved = S.SolvedModel.from_project(project)
     project.data["reference_distances"].append({"a": "T2", "b": "table.top:v99", "distance": 1.0, "role": "check"})
     k = len(project.data["reference_distances"]) - 1
     with pytest.raises(ProjectError, match=rf"\$\.reference_distances\[{k}\]\.b: .*has no handle 'v99'"):
@@ -207,7 +210,7 @@ def test_example_room_check_distance_and_cli(tmp_path, textured_room, capsys):
     assert 0 < c["measured_sigma_m"] < 0.02
     assert c["difference_m"] == pytest.approx(c["measured_m"] - c["known_m"])
     assert abs(c["difference_m"]) < 0.03  # 3 cm over 2.8 m
-    assert c["within_ci95"] == (abs(c["difference_m"]) <= M.Z95 * c["difference_sigma_m"])
+    assert c["within_ci95"] == (abs(c["difference_m"]) <= Z95 * c["difference_sigma_m"])
     assert set(c["rests_on"]["markers"]) == {"T2", "C1"} and c["rests_on"]["photos"]
 
     assert main(["analyse", proj, "distance", "cabinet:v4", "table.top@top:0.1,0.1",

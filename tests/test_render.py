@@ -16,7 +16,7 @@ import pytest
 import trimesh
 from PIL import Image
 
-from vebuild.actions.render import PROVENANCE_KEYS, RenderRequest, parse_size, render_evidence
+from vebuild.actions.render import RenderRequest, parse_size, render_evidence
 from vebuild.camera import ImageCamera, look_rotation, project, stereo_pair
 from vebuild.cli import main
 from vebuild.errors import ProjectError, VebuildError
@@ -24,6 +24,7 @@ from vebuild.gl import headless_context
 from vebuild.model.scene import model_from_dict
 from vebuild.project import load_project, sha256_file
 from vebuild.render.lighting import AS_PHOTOGRAPHED_LIGHTING, preset_from_record
+from vebuild.render.png import PROVENANCE_KEYS
 from vebuild.render.renderer import Renderer, RenderOptions, Stereo
 from vebuild.render.scene import load_scene, scene_from_model
 from vebuild.texture import layout as lay

@@ -7,10 +7,10 @@ import shutil
 
 import pytest
 
-from vebuild.actions.report import digest, write_report
 from vebuild.cli import main
 from vebuild.errors import ProjectError, VebuildError
 from vebuild.project import load_project
+from vebuild.report.write import digest, write_report
 
 
 @pytest.fixture(scope="module")

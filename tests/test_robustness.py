@@ -66,14 +66,14 @@ def test_a_view_too_large_to_render_is_refused_naming_the_view(room, tmp_path, c
 
 
 def test_the_report_refuses_a_view_whose_image_would_be_too_tall(room, tmp_path, monkeypatch):
-    from vebuild.actions.report import write_report
     from vebuild.project import load_project
+    from vebuild.report.write import write_report
 
     project = load_project(room)
     project.data["calibration"] = {"cameras": {"p1": {}}}  # the size check comes before any use of it
     project.data["views"][2].update(width=1, height=100000)
-    for section in ("_photos", "_calibration", "_model"):  # only the views' section matters here
-        monkeypatch.setattr(f"vebuild.actions.report.{section}", lambda project, rep: None)
+    for section in ("photos", "calibration", "model"):  # only the views' section matters here
+        monkeypatch.setattr(f"vebuild.report.sections.{section}", lambda project, rep: None)
     with pytest.raises(VebuildError) as e:
         write_report(project, tmp_path / "r", pdf=False)
     assert "the report's image of view 'overview' (960 pixels wide, its height from the aspect of $.views[2], " \
@@ -115,8 +115,8 @@ class _Rep:
      r"\$\.analyses\[0\]\.command: --size: a 40000×40000 image cannot be rendered"),
 ])
 def test_recorded_analyses_never_print_help_or_exit(room, tmp_path, capsys, command, message):
-    from vebuild.analysis.report_sections import analyses
     from vebuild.project import load_project
+    from vebuild.report.analyses import analyses_html as analyses
 
     project = load_project(room)
     (tmp_path / "images").mkdir()
@@ -128,7 +128,7 @@ def test_recorded_analyses_never_print_help_or_exit(room, tmp_path, capsys, comm
 
 
 def test_a_report_with_a_recorded_help_fails_with_status_2(room, tmp_path, capsys, monkeypatch):
-    from vebuild.actions import report
+    from vebuild.report import write as report
 
     data = json.loads(room.read_text())
     data["analyses"] = [{"name": "help", "command": ["distance", "--help"]}]
@@ -142,12 +142,12 @@ def test_a_report_with_a_recorded_help_fails_with_status_2(room, tmp_path, capsy
 
 def _report_without_renders(write_report, monkeypatch):
     """The report with only its analyses section (the others need a solved, textured project)."""
-    from vebuild.actions import report
+    from vebuild.report import sections
 
     def run(project, out, pdf=True, progress=None):
         project.data.setdefault("calibration", {"cameras": {"p1": {}}})
-        for section in ("_photos", "_calibration", "_model", "_views", "_validation", "_hypotheses"):
-            monkeypatch.setattr(report, section, lambda project, rep: None)
+        for section in ("photos", "calibration", "model", "views", "validation", "hypotheses"):
+            monkeypatch.setattr(sections, section, lambda project, rep: None)
         return write_report(project, out, pdf, progress)
     return run
 

@@ -23,8 +23,9 @@ from vebuild.model.scene import model_from_dict
 from vebuild.project import sha256_file
 from vebuild.texture import layout as lay
 from vebuild.texture.extract import PhotoSource, extract, read_photo
-from vebuild.texture.gpu import Extractor, Options
+from vebuild.texture.gpu import Extractor
 from vebuild.texture.merge import COVERAGE_UNSEEN, push_pull, srgb8_to_linear
+from vebuild.texture.options import Options
 
 #: The issue's goal for extracted vs true textures over texels some photo saw (measured: 35.7 dB
 #: with every improvement on, 34.0 dB as in the paper; bench texture has the figures).

@@ -138,7 +138,8 @@ def gl():
 
 @pytest.fixture(scope="module")
 def extractor(gl):
-    from vebuild.texture.gpu import Extractor, Options
+    from vebuild.texture.gpu import Extractor
+    from vebuild.texture.options import Options
 
     ex = Extractor(gl, _mesh(), Options())
     yield ex
@@ -409,7 +410,8 @@ def test_gpu_texels_agree_with_the_reference(extractor, pid, erode):
 
 
 def test_accumulate_agrees_with_the_gpu_sums(gl):
-    from vebuild.texture.gpu import Extractor, Options
+    from vebuild.texture.gpu import Extractor
+    from vebuild.texture.options import Options
 
     cams = true_cameras()
     opt = Options(exposure=False)

@@ -23,7 +23,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
     from .actions.calibrate import calibrate_project
     from .outputs import begin_stage
     from .project import load_project, save_project
-    from .report_text import calibration_table
+    from .report.text import calibration_table
 
     project = load_project(args.project)
     begin_stage(project)
@@ -39,7 +39,7 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     from .actions.solve import solve_project
     from .outputs import begin_stage
     from .project import load_project, save_project
-    from .report_text import model_table
+    from .report.text import model_table
 
     project = load_project(args.project)
     begin_stage(project)
@@ -100,8 +100,8 @@ def _cmd_mark(args: argparse.Namespace) -> int:
 def _cmd_report(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
-    from .actions.report import write_report
     from .project import load_project
+    from .report.write import write_report
 
     project = load_project(args.project)
     bar = tqdm(total=8 - int(args.no_pdf), desc="report", unit="section", disable=not _progress_wanted(args))
@@ -144,6 +144,7 @@ def _cmd_render(args: argparse.Namespace) -> int:
     what = f"view '{args.view}'" if args.view else f"photo '{result.camera.id}'"
     print(f"{what}, lighting '{result.lighting}', {result.size[0]}×{result.size[1]} written to {result.out}")
     if result.overlay is not None:
+        assert result.covered_fraction is not None and result.rms_colour_difference is not None
         print(f"overlay of the photo written to {result.overlay}")
         print(f"RMS colour difference over the {100 * result.covered_fraction:.1f} % of pixels the model covers: "
               f"{result.rms_colour_difference:.1f} sRGB levels (after an exposure gain of {result.exposure_gain:.3f})")
@@ -151,17 +152,21 @@ def _cmd_render(args: argparse.Namespace) -> int:
 
 
 def _cmd_texture(args: argparse.Namespace) -> int:
-    from .actions.texture import progress_bar, texture_project
+    from .actions.texture import texture_project
+    from .cli_progress import progress_bar
     from .project import load_project
-    from .report_text import texture_table
-    from .texture.gpu import Options
+    from .report.text import texture_table
+    from .texture.options import Options
 
     project = load_project(args.project)
-    options = Options(texels_per_metre=args.density, max_face_texels=args.max_face_texels, mode=args.mode,
-                      fill=args.fill, erode_px=0.0 if args.no_erode else args.erode_px,
-                      drop_ratio=0.0 if args.no_drop else args.drop_ratio,
-                      detail_sharpness=1.0 if args.no_detail else Options.detail_sharpness,
-                      exposure=not args.no_exposure)
+    try:
+        options = Options(texels_per_metre=args.density, max_face_texels=args.max_face_texels, mode=args.mode,
+                          fill=args.fill, erode_px=0.0 if args.no_erode else args.erode_px,
+                          drop_ratio=0.0 if args.no_drop else args.drop_ratio,
+                          detail_sharpness=1.0 if args.no_detail else Options.detail_sharpness,
+                          exposure=not args.no_exposure)
+    except VebuildError as e:
+        raise VebuildError(f"{project.path}: {e}") from None
     with progress_bar(_progress_wanted(args)) as progress:
         record, _ = texture_project(project, options, progress)  # pages, then the project, then old pages
     print(texture_table(record))
@@ -171,7 +176,7 @@ def _cmd_texture(args: argparse.Namespace) -> int:
 
 def _cmd_video(args: argparse.Namespace) -> int:
     from .actions.render import parse_size
-    from .actions.texture import progress_bar
+    from .cli_progress import progress_bar
     from .project import load_project
     from .render.video import Timing, VideoRequest, parse_views, render_video
 
@@ -196,7 +201,7 @@ def _cmd_video(args: argparse.Namespace) -> int:
 def _cmd_register(args: argparse.Namespace) -> int:
     from .actions.register import register_photos
     from .project import load_project, save_project
-    from .report_text import calibration_table
+    from .report.text import calibration_table
 
     project = load_project(args.project)
     done = register_photos(project, args.photos or None)
@@ -293,7 +298,10 @@ def _progress_wanted(args: argparse.Namespace) -> bool:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from .actions.render import RenderRequest
     from .bench import BENCHES
+    from .render.video import Timing, VideoRequest
+    from .texture.options import FILLS, MODES, Options
 
     parser = argparse.ArgumentParser(
         prog="vebuild",
@@ -332,11 +340,12 @@ def build_parser() -> argparse.ArgumentParser:
                    help="a lighting preset of the project (default: as-photographed, the textures unlit)")
     p.add_argument("--stereo", choices=("sbs", "tb", "anaglyph"),
                    help="a stereo pair: side by side, top and bottom, or red-cyan anaglyph")
-    p.add_argument("--eye-separation", type=float, default=0.063, metavar="M",
+    p.add_argument("--eye-separation", type=float, default=RenderRequest.eye_separation, metavar="M",
                    help="distance between the eyes in metres (default: %(default)s)")
     p.add_argument("--convergence", type=float, metavar="M",
                    help="distance of the screen plane (zero parallax) in metres (default: the scene's centre)")
-    p.add_argument("--samples", type=int, default=4, metavar="N", help="anti-aliasing samples (default: %(default)s)")
+    p.add_argument("--samples", type=int, default=RenderRequest.samples, metavar="N",
+                   help="anti-aliasing samples (default: %(default)s)")
     p.add_argument("--no-shadows", action="store_true", help="lights cast no shadows")
     p.add_argument("--hypothesis", metavar="NAME",
                    help="the objects arranged as in this hypothesis (the image is labelled as one)")
@@ -387,18 +396,18 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("texture", help="extract textures from the photos onto the model (paper §4)")
     p.add_argument("project")
-    p.add_argument("--density", type=float, default=200.0, metavar="T",
+    p.add_argument("--density", type=float, default=Options.texels_per_metre, metavar="T",
                    help="texels per metre on every face (default: %(default)s)")
-    p.add_argument("--max-face-texels", type=int, default=2048, metavar="N",
+    p.add_argument("--max-face-texels", type=int, default=Options.max_face_texels, metavar="N",
                    help="at most N texels along a face's side (default: %(default)s)")
-    p.add_argument("--mode", choices=("texture", "average"), default="texture",
+    p.add_argument("--mode", choices=MODES, default=Options.mode,
                    help="'average': one colour per face (paper Figure 9, middle)")
-    p.add_argument("--fill", choices=("push-pull", "average"), default="push-pull",
+    p.add_argument("--fill", choices=FILLS, default=Options.fill,
                    help="how texels no photo saw are filled: smoothly from the seen ones, or with "
                         "the face's average colour (the paper)")
-    p.add_argument("--erode-px", type=float, default=2.0, metavar="PX",
+    p.add_argument("--erode-px", type=float, default=Options.erode_px, metavar="PX",
                    help="keep texels this far from occluding edges (default: %(default)s)")
-    p.add_argument("--drop-ratio", type=float, default=0.25, metavar="R",
+    p.add_argument("--drop-ratio", type=float, default=Options.drop_ratio, metavar="R",
                    help="ignore a view where it is R times worse than the texel's best (default: %(default)s)")
     p.add_argument("--no-erode", action="store_true", help="take texels right up to occluding edges")
     p.add_argument("--no-drop", action="store_true", help="average every view, however poor")
@@ -414,19 +423,21 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the views to walk through, in order, by name (at least two)")
     p.add_argument("--out", metavar="FILE.mp4", help="the video (default: videos/<views>.mp4 beside the project)")
     p.add_argument("--size", metavar="WxH", help="image size, even (default: the first view's)")
-    p.add_argument("--fps", type=float, default=30.0, help="frames per second (default: %(default)g)")
+    p.add_argument("--fps", type=float, default=Timing.fps, help="frames per second (default: %(default)g)")
     how = p.add_mutually_exclusive_group()
     how.add_argument("--speed", type=float, metavar="M_PER_S", help="walking speed (default: 1 m/s)")
     how.add_argument("--seconds", type=float, metavar="S",
                      help="seconds for each segment between two views, whatever its length")
-    p.add_argument("--hold", type=float, default=0.0, metavar="S", help="seconds to stay at each view (default: 0)")
-    p.add_argument("--turn-rate", type=float, default=45.0, metavar="DEG_PER_S",
+    p.add_argument("--hold", type=float, default=Timing.hold, metavar="S",
+                   help="seconds to stay at each view (default: %(default)g)")
+    p.add_argument("--turn-rate", type=float, default=Timing.turn_rate_deg, metavar="DEG_PER_S",
                    help="fastest turn (or zoom), which sets the time of segments that turn more than they "
                         "move (default: %(default)g)")
     p.add_argument("--lighting", metavar="PRESET", help="a lighting preset (default: as photographed)")
     p.add_argument("--stereo", choices=("sbs", "tb", "anaglyph"), help="stereo: side by side, top and bottom, "
                    "or red-cyan anaglyph")
-    p.add_argument("--crf", type=int, default=18, help="x264 quality, 0 (best) to 51 (default: %(default)s)")
+    p.add_argument("--crf", type=int, default=VideoRequest.crf,
+                   help="x264 quality, 0 (best) to 51 (default: %(default)s)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=_cmd_video)
 

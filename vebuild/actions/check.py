@@ -62,11 +62,11 @@ def check_project(project: Project) -> list[str]:
 
 
 def _check_analyses(project: Project) -> None:
-    from ..analysis.report_sections import parse
+    from ..analysis.recorded import parse_recorded
 
     for i, rec in enumerate(project.data.get("analyses") or []):
         try:
-            parse(str(project.path), list(rec["command"]))
+            parse_recorded(list(rec["command"]))
         except VebuildError as e:
             raise ProjectError(project.path, f"$.analyses[{i}].command", str(e)) from None
 
@@ -77,10 +77,10 @@ def check_render_sizes(project: Project) -> None:
     (``render --view``, ``video``), the report's image of each view and of each calibrated photo,
     and the ``--size`` of each recorded analysis (the report runs it). A photo's own size is not
     a render's: only its report image is checked."""
-    from ..analysis.report_sections import parse
+    from ..analysis.recorded import parse_recorded
     from ..render.sizes import check_render_size
+    from ..report.page import IMAGE_WIDTH, image_size
     from .render import parse_size
-    from .report import IMAGE_WIDTH, image_size
 
     def located(width: Any, height: Any, source: str) -> None:  # source: the JSON path and what it is
         try:
@@ -101,7 +101,7 @@ def check_render_sizes(project: Project) -> None:
                     f"the report's image of photo {p['id']!r} ({IMAGE_WIDTH} pixels wide, its height from the "
                     f"aspect of $.photos[{i}], {p['width']}×{p['height']})")
     for i, rec in enumerate(data.get("analyses") or []):
-        size = getattr(parse(str(project.path), list(rec["command"])), "size", None)
+        size = getattr(parse_recorded(list(rec["command"])), "size", None)
         if size is not None:
             try:
                 parse_size(size)
@@ -119,6 +119,6 @@ def _check_hypotheses(project: Project, model: Model) -> None:
 
 def _check_model_solution(project: Project) -> None:
     # What analyse and report decode of the solution: its nodes and the covariance's shape.
-    from ..analysis.measure import check_model_solution
+    from ..analysis.solved import check_model_solution
 
     check_model_solution(project)

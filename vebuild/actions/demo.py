@@ -18,13 +18,14 @@ import numpy as np
 from tqdm import tqdm
 
 from ..camera import log_so3
+from ..cli_progress import progress_bar
 from ..errors import VebuildError
 from ..project import load_project, save_project
-from ..report_text import calibration_table, model_table, texture_table
+from ..report.text import calibration_table, model_table, texture_table
 from ..resources import example_project_dir
 from .calibrate import calibrate_project
 from .solve import solve_project
-from .texture import progress_bar, texture_project
+from .texture import texture_project
 
 PROJECT_NAME = "room.vebuild.json"
 

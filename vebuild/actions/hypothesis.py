@@ -37,7 +37,7 @@ def model_with(model: Model, joints: Mapping[str, Mapping[str, Any]], where: str
 
     ``where``: the hypothesis' JSON path, for the messages (:func:`applied_hypothesis` adds the file).
     """
-    from vebuild.viewer.manipulate import ObjectMover
+    from vebuild.model.arrange import ObjectMover
 
     mover = ObjectMover(model)
     mover.apply(joints, where)

@@ -1,6 +1,6 @@
 """``vebuild render``: an evidence view or a photo's own camera rendered headless to a PNG.
 
-The PNG carries its provenance in text chunks (:data:`PROVENANCE_KEYS`): the SHA-256 of the
+The PNG carries its provenance in text chunks (:data:`vebuild.render.png.PROVENANCE_KEYS`): the SHA-256 of the
 project file it was made from, the camera (named view or photo, with K, R, C and size), the
 lighting preset and its lights, the stereo settings, the texture pages' hashes and the software
 version, and no time stamp, so that the same project and options give the same file, byte for
@@ -12,25 +12,20 @@ pixels the model covers.
 from __future__ import annotations
 
 import json
-import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from PIL import Image, PngImagePlugin
+from PIL import Image
 
-from vebuild import __version__
 from vebuild.camera import ImageCamera
 from vebuild.errors import ProjectError, VebuildError
-from vebuild.project import Project, sha256_file
+from vebuild.project import Project
+from vebuild.render.png import check_output, provenance, stamp, write_png
 from vebuild.texture.merge import linear_to_srgb8, srgb8_to_linear
 
-#: Text keys written into every rendered PNG.
-PROVENANCE_KEYS = ("Software", "vebuild:project", "vebuild:project_sha256", "vebuild:camera", "vebuild:lighting",
-                   "vebuild:stereo", "vebuild:textures", "vebuild:options")
 #: Share of a pixel the model must cover to count in the validation's colour difference.
 FULL_COVERAGE = 0.999
 
@@ -53,6 +48,27 @@ class RenderRequest:
     validate: bool = False
     hypothesis: str | None = None
     markers: bool = True  # draw the project's evidence markers (mono views)
+
+    def __post_init__(self) -> None:
+        """Each option checked when the request is made, its error naming the option (as the
+        command line spells it) and what was expected."""
+        if (self.view is None) == (self.photo is None):
+            raise VebuildError("render: give exactly one of a view (--view NAME) or a photo (--photo ID)")
+        if self.stereo is not None:
+            from vebuild.render.renderer import STEREO_MODES
+
+            if self.stereo not in STEREO_MODES[:3]:
+                raise VebuildError(f"--stereo: expected one of sbs, tb, anaglyph (quad-buffered stereo needs a "
+                                   f"window), got {self.stereo!r}")
+        if self.validate and (self.photo is None or self.stereo is not None):
+            raise VebuildError("--validate compares a render with its photo: use it with --photo and without "
+                               "--stereo")
+        if not (self.eye_separation > 0):
+            raise VebuildError(f"--eye-separation: expected a distance > 0 m, got {self.eye_separation}")
+        if self.convergence is not None and not (self.convergence > 0):
+            raise VebuildError(f"--convergence: expected a distance > 0 m, got {self.convergence}")
+        if self.samples < 1:
+            raise VebuildError(f"--samples: expected 1 or more, got {self.samples}")
 
 
 @dataclass
@@ -79,88 +95,9 @@ def parse_size(text: str) -> tuple[int, int]:
     return check_render_size(int(m[1]), int(m[2]), "--size")
 
 
-def check_output(path: Path, suffixes: tuple[str, ...] = (".png",), project: Project | None = None) -> Path:
-    """Fail early, before any work, if ``path`` cannot be written as an output file: also where
-    the output policy (:mod:`vebuild.outputs`: never over the project's own files, only over a
-    file vebuild wrote) forbids it."""
-    from vebuild.outputs import check_file
-
-    path = Path(path)
-    check_file(project, path, suffix=suffixes[0])
-    if path.is_dir():
-        raise VebuildError(f"{path}: is a folder; expected a file name for the output")
-    if path.suffix.lower() not in suffixes:
-        raise VebuildError(f"{path}: expected an output file ending in {' or '.join(suffixes)}")
-    folder = path.parent if str(path.parent) else Path(".")
-    if not folder.is_dir():
-        raise VebuildError(f"{path}: the folder {folder} does not exist; create it first or choose another path")
-    if not os.access(folder, os.W_OK):
-        raise VebuildError(f"{path}: the folder {folder} cannot be written to (permission denied)")
-    if path.exists() and not os.access(path, os.W_OK):
-        raise VebuildError(f"{path}: the existing file cannot be overwritten (permission denied)")
-    return path
-
-
-def write_png(path: Path, image: NDArray[np.uint8], text: dict[str, str]) -> None:
-    """Write an RGB image with text chunks atomically (:mod:`vebuild.atomic`)."""
-    from vebuild.atomic import write_with
-
-    info = PngImagePlugin.PngInfo()
-    for k, v in text.items():
-        info.add_itxt(k, v) if not v.isascii() else info.add_text(k, v)
-    try:
-        write_with(path, lambda f: Image.fromarray(image, "RGB").save(f, format="PNG", pnginfo=info))
-    except OSError as e:
-        raise VebuildError(f"{path}: cannot write the image ({e.strerror or e})") from None
-
-
 def overlay_path(out: Path) -> Path:
     """Where ``--validate`` writes the photo overlaid on the render of ``out``."""
     return out.with_name(out.stem + "-overlay.png")
-
-
-def stamp(image: NDArray[np.uint8], text: str) -> NDArray[np.uint8]:
-    """The image with ``text`` in a red band across its top (how a hypothesis is labelled)."""
-    from PIL import ImageDraw, ImageFont
-
-    img = Image.fromarray(image, "RGB")
-    size = max(12, img.height // 28)
-    font = ImageFont.load_default(size=size)
-    draw = ImageDraw.Draw(img)
-    box = draw.textbbox((0, 0), text, font=font)
-    pad = size // 2
-    draw.rectangle((0, 0, img.width, box[3] + 2 * pad), fill=(170, 20, 20))
-    draw.text((pad, pad), text, fill=(255, 255, 255), font=font)
-    return np.asarray(img)
-
-
-def _camera_record(cam: ImageCamera, kind: str) -> dict[str, Any]:
-    return {"kind": kind, "name": cam.id, "width": cam.width, "height": cam.height,
-            "K": np.round(cam.K, 9).tolist(), "R": np.round(cam.R, 12).tolist(), "C": np.round(cam.C, 9).tolist()}
-
-
-def _lighting_record(project: Project, name: str) -> dict[str, Any]:
-    for rec in (project.data.get("lighting") or {}).get("presets", []):
-        if rec["name"] == name:
-            return rec
-    return {"name": name}
-
-
-def provenance(project: Project, cam: ImageCamera, kind: str, lighting: str, stereo: dict[str, Any] | None,
-               page_hashes: list[str], options: dict[str, Any]) -> dict[str, str]:
-    """The PNG text chunks of a render (:data:`PROVENANCE_KEYS`)."""
-    def js(x: Any) -> str:
-        return json.dumps(x, sort_keys=True, ensure_ascii=False)
-    return {
-        "Software": f"vebuild {__version__}",
-        "vebuild:project": project.path.name,
-        "vebuild:project_sha256": sha256_file(project.path),
-        "vebuild:camera": js(_camera_record(cam, kind)),
-        "vebuild:lighting": js(_lighting_record(project, lighting)),
-        "vebuild:stereo": js(stereo),
-        "vebuild:textures": js(page_hashes),
-        "vebuild:options": js(options),
-    }
 
 
 def render_evidence(project: Project, req: RenderRequest) -> RenderResult:
@@ -168,7 +105,7 @@ def render_evidence(project: Project, req: RenderRequest) -> RenderResult:
     from vebuild.gl import headless_context
     from vebuild.outputs import begin_stage
     from vebuild.render.lighting import find_preset
-    from vebuild.render.renderer import STEREO_MODES, Renderer, RenderOptions, Stereo
+    from vebuild.render.renderer import Renderer, RenderOptions, Stereo
     from vebuild.render.scene import load_scene
     from vebuild.render.sizes import check_camera
     from vebuild.render.views import find_view, photo_camera
@@ -177,19 +114,6 @@ def render_evidence(project: Project, req: RenderRequest) -> RenderResult:
     if req.validate:
         check_output(overlay_path(out), project=project)
     begin_stage(project, out.parent if str(out.parent) else ".")
-    if (req.view is None) == (req.photo is None):
-        raise VebuildError("render: give exactly one of a view (--view NAME) or a photo (--photo ID)")
-    if req.stereo is not None and req.stereo not in STEREO_MODES[:3]:
-        raise VebuildError(f"--stereo: expected one of sbs, tb, anaglyph (quad-buffered stereo needs a window), "
-                           f"got {req.stereo!r}")
-    if req.validate and (req.photo is None or req.stereo is not None):
-        raise VebuildError("--validate compares a render with its photo: use it with --photo and without --stereo")
-    if not (req.eye_separation > 0):
-        raise VebuildError(f"--eye-separation: expected a distance > 0 m, got {req.eye_separation}")
-    if req.convergence is not None and not (req.convergence > 0):
-        raise VebuildError(f"--convergence: expected a distance > 0 m, got {req.convergence}")
-    if req.samples < 1:
-        raise VebuildError(f"--samples: expected 1 or more, got {req.samples}")
     kind = "view" if req.view is not None else "photo"
     cam = find_view(project, req.view) if req.view is not None else photo_camera(project, str(req.photo))
     if req.size is not None:

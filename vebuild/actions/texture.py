@@ -17,8 +17,7 @@ from __future__ import annotations
 import io
 import os
 import re
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -33,32 +32,13 @@ from vebuild.errors import VebuildError
 from vebuild.outputs import begin_stage
 from vebuild.project import Project, autosave_path, canonical_input_hash, load_project, save_project, sha256_file
 from vebuild.texture.extract import PhotoSource, TextureResult, extract
-from vebuild.texture.gpu import Options, Timings
+from vebuild.texture.gpu import Timings
 from vebuild.texture.merge import linear_to_srgb8
+from vebuild.texture.options import Options
 
 TEXTURE_DIR = "textures"
 #: The name of a page vebuild writes: kind, page number, the first 12 hex digits of its SHA-256.
 PAGE_NAME = re.compile(r"^(atlas|coverage)_(\d+)_([0-9a-f]{12})\.png$")
-
-
-@contextmanager
-def progress_bar(enabled: bool, desc: str = "texturing",
-                 unit: str = "photo") -> Iterator[Callable[[int, int, str], None]]:
-    """A tqdm bar, as a ``progress(done, total, label)`` callback: over photos for
-    :func:`texture_project`, over frames for a video (``desc``, ``unit``)."""
-    from tqdm import tqdm
-
-    bar = tqdm(total=None, desc=desc, unit=unit, disable=not enabled)
-
-    def step(done: int, total: int, photo: str) -> None:
-        bar.total, bar.n = total, done
-        bar.set_postfix_str(photo)
-        bar.refresh()
-
-    try:
-        yield step
-    finally:
-        bar.close()
 
 
 def texture_project(project: Project, options: Options | None = None,

@@ -34,6 +34,7 @@ from numpy.typing import NDArray
 
 from vebuild.analysis.rays import Occluders
 from vebuild.camera import ImageCamera, fov_to_focal, intrinsic_matrix, look_rotation, project, world_to_camera
+from vebuild.constants import Z95
 from vebuild.errors import VebuildError
 from vebuild.render.scene import RenderScene
 
@@ -50,8 +51,6 @@ SAMPLE_SEED = 0
 FLOOR_TOLERANCE_M = 1e-3
 #: Things lower than this (a rug, the floor itself) do not stop a person standing on them.
 FLOOR_CLEARANCE_M = 0.02
-#: z of the 95 % two-sided normal interval.
-Z95 = 1.959963984540054
 DEFAULT_FOV_DEG = 60.0
 
 
@@ -107,7 +106,10 @@ class Target:
 
     @property
     def label(self) -> str:
-        return f"'{self.node}'" if self.node is not None else "(" + ", ".join(f"{v:.3f}" for v in self.point) + ")"
+        if self.node is not None:
+            return f"'{self.node}'"
+        assert self.point is not None  # a target is a point or an object
+        return "(" + ", ".join(f"{v:.3f}" for v in self.point) + ")"
 
     def record(self) -> dict[str, Any]:
         if self.node is not None:
@@ -223,7 +225,8 @@ class SightLine:
     def record(self) -> dict[str, Any]:
         d: dict[str, Any] = {"eye": self.eye.record(), "target": self.target.record(), "visible": self.visible,
                              "distance_m": round(self.distance_m, 6)}
-        if self.visible_share is not None:
+        if self.visible_share is not None:  # an object target: its share, interval and facing share
+            assert self.share_ci95 is not None and self.facing_share is not None
             d.update({"visible_share": round(self.visible_share, 6),
                       "visible_share_ci95": [round(v, 6) for v in self.share_ci95],
                       "facing_share": round(self.facing_share, 6), "samples": self.samples,
@@ -329,9 +332,9 @@ def render_witness_view(project: Any, scene: RenderScene, result: SightLine, out
     """Render the witness's view of ``result`` to ``out`` (PNG with provenance); the target object
     is highlighted (for a group, its largest part: the renderer highlights one node), a target
     point marked by a ring (dashed when hidden)."""
-    from vebuild.actions.render import check_output, provenance, write_png
     from vebuild.gl import headless_context
     from vebuild.render.lighting import find_preset
+    from vebuild.render.png import check_output, provenance, write_png
     from vebuild.render.renderer import Renderer, RenderOptions
 
     out = check_output(Path(out))
@@ -415,7 +418,7 @@ def cell_centres(origin: Any, cell: float, nx: int, ny: int) -> tuple[Array, Arr
 
 def floor_grid(occ: Occluders, cell: float, eye_height: float) -> tuple[tuple[float, float], NDArray[np.int8]]:
     """The grid over the floor (upward faces at z = 0) and each cell's state."""
-    from vebuild.viewer.collide import footprints
+    from vebuild.model.collide import footprints
 
     if not cell > 0:
         raise VebuildError(f"--cell: expected a cell size > 0 m, got {cell:g}")
@@ -489,8 +492,8 @@ def viewshed_image(vs: Viewshed, occ: Occluders, px_per_cell: int | None = None)
     the model's objects outlined, the target marked in red, a 1 m scale bar and a caption."""
     from PIL import Image, ImageDraw, ImageFont
 
+    from vebuild.model.collide import footprints
     from vebuild.render.sizes import check_render_size
-    from vebuild.viewer.collide import footprints
 
     ny, nx = vs.states.shape
     s = px_per_cell or int(max(2, min(16, 900 // max(nx, ny))))
@@ -557,8 +560,8 @@ def viewshed_image(vs: Viewshed, occ: Occluders, px_per_cell: int | None = None)
 def write_viewshed_png(project: Any, vs: Viewshed, occ: Occluders, out: Path) -> None:
     """The viewshed's map as a PNG carrying its provenance and figures."""
     from vebuild import __version__
-    from vebuild.actions.render import check_output, write_png
     from vebuild.project import sha256_file
+    from vebuild.render.png import check_output, write_png
 
     out = check_output(Path(out))
     text = {"Software": f"vebuild {__version__}", "vebuild:project": project.path.name,

@@ -194,7 +194,7 @@ def trajectory(occ: Occluders, entry: Array, exit: Array | None = None, directio
         cone_deg = math.degrees(math.atan(K95_2D * math.hypot(*sigma) / L))
     elif cone_deg is not None and not 0.0 <= cone_deg < 90.0:
         raise VebuildError(f"--cone: expected a half-angle of 0–90 degrees, got {cone_deg:g}")
-    tr = Trajectory(A, d, L, tuple(float(s) for s in sigma) if sigma is not None else None, cone_deg)
+    tr = Trajectory(A, d, L, (float(sigma[0]), float(sigma[1])) if sigma is not None else None, cone_deg)
     tr.hits = occ.line_hits(A, d)
     tr.stop = _first_beyond(occ, tr.hits, d, L, True)
     tr.source = _first_beyond(occ, tr.hits, d, 0.0, False)
@@ -231,8 +231,8 @@ def _cone_nodes(occ: Occluders, tr: Trajectory) -> tuple[dict[str, float], dict[
         dk = dirs[k] if k < len(dirs) else tr.direction
         hits = occ.line_hits(apex, dk)
         # Beyond the exit's plane (across the path) forward; behind the entry's plane backward.
-        s0 = (tr.exit - apex) @ tr.direction
-        s1 = (tr.entry - apex) @ tr.direction
+        s0 = float((tr.exit - apex) @ tr.direction)
+        s1 = float((tr.entry - apex) @ tr.direction)
         cos = float(dk @ tr.direction)
         f = _first_beyond(occ, hits, dk, s0 / cos, True)
         b = _first_beyond(occ, hits, dk, s1 / cos, False)
@@ -250,8 +250,16 @@ def _cone_nodes(occ: Occluders, tr: Trajectory) -> tuple[dict[str, float], dict[
 def path_extent(tr: Trajectory) -> tuple[float, float]:
     """Signed distances from the entry of the drawn path's ends: the surface behind the entry (or
     the scene's edge) to the surface it stops at (or the scene's edge)."""
-    t0 = tr.source.t if tr.source else -float(np.linalg.norm(tr.leaves_behind_at - tr.entry))
-    t1 = tr.stop.t if tr.stop else float(np.linalg.norm(tr.leaves_at - tr.entry))
+    if tr.source:
+        t0 = tr.source.t
+    else:
+        assert tr.leaves_behind_at is not None  # set when nothing is met behind the entry
+        t0 = -float(np.linalg.norm(tr.leaves_behind_at - tr.entry))
+    if tr.stop:
+        t1 = tr.stop.t
+    else:
+        assert tr.leaves_at is not None  # set when nothing is met beyond the exit
+        t1 = float(np.linalg.norm(tr.leaves_at - tr.entry))
     return t0, t1
 
 
@@ -271,10 +279,10 @@ def path_polylines(tr: Trajectory, generators: int = 8, rings: int = 6, step_m: 
         phi = 2 * np.pi * k / generators
         w = math.cos(phi) * e1 + math.sin(phi) * e2
         out["cone"].append(tr.entry + t[:, None] * tr.direction + r[:, None] * w)
-    phi = np.linspace(0, 2 * np.pi, 65)
-    w = np.cos(phi)[:, None] * e1 + np.sin(phi)[:, None] * e2
-    for x in np.linspace(t0, t1, rings + 2)[1:-1]:
-        out["cone"].append(tr.entry + x * tr.direction + tr.cone_radius(x) * w)
+    around = np.linspace(0, 2 * np.pi, 65)
+    w = np.cos(around)[:, None] * e1 + np.sin(around)[:, None] * e2
+    for ring in np.linspace(t0, t1, rings + 2)[1:-1]:
+        out["cone"].append(tr.entry + ring * tr.direction + tr.cone_radius(float(ring)) * w)
     return out
 
 
@@ -327,9 +335,9 @@ def draw_trajectory(image: NDArray[np.uint8], cam: ImageCamera, tr: Trajectory, 
 def render_trajectory_view(project: Any, scene: Any, tr: Trajectory, cam: ImageCamera, out: Path,
                            lighting: str | None = None, samples: int = 4) -> None:
     """Render ``cam``'s view headless, draw the trajectory over it, and write a PNG with provenance."""
-    from vebuild.actions.render import check_output, provenance, write_png
     from vebuild.gl import headless_context
     from vebuild.render.lighting import find_preset
+    from vebuild.render.png import check_output, provenance, write_png
     from vebuild.render.renderer import Renderer, RenderOptions
 
     out = check_output(Path(out))

@@ -45,7 +45,7 @@ def child(photo: str, side: int) -> dict[str, float]:
     """Run in the fresh process: one extraction from the photo; its figures."""
     from vebuild.project import sha256_file
     from vebuild.texture.extract import PhotoSource, extract
-    from vebuild.texture.gpu import Options
+    from vebuild.texture.options import Options
 
     from . import example_truth as truth
 

@@ -120,8 +120,9 @@ def texture_psnr(model: Model, result, exposures: dict[str, float]) -> float:
     to; absolute exposure is not observable from the photos)."""
     from vebuild.gl import headless_context
     from vebuild.texture import layout as lay
-    from vebuild.texture.gpu import Extractor, Options
+    from vebuild.texture.gpu import Extractor
     from vebuild.texture.merge import COVERAGE_UNSEEN, linear_to_srgb8
+    from vebuild.texture.options import Options
 
     G = float(np.exp(np.mean(np.log([exposures[c] for c in result.order]))))
     mesh = lay.scene_mesh(model, result.faces)

@@ -101,7 +101,7 @@ def example_scene() -> tuple[RenderScene, ImageCamera]:
     """The example room's true model with textures extracted from its photos, and its first
     photo's camera at 1280×720 (the same horizontal field of view)."""
     from ..texture.extract import PhotoSource, extract
-    from ..texture.gpu import Options
+    from ..texture.options import Options
     from . import example_truth as truth
 
     model, cams = truth.true_model(), truth.true_cameras()

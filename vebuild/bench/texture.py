@@ -38,8 +38,9 @@ from ..model.scene import Model, model_from_dict
 from ..project import sha256_file
 from ..texture import layout as lay
 from ..texture.extract import PhotoSource, extract
-from ..texture.gpu import Options, Timings
+from ..texture.gpu import Timings
 from ..texture.merge import COVERAGE_UNSEEN
+from ..texture.options import Options
 from . import example_truth as truth
 
 GOALS = {"total_over_decode": 2.0, "speedup_over_cpu_reference": 10.0, "psnr_db": 30.0}

@@ -2,63 +2,89 @@
 origin, reference distances, Calibrate) and the model (adding primitives, the scene graph, a
 node's properties and joint, Solve, Re-calibrate, Register, Extract textures, the residuals).
 
-A part of :class:`vebuild.edit.screen.Editor`, kept apart to be read on its own: the methods draw
-with Dear ImGui and call the editor's session; the editor's state is theirs.
+A component of :class:`vebuild.edit.screen.Editor` (``editor.panels``): it keeps what is typed into
+its fields, draws with Dear ImGui through the editor's widgets and calls the editor's session.
+A Keys tab lists the screen's keys from :data:`vebuild.edit.keys.EDITOR_KEYS`.
 """
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from imgui_bundle import imgui
 
+from .keys import EDITOR_KEYS
 from .overlay import AXIS_COLOURS
+
+if TYPE_CHECKING:
+    from .screen import Editor
 
 KINDS = ["quad", "box", "wedge", "cylinder", "cone", "frustum", "sphere"]
 JOINT_TYPES = ["rests_on", "fixed", "hinge", "slider", "free"]
 
 
 class Panels:
-    """The right-hand panels of :class:`~vebuild.edit.screen.Editor` (mixed into it)."""
+    """The right-hand panels of an :class:`~vebuild.edit.screen.Editor` (``editor.panels``): they
+    hold what is being typed into them and draw with the editor's widgets, calling its session."""
 
-    session: Any
+    def __init__(self, editor: Editor):
+        self.ed = editor
+        self.new_kind = 1  # box
+        self.new_parent = 0  # (none)
+        self.new_name = ""
+        self.group_name = "group1"
+        self.dist_a, self.dist_b, self.dist_m, self.dist_role = "", "", 1.0, 0
+        self._param_edits: dict[str, Any] = {}
 
-    def _draw_panels(self) -> None:
-        self._fixed_window("##panels", self.panels_rect(), imgui.WindowFlags_.no_title_bar)
+    def forget_edits(self) -> None:
+        """Drop the values typed but not committed (another node was selected)."""
+        self._param_edits.clear()
+
+    def draw(self) -> None:
+        self.ed.fixed_window("##panels", self.ed.panels_rect(), imgui.WindowFlags_.no_title_bar)
         if imgui.begin_tab_bar("panels"):
-            for name, fn in (("Calibration", self._calibration_tab), ("Model", self._model_tab)):
+            for name, fn in (("Calibration", self._calibration_tab), ("Model", self._model_tab),
+                             ("Keys", self._keys_tab)):
                 shown, _ = imgui.begin_tab_item(name)
-                self._rect(f"tab:{name}")
+                self.ed.rect(f"tab:{name}")
                 if shown:
                     fn()
                     imgui.end_tab_item()
             imgui.end_tab_bar()
         imgui.end()
 
-    def _calibration_tab(self) -> None:
-        s = self.session
-        if self._button("Calibrate", tip="calibrate every photo from its segments and markers (paper §2)"):
-            self._later(self.calibrate)
-        if self.calibration_error:
+    def _keys_tab(self) -> None:
+        """The screen's keys and mouse, from the key table the dispatch uses."""
+        for keys, does in EDITOR_KEYS.rows():
+            imgui.text_colored(imgui.ImVec4(1.0, 0.8, 0.4, 1.0), keys)
             imgui.push_text_wrap_pos(0.0)
-            imgui.text_colored(imgui.ImVec4(1.0, 0.4, 0.35, 1.0), self.calibration_error)
+            imgui.text(does)
             imgui.pop_text_wrap_pos()
-        elif self.calibration_result:
-            for pid, c in self.calibration_result.get("cameras", {}).items():
+
+    def _calibration_tab(self) -> None:
+        s = self.ed.session
+        if self.ed.button("Calibrate", tip="calibrate every photo from its segments and markers (paper §2)"):
+            self.ed.later(self.ed.calibrate)
+        if self.ed.calibration_error:
+            imgui.push_text_wrap_pos(0.0)
+            imgui.text_colored(imgui.ImVec4(1.0, 0.4, 0.35, 1.0), self.ed.calibration_error)
+            imgui.pop_text_wrap_pos()
+        elif self.ed.calibration_result:
+            for pid, c in self.ed.calibration_result.get("cameras", {}).items():
                 imgui.text(f"{pid}: {c.get('mode', '?')}, f {c['focal_px']['value']:.1f} ± "
                            f"{c['focal_px']['sigma']:.1f} px, rms {c['rms_px']:.2f} px")
         imgui.separator()
-        if self.photo is not None:
-            imgui.text(f"vanishing points in {self.photo}")
+        if self.ed.photo is not None:
+            imgui.text(f"vanishing points in {self.ed.photo}")
             for axis in ("x", "y", "z"):
-                vs = self._guard(s.vanishing, self.photo, axis)
+                vs = self.ed.guard(s.vanishing, self.ed.photo, axis)
                 if vs is None:
                     continue
                 colour = imgui.ImVec4(*AXIS_COLOURS[axis])
                 if vs.point is not None:
                     v = vs.point
-                    where = _vanishing_point_text(v, *self.photo_size())
+                    where = _vanishing_point_text(v, *self.ed.photo_size())
                     rms = float(np.sqrt(np.mean(np.asarray(vs.residuals_px) ** 2)))
                     text = f"{axis}: {len(vs.segments)} segments, VP {where}, rms {rms:.2f} px"
                 else:
@@ -70,80 +96,80 @@ class Panels:
         origin = s.data.get("origin_marker")
         imgui.text(f"markers (origin: {origin or 'none'})")
         imgui.begin_child("markers", (0, 130), imgui.ChildFlags_.borders)
-        observed = (s.photo(self.photo).get("marker_observations") or {}) if self.photo else {}
+        observed = (s.photo(self.ed.photo).get("marker_observations") or {}) if self.ed.photo else {}
         for m in s.data.get("markers", []):
             name = m["name"]
             imgui.text(f"{name:<6}{'  in this photo' if name in observed else ''}")
             imgui.same_line(200)
             if name == origin:
                 imgui.text("origin")
-            elif self._button(f"origin##{name}", tip=f"the world's origin at {name}"):
-                self._guard(s.set_origin, name)
+            elif self.ed.button(f"origin##{name}", tip=f"the world's origin at {name}"):
+                self.ed.guard(s.set_origin, name)
         imgui.end_child()
         imgui.text("reference distances")
         for i, d in enumerate(s.data.get("reference_distances", [])):
             imgui.text(f"{d['a']}–{d['b']} {d['distance']:.4f} m ({d.get('role', 'scale')})")
             imgui.same_line()
-            if self._button(f"remove##distance{i}"):
-                self._guard(s.remove_distance, i)
+            if self.ed.button(f"remove##distance{i}"):
+                self.ed.guard(s.remove_distance, i)
         imgui.set_next_item_width(70)
         _, self.dist_a = imgui.input_text("##distance a", self.dist_a)
-        self._rect("distance a")
+        self.ed.rect("distance a")
         imgui.same_line()
         imgui.set_next_item_width(70)
         _, self.dist_b = imgui.input_text("##distance b", self.dist_b)
-        self._rect("distance b")
+        self.ed.rect("distance b")
         imgui.same_line()
         imgui.set_next_item_width(80)
         _, self.dist_m = imgui.input_float("m##distance", self.dist_m, 0.0, 0.0, "%.4f")
-        self._rect("distance m")
+        self.ed.rect("distance m")
         imgui.set_next_item_width(90)
         _, self.dist_role = imgui.combo("role##distance", self.dist_role, ["scale", "check"])
-        self._rect("distance role")
+        self.ed.rect("distance role")
         imgui.same_line()
-        if self._button("add##distance", tip="a measured distance between two markers (or node:vertex)"):
-            self._guard(s.add_distance, self.dist_a, self.dist_b, float(self.dist_m),
+        if self.ed.button("add##distance", tip="a measured distance between two markers (or node:vertex)"):
+            self.ed.guard(s.add_distance, self.dist_a, self.dist_b, float(self.dist_m),
                         role=["scale", "check"][self.dist_role])
 
     def _model_tab(self) -> None:
-        s = self.session
+        s = self.ed.session
         model = s.model
         imgui.set_next_item_width(100)
-        self.new_kind = self._combo("kind", self.new_kind, KINDS)
+        self.new_kind = self.ed.combo("kind", self.new_kind, KINDS)
         imgui.same_line()
         parents = self._attach_choices()
         self.new_parent = min(self.new_parent, len(parents) - 1)
         imgui.set_next_item_width(110)
-        self.new_parent = self._combo("parent", self.new_parent, parents)
+        self.new_parent = self.ed.combo("parent", self.new_parent, parents)
         imgui.same_line()
         imgui.set_next_item_width(90)
         _, self.new_name = imgui.input_text("##new name", self.new_name)
-        self._rect("new name")
-        if self._button("Add", tip="then click in the photo where it stands"):
+        self.ed.rect("new name")
+        if self.ed.button("Add", tip="then click in the photo where it stands"):
             self.arm_placement()
         imgui.same_line()
-        if self._button("Add at centre", tip="where the photo's centre looks at its support"):
+        if self.ed.button("Add at centre", tip="where the photo's centre looks at its support"):
             self.add_at_centre()
         imgui.separator()
-        if self._button("Solve"):
-            self._later(lambda: self.solve(False))
+        if self.ed.button("Solve"):
+            self.ed.later(lambda: self.ed.solve(False))
         imgui.same_line()
-        if self._button("Re-calibrate", tip="solve the cameras and markers with the model (paper §3.2)"):
-            self._later(lambda: self.solve(True))
+        if self.ed.button("Re-calibrate", tip="solve the cameras and markers with the model (paper §3.2)"):
+            self.ed.later(lambda: self.ed.solve(True))
         imgui.same_line()
-        if self._button("Register this photo", tip="place this photo's camera from known points (paper §3.2)"):
-            if self.photo is not None:
-                self._later(lambda: self._guard(s.register, self.photo))
-        if self._button("Extract textures"):
-            self._later(self.extract_textures)
+        if self.ed.button("Register this photo", tip="place this photo's camera from known points (paper §3.2)"):
+            if self.ed.photo is not None:
+                self.ed.later(lambda: self.ed.guard(s.register, self.ed.photo))
+        if self.ed.button("Extract textures"):
+            self.ed.later(self.ed.extract_textures)
         imgui.same_line()
         imgui.set_next_item_width(90)
         _, self.group_name = imgui.input_text("##group name", self.group_name)
-        self._rect("group name")
+        self.ed.rect("group name")
         imgui.same_line()
-        if self._button("Group", tip="the selected nodes (Ctrl+click in the tree) become one object"):
-            if self._guard(s.group, list(self.selected_nodes), self.group_name) is not None:
-                self.select(self.group_name.strip())
+        if self.ed.button("Group", tip="the selected nodes (Ctrl+click in the tree) become one object"):
+            if self.ed.guard(s.group, list(self.ed.selected_nodes), self.group_name) is not None:
+                self.ed.select(self.group_name.strip())
         imgui.separator()
         imgui.begin_child("tree", (0, 150), imgui.ChildFlags_.borders)
         if model is None:
@@ -153,16 +179,16 @@ class Panels:
                 if n.parent is None:
                     self._tree_node(model, n.name)
         imgui.end_child()
-        if self.selected is not None and model is not None and self.selected in model.index:
-            self._properties(model, self.selected)
+        if self.ed.selected is not None and model is not None and self.ed.selected in model.index:
+            self._properties(model, self.ed.selected)
         self._residuals()
 
     def _attach_choices(self) -> list[str]:
         """What a new primitive can hang on: nothing (the first goes on the origin marker, later
         ones rest on the floor), a node (resting on its top), or a calibrated marker."""
-        model = self.session.model
+        model = self.ed.session.model
         names = [n.name for n in model.nodes] if model is not None else []
-        markers = sorted((self.session.data.get("calibration") or {}).get("markers", {}))
+        markers = sorted((self.ed.session.data.get("calibration") or {}).get("markers", {}))
         return ["(none)"] + names + [f"marker {m}" for m in markers]
 
     def _attachment(self) -> dict[str, str | None]:
@@ -173,27 +199,27 @@ class Panels:
 
     def arm_placement(self) -> None:
         """Add: the next click in the photo places the new primitive there."""
-        model = self.session.model
+        model = self.ed.session.model
         kind = KINDS[self.new_kind]
         where = self._attachment()
-        if self.photo is None or (model is None and not self.session.cameras) or where["marker"] is not None:
-            made = self._guard(self.session.add_primitive, kind, name=self.new_name.strip() or None, **where)
+        if self.ed.photo is None or (model is None and not self.ed.session.cameras) or where["marker"] is not None:
+            made = self.ed.guard(self.ed.session.add_primitive, kind, name=self.new_name.strip() or None, **where)
             if made is not None:
-                self.select(made)
+                self.ed.select(made)
             return
-        self._placing = {"kind": kind, "name": self.new_name.strip(), **where}
-        self.say(f"click in the photo where the new {kind} stands")
+        self.ed._placing = {"kind": kind, "name": self.new_name.strip(), **where}
+        self.ed.say(f"click in the photo where the new {kind} stands")
 
     def add_at_centre(self) -> None:
-        model = self.session.model
+        model = self.ed.session.model
         at = None
-        if self.photo is not None and self.photo in self.session.cameras and model is not None:
-            w, h = self.photo_size()
-            at = (self.photo, (w / 2, h / 2))
-        made = self._guard(self.session.add_primitive, KINDS[self.new_kind], name=self.new_name.strip() or None,
+        if self.ed.photo is not None and self.ed.photo in self.ed.session.cameras and model is not None:
+            w, h = self.ed.photo_size()
+            at = (self.ed.photo, (w / 2, h / 2))
+        made = self.ed.guard(self.ed.session.add_primitive, KINDS[self.new_kind], name=self.new_name.strip() or None,
                            at=at, **self._attachment())
         if made is not None:
-            self.select(made)
+            self.ed.select(made)
 
     def _tree_node(self, model: Any, name: str) -> None:
         kids = model.children.get(name, [])
@@ -201,24 +227,24 @@ class Panels:
             | imgui.TreeNodeFlags_.span_avail_width
         if not kids:
             flags |= imgui.TreeNodeFlags_.leaf
-        if name in self.selected_nodes:
+        if name in self.ed.selected_nodes:
             flags |= imgui.TreeNodeFlags_.selected
         node = model.node(name)
         what = node.primitive.TYPE if node.primitive is not None else "group"
         opened = imgui.tree_node_ex(f"{name}  ({what}, {node.joint.type})##node:{name}", flags)
-        if not self._rect(f"node:{name}") and name == self.selected and self._scroll_to_selected:
+        if not self.ed.rect(f"node:{name}") and name == self.ed.selected and self.ed._scroll_to_selected:
             imgui.set_scroll_here_y(0.5)  # a node selected in the photo is shown in the tree
-        if name == self.selected:
-            self._scroll_to_selected = False
+        if name == self.ed.selected:
+            self.ed._scroll_to_selected = False
         if imgui.is_item_clicked() and not imgui.is_item_toggled_open():
-            self.select(name, add=self._ctrl_held())
+            self.ed.select(name, add=self.ed.ctrl_held())
         if opened:
             for k in kids:
                 self._tree_node(model, k)
             imgui.tree_pop()
 
     def _node_doc(self, name: str) -> dict[str, Any] | None:
-        for n in (self.session.data.get("model") or {}).get("nodes", []):
+        for n in (self.ed.session.data.get("model") or {}).get("nodes", []):
             if n["name"] == name:
                 return n
         return None
@@ -227,7 +253,7 @@ class Panels:
         """An input committed by Enter or by leaving it; returns the committed value or None."""
         shown = self._param_edits.get(label, value)
         changed, v = imgui.input_float(label, float(shown), 0.0, 0.0, fmt)
-        self._rect(label)
+        self.ed.rect(label)
         if changed:
             self._param_edits[label] = float(v)
         if imgui.is_item_deactivated_after_edit():
@@ -235,17 +261,17 @@ class Panels:
         return None
 
     def _properties(self, model: Any, name: str) -> None:
-        s = self.session
+        s = self.ed.session
         doc = self._node_doc(name)
         if doc is None:
             return
         imgui.separator()
         imgui.text(f"{name}" + (f" on {doc['parent']}" if doc.get("parent") else ""))
         imgui.same_line()
-        if self._button("Remove##node"):
-            self._guard(s.remove_node, name)
+        if self.ed.button("Remove##node"):
+            self.ed.guard(s.remove_node, name)
             if s.model is None or name not in s.model.index:
-                self.select(None)
+                self.ed.select(None)
                 return
         prim = doc.get("primitive")
         if prim is not None:
@@ -253,15 +279,15 @@ class Panels:
                 imgui.set_next_item_width(110)
                 new = self._float_field(f"{k} (m)##param:{k}", v)
                 if new is not None and new != v:
-                    self._guard(s.set_params, name, {k: new})
+                    self.ed.guard(s.set_params, name, {k: new})
         joint = doc.get("joint", {})
         jtype = joint.get("type", "fixed")
         types = JOINT_TYPES + ([jtype] if jtype not in JOINT_TYPES else [])
         imgui.set_next_item_width(110)
         changed, idx = imgui.combo("joint##type", types.index(jtype), types)
-        self._rect("joint type")
+        self.ed.rect("joint type")
         if changed and types[idx] != jtype:
-            self._guard(s.set_joint, name, self._default_joint(model, name, types[idx], joint))
+            self.ed.guard(s.set_joint, name, self._default_joint(model, name, types[idx], joint))
         for key, value in joint.items():
             if key in ("type", "limits", "limits_deg") or isinstance(value, str):
                 if isinstance(value, str) and key != "type":
@@ -271,19 +297,19 @@ class Panels:
                 imgui.set_next_item_width(110)
                 new = self._float_field(f"{key}##joint:{key}", float(value), "%.3f")
                 if new is not None and new != value:
-                    self._guard(s.set_joint, name, {**joint, key: new})
+                    self.ed.guard(s.set_joint, name, {**joint, key: new})
             elif isinstance(value, list) and len(value) in (2, 3):
                 imgui.set_next_item_width(200)
                 fn = imgui.input_float2 if len(value) == 2 else imgui.input_float3
                 label = f"{key}##joint:{key}"
                 shown = self._param_edits.get(label, [float(c) for c in value])
                 changed, vec = fn(label, list(shown), "%.3f")
-                self._rect(label)
+                self.ed.rect(label)
                 if changed:
                     self._param_edits[label] = list(vec)
                 if imgui.is_item_deactivated_after_edit():
                     vec = self._param_edits.pop(label, list(vec))
-                    self._guard(s.set_joint, name, {**joint, key: [float(c) for c in vec]})
+                    self.ed.guard(s.set_joint, name, {**joint, key: [float(c) for c in vec]})
         if jtype in ("hinge", "slider"):
             key = "limits_deg" if jtype == "hinge" else "limits"
             lo, hi = joint.get(key, [-180.0, 180.0] if jtype == "hinge" else [-1.0, 1.0])
@@ -291,17 +317,17 @@ class Panels:
             shown = self._param_edits.get(label, [float(lo), float(hi)])
             imgui.set_next_item_width(200)
             changed, vec = imgui.input_float2(label, list(shown), "%.3f")
-            self._rect("limits")
+            self.ed.rect("limits")
             if changed:
                 self._param_edits[label] = list(vec)
             if imgui.is_item_deactivated_after_edit():
                 vec = self._param_edits.pop(label, list(vec))
-                self._guard(s.set_limits, name, float(vec[0]), float(vec[1]))
+                self.ed.guard(s.set_limits, name, float(vec[0]), float(vec[1]))
         solve = doc.get("solve", True)
         changed, on = imgui.checkbox("solve (untick: hold as it is)", bool(solve))
-        self._rect("solve")
+        self.ed.rect("solve")
         if changed:
-            self._guard(s.set_solve, name, bool(on))
+            self.ed.guard(s.set_solve, name, bool(on))
 
     def _default_joint(self, model: Any, name: str, jtype: str, old: dict[str, Any]) -> dict[str, Any]:
         """A joint of another type that keeps the node where it is now, as far as the type allows."""
@@ -326,11 +352,11 @@ class Panels:
         return {"type": jtype, **pose}
 
     def _residuals(self) -> None:
-        if self.solve_error:
+        if self.ed.solve_error:
             imgui.push_text_wrap_pos(0.0)
-            imgui.text_colored(imgui.ImVec4(1.0, 0.4, 0.35, 1.0), self.solve_error)
+            imgui.text_colored(imgui.ImVec4(1.0, 0.4, 0.35, 1.0), self.ed.solve_error)
             imgui.pop_text_wrap_pos()
-        r = self.solve_result
+        r = self.ed.solve_result
         if not r:
             return
         imgui.separator()

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import ctypes
 import os
+from typing import Any
 
 import glfw
 import moderngl
@@ -42,7 +43,7 @@ class _GlfwLoader:
     """moderngl's loader interface over glfw's proc addresses (the window's context is current)."""
 
     def load_opengl_function(self, name: str) -> int:
-        return glfw.get_proc_address(name) or 0
+        return int(glfw.get_proc_address(name) or 0)
 
     def release(self) -> None:
         pass
@@ -99,7 +100,7 @@ class Window:
             version = f"{REQUIRED_VERSION // 100}.{REQUIRED_VERSION // 10 % 10}"
             raise WindowUnavailableError(f"cannot open an OpenGL {version} window ({reason}). To make images without "
                                          "a window use `vebuild render`.")
-        self.handle = win
+        self.handle: Any = win
         glfw.make_context_current(win)
         glfw.swap_interval(1 if vsync else 0)
         moderngl.init_context(_GlfwLoader())  # GL entry points through glfw (its EGL)
@@ -112,7 +113,7 @@ class Window:
         self._draw_buffer = None
         if self.stereo:
             proc = glfw.get_proc_address("glDrawBuffer")
-            self._draw_buffer = ctypes.CFUNCTYPE(None, ctypes.c_uint)(proc)
+            self._draw_buffer = ctypes.CFUNCTYPE(None, ctypes.c_uint)(int(proc or 0))
 
     def select_buffer(self, side: str) -> None:
         """Draw into the ``"left"`` or ``"right"`` back buffer (quad-buffered stereo only)."""

@@ -22,8 +22,9 @@ from vebuild.gl import headless_context, max_texture_size
 from vebuild.model.scene import Model
 from vebuild.project import open_image, sha256_bytes
 from vebuild.texture import layout as lay
-from vebuild.texture.gpu import Extractor, Options, Timings
+from vebuild.texture.gpu import Extractor, Timings
 from vebuild.texture.merge import FaceStats, fill_page
+from vebuild.texture.options import Options
 
 Array = NDArray[np.float64]
 

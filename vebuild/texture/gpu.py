@@ -21,6 +21,7 @@ from vebuild.camera import ImageCamera, depth_range, gl_projection, view_matrix,
 from vebuild.gl import load_program
 from vebuild.texture import BEST_WEIGHT_SCALE, DEPTH_TOLERANCE, MAX_LEVELS, pre_pass_erosion
 from vebuild.texture.layout import SceneMesh
+from vebuild.texture.options import Options
 
 Array = NDArray[np.float64]
 
@@ -38,25 +39,6 @@ DARK = 0.01
 #: at 0.3 % per pixel). An edge hidden less than 0.5 % behind a nearer surface (1.5 cm at 3 m) is
 #: drawn too: a little more erosion there. 1 % drew the legs' hidden tops through the table top.
 EDGE_SHRINK = 1.0 - 5e-3
-
-
-@dataclass
-class Options:
-    """The extraction's choices; each improvement over the paper can be switched off."""
-
-    texels_per_metre: float = 200.0
-    max_face_texels: int = 2048
-    page_size: int = 4096
-    erode_px: float = 2.0  # 0: no erosion of the ID mask at id/depth discontinuities
-    drop_ratio: float = 0.25  # 0: keep every view; else drop views below this share of the best
-    detail_levels: float = 2.0  # the low band is this many pyramid levels coarser
-    detail_sharpness: float = 8.0  # 1: the paper's plain weighted average
-    exposure: bool = True  # compensate exposure differences between photos
-    fill: str = "push-pull"  # or "average" (the paper: the face's average colour)
-    mode: str = "texture"  # or "average": one colour per face (paper Figure 9, middle)
-
-    def as_dict(self) -> dict[str, object]:
-        return dict(self.__dict__)
 
 
 @dataclass

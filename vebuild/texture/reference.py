@@ -34,7 +34,7 @@ from vebuild.texture.merge import srgb8_to_linear
 
 if TYPE_CHECKING:  # gpu.py imports moderngl; the reference must run without it
     from vebuild.camera import ImageCamera
-    from vebuild.texture.gpu import Options
+    from vebuild.texture.options import Options
 
 Array = NDArray[np.float64]
 

@@ -1,28 +1,7 @@
 """``vebuild view``: the walk-through window (paper §5, Figure 13).
 
-Keys and mouse follow games and 3-D viewers (the panel lists them, :data:`KEYS`):
-
-========================  ==========================================================================
-W A S D / arrow keys      walk (parallel to the floor; walls and furniture stop you, you slide along)
-Shift                     run
-right mouse button, drag  look around
-F                         fly (Space up, C down; through everything) / walk again
-left click                select the object under the cursor (its name, group and joint in the panel)
-left drag                 move the object as its joint allows (slide on the floor, swing on a hinge,
-                          slide on a runner); it takes its children and stops at walls and furniture
-mouse wheel, Q / E        turn the selected object about the vertical (objects resting or free)
-Ctrl+Z / Ctrl+Y           undo / redo a move
-R / Shift+R               put the selected object / every object back where it was measured
-Esc                       cancel a drag, or clear the selection
-V / Shift+V               next / previous named view
-P / Shift+P               next / previous photo: its camera, with the photo over the view
-[ / ]                     photo overlay more transparent / more opaque
-L                         next lighting preset (as photographed, then the project's presets)
-B                         next stereo mode (off, anaglyph, side by side, top and bottom, quad-buffered
-                          where the display offers it)
-F1                        show or hide the panel
-F12                       screenshot (PNG with provenance, labelled if a hypothesis is shown)
-========================  ==========================================================================
+Keys and mouse follow games and 3-D viewers: :data:`vebuild.viewer.keys.VIEWER_KEYS` (the panel lists
+them, F1).
 
 The panel also saves the current view as a named view, and the current arrangement as a named
 hypothesis, which it lists for loading; while objects are not where they were measured, the window
@@ -42,40 +21,37 @@ import moderngl
 import numpy as np
 from numpy.typing import NDArray
 
-from vebuild.actions.hypothesis import LABEL, find_hypothesis, label, save_hypothesis
-from vebuild.camera import ImageCamera, focal_to_fov, pixel_rays_world, project, world_to_camera
+from vebuild.actions.hypothesis import find_hypothesis, label, save_hypothesis
+from vebuild.camera import ImageCamera, focal_to_fov, pixel_rays_world
 from vebuild.errors import VebuildError
 from vebuild.gl import load_program
+from vebuild.gl.app import WindowApp
 from vebuild.gl.window import Window
+from vebuild.model.arrange import CannotMove, ObjectMover
+from vebuild.model.collide import Footprint, footprints, local_vertices
 from vebuild.project import Project, save_project
 from vebuild.render.lighting import find_preset, preset_names
 from vebuild.render.renderer import Renderer, RenderOptions, Stereo
 from vebuild.render.scene import RenderScene, load_scene
 from vebuild.render.views import photo_camera, view_camera, view_record
-from vebuild.viewer.collide import Footprint, footprints, local_vertices
-from vebuild.viewer.manipulate import CannotMove, ObjectMover
+from vebuild.viewer.keys import TURN_STEP, VIEWER_KEYS
+from vebuild.viewer.panel import ViewerPanel
 from vebuild.viewer.walk import Walker
 
-KEYS = [
-    ("W A S D, arrows", "walk"), ("Shift", "run"), ("right drag", "look around"),
-    ("F", "fly / walk (fly: Space up, C down)"), ("left click", "select"),
-    ("left drag", "move the object as its joint allows"), ("wheel, Q / E", "turn the selected object"),
-    ("Ctrl+Z / Ctrl+Y", "undo / redo"), ("R / Shift+R", "reset selected / all"), ("Esc", "cancel, deselect"),
-    ("V / Shift+V", "next / previous view"), ("P / Shift+P", "next / previous photo"),
-    ("[ / ]", "photo overlay opacity"), ("L", "next lighting"), ("B", "next stereo mode"), ("F1", "panel"),
-    ("F12", "screenshot"),
-]
 STEREO_CYCLE: list[str | None] = [None, "anaglyph", "sbs", "tb"]
-TURN_STEP = math.radians(5.0)
 #: A press and release closer than this (pixels) is a click, not a drag.
 CLICK_SLOP_PX = 3.0
 
 
-class Viewer:
+class Viewer(WindowApp):
     """The walk-through over one project in one window; :meth:`frame` draws one frame."""
+
+    keys = VIEWER_KEYS
+    keys_held_while_typing = False
 
     def __init__(self, project: Project, window: Window, options: RenderOptions | None = None,
                  hypothesis: str | None = None, view: str | None = None):
+        super().__init__()
         self.project = project
         self.window = window
         self.ctx = window.ctx
@@ -102,19 +78,14 @@ class Viewer:
         self.photo_index = -1
         self.show_panel = True
         self.fps = 0.0
-        self._held: set[int] = set()
-        self._mods = 0
-        self._cursor = (0.0, 0.0)
         self._look_from: tuple[float, float] | None = None
         self._press: tuple[float, float] | None = None
         self._press_pick: tuple[str | None, NDArray[np.float64] | None] = (None, None)
         self._dragging = False
         self._last = time.perf_counter()
-        self._new_view_name = ""
-        self._new_hypothesis_name = ""
+        self.panel = ViewerPanel(self)
         self.screenshots = 0
-        self.gui = None
-        self._install_callbacks()
+        self.install_callbacks(window.handle)
         views = project.data.get("views", [])
         if view is not None:
             self.jump_to_view(view)
@@ -129,7 +100,7 @@ class Viewer:
     # -- GUI is optional so that tests can drive the logic without Dear ImGui ----------------------
 
     def enable_gui(self) -> None:
-        from vebuild.viewer.gui import Gui
+        from vebuild.gl.imgui import Gui
 
         self.gui = Gui(self.ctx, self.window.handle)
 
@@ -331,15 +302,16 @@ class Viewer:
         """The current view rendered off the window's context to a PNG with provenance."""
         from PIL import Image
 
-        from vebuild.actions.render import provenance, stamp, write_png
+        from vebuild.render.png import provenance, stamp, write_png
 
         cam = self.camera()
         stereo = Stereo(self.stereo) if self.stereo not in (None, "quad") else None
         img = self.renderer.render(cam if stereo is None else self.eye_camera(), stereo)
         text = provenance(self.project, cam, "viewer", self.lighting, {"mode": self.stereo} if stereo else None,
                           self.scene.page_hashes, {"samples": self.renderer.options.samples})
-        if self.banner():
-            img = stamp(img, self.banner())
+        banner = self.banner()
+        if banner:
+            img = stamp(img, banner)
             text["vebuild:hypothesis"] = self.hypothesis_name or "unsaved arrangement"
         folder = folder or self.project.folder / "screenshots"
         folder.mkdir(exist_ok=True)
@@ -354,75 +326,45 @@ class Viewer:
 
     # -- input ------------------------------------------------------------------------------------
 
-    def _install_callbacks(self) -> None:
-        h = self.window.handle
-        glfw.set_key_callback(h, lambda w, key, sc, action, mods: self.on_key(key, action, mods))
-        glfw.set_char_callback(h, lambda w, c: self.gui.on_char(c) if self.gui else None)
-        glfw.set_cursor_pos_callback(h, lambda w, x, y: self.on_cursor(x, y))
-        glfw.set_mouse_button_callback(h, lambda w, b, action, mods: self.on_button(b, action, mods))
-        glfw.set_scroll_callback(h, lambda w, dx, dy: self.on_scroll(dx, dy))
+    def toggle_fly(self) -> None:
+        self.leave_photo()
+        self.walker.set_fly(not self.walker.fly)
+        self.say("flying" if self.walker.fly else "walking")
 
-    def on_key(self, key: int, action: int, mods: int) -> None:
-        if self.gui is not None:
-            self.gui.on_key(key, action, mods)
-            if self.gui.wants_keyboard():
-                return
-        self._mods = mods
-        if action == glfw.PRESS:
-            self._held.add(key)
-        elif action == glfw.RELEASE:
-            self._held.discard(key)
-            return
-        if action != glfw.PRESS:
-            return
-        try:
-            self._key_command(key, mods)
-        except VebuildError as e:
-            self.say(str(e))
+    def escape(self) -> None:
+        """Cancel a drag, or clear the selection."""
+        if self._dragging:
+            self.mover.cancel()
+            self._dragging = False
+            self._model_changed()
+        else:
+            self.select(None)
 
-    def _key_command(self, key: int, mods: int) -> None:
-        shift, ctrl = bool(mods & glfw.MOD_SHIFT), bool(mods & glfw.MOD_CONTROL)
+    def step_view(self, step: int) -> None:
         views = self.project.data.get("views", [])
+        if views:
+            self.view_index = (self.view_index + step) % len(views)
+            self.jump_to_view(views[self.view_index]["name"])
+
+    def step_photo(self, step: int) -> None:
         photos = [p["id"] for p in self.project.data["photos"]
                   if p["id"] in ((self.project.data.get("calibration") or {}).get("cameras") or {})]
-        if ctrl and key == glfw.KEY_Z:
-            self.redo() if shift else self.undo()
-        elif ctrl and key == glfw.KEY_Y:
-            self.redo()
-        elif key == glfw.KEY_F:
-            self.leave_photo()
-            self.walker.set_fly(not self.walker.fly)
-            self.say("flying" if self.walker.fly else "walking")
-        elif key == glfw.KEY_R:
-            self.reset(everything=shift)
-        elif key == glfw.KEY_ESCAPE:
-            if self._dragging:
-                self.mover.cancel()
-                self._dragging = False
-                self._model_changed()
-            else:
-                self.select(None)
-        elif key == glfw.KEY_V and views:
-            self.view_index = (self.view_index + (-1 if shift else 1)) % len(views)
-            self.jump_to_view(views[self.view_index]["name"])
-        elif key == glfw.KEY_P and photos:
-            self.photo_index = (self.photo_index + (-1 if shift else 1)) % len(photos)
+        if photos:
+            self.photo_index = (self.photo_index + step) % len(photos)
             self.jump_to_photo(photos[self.photo_index])
-        elif key == glfw.KEY_LEFT_BRACKET:
-            self.photo_opacity = max(0.0, self.photo_opacity - 0.1)
-        elif key == glfw.KEY_RIGHT_BRACKET:
-            self.photo_opacity = min(1.0, self.photo_opacity + 0.1)
-        elif key == glfw.KEY_L:
-            self.set_lighting((self.lighting_index + 1) % len(self.lightings))
-        elif key == glfw.KEY_B:
-            self.stereo_index = (self.stereo_index + 1) % len(self.stereo_modes)
-            self.say(f"stereo: {self.stereo or 'off'}")
-        elif key in (glfw.KEY_Q, glfw.KEY_E):
-            self.turn_selection(TURN_STEP if key == glfw.KEY_Q else -TURN_STEP)
-        elif key == glfw.KEY_F1:
-            self.show_panel = not self.show_panel
-        elif key == glfw.KEY_F12:
-            self.screenshot()
+
+    def change_opacity(self, delta: float) -> None:
+        self.photo_opacity = min(1.0, max(0.0, self.photo_opacity + delta))
+
+    def next_lighting(self) -> None:
+        self.set_lighting((self.lighting_index + 1) % len(self.lightings))
+
+    def next_stereo(self) -> None:
+        self.stereo_index = (self.stereo_index + 1) % len(self.stereo_modes)
+        self.say(f"stereo: {self.stereo or 'off'}")
+
+    def toggle_panel(self) -> None:
+        self.show_panel = not self.show_panel
 
     def set_lighting(self, index: int) -> None:
         self.lighting_index = index
@@ -448,7 +390,7 @@ class Viewer:
 
     def _begin_drag(self) -> None:
         node, point = self._press_pick
-        if node is None or node != self.selection:
+        if node is None or point is None or node != self.selection:
             return
         try:
             self.mover.begin(node, point)
@@ -457,7 +399,7 @@ class Viewer:
             self.say(str(e))
             self._press = None
 
-    def on_button(self, button: int, action: int, mods: int) -> None:
+    def on_button(self, button: int, action: int, mods: int = 0) -> None:
         if self.gui is not None:
             self.gui.on_button(button, action)
             if self.gui.wants_mouse() and action == glfw.PRESS:
@@ -527,9 +469,11 @@ class Viewer:
         if self.photo is not None and self._photo_tex is not None and self.photo_opacity > 0:
             self._draw_overlay()
         if self.gui is not None:
-            self._draw_panel()
+            self.panel.draw()
 
     def _draw_overlay(self) -> None:
+        if self._photo_tex is None:
+            return
         ctx = self.ctx
         x, y, w, h = self.viewport()
         ctx.screen.viewport = (x, y, w, h)
@@ -539,91 +483,14 @@ class Viewer:
         for name, value in (("photo", 0), ("opacity", float(self.photo_opacity)), ("origin", (x, y)),
                             ("size", (w, h))):
             if name in self._overlay:
-                self._overlay[name].value = value
+                self._overlay[name].value = value  # type: ignore[union-attr]
         self._overlay_vao.render(moderngl.TRIANGLES, vertices=3)
         ctx.disable(moderngl.BLEND)
 
-    def _draw_panel(self) -> None:
-        from imgui_bundle import imgui
-
-        gui = self.gui
-        gui.new_frame()
-        self._draw_markers(imgui)
-        self._draw_trajectories(imgui)
-        banner = self.banner()
-        if banner:
-            imgui.set_next_window_pos(imgui.ImVec2(10, 10))
-            imgui.begin("##hypothesis", None, imgui.WindowFlags_.no_decoration | imgui.WindowFlags_.always_auto_resize
-                        | imgui.WindowFlags_.no_inputs)
-            imgui.text_colored(imgui.ImVec4(1.0, 0.25, 0.2, 1.0), banner)
-            imgui.end()
-        if self.show_panel:
-            W, _ = glfw.get_window_size(self.window.handle)
-            imgui.set_next_window_pos(imgui.ImVec2(W - 370, 10), imgui.Cond_.first_use_ever)
-            imgui.set_next_window_size(imgui.ImVec2(360, 0), imgui.Cond_.first_use_ever)
-            imgui.begin(f"vebuild: {self.project.data.get('name', self.project.path.name)}")
-            p = self.walker.position
-            imgui.text(f"{self.fps:5.1f} fps   {'flying' if self.walker.fly else 'walking'}   "
-                       f"({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f}) m")
-            imgui.text(f"lighting: {self.lighting}   (L)")
-            imgui.text(f"stereo: {self.stereo or 'off'}   (B)")
-            if self.photo is not None:
-                imgui.text(f"photo {self.photo}, overlay {100 * self.photo_opacity:.0f} %  ([ ])")
-            imgui.separator()
-            imgui.text_wrapped("selection: " + (self.describe(self.selection) if self.selection else "none"))
-            if banner:
-                imgui.text_colored(imgui.ImVec4(1.0, 0.25, 0.2, 1.0), LABEL)
-            for m in self.messages[-3:]:
-                imgui.text_wrapped(m)
-            if imgui.collapsing_header("Keys"):
-                for k, what in KEYS:
-                    imgui.text(f"{k:<16} {what}")
-            if imgui.collapsing_header("Views"):
-                for v in self.project.data.get("views", []):
-                    if imgui.button(v["name"]):
-                        self.jump_to_view(v["name"])
-                _, self._new_view_name = imgui.input_text("name##view", self._new_view_name)
-                if imgui.button("save the current view"):
-                    self._guarded(self.save_view, self._new_view_name)
-            if imgui.collapsing_header("Hypotheses"):
-                if imgui.button("measured scene"):
-                    self.reset(everything=True)
-                for h in self.project.data.get("hypotheses", []):
-                    if imgui.button(h["name"]):
-                        self._guarded(self.load_hypothesis, h["name"])
-                _, self._new_hypothesis_name = imgui.input_text("name##hyp", self._new_hypothesis_name)
-                if imgui.button("save this arrangement as a hypothesis"):
-                    self._guarded(self.save_hypothesis, self._new_hypothesis_name)
-            imgui.end()
-        gui.render()
-
-    def _draw_markers(self, imgui: Any) -> None:
-        """The project's evidence markers over the view: a filled pin where seen, hollow where hidden."""
-        from vebuild.analysis.markers import MARKER_COLOUR, visible_markers
-
-        markers = self.project.data.get("evidence_markers", [])
-        if not markers or self.stereo is not None:
-            return
-        W, H = self.window.framebuffer_size()
-        ww, wh = glfw.get_window_size(self.window.handle)
-        sx, sy = W / max(ww, 1), H / max(wh, 1)
-        vx, vy, vw, vh = self.viewport()
-        dl = imgui.get_foreground_draw_list()
-        colour = imgui.get_color_u32(imgui.ImVec4(*(c / 255 for c in MARKER_COLOUR), 1.0))
-        white = imgui.get_color_u32(imgui.ImVec4(1.0, 1.0, 1.0, 1.0))
-        for m, (u, v), visible in visible_markers(self.renderer, self.camera(), markers):
-            p = imgui.ImVec2((vx + u) / sx, (H - vy - vh + v) / sy)
-            if visible:
-                dl.add_circle_filled(p, 6.0, colour)
-            else:
-                dl.add_circle(p, 6.0, colour, 0, 2.0)
-            dl.add_text(imgui.ImVec2(p.x + 9, p.y - 8), white, m["label"] + ("" if visible else " (hidden)"))
-
     def trajectories(self) -> list[Any]:
         """The trajectories the project records (``analyses``), against the objects as they are now."""
-        from vebuild.analysis.cli_geometry import trajectory_from_args
         from vebuild.analysis.rays import Occluders
-        from vebuild.analysis.report_sections import parse
+        from vebuild.analysis.recorded import parse_recorded_trajectory
 
         records = [r for r in self.project.data.get("analyses") or [] if r["command"][:1] == ["trajectory"]]
         if not records:
@@ -634,7 +501,7 @@ class Viewer:
             out = []
             for rec in records:
                 try:
-                    out.append(trajectory_from_args(parse(str(self.project.path), rec["command"]), occ))
+                    out.append(parse_recorded_trajectory(rec["command"]).trajectory(occ))
                 except VebuildError as e:
                     self.say(f"trajectory {rec['name']!r}: {e}")
             from vebuild.analysis.trajectory import path_polylines
@@ -642,35 +509,6 @@ class Viewer:
             self._trajectory_key = key
             self._trajectory_cache = [(tr, path_polylines(tr)) for tr in out]
         return [tr for tr, _ in self._trajectory_cache]
-
-    def _draw_trajectories(self, imgui: Any) -> None:
-        """Recorded trajectories over the view: the path in red, its uncertainty cone in orange (not
-        depth-tested: drawn over what hides them)."""
-        if not self.trajectories() or self.stereo is not None:
-            return
-        cam = self.camera()
-        W, H = self.window.framebuffer_size()
-        ww, wh = glfw.get_window_size(self.window.handle)
-        sx, sy = W / max(ww, 1), H / max(wh, 1)
-        vx, vy, vw, vh = self.viewport()
-        dl = imgui.get_foreground_draw_list()
-        colours = {"path": imgui.get_color_u32(imgui.ImVec4(0.9, 0.1, 0.1, 1.0)),
-                   "cone": imgui.get_color_u32(imgui.ImVec4(1.0, 0.6, 0.1, 0.8))}
-        for _, polylines in self._trajectory_cache:
-            for kind, lines in polylines.items():
-                for P in lines:
-                    P = np.asarray(P, float)
-                    ok = world_to_camera(cam.R, cam.C, P)[:, 2] > 0.05  # in front of the camera
-                    uv = project(cam.K, cam.R, cam.C, P[ok])
-                    pts = [imgui.ImVec2((vx + u) / sx, (H - vy - vh + v) / sy) for u, v in uv]
-                    for a, b in zip(pts[:-1], pts[1:], strict=True):
-                        dl.add_line(a, b, colours.get(kind, colours["cone"]), 2.0 if kind == "path" else 1.0)
-
-    def _guarded(self, fn: Any, *args: Any) -> None:
-        try:
-            fn(*args)
-        except VebuildError as e:
-            self.say(str(e))
 
     def close(self) -> None:
         if self.gui is not None:

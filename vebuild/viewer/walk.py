@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vebuild.camera import ImageCamera, fov_to_focal, intrinsic_matrix, rotation_from_ypr
-from vebuild.viewer.collide import Footprint, circle_push, z_overlap
+from vebuild.model.collide import Footprint, circle_push, z_overlap
 
 Array = NDArray[np.float64]
 

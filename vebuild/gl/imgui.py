@@ -52,7 +52,7 @@ class Gui:
             raise ValueError("a Gui without a window needs its display_size")
         self.ctx = ctx
         self.window = window
-        self.display_size = display_size
+        self.display_size: tuple[int, int] = display_size if display_size is not None else (0, 0)
         self.target = target
         self.context = imgui.create_context()
         imgui.set_current_context(self.context)
@@ -150,8 +150,8 @@ class Gui:
         ctx.enable(moderngl.BLEND)
         ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
         ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
-        self.program["display_size"].value = (io.display_size.x, io.display_size.y)
-        self.program["tex"].value = 0
+        self.program["display_size"].value = (io.display_size.x, io.display_size.y)  # type: ignore[union-attr]
+        self.program["tex"].value = 0  # type: ignore[union-attr]
         for commands in data.cmd_lists:
             vsize = commands.vtx_buffer.size() * imgui.VERTEX_SIZE
             isize = commands.idx_buffer.size() * imgui.INDEX_SIZE

@@ -31,8 +31,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vebuild.errors import VebuildError
+from vebuild.model.collide import Footprint, footprints, local_vertices, overlap_depth
 from vebuild.model.scene import FreeJoint, HingeJoint, Model, RestsOnJoint, SliderJoint, joint_from_dict
-from vebuild.viewer.collide import Footprint, footprints, local_vertices, overlap_depth
+from vebuild.model.undo import UndoStack
 
 Array = NDArray[np.float64]
 
@@ -75,8 +76,7 @@ class ObjectMover:
         self.measured = model
         self.model = copy.deepcopy(model)
         self._local = local_vertices(self.model)
-        self._undo: list[dict[str, Array]] = []
-        self._redo: list[dict[str, Array]] = []
+        self.history: UndoStack[dict[str, Array]] = UndoStack()
         self.grab: Grab | None = None
         self._before: dict[str, Array] | None = None
         self._allowed: set[tuple[str, str]] = set()
@@ -205,18 +205,16 @@ class ObjectMover:
     # -- undo, reset, hypotheses -----------------------------------------------------------------
 
     def undo(self) -> bool:
-        if not self._undo:
-            return False
-        self._redo.append(self._snapshot())
-        self._restore(self._undo.pop())
-        return True
+        step = self.history.undo(self._snapshot())
+        if step is not None:
+            self._restore(step[1])
+        return step is not None
 
     def redo(self) -> bool:
-        if not self._redo:
-            return False
-        self._undo.append(self._snapshot())
-        self._restore(self._redo.pop())
-        return True
+        step = self.history.redo(self._snapshot())
+        if step is not None:
+            self._restore(step[1])
+        return step is not None
 
     def reset(self, node: str | None = None) -> None:
         """Back to the measured scene: one object (and what it carries), or everything."""
@@ -273,8 +271,7 @@ class ObjectMover:
         return any(not np.array_equal(now[k], v) for k, v in snap.items())
 
     def _push(self, before: dict[str, Array]) -> None:
-        self._undo.append(before)
-        self._redo.clear()
+        self.history.push(before)
 
     def _parent_world(self, node: str) -> Array:
         parent = self.model.node(node).parent

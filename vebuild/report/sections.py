@@ -1,163 +1,18 @@
-"""``vebuild report``: everything another examiner needs to check and reproduce the work, as an
-HTML page with its images (and a PDF of it).
-
-The report is made from the project file alone: the photos with their SHA-256, the calibration
-and its residuals, the model and its solve, the check distances, the evidence views (with the
-evidence markers), each photo's camera against its photo, the analyses the project records
-(``analyses``: measurements, sight lines, viewsheds, trajectories, lighting comparisons, each
-re-computed), and the hypotheses, each clearly labelled as one. It carries no time stamp: running
-it twice on the same project gives the same HTML and the same images, byte for byte.
-"""
+"""The report's sections, each ``section(project, report)``: the photographs, the calibration, the
+model and its solve, the evidence views, how well the model explains each photo, the recorded
+analyses (:mod:`vebuild.report.analyses`) and the hypotheses."""
 
 from __future__ import annotations
 
-import hashlib
-import html
 import json
-import os
-from collections.abc import Callable
-from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
-import numpy as np
+from vebuild.project import Project
 
-from vebuild import __version__
-from vebuild.errors import VebuildError
-from vebuild.project import Project, sha256_file
-
-#: Renders in the report are this wide (height from the view's aspect).
-IMAGE_WIDTH = 960
-
-CSS = """
-body { font-family: DejaVu Sans, Helvetica, Arial, sans-serif; font-size: 10.5pt; margin: 2em; color: #111; }
-h1 { font-size: 18pt; } h2 { font-size: 14pt; border-bottom: 1px solid #999; margin-top: 1.6em; }
-h3 { font-size: 11.5pt; }
-table { border-collapse: collapse; margin: 0.5em 0 1em 0; }
-td, th { border: 1px solid #bbb; padding: 2px 6px; text-align: left; vertical-align: top; overflow-wrap: anywhere; }
-th { background: #eee; } td.n { text-align: right; font-variant-numeric: tabular-nums; }
-img { max-width: 100%; border: 1px solid #888; }
-.hyp { color: #fff; background: #aa1414; padding: 2px 6px; font-weight: bold; }
-.small { font-size: 9pt; color: #444; } .warn { color: #a05000; }
-figure { margin: 0.5em 0 1.2em 0; page-break-inside: avoid; }
-@page { size: A4; margin: 15mm; }
-"""
+from .page import IMAGE_WIDTH, Report, esc, fmt, image_size, table
 
 
-@dataclass
-class Report:
-    folder: Path
-    sections: list[str] = field(default_factory=list)
-    images: list[Path] = field(default_factory=list)
-    warnings: list[str] = field(default_factory=list)
-
-    def add(self, title: str, body: str) -> None:
-        self.sections.append(f"<h2>{esc(title)}</h2>\n{body}")
-
-    def image(self, name: str, pixels: np.ndarray, text: dict[str, str] | None = None) -> str:
-        """Write an image into the report's folder; returns its relative path."""
-        from vebuild.actions.render import write_png
-
-        path = self.folder / "images" / name
-        write_png(path, pixels, text or {})
-        self.images.append(path)
-        return f"images/{name}"
-
-
-def esc(x: Any) -> str:
-    return html.escape(str(x))
-
-
-def fmt(v: Any, digits: int = 4) -> str:
-    if v is None:
-        return "undetermined"
-    if isinstance(v, list | tuple):
-        return "(" + ", ".join(fmt(x, digits) for x in v) + ")"
-    return f"{float(v):.{digits}f}"
-
-
-def table(header: list[str], rows: list[list[Any]], numeric: set[int] | None = None) -> str:
-    numeric = numeric or set()
-    out = ["<table><tr>" + "".join(f"<th>{esc(h)}</th>" for h in header) + "</tr>"]
-    for r in rows:
-        out.append("<tr>" + "".join(f"<td class='n'>{esc(c)}</td>" if i in numeric else f"<td>{esc(c)}</td>"
-                                    for i, c in enumerate(r)) + "</tr>")
-    return "\n".join(out) + "</table>"
-
-
-def write_report(project: Project, out: Path, pdf: bool = True,
-                 progress: Callable[[str], None] | None = None) -> Path:
-    """Write ``out/report.html`` (and ``out/report.pdf``) with its images in ``out/images``."""
-    from vebuild.atomic import MANIFEST, remove_tree, replace_folder, temp_path, write_text
-    from vebuild.outputs import SOFTWARE, begin_stage, check_folder, write_manifest
-
-    given = Path(out)
-    if not given.parent.is_dir():
-        raise VebuildError(f"{given}: the folder {given.parent} does not exist; create it first")
-    check_folder(project, given, "report")
-    if not (project.data.get("calibration") or {}).get("cameras"):
-        raise VebuildError(f"{project.path}: the project has no calibrated cameras yet; run `vebuild calibrate` "
-                           "(and `vebuild solve`) before making a report")
-    out = Path(os.path.abspath(given))
-    begin_stage(project, out.parent)
-    # Build under a fresh sibling name, then swap it in (vebuild.atomic.replace_folder): never a
-    # half-written report, and the old one is deleted only once the new one is in place.
-    tmp = temp_path(out)
-    try:
-        tmp.mkdir()
-        # The manifest first (no files yet): it marks the folder as vebuild's should this run be killed.
-        write_text(tmp / MANIFEST, json.dumps({"software": SOFTWARE, "kind": "report", "files": {}}) + "\n")
-        (tmp / "images").mkdir()
-        rep = Report(tmp)
-        step = progress or (lambda what: None)
-        steps = [("photos", _photos), ("calibration", _calibration), ("model", _model), ("views", _views),
-                 ("validation", _validation), ("analyses", _analyses), ("hypotheses", _hypotheses)]
-        for name, fn in steps:
-            step(name)
-            fn(project, rep)
-        page = _page(project, rep)
-        write_text(tmp / "report.html", page)
-        if pdf:
-            step("pdf")
-            _pdf(tmp)
-        write_manifest(tmp, "report", project)
-        check_folder(project, given, "report")  # again: nothing of the user's was put there meanwhile
-        replace_folder(tmp, out)
-    except OSError as e:
-        remove_tree(tmp)
-        raise VebuildError(f"{given}: cannot write the report ({e.strerror or e}); the old one, if any, "
-                           "is unchanged") from None
-    except BaseException:
-        remove_tree(tmp)
-        raise
-    return given / "report.html"
-
-
-def _pdf(folder: Path) -> None:
-    try:
-        import weasyprint
-    except ImportError as e:  # weasyprint needs Pango from the system
-        raise VebuildError(f"cannot make the PDF ({e}); install Pango (`sudo apt-get install libpango-1.0-0 "
-                           "libpangoft2-1.0-0`) or pass --no-pdf") from None
-    doc = weasyprint.HTML(filename=str(folder / "report.html"), base_url=str(folder))
-    doc.write_pdf(folder / "report.pdf", metadata=None, uncompressed_pdf=False)
-
-
-def _page(project: Project, rep: Report) -> str:
-    data = project.data
-    head = [f"<h1>vebuild report: {esc(data.get('name', project.path.name))}</h1>",
-            table(["", ""], [["project file", project.path.name], ["project file SHA-256", sha256_file(project.path)],
-                             ["software", f"vebuild {__version__}"],
-                             ["reproduce", f"vebuild report {project.path.name} --out DIR (the same project gives "
-                                           "the same figures and images)"]])]
-    if rep.warnings:
-        head.append("<p class='warn'>" + "<br>".join(esc(w) for w in rep.warnings) + "</p>")
-    return ("<!DOCTYPE html><html><head><meta charset='utf-8'>"
-            f"<title>vebuild report: {esc(data.get('name', ''))}</title><style>{CSS}</style></head><body>\n"
-            + "\n".join(head + rep.sections) + "\n</body></html>\n")
-
-
-def _photos(project: Project, rep: Report) -> None:
+def photos(project: Project, rep: Report) -> None:
     rows = []
     for p in project.data["photos"]:
         exif = p.get("exif") or {}
@@ -168,7 +23,7 @@ def _photos(project: Project, rep: Report) -> None:
             "hash to this SHA-256.</p>" + table(["id", "file", "pixels", "SHA-256", "camera", "focal mm"], rows))
 
 
-def _calibration(project: Project, rep: Report) -> None:
+def calibration(project: Project, rep: Report) -> None:
     cal = project.data["calibration"]
     rows = []
     for pid, c in cal["cameras"].items():
@@ -194,8 +49,8 @@ def _calibration(project: Project, rep: Report) -> None:
     rep.add("Calibration", body)
 
 
-def _model(project: Project, rep: Report) -> None:
-    from vebuild.analysis.measure import check_model_solution
+def model(project: Project, rep: Report) -> None:
+    from vebuild.analysis.solved import check_model_solution
 
     check_model_solution(project)
     sol = project.data.get("model_solution")
@@ -230,15 +85,9 @@ def _renderer(project: Project, scene: Any = None) -> tuple[Any, Any]:
     return scene, Renderer(headless_context(), scene, RenderOptions())
 
 
-def image_size(width: int, height: int) -> tuple[int, int]:
-    """The size of the report's image of a view or photo of ``width`` × ``height`` pixels:
-    :data:`IMAGE_WIDTH` wide, its height from their aspect."""
-    return IMAGE_WIDTH, max(1, round(IMAGE_WIDTH * height / width))
-
-
-def _views(project: Project, rep: Report) -> None:
-    from vebuild.actions.render import provenance
+def views(project: Project, rep: Report) -> None:
     from vebuild.analysis.markers import draw_markers, visible_markers
+    from vebuild.render.png import provenance
     from vebuild.render.sizes import check_camera
     from vebuild.render.views import view_camera
 
@@ -276,7 +125,7 @@ def _views(project: Project, rep: Report) -> None:
     rep.add("Evidence views", body)
 
 
-def _validation(project: Project, rep: Report) -> None:
+def validation(project: Project, rep: Report) -> None:
     from vebuild.actions.render import RenderRequest, render_evidence
 
     rows, figs = [], []
@@ -291,6 +140,7 @@ def _validation(project: Project, rep: Report) -> None:
             size_source=f"the report's image of photo {p['id']!r} ({IMAGE_WIDTH} pixels wide, its height from "
                         f"the aspect of $.photos[{i}], {p['width']}×{p['height']})"))
         tmp.unlink()
+        assert res.overlay is not None and res.covered_fraction is not None  # validate=True
         rep.images.append(res.overlay)
         rows.append([p["id"], fmt(res.rms_colour_difference, 1), f"{100 * res.covered_fraction:.0f} %",
                      fmt(res.exposure_gain, 3)])
@@ -302,16 +152,16 @@ def _validation(project: Project, rep: Report) -> None:
             + table(["photo", "RMS difference", "covered", "gain"], rows, {1, 2, 3}) + "".join(figs))
 
 
-def _analyses(project: Project, rep: Report) -> None:
+def analyses(project: Project, rep: Report) -> None:
     """The analyses recorded in the project (FORMAT.md ``analyses``), each run again."""
-    from vebuild.analysis.report_sections import analyses
+    from .analyses import analyses_html
 
     records = project.data.get("analyses") or []
     if records:
-        rep.add("Analyses", analyses(project, rep, records))
+        rep.add("Analyses", analyses_html(project, rep, records))
 
 
-def _hypotheses(project: Project, rep: Report) -> None:
+def hypotheses(project: Project, rep: Report) -> None:
     from vebuild.actions.hypothesis import label
     from vebuild.actions.render import RenderRequest, render_evidence
 
@@ -337,13 +187,3 @@ def _hypotheses(project: Project, rep: Report) -> None:
             parts.append(f"<figure><img src='images/{path.name}'><figcaption>{esc(label(h['name']))}, from view "
                          f"{esc(views[0]['name'])}</figcaption></figure>")
     rep.add("Hypotheses", "".join(parts))
-
-
-def digest(folder: Path) -> str:
-    """SHA-256 over the report's HTML, images and figures (not the PDF, whose writer stamps it):
-    the same project gives the same digest."""
-    h = hashlib.sha256()
-    for p in sorted([folder / "report.html", *(folder / "images").glob("*.png"), *(folder / "figures").glob("*")]):
-        h.update(p.name.encode())
-        h.update(p.read_bytes())
-    return h.hexdigest()

@@ -1,0 +1,81 @@
+"""The analyses a project records (FORMAT.md, ``analyses``): each a name and the words of a
+``vebuild analyse`` command after the project (``["distance", "cabinet:v4", "table.top@top"]``),
+parsed here into the typed request they describe (:mod:`vebuild.analysis.requests`), by the
+command line's own grammar and mapping, so that a recorded analysis and the command a person
+types always mean the same. Parsing never prints or exits: a bad command, or one that asks for
+help, is a :class:`~vebuild.errors.VebuildError` saying what was expected."""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+from typing import Any, NoReturn
+
+from vebuild.errors import VebuildError
+
+from .requests import Request
+from .requests_geometry import TrajectoryRequest
+
+#: Words that ask for help rather than an analysis.
+_HELP_WORDS = ("-h", "--help")
+_EXPECTED = ("expected the words of a `vebuild analyse` command after the project, such as "
+             "[\"distance\", \"cabinet:v4\", \"table.top@top\"]")
+
+
+class _Parser(argparse.ArgumentParser):
+    """An argparse parser that never prints or exits: every complaint is a :class:`VebuildError`
+    (the stored words are data in a project file, not a command line a person is typing)."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs["add_help"] = False  # -h/--help would print and exit; refused in :func:`parse_recorded`
+        kwargs["exit_on_error"] = False
+        super().__init__(*args, **kwargs)
+
+    def error(self, message: str) -> NoReturn:
+        raise VebuildError(message)
+
+    def exit(self, status: int = 0, message: str | None = None) -> NoReturn:
+        raise VebuildError(message.strip() if message else f"the command would exit (status {status})")
+
+    def print_help(self, file: Any = None) -> None:
+        raise VebuildError("the command asks for help (-h/--help); expected the words of an analysis")
+
+    def print_usage(self, file: Any = None) -> None:
+        raise VebuildError("the command asks for its usage; expected the words of an analysis")
+
+
+def parse_recorded(words: Any, where: str | None = None) -> Request:
+    """The request of one recorded command (``where``: its place in the project, ``$.analyses[i]``,
+    which then begins each message)."""
+    from .cli import add_analyse_parsers, request_from_args
+
+    at = f"{where}: " if where else ""
+    if not isinstance(words, list) or not all(isinstance(w, str) for w in words):
+        raise VebuildError(f"{at}{_EXPECTED}; got {words!r}")
+    # A recorded command is run, never explained: help would print and exit instead of analysing
+    # (argparse also takes an abbreviation such as '--he' for '--help').
+    asks = [w for w in words if w in _HELP_WORDS or (len(w) >= 3 and "--help".startswith(w))]
+    if asks:
+        raise VebuildError(f"{at}the command asks for help ({asks[0]!r}), which is not an analysis; {_EXPECTED}")
+    parser = _Parser(prog="vebuild")
+    add_analyse_parsers(parser.add_subparsers(dest="command", parser_class=_Parser))
+    try:
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+            args = parser.parse_args(["analyse", "PROJECT", *words])
+    except argparse.ArgumentError as e:
+        raise VebuildError(f"{at}{e}; {_EXPECTED}") from None
+    except VebuildError as e:
+        raise VebuildError(f"{at}{e}; {_EXPECTED}") from None
+    except SystemExit:  # an action that prints and exits (argparse's version, say)
+        raise VebuildError(f"{at}{' '.join(words)!r} is not an analysis command; {_EXPECTED}") from None
+    return request_from_args(args)
+
+
+def parse_recorded_trajectory(words: Any, where: str | None = None) -> TrajectoryRequest:
+    """The trajectory request of one recorded command (the viewer draws them); a recorded command
+    of another analysis is a :class:`VebuildError`."""
+    request = parse_recorded(words, where)
+    if not isinstance(request, TrajectoryRequest):
+        raise VebuildError(f"{where + ': ' if where else ''}expected a trajectory, got a {request.name} analysis")
+    return request

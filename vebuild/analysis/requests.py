@@ -1,0 +1,229 @@
+"""The analyses as typed requests: each a dataclass naming what to analyse, with ``run(project)``
+returning an :class:`AnalysisResult` (the table to print, the figures for ``--json``, the image
+written, if any).
+
+Measurements (distance, height, dimensions, checks) and the lighting comparison are here; sight
+lines, viewsheds and trajectories in :mod:`vebuild.analysis.requests_geometry`. A request is made
+from the command line or from the words a project records (``analyses``), both through the one
+mapping in :mod:`vebuild.analysis.cli`; :mod:`vebuild.analysis.recorded` parses recorded words.
+
+Adding an analysis: write its request here (or in a module beside it) with ``name`` (the
+subcommand), ``run`` and ``with_image``; then its subcommand and mapping in
+:func:`vebuild.analysis.cli.add_analyse_parsers`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any, ClassVar, Protocol
+
+from vebuild.constants import Z95
+
+
+@dataclass(frozen=True)
+class AnalysisResult:
+    """What an analysis gives: the readable ``table``, the ``figures`` (units in their keys), and
+    the ``image`` it wrote (None when it wrote none)."""
+
+    table: str
+    figures: dict[str, Any]
+    image: Path | None = None
+
+
+class Request(Protocol):
+    """An analysis to run on a project."""
+
+    name: ClassVar[str]
+
+    def run(self, project: Any) -> AnalysisResult: ...
+
+    def with_image(self, path: str) -> Request | None:
+        """The same request writing its image to ``path``; None if it makes no image as asked."""
+        ...
+
+
+# -- measurements --------------------------------------------------------------------------------
+
+def _solved(project: Any) -> tuple[Any, Callable[[str], Any]]:
+    from vebuild.render.views import find_view, photo_camera
+
+    from .points import parse_point
+    from .solved import SolvedModel
+
+    solved = SolvedModel.from_project(project)
+
+    def resolve(kind: str, name: str) -> Any:
+        return photo_camera(project, name) if kind == "photo" else find_view(project, name)
+
+    return solved, lambda text: parse_point(text, solved, resolve_camera=resolve)
+
+
+def _solution_figures(solved: Any) -> dict[str, Any]:
+    return {"solution": {"recalibrated": solved.recalibrated, "variance_factor": solved.variance_factor}}
+
+
+def _table(rows: list[Any]) -> str:
+    lines = [f"{'quantity':<10} {'what':<44} {'value m':>10} {'1σ mm':>8}  {'95 % interval m':<21}"]
+    for m in rows:
+        lo, hi = m.ci95
+        lines.append(f"{m.quantity:<10} {m.what:<44} {m.value:>10.4f} {1000 * m.sigma:>8.2f}  [{lo:.4f}, {hi:.4f}]")
+    return "\n".join(lines)
+
+
+def _rests_on(m: Any) -> str:
+    return (f"rests on nodes {', '.join(m.nodes) or '—'}; markers {', '.join(m.markers) or '—'}; "
+            f"photos {', '.join(m.photos) or '—'}")
+
+
+class _NoImage:
+    def with_image(self, path: str) -> Request | None:
+        return None
+
+
+@dataclass(frozen=True)
+class DistanceRequest(_NoImage):
+    """The distance between two points (:data:`vebuild.analysis.points.POINT_SYNTAX`)."""
+
+    name: ClassVar[str] = "distance"
+    a: str
+    b: str
+
+    def run(self, project: Any) -> AnalysisResult:
+        from .measure import distance
+
+        solved, point = _solved(project)
+        m = distance(solved, point(self.a), point(self.b))
+        return AnalysisResult(_table([m]) + "\n" + _rests_on(m),
+                              {**_solution_figures(solved), "measurements": [m.to_json()]})
+
+
+@dataclass(frozen=True)
+class HeightRequest(_NoImage):
+    """The height of a point above the floor, or above a flat face ``NODE@FACE``."""
+
+    name: ClassVar[str] = "height"
+    point: str
+    above: str | None = None
+
+    def run(self, project: Any) -> AnalysisResult:
+        from .measure import height
+        from .solved import MeasureError
+
+        solved, point = _solved(project)
+        above = None
+        if self.above:
+            node, sep, face = self.above.partition("@")
+            if not sep or not face or ":" in face:
+                raise MeasureError(f"--above '{self.above}': expected a flat face written NODE@FACE, "
+                                   "e.g. table.top@top")
+            above = (node, face)
+        m = height(solved, point(self.point), above)
+        return AnalysisResult(_table([m]) + "\n" + _rests_on(m),
+                              {**_solution_figures(solved), "measurements": [m.to_json()]})
+
+
+@dataclass(frozen=True)
+class DimensionsRequest(_NoImage):
+    """The dimensions of one or more objects (their primitives' parameters)."""
+
+    name: ClassVar[str] = "dimensions"
+    nodes: tuple[str, ...]
+
+    def run(self, project: Any) -> AnalysisResult:
+        from .measure import dimensions
+
+        solved, _ = _solved(project)
+        rows = [m for node in self.nodes for m in dimensions(solved, node)]
+        return AnalysisResult(_table(rows), {**_solution_figures(solved), "measurements": [m.to_json() for m in rows]})
+
+
+@dataclass(frozen=True)
+class ChecksRequest(_NoImage):
+    """The check distances (role ``check``): measured against known."""
+
+    name: ClassVar[str] = "checks"
+
+    def run(self, project: Any) -> AnalysisResult:
+        from .measure import check_distances
+
+        solved, _ = _solved(project)
+        checks = check_distances(project, solved)
+        if not checks:
+            text = "no check distances (add reference_distances with role \"check\" to the project)"
+        else:
+            lines = [f"{'check':<24} {'known m':>9} {'measured m':>11} {'1σ mm':>7} {'diff mm':>8} {'95 % mm':>8}  "
+                     f"{'within':<6} source"]
+            for c in checks:
+                lines.append(f"{c.a + ' – ' + c.b:<24} {c.known:>9.4f} {c.measured.value:>11.4f} "
+                             f"{1000 * c.measured.sigma:>7.2f} {1000 * c.difference:>+8.2f} "
+                             f"{1000 * Z95 * c.difference_sigma:>8.2f}  {'yes' if c.within_ci95 else 'NO':<6} "
+                             f"{c.measured.source}")
+            text = "\n".join(lines)
+        return AnalysisResult(text, {**_solution_figures(solved), "checks": [c.to_json() for c in checks]})
+
+
+# -- lighting --------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class LightingRequest:
+    """One view under several lighting presets, with the target's luminance under each; ``out``:
+    the views side by side, the target outlined."""
+
+    name: ClassVar[str] = "lighting"
+    view: str
+    presets: tuple[str, ...]
+    target: str
+    size: str | None = None  # WxH of each view; None: the view's own
+    out: str | None = None
+
+    def with_image(self, path: str) -> Request | None:
+        return replace(self, out=path)
+
+    def run(self, project: Any) -> AnalysisResult:
+        from vebuild.actions.render import parse_size
+        from vebuild.gl import headless_context
+        from vebuild.render.png import check_output, provenance, write_png
+        from vebuild.render.renderer import Renderer
+        from vebuild.render.scene import load_scene
+        from vebuild.render.sizes import check_camera
+        from vebuild.render.views import find_view
+
+        from .lighting import LUMINANCE_WEIGHTS, compare_lighting, side_by_side
+
+        if self.out:
+            check_output(Path(self.out), project=project)
+        presets = list(self.presets)
+        cam = find_view(project, self.view)
+        if self.size is not None:
+            cam = cam.resized(*parse_size(self.size), source="--size")
+        check_camera(cam)
+        scene = load_scene(project)
+        renderer = Renderer(headless_context(), scene)
+        try:
+            results = compare_lighting(project, scene, renderer, cam, presets, self.target)
+            mask = renderer.node_mask(cam, self.target)
+        finally:
+            renderer.release()
+        lines = [f"{self.target} seen from view '{self.view}' ({int(mask.sum())} pixels); relative luminance "
+                 "(1 = a white surface under irradiance 1):",
+                 f"  {'lighting':<24} {'mean':>8} {'10th pct':>9} {'90th pct':>9}"]
+        lines += [f"  {r.preset:<24} {r.luminance:8.4f} {r.luminance_p10:9.4f} {r.luminance_p90:9.4f}"
+                  for r in results]
+        figures: dict[str, Any] = {
+            "view": self.view, "target": self.target, "target_pixels": int(mask.sum()),
+            "luminance_weights_rgb": LUMINANCE_WEIGHTS.tolist(),
+            "presets": [{"preset": r.preset, "luminance_relative": r.luminance,
+                         "luminance_p10_relative": r.luminance_p10, "luminance_p90_relative": r.luminance_p90}
+                        for r in results]}
+        image = None
+        if self.out:
+            text = provenance(project, cam, "view", ",".join(presets), None, scene.page_hashes,
+                              {"target": self.target})
+            image = Path(self.out)
+            write_png(image, side_by_side(results, mask), text)
+            lines.append(f"views side by side written to {self.out}")
+            figures["strip_png"] = str(self.out)
+        return AnalysisResult("\n".join(lines), figures, image)
+

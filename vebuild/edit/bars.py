@@ -1,0 +1,157 @@
+"""The modelling screen's bars: the toolbar (tools, marker name, undo, redo, save, fit, labels,
+status), the strip of photos, the messages, the recovery question and the progress of a long task."""
+
+from __future__ import annotations
+
+from imgui_bundle import imgui
+
+from .keys import EDITOR_KEYS, tool_key
+from .layout import MESSAGES_SHOWN, STRIP_H, THUMB_H, TOOL_HINTS, TOOLBAR_H, TOOLS, EditorPart
+
+
+class Bars(EditorPart):
+    """Toolbar, strip, messages and the busy bar (a part of the Editor)."""
+
+    def _draw_toolbar(self) -> None:
+        x0, _, x1, _ = self.view_rect()
+        self.fixed_window("##toolbar", (x0, 0, x1, TOOLBAR_H), imgui.WindowFlags_.no_decoration)
+        for tool, label in TOOLS.items():
+            active = self.tool == tool
+            if active:
+                imgui.push_style_color(imgui.Col_.button, imgui.ImVec4(0.85, 0.55, 0.1, 1.0))
+            if self.button(label, tip=f"{TOOL_HINTS[tool]} (key {tool_key(tool)})"):
+                self.set_tool(tool)
+            if active:
+                imgui.pop_style_color()
+            imgui.same_line()
+        imgui.set_next_item_width(90)
+        changed, name = imgui.input_text("marker name", self.marker_name)
+        self.rect("marker name")
+        if changed:
+            self.marker_name, self._marker_name_default = name, False
+        s = self.session
+        imgui.begin_disabled(s.undo_label is None)
+        if self.button("Undo", tip=f"{EDITOR_KEYS.key_for('undo')}: undo {s.undo_label or ''}"):
+            self.undo()
+        imgui.end_disabled()
+        imgui.same_line()
+        imgui.begin_disabled(s.redo_label is None)
+        if self.button("Redo", tip=f"{EDITOR_KEYS.key_for('redo')}: redo {s.redo_label or ''}"):
+            self.redo()
+        imgui.end_disabled()
+        imgui.same_line()
+        if self.button("Save", tip=f"{EDITOR_KEYS.key_for('save')}: write the project file (the autosave is removed)"):
+            self.guard(s.save)
+        imgui.same_line()
+        if self.button("Fit", tip=f"{EDITOR_KEYS.key_for('fit')}: the whole photo"):
+            self.fit()
+        imgui.same_line()
+        _, self.show_labels = imgui.checkbox("labels", self.show_labels)
+        self.rect("labels")
+        imgui.set_item_tooltip(f"{EDITOR_KEYS.key_for('toggle_labels')}: residuals and names over the photo "
+                               "(markers' names stay)")
+        imgui.same_line()
+        status = f"{self.photo or '-'}  ×{self.zoom:.2f}"
+        if self._photo_takes(*self._cursor):
+            u, v = self.window_to_image(*self._cursor)
+            status += f"  ({u:.1f}, {v:.1f}) px"
+        if s.dirty:
+            status += "   unsaved (autosaved)"
+        imgui.text(status)
+        imgui.end()
+
+    def _draw_strip(self) -> None:
+        W, H = self.size()
+        x0, _, x1, _ = self.view_rect()
+        self.fixed_window("##strip", (x0, H - STRIP_H, x1, H), imgui.WindowFlags_.no_title_bar
+                           | imgui.WindowFlags_.horizontal_scrollbar)
+        for pid in self.session.photo_ids:
+            thumb = self._thumbs.get(pid)
+            current = pid == self.photo
+            if current:
+                imgui.push_style_color(imgui.Col_.button, imgui.ImVec4(0.85, 0.55, 0.1, 1.0))
+            label = f"photo:{pid}"
+            if thumb is not None:
+                clicked = imgui.image_button(label, self.gui.texture_ref(thumb), thumb.size)
+                self.rect(label)
+            else:
+                note = "cannot load" if pid in self._photo_errors else "loading"
+                clicked = imgui.button(f"{pid}\n({note})##{label}", (THUMB_H * 4 / 3, THUMB_H + 6))
+                self.rect(label)
+            if current:
+                imgui.pop_style_color()
+            imgui.set_item_tooltip(pid + (f": {self._photo_errors[pid]}" if pid in self._photo_errors else ""))
+            if clicked:
+                self.guard(self.set_photo, pid)
+            imgui.same_line()
+        imgui.new_line()
+        imgui.set_next_item_width(260)
+        _, self.add_photo_path = imgui.input_text("##add photo file", self.add_photo_path)
+        self.rect("add photo file")
+        imgui.same_line()
+        if self.button("Add photo", tip="an image file in the project's folder (its SHA-256 is recorded)"):
+            pid = self.guard(self.session.add_photo, self.add_photo_path.strip())
+            if pid is not None:
+                self.add_photo_path = ""
+                self.guard(self.set_photo, pid)
+        imgui.end()
+
+    def _draw_messages(self) -> None:
+        x0, _, x1, y1 = self.view_rect()
+        lines: list[tuple[str, tuple[float, float, float, float]]] = []
+        ov = self._overlay if self._overlay_key and self._overlay_key[1] == self.photo else None
+        for note in (ov.notes if ov is not None else []):
+            lines.append((note, (0.75, 0.75, 0.75, 1.0)))
+        for m in self.messages[-MESSAGES_SHOWN:]:
+            lines.append((m, (1.0, 1.0, 1.0, 1.0)))
+        if self.drag_problem:
+            lines.append((self.drag_problem, (1.0, 0.35, 0.3, 1.0)))
+        if self._placing is not None:
+            lines.append((f"click in the photo where the new {self._placing['kind']} stands (Esc cancels)",
+                          (1.0, 0.8, 0.2, 1.0)))
+        if not lines:
+            return
+        imgui.set_next_window_pos((x0 + 6, y1 - 6), imgui.Cond_.always, (0.0, 1.0))
+        imgui.set_next_window_bg_alpha(0.7)
+        imgui.begin("##messages", None, imgui.WindowFlags_.no_decoration | imgui.WindowFlags_.always_auto_resize
+                    | imgui.WindowFlags_.no_inputs | imgui.WindowFlags_.no_saved_settings
+                    | imgui.WindowFlags_.no_focus_on_appearing | imgui.WindowFlags_.no_nav)
+        imgui.push_text_wrap_pos(max(200.0, x1 - x0 - 40))
+        for text, colour in lines:
+            imgui.text_colored(imgui.ImVec4(*colour), text)
+        imgui.pop_text_wrap_pos()
+        pos, size = imgui.get_window_pos(), imgui.get_window_size()
+        self._rects["messages"] = (pos.x, pos.y, pos.x + size.x, pos.y + size.y)
+        imgui.end()
+
+    def _draw_recovery(self) -> None:
+        s = self.session
+        if s.recovery_available and not self._recovery_asked:
+            imgui.open_popup("Recover autosaved edits?")
+            self._recovery_asked = True
+        W, H = self.size()
+        imgui.set_next_window_pos((W / 2, H / 2), imgui.Cond_.always, (0.5, 0.5))
+        opened, _ = imgui.begin_popup_modal("Recover autosaved edits?", None, imgui.WindowFlags_.always_auto_resize)
+        if opened:
+            imgui.text(f"{s.autosave_path.name} holds edits that were not saved.")
+            if self.button("Recover the autosaved edits"):
+                self.guard(s.recover)
+                imgui.close_current_popup()
+            imgui.same_line()
+            if self.button("Discard"):
+                self.guard(s.discard_recovery)
+                imgui.close_current_popup()
+            imgui.end_popup()
+
+    def _draw_busy(self) -> None:
+        if self._busy is None:
+            return
+        W, H = self.size()
+        imgui.set_next_window_pos((W / 2, H / 2), imgui.Cond_.always, (0.5, 0.5))
+        imgui.begin("##busy", None, imgui.WindowFlags_.no_decoration | imgui.WindowFlags_.always_auto_resize
+                    | imgui.WindowFlags_.no_saved_settings)
+        frac, text = self._progress
+        imgui.text(f"{self._busy}…")
+        imgui.progress_bar(frac, (320, 0), text)
+        self.rect("progress")
+        imgui.end()

@@ -1,0 +1,169 @@
+"""The modelling screen's history: each edit one transaction (the document restored if the edit
+fails or leaves it invalid), undo and redo, and the autosave side file written after every edit so
+that a crash loses nothing (:class:`~vebuild.edit.session.EditSession` is made of this and the
+marks, modelling and overlay parts)."""
+
+from __future__ import annotations
+
+import contextlib
+import copy
+from collections.abc import Iterator
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from vebuild.errors import VebuildError
+from vebuild.model.undo import UndoStack
+from vebuild.project import RESULT_KEYS, Project, autosave_path, load_project, save_project, validate
+
+if TYPE_CHECKING:
+    from vebuild.camera import ImageCamera
+    from vebuild.model.scene import Model
+
+#: Undo steps kept; older ones are dropped (the autosave and the project file hold the work).
+UNDO_DEPTH = 200
+
+
+class EditError(VebuildError):
+    """A user's edit that cannot be done; the text says why and what to do instead."""
+
+
+class SessionState:
+    """What the parts of an edit session share: the project and the session's state, and the few
+    calls each part makes of another (the session provides them)."""
+
+    # Set by EditSession; declared here for the type checker.
+    project: Project
+    messages: list[str]
+    revision: int
+    dirty: bool
+    autosave: bool
+    recovery_available: bool
+    _cache: dict[Any, Any]
+    _drag: Any
+    history: UndoStack[dict[str, Any]]
+
+    @property
+    def data(self) -> dict[str, Any]:
+        return self.project.data
+
+    @property
+    def autosave_path(self) -> Path:
+        return autosave_path(self.project.path)
+
+    def say(self, text: str) -> None:
+        self.messages = (self.messages + [text])[-50:]
+
+    def photo(self, photo_id: str) -> dict[str, Any]:
+        try:
+            return self.project.photo(photo_id)
+        except VebuildError as e:
+            raise EditError(str(e)) from None
+
+    @property
+    def settings(self) -> dict[str, float]:
+        return self.project.settings
+
+    if TYPE_CHECKING:
+        @property
+        def cameras(self) -> dict[str, ImageCamera]: ...
+
+        @property
+        def model(self) -> Model | None: ...
+
+        def _camera(self, photo: str) -> ImageCamera: ...
+
+
+class History(SessionState):
+    """Undoable edits and the autosave (mixed into the session)."""
+
+    @contextlib.contextmanager
+    def _edit(self, label: str) -> Iterator[None]:
+        """One undoable change: the document is restored if the change fails or leaves it invalid."""
+        if self._drag is not None and label != "drag":
+            raise EditError("finish the drag first (release the mouse button, or Esc to cancel it)")
+        before = copy.deepcopy(self.data)
+        try:
+            yield
+            # Results (calibration, solution, textures) the edit left as they were were valid before
+            # it: only the inputs, and results it changed, are validated again (the covariance
+            # matrices make a whole validation most of an edit's time).
+            kept = [k for k in RESULT_KEYS if k in self.data and self.data[k] == before.get(k)]
+            validate({k: v for k, v in self.data.items() if k not in kept}, self.project.path)
+        except VebuildError as e:
+            self.project.data = before
+            self._cache.clear()
+            raise e if isinstance(e, EditError) else EditError(str(e)) from None
+        except BaseException:
+            self.project.data = before
+            self._cache.clear()
+            raise
+        self.history.push(before, label)
+        self._changed()
+
+    def _changed(self) -> None:
+        self.revision += 1
+        self.dirty = True
+        self._cache.clear()
+        if self.autosave:
+            self._write_autosave()
+
+    def _write_autosave(self) -> None:
+        try:
+            save_project(self.autosave_path, self.data, validated=True)  # every edit is validated in _edit
+        except VebuildError as e:
+            self.say(f"could not autosave: {e}")
+
+    @property
+    def undo_label(self) -> str | None:
+        return self.history.undo_label
+
+    @property
+    def redo_label(self) -> str | None:
+        return self.history.redo_label
+
+    def undo(self) -> bool:
+        step = None if self._drag is not None else self.history.undo(self.data)
+        if step is None:
+            return False
+        label, self.project.data = step
+        self._changed()
+        self.say(f"undone: {label}")
+        return True
+
+    def redo(self) -> bool:
+        step = None if self._drag is not None else self.history.redo(self.data)
+        if step is None:
+            return False
+        label, self.project.data = step
+        self._changed()
+        self.say(f"redone: {label}")
+        return True
+
+    def save(self) -> Path:
+        try:
+            path = save_project(self.project)
+        except VebuildError as e:
+            raise EditError(str(e)) from None
+        self.dirty = False
+        with contextlib.suppress(FileNotFoundError):
+            self.autosave_path.unlink()
+        self.say(f"saved {path.name}")
+        return path
+
+    def recover(self) -> None:
+        """Take the edits kept in the autosave side file (one undoable step)."""
+        try:
+            saved = load_project(self.autosave_path, verify_photos=False).data
+        except VebuildError as e:
+            self.recovery_available = False
+            raise EditError(f"the autosave cannot be recovered: {e}") from None
+        with self._edit("recover autosaved edits"):
+            self.project.data = saved
+        self.recovery_available = False
+        self.say(f"recovered the edits kept in {self.autosave_path.name}; save to keep them in the project")
+
+    def discard_recovery(self) -> None:
+        with contextlib.suppress(FileNotFoundError):
+            self.autosave_path.unlink()
+        self.recovery_available = False
+        self.say("discarded the autosaved edits")

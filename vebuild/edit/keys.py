@@ -1,0 +1,43 @@
+"""The modelling screen's keys and mouse: one table, from which the screen's dispatch, its
+on-screen help (the Keys tab, the tools' tooltips) and the README's list are made."""
+
+from __future__ import annotations
+
+import glfw
+
+from vebuild.gl.app import CTRL, SHIFT, Binding, Chord, KeyTable
+
+EDITOR_KEYS = KeyTable([
+    Binding("wheel; middle drag or Space + drag; Home", "zoom about the cursor (up to 16×, pixels drawn as squares "
+            "above 2×); pan; fit the photo", (Chord(glfw.KEY_HOME, "fit"),)),
+    Binding("1, 2, 3", "Segment X, Y, Z: press on an edge, drag along it toward the axis' positive sense, release: "
+            "a directed vanishing segment",
+            (Chord(glfw.KEY_1, "set_tool", ("x",)), Chord(glfw.KEY_2, "set_tool", ("y",)),
+             Chord(glfw.KEY_3, "set_tool", ("z",)))),
+    Binding("M", "Marker: a click places the marker named in the toolbar's field (a new name makes a new marker; "
+            "the first is the origin until another is chosen)", (Chord(glfw.KEY_M, "set_tool", ("marker",)),)),
+    Binding("E", "Edge: press and drag along an edge of the selected primitive: an edge observation (drawn red) on "
+            "the nearest projected edge", (Chord(glfw.KEY_E, "set_tool", ("edge",)),)),
+    Binding("Delete", "Delete: click a segment, marker or drawn edge to remove it",
+            (Chord(glfw.KEY_DELETE, "set_tool", ("delete",)),)),
+    Binding("Esc", "Select (also cancels a drag or stroke): press on a vertex and drag, the solver fits the model on "
+            "every move; press on a segment's end or a marker and drag to move it; click an edge to select its "
+            "primitive", (Chord(glfw.KEY_ESCAPE, "escape"),)),
+    Binding("F", "fix the vertex under the cursor where it is seen, or unfix it",
+            (Chord(glfw.KEY_F, "fix_under_cursor"),)),
+    Binding("L", "labels over the photo (residuals, vertex names) on or off; markers' names stay",
+            (Chord(glfw.KEY_L, "toggle_labels"),)),
+    Binding("Shift", "magnifier (6 window pixels per photo pixel, a crosshair, the stroke being drawn and the "
+            "sub-pixel position; always on with the Segment, Marker and Edge tools)"),
+    Binding("PageUp / PageDown", "previous / next photo (or click its thumbnail)",
+            (Chord(glfw.KEY_PAGE_UP, "step_photo", (-1,)), Chord(glfw.KEY_PAGE_DOWN, "step_photo", (1,)))),
+    Binding("Ctrl+Z, Ctrl+Y (Ctrl+Shift+Z), Ctrl+S", "undo, redo, save",
+            (Chord(glfw.KEY_Z, "undo", mods=CTRL), Chord(glfw.KEY_Y, "redo", mods=CTRL),
+             Chord(glfw.KEY_Z, "redo", mods=CTRL | SHIFT), Chord(glfw.KEY_S, "save", mods=CTRL))),
+])
+
+
+def tool_key(tool: str) -> str:
+    """The key that picks a tool, as written (the Select tool is Esc's)."""
+    chord = EDITOR_KEYS.chord_for("escape") if tool == "select" else EDITOR_KEYS.chord_for("set_tool", tool)
+    return chord.label if chord is not None else ""

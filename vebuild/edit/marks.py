@@ -1,0 +1,239 @@
+"""The marks a user makes on the photos (paper §2, §3): directed vanishing segments and their
+fitted vanishing points, markers and the origin, reference distances, and the user's (red) edge
+observations of the model; each mark one undoable edit."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vebuild.calibration.vanishing import MIN_SEGMENT_LENGTH_PX
+from vebuild.errors import CalibrationError
+from vebuild.model.drag import project_edges
+
+from .history import EditError, History
+
+if TYPE_CHECKING:
+    from vebuild.model.scene import Model
+
+Array = NDArray[np.float64]
+
+AXES = ("x", "y", "z")
+
+
+@dataclass
+class VanishingState:
+    """One axis of one photo: its segments and, once they allow it, the fitted vanishing point.
+
+    point : (3,) homogeneous pixel coordinates (w = 0 at infinity), or None.
+    residuals_px : (n,) each segment's residual, or None.
+    problem : why there is no vanishing point yet, or None.
+    """
+
+    axis: str
+    segments: Array
+    point: Array | None = None
+    residuals_px: Array | None = None
+    problem: str | None = None
+
+
+class Marks(History):
+    """Segments, markers, distances and edge observations (mixed into the session)."""
+
+    if TYPE_CHECKING:
+        def _model_now(self) -> tuple[Model | None, Array | None]: ...
+
+        def _edge_docs(self) -> list[dict[str, Any]]: ...
+
+    def _segments(self, photo: str, axis: str) -> list[list[float]]:
+        if axis not in AXES:
+            raise EditError(f"a vanishing segment runs along world axis x, y or z, not {axis!r}")
+        p = self.photo(photo)
+        return p.setdefault("vanishing_segments", {}).setdefault(axis, [])
+
+    def add_segment(self, photo: str, axis: str, p1: Sequence[float], p2: Sequence[float]) -> int:
+        """Add a directed segment (p1 toward +axis at p2); EditError for one shorter than 2 px."""
+        seg = [float(p1[0]), float(p1[1]), float(p2[0]), float(p2[1])]
+        self._check_segment(seg, axis)
+        with self._edit(f"add {axis} segment in {photo}"):
+            segs = self._segments(photo, axis)
+            segs.append(seg)
+        return len(segs) - 1
+
+    def _check_segment(self, seg: Sequence[float], axis: str) -> None:
+        if not all(math.isfinite(v) for v in seg):
+            raise EditError("a segment's end point is not a number")
+        length = math.hypot(seg[2] - seg[0], seg[3] - seg[1])
+        if length < MIN_SEGMENT_LENGTH_PX:
+            raise EditError(f"that {axis} segment is {length:.1f} px long: a vanishing segment needs two distinct "
+                            f"end points at least {MIN_SEGMENT_LENGTH_PX:g} px apart along an edge; press, drag "
+                            "along the edge, release")
+
+    def move_segment(self, photo: str, axis: str, index: int, seg: Sequence[float]) -> None:
+        seg = [float(v) for v in seg]
+        self._check_segment(seg, axis)
+        with self._edit(f"move {axis} segment {index} in {photo}"):
+            self._segments(photo, axis)[index] = seg
+
+    def delete_segment(self, photo: str, axis: str, index: int) -> None:
+        with self._edit(f"delete {axis} segment {index} in {photo}"):
+            segs = self._segments(photo, axis)
+            del segs[index]
+            if not segs:
+                del self.photo(photo)["vanishing_segments"][axis]
+
+    def segment_at(self, photo: str, uv: Sequence[float], radius_px: float) -> tuple[str, int, int | None] | None:
+        """The segment near uv: (axis, index, 0/1 for an end point or None for its body)."""
+        best: tuple[float, tuple[str, int, int | None], int | None] | None = None
+        q = np.asarray(uv, float)
+        for axis, segs in (self.photo(photo).get("vanishing_segments") or {}).items():
+            for i, s in enumerate(segs):
+                a, b = np.asarray(s[:2]), np.asarray(s[2:])
+                for end, p in ((0, a), (1, b)):
+                    d = float(np.linalg.norm(q - p))
+                    if d <= radius_px and (best is None or d < best[0] - 1e-9 or best[2] is None):
+                        best = (d, (axis, i, end), end)
+                t = np.clip(np.dot(q - a, b - a) / max(np.dot(b - a, b - a), 1e-12), 0, 1)
+                d = float(np.linalg.norm(q - (a + t * (b - a))))
+                if d <= radius_px and best is None:
+                    best = (d, (axis, i, None), None)
+        return best[1] if best else None
+
+    def vanishing(self, photo: str, axis: str) -> VanishingState:
+        """The segments of one axis and their best-fit vanishing point (or why there is none yet)."""
+        key = ("vp", photo, axis)
+        if key not in self._cache:
+            from vebuild.calibration.vanishing import fit_vanishing_point
+
+            p = self.photo(photo)
+            segs = np.asarray((p.get("vanishing_segments") or {}).get(axis, []), float).reshape(-1, 4)
+            state = VanishingState(axis, segs)
+            if len(segs) < 2:
+                state.problem = (f"{axis}: {len(segs)} segment{'s' if len(segs) != 1 else ''}; a vanishing point needs "
+                                 "two or more, along different parallel edges")
+            else:
+                try:
+                    fit = fit_vanishing_point(segs, p["width"], p["height"], axis=axis, photo=photo)
+                    state.point, state.residuals_px = fit.point, fit.residuals_px
+                except CalibrationError as e:
+                    state.problem = f"{axis}: cannot fit a vanishing point yet: {e.detail}"
+            self._cache[key] = state
+        return self._cache[key]
+
+    # -- markers and reference distances ----------------------------------------------------------
+
+    def next_marker_name(self) -> str:
+        names = set(self.project.marker_names())
+        k = 1
+        while f"M{k}" in names:
+            k += 1
+        return f"M{k}"
+
+    def place_marker(self, photo: str, name: str, uv: Sequence[float]) -> None:
+        """Mark marker ``name`` at uv in the photo (a new name makes a new marker)."""
+        name = name.strip()
+        if not name or ":" in name:
+            raise EditError("a marker needs a name (without ':', which names model vertices)")
+        uv = [float(uv[0]), float(uv[1])]
+        with self._edit(f"place marker {name} in {photo}"):
+            if name not in self.project.marker_names():
+                self.data["markers"].append({"name": name})
+            self.photo(photo).setdefault("marker_observations", {})[name] = uv
+            if not self.data.get("origin_marker") and len(self.data["markers"]) == 1:
+                self.data["origin_marker"] = name
+
+    def remove_marker(self, photo: str, name: str) -> None:
+        """Remove the marker's observation in this photo (and the marker, once nothing refers to it)."""
+        obs = self.photo(photo).get("marker_observations") or {}
+        if name not in obs:
+            raise EditError(f"marker '{name}' is not marked in photo '{photo}'")
+        with self._edit(f"remove marker {name} from {photo}"):
+            del obs[name]
+            used = any(name in (p.get("marker_observations") or {}) for p in self.data["photos"])
+            used |= any(name in (d["a"], d["b"]) for d in self.data["reference_distances"])
+            nodes = (self.data.get("model") or {}).get("nodes", [])
+            used |= any(n.get("joint", {}).get("marker") == name for n in nodes)
+            if not used:
+                self.data["markers"] = [m for m in self.data["markers"] if m["name"] != name]
+                if self.data.get("origin_marker") == name:
+                    del self.data["origin_marker"]
+
+    def marker_at(self, photo: str, uv: Sequence[float], radius_px: float) -> str | None:
+        obs = self.photo(photo).get("marker_observations") or {}
+        best = min(obs.items(), key=lambda kv: math.dist(kv[1], uv), default=None)
+        return best[0] if best and math.dist(best[1], uv) <= radius_px else None
+
+    def set_origin(self, name: str) -> None:
+        if name not in self.project.marker_names():
+            raise EditError(f"no marker is called '{name}'; place it in a photo first")
+        with self._edit(f"origin at {name}"):
+            self.data["origin_marker"] = name
+
+    def add_distance(self, a: str, b: str, distance_m: float, sigma_m: float = 0.002, role: str = "scale") -> None:
+        """A measured distance between two markers (or model vertices ``node:handle``)."""
+        a, b = a.strip(), b.strip()
+        if role not in ("scale", "check"):
+            raise EditError(f"a reference distance's role is 'scale' or 'check', not {role!r}")
+        if not (math.isfinite(distance_m) and distance_m > 0):
+            raise EditError(f"a reference distance must be a positive number of metres, not {distance_m!r}")
+        if not (math.isfinite(sigma_m) and sigma_m > 0):
+            raise EditError(f"a reference distance's σ must be a positive number of metres, not {sigma_m!r}")
+        if a == b:
+            raise EditError("a reference distance needs two different ends")
+        with self._edit(f"distance {a}–{b}"):
+            self.data["reference_distances"].append({"a": a, "b": b, "distance": float(distance_m),
+                                                     "sigma": float(sigma_m), "role": role})
+
+    def remove_distance(self, index: int) -> None:
+        with self._edit("remove distance"):
+            del self.data["reference_distances"][index]
+
+    # -- the user's edges (paper §3) ----------------------------------------------------------------
+
+    def nearest_edge(self, photo: str, p1: Sequence[float], p2: Sequence[float],
+                     node: str | None = None) -> tuple[str, str] | None:
+        """The projected model edge that the stroke p1–p2 follows best (of ``node``, or any)."""
+        cam = self._camera(photo)
+        model, x = self._model_now()
+        if model is None:
+            return None
+        names = [node] if node else [n.name for n in model.nodes if n.primitive is not None]
+        a, b = np.asarray(p1, float), np.asarray(p2, float)
+        best = None
+        for n, edges in project_edges(model, cam, names, x).items():
+            for e, (u1, v1, u2, v2) in edges:
+                q1, q2 = np.array([u1, v1]), np.array([u2, v2])
+                d = q2 - q1
+                L = float(np.linalg.norm(d))
+                if L < 1e-6:
+                    continue
+                nrm = np.array([-d[1], d[0]]) / L
+                dist = abs(float((a - q1) @ nrm)) + abs(float((b - q1) @ nrm))
+                mid = 0.5 * (a + b)
+                t = float((mid - q1) @ d) / L**2
+                dist += max(0.0, -t, t - 1.0) * L  # beyond the edge's ends
+                if best is None or dist < best[0]:
+                    best = (dist, n, e)
+        return (best[1], best[2]) if best else None
+
+    def add_edge_observation(self, photo: str, node: str, edge: str, p1: Sequence[float], p2: Sequence[float]) -> None:
+        """The user's (red) edge: the model edge must pass through p1 and p2 (paper §3)."""
+        self._camera(photo)
+        if math.dist(p1, p2) < MIN_SEGMENT_LENGTH_PX:
+            raise EditError(f"an edge needs two end points at least {MIN_SEGMENT_LENGTH_PX:g} px apart")
+        model = self.model
+        prim = model.node(node).primitive if model and node in model.index else None
+        if prim is None or edge not in [e for e, _, _ in prim.edges()]:
+            raise EditError(f"'{node}' has no edge '{edge}'")
+        with self._edit(f"edge {node}:{edge} in {photo}"):
+            self._edge_docs().append({"photo": photo, "node": node, "edge": edge,
+                                      "points": [[float(p1[0]), float(p1[1])], [float(p2[0]), float(p2[1])]]})
+
+    def remove_edge_observation(self, index: int) -> None:
+        with self._edit("remove edge"):
+            del self._edge_docs()[index]

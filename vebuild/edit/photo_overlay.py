@@ -1,0 +1,156 @@
+"""What an edit session draws over a photo (:class:`~vebuild.edit.overlay.Overlay`, plain data in
+photo pixels): segments with their residuals (outliers beyond :data:`vebuild.constants.OUTLIER_SIGMAS`
+click σ, the solver's threshold), vanishing rays, the horizon and axes, markers, the model's
+projected edges and handles, the user's edges and the solved residuals; cached per revision, and
+split during a drag into what stays put and what moves."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from vebuild import camera as cam_math
+from vebuild.camera import ImageCamera
+from vebuild.constants import OUTLIER_SIGMAS
+from vebuild.model.drag import project_edges
+
+from .marks import AXES
+from .modelling import Modelling
+from .overlay import (
+    AXIS_COLOURS,
+    CYAN,
+    GREY,
+    MAGENTA,
+    ORANGE,
+    RED,
+    WHITE,
+    YELLOW,
+    Line,
+    Overlay,
+    Point,
+    horizon_and_axes,
+    vanishing_rays,
+)
+
+
+class SessionOverlays(Modelling):
+    """The overlay of a photo (mixed into the session)."""
+
+    def overlay(self, photo: str, selected: str | None = None) -> Overlay:
+        """Everything drawn over one photo (see :mod:`vebuild.edit.overlay`)."""
+        key = ("overlay", photo, selected, self.revision)
+        if key not in self._cache:
+            if self._drag is None:
+                self._cache[key] = self._overlay(photo, selected)
+            else:
+                still, moving = self.overlay_layers(photo, selected)
+                self._cache[key] = Overlay(photo, still.lines + moving.lines, still.points + moving.points,
+                                           still.notes + moving.notes)
+        return self._cache[key]
+
+    def overlay_layers(self, photo: str, selected: str | None = None) -> tuple[Overlay, Overlay]:
+        """The overlay as what stays put and what moves: during a drag, everything but the moving
+        primitives (kept from the drag's first frame) and their edges and handles now; otherwise
+        the whole overlay and nothing."""
+        d = self._drag
+        if d is None:
+            return self.overlay(photo, selected), Overlay(photo)
+        still = ("overlay-still", photo, selected, id(d))
+        if still not in self._cache:
+            self._cache[still] = self._overlay(photo, selected, skip=set(d.session.moved))
+        key = ("overlay-moving", photo, selected, self.revision)
+        if key not in self._cache:
+            moving = Overlay(photo)
+            cam = self.cameras.get(photo)
+            if cam is not None:
+                self._primitives_overlay(moving, photo, cam, selected, d.session.moved)
+            self._cache[key] = moving
+        return self._cache[still], self._cache[key]
+
+    def _overlay(self, photo: str, selected: str | None, skip: set[str] | frozenset[str] = frozenset()) -> Overlay:
+        ov = Overlay(photo)
+        p = self.photo(photo)
+        sigma = self.settings["click_sigma_px"]
+        for axis in AXES:
+            vs = self.vanishing(photo, axis)
+            colour = AXIS_COLOURS[axis]
+            for i, s in enumerate(vs.segments):
+                r = None if vs.residuals_px is None else float(vs.residuals_px[i])
+                outlier = r is not None and abs(r) > OUTLIER_SIGMAS * sigma
+                ov.lines.append(Line(tuple(map(float, s)), YELLOW if outlier else colour, 3.0 if outlier else 2.0,
+                                     "segment", (axis, i), None if r is None else
+                                     (f"{axis}{i}: {r:+.2f} px" + (" outlier" if outlier else "")), arrow=True))
+            if vs.point is not None:
+                vanishing_rays(ov, vs, p["width"], p["height"])
+            elif vs.problem and len(vs.segments):
+                ov.notes.append(vs.problem)
+        cam = self.cameras.get(photo)
+        if cam is not None:
+            horizon_and_axes(ov, cam, p["width"], p["height"])
+        self._markers_overlay(ov, photo, cam)
+        self._model_overlay(ov, photo, cam, selected, skip)
+        return ov
+
+    def _markers_overlay(self, ov: Overlay, photo: str, cam: ImageCamera | None) -> None:
+        placed = self._markers_placed()
+        origin = self.data.get("origin_marker")
+        res = ((self.data.get("calibration") or {}).get("cameras", {}).get(photo) or {}).get("marker_residuals_px", {})
+        for name, uv in (self.photo(photo).get("marker_observations") or {}).items():
+            label = name + (" (origin)" if name == origin else "")
+            if name in res:
+                label += f"  {np.linalg.norm(res[name]):.2f} px"
+            ov.points.append(Point((float(uv[0]), float(uv[1])), ORANGE, 5.0, False, "marker", name, label))
+            if cam is not None and name in placed:
+                X = placed[name]
+                if cam_math.world_to_camera(cam.R, cam.C, X)[2] > 0:
+                    q = cam_math.project(cam.K, cam.R, cam.C, X)
+                    ov.points.append(Point((float(q[0]), float(q[1])), GREY, 2.5, True, "marker-projected", name))
+                    ov.lines.append(Line((float(uv[0]), float(uv[1]), float(q[0]), float(q[1])), MAGENTA, 1.0,
+                                         "residual", ("marker", name)))
+
+    def _model_overlay(self, ov: Overlay, photo: str, cam: ImageCamera | None, selected: str | None,
+                       skip: set[str] | frozenset[str] = frozenset()) -> None:
+        model, x = self._model_now()
+        if model is None:
+            return
+        if cam is None:
+            ov.notes.append("this photo has no camera yet: the model is drawn in calibrated photos only")
+            return
+        self._primitives_overlay(ov, photo, cam, selected, [n.name for n in model.nodes if n.name not in skip])
+        self._observations_overlay(ov, photo)
+
+    def _primitives_overlay(self, ov: Overlay, photo: str, cam: ImageCamera, selected: str | None,
+                            nodes: Sequence[str]) -> None:
+        """The projected edges (white; the selected node's yellow) and handles (fixed: red) of nodes."""
+        model, x = self._model_now()
+        names = [n for n in nodes if model.node(n).primitive is not None]
+        for node, edges in project_edges(model, cam, names, x, self._transforms()).items():
+            colour = YELLOW if node == selected else WHITE
+            for e, uv4 in edges:
+                ov.lines.append(Line(tuple(map(float, uv4)), colour, 2.0 if node == selected else 1.5, "edge",
+                                     (node, e)))
+        for n, h, uv, fixed in self.handles(photo, names):
+            ov.points.append(Point(uv, RED if fixed else (YELLOW if n == selected else WHITE),
+                                   5.0 if fixed or n == selected else 3.0, fixed or n == selected,
+                                   "pin" if fixed else "handle", (n, h), h if n == selected else None))
+
+    def _observations_overlay(self, ov: Overlay, photo: str) -> None:
+        """The user's edges (red) and, after a solve, each fixed vertex's residual (outliers magenta)."""
+        for i, e in enumerate(self._edge_docs()):
+            if e["photo"] == photo:
+                (u1, v1), (u2, v2) = e["points"]
+                ov.lines.append(Line((u1, v1, u2, v2), RED, 2.0, "user-edge", i, f"{e['node']}:{e['edge']}"))
+        sol = self.data.get("model_solution") or {}
+        outliers = " ".join(sol.get("outliers", []))
+        if self._drag is None:
+            for pin, r in zip(self._pins(), sol.get("pins", []), strict=False):
+                if pin["photo"] != photo or (pin["node"], pin["handle"]) != (r["node"], r["handle"]):
+                    continue
+                u, v = pin["uv"]
+                bad = f"pin {r['node']}:{r['handle']} in photo '{photo}'" in outliers
+                scale = 10.0  # residuals are a pixel or two: drawn ten times longer to be seen
+                ov.lines.append(Line((u, v, u + scale * r["residual_px"][0], v + scale * r["residual_px"][1]),
+                                     MAGENTA if bad else CYAN, 3.0 if bad else 1.0, "residual",
+                                     (r["node"], r["handle"]),
+                                     f"{np.hypot(*r['residual_px']):.2f} px" + (" outlier" if bad else "")))

@@ -1,0 +1,115 @@
+"""The modelling screen's 3-D preview: the model drawn with the renderer from an orbiting camera
+(textured once textures are extracted), redrawn when the model or the view changes."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from imgui_bundle import imgui
+
+from vebuild.camera import ImageCamera, fov_to_focal, intrinsic_matrix, look_rotation
+from vebuild.errors import VebuildError
+
+from .layout import PANEL_W, PREVIEW_FOV_DEG, PREVIEW_H, EditorPart, u32
+
+
+class Preview(EditorPart):
+    """The 3-D preview (a part of the Editor)."""
+
+    def preview_camera(self) -> ImageCamera | None:
+        r = self._renderer
+        if r is None:
+            return None
+        lo, hi = r.scene.bounds()
+        target = 0.5 * (lo + hi)
+        if self.preview_distance is None:
+            self.preview_distance = max(1.0, 1.2 * float(np.linalg.norm(hi - lo)))
+        cp, sp = math.cos(self.preview_pitch), math.sin(self.preview_pitch)
+        C = target + self.preview_distance * np.array([cp * math.cos(self.preview_yaw),
+                                                       cp * math.sin(self.preview_yaw), sp])
+        w, h = self.preview_size
+        f = fov_to_focal(math.radians(PREVIEW_FOV_DEG), w)
+        return ImageCamera("preview", intrinsic_matrix(f, w / 2, h / 2), look_rotation(target - C), C, w, h)
+
+    def _preview_scene(self, model: Any) -> Any:
+        """The model as a render scene: the last one's faces and pages when only the sizes and
+        joints changed (half the time), else laid out anew (with the textures, if any)."""
+        from vebuild.render.scene import load_scene, scene_from_model
+
+        record = self.session.data.get("textures")
+        pages_key = tuple(p.get("atlas_sha256") for p in record.get("pages", [])) if record else ()
+        shape = (tuple((n.name, n.primitive.TYPE if n.primitive is not None else None) for n in model.nodes),
+                 pages_key)
+        r = self._renderer
+        if r is not None and shape == self._preview_shape:
+            try:
+                return r.scene.with_model(model)
+            except (ValueError, KeyError):
+                pass
+        self._preview_shape = shape
+        if record is None:
+            return scene_from_model(model)
+        if self._preview_pages is None or self._preview_pages[0] != pages_key:
+            try:
+                pages = load_scene(self.session.project).pages
+            except VebuildError as e:
+                self.say(f"3-D preview untextured: {e}")
+                pages = []
+            self._preview_pages = (pages_key, pages)
+        return scene_from_model(model, record if self._preview_pages[1] else None, self._preview_pages[1])
+
+    def _update_preview(self) -> None:
+        s = self.session
+        key = (s.revision, self.preview_yaw, self.preview_pitch, self.preview_distance, self.selected)
+        if key == self._preview_key or s.dragging:  # during a drag the photo view shows the model; after it, this
+            return
+        model = s.model
+        if model is None or not any(n.primitive is not None for n in model.nodes):
+            self.preview_note = "no model yet"
+            self._preview_key = key
+            return
+        from vebuild.render.renderer import Renderer, RenderOptions
+
+        try:
+            scene = self._preview_scene(model)
+            pages = self._preview_shape[1]
+            if self._renderer is not None and self._renderer_pages != pages:  # new textures: new pages
+                self._renderer.release()
+                self._renderer = None
+            if self._renderer is None:
+                self._renderer = Renderer(self.ctx, scene, RenderOptions(samples=1, anisotropy=1.0,
+                                                                         trilinear=False, shadows=False))
+                self._renderer_pages = pages
+            else:
+                self._renderer.set_scene(scene)
+            self._renderer.highlight = self.selected
+            cam = self.preview_camera()
+            self._preview_tex = self._renderer.frame(cam)
+            self.preview_note = ""
+        except VebuildError as e:
+            self.preview_note = str(e)
+        self._preview_key = (s.revision, self.preview_yaw, self.preview_pitch, self.preview_distance, self.selected)
+
+    def _draw_preview(self) -> None:
+        W, H = self.size()
+        self.fixed_window("3-D preview", (W - PANEL_W, H - PREVIEW_H, W, H), 0)
+        w, h = self.preview_size
+        if self._preview_tex is not None and not self.preview_note:
+            imgui.image(self.gui.texture_ref(self._preview_tex), (w, h))
+        else:
+            imgui.dummy((w, h))
+            mn = imgui.get_item_rect_min()
+            imgui.get_window_draw_list().add_text((mn.x + 10, mn.y + 10), u32((0.8, 0.8, 0.8, 1)),
+                                                  self.preview_note or "no model yet")
+        self.rect("preview")
+        if imgui.is_item_hovered():
+            io = imgui.get_io()
+            if imgui.is_mouse_dragging(imgui.MouseButton_.left):
+                d = io.mouse_delta
+                self.preview_yaw -= 0.01 * d.x
+                self.preview_pitch = float(np.clip(self.preview_pitch + 0.01 * d.y, -1.5, 1.5))
+            if io.mouse_wheel and self.preview_distance is not None:
+                self.preview_distance *= 0.9 ** io.mouse_wheel
+        imgui.end()

@@ -1,0 +1,105 @@
+"""PNG files with provenance: every image vebuild writes (renders, screenshots, analyses' views
+and maps, the report's images) goes through :func:`write_png`, atomically, with the text chunks of
+:func:`provenance` (:data:`PROVENANCE_KEYS`): the SHA-256 of the project file it was made from, the
+camera (named view or photo, with K, R, C and size), the lighting preset and its lights, the stereo
+settings, the texture pages' hashes and the software version, and no time stamp, so that the same
+project and options give the same file, byte for byte.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from PIL import Image, PngImagePlugin
+
+from vebuild import __version__
+from vebuild.camera import ImageCamera
+from vebuild.errors import VebuildError
+from vebuild.project import Project, sha256_file
+
+#: Text keys written into every rendered PNG.
+PROVENANCE_KEYS = ("Software", "vebuild:project", "vebuild:project_sha256", "vebuild:camera", "vebuild:lighting",
+                   "vebuild:stereo", "vebuild:textures", "vebuild:options")
+
+def check_output(path: Path, suffixes: tuple[str, ...] = (".png",), project: Project | None = None) -> Path:
+    """Fail early, before any work, if ``path`` cannot be written as an output file: also where
+    the output policy (:mod:`vebuild.outputs`: never over the project's own files, only over a
+    file vebuild wrote) forbids it."""
+    from vebuild.outputs import check_file
+
+    path = Path(path)
+    check_file(project, path, suffix=suffixes[0])
+    if path.is_dir():
+        raise VebuildError(f"{path}: is a folder; expected a file name for the output")
+    if path.suffix.lower() not in suffixes:
+        raise VebuildError(f"{path}: expected an output file ending in {' or '.join(suffixes)}")
+    folder = path.parent if str(path.parent) else Path(".")
+    if not folder.is_dir():
+        raise VebuildError(f"{path}: the folder {folder} does not exist; create it first or choose another path")
+    if not os.access(folder, os.W_OK):
+        raise VebuildError(f"{path}: the folder {folder} cannot be written to (permission denied)")
+    if path.exists() and not os.access(path, os.W_OK):
+        raise VebuildError(f"{path}: the existing file cannot be overwritten (permission denied)")
+    return path
+
+
+def write_png(path: Path, image: NDArray[np.uint8], text: dict[str, str]) -> None:
+    """Write an RGB image with text chunks atomically (:mod:`vebuild.atomic`)."""
+    from vebuild.atomic import write_with
+
+    info = PngImagePlugin.PngInfo()
+    for k, v in text.items():
+        info.add_itxt(k, v) if not v.isascii() else info.add_text(k, v)
+    try:
+        write_with(path, lambda f: Image.fromarray(image, "RGB").save(f, format="PNG", pnginfo=info))
+    except OSError as e:
+        raise VebuildError(f"{path}: cannot write the image ({e.strerror or e})") from None
+
+
+def stamp(image: NDArray[np.uint8], text: str) -> NDArray[np.uint8]:
+    """The image with ``text`` in a red band across its top (how a hypothesis is labelled)."""
+    from PIL import ImageDraw, ImageFont
+
+    img = Image.fromarray(image, "RGB")
+    size = max(12, img.height // 28)
+    font = ImageFont.load_default(size=size)
+    draw = ImageDraw.Draw(img)
+    box = draw.textbbox((0, 0), text, font=font)
+    pad = size // 2
+    draw.rectangle((0, 0, img.width, box[3] + 2 * pad), fill=(170, 20, 20))
+    draw.text((pad, pad), text, fill=(255, 255, 255), font=font)
+    return np.asarray(img)
+
+
+def _camera_record(cam: ImageCamera, kind: str) -> dict[str, Any]:
+    return {"kind": kind, "name": cam.id, "width": cam.width, "height": cam.height,
+            "K": np.round(cam.K, 9).tolist(), "R": np.round(cam.R, 12).tolist(), "C": np.round(cam.C, 9).tolist()}
+
+
+def _lighting_record(project: Project, name: str) -> dict[str, Any]:
+    for rec in (project.data.get("lighting") or {}).get("presets", []):
+        if rec["name"] == name:
+            return rec
+    return {"name": name}
+
+
+def provenance(project: Project, cam: ImageCamera, kind: str, lighting: str, stereo: dict[str, Any] | None,
+               page_hashes: list[str], options: dict[str, Any]) -> dict[str, str]:
+    """The PNG text chunks of a render (:data:`PROVENANCE_KEYS`)."""
+    def js(x: Any) -> str:
+        return json.dumps(x, sort_keys=True, ensure_ascii=False)
+    return {
+        "Software": f"vebuild {__version__}",
+        "vebuild:project": project.path.name,
+        "vebuild:project_sha256": sha256_file(project.path),
+        "vebuild:camera": js(_camera_record(cam, kind)),
+        "vebuild:lighting": js(_lighting_record(project, lighting)),
+        "vebuild:stereo": js(stereo),
+        "vebuild:textures": js(page_hashes),
+        "vebuild:options": js(options),
+    }

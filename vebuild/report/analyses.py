@@ -1,0 +1,52 @@
+"""The report's section for the analyses a project records (FORMAT.md, ``analyses``).
+
+Each record is a name and the words of a ``vebuild analyse`` command; the report parses them into
+the typed request they describe (:func:`vebuild.analysis.recorded.parse_recorded`), runs it on the
+project with its image written into the report's folder, and shows its table, its image and its
+figures, so that the report shows what the project file gives now, and the command line that
+reproduces each result.
+"""
+
+from __future__ import annotations
+
+import json
+import shlex
+from typing import Any
+
+from vebuild.atomic import write_text
+from vebuild.errors import ProjectError, VebuildError
+
+from .page import Report, esc
+
+
+def analyses_html(project: Any, rep: Report, records: list[dict[str, Any]]) -> str:
+    from vebuild.analysis.recorded import parse_recorded
+
+    parts = ["<p>Each analysis the project records, run again for this report; the command line reproduces it "
+             "(`--json OUT` writes its figures). Lengths in metres; intervals at 95 %.</p>"]
+    (rep.folder / "figures").mkdir(exist_ok=True)
+    for i, rec in enumerate(records):
+        where = f"$.analyses[{i}]"
+        words = list(rec["command"])
+        image = f"images/analysis-{i + 1}.png"
+        try:
+            request = parse_recorded(words)
+            request = request.with_image(str(rep.folder / image)) or request
+            result = request.run(project)
+        except VebuildError as e:
+            raise ProjectError(project.path, f"{where}.command", str(e)) from None
+        figures = {k: v for k, v in result.figures.items() if not str(k).endswith("_png")}  # paths of this run
+        fig_name = f"figures/analysis-{i + 1}.json"
+        write_text(rep.folder / fig_name, json.dumps({"analysis": request.name, "command": words, **figures},
+                                                     indent=2, sort_keys=True, allow_nan=False) + "\n")
+        text = result.table.replace(str(rep.folder) + "/", "")
+        parts.append(f"<h3>{esc(rec['name'])}</h3>")
+        if rec.get("description"):
+            parts.append(f"<p>{esc(rec['description'])}</p>")
+        command = "vebuild analyse " + shlex.quote(project.path.name) + " " + " ".join(shlex.quote(w) for w in words)
+        parts.append(f"<p class='small'>{esc(command)} &nbsp; (figures: <a href='{fig_name}'>{fig_name}</a>)</p>")
+        parts.append(f"<pre class='small'>{esc(text)}</pre>")
+        if result.image is not None and result.image.is_file():
+            rep.images.append(result.image)
+            parts.append(f"<figure><img src='{image}'></figure>")
+    return "".join(parts)

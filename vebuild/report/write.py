@@ -1,0 +1,83 @@
+"""``vebuild report``: the report written whole or not at all, and its digest."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from collections.abc import Callable
+from pathlib import Path
+
+from vebuild.errors import VebuildError
+from vebuild.project import Project
+
+from . import sections
+from .page import Report, page
+
+
+def write_report(project: Project, out: Path, pdf: bool = True,
+                 progress: Callable[[str], None] | None = None) -> Path:
+    """Write ``out/report.html`` (and ``out/report.pdf``) with its images in ``out/images``."""
+    from vebuild.atomic import MANIFEST, remove_tree, replace_folder, temp_path, write_text
+    from vebuild.outputs import SOFTWARE, begin_stage, check_folder, write_manifest
+
+    given = Path(out)
+    if not given.parent.is_dir():
+        raise VebuildError(f"{given}: the folder {given.parent} does not exist; create it first")
+    check_folder(project, given, "report")
+    if not (project.data.get("calibration") or {}).get("cameras"):
+        raise VebuildError(f"{project.path}: the project has no calibrated cameras yet; run `vebuild calibrate` "
+                           "(and `vebuild solve`) before making a report")
+    out = Path(os.path.abspath(given))
+    begin_stage(project, out.parent)
+    # Build under a fresh sibling name, then swap it in (vebuild.atomic.replace_folder): never a
+    # half-written report, and the old one is deleted only once the new one is in place.
+    tmp = temp_path(out)
+    try:
+        tmp.mkdir()
+        # The manifest first (no files yet): it marks the folder as vebuild's should this run be killed.
+        write_text(tmp / MANIFEST, json.dumps({"software": SOFTWARE, "kind": "report", "files": {}}) + "\n")
+        (tmp / "images").mkdir()
+        rep = Report(tmp)
+        step = progress or (lambda what: None)
+        steps = [("photos", sections.photos), ("calibration", sections.calibration), ("model", sections.model),
+                 ("views", sections.views), ("validation", sections.validation), ("analyses", sections.analyses),
+                 ("hypotheses", sections.hypotheses)]
+        for name, fn in steps:
+            step(name)
+            fn(project, rep)
+        write_text(tmp / "report.html", page(project, rep))
+        if pdf:
+            step("pdf")
+            _pdf(tmp)
+        write_manifest(tmp, "report", project)
+        check_folder(project, given, "report")  # again: nothing of the user's was put there meanwhile
+        replace_folder(tmp, out)
+    except OSError as e:
+        remove_tree(tmp)
+        raise VebuildError(f"{given}: cannot write the report ({e.strerror or e}); the old one, if any, "
+                           "is unchanged") from None
+    except BaseException:
+        remove_tree(tmp)
+        raise
+    return given / "report.html"
+
+
+def _pdf(folder: Path) -> None:
+    try:
+        import weasyprint
+    except ImportError as e:  # weasyprint needs Pango from the system
+        raise VebuildError(f"cannot make the PDF ({e}); install Pango (`sudo apt-get install libpango-1.0-0 "
+                           "libpangoft2-1.0-0`) or pass --no-pdf") from None
+    doc = weasyprint.HTML(filename=str(folder / "report.html"), base_url=str(folder))
+    doc.write_pdf(folder / "report.pdf", metadata=None, uncompressed_pdf=False)
+
+
+def digest(folder: Path) -> str:
+    """SHA-256 over the report's HTML, images and figures (not the PDF, whose writer stamps it):
+    the same project gives the same digest."""
+    h = hashlib.sha256()
+    for p in sorted([folder / "report.html", *(folder / "images").glob("*.png"), *(folder / "figures").glob("*")]):
+        h.update(p.name.encode())
+        h.update(p.read_bytes())
+    return h.hexdigest()

@@ -1,0 +1,44 @@
+"""The walk-through's keys and mouse (they follow games and 3-D viewers): one table, from which
+the window's dispatch, its panel's key list (F1) and the README's list are made."""
+
+from __future__ import annotations
+
+import math
+
+import glfw
+
+from vebuild.gl.app import CTRL, SHIFT, Binding, Chord, KeyTable
+
+#: The turn of the selected object per Q / E press or wheel step.
+TURN_STEP = math.radians(5.0)
+
+VIEWER_KEYS = KeyTable([
+    Binding("W A S D, arrows; Shift", "walk at eye height (1.6 m), parallel to the floor; run"),
+    Binding("right mouse button, drag", "look around"),
+    Binding("F (Space up, C down)", "fly, through everything / walk again", (Chord(glfw.KEY_F, "toggle_fly"),)),
+    Binding("left click", "select the object under the cursor (a one-pixel ID buffer of the frame): it is "
+            "highlighted, its name, group and joint shown"),
+    Binding("left drag", "move it as its joint allows"),
+    Binding("wheel, Q / E", "turn the selected object about the vertical",
+            (Chord(glfw.KEY_Q, "turn_selection", (TURN_STEP,)), Chord(glfw.KEY_E, "turn_selection", (-TURN_STEP,)))),
+    Binding("Ctrl+Z, Ctrl+Y (Ctrl+Shift+Z)", "undo, redo",
+            (Chord(glfw.KEY_Z, "undo", mods=CTRL), Chord(glfw.KEY_Y, "redo", mods=CTRL),
+             Chord(glfw.KEY_Z, "redo", mods=CTRL | SHIFT))),
+    Binding("R, Shift+R", "put the selected object, or all, back where they were measured",
+            (Chord(glfw.KEY_R, "reset", (False,)), Chord(glfw.KEY_R, "reset", (True,), SHIFT))),
+    Binding("Esc", "cancel a drag, or clear the selection", (Chord(glfw.KEY_ESCAPE, "escape"),)),
+    Binding("V / Shift+V, P / Shift+P", "next / previous named view; photo (its calibrated camera, letterboxed "
+            "to its shape, the photo over the view)",
+            (Chord(glfw.KEY_V, "step_view", (1,)), Chord(glfw.KEY_V, "step_view", (-1,), SHIFT),
+             Chord(glfw.KEY_P, "step_photo", (1,)), Chord(glfw.KEY_P, "step_photo", (-1,), SHIFT))),
+    Binding("[ and ]", "photo overlay opacity",
+            (Chord(glfw.KEY_LEFT_BRACKET, "change_opacity", (-0.1,)),
+             Chord(glfw.KEY_RIGHT_BRACKET, "change_opacity", (0.1,)))),
+    Binding("L", "next lighting preset (as photographed, then the project's presets)",
+            (Chord(glfw.KEY_L, "next_lighting"),)),
+    Binding("B", "next stereo mode (off, anaglyph, side by side, top and bottom, quad-buffered where offered)",
+            (Chord(glfw.KEY_B, "next_stereo"),)),
+    Binding("F1", "show or hide the panel", (Chord(glfw.KEY_F1, "toggle_panel"),)),
+    Binding("F12", "screenshot with provenance (labelled if a hypothesis is shown)",
+            (Chord(glfw.KEY_F12, "screenshot"),)),
+])
