@@ -321,7 +321,7 @@ class Primitive(abc.ABC):
         return type(self), tuple(self._p.tolist())
 
     def __eq__(self, other: object) -> bool:
-        return type(other) is type(self) and np.array_equal(self._p, other._p)  # type: ignore[attr-defined]
+        return type(other) is type(self) and np.array_equal(self._p, other._p)
 
     def __hash__(self) -> int:
         return hash((self.TYPE, tuple(self._p.tolist())))
@@ -466,7 +466,7 @@ class _Round(Primitive):
         return ("top", "bottom") if self._radii(self._p)[1] > 0 else ("bottom",)
 
     def _face_frame(self, name, p):
-        return _level_frame(self._radii(p)[2]) if name == "top" else _level_frame(0.0, up=False)
+        return _level_frame(float(self._radii(p)[2])) if name == "top" else _level_frame(0.0, up=False)
 
     def _outlines(self, p, n):
         rb, rt, h = (float(v) for v in self._radii(p))
