@@ -13,7 +13,6 @@ import pytest
 from PIL import Image
 
 from vebuild import project as vp
-from vebuild.actions.records import camera_record
 from vebuild.errors import ProjectError
 from vebuild.project import (
     Project,
@@ -25,6 +24,7 @@ from vebuild.project import (
     save_project,
     sha256_file,
 )
+from vebuild.project.records import camera_record
 
 W, H = 64, 48
 
@@ -677,7 +677,7 @@ def test_check_decodes_the_model_as_solve_does(room: Path, capsys: pytest.Captur
 
 def _calibrate_by_hand(d: dict) -> None:
     """A calibration record for every photo (not a calibration: cameras where the fields need them)."""
-    from vebuild.actions.records import camera_record
+    from vebuild.project.records import camera_record
 
     K = np.array([[1350.0, 0, 800], [0, 1350, 600], [0, 0, 1]])
     cameras = {p["id"]: {"mode": "1vp", **camera_record(K, np.eye(3), np.array([0.0, -3, 1.5]), np.eye(9) * 1e-4)}

@@ -17,7 +17,7 @@ from ..calibration.photo import FocalPrior, PhotoCalibration, calibrate_photo
 from ..calibration.positions import PhotoInput, Placement, ReferenceDistance, place_cameras
 from ..errors import CalibrationError
 from ..project import Project, canonical_input_hash
-from .records import camera_record, json_values
+from ..project.records import camera_record, json_values
 from .solve import check_reference_handles
 
 #: EXIF focal lengths from the physical focal length and from the 35 mm equivalent that disagree

@@ -16,8 +16,8 @@ from ..calibration.photo import calibrate_photo
 from ..calibration.register import Registered, register_from_points, register_with_vanishing_points
 from ..errors import CalibrationError, VebuildError
 from ..project import Project
+from ..project.records import camera_record, json_values
 from .calibrate import exif_focal_prior
-from .records import camera_record, json_values
 
 
 def known_points(data: dict[str, Any]) -> dict[str, np.ndarray]:

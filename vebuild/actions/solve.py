@@ -13,9 +13,9 @@ from typing import Any
 import numpy as np
 
 from .. import __version__, camera
-from ..camera import ImageCamera
 from ..calibration.lsq import is_numeric_failure
 from ..calibration.positions import ReferenceDistance, check_scale_distances
+from ..camera import ImageCamera
 from ..errors import CalibrationError, ProjectError, VebuildError
 from ..model.scene import Model, ModelError, model_from_dict
 from ..model.solver import (
@@ -27,7 +27,7 @@ from ..model.solver import (
     handle_covariances,
 )
 from ..project import Project, json_path
-from .records import camera_record, json_values, value_sigma
+from ..project.records import camera_record, json_values, value_sigma
 
 #: A pinned handle must project in front of its camera and no farther outside the image than this
 #: share of its size; otherwise the pin is on a vertex that camera cannot see.

@@ -16,8 +16,8 @@ import shlex
 from typing import Any, NoReturn
 
 from vebuild.actions.report import Report, esc
-from vebuild.atomic import write_text
 from vebuild.errors import ProjectError, VebuildError
+from vebuild.project.atomic import write_text
 
 #: Analyses that write an image, and whether they need something more to do so (trajectory: a view).
 _IMAGE_WHEN = {"sightline": None, "viewshed": None, "lighting": None, "trajectory": "view"}

@@ -29,10 +29,10 @@ from numpy.typing import NDArray
 
 from vebuild import camera as cam_math
 from vebuild.calibration.vanishing import MIN_SEGMENT_LENGTH_PX
+from vebuild.camera import ImageCamera
 from vebuild.errors import CalibrationError, VebuildError
 from vebuild.model.edit import DragSession, drag_nodes, project_edges
 from vebuild.model.scene import Model, ModelError, model_from_dict
-from vebuild.camera import ImageCamera
 from vebuild.model.solver import EdgeObservation, Pin
 from vebuild.project import (
     RESULT_KEYS,
@@ -146,7 +146,7 @@ class EditSession:
         self._drag: _Drag | None = None
         self.recovery_available = False
         if autosave:
-            from vebuild.outputs import begin_stage
+            from vebuild.project.outputs import begin_stage
 
             begin_stage(project)  # temporaries of a session (or a stage) that was killed
         side = self.autosave_path

@@ -33,8 +33,8 @@ from scipy.spatial.transform import Rotation
 from vebuild import __version__
 from vebuild.camera import ImageCamera, focal_to_fov
 from vebuild.errors import VebuildError
-from vebuild.outputs import begin_stage, check_file
 from vebuild.project import Project, read_texture_page, sha256_file
+from vebuild.project.outputs import begin_stage, check_file
 from vebuild.render.scene import RenderScene, load_scene
 from vebuild.render.views import photo_camera, view_camera
 from vebuild.texture import layout as lay
@@ -510,9 +510,9 @@ def _check_target(project: Project, path: Path) -> None:
 
 
 def _write_atomically(files: list[tuple[Path, bytes]]) -> None:
-    """Write every file beside its target, then rename them in order (:func:`vebuild.atomic.write_many`);
+    """Write every file beside its target, then rename them in order (:func:`vebuild.project.atomic.write_many`);
     on error leave no temporary file behind."""
-    from vebuild.atomic import write_many
+    from vebuild.project.atomic import write_many
 
     target = files[-1][0]
     for final, _ in files:
