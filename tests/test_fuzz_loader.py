@@ -24,9 +24,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from vebuild.actions.check import check_project
-from vebuild.actions.solve import cameras_from_calibration, load_model
 from vebuild.errors import ProjectError, VebuildError
 from vebuild.project import load_project
+from vebuild.project.decode import cameras_from_calibration, load_model
 from vebuild.project.records import camera_record
 
 ROOM = Path(__file__).resolve().parents[1] / "scenes" / "room" / "room.vebuild.json"

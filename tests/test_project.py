@@ -733,7 +733,7 @@ def test_recorded_analyses_must_parse(room: Path, capsys: pytest.CaptureFixture,
 
 
 def test_more_lights_than_the_renderer_draws(room: Path, capsys: pytest.CaptureFixture) -> None:
-    from vebuild.render.lighting import MAX_LIGHTS
+    from vebuild.lighting import MAX_LIGHTS
 
     assert vp.schema()["$defs"]["lightingPreset"]["properties"]["lights"]["maxItems"] == MAX_LIGHTS
     lamp = {"type": "point", "position": [1.0, 1.0, 2.5]}
@@ -870,7 +870,7 @@ def test_texture_page_paths_stay_in_the_project_folder(room: Path, capsys: pytes
 
 def test_texture_page_through_a_symlink_out_of_the_folder(room: Path, tmp_path: Path,
                                                           capsys: pytest.CaptureFixture) -> None:
-    from vebuild.render.export import _pages
+    from vebuild.project.decode import texture_pages
 
     outside = tmp_path / "outside.png"
     Image.new("RGB", (16, 8)).save(outside)
@@ -879,7 +879,7 @@ def test_texture_page_through_a_symlink_out_of_the_folder(room: Path, tmp_path: 
     check_refuses(room, capsys, "$.textures.pages[0].atlas: expected a file inside the project folder, found "
                   "'textures/link.png', which leads outside it through a symbolic link")
     with pytest.raises(ProjectError, match="leads outside it through a symbolic link"):
-        _pages(load_project(room, verify_photos=False))  # what `vebuild export` reads
+        texture_pages(load_project(room, verify_photos=False))  # what `vebuild export` and `render` read
 
 
 def test_changed_texture_page_names_no_hash_of_its_bytes(room: Path, capsys: pytest.CaptureFixture) -> None:

@@ -120,7 +120,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
 def _cmd_render(args: argparse.Namespace) -> int:
     from .actions.render import RenderRequest, parse_size, render_evidence
     from .project import load_project
-    from .render.lighting import preset_names
+    from .project.decode import preset_names
 
     project = load_project(args.project)
     if args.list:

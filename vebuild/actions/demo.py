@@ -147,7 +147,7 @@ def texture_comparison(project, textures, truth: dict) -> str:
                  f"{pid} {g[0]:.3f} (true {truth['photos'][pid]['exposure'] / first:.3f})"
                  for pid, g in textures.gains.items())]
     try:
-        from .solve import load_model
+        from ..project.decode import load_model
 
         model, _, _ = load_model(project)
         value = texture_psnr(model, textures, {p: v["exposure"] for p, v in truth["photos"].items()})

@@ -239,8 +239,8 @@ def image_size(width: int, height: int) -> tuple[int, int]:
 def _views(project: Project, rep: Report) -> None:
     from vebuild.actions.render import provenance
     from vebuild.analysis.markers import draw_markers, visible_markers
+    from vebuild.project.decode import view_camera
     from vebuild.render.sizes import check_camera
-    from vebuild.render.views import view_camera
 
     views = project.data.get("views", [])
     if not views:

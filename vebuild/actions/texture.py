@@ -26,11 +26,10 @@ import numpy as np
 from PIL import Image, PngImagePlugin
 
 from vebuild import __version__
-from vebuild.actions.solve import cameras_from_calibration, load_model
-from vebuild.camera import ImageCamera
 from vebuild.errors import VebuildError
 from vebuild.project import Project, autosave_path, canonical_input_hash, load_project, save_project, sha256_file
 from vebuild.project.atomic import write_bytes
+from vebuild.project.decode import cameras_from_calibration, load_model
 from vebuild.project.outputs import begin_stage
 from vebuild.texture.extract import PhotoSource, TextureResult, extract
 from vebuild.texture.gpu import Options, Timings
@@ -84,8 +83,7 @@ def texture_project(project: Project, options: Options | None = None,
     for i, p in enumerate(data["photos"]):
         if p["id"] not in cams:
             continue
-        c = cams[p["id"]]
-        cameras.append(ImageCamera(p["id"], c.K, c.R, c.C, p["width"], p["height"]))
+        cameras.append(cams[p["id"]])
         sources[p["id"]] = PhotoSource(p["id"], project.photo_path(p), p["sha256"], f"$.photos[{i}]", str(project.path))
     result = extract(model, cameras, sources, options, progress, timings)
     old = data.get("textures")

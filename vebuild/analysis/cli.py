@@ -98,7 +98,7 @@ def write_json(path: Path, doc: dict[str, Any]) -> None:
 # -- measurements --------------------------------------------------------------------------------
 
 def _solved(project: Any) -> tuple[Any, Callable[[str], Any]]:
-    from ..render.views import find_view, photo_camera
+    from ..project.decode import find_view, photo_camera
     from .measure import SolvedModel, parse_point
 
     solved = SolvedModel.from_project(project)
@@ -178,10 +178,10 @@ def _checks(args: argparse.Namespace, project: Any) -> tuple[str, dict[str, Any]
 def _lighting(args: argparse.Namespace, project: Any) -> tuple[str, dict[str, Any]]:
     from ..actions.render import check_output, parse_size, provenance, write_png
     from ..gl import headless_context
+    from ..project.decode import find_view
     from ..render.renderer import Renderer
     from ..render.scene import load_scene
     from ..render.sizes import check_camera
-    from ..render.views import find_view
     from .lighting import LUMINANCE_WEIGHTS, compare_lighting, side_by_side
 
     if args.out:

@@ -213,8 +213,8 @@ def trajectory_from_args(args: argparse.Namespace, occ: Any) -> Any:
 
 def _trajectory(args: argparse.Namespace, project: Any) -> tuple[str, dict[str, Any]]:
     from vebuild.actions.render import check_output
+    from vebuild.project.decode import find_view
     from vebuild.render.sizes import check_camera
-    from vebuild.render.views import find_view
 
     from .rays import Occluders
     from .trajectory import render_trajectory_view

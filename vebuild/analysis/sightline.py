@@ -331,7 +331,7 @@ def render_witness_view(project: Any, scene: RenderScene, result: SightLine, out
     point marked by a ring (dashed when hidden)."""
     from vebuild.actions.render import check_output, provenance, write_png
     from vebuild.gl import headless_context
-    from vebuild.render.lighting import find_preset
+    from vebuild.project.decode import find_preset
     from vebuild.render.renderer import Renderer, RenderOptions
 
     out = check_output(Path(out))

@@ -485,7 +485,7 @@ class EditSession:
     @property
     def cameras(self) -> dict[str, ImageCamera]:
         if "cameras" not in self._cache:
-            from vebuild.actions.solve import cameras_from_calibration
+            from vebuild.project.decode import cameras_from_calibration
 
             try:
                 self._cache["cameras"] = cameras_from_calibration(self.project)

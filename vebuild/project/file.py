@@ -20,10 +20,10 @@ from pathlib import Path, PurePosixPath
 from typing import Any
 
 from ..errors import ProjectError
+from ..lighting import AS_PHOTOGRAPHED
 from .images import MAX_IMAGE_PIXELS, open_image, read_exif, sha256_bytes, sha256_file
 from .images import image_size as _image_size
 from .validation import (
-    AS_PHOTOGRAPHED,
     FORMAT,
     VERSION,
     check_relative_path,

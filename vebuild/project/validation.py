@@ -23,6 +23,7 @@ import jsonschema
 
 from .. import __version__
 from ..errors import ProjectError
+from ..lighting import AS_PHOTOGRAPHED
 from .images import MAX_IMAGE_PIXELS
 
 FORMAT = "vebuild-project"
@@ -222,10 +223,6 @@ def _check_semantics(data: dict[str, Any], file: Any) -> None:
                 raise ProjectError(file, f"{where}.type", f"expected the node's own joint type "
                                    f"{types[name]!r} (a hypothesis moves objects, it does not re-attach them), "
                                    f"found {joint['type']!r}")
-
-
-#: The built-in lighting preset: the extracted textures shown as photographed, without lighting.
-AS_PHOTOGRAPHED = "as-photographed"
 
 
 def _nonzero(vector: list[float], file: Any, where: str, what: str) -> None:

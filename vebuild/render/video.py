@@ -453,9 +453,8 @@ def render_video(project: Project, request: VideoRequest,
     ``progress(done, total, label)`` is called after each frame. ``renderer``: one to reuse (its
     lighting is set here); by default one is made on the headless context and released after.
     """
-    from vebuild.render.lighting import find_preset
+    from vebuild.project.decode import find_preset, find_view
     from vebuild.render.sizes import check_camera
-    from vebuild.render.views import find_view
 
     if request.stereo is not None and request.stereo not in STEREO_MODES:
         raise VebuildError(f"--stereo: expected one of {', '.join(STEREO_MODES)}, got {request.stereo!r}")

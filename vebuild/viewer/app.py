@@ -48,10 +48,10 @@ from vebuild.errors import VebuildError
 from vebuild.gl import load_program
 from vebuild.gl.window import Window
 from vebuild.project import Project, save_project
-from vebuild.render.lighting import find_preset, preset_names
+from vebuild.project.decode import find_preset, photo_camera, preset_names, view_camera
+from vebuild.project.records import view_record
 from vebuild.render.renderer import Renderer, RenderOptions, Stereo
 from vebuild.render.scene import RenderScene, load_scene
-from vebuild.render.views import photo_camera, view_camera, view_record
 from vebuild.viewer.collide import Footprint, footprints, local_vertices
 from vebuild.viewer.manipulate import CannotMove, ObjectMover
 from vebuild.viewer.walk import Walker
