@@ -131,6 +131,7 @@ def render_views(project, folder: Path) -> str:
             continue
         res = render_evidence(project, RenderRequest(out=folder / f"photo-{photo['id']}.png", photo=photo["id"],
                                                      validate=True))
+        assert res.rms_colour_difference is not None and res.covered_fraction is not None and res.overlay is not None
         lines.append(f"    {photo['id']}: {res.rms_colour_difference:5.1f} sRGB levels over "
                      f"{100 * res.covered_fraction:.0f} % of the photo (overlay: "
                      f"{res.overlay.relative_to(folder.parent)})")

@@ -273,8 +273,8 @@ def check_folder(project: Any, out: str | os.PathLike[str], what: str = "report"
         if real == os.path.realpath(project.folder):
             raise VebuildError(f"{out}: is the project's folder (it holds {Path(project.path).name} and its "
                                f"photos); choose {example}")
-        for p, owner in protected(project).items():
-            if p.startswith(real + os.sep) and os.path.lexists(p):
+        for own, owner in protected(project).items():
+            if own.startswith(real + os.sep) and os.path.lexists(own):
                 raise VebuildError(f"{out}: holds {owner}; vebuild never replaces a folder with the project's own "
                                    f"files; choose {example}")
     if not out.exists():

@@ -86,6 +86,7 @@ def scene_from_model(model: Model, record: dict[str, Any] | None = None,
     """A scene from a model and, optionally, a ``textures`` record with its decoded pages."""
     warnings = list(warnings)
     faces: list[lay.Face] | None = None
+    mesh: lay.SceneMesh | None = None
     if record is not None and pages:
         faces = [lay.Face(int(f["id"]), f["node"], f["face"], tuple(f["size_m"]), int(f["page"]), tuple(f["rect"]))
                  for f in record["faces"]]
@@ -97,7 +98,7 @@ def scene_from_model(model: Model, record: dict[str, Any] | None = None,
             warnings.append("the textures were extracted for another model (its faces differ from the model's "
                             "now); the model is shown untextured; run `vebuild texture` again")
             faces = None
-    if faces is None:
+    if faces is None or mesh is None:
         mesh = lay.scene_mesh(model, untextured_faces(model))
         pages = []
     colour = np.tile(srgb8_to_linear(np.array(UNTEXTURED_SRGB, np.uint8)), (len(mesh.faces), 1))
