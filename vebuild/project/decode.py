@@ -6,9 +6,11 @@ Each part of the document is decoded here, once, and checked as it is decoded; e
 
 - cameras: :func:`cameras_from_calibration` (every calibrated photo's), :func:`photo_camera` (one,
   by id or position), :func:`view_camera` and :func:`find_view` (the named evidence views);
-- markers: :func:`markers` (the ``{name: position}`` a stage needs), :func:`marker_sigmas`;
-- the model: :func:`model` (the scene graph, ``ModelError`` located), :func:`load_model` (with its
-  pins and edge observations), :func:`check_reference_handles`;
+- markers: :func:`markers` (the ``{name: position}`` a stage needs), :func:`marker_sigmas`,
+  :func:`known_points` (the markers and the solved model's vertices);
+- the model: :func:`model` (the scene graph, a ``ModelError`` :func:`located`), :func:`load_model`
+  (with its pins and edge observations: :func:`pins_of`, :func:`edge_observations_of`),
+  :func:`check_reference_handles`;
 - the solution: :func:`solution` (the solved model with its covariance in code units);
 - lighting: :func:`preset_from_record`, :func:`preset_names`, :func:`find_preset`;
 - texture pages: :func:`texture_pages` (each atlas read, hash-checked and decoded once).
@@ -173,6 +175,16 @@ def markers(data: Mapping[str, Any], source: MarkerSource = "calibration") -> di
     raise ValueError(f"unknown marker source {source!r}")
 
 
+def known_points(data: Mapping[str, Any]) -> dict[str, Array]:
+    """Positions known after calibration and solving: the calibrated markers, and the solved
+    model's vertices as ``node:handle`` (``model_solution``)."""
+    pts = markers(data)
+    for node, entry in (data.get("model_solution") or {}).get("nodes", {}).items():
+        for h, v in entry["handles"].items():
+            pts[f"{node}:{h}"] = np.asarray(v["value"], float)
+    return pts
+
+
 def marker_sigmas(data: Mapping[str, Any]) -> dict[str, Array]:
     """The calibrated markers' 1σ per axis (metres; infinite where undetermined, 0 where not given)."""
     calibrated = (data.get("calibration") or {}).get("markers") or {}
@@ -184,6 +196,12 @@ def marker_sigmas(data: Mapping[str, Any]) -> dict[str, Array]:
 # The model
 
 
+def located(project: Project, error: ModelError, where: str = "$.model.nodes") -> ProjectError:
+    """A :class:`~vebuild.model.scene.ModelError` as a ProjectError of the project's file, at the
+    JSON path the error names (``where`` where it names none)."""
+    return ProjectError(project.path, error.where or where, error.detail)
+
+
 def model(project: Project, marker_positions: Mapping[str, Array] | None = None) -> Model:
     """The scene graph of ``$.model.nodes``; a :class:`~vebuild.model.scene.ModelError` becomes a
     ProjectError at its JSON path. ``marker_positions``: what marker joints tie to (default: the
@@ -193,7 +211,7 @@ def model(project: Project, marker_positions: Mapping[str, Array] | None = None)
     try:
         return model_from_dict(project.data["model"]["nodes"], marker_positions)
     except ModelError as e:
-        raise ProjectError(project.path, e.where or "$.model.nodes", e.detail) from None
+        raise located(project, e) from None
 
 
 def load_model(project: Project, marker_positions: Mapping[str, Array] | None = None
@@ -206,24 +224,36 @@ def load_model(project: Project, marker_positions: Mapping[str, Array] | None = 
     if not data.get("model", {}).get("nodes"):
         raise VebuildError(f"{project.path}: $.model: the project has no model nodes to solve")
     m = model(project, marker_positions)
-    pins, edges = [], []
-    for i, p in enumerate(data["model"].get("pins", [])):
-        prim = m.node(p["node"]).primitive
+    pins, edges = pins_of(project, m), edge_observations_of(project, m)
+    check_reference_handles(project, m)
+    return m, pins, edges
+
+
+def pins_of(project: Project, decoded: Model) -> list[Pin]:
+    """``$.model.pins``, each checked to name a handle its node's primitive has."""
+    out = []
+    for i, p in enumerate(project.data["model"].get("pins", [])):
+        prim = decoded.node(p["node"]).primitive
         if prim is None or p["handle"] not in prim.handle_names():
             have = ", ".join(prim.handle_names()) if prim else "none (a group has no handles)"
             raise ProjectError(project.path, f"$.model.pins[{i}].handle",
                                f"node '{p['node']}' has no handle '{p['handle']}'; its handles are: {have}")
-        pins.append(Pin(p["photo"], p["node"], p["handle"], np.asarray(p["uv"], float), bool(p.get("fixed", True))))
-    for i, e in enumerate(data["model"].get("edge_observations", [])):
-        prim = m.node(e["node"]).primitive
+        out.append(Pin(p["photo"], p["node"], p["handle"], np.asarray(p["uv"], float), bool(p.get("fixed", True))))
+    return out
+
+
+def edge_observations_of(project: Project, decoded: Model) -> list[EdgeObservation]:
+    """``$.model.edge_observations``, each checked to name an edge its node's primitive has."""
+    out = []
+    for i, e in enumerate(project.data["model"].get("edge_observations", [])):
+        prim = decoded.node(e["node"]).primitive
         names = [n for n, _, _ in prim.edges()] if prim else []
         if e["edge"] not in names:
             raise ProjectError(project.path, f"$.model.edge_observations[{i}].edge",
                                f"node '{e['node']}' has no edge '{e['edge']}'; its edges are: "
                                f"{', '.join(names) or 'none'}")
-        edges.append(EdgeObservation(e["photo"], e["node"], e["edge"], np.asarray(e["points"], float)))
-    check_reference_handles(project, m)
-    return m, pins, edges
+        out.append(EdgeObservation(e["photo"], e["node"], e["edge"], np.asarray(e["points"], float)))
+    return out
 
 
 def check_reference_handles(project: Project, decoded: Model | None = None) -> None:
