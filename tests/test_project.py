@@ -938,3 +938,20 @@ def test_a_slider_without_limits_is_written_without_them(room: Path) -> None:
                                                      {"O": np.zeros(3)}).to_dict()
     assert "limits" not in node(project.data, "box")["joint"]
     save_project(project)  # JSON has no infinity: unlimited is no "limits" key
+
+
+def test_marker_positions_are_decoded_from_one_place() -> None:
+    from vebuild.project.decode import known_points, marker_sigmas, markers
+
+    data = {"markers": [{"name": "O", "position": [0, 0, 0]}, {"name": "T"}],
+            "calibration": {"markers": {"O": {"position": [0, 0, 0], "sigma": [0, 0, 0]},
+                                        "T": {"position": [1, 2, 0], "sigma": [0.01, None, 0.02]}}},
+            "model_solution": {"nodes": {"box": {"handles": {"v0": {"value": [1, 1, 0]}}}}}}
+    assert {n: p.tolist() for n, p in markers(data).items()} == {"O": [0, 0, 0], "T": [1, 2, 0]}
+    assert {n: p.tolist() for n, p in markers(data, "surveyed").items()} == {"O": [0, 0, 0]}
+    assert {n: p.tolist() for n, p in markers(data, "named").items()} == {"O": [0, 0, 0], "T": [0, 0, 0]}
+    assert markers(data, "joints")["T"].tolist() == [1, 2, 0]  # calibrated: where the calibration put it
+    uncalibrated = {"markers": data["markers"]}
+    assert markers(uncalibrated) == {} and list(markers(uncalibrated, "joints")) == ["O", "T"]
+    assert marker_sigmas(data)["T"].tolist() == [0.01, math.inf, 0.02]
+    assert known_points(data)["box:v0"].tolist() == [1, 1, 0]
