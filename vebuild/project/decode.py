@@ -186,7 +186,8 @@ def known_points(data: Mapping[str, Any]) -> dict[str, Array]:
 
 
 def marker_sigmas(data: Mapping[str, Any]) -> dict[str, Array]:
-    """The calibrated markers' 1σ per axis (metres; infinite where undetermined, 0 where not given)."""
+    """The calibrated markers' 1σ per axis (metres; the largest float where undetermined, 0 where not
+    given), as the measurements take them."""
     calibrated = (data.get("calibration") or {}).get("markers") or {}
     return {n: np.nan_to_num(np.asarray([np.inf if s is None else s for s in m.get("sigma", [0, 0, 0])], float),
                              nan=0.0) for n, m in calibrated.items()}
