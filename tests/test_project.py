@@ -956,3 +956,23 @@ def test_marker_positions_are_decoded_from_one_place() -> None:
     sigma = marker_sigmas(data)["T"]
     assert sigma[[0, 2]].tolist() == [0.01, 0.02] and sigma[1] == np.finfo(float).max  # undetermined: the largest
     assert known_points(data)["box:v0"].tolist() == [1, 1, 0]
+
+
+def test_a_photos_camera_is_the_one_decoded_camera(room: Path) -> None:
+    """render/export/analyse take a photo's camera from the same decoder as solve and texture: the
+    same K, R, C, size and covariance; only its source (for size errors) names the photo."""
+    from vebuild.project.decode import cameras_from_calibration, photo_camera
+
+    rewrite(room, _calibrate_by_hand)
+    project = load_project(room, verify_photos=False)
+    decoded = cameras_from_calibration(project)
+    second = project.data["photos"][1]["id"]
+    for name in (second, "2"):  # by id, or by its 1-based position
+        cam = photo_camera(project, name)
+        ref = decoded[second]
+        assert cam.id == second and (cam.width, cam.height) == (ref.width, ref.height)
+        assert np.array_equal(cam.K, ref.K) and np.array_equal(cam.R, ref.R) and np.array_equal(cam.C, ref.C)
+        assert cam.covariance is not None and np.allclose(cam.covariance, np.eye(9) * 1e-4)
+        assert cam.source == f"$.photos[1] (photo {second!r}: width × height)"
+    with pytest.raises(ProjectError, match=r"\$\.photos: no photo has the id 'nope'"):
+        photo_camera(project, "nope")
