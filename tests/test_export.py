@@ -29,9 +29,9 @@ from vebuild.camera import project as project_points
 from vebuild.cli import main
 from vebuild.errors import VebuildError
 from vebuild.project import load_project, save_project, sha256_file
+from vebuild.project.decode import photo_camera, view_camera
 from vebuild.render.export import ROOT_NAME, export_model, read_glb
 from vebuild.render.scene import load_scene
-from vebuild.render.views import photo_camera, view_camera
 from vebuild.texture.merge import srgb8_to_linear
 from vebuild.texture.options import Options
 

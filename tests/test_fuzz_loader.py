@@ -24,10 +24,10 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from vebuild.actions.check import check_project
-from vebuild.actions.records import camera_record
-from vebuild.actions.solve import cameras_from_calibration, load_model
 from vebuild.errors import ProjectError, VebuildError
 from vebuild.project import load_project
+from vebuild.project.decode import cameras_from_calibration, load_model
+from vebuild.project.records import camera_record
 
 ROOM = Path(__file__).resolve().parents[1] / "scenes" / "room" / "room.vebuild.json"
 EXAMPLES = int(os.environ.get("VEBUILD_FUZZ_EXAMPLES", 2000))  # per test; 2000 run in about 30 s on one core

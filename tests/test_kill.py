@@ -30,7 +30,7 @@ import numpy as np
 import pytest
 
 from vebuild.cli import main
-from vebuild.outputs import read_manifest, sha256_of, temporaries
+from vebuild.project.outputs import read_manifest, sha256_of, temporaries
 from vebuild.report.write import digest
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -203,7 +203,7 @@ def textures_of_record(folder: Path) -> list[str]:
 STALL = """
 import sys, time
 sys.argv = ["vebuild", *sys.argv[2:]]
-import vebuild.atomic as atomic, vebuild.actions.texture as tx
+import vebuild.project.atomic as atomic, vebuild.actions.texture as tx
 kind = {kind!r}
 if kind == "mid-write":  # the project's temporary half written
     real = atomic.write_with

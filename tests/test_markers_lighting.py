@@ -23,9 +23,9 @@ from vebuild.camera import project as project_points
 from vebuild.errors import ProjectError, VebuildError
 from vebuild.gl import headless_context
 from vebuild.project import load_project, save_project
+from vebuild.project.decode import find_view
 from vebuild.render.renderer import Renderer, RenderOptions
 from vebuild.render.scene import load_scene
-from vebuild.render.views import find_view
 
 
 @pytest.fixture

@@ -1,4 +1,4 @@
-"""The output policy (vebuild/outputs.py) and the atomic writer (vebuild/atomic.py).
+"""The output policy (vebuild/project/outputs.py) and the atomic writer (vebuild/project/atomic.py).
 
 Every refusal exits with status 2, names the path, and leaves the project's folder byte for byte as
 it was; outputs vebuild wrote are replaced; no temporary file is left behind.
@@ -19,9 +19,9 @@ from pathlib import Path
 
 import pytest
 
-from vebuild import atomic
 from vebuild.cli import main
-from vebuild.outputs import temporaries
+from vebuild.project import atomic
+from vebuild.project.outputs import temporaries
 
 ROOM = Path(__file__).resolve().parents[1] / "scenes" / "room"
 

@@ -13,7 +13,6 @@ import pytest
 from PIL import Image
 
 from vebuild import project as vp
-from vebuild.actions.records import camera_record
 from vebuild.errors import ProjectError
 from vebuild.project import (
     Project,
@@ -25,6 +24,7 @@ from vebuild.project import (
     save_project,
     sha256_file,
 )
+from vebuild.project.records import camera_record
 
 W, H = 64, 48
 
@@ -677,7 +677,7 @@ def test_check_decodes_the_model_as_solve_does(room: Path, capsys: pytest.Captur
 
 def _calibrate_by_hand(d: dict) -> None:
     """A calibration record for every photo (not a calibration: cameras where the fields need them)."""
-    from vebuild.actions.records import camera_record
+    from vebuild.project.records import camera_record
 
     K = np.array([[1350.0, 0, 800], [0, 1350, 600], [0, 0, 1]])
     cameras = {p["id"]: {"mode": "1vp", **camera_record(K, np.eye(3), np.array([0.0, -3, 1.5]), np.eye(9) * 1e-4)}
@@ -733,7 +733,7 @@ def test_recorded_analyses_must_parse(room: Path, capsys: pytest.CaptureFixture,
 
 
 def test_more_lights_than_the_renderer_draws(room: Path, capsys: pytest.CaptureFixture) -> None:
-    from vebuild.render.lighting import MAX_LIGHTS
+    from vebuild.lighting import MAX_LIGHTS
 
     assert vp.schema()["$defs"]["lightingPreset"]["properties"]["lights"]["maxItems"] == MAX_LIGHTS
     lamp = {"type": "point", "position": [1.0, 1.0, 2.5]}
@@ -870,7 +870,7 @@ def test_texture_page_paths_stay_in_the_project_folder(room: Path, capsys: pytes
 
 def test_texture_page_through_a_symlink_out_of_the_folder(room: Path, tmp_path: Path,
                                                           capsys: pytest.CaptureFixture) -> None:
-    from vebuild.render.export import _pages
+    from vebuild.project.decode import texture_pages
 
     outside = tmp_path / "outside.png"
     Image.new("RGB", (16, 8)).save(outside)
@@ -879,7 +879,7 @@ def test_texture_page_through_a_symlink_out_of_the_folder(room: Path, tmp_path: 
     check_refuses(room, capsys, "$.textures.pages[0].atlas: expected a file inside the project folder, found "
                   "'textures/link.png', which leads outside it through a symbolic link")
     with pytest.raises(ProjectError, match="leads outside it through a symbolic link"):
-        _pages(load_project(room, verify_photos=False))  # what `vebuild export` reads
+        texture_pages(load_project(room, verify_photos=False))  # what `vebuild export` and `render` read
 
 
 def test_changed_texture_page_names_no_hash_of_its_bytes(room: Path, capsys: pytest.CaptureFixture) -> None:
@@ -938,3 +938,41 @@ def test_a_slider_without_limits_is_written_without_them(room: Path) -> None:
                                                      {"O": np.zeros(3)}).to_dict()
     assert "limits" not in node(project.data, "box")["joint"]
     save_project(project)  # JSON has no infinity: unlimited is no "limits" key
+
+
+def test_marker_positions_are_decoded_from_one_place() -> None:
+    from vebuild.project.decode import known_points, marker_sigmas, markers
+
+    data = {"markers": [{"name": "O", "position": [0, 0, 0]}, {"name": "T"}],
+            "calibration": {"markers": {"O": {"position": [0, 0, 0], "sigma": [0, 0, 0]},
+                                        "T": {"position": [1, 2, 0], "sigma": [0.01, None, 0.02]}}},
+            "model_solution": {"nodes": {"box": {"handles": {"v0": {"value": [1, 1, 0]}}}}}}
+    assert {n: p.tolist() for n, p in markers(data).items()} == {"O": [0, 0, 0], "T": [1, 2, 0]}
+    assert {n: p.tolist() for n, p in markers(data, "surveyed").items()} == {"O": [0, 0, 0]}
+    assert {n: p.tolist() for n, p in markers(data, "named").items()} == {"O": [0, 0, 0], "T": [0, 0, 0]}
+    assert markers(data, "joints")["T"].tolist() == [1, 2, 0]  # calibrated: where the calibration put it
+    uncalibrated = {"markers": data["markers"]}
+    assert markers(uncalibrated) == {} and list(markers(uncalibrated, "joints")) == ["O", "T"]
+    sigma = marker_sigmas(data)["T"]
+    assert sigma[[0, 2]].tolist() == [0.01, 0.02] and sigma[1] == np.finfo(float).max  # undetermined: the largest
+    assert known_points(data)["box:v0"].tolist() == [1, 1, 0]
+
+
+def test_a_photos_camera_is_the_one_decoded_camera(room: Path) -> None:
+    """render/export/analyse take a photo's camera from the same decoder as solve and texture: the
+    same K, R, C, size and covariance; only its source (for size errors) names the photo."""
+    from vebuild.project.decode import cameras_from_calibration, photo_camera
+
+    rewrite(room, _calibrate_by_hand)
+    project = load_project(room, verify_photos=False)
+    decoded = cameras_from_calibration(project)
+    second = project.data["photos"][1]["id"]
+    for name in (second, "2"):  # by id, or by its 1-based position
+        cam = photo_camera(project, name)
+        ref = decoded[second]
+        assert cam.id == second and (cam.width, cam.height) == (ref.width, ref.height)
+        assert np.array_equal(cam.K, ref.K) and np.array_equal(cam.R, ref.R) and np.array_equal(cam.C, ref.C)
+        assert cam.covariance is not None and np.allclose(cam.covariance, np.eye(9) * 1e-4)
+        assert cam.source == f"$.photos[1] (photo {second!r}: width × height)"
+    with pytest.raises(ProjectError, match=r"\$\.photos: no photo has the id 'nope'"):
+        photo_camera(project, "nope")

@@ -21,9 +21,10 @@ from vebuild.camera import ImageCamera, look_rotation, project, stereo_pair
 from vebuild.cli import main
 from vebuild.errors import ProjectError, VebuildError
 from vebuild.gl import headless_context
+from vebuild.lighting import AS_PHOTOGRAPHED_LIGHTING
 from vebuild.model.scene import model_from_dict
 from vebuild.project import load_project, sha256_file
-from vebuild.render.lighting import AS_PHOTOGRAPHED_LIGHTING, preset_from_record
+from vebuild.project.decode import preset_from_record
 from vebuild.render.png import PROVENANCE_KEYS
 from vebuild.render.renderer import Renderer, RenderOptions, Stereo
 from vebuild.render.scene import load_scene, scene_from_model

@@ -16,9 +16,9 @@ from vebuild.cli import main
 from vebuild.errors import VebuildError
 from vebuild.gl import headless_context
 from vebuild.model.scene import model_from_dict
+from vebuild.project.decode import view_camera
 from vebuild.render.renderer import Renderer, RenderOptions
 from vebuild.render.scene import scene_from_model
-from vebuild.render.views import view_camera
 
 
 @pytest.fixture(scope="module")

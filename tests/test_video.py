@@ -18,6 +18,7 @@ from vebuild.cli import main
 from vebuild.errors import ProjectError, VebuildError
 from vebuild.gl import headless_context
 from vebuild.project import load_project
+from vebuild.project.decode import find_view
 from vebuild.render.renderer import Renderer
 from vebuild.render.scene import load_scene
 from vebuild.render.video import (
@@ -31,7 +32,6 @@ from vebuild.render.video import (
     parse_views,
     render_video,
 )
-from vebuild.render.views import find_view
 
 ROOM = Path(__file__).resolve().parents[1] / "scenes" / "room"
 W, H = 160, 120

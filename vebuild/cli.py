@@ -21,8 +21,8 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
     from .actions.calibrate import calibrate_project
-    from .outputs import begin_stage
     from .project import load_project, save_project
+    from .project.outputs import begin_stage
     from .report.text import calibration_table
 
     project = load_project(args.project)
@@ -37,8 +37,8 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
 
 def _cmd_solve(args: argparse.Namespace) -> int:
     from .actions.solve import solve_project
-    from .outputs import begin_stage
     from .project import load_project, save_project
+    from .project.outputs import begin_stage
     from .report.text import model_table
 
     project = load_project(args.project)
@@ -120,7 +120,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
 def _cmd_render(args: argparse.Namespace) -> int:
     from .actions.render import RenderRequest, parse_size, render_evidence
     from .project import load_project
-    from .render.lighting import preset_names
+    from .project.decode import preset_names
 
     project = load_project(args.project)
     if args.list:
@@ -256,8 +256,8 @@ def _cmd_check(args: argparse.Namespace) -> int:
 
 
 def _cmd_new(args: argparse.Namespace) -> int:
-    from .outputs import check_new_project
     from .project import new_photo_entry, new_project, save_project
+    from .project.outputs import check_new_project
 
     path = check_new_project(args.project, args.force)
     data = new_project(args.name or path.name.split(".")[0])
@@ -274,9 +274,9 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
-    from .atomic import write_text
     from .bench import BENCHES
-    from .outputs import check_file
+    from .project.atomic import write_text
+    from .project.outputs import check_file
 
     bench = BENCHES[args.name]
     if args.json:
@@ -285,7 +285,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     print(bench.table(figures))
     if args.json:
         out = Path(args.json)
-        try:  # "software" marks the file as vebuild's (vebuild/outputs.py)
+        try:  # "software" marks the file as vebuild's (vebuild/project/outputs.py)
             write_text(out, json.dumps({"software": f"vebuild {__version__}", **figures}, indent=2) + "\n")
         except OSError as e:
             raise VebuildError(f"{out}: cannot write the figures ({e.strerror or e})") from None

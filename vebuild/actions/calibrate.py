@@ -16,9 +16,9 @@ from .. import __version__
 from ..calibration.photo import FocalPrior, PhotoCalibration, calibrate_photo
 from ..calibration.positions import PhotoInput, Placement, ReferenceDistance, place_cameras
 from ..errors import CalibrationError
-from ..project import Project, canonical_input_hash
-from .records import camera_record, json_values
-from .solve import check_reference_handles
+from ..project import Project, canonical_input_hash, decode
+from ..project.decode import check_reference_handles
+from ..project.records import camera_record, json_values
 
 #: EXIF focal lengths from the physical focal length and from the 35 mm equivalent that disagree
 #: by more than this (relative) are not trusted to 1 %: the larger discrepancy becomes the 1σ.
@@ -93,7 +93,7 @@ def _calibrate(project: Project, progress: Callable[[Iterable], Iterable]) -> di
     missing = [p["id"] for p in data["photos"] if p["id"] not in photos]
     if not photos:
         raise CalibrationError(None, "no photo has vanishing segments; mark segments along two world axes at least")
-    known = {m["name"]: np.asarray(m["position"], float) for m in data.get("markers", []) if "position" in m}
+    known = decode.markers(data, "surveyed")
     refs = [
         ReferenceDistance(d["a"], d["b"], float(d["distance"]), float(d.get("sigma", 0.002)), d.get("role", "scale"))
         for d in data.get("reference_distances", [])

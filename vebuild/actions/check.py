@@ -12,7 +12,8 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from ..errors import ProjectError, VebuildError
-from ..project import Project, decode_texture_page, read_texture_page, texture_page_path
+from ..project import Project
+from ..project import decode as dec
 
 if TYPE_CHECKING:
     from ..model.scene import Model
@@ -25,36 +26,28 @@ def check_project(project: Project) -> list[str]:
     ------
     ProjectError (a VebuildError) naming the file, the JSON path and what was expected.
     """
-    from ..render.lighting import preset_from_record
-    from ..render.views import view_camera
-    from .solve import cameras_from_calibration, check_markers, load_model
-
     data = project.data
     lines = []
     if (data.get("calibration") or {}).get("cameras"):
-        cameras = cameras_from_calibration(project)
+        cameras = dec.cameras_from_calibration(project)
         lines.append(f"calibration: {len(cameras)} camera(s), each a pinhole camera with a rotation")
     if (data.get("model") or {}).get("nodes"):
-        model, pins, edges = load_model(project, check_markers(project))
+        model, pins, edges = dec.load_model(project, dec.markers(data, "joints"))
         lines.append(f"model: {len(model.nodes)} node(s), {len(pins)} pin(s), {len(edges)} edge observation(s)")
         _check_hypotheses(project, model)
     _check_model_solution(project)
     for preset in (data.get("lighting") or {}).get("presets", []):
-        preset_from_record(preset)
+        dec.preset_from_record(preset)
     for view in data.get("views", []):
-        view_camera(view)
+        dec.view_camera(view)
     _check_analyses(project)
     check_render_sizes(project)
     if data.get("analyses"):
         lines.append(f"analyses: {len(data['analyses'])} recorded command(s), each a `vebuild analyse` command")
     pages = (data.get("textures") or {}).get("pages", [])
-    missing = []
-    for k in range(len(pages)):
-        if not texture_page_path(project, k).is_file():
-            missing.append(pages[k]["atlas"])
-            continue
-        _, raw, _ = read_texture_page(project, k)
-        decode_texture_page(project, k, raw)
+    present, _ = dec.texture_pages(project)
+    read = {p.index for p in present}
+    missing = [page["atlas"] for k, page in enumerate(pages) if k not in read]
     if pages:
         lines.append(f"textures: {len(pages) - len(missing)} of {len(pages)} atlas page(s) present, hashes verified"
                      + (f" (missing: {', '.join(missing)}; `vebuild texture` writes them again)" if missing else ""))

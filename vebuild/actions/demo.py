@@ -34,12 +34,12 @@ def copy_example(out: Path) -> Path:
     """Copy the example project into ``out`` and return its project file.
 
     ``out`` must be new, empty, or a demo folder vebuild wrote that nobody changed since (its
-    manifest lists every file with its SHA-256; :func:`vebuild.outputs.check_folder`): a project
+    manifest lists every file with its SHA-256; :func:`vebuild.project.outputs.check_folder`): a project
     the user went on to edit there, or any other file, is never overwritten. The copy is made
     beside ``out`` and renamed into place whole.
     """
-    from ..atomic import clean_stale, remove_tree, replace_folder, temp_path
-    from ..outputs import check_folder, write_manifest
+    from ..project.atomic import clean_stale, remove_tree, replace_folder, temp_path
+    from ..project.outputs import check_folder, write_manifest
 
     out = Path(out)
     if out.parent.is_dir():
@@ -106,7 +106,7 @@ def run_demo(out: Path, progress: bool = True) -> int:
     print("\n" + "-" * 80 + "\nrendering: the named views, and each photo's camera against its photo\n")
     print(render_views(project, out / "renders"))
     print(f"\nresults written to {project_file}; textures in {out / 'textures'}; renders in {out / 'renders'}")
-    from ..outputs import write_manifest
+    from ..project.outputs import write_manifest
 
     write_manifest(out, "demo")  # so that a later demo may replace this folder, unless someone changes it
     return 0
@@ -132,6 +132,7 @@ def render_views(project, folder: Path) -> str:
             continue
         res = render_evidence(project, RenderRequest(out=folder / f"photo-{photo['id']}.png", photo=photo["id"],
                                                      validate=True))
+        assert res.rms_colour_difference is not None and res.covered_fraction is not None and res.overlay is not None
         lines.append(f"    {photo['id']}: {res.rms_colour_difference:5.1f} sRGB levels over "
                      f"{100 * res.covered_fraction:.0f} % of the photo (overlay: "
                      f"{res.overlay.relative_to(folder.parent)})")
@@ -148,7 +149,7 @@ def texture_comparison(project, textures, truth: dict) -> str:
                  f"{pid} {g[0]:.3f} (true {truth['photos'][pid]['exposure'] / first:.3f})"
                  for pid, g in textures.gains.items())]
     try:
-        from .solve import load_model
+        from ..project.decode import load_model
 
         model, _, _ = load_model(project)
         value = texture_psnr(model, textures, {p: v["exposure"] for p, v in truth["photos"].items()})

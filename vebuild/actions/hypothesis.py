@@ -13,6 +13,7 @@ from typing import Any
 from vebuild.errors import ProjectError, VebuildError
 from vebuild.model.scene import Model, ModelError
 from vebuild.project import Project
+from vebuild.project.decode import located
 
 #: The words put on every image of a hypothesis.
 LABEL = "HYPOTHESIS"
@@ -61,7 +62,7 @@ def applied_hypothesis(project: Project, model: Model, i: int) -> Model:
     try:
         return model_with(model, rec["joints"], where)
     except ModelError as e:
-        raise ProjectError(project.path, e.where or f"{where}.joints", e.detail) from None
+        raise located(project, e, f"{where}.joints") from None
     except ProjectError:
         raise
     except VebuildError as e:

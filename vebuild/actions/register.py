@@ -16,17 +16,9 @@ from ..calibration.photo import calibrate_photo
 from ..calibration.register import Registered, register_from_points, register_with_vanishing_points
 from ..errors import CalibrationError, VebuildError
 from ..project import Project
+from ..project.decode import known_points
+from ..project.records import camera_record, json_values
 from .calibrate import exif_focal_prior
-from .records import camera_record, json_values
-
-
-def known_points(data: dict[str, Any]) -> dict[str, np.ndarray]:
-    """Positions known after calibration and solving: markers, and model vertices as 'node:handle'."""
-    pts = {n: np.asarray(m["position"], float) for n, m in (data.get("calibration") or {}).get("markers", {}).items()}
-    for node, entry in (data.get("model_solution") or {}).get("nodes", {}).items():
-        for h, v in entry["handles"].items():
-            pts[f"{node}:{h}"] = np.asarray(v["value"], float)
-    return pts
 
 
 def register_photos(project: Project, photo_ids: list[str] | None = None) -> dict[str, Registered]:

@@ -103,12 +103,11 @@ def overlay_path(out: Path) -> Path:
 def render_evidence(project: Project, req: RenderRequest) -> RenderResult:
     """Render ``req`` and write its PNG (and overlay); see the module's docstring."""
     from vebuild.gl import headless_context
-    from vebuild.outputs import begin_stage
-    from vebuild.render.lighting import find_preset
+    from vebuild.project.decode import find_preset, find_view, photo_camera
+    from vebuild.project.outputs import begin_stage
     from vebuild.render.renderer import Renderer, RenderOptions, Stereo
     from vebuild.render.scene import load_scene
     from vebuild.render.sizes import check_camera
-    from vebuild.render.views import find_view, photo_camera
 
     out = check_output(Path(req.out), project=project)
     if req.validate:

@@ -17,131 +17,18 @@ from ..calibration.lsq import is_numeric_failure
 from ..calibration.positions import ReferenceDistance, check_scale_distances
 from ..camera import ImageCamera
 from ..errors import CalibrationError, ProjectError, VebuildError
-from ..model.residuals import EdgeObservation, MarkerObservation, Pin
-from ..model.scene import Model, ModelError, model_from_dict
+from ..model.residuals import MarkerObservation
+from ..model.scene import Model
 from ..model.solution import handle_covariances
 from ..model.solver import FINAL_PRIOR_SCALE, MarkerData, Problem, ProblemOptions
-from ..project import Project, json_path
-from .records import camera_record, json_values, value_sigma
+from ..project import Project, decode
+from ..project.decode import cameras_from_calibration, load_model
+from ..project.records import camera_record, json_values, value_sigma
 
 #: A pinned handle must project in front of its camera and no farther outside the image than this
 #: share of its size; otherwise the pin is on a vertex that camera cannot see.
 VISIBLE_MARGIN = 0.25
 Z95 = 1.959964  # two-sided 95 % of a Gaussian
-
-
-#: How far a calibrated R may be from a rotation (|RᵀR − I|, |det R − 1|): rounding in the file's
-#: 17 significant digits is far below; anything more is not a rotation.
-ROTATION_TOLERANCE = 1e-6
-
-
-def cameras_from_calibration(project: Project) -> dict[str, ImageCamera]:
-    """The calibrated cameras by photo id, each checked: K a pinhole matrix with a positive focal
-    length, R a rotation; errors name the file and the JSON path."""
-    cal = project.data.get("calibration")
-    if not cal or not cal.get("cameras"):
-        raise VebuildError(f"{project.path}: the project has no calibrated cameras; run `vebuild calibrate` first")
-    out = {}
-    for p in project.data["photos"]:
-        c = cal["cameras"].get(p["id"])
-        if c is None:
-            continue
-        where = json_path(["calibration", "cameras", p["id"]])
-        K, R = np.asarray(c["K"], float), np.asarray(c["R"], float)
-        _check_camera(project, where, K, R)
-        cov = np.array([[np.inf if v is None else v for v in row] for row in c["covariance"]], float)
-        out[p["id"]] = ImageCamera(p["id"], K, R, np.asarray(c["position"]["value"], float), p["width"], p["height"],
-                                   covariance=cov)
-    return out
-
-
-def _check_camera(project: Project, where: str, K: np.ndarray, R: np.ndarray) -> None:
-    f, cx, cy = K[0, 0], K[0, 2], K[1, 2]
-    tol = 1e-9 * abs(f)  # what rounding leaves of a pinhole matrix
-    if not (abs(K[1, 1] - f) <= tol and abs(K[0, 1]) <= tol and abs(K[1, 0]) <= tol and list(K[2]) == [0, 0, 1]):
-        raise ProjectError(project.path, f"{where}.K", "expected a pinhole matrix [[f, 0, cx], [0, f, cy], [0, 0, 1]] "
-                           f"(square pixels, no skew), found {K.tolist()}")
-    if not 1.0 <= f <= 1e7 or not (abs(cx) <= 1e6 and abs(cy) <= 1e6):
-        raise ProjectError(project.path, f"{where}.K", f"expected a focal length from 1 to 1e7 pixels and a principal "
-                           f"point within ±1e6 pixels, found f = {f:g}, (cx, cy) = ({cx:g}, {cy:g})")
-    with np.errstate(all="ignore"):
-        off = np.abs(R.T @ R - np.eye(3)).max()
-        det = np.linalg.det(R)
-    if not (off <= ROTATION_TOLERANCE and abs(det - 1.0) <= ROTATION_TOLERANCE):
-        raise ProjectError(project.path, f"{where}.R", f"expected a rotation matrix (RᵀR = I within "
-                           f"{ROTATION_TOLERANCE:g}, det R = +1), found one with |RᵀR − I| = {off:.3g} and "
-                           f"det R = {det:.6g}; run `vebuild calibrate` again")
-
-
-def check_markers(project: Project) -> dict[str, np.ndarray]:
-    """The marker positions a marker joint may use: the calibrated ones, or before calibration
-    every marker of ``$.markers`` (at the origin: only its name is checked)."""
-    calibrated = (project.data.get("calibration") or {}).get("markers")
-    if calibrated is not None:
-        return {n: np.asarray(m["position"], float) for n, m in calibrated.items()}
-    return {m["name"]: np.zeros(3) for m in project.data["markers"]}
-
-
-def load_model(project: Project, markers: dict[str, np.ndarray] | None = None
-               ) -> tuple[Model, list[Pin], list[EdgeObservation]]:
-    """The model and its observations, checked; errors name the file and the JSON path.
-
-    ``markers``: the positions marker joints tie to (default: the calibrated ones).
-    """
-    data = project.data
-    if not data.get("model", {}).get("nodes"):
-        raise VebuildError(f"{project.path}: $.model: the project has no model nodes to solve")
-    if markers is None:
-        calibrated = (data.get("calibration") or {}).get("markers", {})
-        markers = {n: np.asarray(m["position"], float) for n, m in calibrated.items()}
-    try:
-        model = model_from_dict(data["model"]["nodes"], markers)
-    except ModelError as e:
-        raise ProjectError(project.path, e.where or "$.model.nodes", e.detail) from None
-    pins, edges = [], []
-    for i, p in enumerate(data["model"].get("pins", [])):
-        prim = model.node(p["node"]).primitive
-        if prim is None or p["handle"] not in prim.handle_names():
-            have = ", ".join(prim.handle_names()) if prim else "none (a group has no handles)"
-            raise ProjectError(project.path, f"$.model.pins[{i}].handle",
-                               f"node '{p['node']}' has no handle '{p['handle']}'; its handles are: {have}")
-        pins.append(Pin(p["photo"], p["node"], p["handle"], np.asarray(p["uv"], float), bool(p.get("fixed", True))))
-    for i, e in enumerate(data["model"].get("edge_observations", [])):
-        prim = model.node(e["node"]).primitive
-        names = [n for n, _, _ in prim.edges()] if prim else []
-        if e["edge"] not in names:
-            raise ProjectError(project.path, f"$.model.edge_observations[{i}].edge",
-                               f"node '{e['node']}' has no edge '{e['edge']}'; its edges are: "
-                               f"{', '.join(names) or 'none'}")
-        edges.append(EdgeObservation(e["photo"], e["node"], e["edge"], np.asarray(e["points"], float)))
-    check_reference_handles(project, model)
-    return model, pins, edges
-
-
-def check_reference_handles(project: Project, model: Model | None = None) -> None:
-    """Every reference distance's ``node:handle`` end names a handle its node's primitive has.
-
-    ``model``: the decoded model (default: decoded here, with every marker at the origin, only to
-    read the primitives' handles, as before calibration). The load has checked that the node exists.
-    """
-    refs = [(i, key, d[key]) for i, d in enumerate(project.data.get("reference_distances", []))
-            for key in ("a", "b") if ":" in d[key]]
-    if not refs:
-        return
-    if model is None:
-        try:
-            model = model_from_dict(project.data["model"]["nodes"],
-                                    {m["name"]: np.zeros(3) for m in project.data["markers"]})
-        except ModelError as e:
-            raise ProjectError(project.path, e.where or "$.model.nodes", e.detail) from None
-    for i, key, name in refs:
-        node, handle = name.split(":", 1)
-        prim = model.node(node).primitive
-        if prim is None or handle not in prim.handle_names():
-            have = ", ".join(prim.handle_names()) if prim else "none (a group has no handles)"
-            raise ProjectError(project.path, f"$.reference_distances[{i}].{key}",
-                               f"names the handle {name!r}, but node {node!r} has no handle {handle!r}; "
-                               f"its handles are: {have}")
 
 
 def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics: bool = True) -> dict[str, Any]:
@@ -156,7 +43,7 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
     model, pins, edges = load_model(project)
     cal = data["calibration"]
     origin = cal.get("origin_marker")
-    markers = {n: np.asarray(m["position"], float) for n, m in cal.get("markers", {}).items()}
+    markers = decode.markers(data)
     marker_obs, distances = [], []
     if recalibrate:
         for p in data["photos"]:
@@ -170,7 +57,7 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
             if d["role"] == "scale" and ends_known:
                 distances.append(ReferenceDistance(d["a"], d["b"], float(d["distance"]), float(d.get("sigma", 0.002))))
         check_recalibration_scale(project, model, markers, distances)
-    surveyed = [m["name"] for m in data.get("markers", []) if "position" in m]
+    surveyed = list(decode.markers(data, "surveyed"))
     problem = Problem(model, cameras, [p for p in pins if p.fixed], edges,
                       options=ProblemOptions(click_sigma_px=project.settings["click_sigma_px"],
                                              prior_scale=FINAL_PRIOR_SCALE, recalibrate=recalibrate,

@@ -6,7 +6,7 @@ hex digits of the file's SHA-256), and the ``textures`` record (FORMAT.md).
 
 The stage commits its pages and the project together, in an order that a failure or a kill at any
 moment leaves the last good state whole: the new pages are written under fresh names (atomically,
-:mod:`vebuild.atomic`), then the project is saved pointing at them, then the old pages are deleted,
+:mod:`vebuild.project.atomic`), then the project is saved pointing at them, then the old pages are deleted,
 each only if its bytes still hash to the SHA-256 the old record gives (a user's file is never
 deleted). Pages that no record refers to (left by a kill) are removed at the next run, only if their
 name is of the pattern above and their bytes match the hash in it.
@@ -25,12 +25,11 @@ import numpy as np
 from PIL import Image, PngImagePlugin
 
 from vebuild import __version__
-from vebuild.actions.solve import cameras_from_calibration, load_model
-from vebuild.atomic import write_bytes
-from vebuild.camera import ImageCamera
 from vebuild.errors import VebuildError
-from vebuild.outputs import begin_stage
 from vebuild.project import Project, autosave_path, canonical_input_hash, load_project, save_project, sha256_file
+from vebuild.project.atomic import write_bytes
+from vebuild.project.decode import cameras_from_calibration, load_model
+from vebuild.project.outputs import begin_stage
 from vebuild.texture.extract import PhotoSource, TextureResult, extract
 from vebuild.texture.gpu import Timings
 from vebuild.texture.merge import linear_to_srgb8
@@ -64,8 +63,7 @@ def texture_project(project: Project, options: Options | None = None,
     for i, p in enumerate(data["photos"]):
         if p["id"] not in cams:
             continue
-        c = cams[p["id"]]
-        cameras.append(ImageCamera(p["id"], c.K, c.R, c.C, p["width"], p["height"]))
+        cameras.append(cams[p["id"]])
         sources[p["id"]] = PhotoSource(p["id"], project.photo_path(p), p["sha256"], f"$.photos[{i}]", str(project.path))
     result = extract(model, cameras, sources, options, progress, timings)
     old = data.get("textures")

@@ -150,7 +150,7 @@ def _run(args: argparse.Namespace, to_request: ToRequest) -> int:
 
     project = load_project(args.project)
     if args.json:
-        from ..outputs import check_file
+        from ..project.outputs import check_file
 
         check_file(project, Path(args.json), "figures")
     request = to_request(args)
@@ -164,9 +164,9 @@ def _run(args: argparse.Namespace, to_request: ToRequest) -> int:
 
 
 def write_json(path: Path, doc: dict[str, Any]) -> None:
-    """Write ``doc`` to ``path`` atomically (:mod:`vebuild.atomic`)."""
-    from ..atomic import write_text
+    """Write ``doc`` to ``path`` atomically (:mod:`vebuild.project.atomic`)."""
     from ..errors import VebuildError
+    from ..project.atomic import write_text
 
     try:
         write_text(path, json.dumps(doc, indent=2, allow_nan=False) + "\n")

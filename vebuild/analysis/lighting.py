@@ -20,7 +20,7 @@ from PIL import Image, ImageDraw, ImageFont
 
 from vebuild.camera import ImageCamera
 from vebuild.errors import VebuildError
-from vebuild.render.lighting import find_preset
+from vebuild.project.decode import find_preset
 from vebuild.render.renderer import Renderer
 from vebuild.render.scene import RenderScene
 from vebuild.texture.merge import srgb8_to_linear

@@ -72,9 +72,9 @@ def place_marker(project: Any, label: str, at: str, description: str = "") -> di
     """A marker at ``at``: ``X,Y,Z`` (a world point on a surface), ``photo:ID@u,v`` or
     ``view:NAME@u,v`` (the surface seen at that pixel of a photo's camera or a named view)."""
     from vebuild.gl import headless_context
+    from vebuild.project.decode import find_view, photo_camera
     from vebuild.render.renderer import RenderOptions
     from vebuild.render.scene import load_scene
-    from vebuild.render.views import find_view, photo_camera
 
     scene = load_scene(project)
     kind, _, rest = at.partition(":")

@@ -47,7 +47,7 @@ class Request(Protocol):
 # -- measurements --------------------------------------------------------------------------------
 
 def _solved(project: Any) -> tuple[Any, Callable[[str], Any]]:
-    from vebuild.render.views import find_view, photo_camera
+    from vebuild.project.decode import find_view, photo_camera
 
     from .points import parse_point
     from .solved import SolvedModel
@@ -184,11 +184,11 @@ class LightingRequest:
     def run(self, project: Any) -> AnalysisResult:
         from vebuild.actions.render import parse_size
         from vebuild.gl import headless_context
+        from vebuild.project.decode import find_view
         from vebuild.render.png import check_output, provenance, write_png
         from vebuild.render.renderer import Renderer
         from vebuild.render.scene import load_scene
         from vebuild.render.sizes import check_camera
-        from vebuild.render.views import find_view
 
         from .lighting import LUMINANCE_WEIGHTS, compare_lighting, side_by_side
 

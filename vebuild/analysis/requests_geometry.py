@@ -233,9 +233,9 @@ class TrajectoryRequest:
                           cone_deg=self.cone)
 
     def run(self, project: Any) -> AnalysisResult:
+        from vebuild.project.decode import find_view
         from vebuild.render.png import check_output
         from vebuild.render.sizes import check_camera
-        from vebuild.render.views import find_view
 
         from .rays import Occluders
         from .trajectory import render_trajectory_view

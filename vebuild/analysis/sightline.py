@@ -333,7 +333,7 @@ def render_witness_view(project: Any, scene: RenderScene, result: SightLine, out
     is highlighted (for a group, its largest part: the renderer highlights one node), a target
     point marked by a ring (dashed when hidden)."""
     from vebuild.gl import headless_context
-    from vebuild.render.lighting import find_preset
+    from vebuild.project.decode import find_preset
     from vebuild.render.png import check_output, provenance, write_png
     from vebuild.render.renderer import Renderer, RenderOptions
 

@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 
 from ..errors import ProjectError, VebuildError
 from ..model.primitives import Primitive, Sphere, _Round
-from ..model.scene import Model, ModelError, model_from_dict
+from ..model.scene import Model
 
 Array = NDArray[np.float64]
 
@@ -198,64 +198,17 @@ class SolvedModel:
 
     @classmethod
     def from_project(cls, project: Any) -> SolvedModel:
-        """From a solved project: ``model.nodes`` (the solved values) and ``model_solution.covariance``."""
-        data, path = project.data, project.path
-        sol = data.get("model_solution")
-        if not sol:
-            raise ProjectError(path, "$.model_solution", "the project has not been solved yet; "
-                               "run `vebuild calibrate` and `vebuild solve` first")
-        rec = sol.get("covariance")
-        if not rec:
-            raise ProjectError(path, "$.model_solution.covariance", "the solution holds no covariance (written by an "
-                               "older vebuild); run `vebuild solve` again")
+        """From a solved project: ``model.nodes`` (the solved values) and ``model_solution.covariance``,
+        decoded by :func:`vebuild.project.decode.solution`."""
+        from ..project import decode
+
+        decode.require_solution(project)
         check_model_solution(project)
-        cal = data.get("calibration") or {}
-        markers = {n: np.asarray(m["position"], float) for n, m in (cal.get("markers") or {}).items()}
-        sigma = {n: np.nan_to_num(np.asarray([np.inf if s is None else s for s in m.get("sigma", [0, 0, 0])], float),
-                                  nan=0.0) for n, m in (cal.get("markers") or {}).items()}
-        try:
-            model = model_from_dict(data["model"]["nodes"], markers)
-        except ModelError as e:
-            raise ProjectError(path, e.where or "$.model.nodes", e.detail) from None
-        index = {n: i for i, n in enumerate(model.parameter_names())}
-        xm = model.vector()
-        names, values, model_index, scale, mnames = [], [], [], [], []
-        for k, name in enumerate(rec["parameters"]):
-            if name.startswith("marker:"):
-                m = name[len("marker:"):].rsplit(".", 1)[0]
-                if m not in markers:
-                    raise ProjectError(path, f"$.model_solution.covariance.parameters[{k}]",
-                                       f"marker '{m}' has no calibrated position; run `vebuild solve` again")
-                if name.endswith(".x"):
-                    mnames.append(m)
-                scale.append(1.0)
-                continue
-            internal = name[:-4] if name.endswith("_deg") else name
-            if internal not in index:
-                raise ProjectError(path, f"$.model_solution.covariance.parameters[{k}]",
-                                   f"'{name}' is not a parameter of the model: the model changed after it was solved; "
-                                   "run `vebuild solve` again")
-            names.append(internal)
-            model_index.append(index[internal])
-            values.append(xm[index[internal]])
-            scale.append(np.radians(1.0) if name.endswith("_deg") else 1.0)
-        s = np.asarray(scale)
-        cov = np.array([[np.inf if v is None else v for v in row] for row in rec["matrix"]], float)
-        cov = cov.reshape(len(s), len(s))
-        cov = cov * s[:, None] * s[None, :]
-        names += [f"marker:{m}.{c}" for m in mnames for c in "xyz"]
-        values = np.r_[values, *[markers[m] for m in mnames]] if mnames else np.asarray(values, float)
-        photos: dict[str, set[str]] = {}
-        for p in data["model"].get("pins", []) + data["model"].get("edge_observations", []):
-            photos.setdefault(p["node"], set()).add(p["photo"])
-        for ph in data["photos"]:
-            for m in ph.get("marker_observations") or {}:
-                photos.setdefault(f"marker:{m}", set()).add(ph["id"])
-        return cls.build(model, names, values, cov, model_index, markers, mnames, sigma,
-                         photos_of={k: sorted(v) for k, v in photos.items()},
-                         recalibrated=bool(sol.get("recalibrated")),
-                         variance_factor=float(sol.get("variance_factor", 1.0)),
-                         calibration_distances=list(cal.get("reference_distances") or []), where=str(path))
+        s = decode.solution(project)
+        return cls.build(s.model, s.names, s.values, s.covariance, s.model_index, s.markers, s.solved_markers,
+                         s.marker_sigma, photos_of=s.photos_of, recalibrated=s.recalibrated,
+                         variance_factor=s.variance_factor, calibration_distances=s.calibration_distances,
+                         where=str(project.path))
 
     # -- evaluation -----------------------------------------------------------------------------
     def _state(self, x: Array) -> tuple[Array, dict[str, Array]]:

@@ -336,7 +336,7 @@ def render_trajectory_view(project: Any, scene: Any, tr: Trajectory, cam: ImageC
                            lighting: str | None = None, samples: int = 4) -> None:
     """Render ``cam``'s view headless, draw the trajectory over it, and write a PNG with provenance."""
     from vebuild.gl import headless_context
-    from vebuild.render.lighting import find_preset
+    from vebuild.project.decode import find_preset
     from vebuild.render.png import check_output, provenance, write_png
     from vebuild.render.renderer import Renderer, RenderOptions
 

@@ -52,8 +52,9 @@ from tqdm import tqdm
 
 from ..camera import ImageCamera, depth_range, intrinsic_matrix, look_rotation
 from ..gl.context import headless_context, renderer_name
+from ..lighting import AS_PHOTOGRAPHED_LIGHTING, Lighting
 from ..model.scene import Model, model_from_dict
-from ..render.lighting import AS_PHOTOGRAPHED_LIGHTING, Lighting, preset_from_record
+from ..project.decode import preset_from_record
 from ..render.renderer import Renderer, RenderOptions, Stereo
 from ..render.scene import RenderScene, scene_from_model
 from ..texture import layout as lay

@@ -203,8 +203,9 @@ def _psnr(model, cams, sources, opts, exposures) -> dict[str, float]:
 
 def _solved_example() -> tuple[Model | None, list[ImageCamera], dict[str, PhotoSource]]:
     from ..actions.calibrate import calibrate_project
-    from ..actions.solve import cameras_from_calibration, load_model, solve_project
+    from ..actions.solve import solve_project
     from ..project import load_project
+    from ..project.decode import cameras_from_calibration, load_model
 
     tmp = Path(tempfile.mkdtemp(prefix="vebuild-bench-texture-"))
     try:
@@ -213,10 +214,7 @@ def _solved_example() -> tuple[Model | None, list[ImageCamera], dict[str, PhotoS
         calibrate_project(project)
         solve_project(project, recalibrate=True)
         model, _, _ = load_model(project)
-        cams = []
-        for pid, c in cameras_from_calibration(project).items():
-            p = project.photo(pid)
-            cams.append(ImageCamera(pid, c.K, c.R, c.C, p["width"], p["height"]))
+        cams = list(cameras_from_calibration(project).values())
         sources = {c.id: PhotoSource(c.id, truth.photo_path(c.id)) for c in cams}
         # The solved model's faces match the true model's one for one (same nodes, same order).
         return model, cams, sources

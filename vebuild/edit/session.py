@@ -55,7 +55,7 @@ class EditSession(SessionOverlays):
         self._drag = None  # the drag under way (modelling._Drag)
         self.recovery_available = False
         if autosave:
-            from vebuild.outputs import begin_stage
+            from vebuild.project.outputs import begin_stage
 
             begin_stage(project)  # temporaries of a session (or a stage) that was killed
         side = self.autosave_path
@@ -134,7 +134,7 @@ class EditSession(SessionOverlays):
     @property
     def cameras(self) -> dict[str, ImageCamera]:
         if "cameras" not in self._cache:
-            from vebuild.actions.solve import cameras_from_calibration
+            from vebuild.project.decode import cameras_from_calibration
 
             try:
                 self._cache["cameras"] = cameras_from_calibration(self.project)

@@ -33,10 +33,10 @@ from scipy.spatial.transform import Rotation
 from vebuild import __version__
 from vebuild.camera import ImageCamera, focal_to_fov
 from vebuild.errors import VebuildError
-from vebuild.outputs import begin_stage, check_file
-from vebuild.project import Project, read_texture_page, sha256_file
+from vebuild.project import Project, sha256_file
+from vebuild.project.decode import TexturePage, photo_camera, view_camera
+from vebuild.project.outputs import begin_stage, check_file
 from vebuild.render.scene import RenderScene, load_scene
-from vebuild.render.views import photo_camera, view_camera
 from vebuild.texture import layout as lay
 
 Array = NDArray[np.float64]
@@ -82,16 +82,6 @@ class NodeExport:
 
 
 @dataclass
-class Page:
-    index: int
-    path: Path  # the atlas PNG
-    relative: str  # as the project records it
-    data: bytes
-    sha256: str
-    size: tuple[int, int]  # width, height in texels
-
-
-@dataclass
 class ExportResult:
     """What was written, for the command line to print."""
 
@@ -114,7 +104,7 @@ class _Contents:
     scene: RenderScene
     nodes: list[NodeExport]
     cameras: list[tuple[str, str, ImageCamera]]  # (name, "view" | "photo", camera)
-    pages: list[Page]
+    pages: list[TexturePage]
     warnings: list[str]
 
 
@@ -177,7 +167,7 @@ def _collect(project: Project) -> _Contents:
     world = model.world_transforms()
     by_key = {(f.node, f.name): f for f in scene.mesh.faces}
     face_page = np.array([f.page for f in scene.mesh.faces], np.int64)
-    pages = _pages(project) if scene.textured else []
+    pages = scene.page_files if scene.textured else []  # read and hash-checked once, by the scene
     if not scene.textured:
         warnings.append("exported untextured: each face in its recorded average colour, or grey where there is none "
                         "(glTF: vertex colours COLOR_0; OBJ: one material per face)")
@@ -208,15 +198,6 @@ def _collect(project: Project) -> _Contents:
         if photo["id"] in calibrated:
             cameras.append((f"photo {photo['id']}", "photo", photo_camera(project, photo["id"])))
     return _Contents(project, scene, nodes, cameras, pages, warnings)
-
-
-def _pages(project: Project) -> list[Page]:
-    """The atlas pages' bytes, checked against the hashes the project records."""
-    out = []
-    for k, page in enumerate(project.data["textures"]["pages"]):
-        path, data, digest = read_texture_page(project, k)
-        out.append(Page(k, path, page["atlas"], data, digest, (int(page["width"]), int(page["height"]))))
-    return out
 
 
 # -- glTF ------------------------------------------------------------------------------------------
@@ -510,9 +491,9 @@ def _check_target(project: Project, path: Path) -> None:
 
 
 def _write_atomically(files: list[tuple[Path, bytes]]) -> None:
-    """Write every file beside its target, then rename them in order (:func:`vebuild.atomic.write_many`);
+    """Write every file beside its target, then rename them in order (:func:`vebuild.project.atomic.write_many`);
     on error leave no temporary file behind."""
-    from vebuild.atomic import write_many
+    from vebuild.project.atomic import write_many
 
     target = files[-1][0]
     for final, _ in files:

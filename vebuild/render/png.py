@@ -28,9 +28,9 @@ PROVENANCE_KEYS = ("Software", "vebuild:project", "vebuild:project_sha256", "veb
 
 def check_output(path: Path, suffixes: tuple[str, ...] = (".png",), project: Project | None = None) -> Path:
     """Fail early, before any work, if ``path`` cannot be written as an output file: also where
-    the output policy (:mod:`vebuild.outputs`: never over the project's own files, only over a
+    the output policy (:mod:`vebuild.project.outputs`: never over the project's own files, only over a
     file vebuild wrote) forbids it."""
-    from vebuild.outputs import check_file
+    from vebuild.project.outputs import check_file
 
     path = Path(path)
     check_file(project, path, suffix=suffixes[0])
@@ -49,8 +49,8 @@ def check_output(path: Path, suffixes: tuple[str, ...] = (".png",), project: Pro
 
 
 def write_png(path: Path, image: NDArray[np.uint8], text: dict[str, str]) -> None:
-    """Write an RGB image with text chunks atomically (:mod:`vebuild.atomic`)."""
-    from vebuild.atomic import write_with
+    """Write an RGB image with text chunks atomically (:mod:`vebuild.project.atomic`)."""
+    from vebuild.project.atomic import write_with
 
     info = PngImagePlugin.PngInfo()
     for k, v in text.items():

@@ -9,7 +9,7 @@ encoded to sRGB once, in the fragment shader; textures are sRGB, decoded by the 
 
 Two modes: unlit, the extracted textures as photographed (the built-in ``as-photographed``
 preset), and re-lit, the textures as surface colour under a preset's lights
-(:mod:`vebuild.render.lighting`), with shadow maps for the lights that cast them: one tile of a
+(:mod:`vebuild.lighting`), with shadow maps for the lights that cast them: one tile of a
 shared depth atlas for a directional light (orthographic, fitted to the scene) or a spot light
 (perspective, its cone), six for a point light (one per cube face). Shadow maps are rendered when
 the scene or the lighting changes, not every frame.
@@ -44,7 +44,7 @@ from vebuild.camera import (
 from vebuild.errors import VebuildError
 from vebuild.gl import load_program
 from vebuild.gl.context import max_texture_size
-from vebuild.render.lighting import AS_PHOTOGRAPHED_LIGHTING, MAX_LIGHTS, Light, Lighting
+from vebuild.lighting import AS_PHOTOGRAPHED_LIGHTING, MAX_LIGHTS, Light, Lighting
 from vebuild.render.scene import RenderScene
 from vebuild.render.sizes import check_camera, gl_limits
 from vebuild.texture.merge import srgb8_to_linear

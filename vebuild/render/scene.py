@@ -18,7 +18,8 @@ from numpy.typing import NDArray
 
 from vebuild.errors import VebuildError
 from vebuild.model.scene import Model
-from vebuild.project import Project, decode_texture_page, read_texture_page, texture_page_path
+from vebuild.project import Project
+from vebuild.project.decode import TexturePage, load_model, texture_pages
 from vebuild.texture import layout as lay
 from vebuild.texture.merge import srgb8_to_linear
 
@@ -38,6 +39,8 @@ class RenderScene:
     model : the scene graph the mesh was built from (for moving objects, naming picks).
     textured : whether the atlas pages are drawn.
     warnings : what the user should know (textures missing, faces drawn untextured).
+    page_hashes : the SHA-256 of each atlas page drawn (for a render's provenance).
+    page_files : the atlas pages as read from the project (bytes, hash, size), when textured.
     """
 
     mesh: lay.SceneMesh
@@ -47,6 +50,7 @@ class RenderScene:
     textured: bool
     warnings: list[str] = field(default_factory=list)
     page_hashes: list[str] = field(default_factory=list)
+    page_files: list[TexturePage] = field(default_factory=list)
 
     @property
     def node_names(self) -> list[str]:
@@ -69,7 +73,7 @@ class RenderScene:
         """The same scene with its objects where ``model`` puts them (same faces, same textures)."""
         mesh = lay.scene_mesh(model, self.mesh.faces)
         return RenderScene(mesh, self.pages, self.face_colour, model, self.textured, list(self.warnings),
-                           list(self.page_hashes))
+                           list(self.page_hashes), list(self.page_files))
 
 
 def untextured_faces(model: Model) -> list[lay.Face]:
@@ -82,6 +86,7 @@ def scene_from_model(model: Model, record: dict[str, Any] | None = None,
     """A scene from a model and, optionally, a ``textures`` record with its decoded pages."""
     warnings = list(warnings)
     faces: list[lay.Face] | None = None
+    mesh: lay.SceneMesh | None = None
     if record is not None and pages:
         faces = [lay.Face(int(f["id"]), f["node"], f["face"], tuple(f["size_m"]), int(f["page"]), tuple(f["rect"]))
                  for f in record["faces"]]
@@ -93,7 +98,7 @@ def scene_from_model(model: Model, record: dict[str, Any] | None = None,
             warnings.append("the textures were extracted for another model (its faces differ from the model's "
                             "now); the model is shown untextured; run `vebuild texture` again")
             faces = None
-    if faces is None:
+    if faces is None or mesh is None:
         mesh = lay.scene_mesh(model, untextured_faces(model))
         pages = []
     colour = np.tile(srgb8_to_linear(np.array(UNTEXTURED_SRGB, np.uint8)), (len(mesh.faces), 1))
@@ -108,8 +113,6 @@ def scene_from_model(model: Model, record: dict[str, Any] | None = None,
 
 def load_scene(project: Project) -> RenderScene:
     """The project's model (as last solved) with its textures; see the module's docstring."""
-    from vebuild.actions.solve import load_model
-
     data = project.data
     if not (data.get("model") or {}).get("nodes"):
         raise VebuildError(f"{project.path}: $.model: the project has no model yet; build one (`vebuild solve`) "
@@ -121,18 +124,12 @@ def load_scene(project: Project) -> RenderScene:
     if record is None:
         return scene_from_model(model, None, (), ["the project has no textures yet; the model is shown untextured "
                                                   "(run `vebuild texture` to extract them from the photos)"])
-    pages, hashes, missing = [], [], []
-    for k in range(len(record["pages"])):
-        path = texture_page_path(project, k)
-        if not path.is_file():
-            missing.append(str(path))
-            continue
-        _, raw, digest = read_texture_page(project, k)
-        pages.append(decode_texture_page(project, k, raw))
-        hashes.append(digest)
+    pages, missing = texture_pages(project)
     if missing:
-        return scene_from_model(model, record, (), [f"texture page(s) missing: {', '.join(missing)}; the model is "
-                                                    "shown untextured (run `vebuild texture` again)"])
-    scene = scene_from_model(model, record, pages)
-    scene.page_hashes = hashes if scene.textured else []
+        return scene_from_model(model, record, (), [f"texture page(s) missing: {', '.join(map(str, missing))}; the "
+                                                    "model is shown untextured (run `vebuild texture` again)"])
+    scene = scene_from_model(model, record, [p.pixels for p in pages])
+    if scene.textured:
+        scene.page_hashes = [p.sha256 for p in pages]
+        scene.page_files = pages
     return scene

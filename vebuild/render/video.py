@@ -45,9 +45,9 @@ from scipy.interpolate import CubicSpline, PchipInterpolator
 from scipy.spatial.transform import Rotation, RotationSpline
 
 from vebuild import __version__
-from vebuild.atomic import commit, temp_path
 from vebuild.camera import ImageCamera, focal_to_fov, intrinsic_matrix
 from vebuild.errors import ProjectError, VebuildError
+from vebuild.project.atomic import commit, temp_path
 
 if TYPE_CHECKING:
     from vebuild.project import Project
@@ -427,8 +427,8 @@ def default_output(project: Project, views: Sequence[str]) -> Path:
 
 def check_output(path: Path, project: Project | None = None) -> Path:
     """Fail before any rendering if ``path`` cannot be an MP4 written by us (also where the output
-    policy, :mod:`vebuild.outputs`, forbids it)."""
-    from vebuild.outputs import check_file
+    policy, :mod:`vebuild.project.outputs`, forbids it)."""
+    from vebuild.project.outputs import check_file
 
     path = Path(path)
     check_file(project, path, "video", ".mp4")
@@ -453,9 +453,8 @@ def render_video(project: Project, request: VideoRequest,
     ``progress(done, total, label)`` is called after each frame. ``renderer``: one to reuse (its
     lighting is set here); by default one is made on the headless context and released after.
     """
-    from vebuild.render.lighting import find_preset
+    from vebuild.project.decode import find_preset, find_view
     from vebuild.render.sizes import check_camera
-    from vebuild.render.views import find_view
 
     if request.stereo is not None and request.stereo not in STEREO_MODES:
         raise VebuildError(f"--stereo: expected one of {', '.join(STEREO_MODES)}, got {request.stereo!r}")
@@ -484,7 +483,7 @@ def render_video(project: Project, request: VideoRequest,
         out = Path(request.out)
     try:
         check_output(out, project)
-        from vebuild.outputs import begin_stage
+        from vebuild.project.outputs import begin_stage
 
         begin_stage(project, out.parent)
         return _render(project, request, path, lighting, out, progress, renderer)

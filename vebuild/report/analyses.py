@@ -13,8 +13,8 @@ import json
 import shlex
 from typing import Any
 
-from vebuild.atomic import write_text
 from vebuild.errors import ProjectError, VebuildError
+from vebuild.project.atomic import write_text
 
 from .page import Report, esc
 

@@ -87,9 +87,9 @@ def _renderer(project: Project, scene: Any = None) -> tuple[Any, Any]:
 
 def views(project: Project, rep: Report) -> None:
     from vebuild.analysis.markers import draw_markers, visible_markers
+    from vebuild.project.decode import view_camera
     from vebuild.render.png import provenance
     from vebuild.render.sizes import check_camera
-    from vebuild.render.views import view_camera
 
     views = project.data.get("views", [])
     if not views:

@@ -18,8 +18,8 @@ from .page import Report, page
 def write_report(project: Project, out: Path, pdf: bool = True,
                  progress: Callable[[str], None] | None = None) -> Path:
     """Write ``out/report.html`` (and ``out/report.pdf``) with its images in ``out/images``."""
-    from vebuild.atomic import MANIFEST, remove_tree, replace_folder, temp_path, write_text
-    from vebuild.outputs import SOFTWARE, begin_stage, check_folder, write_manifest
+    from vebuild.project.atomic import MANIFEST, remove_tree, replace_folder, temp_path, write_text
+    from vebuild.project.outputs import SOFTWARE, begin_stage, check_folder, write_manifest
 
     given = Path(out)
     if not given.parent.is_dir():
@@ -30,7 +30,7 @@ def write_report(project: Project, out: Path, pdf: bool = True,
                            "(and `vebuild solve`) before making a report")
     out = Path(os.path.abspath(given))
     begin_stage(project, out.parent)
-    # Build under a fresh sibling name, then swap it in (vebuild.atomic.replace_folder): never a
+    # Build under a fresh sibling name, then swap it in (vebuild.project.atomic.replace_folder): never a
     # half-written report, and the old one is deleted only once the new one is in place.
     tmp = temp_path(out)
     try:

@@ -30,10 +30,10 @@ from vebuild.gl.window import Window
 from vebuild.model.arrange import CannotMove, ObjectMover
 from vebuild.model.collide import Footprint, footprints, local_vertices
 from vebuild.project import Project, save_project
-from vebuild.render.lighting import find_preset, preset_names
+from vebuild.project.decode import find_preset, photo_camera, preset_names, view_camera
+from vebuild.project.records import view_record
 from vebuild.render.renderer import Renderer, RenderOptions, Stereo
 from vebuild.render.scene import RenderScene, load_scene
-from vebuild.render.views import photo_camera, view_camera, view_record
 from vebuild.viewer.keys import TURN_STEP, VIEWER_KEYS
 from vebuild.viewer.panel import ViewerPanel
 from vebuild.viewer.walk import Walker

@@ -134,7 +134,11 @@ def write_via_path(target: str | os.PathLike[str], writer: Callable[[Path], None
 
 def write_bytes(target: str | os.PathLike[str], data: bytes) -> Path:
     """Atomically write ``data`` to ``target``."""
-    return write_with(target, lambda f: f.write(data))
+
+    def write(f: BinaryIO) -> None:
+        f.write(data)
+
+    return write_with(target, write)
 
 
 def write_text(target: str | os.PathLike[str], text: str, encoding: str = "utf-8") -> Path:

@@ -32,9 +32,9 @@ from pathlib import Path
 from typing import Any
 
 from vebuild import __version__
-from vebuild.atomic import MANIFEST, clean_stale, is_temp_name, write_text
 from vebuild.errors import VebuildError
-from vebuild.project import autosave_path
+from vebuild.project.atomic import MANIFEST, clean_stale, is_temp_name, write_text
+from vebuild.project.file import autosave_path
 
 #: The marker vebuild's own files carry (see the table above).
 SOFTWARE = f"vebuild {__version__}"
@@ -187,7 +187,7 @@ def check_file(project: Any, path: str | os.PathLike[str], what: str = "output",
 def is_project_file(path: Path) -> bool:
     """Whether the existing file ``path`` is a vebuild project file: a JSON object whose ``format``
     is ``vebuild-project`` (of any version)."""
-    from vebuild.project import FORMAT
+    from vebuild.project.validation import FORMAT
 
     try:
         if path.is_symlink() or not path.is_file() or path.stat().st_size > 256 << 20:
@@ -273,8 +273,8 @@ def check_folder(project: Any, out: str | os.PathLike[str], what: str = "report"
         if real == os.path.realpath(project.folder):
             raise VebuildError(f"{out}: is the project's folder (it holds {Path(project.path).name} and its "
                                f"photos); choose {example}")
-        for p, owner in protected(project).items():
-            if p.startswith(real + os.sep) and os.path.lexists(p):
+        for own, owner in protected(project).items():
+            if own.startswith(real + os.sep) and os.path.lexists(own):
                 raise VebuildError(f"{out}: holds {owner}; vebuild never replaces a folder with the project's own "
                                    f"files; choose {example}")
     if not out.exists():

@@ -21,9 +21,10 @@ from typing import Any
 
 import jsonschema
 
-from . import __version__
-from .errors import ProjectError
-from .imagefiles import MAX_IMAGE_PIXELS
+from .. import __version__
+from ..errors import ProjectError
+from ..lighting import AS_PHOTOGRAPHED
+from .images import MAX_IMAGE_PIXELS
 
 FORMAT = "vebuild-project"
 VERSION = 1
@@ -224,10 +225,6 @@ def _check_semantics(data: dict[str, Any], file: Any) -> None:
                                    f"found {joint['type']!r}")
 
 
-#: The built-in lighting preset: the extracted textures shown as photographed, without lighting.
-AS_PHOTOGRAPHED = "as-photographed"
-
-
 def _nonzero(vector: list[float], file: Any, where: str, what: str) -> None:
     length = math.hypot(*vector)
     if not length >= MIN_DIRECTION_LENGTH:
@@ -251,7 +248,7 @@ def _check_joint(joint: dict[str, Any], file: Any, where: str) -> None:
 
 def _check_segment_length(seg: list[float], file: Any, where: str, photo: str, axis: str, k: int) -> None:
     # The same refusal as calibrate's (vanishing.check_segments), at load, so that check reports it.
-    from .calibration.vanishing import MIN_SEGMENT_LENGTH_PX
+    from ..calibration.vanishing import MIN_SEGMENT_LENGTH_PX
     length = math.hypot(seg[2] - seg[0], seg[3] - seg[1])
     if length < MIN_SEGMENT_LENGTH_PX:
         raise ProjectError(file, where, f"photo {photo!r}: axis {axis}, segment {k}: its end points are "

@@ -1,7 +1,7 @@
 """The project file: load, validate, save; photos verified, texture pages read (layer 3, project I/O).
 
-Validation (the schema, the bounds, the JSON text's faults) is in :mod:`vebuild.validation`; opening,
-hashing and reading the EXIF of image files in :mod:`vebuild.imagefiles`.
+Validation (the schema, the bounds, the JSON text's faults) is in :mod:`vebuild.project.validation`; opening,
+hashing and reading the EXIF of image files in :mod:`vebuild.project.images`.
 
 The format is specified in ``scenes/FORMAT.md`` and, for machines, in the JSON Schema shipped as
 ``vebuild/schema/project-v1.schema.json``. Every problem with the file or a photo it names is a
@@ -19,11 +19,11 @@ from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 from typing import Any
 
-from .errors import ProjectError
-from .imagefiles import MAX_IMAGE_PIXELS, open_image, read_exif, sha256_bytes, sha256_file
-from .imagefiles import image_size as _image_size
+from ..errors import ProjectError
+from ..lighting import AS_PHOTOGRAPHED
+from .images import MAX_IMAGE_PIXELS, open_image, read_exif, sha256_bytes, sha256_file
+from .images import image_size as _image_size
 from .validation import (
-    AS_PHOTOGRAPHED,
     FORMAT,
     VERSION,
     check_relative_path,
@@ -165,7 +165,7 @@ def save_project(project_or_path: Project | str | os.PathLike[str],
 
     import io
 
-    from .atomic import write_with  # beside the target, fsync'ed, renamed over it (vebuild/atomic.py)
+    from .atomic import write_with  # beside the target, fsync'ed, renamed over it (vebuild/project/atomic.py)
 
     def write(f: Any) -> None:
         text = io.TextIOWrapper(f, encoding="utf-8", newline="\n")

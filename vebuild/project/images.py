@@ -18,7 +18,7 @@ from typing import Any
 
 from PIL import Image, UnidentifiedImageError
 
-from .errors import ProjectError
+from ..errors import ProjectError
 
 #: The most pixels an image vebuild reads may have: 120 megapixels, more than the largest camera
 #: sensor in use (100 MP) and below Pillow's decompression-bomb guard (179 MP). Larger images are

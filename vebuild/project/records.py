@@ -1,4 +1,4 @@
-"""How results are written into the project file: plain JSON numbers, and one camera record.
+"""How results are written into the project file: plain JSON numbers, one camera record, a view record.
 
 A quantity the data do not determine has an infinite variance; JSON has no infinity, so it is
 written as null (FORMAT.md: "null where the quantity is not determined by the data").
@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from ..calibration.photo import ypr_with_sigma
+from ..camera import ImageCamera, focal_to_fov, ypr_from_rotation
 
 
 def json_values(x: Any) -> Any:
@@ -39,3 +40,18 @@ def camera_record(K: np.ndarray, R: np.ndarray, C: np.ndarray, covariance: np.nd
         "position": value_sigma(C, sig[6:9]),
         "covariance": json_values(covariance),
     }
+
+
+def view_record(cam: ImageCamera, name: str, description: str | None = None) -> dict[str, Any]:
+    """A view record (FORMAT.md, ``views``) that reproduces ``cam``: its position, look direction,
+    roll and horizontal field of view (the principal point is taken as the image centre); read
+    back by :func:`vebuild.project.decode.view_camera`."""
+    R = np.asarray(cam.R, float)
+    roll = float(np.degrees(ypr_from_rotation(R)[2]))
+    fov = float(np.degrees(focal_to_fov(cam.K[0, 0], cam.width)))
+    out: dict[str, Any] = {"name": name, "position": [float(v) for v in cam.C],
+                           "direction": [float(v) for v in R[2]], "roll_deg": roll,
+                           "fov_deg": fov, "width": int(cam.width), "height": int(cam.height)}
+    if description:
+        out["description"] = description
+    return out

@@ -1,0 +1,447 @@
+"""The project document turned into domain objects: the one place that decodes it (layer 3).
+
+Each part of the document is decoded here, once, and checked as it is decoded; every error is a
+:class:`~vebuild.errors.ProjectError` (or, where the part is missing altogether, a
+:class:`~vebuild.errors.VebuildError`) that names the file and the JSON path:
+
+- cameras: :func:`cameras_from_calibration` (every calibrated photo's), :func:`photo_camera` (one,
+  by id or position), :func:`view_camera` and :func:`find_view` (the named evidence views);
+- markers: :func:`markers` (the ``{name: position}`` a stage needs), :func:`marker_sigmas`,
+  :func:`known_points` (the markers and the solved model's vertices);
+- the model: :func:`model` (the scene graph, a ``ModelError`` :func:`located`), :func:`load_model`
+  (with its pins and edge observations: :func:`pins_of`, :func:`edge_observations_of`),
+  :func:`check_reference_handles`;
+- the solution: :func:`solution` (the solved model with its covariance in code units);
+- lighting: :func:`preset_from_record`, :func:`preset_names`, :func:`find_preset`;
+- texture pages: :func:`texture_pages` (each atlas read, hash-checked and decoded once).
+
+Writing goes the other way, through :mod:`vebuild.project.records` and :mod:`vebuild.project.file`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..camera import ImageCamera, fov_to_focal, intrinsic_matrix, look_rotation
+from ..errors import ProjectError, VebuildError
+from ..lighting import (
+    AS_PHOTOGRAPHED,
+    AS_PHOTOGRAPHED_LIGHTING,
+    DEFAULT_AMBIENT,
+    DEFAULT_INNER_CONE_FRACTION,
+    DEFAULT_OUTER_CONE_DEG,
+    Light,
+    Lighting,
+)
+from ..model.scene import Model, ModelError, model_from_dict
+from ..model.residuals import EdgeObservation, Pin
+from .file import Project, decode_texture_page, read_texture_page, texture_page_path
+from .validation import json_path
+
+Array = NDArray[np.float64]
+
+#: How far a calibrated R may be from a rotation (|RᵀR − I|, |det R − 1|): rounding in the file's
+#: 17 significant digits is far below; anything more is not a rotation.
+ROTATION_TOLERANCE = 1e-6
+#: Horizontal field of view of a view that gives neither ``fov_deg`` nor ``focal_length_mm``.
+DEFAULT_FOV_DEG = 60.0
+#: Width of the 35 mm film frame, for 35 mm-equivalent focal lengths.
+FRAME_35MM_WIDTH_MM = 36.0
+
+
+# --------------------------------------------------------------------------------------------------
+# Cameras
+
+
+def cameras_from_calibration(project: Project) -> dict[str, ImageCamera]:
+    """The calibrated cameras by photo id, each checked: K a pinhole matrix with a positive focal
+    length, R a rotation; errors name the file and the JSON path. Each carries its photo's size
+    and its calibration covariance (9×9 over f, cx, cy, ω, C; infinite where undetermined)."""
+    cal = project.data.get("calibration")
+    if not cal or not cal.get("cameras"):
+        raise VebuildError(f"{project.path}: the project has no calibrated cameras; run `vebuild calibrate` first")
+    out = {}
+    for p in project.data["photos"]:
+        c = cal["cameras"].get(p["id"])
+        if c is None:
+            continue
+        where = json_path(["calibration", "cameras", p["id"]])
+        K, R = np.asarray(c["K"], float), np.asarray(c["R"], float)
+        _check_camera(project, where, K, R)
+        cov = np.array([[np.inf if v is None else v for v in row] for row in c["covariance"]], float)
+        C = np.asarray(c["position"]["value"], float)
+        out[p["id"]] = ImageCamera(p["id"], K, R, C, p["width"], p["height"], covariance=cov)
+    return out
+
+
+def _check_camera(project: Project, where: str, K: Array, R: Array) -> None:
+    f, cx, cy = K[0, 0], K[0, 2], K[1, 2]
+    tol = 1e-9 * abs(f)  # what rounding leaves of a pinhole matrix
+    if not (abs(K[1, 1] - f) <= tol and abs(K[0, 1]) <= tol and abs(K[1, 0]) <= tol and list(K[2]) == [0, 0, 1]):
+        raise ProjectError(project.path, f"{where}.K", "expected a pinhole matrix [[f, 0, cx], [0, f, cy], [0, 0, 1]] "
+                           f"(square pixels, no skew), found {K.tolist()}")
+    if not 1.0 <= f <= 1e7 or not (abs(cx) <= 1e6 and abs(cy) <= 1e6):
+        raise ProjectError(project.path, f"{where}.K", f"expected a focal length from 1 to 1e7 pixels and a principal "
+                           f"point within ±1e6 pixels, found f = {f:g}, (cx, cy) = ({cx:g}, {cy:g})")
+    with np.errstate(all="ignore"):
+        off = np.abs(R.T @ R - np.eye(3)).max()
+        det = np.linalg.det(R)
+    if not (off <= ROTATION_TOLERANCE and abs(det - 1.0) <= ROTATION_TOLERANCE):
+        raise ProjectError(project.path, f"{where}.R", f"expected a rotation matrix (RᵀR = I within "
+                           f"{ROTATION_TOLERANCE:g}, det R = +1), found one with |RᵀR − I| = {off:.3g} and "
+                           f"det R = {det:.6g}; run `vebuild calibrate` again")
+
+
+def photo_camera(project: Project, photo: str) -> ImageCamera:
+    """The calibrated camera of a photo, by id (or by its 1-based position in ``photos``), its
+    :attr:`~vebuild.camera.ImageCamera.source` naming the photo (for errors about its size)."""
+    ids = [p["id"] for p in project.data["photos"]]
+    if photo not in ids and photo.isdigit() and 1 <= int(photo) <= len(ids):
+        photo = ids[int(photo) - 1]
+    if photo not in ids:
+        raise ProjectError(project.path, "$.photos", f"no photo has the id {photo!r}; the photos are: "
+                           + (", ".join(repr(i) for i in ids) or "none"))
+    if photo not in ((project.data.get("calibration") or {}).get("cameras") or {}):
+        raise ProjectError(project.path, "$.calibration.cameras",
+                           f"photo {photo!r} has no calibrated camera; run `vebuild calibrate` (or `vebuild register`)")
+    i = ids.index(photo)
+    return dataclasses.replace(cameras_from_calibration(project)[photo],
+                               source=f"$.photos[{i}] (photo {photo!r}: width × height)")
+
+
+def view_camera(view: Mapping[str, Any], where: str = "") -> ImageCamera:
+    """The camera of one view record (FORMAT.md, ``views``; validated by the project's schema):
+    a position, a look direction (``direction``, or ``look_at`` a point), an optional roll, a
+    horizontal field of view (``fov_deg``, default :data:`DEFAULT_FOV_DEG`) or a 35 mm-equivalent
+    focal length (``focal_length_mm``, over a 36 mm wide frame), an image size; the principal point
+    at the image centre. ``where``: its JSON path (``$.views[2]``), which the camera's
+    :attr:`~vebuild.camera.ImageCamera.source` names."""
+    C = np.asarray(view["position"], float)
+    direction = np.asarray(view["look_at"], float) - C if "look_at" in view else np.asarray(view["direction"], float)
+    R = look_rotation(direction, np.radians(view.get("roll_deg", 0.0)))
+    w, h = int(view["width"]), int(view["height"])
+    if "focal_length_mm" in view:
+        f = view["focal_length_mm"] / FRAME_35MM_WIDTH_MM * w
+    else:
+        f = fov_to_focal(np.radians(view.get("fov_deg", DEFAULT_FOV_DEG)), w)
+    K = intrinsic_matrix(f, w / 2, h / 2)
+    return ImageCamera(view["name"], K, R, C, w, h,
+                       source=f"{where or 'view ' + repr(view['name'])} (width × height)")
+
+
+def find_view(project: Project, name: str) -> ImageCamera:
+    """The camera of the view called ``name``; an error listing the views if there is none."""
+    views = project.data.get("views", [])
+    for i, v in enumerate(views):
+        if v["name"] == name:
+            return view_camera(v, f"$.views[{i}]")
+    known = ", ".join(repr(v["name"]) for v in views) or "none (add them under \"views\")"
+    raise ProjectError(project.path, "$.views", f"no view is called {name!r}; the views are: {known}")
+
+
+# --------------------------------------------------------------------------------------------------
+# Markers
+
+MarkerSource = Literal["calibration", "surveyed", "named", "joints"]
+
+
+def markers(data: Mapping[str, Any], source: MarkerSource = "calibration") -> dict[str, Array]:
+    """Marker positions by name, from the document ``data``:
+
+    - ``"calibration"``: where the calibration (or a re-calibrating solve) placed them (none
+      before calibration);
+    - ``"surveyed"``: the positions ``$.markers`` gives (surveyed markers only);
+    - ``"named"``: every marker of ``$.markers`` at the origin (only the names matter: a model's
+      handles can be read before calibration);
+    - ``"joints"``: what a marker joint may tie to: the calibrated positions, or before
+      calibration every named marker (at the origin).
+    """
+    calibrated = (data.get("calibration") or {}).get("markers")
+    if source == "joints":
+        source = "calibration" if calibrated is not None else "named"
+    if source == "calibration":
+        return {n: np.asarray(m["position"], float) for n, m in (calibrated or {}).items()}
+    if source == "surveyed":
+        return {m["name"]: np.asarray(m["position"], float) for m in data.get("markers", []) if "position" in m}
+    if source == "named":
+        return {m["name"]: np.zeros(3) for m in data.get("markers", [])}
+    raise ValueError(f"unknown marker source {source!r}")
+
+
+def known_points(data: Mapping[str, Any]) -> dict[str, Array]:
+    """Positions known after calibration and solving: the calibrated markers, and the solved
+    model's vertices as ``node:handle`` (``model_solution``)."""
+    pts = markers(data)
+    for node, entry in (data.get("model_solution") or {}).get("nodes", {}).items():
+        for h, v in entry["handles"].items():
+            pts[f"{node}:{h}"] = np.asarray(v["value"], float)
+    return pts
+
+
+def marker_sigmas(data: Mapping[str, Any]) -> dict[str, Array]:
+    """The calibrated markers' 1σ per axis (metres; the largest float where undetermined, 0 where not
+    given), as the measurements take them."""
+    calibrated = (data.get("calibration") or {}).get("markers") or {}
+    return {n: np.nan_to_num(np.asarray([np.inf if s is None else s for s in m.get("sigma", [0, 0, 0])], float),
+                             nan=0.0) for n, m in calibrated.items()}
+
+
+# --------------------------------------------------------------------------------------------------
+# The model
+
+
+def located(project: Project, error: ModelError, where: str = "$.model.nodes") -> ProjectError:
+    """A :class:`~vebuild.model.scene.ModelError` as a ProjectError of the project's file, at the
+    JSON path the error names (``where`` where it names none)."""
+    return ProjectError(project.path, error.where or where, error.detail)
+
+
+def model(project: Project, marker_positions: Mapping[str, Array] | None = None) -> Model:
+    """The scene graph of ``$.model.nodes``; a :class:`~vebuild.model.scene.ModelError` becomes a
+    ProjectError at its JSON path. ``marker_positions``: what marker joints tie to (default: the
+    calibrated markers)."""
+    if marker_positions is None:
+        marker_positions = markers(project.data)
+    try:
+        return model_from_dict(project.data["model"]["nodes"], marker_positions)
+    except ModelError as e:
+        raise located(project, e) from None
+
+
+def load_model(project: Project, marker_positions: Mapping[str, Array] | None = None
+               ) -> tuple[Model, list[Pin], list[EdgeObservation]]:
+    """The model and its observations, checked; errors name the file and the JSON path.
+
+    ``marker_positions``: the positions marker joints tie to (default: the calibrated ones).
+    """
+    data = project.data
+    if not data.get("model", {}).get("nodes"):
+        raise VebuildError(f"{project.path}: $.model: the project has no model nodes to solve")
+    m = model(project, marker_positions)
+    pins, edges = pins_of(project, m), edge_observations_of(project, m)
+    check_reference_handles(project, m)
+    return m, pins, edges
+
+
+def pins_of(project: Project, decoded: Model) -> list[Pin]:
+    """``$.model.pins``, each checked to name a handle its node's primitive has."""
+    out = []
+    for i, p in enumerate(project.data["model"].get("pins", [])):
+        prim = decoded.node(p["node"]).primitive
+        if prim is None or p["handle"] not in prim.handle_names():
+            have = ", ".join(prim.handle_names()) if prim else "none (a group has no handles)"
+            raise ProjectError(project.path, f"$.model.pins[{i}].handle",
+                               f"node '{p['node']}' has no handle '{p['handle']}'; its handles are: {have}")
+        out.append(Pin(p["photo"], p["node"], p["handle"], np.asarray(p["uv"], float), bool(p.get("fixed", True))))
+    return out
+
+
+def edge_observations_of(project: Project, decoded: Model) -> list[EdgeObservation]:
+    """``$.model.edge_observations``, each checked to name an edge its node's primitive has."""
+    out = []
+    for i, e in enumerate(project.data["model"].get("edge_observations", [])):
+        prim = decoded.node(e["node"]).primitive
+        names = [n for n, _, _ in prim.edges()] if prim else []
+        if e["edge"] not in names:
+            raise ProjectError(project.path, f"$.model.edge_observations[{i}].edge",
+                               f"node '{e['node']}' has no edge '{e['edge']}'; its edges are: "
+                               f"{', '.join(names) or 'none'}")
+        out.append(EdgeObservation(e["photo"], e["node"], e["edge"], np.asarray(e["points"], float)))
+    return out
+
+
+def check_reference_handles(project: Project, decoded: Model | None = None) -> None:
+    """Every reference distance's ``node:handle`` end names a handle its node's primitive has.
+
+    ``decoded``: the decoded model (default: decoded here, with every marker at the origin, only to
+    read the primitives' handles, as before calibration). The load has checked that the node exists.
+    """
+    refs = [(i, key, d[key]) for i, d in enumerate(project.data.get("reference_distances", []))
+            for key in ("a", "b") if ":" in d[key]]
+    if not refs:
+        return
+    if decoded is None:
+        decoded = model(project, markers(project.data, "named"))
+    for i, key, name in refs:
+        node, handle = name.split(":", 1)
+        prim = decoded.node(node).primitive
+        if prim is None or handle not in prim.handle_names():
+            have = ", ".join(prim.handle_names()) if prim else "none (a group has no handles)"
+            raise ProjectError(project.path, f"$.reference_distances[{i}].{key}",
+                               f"names the handle {name!r}, but node {node!r} has no handle {handle!r}; "
+                               f"its handles are: {have}")
+
+
+# --------------------------------------------------------------------------------------------------
+# The solution
+
+
+@dataclass
+class Solution:
+    """``model_solution`` decoded: the solved model and the joint covariance in code units.
+
+    names : the covariance's parameters in code units (``node.dof`` radians for angles, metres;
+        ``marker:NAME.x`` for re-calibrated markers, last).
+    values : their solved values, in that order.
+    covariance : their covariance (radians and metres; infinite where undetermined).
+    model_index : for each model parameter of ``names``, its index in ``model.vector()``.
+    markers, marker_sigma : the calibrated markers' positions and 1σ per axis.
+    solved_markers : the markers whose covariance ``names`` holds (re-calibrated), in order.
+    photos_of : the photos observing each node (and ``marker:NAME``).
+    """
+
+    model: Model
+    names: list[str]
+    values: Array
+    covariance: Array
+    model_index: list[int]
+    markers: dict[str, Array]
+    marker_sigma: dict[str, Array]
+    solved_markers: list[str]
+    photos_of: dict[str, list[str]]
+    recalibrated: bool
+    variance_factor: float
+    calibration_distances: list[dict[str, Any]]
+
+
+def require_solution(project: Project) -> dict[str, Any]:
+    """``model_solution`` with its covariance; a ProjectError if the project has not been solved."""
+    sol = project.data.get("model_solution")
+    if not sol:
+        raise ProjectError(project.path, "$.model_solution", "the project has not been solved yet; "
+                           "run `vebuild calibrate` and `vebuild solve` first")
+    if not sol.get("covariance"):
+        raise ProjectError(project.path, "$.model_solution.covariance", "the solution holds no covariance (written by "
+                           "an older vebuild); run `vebuild solve` again")
+    return dict(sol)
+
+
+def solution(project: Project) -> Solution:
+    """The solved model (``model.nodes`` holds the solved values) and ``model_solution.covariance``
+    with the file's ``NAME_deg`` parameters turned back into radians. Errors name the file and the
+    JSON path: not solved, no covariance, a parameter the model no longer has."""
+    sol = require_solution(project)
+    data, path = project.data, project.path
+    rec = sol["covariance"]
+    placed = markers(data)
+    solved_model = model(project, placed)
+    index = {n: i for i, n in enumerate(solved_model.parameter_names())}
+    xm = solved_model.vector()
+    names: list[str] = []
+    values: list[float] = []
+    model_index: list[int] = []
+    scale: list[float] = []
+    solved_markers: list[str] = []
+    for k, name in enumerate(rec["parameters"]):
+        if name.startswith("marker:"):
+            m = name[len("marker:"):].rsplit(".", 1)[0]
+            if m not in placed:
+                raise ProjectError(path, f"$.model_solution.covariance.parameters[{k}]",
+                                   f"marker '{m}' has no calibrated position; run `vebuild solve` again")
+            if name.endswith(".x"):
+                solved_markers.append(m)
+            scale.append(1.0)
+            continue
+        internal = name[:-4] if name.endswith("_deg") else name
+        if internal not in index:
+            raise ProjectError(path, f"$.model_solution.covariance.parameters[{k}]",
+                               f"'{name}' is not a parameter of the model: the model changed after it was solved; "
+                               "run `vebuild solve` again")
+        names.append(internal)
+        model_index.append(index[internal])
+        values.append(xm[index[internal]])
+        scale.append(np.radians(1.0) if name.endswith("_deg") else 1.0)
+    s = np.asarray(scale)
+    cov = np.array([[np.inf if v is None else v for v in row] for row in rec["matrix"]], float)
+    cov = cov.reshape(len(s), len(s)) * s[:, None] * s[None, :]
+    names += [f"marker:{m}.{c}" for m in solved_markers for c in "xyz"]
+    x = np.r_[values, *[placed[m] for m in solved_markers]] if solved_markers else np.asarray(values, float)
+    photos: dict[str, set[str]] = {}
+    for p in data["model"].get("pins", []) + data["model"].get("edge_observations", []):
+        photos.setdefault(p["node"], set()).add(p["photo"])
+    for ph in data["photos"]:
+        for m in ph.get("marker_observations") or {}:
+            photos.setdefault(f"marker:{m}", set()).add(ph["id"])
+    cal = data.get("calibration") or {}
+    return Solution(solved_model, names, np.asarray(x, float), cov, model_index, placed, marker_sigmas(data),
+                    solved_markers, {k: sorted(v) for k, v in photos.items()}, bool(sol.get("recalibrated")),
+                    float(sol.get("variance_factor", 1.0)), list(cal.get("reference_distances") or []))
+
+
+# --------------------------------------------------------------------------------------------------
+# Lighting (FORMAT.md, ``lighting``)
+
+
+def light_from_record(rec: Mapping[str, Any]) -> Light:
+    """A :class:`~vebuild.lighting.Light` from its (validated) record."""
+    colour = np.asarray(rec.get("colour", (1.0, 1.0, 1.0)), float) * float(rec.get("intensity", 1.0))
+    d = rec.get("direction")
+    direction = None if d is None else np.asarray(d, float) / np.linalg.norm(d)
+    position = None if rec.get("position") is None else np.asarray(rec["position"], float)
+    outer = np.radians(rec.get("outer_cone_deg", DEFAULT_OUTER_CONE_DEG))
+    inner = np.radians(rec["inner_cone_deg"]) if "inner_cone_deg" in rec else DEFAULT_INNER_CONE_FRACTION * outer
+    return Light(rec["type"], colour, direction, position, float(min(inner, outer)), float(outer),
+                 bool(rec.get("shadows", True)), rec.get("name", ""))
+
+
+def preset_from_record(rec: Mapping[str, Any]) -> Lighting:
+    """A :class:`~vebuild.lighting.Lighting` preset from its (validated) record."""
+    return Lighting(rec["name"], True, np.asarray(rec.get("ambient", DEFAULT_AMBIENT), float),
+                    tuple(light_from_record(r) for r in rec.get("lights", [])), rec.get("description", ""))
+
+
+def preset_names(project: Project) -> list[str]:
+    """The built-in preset and the project's, in order."""
+    return [AS_PHOTOGRAPHED] + [p["name"] for p in (project.data.get("lighting") or {}).get("presets", [])]
+
+
+def find_preset(project: Project, name: str | None) -> Lighting:
+    """The preset called ``name`` (None: as photographed); an error listing them if there is none."""
+    if name is None or name == AS_PHOTOGRAPHED:
+        return AS_PHOTOGRAPHED_LIGHTING
+    for rec in (project.data.get("lighting") or {}).get("presets", []):
+        if rec["name"] == name:
+            return preset_from_record(rec)
+    known = ", ".join(repr(n) for n in preset_names(project))
+    raise ProjectError(project.path, "$.lighting.presets", f"no lighting preset is called {name!r}; the presets "
+                       f"are: {known}")
+
+
+# --------------------------------------------------------------------------------------------------
+# Texture pages (FORMAT.md, "Results: textures")
+
+
+@dataclass(frozen=True)
+class TexturePage:
+    """One atlas page as recorded and as read: its bytes hash to the recorded SHA-256."""
+
+    index: int
+    path: Path  # the atlas PNG
+    relative: str  # as the project records it
+    data: bytes
+    sha256: str
+    size: tuple[int, int]  # width, height in texels
+    pixels: NDArray[np.uint8]  # (height, width, 3) sRGB
+
+
+def texture_pages(project: Project) -> tuple[list[TexturePage], list[Path]]:
+    """The project's atlas pages, each read once, checked against its recorded hash and size, and
+    decoded; and the pages whose files are missing (not an error: the model is then drawn
+    untextured). A page whose bytes changed is an error (ProjectError at its JSON path)."""
+    record = project.data.get("textures") or {}
+    pages, missing = [], []
+    for k, page in enumerate(record.get("pages", [])):
+        if not texture_page_path(project, k).is_file():
+            missing.append(texture_page_path(project, k))
+            continue
+        path, raw, digest = read_texture_page(project, k)
+        pages.append(TexturePage(k, path, page["atlas"], raw, digest, (int(page["width"]), int(page["height"])),
+                                 decode_texture_page(project, k, raw)))
+    return pages, missing
