@@ -40,8 +40,8 @@ from ..lighting import (
     Light,
     Lighting,
 )
-from ..model.scene import Model, ModelError, model_from_dict
 from ..model.residuals import EdgeObservation, Pin
+from ..model.scene import Model, ModelError, model_from_dict
 from .file import Project, decode_texture_page, read_texture_page, texture_page_path
 from .validation import json_path
 
