@@ -7,6 +7,7 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 
 import moderngl
+import numpy as np
 
 from vebuild.errors import VebuildError
 from vebuild.resources import data_dir
@@ -123,3 +124,13 @@ def write_uniform(prog: moderngl.Program, name: str, data: bytes) -> None:
     member = prog.get(name, None)
     if isinstance(member, moderngl.Uniform):
         member.write(data)
+
+
+def set_uniforms(prog: moderngl.Program, **values: object) -> None:
+    """Set the uniforms ``prog`` uses: an array is written as float32 bytes, anything else is
+    assigned; names the program lacks are skipped (the compiler drops those a MODE does not need)."""
+    for name, value in values.items():
+        if isinstance(value, np.ndarray):
+            write_uniform(prog, name, np.ascontiguousarray(value, dtype="f4").tobytes())
+        else:
+            set_uniform(prog, name, value)
