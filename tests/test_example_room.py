@@ -1,6 +1,6 @@
 """The shipped example room (scenes/room), calibrated by vebuild, against its ground truth.
 
-The photos and marks were made by scenes/generate_room.py, which shares no code with vebuild, so a
+The photos and marks were made by scenes/generate_room/, which shares no code with vebuild, so a
 convention slip (axis flip, half-pixel offset, transposed rotation) shows up here as an error.
 Tolerances are the calibration issue's claims for 0.7 px clicks, per photo.
 """

@@ -154,8 +154,8 @@ def _occlusion_scene(tmp: Path):
     solid = lambda rgb: (lambda s, t, W, H: np.broadcast_to(rgb, np.shape(s) + (3,)).copy())  # noqa: E731
     gen.TEXTURES["test_wall"] = solid(gen.linear_to_srgb(WALL_RGB))
     gen.TEXTURES["test_box"] = solid(gen.linear_to_srgb(BOX_RGB))
-    quads = [gen._quad("wall", "wall", (0, 3, 0), (4, 0, 0), (0, 0, 2.5), "test_wall")]  # faces −y
-    quads += gen._box_quads("box", "box", (2.0, 2.2, 0.5), (0.6, 0.6, 1.0), 0.0, {"*": "test_box"}, skip=("-z",))
+    quads = [gen.quad("wall", "wall", (0, 3, 0), (4, 0, 0), (0, 0, 2.5), "test_wall")]  # faces −y
+    quads += gen.box_quads("box", "box", (2.0, 2.2, 0.5), (0.6, 0.6, 1.0), 0.0, {"*": "test_box"}, skip=("-z",))
     scene = {"quads": quads}
     R = np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]])  # looking along +y, level
     cams, sources = [], {}
