@@ -12,7 +12,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 from PIL import Image
-from texture_scene import generator, ground_truth, photo_path, texture_psnr, true_cameras, true_model
+from texture_scene import (
+    generator,
+    ground_truth,
+    photo_path,
+    recorded_result,
+    texture_psnr,
+    true_cameras,
+    true_model,
+)
 
 from vebuild.camera import ImageCamera, gl_projection, project, rotation_from_ypr, view_matrix
 from vebuild.cli import main
@@ -26,9 +34,18 @@ from vebuild.texture.extract import PhotoSource, extract, read_photo
 from vebuild.texture.gpu import Extractor, Options
 from vebuild.texture.merge import COVERAGE_UNSEEN, push_pull, srgb8_to_linear
 
-#: The issue's goal for extracted vs true textures over texels some photo saw (measured: 35.7 dB
-#: with every improvement on, 34.0 dB as in the paper; bench texture has the figures).
-PSNR_GOAL_DB = 30.0
+#: Extracted vs true textures over texels some photo saw, from the true model and cameras
+#: (measured on llvmpipe: 35.6 dB with every improvement on, 36.5 dB on 600-texel pages, 34.0 dB as
+#: in the paper; bench texture has the figures). The example is one fixed draw of the generator's
+#: noise, so only the GL implementation moves the figure: a GPU's colours agree with llvmpipe's and
+#: the CPU reference's within 2e-3 (README), worth < 0.1 dB against this 4-level RMS error; the
+#: 0.6 dB left is for changes in the photos' order or in rounding.
+PSNR_GOAL_DB = 35.0
+#: The same from the solved model and cameras (measured 32.3 dB): the clicks' 0.7 px noise leaves
+#: the solved model a few millimetres off (README: dimensions within 6.5 mm, about one 5 mm texel),
+#: which misregisters the texels and costs 3.3 dB; 0.8 dB below the measurement leaves room for the
+#: solver converging a little differently within its stated accuracy.
+SOLVED_PSNR_DB = 31.5
 ROOM = Path(__file__).resolve().parents[1] / "scenes" / "room"
 
 
@@ -282,8 +299,12 @@ def test_vebuild_texture_writes_atlases_and_records_them(solved_room, capsys):
     floor = next(f for f in rec["faces"] if f["node"] == "floor")
     assert floor["seen_fraction"] > 0.5 and len(floor["photos"]) >= 3
     assert not list(folder.glob("textures/*.tmp")) and not list(folder.glob("textures/.*.vebuild-tmp"))
-    # From the solved (not the true) model and cameras the textures still match the truth.
     assert main(["check", proj]) == 0
+    # From the solved (not the true) model and cameras the textures still match the truth: the
+    # recorded pages, laid onto the true model by their charts, against the true textures.
+    solved_psnr = texture_psnr(true_model(), recorded_result(folder, rec),
+                               {p: v["exposure"] for p, v in ground_truth()["photos"].items()})
+    assert solved_psnr >= SOLVED_PSNR_DB
 
 
 def test_vebuild_texture_refuses_a_changed_photo_and_writes_nothing(solved_room, capsys):
