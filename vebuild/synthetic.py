@@ -26,6 +26,10 @@ Array = NDArray[np.float64]
 ROOM = np.array([6.0, 5.0, 2.8])  # x, y, z extent of the synthetic room, metres
 #: Click noise of a careful user (the issue's figure), px: the default for every synthetic mark.
 CLICK_NOISE_PX = 0.7
+#: 1σ of the relative error in a camera's EXIF focal length: the focal length in millimetres is
+#: rounded (to 0.1 mm on a 4–6 mm phone lens: up to 1.2 %) and the sensor width is a nominal one
+#: (1–2 %). Synthetic photos carry an EXIF focal length off by this much, never the exact truth.
+EXIF_FOCAL_ERROR_REL = 0.02
 
 
 @dataclass
@@ -90,7 +94,18 @@ def random_camera(rng: np.random.Generator, kind: str, width: int = 1600, height
     else:
         raise ValueError(f"kind must be 3vp, 2vp or 1vp, got {kind!r}")
     K = np.array([[f, 0.0, c[0]], [0.0, f, c[1]], [0.0, 0.0, 1.0]])
-    return SyntheticPhoto(photo_id, kind, width, height, K, _rotation(yaw, pitch, roll), C)
+    photo = SyntheticPhoto(photo_id, kind, width, height, K, _rotation(yaw, pitch, roll), C)
+    photo.exif_focal_px = exif_focal_px(f, rng)
+    return photo
+
+
+def exif_focal_px(f: float, rng: np.random.Generator) -> float:
+    """What a camera's EXIF says its focal length ``f`` (px) is: off by EXIF_FOCAL_ERROR_REL (1σ).
+
+    The error is drawn from a child of ``rng`` (``spawn``), which leaves ``rng``'s own stream as it
+    was: the scene's other draws do not depend on whether EXIF is asked for.
+    """
+    return float(f * (1.0 + EXIF_FOCAL_ERROR_REL * rng.spawn(1)[0].standard_normal()))
 
 
 def add_segments(photo: SyntheticPhoto, rng: np.random.Generator, noise_px: float = 0.7,
@@ -186,7 +201,6 @@ def random_scene(rng: np.random.Generator, kinds: tuple[str, ...] = ("3vp", "3vp
         else:
             raise RuntimeError(f"no {kind} camera found that sees enough markers")
         add_segments(cam, rng, noise_px)
-        cam.exif_focal_px = float(cam.K[0, 0])
         photos.append(cam)
     # A user marks a marker only where it helps: in two photos or more.
     counts: dict[str, int] = {}
@@ -233,7 +247,7 @@ def write_project(folder: Path, photos: list[SyntheticPhoto], markers: dict[str,
         entry["vanishing_segments"] = {a: [[float(x) for x in s] for s in seg] for a, seg in p.segments.items()}
         entry["marker_observations"] = {n: [float(uv[0]), float(uv[1])] for n, uv in p.markers.items()}
         if p.kind == "1vp" and p.exif_focal_px:
-            entry["focal_px"] = {"value": p.exif_focal_px, "sigma": 0.01 * p.exif_focal_px}
+            entry["focal_px"] = {"value": p.exif_focal_px, "sigma": EXIF_FOCAL_ERROR_REL * p.exif_focal_px}
         data["photos"].append(entry)
     data["markers"] = [{"name": n} for n in sorted(markers)]
     data["origin_marker"] = "O"
