@@ -1,8 +1,8 @@
 """Calibration from vanishing points (paper §2) on seeded synthetic cameras with known answers.
 
-Tolerances are the issue's accuracy claims for 0.7 px click noise: focal length within 1 %,
-rotation within 0.3°, camera position within 1 % of the scene's size. They are asserted on the
-median over a batch of random cameras of each kind; every single camera must in addition lie
+Tolerances are the accuracy claims of tests/claims.py for 0.7 px click noise and EXIF focal
+lengths off by 2 % (each with its measurement there). They are asserted on the median over a
+batch of random cameras of each kind; every single camera must in addition lie
 within UNCERTAINTY_BOUND of its own reported 1σ, so a camera that is less accurate says so.
 """
 
@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from claims import FOCAL_TOL_REL, POSITION_TOL_REL, ROTATION_TOL_DEG
+from claims import FOCAL_TOL_REL, FOCAL_TOL_REL_2VP, POSITION_TOL_REL, ROTATION_TOL_DEG, ROTATION_TOL_DEG_2VP
 from scipy.stats import chi2
 
 from vebuild.calibration.photo import FocalPrior, calibrate_photo, closed_form_calibration
@@ -65,8 +65,8 @@ def test_intrinsics_and_rotation_accuracy(kind: str, rng: np.random.Generator) -
         # (measured over 8 seeds: 0.52–0.69σ).
         assert 0.24 * EXIF_FOCAL_ERROR_REL < np.median(np.abs(f_err)) < 1.11 * EXIF_FOCAL_ERROR_REL
     else:
-        assert np.median(np.abs(f_err)) < FOCAL_TOL_REL
-    assert np.median(rot_deg) < ROTATION_TOL_DEG
+        assert np.median(np.abs(f_err)) < (FOCAL_TOL_REL_2VP if kind == "2vp" else FOCAL_TOL_REL)
+    assert np.median(rot_deg) < (ROTATION_TOL_DEG_2VP if kind == "2vp" else ROTATION_TOL_DEG)
     z_f = np.array([(cal.f - cam.K[0, 0]) / cal.f_sigma for cam, cal in batch])
     z_w = np.concatenate([w / cal.rotation_sigma_rad for w, (_, cal) in zip(w_err, batch, strict=True)])
     assert np.max(np.abs(z_f)) < UNCERTAINTY_BOUND
