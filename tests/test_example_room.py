@@ -64,8 +64,8 @@ def test_every_photo_within_the_claimed_accuracy(calibrated: tuple[dict, dict]) 
         if pid == "p4":
             # Its f is EXIF's, corrected by the markers it shares: a Gaussian prior's error survives
             # in the estimate scaled by (posterior σ / prior σ)² (measured over 9 seeds: 0.13 of it;
-            # the reported σ, 0.8 %, against EXIF's 2 % predicts 0.16). The clicks' share stays
-            # FOCAL_TOL_REL (measured 0.28 % with EXIF exact).
+            # the reported σ, 0.8 %, against EXIF's 2 % predicts 0.16). The clicks' share is the
+            # claim, FOCAL_TOL_REL (measured 0.28 % with EXIF exact).
             shrink = (cam["focal_px"]["sigma"] / f / EXIF_ERROR_REL) ** 2
             tol += shrink * abs(truth["p4_exif_error_rel"])
         assert abs(f - f_t) / f_t < tol, pid
