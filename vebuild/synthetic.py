@@ -15,8 +15,10 @@ The kinds of photo:
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -273,14 +275,14 @@ def model_scene(rng: np.random.Generator, n_boxes: int = 3, n_photos: int = 8, n
     from .model.scene import model_from_dict
 
     floor = {"width": float(ROOM[0]), "depth": float(ROOM[1])}
-    truth = [{"name": "floor", "primitive": {"type": "quad", "params": floor},
-              "joint": {"type": "marker", "marker": "O", "handle": "v0", "yaw_deg": 0.0}}]
-    start = [dict(truth[0])]
+    truth: list[Mapping[str, Any]] = [{"name": "floor", "primitive": {"type": "quad", "params": floor},
+                                    "joint": {"type": "marker", "marker": "O", "handle": "v0", "yaw_deg": 0.0}}]
+    start: list[dict[str, Any]] = [dict(truth[0])]
     for k in range(n_boxes):
         size = rng.uniform([0.3, 0.3, 0.3], [1.2, 1.2, 1.8])
         pos = rng.uniform([-2.2, -1.7], [2.2, 1.7])
         yaw = rng.uniform(-45, 45)
-        node = {"name": f"box{k}", "parent": "floor",
+        node: dict[str, Any] = {"name": f"box{k}", "parent": "floor",
                 "primitive": {"type": "box", "params": dict(zip(("width", "depth", "height"), map(float, size),
                                                                  strict=True))},
                 "joint": {"type": "rests_on", "face": "top", "position": [float(pos[0]), float(pos[1])],
@@ -304,13 +306,13 @@ def model_scene(rng: np.random.Generator, n_boxes: int = 3, n_photos: int = 8, n
     pins = []
     for cam in photos.values():
         P = projection_matrix(cam.K, cam.R, cam.C)
-        for node in model.nodes:
-            if node.primitive is None:
+        for mnode in model.nodes:
+            if mnode.primitive is None:
                 continue
-            hs = node.primitive.handles() @ T[node.name][:3, :3].T + T[node.name][:3, 3]
+            hs = mnode.primitive.handles() @ T[mnode.name][:3, :3].T + T[mnode.name][:3, 3]
             uv, z = _project(P, hs)
-            for h, p, d in zip(node.primitive.handle_names(), uv, z, strict=True):
+            for h, p, d in zip(mnode.primitive.handle_names(), uv, z, strict=True):
                 if d > 0.3 and _inside(p[None], cam.width, cam.height, 5.0):
-                    pins.append({"photo": cam.id, "node": node.name, "handle": h,
+                    pins.append({"photo": cam.id, "node": mnode.name, "handle": h,
                                  "uv": [float(v) for v in p + rng.normal(0, noise_px, 2)], "fixed": True})
     return {"nodes": truth}, {"nodes": start}, pins, photos

@@ -29,6 +29,7 @@ def generator() -> ModuleType:
     folder = data_dir("scenes/generate_room")
     spec = importlib.util.spec_from_file_location("generate_room", folder / "__init__.py",
                                                   submodule_search_locations=[str(folder)])
+    assert spec is not None and spec.loader is not None
     mod = importlib.util.module_from_spec(spec)
     sys.modules["generate_room"] = mod
     spec.loader.exec_module(mod)
