@@ -1,8 +1,8 @@
 """Calibration from vanishing points (paper §2) on seeded synthetic cameras with known answers.
 
-Tolerances are the issue's accuracy claims for 0.7 px click noise: focal length within 1 %,
-rotation within 0.3°, camera position within 1 % of the scene's size. They are asserted on the
-median over a batch of random cameras of each kind; every single camera must in addition lie
+Tolerances are the accuracy claims of tests/claims.py for 0.7 px click noise and EXIF focal
+lengths off by 2 % (each with its measurement there). They are asserted on the median over a
+batch of random cameras of each kind; every single camera must in addition lie
 within UNCERTAINTY_BOUND of its own reported 1σ, so a camera that is less accurate says so.
 """
 
@@ -10,13 +10,22 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from claims import FOCAL_TOL_REL, POSITION_TOL_REL, ROTATION_TOL_DEG
+from claims import FOCAL_TOL_REL, FOCAL_TOL_REL_2VP, POSITION_TOL_REL, ROTATION_TOL_DEG, ROTATION_TOL_DEG_2VP
+from scipy.stats import chi2
 
 from vebuild.calibration.photo import FocalPrior, calibrate_photo, closed_form_calibration
 from vebuild.calibration.positions import PhotoInput, ReferenceDistance, place_cameras
 from vebuild.calibration.vanishing import fit_vanishing_point
 from vebuild.camera import log_so3
-from vebuild.synthetic import CLICK_NOISE_PX, ROOM, add_segments, random_camera, random_scene, scale_reference
+from vebuild.synthetic import (
+    CLICK_NOISE_PX,
+    EXIF_FOCAL_ERROR_REL,
+    ROOM,
+    add_segments,
+    random_camera,
+    random_scene,
+    scale_reference,
+)
 
 #: |error| / reported 1σ that no camera may exceed: 4.5σ happens by chance about once in 10⁵
 #: draws of a Gaussian, so a larger ratio means the reported uncertainty is wrong.
@@ -28,13 +37,17 @@ Z_RMS_BAND = (0.5, 1.3)
 N_PER_KIND = 40
 
 
+def _exif(f_exif: float) -> FocalPrior:
+    """The EXIF focal length (off the truth by EXIF_FOCAL_ERROR_REL, 1σ) with that 1σ."""
+    return FocalPrior(f_exif, EXIF_FOCAL_ERROR_REL * f_exif, "exif")
+
+
 def _calibrate_batch(kind: str, rng: np.random.Generator):
     out = []
     for _ in range(N_PER_KIND):
         cam = random_camera(rng, kind)
         add_segments(cam, rng, CLICK_NOISE_PX)
-        f = cam.K[0, 0]
-        exif = FocalPrior(f, 0.01 * f, "exif")
+        exif = _exif(cam.exif_focal_px)
         cal = calibrate_photo(cam.segments, cam.width, cam.height, click_sigma_px=CLICK_NOISE_PX, exif_focal=exif)
         out.append((cam, cal))
     return out
@@ -46,15 +59,20 @@ def test_intrinsics_and_rotation_accuracy(kind: str, rng: np.random.Generator) -
     f_err = np.array([(cal.f - cam.K[0, 0]) / cam.K[0, 0] for cam, cal in batch])
     w_err = np.array([log_so3(cam.R @ cal.R.T) for cam, cal in batch])
     rot_deg = np.degrees(np.linalg.norm(w_err, axis=1))
-    assert np.median(np.abs(f_err)) < FOCAL_TOL_REL
-    assert np.median(rot_deg) < ROTATION_TOL_DEG
+    if kind == "1vp":
+        # f is EXIF's, off the truth by EXIF_FOCAL_ERROR_REL (1σ): the median |error| of 40 such
+        # draws is 0.674σ with a spread of 0.124σ (1 / (2 density · √40)); the band is ±3.5 of that
+        # (measured over 8 seeds: 0.52–0.69σ).
+        assert 0.24 * EXIF_FOCAL_ERROR_REL < np.median(np.abs(f_err)) < 1.11 * EXIF_FOCAL_ERROR_REL
+    else:
+        assert np.median(np.abs(f_err)) < (FOCAL_TOL_REL_2VP if kind == "2vp" else FOCAL_TOL_REL)
+    assert np.median(rot_deg) < (ROTATION_TOL_DEG_2VP if kind == "2vp" else ROTATION_TOL_DEG)
     z_f = np.array([(cal.f - cam.K[0, 0]) / cal.f_sigma for cam, cal in batch])
     z_w = np.concatenate([w / cal.rotation_sigma_rad for w, (_, cal) in zip(w_err, batch, strict=True)])
     assert np.max(np.abs(z_f)) < UNCERTAINTY_BOUND
     assert np.max(np.abs(z_w)) < UNCERTAINTY_BOUND
     assert Z_RMS_BAND[0] < np.sqrt(np.mean(z_w**2)) < Z_RMS_BAND[1]
-    if kind != "1vp":  # in 1vp mode f is EXIF's, whose 1σ (1 %) is deliberately generous
-        assert Z_RMS_BAND[0] < np.sqrt(np.mean(z_f**2)) < Z_RMS_BAND[1]
+    assert Z_RMS_BAND[0] < np.sqrt(np.mean(z_f**2)) < Z_RMS_BAND[1]
 
 
 def test_mode_follows_the_geometry(rng: np.random.Generator) -> None:
@@ -71,13 +89,18 @@ def test_mode_follows_the_geometry(rng: np.random.Generator) -> None:
 def test_frontal_view_uses_exif_and_says_so(rng: np.random.Generator) -> None:
     cam = random_camera(rng, "1vp")
     add_segments(cam, rng, CLICK_NOISE_PX)
-    f = cam.K[0, 0]
+    f, f_exif = cam.K[0, 0], cam.exif_focal_px
     cal = calibrate_photo(cam.segments, cam.width, cam.height, click_sigma_px=CLICK_NOISE_PX,
-                          exif_focal=FocalPrior(f * 1.004, 0.01 * f, "exif"))
+                          exif_focal=_exif(f_exif))
     assert cal.mode == "1vp" and cal.focal_source == "exif"
     assert "EXIF" in cal.mode_reason or "exif" in cal.mode_reason
-    # The focal length is EXIF's, not invented: within EXIF's 1σ of what EXIF said.
-    assert abs(cal.f - f * 1.004) < 0.01 * f
+    # The focal length is EXIF's, not invented: one finite vanishing point barely constrains f, so
+    # the error against the truth is EXIF's own, moved by the data a small share of EXIF's 1σ, and
+    # the reported 1σ is EXIF's or a little more (measured over 30 seeds: moved at most 0.34σ; 1σ
+    # 0.99–1.41 of EXIF's, the fit's variance factor).
+    assert abs(cal.f - f_exif) < 0.5 * EXIF_FOCAL_ERROR_REL * f
+    assert abs(cal.f - f) < UNCERTAINTY_BOUND * cal.f_sigma
+    assert 0.9 * EXIF_FOCAL_ERROR_REL * f_exif < cal.f_sigma < 1.6 * EXIF_FOCAL_ERROR_REL * f_exif
 
 
 def test_principal_point_prior_beats_both_pure_modes(rng: np.random.Generator) -> None:
@@ -97,20 +120,38 @@ def test_principal_point_prior_beats_both_pure_modes(rng: np.random.Generator) -
 
 
 def test_vanishing_point_fit_recovers_a_known_point_and_reports_residuals(rng: np.random.Generator) -> None:
+    """Over 30 draws of 5 segments toward a point 1.5 image widths away, the fitted point's error
+    and the residuals are what 0.7 px of click noise predicts, both ways (too good is wrong too)."""
     v = np.array([2400.0, 350.0])
-    segs = []
-    for _ in range(5):
-        a = rng.uniform([100, 100], [1500, 1100])
-        b = a + 0.4 * (v - a)
-        segs.append(np.r_[a, b] + rng.normal(0, CLICK_NOISE_PX, 4))
-    fit = fit_vanishing_point(np.array(segs), 1600, 1200)
-    p = fit.finite_point()
-    assert p is not None
-    # The point lies ~1.5 image widths away; its position error scales with that lever arm.
-    assert np.linalg.norm(p - v) < 0.02 * np.linalg.norm(v - [800, 600])
-    assert fit.residuals_px.shape == (5,)
-    # Residuals of end points with 0.7 px noise: RMS about 0.7/√2 ≈ 0.5 px, never many pixels.
-    assert fit.rms_px < 4 * CLICK_NOISE_PX
+    n_draws, n_seg = 30, 5
+    mahalanobis2, residual2 = [], []
+    for _ in range(n_draws):
+        ends = []
+        for _ in range(n_seg):
+            a = rng.uniform([100, 100], [1500, 1100])
+            ends.append(np.r_[a, a + 0.4 * (v - a)])  # v = a + 2.5 (b − a)
+        ends = np.array(ends)
+        fit = fit_vanishing_point(ends + rng.normal(0, CLICK_NOISE_PX, ends.shape), 1600, 1200)
+        p = fit.finite_point()
+        assert p is not None and fit.residuals_px.shape == (n_seg,)
+        # Predicted covariance: a segment's line, extended to the point (t = 2.5 of its length from
+        # a), moves sideways by σ √((1 − t)² + t²); the point is where the lines meet (2 unknowns).
+        info = np.zeros((2, 2))
+        for a, b in zip(ends[:, :2], ends[:, 2:], strict=True):
+            d = b - a
+            n = np.array([-d[1], d[0]]) / np.linalg.norm(d)
+            t = (v - a) @ d / (d @ d)
+            info += np.outer(n, n) / (CLICK_NOISE_PX**2 * ((1 - t) ** 2 + t**2))
+        e = p - v
+        mahalanobis2.append(e @ info @ e)
+        # A residual is p1's distance to the line midpoint–point: σ/√2 per segment, and the fitted
+        # point takes 2 of the 5 degrees of freedom.
+        residual2.append(np.sum(fit.residuals_px**2) / (CLICK_NOISE_PX**2 / 2))
+    # Sums of chi-squares: chi²(2·30) and chi²(3·30); each band holds 99.99 % of its distribution
+    # (measured over 400 draws: the point's error follows chi²(2), KS p = 0.36; the residuals
+    # chi²(3), KS p = 0.10). A stated tolerance of 32 px or 2.8 px RMS would hide a 10× error.
+    assert chi2(2 * n_draws).ppf(1e-4) < np.sum(mahalanobis2) < chi2(2 * n_draws).ppf(1 - 1e-4)
+    assert chi2(3 * n_draws).ppf(1e-4) < np.sum(residual2) < chi2(3 * n_draws).ppf(1 - 1e-4)
 
 
 def test_parallel_segments_give_a_point_at_infinity() -> None:
@@ -141,9 +182,8 @@ def _place_scene(rng: np.random.Generator, kinds=("3vp", "3vp", "2vp", "1vp")):
     photos, markers = random_scene(rng, kinds, noise_px=CLICK_NOISE_PX)
     inputs = []
     for ph in photos:
-        exif = FocalPrior(ph.exif_focal_px, 0.01 * ph.exif_focal_px, "exif")
         cal = calibrate_photo(ph.segments, ph.width, ph.height, photo=ph.id, click_sigma_px=CLICK_NOISE_PX,
-                              exif_focal=exif)
+                              exif_focal=_exif(ph.exif_focal_px))
         inputs.append(PhotoInput(ph.id, cal.K, cal.R, cal.covariance, ph.markers))
     a, b, d = scale_reference(photos, markers)
     placement = place_cameras(inputs, origin="O", distances=[ReferenceDistance(a, b, d, 0.002)],
@@ -176,7 +216,14 @@ def test_photo_without_origin_is_placed_from_markers(rng: np.random.Generator) -
     photos, markers, placement = _place_scene(rng, ("3vp", "3vp", "1vp"))
     frontal = photos[2]
     assert frontal.id in placement.cameras
-    assert np.linalg.norm(placement.cameras[frontal.id].C - frontal.C) < POSITION_TOL_REL * np.linalg.norm(ROOM) * 3
+    cam = placement.cameras[frontal.id]
+    e = cam.C - frontal.C
+    sigma = np.sqrt(np.diag(cam.covariance)[6:9])
+    # A frontal photo's f is EXIF's (1σ EXIF_FOCAL_ERROR_REL) and it is placed from markers only,
+    # so how well it is placed depends on what it sees (measured over 29 seeds: median 0.2 % of the
+    # room's diagonal, 2.6 % at the 95th percentile): it is held to its own reported 1σ, per axis
+    # (measured: at most 2.2σ), rather than to a multiple of the 3-photo claim.
+    assert np.all(np.abs(e / sigma) < UNCERTAINTY_BOUND)
 
 
 def test_check_distance_is_not_used_but_reported(rng: np.random.Generator) -> None:
@@ -184,7 +231,7 @@ def test_check_distance_is_not_used_but_reported(rng: np.random.Generator) -> No
     inputs = []
     for ph in photos:
         cal = calibrate_photo(ph.segments, ph.width, ph.height, photo=ph.id, click_sigma_px=CLICK_NOISE_PX,
-                              exif_focal=FocalPrior(ph.exif_focal_px, 0.01 * ph.exif_focal_px, "exif"))
+                              exif_focal=_exif(ph.exif_focal_px))
         inputs.append(PhotoInput(ph.id, cal.K, cal.R, cal.covariance, ph.markers))
     a, b, d = scale_reference(photos, markers)
     others = [n for n in markers if n not in (a, b)]

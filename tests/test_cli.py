@@ -131,8 +131,9 @@ def test_bench_solver_quick_writes_named_figures(tmp_path: Path) -> None:
     for key in ("drag_update_ms_p95_0_fixed", "drag_update_ms_p95_2_fixed", "recalibration_s_10",
                 "recalibration_s_50", "drag_time_ratio_vs_reference", "recalibration_growth_exponent"):
         assert key in fig
-    # The paper's vertex fixing held during every measured drag.
-    assert fig["drag_fixed_vertex_error_px_max_2_fixed"] < 0.5
+    # The paper's vertex fixing held during every measured drag (measured 0.072 px; the bound is
+    # test_model's FIXED_VERTEX_TOL_PX, 0.2 px, with its reason).
+    assert fig["drag_fixed_vertex_error_px_max_2_fixed"] < 0.2
 
 
 def test_edit_names_a_missing_project_and_how_to_start_one(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:

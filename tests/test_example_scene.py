@@ -1,4 +1,4 @@
-"""The example project generator (scenes/generate_room.py) checked against itself.
+"""The example project generator (scenes/generate_room/) checked against itself.
 
 Nothing here imports vebuild: the example scene is test data for vebuild, so it must be right on
 its own terms. Projections in this file are written out again (P = K [R | −R C], homogeneous
@@ -25,9 +25,14 @@ ON_LINE_TOL = 3.0  # px: |N(0, 0.7)| stays below 3 px (≈ 4.3σ) for every one 
 
 
 def _load_generator():
-    spec = importlib.util.spec_from_file_location("generate_room", ROOT / "scenes" / "generate_room.py")
+    """The scenes/generate_room package, imported by path (scenes/ is data, not an installed package)."""
+    if "generate_room" in sys.modules:
+        return sys.modules["generate_room"]
+    folder = ROOT / "scenes" / "generate_room"
+    spec = importlib.util.spec_from_file_location("generate_room", folder / "__init__.py",
+                                                  submodule_search_locations=[str(folder)])
     mod = importlib.util.module_from_spec(spec)
-    sys.modules.setdefault("generate_room", mod)
+    sys.modules["generate_room"] = mod
     spec.loader.exec_module(mod)
     return mod
 

@@ -27,7 +27,10 @@ from vebuild.synthetic import CLICK_NOISE_PX, ROOM, model_scene
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "scenes" / "room"
 #: The paper's vertex fixing: a fixed vertex stays within this of its pin while others are dragged.
-FIXED_VERTEX_TOL_PX = 0.5
+#: The drags are noise-free; a fixed pin moves only by its trade-off with the solve's priors and the
+#: dragged pin: measured at most 0.124 px over 7 scenes (0.016 px and 0.10 px on this file's two),
+#: 0.072 px in bench solver. 0.2 px is well under a click's 0.7 px and 1.6× the worst measured.
+FIXED_VERTEX_TOL_PX = 0.2
 
 
 BOX = {"name": "b", "parent": "floor", "primitive": {"type": "box", "params": {"width": 1, "depth": 1, "height": 1}},
@@ -97,14 +100,16 @@ def test_figure_7_drag_sequence() -> None:
 
     # (a) Nothing fixed: drag v0 onto its corner. The box moves as a whole; its size stays.
     s, r, _ = _drag(model, cams, [], "p1", "v0", true_px["v0"])
-    assert np.linalg.norm(r.handle_px - true_px["v0"]) < 0.01
+    # Noise-free, the handle reaches the mouse to the solve's tolerance (measured ≤ 1.0e-3 px over 7 scenes).
+    assert np.linalg.norm(r.handle_px - true_px["v0"]) < 2e-3
     fixed = [s.release()]
     assert model.node("box0").primitive.params == pytest.approx(size0, rel=1e-6)
 
     # (b) v0 fixed: drag the far top corner v6. Size and turn change; v0 stays within 0.5 px.
     s, r, worst = _drag(model, cams, fixed, "p1", "v6", true_px["v6"])
     assert worst < FIXED_VERTEX_TOL_PX
-    assert np.linalg.norm(r.handle_px - true_px["v6"]) < 0.05
+    # Here it trades against the fixed v0 too (measured ≤ 0.020 px over 7 scenes).
+    assert np.linalg.norm(r.handle_px - true_px["v6"]) < 0.03
     fixed.append(s.release())
     assert not np.allclose(model.node("box0").primitive.params, size0)
 

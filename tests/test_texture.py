@@ -12,7 +12,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 from PIL import Image
-from texture_scene import generator, ground_truth, photo_path, texture_psnr, true_cameras, true_model
+from texture_scene import (
+    generator,
+    ground_truth,
+    photo_path,
+    recorded_result,
+    texture_psnr,
+    true_cameras,
+    true_model,
+)
 
 from vebuild.camera import ImageCamera, gl_projection, project, rotation_from_ypr, view_matrix
 from vebuild.cli import main
@@ -27,9 +35,18 @@ from vebuild.texture.gpu import Extractor
 from vebuild.texture.merge import COVERAGE_UNSEEN, push_pull, srgb8_to_linear
 from vebuild.texture.options import Options
 
-#: The issue's goal for extracted vs true textures over texels some photo saw (measured: 35.7 dB
-#: with every improvement on, 34.0 dB as in the paper; bench texture has the figures).
-PSNR_GOAL_DB = 30.0
+#: Extracted vs true textures over texels some photo saw, from the true model and cameras
+#: (measured on llvmpipe: 35.6 dB with every improvement on, 36.5 dB on 600-texel pages, 34.0 dB as
+#: in the paper; bench texture has the figures). The example is one fixed draw of the generator's
+#: noise, so only the GL implementation moves the figure: a GPU's colours agree with llvmpipe's and
+#: the CPU reference's within 2e-3 (README), worth < 0.1 dB against this 4-level RMS error; the
+#: 0.6 dB left is for changes in the photos' order or in rounding.
+PSNR_GOAL_DB = 35.0
+#: The same from the solved model and cameras (measured 32.3 dB): the clicks' 0.7 px noise leaves
+#: the solved model a few millimetres off (README: dimensions within 6.5 mm, about one 5 mm texel),
+#: which misregisters the texels and costs 3.3 dB; 0.8 dB below the measurement leaves room for the
+#: solver converging a little differently within its stated accuracy.
+SOLVED_PSNR_DB = 31.5
 ROOM = Path(__file__).resolve().parents[1] / "scenes" / "room"
 
 
@@ -155,8 +172,8 @@ def _occlusion_scene(tmp: Path):
     solid = lambda rgb: (lambda s, t, W, H: np.broadcast_to(rgb, np.shape(s) + (3,)).copy())  # noqa: E731
     gen.TEXTURES["test_wall"] = solid(gen.linear_to_srgb(WALL_RGB))
     gen.TEXTURES["test_box"] = solid(gen.linear_to_srgb(BOX_RGB))
-    quads = [gen._quad("wall", "wall", (0, 3, 0), (4, 0, 0), (0, 0, 2.5), "test_wall")]  # faces −y
-    quads += gen._box_quads("box", "box", (2.0, 2.2, 0.5), (0.6, 0.6, 1.0), 0.0, {"*": "test_box"}, skip=("-z",))
+    quads = [gen.quad("wall", "wall", (0, 3, 0), (4, 0, 0), (0, 0, 2.5), "test_wall")]  # faces −y
+    quads += gen.box_quads("box", "box", (2.0, 2.2, 0.5), (0.6, 0.6, 1.0), 0.0, {"*": "test_box"}, skip=("-z",))
     scene = {"quads": quads}
     R = np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]])  # looking along +y, level
     cams, sources = [], {}
@@ -283,8 +300,12 @@ def test_vebuild_texture_writes_atlases_and_records_them(solved_room, capsys):
     floor = next(f for f in rec["faces"] if f["node"] == "floor")
     assert floor["seen_fraction"] > 0.5 and len(floor["photos"]) >= 3
     assert not list(folder.glob("textures/*.tmp")) and not list(folder.glob("textures/.*.vebuild-tmp"))
-    # From the solved (not the true) model and cameras the textures still match the truth.
     assert main(["check", proj]) == 0
+    # From the solved (not the true) model and cameras the textures still match the truth: the
+    # recorded pages, laid onto the true model by their charts, against the true textures.
+    solved_psnr = texture_psnr(true_model(), recorded_result(folder, rec),
+                               {p: v["exposure"] for p, v in ground_truth()["photos"].items()})
+    assert solved_psnr >= SOLVED_PSNR_DB
 
 
 def test_vebuild_texture_refuses_a_changed_photo_and_writes_nothing(solved_room, capsys):

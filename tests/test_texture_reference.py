@@ -1,5 +1,5 @@
 """The CPU reference of texture extraction (vebuild.texture.reference): against hand-made inputs,
-against the example room's own ray caster (scenes/generate_room.py, an independent witness), and
+against the example room's own ray caster (scenes/generate_room/, an independent witness), and
 the GPU path (vebuild.texture.gpu, Mesa's llvmpipe where there is no GPU) against it.
 
 Every tolerance below is a named constant with the figure it was chosen from (measured on the

@@ -15,8 +15,10 @@ The kinds of photo:
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -26,6 +28,10 @@ Array = NDArray[np.float64]
 ROOM = np.array([6.0, 5.0, 2.8])  # x, y, z extent of the synthetic room, metres
 #: Click noise of a careful user (the issue's figure), px: the default for every synthetic mark.
 CLICK_NOISE_PX = 0.7
+#: 1σ of the relative error in a camera's EXIF focal length: the focal length in millimetres is
+#: rounded (to 0.1 mm on a 4–6 mm phone lens: up to 1.2 %) and the sensor width is a nominal one
+#: (1–2 %). Synthetic photos carry an EXIF focal length off by this much, never the exact truth.
+EXIF_FOCAL_ERROR_REL = 0.02
 
 
 @dataclass
@@ -90,7 +96,18 @@ def random_camera(rng: np.random.Generator, kind: str, width: int = 1600, height
     else:
         raise ValueError(f"kind must be 3vp, 2vp or 1vp, got {kind!r}")
     K = np.array([[f, 0.0, c[0]], [0.0, f, c[1]], [0.0, 0.0, 1.0]])
-    return SyntheticPhoto(photo_id, kind, width, height, K, _rotation(yaw, pitch, roll), C)
+    photo = SyntheticPhoto(photo_id, kind, width, height, K, _rotation(yaw, pitch, roll), C)
+    photo.exif_focal_px = exif_focal_px(f, rng)
+    return photo
+
+
+def exif_focal_px(f: float, rng: np.random.Generator) -> float:
+    """What a camera's EXIF says its focal length ``f`` (px) is: off by EXIF_FOCAL_ERROR_REL (1σ).
+
+    The error is drawn from a child of ``rng`` (``spawn``), which leaves ``rng``'s own stream as it
+    was: the scene's other draws do not depend on whether EXIF is asked for.
+    """
+    return float(f * (1.0 + EXIF_FOCAL_ERROR_REL * rng.spawn(1)[0].standard_normal()))
 
 
 def add_segments(photo: SyntheticPhoto, rng: np.random.Generator, noise_px: float = 0.7,
@@ -186,7 +203,6 @@ def random_scene(rng: np.random.Generator, kinds: tuple[str, ...] = ("3vp", "3vp
         else:
             raise RuntimeError(f"no {kind} camera found that sees enough markers")
         add_segments(cam, rng, noise_px)
-        cam.exif_focal_px = float(cam.K[0, 0])
         photos.append(cam)
     # A user marks a marker only where it helps: in two photos or more.
     counts: dict[str, int] = {}
@@ -233,7 +249,7 @@ def write_project(folder: Path, photos: list[SyntheticPhoto], markers: dict[str,
         entry["vanishing_segments"] = {a: [[float(x) for x in s] for s in seg] for a, seg in p.segments.items()}
         entry["marker_observations"] = {n: [float(uv[0]), float(uv[1])] for n, uv in p.markers.items()}
         if p.kind == "1vp" and p.exif_focal_px:
-            entry["focal_px"] = {"value": p.exif_focal_px, "sigma": 0.01 * p.exif_focal_px}
+            entry["focal_px"] = {"value": p.exif_focal_px, "sigma": EXIF_FOCAL_ERROR_REL * p.exif_focal_px}
         data["photos"].append(entry)
     data["markers"] = [{"name": n} for n in sorted(markers)]
     data["origin_marker"] = "O"
@@ -259,14 +275,14 @@ def model_scene(rng: np.random.Generator, n_boxes: int = 3, n_photos: int = 8, n
     from .model.scene import model_from_dict
 
     floor = {"width": float(ROOM[0]), "depth": float(ROOM[1])}
-    truth = [{"name": "floor", "primitive": {"type": "quad", "params": floor},
-              "joint": {"type": "marker", "marker": "O", "handle": "v0", "yaw_deg": 0.0}}]
-    start = [dict(truth[0])]
+    truth: list[Mapping[str, Any]] = [{"name": "floor", "primitive": {"type": "quad", "params": floor},
+                                    "joint": {"type": "marker", "marker": "O", "handle": "v0", "yaw_deg": 0.0}}]
+    start: list[dict[str, Any]] = [dict(truth[0])]
     for k in range(n_boxes):
         size = rng.uniform([0.3, 0.3, 0.3], [1.2, 1.2, 1.8])
         pos = rng.uniform([-2.2, -1.7], [2.2, 1.7])
         yaw = rng.uniform(-45, 45)
-        node = {"name": f"box{k}", "parent": "floor",
+        node: dict[str, Any] = {"name": f"box{k}", "parent": "floor",
                 "primitive": {"type": "box", "params": dict(zip(("width", "depth", "height"), map(float, size),
                                                                  strict=True))},
                 "joint": {"type": "rests_on", "face": "top", "position": [float(pos[0]), float(pos[1])],
@@ -290,13 +306,13 @@ def model_scene(rng: np.random.Generator, n_boxes: int = 3, n_photos: int = 8, n
     pins = []
     for cam in photos.values():
         P = projection_matrix(cam.K, cam.R, cam.C)
-        for node in model.nodes:
-            if node.primitive is None:
+        for mnode in model.nodes:
+            if mnode.primitive is None:
                 continue
-            hs = node.primitive.handles() @ T[node.name][:3, :3].T + T[node.name][:3, 3]
+            hs = mnode.primitive.handles() @ T[mnode.name][:3, :3].T + T[mnode.name][:3, 3]
             uv, z = _project(P, hs)
-            for h, p, d in zip(node.primitive.handle_names(), uv, z, strict=True):
+            for h, p, d in zip(mnode.primitive.handle_names(), uv, z, strict=True):
                 if d > 0.3 and _inside(p[None], cam.width, cam.height, 5.0):
-                    pins.append({"photo": cam.id, "node": node.name, "handle": h,
+                    pins.append({"photo": cam.id, "node": mnode.name, "handle": h,
                                  "uv": [float(v) for v in p + rng.normal(0, noise_px, 2)], "fixed": True})
     return {"nodes": truth}, {"nodes": start}, pins, photos

@@ -21,7 +21,7 @@ from ..calibration.photo import FocalPrior, calibrate_photo, closed_form_calibra
 from ..calibration.positions import PhotoInput, ReferenceDistance, place_cameras
 from ..camera import log_so3
 from ..errors import CalibrationError
-from ..synthetic import ROOM, random_scene, scale_reference
+from ..synthetic import EXIF_FOCAL_ERROR_REL, ROOM, random_scene, scale_reference
 
 KINDS = ("3vp", "3vp", "2vp", "1vp")
 NOISE_PX = 0.7
@@ -47,7 +47,7 @@ def run(quick: bool = False, progress: bool = True, n_cameras: int | None = None
         inputs, cals = [], {}
         try:
             for ph in photos:
-                exif = FocalPrior(ph.exif_focal_px, 0.01 * ph.exif_focal_px, "exif")
+                exif = FocalPrior(ph.exif_focal_px, EXIF_FOCAL_ERROR_REL * ph.exif_focal_px, "exif")
                 t0 = time.perf_counter()
                 cal = calibrate_photo(ph.segments, ph.width, ph.height, photo=ph.id, click_sigma_px=NOISE_PX,
                                       exif_focal=exif)

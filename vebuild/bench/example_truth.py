@@ -1,7 +1,7 @@
 """The example room's ground truth, for texture tests and benchmarks.
 
 The true model (ground_truth.json's nodes), the true cameras, the photos, and the true texture of
-every texel, from the scene's own generator (scenes/generate_room.py, imported by path: it does not
+every texel, from the scene's own generator (scenes/generate_room/, imported by path: it does not
 import vebuild, so it is an independent witness).
 """
 
@@ -25,8 +25,11 @@ ROOM = example_project_dir()
 
 @cache
 def generator() -> ModuleType:
-    """scenes/generate_room.py, imported by path (it is data, not part of the vebuild package)."""
-    spec = importlib.util.spec_from_file_location("generate_room", data_dir("scenes") / "generate_room.py")
+    """The scenes/generate_room package, imported by path (it is data, not part of the vebuild package)."""
+    folder = data_dir("scenes/generate_room")
+    spec = importlib.util.spec_from_file_location("generate_room", folder / "__init__.py",
+                                                  submodule_search_locations=[str(folder)])
+    assert spec is not None and spec.loader is not None
     mod = importlib.util.module_from_spec(spec)
     sys.modules["generate_room"] = mod
     spec.loader.exec_module(mod)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 import threading
+from typing import Any
 
 import moderngl
 
@@ -38,7 +39,8 @@ def headless_context() -> moderngl.Context:
         if _context is None:
             backend = os.environ.get("VEBUILD_GL_BACKEND", "egl")
             try:
-                ctx = moderngl.create_standalone_context(require=REQUIRED_VERSION, backend=backend)
+                settings: dict[str, Any] = {"backend": backend}
+                ctx = moderngl.create_standalone_context(require=REQUIRED_VERSION, **settings)
             except Exception as e:  # moderngl raises plain Exception for a missing library or display
                 raise GLUnavailableError(
                     f"cannot create an OpenGL {REQUIRED_VERSION // 100}.{REQUIRED_VERSION // 10 % 10} "

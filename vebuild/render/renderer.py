@@ -44,6 +44,7 @@ from vebuild.camera import (
 from vebuild.errors import VebuildError
 from vebuild.gl import load_program
 from vebuild.gl.context import max_texture_size
+from vebuild.gl.shaders import uniform
 from vebuild.lighting import AS_PHOTOGRAPHED_LIGHTING, MAX_LIGHTS, Light, Lighting
 from vebuild.render.scene import RenderScene
 from vebuild.render.sizes import check_camera, gl_limits
@@ -191,14 +192,19 @@ class Renderer:
         lo, hi = self._bounds
         corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
         if light.type == "directional":
+            assert light.direction is not None  # a directional light has one (lighting.Light)
             R = look_rotation(light.direction)
             xc = corners @ R.T
             pad = 0.01 * max(1e-3, float(np.ptp(xc, axis=0).max())) + 1e-3
             a, b = xc.min(axis=0) - pad, xc.max(axis=0) + pad
             return [(gl_orthographic(R, a, b), (float((b - a)[:2].max()) / size, 0.0))]
-        far = float(np.linalg.norm(corners - light.position, axis=1).max()) * 1.05 + 0.1
+        position = light.position
+        assert position is not None  # point and spot lights have one (lighting.Light)
+        far = float(np.linalg.norm(corners - position, axis=1).max()) * 1.05 + 0.1
         near = min(0.02, 0.5 * far)
+        dirs: list[Array]
         if light.type == "spot":
+            assert light.direction is not None
             half = min(light.outer_cone + math.radians(2.0), math.radians(89.0))
             f = 0.5 * size / math.tan(half)
             dirs = [light.direction]
@@ -207,7 +213,7 @@ class Renderer:
             dirs = list(CUBE_DIRECTIONS)
         K = intrinsic_matrix(f, size / 2, size / 2)
         P = gl_projection(K, size, size, near, far)
-        return [(P @ view_matrix(look_rotation(d), light.position), (1.0 / f, 1.0)) for d in dirs]
+        return [(P @ view_matrix(look_rotation(d), position), (1.0 / f, 1.0)) for d in dirs]
 
     def _update_shadows(self) -> None:
         shadows = self.options.shadows and self.lighting.lit
@@ -243,7 +249,7 @@ class Renderer:
             for k, (M, _) in enumerate(tiles):
                 x, y = (k % cols) * size, (k // cols) * size
                 fbo.viewport = (x, y, size, size)
-                self.shadow_program["light_matrix"].write(M.T.astype("f4").tobytes())
+                uniform(self.shadow_program, "light_matrix").write(M.T.astype("f4").tobytes())
                 self._shadow_vao.render(moderngl.TRIANGLES, vertices=self._n_indices)
                 rects.append((x / W, y / H, size / W, size / H))
             self.ctx.disable(moderngl.DEPTH_TEST)
@@ -310,14 +316,14 @@ class Renderer:
                               shadow_texel=state["texels"])
         for name, v in values.items():
             if name in prog:
-                u = prog[name]
+                u = uniform(prog, name)
                 if isinstance(v, bool | int | np.integer):
                     u.value = int(v)
                 else:
                     u.write(np.ascontiguousarray(v, dtype="f4").tobytes())
         for name, unit in (("atlas", 0), ("shadow_atlas", 1)):
             if name in prog:
-                prog[name].value = unit
+                uniform(prog, name).value = unit
 
     def _target(self, w: int, h: int, key: str) -> tuple[moderngl.Framebuffer, moderngl.Framebuffer,
                                                          moderngl.Texture]:
@@ -355,7 +361,7 @@ class Renderer:
             else self._shadow_blank
         shadow_tex.use(location=1)
         if "textured" in self.program:
-            self.program["textured"].value = int(self.scene.textured)
+            uniform(self.program, "textured").value = int(self.scene.textured)
         vao = self._vaos[self.lighting.lit]
         for page, first, count in self._ranges:
             (self._pages[page] if self.scene.textured else self._blank).use(location=0)
@@ -378,9 +384,9 @@ class Renderer:
         images[1].use(location=1)
         for name, v in {"left": 0, "right": 1, "flip": int(flip), "origin": origin}.items():
             if name in prog:
-                prog[name].value = v
-        prog["anaglyph_left"].write(ANAGLYPH_LEFT.T.astype("f4").tobytes())
-        prog["anaglyph_right"].write(ANAGLYPH_RIGHT.T.astype("f4").tobytes())
+                uniform(prog, name).value = v
+        uniform(prog, "anaglyph_left").write(ANAGLYPH_LEFT.T.astype("f4").tobytes())
+        uniform(prog, "anaglyph_right").write(ANAGLYPH_RIGHT.T.astype("f4").tobytes())
         self._fullscreen.render(moderngl.TRIANGLES, vertices=3)
 
     def check_size(self, cam: ImageCamera, stereo: Stereo | None = None) -> tuple[int, int]:
@@ -476,12 +482,15 @@ class Renderer:
         fbo.viewport = (0, 0, cam.width, cam.height)
         fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         prog = self.pick_program
-        prog["view"].write(view_matrix(cam.R, cam.C).T.astype("f4").tobytes())
-        prog["projection"].write(gl_projection(cam.K, cam.width, cam.height, near, far).T.astype("f4").tobytes())
+        uniform(prog, "view").write(view_matrix(cam.R, cam.C).T.astype("f4").tobytes())
+        P = gl_projection(cam.K, cam.width, cam.height, near, far)
+        uniform(prog, "projection").write(P.T.astype("f4").tobytes())
         self.ctx.enable(moderngl.DEPTH_TEST)
         self._pick_vao.render(moderngl.TRIANGLES, vertices=self._n_indices)
         self.ctx.disable(moderngl.DEPTH_TEST)
-        data = np.frombuffer(fbo.color_attachments[0].read(), "f4").reshape(cam.height, cam.width, 2)
+        target = fbo.color_attachments[0]
+        assert isinstance(target, moderngl.Texture)
+        data = np.frombuffer(target.read(), "f4").reshape(cam.height, cam.width, 2)
         return np.rint(data[..., 0]).astype(np.int32), data[..., 1].copy()
 
     def node_mask(self, cam: ImageCamera, node: str) -> NDArray[np.bool_]:

@@ -19,13 +19,13 @@ from numpy.typing import NDArray
 
 from vebuild.camera import ImageCamera, depth_range, gl_projection, view_matrix, world_to_camera
 from vebuild.gl import load_program
-from vebuild.texture import BEST_WEIGHT_SCALE, DEPTH_TOLERANCE, MAX_LEVELS, pre_pass_erosion
+from vebuild.gl.shaders import set_uniforms
+from vebuild.texture import BEST_WEIGHT_SCALE, DEPTH_TOLERANCE, pre_pass_erosion
+from vebuild.texture.gpu_pyramid import PhotoPyramid, fullscreen_vao
 from vebuild.texture.layout import SceneMesh
 from vebuild.texture.options import Options
 
 Array = NDArray[np.float64]
-
-GL_SRGB8 = 0x8C41
 #: Exposure statistics are taken on the atlas reduced this much per side.
 STATS_SCALE = 0.25
 #: Fewer overlapping (reduced) texels than this and a photo's gain is not estimated.
@@ -56,14 +56,15 @@ class Timings:
         self.seconds[name] += time.perf_counter() - t
 
 
-def _set(prog: moderngl.Program, **values: object) -> None:
-    """Set the uniforms a program uses (the compiler drops those a MODE does not need)."""
-    for k, v in values.items():
-        if k in prog:
-            if isinstance(v, np.ndarray):
-                prog[k].write(np.ascontiguousarray(v, dtype="f4").tobytes())
-            else:
-                prog[k].value = v
+@dataclass
+class Page:
+    """One atlas page's targets: the sums (MODE 0's four) and the best weight (MODE 2)."""
+
+    size: tuple[int, int]
+    acc: list[moderngl.Texture]
+    fbo: moderngl.Framebuffer
+    best: moderngl.Texture
+    best_fbo: moderngl.Framebuffer
 
 
 def _mat3(M: Array) -> NDArray[np.float32]:
@@ -120,14 +121,12 @@ class Extractor:
         self._soup_vaos: dict[str, moderngl.VertexArray] = {}
         self._face_points = self._face_vertices()
         self._pages = [self._make_page(size) for size in mesh.pages]
-        self._photo_tex: moderngl.Texture | None = None
-        self._pyramid: tuple[moderngl.Texture, moderngl.Texture, list[tuple[int, int, int]]] | None = None
+        self._photo = PhotoPyramid(ctx)
+        self._fullscreen_vaos: dict[int, moderngl.VertexArray] = {}
         self._id_tex: moderngl.Texture | None = None
         self._id_for: tuple[str, set[int]] | None = None  # the photo whose ID buffer is in _id_tex, its faces
         self._idle_fbo = ctx.framebuffer(color_attachments=[ctx.texture((1, 1), 4)])
-        self._pyr_fbos: list[moderngl.Framebuffer] = []
         self._uploaded: str | None = None  # the id of the photo on the GPU
-        self._pyramid_ready = False
         self.gains: dict[str, NDArray[np.float64]] = {}
         self._queries: dict[int, moderngl.Query] = {}  # one per face, reused photo after photo
         self._pending: tuple[str, dict[int, moderngl.Query]] | None = None
@@ -144,7 +143,7 @@ class Extractor:
             out[f.id] = (self.mesh.vertices[sel], self.mesh.normals[sel])
         return out
 
-    def _make_page(self, size: tuple[int, int]) -> dict[str, object]:
+    def _make_page(self, size: tuple[int, int]) -> Page:
         ctx = self.ctx
         acc = [ctx.texture(size, 4, dtype="f4") for _ in range(3)] + [ctx.texture(size, 2, dtype="f4")]
         for t in acc:
@@ -155,7 +154,7 @@ class Extractor:
         best.filter = (moderngl.NEAREST, moderngl.NEAREST)
         best_fbo = ctx.framebuffer(color_attachments=[best])
         best_fbo.clear(0.0, 0.0, 0.0, 0.0)
-        return {"size": size, "acc": acc, "fbo": fbo, "best": best, "best_fbo": best_fbo}
+        return Page(size, acc, fbo, best, best_fbo)
 
     def _unbind(self, free_now: bool = False) -> None:
         """Draw into a 1×1 target: GL frees a released texture only once no bound framebuffer holds
@@ -163,8 +162,10 @@ class Extractor:
         than when the driver next flushes (Mesa keeps it till then)."""
         self._idle_fbo.use()
         if free_now:
+            idle = self._idle_fbo.color_attachments[0]
+            assert isinstance(idle, moderngl.Texture)
             for unit in range(IDLE_UNITS):  # sampler bindings hold textures too
-                self._idle_fbo.color_attachments[0].use(unit)
+                idle.use(unit)
             self._idle_fbo.clear(0.0, 0.0, 0.0, 0.0)
             self.ctx.finish()
 
@@ -180,17 +181,8 @@ class Extractor:
         pre-pass and after the last photo, before the merge allocates its own targets."""
         self._unbind(free_now=True)
         self._release_id_target()
-        if self._photo_tex is not None:
-            self._photo_tex.release()
-            self._photo_tex = None
-        if self._pyramid is not None:
-            for t in self._pyramid[:2]:
-                t.release()
-            for f in self._pyr_fbos:
-                f.release()
-            self._pyramid, self._pyr_fbos = None, []
+        self._photo.release()
         self._uploaded = None
-        self._pyramid_ready = False
 
     # -- pass 1 ------------------------------------------------------------------------------
 
@@ -220,14 +212,14 @@ class Extractor:
         ctx.disable(moderngl.BLEND)
         ctx.depth_func = "<"
         fbo.depth_mask = True
-        _set(self._programs["id"], view=V, projection=P)
+        set_uniforms(self._programs["id"], view=V, projection=P)
         self._id_vao.render(moderngl.TRIANGLES)
         if erode_px > 0:
             lines = self._edge_lines(cam, near)
             if len(lines):
                 self._edge_vbo.orphan(max(self._edge_vbo.size, lines.nbytes))
                 self._edge_vbo.write(lines.tobytes())
-                _set(self._programs["edges"], view=V, projection=P, shrink=EDGE_SHRINK,
+                set_uniforms(self._programs["edges"], view=V, projection=P, shrink=EDGE_SHRINK,
                      viewport=(float(cam.width), float(cam.height)), half_width=float(erode_px))
                 ctx.depth_func = "<="
                 fbo.depth_mask = False
@@ -272,70 +264,13 @@ class Extractor:
         self._pyramid_stage()
 
     def _pyramid_stage(self) -> None:
-        assert self._photo_tex is not None
         with self.timings.stage("pyramid", self.ctx if self._profile else None):
-            self._build_pyramid(*self._photo_tex.size)
-        self._pyramid_ready = True
+            prog = self._programs["pyramid"]
+            self._photo.build(prog, fullscreen_vao(self.ctx, self._fullscreen_vaos, prog))
 
     def _write_photo(self, pixels: NDArray[np.uint8], finish: bool = False) -> None:
-        h, w = pixels.shape[:2]
-        self._pyramid_ready = False
         with self.timings.stage("upload", self.ctx if self._profile else None):
-            if self._photo_tex is None or self._photo_tex.size != (w, h):
-                if self._photo_tex is not None:
-                    self._photo_tex.release()
-                self._photo_tex = self.ctx.texture((w, h), 3, internal_format=GL_SRGB8)
-                self._photo_tex.repeat_x = self._photo_tex.repeat_y = False
-            self._photo_tex.write(np.ascontiguousarray(pixels))
-            if finish:
-                self.ctx.finish()
-
-    def _build_pyramid(self, w: int, h: int) -> None:
-        sizes = [(w, h)]
-        while len(sizes) < MAX_LEVELS and max(sizes[-1]) > 1:
-            sizes.append(((sizes[-1][0] + 1) // 2, (sizes[-1][1] + 1) // 2))
-        y0 = [0] * len(sizes)
-        heights = {1: 0, 0: 0}
-        for k in range(1, len(sizes)):
-            y0[k] = heights[k & 1]
-            heights[k & 1] += sizes[k][1]
-        need = ((sizes[1][0] if len(sizes) > 1 else 1, max(1, heights[1])),
-                (sizes[2][0] if len(sizes) > 2 else 1, max(1, heights[0])))
-        if self._pyramid is None or (self._pyramid[0].size, self._pyramid[1].size) != need:
-            if self._pyramid is not None:
-                for t in self._pyramid[:2]:
-                    t.release()
-                for f in self._pyr_fbos:
-                    f.release()
-            odd, even = (self.ctx.texture(s, 4, dtype="f2") for s in need)
-            for t in (odd, even):
-                t.repeat_x = t.repeat_y = False
-            self._pyramid = (odd, even, [])
-            self._pyr_fbos = [self.ctx.framebuffer(color_attachments=[t]) for t in (odd, even)]
-            for fbo in self._pyr_fbos:  # a clamped bilinear sample may touch (at weight 0) a texel
-                fbo.clear(0.0, 0.0, 0.0, 0.0)  # no level writes: it must not be NaN
-        odd, even, _ = self._pyramid
-        self._pyramid = (odd, even, [(s[0], s[1], y) for s, y in zip(sizes, y0, strict=True)])
-        prog = self._programs["pyramid"]
-        self.ctx.disable(moderngl.BLEND)
-        self.ctx.disable(moderngl.DEPTH_TEST)
-        vao = self._fullscreen(prog)
-        for k in range(1, len(sizes)):
-            src = self._photo_tex if k == 1 else (odd if (k - 1) & 1 else even)
-            fbo = self._pyr_fbos[0 if k & 1 else 1]
-            fbo.use()
-            fbo.viewport = (0, y0[k], sizes[k][0], sizes[k][1])
-            src.use(0)
-            _set(prog, source=0, source_size=(float(sizes[k - 1][0]), float(sizes[k - 1][1])),
-                 source_y0=float(y0[k - 1] if k > 1 else 0), source_texture=(float(src.width), float(src.height)),
-                 target_y0=float(y0[k]))
-            vao.render(moderngl.TRIANGLES, vertices=3)
-
-    def _fullscreen(self, prog: moderngl.Program) -> moderngl.VertexArray:
-        key = f"_fs_{id(prog)}"
-        if not hasattr(self, key):
-            setattr(self, key, self.ctx.vertex_array(prog, []))
-        return getattr(self, key)
+            self._photo.write(pixels, finish)
 
     # -- pass 2 ------------------------------------------------------------------------------
 
@@ -389,19 +324,8 @@ class Extractor:
             atlas_scale=float(atlas_scale), detail_levels=float(self.opt.detail_levels),
             sharpness=float(self.opt.detail_sharpness), drop_ratio=float(self.opt.drop_ratio),
         )
-        if self._pyramid is not None and "photo" in prog:
-            odd, even, levels = self._pyramid
-            self._photo_tex.use(1)
-            odd.use(2)
-            even.use(3)
-            sizes = np.zeros((MAX_LEVELS, 2), "f4")
-            y0 = np.zeros(MAX_LEVELS, "f4")
-            for k, (w, h, y) in enumerate(levels):
-                sizes[k], y0[k] = (w, h), y
-            values.update(photo=1, pyramid_odd=2, pyramid_even=3, odd_size=(float(odd.width), float(odd.height)),
-                          even_size=(float(even.width), float(even.height)), levels=len(levels),
-                          level_size=sizes, level_y0=y0)
-        _set(prog, **values)
+        self._photo.bind(prog, values)
+        set_uniforms(prog, **values)
 
     def best_weights(self, cameras: list[ImageCamera]) -> None:
         """Pre-pass (no photo needed): each texel's best weight over all photos, for dropping
@@ -414,13 +338,13 @@ class Extractor:
                 faces = self._visible_faces(cam)
                 self.ctx.enable(moderngl.BLEND)
                 self.ctx.blend_func = moderngl.ONE, moderngl.ONE
-                self.ctx.blend_equation = moderngl.MAX
+                self.ctx.blend_equation = moderngl.MAX, moderngl.MAX
                 for k, page in enumerate(self._pages):
-                    page["best_fbo"].use()
-                    page["best_fbo"].viewport = (0, 0, *page["size"])
-                    self._texel_uniforms(prog, small, id_tex, page["size"], weight_scale=1.0 / BEST_WEIGHT_SCALE)
+                    page.best_fbo.use()
+                    page.best_fbo.viewport = (0, 0, *page.size)
+                    self._texel_uniforms(prog, small, id_tex, page.size, weight_scale=1.0 / BEST_WEIGHT_SCALE)
                     self._draw_texels("best", k, faces)
-                self.ctx.blend_equation = moderngl.FUNC_ADD
+                self.ctx.blend_equation = moderngl.FUNC_ADD, moderngl.FUNC_ADD
                 self.ctx.disable(moderngl.BLEND)
         self._unbind(free_now=True)  # its ID buffer is freed before the first photo's is made
         self._release_id_target()
@@ -453,7 +377,7 @@ class Extractor:
             raise ValueError(f"photo {cam.id}: its pixels are not on the GPU (upload_photo first)")
         self._uploaded = None
         self._collect()
-        if not self._pyramid_ready:
+        if not self._photo.ready:
             self._pyramid_stage()
         if self._id_for is None or self._id_for[0] != cam.id:
             self.photo_id_pass(cam)
@@ -465,14 +389,14 @@ class Extractor:
             prog = self._programs["accumulate"]
             self.ctx.enable(moderngl.BLEND)
             self.ctx.blend_func = moderngl.ONE, moderngl.ONE
-            self.ctx.blend_equation = moderngl.FUNC_ADD
-            queries = {}
+            self.ctx.blend_equation = moderngl.FUNC_ADD, moderngl.FUNC_ADD
+            queries: dict[int, moderngl.Query] = {}
             for k, page in enumerate(self._pages):
-                page["fbo"].use()
-                page["fbo"].viewport = (0, 0, *page["size"])
-                page["best"].use(4)
-                self._texel_uniforms(prog, cam, id_tex, page["size"])
-                _set(prog, best_weight=4, inverse_gain=(1.0 / gain).astype("f4"))
+                page.fbo.use()
+                page.fbo.viewport = (0, 0, *page.size)
+                page.best.use(4)
+                self._texel_uniforms(prog, cam, id_tex, page.size)
+                set_uniforms(prog, best_weight=4, inverse_gain=(1.0 / gain).astype("f4"))
                 self._draw_texels("accumulate", k, faces, queries)  # last photo's queries were read
             self.ctx.disable(moderngl.BLEND)
             # Read at the next photo (or by `contributions`): reading now would wait for the GPU
@@ -516,7 +440,7 @@ class Extractor:
         """One photo's texels on one page (MODE 1): colour c, weight w, low band l, and in 'seen'
         the face id where the texel is seen (0 elsewhere)."""
         p = self._pages[page]
-        size = (max(1, round(p["size"][0] * atlas_scale)), max(1, round(p["size"][1] * atlas_scale)))
+        size = (max(1, round(p.size[0] * atlas_scale)), max(1, round(p.size[1] * atlas_scale)))
         targets = [self.ctx.texture(size, 4, dtype="f4") for _ in range(3)]
         fbo = self.ctx.framebuffer(color_attachments=targets)
         try:
@@ -525,9 +449,9 @@ class Extractor:
             fbo.clear(0.0, 0.0, 0.0, 0.0)
             self.ctx.disable(moderngl.BLEND)
             prog = self._programs["view"]
-            p["acc"][0].use(5)
-            self._texel_uniforms(prog, cam, id_tex, p["size"], atlas_scale=atlas_scale)
-            _set(prog, accumulated=5)
+            p.acc[0].use(5)
+            self._texel_uniforms(prog, cam, id_tex, p.size, atlas_scale=atlas_scale)
+            set_uniforms(prog, accumulated=5)
             # The atlas is drawn at its full page_size extent in NDC; the viewport scales it.
             self._draw_texels("view", page, faces)
             out = [np.frombuffer(fbo.read(components=4, dtype="f4", attachment=i), "f4").reshape(size[1], size[0], 4)
@@ -545,7 +469,7 @@ class Extractor:
 
     def _geometry_targets(self, page: int) -> tuple[moderngl.Framebuffer, list[moderngl.Texture]]:
         p = self._pages[page]
-        size = p["size"]
+        size = p.size
         targets = [self.ctx.texture(size, 4, dtype="f4") for _ in range(2)]
         for t in targets:
             t.filter = (moderngl.NEAREST, moderngl.NEAREST)
@@ -555,13 +479,13 @@ class Extractor:
         fbo.clear(0.0, 0.0, 0.0, 0.0)
         self.ctx.disable(moderngl.BLEND)
         prog = self._programs["geometry"]
-        _set(prog, page_size=(float(size[0]), float(size[1])), atlas_scale=1.0)
+        set_uniforms(prog, page_size=(float(size[0]), float(size[1])), atlas_scale=1.0)
         self._draw_texels("geometry", page, None)
         return fbo, targets
 
     def geometry(self, page: int) -> dict[str, NDArray[np.float32]]:
         """Each texel's world position, face id (0 off every face) and normal on ``page``."""
-        w, h = self._pages[page]["size"]
+        w, h = self._pages[page].size
         fbo, targets = self._geometry_targets(page)
         try:
             out = [np.frombuffer(fbo.read(components=4, dtype="f4", attachment=i), "f4").reshape(h, w, 4)
@@ -578,7 +502,7 @@ class Extractor:
         from vebuild.texture.merge import COVERAGE_DROPPED_ONLY, COVERAGE_UNSEEN, COVERAGE_VIEWS
 
         p = self._pages[page]
-        w, h = p["size"]
+        w, h = p.size
         gfbo, gtex = self._geometry_targets(page)
         targets = [self.ctx.texture((w, h), 4) for _ in range(2)]
         fbo = self.ctx.framebuffer(color_attachments=targets)
@@ -586,28 +510,30 @@ class Extractor:
             fbo.use()
             fbo.viewport = (0, 0, w, h)
             prog = self._programs["resolve"]
-            for unit, tex in enumerate([*p["acc"], gtex[0]]):
+            for unit, tex in enumerate([*p.acc, gtex[0]]):
                 tex.use(unit)
             rgba = lambda c: tuple(v / 255.0 for v in c)  # noqa: E731
-            _set(prog, low_sum=0, detail_sum=1, dropped_sum=2, counts=3, geometry=4,
+            set_uniforms(prog, low_sum=0, detail_sum=1, dropped_sum=2, counts=3, geometry=4,
                  exposure_scale=float(exposure_scale), coverage_unseen=rgba(COVERAGE_UNSEEN),
                  coverage_dropped_only=rgba(COVERAGE_DROPPED_ONLY),
                  coverage_views=np.array([rgba(c) for c in COVERAGE_VIEWS], "f4"))
-            self._fullscreen(prog).render(moderngl.TRIANGLES, vertices=3)
+            fullscreen_vao(self.ctx, self._fullscreen_vaos, prog).render(moderngl.TRIANGLES, vertices=3)
             colour = np.frombuffer(fbo.read(components=4, attachment=0), np.uint8).reshape(h, w, 4)
             coverage = np.frombuffer(fbo.read(components=4, attachment=1), np.uint8).reshape(h, w, 4).copy()
             face = np.frombuffer(gfbo.read(components=4, dtype="f4", attachment=0), "f4").reshape(h, w, 4)[..., 3]
         finally:
-            for obj in (fbo, gfbo, *targets, *gtex):
-                obj.release()
+            fbo.release()
+            gfbo.release()
+            for t in (*targets, *gtex):
+                t.release()
         return {"colour": colour[..., :3].copy(), "seen": colour[..., 3] > 127, "coverage": coverage,
                 "face": face.astype(np.int32)}
 
     def sums(self, page: int) -> dict[str, NDArray[np.float32]]:
         """The per-texel sums of ``page`` (MODE 0's four targets), read back."""
         p = self._pages[page]
-        w, h = p["size"]
-        fbo = p["fbo"]
+        w, h = p.size
+        fbo = p.fbo
         out = [np.frombuffer(fbo.read(components=4 if i < 3 else 2, dtype="f4", attachment=i), "f4")
                .reshape(h, w, 4 if i < 3 else 2) for i in range(4)]
         return {"low": out[0], "detail": out[1], "dropped": out[2], "counts": out[3]}
@@ -615,14 +541,14 @@ class Extractor:
     def release(self) -> None:
         self._unbind()
         for page in self._pages:
-            for t in page["acc"]:
+            for t in page.acc:
                 t.release()
-            page["fbo"].release()
-            page["best"].release()
-            page["best_fbo"].release()
+            page.fbo.release()
+            page.best.release()
+            page.best_fbo.release()
         self.release_photo()
-        for t in self._idle_fbo.color_attachments:
-            t.release()
+        for a in self._idle_fbo.color_attachments:
+            a.release()
         self._idle_fbo.release()
         for vao in self._soup_vaos.values():
             vao.release()
