@@ -16,7 +16,7 @@ import pytest
 import trimesh
 from PIL import Image
 
-from vebuild.actions.render import RenderRequest, parse_size, render_evidence
+from vebuild.actions.render import RenderRequest, render_evidence
 from vebuild.camera import ImageCamera, look_rotation, project, stereo_pair
 from vebuild.cli import main
 from vebuild.errors import ProjectError, VebuildError
@@ -28,6 +28,7 @@ from vebuild.project.decode import preset_from_record
 from vebuild.render.png import PROVENANCE_KEYS
 from vebuild.render.renderer import Renderer, RenderOptions, Stereo
 from vebuild.render.scene import load_scene, scene_from_model
+from vebuild.render.sizes import parse_size
 from vebuild.texture import layout as lay
 from vebuild.texture.merge import linear_to_srgb8, srgb8_to_linear
 

@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 from viewer_scene import DOOR_LIMITS_DEG, DRAWER_LIMITS, ROOM_X, VIEWS, nodes, write_project
 
-from vebuild.actions.hypothesis import find_hypothesis, model_with, save_hypothesis
 from vebuild.errors import ProjectError
 from vebuild.model.arrange import TOUCH_TOLERANCE_M, CannotMove, ObjectMover
 from vebuild.model.collide import circle_push, convex_hull_2d, footprints, overlap_depth
 from vebuild.model.scene import model_from_dict
 from vebuild.project import load_project, save_project
+from vebuild.project.hypotheses import find_hypothesis, model_with, save_hypothesis
 from vebuild.viewer.walk import BODY_RADIUS_M, EYE_HEIGHT_M, Walker
 
 

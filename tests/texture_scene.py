@@ -1,4 +1,4 @@
-"""The example room's ground truth for texture tests: see vebuild.bench.example_truth."""
+"""The example room's ground truth for texture tests: see vebuild.actions.example_truth."""
 
 from pathlib import Path
 from types import SimpleNamespace
@@ -6,7 +6,7 @@ from types import SimpleNamespace
 import numpy as np
 from PIL import Image
 
-from vebuild.bench.example_truth import (  # noqa: F401
+from vebuild.actions.example_truth import (  # noqa: F401
     TRUTH_SUPERSAMPLE,
     generator,
     ground_truth,

@@ -21,9 +21,9 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
     from .actions.calibrate import calibrate_project
+    from .console.tables import calibration_table
     from .project import load_project, save_project
     from .project.outputs import begin_stage
-    from .report.text import calibration_table
 
     project = load_project(args.project)
     begin_stage(project)
@@ -37,9 +37,9 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
 
 def _cmd_solve(args: argparse.Namespace) -> int:
     from .actions.solve import solve_project
+    from .console.tables import model_table
     from .project import load_project, save_project
     from .project.outputs import begin_stage
-    from .report.text import model_table
 
     project = load_project(args.project)
     begin_stage(project)
@@ -51,8 +51,8 @@ def _cmd_solve(args: argparse.Namespace) -> int:
 
 
 def _cmd_view(args: argparse.Namespace) -> int:
-    from .actions.render import parse_size
     from .project import load_project
+    from .render.sizes import parse_size
     from .viewer.app import run_viewer
 
     project = load_project(args.project)
@@ -62,8 +62,8 @@ def _cmd_view(args: argparse.Namespace) -> int:
 
 
 def _cmd_edit(args: argparse.Namespace) -> int:
-    from .actions.render import parse_size
     from .edit.screen import run_editor
+    from .render.sizes import parse_size
 
     recover = True if args.recover else (False if args.discard_autosave else None)
     if not Path(args.project).exists():
@@ -118,9 +118,10 @@ def _cmd_report(args: argparse.Namespace) -> int:
 
 
 def _cmd_render(args: argparse.Namespace) -> int:
-    from .actions.render import RenderRequest, parse_size, render_evidence
+    from .actions.render import RenderRequest, render_evidence
     from .project import load_project
     from .project.decode import preset_names
+    from .render.sizes import parse_size
 
     project = load_project(args.project)
     if args.list:
@@ -153,9 +154,9 @@ def _cmd_render(args: argparse.Namespace) -> int:
 
 def _cmd_texture(args: argparse.Namespace) -> int:
     from .actions.texture import texture_project
-    from .cli_progress import progress_bar
+    from .console.progress import progress_bar
+    from .console.tables import texture_table
     from .project import load_project
-    from .report.text import texture_table
     from .texture.options import Options
 
     project = load_project(args.project)
@@ -175,9 +176,9 @@ def _cmd_texture(args: argparse.Namespace) -> int:
 
 
 def _cmd_video(args: argparse.Namespace) -> int:
-    from .actions.render import parse_size
-    from .cli_progress import progress_bar
+    from .console.progress import progress_bar
     from .project import load_project
+    from .render.sizes import parse_size
     from .render.video import Timing, VideoRequest, parse_views, render_video
 
     project = load_project(args.project)
@@ -200,8 +201,8 @@ def _cmd_video(args: argparse.Namespace) -> int:
 
 def _cmd_register(args: argparse.Namespace) -> int:
     from .actions.register import register_photos
+    from .console.tables import calibration_table
     from .project import load_project, save_project
-    from .report.text import calibration_table
 
     project = load_project(args.project)
     done = register_photos(project, args.photos or None)

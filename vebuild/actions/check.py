@@ -71,9 +71,7 @@ def check_render_sizes(project: Project) -> None:
     and the ``--size`` of each recorded analysis (the report runs it). A photo's own size is not
     a render's: only its report image is checked."""
     from ..analysis.recorded import parse_recorded
-    from ..render.sizes import check_render_size
-    from ..report.page import IMAGE_WIDTH, image_size
-    from .render import parse_size
+    from ..render.sizes import IMAGE_WIDTH, check_render_size, image_size, parse_size
 
     def located(width: Any, height: Any, source: str) -> None:  # source: the JSON path and what it is
         try:
@@ -104,7 +102,7 @@ def check_render_sizes(project: Project) -> None:
 
 def _check_hypotheses(project: Project, model: Model) -> None:
     # Each hypothesis applied to the model as render --hypothesis applies it (joint limits and all).
-    from .hypothesis import applied_hypothesis
+    from ..project.hypotheses import applied_hypothesis
 
     for i in range(len(project.data.get("hypotheses") or [])):
         applied_hypothesis(project, model, i)

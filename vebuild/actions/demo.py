@@ -18,10 +18,10 @@ import numpy as np
 from tqdm import tqdm
 
 from ..camera import log_so3
-from ..cli_progress import progress_bar
+from ..console.progress import progress_bar
+from ..console.tables import calibration_table, model_table, texture_table
 from ..errors import VebuildError
 from ..project import load_project, save_project
-from ..report.text import calibration_table, model_table, texture_table
 from ..resources import example_project_dir
 from .calibrate import calibrate_project
 from .solve import solve_project
@@ -141,7 +141,7 @@ def render_views(project, folder: Path) -> str:
 
 def texture_comparison(project, textures, truth: dict) -> str:
     """Gains against the photos' true exposures; PSNR of the textures against the true ones."""
-    from ..bench.example_truth import texture_psnr
+    from .example_truth import texture_psnr
 
     first = truth["photos"][textures.order[0]]["exposure"]
     lines = ["comparison with the ground truth:",

@@ -12,7 +12,6 @@ pixels the model covers.
 from __future__ import annotations
 
 import json
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -84,17 +83,6 @@ class RenderResult:
     covered_fraction: float | None = None
 
 
-def parse_size(text: str) -> tuple[int, int]:
-    """'1280x720' → (1280, 720); an error saying what was expected otherwise."""
-    m = re.fullmatch(r"\s*(\d+)\s*[x×X]\s*(\d+)\s*", text or "")
-    if not m or int(m[1]) < 1 or int(m[2]) < 1:
-        raise VebuildError(f"--size: expected WIDTHxHEIGHT in pixels, each at least 1 (such as 1280x720), "
-                           f"got {text!r}")
-    from vebuild.render.sizes import check_render_size
-
-    return check_render_size(int(m[1]), int(m[2]), "--size")
-
-
 def overlay_path(out: Path) -> Path:
     """Where ``--validate`` writes the photo overlaid on the render of ``out``."""
     return out.with_name(out.stem + "-overlay.png")
@@ -124,7 +112,7 @@ def render_evidence(project: Project, req: RenderRequest) -> RenderResult:
     lighting = find_preset(project, req.lighting)
     scene = load_scene(project)
     if req.hypothesis is not None:
-        from vebuild.actions.hypothesis import hypothesis_model
+        from vebuild.project.hypotheses import hypothesis_model
 
         scene = scene.with_model(hypothesis_model(project, scene.model, req.hypothesis))
     ctx = headless_context()
@@ -160,7 +148,7 @@ def render_evidence(project: Project, req: RenderRequest) -> RenderResult:
         image = draw_markers(image, placed)
         text["vebuild:evidence_markers"] = json.dumps([m["label"] for m, _, _ in placed], ensure_ascii=False)
     if req.hypothesis is not None:
-        from vebuild.actions.hypothesis import label
+        from vebuild.project.hypotheses import label
 
         image = stamp(image, label(req.hypothesis))
         text["vebuild:hypothesis"] = req.hypothesis

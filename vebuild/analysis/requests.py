@@ -182,13 +182,12 @@ class LightingRequest:
         return replace(self, out=path)
 
     def run(self, project: Any) -> AnalysisResult:
-        from vebuild.actions.render import parse_size
         from vebuild.gl import headless_context
         from vebuild.project.decode import find_view
         from vebuild.render.png import check_output, provenance, write_png
         from vebuild.render.renderer import Renderer
         from vebuild.render.scene import load_scene
-        from vebuild.render.sizes import check_camera
+        from vebuild.render.sizes import check_camera, parse_size
 
         from .lighting import LUMINANCE_WEIGHTS, compare_lighting, side_by_side
 

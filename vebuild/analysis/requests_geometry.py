@@ -24,7 +24,7 @@ def _scene(project: Any, hypothesis: str | None) -> Any:
 
     scene = load_scene(project)
     if hypothesis is not None:
-        from vebuild.actions.hypothesis import hypothesis_model
+        from vebuild.project.hypotheses import hypothesis_model
 
         scene = scene.with_model(hypothesis_model(project, scene.model, hypothesis))
     return scene
@@ -72,8 +72,8 @@ class SightlineRequest:
         return replace(self, out=path)
 
     def run(self, project: Any) -> AnalysisResult:
-        from vebuild.actions.render import parse_size
         from vebuild.render.png import check_output
+        from vebuild.render.sizes import parse_size
 
         from .rays import Occluders
         from .sightline import Eye, parse_floats, render_witness_view, sight_line

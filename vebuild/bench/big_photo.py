@@ -47,7 +47,7 @@ def child(photo: str, side: int) -> dict[str, float]:
     from vebuild.texture.extract import PhotoSource, extract
     from vebuild.texture.options import Options
 
-    from . import example_truth as truth
+    from ..actions import example_truth as truth
 
     model, cams = truth.true_model(), truth.true_cameras()
     cam = cams[0].resized(side, side)

@@ -101,9 +101,9 @@ def _fps(draw: Callable[[], object], timing: Timing) -> float:
 def example_scene() -> tuple[RenderScene, ImageCamera]:
     """The example room's true model with textures extracted from its photos, and its first
     photo's camera at 1280×720 (the same horizontal field of view)."""
+    from ..actions import example_truth as truth
     from ..texture.extract import PhotoSource, extract
     from ..texture.options import Options
-    from . import example_truth as truth
 
     model, cams = truth.true_model(), truth.true_cameras()
     result = extract(model, cams, {c.id: PhotoSource(c.id, truth.photo_path(c.id)) for c in cams}, Options())

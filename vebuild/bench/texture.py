@@ -32,6 +32,7 @@ import numpy as np
 from PIL import Image
 from tqdm import tqdm
 
+from ..actions import example_truth as truth
 from ..camera import ImageCamera
 from ..gl.context import headless_context, renderer_name
 from ..model.scene import Model, model_from_dict
@@ -41,7 +42,6 @@ from ..texture.extract import PhotoSource, extract
 from ..texture.gpu import Timings
 from ..texture.merge import COVERAGE_UNSEEN
 from ..texture.options import Options
-from . import example_truth as truth
 
 GOALS = {"total_over_decode": 2.0, "speedup_over_cpu_reference": 10.0, "psnr_db": 30.0}
 SCALE = 2.5  # 1600×1200 → 4000×3000 = 12 megapixels

@@ -21,6 +21,7 @@ Limits, and why:
 from __future__ import annotations
 
 import numbers
+import re
 from typing import Any
 
 from vebuild.errors import VebuildError
@@ -90,3 +91,22 @@ def check_camera(cam: Any, stereo: str | None = None, **limits: Any) -> tuple[in
     if stereo == "tb":
         return check_render_size(w, 2 * h, f"{source}, in stereo top and bottom (twice the height)", **limits)
     return w, h
+
+
+#: The width of the report's image of a view, a photo or a hypothesis, in pixels.
+IMAGE_WIDTH = 960
+
+
+def image_size(width: int, height: int) -> tuple[int, int]:
+    """The size of the report's image of a view or photo of ``width`` × ``height`` pixels:
+    :data:`IMAGE_WIDTH` wide, its height from their aspect."""
+    return IMAGE_WIDTH, max(1, round(IMAGE_WIDTH * height / width))
+
+
+def parse_size(text: str) -> tuple[int, int]:
+    """'1280x720' → (1280, 720); an error saying what was expected otherwise."""
+    m = re.fullmatch(r"\s*(\d+)\s*[x×X]\s*(\d+)\s*", text or "")
+    if not m or int(m[1]) < 1 or int(m[2]) < 1:
+        raise VebuildError(f"--size: expected WIDTHxHEIGHT in pixels, each at least 1 (such as 1280x720), "
+                           f"got {text!r}")
+    return check_render_size(int(m[1]), int(m[2]), "--size")

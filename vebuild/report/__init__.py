@@ -15,5 +15,5 @@ Modules (imports point one way: write → sections → analyses → page):
 - :mod:`vebuild.report.analyses` — the recorded analyses, each re-run as its typed request.
 - :mod:`vebuild.report.write` — :func:`~vebuild.report.write.write_report`, whole or not at all, and
   the digest that shows two runs gave the same report.
-- :mod:`vebuild.report.text` — the plain-text tables the command line prints.
+- :mod:`vebuild.console.tables` — the plain-text tables the command line prints.
 """

@@ -14,7 +14,6 @@ from vebuild import __version__
 from vebuild.project import Project, sha256_file
 
 #: Renders in the report are this wide (height from the view's aspect).
-IMAGE_WIDTH = 960
 
 CSS = """
 body { font-family: DejaVu Sans, Helvetica, Arial, sans-serif; font-size: 10.5pt; margin: 2em; color: #111; }
@@ -70,12 +69,6 @@ def table(header: list[str], rows: list[list[Any]], numeric: set[int] | None = N
         out.append("<tr>" + "".join(f"<td class='n'>{esc(c)}</td>" if i in numeric else f"<td>{esc(c)}</td>"
                                     for i, c in enumerate(r)) + "</tr>")
     return "\n".join(out) + "</table>"
-
-
-def image_size(width: int, height: int) -> tuple[int, int]:
-    """The size of the report's image of a view or photo of ``width`` × ``height`` pixels:
-    :data:`IMAGE_WIDTH` wide, its height from their aspect."""
-    return IMAGE_WIDTH, max(1, round(IMAGE_WIDTH * height / width))
 
 
 def page(project: Project, rep: Report) -> str:

@@ -8,8 +8,9 @@ import json
 from typing import Any
 
 from vebuild.project import Project
+from vebuild.render.sizes import IMAGE_WIDTH, image_size
 
-from .page import IMAGE_WIDTH, Report, esc, fmt, image_size, table
+from .page import Report, esc, fmt, table
 
 
 def photos(project: Project, rep: Report) -> None:
@@ -162,8 +163,8 @@ def analyses(project: Project, rep: Report) -> None:
 
 
 def hypotheses(project: Project, rep: Report) -> None:
-    from vebuild.actions.hypothesis import label
     from vebuild.actions.render import RenderRequest, render_evidence
+    from vebuild.project.hypotheses import label
 
     hyps = project.data.get("hypotheses", [])
     if not hyps:

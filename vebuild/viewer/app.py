@@ -21,7 +21,6 @@ import moderngl
 import numpy as np
 from numpy.typing import NDArray
 
-from vebuild.actions.hypothesis import find_hypothesis, label, save_hypothesis
 from vebuild.camera import ImageCamera, focal_to_fov, pixel_rays_world
 from vebuild.errors import VebuildError
 from vebuild.gl import load_program
@@ -31,6 +30,7 @@ from vebuild.model.arrange import CannotMove, ObjectMover
 from vebuild.model.collide import Footprint, footprints, local_vertices
 from vebuild.project import Project, save_project
 from vebuild.project.decode import find_preset, photo_camera, preset_names, view_camera
+from vebuild.project.hypotheses import find_hypothesis, label, save_hypothesis
 from vebuild.project.records import view_record
 from vebuild.render.renderer import Renderer, RenderOptions, Stereo
 from vebuild.render.scene import RenderScene, load_scene

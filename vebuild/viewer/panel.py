@@ -9,8 +9,8 @@ from typing import TYPE_CHECKING, Any
 import glfw
 import numpy as np
 
-from vebuild.actions.hypothesis import LABEL
 from vebuild.camera import project, world_to_camera
+from vebuild.project.hypotheses import LABEL
 
 if TYPE_CHECKING:
     from vebuild.viewer.app import Viewer
