@@ -401,3 +401,31 @@ def test_bad_params_elsewhere() -> None:
     with pytest.raises(TypeError):
         Quad(1.0, 2.0, 3.0)
     assert Frustum(1.0, 0.0, 1.0).radius_top == 0.0  # a cone is allowed
+
+
+def test_the_schema_lists_exactly_the_registered_primitive_types() -> None:
+    """A new primitive is one class in model/primitives.py; the file format's list of types must
+    name it too (and nothing that is not registered), or projects using it are refused."""
+    import json
+    from pathlib import Path
+
+    import vebuild
+    from vebuild.model import PRIMITIVE_TYPES
+
+    schema = json.loads((Path(vebuild.__file__).parent / "schema" / "project-v1.schema.json").read_text())
+    found = []
+
+    def walk(node: object) -> None:
+        if isinstance(node, dict):
+            if "params" in node.get("properties", {}) and "type" in node.get("properties", {}):
+                found.append(node["properties"]["type"]["enum"])
+            for v in node.values():
+                walk(v)
+        elif isinstance(node, list):
+            for v in node:
+                walk(v)
+
+    walk(schema)
+    assert found, "the schema has no primitive record"
+    for enum in found:
+        assert list(enum) == list(PRIMITIVE_TYPES)
