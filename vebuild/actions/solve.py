@@ -16,6 +16,7 @@ from .. import __version__, camera
 from ..calibration.lsq import is_numeric_failure
 from ..calibration.positions import ReferenceDistance, check_scale_distances
 from ..camera import ImageCamera
+from ..constants import Z95
 from ..errors import CalibrationError, ProjectError, VebuildError
 from ..model.residuals import MarkerObservation
 from ..model.scene import Model
@@ -28,7 +29,6 @@ from ..project.records import camera_record, json_values, value_sigma
 #: A pinned handle must project in front of its camera and no farther outside the image than this
 #: share of its size; otherwise the pin is on a vertex that camera cannot see.
 VISIBLE_MARGIN = 0.25
-Z95 = 1.959964  # two-sided 95 % of a Gaussian
 
 
 def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics: bool = True) -> dict[str, Any]:
