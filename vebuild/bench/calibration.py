@@ -47,7 +47,9 @@ def run(quick: bool = False, progress: bool = True, n_cameras: int | None = None
         inputs, cals = [], {}
         try:
             for ph in photos:
-                exif = FocalPrior(ph.exif_focal_px, EXIF_FOCAL_ERROR_REL * ph.exif_focal_px, "exif")
+                focal = ph.exif_focal_px
+                assert focal is not None  # random_scene gives every photo an EXIF focal length
+                exif = FocalPrior(focal, EXIF_FOCAL_ERROR_REL * focal, "exif")
                 t0 = time.perf_counter()
                 cal = calibrate_photo(ph.segments, ph.width, ph.height, photo=ph.id, click_sigma_px=NOISE_PX,
                                       exif_focal=exif)

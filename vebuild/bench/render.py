@@ -41,7 +41,7 @@ from __future__ import annotations
 import math
 import os
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -64,8 +64,9 @@ WIDTH, HEIGHT = 1280, 720
 SCENES = {"example": "example room", "primitives200": "200 primitives"}
 LIGHTINGS = {"unlit": "unlit", "lit": "sun, no shadows", "shadows": "sun + shadows"}
 VIEWS = {"mono": "mono", "stereo": "stereo (sbs)"}
-SUN = {"name": "sun", "ambient": [0.2, 0.2, 0.2],
-       "lights": [{"type": "directional", "direction": [0.5, 0.3, -1.0], "intensity": 1.2, "shadows": True}]}
+SUN: dict[str, Any] = {"name": "sun", "ambient": [0.2, 0.2, 0.2],
+                       "lights": [{"type": "directional", "direction": [0.5, 0.3, -1.0], "intensity": 1.2,
+                                   "shadows": True}]}
 #: The measured renderers' settings (see the module's docstring).
 PYRENDER_SHADOW_SIZE = 2048  # pyrender.constants.SHADOW_TEX_SZ
 SETTINGS = {"frame_loop": RenderOptions.interactive(),
@@ -115,8 +116,9 @@ def primitives_model(n: int = N_PRIMITIVES, seed: int = 3) -> Model:
     """A floor with ``n`` primitives of five kinds resting on it at random (seeded)."""
     rng = np.random.default_rng(seed)
     w, d = FLOOR_M
-    nodes: list[dict[str, Any]] = [{"name": "floor", "primitive": {"type": "quad", "params": {"width": w, "depth": d}},
-                                    "joint": {"type": "marker", "marker": "O", "handle": "v0", "yaw_deg": 0.0}}]
+    nodes: list[Mapping[str, Any]] = [
+        {"name": "floor", "primitive": {"type": "quad", "params": {"width": w, "depth": d}},
+         "joint": {"type": "marker", "marker": "O", "handle": "v0", "yaw_deg": 0.0}}]
     kinds = ("box", "box", "box", "cylinder", "frustum", "wedge", "sphere")
     for k in range(n):
         kind = kinds[k % len(kinds)]
@@ -289,6 +291,7 @@ def _pyrender_scene(pyrender: Any, scene: RenderScene, lighting: Lighting, backg
     for light in lighting.lights:
         if light.type != "directional":
             raise ValueError(f"the bench maps directional lights only, not {light.type}")
+        assert light.direction is not None  # a directional light has one
         peak = float(np.max(light.colour))
         # pyrender's Lambert term is colour·intensity·(n·l)/π: intensity π·E gives irradiance E.
         pl = pyrender.DirectionalLight(color=light.colour / peak, intensity=math.pi * peak)
@@ -298,7 +301,7 @@ def _pyrender_scene(pyrender: Any, scene: RenderScene, lighting: Lighting, backg
 
 def _close_pyrender(r: Any) -> None:
     """Free pyrender's renderer and EGL context without its ``delete``'s ``eglTerminate``."""
-    from OpenGL import EGL
+    from OpenGL import EGL  # type: ignore[import-not-found]  # PyOpenGL, pyrender's dependency: no stubs
 
     plat = r._platform
     if plat is None:

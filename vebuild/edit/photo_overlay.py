@@ -78,7 +78,7 @@ class SessionOverlays(Modelling):
             for i, s in enumerate(vs.segments):
                 r = None if vs.residuals_px is None else float(vs.residuals_px[i])
                 outlier = r is not None and abs(r) > OUTLIER_SIGMAS * sigma
-                ov.lines.append(Line(tuple(map(float, s)), YELLOW if outlier else colour, 3.0 if outlier else 2.0,
+                ov.lines.append(Line(_ends(s), YELLOW if outlier else colour, 3.0 if outlier else 2.0,
                                      "segment", (axis, i), None if r is None else
                                      (f"{axis}{i}: {r:+.2f} px" + (" outlier" if outlier else "")), arrow=True))
             if vs.point is not None:
@@ -124,11 +124,13 @@ class SessionOverlays(Modelling):
                             nodes: Sequence[str]) -> None:
         """The projected edges (white; the selected node's yellow) and handles (fixed: red) of nodes."""
         model, x = self._model_now()
+        if model is None:
+            return
         names = [n for n in nodes if model.node(n).primitive is not None]
         for node, edges in project_edges(model, cam, names, x, self._transforms()).items():
             colour = YELLOW if node == selected else WHITE
             for e, uv4 in edges:
-                ov.lines.append(Line(tuple(map(float, uv4)), colour, 2.0 if node == selected else 1.5, "edge",
+                ov.lines.append(Line(_ends(uv4), colour, 2.0 if node == selected else 1.5, "edge",
                                      (node, e)))
         for n, h, uv, fixed in self.handles(photo, names):
             ov.points.append(Point(uv, RED if fixed else (YELLOW if n == selected else WHITE),
@@ -154,3 +156,8 @@ class SessionOverlays(Modelling):
                                      MAGENTA if bad else CYAN, 3.0 if bad else 1.0, "residual",
                                      (r["node"], r["handle"]),
                                      f"{np.hypot(*r['residual_px']):.2f} px" + (" outlier" if bad else "")))
+
+
+def _ends(v: Sequence[float]) -> tuple[float, float, float, float]:
+    """A segment's end points (u1, v1, u2, v2) as floats."""
+    return float(v[0]), float(v[1]), float(v[2]), float(v[3])

@@ -32,7 +32,7 @@ from numpy.typing import NDArray
 
 from vebuild.errors import VebuildError
 from vebuild.model.collide import Footprint, footprints, local_vertices, overlap_depth
-from vebuild.model.scene import FreeJoint, HingeJoint, Model, RestsOnJoint, SliderJoint, joint_from_dict
+from vebuild.model.scene import FreeJoint, HingeJoint, MarkerJoint, Model, RestsOnJoint, SliderJoint, joint_from_dict
 from vebuild.model.undo import UndoStack
 
 Array = NDArray[np.float64]
@@ -133,7 +133,7 @@ class ObjectMover:
         q = g.q0.copy()
         if isinstance(j, RestsOnJoint | FreeJoint):
             if isinstance(j, RestsOnJoint):
-                o, x, y, normal = self._face_world(g.node)
+                o, x, y, normal = self._face_world(g.node, j)
             else:
                 x, y, normal = P[:3, 0], P[:3, 1], np.array([0.0, 0.0, 1.0])
             hit = _ray_plane(origin, direction, g.point, normal)
@@ -277,14 +277,14 @@ class ObjectMover:
         parent = self.model.node(node).parent
         return np.eye(4) if parent is None else self.model.world_transforms()[parent]
 
-    def _face_world(self, node: str) -> tuple[Array, Array, Array, Array]:
-        n = self.model.node(node)
-        if n.parent is None or self.model.node(n.parent).primitive is None:
-            P = self._parent_world(node)
-            return P[:3, 3], P[:3, 0], P[:3, 1], P[:3, 2]
-        parent = self.model.node(n.parent)
-        o, x, y, normal = parent.primitive.face_frame(n.joint.face)
+    def _face_world(self, node: str, joint: RestsOnJoint) -> tuple[Array, Array, Array, Array]:
+        """The world frame (origin, x, y, normal) of the face ``node`` rests on by ``joint``."""
+        parent = self.model.node(node).parent
+        prim = None if parent is None else self.model.node(parent).primitive
         P = self._parent_world(node)
+        if prim is None or joint.face is None:  # on the floor (the model's loader names a primitive's face)
+            return P[:3, 3], P[:3, 0], P[:3, 1], P[:3, 2]
+        o, x, y, normal = prim.face_frame(joint.face)
         return P[:3, :3] @ o + P[:3, 3], P[:3, :3] @ x, P[:3, :3] @ y, P[:3, :3] @ normal
 
     def _apply_q(self, node: str, q: Array) -> None:
@@ -365,8 +365,5 @@ class ObjectMover:
 
 
 def _markers(model: Model) -> dict[str, Array]:
-    out = {}
-    for n in model.nodes:
-        if n.joint.type == "marker":
-            out[n.joint.marker] = np.asarray(n.joint.position, float)
-    return out
+    return {n.joint.marker: np.asarray(n.joint.position, np.float64) for n in model.nodes
+            if isinstance(n.joint, MarkerJoint)}

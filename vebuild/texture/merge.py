@@ -6,6 +6,7 @@ Runs once, after every photo has been added on the GPU.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -30,7 +31,7 @@ class FaceStats:
     mean_linear: Array  # (3,) weighted mean linear colour of the seen texels (nan if none)
 
 
-def push_pull(colour: Array, known: NDArray[np.bool_]) -> Array:
+def push_pull(colour: NDArray[np.floating[Any]], known: NDArray[np.bool_]) -> NDArray[np.floating[Any]]:
     """Fill the unknown texels of ``colour`` (h, w, 3) smoothly from the known ones (float32).
 
     Pull: halve the resolution repeatedly, averaging the known texels of each 2×2 block; push:
@@ -58,7 +59,7 @@ def push_pull(colour: Array, known: NDArray[np.bool_]) -> Array:
     return np.where(known[..., None], colour, filled)
 
 
-def _upsample(img: NDArray[np.float32], shape: tuple[int, int]) -> NDArray[np.float32]:
+def _upsample(img: NDArray[np.floating[Any]], shape: tuple[int, int]) -> NDArray[np.floating[Any]]:
     """Bilinear 2× upsampling with texel centres aligned (weights ¾, ¼; edges clamped), cropped."""
     for axis in (0, 1):
         n = img.shape[axis]

@@ -265,11 +265,10 @@ def rasterise_ids(mesh: SceneMesh, cam: ImageCamera, erode_px: float = 0.0) -> t
                 nearer = z < depth[idx]
                 depth[idx[nearer]] = z[nearer]
                 ids[idx[nearer]] = faces[t]
-    ids = ids.reshape(h, w)
-    depth = depth.reshape(h, w)
+    id_image, depth_image = ids.reshape(h, w), depth.reshape(h, w)
     if erode_px > 0:
-        ids = np.where(_near_id_change(ids, erode_px), 0, ids).astype(np.int32)
-    return ids, depth
+        id_image = np.where(_near_id_change(id_image, erode_px), 0, id_image).astype(np.int32)
+    return id_image, depth_image
 
 
 def _near_id_change(ids: NDArray[np.int32], r: float) -> NDArray[np.bool_]:
@@ -358,10 +357,10 @@ def page_texels(mesh: SceneMesh, page: int, soup: dict[str, Array] | None = None
     pos = np.empty((len(index), 3))
     nor = np.empty((len(index), 3))
     for lo, hi in _chunks(len(index)):
-        t = tri[lo:hi]
+        ts = tri[lo:hi]
         x = (index[lo:hi] % w + 0.5)[:, None]
         y = (index[lo:hi] // w + 0.5)[:, None]
-        v = x * G[t, 0] + y * G[t, 1] + G[t, 2]
+        v = x * G[ts, 0] + y * G[ts, 1] + G[ts, 2]
         pos[lo:hi] = v[:, :3]
         nor[lo:hi] = v[:, 3:] / np.sqrt(np.einsum("ij,ij->i", v[:, 3:], v[:, 3:]))[:, None]
     return PageTexels((h, w), index, pos, nor, soup["face"][3 * tri].astype(np.int32),
@@ -561,10 +560,10 @@ def accumulate(mesh: SceneMesh, cameras: Sequence[ImageCamera], photos: Iterable
         del levels, ids, depth
     out = []
     for tx, acc in zip(pages, sums, strict=True):
-        h, w = tx.shape
-        dense = np.zeros((h * w, 14))
-        dense[tx.index] = acc
-        dense = dense.reshape(h, w, 14)
+        rows_h, cols_w = tx.shape
+        flat = np.zeros((rows_h * cols_w, 14))
+        flat[tx.index] = acc
+        dense = flat.reshape(rows_h, cols_w, 14)
         out.append({"low": dense[..., 0:4], "detail": dense[..., 4:8], "dropped": dense[..., 8:12],
                     "counts": dense[..., 12:14]})
     return out
