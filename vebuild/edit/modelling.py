@@ -15,10 +15,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vebuild import camera as cam_math
+from vebuild.errors import ProjectError
 from vebuild.model.drag import DragSession, drag_nodes
 from vebuild.model.primitives import PRIMITIVE_TYPES, primitive_kinds
 from vebuild.model.residuals import EdgeObservation, Pin
-from vebuild.model.scene import Model, ModelError, model_from_dict
+from vebuild.model.scene import Model, ModelError
+from vebuild.project import decode
 
 from .history import EditError
 from .marks import Marks
@@ -66,19 +68,29 @@ class Modelling(Marks):
     # -- the model (paper §3) -----------------------------------------------------------------------
 
     def _markers_placed(self) -> dict[str, Array]:
-        cal = (self.data.get("calibration") or {}).get("markers", {})
-        return {n: np.asarray(m["position"], float) for n, m in cal.items()}
+        """Where the calibration placed the markers (none before calibration)."""
+        return decode.markers(self.data, "calibration")
 
     @property
     def model(self) -> Model | None:
+        """The model as the document holds it; None without nodes, or (saying why) when it is not
+        a valid model."""
         if "model" not in self._cache:
-            nodes = (self.data.get("model") or {}).get("nodes") or []
-            try:
-                self._cache["model"] = model_from_dict(nodes, self._markers_placed()) if nodes else None
-            except ModelError as e:
-                self.say(str(e))
-                self._cache["model"] = None
+            self._cache["model"] = None
+            if (self.data.get("model") or {}).get("nodes"):
+                try:
+                    self._cache["model"] = self._decoded_model()
+                except EditError as e:
+                    self.say(str(e))
         return self._cache["model"]
+
+    def _decoded_model(self) -> Model:
+        """``$.model.nodes`` decoded, marker joints tied to the calibrated markers; a model that is
+        not valid is an EditError naming the JSON path (the project file is the session's)."""
+        try:
+            return decode.model(self.project, self._markers_placed())
+        except ProjectError as e:
+            raise EditError(f"{e.where}: {e.detail}" if e.where else e.detail) from None
 
     def _model_doc(self) -> dict[str, Any]:
         return self.data.setdefault("model", {"nodes": [], "pins": [], "edge_observations": []})
@@ -99,12 +111,9 @@ class Modelling(Marks):
         return self._model_doc().setdefault("edge_observations", [])
 
     def _rebuild_check(self) -> None:
-        """The model as edited must still be a model (ModelError → EditError, the edit undone)."""
-        nodes = self._nodes()
-        try:
-            model_from_dict(nodes, self._markers_placed())
-        except ModelError as e:
-            raise EditError(str(e)) from None
+        """The model as edited must still be a model (EditError, the edit undone)."""
+        self._nodes()  # $.model.nodes there for the decoder to read
+        self._decoded_model()
 
     def add_primitive(self, kind: str, *, name: str | None = None, parent: str | None = None,
                       at: tuple[str, Sequence[float]] | None = None,
@@ -175,9 +184,10 @@ class Modelling(Marks):
         o, x, y, n = np.zeros(3), np.eye(3)[0], np.eye(3)[1], np.eye(3)[2]
         if parent is not None:
             model = self.model
+            prim = model.node(parent).primitive if model is not None else None
+            assert model is not None and prim is not None  # add_primitive checked the parent's top face
             T = model.world_transforms()[parent]
-            node = model.node(parent)
-            fo, fx, fy, fn = node.primitive.face_frame("top")
+            fo, fx, fy, fn = prim.face_frame("top")
             o, x, y, n = T[:3, :3] @ fo + T[:3, 3], T[:3, :3] @ fx, T[:3, :3] @ fy, T[:3, :3] @ fn
         denom = float(d @ n)
         lam = float((o - C) @ n) / denom if abs(denom) > 1e-9 else -1.0
@@ -307,7 +317,7 @@ class Modelling(Marks):
         handle, (u, v), fixed)."""
         cam = self.cameras.get(photo)
         model, x = self._model_now()
-        if cam is None or model is None:
+        if cam is None or model is None or x is None:
             return []
         T = self._transforms()
         fixed = {(p["node"], p["handle"]) for p in self._pins() if p["photo"] == photo and p.get("fixed", True)}
@@ -330,7 +340,9 @@ class Modelling(Marks):
         d = self._drag
         if d is None:
             if "transforms" not in self._cache:
-                self._cache["transforms"] = self.model.world_transforms()
+                model = self.model
+                assert model is not None  # asked for only to draw or hit-test the model's handles
+                self._cache["transforms"] = model.world_transforms()
             return self._cache["transforms"]
         if d.T_key != d.revision:
             d.T = d.session.problem.transforms(d.x_good)
@@ -348,12 +360,16 @@ class Modelling(Marks):
     def dragging(self) -> bool:
         return self._drag is not None
 
-    def _observations(self) -> tuple[list[Pin], list[EdgeObservation]]:
-        pins = [Pin(p["photo"], p["node"], p["handle"], np.asarray(p["uv"], float), bool(p.get("fixed", True)))
-                for p in self._pins() if p["photo"] in self.cameras]
-        edges = [EdgeObservation(e["photo"], e["node"], e["edge"], np.asarray(e["points"], float))
-                 for e in self._edge_docs() if e["photo"] in self.cameras]
-        return pins, edges
+    def _observations(self, model: Model) -> tuple[list[Pin], list[EdgeObservation]]:
+        """The fixed vertices and the user's edges in the calibrated photos, decoded (and checked)
+        against ``model``."""
+        try:
+            pins, edges = decode.pins_of(self.project, model), decode.edge_observations_of(self.project, model)
+        except ProjectError as e:
+            raise EditError(f"{e.where}: {e.detail}") from None
+        except ModelError as e:  # an observation of a node the model lacks
+            raise EditError(str(e)) from None
+        return [p for p in pins if p.photo in self.cameras], [e for e in edges if e.photo in self.cameras]
 
     def begin_drag(self, photo: str, node: str, handle: str) -> None:
         """Grab a handle in a photo (paper Figure 7): until one of its vertices is fixed the node moves
@@ -368,7 +384,7 @@ class Modelling(Marks):
         movable = [n for n in free if model.node(n).solve]
         if not movable:
             raise EditError(f"'{node}' cannot be dragged: it is held (solve: false); untick 'hold' in its properties")
-        pins, edges = self._observations()
+        pins, edges = self._observations(model)
         try:
             ds = DragSession(model, self.cameras, pins, edges, photo, node, handle,
                              click_sigma_px=self.settings["click_sigma_px"], edges_into=())
@@ -395,16 +411,16 @@ class Modelling(Marks):
         t0 = time.perf_counter()
         ds = d.session
         x_prev = ds.x.copy()
-        uv = np.asarray(uv, float)
+        target = np.asarray(uv, float)
         try:
-            res = ds.move(uv)
-            reach = float(np.linalg.norm(res.handle_px - uv))
+            res = ds.move(target)
+            reach = float(np.linalg.norm(res.handle_px - target))
             ok = bool(np.all(np.isfinite(res.x))) and reach <= FOLLOW_TOL_PX and \
                 res.fixed_error_px <= d.baseline_fixed + FOLLOW_TOL_PX
         except (np.linalg.LinAlgError, FloatingPointError, ValueError):
             ok, reach, res = False, float("inf"), None
         if ok:
-            d.x_good, d.xp_good, d.uv_good, d.moved = res.x.copy(), ds.x.copy(), uv.copy(), True
+            d.x_good, d.xp_good, d.uv_good, d.moved = res.x.copy(), ds.x.copy(), target.copy(), True
             d.revision += 1
             self.revision += 1
             return DragFeedback(True, None, (float(res.handle_px[0]), float(res.handle_px[1])),

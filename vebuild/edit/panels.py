@@ -14,6 +14,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from imgui_bundle import imgui
 
+from vebuild.project import decode
+
 from .keys import EDITOR_KEYS
 from .overlay import AXIS_COLOURS
 
@@ -97,8 +99,7 @@ class Panels:
         imgui.text(f"markers (origin: {origin or 'none'})")
         imgui.begin_child("markers", (0, 130), imgui.ChildFlags_.borders)
         observed = (s.photo(self.ed.photo).get("marker_observations") or {}) if self.ed.photo else {}
-        for m in s.data.get("markers", []):
-            name = m["name"]
+        for name in decode.markers(s.data, "named"):
             imgui.text(f"{name:<6}{'  in this photo' if name in observed else ''}")
             imgui.same_line(200)
             if name == origin:
@@ -188,7 +189,7 @@ class Panels:
         ones rest on the floor), a node (resting on its top), or a calibrated marker."""
         model = self.ed.session.model
         names = [n.name for n in model.nodes] if model is not None else []
-        markers = sorted((self.ed.session.data.get("calibration") or {}).get("markers", {}))
+        markers = sorted(decode.markers(self.ed.session.data, "calibration"))
         return ["(none)"] + names + [f"marker {m}" for m in markers]
 
     def _attachment(self) -> dict[str, str | None]:
