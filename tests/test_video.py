@@ -175,19 +175,20 @@ def test_holds_keep_the_camera_still(walk):
     assert np.linalg.norm(P[11] - P[10]) > 0
 
 
-@pytest.mark.parametrize(("timing", "match"), [
-    (Timing(fps=0), r"--fps: expected frames per second between 1 and 240, got 0"),
-    (Timing(fps=float("nan")), r"--fps: expected frames per second"),
-    (Timing(speed=0.0), r"--speed: expected a walking speed in metres per second, greater than 0, got 0.0"),
-    (Timing(speed=-1.0), r"--speed: expected a walking speed"),
-    (Timing(seconds=float("inf")), r"--seconds: expected the seconds each segment takes"),
-    (Timing(speed=1.0, seconds=2.0), r"either --speed .* or --seconds"),
-    (Timing(hold=-0.5), r"--hold: expected seconds to stay at each view, 0 or more"),
-    (Timing(turn_rate_deg=0), r"--turn-rate: expected degrees per second"),
+@pytest.mark.parametrize(("options", "match"), [
+    (dict(fps=0), r"--fps: expected frames per second between 1 and 240, got 0"),
+    (dict(fps=float("nan")), r"--fps: expected frames per second"),
+    (dict(speed=0.0), r"--speed: expected a walking speed in metres per second, greater than 0, got 0.0"),
+    (dict(speed=-1.0), r"--speed: expected a walking speed"),
+    (dict(seconds=float("inf")), r"--seconds: expected the seconds each segment takes"),
+    (dict(speed=1.0, seconds=2.0), r"either --speed .* or --seconds"),
+    (dict(hold=-0.5), r"--hold: expected seconds to stay at each view, 0 or more"),
+    (dict(turn_rate_deg=0), r"--turn-rate: expected degrees per second"),
 ])
-def test_bad_timing_is_refused(walk, timing, match):
+def test_bad_timing_is_refused(walk, options, match):
+    """A Timing checks itself when it is made: a bad one never reaches the path."""
     with pytest.raises(VebuildError, match=match):
-        camera_path(walk, (W, H), timing)
+        camera_path(walk, (W, H), Timing(**options))
 
 
 @pytest.mark.parametrize(("size", "match"), [
@@ -339,12 +340,13 @@ def test_nothing_is_left_behind_when_interrupted(room, renderer, tmp_path):
      r"--size 160x120"),
     ({"views": ["door", "table"], "lighting": "sunset"}, ProjectError, r"no lighting preset is called 'sunset'"),
     ({"views": ["door", "table"], "stereo": "quad"}, VebuildError, r"--stereo: expected one of sbs, tb, anaglyph"),
-    ({"views": ["door", "table"], "timing": Timing(fps=-3)}, VebuildError, r"--fps: expected"),
+    ({"views": ["door", "table"], "timing": lambda: Timing(fps=-3)}, VebuildError, r"--fps: expected"),
 ])
 def test_bad_requests_are_refused_before_rendering(room, renderer, tmp_path, request_kw, error, match):
     project = load_project(room)
-    with pytest.raises(error, match=match):
-        render_video(project, VideoRequest(out=tmp_path / "v.mp4", **request_kw), None, renderer)
+    with pytest.raises(error, match=match):  # a bad Timing is refused as it is made (a callable here)
+        kw = {k: v() if callable(v) else v for k, v in request_kw.items()}
+        render_video(project, VideoRequest(out=tmp_path / "v.mp4", **kw), None, renderer)
     assert list(tmp_path.iterdir()) == []
 
 

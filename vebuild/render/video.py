@@ -90,6 +90,9 @@ class Timing:
     hold: float = 0.0
     turn_rate_deg: float = DEFAULT_TURN_RATE_DEG
 
+    def __post_init__(self) -> None:
+        self.check()  # a Timing that exists is a valid one
+
     def check(self) -> None:
         """An error naming the option and what was expected, for any bad value."""
         def bad(option: str, expected: str, value: object) -> VebuildError:
