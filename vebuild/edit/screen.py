@@ -416,13 +416,7 @@ def run_editor(path: str | Path, size: tuple[int, int] = (1400, 860), recover: b
             pid = editor.guard(session.add_photo, f)
             if pid is not None:
                 editor.set_photo(pid)
-        try:
-            n = 0
-            while not window.should_close() and (frames is None or n < frames):
-                editor.frame()
-                n += 1
-        finally:
-            editor.close()
+        editor.run(window, frames)
     if session.dirty:
         print(f"vebuild edit: the unsaved edits are kept in {session.autosave_path}; opening the project again "
               "offers to recover them (or `vebuild edit --recover`)", file=sys.stderr)

@@ -199,3 +199,23 @@ class WindowApp:
         chord = self.keys.find(key, mods)
         if chord is not None:
             self.guard(getattr(self, chord.command), *chord.args)
+
+    # -- the main loop ---------------------------------------------------------------------------------
+
+    def frame(self) -> None:
+        """Draw one frame and take its input (provided by the window)."""
+        raise NotImplementedError
+
+    def close(self) -> None:
+        """Release what the window holds (provided by the window)."""
+        raise NotImplementedError
+
+    def run(self, window: Any, frames: int | None = None) -> None:
+        """Draw frames until the window is closed (or ``frames`` have been drawn), then close."""
+        try:
+            n = 0
+            while not window.should_close() and (frames is None or n < frames):
+                self.frame()
+                n += 1
+        finally:
+            self.close()

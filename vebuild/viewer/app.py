@@ -529,10 +529,4 @@ def run_viewer(project: Project, size: tuple[int, int] = (1280, 720), hypothesis
         if window.stereo_note:
             viewer.say(window.stereo_note)
         viewer.enable_gui()
-        try:
-            n = 0
-            while not window.should_close() and (frames is None or n < frames):
-                viewer.frame()
-                n += 1
-        finally:
-            viewer.close()
+        viewer.run(window, frames)
