@@ -31,5 +31,11 @@ POSITION_TOL_REL = 0.007
 
 
 def dimension_tolerance(size_m: float) -> float:
-    """A primitive's dimension: 1 cm per metre of the dimension, 1 cm below a metre."""
+    """A primitive's dimension: 1 cm per metre of the dimension, 1 cm below a metre.
+
+    Measured on the example solved with re-calibration: at most 6.0 mm (every marker) and 6.3 mm
+    (the origin marker and one distance only), both on dimensions under a metre: 1.6× the worst.
+    Not tightened to 1.3× as the bounds above: the box rebuilt by clicking (tests/edit_scene.py)
+    has not been measured across seeds, and it shares this bound.
+    """
     return 0.01 * max(size_m, 1.0)
