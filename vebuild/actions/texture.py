@@ -50,8 +50,7 @@ def texture_project(project: Project, options: Options | None = None,
     new pages are written and recorded in ``project.data`` only; the old pages stay, as the project
     file on disk still refers to them, and are removed by a later run once no record names them.
     """
-    options = options or Options()
-    _check_options(project, options)
+    options = options or Options()  # checked when made (and frozen)
     folder = texture_folder(project)
     begin_stage(project)
     data = project.data
@@ -166,25 +165,6 @@ def remove_unrecorded_pages(project: Project, folder: Path) -> list[Path]:
         except OSError:
             pass
     return removed
-
-
-def _check_options(project: Project, o: Options) -> None:
-    def bad(field: str, expected: str, value: object) -> VebuildError:
-        return VebuildError(f"{project.path}: texture option {field}: expected {expected}, got {value!r}")
-    if not (np.isfinite(o.texels_per_metre) and o.texels_per_metre > 0):
-        raise bad("texels_per_metre", "a positive number", o.texels_per_metre)
-    if int(o.max_face_texels) < 1:
-        raise bad("max_face_texels", "at least 1", o.max_face_texels)
-    if o.mode not in ("texture", "average"):
-        raise bad("mode", "'texture' or 'average'", o.mode)
-    if o.fill not in ("push-pull", "average"):
-        raise bad("fill", "'push-pull' or 'average'", o.fill)
-    if not (0.0 <= o.drop_ratio < 1.0):
-        raise bad("drop_ratio", "a number in [0, 1)", o.drop_ratio)
-    if not (o.detail_sharpness >= 1.0):
-        raise bad("detail_sharpness", "at least 1", o.detail_sharpness)
-    if not (o.erode_px >= 0.0):
-        raise bad("erode_px", "0 or more pixels", o.erode_px)
 
 
 def _png(img: np.ndarray, mode: str) -> bytes:

@@ -1,5 +1,6 @@
 """The texture extraction's options (``vebuild texture``'s flags, the modelling screen's texture
-button): plain data, apart from the GL passes that use them, and checked when made.
+button): plain data, apart from the GL passes that use them, checked when made and frozen (so
+every ``Options`` a stage is given is valid).
 
 A value out of range is a :class:`~vebuild.errors.VebuildError` naming the option and what was
 expected (``texture option drop_ratio: expected a number in [0, 1), got 2.0``); the command line
@@ -18,7 +19,7 @@ MODES = ("texture", "average")
 FILLS = ("push-pull", "average")
 
 
-@dataclass
+@dataclass(frozen=True)
 class Options:
     """The extraction's choices; each improvement over the paper can be switched off."""
 
