@@ -14,7 +14,7 @@ import numpy as np
 
 from .. import __version__
 from ..calibration.photo import FocalPrior, PhotoCalibration, calibrate_photo
-from ..calibration.positions import PhotoInput, Placement, ReferenceDistance, place_cameras
+from ..calibration.positions import PhotoInput, Placement, place_cameras
 from ..errors import CalibrationError
 from ..project import Project, canonical_input_hash, decode
 from ..project.decode import check_reference_handles
@@ -43,24 +43,18 @@ def calibrate_photos(project: Project, progress: Callable[[Iterable], Iterable] 
     settings = project.settings
     out = {}
     for photo in progress(project.data["photos"]):
-        segs = {a: np.asarray(s, float) for a, s in (photo.get("vanishing_segments") or {}).items() if s}
-        if not segs:
+        marks = decode.photo_marks(photo)
+        if not marks.segments:
             continue
-        focal = None
-        if "focal_px" in photo:
-            focal = FocalPrior(photo["focal_px"]["value"], photo["focal_px"]["sigma"], "user")
-        pp = None
-        if "principal_point" in photo:
-            pp = (np.asarray(photo["principal_point"]["value"], float), float(photo["principal_point"]["sigma"]))
         out[photo["id"]] = calibrate_photo(
-            segs,
+            marks.segments,
             photo["width"],
             photo["height"],
             photo=photo["id"],
             click_sigma_px=settings["click_sigma_px"],
-            principal_point=pp,
+            principal_point=marks.principal_point,
             principal_point_sigma_rel=settings["principal_point_sigma_rel"],
-            focal=focal,
+            focal=marks.focal,
             exif_focal=exif_focal_prior(photo, settings["exif_focal_sigma_rel"]),
         )
     return out
@@ -94,14 +88,11 @@ def _calibrate(project: Project, progress: Callable[[Iterable], Iterable]) -> di
     if not photos:
         raise CalibrationError(None, "no photo has vanishing segments; mark segments along two world axes at least")
     known = decode.markers(data, "surveyed")
-    refs = [
-        ReferenceDistance(d["a"], d["b"], float(d["distance"]), float(d.get("sigma", 0.002)), d.get("role", "scale"))
-        for d in data.get("reference_distances", [])
-    ]
+    refs = decode.reference_distances(data)
     shared = _pinned_handles(data)
     obs_of = {}
     for pid in photos:
-        obs = {n: np.asarray(uv, float) for n, uv in (_photo(data, pid).get("marker_observations") or {}).items()}
+        obs = decode.sightings(_photo(data, pid))
         obs.update(shared.get(pid, {}))
         obs_of[pid] = obs
     # A point seen once among the calibrated photos but again in a photo left for registration

@@ -47,15 +47,15 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
     marker_obs, distances = [], []
     if recalibrate:
         for p in data["photos"]:
-            for n, uv in (p.get("marker_observations") or {}).items():
+            for n, uv in decode.sightings(p).items():
                 if n in markers:
-                    marker_obs.append(MarkerObservation(p["id"], n, np.asarray(uv, float)))
+                    marker_obs.append(MarkerObservation(p["id"], n, uv))
         node_names = {n.name for n in model.nodes}
-        for d in data.get("reference_distances", []):
+        for d in decode.reference_distances(data):
             # A distance to a marker that no calibrated photo places yet waits for that photo.
-            ends_known = all(e in markers or e.split(":", 1)[0] in node_names for e in (d["a"], d["b"]))
-            if d["role"] == "scale" and ends_known:
-                distances.append(ReferenceDistance(d["a"], d["b"], float(d["distance"]), float(d.get("sigma", 0.002))))
+            ends_known = all(e in markers or e.split(":", 1)[0] in node_names for e in (d.a, d.b))
+            if d.role == "scale" and ends_known:
+                distances.append(d)
         check_recalibration_scale(project, model, markers, distances)
     surveyed = list(decode.markers(data, "surveyed"))
     problem = Problem(model, cameras, [p for p in pins if p.fixed], edges,

@@ -7,7 +7,10 @@ Each part of the document is decoded here, once, and checked as it is decoded; e
 - cameras: :func:`cameras_from_calibration` (every calibrated photo's), :func:`photo_camera` (one,
   by id or position), :func:`view_camera` and :func:`find_view` (the named evidence views);
 - markers: :func:`markers` (the ``{name: position}`` a stage needs), :func:`marker_sigmas`,
-  :func:`known_points` (the markers and the solved model's vertices);
+  :func:`known_points` (the markers and the solved model's vertices), :func:`sightings` (a photo's
+  marker observations), :func:`reference_distances`;
+- a photo's marks for calibration: :func:`photo_marks` (vanishing segments, given focal length and
+  principal point);
 - the model: :func:`model` (the scene graph, a ``ModelError`` :func:`located`), :func:`load_model`
   (with its pins and edge observations: :func:`pins_of`, :func:`edge_observations_of`),
   :func:`check_reference_handles`;
@@ -29,6 +32,8 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from ..calibration.photo import FocalPrior
+from ..calibration.positions import ReferenceDistance
 from ..camera import ImageCamera, fov_to_focal, intrinsic_matrix, look_rotation
 from ..errors import ProjectError, VebuildError
 from ..lighting import (
@@ -191,6 +196,40 @@ def marker_sigmas(data: Mapping[str, Any]) -> dict[str, Array]:
     calibrated = (data.get("calibration") or {}).get("markers") or {}
     return {n: np.nan_to_num(np.asarray([np.inf if s is None else s for s in m.get("sigma", [0, 0, 0])], float),
                              nan=0.0) for n, m in calibrated.items()}
+
+
+def sightings(photo: Mapping[str, Any]) -> dict[str, Array]:
+    """A photo record's marker observations: marker name → (u, v) in pixels."""
+    return {n: np.asarray(uv, float) for n, uv in (photo.get("marker_observations") or {}).items()}
+
+
+def reference_distances(data: Mapping[str, Any]) -> list[ReferenceDistance]:
+    """``$.reference_distances``: each with its 1σ (default 2 mm) and role (default ``"scale"``)."""
+    return [ReferenceDistance(d["a"], d["b"], float(d["distance"]), float(d.get("sigma", 0.002)),
+                              d.get("role", "scale"))
+            for d in data.get("reference_distances", [])]
+
+
+@dataclass(frozen=True)
+class PhotoMarks:
+    """What calibrating one photo starts from: its directed vanishing segments by axis (each
+    (n, 4): x1, y1, x2, y2), a focal length the user gave, and a principal point the user gave
+    (pixels, with its 1σ)."""
+
+    segments: dict[str, Array]
+    focal: FocalPrior | None
+    principal_point: tuple[Array, float] | None
+
+
+def photo_marks(photo: Mapping[str, Any]) -> PhotoMarks:
+    segs = {a: np.asarray(s, float) for a, s in (photo.get("vanishing_segments") or {}).items() if s}
+    focal = None
+    if "focal_px" in photo:
+        focal = FocalPrior(photo["focal_px"]["value"], photo["focal_px"]["sigma"], "user")
+    pp = None
+    if "principal_point" in photo:
+        pp = (np.asarray(photo["principal_point"]["value"], float), float(photo["principal_point"]["sigma"]))
+    return PhotoMarks(segs, focal, pp)
 
 
 # --------------------------------------------------------------------------------------------------
