@@ -86,11 +86,11 @@ class Modelling(Marks):
 
     def _decoded_model(self) -> Model:
         """``$.model.nodes`` decoded, marker joints tied to the calibrated markers; a model that is
-        not valid is an EditError naming the JSON path (the project file is the session's)."""
+        not valid is an EditError naming the node and the field, as the screen shows it."""
         try:
-            return decode.model(self.project, self._markers_placed())
-        except ProjectError as e:
-            raise EditError(f"{e.where}: {e.detail}" if e.where else e.detail) from None
+            return decode.model_nodes(self._nodes(), self._markers_placed())
+        except ModelError as e:
+            raise EditError(str(e)) from None
 
     def _model_doc(self) -> dict[str, Any]:
         return self.data.setdefault("model", {"nodes": [], "pins": [], "edge_observations": []})

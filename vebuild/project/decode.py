@@ -249,9 +249,16 @@ def model(project: Project, marker_positions: Mapping[str, Array] | None = None)
     if marker_positions is None:
         marker_positions = markers(project.data)
     try:
-        return model_from_dict(project.data["model"]["nodes"], marker_positions)
+        return model_nodes(project.data["model"]["nodes"], marker_positions)
     except ModelError as e:
         raise located(project, e) from None
+
+
+def model_nodes(nodes: list[dict[str, Any]], marker_positions: Mapping[str, Array]) -> Model:
+    """The scene graph of node records being edited (the modelling screen's document in memory);
+    a bad one raises the :class:`~vebuild.model.scene.ModelError`, whose text names the node
+    (``$.model.nodes[2] (node 'box1').joint: ...``) for the screen to show."""
+    return model_from_dict(nodes, marker_positions)
 
 
 def load_model(project: Project, marker_positions: Mapping[str, Array] | None = None
