@@ -24,7 +24,7 @@ Writing goes the other way, through :mod:`vebuild.project.records` and :mod:`veb
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
@@ -254,11 +254,11 @@ def model(project: Project, marker_positions: Mapping[str, Array] | None = None)
         raise located(project, e) from None
 
 
-def model_nodes(nodes: list[dict[str, Any]], marker_positions: Mapping[str, Array]) -> Model:
+def model_nodes(nodes: Sequence[Mapping[str, Any]], marker_positions: Mapping[str, Array]) -> Model:
     """The scene graph of node records being edited (the modelling screen's document in memory);
     a bad one raises the :class:`~vebuild.model.scene.ModelError`, whose text names the node
     (``$.model.nodes[2] (node 'box1').joint: ...``) for the screen to show."""
-    return model_from_dict(nodes, marker_positions)
+    return model_from_dict(list(nodes), marker_positions)
 
 
 def load_model(project: Project, marker_positions: Mapping[str, Array] | None = None
