@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from imgui_bundle import imgui
 
+from vebuild.model.primitives import primitive_kinds
 from vebuild.project import decode
 
 from .keys import EDITOR_KEYS
@@ -22,7 +23,8 @@ from .overlay import AXIS_COLOURS
 if TYPE_CHECKING:
     from .screen import Editor
 
-KINDS = ["quad", "box", "wedge", "cylinder", "cone", "frustum", "sphere"]
+#: The primitives the panel offers, from the registry (each type, then its named variants).
+KINDS = list(primitive_kinds())
 JOINT_TYPES = ["rests_on", "fixed", "hinge", "slider", "free"]
 
 
