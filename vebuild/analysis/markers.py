@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -21,6 +21,10 @@ from vebuild.camera import ImageCamera, project, world_to_camera
 from vebuild.errors import VebuildError
 from vebuild.render.renderer import Renderer
 from vebuild.render.scene import RenderScene
+
+if TYPE_CHECKING:
+    from vebuild.project import Project
+
 
 #: A world point farther than this from every surface is not "on a surface".
 ON_SURFACE_M = 0.01
@@ -68,7 +72,7 @@ def _record(label: str, point: Any, node: str, description: str) -> dict[str, An
     return rec
 
 
-def place_marker(project: Any, label: str, at: str, description: str = "") -> dict[str, Any]:
+def place_marker(project: Project, label: str, at: str, description: str = "") -> dict[str, Any]:
     """A marker at ``at``: ``X,Y,Z`` (a world point on a surface), ``photo:ID@u,v`` or
     ``view:NAME@u,v`` (the surface seen at that pixel of a photo's camera or a named view)."""
     from vebuild.gl import headless_context
@@ -105,7 +109,7 @@ def place_marker(project: Any, label: str, at: str, description: str = "") -> di
     return marker_at_point(scene, label, point, description)
 
 
-def add_marker(project: Any, rec: dict[str, Any]) -> None:
+def add_marker(project: Project, rec: dict[str, Any]) -> None:
     """Add (or replace, by label) a marker in the project's data; the caller saves the file."""
     markers = [m for m in project.data.get("evidence_markers", []) if m["label"] != rec["label"]]
     project.data["evidence_markers"] = markers + [rec]

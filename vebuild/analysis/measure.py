@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -26,6 +26,10 @@ from ..constants import Z95
 from ..errors import ProjectError
 from .points import face_plane_points, find_node, parse_point
 from .solved import MeasureError, Point, SolvedModel
+
+if TYPE_CHECKING:
+    from vebuild.project import Project
+
 
 Array = NDArray[np.float64]
 
@@ -244,7 +248,7 @@ class CheckResult:
                 "within_ci95": self.within_ci95, "source": m["source"], "rests_on": m["rests_on"]}
 
 
-def check_distances(project: Any, solved: SolvedModel) -> list[CheckResult]:
+def check_distances(project: Project, solved: SolvedModel) -> list[CheckResult]:
     """Every ``reference_distances`` entry of role ``check``, measured vs known."""
     out = []
     for i, d in enumerate(project.data.get("reference_distances", [])):

@@ -17,9 +17,12 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any, ClassVar, Protocol
+from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 from vebuild.constants import Z95
+
+if TYPE_CHECKING:
+    from vebuild.project import Project
 
 
 @dataclass(frozen=True)
@@ -37,7 +40,7 @@ class Request(Protocol):
 
     name: ClassVar[str]
 
-    def run(self, project: Any) -> AnalysisResult: ...
+    def run(self, project: Project) -> AnalysisResult: ...
 
     def with_image(self, path: str) -> Request | None:
         """The same request writing its image to ``path``; None if it makes no image as asked."""
@@ -46,7 +49,7 @@ class Request(Protocol):
 
 # -- measurements --------------------------------------------------------------------------------
 
-def _solved(project: Any) -> tuple[Any, Callable[[str], Any]]:
+def _solved(project: Project) -> tuple[Any, Callable[[str], Any]]:
     from vebuild.project.decode import find_view, photo_camera
 
     from .points import parse_point
@@ -90,7 +93,7 @@ class DistanceRequest(_NoImage):
     a: str
     b: str
 
-    def run(self, project: Any) -> AnalysisResult:
+    def run(self, project: Project) -> AnalysisResult:
         from .measure import distance
 
         solved, point = _solved(project)
@@ -107,7 +110,7 @@ class HeightRequest(_NoImage):
     point: str
     above: str | None = None
 
-    def run(self, project: Any) -> AnalysisResult:
+    def run(self, project: Project) -> AnalysisResult:
         from .measure import height
         from .solved import MeasureError
 
@@ -131,7 +134,7 @@ class DimensionsRequest(_NoImage):
     name: ClassVar[str] = "dimensions"
     nodes: tuple[str, ...]
 
-    def run(self, project: Any) -> AnalysisResult:
+    def run(self, project: Project) -> AnalysisResult:
         from .measure import dimensions
 
         solved, _ = _solved(project)
@@ -145,7 +148,7 @@ class ChecksRequest(_NoImage):
 
     name: ClassVar[str] = "checks"
 
-    def run(self, project: Any) -> AnalysisResult:
+    def run(self, project: Project) -> AnalysisResult:
         from .measure import check_distances
 
         solved, _ = _solved(project)
@@ -181,7 +184,7 @@ class LightingRequest:
     def with_image(self, path: str) -> Request | None:
         return replace(self, out=path)
 
-    def run(self, project: Any) -> AnalysisResult:
+    def run(self, project: Project) -> AnalysisResult:
         from vebuild.gl import headless_context
         from vebuild.project.decode import find_view
         from vebuild.render.png import check_output, provenance, write_png

@@ -6,12 +6,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 from vebuild.errors import VebuildError
 
 from .requests import AnalysisResult, Request
 from .sightline import DEFAULT_FOV_DEG, OBJECT_SAMPLES, STANDING_EYE_M, VIEWSHED_OBJECT_SAMPLES
+
+if TYPE_CHECKING:
+    from vebuild.project import Project
+
 
 #: The witness's view's size when none is given (WxH).
 DEFAULT_VIEW_SIZE = "1280x720"
@@ -19,7 +23,7 @@ DEFAULT_VIEW_SIZE = "1280x720"
 DEFAULT_CELL_M = 0.1
 
 
-def _scene(project: Any, hypothesis: str | None) -> Any:
+def _scene(project: Project, hypothesis: str | None) -> Any:
     from vebuild.render.scene import load_scene
 
     scene = load_scene(project)
@@ -71,7 +75,7 @@ class SightlineRequest:
     def with_image(self, path: str) -> Request | None:
         return replace(self, out=path)
 
-    def run(self, project: Any) -> AnalysisResult:
+    def run(self, project: Project) -> AnalysisResult:
         from vebuild.render.png import check_output
         from vebuild.render.sizes import parse_size
 
@@ -149,7 +153,7 @@ class ViewshedRequest:
     def with_image(self, path: str) -> Request | None:
         return replace(self, out=path)
 
-    def run(self, project: Any) -> AnalysisResult:
+    def run(self, project: Project) -> AnalysisResult:
         import numpy as np
 
         from vebuild.render.png import check_output
@@ -232,7 +236,7 @@ class TrajectoryRequest:
         return trajectory(occ, A, direction=direction_from_angles(self.azimuth, self.elevation), sigma=sigma,
                           cone_deg=self.cone)
 
-    def run(self, project: Any) -> AnalysisResult:
+    def run(self, project: Project) -> AnalysisResult:
         from vebuild.project.decode import find_view
         from vebuild.render.png import check_output
         from vebuild.render.sizes import check_camera

@@ -27,7 +27,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -37,6 +37,10 @@ from vebuild.camera import ImageCamera, fov_to_focal, intrinsic_matrix, look_rot
 from vebuild.constants import Z95
 from vebuild.errors import VebuildError
 from vebuild.render.scene import RenderScene
+
+if TYPE_CHECKING:
+    from vebuild.project import Project
+
 
 Array = NDArray[np.float64]
 
@@ -325,7 +329,7 @@ def draw_point_marker(image: NDArray[np.uint8], cam: ImageCamera, point: Array, 
     return np.asarray(img)
 
 
-def render_witness_view(project: Any, scene: RenderScene, result: SightLine, out: Path,
+def render_witness_view(project: Project, scene: RenderScene, result: SightLine, out: Path,
                         fov_deg: float = DEFAULT_FOV_DEG, size: tuple[int, int] = (1280, 720),
                         lighting: str | None = None, samples: int = 4,
                         extra_text: dict[str, str] | None = None) -> ImageCamera:
@@ -557,7 +561,7 @@ def viewshed_image(vs: Viewshed, occ: Occluders, px_per_cell: int | None = None)
     return np.asarray(img)
 
 
-def write_viewshed_png(project: Any, vs: Viewshed, occ: Occluders, out: Path) -> None:
+def write_viewshed_png(project: Project, vs: Viewshed, occ: Occluders, out: Path) -> None:
     """The viewshed's map as a PNG carrying its provenance and figures."""
     from vebuild import __version__
     from vebuild.project import sha256_file

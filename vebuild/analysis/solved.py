@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -28,6 +28,10 @@ from numpy.typing import NDArray
 from ..errors import ProjectError, VebuildError
 from ..model.primitives import Primitive, Sphere, _Round
 from ..model.scene import Model
+
+if TYPE_CHECKING:
+    from vebuild.project import Project
+
 
 Array = NDArray[np.float64]
 
@@ -40,7 +44,7 @@ class MeasureError(VebuildError):
 # Points
 
 
-def check_model_solution(project: Any) -> None:
+def check_model_solution(project: Project) -> None:
     """``model_solution`` fits the model: its nodes are nodes of ``model.nodes``, and its covariance
     matrix is square with one row and one column per entry of its parameter list.
 
@@ -197,7 +201,7 @@ class SolvedModel:
                          recalibrated=problem.recalibrate, variance_factor=solution.variance_factor)
 
     @classmethod
-    def from_project(cls, project: Any) -> SolvedModel:
+    def from_project(cls, project: Project) -> SolvedModel:
         """From a solved project: ``model.nodes`` (the solved values) and ``model_solution.covariance``,
         decoded by :func:`vebuild.project.decode.solution`."""
         from ..project import decode

@@ -28,7 +28,7 @@ import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -37,6 +37,10 @@ from vebuild.analysis.rays import Hit, Occluders
 from vebuild.analysis.sightline import _r, check_in_scene, parse_floats
 from vebuild.camera import ImageCamera, project, world_to_camera
 from vebuild.errors import VebuildError
+
+if TYPE_CHECKING:
+    from vebuild.project import Project
+
 
 Array = NDArray[np.float64]
 
@@ -332,7 +336,7 @@ def draw_trajectory(image: NDArray[np.uint8], cam: ImageCamera, tr: Trajectory, 
     return np.asarray(img)
 
 
-def render_trajectory_view(project: Any, scene: Any, tr: Trajectory, cam: ImageCamera, out: Path,
+def render_trajectory_view(project: Project, scene: Any, tr: Trajectory, cam: ImageCamera, out: Path,
                            lighting: str | None = None, samples: int = 4) -> None:
     """Render ``cam``'s view headless, draw the trajectory over it, and write a PNG with provenance."""
     from vebuild.gl import headless_context

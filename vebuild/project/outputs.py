@@ -29,12 +29,16 @@ import json
 import os
 import struct
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from vebuild import __version__
 from vebuild.errors import VebuildError
 from vebuild.project.atomic import MANIFEST, clean_stale, is_temp_name, write_text
 from vebuild.project.file import autosave_path
+
+if TYPE_CHECKING:
+    from .file import Project
+
 
 #: The marker vebuild's own files carry (see the table above).
 SOFTWARE = f"vebuild {__version__}"
@@ -52,7 +56,7 @@ def _key(path: Path) -> tuple[str, tuple[int, int] | None]:
         return real, None
 
 
-def protected(project: Any) -> dict[str, str]:
+def protected(project: Project | None) -> dict[str, str]:
     """The project's own files, by real path: what each is, for the refusal's message."""
     if project is None:
         return {}
@@ -70,7 +74,7 @@ def protected(project: Any) -> dict[str, str]:
     return out
 
 
-def _owner(project: Any, path: Path) -> str | None:
+def _owner(project: Project | None, path: Path) -> str | None:
     """What of the project ``path`` is (by real path or, for an existing file, by inode), or None."""
     if project is None:
         return None
@@ -150,7 +154,7 @@ def written_by_vebuild(path: Path) -> bool:
 # -- files -----------------------------------------------------------------------------------------
 
 
-def _copy_of_a_page(project: Any, path: Path) -> bool:
+def _copy_of_a_page(project: Project | None, path: Path) -> bool:
     """A PNG byte-identical to one of the project's recorded atlas pages (an OBJ export's copy of a
     page textured by a vebuild older than the ``Software`` mark)."""
     if project is None or path.suffix.lower() != ".png":
@@ -162,7 +166,8 @@ def _copy_of_a_page(project: Any, path: Path) -> bool:
         return False
 
 
-def check_file(project: Any, path: str | os.PathLike[str], what: str = "output", suffix: str | None = None) -> Path:
+def check_file(project: Project | None, path: str | os.PathLike[str], what: str = "output",
+               suffix: str | None = None) -> Path:
     """Refuse (VebuildError) to write the output file ``path`` unless the policy above allows it
     (``suffix``: the kind of file wanted, for the message's example name)."""
     path = Path(path)
@@ -240,7 +245,7 @@ def read_manifest(folder: Path) -> dict[str, Any] | None:
     return doc
 
 
-def write_manifest(folder: Path, kind: str, project: Any = None) -> None:
+def write_manifest(folder: Path, kind: str, project: Project | None = None) -> None:
     """Name every file under ``folder`` (vebuild just wrote them) with its SHA-256."""
     files = {}
     for p in sorted(folder.rglob("*")):
@@ -251,7 +256,7 @@ def write_manifest(folder: Path, kind: str, project: Any = None) -> None:
     write_text(folder / MANIFEST, json.dumps(doc, indent=2, sort_keys=True) + "\n")
 
 
-def check_folder(project: Any, out: str | os.PathLike[str], what: str = "report") -> Path:
+def check_folder(project: Project | None, out: str | os.PathLike[str], what: str = "report") -> Path:
     """Refuse (VebuildError) an output folder the policy does not allow; returns ``out``."""
     out = Path(out)
     example = f"a new folder such as {what}/"
@@ -296,7 +301,7 @@ def check_folder(project: Any, out: str | os.PathLike[str], what: str = "report"
     return out
 
 
-def begin_stage(project: Any, *folders: str | os.PathLike[str]) -> None:
+def begin_stage(project: Project | None, *folders: str | os.PathLike[str]) -> None:
     """At the start of a stage that writes: remove vebuild's stale temporaries (from a process
     that was killed) in the project's folder, its textures/ folder and the given folders."""
     places = [] if project is None else [project.folder, project.folder / "textures"]

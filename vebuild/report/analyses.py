@@ -11,15 +11,18 @@ from __future__ import annotations
 
 import json
 import shlex
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from vebuild.errors import ProjectError, VebuildError
 from vebuild.project.atomic import write_text
 
 from .page import Report, esc
 
+if TYPE_CHECKING:
+    from vebuild.project import Project
 
-def analyses_html(project: Any, rep: Report, records: list[dict[str, Any]]) -> str:
+
+def analyses_html(project: Project, rep: Report, records: list[dict[str, Any]]) -> str:
     from vebuild.analysis.recorded import parse_recorded
 
     parts = ["<p>Each analysis the project records, run again for this report; the command line reproduces it "
