@@ -54,8 +54,15 @@ def _sources(cams):
     return {c.id: PhotoSource(c.id, photo_path(c.id)) for c in cams}
 
 
+#: The PSNRs here are estimated from every 7th texel (some 10⁵ of them): the true texture costs 16
+#: shading samples a texel. Measured on the solved model: 32.283 dB from the sample, 32.288 dB from
+#: every texel, 9× faster; the bounds below are 0.5 dB and more from their measurements.
+PSNR_SAMPLE_EVERY = 7
+
+
 def _psnr_of(res, model) -> float:
-    return texture_psnr(model, res, {p: v["exposure"] for p, v in ground_truth()["photos"].items()})
+    return texture_psnr(model, res, {p: v["exposure"] for p, v in ground_truth()["photos"].items()},
+                        PSNR_SAMPLE_EVERY)
 
 
 @pytest.fixture(scope="module")
@@ -303,8 +310,7 @@ def test_vebuild_texture_writes_atlases_and_records_them(solved_room, capsys):
     assert main(["check", proj]) == 0
     # From the solved (not the true) model and cameras the textures still match the truth: the
     # recorded pages, laid onto the true model by their charts, against the true textures.
-    solved_psnr = texture_psnr(true_model(), recorded_result(folder, rec),
-                               {p: v["exposure"] for p, v in ground_truth()["photos"].items()})
+    solved_psnr = _psnr_of(recorded_result(folder, rec), true_model())
     assert solved_psnr >= SOLVED_PSNR_DB
 
 
