@@ -3,6 +3,7 @@ naming the photo or file and what was expected; none gets a traceback or a silen
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import subprocess
 import sys
@@ -125,6 +126,16 @@ def test_origin_marker_not_observed(rng: np.random.Generator) -> None:
         place_cameras(inputs, origin="nowhere", distances=[ReferenceDistance("O", "M1", 2.0)])
 
 
+def test_no_marker_at_all_says_what_to_place(rng: np.random.Generator) -> None:
+    """With no marker observed anywhere the message names what to do, never a Python ``None``."""
+    inputs, _ = _inputs(rng)
+    bare = [dataclasses.replace(p, markers={}) for p in inputs]
+    with pytest.raises(CalibrationError, match=r"^no marker is observed in any photo, so nothing fixes where the "
+                       r"world's origin is: place a marker") as e:
+        place_cameras(bare)
+    assert "None" not in str(e.value)
+
+
 def _project(tmp_path: Path, rng: np.random.Generator) -> Path:
     photos, markers = random_scene(rng, ("3vp", "3vp", "2vp"))
     return write_project(tmp_path, photos, markers)
@@ -177,3 +188,15 @@ def test_cli_reports_a_calibration_error_and_leaves_the_project_untouched(tmp_pa
     assert r.returncode == 2 and "Traceback" not in r.stderr
     assert f"{path}: $.photos[0] photo 'p1': axis z has 1 vanishing segment" in r.stderr
     assert path.read_bytes() == before
+
+
+def test_an_undetermined_focal_length_names_its_sigma_and_the_limit(good: dict, monkeypatch) -> None:
+    """The refusal says how uncertain f would be and the limit it exceeds, to a tenth of a percent,
+    so that a figure just above the limit never reads as equal to it."""
+    import vebuild.calibration.photo as photo_mod
+
+    monkeypatch.setattr(photo_mod, "FOCAL_FROM_SEGMENTS_MAX_REL_SIGMA", 1e-5)
+    with pytest.raises(CalibrationError, match=r"its 1σ would be \d+\.\d %, more than the 0\.001 % that "
+                       r"determines it") as e:
+        calibrate_photo(good, W, H, photo="p2")
+    assert "photo 'p2'" in str(e.value)

@@ -230,7 +230,8 @@ def calibrate_photo(
     if prior_f is None and rel > FOCAL_FROM_SEGMENTS_MAX_REL_SIGMA:
         raise CalibrationError(
             photo,
-            f"the focal length is not determined: from these segments its 1σ would be {100 * rel:.0f} % "
+            f"the focal length is not determined: from these segments its 1σ would be {100 * rel:.1f} %, "
+            f"more than the {100 * FOCAL_FROM_SEGMENTS_MAX_REL_SIGMA:g} % that determines it "
             "(the vanishing points lie near infinity or too close to the image centre); mark edges "
             "along a third axis that recedes from the camera, or give the focal length (the photo "
             "has no EXIF focal length)",

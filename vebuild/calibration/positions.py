@@ -158,7 +158,13 @@ def place_cameras(
             )
     if origin is None:
         origin = max(sorted(seen), key=lambda n: len(seen[n])) if seen else None
-    if origin is None or origin not in seen:
+    if origin is None:
+        raise CalibrationError(
+            None, "no marker is observed in any photo, so nothing fixes where the world's origin is: "
+            "place a marker on a point seen in the photos (it becomes the origin) and mark it in each photo "
+            "that shows it",
+        )
+    if origin not in seen:
         raise CalibrationError(
             None, f"the origin marker '{origin}' is not observed in any photo; mark it in at least one",
         )
