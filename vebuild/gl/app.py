@@ -8,6 +8,7 @@ key list (:meth:`KeyTable.markdown`; a test holds the README to it).
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -112,7 +113,7 @@ class KeyTable:
         return "\n".join(lines) + "\n"
 
 
-class WindowApp:
+class WindowApp(ABC):
     """The input plumbing of a window with a Dear ImGui layer (``gui``, optional: tests run
     without). Subclasses set :attr:`keys`, implement :meth:`say`, and take the mouse in
     :meth:`on_cursor`, :meth:`on_button` and :meth:`on_scroll`."""
@@ -132,24 +133,29 @@ class WindowApp:
 
     # -- to be provided by the window ----------------------------------------------------------------
 
+    @abstractmethod
     def say(self, text: str) -> None:
-        raise NotImplementedError
+        """Show ``text`` to the user (the window's message line)."""
 
     def input_blocked(self) -> bool:
         """Whether input is ignored now (a long task runs)."""
         return False
 
+    @abstractmethod
     def on_cursor(self, x: float, y: float) -> None:
-        raise NotImplementedError
+        """The mouse moved to window pixel (x, y)."""
 
+    @abstractmethod
     def on_button(self, button: int, action: int, mods: int = 0) -> None:
-        raise NotImplementedError
+        """A mouse button went down or up."""
 
+    @abstractmethod
     def on_scroll(self, dx: float, dy: float) -> None:
-        raise NotImplementedError
+        """The wheel turned."""
 
-    def on_close(self, handle: Any) -> None:
-        """The window's close button (glfw has already set its should-close flag)."""
+    def on_close(self, handle: Any) -> None:  # noqa: B027 (an optional hook: most windows just close)
+        """The window's close button (glfw has already set its should-close flag); a window with
+        unsaved work overrides it to ask first."""
 
     # -- shared -----------------------------------------------------------------------------------
 
@@ -202,13 +208,13 @@ class WindowApp:
 
     # -- the main loop ---------------------------------------------------------------------------------
 
+    @abstractmethod
     def frame(self) -> None:
         """Draw one frame and take its input (provided by the window)."""
-        raise NotImplementedError
 
+    @abstractmethod
     def close(self) -> None:
         """Release what the window holds (provided by the window)."""
-        raise NotImplementedError
 
     def run(self, window: Any, frames: int | None = None) -> None:
         """Draw frames until the window is closed (or ``frames`` have been drawn), then close."""
