@@ -5,6 +5,19 @@ world into camera coordinates; ``C`` is the camera centre; ``x_cam = R (X - C)``
 along +z_cam and image v grows along +y_cam; ``u ~ K x_cam``. Pixel (u, v) has its origin at the
 top-left corner of the image, so pixel column i, row j has its centre at (i + 0.5, j + 0.5).
 
+**Lens distortion** (the one convention; every projection in vebuild goes through it): the
+one-parameter division model (Fitzgibbon, CVPR 2001) on normalised image coordinates, centred on
+the principal point and divided by f. A photo's pixel u (as the lens put it) has the distorted
+normalised coordinate x_d = (u − c) / f; the pinhole's (undistorted) coordinate is
+
+    x_u = x_d / (1 + k1 |x_d|²)
+
+so undistorting a pixel is closed-form, and so is distorting a pinhole point (a quadratic in
+|x_d|): x_d = x_u · 2 / (1 + √(1 − 4 k1 |x_u|²)). k1 < 0 is barrel distortion (wide lenses:
+lines bow outward, the corners are pulled in), k1 > 0 pincushion; k1 = 0 is the pinhole. Since
+x is divided by f, k1 does not change when the image is scaled. A camera's distortion is
+:attr:`ImageCamera.k1`; the free functions take ``k1`` (default 0, the pinhole).
+
 Free functions over numpy arrays; nothing here does I/O or GL.
 """
 
@@ -31,21 +44,84 @@ def intrinsic_matrix(f: float, cx: float, cy: float) -> Array:
     return np.array([[f, 0.0, cx], [0.0, f, cy], [0.0, 0.0, 1.0]])
 
 
-def project(K: ArrayLike, R: ArrayLike, C: ArrayLike, X_world: ArrayLike) -> Array:
-    """Pixel coordinates u = π(K R (X - C)) of world points.
+def project(K: ArrayLike, R: ArrayLike, C: ArrayLike, X_world: ArrayLike, k1: float = 0.0) -> Array:
+    """Pixel coordinates u = K·D(π(R (X - C))) of world points, D the lens distortion ``k1``.
 
     Parameters
     ----------
     K, R : (3, 3) intrinsics and world→camera rotation.
     C : (3,) camera centre.
     X_world : (..., 3) points.
+    k1 : the division model's coefficient (module docstring); 0 for a pinhole.
 
     Returns
     -------
     (..., 2) pixel coordinates (u, v), origin at the image's top-left corner.
     """
-    h = world_to_camera(R, C, X_world) @ np.asarray(K, float).T
-    return h[..., :2] / h[..., 2:3]
+    x = world_to_camera(R, C, X_world)
+    if k1 == 0.0:
+        h = x @ np.asarray(K, float).T
+        return h[..., :2] / h[..., 2:3]
+    return normalised_to_pixels(K, distort_normalised(x[..., :2] / x[..., 2:3], k1))
+
+
+def distortion_scale(r2_undistorted: ArrayLike, k1: float) -> Array:
+    """s with x_d = s · x_u, from |x_u|² (division model, module docstring).
+
+    Beyond the field a pincushion lens (k1 > 0) can show (4 k1 |x_u|² > 1), the square root is
+    taken at 0: the point is put on the field's rim, where it lies outside any real image.
+    """
+    r2 = np.asarray(r2_undistorted, float)
+    return np.asarray(2.0 / (1.0 + np.sqrt(np.maximum(1.0 - 4.0 * k1 * r2, 0.0))), float)
+
+
+def distort_normalised(x_u: ArrayLike, k1: float) -> Array:
+    """Pinhole normalised coordinates (..., 2) → the lens's (distorted) ones."""
+    x_u = np.asarray(x_u, float)
+    if k1 == 0.0:
+        return x_u.copy()
+    return x_u * distortion_scale(np.sum(x_u**2, axis=-1), k1)[..., None]
+
+
+def undistort_normalised(x_d: ArrayLike, k1: float) -> Array:
+    """The lens's normalised coordinates (..., 2) → the pinhole's: x_u = x_d / (1 + k1 |x_d|²)."""
+    x_d = np.asarray(x_d, float)
+    if k1 == 0.0:
+        return x_d.copy()
+    return x_d / (1.0 + k1 * np.sum(x_d**2, axis=-1))[..., None]
+
+
+def pixels_to_normalised(K: ArrayLike, uv: ArrayLike) -> Array:
+    """(u − c) / f of pixels (..., 2)."""
+    K = np.asarray(K, float)
+    return (np.asarray(uv, float) - K[:2, 2]) / K[0, 0]
+
+
+def normalised_to_pixels(K: ArrayLike, x: ArrayLike) -> Array:
+    """c + f x of normalised coordinates (..., 2)."""
+    K = np.asarray(K, float)
+    return np.asarray(x, float) * K[0, 0] + K[:2, 2]
+
+
+def undistort_pixels(K: ArrayLike, uv: ArrayLike, k1: float) -> Array:
+    """Where the pinhole camera K would have put what the lens put at pixels uv (..., 2)."""
+    if k1 == 0.0:
+        return np.asarray(uv, float).copy()
+    return normalised_to_pixels(K, undistort_normalised(pixels_to_normalised(K, uv), k1))
+
+
+def distort_pixels(K: ArrayLike, uv: ArrayLike, k1: float) -> Array:
+    """Where the lens puts what the pinhole camera K puts at pixels uv (..., 2)."""
+    if k1 == 0.0:
+        return np.asarray(uv, float).copy()
+    return normalised_to_pixels(K, distort_normalised(pixels_to_normalised(K, uv), k1))
+
+
+def distortion_displacement_px(K: ArrayLike, width: int, height: int, k1: float) -> float:
+    """The largest distance (pixels) between a corner of the photo and where a pinhole camera K
+    would have put what it shows: how far the lens moves the image at its corners."""
+    corners = np.array([[0.0, 0.0], [width, 0.0], [0.0, height], [width, height]])
+    return float(np.max(np.linalg.norm(undistort_pixels(K, corners, k1) - corners, axis=-1)))
 
 
 def world_to_camera(R: ArrayLike, C: ArrayLike, X_world: ArrayLike) -> Array:
@@ -53,22 +129,30 @@ def world_to_camera(R: ArrayLike, C: ArrayLike, X_world: ArrayLike) -> Array:
     return (np.asarray(X_world, float) - np.asarray(C, float)) @ np.asarray(R, float).T
 
 
-def project_each(Ks: ArrayLike, Rs: ArrayLike, Cs: ArrayLike, X_world: ArrayLike) -> Array:
-    """Pixels of n world points, point i seen by camera i: Ks, Rs (n, 3, 3), Cs, X (n, 3) → (n, 2).
+def project_each(Ks: ArrayLike, Rs: ArrayLike, Cs: ArrayLike, X_world: ArrayLike,
+                 k1s: ArrayLike | None = None) -> Array:
+    """Pixels of n world points, point i seen by camera i: Ks, Rs (n, 3, 3), Cs, X (n, 3) → (n, 2);
+    ``k1s`` (n,): each camera's lens distortion (None: all pinholes).
 
     The same projection as :func:`project`, batched over many cameras (a solve's observations).
     """
     x_cam = np.einsum("nij,nj->ni", np.asarray(Rs, float), np.asarray(X_world, float) - np.asarray(Cs, float))
-    h = np.einsum("nij,nj->ni", np.asarray(Ks, float), x_cam)
-    return h[:, :2] / h[:, 2:3]
+    Ks = np.asarray(Ks, float)
+    x = x_cam[:, :2] / x_cam[:, 2:3]
+    if k1s is not None:
+        k1 = np.asarray(k1s, float)
+        if np.any(k1 != 0.0):
+            r2 = np.sum(x**2, axis=-1)
+            x = x * (2.0 / (1.0 + np.sqrt(np.maximum(1.0 - 4.0 * k1 * r2, 0.0))))[:, None]
+    return x * Ks[:, 0, 0, None] + Ks[:, :2, 2]
 
 
-def pixel_rays_world(K: ArrayLike, R: ArrayLike, uv: ArrayLike) -> Array:
+def pixel_rays_world(K: ArrayLike, R: ArrayLike, uv: ArrayLike, k1: float = 0.0) -> Array:
     """Unit viewing directions in the world of pixels uv, shape (..., 2) → (..., 3).
 
-    d_world = Rᵀ K⁻¹ [u, v, 1]ᵀ, normalised (paper eq. 5).
+    d_world = Rᵀ K⁻¹ [u, v, 1]ᵀ, normalised (paper eq. 5), after undistorting uv by ``k1``.
     """
-    uv = np.asarray(uv, float)
+    uv = undistort_pixels(K, uv, k1)
     h = np.concatenate([uv, np.ones(uv.shape[:-1] + (1,))], axis=-1)
     d_cam = np.linalg.solve(np.asarray(K, float), h.reshape(-1, 3).T).T.reshape(h.shape)
     d = d_cam @ np.asarray(R, float)  # row-vector form of Rᵀ d_cam
@@ -234,7 +318,9 @@ class ImageCamera:
     ``covariance``: a calibrated photo's (9, 9) covariance over (f, cx, cy, ω, C) (ω the rotation
     vector of a small turn, left-multiplied: R' = exp([ω]×) R), or None for a camera given
     exactly (an evidence view, an eye). A derived camera (scaled, resized, an eye) carries none.
-    The lens-distortion term of a real photo's lens belongs here too, beside K.
+    ``k1``: the lens distortion of the photo (the division model of the module docstring; 0 for a
+    pinhole, as every rendered view and eye is). A scaled or resized camera keeps it (x is
+    divided by f).
     """
 
     id: str
@@ -245,13 +331,14 @@ class ImageCamera:
     height: int
     source: str = field(default="", compare=False, repr=False, kw_only=True)
     covariance: Array | None = field(default=None, compare=False, repr=False, kw_only=True)
+    k1: float = field(default=0.0, kw_only=True)
 
     def scaled(self, s: float) -> ImageCamera:
         """The same camera for an image scaled by s (pixel corners stay at corners)."""
         K = np.array(self.K, float)
         K[:2] *= s
         return ImageCamera(self.id, K, self.R, self.C, max(1, round(self.width * s)), max(1, round(self.height * s)),
-                           source=self.source)
+                           source=self.source, k1=self.k1)
 
     def resized(self, width: int, height: int, source: str | None = None) -> ImageCamera:
         """The same view at another image size: the horizontal field of view is kept, and the
@@ -264,7 +351,7 @@ class ImageCamera:
         K[0, 2] *= s
         K[1, 2] = (K[1, 2] / self.height) * height
         return ImageCamera(self.id, K, self.R, self.C, int(width), int(height),
-                           source=self.source if source is None else source)
+                           source=self.source if source is None else source, k1=self.k1)
 
 
 def look_rotation(direction: ArrayLike, roll: float = 0.0) -> Array:

@@ -82,8 +82,27 @@ def cameras_from_calibration(project: Project) -> dict[str, ImageCamera]:
         _check_camera(project, where, K, R)
         cov = np.array([[np.inf if v is None else v for v in row] for row in c["covariance"]], float)
         C = np.asarray(c["position"]["value"], float)
-        out[p["id"]] = ImageCamera(p["id"], K, R, C, p["width"], p["height"], covariance=cov)
+        out[p["id"]] = ImageCamera(p["id"], K, R, C, p["width"], p["height"], covariance=cov,
+                                   k1=_distortion_k1(project, where, c))
     return out
+
+
+#: The division model's k1 (camera.py) beyond which no photographic lens lies: at k1 = −1 a
+#: point at 45° off axis (|x_d| = 1) would be undistorted to infinity.
+MAX_ABS_K1 = 1.0
+
+
+def _distortion_k1(project: Project, where: str, record: Mapping[str, Any]) -> float:
+    """k1 of a camera record's ``distortion`` (0 where it has none), checked."""
+    d = record.get("distortion")
+    if d is None:
+        return 0.0
+    k1 = d["k1"]["value"]
+    if not (np.isfinite(k1) and abs(k1) < MAX_ABS_K1):
+        raise ProjectError(project.path, f"{where}.distortion.k1.value",
+                           f"expected the division model's k1 as a number between −{MAX_ABS_K1:g} and "
+                           f"{MAX_ABS_K1:g}, got {k1!r}")
+    return float(k1)
 
 
 def _check_camera(project: Project, where: str, K: Array, R: Array) -> None:

@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from ..calibration.photo import ypr_with_sigma
-from ..camera import ImageCamera, focal_to_fov, ypr_from_rotation
+from ..camera import ImageCamera, distortion_displacement_px, focal_to_fov, ypr_from_rotation
 
 
 def json_values(x: Any) -> Any:
@@ -26,12 +26,14 @@ def value_sigma(value: Any, sigma: Any) -> dict[str, Any]:
     return {"value": json_values(value), "sigma": json_values(sigma)}
 
 
-def camera_record(K: np.ndarray, R: np.ndarray, C: np.ndarray, covariance: np.ndarray) -> dict[str, Any]:
+def camera_record(K: np.ndarray, R: np.ndarray, C: np.ndarray, covariance: np.ndarray,
+                  distortion: dict[str, Any] | None = None) -> dict[str, Any]:
     """A camera's K, R, focal length, principal point, yaw/pitch/roll and position, each with its 1σ
-    from ``covariance`` (9×9 over f, cx, cy, ω, C), and the covariance itself."""
+    from ``covariance`` (9×9 over f, cx, cy, ω, C), and the covariance itself; ``distortion``: its
+    lens distortion (:func:`distortion_record`), where the photo's lens has one."""
     sig = np.sqrt(np.maximum(np.diag(covariance), 0.0))
     ypr, ypr_sig = ypr_with_sigma(R, covariance[3:6, 3:6])
-    return {
+    out = {
         "K": json_values(K),
         "R": json_values(R),
         "focal_px": value_sigma(K[0, 0], sig[0]),
@@ -40,6 +42,20 @@ def camera_record(K: np.ndarray, R: np.ndarray, C: np.ndarray, covariance: np.nd
         "position": value_sigma(C, sig[6:9]),
         "covariance": json_values(covariance),
     }
+    if distortion is not None:
+        out["distortion"] = distortion
+    return out
+
+
+def distortion_record(K: np.ndarray, width: int, height: int, k1: float, k1_sigma: float,
+                      source: str) -> dict[str, Any]:
+    """A lens distortion as FORMAT.md's ``distortion`` object: the division model's k1 with its 1σ,
+    how far it moves the photo's corners (pixels, and the 1σ of that), and where k1 came from."""
+    corner = distortion_displacement_px(K, width, height, k1)
+    step = max(abs(k1_sigma), 1e-12)
+    slope = abs(distortion_displacement_px(K, width, height, k1 + step) - corner) / step
+    return {"model": "division", "k1": value_sigma(k1, k1_sigma),
+            "corner_displacement_px": value_sigma(corner, slope * k1_sigma), "source": source}
 
 
 def view_record(cam: ImageCamera, name: str, description: str | None = None) -> dict[str, Any]:
