@@ -32,6 +32,7 @@ from ..determinism import deterministic
 from ..errors import CalibrationError
 from .intrinsics import focal_squared, orthocentre, rotation_from_vanishing_points
 from .lsq import covariance_from_jacobian, numeric_jacobian, photo_numeric_failures, variance_factor
+from .priors import DistortionPrior, FocalPrior  # noqa: F401 -- re-exported
 from .vanishing import check_segments, fit_vanishing_point, normalising_transform, segment_residuals
 
 Array = NDArray[np.float64]
@@ -48,15 +49,6 @@ FINITE_VP_MAX_RADIUS = 30.0
 #: Variance of a segment residual for isotropic click noise σ on each end point: the distance of
 #: an end point to the line through the midpoint is ½(n₁ − n₂)⊥, so its variance is σ²/2.
 SEGMENT_RESIDUAL_VARIANCE_FACTOR = 0.5
-
-
-@dataclass(frozen=True)
-class FocalPrior:
-    """A focal length known before calibration: value and 1σ in pixels, and where it came from."""
-
-    value: float
-    sigma: float
-    source: str  # "user" or "exif"
 
 
 @dataclass(frozen=True)
