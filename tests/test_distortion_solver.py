@@ -257,3 +257,14 @@ def test_a_k1_without_a_prior_sigma_stays_as_calibrated(tmp_path, sigma) -> None
     for cid, c in cams.items():
         d = project.data["calibration"]["cameras"][cid]["distortion"]
         assert d["k1"] == {"value": c.k1, "sigma": sigma} and d["source"] == "user"
+
+
+def test_a_negative_k1_sigma_is_refused_naming_its_field(tmp_path) -> None:
+    from vebuild.actions.solve import solve_project
+    from vebuild.errors import ProjectError
+
+    project, _, _ = _project_file(tmp_path, 2, 1.0, lambda k1: 0.01)
+    project.data["calibration"]["cameras"]["p2"]["distortion"]["k1"]["sigma"] = -0.01
+    with pytest.raises(ProjectError, match=r"\$\.calibration\.cameras\.p2\.distortion\.k1\.sigma.*"
+                                           r"expected the 1σ of k1 as a number ≥ 0 \(or null\), got -0\.01"):
+        solve_project(project, recalibrate=True)

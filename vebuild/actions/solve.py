@@ -27,7 +27,7 @@ from ..model.residuals import MarkerObservation
 from ..model.scene import Model
 from ..model.solution import handle_covariances
 from ..model.solver import FINAL_PRIOR_SCALE, MarkerData, Problem, ProblemOptions
-from ..project import Project, decode
+from ..project import Project, decode, json_path
 from ..project.decode import cameras_from_calibration, load_model
 from ..project.records import camera_record, distortion_record, json_values, value_sigma
 
@@ -108,7 +108,7 @@ def distortion_sigmas(project: Project) -> dict[str, float]:
         d = rec.get("distortion")
         if d is None:
             continue
-        where = f"$.calibration.cameras[{pid!r}].distortion.k1.sigma"
+        where = json_path(["calibration", "cameras", pid, "distortion", "k1", "sigma"])
         k1 = d.get("k1")
         s = k1.get("sigma") if isinstance(k1, dict) else None
         if s is None:

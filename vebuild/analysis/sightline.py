@@ -311,12 +311,13 @@ def target_centre(occ: Occluders, target: Target) -> Array:
 
 def draw_point_marker(image: NDArray[np.uint8], cam: ImageCamera, point: Array, visible: bool,
                       colour: tuple[int, int, int] = (255, 190, 0)) -> NDArray[np.uint8]:
-    """A cross-hair ring at a world point (solid if visible, dashed otherwise)."""
+    """A cross-hair ring at a world point (solid if visible, dashed otherwise), where ``cam``'s lens
+    puts it."""
     from PIL import Image, ImageDraw
 
     if world_to_camera(cam.R, cam.C, point)[2] <= 0:
         return image
-    u, v = project(cam.K, cam.R, cam.C, point)
+    u, v = project(cam.K, cam.R, cam.C, point, cam.k1)
     img = Image.fromarray(image)
     d = ImageDraw.Draw(img)
     r = max(6, cam.width // 80)

@@ -5,6 +5,10 @@ A drag is three calls: :class:`DragSession` (start: a handle of a node, grabbed 
 projected edges) and :meth:`DragSession.release` (the vertex becomes a fixed pin). Everything that
 does not change during a drag (the least-squares problem, which observations a parameter moves)
 is built once at the start; each move warm-starts from the previous one.
+
+Through a photo's lens (its :attr:`~vebuild.camera.ImageCamera.k1`) the mouse, the pins and the
+projected handles are all in the photo's own (distorted) pixels, as the solver's residuals are; a
+straight model edge is a curve there, drawn as a polyline (:func:`lens_polyline`).
 """
 
 from __future__ import annotations
@@ -15,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..camera import ImageCamera, project, world_to_camera
+from ..camera import ImageCamera, distort_pixels, project, world_to_camera
 from .residuals import EdgeObservation, Pin
 from .scene import Model
 from .solver import Problem, ProblemOptions
@@ -27,27 +31,69 @@ DRAG_DAMPING = 1e-6
 #: A warm-started move converges in a few iterations; one the constraints cannot follow may not
 #: converge at all, and must not stall the screen while it tries.
 DRAG_MAX_ITERATIONS = 25
+#: The most a drawn edge may stray from the curve a straight 3D edge makes in a distorted photo
+#: (pixels): a quarter of a click's noise, below what a screen shows.
+CURVE_TOL_PX = 0.5
+#: A polyline has at most 2**this pieces (far more than any lens bends an edge into).
+CURVE_MAX_DEPTH = 12
+
+
+def lens_polyline(K: ArrayLike, k1: float, a: ArrayLike, b: ArrayLike, tol: float = CURVE_TOL_PX) -> Array:
+    """(n, 2) pixels along the curve the lens ``k1`` makes of the straight segment a–b of the
+    pinhole image (pixels where the pinhole K puts its ends): the distorted ends and, between them,
+    as many points of the curve as keep each chord within ``tol`` of it.
+
+    The step follows the distortion: a piece is split in two until the curve at a quarter, half
+    and three quarters of it lies within tol/2 of its chord (halved because the curve may bend
+    most between those checks); a pinhole (k1 = 0) keeps the segment. Straight lines of the
+    pinhole image are the images of straight 3D lines, so this draws a 3D edge through the lens.
+    """
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    if k1 == 0.0:
+        return np.array([a, b])
+    K = np.asarray(K, float)
+
+    def at(t: Array) -> Array:
+        return distort_pixels(K, a + t[..., None] * (b - a), k1)
+
+    done: list[Array] = []
+    lo, hi = np.array([0.0]), np.array([1.0])
+    for depth in range(CURVE_MAX_DEPTH + 1):
+        t = lo[:, None] + (hi - lo)[:, None] * np.array([0.0, 0.25, 0.5, 0.75, 1.0])
+        q = at(t)  # (m, 5, 2)
+        chord = q[:, 4] - q[:, 0]
+        L = np.maximum(np.linalg.norm(chord, axis=-1), 1e-12)[:, None]
+        rel = q[:, 1:4] - q[:, :1]
+        off = np.abs(rel[..., 0] * chord[:, None, 1] - rel[..., 1] * chord[:, None, 0]) / L
+        ok = np.all(off <= 0.5 * tol, axis=1) if depth < CURVE_MAX_DEPTH else np.ones(len(lo), bool)
+        done.append(lo[ok])
+        mid = 0.5 * (lo + hi)
+        lo, hi = np.r_[lo[~ok], mid[~ok]], np.r_[mid[~ok], hi[~ok]]
+        if not len(lo):
+            break
+    ts = np.r_[np.sort(np.concatenate(done)), 1.0]
+    return at(ts)
 
 
 @dataclass
 class DragResult:
     """After one move: the model's parameter vector, and every moved edge projected into each photo.
 
-    edges_px : photo → node → list of (edge name, (u1, v1, u2, v2)).
+    edges_px : photo → node → list of (edge name, (n, 2) pixels along the edge's image): its
+        two ends, or, through a distorting lens, the polyline of :func:`lens_polyline`.
     fixed_error_px : the largest distance of a fixed pin from its handle's projection.
     handle_px : where the dragged handle now projects in the drag's photo.
     """
 
     x: Array
     moved: list[str]
-    edges_px: dict[str, dict[str, list[tuple[str, tuple[float, float, float, float]]]]]
+    edges_px: dict[str, dict[str, list[tuple[str, Array]]]]
     handle_px: Array
     fixed_error_px: float
 
 
-def project_edges(model: Model, camera: ImageCamera, nodes: Sequence[str], x: Array | None = None,
-                  transforms: Mapping[str, Array] | None = None) -> dict[str, list[tuple[str, tuple]]]:
-    """Every edge of the given primitive nodes projected into one photo (the white edges of §3)."""
+def _edge_ends(model: Model, camera: ImageCamera, nodes: Sequence[str], x: Array | None,
+               transforms: Mapping[str, Array] | None, k1: float) -> dict[str, list[tuple[str, Array, Array]]]:
     x = model.vector() if x is None else x
     T = transforms if transforms is not None else model.world_transforms(x)
     out = {}
@@ -58,11 +104,31 @@ def project_edges(model: Model, camera: ImageCamera, nodes: Sequence[str], x: Ar
         hs = node.primitive.handles(x[model.slices[name][1]])
         world = hs @ T[name][:3, :3].T + T[name][:3, 3]
         depth = world_to_camera(camera.R, camera.C, world)[:, 2]
-        uv = project(camera.K, camera.R, camera.C, world)
+        uv = project(camera.K, camera.R, camera.C, world, k1)
         idx = {h: i for i, h in enumerate(node.primitive.handle_names())}
-        out[name] = [(e, (*uv[idx[a]], *uv[idx[b]])) for e, a, b in node.primitive.edges()
+        out[name] = [(e, uv[idx[a]], uv[idx[b]]) for e, a, b in node.primitive.edges()
                      if depth[idx[a]] > 0 and depth[idx[b]] > 0]
     return out
+
+
+def project_edges(model: Model, camera: ImageCamera, nodes: Sequence[str], x: Array | None = None,
+                  transforms: Mapping[str, Array] | None = None) -> dict[str, list[tuple[str, tuple]]]:
+    """Every edge of the given primitive nodes projected into one photo (the white edges of §3):
+    node → (edge, (u1, v1, u2, v2)), its ends where the photo's lens puts them (an edge in front
+    of the camera only). Through a distorting lens the edge between them is a curve:
+    :func:`project_edge_curves` draws it."""
+    return {n: [(e, (*pa, *pb)) for e, pa, pb in edges]
+            for n, edges in _edge_ends(model, camera, nodes, x, transforms, camera.k1).items()}
+
+
+def project_edge_curves(model: Model, camera: ImageCamera, nodes: Sequence[str], x: Array | None = None,
+                        transforms: Mapping[str, Array] | None = None,
+                        tol: float = CURVE_TOL_PX) -> dict[str, list[tuple[str, Array]]]:
+    """As :func:`project_edges`, each edge as the (n, 2) polyline of its image through the photo's
+    lens (:func:`lens_polyline`, within ``tol`` pixels of the true curve; two points for a pinhole)."""
+    ends = _edge_ends(model, camera, nodes, x, transforms, 0.0)  # the pinhole's: straight lines
+    return {n: [(e, lens_polyline(camera.K, camera.k1, pa, pb, tol)) for e, pa, pb in edges]
+            for n, edges in ends.items()}
 
 
 def drag_nodes(model: Model, node: str) -> list[str]:
@@ -101,7 +167,7 @@ class DragSession:
         # subtree (fixed vertices) and its edge observations stay in the problem.
         self.other_pins = [p for p in pins if not (p.photo == photo and p.node == node and p.handle == handle)]
         cam = cameras[photo]
-        self.pin = Pin(photo, node, handle, project(cam.K, cam.R, cam.C, model.handle_world(node, handle)),
+        self.pin = Pin(photo, node, handle, project(cam.K, cam.R, cam.C, model.handle_world(node, handle), cam.k1),
                        fixed=False)
         obs = [p for p in self.other_pins if p.node in moved and p.fixed] + [self.pin]
         # Paper Figure 7: until a vertex of the node is fixed, a drag moves the node as a whole
@@ -125,12 +191,12 @@ class DragSession:
         self.x = sol.x
         xm = self.problem.model_vector(self.x)
         T = self.problem.transforms(xm)
-        edges = {cid: project_edges(self.model, self.cameras[cid], self.moved, xm, T) for cid in self.edges_into}
+        edges = {cid: project_edge_curves(self.model, self.cameras[cid], self.moved, xm, T) for cid in self.edges_into}
         r = sol.residuals * self.problem.sigma  # the solve's own final residuals: no second evaluation
         fixed = [np.linalg.norm(r[self.problem.rows_pin[i]]) for i, p in enumerate(self.problem.pins)
                  if p is not self.pin]
         cam = self.cameras[self.photo]
-        handle_px = project(cam.K, cam.R, cam.C, self.model.handle_world(self.node, self.handle, xm, T))
+        handle_px = project(cam.K, cam.R, cam.C, self.model.handle_world(self.node, self.handle, xm, T), cam.k1)
         return DragResult(xm, self.moved, edges, handle_px, float(max(fixed, default=0.0)))
 
     def release(self) -> Pin:
