@@ -268,3 +268,134 @@ def test_a_negative_k1_sigma_is_refused_naming_its_field(tmp_path) -> None:
     with pytest.raises(ProjectError, match=r"\$\.calibration\.cameras\.p2\.distortion\.k1\.sigma.*"
                                            r"expected the 1σ of k1 as a number ≥ 0 \(or null\), got -0\.01"):
         solve_project(project, recalibrate=True)
+
+
+@pytest.fixture(scope="module")
+def solved_distorted(tmp_path_factory):
+    """The distorted scene's project, its k1 known (held) and solved: the analyses' model."""
+    from vebuild.actions.solve import solve_project
+    from vebuild.project.file import save_project
+
+    project, truth, cams = _project_file(tmp_path_factory.mktemp("solved"), 2, 1.0, lambda k1: 0.0)
+    solve_project(project)
+    save_project(project)
+    return project, truth, cams
+
+
+def test_a_ray_from_a_distorted_click_passes_through_the_point_seen(solved_distorted) -> None:
+    """A pixel where the lens shows a point of the model (a box's top-face centre, off the photo's
+    centre where the lens bends most) is undistorted onto the ray to that very point; read as a
+    pinhole's pixel, it would land centimetres away."""
+    import dataclasses
+
+    from vebuild.analysis.points import parse_point
+    from vebuild.analysis.solved import SolvedModel
+    from vebuild.camera import world_to_camera
+    from vebuild.project.decode import cameras_from_calibration
+
+    proj, _, _ = solved_distorted
+    solved = SolvedModel.from_project(proj)
+    cams = cameras_from_calibration(proj)
+    tried = missed = 0
+    for cid, cam in cams.items():
+        for node in ("box0", "box1", "box2"):
+            X = solved.world(parse_point(f"{node}@top", solved))
+            if world_to_camera(cam.R, cam.C, X)[2] <= 0:
+                continue
+            project_uv = project(cam.K, cam.R, cam.C, X, cam.k1)
+            u, v = float(project_uv[0]), float(project_uv[1])
+            if not (0 <= u <= cam.width and 0 <= v <= cam.height):
+                continue
+            Y = solved.world(parse_point(f"photo:{cid}@{u!r},{v!r}", solved, resolve_camera=lambda h, n: cams[n]))
+            if np.linalg.norm(Y - X) > 0.05:
+                continue  # another surface hides it from this photo
+            tried += 1
+            # Undistortion is closed-form and the ray meets the face's triangles exactly: a
+            # micrometre is rounding (the division model inverted at 1e-16, times metres).
+            assert np.linalg.norm(Y - X) < 1e-6, (cid, node)
+            pin = {cid: dataclasses.replace(cam, k1=0.0)}
+            Z = solved.world(parse_point(f"photo:{cid}@{u!r},{v!r}", solved,
+                                         resolve_camera=lambda h, n, pin=pin: pin[n]))
+            # How far the lens moves that pixel, at the point's depth: the pinhole reading's miss.
+            shift = np.linalg.norm(project(cam.K, cam.R, cam.C, X) - project_uv)
+            if shift > 5.0:
+                assert np.linalg.norm(Z - X) > 1e-3, (cid, node)
+                missed += 1
+    assert tried >= 3 and missed >= 2
+
+
+def _polyline_distance(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
+    """Each point's distance from the polyline (n, 2)."""
+    A, B = poly[:-1], poly[1:]
+    d = B - A
+    t = np.clip(np.einsum("pnk,nk->pn", points[:, None] - A[None], d) / np.maximum(np.sum(d * d, axis=1), 1e-30),
+                0.0, 1.0)
+    return np.min(np.linalg.norm(points[:, None] - (A[None] + t[..., None] * d[None]), axis=-1), axis=1)
+
+
+def test_the_overlay_draws_edges_axes_and_horizon_through_the_lens(solved_distorted) -> None:
+    """In the modelling screen's overlay of a distorted photo each straight model edge is a chain
+    of lines within CURVE_TOL_PX of the true curve (its 3D points projected through the lens, 2001
+    along it), where the straight chord between its ends strays by pixels (for edges inside the
+    photo: outside it the lens model bends edges far more); the horizon's points lie on the
+    horizon; handles sit where the lens puts them."""
+    from vebuild.camera import undistort_pixels, world_to_camera
+    from vebuild.edit.session import EditSession
+    from vebuild.model.drag import CURVE_TOL_PX
+
+    proj, _, _ = solved_distorted
+    s = EditSession.open(proj.path, autosave=False)
+    worst, chord_worst, n_edges = 0.0, 0.0, 0
+    for cid, cam in s.cameras.items():
+        assert cam.k1 != 0.0
+        ov = s.overlay(cid)
+        chains: dict = {}
+        for ln in ov.of_kind("edge")[0]:
+            chains.setdefault(ln.key, []).append(ln.p)
+        model = s.model
+        for (node, edge), pieces in chains.items():
+            a, b = next((a, b) for e, a, b in model.node(node).primitive.edges() if e == edge)
+            A, B = model.handle_world(node, a), model.handle_world(node, b)
+            t = np.linspace(0.0, 1.0, 2001)[:, None]
+            P = A + t * (B - A)
+            assert np.all(world_to_camera(cam.R, cam.C, P)[:, 2] > 0)
+            true = project(cam.K, cam.R, cam.C, P, cam.k1)
+            poly = np.array([p[:2] for p in pieces] + [pieces[-1][2:]])
+            assert all(np.allclose(p[2:], q[:2]) for p, q in zip(pieces[:-1], pieces[1:], strict=True)), "a chain"
+            worst = max(worst, float(_polyline_distance(true, poly).max()))
+            if np.all((true >= 0) & (true <= [cam.width, cam.height])):  # an edge inside the photo
+                chord_worst = max(chord_worst, float(_polyline_distance(true, poly[[0, -1]]).max()))
+            n_edges += 1
+        for n, h, uv, _ in s.handles(cid):
+            assert uv == pytest.approx(project(cam.K, cam.R, cam.C, model.handle_world(n, h), cam.k1), abs=1e-9)
+        horizon = ov.of_kind("horizon")[0]
+        if horizon:
+            q = np.array([ln.p[:2] for ln in horizon] + [horizon[-1].p[2:]])
+            line = np.linalg.inv(cam.K).T @ cam.R[:, 2]
+            und = undistort_pixels(cam.K, q, cam.k1)
+            assert np.all(np.abs(und @ line[:2] + line[2]) / np.linalg.norm(line[:2]) < 1e-6)
+    assert n_edges > 20
+    assert worst <= CURVE_TOL_PX, f"a drawn edge strays {worst:.3f} px from its curve"
+    assert chord_worst > 3 * CURVE_TOL_PX, "the lens bends these edges: a straight line would not do"
+
+
+def test_a_drag_in_a_distorted_photo_puts_the_handle_under_the_mouse(solved_distorted) -> None:
+    """The mouse is in the photo's (distorted) pixels: the dragged corner follows it through the
+    lens, and the pin it leaves is where the lens shows the corner."""
+    from vebuild.edit.modelling import FOLLOW_TOL_PX
+    from vebuild.edit.session import EditSession
+
+    proj, _, _ = solved_distorted
+    s = EditSession.open(proj.path, autosave=False)
+    cid, node, handle, uv = next((c, n, h, uv) for c in s.cameras for n, h, uv, _ in s.handles(c)
+                                 if n == "box1" and h == "v6")
+    cam = s.cameras[cid]
+    s.begin_drag(cid, node, handle)
+    target = (uv[0] + 6.0, uv[1] - 4.0)
+    fb = s.drag_to(target)
+    assert fb.ok and np.hypot(fb.handle_px[0] - target[0], fb.handle_px[1] - target[1]) < FOLLOW_TOL_PX
+    s.end_drag()
+    X = s.model.handle_world(node, handle)
+    assert np.hypot(*(project(cam.K, cam.R, cam.C, X, cam.k1) - target)) < FOLLOW_TOL_PX
+    pin = next(p for p in s.data["model"]["pins"] if (p["photo"], p["node"], p["handle"]) == (cid, node, handle))
+    assert pin["uv"] == pytest.approx(target)
