@@ -152,7 +152,9 @@ def test_sizes_from_distorted_pins_with_k1_known_and_a_pinhole_solve_is_biased()
     worst = int(np.argmax(np.abs(err) / sig))
     assert np.all(np.abs(err) <= Z_BOUND * sig), \
         f"size error {err[worst] * 1e3:.1f} mm = {err[worst] / sig[worst]:.1f}σ"
-    assert chi2_lens < chi2.ppf(0.999, dof), "through the lens, the pins fit as their noise implies"
+    assert chi2.ppf(0.001, dof) < chi2_lens < chi2.ppf(0.999, dof), "through the lens, the pins fit as their noise"
+    lo, hi = rms_band(len(err))
+    assert lo < np.sqrt(np.mean((err / sig) ** 2)) < hi, "the sizes' 1σ are honest: neither too narrow nor too wide"
 
     pinhole = {k: ImageCamera(c.id, c.K, c.R, c.C, c.width, c.height) for k, c in cams.items()}
     err_p, _, chi2_pinhole, _ = sizes(*_solve(model_from_dict(start.to_dict(), MARKERS), pinhole, pins))
@@ -160,6 +162,12 @@ def test_sizes_from_distorted_pins_with_k1_known_and_a_pinhole_solve_is_biased()
     assert bias.max() > PINHOLE_BIAS_SIGMAS, f"pinhole bias only {bias.max():.1f}σ ({np.abs(err_p).max() * 1e3:.1f} mm)"
     assert np.abs(err_p).max() > 3 * np.abs(err).max()
     assert chi2_pinhole > chi2.ppf(0.999, dof), "a pinhole cannot fit distorted pins"
+
+
+def rms_band(n: int) -> tuple[float, float]:
+    """Two-sided band (99.9 %) on the RMS of n values of error / reported 1σ, as tests/test_model.py:
+    n·RMS² follows χ² with n degrees of freedom for honest uncertainties."""
+    return float(np.sqrt(chi2.ppf(0.0005, n) / n)), float(np.sqrt(chi2.ppf(0.9995, n) / n))
 
 
 #: The calibration's covariance given to the cameras of the re-calibration test: f and c 5 px,
@@ -176,14 +184,17 @@ def test_recalibration_refines_a_wrong_k1_toward_the_truth() -> None:
              for k, c in cams.items()}
     prior = {k: 0.5 * abs(c.k1) for k, c in cams.items()}
     _, _, sol = _solve(start, wrong, pins, recalibrate=True, refine_intrinsics=True, k1_sigma=prior)
-    before, after = [], []
+    before, after, z = [], [], []
     for k, c in cams.items():
         k1, s = sol.cameras[k].k1, sol.k1_sigma[k]
         assert abs(k1 - c.k1) <= 3 * s, f"photo {k}: k1 {k1:.4f}, truth {c.k1:.4f}, 1σ {s:.4f}"
+        z.append((k1 - c.k1) / s)
         assert s < 0.5 * prior[k]
         before.append((wrong[k].k1 - c.k1) / c.k1)
         after.append((k1 - c.k1) / c.k1)
     assert np.sqrt(np.mean(np.square(after))) < 0.5 * np.sqrt(np.mean(np.square(before)))
+    lo, hi = rms_band(len(z))
+    assert lo < np.sqrt(np.mean(np.square(z))) < hi, "the refined 1σ of k1 is honest both ways"
     # Held: no prior 1σ, the k1 stays as calibrated.
     _, _, held = _solve(start, wrong, pins, recalibrate=True, refine_intrinsics=True)
     assert all(held.cameras[k].k1 == wrong[k].k1 for k in cams) and not held.k1_sigma

@@ -40,39 +40,53 @@ CURVE_MAX_DEPTH = 12
 
 def lens_polyline(K: ArrayLike, k1: float, a: ArrayLike, b: ArrayLike, tol: float = CURVE_TOL_PX) -> Array:
     """(n, 2) pixels along the curve the lens ``k1`` makes of the straight segment a–b of the
-    pinhole image (pixels where the pinhole K puts its ends): the distorted ends and, between them,
-    as many points of the curve as keep each chord within ``tol`` of it.
+    pinhole image (pixels where the pinhole K puts its ends): :func:`lens_polylines` of one."""
+    return lens_polylines(K, k1, np.asarray(a, float)[None], np.asarray(b, float)[None], tol)[0]
+
+
+def lens_polylines(K: ArrayLike, k1: float, a: ArrayLike, b: ArrayLike, tol: float = CURVE_TOL_PX) -> list[Array]:
+    """For each straight segment a[i]–b[i] of the pinhole image ((n, 2) pixels where the pinhole K
+    puts the ends), the (m, 2) pixels along the curve the lens ``k1`` makes of it: the distorted
+    ends and, between them, as many points of the curve as keep each chord within ``tol`` of it.
 
     The step follows the distortion: a piece is split in two until the curve at a quarter, half
     and three quarters of it lies within tol/2 of its chord (halved because the curve may bend
-    most between those checks); a pinhole (k1 = 0) keeps the segment. Straight lines of the
-    pinhole image are the images of straight 3D lines, so this draws a 3D edge through the lens.
+    most between those checks); a pinhole (k1 = 0) keeps each segment. Straight lines of the
+    pinhole image are the images of straight 3D lines, so this draws 3D edges through the lens.
+    All segments are refined together, one level at a time (a drag redraws dozens per move).
     """
-    a, b = np.asarray(a, float), np.asarray(b, float)
+    a, b = np.asarray(a, float).reshape(-1, 2), np.asarray(b, float).reshape(-1, 2)
     if k1 == 0.0:
-        return np.array([a, b])
+        return [np.array([p, q]) for p, q in zip(a, b, strict=True)]
     K = np.asarray(K, float)
-
-    def at(t: Array) -> Array:
-        return distort_pixels(K, a + t[..., None] * (b - a), k1)
-
-    done: list[Array] = []
-    lo, hi = np.array([0.0]), np.array([1.0])
+    ticks = np.array([0.0, 0.25, 0.5, 0.75, 1.0])
+    seg = np.arange(len(a))
+    lo, hi = np.zeros(len(a)), np.ones(len(a))
+    done_seg, done_lo = [], []
     for depth in range(CURVE_MAX_DEPTH + 1):
-        t = lo[:, None] + (hi - lo)[:, None] * np.array([0.0, 0.25, 0.5, 0.75, 1.0])
-        q = at(t)  # (m, 5, 2)
+        t = lo[:, None] + (hi - lo)[:, None] * ticks
+        q = distort_pixels(K, a[seg, None] + t[..., None] * (b - a)[seg, None], k1)  # (m, 5, 2)
         chord = q[:, 4] - q[:, 0]
         L = np.maximum(np.linalg.norm(chord, axis=-1), 1e-12)[:, None]
         rel = q[:, 1:4] - q[:, :1]
         off = np.abs(rel[..., 0] * chord[:, None, 1] - rel[..., 1] * chord[:, None, 0]) / L
         ok = np.all(off <= 0.5 * tol, axis=1) if depth < CURVE_MAX_DEPTH else np.ones(len(lo), bool)
-        done.append(lo[ok])
+        done_seg.append(seg[ok])
+        done_lo.append(lo[ok])
         mid = 0.5 * (lo + hi)
-        lo, hi = np.r_[lo[~ok], mid[~ok]], np.r_[mid[~ok], hi[~ok]]
-        if not len(lo):
+        bad = ~ok
+        seg = np.concatenate([seg[bad], seg[bad]])
+        lo, hi = np.concatenate([lo[bad], mid[bad]]), np.concatenate([mid[bad], hi[bad]])
+        if not len(seg):
             break
-    ts = np.r_[np.sort(np.concatenate(done)), 1.0]
-    return at(ts)
+    segs, los = np.concatenate(done_seg), np.concatenate(done_lo)
+    # Each segment's pieces' starts, then its end (t = 1): distorted all at once, then split.
+    all_seg = np.concatenate([segs, np.arange(len(a))])
+    all_t = np.concatenate([los, np.ones(len(a))])
+    order = np.lexsort((all_t, all_seg))
+    all_seg, all_t = all_seg[order], all_t[order]
+    q = distort_pixels(K, a[all_seg] + all_t[:, None] * (b - a)[all_seg], k1)
+    return np.split(q, np.searchsorted(all_seg, np.arange(1, len(a))))
 
 
 @dataclass
@@ -127,8 +141,13 @@ def project_edge_curves(model: Model, camera: ImageCamera, nodes: Sequence[str],
     """As :func:`project_edges`, each edge as the (n, 2) polyline of its image through the photo's
     lens (:func:`lens_polyline`, within ``tol`` pixels of the true curve; two points for a pinhole)."""
     ends = _edge_ends(model, camera, nodes, x, transforms, 0.0)  # the pinhole's: straight lines
-    return {n: [(e, lens_polyline(camera.K, camera.k1, pa, pb, tol)) for e, pa, pb in edges]
-            for n, edges in ends.items()}
+    flat = [(n, e, pa, pb) for n, edges in ends.items() for e, pa, pb in edges]
+    curves = lens_polylines(camera.K, camera.k1, np.array([f[2] for f in flat]).reshape(-1, 2),
+                            np.array([f[3] for f in flat]).reshape(-1, 2), tol)
+    out: dict[str, list[tuple[str, Array]]] = {n: [] for n in ends}
+    for (n, e, _, _), q in zip(flat, curves, strict=True):
+        out[n].append((e, q))
+    return out
 
 
 def drag_nodes(model: Model, node: str) -> list[str]:
