@@ -410,3 +410,33 @@ def test_a_drag_in_a_distorted_photo_puts_the_handle_under_the_mouse(solved_dist
     assert np.hypot(*(project(cam.K, cam.R, cam.C, X, cam.k1) - target)) < FOLLOW_TOL_PX
     pin = next(p for p in s.data["model"]["pins"] if (p["photo"], p["node"], p["handle"]) == (cid, node, handle))
     assert pin["uv"] == pytest.approx(target)
+
+
+def test_register_keeps_a_photos_known_lens(solved_distorted, tmp_path) -> None:
+    """Re-registering a photo from the solved model's vertices (no vanishing segments) holds the
+    k1 of its camera record: the record keeps that distortion, the mode reason says so, and the
+    camera lands on the truth within 3σ of its reported uncertainty."""
+    import shutil
+
+    from vebuild.actions.register import register_photos
+    from vebuild.project import load_project
+
+    proj, _, cams = solved_distorted
+    folder = tmp_path / "copy"
+    shutil.copytree(proj.path.parent, folder)
+    project = load_project(folder / proj.path.name)
+    before = project.data["calibration"]["cameras"]["p2"]["distortion"]
+    reg = register_photos(project, ["p2"])["p2"]
+    rec = project.data["calibration"]["cameras"]["p2"]
+    assert rec["mode"] == "registered" and "through its lens distortion (k1 " in rec["mode_reason"]
+    assert rec["distortion"]["k1"] == before["k1"] and rec["distortion"]["source"] == before["source"]
+    sigma = np.sqrt(np.diag(reg.covariance))
+    truth = cams["p2"]
+    assert abs(reg.K[0, 0] - truth.K[0, 0]) <= 3 * sigma[0]
+    assert np.all(np.abs(reg.C - truth.C) <= 3 * sigma[6:9])
+    # Without the record's distortion the photo is registered as a pinhole, and its focal length
+    # misses by more than that (measured: 4.2 of the pinhole's own, inflated, 1σ).
+    del rec["distortion"]
+    pinhole = register_photos(project, ["p2"])["p2"]
+    assert "distortion" not in project.data["calibration"]["cameras"]["p2"]
+    assert abs(pinhole.K[0, 0] - truth.K[0, 0]) > 3 * np.sqrt(pinhole.covariance[0, 0])
