@@ -440,3 +440,24 @@ def test_register_keeps_a_photos_known_lens(solved_distorted, tmp_path) -> None:
     pinhole = register_photos(project, ["p2"])["p2"]
     assert "distortion" not in project.data["calibration"]["cameras"]["p2"]
     assert abs(pinhole.K[0, 0] - truth.K[0, 0]) > 3 * np.sqrt(pinhole.covariance[0, 0])
+
+
+def test_an_edge_observation_through_the_lens_measures_the_photos_pixels() -> None:
+    """Two clicked points on the curve a model edge makes through the lens leave no residual; moved
+    by δ across the curve they leave δ (in the photo's pixels, whitened by the click σ) to first
+    order, where the pinhole image's distance alone would be off by the lens's local stretch."""
+    truth, _, cams, _, _ = distorted_scene(5, n_boxes=1, n_photos=3)
+    sigma = 0.7
+    a, b = truth.handle_world("box0", "v4"), truth.handle_world("box0", "v5")
+    edge = next(e for e, p, q in truth.node("box0").primitive.edges() if (p, q) == ("v4", "v5"))
+    for cid, cam in cams.items():
+        on = project(cam.K, cam.R, cam.C, np.array([a + 0.2 * (b - a), a + 0.8 * (b - a)]), cam.k1)
+        # The curve's normal at each point, from its neighbours along the edge.
+        nb = project(cam.K, cam.R, cam.C, np.array([a + 0.2001 * (b - a), a + 0.8001 * (b - a)]), cam.k1) - on
+        normal = np.stack([-nb[:, 1], nb[:, 0]], axis=1) / np.linalg.norm(nb, axis=1, keepdims=True)
+        for delta in (0.0, 2.0):
+            obs = EdgeObservation(cid, "box0", edge, on + delta * normal)
+            problem = Problem(truth, {cid: cam}, [], [obs], options=ProblemOptions(click_sigma_px=sigma))
+            r = problem.residuals(problem.x0())[problem.rows_edge[0]] * sigma
+            # First order in δ: the curve's bend over 2 px adds ≪ 0.01 px.
+            assert np.abs(np.abs(r) - delta) == pytest.approx(0.0, abs=0.01), (cid, delta, r)
