@@ -461,3 +461,20 @@ def test_an_edge_observation_through_the_lens_measures_the_photos_pixels() -> No
             r = problem.residuals(problem.x0())[problem.rows_edge[0]] * sigma
             # First order in δ: the curve's bend over 2 px adds ≪ 0.01 px.
             assert np.abs(np.abs(r) - delta) == pytest.approx(0.0, abs=0.01), (cid, delta, r)
+
+
+def test_a_new_primitive_placed_at_a_distorted_pixel_lands_on_the_floor_point_seen(solved_distorted) -> None:
+    """Adding a box at a pixel of a distorted photo puts it where that pixel's ray, undistorted,
+    meets the floor (to a micrometre), not where a pinhole's ray would (centimetres away)."""
+    from vebuild.edit.session import EditSession
+
+    proj, _, _ = solved_distorted
+    s = EditSession.open(proj.path, autosave=False)
+    cid, cam = "p1", s.cameras["p1"]
+    P = np.array([ROOM[0] * 0.5 + 0.6, ROOM[1] * 0.5 - 0.4, 0.0])  # on the floor, off the photo's centre
+    uv = project(cam.K, cam.R, cam.C, P, cam.k1)
+    assert 0 <= uv[0] <= cam.width and 0 <= uv[1] <= cam.height
+    name = s.add_primitive("box", at=(cid, (float(uv[0]), float(uv[1]))))
+    origin = s.model.world_transforms()[name][:3, 3]
+    assert np.linalg.norm(origin - P) < 1e-6, (origin, P)
+    assert np.linalg.norm(project(cam.K, cam.R, cam.C, P) - uv) > 3.0  # the lens moved that pixel
