@@ -365,11 +365,14 @@ class Residuals:
             q = np.sqrt(np.maximum(1.0 - 4.0 * k1 * r2, 1e-12))
             s = 2.0 / (1.0 + q)
             g = 4.0 / (q * (1.0 + q) ** 2)  # ∂s/∂(k1 r2)
-            D = s[:, None, None] * np.eye(2) + (2.0 * g * k1)[:, None, None] * p[:, :, None] * p[:, None, :]
-            P = np.zeros((len(cam), 2, 3))
-            P[:, 0, 0] = P[:, 1, 1] = 1.0 / z
-            P[:, :, 2] = -p / z[:, None]
-            A = f[:, None, None] * np.einsum("nij,njk->nik", D, P) / self.sigma
+            A = np.zeros((len(cam), 2, 3))
+            A[:, 0, 0] = A[:, 1, 1] = f / z
+            A[:, 0, 2] = -f * xc[:, 0] / z**2
+            A[:, 1, 2] = -f * xc[:, 1] / z**2
+            if np.any(k1 != 0.0):  # through the lens: ∂u/∂p = f (s I + 2 s' p pᵀ); a pinhole's is f I
+                D = s[:, None, None] * np.eye(2) + (2.0 * g * k1)[:, None, None] * p[:, :, None] * p[:, None, :]
+                A = np.einsum("nij,njk->nik", D, A)
+            A /= self.sigma
             return (A, np.einsum("nij,njk->nik", A, Rs[cam]), xc, s[:, None] * p,
                     (f * g * r2)[:, None] * p / self.sigma)
 
