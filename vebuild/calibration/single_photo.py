@@ -151,6 +151,24 @@ class SinglePhotoPlacement:
     estimates: list[ScaleEstimate]
     marker_residuals_px: dict[str, Array] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
+    marker_covariance: Array = field(default_factory=lambda: np.zeros((0, 0)))
+
+    def distance(self, a: str, b: str) -> tuple[float, float]:
+        """The distance between two markers it placed (the origin marker among them) and its 1σ,
+        from their joint covariance (they share the photo's scale and calibration)."""
+        names = list(self.markers)
+        pos = {n: self.markers[n][0] for n in names}
+        if self.origin.marker is not None:
+            pos[self.origin.marker] = np.zeros(3)
+        diff = pos[a] - pos[b]
+        d = float(np.linalg.norm(diff))
+        g = np.zeros(3 * len(names))
+        u = diff / max(d, 1e-12)
+        for n, sign in ((a, 1.0), (b, -1.0)):
+            if n in names:
+                k = names.index(n)
+                g[3 * k : 3 * k + 3] += sign * u
+        return d, float(np.sqrt(max(float(g @ self.marker_covariance @ g), 0.0)))
 
     @property
     def scale_source(self) -> str:
@@ -354,7 +372,7 @@ def camera_height_estimate(
         return np.array([w @ inp.heights(z, _Camera(z[: inp.n_q], R0, k1, photo), scales) / w.sum()])
 
     J = numeric_jacobian(h, inp.z0, inp.steps)
-    return float(h(inp.z0)[0]), float(np.sqrt(max(float(J @ inp.cov @ J.T), 0.0))), estimates
+    return float(h(inp.z0)[0]), float(np.sqrt(max(float((J @ inp.cov @ J.T)[0, 0]), 0.0))), estimates
 
 
 def place_single_photo(
@@ -414,4 +432,4 @@ def place_single_photo(
     k1_sigma = float(np.sqrt(cov_q[6, 6])) if len(q0) == 7 else 0.0
     return SinglePhotoPlacement(photo, cam.K, cam.R, cam.k1, k1_sigma, out0[6:9].copy(), cov[:9, :9].copy(), h,
                                 0.0 if relative else float(np.sqrt(max(cov[9, 9], 0.0))), relative, origin,
-                                markers, estimates, warnings=warnings)
+                                markers, estimates, warnings=warnings, marker_covariance=cov[10:, 10:].copy())
