@@ -14,7 +14,7 @@ import pytest
 
 from vebuild.actions.calibrate import calibrate_project
 from vebuild.calibration.photo import calibrate_photo
-from vebuild.calibration.single_photo import KnownLength, Origin, place_single_photo
+from vebuild.calibration.single_photo import FloorDistance, KnownLength, Origin, place_single_photo
 from vebuild.camera import rotation_from_ypr
 from vebuild.console.tables import calibration_table
 from vebuild.errors import CalibrationError, ProjectError
@@ -330,19 +330,50 @@ def test_metrology_refusals_name_the_photo_and_the_click(tmp_path: Path, capsys:
     r = _cli(capsys, "analyse", str(path), "floor-distance", "--photo", "p", "-5000", "20", *map(str, c["F2"]))
     assert r.returncode == 2 and "photo 'p': the first point: pixel (-5000, 20) lies outside the 1600×1200 photo; " \
         "expected a pixel on it" in r.stderr
-    # The top of the door clicked as a floor point: above the horizon for a camera looking down?
-    from vebuild.analysis.single_view import SingleViewError, floor_distance_on_photo
-    from vebuild.project.decode import photo_camera
-
-    cam = photo_camera(load_project(path), "p")
-    horizon = cam.K @ cam.R @ np.array([np.cos(0.3), np.sin(0.3), 0.0])  # a horizontal direction's image
-    above = horizon[:2] / horizon[2] - [0, 5]
-    if 0 <= above[0] <= W and 0 <= above[1] <= H:
-        with pytest.raises(SingleViewError, match=r"photo 'p': the first point: pixel .* lies on or above the horizon, "
-                           r"so it cannot show a point of the floor; click where it touches the floor"):
-            floor_distance_on_photo(cam, above, c["F2"])
     r = _cli(capsys, "analyse", str(path), "photo-height", "--photo", "nope", "1", "2", "3", "4")
     assert r.returncode == 2 and "no photo has the id 'nope'" in r.stderr
+    # A camera record moved below the floor (hand-edited): nothing can be measured against it.
+    project = load_project(path)
+    project.data["calibration"]["cameras"]["p"]["position"]["value"][2] = -1.0
+    save_project(project)
+    r = _cli(capsys, "analyse", str(path), "photo-height", "--photo", "p", *map(str, c["box_foot"]),
+             *map(str, c["box_top"]))
+    assert r.returncode == 2 and "photo 'p': its camera is not above the floor (z = -1), so nothing in it can be " \
+        "measured against the floor; calibrate it with the floor at z = 0" in r.stderr
+
+
+def _looking_down(width: int = W, height: int = H) -> Any:
+    """A camera 1.5 m above the floor looking straight down (image right +x, image down −y)."""
+    from vebuild.camera import ImageCamera, intrinsic_matrix
+
+    R = np.array([[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]])
+    return ImageCamera("p", intrinsic_matrix(1000.0, width / 2, height / 2), R, np.array([0.0, 0.0, 1.5]), width,
+                       height, covariance=np.zeros((9, 9)))
+
+
+def test_metrology_refusals_of_clicks_that_cannot_be_measured() -> None:
+    from vebuild.analysis.single_view import SingleViewError, floor_distance_on_photo, height_on_photo
+    from vebuild.camera import ImageCamera
+
+    # A level camera: the horizon crosses the photo, and a pixel above it shows no floor.
+    ph = one_photo(np.random.default_rng(44), level=True)
+    cam, _ = _placed(ph)
+    ahead = cam.R[2] * [1.0, 1.0, 0.0]  # the optical axis made horizontal: its image is on the horizon
+    h = cam.K @ cam.R @ ahead
+    above = h[:2] / h[2] - [0.0, 20.0]
+    assert 0 < above[0] < W and 0 < above[1] < H
+    with pytest.raises(SingleViewError, match=r"^photo 'p': the first point: pixel .* lies on or above the horizon, "
+                       r"so it cannot show a point of the floor; click where it touches the floor"):
+        floor_distance_on_photo(cam, above, ph.clicks["F2"])
+    # Straight down: a "top" on the far side of the photo from its foot is behind the vertical.
+    down = _looking_down()
+    with pytest.raises(SingleViewError, match=r"^photo 'p': the top: the point lies behind the camera; check its "
+                       r"click"):
+        height_on_photo(down, [200.0, 600.0], [1400.0, 600.0])
+    bare = ImageCamera("p", down.K, down.R, down.C, W, H)
+    with pytest.raises(SingleViewError, match=r"^photo 'p': its camera has no covariance; run `vebuild calibrate` "
+                       r"again"):
+        height_on_photo(bare, [700.0, 600.0], [750.0, 600.0])
 
 
 def test_relative_metrology_says_the_lengths_are_relative(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
@@ -413,11 +444,30 @@ def test_refusals_of_a_known_length_name_the_photo_and_its_path() -> None:
     with pytest.raises(CalibrationError, match=r"^photo 'p': the origin \(marker 'O'\): pixel .* lies on or above "
                        r"the horizon"):
         place_single_photo("p", cal.K, cal.R, cal.covariance, Origin("O", sky), [])
+    same = FloorDistance("F1", "F2", c["F1"], c["F1"], 1.0, 0.002, "$.reference_distances[0]")
+    with pytest.raises(CalibrationError, match=r"^photo 'p': \$\.reference_distances\[0\]: gives the camera a "
+                       r"height of inf m above the floor; expected a positive number: check its clicks and which end "
+                       r"is on the floor"):
+        place_single_photo("p", cal.K, cal.R, cal.covariance, o, [same])
     par = Origin(None, np.array([[100.0, 100.0, 500.0, 100.0], [100.0, 300.0, 500.0, 301.0]]))
     with pytest.raises(CalibrationError, match=r"^photo 'p': the first x and first y vanishing segments run "
                        r"parallel in the photo, so their lines do not fix the origin; mark the origin marker on "
                        r"the floor instead"):
         place_single_photo("p", cal.K, cal.R, cal.covariance, par, [])
+
+
+def test_a_vertical_top_ray_is_refused() -> None:
+    """Looking straight down, a top clicked at the principal point has a vertical ray: it runs along
+    every vertical line and meets none at one height."""
+    down = _looking_down()
+    top = KnownLength("z", np.array([[300.0, 600.0], [800.0, 600.0]]), DOOR_M, 0.002, 0, "$.known_lengths[0]")
+    with pytest.raises(CalibrationError, match=r"^photo 'p': \$\.known_lengths\[0\]: its top's ray runs along the "
+                       r"vertical; click its top again"):
+        place_single_photo("p", down.K, down.R, np.eye(6) * 1e-6, Origin("O", np.array([500.0, 500.0])), [top])
+    behind = KnownLength("z", np.array([[200.0, 600.0], [1400.0, 600.0]]), DOOR_M, 0.002, 0, "$.known_lengths[1]")
+    with pytest.raises(CalibrationError, match=r"^photo 'p': \$\.known_lengths\[1\]: its top lies behind the "
+                       r"camera; check its clicks"):
+        place_single_photo("p", down.K, down.R, np.eye(6) * 1e-6, Origin("O", np.array([500.0, 500.0])), [behind])
 
 
 def test_a_photo_with_nothing_to_fix_its_origin_is_refused(tmp_path: Path) -> None:
@@ -508,6 +558,31 @@ def test_a_photo_that_cannot_be_placed_is_kept_calibrated_and_named_with_its_fix
     save_project(project)  # the record is a valid document
 
 
+def test_beside_a_joint_placement_a_photo_must_show_its_origin_marker(tmp_path: Path) -> None:
+    rng = np.random.default_rng(68)
+    path, photos, extra = _mixed(tmp_path, rng)
+    project = load_project(path)
+    lone = project.data["photos"][-1]
+    lone["marker_observations"] = {}
+    result = calibrate_project(project)
+    assert result["unplaced"]["lone"]["reason"] == (
+        "it does not show the origin marker 'O' and shares no two markers with the placed photos, so it cannot be "
+        "placed in their frame: mark 'O' in it (or two markers that placed photos also show)")
+
+
+def test_a_marker_in_one_photo_of_a_joint_placement_is_named(tmp_path: Path) -> None:
+    from vebuild.synthetic import random_scene
+
+    photos, markers = random_scene(np.random.default_rng(69), ("3vp", "3vp", "2vp"))
+    project = load_project(write_project(tmp_path, photos, markers))
+    project.data["markers"].append({"name": "lamp"})
+    project.data["photos"][1]["marker_observations"]["lamp"] = [800.0, 300.0]
+    result = calibrate_project(project)
+    assert "lamp" not in result["markers"]
+    assert "photo 'p2': marker 'lamp' is marked in this photo only, so it is not placed; mark it in a second photo " \
+        "(or mark it on_floor if it lies on the floor)" in result["warnings"]
+
+
 def test_two_photos_sharing_nothing_and_no_scale_are_refused_naming_the_fix(tmp_path: Path) -> None:
     a, b = one_photo(np.random.default_rng(63)), one_photo(np.random.default_rng(64))
     b.cam.id = "q"
@@ -534,7 +609,12 @@ def test_two_photos_each_with_its_own_scale_are_each_placed_alone(tmp_path: Path
         p["camera_height"] = {"value": float(ph.C[2]), "sigma": 0.01}
     result = calibrate_project(project)
     assert {c["placement"]["how"] for c in result["cameras"].values()} == {"alone"}
-    assert result["warnings"] == []  # both take the first x and y segments' meeting: one kind of origin
+    for pid, ph in (("p", a), ("q", b)):
+        assert abs(result["cameras"][pid]["position"]["value"][2] - ph.C[2]) < 4 * 0.01
+    # Each took its own first x and y segments' meeting: two frames, and the user is told.
+    assert result["warnings"] == ["photos 'p', 'q' are each placed alone, in frames with origins of their own: "
+                                  "their positions cannot be compared; mark the same origin marker on the floor in "
+                                  "each"]
 
 
 def test_a_photo_s_camera_height_fixes_the_scale_of_a_joint_placement(tmp_path: Path) -> None:

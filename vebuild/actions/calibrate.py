@@ -164,10 +164,11 @@ def _calibrate(project: Project, progress: Callable[[Iterable], Iterable]) -> di
             raise joint_error
         pid = next(iter(unplaced))
         raise CalibrationError(pid, unplaced[pid])
-    if len(alone) > 1 and not jointly and len({a.origin.describe() for a in alone.values()}) > 1:
+    markers_at_origin = {a.origin.marker for a in alone.values()}
+    if len(alone) > 1 and not jointly and (len(markers_at_origin) > 1 or None in markers_at_origin):
         warnings.append("photos " + ", ".join(f"'{p}'" for p in alone) + " are each placed alone, in frames with "
-                        "different origins: their positions cannot be compared; mark the same origin marker on the "
-                        "floor in each")
+                        "origins of their own: their positions cannot be compared; mark the same origin marker on "
+                        "the floor in each")
     result = _results(data, photos, placement, alone, unplaced, warnings)
     for pid in missing:
         result["warnings"].append(f"photo '{pid}' has no vanishing segments and is not calibrated: mark segments, "

@@ -277,7 +277,10 @@ def _value(s: ScaleSource) -> float:
 
 
 def _height(cam: _Camera, s: ScaleSource) -> float:
-    return _value(s) if isinstance(s, CameraHeight) else _value(s) / unit_length(cam, s)
+    if isinstance(s, CameraHeight):
+        return s.value
+    u = unit_length(cam, s)
+    return _value(s) / u if u > 0 else np.inf  # its two ends at one floor point: refused by the caller
 
 
 # -- placement -------------------------------------------------------------------------------------
