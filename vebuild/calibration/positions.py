@@ -11,12 +11,16 @@ The start is the paper's construction:
    Cⱼ along B̂ⱼₖ (Figure 4);
 3. markers seen by two placed photos are triangulated, and photos without the origin marker are
    placed from ≥ 2 markers of known position (resection with K and R known);
-4. the reference distances fix the metric scale.
+4. the reference distances, surveyed markers and photos' own camera heights fix the metric scale.
 
 Then one robust least-squares solve refines every camera position and marker position over all
-marker observations and scale distances. Each photo's focal length, principal point and rotation
-take part too, held by a Gaussian prior equal to their vanishing-point estimate and covariance, so
-that the positions' uncertainty includes theirs.
+marker observations, scale distances and camera heights. Each photo's focal length, principal
+point and rotation take part too, held by a Gaussian prior equal to their vanishing-point estimate
+and covariance, so that the positions' uncertainty includes theirs; where a photo's calibration
+estimated its lens distortion k1 (a 7×7 covariance, k1 last), k1 is refined the same way. Every
+marker is projected through its photo's distortion (vebuild/camera.py).
+
+A photo placed alone, from the floor plane, is :mod:`vebuild.calibration.single_photo`'s.
 """
 
 from __future__ import annotations
