@@ -762,3 +762,58 @@ def test_bad_single_photo_fields_are_refused_at_load(tmp_path: Path, mutate: Any
     with pytest.raises(ProjectError) as e:
         load_project(path)
     assert e.value.where == where and what in e.value.detail, str(e.value)
+
+
+def test_calibrate_writes_the_distortion_a_photo_s_calibration_estimated(tmp_path: Path,
+                                                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Where a photo's calibration carries a lens distortion (k1 with its 1σ, a 7×7 covariance with
+    k1 last, and its source), placement refines k1 from the markers (projected through it) and the
+    camera record's ``distortion`` says so; decode reads it back into the camera."""
+    from dataclasses import dataclass as dc
+
+    import vebuild.actions.calibrate as action
+    from vebuild.calibration.photo import PhotoCalibration
+    from vebuild.camera import distort_pixels
+    from vebuild.project.decode import cameras_from_calibration
+    from vebuild.synthetic import random_scene
+
+    @dc(frozen=True)
+    class WithK1(PhotoCalibration):
+        k1: float = 0.0
+        k1_sigma: float = 0.0
+        k1_source: str = ""
+        covariance_k1: Any = None
+
+    photos, markers = random_scene(np.random.default_rng(111), ("3vp", "3vp", "2vp"))
+    truth_k1 = -0.06
+    path = write_project(tmp_path, photos, markers)
+    project = load_project(path)
+    p1 = project.data["photos"][0]
+    p1["marker_observations"] = {n: [float(v) for v in distort_pixels(photos[0].K, uv, truth_k1)]
+                                 for n, uv in photos[0].markers.items()}
+    save_project(project)
+    real = action.calibrate_photos
+
+    def with_k1(project: Any, progress: Any = iter) -> dict[str, Any]:
+        from scipy.linalg import block_diag
+
+        out = real(project, progress)
+        cal = out["p1"]
+        fields = {f: getattr(cal, f) for f in PhotoCalibration.__dataclass_fields__}
+        out["p1"] = WithK1(**fields, k1=truth_k1 + 0.004, k1_sigma=0.01, k1_source="plumb lines",
+                           covariance_k1=block_diag(cal.covariance, [[0.01**2]]))
+        return out
+
+    monkeypatch.setattr(action, "calibrate_photos", with_k1)
+    result = calibrate_project(load_project(path))
+    d = result["cameras"]["p1"]["distortion"]
+    assert d["model"] == "division" and d["source"] == "plumb lines"
+    assert abs(d["k1"]["value"] - truth_k1) < 4 * d["k1"]["sigma"] and d["k1"]["sigma"] < 0.01
+    assert d["corner_displacement_px"]["value"] > 0
+    assert "distortion" not in result["cameras"]["p2"]
+    project = load_project(path)
+    project.data["calibration"] = result
+    assert cameras_from_calibration(project)["p1"].k1 == pytest.approx(d["k1"]["value"])
+    for p in photos:
+        cam = result["cameras"][p.id]
+        assert np.all(np.abs(_z(cam["position"]["value"], p.C, cam["position"]["sigma"])) < 4)
