@@ -164,6 +164,10 @@ def place_cameras(
     heights = {i: (float(h), float(s)) for i, (h, s) in (camera_heights or {}).items()
                if i in {p.id for p in photos}}
     _check_finite_inputs(photos, known, distances)
+    for pid, (h, s) in heights.items():
+        if not (np.isfinite(h) and h > 0 and np.isfinite(s) and s > 0):
+            raise CalibrationError(pid, f"its camera height above the floor: expected a height > 0 m with a σ > 0 m, "
+                                   f"got {h!r} ± {s!r}; check its camera_height and known lengths")
     seen: dict[str, list[str]] = {}
     for p in photos:
         for name in p.markers:
