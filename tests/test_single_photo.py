@@ -421,6 +421,15 @@ def test_a_known_length_on_the_floor_along_x_gives_the_scale() -> None:
     pl = place_single_photo("p", cal.K, cal.R, cal.covariance, Origin("O", ph.clicks["O"]),
                             [KnownLength("x", ends, 1.2, 0.001)], click_sigma_px=CLICK_NOISE_PX)
     assert np.all(np.abs(_z(pl.C, ph.C, np.sqrt(np.diag(pl.covariance)[6:9]))) < 4)
+    assert pl.warnings == []
+    # Labelled y, it runs 90° off its axis: named.
+    pl = place_single_photo("p", cal.K, cal.R, cal.covariance, Origin("O", ph.clicks["O"]),
+                            [KnownLength("y", ends, 1.2, 0.001, 0, "$.known_lengths[0]")],
+                            click_sigma_px=CLICK_NOISE_PX)
+    (w,) = pl.warnings
+    assert w.startswith("photo 'p': $.known_lengths[0]: on the floor its two ends lie ") and w.endswith(
+        "° off the y axis; a length along y should lie along it: check its axis and that both ends are on the floor")
+    assert int(w.split(" lie ")[1].split("°")[0]) >= 80
 
 
 def test_refusals_of_a_known_length_name_the_photo_and_its_path() -> None:

@@ -48,6 +48,10 @@ MIN_LINE_ANGLE_DEG = 2.0
 #: A scale source whose own camera height differs from the combined one by more than this many of
 #: its σ is named in a warning: the user's lengths contradict each other.
 SCALE_DISAGREEMENT_SIGMAS = 3.0
+#: A known length along x or y whose two ends' floor points run more than this (degrees) off its
+#: axis is named in a warning: with the ends ≥ 50 px apart and 1 px clicks the direction is good to
+#: a degree or two, so 10° is a wrong axis (or an end off the floor), not noise.
+KNOWN_LENGTH_AXIS_DEG = 10.0
 #: Finite-difference steps of the placement's Jacobian: pixels, radians, k1, metres.
 STEP_PX, STEP_RAD, STEP_K1, STEP_M = 1e-3, 1e-7, 1e-7, 1e-6
 
@@ -425,6 +429,17 @@ def place_single_photo(
         sl = slice(10 + 3 * m, 13 + 3 * m)
         markers[n] = (out0[sl].copy(), cov[sl, sl].copy())
     warnings = []
+    cam0 = _Camera(q0, R0, k1, photo)
+    for src in scales:
+        if isinstance(src, KnownLength) and src.axis in ("x", "y"):
+            ends = np.asarray(src.ends, float).reshape(2, 2)
+            d = cam0.floor(ends[1], src.where) - cam0.floor(ends[0], src.where)
+            axis = np.eye(3)["xyz".index(src.axis)]
+            off = float(np.degrees(np.arccos(min(1.0, abs(d @ axis) / max(np.linalg.norm(d), 1e-300)))))
+            if off > KNOWN_LENGTH_AXIS_DEG:
+                warnings.append(f"photo '{photo}': {src.where}: on the floor its two ends lie {off:.0f}° off the "
+                                f"{src.axis} axis; a length along {src.axis} should lie along it: check its axis "
+                                "and that both ends are on the floor")
     if len(estimates) > 1:
         for e in estimates:
             if abs(e.height - h) > SCALE_DISAGREEMENT_SIGMAS * e.sigma:
