@@ -187,6 +187,15 @@ def test_no_scale_calibrates_in_relative_units_and_says_so(tmp_path: Path) -> No
     text = calibration_table(result)
     assert "lengths are RELATIVE (no scale given: the camera's height is 1)" in text
     assert "(relative units)" in text
+    # A check distance cannot be checked in relative units: said, not compared.
+    dist = float(np.linalg.norm(ph.points["F1"] - ph.points["F2"]))
+    project.data["reference_distances"] = [{"a": "F1", "b": "F2", "distance": dist, "sigma": 0.002, "role": "check"}]
+    result = calibrate_project(project)
+    (d,) = result["reference_distances"]
+    assert d["lengths"] == "relative" and d["measured"] == pytest.approx(dist / ph.C[2], rel=0.05)
+    assert result["warnings"][1] == (f"check distance F1–F2: measured {d['measured']:.3f} in units of the camera's "
+                                     "height, not metres (no scale was given), so it is not compared with the tape; "
+                                     "make it a scale distance (role \"scale\") to give the photo its scale")
 
 
 def test_with_no_marker_the_first_x_and_y_segments_fix_the_origin(tmp_path: Path) -> None:

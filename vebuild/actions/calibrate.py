@@ -393,9 +393,15 @@ def _results(data: dict[str, Any], photos: dict[str, PhotoCalibration], placemen
             dist, dist_sigma = placed_by[d.a].distance(d.a, d.b)
         else:
             continue
+        relative = d.a in placed_by and placed_by[d.a].relative
         distances.append({"a": d.a, "b": d.b, "distance": d.distance, "sigma": d.sigma, "role": d.role,
-                          "measured": dist, "measured_sigma": dist_sigma})
-        if d.role == "check":
+                          "measured": dist, "measured_sigma": dist_sigma,
+                          **({"lengths": "relative"} if relative else {})})
+        if d.role == "check" and relative:
+            warnings.append(f"check distance {d.a}–{d.b}: measured {dist:.3f} in units of the camera's height, not "
+                            "metres (no scale was given), so it is not compared with the tape; make it a scale "
+                            "distance (role \"scale\") to give the photo its scale")
+        elif d.role == "check":
             z = (dist - d.distance) / np.hypot(dist_sigma, d.sigma)
             if abs(z) > 3:
                 warnings.append(f"check distance {d.a}–{d.b}: measured {dist:.3f} m against {d.distance:.3f} m "
