@@ -888,3 +888,17 @@ def test_a_known_length_in_one_photo_scales_the_photos_that_join_it(tmp_path: Pa
         assert np.all(np.abs(_z(cam["position"]["value"], p.C, cam["position"]["sigma"])) < 4), p.id
     for n, m in result["markers"].items():
         assert np.all(np.abs(_z(m["position"], markers[n], np.maximum(m["sigma"], 1e-9))) < 4), n
+
+
+def test_photos_placed_together_without_a_scale_are_named_while_one_with_its_own_is_placed(tmp_path: Path) -> None:
+    rng = np.random.default_rng(114)
+    path, photos, extra = _mixed(tmp_path, rng)
+    project = load_project(path)
+    project.data["reference_distances"] = []
+    result = calibrate_project(project)
+    assert list(result["cameras"]) == ["lone"] and result["cameras"]["lone"]["placement"]["how"] == "alone"
+    for p in photos:
+        assert result["unplaced"][p.id]["reason"].startswith("nothing fixes the metric scale: add a reference distance "
+                                                             "(role 'scale') between two markers")
+    assert np.all(np.abs(_z(result["cameras"]["lone"]["position"]["value"], extra.C,
+                            result["cameras"]["lone"]["position"]["sigma"])) < 4)

@@ -140,7 +140,8 @@ def _calibrate(project: Project, progress: Callable[[Iterable], Iterable]) -> di
             continue
         sources = _scale_sources(data, pid, obs_of[pid], refs, floor, with_floor_distances=True)
         if not sources and not single:
-            unplaced.setdefault(pid, joint_error.detail if joint_error is not None and pid in joint else
+            own_error = joint_error is not None and pid in joint and joint_error.photo in (None, pid)
+            unplaced.setdefault(pid, joint_error.detail if own_error and joint_error is not None else
                                 "it shares no two markers with a placed photo and has no scale of its own, so it "
                                 "cannot be placed: mark two markers that placed photos also show (or give it a "
                                 "scale: its camera_height, or a known length in it)")
