@@ -902,3 +902,27 @@ def test_photos_placed_together_without_a_scale_are_named_while_one_with_its_own
                                                              "(role 'scale') between two markers")
     assert np.all(np.abs(_z(result["cameras"]["lone"]["position"]["value"], extra.C,
                             result["cameras"]["lone"]["position"]["sigma"])) < 4)
+
+
+def test_a_floor_marker_one_photo_of_a_joint_placement_shows_is_placed_from_it(tmp_path: Path) -> None:
+    from vebuild.synthetic import random_scene
+
+    rng = np.random.default_rng(115)
+    photos, markers = random_scene(rng, ("3vp", "3vp", "2vp"))
+    p1 = photos[0]
+    for _ in range(500):
+        spot = np.r_[rng.uniform(0.5, 3.0), rng.uniform(0.5, 2.5), 0.0]
+        try:
+            uv = _pixels(p1, spot)
+        except AssertionError:
+            continue
+        if 20 < uv[0] < W - 20 and 20 < uv[1] < H - 20:
+            break
+    project = load_project(write_project(tmp_path, photos, markers))
+    project.data["markers"].append({"name": "stain", "on_floor": True})
+    project.data["photos"][0]["marker_observations"]["stain"] = [float(v) for v in uv + rng.normal(0, 0.7, 2)]
+    result = calibrate_project(project)
+    m = result["markers"]["stain"]
+    assert m["position"][2] == pytest.approx(0.0, abs=1e-9)
+    assert np.all(np.abs(_z(m["position"][:2], spot[:2], m["sigma"][:2])) < 4)
+    assert not any("stain" in w for w in result["warnings"])

@@ -21,6 +21,7 @@ from ..calibration.single_photo import (
     ScaleSource,
     SinglePhotoPlacement,
     camera_height_estimate,
+    floor_point,
     place_single_photo,
 )
 from ..errors import CalibrationError
@@ -170,7 +171,7 @@ def _calibrate(project: Project, progress: Callable[[Iterable], Iterable]) -> di
         warnings.append("photos " + ", ".join(f"'{p}'" for p in alone) + " are each placed alone, in frames with "
                         "origins of their own: their positions cannot be compared; mark the same origin marker on "
                         "the floor in each")
-    result = _results(data, photos, placement, alone, unplaced, warnings)
+    result = _results(data, photos, placement, alone, unplaced, warnings, floor, project.settings["click_sigma_px"])
     for pid in missing:
         result["warnings"].append(f"photo '{pid}' has no vanishing segments and is not calibrated: mark segments, "
                                   "or register it to the solved model (`vebuild register`, from 4 known points)")
@@ -313,8 +314,23 @@ def _photo(data: dict[str, Any], pid: str) -> dict[str, Any]:
     return next(p for p in data["photos"] if p["id"] == pid)
 
 
+def _floor_markers_seen_once(data: dict[str, Any], placement: Placement | None,
+                             floor: set[str]) -> dict[str, tuple[str, np.ndarray]]:
+    """Floor markers that exactly one jointly placed photo shows (and the joint did not place):
+    name → (that photo, its click)."""
+    if placement is None:
+        return {}
+    seen: dict[str, list[tuple[str, np.ndarray]]] = {}
+    for pid in placement.cameras:
+        for n, uv in decode.sightings(_photo(data, pid)).items():
+            if n in floor and n not in placement.markers:
+                seen.setdefault(n, []).append((pid, uv))
+    return {n: v[0] for n, v in seen.items() if len(v) == 1}
+
+
 def _results(data: dict[str, Any], photos: dict[str, PhotoCalibration], placement: Placement | None,
-             alone: dict[str, SinglePhotoPlacement], unplaced: dict[str, str], warnings: list[str]) -> dict[str, Any]:
+             alone: dict[str, SinglePhotoPlacement], unplaced: dict[str, str], warnings: list[str],
+             floor: set[str], click: float) -> dict[str, Any]:
     cameras = {}
     ids = [p["id"] for p in data["photos"]]
     placed: dict[str, PlacedCamera | SinglePhotoPlacement] = dict(placement.cameras) if placement else {}
@@ -375,6 +391,12 @@ def _results(data: dict[str, Any], photos: dict[str, PhotoCalibration], placemen
             warnings.append(f"photo '{pid}': marker '{n}' lies {np.linalg.norm(cam.marker_residuals_px[n]):.1f} px "
                             "from where the other photos put it: check its placement")
     all_markers: dict[str, tuple[np.ndarray, np.ndarray]] = dict(placement.markers) if placement else {}
+    for n, (pid, uv) in sorted(_floor_markers_seen_once(data, placement, floor).items()):
+        pc = placement.cameras[pid] if placement else None
+        if pc is not None and n not in all_markers:
+            # One photo of the joint placement shows it: placed from that photo alone, on the floor.
+            all_markers[n] = floor_point(pid, pc.K, pc.R, pc.C, pc.covariance, uv, k1=pc.k1,
+                                         click_sigma_px=click, what=f"marker '{n}' (on the floor)")
     placed_by: dict[str, SinglePhotoPlacement] = {}
     for sp in alone.values():
         for n, xc in [*([(sp.origin.marker, (np.zeros(3), np.zeros((3, 3))))] if sp.origin.marker else []),

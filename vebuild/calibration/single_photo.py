@@ -451,3 +451,32 @@ def place_single_photo(
     return SinglePhotoPlacement(photo, cam.K, cam.R, cam.k1, k1_sigma, out0[6:9].copy(), cov[:9, :9].copy(), h,
                                 0.0 if relative else float(np.sqrt(max(cov[9, 9], 0.0))), relative, origin,
                                 markers, estimates, warnings=warnings, marker_covariance=cov[10:, 10:].copy())
+
+
+def floor_point(photo: str, K: ArrayLike, R: ArrayLike, C: ArrayLike, covariance: ArrayLike, uv: ArrayLike, *,
+                k1: float = 0.0, click_sigma_px: float = 1.0, what: str = "the point") -> tuple[Array, Array]:
+    """The floor point (z = 0) a placed camera sees at pixel uv, and its 3×3 covariance, first order
+    over the camera's 9×9 covariance (f, cx, cy, ω, C) and the click: how a floor marker that one
+    photo of a joint placement shows is placed from that photo alone."""
+    K, R0 = np.asarray(K, float), np.asarray(R, float)
+    cov = np.zeros((11, 11))
+    c9 = np.asarray(covariance, float)
+    cov[:9, :9] = np.where(np.isfinite(c9), c9, 0.0)
+    cov[9:, 9:] = np.eye(2) * click_sigma_px**2
+    z0 = np.r_[K[0, 0], K[0, 2], K[1, 2], 0.0, 0.0, 0.0, np.asarray(C, float), np.asarray(uv, float)]
+    steps = np.r_[[STEP_PX] * 3, [STEP_RAD] * 3, [STEP_M] * 3, [STEP_PX] * 2]
+
+    def X(z: Array) -> Array:
+        cam = _Camera(z[:6], R0, k1, photo)
+        c = z[6:9]
+        if not c[2] > 0:
+            raise CalibrationError(photo, f"{what}: the camera is not above the floor (z = {c[2]:.3g}), so it cannot "
+                                   "place a point on the floor; check the origin marker lies on the floor")
+        d = cam.ray(z[9:11])
+        if not d[2] < -MIN_FLOOR_SLOPE:
+            raise CalibrationError(photo, f"{what}: pixel ({z[9]:.1f}, {z[10]:.1f}) lies on or above the horizon, so "
+                                   "it cannot show a point of the floor; click the point where it touches the floor")
+        return np.asarray(c + d * (-c[2] / d[2]), float)
+
+    J = numeric_jacobian(X, z0, steps)
+    return X(z0), J @ cov @ J.T
