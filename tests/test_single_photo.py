@@ -926,3 +926,26 @@ def test_a_floor_marker_one_photo_of_a_joint_placement_shows_is_placed_from_it(t
     assert m["position"][2] == pytest.approx(0.0, abs=1e-9)
     assert np.all(np.abs(_z(m["position"][:2], spot[:2], m["sigma"][:2])) < 4)
     assert not any("stain" in w for w in result["warnings"])
+
+
+def test_a_floor_marker_that_cannot_be_on_the_floor_is_named_not_placed(tmp_path: Path) -> None:
+    from vebuild.calibration.single_photo import floor_point
+    from vebuild.synthetic import random_scene
+
+    photos, markers = random_scene(np.random.default_rng(116), ("3vp", "3vp", "2vp"))
+    level = photos[2]  # a level camera: its horizon crosses the photo near its middle
+    h = level.K @ level.R @ (level.R[2] * [1.0, 1.0, 0.0])
+    sky = h[:2] / h[2] - [0.0, 30.0]
+    assert 0 < sky[0] < W and 0 < sky[1] < H
+    project = load_project(write_project(tmp_path, photos, markers))
+    project.data["markers"].append({"name": "stain", "on_floor": True})
+    project.data["photos"][2]["marker_observations"]["stain"] = [float(v) for v in sky]
+    result = calibrate_project(project)
+    assert "stain" not in result["markers"]
+    assert any(w.startswith("photo 'p3': marker 'stain' (on the floor): pixel (") and w.endswith(
+        "lies on or above the horizon, so it cannot show a point of the floor; click the point where it touches the "
+        "floor (it is not placed)") for w in result["warnings"]), result["warnings"]
+    down = _looking_down()
+    with pytest.raises(CalibrationError, match=r"^photo 'p': marker 'x': the camera is not above the floor \(z = -1\), "
+                       r"so it cannot place a point on the floor; check the origin marker lies on the floor"):
+        floor_point("p", down.K, down.R, [0.0, 0.0, -1.0], np.zeros((9, 9)), [800.0, 600.0], what="marker 'x'")

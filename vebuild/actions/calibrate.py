@@ -395,8 +395,11 @@ def _results(data: dict[str, Any], photos: dict[str, PhotoCalibration], placemen
         pc = placement.cameras[pid] if placement else None
         if pc is not None and n not in all_markers:
             # One photo of the joint placement shows it: placed from that photo alone, on the floor.
-            all_markers[n] = floor_point(pid, pc.K, pc.R, pc.C, pc.covariance, uv, k1=pc.k1,
-                                         click_sigma_px=click, what=f"marker '{n}' (on the floor)")
+            try:
+                all_markers[n] = floor_point(pid, pc.K, pc.R, pc.C, pc.covariance, uv, k1=pc.k1,
+                                             click_sigma_px=click, what=f"marker '{n}' (on the floor)")
+            except CalibrationError as e:
+                warnings.append(f"{e} (it is not placed)")
     placed_by: dict[str, SinglePhotoPlacement] = {}
     for sp in alone.values():
         for n, xc in [*([(sp.origin.marker, (np.zeros(3), np.zeros((3, 3))))] if sp.origin.marker else []),
