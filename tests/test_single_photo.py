@@ -949,3 +949,18 @@ def test_a_floor_marker_that_cannot_be_on_the_floor_is_named_not_placed(tmp_path
     with pytest.raises(CalibrationError, match=r"^photo 'p': marker 'x': the camera is not above the floor \(z = -1\), "
                        r"so it cannot place a point on the floor; check the origin marker lies on the floor"):
         floor_point("p", down.K, down.R, [0.0, 0.0, -1.0], np.zeros((9, 9)), [800.0, 600.0], what="marker 'x'")
+
+
+def test_a_floor_marker_above_the_horizon_of_a_photo_placed_alone_is_named_not_placed(tmp_path: Path) -> None:
+    ph = one_photo(np.random.default_rng(117), level=True)
+    project = load_project(write_one_photo(tmp_path, ph))
+    h = ph.cam.K @ ph.cam.R @ (ph.cam.R[2] * [1.0, 1.0, 0.0])
+    sky = h[:2] / h[2] - [0.0, 30.0]
+    assert 0 < sky[0] < W and 0 < sky[1] < H
+    project.data["photos"][0]["marker_observations"]["F3"] = [float(v) for v in sky]
+    result = calibrate_project(project)
+    assert "F3" not in result["markers"] and "F2" in result["markers"]
+    (w,) = result["warnings"]
+    assert w.startswith("photo 'p': marker 'F3' (on the floor): pixel (") and w.endswith(
+        "lies on or above the horizon, so it cannot show a point of the floor; click the point where it touches the "
+        "floor (it is not placed)")

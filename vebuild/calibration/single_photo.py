@@ -403,6 +403,13 @@ def place_single_photo(
     R0 = np.asarray(R, float)
     q0, cov_q = _calibration(K, covariance, k1)
     markers_px = {n: np.asarray(uv, float) for n, uv in sorted((floor_markers or {}).items()) if n != origin.marker}
+    skipped = []
+    for n in list(markers_px):  # a floor marker clicked above the horizon is named, not placed
+        try:
+            _Camera(q0, R0, k1, photo).floor(markers_px[n], f"marker '{n}' (on the floor)")
+        except CalibrationError as e:
+            skipped.append(f"{e} (it is not placed)")
+            del markers_px[n]
     estimates = scale_estimates(photo, K, R0, scales, k1=k1, click_sigma_px=click_sigma_px)
     w = np.array([1.0 / e.sigma**2 for e in estimates])
     o_px = np.asarray(origin.pixels, float).ravel()
@@ -428,7 +435,7 @@ def place_single_photo(
     for m, n in enumerate(markers_px):
         sl = slice(10 + 3 * m, 13 + 3 * m)
         markers[n] = (out0[sl].copy(), cov[sl, sl].copy())
-    warnings = []
+    warnings = skipped
     cam0 = _Camera(q0, R0, k1, photo)
     for src in scales:
         if isinstance(src, KnownLength) and src.axis in ("x", "y"):
