@@ -407,8 +407,8 @@ def place_single_photo(
     for n in list(markers_px):  # a floor marker clicked above the horizon is named, not placed
         try:
             _Camera(q0, R0, k1, photo).floor(markers_px[n], f"marker '{n}' (on the floor)")
-        except CalibrationError as e:
-            skipped.append(f"{e} (it is not placed)")
+        except CalibrationError as err:
+            skipped.append(f"{err} (it is not placed)")
             del markers_px[n]
     estimates = scale_estimates(photo, K, R0, scales, k1=k1, click_sigma_px=click_sigma_px)
     w = np.array([1.0 / e.sigma**2 for e in estimates])
