@@ -567,8 +567,10 @@ def test_a_photo_that_cannot_be_placed_is_kept_calibrated_and_named_with_its_fix
     result = calibrate_project(project)
     assert sorted(result["cameras"]) == sorted(p.id for p in photos)
     rec = result["unplaced"]["lone"]
-    assert rec["reason"].startswith("the camera cannot be placed: it sees 1 marker(s) whose position is known") or \
-        rec["reason"].startswith("it shares no two markers with a placed photo and has no scale of its own")
+    assert rec["reason"] == ("the camera cannot be placed: it sees 1 marker(s) whose position is known from other "
+                             "photos and does not share two markers with a placed photo; mark at least two markers "
+                             "that other photos also show (or, to place it alone, give it a scale of its own, a "
+                             "camera_height or a known length, and mark the origin marker in it)")
     assert rec["mode"] in ("3vp", "2vp") and abs(rec["focal_px"]["value"] - extra.cam.K[0, 0]) < \
         4 * rec["focal_px"]["sigma"]
     assert any(w.startswith("photo 'lone' is calibrated (its focal length, principal point and rotation are kept "

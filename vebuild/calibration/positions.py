@@ -324,7 +324,8 @@ def _initial_positions(
             p.id,
             f"the camera cannot be placed: it sees {n_known} marker(s) whose position is known from "
             "other photos and does not share two markers with a placed photo; mark at least two "
-            "markers that other photos also show",
+            "markers that other photos also show (or, to place it alone, give it a scale of its own, a "
+            "camera_height or a known length, and mark the origin marker in it)",
         )
     _triangulate_all(photos, C, X)
     return C, X
