@@ -497,6 +497,12 @@ def test_a_photo_with_nothing_to_fix_its_origin_is_refused(tmp_path: Path) -> No
                        r"floor in it \(the origin lies on the floor\)"):
         calibrate_project(project)
     assert "calibration" not in load_project(project.path).data
+    # The origin marker chosen but not marked in the photo: the message names it.
+    project.data["markers"] = [{"name": "O", "on_floor": True}]
+    project.data["origin_marker"] = "O"
+    with pytest.raises(CalibrationError, match=r"photo 'p': nothing in it fixes the world's origin: it shows no "
+                       r"origin marker and no x and y vanishing segments; mark the origin marker 'O' in it"):
+        calibrate_project(project)
 
 
 def test_a_marker_off_the_floor_in_one_photo_is_named_not_placed(tmp_path: Path) -> None:
