@@ -306,6 +306,8 @@ def test_calibrate_and_measure_one_photo_from_the_command_line(tmp_path: Path, c
     r = _cli(capsys, "calibrate", str(path), "--quiet")
     assert r.returncode == 0, r.stderr
     assert "placed alone     scale from the known length 2 ± 0.002 m along z" in r.stdout
+    r = _cli(capsys, "check", str(path))  # what every later command decodes, decoded
+    assert r.returncode == 0, r.stderr
     c = ph.clicks
     out = tmp_path / "h.json"
     r = _cli(capsys, "analyse", str(path), "photo-height", "--photo", "p", *map(str, c["box_foot"]),
