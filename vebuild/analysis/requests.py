@@ -167,6 +167,55 @@ class ChecksRequest(_NoImage):
         return AnalysisResult(text, {**_solution_figures(solved), "checks": [c.to_json() for c in checks]})
 
 
+@dataclass(frozen=True)
+class PhotoHeightRequest(_NoImage):
+    """Heights above the floor measured on one calibrated photo (:mod:`vebuild.analysis.single_view`);
+    ``pixels``: U1 V1 U2 V2 for each, its foot on the floor then its top."""
+
+    name: ClassVar[str] = "photo-height"
+    kind: ClassVar[str] = "height"
+    photo: str
+    pixels: tuple[float, ...]
+
+    def run(self, project: Project) -> AnalysisResult:
+        from vebuild.errors import VebuildError
+        from vebuild.project.decode import photo_camera
+
+        from .single_view import floor_distance_on_photo, height_on_photo
+
+        word = self.name
+        if not self.pixels or len(self.pixels) % 4:
+            raise VebuildError(f"{word}: expected pixels in fours, U1 V1 U2 V2 for each measurement "
+                               f"({'foot, then top' if self.kind == 'height' else 'the two floor points'}), got "
+                               f"{len(self.pixels)} number{'s' if len(self.pixels) != 1 else ''}")
+        cam = photo_camera(project, self.photo)
+        cal = project.data["calibration"]["cameras"][cam.id]
+        k1_sigma = float(((cal.get("distortion") or {}).get("k1") or {}).get("sigma") or 0.0)
+        click = project.settings["click_sigma_px"]
+        measure = height_on_photo if self.kind == "height" else floor_distance_on_photo
+        rows = [measure(cam, self.pixels[k : k + 2], self.pixels[k + 2 : k + 4], click_sigma_px=click,
+                        k1_sigma=k1_sigma) for k in range(0, len(self.pixels), 4)]
+        relative = (cal.get("placement") or {}).get("lengths") == "relative"
+        text = _table(rows)
+        if relative:
+            text += ("\nlengths are RELATIVE: this photo was calibrated with no scale, so they are in units of its "
+                     "camera's height above the floor (give it a camera_height or a known length and calibrate "
+                     "again for metres)")
+        text += f"\nmeasured on photo '{cam.id}' alone, against the floor (z = 0); 1σ from its calibration and " \
+                f"the clicks (1σ {click:g} px)"
+        return AnalysisResult(text, {"photo": cam.id, "lengths": "relative" if relative else "metres",
+                                     "click_sigma_px": click, "measurements": [m.to_json() for m in rows]})
+
+
+@dataclass(frozen=True)
+class FloorDistanceRequest(PhotoHeightRequest):
+    """Distances between two floor points measured on one calibrated photo; ``pixels``: U1 V1 U2 V2
+    for each."""
+
+    name: ClassVar[str] = "floor-distance"
+    kind: ClassVar[str] = "floor-distance"
+
+
 # -- lighting --------------------------------------------------------------------------------------
 
 @dataclass(frozen=True)

@@ -17,16 +17,21 @@ def _pm(vs: dict[str, Any], fmt: str, scale: float = 1.0) -> str:
 
 def calibration_table(result: dict[str, Any]) -> str:
     """Per photo: mode, f, principal point, yaw/pitch/roll, position, their 1σ, and residuals."""
-    lines = [f"calibration ({result['software']}); origin marker '{result['origin_marker']}'; "
-             "values ± 1σ", ""]
+    origin = result.get("origin") or f"marker '{result['origin_marker']}'"
+    units = ("; lengths are RELATIVE (no scale given: the camera's height is 1)" if result.get("lengths") == "relative"
+             else "")
+    lines = [f"calibration ({result['software']}); origin {origin}{units}; values ± 1σ", ""]
     for pid, cam in result["cameras"].items():
         lines += [
             f"photo {pid}: mode {cam['mode']} — {cam['mode_reason']}",
             f"  focal length     {_pm(cam['focal_px'], '.1f')} px   (from {cam['focal_source']})",
             f"  principal point  {_pm(cam['principal_point'], '.1f')} px",
             f"  yaw/pitch/roll   {_pm(cam['ypr_deg'], '.3f')} °",
-            f"  position         {_pm(cam['position'], '.3f')} m",
+            f"  position         {_pm(cam['position'], '.3f')} "
+            + ("(relative units)" if cam.get("placement", {}).get("lengths") == "relative" else "m"),
         ]
+        if cam.get("placement", {}).get("how") == "alone":
+            lines.append(f"  placed alone     scale from {cam['placement']['scale']}")
         vp = "  ".join(f"{a}: {v['rms_px']:.2f} px ({len(v['residuals_px'])} segments)"
                        for a, v in cam["vanishing_points"].items())
         if vp:

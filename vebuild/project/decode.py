@@ -8,7 +8,8 @@ Each part of the document is decoded here, once, and checked as it is decoded; e
   by id or position), :func:`view_camera` and :func:`find_view` (the named evidence views);
 - markers: :func:`markers` (the ``{name: position}`` a stage needs), :func:`marker_sigmas`,
   :func:`known_points` (the markers and the solved model's vertices), :func:`sightings` (a photo's
-  marker observations), :func:`reference_distances`;
+  marker observations), :func:`reference_distances`, :func:`floor_markers`;
+- a photo's own scale: :func:`photo_camera_height`, :func:`known_lengths`;
 - a photo's marks for calibration: :func:`photo_marks` (vanishing segments, given focal length and
   principal point);
 - the model: :func:`model` (the scene graph, a ``ModelError`` :func:`located`), :func:`load_model`
@@ -34,6 +35,7 @@ from numpy.typing import NDArray
 
 from ..calibration.photo import FocalPrior
 from ..calibration.positions import ReferenceDistance
+from ..calibration.single_photo import CameraHeight, KnownLength
 from ..camera import ImageCamera, fov_to_focal, intrinsic_matrix, look_rotation
 from ..errors import ProjectError, VebuildError
 from ..lighting import (
@@ -227,6 +229,34 @@ def reference_distances(data: Mapping[str, Any]) -> list[ReferenceDistance]:
     return [ReferenceDistance(d["a"], d["b"], float(d["distance"]), float(d.get("sigma", 0.002)),
                               d.get("role", "scale"))
             for d in data.get("reference_distances", [])]
+
+
+def photo_camera_height(photo: Mapping[str, Any], index: int) -> CameraHeight | None:
+    """A photo's ``camera_height`` (metres above the floor, with its 1σ), or None."""
+    h = photo.get("camera_height")
+    if h is None:
+        return None
+    return CameraHeight(float(h["value"]), float(h["sigma"]), f"$.photos[{index}].camera_height")
+
+
+#: 1σ of a known length that gives none, metres: a tape read to the millimetre, as a reference distance's.
+DEFAULT_LENGTH_SIGMA_M = 0.002
+
+
+def known_lengths(data: Mapping[str, Any], photo: str) -> list[KnownLength]:
+    """``$.known_lengths`` clicked in ``photo``, each with its JSON path for messages."""
+    return [KnownLength(k["axis"], np.asarray(k["ends"], float), float(k["length"]),
+                        float(k.get("sigma", DEFAULT_LENGTH_SIGMA_M)), int(k.get("floor_end", 0)),
+                        f"$.known_lengths[{i}]")
+            for i, k in enumerate(data.get("known_lengths", [])) if k["photo"] == photo]
+
+
+def floor_markers(data: Mapping[str, Any]) -> set[str]:
+    """The markers that lie on the floor (z = 0): those marked ``on_floor``, and the origin marker."""
+    out = {m["name"] for m in data.get("markers", []) if m.get("on_floor")}
+    if data.get("origin_marker"):
+        out.add(data["origin_marker"])
+    return out
 
 
 @dataclass(frozen=True)

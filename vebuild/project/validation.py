@@ -152,6 +152,19 @@ def _check_semantics(data: dict[str, Any], file: Any) -> None:
                                f"runs from the marker {ref['a']!r} to itself; expected two different markers")
     if "origin_marker" in data:
         known_marker(data["origin_marker"], "$.origin_marker")
+    for i, kl in enumerate(data.get("known_lengths", [])):
+        where = f"$.known_lengths[{i}]"
+        if kl["photo"] not in sizes:
+            raise ProjectError(file, f"{where}.photo", f"names the photo {kl['photo']!r}, but $.photos has no photo of "
+                               f"that id (the photos are: {listing(list(sizes))})")
+        for k, uv in enumerate(kl["ends"]):
+            _check_on_photo(uv, sizes[kl["photo"]], file, f"{where}.ends[{k}]")
+        from ..calibration.vanishing import MIN_SEGMENT_LENGTH_PX
+        (u1, v1), (u2, v2) = kl["ends"]
+        if math.hypot(u2 - u1, v2 - v1) < MIN_SEGMENT_LENGTH_PX:
+            raise ProjectError(file, f"{where}.ends", f"photo {kl['photo']!r}: the known length's two ends are "
+                               f"{math.hypot(u2 - u1, v2 - v1):.2f} px apart; expected its two ends clicked at least "
+                               f"{MIN_SEGMENT_LENGTH_PX:g} px apart, one at each end of the length")
     unique(model.get("nodes", []), "name", "$.model.nodes", "node name")
     for key in ("pins", "edge_observations"):
         for i, obs in enumerate(model.get(key, [])):
