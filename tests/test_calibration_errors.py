@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vebuild.calibration.photo import calibrate_photo
+from vebuild.calibration.photo import FocalPrior, calibrate_photo
 from vebuild.calibration.positions import PhotoInput, ReferenceDistance, place_cameras
 from vebuild.errors import CalibrationError
 from vebuild.synthetic import CLICK_NOISE_PX, add_segments, random_camera, random_scene, write_project
@@ -190,13 +190,21 @@ def test_cli_reports_a_calibration_error_and_leaves_the_project_untouched(tmp_pa
     assert path.read_bytes() == before
 
 
-def test_an_undetermined_focal_length_names_its_sigma_and_the_limit(good: dict, monkeypatch) -> None:
-    """The refusal says how uncertain f would be and the limit it exceeds, to a tenth of a percent,
-    so that a figure just above the limit never reads as equal to it."""
-    import vebuild.calibration.photo as photo_mod
+def test_an_undetermined_focal_length_names_the_photo_its_sigma_the_limit_and_the_fix(rng: np.random.Generator) -> None:
+    """A frontal view without EXIF: its vanishing points say nothing usable about f. The refusal
+    names the photo, f's 1σ to a tenth of a percent against the limit it exceeds (where the 95 %
+    interval reaches f = 0, never a hidden cut-off), and the one thing to do."""
+    from vebuild.calibration.photo import FOCAL_UNDETERMINED_REL_SIGMA
 
-    monkeypatch.setattr(photo_mod, "FOCAL_FROM_SEGMENTS_MAX_REL_SIGMA", 1e-5)
-    with pytest.raises(CalibrationError, match=r"its 1σ would be \d+\.\d %, more than the 0\.001 % that "
-                       r"determines it") as e:
-        calibrate_photo(good, W, H, photo="p2")
-    assert "photo 'p2'" in str(e.value)
+    cam = random_camera(rng, "1vp")
+    add_segments(cam, rng, CLICK_NOISE_PX)
+    with pytest.raises(CalibrationError, match=r"^photo 'front': the focal length is not determined: from these "
+                       r"segments its 1σ would be (\d+ |\d+\.\d %|∞ %).*more than the 51\.0 % at which its 95 % "
+                       r"interval reaches f = 0.*give its focal length \(the photo's focal_px") as e:
+        calibrate_photo(cam.segments, W, H, photo="front", click_sigma_px=CLICK_NOISE_PX)
+    assert "None" not in str(e.value)
+    assert FOCAL_UNDETERMINED_REL_SIGMA == pytest.approx(1 / 1.96)
+    # The same photo with its focal length given is calibrated, f from it.
+    cal = calibrate_photo(cam.segments, W, H, photo="front", click_sigma_px=CLICK_NOISE_PX,
+                          focal=FocalPrior(cam.K[0, 0], 0.03 * cam.K[0, 0], "user"))
+    assert cal.mode == "1vp" and "f from the user's focal length (1σ 3.0 %)" in cal.mode_reason
