@@ -496,7 +496,7 @@ def _check_orthogonal_pairs(fits: Mapping[str, VanishingPointFit], segs: Mapping
     for a, b in combinations(axes, 2):
         (xa, Ta), (xb, Tb) = tangents[a], tangents[b]
 
-        def q(z: Array) -> Array:
+        def q(z: Array, xa: Array = xa, Ta: Array = Ta, xb: Array = xb, Tb: Array = Tb) -> Array:
             pa = xa + Ta @ z[0:2]
             pb = xb + Tb @ z[2:4]
             pa, pb = pa / np.linalg.norm(pa), pb / np.linalg.norm(pb)
@@ -554,7 +554,12 @@ def closed_form_calibration(
 def _closed_form_start(fits: Mapping[str, VanishingPointFit], finite: list[str], c0: Array,
                        f_fallback: float) -> tuple[float, Array]:
     """Focal length and principal point to start from (paper §2 closed forms), else f_fallback at c0."""
-    pts = {a: fits[a].finite_point() for a in finite}
+    pts: dict[str, Array] = {}
+    for a in finite:
+        p = fits[a].finite_point()
+        if p is not None:
+            pts[a] = p
+    finite = [a for a in finite if a in pts]
     if len(finite) == 3:
         c = orthocentre(pts["x"], pts["y"], pts["z"])
         f2 = focal_squared(pts["x"], pts["y"], c)
@@ -581,12 +586,15 @@ class _Problem:
         self.axes, self.scale, self.c0, self.sigma_c = axes, scale, c0, sigma_c
         self.weight = 1.0 / sigma_px
         self.k1_prior, self.estimate_k1 = k1_prior, estimate_k1
-        pts, pid, axis_of, first = [], [], [], []
+        pts: list[Array] = []
+        pid: list[Array] = []
+        axis_of: list[int] = []
+        first: list[int] = []
         self.polys_of: dict[str, list[int]] = {}
         for a in axes:
             for p in polys[a]:
                 self.polys_of.setdefault(a, []).append(len(axis_of))
-                first.append(sum(len(q) for q in pts))
+                first.append(int(sum(len(q) for q in pts)))
                 pid.append(np.full(len(p), len(axis_of)))
                 axis_of.append("xyz".index(a))
                 pts.append(np.asarray(p, float))
@@ -635,11 +643,34 @@ class _Problem:
         norm = np.maximum(np.hypot(l0, l1), 1e-300)
         return (l0[self.pid] * U[:, 0] + l1[self.pid] * U[:, 1] + l2[self.pid]) / norm[self.pid]
 
+    def _noise_scale(self, y: Array, U: Array, V: Array) -> Array:
+        """How much undistorting a point stretches its click noise across its line: |Jᵀn| with J
+        the Jacobian of x_u = x_d / (1 + k1 |x_d|²), n the line's unit normal (1 for a pinhole).
+        A barrel lens's undistortion stretches the corners by a few per cent; weighting those
+        residuals by 1/σ alone would claim that much more certainty than the clicks have."""
+        k1 = self.k1_of(y)
+        if k1 == 0.0:
+            return np.ones(len(U))
+        f, cx, cy = y[:3] * self.scale
+        xd = (self.P - np.array([cx, cy])) / f
+        d = 1.0 + k1 * np.sum(xd**2, axis=1)
+        mx = np.bincount(self.pid, U[:, 0]) / self.counts
+        my = np.bincount(self.pid, U[:, 1]) / self.counts
+        v = V[:, self.axis_of]
+        n = np.stack([my * v[2] - v[1], v[0] - mx * v[2]], axis=1)
+        n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
+        n = n[self.pid]
+        # Jᵀn = (n − 2 k1 x (x·n) / d) / d  (J is symmetric)
+        jn = (n - 2.0 * k1 * xd * np.sum(xd * n, axis=1)[:, None] / d[:, None]) / d[:, None]
+        return np.asarray(np.linalg.norm(jn, axis=1), float)
+
     def residuals(self, y: Array, R0: Array, prior_f: FocalPrior | None) -> Array:
         f, cx, cy = y[:3] * self.scale
         K = intrinsic_matrix(f, cx, cy)
         R = exp_so3(y[3:6]) @ R0
-        parts = [self._point_residuals(self.undistorted(y), K @ R) * self.weight,
+        U = self.undistorted(y)
+        V = K @ R
+        parts = [self._point_residuals(U, V) * self.weight / self._noise_scale(y, U, V),
                  (np.array([cx, cy]) - self.c0) / self.sigma_c]
         if self.k1_prior is not None:
             parts.append(np.array([(self.k1_of(y) - self.k1_prior.k1) / self.k1_prior.sigma]))
