@@ -221,3 +221,17 @@ def test_a_near_infinite_vanishing_point_is_an_ordinary_case(rng: np.random.Gene
         assert abs(cal.f - ph.K[0, 0]) < UNCERTAINTY_BOUND * cal.f_sigma
         assert cal.mode_reason.startswith("f from the vanishing points")
     assert sum(outcomes.values()) == 12
+
+
+def test_bench_cases_report_the_issue_figures() -> None:
+    """`vebuild bench calibration`'s real-photograph cases carry issue 16's named figures."""
+    from vebuild.bench.calibration import CASES, run_case
+
+    assert set(CASES) == {"distortion", "off_centre_principal_point", "exif_errors", "frontal", "corridor",
+                          "realistic"}
+    fig = run_case("distortion", 8, 1)
+    for key in ("focal_rel_error_median", "focal_rel_error_p90", "focal_coverage_95", "principal_point_coverage_95",
+                "refusals", "distortion_corner_px_error_median"):
+        assert key in fig and key in fig["goals"] or key == "distortion_corner_px_error_median"
+    assert fig["refusals"] == 0 and fig["distortion_corner_px_error_median"] > 0
+    assert run_case("exif_errors", 3, 1)["distortion_corner_px_error_median"] is None

@@ -208,3 +208,51 @@ def test_an_undetermined_focal_length_names_the_photo_its_sigma_the_limit_and_th
     cal = calibrate_photo(cam.segments, W, H, photo="front", click_sigma_px=CLICK_NOISE_PX,
                           focal=FocalPrior(cam.K[0, 0], 0.03 * cam.K[0, 0], "user"))
     assert cal.mode == "1vp" and "f from the user's focal length (1σ 3.0 %)" in cal.mode_reason
+
+
+def test_a_polyline_with_an_odd_count_of_numbers(good: dict) -> None:
+    x = [list(map(float, s)) for s in good["x"]]
+    x[1] = x[1] + [5.0]
+    with pytest.raises(CalibrationError, match=r"^photo 'p7': axis x, segment 1: expected \[u1, v1, u2, v2, \.\.\.\] "
+                       r"\(two points or more, pixels\), got 5 numbers"):
+        calibrate_photo(dict(good, x=x), W, H, photo="p7")
+
+
+def test_a_polyline_middle_point_that_is_not_a_number(good: dict) -> None:
+    x = [list(map(float, s)) for s in good["x"]]
+    x[0] = x[0][:2] + [float("nan"), 3.0] + x[0][2:]
+    with pytest.raises(CalibrationError, match=r"^photo 'p7': axis x: segment 0 has a coordinate that is not a number"):
+        calibrate_photo(dict(good, x=x), W, H, photo="p7")
+
+
+def test_a_lens_profile_without_spread(good: dict) -> None:
+    from vebuild.calibration.photo import DistortionPrior
+
+    with pytest.raises(CalibrationError, match=r"^photo 'p7': the lens distortion \(lens profile: X\): expected a "
+                       r"finite k1 with a σ > 0, got -0\.02 ± 0\.0"):
+        calibrate_photo(good, W, H, photo="p7", distortion=DistortionPrior(-0.02, 0.0, "lens profile: X"))
+
+
+def test_project_polylines_are_checked_point_by_point(tmp_path: Path, rng: np.random.Generator) -> None:
+    """In a project file: a polyline of an odd count, or a middle point off the photo, is named by
+    its JSON path; a good polyline is read as one and calibrated."""
+    from vebuild.errors import ProjectError
+    from vebuild.project import decode, load_project
+
+    path = _project(tmp_path, rng)
+    data = json.loads(path.read_text())
+    seg = data["photos"][0]["vanishing_segments"]["x"][0]
+    mid = [(seg[0] + seg[2]) / 2, (seg[1] + seg[3]) / 2]
+    good = json.loads(json.dumps(data))
+    good["photos"][0]["vanishing_segments"]["x"][0] = seg[:2] + mid + seg[2:]
+    path.write_text(json.dumps(good))
+    marks = decode.photo_marks(load_project(path).data["photos"][0])
+    assert isinstance(marks.segments["x"], list) and len(marks.segments["x"][0]) == 6
+    assert isinstance(marks.segments["y"], np.ndarray) and marks.segments["y"].shape[1] == 4
+    calibrate_photo(marks.segments, W, H, photo="p1", click_sigma_px=CLICK_NOISE_PX)
+    for bad, expected in ((seg[:2] + mid + seg[2:] + [1.0], r"an even count of numbers, found 7"),
+                          (seg[:2] + [mid[0], 9 * H] + seg[2:], r"within 4 image sizes")):
+        data["photos"][0]["vanishing_segments"]["x"][0] = bad
+        path.write_text(json.dumps(data))
+        with pytest.raises(ProjectError, match=r"\$\.photos\[0\]\.vanishing_segments\.x\[0\].*" + expected):
+            load_project(path)

@@ -158,14 +158,28 @@ def k1_for_corner_shift(corner_rel: float, K: Array, width: int, height: int) ->
 def realistic_camera(rng: np.random.Generator, kind: str, width: int = 1600, height: int = 1200,
                      photo_id: str = "p", distortion: bool = True,
                      principal_point_sigma_rel: float = REAL_PRINCIPAL_POINT_SIGMA_REL,
-                     exif_sigma_rel: float = REAL_EXIF_FOCAL_ERROR_REL) -> SyntheticPhoto:
+                     exif_sigma_rel: float = REAL_EXIF_FOCAL_ERROR_REL,
+                     principal_point_offset_rel: tuple[float, float] | None = None,
+                     exif_error_rel: tuple[float, float] | None = None) -> SyntheticPhoto:
     """A camera as real photographs have them: a principal point off centre by
     principal_point_sigma_rel (1σ), an EXIF focal length off by exif_sigma_rel (1σ) and, with
     ``distortion``, a barrel lens moving the corners by REAL_DISTORTION_CORNER_REL of the
-    half-diagonal (uniform)."""
+    half-diagonal (uniform).
+
+    principal_point_offset_rel : instead, a principal point this far off centre (a share of the
+        longer side, uniform in the range, in a random direction).
+    exif_error_rel : instead, an EXIF focal length off by this much (uniform, either sign);
+        exif_sigma_rel is still what the photo says its EXIF's 1σ is.
+    """
     photo = random_camera(rng, kind, width, height, photo_id, principal_point_sigma_rel)
     photo.exif_focal_px = exif_focal_px(photo.K[0, 0], rng, exif_sigma_rel)
     photo.exif_focal_sigma_rel = exif_sigma_rel
+    if principal_point_offset_rel is not None:
+        a = rng.uniform(0.0, 2.0 * np.pi)
+        r = rng.uniform(*principal_point_offset_rel) * max(width, height)
+        photo.K[:2, 2] = np.array([width / 2.0, height / 2.0]) + r * np.array([np.cos(a), np.sin(a)])
+    if exif_error_rel is not None:
+        photo.exif_focal_px = float(photo.K[0, 0] * (1.0 + rng.choice([-1.0, 1.0]) * rng.uniform(*exif_error_rel)))
     if distortion:
         photo.k1 = k1_for_corner_shift(rng.uniform(*REAL_DISTORTION_CORNER_REL), photo.K, width, height)
     return photo
