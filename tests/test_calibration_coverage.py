@@ -166,7 +166,7 @@ def test_without_middle_points_k1_is_a_prior_or_zero(rng: np.random.Generator) -
     add_segments(ph, rng, CLICK_NOISE_PX)
     plain = _calibrate(ph)
     assert (plain.k1, plain.k1_sigma, plain.k1_source) == (0.0, 0.0, "none")
-    assert plain.covariance_k1 is not None and plain.covariance_k1.shape == (7, 7)
+    assert plain.covariance_k1.shape == (7, 7)
     assert np.all(plain.covariance_k1[6] == 0) and np.all(plain.covariance_k1[:, 6] == 0)
     np.testing.assert_array_equal(plain.covariance, plain.covariance_k1[:6, :6])
     assert plain.distortion_corner_px == 0.0 and plain.distortion_corner_px_sigma == 0.0
@@ -235,3 +235,21 @@ def test_bench_cases_report_the_issue_figures() -> None:
         assert key in fig and key in fig["goals"] or key == "distortion_corner_px_error_median"
     assert fig["refusals"] == 0 and fig["distortion_corner_px_error_median"] > 0
     assert run_case("exif_errors", 3, 1)["distortion_corner_px_error_median"] is None
+
+
+def test_an_exif_focal_length_far_off_is_called_so(rng: np.random.Generator) -> None:
+    """EXIF 20 % off (a crop, or a zoom step EXIF does not record) on a tilted view: the segments
+    are surer, so EXIF is not combined, and the cross-check says it is probably wrong."""
+    ph = random_camera(rng, "3vp")
+    add_segments(ph, rng, CLICK_NOISE_PX)
+    exif = FocalPrior(1.2 * ph.K[0, 0], 0.04 * 1.2 * ph.K[0, 0], "exif")
+    cal = calibrate_photo(ph.segments, ph.width, ph.height, click_sigma_px=CLICK_NOISE_PX, exif_focal=exif)
+    assert cal.focal_source == "vanishing points"
+    assert abs(cal.f - ph.K[0, 0]) < UNCERTAINTY_BOUND * cal.f_sigma
+    assert "not combined" in cal.mode_reason and "probably not this photo's focal length" in cal.mode_reason
+    # Given by the user instead, it is combined (a user's value is always used), and EXIF is unused.
+    user = calibrate_photo(ph.segments, ph.width, ph.height, click_sigma_px=CLICK_NOISE_PX, exif_focal=exif,
+                           focal=FocalPrior(ph.K[0, 0], 0.01 * ph.K[0, 0], "user"))
+    assert "combined with the user's focal length (1σ 1.0 %)" in user.mode_reason or \
+        "f from the user's focal length (1σ 1.0 %)" in user.mode_reason
+    assert "EXIF not used" in user.mode_reason

@@ -256,3 +256,23 @@ def test_project_polylines_are_checked_point_by_point(tmp_path: Path, rng: np.ra
         path.write_text(json.dumps(data))
         with pytest.raises(ProjectError, match=r"\$\.photos\[0\]\.vanishing_segments\.x\[0\].*" + expected):
             load_project(path)
+
+
+def test_an_exif_focal_length_without_spread(good: dict) -> None:
+    with pytest.raises(CalibrationError, match=r"^photo 'p7': the EXIF focal length: expected a focal length > 0 px "
+                       r"with a σ > 0 px, got 1200\.0 ± 0\.0"):
+        calibrate_photo(good, W, H, photo="p7", exif_focal=FocalPrior(1200.0, 0.0, "exif"))
+
+
+def test_a_principal_point_that_is_not_a_number(good: dict) -> None:
+    with pytest.raises(CalibrationError, match=r"^photo 'p7': principal_point: expected a finite \(u, v\) with a "
+                       r"σ > 0 px"):
+        calibrate_photo(good, W, H, photo="p7", principal_point=([float("nan"), 600.0], 10.0))
+
+
+def test_a_segment_coordinate_that_is_not_a_number(good: dict) -> None:
+    z = good["z"].copy()
+    z[0, 1] = np.inf
+    with pytest.raises(CalibrationError, match=r"^photo 'p7': axis z: a vanishing segment has a coordinate that is "
+                       r"not a number"):
+        calibrate_photo(dict(good, z=z), W, H, photo="p7")

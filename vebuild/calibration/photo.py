@@ -29,7 +29,7 @@ combined with what, each with its 1σ.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from itertools import combinations
 
 import numpy as np
@@ -132,7 +132,13 @@ class PhotoCalibration:
     k1: float = 0.0
     k1_sigma: float = 0.0
     k1_source: str = "none"
-    covariance_k1: Array | None = None
+    covariance_k1: Array = field(default_factory=lambda: np.zeros((7, 7)))
+
+    def __post_init__(self) -> None:
+        if not np.any(self.covariance_k1):  # built with the (6, 6) only: k1 fixed at 0
+            cov = np.zeros((7, 7))
+            cov[:6, :6] = self.covariance
+            object.__setattr__(self, "covariance_k1", cov)
 
     @property
     def f(self) -> float:
@@ -172,7 +178,7 @@ class PhotoCalibration:
     @property
     def distortion_corner_px_sigma(self) -> float:
         """1σ of :attr:`distortion_corner_px`, propagated from the covariance of (f, c, k1)."""
-        if self.covariance_k1 is None or self.k1_sigma == 0.0:
+        if self.k1_sigma == 0.0:
             return 0.0
 
         def disp(y: Array) -> Array:
