@@ -253,3 +253,24 @@ def test_an_exif_focal_length_far_off_is_called_so(rng: np.random.Generator) -> 
     assert "combined with the user's focal length (1σ 1.0 %)" in user.mode_reason or \
         "f from the user's focal length (1σ 1.0 %)" in user.mode_reason
     assert "EXIF not used" in user.mode_reason
+
+
+def test_the_modelling_screen_keeps_and_draws_polylines(tmp_path, rng: np.random.Generator) -> None:
+    """A polyline added in the modelling screen is stored whole; dragging one of its ends keeps its
+    middle points; the overlay draws its path; its vanishing point is fitted from its ends."""
+    from vebuild.edit.session import EditSession
+    from vebuild.synthetic import random_scene, write_project
+
+    photos, markers = random_scene(rng, ("3vp", "3vp", "2vp"))
+    s = EditSession.open(write_project(tmp_path, photos, markers), autosave=False)
+    seg = np.asarray(photos[0].segments["x"][0], float)
+    mid = (seg[:2] + seg[2:]) / 2
+    i = s.add_polyline("p1", "x", [seg[:2], mid, seg[2:]])
+    s.move_segment("p1", "x", i, [*seg[:2], *(seg[2:] + 1.0)])
+    stored = s.photo("p1")["vanishing_segments"]["x"][i]
+    assert len(stored) == 6 and stored[2:4] == pytest.approx(mid) and stored[4:] == pytest.approx(seg[2:] + 1.0)
+    vs = s.vanishing("p1", "x")
+    assert vs.segments.shape == (len(photos[0].segments["x"]) + 1, 4) and len(vs.polylines[i]) == 3
+    assert vs.point is not None
+    paths, points = s.overlay("p1").of_kind("segment-path")
+    assert len(paths) == 2 and len(s.overlay("p1").of_kind("segment-point")[1]) == 1
