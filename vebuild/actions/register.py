@@ -21,7 +21,7 @@ from ..calibration.photo import calibrate_photo
 from ..calibration.priors import DistortionPrior
 from ..calibration.register import Registered, register_from_points, register_with_vanishing_points
 from ..errors import CalibrationError, VebuildError
-from ..project import Project
+from ..project import Project, decode
 from ..project.decode import known_points
 from ..project.records import camera_record, distortion_record, json_values
 from .calibrate import exif_focal_prior
@@ -50,7 +50,7 @@ def register_photos(project: Project, photo_ids: list[str] | None = None) -> dic
         names = sorted(obs)
         X = np.array([pts[n] for n in names]).reshape(-1, 3)
         uv = np.array([obs[n] for n in names], float).reshape(-1, 2)
-        segs = {a: np.asarray(s, float) for a, s in (photo.get("vanishing_segments") or {}).items() if s}
+        segs = decode.photo_marks(photo).segments
         exif = exif_focal_prior(photo, settings["exif_focal_sigma_rel"])
         try:
             if len(segs) >= 2:

@@ -39,7 +39,8 @@ GREY: RGBA = (0.7, 0.7, 0.7, 0.8)
 @dataclass
 class Line:
     """A segment from (u1, v1) to (u2, v2), pixels of the photo. ``kind`` says what it is:
-    ``segment`` (a vanishing segment; ``key`` = (axis, index)), ``vp-ray`` (midpoint to vanishing
+    ``segment`` (a vanishing segment; ``key`` = (axis, index)), ``segment-path`` (a polyline
+    segment's path through its middle points), ``vp-ray`` (midpoint to vanishing
     point), ``horizon``, ``axis`` (world axis from the origin), ``edge`` (a projected model edge;
     ``key`` = (node, edge)), ``user-edge`` (an edge observation; ``key`` = index), ``residual``."""
 
@@ -104,6 +105,7 @@ def vanishing_rays(ov: Overlay, vs: Any, width: float, height: float) -> None:
     v = vs.point
     colour = AXIS_COLOURS[vs.axis]
     faint = (*colour[:3], 0.45)
+    polyline_points(ov, vs)
     reach = 3.0 * math.hypot(width, height)
     for s in vs.segments:
         m = 0.5 * (s[:2] + s[2:])
@@ -136,6 +138,20 @@ def curve_lines(ov: Overlay, K: Any, k1: float, a: Any, b: Any, colour: RGBA, wi
 
 #: Points along each side of the photo whose undistorted places bound the pinhole image it shows.
 RIM_SAMPLES = 33
+
+
+def polyline_points(ov: Overlay, vs: Any) -> None:
+    """A polyline segment's path through its middle points (thin, kind ``segment-path``, key (axis,
+    index)) and those points (kind ``segment-point``): how the clicked edge bends in the photo."""
+    colour = AXIS_COLOURS[vs.axis]
+    for i, q in enumerate(getattr(vs, "polylines", [])):
+        if len(q) <= 2:
+            continue
+        for a, b in zip(q[:-1], q[1:], strict=True):
+            ov.lines.append(Line((float(a[0]), float(a[1]), float(b[0]), float(b[1])), colour, 1.0, "segment-path",
+                                 (vs.axis, i)))
+        for m in q[1:-1]:
+            ov.points.append(Point((float(m[0]), float(m[1])), colour, 3.0, True, "segment-point", (vs.axis, i)))
 
 
 def horizon_and_axes(ov: Overlay, cam: Any, width: float, height: float) -> None:

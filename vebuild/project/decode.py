@@ -10,8 +10,8 @@ Each part of the document is decoded here, once, and checked as it is decoded; e
   :func:`known_points` (the markers and the solved model's vertices), :func:`sightings` (a photo's
   marker observations), :func:`reference_distances`, :func:`floor_markers`;
 - a photo's own scale: :func:`photo_camera_height`, :func:`known_lengths`;
-- a photo's marks for calibration: :func:`photo_marks` (vanishing segments, given focal length and
-  principal point);
+- a photo's marks for calibration: :func:`photo_marks` (vanishing segments or polylines, given focal
+  length and principal point), :func:`vanishing_segments`;
 - the model: :func:`model` (the scene graph, a ``ModelError`` :func:`located`), :func:`load_model`
   (with its pins and edge observations: :func:`pins_of`, :func:`edge_observations_of`),
   :func:`check_reference_handles`;
@@ -261,17 +261,33 @@ def floor_markers(data: Mapping[str, Any]) -> set[str]:
 
 @dataclass(frozen=True)
 class PhotoMarks:
-    """What calibrating one photo starts from: its directed vanishing segments by axis (each
-    (n, 4): x1, y1, x2, y2), a focal length the user gave, and a principal point the user gave
-    (pixels, with its 1σ)."""
+    """What calibrating one photo starts from: its directed vanishing segments by axis, a focal
+    length the user gave, and a principal point the user gave (pixels, with its 1σ).
 
-    segments: dict[str, Array]
+    segments : axis → an (n, 4) array u1, v1, u2, v2 where every segment has two points (as
+        before polylines), else a list of (2m,) arrays [u1, v1, ..., um, vm] (polylines with
+        middle points); either is what :func:`vebuild.calibration.photo.calibrate_photo` takes.
+    """
+
+    segments: dict[str, Array | list[Array]]
     focal: FocalPrior | None
     principal_point: tuple[Array, float] | None
 
 
+def vanishing_segments(photo: Mapping[str, Any]) -> dict[str, Array | list[Array]]:
+    """A photo's ``vanishing_segments`` by axis (axes without segments left out): an (n, 4) array
+    where all are two-point segments, else a list of flat polylines (:class:`PhotoMarks`)."""
+    out: dict[str, Array | list[Array]] = {}
+    for a, rows in (photo.get("vanishing_segments") or {}).items():
+        if not rows:
+            continue
+        polys = [np.asarray(r, float) for r in rows]
+        out[a] = np.array(polys).reshape(-1, 4) if all(len(p) == 4 for p in polys) else polys
+    return out
+
+
 def photo_marks(photo: Mapping[str, Any]) -> PhotoMarks:
-    segs = {a: np.asarray(s, float) for a, s in (photo.get("vanishing_segments") or {}).items() if s}
+    segs = vanishing_segments(photo)
     focal = None
     if "focal_px" in photo:
         focal = FocalPrior(photo["focal_px"]["value"], photo["focal_px"]["sigma"], "user")

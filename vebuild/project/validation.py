@@ -125,9 +125,14 @@ def _check_semantics(data: dict[str, Any], file: Any) -> None:
             _check_on_photo(uv, size, file, f"{where}.marker_observations{_key(name)}")
         for axis, segments in (photo.get("vanishing_segments") or {}).items():
             for k, seg in enumerate(segments):
-                _check_on_photo(seg[:2], size, file, f"{where}.vanishing_segments.{axis}[{k}]")
-                _check_on_photo(seg[2:], size, file, f"{where}.vanishing_segments.{axis}[{k}]")
-                _check_segment_length(seg, file, f"{where}.vanishing_segments.{axis}[{k}]", photo["id"], axis, k)
+                here = f"{where}.vanishing_segments.{axis}[{k}]"
+                if len(seg) % 2:
+                    raise ProjectError(file, here, f"expected a segment or polyline of (u, v) points [u1, v1, u2, "
+                                       f"v2, ...]: an even count of numbers, found {len(seg)}")
+                for j in range(0, len(seg), 2):  # every point of a polyline is on the photo
+                    _check_on_photo(seg[j:j + 2], size, file, here)
+                # The length is that of its end points: a polyline's middle points may bunch.
+                _check_segment_length([*seg[:2], *seg[-2:]], file, here, photo["id"], axis, k)
         if "principal_point" in photo:
             _check_on_photo(photo["principal_point"]["value"], size, file, f"{where}.principal_point.value")
     model = data.get("model") or {}
