@@ -804,20 +804,12 @@ def test_calibrate_writes_the_distortion_a_photo_s_calibration_estimated(tmp_pat
     """Where a photo's calibration carries a lens distortion (k1 with its 1σ, a 7×7 covariance with
     k1 last, and its source), placement refines k1 from the markers (projected through it) and the
     camera record's ``distortion`` says so; decode reads it back into the camera."""
-    from dataclasses import dataclass as dc
+    import dataclasses
 
     import vebuild.actions.calibrate as action
-    from vebuild.calibration.photo import PhotoCalibration
     from vebuild.camera import distort_pixels
     from vebuild.project.decode import cameras_from_calibration
     from vebuild.synthetic import random_scene
-
-    @dc(frozen=True)
-    class WithK1(PhotoCalibration):
-        k1: float = 0.0
-        k1_sigma: float = 0.0
-        k1_source: str = ""
-        covariance_k1: Any = None
 
     photos, markers = random_scene(np.random.default_rng(111), ("3vp", "3vp", "2vp"))
     truth_k1 = -0.06
@@ -834,9 +826,8 @@ def test_calibrate_writes_the_distortion_a_photo_s_calibration_estimated(tmp_pat
 
         out = real(project, progress)
         cal = out["p1"]
-        fields = {f: getattr(cal, f) for f in PhotoCalibration.__dataclass_fields__}
-        out["p1"] = WithK1(**fields, k1=truth_k1 + 0.004, k1_sigma=0.01, k1_source="plumb lines",
-                           covariance_k1=block_diag(cal.covariance, [[0.01**2]]))
+        out["p1"] = dataclasses.replace(cal, k1=truth_k1 + 0.004, k1_sigma=0.01, k1_source="plumb lines",
+                                        covariance_k1=block_diag(cal.covariance, [[0.01**2]]))
         return out
 
     monkeypatch.setattr(action, "calibrate_photos", with_k1)

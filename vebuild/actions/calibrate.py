@@ -221,10 +221,8 @@ def _place_jointly(project: Project, photos: dict[str, PhotoCalibration], joint:
 def _distortion_prior(cal: PhotoCalibration) -> tuple[np.ndarray, float, float]:
     """The covariance placement holds the photo by, its k1 and k1's 1σ: 7×7 with k1 last where the
     calibration estimated k1 (then placement refines it), else 6×6 with k1 held."""
-    k1 = float(getattr(cal, "k1", 0.0))
-    k1_sigma = float(getattr(cal, "k1_sigma", 0.0))
-    cov7 = getattr(cal, "covariance_k1", None)
-    if cov7 is not None and np.shape(cov7) == (7, 7) and np.all(np.isfinite(cov7)) and cov7[6][6] > 0:
+    k1, k1_sigma, cov7 = float(cal.k1), float(cal.k1_sigma), cal.covariance_k1
+    if np.all(np.isfinite(cov7)) and cov7[6][6] > 0:
         return np.asarray(cov7, float), k1, k1_sigma
     return cal.covariance, k1, k1_sigma
 
@@ -350,10 +348,10 @@ def _results(data: dict[str, Any], photos: dict[str, PhotoCalibration], placemen
             res = cal.segment_residuals_px[a]
             vps[a] = {"point": json_values(vp / np.linalg.norm(vp)), "residuals_px": json_values(res),
                       "rms_px": float(np.sqrt(np.mean(res**2)))}
+        # A photo whose lens was neither estimated nor given is a pinhole: no record (FORMAT.md).
         distortion = None
-        source = getattr(cal, "k1_source", None)
-        if source or cam.k1 != 0.0:
-            distortion = distortion_record(cam.K, cal.width, cal.height, cam.k1, cam.k1_sigma, source or "given")
+        if cal.k1_source != "none" or cam.k1 != 0.0:
+            distortion = distortion_record(cam.K, cal.width, cal.height, cam.k1, cam.k1_sigma, cal.k1_source)
         cameras[pid] = {
             "mode": cal.mode,
             "mode_reason": cal.mode_reason,

@@ -160,8 +160,7 @@ def register_with_vanishing_points(cal: PhotoCalibration, points: ArrayLike, pix
     """Position (and a refined rotation) of a photo whose K and R came from its vanishing points,
     from ≥ 2 points of known position, through the lens distortion its calibration found (held)."""
     # The calibration's k1 where it estimated one (its k1, k1_sigma, k1_source; 0 for a pinhole).
-    k1 = float(getattr(cal, "k1", 0.0))
-    k1_sigma, k1_source = float(getattr(cal, "k1_sigma", 0.0)), str(getattr(cal, "k1_source", ""))
+    k1, k1_sigma, k1_source = float(cal.k1), float(cal.k1_sigma), cal.k1_source
     X = np.asarray(points, float).reshape(-1, 3)
     uv = np.asarray(pixels, float).reshape(-1, 2)
     if len(X) < 2:
