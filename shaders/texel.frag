@@ -69,6 +69,10 @@ vec3 trilinear(vec2 p, float lod) {
     return c;
 }
 
+bool in_photo(vec2 p) {
+    return all(greaterThanEqual(p, vec2(0.0))) && all(lessThan(p, image_size));
+}
+
 bool same_face(vec2 q) {  // q in ID-buffer pixels
     if (any(lessThan(q, vec2(0.0))) || any(greaterThanEqual(q, id_size))) return false;
     return texelFetch(id_depth, ivec2(floor(q)), 0).r == v_face;
@@ -115,7 +119,8 @@ void main() {
         p = c + f * s * xu;
         a = s * a + g * dot(xu, a) * xu;
         b = s * b + g * dot(xu, b) * xu;
-        if (any(lessThan(p, vec2(0.0))) || any(greaterThanEqual(p, image_size))) discard;
+        // The footprint must lie in the photo, as the ID buffer's frame is the photo's for a pinhole.
+        if (!(in_photo(p + a + b) && in_photo(p + a - b) && in_photo(p - a + b) && in_photo(p - a - b))) discard;
     }
     float w = sqrt(abs(a.x * b.y - a.y * b.x)) * cos_theta * weight_scale;
 #if MODE == 2

@@ -457,7 +457,7 @@ def _project(tx: PageTexels, lo: int, hi: int, cam: ImageCamera, ids: NDArray[np
 def _distort(K: Array, k1: float, p: Array, a: Array, b: Array, width: int,
              height: int) -> tuple[Array, Array, Array, NDArray[np.bool_]]:
     """Pinhole pixels p (n, 2) and footprints a, b → where the lens ``k1`` puts them, and whether
-    that lies in the width × height photo (and inside the lens's field).
+    the footprint's corners p ± a ± b lie in the width × height photo (and in the lens's field).
 
     x_d = s x_u with s = 2 / (1 + √(1 − 4 k1 |x_u|²)) (:func:`vebuild.camera.distort_normalised`);
     its Jacobian s I + (2 k1 s² / √(1 − 4 k1 |x_u|²)) x_u x_uᵀ maps the footprint (in pixels too,
@@ -473,7 +473,11 @@ def _distort(K: Array, k1: float, p: Array, a: Array, b: Array, width: int,
     pd = c + f * s[:, None] * xu
     ad = s[:, None] * a + (g * np.einsum("ij,ij->i", xu, a))[:, None] * xu
     bd = s[:, None] * b + (g * np.einsum("ij,ij->i", xu, b))[:, None] * xu
-    inside = field & (pd[:, 0] >= 0) & (pd[:, 1] >= 0) & (pd[:, 0] < width) & (pd[:, 1] < height)
+    inside = field.copy()
+    for sa in (1.0, -1.0):  # the footprint in the photo, as the ID buffer's frame is the photo's for a pinhole
+        for sb in (1.0, -1.0):
+            c = pd + sa * ad + sb * bd
+            inside &= (c[:, 0] >= 0) & (c[:, 1] >= 0) & (c[:, 0] < width) & (c[:, 1] < height)
     return pd, ad, bd, inside
 
 
