@@ -13,9 +13,10 @@ reference of passes 1–2 (:mod:`vebuild.texture.reference`) on the same photos.
 Lens distortion: the same 20 (or 5) photos given a barrel lens (``LENS_K1``, moving the corners
 of the 4000 × 3000 photos a few per cent: ``lens_corner_displacement_px``): the texel pass then
 distorts every texel's pixel and footprint, and the ID buffer covers the photo's undistorted
-bounds (``lens_cover_growth`` times the photo's pixels); ``lens_total_over_pinhole`` is the
-ratio of the unwaited totals (the least of ``LENS_REPEATS`` runs of each, taken in turns),
-``lens_*_ms_per_photo`` the waited split. The photos' pixels are the
+bounds (``lens_cover_growth`` times the photo's pixels). Runs with and without the lens are
+taken in turns, ``LENS_REPEATS`` of each, every stage waited for; ``lens_*_ms_per_photo`` and
+``lens_pinhole_*_ms_per_photo`` are each stage's least time, ``lens_*_over_pinhole`` their ratios
+(``passes``: the ID, texel and best-weight passes together; ``total``: the whole extraction). The photos' pixels are the
 pinhole ones: what is timed does not depend on them.
 
 Memory: peak resident memory of the process during an extraction (Linux VmHWM, reset before each
@@ -58,8 +59,10 @@ SCALE = 2.5  # 1600×1200 → 4000×3000 = 12 megapixels
 NOISE_SIGMA = 2.0  # 8-bit levels of added sensor noise, so that the JPEGs are not unnaturally smooth
 EXTRA_BOXES = 9
 STAGES = ("read", "hash", "decode", "upload", "pyramid", "id_pass", "texel_pass")
-#: Unwaited totals with and without the lens, taken in turns, for their ratio.
+#: Runs with and without the lens, taken in turns, for their ratios (the least time of each).
 LENS_REPEATS = 3
+#: The stages the lens changes: the ID pass covers more pixels, the texel passes distort.
+LENS_STAGES = ("id_pass", "texel_pass", "best_weight")
 #: The benchmark's lens (division model): barrel distortion of a wide lens, a few per cent at the
 #: photos' corners.
 LENS_K1 = -0.08
@@ -142,29 +145,30 @@ def speed(n_photos: int, progress: bool) -> dict[str, Any]:
         for st in (*STAGES, "best_weight", "merge"):
             fig[f"{st}_ms_per_photo"] = 1e3 * timings.seconds.get(st, 0.0) / n_photos
         fig["total_ms_per_photo"] = 1e3 * total / n_photos
-        # The same photos through a lens: split, then total.
+        # The same photos through a lens.
         lens = [dataclasses.replace(c, k1=LENS_K1) for c in cams]
         fig["lens_k1"] = LENS_K1
         fig["lens_corner_displacement_px"] = distortion_displacement_px(lens[0].K, lens[0].width, lens[0].height,
                                                                         LENS_K1)
         fig["lens_cover_growth"] = cover_growth(lens[0])
-        lens_timings = Timings()
-        extract(model, lens, sources, opts, timings=lens_timings)
-        for st in ("id_pass", "texel_pass", "best_weight"):
-            fig[f"lens_{st}_ms_per_photo"] = 1e3 * lens_timings.seconds.get(st, 0.0) / n_photos
-        fig["lens_texel_pass_over_pinhole"] = fig["lens_texel_pass_ms_per_photo"] / max(
-            fig["texel_pass_ms_per_photo"], 1e-9)
-        # The totals' ratio from runs taken in turns, the least of each: a run is slowed, never
-        # sped up, by other work on the machine.
-        runs: dict[str, list[float]] = {"pinhole": [], "lens": []}
+        # Pinhole and lens runs in turns, each stage's least time over LENS_REPEATS runs (a run is
+        # slowed, never sped up, by other work on the machine), every stage waited for.
+        best: dict[str, dict[str, float]] = {"pinhole": {}, "lens": {}}
         for _ in range(LENS_REPEATS):
             for name, cs in (("pinhole", cams), ("lens", lens)):
+                split = Timings()
                 t0 = time.perf_counter()
-                extract(model, cs, sources, opts)
-                runs[name].append(time.perf_counter() - t0)
-        fig["lens_total_ms_per_photo"] = 1e3 * min(runs["lens"]) / n_photos
-        fig["lens_pinhole_total_ms_per_photo"] = 1e3 * min(runs["pinhole"]) / n_photos
-        fig["lens_total_over_pinhole"] = min(runs["lens"]) / min(runs["pinhole"])
+                extract(model, cs, sources, opts, timings=split)
+                got = {st: split.seconds.get(st, 0.0) for st in LENS_STAGES}
+                got["total"] = time.perf_counter() - t0
+                got["passes"] = sum(got[st] for st in LENS_STAGES)
+                for k, v in got.items():
+                    best[name][k] = min(best[name].get(k, np.inf), v)
+        for name, key in (("pinhole", "lens_pinhole"), ("lens", "lens")):
+            for k, v in best[name].items():
+                fig[f"{key}_{k}_ms_per_photo"] = 1e3 * v / n_photos
+        for k in (*LENS_STAGES, "passes", "total"):
+            fig[f"lens_{k}_over_pinhole"] = best["lens"][k] / max(best["pinhole"][k], 1e-12)
         # The floor: the same JPEGs decoded alone, the way vebuild decodes them.
         dec = []
         for cam in cams:
@@ -287,13 +291,12 @@ def table(fig: dict[str, Any]) -> str:
     if "lens_total_ms_per_photo" in fig:
         lines += [f"through a lens (k1 = {fig['lens_k1']:g}, corners moved "
                   f"{fig['lens_corner_displacement_px']:.0f} px, ID buffer {fig['lens_cover_growth']:.3f}× the photo's "
-                  "pixels):",
-                  f"{'  ID pass per photo (ms)':<34}{fig['lens_id_pass_ms_per_photo']:>10.1f}",
-                  f"{'  texel pass per photo (ms)':<34}{fig['lens_texel_pass_ms_per_photo']:>10.1f}"
-                  f"   ({fig['lens_texel_pass_over_pinhole']:.2f}× the pinhole's)",
-                  f"{'  total per photo (ms)':<34}{fig['lens_total_ms_per_photo']:>10.1f}"
-                  f"   ({fig['lens_total_over_pinhole']:.2f}× the pinhole's "
-                  f"{fig['lens_pinhole_total_ms_per_photo']:.1f}, least of {LENS_REPEATS} runs each)", ""]
+                  f"pixels), least of {LENS_REPEATS} runs each:",
+                  f"{'per photo (ms)':<34}{'pinhole':>10}{'lens':>10}{'ratio':>8}"]
+        for k in (*LENS_STAGES, "passes", "total"):
+            lines.append(f"{'  ' + k.replace('_', ' '):<34}{fig[f'lens_pinhole_{k}_ms_per_photo']:>10.1f}"
+                         f"{fig[f'lens_{k}_ms_per_photo']:>10.1f}{fig[f'lens_{k}_over_pinhole']:>8.2f}")
+        lines.append("")
     if "peak_rss_mb_5_photos" in fig:
         lines += [f"peak memory (MB, photos at scale {fig['memory_photos_scale']}): 5 photos "
                   f"{fig['peak_rss_mb_5_photos']:.0f}, 20 photos {fig['peak_rss_mb_20_photos']:.0f}, "

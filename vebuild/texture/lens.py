@@ -13,7 +13,10 @@ bounds* and meets the lens once, through the closed-form formulas, where it maps
 
 The covering camera has the photo's f, R and C and K's principal point moved by a whole number of
 pixels, so that its pixel grid is the pinhole's grid of K shifted: pinhole pixel p of the photo's
-K is pixel p − origin of the cover. No GL here.
+K is pixel p − origin of the cover. The ID buffer's erosion (``erode_px``) is thus counted in the
+pinhole's pixels, which are the photo's at its centre and, with barrel distortion, a little
+smaller than the photo's towards its corners (by the lens's local scale there: a few per cent for
+a real lens). No GL here.
 """
 
 from __future__ import annotations
