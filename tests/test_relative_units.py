@@ -291,3 +291,30 @@ def test_exports_state_relative_units(built: dict[str, Built], tmp_path: Path) -
             assert head.startswith(f"# Units: {RELATIVE_UNITS}.")
         else:
             assert units == "metre" and head.startswith("# Units: metres.")
+
+
+def test_a_walk_through_at_a_walking_speed_is_refused_in_relative_units(built: dict[str, Built],
+                                                                       capsys: pytest.CaptureFixture) -> None:
+    project = load_project(built["relative"].path)
+    project.data["views"].append({**project.data["views"][0], "name": "back"})
+    save_project(project)
+    r = _cli(capsys, "video", str(built["relative"].path), "--views", "front,back")
+    assert r.returncode == 2
+    assert r.stderr.strip().endswith("video: the walking speed (1 m/s; give --seconds per segment instead) is in "
+                                     "metres, but this project's lengths are relative (relative units: the camera "
+                                     "height is 1: no scale was given), so it has no meaning here; give the photo a "
+                                     "scale (its camera_height, a known length in it, or a scale distance between two "
+                                     "floor markers) and run `vebuild calibrate` again for metres"), r.stderr
+
+
+def test_an_evidence_marker_is_placed_in_relative_units(built: dict[str, Built], capsys: pytest.CaptureFixture,
+                                                        tmp_path: Path) -> None:
+    for kind, b in built.items():
+        top = load_project(b.path).data["model_solution"]["nodes"]["box"]["handles"]
+        handles = np.array([h["value"] for h in top.values()])
+        X = handles.mean(axis=0)
+        X[2] = handles[:, 2].max()  # the centre of its top face
+        r = _cli(capsys, "mark", str(b.path), "A", "--at=" + ",".join(f"{v:.6f}" for v in X))
+        assert r.returncode == 0, r.stderr
+        at = f"({X[0]:.3f}, {X[1]:.3f}, {X[2]:.3f})"
+        assert f"on 'box' at {at} {'(' + RELATIVE_UNITS + ')' if kind == 'relative' else 'm'}, written to" in r.stdout
