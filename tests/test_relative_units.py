@@ -318,3 +318,19 @@ def test_an_evidence_marker_is_placed_in_relative_units(built: dict[str, Built],
         assert r.returncode == 0, r.stderr
         at = f"({X[0]:.3f}, {X[1]:.3f}, {X[2]:.3f})"
         assert f"on 'box' at {at} {'(' + RELATIVE_UNITS + ')' if kind == 'relative' else 'm'}, written to" in r.stdout
+
+
+def test_refusals_of_points_off_the_scene_or_off_a_face_speak_the_project_s_unit(
+        built: dict[str, Built], capsys: pytest.CaptureFixture) -> None:
+    for kind, b in built.items():
+        u = "rel." if kind == "relative" else "m"
+        r = _cli(capsys, "analyse", str(b.path), "sightline", "--eye=50,50,1", "--object", "box")
+        assert r.returncode == 2
+        assert "the eye point (50, 50, 1) is off the scene: the model spans x " in r.stderr
+        assert f" {u} (points up to " in r.stderr and f" {u} outside it are accepted" in r.stderr
+        assert (NOTE in r.stderr) == (kind == "relative")
+        r = _cli(capsys, "analyse", str(b.path), "distance", "box:v0", "box@top:5,5")
+        assert r.returncode == 2
+        assert f"point 'box@top:5,5': (5, 5) {u} from the centre of face 'top' of 'box' lies off that face (" \
+            in r.stderr
+        assert r.stderr.strip().endswith(f" {u})")

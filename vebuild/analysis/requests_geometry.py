@@ -90,7 +90,7 @@ class SightlineRequest:
         if not self.eye:
             unit.refuse(f"sightline --{'standing' if self.standing else 'sitting'}: a person's eye height")
         scene = _scene(project, self.hypothesis)
-        occ = Occluders(scene)
+        occ = Occluders(scene, unit)
         if self.eye:
             eye = Eye(parse_floats(self.eye, 3, "--eye"))
         else:
@@ -267,7 +267,7 @@ class TrajectoryRequest:
                         "--cone DEG, instead)")
         u = unit.symbol
         scene = _scene(project, self.hypothesis)
-        occ = Occluders(scene)
+        occ = Occluders(scene, unit)
         tr = self.trajectory(occ)
         rec = tr.record()
         lines = [f"path: from ({', '.join(f'{v:.3f}' for v in tr.entry)})"
