@@ -334,3 +334,15 @@ def test_refusals_of_points_off_the_scene_or_off_a_face_speak_the_project_s_unit
         assert f"point 'box@top:5,5': (5, 5) {u} from the centre of face 'top' of 'box' lies off that face (" \
             in r.stderr
         assert r.stderr.strip().endswith(f" {u})")
+
+
+def test_the_texture_table_counts_texels_per_relative_unit() -> None:
+    from vebuild.console.tables import texture_table
+
+    record = {"faces": [{"node": "box", "face": "top", "rect": [0, 0, 64, 32], "texels_per_metre": [212.0, 210.0],
+                         "seen_fraction": 0.5, "photos": ["p"]}],
+              "photos": [{"id": "p", "order": 0, "gain": [1.0, 1.0, 1.0], "overlap_texels": 0}],
+              "pages": [{"width": 64, "height": 64, "atlas": "a.png", "coverage": "c.png"}]}
+    rel, met = texture_table(record, RELATIVE), texture_table(record)
+    assert rel.splitlines()[0].split()[2] == "t/rel." and met.splitlines()[0].split()[2] == "t/m"
+    assert rel.splitlines()[-1] == "texels per relative unit (t/rel.): " + RELATIVE.note and "RELATIVE" not in met

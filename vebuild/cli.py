@@ -172,7 +172,9 @@ def _cmd_texture(args: argparse.Namespace) -> int:
         raise VebuildError(f"{project.path}: {e}") from None
     with progress_bar(_progress_wanted(args)) as progress:
         record, _ = texture_project(project, options, progress)  # pages, then the project, then old pages
-    print(texture_table(record))
+    from .project.units import length_unit
+
+    print(texture_table(record, length_unit(project.data)))
     print(f"\ntextures written to {project.folder / 'textures'}; recorded in {project.path}")
     return 0
 

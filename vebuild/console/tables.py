@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..project.units import record_unit
+from ..project.units import METRES, LengthUnit, record_unit
 
 
 def _pm(vs: dict[str, Any], fmt: str, scale: float = 1.0) -> str:
@@ -95,9 +95,10 @@ def model_table(result: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def texture_table(record: dict[str, Any]) -> str:
-    """The faces' coverage and the photos' gains of a ``textures`` record."""
-    lines = [f"{'face':<28} {'texels':>11} {'t/m':>6} {'seen':>6}  photos"]
+def texture_table(record: dict[str, Any], unit: LengthUnit = METRES) -> str:
+    """The faces' coverage and the photos' gains of a ``textures`` record; texels per metre, or per
+    relative unit (``unit``: the project's, :mod:`vebuild.project.units`)."""
+    lines = [f"{'face':<28} {'texels':>11} {'t/' + unit.symbol:>6} {'seen':>6}  photos"]
     for f in record["faces"]:
         w, h = f["rect"][2:]
         lines.append(f"{f['node'] + '.' + f['face']:<28} {f'{w}×{h}':>11} {f['texels_per_metre'][0]:>6.0f} "
@@ -111,4 +112,6 @@ def texture_table(record: dict[str, Any]) -> str:
     lines += [f"atlas page {k}: {p['width']}×{p['height']}  {p['atlas']}  (coverage: {p['coverage']})"
               for k, p in enumerate(record["pages"])]
     lines += [f"warning: {w}" for w in record.get("warnings", [])]
+    if unit.relative:
+        lines.append(f"texels per relative unit (t/rel.): {unit.note}")
     return "\n".join(lines)
