@@ -150,6 +150,16 @@ def _register_given(tmp_path: Path, seed: int, with_segments: bool, **given: dic
     return cam, reg
 
 
+def _reason(tmp_path: Path, seed: int, **given: dict[str, Any]) -> str:
+    """The mode_reason the registration from points alone records, with ``given`` set."""
+    from vebuild.actions.register import register_photos
+
+    _, project = _user_given_scene(tmp_path / f"reason{sorted(given)}", seed, False)
+    project.data["photos"][0].update(given)
+    register_photos(project)
+    return str(project.data["calibration"]["cameras"]["p"]["mode_reason"])
+
+
 def _f_err(cam: Any, reg: Any) -> float:
     return float((reg.K[0, 0] - cam.K[0, 0]) / cam.K[0, 0])
 
@@ -170,6 +180,12 @@ def test_register_uses_the_focal_length_the_user_gave(tmp_path: Path, with_segme
     assert abs(_f_err(cam, free)) > 0.5e-2 and abs(_f_err(cam, given)) < 0.2e-2
     assert np.sqrt(given.covariance[0, 0]) < 0.5 * np.sqrt(free.covariance[0, 0])
     assert np.linalg.norm(given.C - cam.C) < 0.5 * np.linalg.norm(free.C - cam.C)
+    if not with_segments:
+        reason = "no usable vanishing points: the whole camera from 8 known points"
+        assert _reason(tmp_path, seed) == reason
+        both = {"focal_px": {"value": f, "sigma": 1.0}, "principal_point": {"value": [800.0, 600.0], "sigma": 30.0}}
+        assert _reason(tmp_path, seed, **both) == f"{reason}, with the focal length and principal point the user gave"
+        assert _reason(tmp_path, seed, exif={"focal_length_px": f}) == f"{reason}, with the EXIF focal length"
     # A wrong focal length given is followed (the registration cannot tell): 5 % off shows.
     _, wrong = _register_given(tmp_path, seed, with_segments, focal_px={"value": 1.05 * f, "sigma": 0.001 * f})
     assert _f_err(cam, wrong) > 3e-2

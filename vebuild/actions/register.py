@@ -73,6 +73,12 @@ def register_photos(project: Project, photo_ids: list[str] | None = None) -> dic
                                            focal=marks.focal or exif, principal_point=marks.principal_point,
                                            distortion=_known_distortion(cal, pid))
                 reason = f"no usable vanishing points: the whole camera from {len(X)} known points"
+                given = [w for w, g in (("focal length", marks.focal), ("principal point", marks.principal_point))
+                         if g is not None]
+                if given:
+                    reason += f", with the {' and '.join(given)} the user gave"
+                elif exif is not None:
+                    reason += ", with the EXIF focal length"
         except CalibrationError as e:
             raise VebuildError(f"{project.path}: $.photos[{ids.index(pid)}] {e}") from None
         if reg.k1_source:
