@@ -242,15 +242,17 @@ def test_report_sections_say_relative(built: dict[str, Built], tmp_path: Path) -
     for kind, b in built.items():
         project = load_project(b.path)
         rep = Report(tmp_path / kind)
-        rep.folder.mkdir()
+        (rep.folder / "images").mkdir(parents=True)
         sections.calibration(project, rep)
         sections.model(project, rep)
+        sections.views(project, rep)  # the named view rendered (headless GL), its caption
         html = "".join(rep.sections) + analyses_html(project, rep, [{"name": "h", "command": ["height", "box:v6"]}])
         if kind == "relative":
             assert "position x / y / z rel." in html and "position x / y / z m" not in html
             assert "Lengths in relative units: the camera height is 1 (no scale was given)" in html
             assert "Lengths in metres" not in html and "known m</th><th>measured rel." in html
             assert "difference m" not in html and "value rel." in html
+            assert f"eye at ({RELATIVE_UNITS})" not in html and f") ({RELATIVE_UNITS})</figcaption>" in html
         else:
             assert "position x / y / z m" in html and "Lengths in metres" in html and "relative" not in html
 
