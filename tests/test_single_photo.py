@@ -396,11 +396,11 @@ def test_relative_metrology_says_the_lengths_are_relative(tmp_path: Path, capsys
     r = _cli(capsys, "analyse", str(path), "photo-height", "--photo", "p", *map(str, c["box_foot"]),
              *map(str, c["box_top"]), "--json", str(out))
     assert r.returncode == 0, r.stderr
-    assert "lengths are RELATIVE: this photo was calibrated with no scale" in r.stdout
+    assert "lengths are RELATIVE (relative units: the camera height is 1: no scale was given" in r.stdout
     doc = json.loads(out.read_text())
     (m,) = doc["measurements"]
-    assert doc["lengths"] == "relative"
-    assert abs(m["value_m"] - BOX_M / ph.C[2]) < 4 * m["sigma_m"]  # in units of the camera's height
+    assert doc["lengths"] == "relative" and "value_m" not in m
+    assert abs(m["value_relative"] - BOX_M / ph.C[2]) < 4 * m["sigma_relative"]  # in units of the camera's height
 
 
 # -- the placement's inputs and refusals --------------------------------------------------------

@@ -28,6 +28,7 @@ from ..errors import CalibrationError
 from ..project import Project, canonical_input_hash, decode
 from ..project.decode import check_reference_handles
 from ..project.records import camera_record, distortion_record, json_values, value_sigma
+from ..project.units import METRES, RELATIVE
 
 #: EXIF focal lengths from the physical focal length and from the 35 mm equivalent that disagree
 #: by more than this (relative) are not trusted to 1 %: the larger discrepancy becomes the 1σ.
@@ -365,8 +366,8 @@ def _results(data: dict[str, Any], photos: dict[str, PhotoCalibration], placemen
             cameras[pid]["placement"] = {
                 "how": "alone", "origin": cam.origin.describe(), "scale": cam.scale_source,
                 "lengths": "relative" if cam.relative else "metres",
-                "camera_height_m": value_sigma(cam.camera_height, cam.camera_height_sigma if not cam.relative
-                                               else None),
+                (RELATIVE if cam.relative else METRES).key("camera_height"): value_sigma(
+                    cam.camera_height, cam.camera_height_sigma if not cam.relative else None),
                 "scale_estimates": [{"source": e.describe(), "camera_height_m": value_sigma(e.height, e.sigma)}
                                     for e in cam.estimates]}
             warnings += cam.warnings

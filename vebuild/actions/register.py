@@ -5,6 +5,10 @@ vanishing segments at all) is placed from the points whose positions are now kno
 markers and the solved model's vertices (``model_solution``). The camera is written into
 ``calibration.cameras`` like any other, its mode saying how it was found.
 
+A focal length the user gave for the photo (its ``focal_px``) is always used, as in
+``vebuild calibrate``, ahead of EXIF's; a principal point the user gave (``principal_point``) is
+the centre and 1σ of the principal point's prior, in both ways of registering.
+
 A photo's lens distortion is used where it is known, held at its k1: the vanishing-point
 calibration's, or, for a photo placed from points alone, the ``distortion`` of the camera record
 it already has (re-registering it). The record written carries that ``distortion`` (FORMAT.md);
@@ -50,22 +54,31 @@ def register_photos(project: Project, photo_ids: list[str] | None = None) -> dic
         names = sorted(obs)
         X = np.array([pts[n] for n in names]).reshape(-1, 3)
         uv = np.array([obs[n] for n in names], float).reshape(-1, 2)
-        segs = decode.photo_marks(photo).segments
+        marks = decode.photo_marks(photo)
+        segs = marks.segments
         exif = exif_focal_prior(photo, settings["exif_focal_sigma_rel"])
         try:
             if len(segs) >= 2:
                 vp = calibrate_photo(segs, photo["width"], photo["height"], photo=pid,
                                      click_sigma_px=settings["click_sigma_px"],
+                                     principal_point=marks.principal_point,
                                      principal_point_sigma_rel=settings["principal_point_sigma_rel"],
-                                     exif_focal=exif)
+                                     focal=marks.focal, exif_focal=exif)
                 reg = register_with_vanishing_points(vp, X, uv, click_sigma_px=settings["click_sigma_px"])
                 reason = f"{vp.mode} vanishing-point calibration, placed from {len(X)} known points"
             else:
                 reg = register_from_points(X, uv, photo["width"], photo["height"], photo=pid,
                                            click_sigma_px=settings["click_sigma_px"],
                                            principal_point_sigma_rel=settings["principal_point_sigma_rel"],
-                                           focal=exif, distortion=_known_distortion(cal, pid))
+                                           focal=marks.focal or exif, principal_point=marks.principal_point,
+                                           distortion=_known_distortion(cal, pid))
                 reason = f"no usable vanishing points: the whole camera from {len(X)} known points"
+                given = [w for w, g in (("focal length", marks.focal), ("principal point", marks.principal_point))
+                         if g is not None]
+                if given:
+                    reason += f", with the {' and '.join(given)} the user gave"
+                elif exif is not None:
+                    reason += ", with the EXIF focal length"
         except CalibrationError as e:
             raise VebuildError(f"{project.path}: $.photos[{ids.index(pid)}] {e}") from None
         if reg.k1_source:

@@ -98,6 +98,10 @@ def render_evidence(project: Project, req: RenderRequest) -> RenderResult:
     from vebuild.render.scene import load_scene
     from vebuild.render.sizes import check_camera
 
+    if req.stereo is not None:
+        from vebuild.project.units import length_unit
+
+        length_unit(project.data).refuse(f"render --stereo: the eyes' separation ({req.eye_separation:g})")
     out = check_output(Path(req.out), project=project)
     if req.validate:
         check_output(overlay_path(out), project=project)

@@ -30,6 +30,7 @@ from ..model.solver import FINAL_PRIOR_SCALE, MarkerData, Problem, ProblemOption
 from ..project import Project, decode, json_path
 from ..project.decode import cameras_from_calibration, load_model
 from ..project.records import camera_record, distortion_record, json_values, value_sigma
+from ..project.units import length_unit
 
 #: A pinned handle must project in front of its camera and no farther outside the image than this
 #: share of its size; otherwise the pin is on a vertex that camera cannot see.
@@ -91,7 +92,7 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
     _check_visible(project, problem, xm, solution.cameras)
     model.set_vector(xm)
     data["model"]["nodes"] = model.to_dict()
-    result = _results(problem, solution, model, xm, recalibrate)
+    result = {**_results(problem, solution, model, xm, recalibrate), "lengths": length_unit(data).word}
     if recalibrate:
         _write_cameras(data, solution, problem)
     data["model_solution"] = result

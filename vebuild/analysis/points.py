@@ -138,8 +138,9 @@ def face_point(solved: SolvedModel, node: str, face: str, s: float, t: float, la
     p = o + s * x + t * y
     if not _in_triangles(p, V, tris):
         size = mesh.chart_size_m[mesh.face_names.index(face)]
-        raise MeasureError(f"point '{label}': ({s:g}, {t:g}) m from the centre of face '{face}' of '{node}' lies off "
-                           f"that face ({size[0]:.3f} × {size[1]:.3f} m)")
+        u = solved.unit.symbol
+        raise MeasureError(f"point '{label}': ({s:g}, {t:g}) {u} from the centre of face '{face}' of '{node}' lies "
+                           f"off that face ({size[0]:.3f} × {size[1]:.3f} {u})")
     return Point(label, "surface", node=node, face=face, coords=tuple(float(c) for c in to_coords(prim, p)))
 
 

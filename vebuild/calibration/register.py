@@ -6,9 +6,10 @@ Two ways, chosen by what the photo offers:
   camera centre from ≥ 2 points of known position (the lines back from the points along their
   rays meet at the camera), refined over all points;
 - without usable vanishing points: from ≥ 4 points of known position alone. The camera's focal
-  length, principal point (held near the image centre by its prior), rotation and position are
-  found by least squares, started from the best of a coarse search over headings, tilts and focal
-  lengths (for each, the centre follows linearly from the points).
+  length (held by its prior where the user or EXIF gives one), principal point (held near the
+  image centre, or near the one the user gave, by its prior), rotation and position are found by
+  least squares, started from the best of a coarse search over headings, tilts and focal lengths
+  (for each, the centre follows linearly from the points).
 
 Both return the camera with the covariance of (f, cx, cy, ω, C) from the Jacobian.
 
@@ -108,10 +109,24 @@ def _refine(points: Array, pixels: Array, K0: Array, R0: Array, C0: Array, click
 @photo_numeric_failures("its registration to the model", "check the marked points (at least 4, not all on one "
                         "line) and their known positions")
 def register_from_points(points: ArrayLike, pixels: ArrayLike, width: int, height: int, *, photo: str = "photo",
-                         click_sigma_px: float = 1.0, principal_point_sigma_rel: float = 0.01,
-                         focal: FocalPrior | None = None, distortion: DistortionPrior | None = None) -> Registered:
-    """A photo's whole camera from ≥ 4 points of known position and their pixels; ``distortion``:
-    the photo's lens distortion where it is known (held at its k1; None: a pinhole)."""
+                         click_sigma_px: float = 1.0, principal_point: tuple[ArrayLike, float] | None = None,
+                         principal_point_sigma_rel: float = 0.01, focal: FocalPrior | None = None,
+                         distortion: DistortionPrior | None = None) -> Registered:
+    """A photo's whole camera from ≥ 4 points of known position and their pixels.
+
+    ``focal``: a focal length given (the user's, or EXIF's), a prior with its 1σ and the search's
+    only start; ``principal_point``: a known principal point and its 1σ (pixels), the prior's
+    centre and 1σ (default the image centre, 1σ = ``principal_point_sigma_rel`` × the longer side);
+    ``distortion``: the photo's lens distortion where it is known (held at its k1; None: a pinhole).
+    """
+    if focal is not None and not (np.isfinite(focal.value) and focal.value > 0 and np.isfinite(focal.sigma)
+                                  and focal.sigma > 0):
+        raise CalibrationError(photo, f"focal_px: expected a focal length > 0 px with a σ > 0 px, got "
+                               f"{focal.value!r} ± {focal.sigma!r}")
+    if principal_point is not None and not (np.all(np.isfinite(np.asarray(principal_point[0], float)))
+                                            and np.isfinite(principal_point[1]) and principal_point[1] > 0):
+        raise CalibrationError(photo, f"principal_point: expected a finite (u, v) with a σ > 0 px, got "
+                               f"{principal_point[0]!r} ± {principal_point[1]!r}")
     k1 = 0.0 if distortion is None else float(distortion.k1)
     X = np.asarray(points, float).reshape(-1, 3)
     uv = np.asarray(pixels, float).reshape(-1, 2)
@@ -119,7 +134,12 @@ def register_from_points(points: ArrayLike, pixels: ArrayLike, width: int, heigh
         raise CalibrationError(photo, f"registration without vanishing points needs at least 4 marked points of "
                                f"known position (model vertices or markers); this photo has {len(X)}")
     s = max(width, height)
-    c = (width / 2.0, height / 2.0)
+    if principal_point is None:
+        c = (width / 2.0, height / 2.0)
+        pp_sigma = principal_point_sigma_rel * s
+    else:
+        u0, v0 = np.asarray(principal_point[0], float).reshape(2)
+        c, pp_sigma = (float(u0), float(v0)), float(principal_point[1])
     focals = [focal.value] if focal is not None else [k * s for k in SEARCH_FOCAL_REL]
     best: list[tuple[float, Array, Array, Array]] = []
     for f in focals:
@@ -138,10 +158,10 @@ def register_from_points(points: ArrayLike, pixels: ArrayLike, width: int, heigh
         raise CalibrationError(photo, "no camera in front of all the marked points explains them; check that "
                                "the marked points are the right ones")
     best.sort(key=lambda t: t[0])
-    # Priors: the principal point near the centre; f from the user or EXIF if known; ω free.
+    # Priors: the principal point near the centre (or the one given); f from the user or EXIF if
+    # known; ω free.
     prior = np.r_[0.0, c, 0.0, 0.0, 0.0]
-    prior_cov = np.diag([np.inf, (principal_point_sigma_rel * s) ** 2, (principal_point_sigma_rel * s) ** 2,
-                         np.inf, np.inf, np.inf])
+    prior_cov = np.diag([np.inf, pp_sigma**2, pp_sigma**2, np.inf, np.inf, np.inf])
     if focal is not None:
         prior[0], prior_cov[0, 0] = focal.value, focal.sigma**2
     candidates: list[tuple[float, Array, Array, Array, Array, Array]] = []

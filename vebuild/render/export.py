@@ -267,7 +267,8 @@ def gltf_document(contents: _Contents) -> tuple[dict[str, Any], bytes]:
         "scene": 0,
         "scenes": [{"name": str(project.data.get("name") or project.path.name), "nodes": [0]}],
         "nodes": [{"name": ROOT_NAME, "rotation": ROOT_QUATERNION, "children": [],
-                   "extras": {"note": "turns vebuild's world (right-handed, metres, +Z up) into glTF's +Y up"}}],
+                   "extras": {"note": f"turns vebuild's world (right-handed, {_units(project)}, +Z up) into glTF's "
+                                      "+Y up"}}],
     }
     materials: list[dict[str, Any]] = []
     page_material: dict[int, int] = {}
@@ -380,12 +381,20 @@ def _unit(v: Array) -> Array:
     return np.where(n > 0, v / np.where(n > 0, n, 1.0), v)
 
 
+def _units(project: Project, metres: str = "metres") -> str:
+    """The unit of the exported lengths, in words: metres, or relative units where the project has
+    no scale (:mod:`vebuild.project.units`; glTF's metres are then the camera's height)."""
+    from vebuild.project.units import RELATIVE_UNITS, length_unit
+
+    return RELATIVE_UNITS if length_unit(project.data).relative else metres
+
+
 def _provenance(contents: _Contents) -> dict[str, Any]:
     project = contents.project
     out: dict[str, Any] = {
         "project": project.path.name,
         "project_sha256": sha256_file(project.path),
-        "units": "metre",
+        "units": _units(project, "metre"),
         "world": "vebuild: right-handed, +Z up; the root node 'vebuild world' rotates it to glTF's +Y up",
         "textured": contents.scene.textured,
     }
@@ -440,7 +449,7 @@ def obj_files(contents: _Contents, path: Path) -> list[tuple[Path, bytes]]:
     mtl = path.with_suffix(".mtl")
     files: list[tuple[Path, bytes]] = []
     head = [f"# vebuild {__version__}: the model of {project.path.name} (SHA-256 {sha256_file(project.path)})",
-            "# Units: metres. Axes: +Y up, right-handed: OBJ (x, y, z) = vebuild world (x, z, -y).",
+            f"# Units: {_units(project)}. Axes: +Y up, right-handed: OBJ (x, y, z) = vebuild world (x, z, -y).",
             "# Blender's default OBJ import (forward -Z, up Y) gives back vebuild's world coordinates (+Z up)."]
     mtl_lines = [head[0], ""]
     face_material: dict[int, str] = {}

@@ -2,8 +2,9 @@
 and maps, the report's images) goes through :func:`write_png`, atomically, with the text chunks of
 :func:`provenance` (:data:`PROVENANCE_KEYS`): the SHA-256 of the project file it was made from, the
 camera (named view or photo, with K, R, C, size and a photo's lens distortion), the lighting preset
-and its lights, the stereo settings, the texture pages' hashes and the software version, and no
-time stamp, so that the same project and options give the same file, byte for byte.
+and its lights, the stereo settings, the texture pages' hashes, the unit of lengths (metres, or
+relative units where the project has no scale) and the software version, and no time stamp, so that
+the same project and options give the same file, byte for byte.
 """
 
 from __future__ import annotations
@@ -21,10 +22,11 @@ from vebuild import __version__
 from vebuild.camera import ImageCamera
 from vebuild.errors import VebuildError
 from vebuild.project import Project, sha256_file
+from vebuild.project.units import RELATIVE_UNITS, length_unit
 
 #: Text keys written into every rendered PNG.
 PROVENANCE_KEYS = ("Software", "vebuild:project", "vebuild:project_sha256", "vebuild:camera", "vebuild:lighting",
-                   "vebuild:stereo", "vebuild:textures", "vebuild:options")
+                   "vebuild:stereo", "vebuild:textures", "vebuild:options", "vebuild:lengths")
 
 def check_output(path: Path, suffixes: tuple[str, ...] = (".png",), project: Project | None = None) -> Path:
     """Fail early, before any work, if ``path`` cannot be written as an output file: also where
@@ -108,4 +110,6 @@ def provenance(project: Project, cam: ImageCamera, kind: str, lighting: str, ste
         "vebuild:stereo": js(stereo),
         "vebuild:textures": js(page_hashes),
         "vebuild:options": js(options),
+        # The unit of the camera's C (and of every length the image shows): metres, or relative.
+        "vebuild:lengths": RELATIVE_UNITS if length_unit(project.data).relative else "metres",
     }
