@@ -297,7 +297,8 @@ def calibrate_photo(
         c0 = np.asarray(principal_point[0], float)
         sigma_c = float(principal_point[1])
         c_where = "the given point"
-    not_orthogonal = _check_orthogonal_pairs(fits, segs, axes, N, c0, sigma_c, click_sigma_px, photo)
+    not_orthogonal = _check_orthogonal_pairs(fits, segs, axes, N, c0, sigma_c, click_sigma_px, photo,
+                                             given_principal_point=principal_point is not None)
 
     finite = [a for a in axes if abs(unit[a][2]) > 1.0 / FINITE_VP_MAX_RADIUS]
     scale = float(max(width, height))
@@ -466,7 +467,7 @@ def _distortion_reason(k1: float, k1_sigma: float, straightness: bool, prior: Di
 
 def _check_orthogonal_pairs(fits: Mapping[str, VanishingPointFit], segs: Mapping[str, Array], axes: list[str],
                             N: Array, c0: Array, sigma_c: float, click_sigma_px: float,
-                            photo: str) -> CalibrationError | None:
+                            photo: str, given_principal_point: bool = False) -> CalibrationError | None:
     """The refusal of a pair of vanishing points that no real focal length makes orthogonal, or None.
 
     f² = −(v₁ − c)·(v₂ − c) for finite points; on the sphere of normalised homogeneous points x =
@@ -525,8 +526,10 @@ def _check_orthogonal_pairs(fits: Mapping[str, VanishingPointFit], segs: Mapping
             return CalibrationError(
                 photo,
                 f"the vanishing points of axes {a} and {b} give f² = {f2:.4g} px² ≤ 0: for orthogonal "
-                "directions they must lie on opposite sides of the principal point; a segment set is "
-                "probably labelled with the wrong axis",
+                "directions they must lie on opposite sides of the principal point; "
+                + (f"the principal point given for the photo ({c0[0]:.1f}, {c0[1]:.1f} ± {sigma_c:.1f} px) is wrong, "
+                   "or a segment set is labelled with the wrong axis: check its principal_point, then the axes"
+                   if given_principal_point else "a segment set is probably labelled with the wrong axis"),
             )
     return None
 
