@@ -342,6 +342,17 @@ def test_lens_profile_gives_a_division_model_prior() -> None:
     assert corner_px < 0.1 * lensfun_px + 1.0
 
 
+def test_lens_profile_of_a_photo_object() -> None:
+    pytest.importorskip("lensfunpy")
+    exif = {"make": "NIKON CORPORATION", "model": "NIKON D7000",
+            "lens_model": "AF-S DX Zoom-Nikkor 18-55mm f/3.5-5.6G ED", "focal_length_mm": 18.0}
+    photo = {"width": 1200, "height": 800, "exif": exif}
+    prior = cx.exif_distortion_prior(photo)
+    assert prior == cx.lens_distortion_prior(exif, 1200, 800, 18.0 * 1200 / 23.6)
+    no_focal = {k: v for k, v in exif.items() if k != "focal_length_mm"}
+    assert cx.exif_distortion_prior({**photo, "exif": no_focal}) is None
+
+
 def test_lens_profile_none_where_unknown() -> None:
     pytest.importorskip("lensfunpy")
     base = {"make": "NIKON CORPORATION", "model": "NIKON D7000", "focal_length_mm": 18.0}

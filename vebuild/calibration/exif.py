@@ -325,6 +325,18 @@ def lens_distortion_prior(exif: Mapping[str, Any], width: int, height: int, foca
                            f"(lensfun database; division-model fit {rms_px:.2f} px RMS)")
 
 
+def exif_distortion_prior(photo: Mapping[str, Any], focal_px: float | None = None) -> DistortionPrior | None:
+    """:func:`lens_distortion_prior` of a photo object (its ``exif``, ``width`` and ``height``), at
+    ``focal_px`` (default: the EXIF focal prior's value; None where EXIF gives no focal length)."""
+    exif = photo.get("exif") or {}
+    if focal_px is None:
+        prior = exif_focal_prior(photo)
+        if prior is None:
+            return None
+        focal_px = prior.value
+    return lens_distortion_prior(exif, int(photo["width"]), int(photo["height"]), focal_px)
+
+
 @functools.cache
 def _lensfun_database() -> Any:
     import lensfunpy
