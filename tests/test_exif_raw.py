@@ -438,3 +438,32 @@ def test_raw_too_large_is_refused_before_developing(tmp_path: Path) -> None:
 def test_missing_photo_file(tmp_path: Path) -> None:
     with pytest.raises(ProjectError, match=r"photo file not found: .*gone\.dng"):
         image_size(tmp_path / "gone.dng", "p", "")
+
+
+# ---- the large-photo benchmark ----------------------------------------------------------------------
+
+
+def test_big_photo_bench_decodes_a_jpeg_and_a_raw(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # The benchmark at a small size (its 45 MP figures are in the README): each case written,
+    # decoded in a fresh process by the one photo decoder, its figures named with their units.
+    pytest.importorskip("tifffile")
+    from vebuild.bench import big_photo
+
+    monkeypatch.setattr(big_photo, "SIZE_45MP", (192, 128))
+    for case in ("jpeg", "raw"):
+        fig = big_photo.measure(case, tmp_path, 0, stages=("decode",))
+        assert (fig["width_px"], fig["height_px"]) == (192, 128)
+        assert fig["decoded_mb"] == pytest.approx(3 * 192 * 128 / 2**20)
+        assert fig["decode_peak_rss_mb"] >= fig["decode_baseline_rss_mb"] > 0
+        assert fig["decode_peak_over_decoded"] == pytest.approx(fig["decode_peak_rss_mb"] / fig["decoded_mb"])
+        assert fig["decode_seconds"] > 0 and fig["file_mb"] > 0
+    assert not list(tmp_path.iterdir())  # the photos are removed
+
+
+def test_big_photo_bench_refuses_an_unknown_case(capsys: pytest.CaptureFixture[str]) -> None:
+    from vebuild.bench import big_photo
+
+    with pytest.raises(SystemExit) as e:
+        big_photo.main(["--cases", "jpeg,tiff"])
+    assert e.value.code == 2
+    assert "unknown case or stage: tiff" in capsys.readouterr().err
