@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import io
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -467,3 +468,41 @@ def test_big_photo_bench_refuses_an_unknown_case(capsys: pytest.CaptureFixture[s
         big_photo.main(["--cases", "jpeg,tiff"])
     assert e.value.code == 2
     assert "unknown case or stage: tiff" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("key", "value", "expected"), [
+    ("orientation", 9, "expected a number at least 1 and at most 8 (an EXIF orientation: 1 upright, 3 upside down, "
+                       "6 and 8 turned a quarter, 2, 4, 5 and 7 mirrored), found the number 9"),
+    ("orientation", 0, "at most 8 (an EXIF orientation: 1 upright"),
+    ("pixel_x_dimension", 0, "expected a number at least 1 and at most 1000000 (the image's width in pixels as the "
+                             "camera wrote it; no camera writes a side of a million pixels), found the number 0"),
+    ("pixel_y_dimension", 2.5, "expected a whole number (the image's height in pixels"),
+    ("lens_model", 3, "expected text in quotes, found the number 3"),
+])
+def test_exif_record_fields_are_checked_when_loaded(tmp_path: Path, key: str, value: object, expected: str) -> None:
+    import json
+
+    doc = new_project("x")
+    entry = new_photo_entry(tmp_path, _jpeg(tmp_path / "a.jpg"))
+    entry["exif"] = {key: value}
+    doc["photos"].append(entry)
+    (tmp_path / "p.vebuild.json").write_text(json.dumps(doc), encoding="utf-8")
+    with pytest.raises(ProjectError, match=re.escape(f"$.photos[0].exif.{key}: ") + ".*" + re.escape(expected)):
+        load_project(tmp_path / "p.vebuild.json")
+
+
+def test_exif_values_outside_the_formats_bounds_are_left_out(tmp_path: Path) -> None:
+    # A camera's odd EXIF must not make the photo's entry invalid: such values are not recorded.
+    path = _jpeg(tmp_path / "odd.jpg", _exif(None, t37386=20000.0, t41989=200000, t41486=1e9, t41488=4,
+                                             xA002=2_000_000, xA003=0))
+    entry = new_photo_entry(tmp_path, path)
+    assert entry["exif"] == {"make": "NIKON CORPORATION", "model": "NIKON D7000"}
+    doc = new_project("odd")
+    doc["photos"].append(entry)
+    save_project(tmp_path / "odd.vebuild.json", doc)  # valid
+
+
+def test_focal_plane_resolution_in_micrometres(tmp_path: Path) -> None:
+    # Unit 5 (µm): 0.25 px per µm is 250 px per mm (tests/test_project.py has the other units).
+    exif = read_exif(_jpeg(tmp_path / "um.jpg", _exif(None, t37386=4.5, t41486=0.25, t41488=5)))
+    assert exif["focal_plane_x_resolution_per_mm"] == pytest.approx(250.0)

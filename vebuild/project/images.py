@@ -289,7 +289,7 @@ def read_exif(path: str | os.PathLike[str]) -> dict[str, Any]:
         out, size = _raw_exif(Path(path))
     else:
         out, size = _pillow_exif(Path(path))
-    if size is not None and (prior := focal_prior(out, *size)) is not None:
+    if size is not None and (prior := focal_prior(out, *size)) is not None and 1.0 <= prior.value <= _MAX_FOCAL_PX:
         out["focal_length_px"] = prior.value
     return out
 
@@ -299,6 +299,8 @@ _MAKE, _MODEL, _EXIF_IFD = 0x010F, 0x0110, 0x8769
 _FOCAL_LENGTH, _FOCAL_35MM, _FOCAL_PLANE_XRES, _FOCAL_PLANE_UNIT = 37386, 41989, 41486, 41488
 _LENS_MAKE, _LENS_MODEL = 0xA433, 0xA434
 _PIXEL_X_DIMENSION, _PIXEL_Y_DIMENSION = 0xA002, 0xA003
+#: The largest focal length in pixels the format holds (FORMAT.md, "Bounds").
+_MAX_FOCAL_PX = 1e7
 #: FocalPlaneResolutionUnit → millimetres per unit (2 inch, the default, 3 cm, 4 mm, 5 µm).
 _MM_PER_UNIT = {2: 25.4, 3: 10.0, 4: 1.0, 5: 0.001}
 
@@ -363,17 +365,19 @@ def _record(values: dict[str, Any]) -> dict[str, Any]:
             out[key] = text
     if isinstance(values["orientation"], int) and values["orientation"] in ORIENTATIONS:
         out["orientation"] = values["orientation"]
-    # EXIF writes 0 for "unknown"; only positive values are kept.
-    if (f_mm := _positive(values["focal_length_mm"])) is not None:
+    # EXIF writes 0 for "unknown"; only positive values are kept, and only within the format's
+    # bounds (FORMAT.md: no lens is longer, no pixel smaller), so that no camera's odd value
+    # makes the photo's entry invalid.
+    if (f_mm := _positive(values["focal_length_mm"])) is not None and f_mm <= 10_000:
         out["focal_length_mm"] = f_mm
-    if (f_35 := _positive(values["focal_length_35mm"])) is not None:
+    if (f_35 := _positive(values["focal_length_35mm"])) is not None and f_35 <= 100_000:
         out["focal_length_35mm"] = f_35
     res = _positive(values["resolution"])
     mm_per_unit = _MM_PER_UNIT.get(values["unit"]) if isinstance(values["unit"], int) else None
-    if res is not None and mm_per_unit is not None:
+    if res is not None and mm_per_unit is not None and res / mm_per_unit <= 100_000:
         out["focal_plane_x_resolution_per_mm"] = res / mm_per_unit
     for key in ("pixel_x_dimension", "pixel_y_dimension"):  # the image's size as the camera wrote it
-        if isinstance(values[key], int) and values[key] > 0:
+        if isinstance(values[key], int) and 0 < values[key] <= 1_000_000:
             out[key] = values[key]
     return out
 
