@@ -506,3 +506,21 @@ def test_focal_plane_resolution_in_micrometres(tmp_path: Path) -> None:
     # Unit 5 (µm): 0.25 px per µm is 250 px per mm (tests/test_project.py has the other units).
     exif = read_exif(_jpeg(tmp_path / "um.jpg", _exif(None, t37386=4.5, t41486=0.25, t41488=5)))
     assert exif["focal_plane_x_resolution_per_mm"] == pytest.approx(250.0)
+
+
+def test_modelling_screen_adds_and_shows_turned_and_raw_photos(tmp_path: Path) -> None:
+    # The modelling screen's session adds a turned JPEG and a DNG and loads their pixels through
+    # the same decoder: as displayed, the size the project records.
+    from vebuild.edit.session import EditSession
+
+    save_project(tmp_path / "s.vebuild.json", new_project("s"))
+    session = EditSession(load_project(tmp_path / "s.vebuild.json"), autosave=False)
+    jpeg = _jpeg(tmp_path / "door.jpg", _exif(8))
+    dng = _dng(tmp_path / "scene.dng", orientation=6)
+    for path in (jpeg, dng):
+        pid = session.add_photo(path)
+        photo = session.photo(pid)
+        pixels = session.photo_pixels(pid)
+        assert pixels.shape == (photo["height"], photo["width"], 3) == (W, H, 3)
+    with Image.open(jpeg) as im:
+        np.testing.assert_array_equal(session.photo_pixels("door"), np.asarray(ImageOps.exif_transpose(im)))
