@@ -421,12 +421,18 @@ def test_unreadable_raw_is_refused(tmp_path: Path) -> None:
     assert bad.read_bytes() == b"this is no camera RAW file" * 40
 
 
-def test_truncated_raw_is_refused(tmp_path: Path) -> None:
+def test_truncated_raw_is_refused(tmp_path: Path, capfd: pytest.CaptureFixture[str]) -> None:
+    # LibRaw's own complaint (written by C to the process's standard error) is quoted in the one
+    # message, not left on the terminal beside it.
     whole = _dng(tmp_path / "whole.dng", w=256, h=256).read_bytes()
     cut = tmp_path / "cut.dng"
     cut.write_bytes(whole[: len(whole) // 3])
-    with pytest.raises(ProjectError, match=r"cut\.dng as a camera RAW file: LibRaw .* says .*and whole\?\)"):
+    capfd.readouterr()
+    with pytest.raises(ProjectError, match=r"cut\.dng as a camera RAW file: LibRaw \S+ says Input/output error \(its "
+                       r"own words: .*Unexpected end of file\) \(is it a RAW file of a camera LibRaw supports, and "
+                       r"whole\?\)"):
         new_photo_entry(tmp_path, cut)
+    assert capfd.readouterr().err == ""
 
 
 def test_raw_too_large_is_refused_before_developing(tmp_path: Path) -> None:
@@ -524,3 +530,34 @@ def test_modelling_screen_adds_and_shows_turned_and_raw_photos(tmp_path: Path) -
         assert pixels.shape == (photo["height"], photo["width"], 3) == (W, H, 3)
     with Image.open(jpeg) as im:
         np.testing.assert_array_equal(session.photo_pixels("door"), np.asarray(ImageOps.exif_transpose(im)))
+
+
+def test_vebuild_new_from_a_turned_jpeg_and_a_dng(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from vebuild.cli import main
+
+    _jpeg(tmp_path / "door.jpg", _exif(6, t37386=18.0))
+    _dng(tmp_path / "scene.dng", orientation=1)
+    assert main(["new", str(tmp_path / "r.vebuild.json"), str(tmp_path / "door.jpg"), str(tmp_path / "scene.dng")]) == 0
+    photos = load_project(tmp_path / "r.vebuild.json").data["photos"]
+    assert [(p["id"], p["width"], p["height"]) for p in photos] == [("door", H, W), ("scene", W, H)]
+    assert photos[0]["exif"]["orientation"] == 6 and "focal_length_px" in photos[1]["exif"]
+
+
+@pytest.mark.parametrize(("name", "content", "expected"), [
+    ("shot.nef", b"not a raw file" * 50, "as a camera RAW file: LibRaw"),
+    ("odd.jpg", None, "EXIF orientation (tag 274) 9; expected 1 to 8"),
+])
+def test_vebuild_new_refuses_with_one_message(tmp_path: Path, capsys: pytest.CaptureFixture[str], name: str,
+                                              content: bytes | None, expected: str) -> None:
+    from vebuild.cli import main
+
+    path = tmp_path / name
+    if content is None:
+        _jpeg(path, _exif(9))
+    else:
+        path.write_bytes(content)
+    capsys.readouterr()
+    assert main(["new", str(tmp_path / "r.vebuild.json"), str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and err.count("\n") == 1 and expected in err and name in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == [name]  # nothing written

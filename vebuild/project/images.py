@@ -208,24 +208,69 @@ def decode_photo(data: bytes, name: str | os.PathLike[str], file: Any, where: st
             raise ProjectError(file, where, f"cannot decode {shown} as an image: {e}") from None
 
 
+class _LibRawOutput:
+    """What LibRaw writes to the process's standard error (C's, not Python's: "unknown file:
+    Unexpected end of file") while it reads a file: kept out of the terminal, where it would stand
+    beside vebuild's own message, and quoted in that message instead. When LibRaw succeeds,
+    anything written meanwhile is passed on to standard error afterwards."""
+
+    def __init__(self) -> None:
+        self.text = ""
+
+    @contextlib.contextmanager
+    def captured(self) -> Iterator[None]:
+        import sys
+        import tempfile
+
+        try:
+            sys.stderr.flush()
+            saved = os.dup(2)
+        except (OSError, ValueError):  # no file descriptor 2 (an embedded interpreter): nothing to keep out
+            yield
+            return
+        with tempfile.TemporaryFile() as sink:
+            os.dup2(sink.fileno(), 2)
+            try:
+                yield
+            finally:
+                os.dup2(saved, 2)
+                os.close(saved)
+                sink.seek(0)
+                self.text += sink.read().decode("utf-8", "replace")
+
+    def said(self) -> str:
+        """LibRaw's lines, as ``" (its own words: …)"``, or "" when it wrote none."""
+        lines = [ln.strip() for ln in self.text.splitlines() if ln.strip()]
+        return f" (its own words: {'; '.join(lines)})" if lines else ""
+
+    def pass_on(self) -> None:
+        if self.text:
+            os.write(2, self.text.encode("utf-8"))
+            self.text = ""
+
+
 @contextlib.contextmanager
 def _open_raw(source: Path | io.BytesIO, file: Any, where: str, shown: str,
               max_pixels: int = MAX_IMAGE_PIXELS) -> Iterator[Any]:
     """A RAW file opened and unpacked by LibRaw, its size bounded before it is developed."""
     import rawpy
 
+    out = _LibRawOutput()
     try:
-        raw = rawpy.imread(source if isinstance(source, io.BytesIO) else str(source))
-        try:
-            raw.unpack()  # reads the raw data: a truncated file fails here, before any development
-        except BaseException:
-            raw.close()
-            raise
+        with out.captured():
+            raw = rawpy.imread(source if isinstance(source, io.BytesIO) else str(source))
+            try:
+                raw.unpack()  # reads the raw data: a truncated file fails here, before any development
+            except BaseException:
+                raw.close()
+                raise
     except FileNotFoundError:
         raise ProjectError(file, where, f"photo file not found: {shown}") from None
     except (rawpy.LibRawError, OSError, ValueError) as e:
         raise ProjectError(file, where, f"cannot read {shown} as a camera RAW file: LibRaw {_libraw_version()} says "
-                           f"{_libraw_text(e)} (is it a RAW file of a camera LibRaw supports, and whole?)") from None
+                           f"{_libraw_text(e)}{out.said()} (is it a RAW file of a camera LibRaw supports, and "
+                           "whole?)") from None
+    out.pass_on()
     with raw:
         w, h = _raw_size(raw)
         if w * h > max_pixels:
@@ -250,13 +295,17 @@ def _raw_size(raw: Any) -> tuple[int, int]:
 def _develop(raw: Any, file: Any, where: str, shown: str) -> NDArray[np.uint8]:
     import rawpy
 
+    out = _LibRawOutput()
     try:
         # Camera white balance and LibRaw's default development, 8 bits per channel: what the
         # photographer saw; the geometry (and so every mark) does not depend on these choices.
-        return np.ascontiguousarray(raw.postprocess(output_bps=8, use_camera_wb=True))
+        with out.captured():
+            pixels = np.ascontiguousarray(raw.postprocess(output_bps=8, use_camera_wb=True))
     except (rawpy.LibRawError, OSError, ValueError, MemoryError) as e:
-        raise ProjectError(file, where, f"cannot develop the RAW file {shown}: LibRaw says {_libraw_text(e)} "
-                           "(the file may be damaged or truncated)") from None
+        raise ProjectError(file, where, f"cannot develop the RAW file {shown}: LibRaw says {_libraw_text(e)}"
+                           f"{out.said()} (the file may be damaged or truncated)") from None
+    out.pass_on()
+    return pixels
 
 
 def _libraw_version() -> str:
