@@ -561,3 +561,34 @@ def test_vebuild_new_refuses_with_one_message(tmp_path: Path, capsys: pytest.Cap
     err = capsys.readouterr().err
     assert "Traceback" not in err and err.count("\n") == 1 and expected in err and name in err, err
     assert sorted(p.name for p in tmp_path.iterdir()) == [name]  # nothing written
+
+
+def test_raw_that_libraw_cannot_develop(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # A file LibRaw unpacks but fails to develop (its data corrupt past the header): LibRaw's
+    # development raises, and the message says so. LibRaw is asked for real to open the file; its
+    # development is made to fail as LibRaw's does, since no small file is known to fail only there.
+    import contextlib
+
+    import rawpy
+
+    from vebuild.project import images
+
+    path = _dng(tmp_path / "bad.dng")
+    real_open = images._open_raw
+
+    class Failing:
+        def __init__(self, raw):
+            self.raw = raw
+
+        def postprocess(self, **_):
+            raise rawpy.LibRawDataError(b"Data error")
+
+    @contextlib.contextmanager
+    def open_failing(*args, **kwargs):
+        with real_open(*args, **kwargs) as raw:
+            yield Failing(raw)
+
+    monkeypatch.setattr(images, "_open_raw", open_failing)
+    with pytest.raises(ProjectError, match=r"p: \$\.photos\[0\]\.file: cannot develop the RAW file bad\.dng: LibRaw "
+                       r"says Data error \(the file may be damaged or truncated\)"):
+        decode_photo(path.read_bytes(), path, "p", "$.photos[0].file", label="bad.dng")
