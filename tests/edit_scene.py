@@ -65,7 +65,11 @@ def make_plan(folder: Path, seed: int = 11, noise_px: float = CLICK_NOISE_PX) ->
         (folder / photos[pid]["file"]).parent.mkdir(parents=True, exist_ok=True)
         shutil.copy(EXAMPLE / photos[pid]["file"], folder / photos[pid]["file"])
     path = folder / "rebuilt.vebuild.json"
-    save_project(path, new_project("rebuilt"))
+    doc = new_project("rebuilt")
+    # The example's EXIF is the true focal length (its generator writes it exactly): the user
+    # states that accuracy, as tests/test_example_room.py does, where the default is EXIF's 3 %.
+    doc["settings"]["exif_focal_sigma_rel"] = 0.01
+    save_project(path, doc)
     plan = Plan(folder, path, truth, noise_px)
     rng = np.random.default_rng(seed)
     for pid in PHOTOS:

@@ -179,8 +179,8 @@ def test_focal_prior_from_focal_plane_resolution() -> None:
     prior = cx.focal_prior(exif, 5184, 3456)
     assert prior.value == pytest.approx(18.0 * 5184 / 22.3)
     assert prior.source.startswith("exif: 18 mm × focal-plane resolution 232.47 px/mm (sensor 22.3 mm wide)")
-    # 3 % floor, 1 mm rounding (whole millimetres) at 18 mm, 1 % sensor: √(3² + 1.60² + 1²) %
-    assert _rel(prior) == pytest.approx(math.sqrt(0.03**2 + (1 / math.sqrt(12) / 18) ** 2 + 0.01**2))
+    # 3 % for what EXIF cannot know, 1 mm rounding (whole millimetres) at 18 mm: √(3² + 1.60²) %
+    assert _rel(prior) == pytest.approx(math.sqrt(0.03**2 + (1 / math.sqrt(12) / 18) ** 2))
 
 
 def test_focal_prior_from_the_sensor_database_on_a_turned_photo() -> None:
@@ -235,8 +235,8 @@ def test_rounding_step_of_the_focal_length() -> None:
     base = {"focal_plane_x_resolution_per_mm": 200.0}
     whole = _rel(cx.focal_prior({**base, "focal_length_mm": 18.0}, 4000, 3000, floor_rel=0.0))
     tenth = _rel(cx.focal_prior({**base, "focal_length_mm": 18.3}, 4000, 3000, floor_rel=0.0))
-    assert whole == pytest.approx(math.hypot(1 / math.sqrt(12) / 18.0, 0.01))
-    assert tenth == pytest.approx(math.hypot(0.1 / math.sqrt(12) / 18.3, 0.01))
+    assert whole == pytest.approx(1 / math.sqrt(12) / 18.0)
+    assert tenth == pytest.approx(0.1 / math.sqrt(12) / 18.3)
 
 
 def test_focal_sigma_covers_real_exif_errors() -> None:
@@ -265,8 +265,8 @@ def test_the_projects_setting_is_the_floor(tmp_path: Path) -> None:
     photo = {"width": 4928, "height": 3264, "exif": {"make": "NIKON CORPORATION", "model": "NIKON D7000",
                                                    "focal_length_mm": 18.3}}
     wide, narrow = cx.exif_focal_prior(photo, 0.05), cx.exif_focal_prior(photo, 0.001)
-    assert _rel(wide) == pytest.approx(math.sqrt(0.05**2 + (0.1 / math.sqrt(12) / 18.3) ** 2 + 0.01**2))
-    assert _rel(narrow) < 0.011
+    assert _rel(wide) == pytest.approx(math.hypot(0.05, 0.1 / math.sqrt(12) / 18.3))
+    assert _rel(narrow) == pytest.approx(math.hypot(0.001, 0.1 / math.sqrt(12) / 18.3))
     from vebuild.project import DEFAULT_SETTINGS
 
     assert DEFAULT_SETTINGS["exif_focal_sigma_rel"] == cx.NOMINAL_FOCAL_SIGMA_REL
@@ -592,3 +592,27 @@ def test_raw_that_libraw_cannot_develop(tmp_path: Path, monkeypatch: pytest.Monk
     with pytest.raises(ProjectError, match=r"p: \$\.photos\[0\]\.file: cannot develop the RAW file bad\.dng: LibRaw "
                        r"says Data error \(the file may be damaged or truncated\)"):
         decode_photo(path.read_bytes(), path, "p", "$.photos[0].file", label="bad.dng")
+
+
+def _exif_bytes(num: int, den: int) -> bytes:
+    """An EXIF block written by hand, as a camera writes it: an Exif IFD whose FocalLength is the
+    rational num/den unreduced (Pillow reduces the rationals it writes; cameras do not)."""
+    import struct
+
+    tiff = b"II*\x00" + struct.pack("<I", 8)
+    tiff += struct.pack("<H", 1) + struct.pack("<HHII", 0x8769, 4, 1, 26) + struct.pack("<I", 0)  # IFD0 → Exif IFD
+    tiff += struct.pack("<H", 1) + struct.pack("<HHII", 0x920A, 5, 1, 44) + struct.pack("<I", 0)  # FocalLength
+    tiff += struct.pack("<II", num, den)
+    return b"Exif\x00\x00" + tiff
+
+
+@pytest.mark.parametrize(("num", "den", "step"), [(180, 10, 0.1), (18, 1, 1.0), (4250, 1000, 0.001), (81, 40, 0.0)])
+def test_the_step_the_focal_length_was_written_to(tmp_path: Path, num: int, den: int, step: float) -> None:
+    # 180/10 is 18 mm to a tenth; 18/1 to the millimetre; 81/40 an exact fraction, no rounding.
+    path = tmp_path / "f.jpg"
+    Image.fromarray(_pattern()).save(path, format="JPEG", exif=_exif_bytes(num, den))
+    exif = read_exif(path)
+    assert exif["focal_length_mm"] == pytest.approx(num / den)
+    assert exif["focal_length_mm_step"] == pytest.approx(step)
+    prior = cx.focal_prior({**exif, "focal_plane_x_resolution_per_mm": 100.0}, W, H, floor_rel=0.0)
+    assert _rel(prior) == pytest.approx(step / math.sqrt(12) / (num / den))

@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from PIL import Image, UnidentifiedImageError
+from PIL import Image, TiffImagePlugin, UnidentifiedImageError
 
 from ..errors import ProjectError
 
@@ -325,7 +325,8 @@ def read_exif(path: str | os.PathLike[str]) -> dict[str, Any]:
     Returns
     -------
     dict with the keys of FORMAT.md's ``exif`` object that the file gives (``{}`` for none):
-    make, model, lens_make, lens_model, orientation (1–8), focal_length_mm, focal_length_35mm,
+    make, model, lens_make, lens_model, orientation (1–8), focal_length_mm and the step it was
+    written to (focal_length_mm_step, from the rational's denominator), focal_length_35mm,
     focal_plane_x_resolution_per_mm (along the sensor's x axis, whatever the orientation),
     pixel_x_dimension and pixel_y_dimension (the image's size as the camera wrote it), and the
     derived focal_length_px: the value of :func:`vebuild.calibration.exif.focal_prior` (the
@@ -419,6 +420,8 @@ def _record(values: dict[str, Any]) -> dict[str, Any]:
     # makes the photo's entry invalid.
     if (f_mm := _positive(values["focal_length_mm"])) is not None and f_mm <= 10_000:
         out["focal_length_mm"] = f_mm
+        if (step := _decimal_step(values["focal_length_mm"])) is not None:
+            out["focal_length_mm_step"] = step
     if (f_35 := _positive(values["focal_length_35mm"])) is not None and f_35 <= 100_000:
         out["focal_length_35mm"] = f_35
     res = _positive(values["resolution"])
@@ -429,6 +432,19 @@ def _record(values: dict[str, Any]) -> dict[str, Any]:
         if isinstance(values[key], int) and 0 < values[key] <= 1_000_000:
             out[key] = values[key]
     return out
+
+
+def _decimal_step(value: Any) -> float | None:
+    """The step an EXIF rational was rounded to, as Pillow read it (numerator and denominator as
+    written): 1/denominator where that is a power of ten (180/10: 0.1 mm), 0 where it is not (an
+    exact fraction, as software writes: 81/40), None for a value without its denominator."""
+    den = getattr(value, "denominator", None)
+    if not isinstance(value, TiffImagePlugin.IFDRational) or not isinstance(den, int) or den <= 0:
+        return None
+    power = den
+    while power % 10 == 0:
+        power //= 10
+    return 1.0 / den if power == 1 else 0.0
 
 
 def _positive(value: Any) -> float | None:
