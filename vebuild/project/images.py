@@ -104,10 +104,12 @@ RAW_SUFFIXES = frozenset({".dng", ".nef", ".nrw", ".cr2", ".cr3", ".crw", ".arw"
 #: second copy of the whole photo is made (np.asarray of the image would make two).
 DECODE_BAND_PIXELS = 1 << 20
 _ORIENTATION = 0x0112
-#: What each EXIF orientation (tag 274) means, for messages.
+#: The EXIF orientations (tag 274) and what each means.
 ORIENTATIONS = {1: "upright", 2: "mirrored left to right", 3: "upside down", 4: "mirrored top to bottom",
                 5: "mirrored and turned a quarter", 6: "turned a quarter clockwise to view",
                 7: "mirrored and turned a quarter", 8: "turned a quarter anticlockwise to view"}
+#: Orientations that turn the picture a quarter: the displayed width is the stored height.
+_QUARTER_TURNS = frozenset({5, 6, 7, 8})
 #: For each orientation, the view of the displayed array in which pixel (row, column) is the stored
 #: photo's (row, column): writing the stored rows into it turns them as the camera meant (the
 #: inverse of Pillow's ImageOps.exif_transpose, whose results the tests compare).
@@ -140,9 +142,6 @@ def image_size(image: Path, file: Any, where: str) -> tuple[int, int]:
     with open_image(image, file, where, decode=True) as img:
         w, h = img.size
         return (h, w) if photo_orientation(img, file, where, str(image)) in _QUARTER_TURNS else (w, h)
-
-
-_QUARTER_TURNS = frozenset({5, 6, 7, 8})
 
 
 def photo_orientation(img: Image.Image, file: Any, where: str, shown: str) -> int:
