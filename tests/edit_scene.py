@@ -70,6 +70,9 @@ def make_plan(folder: Path, seed: int = 11, noise_px: float = CLICK_NOISE_PX) ->
     # claims of tests/claims.py were measured with a prior of that width; the 3 % default is for
     # real cameras (vebuild.calibration.priors.PRINCIPAL_POINT_SIGMA_REL).
     doc["settings"]["principal_point_sigma_rel"] = 0.01
+    # The example's EXIF is the true focal length (its generator writes it exactly): the user
+    # states that accuracy, as tests/test_example_room.py does, where the default is EXIF's 3 %.
+    doc["settings"]["exif_focal_sigma_rel"] = 0.01
     save_project(path, doc)
     plan = Plan(folder, path, truth, noise_px)
     rng = np.random.default_rng(seed)

@@ -22,3 +22,12 @@ def data_dir(name: str) -> Path:
 def example_project_dir() -> Path:
     """The bundled example room: photos, project file and ground truth."""
     return data_dir("scenes/room")
+
+
+def package_data_file(name: str) -> Path:
+    """A data file shipped inside the package, in ``vebuild/data`` (e.g. 'sensors.csv', the sensor
+    database of :mod:`vebuild.calibration.exif`)."""
+    path = _PACKAGE / "data" / name
+    if not path.is_file():
+        raise FileNotFoundError(f"vebuild's data file 'data/{name}' is missing from this installation")
+    return path

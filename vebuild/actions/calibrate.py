@@ -13,7 +13,8 @@ from typing import Any
 import numpy as np
 
 from .. import __version__
-from ..calibration.photo import FocalPrior, PhotoCalibration, calibrate_photo
+from ..calibration.exif import exif_distortion_prior, exif_focal_prior
+from ..calibration.photo import PhotoCalibration, calibrate_photo
 from ..calibration.positions import PhotoInput, PlacedCamera, Placement, ReferenceDistance, place_cameras
 from ..calibration.single_photo import (
     FloorDistance,
@@ -29,23 +30,6 @@ from ..project import Project, canonical_input_hash, decode
 from ..project.decode import check_reference_handles
 from ..project.records import camera_record, distortion_record, json_values, value_sigma
 from ..project.units import METRES, RELATIVE
-
-#: EXIF focal lengths from the physical focal length and from the 35 mm equivalent that disagree
-#: by more than this (relative) are not trusted to 1 %: the larger discrepancy becomes the 1σ.
-EXIF_FOCAL_DISAGREEMENT = 0.03
-
-
-def exif_focal_prior(photo: dict[str, Any], sigma_rel: float) -> FocalPrior | None:
-    """The EXIF focal length in pixels as a prior, or None when EXIF has none."""
-    exif = photo.get("exif") or {}
-    f = exif.get("focal_length_px")
-    if not f:
-        return None
-    f35 = exif.get("focal_length_35mm")
-    if f35:
-        f_from_35 = f35 * np.hypot(photo["width"], photo["height"]) / np.hypot(36.0, 24.0)
-        sigma_rel = max(sigma_rel, abs(f_from_35 - f) / f if abs(f_from_35 - f) / f > EXIF_FOCAL_DISAGREEMENT else 0)
-    return FocalPrior(float(f), float(f) * sigma_rel, "exif")
 
 
 def calibrate_photos(project: Project, progress: Callable[[Iterable], Iterable] = iter) -> dict[str, PhotoCalibration]:
@@ -66,6 +50,9 @@ def calibrate_photos(project: Project, progress: Callable[[Iterable], Iterable] 
             principal_point_sigma_rel=settings["principal_point_sigma_rel"],
             focal=marks.focal,
             exif_focal=exif_focal_prior(photo, settings["exif_focal_sigma_rel"]),
+            # A lens profile where EXIF names a lens lensfun knows: the prior of the lens distortion,
+            # refined by segments with middle points (the segments' straightness) where there are some.
+            distortion=exif_distortion_prior(photo),
         )
     return out
 

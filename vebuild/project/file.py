@@ -48,7 +48,7 @@ DEFAULT_SETTINGS: dict[str, float] = {
     # 3 % of the longer side: real cameras' principal points lie a few per cent off centre
     # (calibration.priors.PRINCIPAL_POINT_SIGMA_REL says what was measured).
     "principal_point_sigma_rel": PRINCIPAL_POINT_SIGMA_REL,
-    "exif_focal_sigma_rel": 0.01,
+    "exif_focal_sigma_rel": 0.03,  # vebuild.calibration.exif.NOMINAL_FOCAL_SIGMA_REL: EXIF is nominal
 }
 #: Top-level keys written by vebuild's stages; they are not input, so the input hash skips them.
 RESULT_KEYS = ("calibration", "model_solution", "textures")
@@ -230,9 +230,16 @@ def _verify_photo(project: Project, i: int, photo: dict[str, Any]) -> None:
                            "made on it may no longer fit. Restore the original file, or add the photo again")
     size = _image_size(image, project.path, f"{where}.file")
     if size != (photo["width"], photo["height"]):
+        turned = ""
+        if size == (photo["height"], photo["width"]):
+            # A project made before vebuild turned photos by their EXIF orientation: its marks
+            # were placed on the photo as stored, not as the camera meant it to be shown.
+            turned = (": the photo's EXIF orientation turns it a quarter, and vebuild shows (and marks) photos as "
+                      "the camera meant them, turned; the project's size is the photo as stored, so its marks do "
+                      "not fit the photo as shown. Add the photo again and mark it again")
         raise ProjectError(project.path, f"{where}.width",
                            f"the photo {photo['file']!r} is {size[0]}×{size[1]} pixels, "
-                           f"but the project says {photo['width']}×{photo['height']}")
+                           f"but the project says {photo['width']}×{photo['height']}{turned}")
 
 
 # --------------------------------------------------------------------------------------------------

@@ -7,29 +7,25 @@ the PNGs and the record.
 
 from __future__ import annotations
 
-import io
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
-from PIL import UnidentifiedImageError
 
 from vebuild.camera import ImageCamera
 from vebuild.errors import ProjectError
 from vebuild.gl import headless_context, max_texture_size
 from vebuild.model.scene import Model
-from vebuild.project import open_image, sha256_bytes
+from vebuild.project import sha256_bytes
+from vebuild.project.images import decode_photo
 from vebuild.texture import layout as lay
 from vebuild.texture.gpu import Extractor, Timings
 from vebuild.texture.merge import FaceStats, fill_page
 from vebuild.texture.options import Options
 
 Array = NDArray[np.float64]
-
-#: Pixels per band when a decoded photo is copied into its array (a few MB at a time).
-DECODE_BAND_PIXELS = 1 << 20
 
 
 @dataclass
@@ -87,26 +83,11 @@ def read_photo(src: PhotoSource, cam: ImageCamera, timings: Timings | None = Non
 
 
 def decode(data: bytes, src: PhotoSource | None = None) -> NDArray[np.uint8]:
-    """JPEG/PNG/... bytes → (h, w, 3) uint8 RGB."""
-    name = src.path if src else "photo"
+    """A photo's bytes → (h, w, 3) uint8 RGB as displayed (:func:`vebuild.project.images.decode_photo`)."""
+    name = src.path if src else Path("photo")
     file = src.project_file or name if src else name
     where = f"{src.where}.file" if src and src.where else ""
-    # Bounded in pixels before decoding, as everywhere vebuild opens an image (project.open_image).
-    with open_image(io.BytesIO(data), file, where, decode=False, label=str(name)) as img:
-        try:
-            if img.mode != "RGB":
-                img = img.convert("RGB")
-            img.load()
-            # Copied out in bands of rows: np.asarray(img) of the whole would hold two more copies
-            # of the photo (the image's bytes, then the array) beside the decoded image.
-            w, h = img.size
-            out = np.empty((h, w, 3), np.uint8)
-            band = max(1, DECODE_BAND_PIXELS // max(1, w))
-            for y0 in range(0, h, band):
-                out[y0:y0 + band] = np.asarray(img.crop((0, y0, w, min(h, y0 + band))))
-            return out
-        except (UnidentifiedImageError, OSError, ValueError, SyntaxError) as e:
-            raise ProjectError(file, where, f"cannot decode {name} as an image: {e}") from None
+    return decode_photo(data, name, file, where, label=str(name))
 
 
 def photo_order(ex: Extractor, cameras: Sequence[ImageCamera]) -> list[ImageCamera]:
