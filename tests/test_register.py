@@ -188,7 +188,8 @@ def test_register_uses_the_focal_length_the_user_gave(tmp_path: Path, with_segme
         assert _reason(tmp_path, seed) == reason
         both = {"focal_px": {"value": f, "sigma": 1.0}, "principal_point": {"value": [800.0, 600.0], "sigma": 30.0}}
         assert _reason(tmp_path, seed, **both) == f"{reason}, with the focal length and principal point the user gave"
-        assert _reason(tmp_path, seed, exif={"focal_length_px": f}) == f"{reason}, with the EXIF focal length"
+        f35 = f * float(np.hypot(36.0, 24.0) / np.hypot(W, H))  # the 35 mm equivalent EXIF would write
+        assert _reason(tmp_path, seed, exif={"focal_length_35mm": f35}) == f"{reason}, with the EXIF focal length"
     # A wrong focal length given is followed (the registration cannot tell): 5 % off shows.
     _, wrong = _register_given(tmp_path, seed, with_segments, focal_px={"value": 1.05 * f, "sigma": 0.001 * f})
     assert _f_err(cam, wrong) > 3e-2
