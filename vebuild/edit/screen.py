@@ -78,6 +78,7 @@ class Editor(ScreenTools, PhotoView, Bars, Preview, WindowApp):
         self._pan_from = None
         self._pending_drag = None
         self._placing = None
+        self.pending_length = None  # a known length's two ends drawn, its metres not typed yet
         self._photo_tex = {}
         self._photo_errors = {}
         self._thumbs = {}

@@ -125,7 +125,7 @@ class EditSession(SessionOverlays):
         with self._edit("calibrate"):
             result = calibrate_project(self.project, progress=_iterating(progress, "calibrating photos"))
         lines = [f"{pid}: {c['mode']}, f {c['focal_px']['value']:.1f} ± {c['focal_px']['sigma']:.1f} px, "
-                 f"rms {c['rms_px']:.2f} px" for pid, c in result["cameras"].items()]
+                 f"rms {c['rms_px']:.2f} px{placement_text(c)}" for pid, c in result["cameras"].items()]
         self.say("calibrated " + "; ".join(lines))
         for w in result.get("warnings", []):
             self.say(w)
@@ -189,6 +189,19 @@ class EditSession(SessionOverlays):
             record, _ = texture_project(self.project, opts, progress=step, save=False)
         self.say(f"textures extracted: {len(record['pages'])} page(s)")
         return record
+
+
+def placement_text(camera: dict[str, Any]) -> str:
+    """How a calibrated photo was placed, for the screen: a photo placed alone says its camera's
+    height and where its scale came from, or that its lengths are relative ("" if placed jointly)."""
+    where = camera.get("placement") or {}
+    if where.get("how") != "alone":
+        return ""
+    if where.get("lengths") == "relative":
+        return "; placed alone, no scale: lengths are relative (in units of the camera's height)"
+    h = where.get("camera_height_m") or {}
+    return (f"; placed alone, camera {h.get('value', float('nan')):.3f} ± {h.get('sigma') or 0.0:.3f} m above the "
+            f"floor (scale: {where.get('scale', '?')})")
 
 
 def _iterating(progress: Progress | None, text: str) -> Callable[[Iterable[Any]], Iterable[Any]]:
