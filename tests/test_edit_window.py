@@ -477,3 +477,118 @@ def test_l_hides_and_shows_the_labels_over_the_photo(room):
     finally:
         e.close()
         surface.release()
+
+
+@pytest.fixture
+def one_photo(tmp_path):
+    """The example room's photo p3 alone, as an archived photograph: its segments and the origin
+    marker, no scale (tests/edit_scene.py)."""
+    from edit_scene import make_one_photo
+
+    return make_one_photo(tmp_path / "one")
+
+
+def _colour_near(img, x, y, want, r=2):
+    """Whether a pixel within r of window point (x, y) has the colour ``want`` (RGB 0–1) within 20 %."""
+    patch = img[int(y) - r:int(y) + r + 1, int(x) - r:int(x) + r + 1].reshape(-1, 3).astype(float) / 255.0
+    return bool(np.any(np.all(np.abs(patch - np.asarray(want[:3])) < 0.2, axis=1)))
+
+
+def test_middle_points_are_added_dragged_and_deleted_by_the_mouse(one_photo, driver_factory):
+    from vebuild.edit.layout import MIDDLE_PICK_PX
+    from vebuild.edit.overlay import AXIS_COLOURS
+
+    path, _ = one_photo
+    d = driver_factory(path)
+    e, s = d.editor, d.session
+    segs = s.photo("p3")["vanishing_segments"]["x"]
+    i = max(range(len(segs)), key=lambda k: np.hypot(segs[k][2] - segs[k][0], segs[k][3] - segs[k][1]))
+    a, b = np.asarray(segs[i][:2]), np.asarray(segs[i][2:4])
+    normal = np.array([-(b - a)[1], (b - a)[0]]) / np.linalg.norm(b - a)
+    # Ctrl+click with the Segment X tool 2 window px beside the segment's line, 40 % along it.
+    at = np.add(e.image_to_window("p3", a + 0.4 * (b - a)), 2.0 * normal)
+    d.send("key", "1", *d.move_to(*at), "sleep", "0.05", "keydown", "ctrl", "click", "1", "keyup", "ctrl")
+    row = s.photo("p3")["vanishing_segments"]["x"][i]
+    assert len(row) == 6 and row[:2] == list(a) and row[4:] == list(b)
+    assert row[2:4] == pytest.approx(e.window_to_image(round(at[0]), round(at[1])), abs=1e-9)
+    assert "middle point 1 of x segment" in s.messages[-1] and "lens distortion" in s.messages[-1]
+    assert s.undo_label == f"add a middle point to x segment {i} in p3"
+    # Far from every x segment: a message, nothing added.
+    far = np.add(e.image_to_window("p3", a + 0.4 * (b - a)), (MIDDLE_PICK_PX + 40) * normal)
+    rev = s.revision
+    d.send(*d.move_to(*far), "sleep", "0.05", "keydown", "ctrl", "click", "1", "keyup", "ctrl")
+    assert s.revision == rev and f"no x segment passes within {MIDDLE_PICK_PX:g} px" in s.messages[-1]
+    # Select (Esc), then drag the middle point 12 window px off the line: drawn there, as a red dot.
+    start = e.image_to_window("p3", row[2:4])
+    goal = np.add(start, 12.0 * normal)
+    d.send("key", "Escape", *d.move_to(*start), "sleep", "0.05", "mousedown", "1", "sleep", "0.05",
+           *d.move_to(*np.add(start, 6.0 * normal)), "sleep", "0.05", *d.move_to(*goal), "sleep", "0.05",
+           "mouseup", "1")
+    assert e.tool == "select"
+    row = s.photo("p3")["vanishing_segments"]["x"][i]
+    assert row[2:4] == pytest.approx(e.window_to_image(round(goal[0]), round(goal[1])), abs=1e-9)
+    assert s.undo_label == f"move a middle point of x segment {i} in p3"
+    x, y = e.image_to_window("p3", row[2:4])
+    assert _colour_near(d.screen(), x, y, AXIS_COLOURS["x"])
+    # The Delete tool removes the middle point, not the segment.
+    d.send("key", "Delete", *d.move_to(x, y), "sleep", "0.05", "click", "1")
+    assert s.photo("p3")["vanishing_segments"]["x"][i] == [*a, *b]
+    assert f"deleted middle point 1 of x segment {i}" in s.messages[-1]
+
+
+def test_a_known_length_typed_on_screen_scales_a_one_photo_calibration(one_photo, driver_factory):
+    from vebuild.edit.overlay import AXIS_COLOURS
+
+    path, truth = one_photo
+    d = driver_factory(path)
+    e, s = d.editor, d.session
+    # The Known length tool: press on the corner's foot on the floor, drag up to its top, release.
+    foot, top = (e.image_to_window("p3", uv) for uv in truth["corner"])
+    d.send("key", "k", *d.move_to(*foot), "sleep", "0.05", "mousedown", "1", "sleep", "0.05",
+           *d.move_to(foot[0], 0.5 * (foot[1] + top[1])), "sleep", "0.05", *d.move_to(*top), "sleep", "0.05",
+           "mouseup", "1")
+    assert e.tool == "length" and e.pending_length is not None
+    assert "type its length in metres (σ optional) in the Scale tab" in s.messages[-1]
+    assert "known_lengths" not in s.data  # not until its metres are typed
+    d.click("tab:Scale")
+    # Add length with nothing typed, then with a word: said on screen, nothing added.
+    d.click("Add length")
+    assert "the known length must be a number of metres (e.g. 2.03), not ''" in s.messages[-1]
+    d.send(*d.at("length m"), "click", "1", "type", "--delay", "30", "tall")
+    d.click("Add length")
+    assert "the known length must be a number of metres (e.g. 2.03), not 'tall'" in s.messages[-1]
+    d.send(*d.at("length m"), "click", "1", "key", "ctrl+a", "key", "minus", "type", "2")
+    d.click("Add length")
+    assert "must be a positive number of metres, not -2" in s.messages[-1]
+    assert "known_lengths" not in s.data
+    d.send(*d.at("length m"), "click", "1", "key", "ctrl+a", "type", "--delay", "30", f"{truth['corner_m']:g}")
+    d.click("Add length")
+    (kl,) = s.data["known_lengths"]
+    assert (kl["photo"], kl["axis"], kl["length"], kl["sigma"], kl["floor_end"]) == ("p3", "z", truth["corner_m"],
+                                                                                    0.002, 0)
+    assert kl["ends"] == [pytest.approx(e.window_to_image(round(foot[0]), round(foot[1])), abs=1e-9),
+                          pytest.approx(e.window_to_image(round(top[0]), round(top[1])), abs=1e-9)]
+    assert e.pending_length is None and s.undo_label.startswith("known length 2.6 m along z")
+    d.frames(2)
+    assert any("L0: 2.6 m ± 2 mm along z" in m for m in [ln.label or "" for ln in e.overlay().lines])
+    img = d.screen()
+    assert _colour_near(img, foot[0], 0.5 * (foot[1] + top[1]), AXIS_COLOURS["z"])  # drawn, in the z colour
+    # A camera height that is not a number is refused too.
+    d.send(*d.at("height m"), "click", "1", "type", "--delay", "30", "high")
+    d.click("Set height")
+    assert "the camera height must be a number of metres (e.g. 2.03), not 'high'" in s.messages[-1]
+    assert "camera_height" not in s.photo("p3")
+    # Calibrate from the screen: the photo alone, its scale the known length; the result shown.
+    d.click("tab:Calibration")
+    d.click("Calibrate")
+    assert e.calibration_error is None, e.calibration_error
+    placed = e.calibration_result["cameras"]["p3"]["placement"]
+    h = placed["camera_height_m"]
+    assert placed["how"] == "alone" and "known length" in placed["scale"]
+    assert abs(h["value"] - truth["C"][2]) < 3 * h["sigma"], (h, truth["C"])
+    assert np.linalg.norm(s.cameras["p3"].C - truth["C"]) < 0.05  # metres, under 1 % of the room's diagonal
+    d.frames(2)
+    assert "calibrated:p3" in e.widget_rects  # the panel shows it
+    assert f"camera {h['value']:.3f} ± {h['sigma']:.3f} m above the floor" in \
+        next(m for m in reversed(s.messages) if m.startswith("calibrated p3"))
+    assert s.undo_label == "calibrate"
