@@ -592,3 +592,44 @@ def test_a_known_length_typed_on_screen_scales_a_one_photo_calibration(one_photo
     assert f"camera {h['value']:.3f} ± {h['sigma']:.3f} m above the floor" in \
         next(m for m in reversed(s.messages) if m.startswith("calibrated p3"))
     assert s.undo_label == "calibrate"
+
+
+def test_the_scale_tab_sets_a_camera_height_and_the_markers_on_the_floor_and_says_each(one_photo, driver_factory):
+    path, truth = one_photo
+    d = driver_factory(path)
+    e, s = d.editor, d.session
+    d.click("tab:Scale")
+    # Add length before one is drawn says how to draw it; Set height before a height is typed says so.
+    d.click("Add length")
+    assert "draw the known length first: the Known length tool (K)" in s.messages[-1]
+    d.click("Set height")
+    assert "type the camera's height above the floor in metres first (e.g. 1.62)" in s.messages[-1]
+    d.send(*d.at("height m"), "click", "1", "type", "--delay", "30", "1.45")
+    d.send(*d.at("height sigma"), "click", "1", "type", "--delay", "30", "0.02")
+    d.click("Set height")
+    assert s.photo("p3")["camera_height"] == {"value": 1.45, "sigma": 0.02}
+    assert s.messages[-1] == "camera height in p3: 1.45 ± 0.02 m above the floor"
+    d.frames(2)
+    d.click("Remove height")
+    assert "camera_height" not in s.photo("p3") and s.undo_label == "remove the camera height of p3"
+    # A drawn known length that Esc cancels, and one the Delete tool removes.
+    foot, top = (e.image_to_window("p3", uv) for uv in truth["corner"])
+    d.send("key", "k", *d.move_to(*foot), "sleep", "0.05", "mousedown", "1", "sleep", "0.05", *d.move_to(*top),
+           "sleep", "0.05", "mouseup", "1", "key", "Escape")
+    assert e.pending_length is None and s.messages[-1] == "known length cancelled"
+    d.send("key", "k", *d.move_to(*foot), "sleep", "0.05", "mousedown", "1", "sleep", "0.05", *d.move_to(*top),
+           "sleep", "0.05", "mouseup", "1")
+    d.send(*d.at("length m"), "click", "1", "type", "--delay", "30", "2.6")
+    d.click("Add length")
+    assert s.messages[-1] == "known length L0: 2.6 m along z in p3" and len(s.data["known_lengths"]) == 1
+    d.send("key", "Delete", *d.move_to(foot[0], 0.5 * (foot[1] + top[1])), "sleep", "0.05", "click", "1")
+    assert "known_lengths" not in s.data and s.messages[-1] == "removed known length L0"
+    # A second marker, ticked "on the floor" in the Calibration tab (the origin is on it already).
+    x5 = e.image_to_window("p3", (153.8, 1107.9))
+    d.send("key", "m", *d.move_to(*x5), "sleep", "0.05", "click", "1")
+    name = next(iter(set(s.photo("p3")["marker_observations"]) - {"O"}))
+    d.click("tab:Calibration")
+    d.click(f"on floor:{name}")
+    assert {"name": name, "on_floor": True} in s.data["markers"] and s.undo_label == f"{name} on the floor"
+    d.click(f"on floor:{name}")
+    assert {"name": name} in s.data["markers"]
