@@ -633,3 +633,30 @@ def test_the_scale_tab_sets_a_camera_height_and_the_markers_on_the_floor_and_say
     assert {"name": name, "on_floor": True} in s.data["markers"] and s.undo_label == f"{name} on the floor"
     d.click(f"on floor:{name}")
     assert {"name": name} in s.data["markers"]
+
+
+def test_a_polyline_is_clicked_point_by_point_with_shift(one_photo, driver_factory):
+    path, _ = one_photo
+    d = driver_factory(path)
+    e, s = d.editor, d.session
+    n = len(s.photo("p3")["vanishing_segments"]["y"])
+    pts = [(200, 300), (300, 306), (400, 310), (520, 312)]
+    # A stroke from the first point to the second released with Shift, a Shift+click on the third,
+    # a plain click on the last: one y polyline of four points.
+    d.send("key", "2", *d.move_to(*pts[0]), "sleep", "0.05", "mousedown", "1", "sleep", "0.05",
+           *d.move_to(*pts[1]), "sleep", "0.05", "keydown", "shift", "mouseup", "1", "keyup", "shift")
+    assert e.open_polyline is not None and "y polyline: 2 points; Shift+click adds the next point" in s.messages[-1]
+    assert len(s.photo("p3")["vanishing_segments"]["y"]) == n  # nothing added yet
+    d.send(*d.move_to(*pts[2]), "sleep", "0.05", "keydown", "shift", "click", "1", "keyup", "shift")
+    assert "y polyline: 3 points" in s.messages[-1]
+    d.send(*d.move_to(*pts[3]), "sleep", "0.05", "click", "1")
+    row = s.photo("p3")["vanishing_segments"]["y"][n]
+    assert np.reshape(row, (-1, 2)) == pytest.approx(np.array([e.window_to_image(*p) for p in pts]), abs=1e-9)
+    assert e.open_polyline is None and s.messages[-1] == f"y segment {n} in p3: a polyline of 4 points (2 middle)"
+    s.undo()
+    # Esc cancels one under way: nothing added.
+    d.send(*d.move_to(*pts[0]), "sleep", "0.05", "keydown", "shift", "click", "1", "keyup", "shift")
+    assert "y polyline: 1 point;" in s.messages[-1]
+    d.send("key", "Escape")
+    assert e.open_polyline is None and s.messages[-1] == "polyline cancelled"
+    assert len(s.photo("p3")["vanishing_segments"]["y"]) == n and e.tool == "y"

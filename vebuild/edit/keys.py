@@ -18,6 +18,9 @@ EDITOR_KEYS = KeyTable([
             "edge really runs: a long edge marked as a polyline through two or more such points shows how the lens "
             "bent it, from which the calibration estimates the lens distortion (drag a middle point with Select, "
             "remove it with Delete)"),
+    Binding("Shift+click (Segment X, Y, Z)", "a polyline along one edge, point by point: a stroke released (or a "
+            "click) with Shift held goes on from there, each Shift+click adds a middle point, a click without Shift "
+            "ends it at its last point (Esc cancels)"),
     Binding("M", "Marker: a click places the marker named in the toolbar's field (a new name makes a new marker; "
             "the first is the origin until another is chosen)", (Chord(glfw.KEY_M, "set_tool", ("marker",)),)),
     Binding("E", "Edge: press and drag along an edge of the selected primitive: an edge observation (drawn red) on "

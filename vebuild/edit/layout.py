@@ -89,6 +89,7 @@ class EditorPart:
     _pending_drag: tuple[float, float] | None
     _placing: dict[str, Any] | None
     pending_length: dict[str, Any] | None
+    open_polyline: dict[str, Any] | None
     _photo_tex: dict[str, moderngl.Texture]
     _photo_errors: dict[str, str]
     _thumbs: dict[str, moderngl.Texture | None]

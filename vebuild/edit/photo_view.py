@@ -239,6 +239,14 @@ class PhotoView(EditorPart):
             dl.add_line(a, b, u32(WHITE), 4.0)
             dl.add_circle_filled(a, 4.0, u32(WHITE))
             dl.add_text((0.5 * (a[0] + b[0]) + 8, 0.5 * (a[1] + b[1])), u32(WHITE), "known length: type its metres")
+        poly = self.open_polyline
+        if poly is not None and poly["photo"] == self.photo:  # clicked so far, and on to the cursor
+            col = u32(AXIS_COLOURS[poly["axis"]])
+            pts = [self.image_to_window(None, q) for q in poly["points"]] + [self._cursor]
+            for a, b in zip(pts[:-1], pts[1:], strict=True):
+                dl.add_line(a, b, col, 2.0)
+            for q in pts[1:-1]:
+                dl.add_circle_filled(q, 3.0, col)
         p = self._press
         if p is None:
             return

@@ -72,7 +72,7 @@ class ScreenTools(EditorPart):
     def escape(self, keep_tool: bool = False) -> None:
         """Cancel what is under way (a drag, a stroke, a placement); if nothing, the Select tool."""
         busy = self.session.dragging or self._press is not None or self._placing is not None \
-            or self.pending_length is not None
+            or self.pending_length is not None or self.open_polyline is not None
         if self.session.dragging:
             self.session.cancel_drag()
             self.say("drag cancelled")
@@ -80,6 +80,9 @@ class ScreenTools(EditorPart):
         self._pending_drag = None
         self.drag_problem = None
         self._placing = None
+        if self.open_polyline is not None:
+            self.open_polyline = None
+            self.say("polyline cancelled")
         if self.pending_length is not None and not keep_tool:
             self.pending_length = None
             self.say("known length cancelled")
@@ -227,7 +230,7 @@ class ScreenTools(EditorPart):
                     s.end_drag()
                     self.drag_problem = None
             elif kind in ("x", "y", "z"):
-                s.add_segment(photo, kind, p["uv"], uv)
+                self._segment_released(kind, p, uv)
             elif kind == "insert-point":
                 at = s.insert_segment_point(photo, p["axis"], p["index"], uv)
                 self.say(f"middle point {at} of {p['axis']} segment {p['index']} in {photo}: how the edge bends "
@@ -259,6 +262,38 @@ class ScreenTools(EditorPart):
                 s.place_marker(photo, p["name"], uv)
         except VebuildError as e:
             self.say(str(e))
+
+    def shift_held(self) -> bool:
+        """Whether Shift is down (the keys held, or the button event's modifiers)."""
+        return bool({glfw.KEY_LEFT_SHIFT, glfw.KEY_RIGHT_SHIFT} & self._held) or bool(self._mods & glfw.MOD_SHIFT)
+
+    def _segment_released(self, axis: str, press: dict[str, Any], uv: tuple[float, float]) -> None:
+        """A Segment tool's stroke ended: a segment from press to release; released with Shift, the
+        release point is a middle point of a polyline that goes on (each Shift+click adds one, a click
+        without Shift ends it there)."""
+        s, photo = self.session, self.photo
+        poly = self.open_polyline
+        if poly is not None and (poly["axis"], poly["photo"]) != (axis, photo):
+            poly = self.open_polyline = None
+        if poly is not None:
+            points = [*poly["points"], uv]
+        elif press.get("moved") or not self.shift_held():
+            points = [press["uv"], uv]  # a stroke (or a plain click: too short, which add_segment says)
+        else:
+            points = [press["uv"]]  # Shift+click: the polyline's first point
+        if self.shift_held():
+            self.open_polyline = {"axis": axis, "photo": photo, "points": points}
+            self.say(f"{axis} polyline: {len(points)} point{'s' if len(points) != 1 else ''}; Shift+click adds the "
+                     "next point along the edge (its bend measures the lens distortion), a click without Shift ends "
+                     "it there, Esc cancels")
+            return
+        self.open_polyline = None
+        if len(points) == 2:
+            s.add_segment(photo, axis, points[0], points[1])
+        else:
+            index = s.add_polyline(photo, axis, points)
+            self.say(f"{axis} segment {index} in {photo}: a polyline of {len(points)} points "
+                     f"({len(points) - 2} middle)")
 
     def _add_edge(self, p1: tuple[float, float], p2: tuple[float, float]) -> None:
         s = self.session
