@@ -441,3 +441,31 @@ def test_a_one_photo_project_is_calibrated_with_the_scale_given_in_the_session(t
     s.set_camera_height("p3", f"{truth['C'][2]:.3f}", "0.02")
     r = s.calibrate()
     assert len(r["cameras"]["p3"]["placement"]["scale_estimates"]) == 2
+
+
+def test_middle_points_let_a_one_photo_calibration_measure_the_lens(tmp_path):
+    """The example's photo is a pinhole render: with three middle points on every segment (where the
+    true edges pass, with a click's noise) the calibration estimates k1 from them, finds it
+    consistent with 0, and the session says so with the corner displacement."""
+    from edit_scene import CLICK_NOISE_PX, EXAMPLE
+
+    s, truth = _one_photo_session(tmp_path)
+    edges = json.loads((EXAMPLE / "ground_truth.json").read_text())["photos"]["p3"]["segments"]
+    rng = np.random.default_rng(8)
+    from vebuild.camera import project as project_points
+
+    for axis, axis_edges in edges.items():
+        for i, e in enumerate(axis_edges):
+            for t in (0.25, 0.5, 0.75):
+                X = (1 - t) * np.asarray(e["X1"]) + t * np.asarray(e["X2"])
+                uv = project_points(truth["K"], truth["R"], truth["C"], X) + rng.normal(0.0, CLICK_NOISE_PX, 2)
+                s.insert_segment_point("p3", axis, i, uv)
+    assert all(len(r) == 10 for rows in s.photo("p3")["vanishing_segments"].values() for r in rows)
+    s.add_known_length("p3", "z", truth["corner"], str(truth["corner_m"]))
+    r = s.calibrate()
+    lens = r["cameras"]["p3"]["distortion"]
+    assert lens["source"].startswith("segments")
+    assert abs(lens["k1"]["value"]) < 3 * lens["k1"]["sigma"]  # the truth, 0, within 3σ
+    said = next(m for m in reversed(s.messages) if m.startswith("calibrated p3"))
+    assert f"lens k1 {lens['k1']['value']:+.4f} ± {lens['k1']['sigma']:.4f} (segments" in said
+    assert f"corners moved {lens['corner_displacement_px']['value']:.1f}" in said

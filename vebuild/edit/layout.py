@@ -48,6 +48,9 @@ TOOL_HINTS = {"select": "drag a vertex; click an edge to select its primitive",
 #: within this many window pixels (more than the picking radius: a lens bends an edge away from the
 #: straight line between the segment's ends).
 MIDDLE_PICK_PX = 3 * PICK_RADIUS_PX
+#: What the Segment tools' tooltips add: what their middle points are and what they are for.
+MIDDLE_POINT_HINT = ("; Ctrl+click on a segment adds a middle point where the edge runs, Shift+click clicks a polyline "
+                     "point by point: a long edge's bend measures the lens distortion")
 #: How many messages the message area shows (the latest last).
 MESSAGES_SHOWN = 3
 

@@ -107,7 +107,6 @@ def vanishing_rays(ov: Overlay, vs: Any, width: float, height: float) -> None:
     v = vs.point
     colour = AXIS_COLOURS[vs.axis]
     faint = (*colour[:3], 0.45)
-    polyline_points(ov, vs)
     reach = 3.0 * math.hypot(width, height)
     for s in vs.segments:
         m = 0.5 * (s[:2] + s[2:])

@@ -32,6 +32,7 @@ from .overlay import (
     Overlay,
     Point,
     horizon_and_axes,
+    polyline_points,
     vanishing_rays,
 )
 
@@ -83,6 +84,7 @@ class SessionOverlays(Modelling):
                 ov.lines.append(Line(_ends(s), YELLOW if outlier else colour, 3.0 if outlier else 2.0,
                                      "segment", (axis, i), None if r is None else
                                      (f"{axis}{i}: {r:+.2f} px" + (" outlier" if outlier else "")), arrow=True))
+            polyline_points(ov, vs)  # with or without a vanishing point yet
             if vs.point is not None:
                 vanishing_rays(ov, vs, p["width"], p["height"])
             elif vs.problem and len(vs.segments):

@@ -192,16 +192,23 @@ class EditSession(SessionOverlays):
 
 
 def placement_text(camera: dict[str, Any]) -> str:
-    """How a calibrated photo was placed, for the screen: a photo placed alone says its camera's
-    height and where its scale came from, or that its lengths are relative ("" if placed jointly)."""
+    """What the screen adds to a calibrated photo's line: its lens distortion where it has one (k1
+    and how far it moves the corners, each with its 1σ, and where k1 came from), and, placed alone,
+    its camera's height and where its scale came from, or that its lengths are relative."""
+    out = ""
+    lens = camera.get("distortion")
+    if lens:
+        k1, corner = lens["k1"], lens["corner_displacement_px"]
+        out += (f"; lens k1 {k1['value']:+.4f} ± {k1['sigma'] or 0.0:.4f} ({lens['source']}), corners moved "
+                f"{corner['value']:.1f} ± {corner['sigma'] or 0.0:.1f} px")
     where = camera.get("placement") or {}
     if where.get("how") != "alone":
-        return ""
+        return out
     if where.get("lengths") == "relative":
-        return "; placed alone, no scale: lengths are relative (in units of the camera's height)"
+        return out + "; placed alone, no scale: lengths are relative (in units of the camera's height)"
     h = where.get("camera_height_m") or {}
-    return (f"; placed alone, camera {h.get('value', float('nan')):.3f} ± {h.get('sigma') or 0.0:.3f} m above the "
-            f"floor (scale: {where.get('scale', '?')})")
+    return out + (f"; placed alone, camera {h.get('value', float('nan')):.3f} ± {h.get('sigma') or 0.0:.3f} m above "
+                  f"the floor (scale: {where.get('scale', '?')})")
 
 
 def _iterating(progress: Progress | None, text: str) -> Callable[[Iterable[Any]], Iterable[Any]]:
