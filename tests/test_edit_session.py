@@ -376,7 +376,11 @@ def test_a_known_length_needs_an_axis_two_ends_and_a_photo(tmp_path):
         s.add_known_length("p3", "z", [(100.0, 900.0), (100.0, 900.5)], 2.0)
     with pytest.raises(EditError, match="no photo"):
         s.add_known_length("nowhere", "z", [(100.0, 900.0), (100.0, 300.0)], 2.0)
-    with pytest.raises(EditError, match="there is no known length 0"):
+    with pytest.raises(EditError, match="a known length has two ends, not 3"):
+        s.add_known_length("p3", "z", [(100.0, 900.0), (100.0, 600.0), (100.0, 300.0)], 2.0)
+    with pytest.raises(EditError, match="a known length's end is not a number"):
+        s.add_known_length("p3", "z", [(100.0, float("inf")), (100.0, 300.0)], 2.0)
+    with pytest.raises(EditError, match=r"there is no known length 0 \(there are 0\)"):
         s.remove_known_length(0)
     assert "known_lengths" not in s.data
 
