@@ -163,3 +163,34 @@ def _drag(plan: Plan, session, photo: str, node: str, handle: str, rng: np.rando
     out = [session.drag_to(uv) for uv in drag_path(start, goal)]
     session.end_drag()
     return out
+
+
+#: The photo of the one-photo project: it sees the origin corner O and the room's vertical edge
+#: standing on it, from the floor to the ceiling.
+ONE_PHOTO = "p3"
+
+
+def make_one_photo(folder: Path) -> tuple[Path, dict]:
+    """A one-photo project of the example's photo :data:`ONE_PHOTO` (an archived photograph: nothing
+    else of the scene), with its vanishing segments and the origin marker O as the example marks them,
+    and no scale. Returns the project file and the photo's ground truth (``K``, ``R``, ``C``, and
+    ``corner``: the true pixels of the origin corner's vertical edge, foot then top, and
+    ``corner_m``: its length, the room's height)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    example = json.loads((EXAMPLE / "room.vebuild.json").read_text())
+    truth = json.loads((EXAMPLE / "ground_truth.json").read_text())
+    src = next(p for p in example["photos"] if p["id"] == ONE_PHOTO)
+    (folder / src["file"]).parent.mkdir(parents=True, exist_ok=True)
+    shutil.copy(EXAMPLE / src["file"], folder / src["file"])
+    doc = new_project("one photo")
+    doc["photos"] = [{k: src[k] for k in ("id", "file", "width", "height", "sha256", "exif", "vanishing_segments")}]
+    doc["photos"][0]["marker_observations"] = {"O": src["marker_observations"]["O"]}
+    doc["markers"] = [{"name": "O"}]
+    doc["origin_marker"] = "O"
+    path = folder / "one.vebuild.json"
+    save_project(path, doc)
+    t = truth["photos"][ONE_PHOTO]
+    K, R, C = (np.asarray(t[k], float) for k in ("K", "R", "C"))
+    height = float(truth["room"][2])
+    corner = [project_points(K, R, C, np.array([0.0, 0.0, z])) for z in (0.0, height)]
+    return path, {"K": K, "R": R, "C": C, "corner": corner, "corner_m": height}

@@ -260,3 +260,217 @@ def test_distances_and_markers_are_checked(tmp_path):
         s.add_distance("O", "nowhere", 1.0)
     assert s.data["reference_distances"] == []
     assert DISTANCES
+
+
+# -- middle points, known lengths, camera heights, markers on the floor (real photographs) ---------
+
+
+def _one_photo_session(tmp_path):
+    from edit_scene import make_one_photo
+
+    path, truth = make_one_photo(tmp_path / "one")
+    return EditSession.open(path), truth
+
+
+def _saved(s):
+    return json.loads(s.autosave_path.read_text())
+
+
+def test_middle_points_make_a_polyline_segment_and_each_is_undoable(tmp_path):
+    s, _ = _one_photo_session(tmp_path)
+    i = s.add_segment("p3", "x", (100.0, 500.0), (700.0, 520.0))
+    assert s.insert_segment_point("p3", "x", i, (520.0, 512.0)) == 1
+    assert s.insert_segment_point("p3", "x", i, (300.0, 503.0)) == 1  # kept in order along the edge
+    row = [100.0, 500.0, 300.0, 503.0, 520.0, 512.0, 700.0, 520.0]  # FORMAT.md: [u1, v1, ..., un, vn]
+    assert s.photo("p3")["vanishing_segments"]["x"][i] == row
+    assert _saved(s)["photos"][0]["vanishing_segments"]["x"][i] == row  # autosaved
+    assert s.segment_point_at("p3", (301.0, 504.0), 3.0) == ("x", i, 1)
+    assert s.segment_point_at("p3", (100.0, 500.0), 3.0) is None  # an end is not a middle point
+    vs = s.vanishing("p3", "x")
+    assert vs.polylines[i].shape == (4, 2) and list(vs.segments[i]) == [100.0, 500.0, 700.0, 520.0]
+    _, points = s.overlay("p3").of_kind("segment-point")
+    assert sorted(p.uv for p in points if p.key == ("x", i)) == [(300.0, 503.0), (520.0, 512.0)]
+    s.move_segment_point("p3", "x", i, 2, (521.5, 514.0))
+    assert s.photo("p3")["vanishing_segments"]["x"][i][4:6] == [521.5, 514.0]
+    s.delete_segment_point("p3", "x", i, 1)
+    assert s.photo("p3")["vanishing_segments"]["x"][i] == [100.0, 500.0, 521.5, 514.0, 700.0, 520.0]
+    assert s.undo_label == f"delete a middle point of x segment {i} in p3"
+    s.undo()
+    s.undo()
+    assert s.photo("p3")["vanishing_segments"]["x"][i] == row
+    s.redo()
+    assert s.photo("p3")["vanishing_segments"]["x"][i][4:6] == [521.5, 514.0]
+    # The segment's ends still move alone; its middle points stay.
+    s.move_segment("p3", "x", i, [90.0, 499.0, 710.0, 521.0])
+    assert s.photo("p3")["vanishing_segments"]["x"][i][2:6] == [300.0, 503.0, 521.5, 514.0]
+
+
+def test_bad_middle_points_are_refused_with_a_message_and_change_nothing(tmp_path):
+    s, _ = _one_photo_session(tmp_path)
+    i = s.add_segment("p3", "y", (100.0, 100.0), (300.0, 100.0))
+    n = i + 1  # the example's y segments, and this one
+    rev = s.revision
+    with pytest.raises(EditError, match=r"must lie between the y segment's two ends \(this one is 150 % of the way.*"
+                                        "drag its end"):
+        s.insert_segment_point("p3", "y", i, (400.0, 101.0))
+    with pytest.raises(EditError, match=rf"photo 'p3' has no y segment {n + 4} \(it has {n}\)"):
+        s.insert_segment_point("p3", "y", n + 4, (200.0, 101.0))
+    with pytest.raises(EditError, match=rf"y segment {i} has no middle point 1 \(it has 0\)"):
+        s.move_segment_point("p3", "y", i, 1, (200.0, 101.0))
+    with pytest.raises(EditError, match=rf"y segment {i} has no middle point 0 \(it has 0\)"):
+        s.delete_segment_point("p3", "y", i, 0)
+    with pytest.raises(EditError, match="not a number"):
+        s.insert_segment_point("p3", "y", i, (float("nan"), 101.0))
+    assert s.revision == rev
+    s.insert_segment_point("p3", "y", i, (200.0, 101.0))
+    with pytest.raises(EditError, match=r"vanishing_segments\.y\[\d+\].*within .* image sizes of the 1600×1200 photo"):
+        s.move_segment_point("p3", "y", i, 1, (200.0, -1e5))  # every point lies on the photo
+    assert s.revision == rev + 1 and s.photo("p3")["vanishing_segments"]["y"][i][2:4] == [200.0, 101.0]
+
+
+def test_a_known_length_is_written_as_the_format_says_drawn_and_undoable(tmp_path):
+    s, _ = _one_photo_session(tmp_path)
+    k = s.add_known_length("p3", "z", [(1388.9, 913.6), (1388.9, 351.3)], "2.6", "")
+    want = {"photo": "p3", "axis": "z", "ends": [[1388.9, 913.6], [1388.9, 351.3]], "length": 2.6, "sigma": 0.002,
+            "floor_end": 0}
+    assert s.data["known_lengths"] == [want] and _saved(s)["known_lengths"] == [want]
+    s.add_known_length("p3", "x", [(150.0, 1100.0), (1380.0, 915.0)], 5.0, 0.01)
+    assert s.data["known_lengths"][1] == {"photo": "p3", "axis": "x", "ends": [[150.0, 1100.0], [1380.0, 915.0]],
+                                          "length": 5.0, "sigma": 0.01}  # on the floor: no floor_end
+    lines, ends = s.overlay("p3").of_kind("known-length")[0], s.overlay("p3").of_kind("known-length-end")[1]
+    assert [ln.label for ln in lines] == ["L0: 2.6 m ± 2 mm along z", "L1: 5 m ± 10 mm along x"]
+    assert [p.filled for p in ends if p.key[0] == 0] == [True, False]  # the foot on the floor, filled
+    assert s.known_length_at("p3", (1390.0, 600.0), 4.0) == 0 and s.known_length_at("p3", (900, 100), 4.0) is None
+    s.remove_known_length(0)
+    assert [kl["axis"] for kl in s.data["known_lengths"]] == ["x"]
+    s.undo()
+    assert s.data["known_lengths"][0] == want
+    s.undo()
+    s.undo()
+    assert "known_lengths" not in s.data and s.undo_label is None and k == 0
+
+
+@pytest.mark.parametrize(("length", "sigma", "message"), [
+    ("abc", "", r"the known length must be a number of metres \(e\.g\. 2\.03\), not 'abc'"),
+    ("-1", "", "the known length must be a positive number of metres, not -1"),
+    ("0", "", "the known length must be a positive number of metres, not 0"),
+    ("20000", "", "the known length must lie between 0.0001 m and 10000 m, not 20000 m"),
+    ("", "", r"the known length must be a number of metres \(e\.g\. 2\.03\), not ''"),
+    (None, "", r"the known length is missing: type a number of metres"),
+    ("2.0", "tiny", r"the known length's σ must be a number of metres \(e\.g\. 2\.03\), not 'tiny'"),
+    ("2.0", "-0.01", "the known length's σ must be a positive number of metres, not -0.01"),
+])
+def test_a_known_length_that_is_not_a_positive_number_is_refused(tmp_path, length, sigma, message):
+    s, _ = _one_photo_session(tmp_path)
+    rev = s.revision
+    with pytest.raises(EditError, match=message):
+        s.add_known_length("p3", "z", [(100.0, 900.0), (100.0, 300.0)], length, sigma)
+    assert s.revision == rev and "known_lengths" not in s.data
+
+
+def test_a_known_length_needs_an_axis_two_ends_and_a_photo(tmp_path):
+    s, _ = _one_photo_session(tmp_path)
+    with pytest.raises(EditError, match="a known length runs along world axis x, y or z, not 'w'"):
+        s.add_known_length("p3", "w", [(100.0, 900.0), (100.0, 300.0)], 2.0)
+    with pytest.raises(EditError, match=r"two ends are 0\.5 px apart: press on one end .*at least 2 px apart"):
+        s.add_known_length("p3", "z", [(100.0, 900.0), (100.0, 900.5)], 2.0)
+    with pytest.raises(EditError, match="no photo"):
+        s.add_known_length("nowhere", "z", [(100.0, 900.0), (100.0, 300.0)], 2.0)
+    with pytest.raises(EditError, match="a known length has two ends, not 3"):
+        s.add_known_length("p3", "z", [(100.0, 900.0), (100.0, 600.0), (100.0, 300.0)], 2.0)
+    with pytest.raises(EditError, match="a known length's end is not a number"):
+        s.add_known_length("p3", "z", [(100.0, float("inf")), (100.0, 300.0)], 2.0)
+    with pytest.raises(EditError, match=r"there is no known length 0 \(there are 0\)"):
+        s.remove_known_length(0)
+    assert "known_lengths" not in s.data
+
+
+def test_the_camera_height_is_typed_checked_and_removed(tmp_path):
+    s, _ = _one_photo_session(tmp_path)
+    s.set_camera_height("p3", "1.62", "")
+    assert s.photo("p3")["camera_height"] == {"value": 1.62, "sigma": 0.05}
+    assert _saved(s)["photos"][0]["camera_height"] == {"value": 1.62, "sigma": 0.05}
+    s.set_camera_height("p3", "1.45 m", "0.01")
+    assert s.photo("p3")["camera_height"] == {"value": 1.45, "sigma": 0.01}
+    rev = s.revision
+    for value, sigma, message in (("tall", "", "the camera height must be a number of metres"),
+                                  ("-1.6", "", "the camera height must be a positive number of metres, not -1.6"),
+                                  ("0.0001", "", "the camera height must lie between 0.001 m and 10000 m"),
+                                  ("1.6", "x", "the camera height's σ must be a number of metres")):
+        with pytest.raises(EditError, match=message):
+            s.set_camera_height("p3", value, sigma)
+    assert s.revision == rev and s.photo("p3")["camera_height"]["value"] == 1.45
+    s.set_camera_height("p3", None)
+    assert "camera_height" not in s.photo("p3")
+    with pytest.raises(EditError, match="photo 'p3' has no camera height to remove"):
+        s.set_camera_height("p3", "")
+    s.undo()
+    assert s.photo("p3")["camera_height"] == {"value": 1.45, "sigma": 0.01}
+
+
+def test_a_marker_is_marked_on_the_floor_and_off_it(tmp_path):
+    s, _ = _one_photo_session(tmp_path)
+    s.place_marker("p3", "X5", (153.8, 1107.9))
+    s.set_on_floor("X5", True)
+    assert {"name": "X5", "on_floor": True} in s.data["markers"]
+    assert {"name": "X5", "on_floor": True} in _saved(s)["markers"]
+    s.set_on_floor("X5", False)
+    assert {"name": "X5"} in s.data["markers"]
+    s.undo()
+    assert {"name": "X5", "on_floor": True} in s.data["markers"]
+    with pytest.raises(EditError, match="no marker is called 'nowhere'; place it in a photo first"):
+        s.set_on_floor("nowhere", True)
+
+
+def test_a_one_photo_project_is_calibrated_with_the_scale_given_in_the_session(tmp_path):
+    s, truth = _one_photo_session(tmp_path)
+    # No scale: it calibrates and says that lengths are relative.
+    r = s.calibrate()
+    assert r["cameras"]["p3"]["placement"]["lengths"] == "relative"
+    said = next(m for m in reversed(s.messages) if m.startswith("calibrated p3"))
+    assert said.endswith("; placed alone, no scale: lengths are relative (in units of the camera's height)")
+    s.undo()
+    # The room's corner, from the floor up to the ceiling, as a known length: metres.
+    s.add_known_length("p3", "z", truth["corner"], str(truth["corner_m"]))
+    r = s.calibrate()
+    placed = r["cameras"]["p3"]["placement"]
+    h = placed["camera_height_m"]
+    assert placed["how"] == "alone" and placed["lengths"] == "metres" and "known length" in placed["scale"]
+    assert abs(h["value"] - truth["C"][2]) < 3 * h["sigma"], (h, truth["C"])
+    pos = r["cameras"]["p3"]["position"]  # each coordinate within 3σ of the truth
+    assert np.all(np.abs(np.subtract(pos["value"], truth["C"])) < 3 * np.asarray(pos["sigma"])), (pos, truth["C"])
+    said = next(m for m in reversed(s.messages) if m.startswith("calibrated p3"))
+    assert f"placed alone, camera {h['value']:.3f} ± {h['sigma']:.3f} m above the floor (scale: the known length" \
+        in said
+    # A camera height as well: the two are combined, and both are named.
+    s.set_camera_height("p3", f"{truth['C'][2]:.3f}", "0.02")
+    r = s.calibrate()
+    assert len(r["cameras"]["p3"]["placement"]["scale_estimates"]) == 2
+
+
+def test_middle_points_let_a_one_photo_calibration_measure_the_lens(tmp_path):
+    """The example's photo is a pinhole render: with three middle points on every segment (where the
+    true edges pass, with a click's noise) the calibration estimates k1 from them, finds it
+    consistent with 0, and the session says so with the corner displacement."""
+    from edit_scene import CLICK_NOISE_PX, EXAMPLE
+
+    s, truth = _one_photo_session(tmp_path)
+    edges = json.loads((EXAMPLE / "ground_truth.json").read_text())["photos"]["p3"]["segments"]
+    rng = np.random.default_rng(8)
+    from vebuild.camera import project as project_points
+
+    for axis, axis_edges in edges.items():
+        for i, e in enumerate(axis_edges):
+            for t in (0.25, 0.5, 0.75):
+                X = (1 - t) * np.asarray(e["X1"]) + t * np.asarray(e["X2"])
+                uv = project_points(truth["K"], truth["R"], truth["C"], X) + rng.normal(0.0, CLICK_NOISE_PX, 2)
+                s.insert_segment_point("p3", axis, i, uv)
+    assert all(len(r) == 10 for rows in s.photo("p3")["vanishing_segments"].values() for r in rows)
+    s.add_known_length("p3", "z", truth["corner"], str(truth["corner_m"]))
+    r = s.calibrate()
+    lens = r["cameras"]["p3"]["distortion"]
+    assert lens["source"].startswith("segments")
+    assert abs(lens["k1"]["value"]) < 3 * lens["k1"]["sigma"]  # the truth, 0, within 3σ
+    said = next(m for m in reversed(s.messages) if m.startswith("calibrated p3"))
+    assert f"lens k1 {lens['k1']['value']:+.4f} ± {lens['k1']['sigma']:.4f} (segments" in said
+    assert f"corners moved {lens['corner_displacement_px']['value']:.1f}" in said

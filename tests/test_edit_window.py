@@ -477,3 +477,187 @@ def test_l_hides_and_shows_the_labels_over_the_photo(room):
     finally:
         e.close()
         surface.release()
+
+
+@pytest.fixture
+def one_photo(tmp_path):
+    """The example room's photo p3 alone, as an archived photograph: its segments and the origin
+    marker, no scale (tests/edit_scene.py)."""
+    from edit_scene import make_one_photo
+
+    return make_one_photo(tmp_path / "one")
+
+
+def _colour_near(img, x, y, want, r=2):
+    """Whether a pixel within r of window point (x, y) has the colour ``want`` (RGB 0–1) within 20 %."""
+    patch = img[int(y) - r:int(y) + r + 1, int(x) - r:int(x) + r + 1].reshape(-1, 3).astype(float) / 255.0
+    return bool(np.any(np.all(np.abs(patch - np.asarray(want[:3])) < 0.2, axis=1)))
+
+
+def test_middle_points_are_added_dragged_and_deleted_by_the_mouse(one_photo, driver_factory):
+    from vebuild.edit.layout import MIDDLE_PICK_PX
+    from vebuild.edit.overlay import AXIS_COLOURS
+
+    path, _ = one_photo
+    d = driver_factory(path)
+    e, s = d.editor, d.session
+    segs = s.photo("p3")["vanishing_segments"]["x"]
+    i = max(range(len(segs)), key=lambda k: np.hypot(segs[k][2] - segs[k][0], segs[k][3] - segs[k][1]))
+    a, b = np.asarray(segs[i][:2]), np.asarray(segs[i][2:4])
+    normal = np.array([-(b - a)[1], (b - a)[0]]) / np.linalg.norm(b - a)
+    # Ctrl+click with the Segment X tool 2 window px beside the segment's line, 40 % along it.
+    at = np.add(e.image_to_window("p3", a + 0.4 * (b - a)), 2.0 * normal)
+    d.send("key", "1", *d.move_to(*at), "sleep", "0.05", "keydown", "ctrl", "click", "1", "keyup", "ctrl")
+    row = s.photo("p3")["vanishing_segments"]["x"][i]
+    assert len(row) == 6 and row[:2] == list(a) and row[4:] == list(b)
+    assert row[2:4] == pytest.approx(e.window_to_image(round(at[0]), round(at[1])), abs=1e-9)
+    assert "middle point 1 of x segment" in s.messages[-1] and "lens distortion" in s.messages[-1]
+    assert s.undo_label == f"add a middle point to x segment {i} in p3"
+    # Far from every x segment: a message, nothing added.
+    far = np.add(e.image_to_window("p3", a + 0.4 * (b - a)), (MIDDLE_PICK_PX + 40) * normal)
+    rev = s.revision
+    d.send(*d.move_to(*far), "sleep", "0.05", "keydown", "ctrl", "click", "1", "keyup", "ctrl")
+    assert s.revision == rev and f"no x segment passes within {MIDDLE_PICK_PX:g} px" in s.messages[-1]
+    # Select (Esc), then drag the middle point 12 window px off the line: drawn there, as a red dot.
+    start = e.image_to_window("p3", row[2:4])
+    goal = np.add(start, 12.0 * normal)
+    d.send("key", "Escape", *d.move_to(*start), "sleep", "0.05", "mousedown", "1", "sleep", "0.05",
+           *d.move_to(*np.add(start, 6.0 * normal)), "sleep", "0.05", *d.move_to(*goal), "sleep", "0.05",
+           "mouseup", "1")
+    assert e.tool == "select"
+    row = s.photo("p3")["vanishing_segments"]["x"][i]
+    assert row[2:4] == pytest.approx(e.window_to_image(round(goal[0]), round(goal[1])), abs=1e-9)
+    assert s.undo_label == f"move a middle point of x segment {i} in p3"
+    x, y = e.image_to_window("p3", row[2:4])
+    assert _colour_near(d.screen(), x, y, AXIS_COLOURS["x"])
+    # The Delete tool removes the middle point, not the segment.
+    d.send("key", "Delete", *d.move_to(x, y), "sleep", "0.05", "click", "1")
+    assert s.photo("p3")["vanishing_segments"]["x"][i] == [*a, *b]
+    assert f"deleted middle point 1 of x segment {i}" in s.messages[-1]
+
+
+def test_a_known_length_typed_on_screen_scales_a_one_photo_calibration(one_photo, driver_factory):
+    from vebuild.edit.overlay import AXIS_COLOURS
+
+    path, truth = one_photo
+    d = driver_factory(path)
+    e, s = d.editor, d.session
+    # The Known length tool: press on the corner's foot on the floor, drag up to its top, release.
+    foot, top = (e.image_to_window("p3", uv) for uv in truth["corner"])
+    d.send("key", "k", *d.move_to(*foot), "sleep", "0.05", "mousedown", "1", "sleep", "0.05",
+           *d.move_to(foot[0], 0.5 * (foot[1] + top[1])), "sleep", "0.05", *d.move_to(*top), "sleep", "0.05",
+           "mouseup", "1")
+    assert e.tool == "length" and e.pending_length is not None
+    assert "type its length in metres (σ optional) in the Scale tab" in s.messages[-1]
+    assert "known_lengths" not in s.data  # not until its metres are typed
+    d.click("tab:Scale")
+    # Add length with nothing typed, then with a word: said on screen, nothing added.
+    d.click("Add length")
+    assert "the known length must be a number of metres (e.g. 2.03), not ''" in s.messages[-1]
+    d.send(*d.at("length m"), "click", "1", "type", "--delay", "30", "tall")
+    d.click("Add length")
+    assert "the known length must be a number of metres (e.g. 2.03), not 'tall'" in s.messages[-1]
+    d.send(*d.at("length m"), "click", "1", "key", "ctrl+a", "key", "minus", "type", "2")
+    d.click("Add length")
+    assert "must be a positive number of metres, not -2" in s.messages[-1]
+    assert "known_lengths" not in s.data
+    d.send(*d.at("length m"), "click", "1", "key", "ctrl+a", "type", "--delay", "30", f"{truth['corner_m']:g}")
+    d.click("Add length")
+    (kl,) = s.data["known_lengths"]
+    assert (kl["photo"], kl["axis"], kl["length"], kl["sigma"], kl["floor_end"]) == ("p3", "z", truth["corner_m"],
+                                                                                    0.002, 0)
+    assert kl["ends"] == [pytest.approx(e.window_to_image(round(foot[0]), round(foot[1])), abs=1e-9),
+                          pytest.approx(e.window_to_image(round(top[0]), round(top[1])), abs=1e-9)]
+    assert e.pending_length is None and s.undo_label.startswith("known length 2.6 m along z")
+    d.frames(2)
+    assert any("L0: 2.6 m ± 2 mm along z" in m for m in [ln.label or "" for ln in e.overlay().lines])
+    img = d.screen()
+    assert _colour_near(img, foot[0], 0.5 * (foot[1] + top[1]), AXIS_COLOURS["z"])  # drawn, in the z colour
+    # A camera height that is not a number is refused too.
+    d.send(*d.at("height m"), "click", "1", "type", "--delay", "30", "high")
+    d.click("Set height")
+    assert "the camera height must be a number of metres (e.g. 2.03), not 'high'" in s.messages[-1]
+    assert "camera_height" not in s.photo("p3")
+    # Calibrate from the screen: the photo alone, its scale the known length; the result shown.
+    d.click("tab:Calibration")
+    d.click("Calibrate")
+    assert e.calibration_error is None, e.calibration_error
+    placed = e.calibration_result["cameras"]["p3"]["placement"]
+    h = placed["camera_height_m"]
+    assert placed["how"] == "alone" and "known length" in placed["scale"]
+    assert abs(h["value"] - truth["C"][2]) < 3 * h["sigma"], (h, truth["C"])
+    pos = e.calibration_result["cameras"]["p3"]["position"]  # each coordinate within 3σ of the truth
+    assert np.all(np.abs(np.subtract(pos["value"], truth["C"])) < 3 * np.asarray(pos["sigma"])), (pos, truth["C"])
+    d.frames(2)
+    assert "calibrated:p3" in e.widget_rects  # the panel shows it
+    assert f"camera {h['value']:.3f} ± {h['sigma']:.3f} m above the floor" in \
+        next(m for m in reversed(s.messages) if m.startswith("calibrated p3"))
+    assert s.undo_label == "calibrate"
+
+
+def test_the_scale_tab_sets_a_camera_height_and_the_markers_on_the_floor_and_says_each(one_photo, driver_factory):
+    path, truth = one_photo
+    d = driver_factory(path)
+    e, s = d.editor, d.session
+    d.click("tab:Scale")
+    # Add length before one is drawn says how to draw it; Set height before a height is typed says so.
+    d.click("Add length")
+    assert "draw the known length first: the Known length tool (K)" in s.messages[-1]
+    d.click("Set height")
+    assert "type the camera's height above the floor in metres first (e.g. 1.62)" in s.messages[-1]
+    d.send(*d.at("height m"), "click", "1", "type", "--delay", "30", "1.45")
+    d.send(*d.at("height sigma"), "click", "1", "type", "--delay", "30", "0.02")
+    d.click("Set height")
+    assert s.photo("p3")["camera_height"] == {"value": 1.45, "sigma": 0.02}
+    assert s.messages[-1] == "camera height in p3: 1.45 ± 0.02 m above the floor"
+    d.frames(2)
+    d.click("Remove height")
+    assert "camera_height" not in s.photo("p3") and s.undo_label == "remove the camera height of p3"
+    # A drawn known length that Esc cancels, and one the Delete tool removes.
+    foot, top = (e.image_to_window("p3", uv) for uv in truth["corner"])
+    d.send("key", "k", *d.move_to(*foot), "sleep", "0.05", "mousedown", "1", "sleep", "0.05", *d.move_to(*top),
+           "sleep", "0.05", "mouseup", "1", "key", "Escape")
+    assert e.pending_length is None and s.messages[-1] == "known length cancelled"
+    d.send("key", "k", *d.move_to(*foot), "sleep", "0.05", "mousedown", "1", "sleep", "0.05", *d.move_to(*top),
+           "sleep", "0.05", "mouseup", "1")
+    d.send(*d.at("length m"), "click", "1", "type", "--delay", "30", "2.6")
+    d.click("Add length")
+    assert s.messages[-1] == "known length L0: 2.6 m along z in p3" and len(s.data["known_lengths"]) == 1
+    d.send("key", "Delete", *d.move_to(foot[0], 0.5 * (foot[1] + top[1])), "sleep", "0.05", "click", "1")
+    assert "known_lengths" not in s.data and s.messages[-1] == "removed known length L0"
+    # A second marker, ticked "on the floor" in the Calibration tab (the origin is on it already).
+    x5 = e.image_to_window("p3", (153.8, 1107.9))
+    d.send("key", "m", *d.move_to(*x5), "sleep", "0.05", "click", "1")
+    name = next(iter(set(s.photo("p3")["marker_observations"]) - {"O"}))
+    d.click("tab:Calibration")
+    d.click(f"on floor:{name}")
+    assert {"name": name, "on_floor": True} in s.data["markers"] and s.undo_label == f"{name} on the floor"
+    d.click(f"on floor:{name}")
+    assert {"name": name} in s.data["markers"]
+
+
+def test_a_polyline_is_clicked_point_by_point_with_shift(one_photo, driver_factory):
+    path, _ = one_photo
+    d = driver_factory(path)
+    e, s = d.editor, d.session
+    n = len(s.photo("p3")["vanishing_segments"]["y"])
+    pts = [(200, 300), (300, 306), (400, 310), (520, 312)]
+    # A stroke from the first point to the second released with Shift, a Shift+click on the third,
+    # a plain click on the last: one y polyline of four points.
+    d.send("key", "2", *d.move_to(*pts[0]), "sleep", "0.05", "mousedown", "1", "sleep", "0.05",
+           *d.move_to(*pts[1]), "sleep", "0.05", "keydown", "shift", "mouseup", "1", "keyup", "shift")
+    assert e.open_polyline is not None and "y polyline: 2 points; Shift+click adds the next point" in s.messages[-1]
+    assert len(s.photo("p3")["vanishing_segments"]["y"]) == n  # nothing added yet
+    d.send(*d.move_to(*pts[2]), "sleep", "0.05", "keydown", "shift", "click", "1", "keyup", "shift")
+    assert "y polyline: 3 points" in s.messages[-1]
+    d.send(*d.move_to(*pts[3]), "sleep", "0.05", "click", "1")
+    row = s.photo("p3")["vanishing_segments"]["y"][n]
+    assert np.reshape(row, (-1, 2)) == pytest.approx(np.array([e.window_to_image(*p) for p in pts]), abs=1e-9)
+    assert e.open_polyline is None and s.messages[-1] == f"y segment {n} in p3: a polyline of 4 points (2 middle)"
+    s.undo()
+    # Esc cancels one under way: nothing added.
+    d.send(*d.move_to(*pts[0]), "sleep", "0.05", "keydown", "shift", "click", "1", "keyup", "shift")
+    assert "y polyline: 1 point;" in s.messages[-1]
+    d.send("key", "Escape")
+    assert e.open_polyline is None and s.messages[-1] == "polyline cancelled"
+    assert len(s.photo("p3")["vanishing_segments"]["y"]) == n and e.tool == "y"

@@ -6,7 +6,7 @@ from __future__ import annotations
 from imgui_bundle import imgui
 
 from .keys import EDITOR_KEYS, tool_key
-from .layout import MESSAGES_SHOWN, STRIP_H, THUMB_H, TOOL_HINTS, TOOLBAR_H, TOOLS, EditorPart
+from .layout import MESSAGES_SHOWN, MIDDLE_POINT_HINT, STRIP_H, THUMB_H, TOOL_HINTS, TOOLBAR_H, TOOLS, EditorPart
 
 
 class Bars(EditorPart):
@@ -19,7 +19,8 @@ class Bars(EditorPart):
             active = self.tool == tool
             if active:
                 imgui.push_style_color(imgui.Col_.button, imgui.ImVec4(0.85, 0.55, 0.1, 1.0))
-            if self.button(label, tip=f"{TOOL_HINTS[tool]} (key {tool_key(tool)})"):
+            middle = MIDDLE_POINT_HINT if tool in ("x", "y", "z") else ""
+            if self.button(label, tip=f"{TOOL_HINTS[tool]}{middle} (key {tool_key(tool)})"):
                 self.set_tool(tool)
             if active:
                 imgui.pop_style_color()

@@ -14,21 +14,31 @@ EDITOR_KEYS = KeyTable([
             "a directed vanishing segment",
             (Chord(glfw.KEY_1, "set_tool", ("x",)), Chord(glfw.KEY_2, "set_tool", ("y",)),
              Chord(glfw.KEY_3, "set_tool", ("z",)))),
+    Binding("Ctrl+click (Segment X, Y, Z)", "a middle point on the segment of that axis under the click, where the "
+            "edge really runs: a long edge marked as a polyline through two or more such points shows how the lens "
+            "bent it, from which the calibration estimates the lens distortion (drag a middle point with Select, "
+            "remove it with Delete)"),
+    Binding("Shift+click (Segment X, Y, Z)", "a polyline along one edge, point by point: a stroke released (or a "
+            "click) with Shift held goes on from there, each Shift+click adds a middle point, a click without Shift "
+            "ends it at its last point (Esc cancels)"),
     Binding("M", "Marker: a click places the marker named in the toolbar's field (a new name makes a new marker; "
             "the first is the origin until another is chosen)", (Chord(glfw.KEY_M, "set_tool", ("marker",)),)),
     Binding("E", "Edge: press and drag along an edge of the selected primitive: an edge observation (drawn red) on "
             "the nearest projected edge", (Chord(glfw.KEY_E, "set_tool", ("edge",)),)),
-    Binding("Delete", "Delete: click a segment, marker or drawn edge to remove it",
+    Binding("K", "Known length: press on one end of an edge along an axis whose length is known (a vertical's foot "
+            "on the floor first, or an edge on the floor), drag to its other end, release; then type its axis, metres "
+            "and σ (optional) in the Scale tab and press Add length", (Chord(glfw.KEY_K, "set_tool", ("length",)),)),
+    Binding("Delete", "Delete: click a segment, a middle point, a marker, a known length or a drawn edge to remove it",
             (Chord(glfw.KEY_DELETE, "set_tool", ("delete",)),)),
     Binding("Esc", "Select (also cancels a drag or stroke): press on a vertex and drag, the solver fits the model on "
-            "every move; press on a segment's end or a marker and drag to move it; click an edge to select its "
-            "primitive", (Chord(glfw.KEY_ESCAPE, "escape"),)),
+            "every move; press on a segment's end or middle point or a marker and drag to move it; click an edge to "
+            "select its primitive", (Chord(glfw.KEY_ESCAPE, "escape"),)),
     Binding("F", "fix the vertex under the cursor where it is seen, or unfix it",
             (Chord(glfw.KEY_F, "fix_under_cursor"),)),
     Binding("L", "labels over the photo (residuals, vertex names) on or off; markers' names stay",
             (Chord(glfw.KEY_L, "toggle_labels"),)),
     Binding("Shift", "magnifier (6 window pixels per photo pixel, a crosshair, the stroke being drawn and the "
-            "sub-pixel position; always on with the Segment, Marker and Edge tools)"),
+            "sub-pixel position; always on with the Segment, Marker, Edge and Known length tools)"),
     Binding("PageUp / PageDown", "previous / next photo (or click its thumbnail)",
             (Chord(glfw.KEY_PAGE_UP, "step_photo", (-1,)), Chord(glfw.KEY_PAGE_DOWN, "step_photo", (1,)))),
     Binding("Ctrl+Z, Ctrl+Y (Ctrl+Shift+Z), Ctrl+S", "undo, redo, save",

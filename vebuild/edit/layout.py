@@ -36,12 +36,21 @@ PHOTO_CACHE = 3
 PREVIEW_FOV_DEG = 50.0
 
 TOOLS = {"select": "Select", "x": "Segment X", "y": "Segment Y", "z": "Segment Z", "marker": "Marker",
-         "edge": "Edge", "delete": "Delete"}
+         "edge": "Edge", "length": "Known length", "delete": "Delete"}
 TOOL_HINTS = {"select": "drag a vertex; click an edge to select its primitive",
               "x": "press, drag along an edge toward +x, release", "y": "press, drag along an edge toward +y, release",
               "z": "press, drag along an edge toward +z (up), release", "marker": "click where the marker is",
               "edge": "press, drag along an edge of the selected primitive, release",
-              "delete": "click a segment, marker or drawn edge to remove it"}
+              "length": "press on a known length's end (a vertical's foot on the floor first), drag to its other end, "
+                        "release; then type its metres in the Scale tab",
+              "delete": "click a segment, a middle point, a marker, a known length or a drawn edge to remove it"}
+#: Ctrl+click with a Segment tool adds a middle point to the segment of that axis whose path passes
+#: within this many window pixels (more than the picking radius: a lens bends an edge away from the
+#: straight line between the segment's ends).
+MIDDLE_PICK_PX = 3 * PICK_RADIUS_PX
+#: What the Segment tools' tooltips add: what their middle points are and what they are for.
+MIDDLE_POINT_HINT = ("; Ctrl+click on a segment adds a middle point where the edge runs, Shift+click clicks a polyline "
+                     "point by point: a long edge's bend measures the lens distortion")
 #: How many messages the message area shows (the latest last).
 MESSAGES_SHOWN = 3
 
@@ -82,6 +91,8 @@ class EditorPart:
     _pan_from: tuple[float, float] | None
     _pending_drag: tuple[float, float] | None
     _placing: dict[str, Any] | None
+    pending_length: dict[str, Any] | None
+    open_polyline: dict[str, Any] | None
     _photo_tex: dict[str, moderngl.Texture]
     _photo_errors: dict[str, str]
     _thumbs: dict[str, moderngl.Texture | None]

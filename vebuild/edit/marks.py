@@ -26,6 +26,57 @@ Array = NDArray[np.float64]
 AXES = ("x", "y", "z")
 
 
+#: A known length's 1σ when none is typed, metres (FORMAT.md's default: a tape read to 2 mm).
+KNOWN_LENGTH_SIGMA_M = 0.002
+#: A camera height's 1σ when none is typed, metres: a photographer's eye height or a tripod's
+#: setting is known to a few centimetres, not better.
+CAMERA_HEIGHT_SIGMA_M = 0.05
+#: What the project format accepts (scenes/FORMAT.md; vebuild/schema): lengths 0.1 mm to 10 km, a
+#: camera height 1 mm to 10 km, a 1σ 1 µm to 10 km.
+LENGTH_RANGE_M = (1e-4, 1e4)
+CAMERA_HEIGHT_RANGE_M = (1e-3, 1e4)
+SIGMA_RANGE_M = (1e-6, 1e4)
+
+
+def _blank(value: object) -> bool:
+    return value is None or (isinstance(value, str) and not value.strip())
+
+
+def check_length_ends(ends: Sequence[Sequence[float]]) -> tuple[tuple[float, float], tuple[float, float]]:
+    """A known length's two clicked ends as floats; EditError if they are not two distinct points."""
+    if len(ends) != 2:
+        raise EditError(f"a known length has two ends, not {len(ends)}")
+    (u1, v1), (u2, v2) = ((float(p[0]), float(p[1])) for p in ends)
+    if not all(math.isfinite(v) for v in (u1, v1, u2, v2)):
+        raise EditError("a known length's end is not a number")
+    if math.hypot(u2 - u1, v2 - v1) < MIN_SEGMENT_LENGTH_PX:
+        raise EditError(f"a known length's two ends are {math.hypot(u2 - u1, v2 - v1):.1f} px apart: press on one "
+                        f"end (a vertical's foot on the floor), drag to the other, release (at least "
+                        f"{MIN_SEGMENT_LENGTH_PX:g} px apart)")
+    return (u1, v1), (u2, v2)
+
+
+def parse_metres(value: float | str | None, what: str, limits: tuple[float, float]) -> float:
+    """A length typed by the user (a number, or text such as "2.03"), metres, within ``limits``;
+    EditError saying what was expected and what was typed."""
+    lo, hi = limits
+    if isinstance(value, str):
+        text = value.strip().removesuffix("m").strip().replace(",", ".")
+        try:
+            number = float(text)
+        except ValueError:
+            raise EditError(f"{what} must be a number of metres (e.g. 2.03), not {value.strip()!r}") from None
+    elif value is None:
+        raise EditError(f"{what} is missing: type a number of metres (e.g. 2.03)")
+    else:
+        number = float(value)
+    if not math.isfinite(number) or number <= 0:
+        raise EditError(f"{what} must be a positive number of metres, not {number:g}")
+    if not lo <= number <= hi:
+        raise EditError(f"{what} must lie between {lo:g} m and {hi:g} m, not {number:g} m")
+    return number
+
+
 @dataclass
 class VanishingState:
     """One axis of one photo: its segments and, once they allow it, the fitted vanishing point.
@@ -92,6 +143,81 @@ class Marks(History):
         self._check_segment(seg, axis)
         with self._edit(f"move {axis} segment {index} in {photo}"):
             self._segments(photo, axis)[index] = seg
+
+    # -- middle points of a polyline segment (plumb-line: the lens distortion) ----------------------
+
+    def _polyline(self, photo: str, axis: str, index: int) -> list[list[float]]:
+        segs = self._segments(photo, axis)
+        if not 0 <= index < len(segs):
+            raise EditError(f"photo '{photo}' has no {axis} segment {index} (it has {len(segs)})")
+        row = segs[index]
+        return [[row[k], row[k + 1]] for k in range(0, len(row), 2)]
+
+    def insert_segment_point(self, photo: str, axis: str, index: int, uv: Sequence[float]) -> int:
+        """Add a middle point at uv to a segment (making it a polyline along its edge as the lens bent
+        it), between the points it falls between along the segment; returns its place in the
+        polyline (1 for the first middle point)."""
+        pts = self._polyline(photo, axis, index)
+        q = np.asarray([float(uv[0]), float(uv[1])])
+        if not np.all(np.isfinite(q)):
+            raise EditError("a middle point's position is not a number")
+        a, b = np.asarray(pts[0]), np.asarray(pts[-1])
+        d = b - a
+        t = float((q - a) @ d / max(float(d @ d), 1e-12))
+        if not 0.0 < t < 1.0:
+            raise EditError(f"a middle point must lie between the {axis} segment's two ends (this one is "
+                            f"{100 * t:.0f} % of the way from its first end); to lengthen the segment, drag its end")
+        ts = [float((np.asarray(p) - a) @ d / float(d @ d)) for p in pts]
+        at = next(k for k in range(1, len(pts)) if ts[k] >= t)
+        pts.insert(at, [float(q[0]), float(q[1])])
+        with self._edit(f"add a middle point to {axis} segment {index} in {photo}"):
+            self._segments(photo, axis)[index] = [v for p in pts for v in p]
+        return at
+
+    def move_segment_point(self, photo: str, axis: str, index: int, point: int, uv: Sequence[float]) -> None:
+        """Move one middle point of a polyline segment (its ends move with :meth:`move_segment`)."""
+        pts = self._polyline(photo, axis, index)
+        if not 0 < point < len(pts) - 1:
+            raise EditError(f"{axis} segment {index} has no middle point {point} (it has {len(pts) - 2})")
+        pts[point] = [float(uv[0]), float(uv[1])]
+        seg = [v for p in pts for v in p]
+        self._check_segment(seg, axis)
+        with self._edit(f"move a middle point of {axis} segment {index} in {photo}"):
+            self._segments(photo, axis)[index] = seg
+
+    def delete_segment_point(self, photo: str, axis: str, index: int, point: int) -> None:
+        """Remove one middle point of a polyline segment (with none left it is a plain segment)."""
+        pts = self._polyline(photo, axis, index)
+        if not 0 < point < len(pts) - 1:
+            raise EditError(f"{axis} segment {index} has no middle point {point} (it has {len(pts) - 2})")
+        del pts[point]
+        with self._edit(f"delete a middle point of {axis} segment {index} in {photo}"):
+            self._segments(photo, axis)[index] = [v for p in pts for v in p]
+
+    def segment_point_at(self, photo: str, uv: Sequence[float], radius_px: float) -> tuple[str, int, int] | None:
+        """The middle point of a polyline segment nearest uv within radius_px: (axis, index, point)."""
+        best: tuple[float, tuple[str, int, int]] | None = None
+        for axis, segs in (self.photo(photo).get("vanishing_segments") or {}).items():
+            for i, row in enumerate(segs):
+                for k in range(1, len(row) // 2 - 1):
+                    d = math.dist(row[2 * k:2 * k + 2], uv)
+                    if d <= radius_px and (best is None or d < best[0]):
+                        best = (d, (axis, i, k))
+        return best[1] if best else None
+
+    def nearest_segment(self, photo: str, axis: str, uv: Sequence[float], radius_px: float) -> int | None:
+        """The segment of this axis whose path (through its middle points) passes nearest uv, within
+        radius_px, or None."""
+        q = np.asarray(uv, float)
+        best: tuple[float, int] | None = None
+        for i, row in enumerate((self.photo(photo).get("vanishing_segments") or {}).get(axis, [])):
+            pts = np.asarray(row, float).reshape(-1, 2)
+            for a, b in zip(pts[:-1], pts[1:], strict=True):
+                t = float(np.clip((q - a) @ (b - a) / max(float((b - a) @ (b - a)), 1e-12), 0.0, 1.0))
+                d = float(np.linalg.norm(q - (a + t * (b - a))))
+                if d <= radius_px and (best is None or d < best[0]):
+                    best = (d, i)
+        return best[1] if best else None
 
     def delete_segment(self, photo: str, axis: str, index: int) -> None:
         with self._edit(f"delete {axis} segment {index} in {photo}"):
@@ -206,6 +332,84 @@ class Marks(History):
     def remove_distance(self, index: int) -> None:
         with self._edit("remove distance"):
             del self.data["reference_distances"][index]
+
+    # -- a photo's own scale: known lengths, the camera's height, markers on the floor -------------
+
+    def add_known_length(self, photo: str, axis: str, ends: Sequence[Sequence[float]], length_m: float | str,
+                         sigma_m: float | str | None = None, description: str | None = None) -> int:
+        """A length known at the scene along world axis ``axis``, its two ends clicked in the photo
+        (for ``z`` the foot on the floor first, then the top; for ``x`` or ``y`` an edge on the
+        floor); ``sigma_m`` None or blank: :data:`KNOWN_LENGTH_SIGMA_M`. Returns its index in
+        ``$.known_lengths``."""
+        if axis not in AXES:
+            raise EditError(f"a known length runs along world axis x, y or z, not {axis!r}")
+        self.photo(photo)
+        length = parse_metres(length_m, "the known length", LENGTH_RANGE_M)
+        sigma = KNOWN_LENGTH_SIGMA_M if _blank(sigma_m) else parse_metres(sigma_m, "the known length's σ",
+                                                                         SIGMA_RANGE_M)
+        (u1, v1), (u2, v2) = check_length_ends(ends)
+        doc: dict[str, Any] = {"photo": photo, "axis": axis, "ends": [[u1, v1], [u2, v2]], "length": length,
+                               "sigma": sigma}
+        if axis == "z":
+            doc["floor_end"] = 0
+        if description:
+            doc["description"] = description
+        with self._edit(f"known length {length:g} m along {axis} in {photo}"):
+            self.data.setdefault("known_lengths", []).append(doc)
+        return len(self.data["known_lengths"]) - 1
+
+    def remove_known_length(self, index: int) -> None:
+        lengths = self.data.get("known_lengths", [])
+        if not 0 <= index < len(lengths):
+            raise EditError(f"there is no known length {index} (there are {len(lengths)})")
+        with self._edit(f"remove known length {index}"):
+            del self.data["known_lengths"][index]
+            if not self.data["known_lengths"]:
+                del self.data["known_lengths"]
+
+    def known_length_at(self, photo: str, uv: Sequence[float], radius_px: float) -> int | None:
+        """The index of the known length clicked in this photo whose line passes nearest uv, or None."""
+        q = np.asarray(uv, float)
+        best: tuple[float, int] | None = None
+        for i, k in enumerate(self.data.get("known_lengths", [])):
+            if k["photo"] != photo:
+                continue
+            a, b = np.asarray(k["ends"][0], float), np.asarray(k["ends"][1], float)
+            t = float(np.clip((q - a) @ (b - a) / max(float((b - a) @ (b - a)), 1e-12), 0.0, 1.0))
+            d = float(np.linalg.norm(q - (a + t * (b - a))))
+            if d <= radius_px and (best is None or d < best[0]):
+                best = (d, i)
+        return best[1] if best else None
+
+    def set_camera_height(self, photo: str, value_m: float | str | None,
+                          sigma_m: float | str | None = None) -> None:
+        """The camera's height above the floor when the photo was taken (``camera_height``), metres,
+        with its 1σ (None or blank: :data:`CAMERA_HEIGHT_SIGMA_M`); ``value_m`` None or blank
+        removes it."""
+        p = self.photo(photo)
+        if _blank(value_m):
+            if "camera_height" not in p:
+                raise EditError(f"photo '{photo}' has no camera height to remove")
+            with self._edit(f"remove the camera height of {photo}"):
+                del self.photo(photo)["camera_height"]
+            return
+        h = parse_metres(value_m, "the camera height", CAMERA_HEIGHT_RANGE_M)
+        s = CAMERA_HEIGHT_SIGMA_M if _blank(sigma_m) else parse_metres(sigma_m, "the camera height's σ",
+                                                                      SIGMA_RANGE_M)
+        with self._edit(f"camera height {h:g} m in {photo}"):
+            self.photo(photo)["camera_height"] = {"value": h, "sigma": s}
+
+    def set_on_floor(self, name: str, on_floor: bool) -> None:
+        """Mark a marker as lying on the floor (z = 0: one photo places it) or not (``on_floor``)."""
+        marker = next((m for m in self.data["markers"] if m["name"] == name), None)
+        if marker is None:
+            raise EditError(f"no marker is called '{name}'; place it in a photo first")
+        with self._edit(f"{name} {'on' if on_floor else 'off'} the floor"):
+            marker = next(m for m in self.data["markers"] if m["name"] == name)
+            if on_floor:
+                marker["on_floor"] = True
+            else:
+                marker.pop("on_floor", None)
 
     # -- the user's edges (paper §3) ----------------------------------------------------------------
 

@@ -42,7 +42,8 @@ class Line:
     ``segment`` (a vanishing segment; ``key`` = (axis, index)), ``segment-path`` (a polyline
     segment's path through its middle points), ``vp-ray`` (midpoint to vanishing
     point), ``horizon``, ``axis`` (world axis from the origin), ``edge`` (a projected model edge;
-    ``key`` = (node, edge)), ``user-edge`` (an edge observation; ``key`` = index), ``residual``."""
+    ``key`` = (node, edge)), ``user-edge`` (an edge observation; ``key`` = index), ``residual``,
+    ``known-length`` (a length known at the scene; ``key`` = its index in ``$.known_lengths``)."""
 
     p: tuple[float, float, float, float]
     colour: RGBA
@@ -57,7 +58,8 @@ class Line:
 class Point:
     """A point at (u, v): ``kind`` is ``vp`` (a vanishing point), ``marker`` (an observed marker),
     ``marker-projected`` (where the calibration puts it), ``handle`` (``key`` = (node, handle)),
-    ``pin`` (a fixed vertex), ``origin``."""
+    ``pin`` (a fixed vertex), ``origin``, ``segment-point`` (a polyline segment's middle point),
+    ``known-length-end`` (``key`` = (index, end); filled at a z length's foot on the floor)."""
 
     uv: tuple[float, float]
     colour: RGBA
@@ -105,7 +107,6 @@ def vanishing_rays(ov: Overlay, vs: Any, width: float, height: float) -> None:
     v = vs.point
     colour = AXIS_COLOURS[vs.axis]
     faint = (*colour[:3], 0.45)
-    polyline_points(ov, vs)
     reach = 3.0 * math.hypot(width, height)
     for s in vs.segments:
         m = 0.5 * (s[:2] + s[2:])

@@ -17,8 +17,10 @@ from imgui_bundle import imgui
 from vebuild.model.primitives import primitive_kinds
 from vebuild.project import decode
 
-from .keys import EDITOR_KEYS
+from .keys import EDITOR_KEYS, tool_key
+from .marks import AXES, CAMERA_HEIGHT_SIGMA_M, KNOWN_LENGTH_SIGMA_M
 from .overlay import AXIS_COLOURS
+from .session import placement_text
 
 if TYPE_CHECKING:
     from .screen import Editor
@@ -39,6 +41,8 @@ class Panels:
         self.new_name = ""
         self.group_name = "group1"
         self.dist_a, self.dist_b, self.dist_m, self.dist_role = "", "", 1.0, 0
+        self.length_axis, self.length_m, self.length_sigma = 2, "", ""  # z; typed as text: checked on Add
+        self.height_m, self.height_sigma = "", ""
         self._param_edits: dict[str, Any] = {}
 
     def forget_edits(self) -> None:
@@ -48,8 +52,8 @@ class Panels:
     def draw(self) -> None:
         self.ed.fixed_window("##panels", self.ed.panels_rect(), imgui.WindowFlags_.no_title_bar)
         if imgui.begin_tab_bar("panels"):
-            for name, fn in (("Calibration", self._calibration_tab), ("Model", self._model_tab),
-                             ("Keys", self._keys_tab)):
+            for name, fn in (("Calibration", self._calibration_tab), ("Scale", self._scale_tab),
+                             ("Model", self._model_tab), ("Keys", self._keys_tab)):
                 shown, _ = imgui.begin_tab_item(name)
                 self.ed.rect(f"tab:{name}")
                 if shown:
@@ -76,8 +80,11 @@ class Panels:
             imgui.pop_text_wrap_pos()
         elif self.ed.calibration_result:
             for pid, c in self.ed.calibration_result.get("cameras", {}).items():
+                imgui.push_text_wrap_pos(0.0)
                 imgui.text(f"{pid}: {c.get('mode', '?')}, f {c['focal_px']['value']:.1f} ± "
-                           f"{c['focal_px']['sigma']:.1f} px, rms {c['rms_px']:.2f} px")
+                           f"{c['focal_px']['sigma']:.1f} px, rms {c['rms_px']:.2f} px{placement_text(c)}")
+                imgui.pop_text_wrap_pos()
+                self.ed.rect(f"calibrated:{pid}")
         imgui.separator()
         if self.ed.photo is not None:
             imgui.text(f"vanishing points in {self.ed.photo}")
@@ -101,9 +108,19 @@ class Panels:
         imgui.text(f"markers (origin: {origin or 'none'})")
         imgui.begin_child("markers", (0, 130), imgui.ChildFlags_.borders)
         observed = (s.photo(self.ed.photo).get("marker_observations") or {}) if self.ed.photo else {}
+        floor = decode.floor_markers(s.data)
         for name in decode.markers(s.data, "named"):
             imgui.text(f"{name:<6}{'  in this photo' if name in observed else ''}")
-            imgui.same_line(200)
+            imgui.same_line(140)
+            if name == origin:
+                imgui.text("on the floor")
+            else:
+                changed, on = imgui.checkbox(f"on the floor##{name}", name in floor)
+                self.ed.rect(f"on floor:{name}")
+                imgui.set_item_tooltip("it lies on the floor (z = 0): one photo places it")
+                if changed:
+                    self.ed.guard(s.set_on_floor, name, bool(on))
+            imgui.same_line(270)
             if name == origin:
                 imgui.text("origin")
             elif self.ed.button(f"origin##{name}", tip=f"the world's origin at {name}"):
@@ -133,6 +150,95 @@ class Panels:
         if self.ed.button("add##distance", tip="a measured distance between two markers (or node:vertex)"):
             self.ed.guard(s.add_distance, self.dist_a, self.dist_b, float(self.dist_m),
                         role=["scale", "check"][self.dist_role])
+
+    def _scale_tab(self) -> None:
+        """A photo's own scale, for a photo placed alone: its known lengths (drawn with the Known
+        length tool, then their metres typed here), its camera's height; the markers on the floor are
+        ticked in the Calibration tab."""
+        s, photo = self.ed.session, self.ed.photo
+        if photo is None:
+            imgui.text_disabled("no photo")
+            return
+        imgui.push_text_wrap_pos(0.0)
+        imgui.text_disabled("the scale of a photo placed alone (one photo, or none of its markers in other "
+                            "photos): any of these, combined by their σ")
+        imgui.pop_text_wrap_pos()
+        imgui.separator()
+        imgui.text(f"known lengths in {photo}")
+        for i, k in enumerate(s.data.get("known_lengths", [])):
+            if k["photo"] != photo:
+                continue
+            imgui.text(f"L{i}: {k['length']:g} m ± {1e3 * k.get('sigma', KNOWN_LENGTH_SIGMA_M):g} mm along {k['axis']}")
+            imgui.same_line()
+            if self.ed.button(f"remove##length{i}"):
+                self.ed.guard(s.remove_known_length, i)
+        pending = self.ed.pending_length
+        if pending is None or pending["photo"] != photo:
+            imgui.push_text_wrap_pos(0.0)
+            imgui.text_disabled(f"draw one with the Known length tool ({tool_key('length')}): press on one end "
+                                "(a vertical's foot on the floor first), drag to the other, release")
+            imgui.pop_text_wrap_pos()
+        else:
+            imgui.text_colored(imgui.ImVec4(1.0, 0.8, 0.2, 1.0), "drawn: now its axis, metres and σ, then Add length")
+        imgui.set_next_item_width(60)
+        self.length_axis = self.ed.combo("length axis", self.length_axis, list(AXES))
+        imgui.same_line()
+        imgui.set_next_item_width(80)
+        _, self.length_m = imgui.input_text("m##length", self.length_m)
+        self.ed.rect("length m")
+        imgui.same_line()
+        imgui.set_next_item_width(70)
+        _, self.length_sigma = imgui.input_text("σ m##length", self.length_sigma)
+        self.ed.rect("length sigma")
+        imgui.set_item_tooltip(f"its 1σ in metres; blank: {KNOWN_LENGTH_SIGMA_M:g} m")
+        if self.ed.button("Add length", tip="the length drawn with the Known length tool, with these metres"):
+            self.add_length()
+        imgui.separator()
+        h = s.photo(photo).get("camera_height")
+        imgui.text(f"camera height in {photo}: " + (f"{h['value']:g} ± {h['sigma']:g} m" if h else "not given"))
+        imgui.set_next_item_width(80)
+        _, self.height_m = imgui.input_text("m##height", self.height_m)
+        self.ed.rect("height m")
+        imgui.same_line()
+        imgui.set_next_item_width(70)
+        _, self.height_sigma = imgui.input_text("σ m##height", self.height_sigma)
+        self.ed.rect("height sigma")
+        imgui.set_item_tooltip(f"its 1σ in metres; blank: {CAMERA_HEIGHT_SIGMA_M:g} m")
+        imgui.same_line()
+        if self.ed.button("Set height", tip="the camera's height above the floor when the photo was taken"):
+            self.set_height()
+        if h:
+            imgui.same_line()
+            if self.ed.button("Remove height"):
+                self.ed.guard(s.set_camera_height, photo, None)
+
+    def set_height(self) -> None:
+        """Set height: the typed camera height and σ for the photo shown."""
+        photo = self.ed.photo
+        if self.height_m.strip() == "":
+            self.ed.say("type the camera's height above the floor in metres first (e.g. 1.62), then Set height")
+            return
+        s = self.ed.session
+        rev = s.revision
+        self.ed.guard(s.set_camera_height, photo, self.height_m, self.height_sigma)
+        if s.revision != rev:
+            h = s.photo(photo)["camera_height"]
+            self.ed.say(f"camera height in {photo}: {h['value']:g} ± {h['sigma']:g} m above the floor")
+
+    def add_length(self) -> None:
+        """Add length: the drawn known length with the typed axis, metres and σ."""
+        pending, photo = self.ed.pending_length, self.ed.photo
+        if pending is None or pending["photo"] != photo:
+            self.ed.say(f"draw the known length first: the Known length tool ({tool_key('length')}), press on one end "
+                        "(a vertical's foot on the floor first), drag to the other, release")
+            return
+        axis = AXES[self.length_axis]
+        index = self.ed.guard(self.ed.session.add_known_length, photo, axis, pending["ends"], self.length_m,
+                              self.length_sigma)
+        if index is not None:
+            self.ed.pending_length = None
+            self.ed.say(f"known length L{index}: {self.ed.session.data['known_lengths'][index]['length']:g} m along "
+                        f"{axis} in {photo}")
 
     def _model_tab(self) -> None:
         s = self.ed.session

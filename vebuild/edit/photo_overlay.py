@@ -17,7 +17,7 @@ from vebuild.camera import ImageCamera
 from vebuild.constants import OUTLIER_SIGMAS
 from vebuild.model.drag import project_edge_curves
 
-from .marks import AXES
+from .marks import AXES, KNOWN_LENGTH_SIGMA_M
 from .modelling import Modelling
 from .overlay import (
     AXIS_COLOURS,
@@ -32,6 +32,7 @@ from .overlay import (
     Overlay,
     Point,
     horizon_and_axes,
+    polyline_points,
     vanishing_rays,
 )
 
@@ -83,6 +84,7 @@ class SessionOverlays(Modelling):
                 ov.lines.append(Line(_ends(s), YELLOW if outlier else colour, 3.0 if outlier else 2.0,
                                      "segment", (axis, i), None if r is None else
                                      (f"{axis}{i}: {r:+.2f} px" + (" outlier" if outlier else "")), arrow=True))
+            polyline_points(ov, vs)  # with or without a vanishing point yet
             if vs.point is not None:
                 vanishing_rays(ov, vs, p["width"], p["height"])
             elif vs.problem and len(vs.segments):
@@ -90,9 +92,25 @@ class SessionOverlays(Modelling):
         cam = self.cameras.get(photo)
         if cam is not None:
             horizon_and_axes(ov, cam, p["width"], p["height"])
+        self._known_lengths_overlay(ov, photo)
         self._markers_overlay(ov, photo, cam)
         self._model_overlay(ov, photo, cam, selected, skip)
         return ov
+
+    def _known_lengths_overlay(self, ov: Overlay, photo: str) -> None:
+        """Each known length clicked in this photo: a thick line in its axis' colour labelled with the
+        length and its 1σ, its foot on the floor (a z length's first end) a filled dot, its top a ring."""
+        for i, k in enumerate(self.data.get("known_lengths", [])):
+            if k["photo"] != photo:
+                continue
+            (u1, v1), (u2, v2) = k["ends"]
+            colour = AXIS_COLOURS[k["axis"]]
+            sigma = k.get("sigma", KNOWN_LENGTH_SIGMA_M)
+            ov.lines.append(Line((u1, v1, u2, v2), colour, 4.0, "known-length", i,
+                                 f"L{i}: {k['length']:g} m ± {1e3 * sigma:g} mm along {k['axis']}"))
+            foot = k.get("floor_end", 0) if k["axis"] == "z" else None
+            for e, (u, v) in enumerate(k["ends"]):
+                ov.points.append(Point((u, v), colour, 4.0, e == foot or foot is None, "known-length-end", (i, e)))
 
     def _markers_overlay(self, ov: Overlay, photo: str, cam: ImageCamera | None) -> None:
         placed = self._markers_placed()

@@ -26,7 +26,7 @@ from .layout import (
     EditorPart,
     u32,
 )
-from .overlay import AXIS_COLOURS, RED, Overlay
+from .overlay import AXIS_COLOURS, RED, WHITE, Overlay
 
 
 class PhotoView(EditorPart):
@@ -206,7 +206,8 @@ class PhotoView(EditorPart):
             dl.add_line(a, b, col, ln.width)
             if ln.arrow:
                 self._arrow_head(dl, a, b, col, 6.0 + 2.0 * ln.width)
-            if ln.label and self.show_labels and ln.kind in ("segment", "axis", "user-edge", "horizon", "residual"):
+            if ln.label and ((self.show_labels and ln.kind in ("segment", "axis", "user-edge", "horizon", "residual"))
+                             or ln.kind == "known-length"):
                 dl.add_text((0.5 * (a[0] + b[0]) + 6, 0.5 * (a[1] + b[1]) + 2), col, ln.label)
         for pt in ov.points:
             c = (px + z * pt.uv[0], py + z * pt.uv[1])
@@ -232,15 +233,31 @@ class PhotoView(EditorPart):
 
     def _draw_stroke(self, dl: Any) -> None:
         """The stroke being drawn (a segment, an edge) or the segment end being moved."""
+        pending = self.pending_length
+        if pending is not None and pending["photo"] == self.photo:  # drawn, its metres not typed yet
+            a, b = (self.image_to_window(None, e) for e in pending["ends"])
+            dl.add_line(a, b, u32(WHITE), 4.0)
+            dl.add_circle_filled(a, 4.0, u32(WHITE))
+            dl.add_text((0.5 * (a[0] + b[0]) + 8, 0.5 * (a[1] + b[1])), u32(WHITE), "known length: type its metres")
+        poly = self.open_polyline
+        if poly is not None and poly["photo"] == self.photo:  # clicked so far, and on to the cursor
+            col = u32(AXIS_COLOURS[poly["axis"]])
+            pts = [self.image_to_window(None, q) for q in poly["points"]] + [self._cursor]
+            for a, b in zip(pts[:-1], pts[1:], strict=True):
+                dl.add_line(a, b, col, 2.0)
+            for q in pts[1:-1]:
+                dl.add_circle_filled(q, 3.0, col)
         p = self._press
         if p is None:
             return
         x, y = self._cursor
-        if p["kind"] in ("x", "y", "z", "edge"):
-            col = u32(AXIS_COLOURS[p["kind"]] if p["kind"] in AXIS_COLOURS else RED)
+        if p["kind"] in ("x", "y", "z", "edge", "length"):
+            col = u32(AXIS_COLOURS[p["kind"]] if p["kind"] in AXIS_COLOURS else WHITE if p["kind"] == "length" else RED)
             a = self.image_to_window(None, p["uv"])
             dl.add_line(a, (x, y), col, 2.0)
             self._arrow_head(dl, a, (x, y), col, 10.0)
+        elif p["kind"] in ("insert-point", "segment-point") and (p.get("moved") or p["kind"] == "insert-point"):
+            dl.add_circle((x, y), 5.0, u32(AXIS_COLOURS[p["axis"]]), 0, 2.0)
         elif p["kind"] == "segment-end" and p.get("moved"):
             seg = list(p["segment"])
             seg[2 * p["end"]:2 * p["end"] + 2] = self.window_to_image(x, y)
@@ -253,7 +270,7 @@ class PhotoView(EditorPart):
 
     def magnifier_visible(self) -> bool:
         x, y = self._cursor
-        want = self.tool in ("x", "y", "z", "marker", "edge") or bool(self._mods & glfw.MOD_SHIFT) \
+        want = self.tool in ("x", "y", "z", "marker", "edge", "length") or bool(self._mods & glfw.MOD_SHIFT) \
             or glfw.KEY_LEFT_SHIFT in self._held or glfw.KEY_RIGHT_SHIFT in self._held
         return want and self._photo_takes(x, y) and self._pan_from is None
 

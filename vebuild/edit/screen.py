@@ -78,6 +78,8 @@ class Editor(ScreenTools, PhotoView, Bars, Preview, WindowApp):
         self._pan_from = None
         self._pending_drag = None
         self._placing = None
+        self.open_polyline = None  # a polyline being clicked with Shift: its axis, photo and points
+        self.pending_length = None  # a known length's two ends drawn, its metres not typed yet
         self._photo_tex = {}
         self._photo_errors = {}
         self._thumbs = {}

@@ -125,7 +125,7 @@ class EditSession(SessionOverlays):
         with self._edit("calibrate"):
             result = calibrate_project(self.project, progress=_iterating(progress, "calibrating photos"))
         lines = [f"{pid}: {c['mode']}, f {c['focal_px']['value']:.1f} ± {c['focal_px']['sigma']:.1f} px, "
-                 f"rms {c['rms_px']:.2f} px" for pid, c in result["cameras"].items()]
+                 f"rms {c['rms_px']:.2f} px{placement_text(c)}" for pid, c in result["cameras"].items()]
         self.say("calibrated " + "; ".join(lines))
         for w in result.get("warnings", []):
             self.say(w)
@@ -189,6 +189,26 @@ class EditSession(SessionOverlays):
             record, _ = texture_project(self.project, opts, progress=step, save=False)
         self.say(f"textures extracted: {len(record['pages'])} page(s)")
         return record
+
+
+def placement_text(camera: dict[str, Any]) -> str:
+    """What the screen adds to a calibrated photo's line: its lens distortion where it has one (k1
+    and how far it moves the corners, each with its 1σ, and where k1 came from), and, placed alone,
+    its camera's height and where its scale came from, or that its lengths are relative."""
+    out = ""
+    lens = camera.get("distortion")
+    if lens:
+        k1, corner = lens["k1"], lens["corner_displacement_px"]
+        out += (f"; lens k1 {k1['value']:+.4f} ± {k1['sigma'] or 0.0:.4f} ({lens['source']}), corners moved "
+                f"{corner['value']:.1f} ± {corner['sigma'] or 0.0:.1f} px")
+    where = camera.get("placement") or {}
+    if where.get("how") != "alone":
+        return out
+    if where.get("lengths") == "relative":
+        return out + "; placed alone, no scale: lengths are relative (in units of the camera's height)"
+    h = where.get("camera_height_m") or {}
+    return out + (f"; placed alone, camera {h.get('value', float('nan')):.3f} ± {h.get('sigma') or 0.0:.3f} m above "
+                  f"the floor (scale: {where.get('scale', '?')})")
 
 
 def _iterating(progress: Progress | None, text: str) -> Callable[[Iterable[Any]], Iterable[Any]]:

@@ -14,7 +14,8 @@ from imgui_bundle import imgui
 
 from vebuild.errors import VebuildError
 
-from .layout import CLICK_SLOP_PX, PICK_RADIUS_PX, TOOLS, WHEEL_STEP, EditorPart, inside
+from .layout import CLICK_SLOP_PX, MIDDLE_PICK_PX, PICK_RADIUS_PX, TOOLS, WHEEL_STEP, EditorPart, inside
+from .marks import check_length_ends
 
 
 class ScreenTools(EditorPart):
@@ -70,7 +71,8 @@ class ScreenTools(EditorPart):
 
     def escape(self, keep_tool: bool = False) -> None:
         """Cancel what is under way (a drag, a stroke, a placement); if nothing, the Select tool."""
-        busy = self.session.dragging or self._press is not None or self._placing is not None
+        busy = self.session.dragging or self._press is not None or self._placing is not None \
+            or self.pending_length is not None or self.open_polyline is not None
         if self.session.dragging:
             self.session.cancel_drag()
             self.say("drag cancelled")
@@ -78,6 +80,12 @@ class ScreenTools(EditorPart):
         self._pending_drag = None
         self.drag_problem = None
         self._placing = None
+        if self.open_polyline is not None:
+            self.open_polyline = None
+            self.say("polyline cancelled")
+        if self.pending_length is not None and not keep_tool:
+            self.pending_length = None
+            self.say("known length cancelled")
         if not busy and not keep_tool:
             self.tool = "select"
 
@@ -174,13 +182,24 @@ class ScreenTools(EditorPart):
                                    marker=place.get("marker"), at=(photo, uv))
             self.select(made)
             return
-        if self.tool in ("x", "y", "z", "edge", "marker", "delete"):
+        if self.tool in ("x", "y", "z") and self.ctrl_held():
+            index = s.nearest_segment(photo, self.tool, uv, MIDDLE_PICK_PX / self.zoom)
+            if index is None:
+                raise VebuildError(f"Ctrl+click on an {self.tool} segment adds a middle point where the edge runs: "
+                                   f"no {self.tool} segment passes within {MIDDLE_PICK_PX:g} px of the click")
+            self._press = {**base, "kind": "insert-point", "axis": self.tool, "index": index}
+            return
+        if self.tool in ("x", "y", "z", "edge", "marker", "delete", "length"):
             self._press = {**base, "kind": self.tool}
             return
         hit = s.handle_at(photo, uv, r, prefer=self.selected)
         if hit is not None:
             self.select(hit[0])
             self._press = {**base, "kind": "handle", "node": hit[0], "handle": hit[1]}
+            return
+        point = s.segment_point_at(photo, uv, r)
+        if point is not None:
+            self._press = {**base, "kind": "segment-point", "axis": point[0], "index": point[1], "point": point[2]}
             return
         seg = s.segment_at(photo, uv, r)
         if seg is not None and seg[2] is not None:
@@ -211,7 +230,19 @@ class ScreenTools(EditorPart):
                     s.end_drag()
                     self.drag_problem = None
             elif kind in ("x", "y", "z"):
-                s.add_segment(photo, kind, p["uv"], uv)
+                self._segment_released(kind, p, uv)
+            elif kind == "insert-point":
+                at = s.insert_segment_point(photo, p["axis"], p["index"], uv)
+                self.say(f"middle point {at} of {p['axis']} segment {p['index']} in {photo}: how the edge bends "
+                         "there measures the lens distortion (calibrate to estimate it)")
+            elif kind == "segment-point" and p.get("moved"):
+                s.move_segment_point(photo, p["axis"], p["index"], p["point"], uv)
+            elif kind == "length":
+                ends = check_length_ends([p["uv"], uv])
+                self.pending_length = {"photo": photo, "ends": [list(ends[0]), list(ends[1])]}
+                self.say(f"known length drawn in {photo} from ({ends[0][0]:.1f}, {ends[0][1]:.1f}) to "
+                         f"({ends[1][0]:.1f}, {ends[1][1]:.1f}): type its length in metres (σ optional) in the "
+                         "Scale tab and press Add length")
             elif kind == "edge":
                 self._add_edge(p["uv"], uv)
             elif kind == "marker":
@@ -232,6 +263,38 @@ class ScreenTools(EditorPart):
         except VebuildError as e:
             self.say(str(e))
 
+    def shift_held(self) -> bool:
+        """Whether Shift is down (the keys held, or the button event's modifiers)."""
+        return bool({glfw.KEY_LEFT_SHIFT, glfw.KEY_RIGHT_SHIFT} & self._held) or bool(self._mods & glfw.MOD_SHIFT)
+
+    def _segment_released(self, axis: str, press: dict[str, Any], uv: tuple[float, float]) -> None:
+        """A Segment tool's stroke ended: a segment from press to release; released with Shift, the
+        release point is a middle point of a polyline that goes on (each Shift+click adds one, a click
+        without Shift ends it there)."""
+        s, photo = self.session, self.photo
+        poly = self.open_polyline
+        if poly is not None and (poly["axis"], poly["photo"]) != (axis, photo):
+            poly = self.open_polyline = None
+        if poly is not None:
+            points = [*poly["points"], uv]
+        elif press.get("moved") or not self.shift_held():
+            points = [press["uv"], uv]  # a stroke (or a plain click: too short, which add_segment says)
+        else:
+            points = [press["uv"]]  # Shift+click: the polyline's first point
+        if self.shift_held():
+            self.open_polyline = {"axis": axis, "photo": photo, "points": points}
+            self.say(f"{axis} polyline: {len(points)} point{'s' if len(points) != 1 else ''}; Shift+click adds the "
+                     "next point along the edge (its bend measures the lens distortion), a click without Shift ends "
+                     "it there, Esc cancels")
+            return
+        self.open_polyline = None
+        if len(points) == 2:
+            s.add_segment(photo, axis, points[0], points[1])
+        else:
+            index = s.add_polyline(photo, axis, points)
+            self.say(f"{axis} segment {index} in {photo}: a polyline of {len(points)} points "
+                     f"({len(points) - 2} middle)")
+
     def _add_edge(self, p1: tuple[float, float], p2: tuple[float, float]) -> None:
         s = self.session
         hit = s.nearest_edge(self.photo, p1, p2, node=self.selected)
@@ -247,6 +310,11 @@ class ScreenTools(EditorPart):
         s, photo = self.session, self.photo
         uv = self.window_to_image(x, y)
         r = PICK_RADIUS_PX / self.zoom
+        point = s.segment_point_at(photo, uv, r)
+        if point is not None:
+            s.delete_segment_point(photo, *point)
+            self.say(f"deleted middle point {point[2]} of {point[0]} segment {point[1]} in {photo}")
+            return
         seg = s.segment_at(photo, uv, r)
         if seg is not None:
             s.delete_segment(photo, seg[0], seg[1])
@@ -257,12 +325,17 @@ class ScreenTools(EditorPart):
             s.remove_marker(photo, marker)
             self.say(f"removed marker {marker} from {photo}")
             return
+        length = s.known_length_at(photo, uv, r)
+        if length is not None:
+            s.remove_known_length(length)
+            self.say(f"removed known length L{length}")
+            return
         edge = self._nearest_line(("user-edge",), x, y)
         if edge is not None:
             s.remove_edge_observation(edge.key)
             self.say("removed the drawn edge")
             return
-        self.say("nothing to delete there (a segment, a marker or a drawn edge)")
+        self.say("nothing to delete there (a segment, a middle point, a marker, a known length or a drawn edge)")
 
     def _apply_pending_drag(self) -> None:
         """The solve for the latest mouse position of a drag (once per frame, however many moves)."""
