@@ -81,7 +81,7 @@ def truth_comparison(result: dict, truth: dict) -> str:
 def distortion_comparison(cameras: dict, truth: dict) -> str:
     """Each photo's lens distortion as calibrated (the division model's k1 ± 1σ, and how far it
     moves the farthest corner) against the true lens's; a photo without a distortion record is
-    taken as a pinhole."""
+    taken as a pinhole, as is one that holds k1 = 0 exactly."""
     from .example_truth import true_corner_displacement_px, true_k1
 
     lines = ["lens distortion against the ground truth (division model k1; how far the lens moves the "
@@ -91,7 +91,7 @@ def distortion_comparison(cameras: dict, truth: dict) -> str:
         t = truth["photos"][pid]
         k1_t, corner_t = true_k1(t), true_corner_displacement_px(t)
         d = cam.get("distortion")
-        if d is None:
+        if d is None or (d["k1"]["value"] == 0.0 and not d["k1"]["sigma"]):  # none, or k1 = 0 held: a pinhole
             if k1_t == 0.0:
                 pinholes.append(pid)
             else:
