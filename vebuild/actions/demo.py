@@ -215,7 +215,7 @@ def render_views(project, folder: Path) -> str:
 
 def texture_comparison(project, textures, truth: dict) -> str:
     """Gains against the photos' true exposures; PSNR of the textures against the true ones."""
-    from .example_truth import texture_psnr
+    from .example_truth import PSNR_SAMPLE_EVERY, texture_psnr
 
     first = truth["photos"][textures.order[0]]["exposure"]
     lines = ["comparison with the ground truth:",
@@ -226,8 +226,10 @@ def texture_comparison(project, textures, truth: dict) -> str:
         from ..project.decode import load_model
 
         model, _, _ = load_model(project)
-        value = texture_psnr(model, textures, {p: v["exposure"] for p, v in truth["photos"].items()})
-        lines.append(f"  PSNR of the textures against the true textures, over texels a photo saw: {value:.1f} dB")
+        value = texture_psnr(model, textures, {p: v["exposure"] for p, v in truth["photos"].items()},
+                             PSNR_SAMPLE_EVERY)
+        lines.append(f"  PSNR of the textures against the true textures, over texels a photo saw: {value:.1f} dB "
+                     f"(from every {PSNR_SAMPLE_EVERY}th texel)")
     except FileNotFoundError:  # the scene generator is not installed alongside: no true textures
         pass
     return "\n".join(lines)
