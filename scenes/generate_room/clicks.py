@@ -56,8 +56,9 @@ def _bow(cam: dict, X1: np.ndarray, X2: np.ndarray) -> float:
 def choose_segments(scene: dict, cam: dict, axis: str, n_max: int = 6, n_min: int = 4) -> list[dict]:
     """Pick up to n_max long, well-spread visible runs of the scene's edges along axis.
 
-    Longest first; a run is skipped when it lies on nearly the same image line as one already
-    taken, or (in the first pass) when its midpoint crowds one already taken.
+    Longest first (through a lens that bends lines, the most bent first: _bow); a run is skipped
+    when it lies on nearly the same image line as one already taken, or (in the first pass) when
+    its midpoint crowds one already taken.
     """
     scale = cam["width"] / BASE_WIDTH
     margin, min_len = IMAGE_MARGIN_PX * scale, SEGMENT_MIN_PX * scale

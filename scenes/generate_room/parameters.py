@@ -14,8 +14,8 @@ PIXEL_PITCH_MM = 0.0015  # simulated sensor pixel pitch at scale 1 (a small phon
 JPEG_QUALITY = 92
 SEGMENT_MIN_PX = 80.0  # shortest vanishing segment a careful user would mark, at scale 1
 #: A segment on a photo whose lens bends lines is clicked as a polyline of this many points at
-#: least and at most, one more per POLYLINE_STEP_PX (scale 1) of its image length: 3 up to 400 px,
-#: 4 up to 800 px, 5 beyond.
+#: least and at most, one more per POLYLINE_STEP_PX (scale 1) of its image length: 3 up to 250 px,
+#: 4 up to 500 px, 5 beyond.
 POLYLINE_POINTS = (3, 5)
 POLYLINE_STEP_PX = 250.0
 IMAGE_MARGIN_PX = 5.0  # clicks stay this far inside the image, at scale 1
