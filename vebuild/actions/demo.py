@@ -128,7 +128,8 @@ def exif_comparison(cameras: dict, photos: list[dict], truth: dict) -> str:
         f_t = t["K"][0][0]
         cam = cameras[pid]
         f, s = cam["focal_px"]["value"], cam["focal_px"]["sigma"]
-        how = "re-calibrated" if cam.get("recalibrated") else f"calibrated (f from {cam.get('focal_source', '?')})"
+        source = str(cam.get("focal_source", "?")).split(":")[0]  # "exif: 1.46 mm × …": the kind only
+        how = "re-calibrated" if cam.get("recalibrated") else f"calibrated (f from {source})"
         lines.append(f"  {pid:<6}EXIF says f = {f_exif:.1f} px, {100 * (f_exif / f_t - 1):+.2f} % off the true "
                      f"{f_t:.1f} px; {how}: {f:.1f} ± {s:.1f} px ({100 * (f / f_t - 1):+.2f} %, "
                      f"{abs(f - f_t) / s:.1f}σ from the truth; EXIF {100 * (f_exif / f - 1):+.2f} % from it)")
