@@ -22,6 +22,7 @@ from claims import FOCAL_TOL_REL, POSITION_TOL_REL, ROTATION_TOL_DEG
 from scipy.stats import chi2
 
 from vebuild.actions.calibrate import calibrate_project
+from vebuild.actions.demo import distortion_comparison, exif_comparison
 from vebuild.camera import log_so3
 from vebuild.cli import main
 from vebuild.project import load_project
@@ -167,3 +168,30 @@ def test_demo_runs_end_to_end(tmp_path: Path, capsys: pytest.CaptureFixture) -> 
     assert "calibration" in load_project(out / "room.vebuild.json").data
     # The shipped example itself is never modified by the demo.
     assert "calibration" not in json.loads((EXAMPLE / "room.vebuild.json").read_text())
+
+
+def test_demo_comparisons_say_what_each_photo_shows() -> None:
+    """The demo's lens and EXIF lines against the truth, from records made here: a lens estimated,
+    a lens the calibration missed (taken as a pinhole), a pinhole held at k1 = 0, a wrong EXIF and
+    an exact one."""
+    truth = json.loads((EXAMPLE / "ground_truth.json").read_text())
+    lens = {"model": "division", "k1": {"value": -0.0330, "sigma": 0.0020},
+            "corner_displacement_px": {"value": 24.0, "sigma": 1.5}, "source": "segments"}
+    held = {"model": "division", "k1": {"value": 0.0, "sigma": 0.0},
+            "corner_displacement_px": {"value": 0.0, "sigma": 0.0}, "source": "none"}
+    text = distortion_comparison({"p6": {"distortion": lens}, "p1": {"distortion": held}, "p2": {}}, truth)
+    assert "p6    k1 -0.0330 ± 0.0020 (true -0.0350: 1.0σ); corners moved 24.0 ± 1.5 px (true 25.4 px: " \
+           "-1.4 px, -6 % of it)" in text
+    assert "p1, p2: pinholes (no distortion estimated), as their lenses truly are" in text
+    missed = distortion_comparison({"p6": {}}, truth)
+    assert "p6    taken as a pinhole; the true lens has k1 -0.0350, moving its corners 25.4 px" in missed
+    photos = json.loads((EXAMPLE / "room.vebuild.json").read_text())["photos"]
+    cams = {"p4": {"focal_px": {"value": 1010.0, "sigma": 5.0}, "focal_source": "exif: 1.4625 mm × …"},
+            "p1": {"focal_px": {"value": 1350.0, "sigma": 3.0}, "focal_source": "vanishing points"}}
+    text = exif_comparison(cams, photos, truth)
+    assert ("p4    EXIF says f = 975.0 px, -2.50 % off the true 1000.0 px; calibrated (f from exif): 1010.0 ± 5.0 px "
+            "(+1.00 %, 2.0σ from the truth; EXIF -3.47 % from it)") in text
+    assert "p1: EXIF exact" in text
+    cams["p4"]["recalibrated"] = True
+    assert "p4    EXIF says f = 975.0 px, -2.50 % off the true 1000.0 px; re-calibrated: 1010.0" in \
+        exif_comparison(cams, photos, truth)
