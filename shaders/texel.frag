@@ -2,6 +2,13 @@
 // Pass 2: project a texel into the photo, test it against the ID buffer, sample the photo over
 // its footprint and weight it (definitions: vebuild/texture/__init__.py).
 //
+// The lens (k1, the division model of vebuild/camera.py): the texel is projected by the pinhole
+// K and tested in the ID buffer, which covers the photo's undistorted bounds (its pixel corner
+// (0, 0) at id_origin in K's pinhole pixels: vebuild/texture/lens.py); then its pinhole pixel and
+// footprint are distorted in closed form, x_d = x_u * 2 / (1 + sqrt(1 - 4 k1 |x_u|^2)), and the
+// photo is sampled where the lens put the texel: one resampling of the photo as it was recorded.
+// With k1 = 0 the ID buffer is the photo's own frame and nothing is distorted.
+//
 // MODE 0 accumulate (additive blending): 0 = (sum w l/g, sum w), 1 = (sum w^s (c-l)/g, sum w^s)
 //        over kept views, 2 = (sum w c/g, sum w) over dropped views, 3 = (kept, dropped) counts
 // MODE 1 one view: 0 = (c, w), 1 = (l, face id where seen, else 0), 2 = accumulated low band so far (rgb, seen before)
@@ -13,7 +20,10 @@
 uniform mat3 K;
 uniform mat3 R;
 uniform vec3 C;
-uniform vec2 image_size;
+uniform vec2 image_size;     // the photo's size in pixels
+uniform float k1;            // the photo's lens distortion; 0: a pinhole
+uniform vec2 id_origin;      // the ID buffer's pixel corner (0, 0) in the photo's pinhole pixels
+uniform vec2 id_size;        // the ID buffer's size in pixels (the photo's for a pinhole)
 uniform float weight_scale;   // photo pixels per ID-buffer pixel (2 for a half-size pre-pass)
 uniform float depth_tolerance;
 uniform sampler2D id_depth;   // RG32F (face id, depth), nearest
@@ -59,9 +69,13 @@ vec3 trilinear(vec2 p, float lod) {
     return c;
 }
 
-bool same_face(vec2 p) {
-    if (any(lessThan(p, vec2(0.0))) || any(greaterThanEqual(p, image_size))) return false;
-    return texelFetch(id_depth, ivec2(floor(p)), 0).r == v_face;
+bool in_photo(vec2 p) {
+    return all(greaterThanEqual(p, vec2(0.0))) && all(lessThan(p, image_size));
+}
+
+bool same_face(vec2 q) {  // q in ID-buffer pixels
+    if (any(lessThan(q, vec2(0.0))) || any(greaterThanEqual(q, id_size))) return false;
+    return texelFetch(id_depth, ivec2(floor(q)), 0).r == v_face;
 }
 
 void main() {
@@ -77,9 +91,10 @@ void main() {
     float cos_theta = dot(normalize(v_normal), to_camera) / length(to_camera);
     if (cos_theta <= 0.0) discard;
     vec3 h = K * x;
-    vec2 p = h.xy / h.z;
-    if (any(lessThan(p, vec2(0.0))) || any(greaterThanEqual(p, image_size))) discard;
-    vec2 id_z = texelFetch(id_depth, ivec2(floor(p)), 0).rg;
+    vec2 p = h.xy / h.z;  // the pinhole's pixel
+    vec2 q = p - id_origin;  // ... in the ID buffer
+    if (any(lessThan(q, vec2(0.0))) || any(greaterThanEqual(q, id_size))) discard;
+    vec2 id_z = texelFetch(id_depth, ivec2(floor(q)), 0).rg;
     if (id_z.r != v_face || x.z > (1.0 + depth_tolerance) * id_z.g) discard;
     // The Jacobian of the projection: pixels per metre along the texel's steps e_u, e_v.
     mat3 Kc = K;
@@ -88,7 +103,25 @@ void main() {
     vec3 du = R * v_eu, dv = R * v_ev;
     vec2 a = (vec2(dot(ju, du), dot(jv, du)) - p * du.z) / x.z;
     vec2 b = (vec2(dot(ju, dv), dot(jv, dv)) - p * dv.z) / x.z;
-    if (!(same_face(p + a + b) && same_face(p + a - b) && same_face(p - a + b) && same_face(p - a - b))) discard;
+    if (!(same_face(q + a + b) && same_face(q + a - b) && same_face(q - a + b) && same_face(q - a - b))) discard;
+    if (k1 != 0.0) {
+        // Where the lens put the pinhole's pixel, and the footprint there: x_d = s x_u with
+        // s = 2 / (1 + sqrt(1 - 4 k1 |x_u|^2)); its Jacobian is s I + (2 k1 s^2 / sqrt(..)) x_u x_u^T
+        // (the same on pixels, as both sides are divided by f).
+        float f = Kc[0][0];
+        vec2 c = vec2(Kc[2][0], Kc[2][1]);
+        vec2 xu = (p - c) / f;
+        float disc = 1.0 - 4.0 * k1 * dot(xu, xu);
+        if (disc <= 0.0) discard;  // beyond the field of a pincushion lens: in no photo
+        float root = sqrt(disc);
+        float s = 2.0 / (1.0 + root);
+        float g = 2.0 * k1 * s * s / root;
+        p = c + f * s * xu;
+        a = s * a + g * dot(xu, a) * xu;
+        b = s * b + g * dot(xu, b) * xu;
+        // The footprint must lie in the photo, as the ID buffer's frame is the photo's for a pinhole.
+        if (!(in_photo(p + a + b) && in_photo(p + a - b) && in_photo(p - a + b) && in_photo(p - a - b))) discard;
+    }
     float w = sqrt(abs(a.x * b.y - a.y * b.x)) * cos_theta * weight_scale;
 #if MODE == 2
     out0 = vec4(w, 0.0, 0.0, 0.0);

@@ -365,6 +365,24 @@ case("vanishing-segment-zero-length", setter(("photos", 0, "vanishing_segments",
      V + ["calibrate"], [P, ("$.photos[0].vanishing_segments.x[0]", "$.photos[0] photo 'p1': axis x, segment 0")])
 case("vanishing-segments-unknown-axis", setter(("photos", 0, "vanishing_segments", "w"), [[1, 2, 3, 4]]),
      V + ["calibrate"], [P, "$.photos[0].vanishing_segments", "w"])
+# A photo's own scale (a photo placed alone): bad values are refused at load, naming the field.
+_KNOWN = {"photo": "p1", "axis": "z", "ends": [[800.0, 900.0], [800.0, 300.0]], "length": 2.0, "sigma": 0.002}
+case("known-length-unknown-photo", setter(("known_lengths",), [{**_KNOWN, "photo": "p9"}]),
+     V + ["calibrate"], [P, "$.known_lengths[0].photo", "p9"])
+case("known-length-ends-coincide", setter(("known_lengths",), [{**_KNOWN, "ends": [[800.0, 900.0], [800.5, 900.0]]}]),
+     V + ["calibrate"], [P, "$.known_lengths[0].ends"])
+case("known-length-off-the-photo", setter(("known_lengths",), [{**_KNOWN, "ends": [[800.0, 900.0], [9e5, 900.0]]}]),
+     V + ["calibrate"], [P, "$.known_lengths[0].ends[1]"])
+case("known-length-floor-end-2", setter(("known_lengths",), [{**_KNOWN, "floor_end": 2}]),
+     V + ["calibrate"], [P, "$.known_lengths[0].floor_end"])
+case("known-length-zero", setter(("known_lengths",), [{**_KNOWN, "length": 0.0}]),
+     V + ["calibrate"], [P, "$.known_lengths[0].length"])
+case("camera-height-negative", setter(("photos", 0, "camera_height"), {"value": -1.6, "sigma": 0.05}),
+     V + ["calibrate"], [P, "$.photos[0].camera_height.value"])
+case("camera-height-no-sigma", setter(("photos", 0, "camera_height"), {"value": 1.6}),
+     V + ["calibrate"], [P, "$.photos[0].camera_height", "sigma"])
+case("marker-on-floor-not-boolean", setter(("markers", 0, "on_floor"), "yes"),
+     V + ["calibrate"], [P, "$.markers[0].on_floor"])
 case("duplicate-photo-id", setter(("photos", 1, "id"), "p1"), V + ["calibrate", "render-photo"], [P, "$.photos[1].id"])
 case("duplicate-marker-name", setter(("markers", 1, "name"), "O"), V + ["calibrate"], [P, "$.markers[1].name"])
 case("photo-id-unsafe", setter(("photos", 0, "id"), "p 1/../x"), V + ["calibrate", "render-photo"],

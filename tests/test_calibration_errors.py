@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vebuild.calibration.photo import calibrate_photo
+from vebuild.calibration.photo import FocalPrior, calibrate_photo
 from vebuild.calibration.positions import PhotoInput, ReferenceDistance, place_cameras
 from vebuild.errors import CalibrationError
 from vebuild.synthetic import CLICK_NOISE_PX, add_segments, random_camera, random_scene, write_project
@@ -190,13 +190,89 @@ def test_cli_reports_a_calibration_error_and_leaves_the_project_untouched(tmp_pa
     assert path.read_bytes() == before
 
 
-def test_an_undetermined_focal_length_names_its_sigma_and_the_limit(good: dict, monkeypatch) -> None:
-    """The refusal says how uncertain f would be and the limit it exceeds, to a tenth of a percent,
-    so that a figure just above the limit never reads as equal to it."""
-    import vebuild.calibration.photo as photo_mod
+def test_an_undetermined_focal_length_names_the_photo_its_sigma_the_limit_and_the_fix(rng: np.random.Generator) -> None:
+    """A frontal view without EXIF: its vanishing points say nothing usable about f. The refusal
+    names the photo, f's 1σ to a tenth of a percent against the limit it exceeds (where the 95 %
+    interval reaches f = 0, never a hidden cut-off), and the one thing to do."""
+    from vebuild.calibration.photo import FOCAL_UNDETERMINED_REL_SIGMA
 
-    monkeypatch.setattr(photo_mod, "FOCAL_FROM_SEGMENTS_MAX_REL_SIGMA", 1e-5)
-    with pytest.raises(CalibrationError, match=r"its 1σ would be \d+\.\d %, more than the 0\.001 % that "
-                       r"determines it") as e:
-        calibrate_photo(good, W, H, photo="p2")
-    assert "photo 'p2'" in str(e.value)
+    cam = random_camera(rng, "1vp")
+    add_segments(cam, rng, CLICK_NOISE_PX)
+    with pytest.raises(CalibrationError, match=r"^photo 'front': the focal length is not determined: from these "
+                       r"segments its 1σ would be (\d+ |\d+\.\d %|∞ %).*more than the 51\.0 % at which its 95 % "
+                       r"interval reaches f = 0.*give its focal length \(the photo's focal_px") as e:
+        calibrate_photo(cam.segments, W, H, photo="front", click_sigma_px=CLICK_NOISE_PX)
+    assert "None" not in str(e.value)
+    assert FOCAL_UNDETERMINED_REL_SIGMA == pytest.approx(1 / 1.96)
+    # The same photo with its focal length given is calibrated, f from it.
+    cal = calibrate_photo(cam.segments, W, H, photo="front", click_sigma_px=CLICK_NOISE_PX,
+                          focal=FocalPrior(cam.K[0, 0], 0.03 * cam.K[0, 0], "user"))
+    assert cal.mode == "1vp" and "f from the user's focal length (1σ 3.0 %)" in cal.mode_reason
+
+
+def test_a_polyline_with_an_odd_count_of_numbers(good: dict) -> None:
+    x = [list(map(float, s)) for s in good["x"]]
+    x[1] = x[1] + [5.0]
+    with pytest.raises(CalibrationError, match=r"^photo 'p7': axis x, segment 1: expected \[u1, v1, u2, v2, \.\.\.\] "
+                       r"\(two points or more, pixels\), got 5 numbers"):
+        calibrate_photo(dict(good, x=x), W, H, photo="p7")
+
+
+def test_a_polyline_middle_point_that_is_not_a_number(good: dict) -> None:
+    x = [list(map(float, s)) for s in good["x"]]
+    x[0] = x[0][:2] + [float("nan"), 3.0] + x[0][2:]
+    with pytest.raises(CalibrationError, match=r"^photo 'p7': axis x: segment 0 has a coordinate that is not a number"):
+        calibrate_photo(dict(good, x=x), W, H, photo="p7")
+
+
+def test_a_lens_profile_without_spread(good: dict) -> None:
+    from vebuild.calibration.photo import DistortionPrior
+
+    with pytest.raises(CalibrationError, match=r"^photo 'p7': the lens distortion \(lens profile: X\): expected a "
+                       r"finite k1 with a σ > 0, got -0\.02 ± 0\.0"):
+        calibrate_photo(good, W, H, photo="p7", distortion=DistortionPrior(-0.02, 0.0, "lens profile: X"))
+
+
+def test_project_polylines_are_checked_point_by_point(tmp_path: Path, rng: np.random.Generator) -> None:
+    """In a project file: a polyline of an odd count, or a middle point off the photo, is named by
+    its JSON path; a good polyline is read as one and calibrated."""
+    from vebuild.errors import ProjectError
+    from vebuild.project import decode, load_project
+
+    path = _project(tmp_path, rng)
+    data = json.loads(path.read_text())
+    seg = data["photos"][0]["vanishing_segments"]["x"][0]
+    mid = [(seg[0] + seg[2]) / 2, (seg[1] + seg[3]) / 2]
+    good = json.loads(json.dumps(data))
+    good["photos"][0]["vanishing_segments"]["x"][0] = seg[:2] + mid + seg[2:]
+    path.write_text(json.dumps(good))
+    marks = decode.photo_marks(load_project(path).data["photos"][0])
+    assert isinstance(marks.segments["x"], list) and len(marks.segments["x"][0]) == 6
+    assert isinstance(marks.segments["y"], np.ndarray) and marks.segments["y"].shape[1] == 4
+    calibrate_photo(marks.segments, W, H, photo="p1", click_sigma_px=CLICK_NOISE_PX)
+    for bad, expected in ((seg[:2] + mid + seg[2:] + [1.0], r"an even count of numbers, found 7"),
+                          (seg[:2] + [mid[0], 9 * H] + seg[2:], r"within 4 image sizes")):
+        data["photos"][0]["vanishing_segments"]["x"][0] = bad
+        path.write_text(json.dumps(data))
+        with pytest.raises(ProjectError, match=r"\$\.photos\[0\]\.vanishing_segments\.x\[0\].*" + expected):
+            load_project(path)
+
+
+def test_an_exif_focal_length_without_spread(good: dict) -> None:
+    with pytest.raises(CalibrationError, match=r"^photo 'p7': the EXIF focal length: expected a focal length > 0 px "
+                       r"with a σ > 0 px, got 1200\.0 ± 0\.0"):
+        calibrate_photo(good, W, H, photo="p7", exif_focal=FocalPrior(1200.0, 0.0, "exif"))
+
+
+def test_a_principal_point_that_is_not_a_number(good: dict) -> None:
+    with pytest.raises(CalibrationError, match=r"^photo 'p7': principal_point: expected a finite \(u, v\) with a "
+                       r"σ > 0 px"):
+        calibrate_photo(good, W, H, photo="p7", principal_point=([float("nan"), 600.0], 10.0))
+
+
+def test_a_segment_coordinate_that_is_not_a_number(good: dict) -> None:
+    z = good["z"].copy()
+    z[0, 1] = np.inf
+    with pytest.raises(CalibrationError, match=r"^photo 'p7': axis z: a vanishing segment has a coordinate that is "
+                       r"not a number"):
+        calibrate_photo(dict(good, z=z), W, H, photo="p7")

@@ -134,6 +134,9 @@ def test_bench_solver_quick_writes_named_figures(tmp_path: Path) -> None:
     # The paper's vertex fixing held during every measured drag (measured 0.072 px; the bound is
     # test_model's FIXED_VERTEX_TOL_PX, 0.2 px, with its reason).
     assert fig["drag_fixed_vertex_error_px_max_2_fixed"] < 0.2
+    # The same drags through a wide lens (3 % barrel: the corners move by tens of pixels) hold too.
+    assert fig["lens_corner_displacement_px"] > 20 and "drag_update_ms_p95_lens" in fig
+    assert fig["drag_fixed_vertex_error_px_max_2_fixed_lens"] < 0.2
 
 
 def test_edit_names_a_missing_project_and_how_to_start_one(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:

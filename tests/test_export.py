@@ -309,6 +309,32 @@ def test_glb_passes_the_khronos_validator(exported):
     assert report["info"]["extensionsUsed"] == ["KHR_materials_unlit"]
 
 
+def test_glb_carries_a_photos_lens_distortion_in_its_camera_extras(textured, tmp_path):
+    from vebuild.camera import distortion_displacement_px
+    from vebuild.project.records import distortion_record
+
+    proj = _copy_project(textured, tmp_path / "lens")
+    project = load_project(proj)
+    cams = project.data["calibration"]["cameras"]
+    photo = project.data["photos"][1]
+    K = np.asarray(cams[photo["id"]]["K"], float)
+    k1 = -0.045  # a wide lens: barrel distortion of a few per cent at the corners
+    cams[photo["id"]]["distortion"] = distortion_record(K, photo["width"], photo["height"], k1, 0.002, "test")
+    save_project(project)
+    res = export_model(load_project(proj), tmp_path / "lens.glb")
+    doc, _ = read_glb(res.path.read_bytes())
+    by_name = {c["name"]: c for c in doc["cameras"]}
+    lens = by_name[f"photo {photo['id']}"]["extras"]["distortion"]
+    assert lens["model"] == "division" and lens["k1"] == k1
+    assert "x_u = x_d / (1 + k1 |x_d|^2)" in lens["definition"]
+    assert lens["corner_displacement_px"] == pytest.approx(
+        distortion_displacement_px(K, photo["width"], photo["height"], k1), rel=1e-12)
+    assert lens["corner_displacement_px"] > 10  # visible: why a viewer must not ignore it
+    # pinholes (every view, every other photo) carry none, as before lenses were modelled
+    assert [n for n, c in by_name.items() if "distortion" in c["extras"]] == [f"photo {photo['id']}"]
+    _validate(res.path)  # extras are free-form: the file stays valid glTF
+
+
 # -- OBJ -------------------------------------------------------------------------------------------
 
 

@@ -148,8 +148,9 @@ def test_version_must_be_a_whole_number(proj: Path) -> None:
 def test_schema_error_names_json_path(proj: Path) -> None:
     rewrite(proj, lambda d: d["photos"][0]["vanishing_segments"]["x"][1].pop())
     with pytest.raises(ProjectError, match=re.escape(
-            "$.photos[0].vanishing_segments.x[1]: expected a directed segment [u1, v1, u2, v2] in pixels "
-            "with exactly 4 items, found a list of 3 items")) as e:
+            "$.photos[0].vanishing_segments.x[1]: expected a directed segment [u1, v1, u2, v2] in pixels, or a "
+            "polyline [u1, v1, u2, v2, ..., un, vn] of n ≥ 2 points along one straight edge, directed first to last "
+            "with at least 4 items, found a list of 3 items")) as e:
         load_project(proj)
     assert e.value.where == "$.photos[0].vanishing_segments.x[1]"
 

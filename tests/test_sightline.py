@@ -191,3 +191,20 @@ def test_cli_sightline_and_viewshed_with_json(tmp_path, capsys):
     assert "inside the object 'box'" in capsys.readouterr().err
     assert main(["analyse", str(proj), "sightline", "--sitting", "3,1", "--object", "sofa"]) == 2
     assert "no node called 'sofa'" in capsys.readouterr().err
+
+
+def test_a_point_marker_is_drawn_where_the_photos_lens_puts_it():
+    """Over a photo taken through a barrel lens the cross-hair sits on the distorted pixel of the
+    point (its ring's centre within a pixel), not where a pinhole would put it (some 20 px away)."""
+    from vebuild.camera import ImageCamera, intrinsic_matrix, look_rotation, project
+
+    C = np.array([0.0, 0.0, 1.5])
+    cam = ImageCamera("p", intrinsic_matrix(1000.0, 800.0, 600.0), look_rotation([1.0, 0.0, 0.0]), C, 1600, 1200,
+                      k1=-0.03)
+    X = C + np.array([4.0, -2.8, -2.0])  # toward the lower right corner
+    lens, pinhole = project(cam.K, cam.R, cam.C, X, cam.k1), project(cam.K, cam.R, cam.C, X)
+    assert np.linalg.norm(lens - pinhole) > 15.0
+    img = sl.draw_point_marker(np.zeros((1200, 1600, 3), np.uint8), cam, X, visible=True)
+    v, u = np.nonzero(img.any(axis=2))
+    centre = np.array([0.5 * (u.min() + u.max() + 1), 0.5 * (v.min() + v.max() + 1)])  # the cross-hair's box
+    assert np.linalg.norm(centre - lens) < 1.0

@@ -91,9 +91,11 @@ def _cmd_mark(args: argparse.Namespace) -> int:
     rec = place_marker(project, args.label, args.at, args.description or "")
     add_marker(project, rec)
     save_project(project)
+    from .project.units import length_unit
+
     x, y, z = rec["position"]
-    print(f"evidence marker {args.label!r} on {rec['node']!r} at ({x:.3f}, {y:.3f}, {z:.3f}) m, written to "
-          f"{project.path}")
+    at = length_unit(project.data).after(f"({x:.3f}, {y:.3f}, {z:.3f})")
+    print(f"evidence marker {args.label!r} on {rec['node']!r} at {at}, written to {project.path}")
     return 0
 
 
@@ -170,7 +172,9 @@ def _cmd_texture(args: argparse.Namespace) -> int:
         raise VebuildError(f"{project.path}: {e}") from None
     with progress_bar(_progress_wanted(args)) as progress:
         record, _ = texture_project(project, options, progress)  # pages, then the project, then old pages
-    print(texture_table(record))
+    from .project.units import length_unit
+
+    print(texture_table(record, length_unit(project.data)))
     print(f"\ntextures written to {project.folder / 'textures'}; recorded in {project.path}")
     return 0
 
@@ -178,10 +182,15 @@ def _cmd_texture(args: argparse.Namespace) -> int:
 def _cmd_video(args: argparse.Namespace) -> int:
     from .console.progress import progress_bar
     from .project import load_project
+    from .project.units import length_unit
     from .render.sizes import parse_size
-    from .render.video import Timing, VideoRequest, parse_views, render_video
+    from .render.video import DEFAULT_SPEED, Timing, VideoRequest, parse_views, render_video
 
     project = load_project(args.project)
+    unit = length_unit(project.data)
+    if args.seconds is None:
+        unit.refuse(f"video: the walking speed ({args.speed or DEFAULT_SPEED:g} m/s; give --seconds per segment "
+                    "instead)")
     timing = Timing(fps=args.fps, speed=args.speed, seconds=args.seconds, hold=args.hold,
                     turn_rate_deg=args.turn_rate)
     size = parse_size(args.size) if args.size is not None else None
@@ -193,7 +202,7 @@ def _cmd_video(args: argparse.Namespace) -> int:
         print(f"warning: {w}")
     print(f"wrote {r.out} (H.264 {r.encoder}, {r.width}×{r.height}, {r.fps:g} fps, {r.frames} frames, "
           f"{r.duration:.1f} s, {r.bytes / 1e6:.2f} MB)")
-    print(f"  {r.length:.2f} m of path, lighting {r.lighting}; "
+    print(f"  {unit.length(r.length, 2)} of path, lighting {r.lighting}; "
           f"{r.render_seconds / r.frames:.3f} s per frame rendered and encoded")
     print("  views at frames: " + ", ".join(f"{name} {k}" for name, k in r.keyframes))
     return 0

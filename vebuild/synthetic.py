@@ -10,7 +10,15 @@ The kinds of photo:
 - ``3vp``: the camera is tilted, all three axes recede;
 - ``2vp``: a level camera, verticals are parallel in the image (vertical vanishing point at infinity);
 - ``1vp``: a level camera facing a wall squarely: only one vanishing point is finite, the focal length
-  comes from EXIF.
+  comes from EXIF;
+- ``frontal``: as ``1vp``, turned and tilted up to 2° off square (the others near infinity);
+- ``corridor``: looking down the room's length, up to 6° off its axis and 4° up or down: one
+  strong vanishing point near the centre, the others some 10 focal lengths out or more.
+
+Real photographs are unkinder than the defaults: :func:`realistic_camera` adds lens distortion (a
+wide APS-C lens), a principal point a few per cent off centre and an EXIF focal length a few per
+cent off, and :func:`add_segments` can mark long edges as polylines with middle points, clicked on
+the distorted photo.
 """
 
 from __future__ import annotations
@@ -32,6 +40,17 @@ CLICK_NOISE_PX = 0.7
 #: rounded (to 0.1 mm on a 4–6 mm phone lens: up to 1.2 %) and the sensor width is a nominal one
 #: (1–2 %). Synthetic photos carry an EXIF focal length off by this much, never the exact truth.
 EXIF_FOCAL_ERROR_REL = 0.02
+#: What real cameras do, for :func:`realistic_camera`. The principal point's offset from the
+#: centre, 1σ per coordinate as a share of the longer side: the prior calibration claims
+#: (calibration.priors.PRINCIPAL_POINT_SIGMA_REL; a real camera measured 2.7 %).
+REAL_PRINCIPAL_POINT_SIGMA_REL = 0.03
+#: 1σ of the relative error of a real EXIF focal length: nominal focal lengths rounded to 0.1 mm or
+#: 1 mm (35 mm equivalent), nominal sensor widths, focus breathing; the issue's real camera was
+#: 4.1 % off. The σ calibration is told for EXIF in these photos.
+REAL_EXIF_FOCAL_ERROR_REL = 0.04
+#: How far a wide APS-C lens (18–24 mm) moves the photo's corners by barrel distortion, as a share
+#: of the half-diagonal: 1–3 %.
+REAL_DISTORTION_CORNER_REL = (0.01, 0.03)
 
 
 @dataclass
@@ -45,9 +64,14 @@ class SyntheticPhoto:
     K: Array
     R: Array  # world → camera
     C: Array
-    segments: dict[str, Array] = field(default_factory=dict)
+    segments: dict[str, Any] = field(default_factory=dict)  # axis → (n, 4) array, or a list of polylines
     markers: dict[str, Array] = field(default_factory=dict)
     exif_focal_px: float | None = None
+    #: The lens's distortion (division model, vebuild/camera.py: x_u = x_d / (1 + k1 |x_d|²)); the
+    #: marks are made on the distorted photo.
+    k1: float = 0.0
+    #: The 1σ (relative) of the error drawn for exif_focal_px.
+    exif_focal_sigma_rel: float = EXIF_FOCAL_ERROR_REL
 
 
 def projection_matrix(K: Array, R: Array, C: Array) -> Array:
@@ -76,10 +100,11 @@ def _rotation(yaw: float, pitch: float, roll: float) -> Array:
 
 
 def random_camera(rng: np.random.Generator, kind: str, width: int = 1600, height: int = 1200,
-                  photo_id: str = "p") -> SyntheticPhoto:
-    """A random camera of the given kind standing in the synthetic room."""
+                  photo_id: str = "p", principal_point_sigma_rel: float = 0.01) -> SyntheticPhoto:
+    """A random camera of the given kind standing in the synthetic room; its principal point is
+    off the centre by principal_point_sigma_rel × the width (1σ per coordinate)."""
     f = width * rng.uniform(0.6, 1.5)
-    c = np.array([width / 2, height / 2]) + rng.normal(0.0, 0.01 * width, 2)
+    c = np.array([width / 2, height / 2]) + rng.normal(0.0, principal_point_sigma_rel * width, 2)
     C = np.array([rng.uniform(1.0, ROOM[0] - 1.0), rng.uniform(1.0, ROOM[1] - 1.0), rng.uniform(1.2, 1.9)])
     if kind == "3vp":
         yaw = rng.uniform(0, 2 * np.pi)
@@ -93,29 +118,93 @@ def random_camera(rng: np.random.Generator, kind: str, width: int = 1600, height
         yaw = np.radians(90.0 * rng.integers(4) + rng.uniform(-1.0, 1.0))
         pitch = np.radians(rng.uniform(-1.0, 1.0))
         roll = np.radians(rng.normal(0.0, 1.0))
+    elif kind == "frontal":
+        yaw = np.radians(90.0 * rng.integers(4) + rng.uniform(-2.0, 2.0))
+        pitch = np.radians(rng.uniform(-2.0, 2.0))
+        roll = np.radians(rng.normal(0.0, 1.0))
+    elif kind == "corridor":
+        # Down the room's length (x), from near one end wall.
+        yaw = np.radians(180.0 * rng.integers(2) + rng.uniform(-6.0, 6.0))
+        pitch = np.radians(rng.uniform(-4.0, 4.0))
+        roll = np.radians(rng.normal(0.0, 1.0))
     else:
-        raise ValueError(f"kind must be 3vp, 2vp or 1vp, got {kind!r}")
+        raise ValueError(f"kind must be 3vp, 2vp, 1vp, frontal or corridor, got {kind!r}")
+    if kind == "corridor":
+        C[0] = ROOM[0] - 0.4 if np.cos(yaw) < 0 else 0.4
     K = np.array([[f, 0.0, c[0]], [0.0, f, c[1]], [0.0, 0.0, 1.0]])
     photo = SyntheticPhoto(photo_id, kind, width, height, K, _rotation(yaw, pitch, roll), C)
     photo.exif_focal_px = exif_focal_px(f, rng)
     return photo
 
 
-def exif_focal_px(f: float, rng: np.random.Generator) -> float:
-    """What a camera's EXIF says its focal length ``f`` (px) is: off by EXIF_FOCAL_ERROR_REL (1σ).
+def exif_focal_px(f: float, rng: np.random.Generator, sigma_rel: float = EXIF_FOCAL_ERROR_REL) -> float:
+    """What a camera's EXIF says its focal length ``f`` (px) is: off by sigma_rel (1σ).
 
     The error is drawn from a child of ``rng`` (``spawn``), which leaves ``rng``'s own stream as it
     was: the scene's other draws do not depend on whether EXIF is asked for.
     """
-    return float(f * (1.0 + EXIF_FOCAL_ERROR_REL * rng.spawn(1)[0].standard_normal()))
+    return float(f * (1.0 + sigma_rel * rng.spawn(1)[0].standard_normal()))
+
+
+def k1_for_corner_shift(corner_rel: float, K: Array, width: int, height: int) -> float:
+    """The division model's k1 of a barrel lens that pulls the photo's corners in by corner_rel of
+    the half-diagonal: a corner at normalised radius r_d came from r_u = r_d / (1 + k1 r_d²), so
+    corner_rel = (r_u − r_d) / r_d gives k1 = −corner_rel / (r_d² (1 + corner_rel))."""
+    corners = np.array([[0.0, 0.0], [width, 0.0], [0.0, height], [width, height]])
+    r_d = float(np.max(np.linalg.norm(corners - K[:2, 2], axis=1))) / K[0, 0]
+    return -corner_rel / (r_d**2 * (1.0 + corner_rel))
+
+
+def realistic_camera(rng: np.random.Generator, kind: str, width: int = 1600, height: int = 1200,
+                     photo_id: str = "p", distortion: bool = True,
+                     principal_point_sigma_rel: float = REAL_PRINCIPAL_POINT_SIGMA_REL,
+                     exif_sigma_rel: float = REAL_EXIF_FOCAL_ERROR_REL,
+                     principal_point_offset_rel: tuple[float, float] | None = None,
+                     exif_error_rel: tuple[float, float] | None = None) -> SyntheticPhoto:
+    """A camera as real photographs have them: a principal point off centre by
+    principal_point_sigma_rel (1σ), an EXIF focal length off by exif_sigma_rel (1σ) and, with
+    ``distortion``, a barrel lens moving the corners by REAL_DISTORTION_CORNER_REL of the
+    half-diagonal (uniform).
+
+    principal_point_offset_rel : instead, a principal point this far off centre (a share of the
+        longer side, uniform in the range, in a random direction).
+    exif_error_rel : instead, an EXIF focal length off by this much (uniform, either sign);
+        exif_sigma_rel is still what the photo says its EXIF's 1σ is.
+    """
+    photo = random_camera(rng, kind, width, height, photo_id, principal_point_sigma_rel)
+    photo.exif_focal_px = exif_focal_px(photo.K[0, 0], rng, exif_sigma_rel)
+    photo.exif_focal_sigma_rel = exif_sigma_rel
+    if principal_point_offset_rel is not None:
+        a = rng.uniform(0.0, 2.0 * np.pi)
+        r = rng.uniform(*principal_point_offset_rel) * max(width, height)
+        photo.K[:2, 2] = np.array([width / 2.0, height / 2.0]) + r * np.array([np.cos(a), np.sin(a)])
+    if exif_error_rel is not None:
+        photo.exif_focal_px = float(photo.K[0, 0] * (1.0 + rng.choice([-1.0, 1.0]) * rng.uniform(*exif_error_rel)))
+    if distortion:
+        photo.k1 = k1_for_corner_shift(rng.uniform(*REAL_DISTORTION_CORNER_REL), photo.K, width, height)
+    return photo
+
+
+def distort(photo: SyntheticPhoto, uv: Array) -> Array:
+    """Where the photo's lens puts pinhole pixels uv (n, 2): x_d = x_u · 2 / (1 + √(1 − 4 k1 |x_u|²)),
+    the division model's inverse, written out here apart from vebuild.camera."""
+    if photo.k1 == 0.0:
+        return uv
+    c, f = photo.K[:2, 2], photo.K[0, 0]
+    x = (uv - c) / f
+    r2 = np.sum(x**2, axis=1)
+    return c + f * x * (2.0 / (1.0 + np.sqrt(np.maximum(1.0 - 4.0 * photo.k1 * r2, 0.0))))[:, None]
 
 
 def add_segments(photo: SyntheticPhoto, rng: np.random.Generator, noise_px: float = 0.7,
-                 per_axis: tuple[int, int] = (4, 6), min_length_rel: float = 0.2) -> None:
+                 per_axis: tuple[int, int] = (4, 6), min_length_rel: float = 0.2, middle_points: int = 0,
+                 polyline_min_length_rel: float = 0.35) -> None:
     """Mark 4–6 directed segments per axis along long edges the camera sees.
 
     A careful user marks long edges: each segment spans at least min_length_rel of the image's
-    longer side.
+    longer side. With ``middle_points`` > 0, an edge spanning polyline_min_length_rel of it or more
+    is marked as a polyline with that many middle points, evenly along the edge (a plumb line).
+    Every point is clicked on the distorted photo (``photo.k1``).
     """
     min_length_px = min_length_rel * max(photo.width, photo.height)
     P = projection_matrix(photo.K, photo.R, photo.C)
@@ -137,8 +226,15 @@ def add_segments(photo: SyntheticPhoto, rng: np.random.Generator, noise_px: floa
                 continue
             if np.linalg.norm(uv[1] - uv[0]) < min_length_px:
                 continue
-            out.append((uv + rng.normal(0.0, noise_px, uv.shape)).reshape(4))
-        photo.segments[axis] = np.array(out)
+            if middle_points and np.linalg.norm(uv[1] - uv[0]) >= polyline_min_length_rel * max(photo.width,
+                                                                                               photo.height):
+                t = np.linspace(0.0, 1.0, middle_points + 2)[:, None]
+                uv, _ = _project(P, ends[0] + t * (ends[1] - ends[0]))
+            uv = distort(photo, uv)
+            if photo.k1 != 0.0 and not _inside(uv, photo.width, photo.height, 5.0):
+                continue
+            out.append((uv + rng.normal(0.0, noise_px, uv.shape)).reshape(-1))
+        photo.segments[axis] = np.array(out) if len({len(s) for s in out}) <= 1 else out
 
 
 def _inside(uv: Array, w: float, h: float, margin: float) -> bool:

@@ -14,11 +14,21 @@ import numpy as np
 
 from .. import __version__
 from ..calibration.photo import FocalPrior, PhotoCalibration, calibrate_photo
-from ..calibration.positions import PhotoInput, Placement, place_cameras
+from ..calibration.positions import PhotoInput, PlacedCamera, Placement, ReferenceDistance, place_cameras
+from ..calibration.single_photo import (
+    FloorDistance,
+    Origin,
+    ScaleSource,
+    SinglePhotoPlacement,
+    camera_height_estimate,
+    floor_point,
+    place_single_photo,
+)
 from ..errors import CalibrationError
 from ..project import Project, canonical_input_hash, decode
 from ..project.decode import check_reference_handles
-from ..project.records import camera_record, json_values
+from ..project.records import camera_record, distortion_record, json_values, value_sigma
+from ..project.units import METRES, RELATIVE
 
 #: EXIF focal lengths from the physical focal length and from the 35 mm equivalent that disagree
 #: by more than this (relative) are not trusted to 1 %: the larger discrepancy becomes the 1σ.
@@ -89,36 +99,183 @@ def _calibrate(project: Project, progress: Callable[[Iterable], Iterable]) -> di
         raise CalibrationError(None, "no photo has vanishing segments; mark segments along two world axes at least")
     known = decode.markers(data, "surveyed")
     refs = decode.reference_distances(data)
+    floor = decode.floor_markers(data)
     shared = _pinned_handles(data)
-    obs_of = {}
-    for pid in photos:
-        obs = decode.sightings(_photo(data, pid))
-        obs.update(shared.get(pid, {}))
-        obs_of[pid] = obs
     # A point seen once among the calibrated photos but again in a photo left for registration
     # waits for that photo; one seen once in the whole project stays, to be reported.
     in_project = _observation_counts(data)
+    raw: dict[str, dict[str, np.ndarray]] = {}
+    for pid in photos:
+        raw[pid] = decode.sightings(_photo(data, pid))
+        raw[pid].update(shared.get(pid, {}))
     in_calibrated: dict[str, int] = {}
-    for obs in obs_of.values():
+    for obs in raw.values():
         for n in obs:
             in_calibrated[n] = in_calibrated.get(n, 0) + 1
     waiting = {n for n, k in in_calibrated.items() if k < 2 and in_project.get(n, 0) >= 2 and n not in known}
-    inputs = [PhotoInput(pid, cal.K, cal.R, cal.covariance,
-                         {n: uv for n, uv in obs_of[pid].items() if n not in waiting})
-              for pid, cal in photos.items()]
-    placement = place_cameras(
-        inputs,
-        origin=data.get("origin_marker"),
-        known_markers=known,
-        distances=[d for d in refs if d.a not in waiting and d.b not in waiting],
-        click_sigma_px=project.settings["click_sigma_px"],
-    )
-    result = _results(data, photos, placement)
+    obs_of = {pid: {n: uv for n, uv in obs.items() if n not in waiting} for pid, obs in raw.items()}
+    warnings: list[str] = []
+    unplaced: dict[str, str] = {}
+
+    # Photos that share a marker (or a pinned vertex) with another, or see a surveyed one, are placed
+    # together (paper §2.1); a photo the joint placement cannot take is placed alone where it can be.
+    joint_names = {n for n, k in in_calibrated.items() if (k >= 2 or n in known) and n not in waiting}
+    joint = [pid for pid in photos if any(n in joint_names for n in obs_of[pid])]
+    placement, joint_error = None, None
+    while len(joint) >= 2:
+        try:
+            placement = _place_jointly(project, photos, joint, obs_of, joint_names, known, refs, floor, warnings)
+            break
+        except CalibrationError as e:
+            if e.photo in joint and len(joint) > 2:
+                unplaced[e.photo] = e.detail
+                joint.remove(e.photo)
+                continue
+            joint_error = e
+            break
+    jointly = set(placement.cameras) if placement is not None else set()
+    alone: dict[str, SinglePhotoPlacement] = {}
+    single = len(photos) == 1
+    origin_name = placement.origin if placement is not None else data.get("origin_marker")
+    for pid in photos:
+        if pid in jointly:
+            continue
+        sources = _scale_sources(data, pid, obs_of[pid], refs, floor, with_floor_distances=True)
+        if not sources and not single:
+            own_error = joint_error is not None and pid in joint and joint_error.photo in (None, pid)
+            unplaced.setdefault(pid, joint_error.detail if own_error and joint_error is not None else
+                                "it shares no two markers with a placed photo and has no scale of its own, so it "
+                                "cannot be placed: mark two markers that placed photos also show (or give it a "
+                                "scale: its camera_height, or a known length in it)")
+            continue
+        try:
+            origin = _single_origin(data, pid, obs_of[pid], origin_name, floor, placement is not None)
+            alone[pid] = _place_alone(project, photos[pid], pid, origin, sources, obs_of[pid], floor)
+            unplaced.pop(pid, None)  # the joint placement could not take it; alone, it is placed
+            placed_jointly = set(placement.markers) if placement is not None else set()
+            for n in sorted(obs_of[pid]):
+                if n != origin.marker and n not in floor and n not in placed_jointly and ":" not in n:
+                    warnings.append(f"photo '{pid}': marker '{n}' is not placed: one photo places only markers on "
+                                    "the floor; mark it on_floor if it lies on the floor, or mark it in a second "
+                                    "photo")
+        except CalibrationError as e:
+            if single:
+                raise
+            unplaced[pid] = e.detail
+    if not jointly and not alone:
+        if joint_error is not None:
+            raise joint_error
+        pid = next(iter(unplaced))
+        raise CalibrationError(pid, unplaced[pid])
+    markers_at_origin = {a.origin.marker for a in alone.values()}
+    if len(alone) > 1 and not jointly and (len(markers_at_origin) > 1 or None in markers_at_origin):
+        warnings.append("photos " + ", ".join(f"'{p}'" for p in alone) + " are each placed alone, in frames with "
+                        "origins of their own: their positions cannot be compared; mark the same origin marker on "
+                        "the floor in each")
+    result = _results(data, photos, placement, alone, unplaced, warnings, floor, project.settings["click_sigma_px"])
     for pid in missing:
         result["warnings"].append(f"photo '{pid}' has no vanishing segments and is not calibrated: mark segments, "
                                   "or register it to the solved model (`vebuild register`, from 4 known points)")
     data["calibration"] = result
     return result
+
+
+def _place_jointly(project: Project, photos: dict[str, PhotoCalibration], joint: list[str],
+                   obs_of: dict[str, dict[str, np.ndarray]], joint_names: set[str], known: dict[str, np.ndarray],
+                   refs: list[ReferenceDistance], floor: set[str], warnings: list[str]) -> Placement:
+    """The photos ``joint`` placed together (paper §2.1), each one's own scale (camera height, known
+    lengths) a residual on its camera's height. A marker seen by one of them only is left out (it
+    is a floor marker its photo places alone, or a warning)."""
+    data = project.data
+    click = project.settings["click_sigma_px"]
+    counts: dict[str, int] = {}
+    for pid in joint:
+        for n in obs_of[pid]:
+            counts[n] = counts.get(n, 0) + 1
+    inputs, heights = [], {}
+    for pid in joint:
+        cal = photos[pid]
+        marks = {}
+        for n, uv in obs_of[pid].items():
+            if counts[n] >= 2 or n in known:
+                marks[n] = uv
+            elif n not in floor and ":" not in n:
+                warnings.append(f"photo '{pid}': marker '{n}' is marked in this photo only, so it is not placed; "
+                                "mark it in a second photo (or mark it on_floor if it lies on the floor)")
+        cov, k1, k1_sigma = _distortion_prior(cal)
+        inputs.append(PhotoInput(pid, cal.K, cal.R, cov, marks, k1, k1_sigma))
+        sources = _scale_sources(data, pid, obs_of[pid], refs, floor, with_floor_distances=False)
+        if sources:
+            h, sigma, _ = camera_height_estimate(pid, cal.K, cal.R, cov, sources, k1=k1, click_sigma_px=click)
+            heights[pid] = (h, sigma)
+    seen = {n for p in inputs for n in p.markers} | set(known)
+    return place_cameras(
+        inputs,
+        origin=data.get("origin_marker"),
+        known_markers=known,
+        distances=[d for d in refs if d.a in seen and d.b in seen],
+        click_sigma_px=click,
+        camera_heights=heights,
+    )
+
+
+def _distortion_prior(cal: PhotoCalibration) -> tuple[np.ndarray, float, float]:
+    """The covariance placement holds the photo by, its k1 and k1's 1σ: 7×7 with k1 last where the
+    calibration estimated k1 (then placement refines it), else 6×6 with k1 held."""
+    k1, k1_sigma, cov7 = float(cal.k1), float(cal.k1_sigma), cal.covariance_k1
+    if np.all(np.isfinite(cov7)) and cov7[6][6] > 0:
+        return np.asarray(cov7, float), k1, k1_sigma
+    return cal.covariance, k1, k1_sigma
+
+
+def _scale_sources(data: dict[str, Any], pid: str, obs: dict[str, np.ndarray], refs: list[ReferenceDistance],
+                   floor: set[str], with_floor_distances: bool) -> list[ScaleSource]:
+    """A photo's own scale: its camera height, the known lengths clicked in it, and (placed alone)
+    the scale distances between two floor markers it shows."""
+    ids = [p["id"] for p in data["photos"]]
+    out: list[ScaleSource] = []
+    h = decode.photo_camera_height(_photo(data, pid), ids.index(pid))
+    if h is not None:
+        out.append(h)
+    out += decode.known_lengths(data, pid)
+    if with_floor_distances:
+        for i, d in enumerate(refs):
+            if d.role == "scale" and d.a in floor and d.b in floor and d.a in obs and d.b in obs:
+                out.append(FloorDistance(d.a, d.b, obs[d.a], obs[d.b], d.distance, d.sigma,
+                                         f"$.reference_distances[{i}]"))
+    return out
+
+
+def _single_origin(data: dict[str, Any], pid: str, obs: dict[str, np.ndarray], origin_name: str | None,
+                   floor: set[str], joint_exists: bool) -> Origin:
+    """The floor point a photo placed alone puts at the origin: the origin marker where it shows it;
+    with no origin marker chosen, its first floor marker; else the meeting of its first x and first y
+    vanishing segments' lines. Beside a joint placement only the joint's origin marker will do
+    (another origin would be another frame)."""
+    if origin_name is not None and origin_name in obs:
+        return Origin(origin_name, obs[origin_name])
+    if joint_exists:
+        raise CalibrationError(pid, f"it does not show the origin marker '{origin_name}' and shares no two markers "
+                               f"with the placed photos, so it cannot be placed in their frame: mark '{origin_name}' "
+                               "in it (or two markers that placed photos also show)")
+    if origin_name is None:
+        on_floor = sorted(n for n in obs if n in floor)
+        if on_floor:
+            return Origin(on_floor[0], obs[on_floor[0]])
+    segs = decode.photo_marks(_photo(data, pid)).segments
+    if len(segs.get("x", [])) and len(segs.get("y", [])):
+        return Origin(None, np.array([segs["x"][0], segs["y"][0]]))
+    what = f"the origin marker '{origin_name}'" if origin_name else "a marker on the floor"
+    raise CalibrationError(pid, f"nothing in it fixes the world's origin: it shows no origin marker and no x and y "
+                           f"vanishing segments; mark {what} in it (the origin lies on the floor)")
+
+
+def _place_alone(project: Project, cal: PhotoCalibration, pid: str, origin: Origin, sources: list[ScaleSource],
+                 obs: dict[str, np.ndarray], floor: set[str]) -> SinglePhotoPlacement:
+    cov, k1, _ = _distortion_prior(cal)
+    on_floor = {n: uv for n, uv in obs.items() if n in floor and n != origin.marker}
+    return place_single_photo(pid, cal.K, cal.R, cov, origin, sources, on_floor, k1=k1,
+                              click_sigma_px=project.settings["click_sigma_px"])
 
 
 def _pinned_handles(data: dict[str, Any]) -> dict[str, dict[str, np.ndarray]]:
@@ -156,11 +313,29 @@ def _photo(data: dict[str, Any], pid: str) -> dict[str, Any]:
     return next(p for p in data["photos"] if p["id"] == pid)
 
 
-def _results(data: dict[str, Any], photos: dict[str, PhotoCalibration], placement: Placement) -> dict[str, Any]:
+def _floor_markers_seen_once(data: dict[str, Any], placement: Placement | None,
+                             floor: set[str]) -> dict[str, tuple[str, np.ndarray]]:
+    """Floor markers that exactly one jointly placed photo shows (and the joint did not place):
+    name → (that photo, its click)."""
+    if placement is None:
+        return {}
+    seen: dict[str, list[tuple[str, np.ndarray]]] = {}
+    for pid in placement.cameras:
+        for n, uv in decode.sightings(_photo(data, pid)).items():
+            if n in floor and n not in placement.markers:
+                seen.setdefault(n, []).append((pid, uv))
+    return {n: v[0] for n, v in seen.items() if len(v) == 1}
+
+
+def _results(data: dict[str, Any], photos: dict[str, PhotoCalibration], placement: Placement | None,
+             alone: dict[str, SinglePhotoPlacement], unplaced: dict[str, str], warnings: list[str],
+             floor: set[str], click: float) -> dict[str, Any]:
     cameras = {}
-    warnings = []
-    for pid, cal in photos.items():
-        cam = placement.cameras[pid]
+    ids = [p["id"] for p in data["photos"]]
+    placed: dict[str, PlacedCamera | SinglePhotoPlacement] = dict(placement.cameras) if placement else {}
+    placed.update(alone)
+    for pid in [i for i in ids if i in placed]:
+        cal, cam = photos[pid], placed[pid]
         cov = cam.covariance
         sig = np.sqrt(np.maximum(np.diag(cov), 0.0))
         marker_res = {n: json_values(d) for n, d in cam.marker_residuals_px.items() if ":" not in n}
@@ -174,15 +349,36 @@ def _results(data: dict[str, Any], photos: dict[str, PhotoCalibration], placemen
             res = cal.segment_residuals_px[a]
             vps[a] = {"point": json_values(vp / np.linalg.norm(vp)), "residuals_px": json_values(res),
                       "rms_px": float(np.sqrt(np.mean(res**2)))}
+        # A photo whose lens was neither estimated nor given is a pinhole: no record (FORMAT.md).
+        distortion = None
+        if cal.k1_source != "none" or cam.k1 != 0.0:
+            distortion = distortion_record(cam.K, cal.width, cal.height, cam.k1, cam.k1_sigma, cal.k1_source)
         cameras[pid] = {
             "mode": cal.mode,
             "mode_reason": cal.mode_reason,
             "focal_source": cal.focal_source,
-            **camera_record(cam.K, cam.R, cam.C, cov),
+            **camera_record(cam.K, cam.R, cam.C, cov, distortion),
             "vanishing_points": vps,
             "marker_residuals_px": marker_res,
             "rms_px": float(np.sqrt(np.mean(all_res**2))),
         }
+        if isinstance(cam, SinglePhotoPlacement):
+            cameras[pid]["placement"] = {
+                "how": "alone", "origin": cam.origin.describe(), "scale": cam.scale_source,
+                "lengths": "relative" if cam.relative else "metres",
+                (RELATIVE if cam.relative else METRES).key("camera_height"): value_sigma(
+                    cam.camera_height, cam.camera_height_sigma if not cam.relative else None),
+                "scale_estimates": [{"source": e.describe(), "camera_height_m": value_sigma(e.height, e.sigma)}
+                                    for e in cam.estimates]}
+            warnings += cam.warnings
+            if cam.relative:
+                warnings.append(f"photo '{pid}': nothing gives the scale, so lengths are relative: the camera's "
+                                "height above the floor is taken as 1 and every position is in that unit; give its "
+                                f"camera_height ($.photos[{ids.index(pid)}].camera_height), a known length in it "
+                                "($.known_lengths) or a reference distance between two markers on the floor")
+        else:
+            cameras[pid]["placement"] = {"how": "joint", "origin": f"marker '{placement.origin}'" if placement else "",
+                                         "lengths": "metres"}
         exif = (_photo(data, pid).get("exif") or {}).get("focal_length_px")
         if exif and "exif" not in cal.focal_source:
             diff = (cam.K[0, 0] - exif) / exif
@@ -190,28 +386,86 @@ def _results(data: dict[str, Any], photos: dict[str, PhotoCalibration], placemen
             if abs(diff) > 3 * max(sig[0] / cam.K[0, 0], 0.01):
                 warnings.append(f"photo '{pid}': the focal length from the vanishing points differs from EXIF by "
                                 f"{100 * diff:+.1f} % (more than 3σ): check the segments, or the photo was cropped")
-        for n in cam.outliers:
+        for n in getattr(cam, "outliers", []):
             warnings.append(f"photo '{pid}': marker '{n}' lies {np.linalg.norm(cam.marker_residuals_px[n]):.1f} px "
                             "from where the other photos put it: check its placement")
+    all_markers: dict[str, tuple[np.ndarray, np.ndarray]] = dict(placement.markers) if placement else {}
+    for n, (pid, uv) in sorted(_floor_markers_seen_once(data, placement, floor).items()):
+        pc = placement.cameras[pid] if placement else None
+        if pc is not None and n not in all_markers:
+            # One photo of the joint placement shows it: placed from that photo alone, on the floor.
+            try:
+                all_markers[n] = floor_point(pid, pc.K, pc.R, pc.C, pc.covariance, uv, k1=pc.k1,
+                                             click_sigma_px=click, what=f"marker '{n}' (on the floor)")
+            except CalibrationError as e:
+                warnings.append(f"{e} (it is not placed)")
+    placed_by: dict[str, SinglePhotoPlacement] = {}
+    for sp in alone.values():
+        for n, xc in [*([(sp.origin.marker, (np.zeros(3), np.zeros((3, 3))))] if sp.origin.marker else []),
+                      *sp.markers.items()]:
+            if n not in all_markers:
+                all_markers[n] = xc
+                placed_by[n] = sp
     markers = {n: {"position": json_values(x), "sigma": json_values(np.sqrt(np.maximum(np.diag(c), 0.0)))}
-               for n, (x, c) in placement.markers.items() if ":" not in n}
+               for n, (x, c) in sorted(all_markers.items()) if ":" not in n}
     distances = []
-    for m in placement.distances:
-        d = m.reference
+    measured = {(m.reference.a, m.reference.b): (m.measured, m.measured_sigma)
+                for m in (placement.distances if placement else [])}
+    for d in decode.reference_distances(data):
+        if (d.a, d.b) in measured:
+            dist, dist_sigma = measured[(d.a, d.b)]
+        elif d.a in placed_by and placed_by.get(d.b) is placed_by[d.a]:
+            dist, dist_sigma = placed_by[d.a].distance(d.a, d.b)
+        else:
+            continue
+        relative = d.a in placed_by and placed_by[d.a].relative
         distances.append({"a": d.a, "b": d.b, "distance": d.distance, "sigma": d.sigma, "role": d.role,
-                          "measured": m.measured, "measured_sigma": m.measured_sigma})
-        if d.role == "check":
-            z = (m.measured - d.distance) / np.hypot(m.measured_sigma, d.sigma)
+                          "measured": dist, "measured_sigma": dist_sigma,
+                          **({"lengths": "relative"} if relative else {})})
+        if d.role == "check" and relative:
+            warnings.append(f"check distance {d.a}–{d.b}: measured {dist:.3f} in units of the camera's height, not "
+                            "metres (no scale was given), so it is not compared with the tape; make it a scale "
+                            "distance (role \"scale\") to give the photo its scale")
+        elif d.role == "check":
+            z = (dist - d.distance) / np.hypot(dist_sigma, d.sigma)
             if abs(z) > 3:
-                warnings.append(f"check distance {d.a}–{d.b}: measured {m.measured:.3f} m against {d.distance:.3f} m "
+                warnings.append(f"check distance {d.a}–{d.b}: measured {dist:.3f} m against {d.distance:.3f} m "
                                 f"known ({z:+.1f}σ): the reconstruction disagrees with the tape")
+    unplaced_records = {}
+    for pid in [i for i in ids if i in unplaced]:
+        cal = photos[pid]
+        sig = np.sqrt(np.maximum(np.diag(cal.covariance), 0.0))
+        ypr, ypr_sig = cal.ypr()
+        unplaced_records[pid] = {"reason": unplaced[pid], "mode": cal.mode, "mode_reason": cal.mode_reason,
+                                 "focal_source": cal.focal_source, "K": json_values(cal.K), "R": json_values(cal.R),
+                                 "focal_px": value_sigma(cal.f, sig[0]),
+                                 "principal_point": value_sigma(cal.principal_point, sig[1:3]),
+                                 "ypr_deg": value_sigma(np.degrees(ypr), np.degrees(ypr_sig))}
+        warnings.append(f"photo '{pid}' is calibrated (its focal length, principal point and rotation are kept under "
+                        f"calibration.unplaced) but not placed: {unplaced[pid]}")
+    relative = any(a.relative for a in alone.values())
+    origin = placement.origin if placement else next((a.origin.marker for a in alone.values()), None)
     return {
         "software": f"vebuild {__version__}",
         "input_sha256": canonical_input_hash(data),
-        "origin_marker": placement.origin,
-        "variance_factor": placement.variance_factor,
+        "origin_marker": origin,
+        "origin": _origin_text(placement, alone),
+        "lengths": "relative" if relative else "metres",
+        "variance_factor": placement.variance_factor if placement else 1.0,
         "cameras": cameras,
         "markers": markers,
         "reference_distances": distances,
+        "unplaced": unplaced_records,
         "warnings": warnings,
     }
+
+
+def _origin_text(placement: Placement | None, alone: dict[str, SinglePhotoPlacement]) -> str:
+    """What the world's origin is: the joint placement's origin marker, or each photo placed alone's
+    origin (once, where they all share it)."""
+    if placement is not None:
+        return f"marker '{placement.origin}'"
+    texts = {a.origin.describe() for a in alone.values()}
+    if len(texts) == 1:
+        return texts.pop()
+    return "; ".join(f"photo '{pid}': {a.origin.describe()}" for pid, a in alone.items())

@@ -4,9 +4,10 @@ The PNG carries its provenance in text chunks (:data:`vebuild.render.png.PROVENA
 project file it was made from, the camera (named view or photo, with K, R, C and size), the
 lighting preset and its lights, the stereo settings, the texture pages' hashes and the software
 version, and no time stamp, so that the same project and options give the same file, byte for
-byte. Rendering a photo's own camera with ``validate`` also writes an overlay of the photo on the
-render and measures how well the model explains the photo: the RMS colour difference over the
-pixels the model covers.
+byte. A photo's own camera is rendered as its lens shows it (its lens distortion, if calibrated:
+:mod:`vebuild.render.renderer`), so that the render lies on the photo. Rendering it with
+``validate`` also writes an overlay of the photo on the render and measures how well the model
+explains the photo: the RMS colour difference over the pixels the model covers.
 """
 
 from __future__ import annotations
@@ -97,6 +98,10 @@ def render_evidence(project: Project, req: RenderRequest) -> RenderResult:
     from vebuild.render.scene import load_scene
     from vebuild.render.sizes import check_camera
 
+    if req.stereo is not None:
+        from vebuild.project.units import length_unit
+
+        length_unit(project.data).refuse(f"render --stereo: the eyes' separation ({req.eye_separation:g})")
     out = check_output(Path(req.out), project=project)
     if req.validate:
         check_output(overlay_path(out), project=project)

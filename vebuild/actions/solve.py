@@ -4,6 +4,11 @@ Reads the calibrated cameras and markers (``vebuild calibrate``), the model and 
 solves every node's joint and parameters (with ``recalibrate`` jointly with the cameras and
 markers), writes the solved values back into ``model.nodes`` and the uncertainties and residuals
 into ``model_solution`` (see scenes/FORMAT.md). The caller saves the project.
+
+Every projection goes through each photo's lens distortion (its calibration record's
+``distortion``). Re-calibrating with intrinsics refines a photo's k1 too where its record gives k1
+a 1σ above 0, held by that prior; the refined k1, its 1σ and its corner displacement replace the
+record's (``source`` says it was refined). A k1 with a 1σ of 0 or null stays as calibrated.
 """
 
 from __future__ import annotations
@@ -22,9 +27,10 @@ from ..model.residuals import MarkerObservation
 from ..model.scene import Model
 from ..model.solution import handle_covariances
 from ..model.solver import FINAL_PRIOR_SCALE, MarkerData, Problem, ProblemOptions
-from ..project import Project, decode
+from ..project import Project, decode, json_path
 from ..project.decode import cameras_from_calibration, load_model
-from ..project.records import camera_record, json_values, value_sigma
+from ..project.records import camera_record, distortion_record, json_values, value_sigma
+from ..project.units import length_unit
 
 #: A pinned handle must project in front of its camera and no farther outside the image than this
 #: share of its size; otherwise the pin is on a vertex that camera cannot see.
@@ -61,7 +67,8 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
     problem = Problem(model, cameras, [p for p in pins if p.fixed], edges,
                       options=ProblemOptions(click_sigma_px=project.settings["click_sigma_px"],
                                              prior_scale=FINAL_PRIOR_SCALE, recalibrate=recalibrate,
-                                             refine_intrinsics=refine_intrinsics),
+                                             refine_intrinsics=refine_intrinsics,
+                                             k1_sigma=distortion_sigmas(project) if recalibrate else {}),
                       markers=MarkerData(markers, [origin, *surveyed], marker_obs, distances))
     try:
         x0 = problem.x0()
@@ -85,11 +92,33 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
     _check_visible(project, problem, xm, solution.cameras)
     model.set_vector(xm)
     data["model"]["nodes"] = model.to_dict()
-    result = _results(problem, solution, model, xm, recalibrate)
+    result = {**_results(problem, solution, model, xm, recalibrate), "lengths": length_unit(data).word}
     if recalibrate:
-        _write_cameras(data, solution)
+        _write_cameras(data, solution, problem)
     data["model_solution"] = result
     return result
+
+
+def distortion_sigmas(project: Project) -> dict[str, float]:
+    """photo id → the 1σ of its lens distortion's k1, from its calibration record's
+    ``distortion.k1.sigma`` (FORMAT.md), for the photos that have one; a null 1σ (undetermined,
+    or not given) counts as 0: that k1 is held as calibrated. Raises a ProjectError naming the
+    field where the 1σ is not a number ≥ 0."""
+    out = {}
+    for pid, rec in (project.data.get("calibration") or {}).get("cameras", {}).items():
+        d = rec.get("distortion")
+        if d is None:
+            continue
+        where = json_path(["calibration", "cameras", pid, "distortion", "k1", "sigma"])
+        k1 = d.get("k1")
+        s = k1.get("sigma") if isinstance(k1, dict) else None
+        if s is None:
+            out[pid] = 0.0
+            continue
+        if isinstance(s, bool) or not isinstance(s, int | float) or not (np.isfinite(s) and s >= 0):
+            raise ProjectError(project.path, where, f"expected the 1σ of k1 as a number ≥ 0 (or null), got {s!r}")
+        out[pid] = float(s)
+    return out
 
 
 def check_recalibration_scale(project: Project, model: Model, markers: dict[str, np.ndarray],
@@ -127,7 +156,7 @@ def _check_visible(project: Project, problem: Problem, xm: np.ndarray, cameras: 
             continue
         X = problem.model.handle_world(p["node"], p["handle"], xm, T)
         in_front = camera.world_to_camera(cam.R, cam.C, X)[2] > 0
-        uv = camera.project(cam.K, cam.R, cam.C, X) if in_front else None
+        uv = camera.project(cam.K, cam.R, cam.C, X, cam.k1) if in_front else None
         w, hgt = cam.width, cam.height
         if uv is None or not (-VISIBLE_MARGIN * w <= uv[0] <= (1 + VISIBLE_MARGIN) * w
                               and -VISIBLE_MARGIN * hgt <= uv[1] <= (1 + VISIBLE_MARGIN) * hgt):
@@ -201,11 +230,30 @@ def covariance_record(problem: Problem, solution: Any) -> dict[str, Any]:
     return {"parameters": names, "matrix": json_values(cov)}
 
 
-def _write_cameras(data: dict[str, Any], solution: Any) -> None:
-    """Re-calibrated cameras and markers replace the calibration's (paper §3.2)."""
+#: What a refined lens distortion's ``source`` says, after the calibration's.
+REFINED_SOURCE = "refined by vebuild solve --recalibrate"
+
+
+def _write_cameras(data: dict[str, Any], solution: Any, problem: Problem) -> None:
+    """Re-calibrated cameras and markers replace the calibration's (paper §3.2); a refined lens
+    distortion replaces the record's, and a held one has its corner displacement recomputed for
+    the refined K."""
     cal = data["calibration"]
     for cid, cam in solution.cameras.items():
-        cal["cameras"][cid].update(camera_record(cam.K, cam.R, cam.C, cam.covariance), recalibrated=True)
+        rec = cal["cameras"][cid]
+        old = rec.get("distortion")
+        distortion = None
+        if cid in solution.k1_sigma:
+            source = str(old.get("source", "")) if old else ""
+            if REFINED_SOURCE not in source:
+                source = f"{source}; {REFINED_SOURCE}" if source else REFINED_SOURCE
+            distortion = distortion_record(cam.K, cam.width, cam.height, cam.k1, solution.k1_sigma[cid], source)
+        elif old is not None:
+            k1_sig = problem.options.k1_sigma.get(cid, 0.0)
+            distortion = distortion_record(cam.K, cam.width, cam.height, cam.k1, k1_sig, str(old.get("source", "")))
+            if old.get("k1", {}).get("sigma") is None:
+                distortion["k1"]["sigma"] = distortion["corner_displacement_px"]["sigma"] = None
+        rec.update(camera_record(cam.K, cam.R, cam.C, cam.covariance, distortion), recalibrated=True)
     for name, pos in solution.markers.items():
         if name in cal["markers"] and name in solution.marker_covariance:
             sigma = np.sqrt(np.maximum(np.diag(solution.marker_covariance[name]), 0.0))

@@ -26,8 +26,10 @@ from .requests import (
     ChecksRequest,
     DimensionsRequest,
     DistanceRequest,
+    FloorDistanceRequest,
     HeightRequest,
     LightingRequest,
+    PhotoHeightRequest,
     Request,
 )
 from .requests_geometry import SightlineRequest, TrajectoryRequest, ViewshedRequest
@@ -60,6 +62,15 @@ def add_analyse_parsers(sub: Any) -> None:
     q.add_argument("nodes", nargs="+", metavar="NODE", help="one or more nodes of the model")
     _subcommand(asub, "checks", "check distances (role 'check'): measured vs known, the independent accuracy check",
                 lambda a: ChecksRequest())
+    for word, what, to_request in (
+            ("photo-height", "heights above the floor measured on one calibrated photo: for each, the foot on the "
+             "floor then the top (U1 V1 U2 V2)", _photo_height),
+            ("floor-distance", "distances between two floor points measured on one calibrated photo (U1 V1 U2 V2 "
+             "each)", _floor_distance)):
+        q = _subcommand(asub, word, what + "; no model needed", to_request)
+        q.add_argument("--photo", required=True, metavar="ID", help="the calibrated photo")
+        q.add_argument("pixels", nargs="+", type=float, metavar="U1 V1 U2 V2",
+                       help="pixel coordinates, four per measurement")
     _add_geometry(asub)
     q = _subcommand(asub, "lighting", "one view under several lighting presets side by side, with the target's "
                     "luminance under each",
@@ -70,6 +81,14 @@ def add_analyse_parsers(sub: Any) -> None:
     q.add_argument("--target", required=True, metavar="NODE", help="the object whose luminance is compared")
     q.add_argument("--size", metavar="WxH", help="size of each view (default: the view's)")
     q.add_argument("--out", metavar="STRIP.png", help="write the views side by side, the target outlined")
+
+
+def _photo_height(a: argparse.Namespace) -> Request:
+    return PhotoHeightRequest(a.photo, tuple(a.pixels))
+
+
+def _floor_distance(a: argparse.Namespace) -> Request:
+    return FloorDistanceRequest(a.photo, tuple(a.pixels))
 
 
 def _add_geometry(asub: Any) -> None:

@@ -9,6 +9,7 @@ one hidden behind something from that view is drawn hollow.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
@@ -117,18 +118,22 @@ def add_marker(project: Project, rec: dict[str, Any]) -> None:
 
 def visible_markers(renderer: Renderer, cam: ImageCamera,
                     markers: Sequence[dict[str, Any]]) -> list[tuple[dict[str, Any], NDArray[np.float64], bool]]:
-    """Markers in the image: each with its pixel position and whether it is seen (not hidden).
-    Each is tested through a one-pixel ID buffer at its own pixel, so a frame loop can afford it."""
+    """Markers in the image: each with its pixel position (where ``cam``'s lens puts it) and whether
+    it is seen (not hidden). Each is tested through a one-pixel ID buffer on its own ray (the
+    pinhole pixel of that ray, asked of the pinhole camera, whatever the lens), so a frame loop
+    can afford it."""
+    pinhole = dataclasses.replace(cam, k1=0.0)
     out = []
     for m in markers:
         X = np.asarray(m["position"], float)
         z = float(world_to_camera(cam.R, cam.C, X)[2])
         if z <= 0:
             continue
-        uv = project(cam.K, cam.R, cam.C, X)
+        uv = project(cam.K, cam.R, cam.C, X, cam.k1)
         if not (0 <= uv[0] < cam.width and 0 <= uv[1] < cam.height):
             continue
-        _, seen = renderer.pick(cam, float(uv[0]), float(uv[1]))
+        ray = project(cam.K, cam.R, cam.C, X) if cam.k1 != 0.0 else uv
+        _, seen = renderer.pick(pinhole, float(ray[0]), float(ray[1]))
         seen_depth = float(world_to_camera(cam.R, cam.C, seen)[2]) if seen is not None else np.inf
         out.append((m, uv, z <= seen_depth + OCCLUSION_MARGIN_M))
     return out

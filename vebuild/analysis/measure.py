@@ -24,6 +24,7 @@ from numpy.typing import NDArray
 
 from ..constants import Z95
 from ..errors import ProjectError
+from ..project.units import METRES, LengthUnit
 from .points import face_plane_points, find_node, parse_point
 from .solved import MeasureError, Point, SolvedModel
 
@@ -117,12 +118,15 @@ class Measurement:
     def ci95(self) -> tuple[float, float]:
         return (self.value - Z95 * self.sigma, self.value + Z95 * self.sigma)
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self, unit: LengthUnit = METRES) -> dict[str, Any]:
+        """The figures, keyed with the project's unit of length (``value_m``, or ``value_relative``
+        where its lengths are relative: :mod:`vebuild.project.units`)."""
         finite = bool(np.isfinite(self.sigma))
-        return {"quantity": self.quantity, "what": self.what, "value_m": float(self.value),
-                "sigma_m": float(self.sigma) if finite else None,
-                "ci95_m": [float(v) for v in self.ci95] if finite else None,
-                "source": self.source, "points": self.points,
+        points = [{(unit.key("position") if k == "position_m" else k): v for k, v in p.items()} for p in self.points]
+        return {"quantity": self.quantity, "what": self.what, unit.key("value"): float(self.value),
+                unit.key("sigma"): float(self.sigma) if finite else None,
+                unit.key("ci95"): [float(v) for v in self.ci95] if finite else None,
+                "source": self.source, "points": points,
                 "rests_on": {"nodes": self.nodes, "markers": self.markers, "photos": self.photos}}
 
 

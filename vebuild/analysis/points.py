@@ -85,7 +85,7 @@ def parse_point(text: str, solved: SolvedModel, cameras: Mapping[str, Any] | Non
         if not (0 <= u <= cam.width and 0 <= v <= cam.height):
             raise MeasureError(f"point '{text}': pixel ({u:g}, {v:g}) lies outside the {head}'s "
                                f"{cam.width}×{cam.height} image")
-        return pick(solved, cam.K, cam.R, cam.C, (u, v), text)
+        return pick(solved, cam.K, cam.R, cam.C, (u, v), text, cam.k1)
     if "@" in text:
         node, rest = text.split("@", 1)
         face, _, st = rest.partition(":")
@@ -138,8 +138,9 @@ def face_point(solved: SolvedModel, node: str, face: str, s: float, t: float, la
     p = o + s * x + t * y
     if not _in_triangles(p, V, tris):
         size = mesh.chart_size_m[mesh.face_names.index(face)]
-        raise MeasureError(f"point '{label}': ({s:g}, {t:g}) m from the centre of face '{face}' of '{node}' lies off "
-                           f"that face ({size[0]:.3f} × {size[1]:.3f} m)")
+        u = solved.unit.symbol
+        raise MeasureError(f"point '{label}': ({s:g}, {t:g}) {u} from the centre of face '{face}' of '{node}' lies "
+                           f"off that face ({size[0]:.3f} × {size[1]:.3f} {u})")
     return Point(label, "surface", node=node, face=face, coords=tuple(float(c) for c in to_coords(prim, p)))
 
 
@@ -184,9 +185,11 @@ def ray_hit(solved: SolvedModel, origin: Array, direction: Array) -> tuple[str, 
     return None if best is None else best[1:]
 
 
-def pick(solved: SolvedModel, K: Array, R: Array, C: Array, uv: Sequence[float], label: str) -> Point:
-    """The point of the model seen at pixel ``uv`` by the camera K, R, C; an error if its ray meets nothing."""
-    d = pixel_rays_world(K, R, np.asarray(uv, float))
+def pick(solved: SolvedModel, K: Array, R: Array, C: Array, uv: Sequence[float], label: str,
+         k1: float = 0.0) -> Point:
+    """The point of the model seen at pixel ``uv`` by the camera K, R, C with lens distortion ``k1``
+    (the pixel as the lens put it, undistorted onto its ray); an error if its ray meets nothing."""
+    d = pixel_rays_world(K, R, np.asarray(uv, float), k1)
     hit = ray_hit(solved, np.asarray(C, float), d)
     if hit is None:
         raise MeasureError(f"point '{label}': the ray through pixel ({uv[0]:g}, {uv[1]:g}) meets no surface of the "

@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import ConvexHull, QhullError
 
+from vebuild.project.units import METRES, LengthUnit
 from vebuild.render.scene import RenderScene
 
 Array = NDArray[np.float64]
@@ -49,8 +50,10 @@ class Hit:
 class Occluders:
     """The scene's triangles, ready for ray queries."""
 
-    def __init__(self, scene: RenderScene):
+    def __init__(self, scene: RenderScene, unit: LengthUnit = METRES):
+        """``unit``: the project's unit of lengths, for messages (:mod:`vebuild.project.units`)."""
         mesh = scene.mesh
+        self.unit = unit
         V, T = np.asarray(mesh.vertices, float), np.asarray(mesh.triangles, np.intp)
         self.scene = scene
         self.v0 = V[T[:, 0]]

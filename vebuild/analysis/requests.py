@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 from vebuild.constants import Z95
+from vebuild.project.units import RELATIVE, LengthUnit, length_unit
 
 if TYPE_CHECKING:
     from vebuild.project import Project
@@ -63,11 +64,21 @@ def _solved(project: Project) -> tuple[Any, Callable[[str], Any]]:
     return solved, lambda text: parse_point(text, solved, resolve_camera=resolve)
 
 
-def _solution_figures(solved: Any) -> dict[str, Any]:
-    return {"solution": {"recalibrated": solved.recalibrated, "variance_factor": solved.variance_factor}}
+def _solution_figures(project: Project, solved: Any) -> dict[str, Any]:
+    from vebuild.project.units import length_unit
+
+    return {"lengths": length_unit(project.data).word,
+            "solution": {"recalibrated": solved.recalibrated, "variance_factor": solved.variance_factor}}
 
 
-def _table(rows: list[Any]) -> str:
+def _table(rows: list[Any], unit: LengthUnit) -> str:
+    """The measurements, in metres (1σ in mm), or in relative units with a line saying so."""
+    if unit.relative:
+        lines = [f"{'quantity':<10} {'what':<44} {'value rel.':>10} {'1σ rel.':>8}  {'95 % interval rel.':<21}"]
+        for m in rows:
+            lo, hi = m.ci95
+            lines.append(f"{m.quantity:<10} {m.what:<44} {m.value:>10.4f} {m.sigma:>8.4f}  [{lo:.4f}, {hi:.4f}]")
+        return "\n".join([*lines, unit.note])
     lines = [f"{'quantity':<10} {'what':<44} {'value m':>10} {'1σ mm':>8}  {'95 % interval m':<21}"]
     for m in rows:
         lo, hi = m.ci95
@@ -98,8 +109,9 @@ class DistanceRequest(_NoImage):
 
         solved, point = _solved(project)
         m = distance(solved, point(self.a), point(self.b))
-        return AnalysisResult(_table([m]) + "\n" + _rests_on(m),
-                              {**_solution_figures(solved), "measurements": [m.to_json()]})
+        unit = length_unit(project.data)
+        return AnalysisResult(_table([m], unit) + "\n" + _rests_on(m),
+                              {**_solution_figures(project, solved), "measurements": [m.to_json(unit)]})
 
 
 @dataclass(frozen=True)
@@ -123,8 +135,9 @@ class HeightRequest(_NoImage):
                                    "e.g. table.top@top")
             above = (node, face)
         m = height(solved, point(self.point), above)
-        return AnalysisResult(_table([m]) + "\n" + _rests_on(m),
-                              {**_solution_figures(solved), "measurements": [m.to_json()]})
+        unit = length_unit(project.data)
+        return AnalysisResult(_table([m], unit) + "\n" + _rests_on(m),
+                              {**_solution_figures(project, solved), "measurements": [m.to_json(unit)]})
 
 
 @dataclass(frozen=True)
@@ -139,7 +152,9 @@ class DimensionsRequest(_NoImage):
 
         solved, _ = _solved(project)
         rows = [m for node in self.nodes for m in dimensions(solved, node)]
-        return AnalysisResult(_table(rows), {**_solution_figures(solved), "measurements": [m.to_json() for m in rows]})
+        unit = length_unit(project.data)
+        return AnalysisResult(_table(rows, unit), {**_solution_figures(project, solved),
+                                                   "measurements": [m.to_json(unit) for m in rows]})
 
 
 @dataclass(frozen=True)
@@ -152,7 +167,14 @@ class ChecksRequest(_NoImage):
         from .measure import check_distances
 
         solved, _ = _solved(project)
+        unit = length_unit(project.data)
         checks = check_distances(project, solved)
+        if checks and unit.relative:
+            # A tape's metres against relative units: no comparison means anything.
+            text = (f"the {len(checks)} check distance{'s are' if len(checks) > 1 else ' is'} not compared: "
+                    f"{unit.note}")
+            return AnalysisResult(text, {**_solution_figures(project, solved), "checks": [],
+                                         "not_compared": [{"a": c.a, "b": c.b, "known_m": c.known} for c in checks]})
         if not checks:
             text = "no check distances (add reference_distances with role \"check\" to the project)"
         else:
@@ -164,7 +186,52 @@ class ChecksRequest(_NoImage):
                              f"{1000 * Z95 * c.difference_sigma:>8.2f}  {'yes' if c.within_ci95 else 'NO':<6} "
                              f"{c.measured.source}")
             text = "\n".join(lines)
-        return AnalysisResult(text, {**_solution_figures(solved), "checks": [c.to_json() for c in checks]})
+        return AnalysisResult(text, {**_solution_figures(project, solved), "checks": [c.to_json() for c in checks]})
+
+
+@dataclass(frozen=True)
+class PhotoHeightRequest(_NoImage):
+    """Heights above the floor measured on one calibrated photo (:mod:`vebuild.analysis.single_view`);
+    ``pixels``: U1 V1 U2 V2 for each, its foot on the floor then its top."""
+
+    name: ClassVar[str] = "photo-height"
+    kind: ClassVar[str] = "height"
+    photo: str
+    pixels: tuple[float, ...]
+
+    def run(self, project: Project) -> AnalysisResult:
+        from vebuild.errors import VebuildError
+        from vebuild.project.decode import photo_camera
+
+        from .single_view import floor_distance_on_photo, height_on_photo
+
+        word = self.name
+        if not self.pixels or len(self.pixels) % 4:
+            raise VebuildError(f"{word}: expected pixels in fours, U1 V1 U2 V2 for each measurement "
+                               f"({'foot, then top' if self.kind == 'height' else 'the two floor points'}), got "
+                               f"{len(self.pixels)} number{'s' if len(self.pixels) != 1 else ''}")
+        cam = photo_camera(project, self.photo)
+        cal = project.data["calibration"]["cameras"][cam.id]
+        k1_sigma = float(((cal.get("distortion") or {}).get("k1") or {}).get("sigma") or 0.0)
+        click = project.settings["click_sigma_px"]
+        measure = height_on_photo if self.kind == "height" else floor_distance_on_photo
+        rows = [measure(cam, self.pixels[k : k + 2], self.pixels[k + 2 : k + 4], click_sigma_px=click,
+                        k1_sigma=k1_sigma) for k in range(0, len(self.pixels), 4)]
+        unit = RELATIVE if (cal.get("placement") or {}).get("lengths") == "relative" else length_unit(project.data)
+        text = _table(rows, unit)
+        text += f"\nmeasured on photo '{cam.id}' alone, against the floor (z = 0); 1σ from its calibration and " \
+                f"the clicks (1σ {click:g} px)"
+        return AnalysisResult(text, {"photo": cam.id, "lengths": unit.word, "click_sigma_px": click,
+                                     "measurements": [m.to_json(unit) for m in rows]})
+
+
+@dataclass(frozen=True)
+class FloorDistanceRequest(PhotoHeightRequest):
+    """Distances between two floor points measured on one calibrated photo; ``pixels``: U1 V1 U2 V2
+    for each."""
+
+    name: ClassVar[str] = "floor-distance"
+    kind: ClassVar[str] = "floor-distance"
 
 
 # -- lighting --------------------------------------------------------------------------------------

@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar
 
 from vebuild.errors import VebuildError
+from vebuild.project.units import length_unit
 
 from .requests import AnalysisResult, Request
 from .sightline import DEFAULT_FOV_DEG, OBJECT_SAMPLES, STANDING_EYE_M, VIEWSHED_OBJECT_SAMPLES
@@ -85,8 +86,11 @@ class SightlineRequest:
         if self.out:
             check_output(Path(self.out), project=project)
         size = parse_size(self.size)
+        unit = length_unit(project.data)
+        if not self.eye:
+            unit.refuse(f"sightline --{'standing' if self.standing else 'sitting'}: a person's eye height")
         scene = _scene(project, self.hypothesis)
-        occ = Occluders(scene)
+        occ = Occluders(scene, unit)
         if self.eye:
             eye = Eye(parse_floats(self.eye, 3, "--eye"))
         else:
@@ -98,6 +102,7 @@ class SightlineRequest:
             eye = Eye.person(x, y, posture)
         res = sight_line(occ, eye, _target(occ, self.target, self.object), samples=_samples(self.samples))
         e = eye.position
+        u = unit.symbol
         lines = [f"{'eye':<16} " + (f"{eye.kind} at ({eye.spot[0]:.3f}, {eye.spot[1]:.3f}), eyes {eye.height:g} m "
                                     f"above the floor: " if eye.spot else "")
                  + f"({e[0]:.3f}, {e[1]:.3f}, {e[2]:.3f})"]
@@ -110,7 +115,7 @@ class SightlineRequest:
             lines.append(f"{'visible':<16} {'yes' if res.visible else 'NO'}: {_pct(res.visible_share)} of its "
                          f"surface (95 %: {_pct(lo)} – {_pct(hi)}; {res.samples} samples; {_pct(res.facing_share)} "
                          "faces the eye)")
-            lines.append(f"{'distance':<16} {res.distance_m:.3f} m (to the centre of its surface)")
+            lines.append(f"{'distance':<16} {res.distance_m:.3f} {u} (to the centre of its surface)")
             if res.blocked_by:
                 lines.append(f"{'hidden by':<16} " + ", ".join(f"{k} {_pct(v)}" for k, v in res.blocked_by.items())
                              + " of its surface")
@@ -119,12 +124,15 @@ class SightlineRequest:
             assert p is not None  # a point target
             lines.append(f"{'target':<16} point ({p[0]:.3f}, {p[1]:.3f}, {p[2]:.3f})")
             lines.append(f"{'visible':<16} {'yes' if res.visible else 'NO'}")
-            lines.append(f"{'distance':<16} {res.distance_m:.3f} m")
+            lines.append(f"{'distance':<16} {res.distance_m:.3f} {u}")
         if res.blocker:
             b = res.blocker
-            lines.append(f"{'nearest blocker':<16} {b['node']} ({b['face']} face) at {b['distance_from_eye_m']:.3f} m "
-                         f"from the eye, at ({', '.join(f'{v:.3f}' for v in b['point_m'])})")
-        figures: dict[str, Any] = {"sightline": res.record(), "view_png": None}
+            lines.append(f"{'nearest blocker':<16} {b['node']} ({b['face']} face) at "
+                         f"{b['distance_from_eye_m']:.3f} {u} from the eye, at "
+                         f"({', '.join(f'{v:.3f}' for v in b['point_m'])})")
+        if unit.relative:
+            lines.append(unit.note)
+        figures: dict[str, Any] = {"lengths": unit.word, "sightline": unit.keyed(res.record()), "view_png": None}
         image = None
         if self.out:
             image = Path(self.out)
@@ -161,6 +169,8 @@ class ViewshedRequest:
         from .rays import Occluders
         from .sightline import PLACE, viewshed, write_viewshed_png
 
+        length_unit(project.data).refuse(f"viewshed: the eye height ({self.height:g}) and the grid's cell "
+                                         f"({self.cell:g})")
         check_output(Path(self.out), project=project)
         scene = _scene(project, self.hypothesis)
         occ = Occluders(scene)
@@ -251,29 +261,34 @@ class TrajectoryRequest:
             check_output(Path(self.out), project=project)
             cam = find_view(project, self.view)
             check_camera(cam)
+        unit = length_unit(project.data)
+        if self.sigma is not None:
+            unit.refuse(f"trajectory --sigma {self.sigma}: the holes' position error (give the cone's half-angle, "
+                        "--cone DEG, instead)")
+        u = unit.symbol
         scene = _scene(project, self.hypothesis)
-        occ = Occluders(scene)
+        occ = Occluders(scene, unit)
         tr = self.trajectory(occ)
         rec = tr.record()
         lines = [f"path: from ({', '.join(f'{v:.3f}' for v in tr.entry)})"
-                 + (f" to ({', '.join(f'{v:.3f}' for v in tr.exit)}), {tr.length:.3f} m apart" if tr.length else "")
+                 + (f" to ({', '.join(f'{v:.3f}' for v in tr.exit)}), {tr.length:.3f} {u} apart" if tr.length else "")
                  + f"; azimuth {tr.azimuth_deg:.2f}°, elevation {tr.elevation_deg:.2f}°"]
         if tr.cone_deg is not None:
             how = f"from σ {tr.sigma[0] * 1000:g} mm, {tr.sigma[1] * 1000:g} mm" if tr.sigma else "given"
             lines.append(f"uncertainty cone (95 %): half-angle {tr.cone_deg:.3f}° ({how})")
-        lines.append(f"\n{'distance m':>11}  {'where':<13} {'surface':<28} {'angle°':>7} {'cone r m':>9}")
+        lines.append(f"\n{'distance ' + u:>11}  {'where':<13} {'surface':<28} {'angle°':>7} {'cone r ' + u:>9}")
         for h in rec["surfaces"]:
             lines.append(f"{h['distance_m']:>11.3f}  {h['where']:<13} {h['node'] + ' (' + h['face'] + ')':<28} "
                          f"{h['angle_to_surface_deg']:>7.2f} {h['cone_radius_95_m']:>9.3f}")
         lines.append("")
         if tr.stop is not None:
-            lines.append(f"stops at: {tr.stop.node} ({tr.stop.face}) {tr.stop.t:.3f} m from the entry, "
-                         f"{tr.stop.t - tr.length:.3f} m beyond the exit")
+            lines.append(f"stops at: {tr.stop.node} ({tr.stop.face}) {tr.stop.t:.3f} {u} from the entry, "
+                         f"{tr.stop.t - tr.length:.3f} {u} beyond the exit")
         else:
             lines.append("stops at: nothing — the path leaves the scene at ("
                          + ", ".join(f"{v:.3f}" for v in tr.leaves_at) + ")")
         if tr.source is not None:
-            lines.append(f"toward the shooter: {tr.source.node} ({tr.source.face}) {-tr.source.t:.3f} m behind "
+            lines.append(f"toward the shooter: {tr.source.node} ({tr.source.face}) {-tr.source.t:.3f} {u} behind "
                          "the entry")
         else:
             lines.append("toward the shooter: nothing — the line leaves the scene at ("
@@ -283,7 +298,9 @@ class TrajectoryRequest:
                          + ", ".join(f"{k} {_pct(v)}" for k, v in tr.cone_stop_nodes.items()) + " of its lines")
             lines.append("within the cone, behind the entry: "
                          + ", ".join(f"{k} {_pct(v)}" for k, v in tr.cone_source_nodes.items()) + " of its lines")
-        figures: dict[str, Any] = {"trajectory": rec, "view_png": None}
+        if unit.relative:
+            lines.append(unit.note)
+        figures: dict[str, Any] = {"lengths": unit.word, "trajectory": unit.keyed(rec), "view_png": None}
         image = None
         if cam is not None and self.out is not None:
             image = Path(self.out)

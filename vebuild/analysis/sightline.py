@@ -138,9 +138,11 @@ def check_in_scene(occ: Occluders, point: Array, what: str) -> None:
     m = scene_margin(occ)
     p = np.asarray(point, float)
     if np.any(p < lo - m) or np.any(p > hi + m):
+        u = occ.unit.symbol
         raise VebuildError(f"{what} ({', '.join(f'{v:g}' for v in p)}) is off the scene: the model spans "
-                           f"x {lo[0]:.2f}…{hi[0]:.2f}, y {lo[1]:.2f}…{hi[1]:.2f}, z {lo[2]:.2f}…{hi[2]:.2f} m "
-                           f"(points up to {m:.1f} m outside it are accepted)")
+                           f"x {lo[0]:.2f}…{hi[0]:.2f}, y {lo[1]:.2f}…{hi[1]:.2f}, z {lo[2]:.2f}…{hi[2]:.2f} {u} "
+                           f"(points up to {m:.1f} {u} outside it are accepted"
+                           + (f"; {occ.unit.note}" if occ.unit.relative else "") + ")")
     if p[2] < -1e-9 and len(p) == 3:
         raise VebuildError(f"{what} ({', '.join(f'{v:g}' for v in p)}) is below the floor (z < 0)")
 
@@ -311,12 +313,13 @@ def target_centre(occ: Occluders, target: Target) -> Array:
 
 def draw_point_marker(image: NDArray[np.uint8], cam: ImageCamera, point: Array, visible: bool,
                       colour: tuple[int, int, int] = (255, 190, 0)) -> NDArray[np.uint8]:
-    """A cross-hair ring at a world point (solid if visible, dashed otherwise)."""
+    """A cross-hair ring at a world point (solid if visible, dashed otherwise), where ``cam``'s lens
+    puts it."""
     from PIL import Image, ImageDraw
 
     if world_to_camera(cam.R, cam.C, point)[2] <= 0:
         return image
-    u, v = project(cam.K, cam.R, cam.C, point)
+    u, v = project(cam.K, cam.R, cam.C, point, cam.k1)
     img = Image.fromarray(image)
     d = ImageDraw.Draw(img)
     r = max(6, cam.width // 80)

@@ -28,6 +28,7 @@ from numpy.typing import NDArray
 from ..errors import ProjectError, VebuildError
 from ..model.primitives import Primitive, Sphere, _Round
 from ..model.scene import Model
+from ..project.units import METRES, LengthUnit, length_unit
 
 if TYPE_CHECKING:
     from vebuild.project import Project
@@ -162,6 +163,7 @@ class SolvedModel:
     variance_factor: float = 1.0
     calibration_distances: list[dict[str, Any]] = field(default_factory=list)
     where: str = ""  # the project file, for messages
+    unit: LengthUnit = METRES  # the project's unit of lengths, for messages (vebuild.project.units)
 
     # -- construction ---------------------------------------------------------------------------
     @classmethod
@@ -212,7 +214,7 @@ class SolvedModel:
         return cls.build(s.model, s.names, s.values, s.covariance, s.model_index, s.markers, s.solved_markers,
                          s.marker_sigma, photos_of=s.photos_of, recalibrated=s.recalibrated,
                          variance_factor=s.variance_factor, calibration_distances=s.calibration_distances,
-                         where=str(project.path))
+                         where=str(project.path), unit=length_unit(project.data))
 
     # -- evaluation -----------------------------------------------------------------------------
     def _state(self, x: Array) -> tuple[Array, dict[str, Array]]:

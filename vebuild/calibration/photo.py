@@ -1,62 +1,121 @@
-"""Calibrate one photo's intrinsics and rotation from its vanishing segments (paper §2).
+"""Calibrate one photo's intrinsics, rotation and lens distortion from its vanishing segments
+(paper §2).
 
 The paper fits each vanishing point alone, then reads K and R off them. vebuild starts there
-(:mod:`.vanishing`, :mod:`.intrinsics`) and then refines f, the principal point c and R jointly,
-with every segment's residual measured against the vanishing point K R eᵢ that the camera
-predicts. That single solve:
+(:mod:`.vanishing`, :mod:`.intrinsics`) and then refines f, the principal point c, R and (where
+the marks say how straight the edges are) the lens distortion k1 jointly, with every clicked
+point's residual measured against the vanishing point K R eᵢ that the camera predicts. That
+single solve:
 
 - keeps the three vanishing points consistent (orthogonal directions) instead of fitting each
   alone;
-- treats a vanishing point at infinity like any other (it is just K R eᵢ with zero third row);
-- adds a prior pulling c toward the image centre (or a given point) with a stated 1σ, so that
-  the orthocentre's notorious instability cannot drag c tens of pixels away, while three good
-  vanishing points still override it (maximum a posteriori rather than either pure mode);
-- yields the covariance of (f, cx, cy, ω) from its Jacobian.
+- treats a vanishing point at infinity like any other (it is just K R eᵢ with zero third row), so
+  a frontal or corridor view is an ordinary case: what it leaves undetermined shows in the
+  covariance, not in a cut-off;
+- undistorts every clicked point in closed form (the division model of :mod:`vebuild.camera`)
+  before measuring it, so that a polyline's middle points (plumb-line) estimate k1;
+- adds a prior pulling c toward the image centre (or a given point) with a stated 1σ (3 % of the
+  longer side by default, :data:`.priors.PRINCIPAL_POINT_SIGMA_REL`), so that the orthocentre's
+  notorious instability cannot drag c far away, while three good vanishing points still override
+  it (maximum a posteriori rather than either pure mode);
+- yields the covariance of (f, cx, cy, ω, k1) from its Jacobian.
 
 The *mode* says what determined the intrinsics, judged from the information the segments alone
-carry: ``3vp`` (f and c), ``2vp`` (f; c from its prior), ``1vp`` (f from EXIF or the user).
+carry: ``3vp`` (the segments fix c better than its prior), ``2vp`` (f from the segments; c from
+its prior), ``1vp`` (f mostly from EXIF or the user). ``mode_reason`` says exactly what was
+combined with what, each with its 1σ.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from itertools import combinations
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
+from scipy.stats import chi2
 
-from ..camera import AXES, exp_so3, intrinsic_matrix, ypr_from_rotation
+from ..camera import AXES, distortion_displacement_px, exp_so3, intrinsic_matrix, ypr_from_rotation
 from ..determinism import deterministic
 from ..errors import CalibrationError
 from .intrinsics import focal_squared, orthocentre, rotation_from_vanishing_points
-from .lsq import covariance_from_jacobian, numeric_jacobian, photo_numeric_failures, variance_factor
-from .priors import DistortionPrior, FocalPrior  # noqa: F401 -- re-exported
-from .vanishing import check_segments, fit_vanishing_point, normalising_transform, segment_residuals
+from .lsq import covariance_from_jacobian, numeric_jacobian, photo_numeric_failures
+from .priors import PRINCIPAL_POINT_SIGMA_REL, DistortionPrior, FocalPrior
+from .vanishing import (
+    VanishingPointFit,
+    as_polylines,
+    end_segments,
+    fit_vanishing_point,
+    normalising_transform,
+    segment_residuals,
+    tangent_basis,
+)
+
+__all__ = ["PRINCIPAL_POINT_SIGMA_REL", "DistortionPrior", "FocalPrior", "PhotoCalibration", "calibrate_photo",
+           "closed_form_calibration", "ypr_with_sigma"]
 
 Array = NDArray[np.float64]
 
-#: The segments determine f when their own 1σ on f is at most this fraction of f; otherwise the
-#: focal length must come from EXIF or the user ('1vp' mode).
-FOCAL_FROM_SEGMENTS_MAX_REL_SIGMA = 0.05
+#: The segments say nothing usable about f when their own 1σ on it exceeds this share of f: the
+#: 95 % interval f ± 1.96σ then reaches f ≤ 0. Only then, with no focal length from the user or
+#: EXIF, is a photo refused; below it, however wide, the result is given with its 1σ.
+FOCAL_UNDETERMINED_REL_SIGMA = 1.0 / 1.96
+#: EXIF's focal length is combined with the segments' where the segments' own 1σ on f is at least
+#: this share of EXIF's: EXIF then carries at least 20 % of the weight (σs²/(σs² + σe²) at
+#: σs = σe/2). Where the segments are surer still, EXIF would move f by under a fifth of its own
+#: error and narrow the 1σ by under 11 %, while exposing the result to EXIF's failures that no
+#: Gaussian σ describes (a fixed-lens camera reporting one focal length at every zoom step, a
+#: crop, digital zoom): it is then a cross-check only, reported in the mode reason.
+EXIF_COMBINE_MIN_SIGMA_RATIO = 0.5
+#: EXIF and the segments disagreeing by more than this many σ (of their difference) is said in
+#: the mode reason: EXIF is then probably not this photo's focal length.
+EXIF_DISAGREEMENT_SIGMAS = 3.0
 #: Two axes whose vanishing points are closer than this (degrees, seen from a nominal camera with
 #: f = the image's longer side) are the same direction: the user has mislabelled a set.
 SAME_VANISHING_POINT_DEG = 3.0
-#: A vanishing point farther than this many half-image-sizes from the centre is treated as at
-#: infinity when choosing the closed-form start (the joint solve itself needs no such cut).
+#: A vanishing point farther than this many half-image-sizes from the centre is not used for the
+#: closed-form start (the joint solve itself needs no such cut, and no message depends on it).
 FINITE_VP_MAX_RADIUS = 30.0
+#: Where no pair of vanishing points gives a start for f (a frontal or corridor view) and nothing
+#: else does, the joint solve starts from f = this × the longer side (a 53° field across it).
+NOMINAL_FOCAL_REL = 1.0
+#: Two vanishing points give f² ≤ 0 *significantly* (a mislabelled set, not a near-infinite point
+#: on the far side of infinity) when f² w₁w₂ (a smooth function of the points on the sphere, ≤ 0
+#: exactly where no real f fits) lies this many of its 1σ below zero.
+MISLABEL_SIGMAS = 3.0
+#: ... and the joint solve, forced to orthogonal directions, fits the marks this many times worse
+#: (in variance) than the click noise: 3× in RMS, which no lens distortion of a real photo causes
+#: once it is modelled.
+MISLABEL_FIT_FACTOR = 9.0
+#: The stated click noise is trusted unless the marks reject it: the variance factor stays 1 while
+#: χ² lies below this quantile of its distribution, and is χ²/dof beyond (the global test of a
+#: least-squares adjustment). Flooring at 1 alone reports too much uncertainty on the few segments
+#: a photo has (dof ~ 10: χ²/dof exceeds 1 half the time), taking the 95 % intervals' coverage of
+#: the truth to ~98 %.
+VARIANCE_TEST_QUANTILE = 0.95
 #: Variance of a segment residual for isotropic click noise σ on each end point: the distance of
-#: an end point to the line through the midpoint is ½(n₁ − n₂)⊥, so its variance is σ²/2.
+#: an end point to the line through the midpoint is ½(n₁ − n₂)⊥, so its variance is σ²/2. (The
+#: joint solve keeps both end points' residuals, each of variance σ², an identical objective that
+#: extends to polylines.)
 SEGMENT_RESIDUAL_VARIANCE_FACTOR = 0.5
 
 
 @dataclass(frozen=True)
 class PhotoCalibration:
-    """Intrinsics and rotation of one photo with their uncertainty.
+    """Intrinsics, rotation and lens distortion of one photo with their uncertainty.
 
     covariance : (6, 6) over (f, cx, cy, ωx, ωy, ωz), pixels and radians, where ω is a small
-        rotation on the camera side: R_true = exp([ω]×) R.
+        rotation on the camera side: R_true = exp([ω]×) R; the marginal of ``covariance_k1``.
+    covariance_k1 : (7, 7) over (f, cx, cy, ωx, ωy, ωz, k1); k1's row and column are 0 where k1
+        is fixed (``k1_source == "none"``).
+    k1, k1_sigma, k1_source : the division model's coefficient (vebuild/camera.py), its 1σ (0 when
+        fixed at 0) and what gave it: ``"segments"``, ``"segments + <prior>"``, ``"<prior>"`` (a
+        lens profile or the user), ``"none"``.
+    vanishing_points, segment_residuals_px : those of the undistorted marks; one residual per
+        segment, the RMS of its points' distances to its line through the vanishing point, signed
+        as its first point's (for a two-point segment, the paper's residual).
     """
 
     photo: str
@@ -70,6 +129,16 @@ class PhotoCalibration:
     covariance: Array
     vanishing_points: dict[str, Array]
     segment_residuals_px: dict[str, Array]
+    k1: float = 0.0
+    k1_sigma: float = 0.0
+    k1_source: str = "none"
+    covariance_k1: Array = field(default_factory=lambda: np.zeros((7, 7)))
+
+    def __post_init__(self) -> None:
+        if not np.any(self.covariance_k1):  # built with the (6, 6) only: k1 fixed at 0
+            cov = np.zeros((7, 7))
+            cov[:6, :6] = self.covariance
+            object.__setattr__(self, "covariance_k1", cov)
 
     @property
     def f(self) -> float:
@@ -101,6 +170,26 @@ class PhotoCalibration:
         r = np.concatenate(list(self.segment_residuals_px.values()))
         return float(np.sqrt(np.mean(r**2)))
 
+    @property
+    def distortion_corner_px(self) -> float:
+        """How far the lens moves the photo's corners, pixels (camera.distortion_displacement_px)."""
+        return distortion_displacement_px(self.K, self.width, self.height, self.k1)
+
+    @property
+    def distortion_corner_px_sigma(self) -> float:
+        """1σ of :attr:`distortion_corner_px`, propagated from the covariance of (f, c, k1)."""
+        if self.k1_sigma == 0.0:
+            return 0.0
+
+        def disp(y: Array) -> Array:
+            return np.array([distortion_displacement_px(intrinsic_matrix(*y[:3]), self.width, self.height, y[3])])
+
+        y0 = np.r_[self.f, self.principal_point, self.k1]
+        J = numeric_jacobian(disp, y0, np.r_[1e-3, 1e-3, 1e-3, 1e-7])
+        idx = [0, 1, 2, 6]
+        cov = self.covariance_k1[np.ix_(idx, idx)]
+        return float(np.sqrt(max(float((J @ cov @ J.T)[0, 0]), 0.0)))
+
 
 def ypr_with_sigma(R: Array, cov_omega: Array) -> tuple[Array, Array]:
     """Yaw, pitch, roll of R and their 1σ propagated from the covariance of ω (R = exp(ω) R̂)."""
@@ -114,6 +203,14 @@ def ypr_with_sigma(R: Array, cov_omega: Array) -> tuple[Array, Array]:
     return ypr0, np.sqrt(np.maximum(np.diag(J @ cov_omega @ J.T), 0.0))
 
 
+def _pct(rel: float) -> str:
+    """A relative 1σ as a percentage with two significant figures ("0.84 %", "5.0 %", "37 %")."""
+    v = 100.0 * rel
+    if not np.isfinite(v):
+        return "∞ %"
+    return f"{v:.0f} %" if v >= 10 else f"{v:.1f} %" if v >= 1 else f"{v:.2f} %"
+
+
 @deterministic
 @photo_numeric_failures("its calibration from the vanishing lines", "check its vanishing segments (each along "
                         "its axis and in its direction, not all parallel, of some length)")
@@ -125,47 +222,58 @@ def calibrate_photo(
     photo: str = "photo",
     click_sigma_px: float = 1.0,
     principal_point: tuple[ArrayLike, float] | None = None,
-    principal_point_sigma_rel: float = 0.01,
+    principal_point_sigma_rel: float = PRINCIPAL_POINT_SIGMA_REL,
     focal: FocalPrior | None = None,
     exif_focal: FocalPrior | None = None,
+    distortion: DistortionPrior | None = None,
 ) -> PhotoCalibration:
-    """Intrinsics and rotation of one photo from its directed vanishing segments.
+    """Intrinsics, rotation and lens distortion of one photo from its directed vanishing segments.
 
     Parameters
     ----------
-    segments : axis ('x', 'y', 'z') → (n, 4) directed segments u1, v1, u2, v2 (pixels); axes
-        with no segments may be absent or empty.
+    segments : axis ('x', 'y', 'z') → directed segments, pixels: an (n, 4) array of rows
+        u1, v1, u2, v2, or polylines [u1, v1, ..., um, vm] (m ≥ 2 points along one straight edge,
+        first → last in the axis' positive sense); axes with no segments may be absent or empty.
     width, height : image size in pixels.
     photo : name used in error messages.
-    click_sigma_px : 1σ of one clicked end point.
+    click_sigma_px : 1σ of one clicked point.
     principal_point : a known principal point and its 1σ (pixels); default the image centre
         with 1σ = principal_point_sigma_rel × the longer side.
-    focal : a focal length the user gives (always used as a prior).
-    exif_focal : the focal length EXIF records; used where it is more certain than what the
-        segments say about f, and needed where they say nothing.
+    focal : a focal length the user gives (always combined).
+    exif_focal : the focal length EXIF records, with a realistic 1σ: combined where the segments
+        determine f weakly (EXIF_COMBINE_MIN_SIGMA_RATIO), needed where they determine nothing,
+        and always reported in the mode reason as a cross-check.
+    distortion : a lens distortion known beforehand (a lens profile, the user): a prior on k1. k1
+        is estimated where segments have middle points; with neither, it is fixed at 0.
 
     Raises
     ------
-    CalibrationError : when the marks cannot determine the camera; the message says why.
+    CalibrationError : when the marks cannot determine the camera; the message names the photo,
+        what is missing and what to do.
     """
     for name, prior in (("focal_px", focal), ("the EXIF focal length", exif_focal)):
         if prior is not None and not (np.isfinite(prior.value) and prior.value > 0 and np.isfinite(prior.sigma)
                                       and prior.sigma > 0):
             raise CalibrationError(photo, f"{name}: expected a focal length > 0 px with a σ > 0 px, got "
                                    f"{prior.value!r} ± {prior.sigma!r}")
+    if distortion is not None and not (np.isfinite(distortion.k1) and np.isfinite(distortion.sigma)
+                                       and distortion.sigma > 0):
+        raise CalibrationError(photo, f"the lens distortion ({distortion.source}): expected a finite k1 with a "
+                               f"σ > 0, got {distortion.k1!r} ± {distortion.sigma!r}")
     if principal_point is not None and not (np.all(np.isfinite(np.asarray(principal_point[0], float)))
                                             and np.isfinite(principal_point[1]) and principal_point[1] > 0):
         raise CalibrationError(photo, f"principal_point: expected a finite (u, v) with a σ > 0 px, got "
                                f"{principal_point[0]!r} ± {principal_point[1]!r}")
-    segs = {a: check_segments(s, a, photo) for a, s in segments.items() if len(np.asarray(s).reshape(-1)) > 0}
-    if len(segs) < 2:
-        marked = ", ".join(sorted(segs)) or "none"
+    polys = {a: as_polylines(s, a, photo) for a, s in segments.items() if len(_flat(s)) > 0}
+    if len(polys) < 2:
+        marked = ", ".join(sorted(polys)) or "none"
         raise CalibrationError(
             photo,
-            f"vanishing segments are marked on {len(segs)} axis ({marked}); the rotation needs two "
+            f"vanishing segments are marked on {len(polys)} axis ({marked}); the rotation needs two "
             "axes at least: mark a second direction, such as the horizon (x or y) or verticals (z)",
         )
-    axes = [a for a in AXES if a in segs]
+    axes = [a for a in AXES if a in polys]
+    segs = {a: end_segments(polys[a]) for a in axes}
     fits = {a: fit_vanishing_point(segs[a], width, height, axis=a, photo=photo) for a in axes}
     N = normalising_transform(width, height)
     unit = {}
@@ -184,12 +292,17 @@ def calibrate_photo(
 
     c0 = np.array([width / 2.0, height / 2.0])
     sigma_c = principal_point_sigma_rel * max(width, height)
+    c_where = "the image centre"
     if principal_point is not None:
         c0 = np.asarray(principal_point[0], float)
         sigma_c = float(principal_point[1])
+        c_where = "the given point"
+    not_orthogonal = _check_orthogonal_pairs(fits, segs, axes, N, c0, sigma_c, click_sigma_px, photo)
 
     finite = [a for a in axes if abs(unit[a][2]) > 1.0 / FINITE_VP_MAX_RADIUS]
-    f0, c_init = _closed_form_start(fits, finite, c0, photo, focal or exif_focal)
+    scale = float(max(width, height))
+    start_prior = focal or exif_focal
+    f0, c_init = _closed_form_start(fits, finite, c0, start_prior.value if start_prior else NOMINAL_FOCAL_REL * scale)
     K0 = intrinsic_matrix(f0, *c_init)
     R0, handedness = rotation_from_vanishing_points(K0, {a: fits[a].point for a in axes}, segs)
     if handedness < 0:
@@ -199,61 +312,72 @@ def calibrate_photo(
             "run toward the positive end of its axis: one set is drawn backwards",
         )
 
-    weight = 1.0 / (click_sigma_px * np.sqrt(SEGMENT_RESIDUAL_VARIANCE_FACTOR))
-    scale = max(width, height)
-    problem = _Problem(segs, axes, weight, scale, c0, sigma_c)
-    # A focal length the user gives is always used. EXIF is used where it says more about f than
-    # the segments do (judged after a solve), and from the start where the segments cannot give f.
-    prior_f = focal if focal is not None else (exif_focal if len(finite) < 2 else None)
-    x, R = problem.solve(f0, c_init, R0, prior_f)
-    sigma_f_data, sigma_c_data = problem.data_information(x, R)
-    rel = sigma_f_data / (x[0] * scale)
+    straightness = any(len(p) > 2 for a in axes for p in polys[a])
+    estimate_k1 = straightness or distortion is not None
+    problem = _Problem(polys, axes, click_sigma_px, scale, c0, sigma_c, distortion if estimate_k1 else None,
+                       estimate_k1)
+    # Solve with every prior first (a focal prior keeps a weakly determined f from wandering), then
+    # judge what the segments alone say about f there, and drop EXIF where it is not wanted.
+    prior_f = focal if focal is not None else exif_focal
+    y, R = problem.solve(problem.start(f0, c_init), R0, prior_f)
+    sigma_f_seg, sigma_c_seg = problem.segment_information(y, R)
+    rel_seg = sigma_f_seg / (y[0] * scale)
+    if not_orthogonal is not None:
+        # Refused only where orthogonal directions cannot fit the marks, or fit them only with an
+        # undetermined f (a camera at infinite f makes any two directions "orthogonal").
+        J = problem.jacobian(y, R, prior_f)
+        vf = problem.variance_factor(J, problem.residuals(problem.at_rotation(y), R, prior_f))
+        if vf > MISLABEL_FIT_FACTOR or not rel_seg <= FOCAL_UNDETERMINED_REL_SIGMA:
+            raise not_orthogonal
+    exif_combined = False
     if focal is None and exif_focal is not None:
-        wanted = exif_focal if rel > exif_focal.sigma / exif_focal.value else None
-        if wanted is not prior_f:
-            prior_f = wanted
-            x, R = problem.solve(x[0] * scale, x[1:3] * scale, R, prior_f)
+        exif_combined = sigma_f_seg >= EXIF_COMBINE_MIN_SIGMA_RATIO * exif_focal.sigma
+        if not exif_combined:
+            prior_f = None
+            y, R = problem.solve(y, R, None)
+            sigma_f_seg, sigma_c_seg = problem.segment_information(y, R)
+            rel_seg = sigma_f_seg / (y[0] * scale)
+    if prior_f is None and not rel_seg <= FOCAL_UNDETERMINED_REL_SIGMA:
+        raise CalibrationError(
+            photo,
+            f"the focal length is not determined: from these segments its 1σ would be {_pct(rel_seg)}, more than "
+            f"the {100 * FOCAL_UNDETERMINED_REL_SIGMA:.1f} % at which its 95 % interval reaches f = 0 (the "
+            "vanishing points lie near infinity or too close to the image centre), and the photo has no EXIF "
+            "focal length: give its focal length (the photo's focal_px, in pixels, with a 1σ)",
+        )
+
+    J = problem.jacobian(y, R, prior_f)
+    r = problem.residuals(problem.at_rotation(y), R, prior_f)
+    vf = problem.variance_factor(J, r)
+    cov_y = problem.covariance(J, vf)
+    S = np.diag([scale, scale, scale, 1.0, 1.0, 1.0, 1.0])
+    cov7 = S @ cov_y @ S
+    f, cx, cy = y[:3] * scale
+    k1 = problem.k1_of(y)
+    K = intrinsic_matrix(f, cx, cy)
+    k1_sigma = float(np.sqrt(max(cov7[6, 6], 0.0))) if estimate_k1 else 0.0
+
+    # What determined what, said exactly.
+    prior_dominates = prior_f is not None and not sigma_f_seg <= prior_f.sigma
     if prior_f is None:
         focal_source = "vanishing points"
-    elif rel > FOCAL_FROM_SEGMENTS_MAX_REL_SIGMA:
+    elif prior_dominates:
         focal_source = prior_f.source
     else:
         focal_source = f"vanishing points + {prior_f.source}"
-    if prior_f is None and rel > FOCAL_FROM_SEGMENTS_MAX_REL_SIGMA:
-        raise CalibrationError(
-            photo,
-            f"the focal length is not determined: from these segments its 1σ would be {100 * rel:.1f} %, "
-            f"more than the {100 * FOCAL_FROM_SEGMENTS_MAX_REL_SIGMA:g} % that determines it "
-            "(the vanishing points lie near infinity or too close to the image centre); mark edges "
-            "along a third axis that recedes from the camera, or give the focal length (the photo "
-            "has no EXIF focal length)",
-        )
-
-    if rel > FOCAL_FROM_SEGMENTS_MAX_REL_SIGMA:
-        mode = "1vp"
-        reason = (
-            f"the segments alone fix f only to {100 * min(rel, 9.99):.0f} %, so f comes from "
-            f"{focal_source}; the principal point from its prior"
-        )
-    elif sigma_c_data <= sigma_c:
+    if sigma_c_seg <= sigma_c:
         mode = "3vp"
-        reason = (
-            f"three vanishing points fix f (1σ {100 * rel:.2f} % from the segments) and the principal "
-            f"point (1σ {sigma_c_data:.0f} px from the segments, prior {sigma_c:.0f} px)"
-        )
+    elif prior_dominates:
+        mode = "1vp"
     else:
         mode = "2vp"
-        why = "a third axis is not marked" if len(axes) == 2 else "the third vanishing point is near infinity"
-        reason = (
-            f"two vanishing points fix f (1σ {100 * rel:.2f} % from the segments); {why}, so the "
-            "principal point comes from its prior"
-        )
-
-    J = problem.jacobian(x, R, prior_f)
-    r = problem.residuals(np.r_[x[:3], 0.0, 0.0, 0.0], R, prior_f)
-    cov_scaled = covariance_from_jacobian(J) * variance_factor(r, 6)
-    S = np.diag([scale, scale, scale, 1.0, 1.0, 1.0])
-    K = intrinsic_matrix(*(x[:3] * scale))
+    reason = "; ".join([
+        _focal_reason(f, rel_seg, sigma_f_seg, focal, exif_focal, exif_combined, prior_dominates),
+        _principal_point_reason(mode, sigma_c_seg, sigma_c, c_where, vf),
+        _distortion_reason(k1, k1_sigma, straightness, distortion, K, width, height),
+    ])
+    U = problem.undistorted(y)
+    vps = {a: K @ R[:, "xyz".index(a)] for a in axes}
     return PhotoCalibration(
         photo=photo,
         width=int(width),
@@ -263,10 +387,148 @@ def calibrate_photo(
         focal_source=focal_source,
         K=K,
         R=R,
-        covariance=S @ cov_scaled @ S,
-        vanishing_points={a: K @ R[:, "xyz".index(a)] for a in axes},
-        segment_residuals_px={a: segment_residuals(K @ R[:, "xyz".index(a)], segs[a]) for a in axes},
+        covariance=cov7[:6, :6].copy(),
+        vanishing_points=vps,
+        segment_residuals_px={a: problem.reported_residuals(U, a, vps[a]) for a in axes},
+        k1=float(k1),
+        k1_sigma=k1_sigma,
+        k1_source=(("segments + " + distortion.source if distortion else "segments") if straightness
+                   else distortion.source if distortion else "none"),
+        covariance_k1=cov7,
     )
+
+
+def _flat(s: ArrayLike) -> list:
+    """The numbers of one axis' marks, flattened (an empty list for no marks)."""
+    if isinstance(s, np.ndarray):
+        return list(s.reshape(-1))
+    return [v for row in s for v in np.asarray(row, float).reshape(-1)]  # type: ignore[union-attr]
+
+
+def _focal_reason(f: float, rel_seg: float, sigma_f_seg: float, focal: FocalPrior | None,
+                  exif: FocalPrior | None, exif_combined: bool, prior_dominates: bool) -> str:
+    seg = (f"the vanishing points (1σ {_pct(rel_seg)})" if rel_seg <= FOCAL_UNDETERMINED_REL_SIGMA
+           else f"the vanishing points, which barely determine it (1σ {_pct(rel_seg)})")
+    cross = ""
+    if exif is not None:
+        # What the segments alone would give, from the combined value (Gaussian combination).
+        combined_with = focal if focal is not None else (exif if exif_combined else None)
+        f_seg = f
+        if combined_with is not None and np.isfinite(sigma_f_seg):
+            f_seg = f + (f - combined_with.value) * sigma_f_seg**2 / combined_with.sigma**2
+        if rel_seg <= FOCAL_UNDETERMINED_REL_SIGMA:
+            d = (exif.value - f_seg) / f_seg
+            z = abs(exif.value - f_seg) / np.hypot(sigma_f_seg, exif.sigma)
+            cross = (f"EXIF's f = {exif.value:.1f} px differs from the vanishing points' by {100 * d:+.1f} % "
+                     f"({z:.1f}σ)")
+            if z > EXIF_DISAGREEMENT_SIGMAS:
+                cross += ": probably not this photo's focal length (cropped, or a zoom EXIF does not record)"
+    if focal is not None:
+        what = (f"f from the user's focal length (1σ {_pct(focal.sigma / focal.value)}) combined with {seg}"
+                if prior_dominates else
+                f"f from {seg} combined with the user's focal length (1σ {_pct(focal.sigma / focal.value)})")
+        if exif is not None:
+            what += f"; EXIF not used ({cross})" if cross else "; EXIF not used"
+        return what
+    if exif is None:
+        return f"f from {seg}; no EXIF focal length to cross-check"
+    e = f"EXIF (1σ {_pct(exif.sigma / exif.value)})"
+    if exif_combined:
+        what = f"f from {e} combined with {seg}" if prior_dominates else f"f from {seg} combined with {e}"
+        return what + (f"; {cross}" if cross else "; the vanishing points cannot cross-check EXIF")
+    return (f"f from {seg}; EXIF (1σ {_pct(exif.sigma / exif.value)}) not combined, the vanishing points being "
+            f"surer, only a cross-check: {cross}")
+
+
+def _principal_point_reason(mode: str, sigma_c_seg: float, sigma_c: float, where: str, vf: float) -> str:
+    prior = f"its prior (1σ {sigma_c:.0f} px at {where})"
+    if mode == "3vp":
+        text = f"the principal point from three vanishing points (1σ {sigma_c_seg:.0f} px) combined with {prior}"
+    elif np.isfinite(sigma_c_seg):
+        text = f"the principal point from {prior}, the vanishing points fixing it only to {sigma_c_seg:.0f} px"
+    else:
+        text = f"the principal point from {prior}, which the vanishing points do not fix"
+    if vf > 1.0:
+        text += f"; the marks fit {np.sqrt(vf):.2f}× worse than the stated click noise, so every 1σ is widened as much"
+    return text
+
+
+def _distortion_reason(k1: float, k1_sigma: float, straightness: bool, prior: DistortionPrior | None,
+                       K: Array, width: int, height: int) -> str:
+    if not straightness and prior is None:
+        return "no lens distortion modelled (no segment has middle points, no lens profile)"
+    corner = distortion_displacement_px(K, width, height, k1)
+    src = "the segments' straightness" if straightness else prior.source  # type: ignore[union-attr]
+    if straightness and prior is not None:
+        src += f" combined with {prior.source} (k1 {prior.k1:+.4f} ± {prior.sigma:.4f})"
+    return f"lens distortion k1 = {k1:+.4f} ± {k1_sigma:.4f} from {src}, moving the corners by {corner:.1f} px"
+
+
+def _check_orthogonal_pairs(fits: Mapping[str, VanishingPointFit], segs: Mapping[str, Array], axes: list[str],
+                            N: Array, c0: Array, sigma_c: float, click_sigma_px: float,
+                            photo: str) -> CalibrationError | None:
+    """The refusal of a pair of vanishing points that no real focal length makes orthogonal, or None.
+
+    f² = −(v₁ − c)·(v₂ − c) for finite points; on the sphere of normalised homogeneous points x =
+    (p, w), q = −(p₁ − c w₁)·(p₂ − c w₂) · w₁ w₂ = f² w₁² w₂² has f²'s sign, is smooth through
+    w = 0 (a point at infinity) and does not change when either point flips sign. A near-infinite
+    point on the "wrong side" has q ≈ 0 within its noise; a mislabelled set has q well below 0.
+    The end points' vanishing points know nothing of lens distortion, which can tip a pair of
+    near-infinite points: the caller refuses only where the joint solve (which models it) cannot
+    fit orthogonal directions either.
+    """
+    c = (N @ np.r_[c0, 1.0])[:2]
+    sc = N[0, 0] * sigma_c
+    N_inv = np.linalg.inv(N)
+    tangents, covs = {}, {}
+    for a in axes:
+        x = N @ fits[a].point
+        x = x / np.linalg.norm(x)
+        t1, t2 = tangent_basis(x)
+        T = np.column_stack([t1, t2])
+
+        def res(ab: Array, x: Array = x, T: Array = T, a: str = a) -> Array:
+            p = x + T @ ab
+            return segment_residuals(N_inv @ (p / np.linalg.norm(p)), segs[a])
+
+        Jv = numeric_jacobian(res, np.zeros(2), 1e-7) / (click_sigma_px * np.sqrt(SEGMENT_RESIDUAL_VARIANCE_FACTOR))
+        info = Jv.T @ Jv
+        tangents[a] = (x, T)
+        # Widened by how much worse than the click noise the segments fit their point (an
+        # unmodelled lens distortion shows there): the check is then no surer than the marks.
+        r = res(np.zeros(2)) / (click_sigma_px * np.sqrt(SEGMENT_RESIDUAL_VARIANCE_FACTOR))
+        vf = max(1.0, float(r @ r) / (len(r) - 2)) if len(r) > 2 else 1.0
+        covs[a] = np.linalg.pinv(info) * vf
+    for a, b in combinations(axes, 2):
+        (xa, Ta), (xb, Tb) = tangents[a], tangents[b]
+
+        def q(z: Array, xa: Array = xa, Ta: Array = Ta, xb: Array = xb, Tb: Array = Tb) -> Array:
+            pa = xa + Ta @ z[0:2]
+            pb = xb + Tb @ z[2:4]
+            pa, pb = pa / np.linalg.norm(pa), pb / np.linalg.norm(pb)
+            cc = c + z[4:6]
+            return np.array([-float((pa[:2] - cc * pa[2]) @ (pb[:2] - cc * pb[2])) * pa[2] * pb[2]])
+
+        z0 = np.zeros(6)
+        g = numeric_jacobian(q, z0, 1e-7)[0]
+        cov = np.zeros((6, 6))
+        cov[0:2, 0:2], cov[2:4, 2:4], cov[4:6, 4:6] = covs[a], covs[b], np.eye(2) * sc**2
+        q0 = float(q(z0)[0])
+        sq = float(np.sqrt(max(g @ cov @ g, 0.0)))
+        # A point that may lie at infinity (w within its noise of 0) may cross it, and q with it:
+        # the linearised σ of q does not see that where both points are near infinity.
+        may_be_infinite = any(abs(x[2]) < MISLABEL_SIGMAS * np.sqrt(max(T[2] @ covs[k] @ T[2], 0.0))
+                              for k, (x, T) in ((a, tangents[a]), (b, tangents[b])))
+        if not may_be_infinite and q0 + MISLABEL_SIGMAS * sq < 0:
+            pa, pb = fits[a].finite_point(), fits[b].finite_point()
+            f2 = focal_squared(pa, pb, c0) if pa is not None and pb is not None else -np.inf
+            return CalibrationError(
+                photo,
+                f"the vanishing points of axes {a} and {b} give f² = {f2:.4g} px² ≤ 0: for orthogonal "
+                "directions they must lie on opposite sides of the principal point; a segment set is "
+                "probably labelled with the wrong axis",
+            )
+    return None
 
 
 @deterministic
@@ -277,97 +539,218 @@ def closed_form_calibration(
     """The paper's method alone (§2): per-axis vanishing points, then K and R in closed form.
 
     Principal point at the orthocentre when three vanishing points are finite, else at the image
-    centre; f from two finite vanishing points, else the given focal length. No prior, no joint
-    refinement, no uncertainty: the reference that ``vebuild bench calibration`` compares with.
+    centre; f from two finite vanishing points, else the given focal length. A pinhole: no lens
+    distortion (a polyline counts by its end points), no prior, no joint refinement, no
+    uncertainty: the reference that ``vebuild bench calibration`` compares with.
     """
-    segs = {a: check_segments(s, a, photo) for a, s in segments.items() if len(np.asarray(s).reshape(-1)) > 0}
-    axes = [a for a in AXES if a in segs]
+    polys = {a: as_polylines(s, a, photo) for a, s in segments.items() if len(_flat(s)) > 0}
+    axes = [a for a in AXES if a in polys]
+    segs = {a: end_segments(polys[a]) for a in axes}
     fits = {a: fit_vanishing_point(segs[a], width, height, axis=a, photo=photo) for a in axes}
     N = normalising_transform(width, height)
     finite = [a for a in axes if abs((N @ fits[a].point)[2]) / np.linalg.norm(N @ fits[a].point)
               > 1.0 / FINITE_VP_MAX_RADIUS]
-    f, c = _closed_form_start(fits, finite, np.array([width / 2.0, height / 2.0]), photo, focal)
+    f0 = focal.value if focal is not None else NOMINAL_FOCAL_REL * max(width, height)
+    f, c = _closed_form_start(fits, finite, np.array([width / 2.0, height / 2.0]), f0)
     K = intrinsic_matrix(f, *c)
     R, _ = rotation_from_vanishing_points(K, {a: fits[a].point for a in axes}, segs)
     return K, R
 
 
-def _closed_form_start(
-    fits: Mapping, finite: list[str], c0: Array, photo: str, prior: FocalPrior | None
-) -> tuple[float, Array]:
-    """Focal length and principal point to start from (paper §2 closed forms)."""
-    pts = {a: fits[a].finite_point() for a in finite}
+def _closed_form_start(fits: Mapping[str, VanishingPointFit], finite: list[str], c0: Array,
+                       f_fallback: float) -> tuple[float, Array]:
+    """Focal length and principal point to start from (paper §2 closed forms), else f_fallback at c0."""
+    pts: dict[str, Array] = {}
+    for a in finite:
+        p = fits[a].finite_point()
+        if p is not None:
+            pts[a] = p
+    finite = [a for a in finite if a in pts]
     if len(finite) == 3:
         c = orthocentre(pts["x"], pts["y"], pts["z"])
         f2 = focal_squared(pts["x"], pts["y"], c)
         if f2 > 0 and np.linalg.norm(c - c0) < np.linalg.norm(c0):  # inside the image's circumcircle
             return float(np.sqrt(f2)), c
-    bad = []
     for a, b in combinations(finite, 2):
         f2 = focal_squared(pts[a], pts[b], c0)
         if f2 > 0:
             return float(np.sqrt(f2)), c0
-        bad.append((a, b, f2))
-    if prior is not None:
-        return prior.value, c0
-    if bad:
-        a, b, f2 = bad[0]
-        raise CalibrationError(
-            photo,
-            f"the vanishing points of axes {a} and {b} give f² = {f2:.4g} px² ≤ 0: for orthogonal "
-            "directions they must lie on opposite sides of the principal point; a segment set is "
-            "probably labelled with the wrong axis",
-        )
-    raise CalibrationError(
-        photo,
-        "fewer than two vanishing points are finite, so the segments cannot give the focal length; "
-        "give the focal length or use a photo with EXIF, or mark edges that recede from the camera",
-    )
+    return float(f_fallback), c0
 
 
 class _Problem:
-    """The joint least-squares problem over x = (f/s, cx/s, cy/s, ω), R = exp([ω]×) R̂."""
+    """The joint least-squares problem over y = (f/s, cx/s, cy/s, ω, [k1]), R = exp([ω]×) R̂.
 
-    def __init__(self, segs: dict, axes: list[str], weight: float, scale: float, c0: Array, sigma_c: float):
-        self.segs, self.axes, self.weight, self.scale = segs, axes, weight, scale
-        self.c0, self.sigma_c = c0, sigma_c
-        self.n_data = sum(len(segs[a]) for a in axes)
+    Every clicked point is undistorted (division model, closed form) with the current f, c, k1;
+    its residual is its distance to the line joining the vanishing point K R eₐ to the centroid of
+    its polyline's undistorted points, weighted by 1/σ (a polyline of m points has m − 1
+    independent residuals: they sum to zero).
+    """
 
-    def residuals(self, x: Array, R0: Array, prior_f: FocalPrior | None) -> Array:
-        f, cx, cy = x[:3] * self.scale
+    def __init__(self, polys: Mapping[str, list[Array]], axes: list[str], sigma_px: float, scale: float,
+                 c0: Array, sigma_c: float, k1_prior: DistortionPrior | None, estimate_k1: bool):
+        self.axes, self.scale, self.c0, self.sigma_c = axes, scale, c0, sigma_c
+        self.weight = 1.0 / sigma_px
+        self.k1_prior, self.estimate_k1 = k1_prior, estimate_k1
+        pts: list[Array] = []
+        pid: list[Array] = []
+        axis_of: list[int] = []
+        first: list[int] = []
+        self.polys_of: dict[str, list[int]] = {}
+        for a in axes:
+            for p in polys[a]:
+                self.polys_of.setdefault(a, []).append(len(axis_of))
+                first.append(int(sum(len(q) for q in pts)))
+                pid.append(np.full(len(p), len(axis_of)))
+                axis_of.append("xyz".index(a))
+                pts.append(np.asarray(p, float))
+        self.P = np.concatenate(pts)
+        self.pid = np.concatenate(pid)
+        self.axis_of = np.array(axis_of)
+        self.first = np.array(first)
+        self.counts = np.bincount(self.pid).astype(float)
+        self.n_data = len(self.P)
+        self.n_independent = int(self.n_data - len(self.counts))
+        self.n_params = 7 if estimate_k1 else 6
+
+    def start(self, f0: float, c: Array) -> Array:
+        k1 = self.k1_prior.k1 if self.k1_prior is not None else 0.0
+        return np.r_[f0 / self.scale, np.asarray(c) / self.scale, 0.0, 0.0, 0.0, [k1] if self.estimate_k1 else []]
+
+    def k1_of(self, y: Array) -> float:
+        return float(y[6]) if self.estimate_k1 else 0.0
+
+    def at_rotation(self, y: Array) -> Array:
+        """y with ω = 0: the rotation is then the R it was solved to."""
+        z = np.array(y, float)
+        z[3:6] = 0.0
+        return z
+
+    def undistorted(self, y: Array) -> Array:
+        f, cx, cy = y[:3] * self.scale
+        k1 = self.k1_of(y)
+        c = np.array([cx, cy])
+        if k1 == 0.0:
+            return self.P
+        xd = (self.P - c) / f
+        return c + f * xd / (1.0 + k1 * np.sum(xd**2, axis=1))[:, None]
+
+    def _point_residuals(self, U: Array, V: Array) -> Array:
+        """Distance of each undistorted point to its polyline's line centroid–vanishing point.
+
+        V : (3, 3) the vanishing points of x, y, z as columns (homogeneous pixels)."""
+        mx = np.bincount(self.pid, U[:, 0]) / self.counts
+        my = np.bincount(self.pid, U[:, 1]) / self.counts
+        v = V[:, self.axis_of]  # (3, n_poly)
+        # l = (mx, my, 1) × v
+        l0 = my * v[2] - v[1]
+        l1 = v[0] - mx * v[2]
+        l2 = mx * v[1] - my * v[0]
+        norm = np.maximum(np.hypot(l0, l1), 1e-300)
+        return (l0[self.pid] * U[:, 0] + l1[self.pid] * U[:, 1] + l2[self.pid]) / norm[self.pid]
+
+    def _noise_scale(self, y: Array, U: Array, V: Array) -> Array:
+        """How much undistorting a point stretches its click noise across its line: |Jᵀn| with J
+        the Jacobian of x_u = x_d / (1 + k1 |x_d|²), n the line's unit normal (1 for a pinhole).
+        A barrel lens's undistortion stretches the corners by a few per cent; weighting those
+        residuals by 1/σ alone would claim that much more certainty than the clicks have."""
+        k1 = self.k1_of(y)
+        if k1 == 0.0:
+            return np.ones(len(U))
+        f, cx, cy = y[:3] * self.scale
+        xd = (self.P - np.array([cx, cy])) / f
+        d = 1.0 + k1 * np.sum(xd**2, axis=1)
+        mx = np.bincount(self.pid, U[:, 0]) / self.counts
+        my = np.bincount(self.pid, U[:, 1]) / self.counts
+        v = V[:, self.axis_of]
+        n = np.stack([my * v[2] - v[1], v[0] - mx * v[2]], axis=1)
+        n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
+        n = n[self.pid]
+        # Jᵀn = (n − 2 k1 x (x·n) / d) / d  (J is symmetric)
+        jn = (n - 2.0 * k1 * xd * np.sum(xd * n, axis=1)[:, None] / d[:, None]) / d[:, None]
+        return np.asarray(np.linalg.norm(jn, axis=1), float)
+
+    def residuals(self, y: Array, R0: Array, prior_f: FocalPrior | None) -> Array:
+        f, cx, cy = y[:3] * self.scale
         K = intrinsic_matrix(f, cx, cy)
-        R = exp_so3(x[3:6]) @ R0
-        parts = [segment_residuals(K @ R[:, "xyz".index(a)], self.segs[a]) * self.weight for a in self.axes]
-        parts.append((np.array([cx, cy]) - self.c0) / self.sigma_c)
+        R = exp_so3(y[3:6]) @ R0
+        U = self.undistorted(y)
+        V = K @ R
+        parts = [self._point_residuals(U, V) * self.weight / self._noise_scale(y, U, V),
+                 (np.array([cx, cy]) - self.c0) / self.sigma_c]
+        if self.k1_prior is not None:
+            parts.append(np.array([(self.k1_of(y) - self.k1_prior.k1) / self.k1_prior.sigma]))
         if prior_f is not None:
             parts.append(np.array([(f - prior_f.value) / prior_f.sigma]))
         return np.concatenate(parts)
 
-    def solve(self, f0: float, c: Array, R0: Array, prior_f: FocalPrior | None) -> tuple[Array, Array]:
-        x0 = np.r_[f0 / self.scale, np.asarray(c) / self.scale, 0.0, 0.0, 0.0]
-        lower = np.r_[1e-3, -np.inf, -np.inf, -np.pi, -np.pi, -np.pi]
-        upper = np.r_[1e3, np.inf, np.inf, np.pi, np.pi, np.pi]
+    def solve(self, y0: Array, R0: Array, prior_f: FocalPrior | None) -> tuple[Array, Array]:
+        y0 = self.at_rotation(y0)
+        lower = np.r_[1e-3, -np.inf, -np.inf, -np.pi, -np.pi, -np.pi, [-np.inf] if self.estimate_k1 else []]
+        upper = np.r_[1e3, np.inf, np.inf, np.pi, np.pi, np.pi, [np.inf] if self.estimate_k1 else []]
         sol = least_squares(
-            self.residuals, x0, args=(R0, prior_f), bounds=(lower, upper), method="trf", x_scale="jac",
+            self.residuals, y0, args=(R0, prior_f), bounds=(lower, upper), method="trf", x_scale="jac",
             xtol=1e-12, ftol=1e-12, gtol=1e-12,
         )
         R = exp_so3(sol.x[3:6]) @ R0
-        return np.r_[sol.x[:3], 0.0, 0.0, 0.0], R
+        return self.at_rotation(sol.x), R
 
-    def jacobian(self, x: Array, R: Array, prior_f: FocalPrior | None) -> Array:
-        return numeric_jacobian(lambda y: self.residuals(y, R, prior_f), np.r_[x[:3], 0.0, 0.0, 0.0], 1e-7)
+    def jacobian(self, y: Array, R: Array, prior_f: FocalPrior | None) -> Array:
+        return numeric_jacobian(lambda z: self.residuals(z, R, prior_f), self.at_rotation(y), 1e-7)
 
-    def data_information(self, x: Array, R: Array) -> tuple[float, float]:
-        """1σ of f and of c (largest axis) that the segments alone would give, pixels (inf if none)."""
-        J = self.jacobian(x, R, None)[: self.n_data]
-        info = J.T @ J
-        sigma_f = _marginal_sigma(info, [0, 3, 4, 5], 0) * self.scale
-        cov = _safe_inverse(info)
+    def segment_information(self, y: Array, R: Array) -> tuple[float, float]:
+        """1σ (pixels; inf if none) of f from the segments with the principal point's and the lens
+        profile's priors, and of c (largest axis) from the segments with the lens profile's only."""
+        J = self.jacobian(y, R, None)
+        n = self.n_data
+        sigma_f = _marginal_sigma(J.T @ J, 0) * self.scale
+        rows = np.r_[np.arange(n), np.arange(n + 2, len(J))]  # without the principal point's prior
+        Jd = J[rows]
+        cov = _safe_inverse(Jd.T @ Jd)
         if cov is None:
             sigma_c = np.inf
         else:
             sigma_c = float(np.sqrt(max(np.linalg.eigvalsh(cov[1:3, 1:3]).max(), 0.0))) * self.scale
         return sigma_f, sigma_c
+
+    def variance_factor(self, J: Array, r: Array) -> float:
+        """σ0²: 1 unless the marks reject the stated click noise (VARIANCE_TEST_QUANTILE), else χ²/dof.
+
+        dof counts the independent residuals less the parameters the marks determine (the trace of
+        the hat matrix of the data rows: a parameter fixed by its prior uses none of them)."""
+        n = self.n_data
+        cov = _safe_inverse(J.T @ J)
+        if cov is None:
+            return 1.0
+        used = float(np.trace(J[:n] @ cov @ J[:n].T))
+        dof = self.n_independent - used
+        if dof <= 0.5:
+            return 1.0
+        x2 = float(r[:n] @ r[:n])
+        return 1.0 if x2 <= chi2.ppf(VARIANCE_TEST_QUANTILE, dof) else x2 / dof
+
+    def covariance(self, J: Array, vf: float) -> Array:
+        """(7, 7) covariance of y with the data rows' noise widened by vf (the priors' σ are stated,
+        not scaled); k1's row and column 0 where it is fixed."""
+        Jw = np.array(J, float)
+        Jw[: self.n_data] /= np.sqrt(vf)
+        cov = covariance_from_jacobian(Jw)
+        out = np.zeros((7, 7))
+        out[: self.n_params, : self.n_params] = cov
+        return out
+
+    def reported_residuals(self, U: Array, axis: str, v: Array) -> Array:
+        """One value per segment of ``axis``: the RMS of its points' distances to the line through
+        its centroid and v, signed as its first point's (the paper's residual for two points)."""
+        V = np.zeros((3, 3))
+        V[:, "xyz".index(axis)] = v
+        ids = self.polys_of[axis]
+        r = self._point_residuals(U, V)
+        out = []
+        for k in ids:
+            rk = r[self.pid == k]
+            out.append(np.sign(r[self.first[k]]) * np.sqrt(np.mean(rk**2)))
+        return np.array(out)
 
 
 def _safe_inverse(info: Array) -> Array | None:
@@ -377,8 +760,8 @@ def _safe_inverse(info: Array) -> Array | None:
     return np.asarray(np.linalg.inv(info), float)
 
 
-def _marginal_sigma(info: Array, keep: list[int], which: int) -> float:
-    cov = _safe_inverse(info[np.ix_(keep, keep)])
+def _marginal_sigma(info: Array, which: int) -> float:
+    cov = _safe_inverse(info)
     if cov is None:
         return np.inf
-    return float(np.sqrt(cov[keep.index(which), keep.index(which)]))
+    return float(np.sqrt(cov[which, which]))

@@ -11,12 +11,16 @@ The start is the paper's construction:
    Cⱼ along B̂ⱼₖ (Figure 4);
 3. markers seen by two placed photos are triangulated, and photos without the origin marker are
    placed from ≥ 2 markers of known position (resection with K and R known);
-4. the reference distances fix the metric scale.
+4. the reference distances, surveyed markers and photos' own camera heights fix the metric scale.
 
 Then one robust least-squares solve refines every camera position and marker position over all
-marker observations and scale distances. Each photo's focal length, principal point and rotation
-take part too, held by a Gaussian prior equal to their vanishing-point estimate and covariance, so
-that the positions' uncertainty includes theirs.
+marker observations, scale distances and camera heights. Each photo's focal length, principal
+point and rotation take part too, held by a Gaussian prior equal to their vanishing-point estimate
+and covariance, so that the positions' uncertainty includes theirs; where a photo's calibration
+estimated its lens distortion k1 (a 7×7 covariance, k1 last), k1 is refined the same way. Every
+marker is projected through its photo's distortion (vebuild/camera.py).
+
+A photo placed alone, from the floor plane, is :mod:`vebuild.calibration.single_photo`'s.
 """
 
 from __future__ import annotations
@@ -29,7 +33,7 @@ from numpy.typing import NDArray
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
-from ..camera import intrinsic_matrix, pixel_rays_world, project, skew_batch, so3_left_jacobian
+from ..camera import distortion_scale, intrinsic_matrix, pixel_rays_world, project, skew_batch, so3_left_jacobian
 from ..constants import OUTLIER_SIGMAS, ROBUST_SCALE
 from ..determinism import deterministic
 from ..errors import CalibrationError
@@ -46,8 +50,11 @@ MIN_INTERSECTION_ANGLE_DEG = 2.0
 class PhotoInput:
     """What placement needs from one calibrated photo.
 
-    covariance : (6, 6) over (f, cx, cy, ω) from the vanishing-point calibration.
-    markers : marker name → observed pixel (u, v).
+    covariance : (6, 6) over (f, cx, cy, ω) from the vanishing-point calibration, or (7, 7) with
+        the lens distortion k1 last: then k1 is refined too, held by that prior.
+    markers : marker name → observed pixel (u, v), as the lens put it.
+    k1 : the lens distortion (the division model of vebuild/camera.py; 0 for a pinhole); every
+        marker is projected through it. ``k1_sigma``: its 1σ where it is held fixed (reported).
     """
 
     id: str
@@ -55,6 +62,8 @@ class PhotoInput:
     R: Array
     covariance: Array
     markers: Mapping[str, Array]
+    k1: float = 0.0
+    k1_sigma: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -68,7 +77,8 @@ class ReferenceDistance:
 
 @dataclass(frozen=True)
 class PlacedCamera:
-    """covariance : (9, 9) over (f, cx, cy, ωx, ωy, ωz, Cx, Cy, Cz), R_true = exp([ω]×) R."""
+    """covariance : (9, 9) over (f, cx, cy, ωx, ωy, ωz, Cx, Cy, Cz), R_true = exp([ω]×) R.
+    k1, k1_sigma : the lens distortion (refined where the photo's covariance held it) and its 1σ."""
 
     id: str
     K: Array
@@ -77,6 +87,8 @@ class PlacedCamera:
     covariance: Array
     marker_residuals_px: dict[str, Array]
     outliers: list[str] = field(default_factory=list)
+    k1: float = 0.0
+    k1_sigma: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -136,14 +148,26 @@ def place_cameras(
     known_markers: Mapping[str, Array] | None = None,
     distances: Sequence[ReferenceDistance] = (),
     click_sigma_px: float = 1.0,
+    camera_heights: Mapping[str, tuple[float, float]] | None = None,
 ) -> Placement:
     """Camera and marker positions in metres, with covariances (paper §2.1, then refined).
+
+    camera_heights : photo id → (height above the floor z = 0, 1σ), metres: what a photo's own
+        scale (its camera height, a known length in it) says; each is a residual of the
+        refinement and fixes the scale as a reference distance does (the origin marker, at z = 0,
+        lies on the floor).
 
     Raises CalibrationError when a marker is seen once only, when a photo cannot be placed, or
     when nothing fixes the metric scale.
     """
     known = {k: np.asarray(v, float) for k, v in (known_markers or {}).items()}
+    heights = {i: (float(h), float(s)) for i, (h, s) in (camera_heights or {}).items()
+               if i in {p.id for p in photos}}
     _check_finite_inputs(photos, known, distances)
+    for pid, (h, s) in heights.items():
+        if not (np.isfinite(h) and h > 0 and np.isfinite(s) and s > 0):
+            raise CalibrationError(pid, f"its camera height above the floor: expected a height > 0 m with a σ > 0 m, "
+                                   f"got {h!r} ± {s!r}; check its camera_height and known lengths")
     seen: dict[str, list[str]] = {}
     for p in photos:
         for name in p.markers:
@@ -169,11 +193,12 @@ def place_cameras(
             None, f"the origin marker '{origin}' is not observed in any photo; mark it in at least one",
         )
     scale_refs = [d for d in distances if d.role == "scale"]
-    if not scale_refs and len([k for k in known if k != origin]) == 0:
+    if not scale_refs and len([k for k in known if k != origin]) == 0 and not heights:
         raise CalibrationError(
             None,
             "nothing fixes the metric scale: add a reference distance (role 'scale') between two "
-            "markers, measured at the scene, or a surveyed marker position",
+            "markers, measured at the scene, a surveyed marker position, or a photo's camera height "
+            "or known length",
         )
     for d in distances:
         for n in (d.a, d.b):
@@ -186,13 +211,13 @@ def place_cameras(
     C, X = _initial_positions(photos, origin, known)
     _check_finite_start(C, X)
     check_scale_distances(X, scale_refs)
-    s = _metric_scale(X, known, scale_refs, origin)
+    s = _metric_scale(X, known, scale_refs, origin, C, heights)
     if not (np.isfinite(s) and s > 0):
         raise CalibrationError(None, f"the reference distances give the scene a scale of {s:g}, not a positive "
                                "number: check the distances' values and the markers' clicks")
     C = {k: v * s for k, v in C.items()}
     X = {k: (known[k] if k in known else v * s) for k, v in X.items()}
-    return _refine(by_id, C, X, origin, known, distances, click_sigma_px)
+    return _refine(by_id, C, X, origin, known, distances, click_sigma_px, heights)
 
 
 #: Two scale distances whose implied scales differ by more than this factor contradict each other.
@@ -267,7 +292,7 @@ def _check_finite_start(C: Mapping[str, Array], X: Mapping[str, Array]) -> None:
 
 
 def _rays(p: PhotoInput, names: Sequence[str]) -> Array:
-    return pixel_rays_world(p.K, p.R, np.array([p.markers[n] for n in names]))
+    return pixel_rays_world(p.K, p.R, np.array([p.markers[n] for n in names]), p.k1)
 
 
 def _initial_positions(
@@ -299,7 +324,8 @@ def _initial_positions(
             p.id,
             f"the camera cannot be placed: it sees {n_known} marker(s) whose position is known from "
             "other photos and does not share two markers with a placed photo; mark at least two "
-            "markers that other photos also show",
+            "markers that other photos also show (or, to place it alone, give it a scale of its own, a "
+            "camera_height or a known length, and mark the origin marker in it)",
         )
     _triangulate_all(photos, C, X)
     return C, X
@@ -366,9 +392,15 @@ def _triangulate_all(photos: Sequence[PhotoInput], C: Mapping[str, Array], X: di
 
 
 def _metric_scale(X: Mapping[str, Array], known: Mapping[str, Array], refs: Sequence[ReferenceDistance],
-                  origin: str) -> float:
-    """Least-squares scale factor from the reference distances and surveyed markers."""
+                  origin: str, C: Mapping[str, Array] | None = None,
+                  heights: Mapping[str, tuple[float, float]] | None = None) -> float:
+    """Least-squares scale factor from the reference distances, surveyed markers and camera heights."""
     num = den = 0.0
+    for pid, (h, sigma) in (heights or {}).items():
+        if C is not None and pid in C:
+            z = float(C[pid][2])
+            num += z * h / sigma**2
+            den += z * z / sigma**2
     for d in refs:
         if d.a in X and d.b in X:
             length = float(np.linalg.norm(X[d.a] - X[d.b]))
@@ -387,13 +419,22 @@ def _metric_scale(X: Mapping[str, Array], known: Mapping[str, Array], refs: Sequ
 
 
 def _refine(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mapping[str, Array], origin: str,
-            known: Mapping[str, Array], distances: Sequence[ReferenceDistance], click_sigma: float) -> Placement:
+            known: Mapping[str, Array], distances: Sequence[ReferenceDistance], click_sigma: float,
+            heights: Mapping[str, tuple[float, float]] | None = None) -> Placement:
     ids = list(photos)
+    heights = {i: h for i, h in (heights or {}).items() if i in photos}
     free_markers = [n for n in sorted(X0) if n != origin and n not in known]
     fixed = {origin: np.zeros(3), **known}
-    n_cam = 9 * len(ids)
+    # Each camera's block: (f, cx, cy, ω, C), then k1 where its calibration estimated it (7×7).
+    refine_k1 = np.array([photos[i].covariance.shape == (7, 7) for i in ids])
+    n_prior = np.where(refine_k1, 7, 6)
+    size = np.where(refine_k1, 10, 9)
+    off = np.r_[0, np.cumsum(size)[:-1]].astype(int)
+    n_cam = int(size.sum())
     n_par = n_cam + 3 * len(free_markers)
     col = {n: n_cam + 3 * i for i, n in enumerate(free_markers)}
+    idx9 = off[:, None] + np.arange(9)[None, :]
+    k1_col = {k: int(off[k] + 9) for k in range(len(ids)) if refine_k1[k]}
 
     # Priors from each photo's vanishing-point calibration: whiten (q − q̂) with Σ^(−1/2).
     q0 = {i: np.r_[photos[i].K[0, 0], photos[i].K[:2, 2]] for i in ids}
@@ -404,6 +445,7 @@ def _refine(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mappi
         L_inv[i] = (V / np.sqrt(np.maximum(w, 1e-18))).T
     obs = [(i, n, np.asarray(uv, float)) for i in ids for n, uv in sorted(photos[i].markers.items()) if n in X0]
     scale_refs = [d for d in distances if d.role == "scale" and d.a in X0 and d.b in X0]
+    height_ids = [k for k, i in enumerate(ids) if i in heights]
 
     all_markers = sorted(X0)
     m_index = {n: j for j, n in enumerate(all_markers)}
@@ -413,90 +455,125 @@ def _refine(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mappi
     ref_ab = np.array([[m_index[d.a], m_index[d.b]] for d in scale_refs], dtype=int).reshape(-1, 2)
     ref_d = np.array([d.distance for d in scale_refs])
     ref_s = np.array([d.sigma for d in scale_refs])
-    L_stack = np.array([L_inv[i] for i in ids])
+    h_val = np.array([heights[ids[k]][0] for k in height_ids])
+    h_sig = np.array([heights[ids[k]][1] for k in height_ids])
     R0 = np.array([photos[i].R for i in ids])
+    k1_0 = np.array([photos[i].k1 for i in ids], float)
     q0_stack = np.array([q0[i] for i in ids])
     free_rows = np.array([m_index[n] for n in free_markers], dtype=int)
     X_fixed = np.zeros((len(all_markers), 3))
     for n, pos in fixed.items():
         if n in m_index:
             X_fixed[m_index[n]] = pos
+    n_obs, n_ref, n_h = len(obs), len(scale_refs), len(height_ids)
+    r_prior = 2 * n_obs
+    prior_rows = r_prior + np.r_[0, np.cumsum(n_prior)[:-1]].astype(int)
+    r_ref = r_prior + int(n_prior.sum())
+    r_h = r_ref + n_ref
+    n_res = r_h + n_h
 
-    def unpack(x: Array) -> tuple[Array, Array, Array, Array]:
-        """Per-camera (f, cx, cy), rotations, centres; all marker positions."""
-        cam = x[:n_cam].reshape(-1, 9)
+    def unpack(x: Array) -> tuple[Array, Array, Array, Array, Array]:
+        """Per-camera (f, cx, cy), rotations, centres, k1; all marker positions."""
+        cam = x[idx9]
         fc = q0_stack + cam[:, 0:3]
         R = np.einsum("kij,kjl->kil", Rotation.from_rotvec(cam[:, 3:6]).as_matrix(), R0)
+        k1 = k1_0.copy()
+        for k, c in k1_col.items():
+            k1[k] += x[c]
         X = X_fixed.copy()
         X[free_rows] = x[n_cam:].reshape(-1, 3)
-        return fc, R, cam[:, 6:9], X
+        return fc, R, cam[:, 6:9], k1, X
+
+    def prior_delta(x: Array, k: int) -> Array:
+        d = x[off[k] : off[k] + 6]
+        return np.r_[d, x[k1_col[k]]] if k in k1_col else d
 
     def residuals(x: Array) -> Array:
-        fc, R, C, X = unpack(x)
+        fc, R, C, k1, X = unpack(x)
         xc = np.einsum("nij,nj->ni", R[obs_cam], X[obs_mark] - C[obs_cam])
-        uv = fc[obs_cam, 0:1] * xc[:, :2] / xc[:, 2:3] + fc[obs_cam, 1:3]
+        xn = xc[:, :2] / xc[:, 2:3]
+        s = distortion_scale(np.sum(xn**2, axis=1), k1[obs_cam]) if np.any(k1 != 0.0) else 1.0
+        uv = fc[obs_cam, 0:1] * xn * np.reshape(s, (-1, 1)) + fc[obs_cam, 1:3]
         reproj = ((uv - obs_uv) / click_sigma).ravel()
-        prior = np.einsum("kij,kj->ki", L_stack, x[:n_cam].reshape(-1, 9)[:, :6]).ravel()
+        prior = np.concatenate([L_inv[i] @ prior_delta(x, k) for k, i in enumerate(ids)])
         dist = (np.linalg.norm(X[ref_ab[:, 0]] - X[ref_ab[:, 1]], axis=1) - ref_d) / ref_s
-        return np.concatenate([reproj, prior, dist])
+        hres = (C[height_ids, 2] - h_val) / h_sig if n_h else np.zeros(0)
+        return np.concatenate([reproj, prior, dist, hres])
 
-    n_obs, n_ref = len(obs), len(scale_refs)
     rows_obs = np.arange(2 * n_obs).reshape(-1, 2)
     free_col = {m_index[n]: col[n] for n in free_markers}
 
     def jacobian(x: Array) -> Array:
         """Analytic Jacobian of residuals (dense: the problem has tens of parameters)."""
-        fc, R, C, X = unpack(x)
-        cam = x[:n_cam].reshape(-1, 9)
-        J = np.zeros((2 * n_obs + 6 * len(ids) + n_ref, n_par))
+        fc, R, C, k1, X = unpack(x)
+        cam = x[idx9]
+        J = np.zeros((n_res, n_par))
         d = X[obs_mark] - C[obs_cam]
         xc = np.einsum("nij,nj->ni", R[obs_cam], d)
         z = xc[:, 2]
         f = fc[obs_cam, 0]
-        # ∂(u, v)/∂x_cam for u = f x/z + cx, v = f y/z + cy
-        A = np.zeros((n_obs, 2, 3))
-        A[:, 0, 0] = A[:, 1, 1] = f / z
-        A[:, 0, 2] = -f * xc[:, 0] / z**2
-        A[:, 1, 2] = -f * xc[:, 1] / z**2
-        A /= click_sigma
-        Jl = np.array([so3_left_jacobian(w) for w in cam[:, 3:6]])
+        xn = xc[:, :2] / z[:, None]
+        r2 = np.sum(xn**2, axis=1)
+        kk = k1[obs_cam]
+        w = np.sqrt(np.maximum(1.0 - 4.0 * kk * r2, 1e-12))
+        s = 2.0 / (1.0 + w)
+        ds_dr2 = 4.0 * kk / (w * (1.0 + w) ** 2)
+        ds_dk = 4.0 * r2 / (w * (1.0 + w) ** 2)
+        # u = f s(|xn|²) xn + c, xn = (x/z, y/z): ∂u/∂xn = f (s I + 2 s' xn xnᵀ), then ∂xn/∂x_cam.
+        B = np.zeros((n_obs, 2, 3))
+        B[:, 0, 0] = B[:, 1, 1] = 1.0 / z
+        B[:, 0, 2] = -xc[:, 0] / z**2
+        B[:, 1, 2] = -xc[:, 1] / z**2
+        D = s[:, None, None] * np.eye(2)[None] + 2.0 * ds_dr2[:, None, None] * np.einsum("ni,nj->nij", xn, xn)
+        A = f[:, None, None] * np.einsum("nij,njk->nik", D, B) / click_sigma
+        Jl = np.array([so3_left_jacobian(w_) for w_ in cam[:, 3:6]])
         dxc_dw = -np.einsum("nij,njk->nik", skew_batch(xc), Jl[obs_cam])
-        for r, k, m, a_, dw, Rk, p in zip(rows_obs, obs_cam, obs_mark, A, dxc_dw, R[obs_cam], xc, strict=True):
-            o = 9 * k
-            J[r, o] = p[:2] / p[2] / click_sigma
+        for r, k, m, a_, dw, Rk, un, sn, dk in zip(rows_obs, obs_cam, obs_mark, A, dxc_dw, R[obs_cam], xn, s,
+                                                    ds_dk, strict=True):
+            o = int(off[k])
+            J[r, o] = un * sn / click_sigma
             J[r[0], o + 1] = J[r[1], o + 2] = 1.0 / click_sigma
             J[r, o + 3 : o + 6] = a_ @ dw
             J[r, o + 6 : o + 9] = -a_ @ Rk
+            if k in k1_col:
+                J[r, k1_col[k]] = fc[k, 0] * un * dk / click_sigma
             if m in free_col:
                 J[r, free_col[m] : free_col[m] + 3] = a_ @ Rk
-        r0 = 2 * n_obs
-        for k in range(len(ids)):
-            J[r0 + 6 * k : r0 + 6 * k + 6, 9 * k : 9 * k + 6] = L_stack[k]
-        r0 += 6 * len(ids)
+        for k, i in enumerate(ids):
+            r0 = int(prior_rows[k])
+            n = int(n_prior[k])
+            J[r0 : r0 + n, off[k] : off[k] + 6] = L_inv[i][:, :6]
+            if k in k1_col:
+                J[r0 : r0 + n, k1_col[k]] = L_inv[i][:, 6]
         for j, (ia, ib) in enumerate(ref_ab):
             diff = X[ia] - X[ib]
             u = diff / max(np.linalg.norm(diff), 1e-12) / ref_s[j]
             if ia in free_col:
-                J[r0 + j, free_col[ia] : free_col[ia] + 3] += u
+                J[r_ref + j, free_col[ia] : free_col[ia] + 3] += u
             if ib in free_col:
-                J[r0 + j, free_col[ib] : free_col[ib] + 3] -= u
+                J[r_ref + j, free_col[ib] : free_col[ib] + 3] -= u
+        for j, k in enumerate(height_ids):
+            J[r_h + j, off[k] + 8] = 1.0 / h_sig[j]
         return J
 
     x0 = np.zeros(n_par)
     for k, i in enumerate(ids):
-        x0[9 * k + 6 : 9 * k + 9] = C0[i]
+        x0[off[k] + 6 : off[k] + 9] = C0[i]
     for n in free_markers:
         x0[col[n] : col[n] + 3] = X0[n]
+
     def culprit(r: Array) -> str:
         """Who the first non-finite residual belongs to: a photo's marker, a photo, a distance."""
         k = int(np.flatnonzero(~np.isfinite(r))[0])
-        if k < 2 * n_obs:
+        if k < r_prior:
             pid, name, _ = obs[k // 2]
             return f"photo '{pid}', marker '{name}'"
-        if k < 2 * n_obs + 6 * len(ids):
-            return f"photo '{ids[(k - 2 * n_obs) // 6]}' (its vanishing-point prior)"
-        d = scale_refs[k - 2 * n_obs - 6 * len(ids)]
-        return f"reference distance {d.a}–{d.b} ({d.distance:g} m)"
+        if k < r_ref:
+            return f"photo '{ids[int(np.searchsorted(prior_rows, k, side='right')) - 1]}' (its vanishing-point prior)"
+        if k < r_h:
+            d = scale_refs[k - r_ref]
+            return f"reference distance {d.a}–{d.b} ({d.distance:g} m)"
+        return f"photo '{ids[height_ids[k - r_h]]}' (its camera height)"
 
     with np.errstate(all="ignore"):
         r0 = residuals(x0)
@@ -522,15 +599,17 @@ def _refine(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mappi
                                "a photo's vanishing lines or marker clicks make it degenerate: check the photos "
                                "with the fewest markers first") from None
 
-    fc, R, C, Xa = unpack(x)
+    fc, R, C, k1, Xa = unpack(x)
     X = {n: Xa[m_index[n]] for n in all_markers}
     cameras = {}
     for k, i in enumerate(ids):
-        sl = slice(9 * k, 9 * k + 9)
         K = intrinsic_matrix(*fc[k])
-        resid = {n: project(K, R[k], C[k], X[n]) - uv for j, n, uv in obs if j == i}
+        resid = {n: project(K, R[k], C[k], X[n], float(k1[k])) - uv for j, n, uv in obs if j == i}
         outl = [n for n, d in resid.items() if np.linalg.norm(d) / click_sigma > OUTLIER_SIGMAS]
-        cameras[i] = PlacedCamera(i, K, R[k].copy(), C[k].copy(), cov[sl, sl].copy(), resid, outl)
+        sl = idx9[k]
+        k1_sigma = float(np.sqrt(max(cov[k1_col[k], k1_col[k]], 0.0))) if k in k1_col else photos[i].k1_sigma
+        cameras[i] = PlacedCamera(i, K, R[k].copy(), C[k].copy(), cov[np.ix_(sl, sl)].copy(), resid, outl,
+                                  float(k1[k]), k1_sigma)
     markers = {}
     for n in sorted(X):
         c3 = cov[col[n] : col[n] + 3, col[n] : col[n] + 3].copy() if n in col else np.zeros((3, 3))

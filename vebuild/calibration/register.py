@@ -6,11 +6,19 @@ Two ways, chosen by what the photo offers:
   camera centre from ≥ 2 points of known position (the lines back from the points along their
   rays meet at the camera), refined over all points;
 - without usable vanishing points: from ≥ 4 points of known position alone. The camera's focal
-  length, principal point (held near the image centre by its prior), rotation and position are
-  found by least squares, started from the best of a coarse search over headings, tilts and focal
-  lengths (for each, the centre follows linearly from the points).
+  length (held by its prior where the user or EXIF gives one), principal point (held near the
+  image centre, or near the one the user gave, by its prior), rotation and position are found by
+  least squares, started from the best of a coarse search over headings, tilts and focal lengths
+  (for each, the centre follows linearly from the points).
 
 Both return the camera with the covariance of (f, cx, cy, ω, C) from the Jacobian.
+
+A photo's lens distortion, where it is known (the vanishing-point calibration's k1, or one given:
+a lens profile, the user, an earlier calibration), is used as known and held: every marked pixel
+is compared with the distorted projection of its point, and the start's rays are undistorted.
+Registration does not estimate k1 (a handful of points cannot separate it from f); without one
+the photo is registered as a pinhole, and ``vebuild solve --recalibrate`` may refine a k1 that has
+a 1σ.
 """
 
 from __future__ import annotations
@@ -33,6 +41,7 @@ from .lsq import (
 )
 from .photo import FocalPrior, PhotoCalibration
 from .positions import intersect_lines
+from .priors import DistortionPrior
 
 Array = NDArray[np.float64]
 
@@ -51,6 +60,11 @@ class Registered:
     covariance: Array  # (9, 9) over (f, cx, cy, ω, C)
     residuals_px: Array  # (n, 2)
     method: str
+    #: The lens distortion used (held): the division model's k1, its 1σ and where it came from
+    #: ("" for a pinhole).
+    k1: float = 0.0
+    k1_sigma: float = 0.0
+    k1_source: str = ""
 
 
 def _whitener(cov: Array) -> Array:
@@ -59,16 +73,17 @@ def _whitener(cov: Array) -> Array:
 
 
 def _refine(points: Array, pixels: Array, K0: Array, R0: Array, C0: Array, click_sigma: float,
-            prior: Array, prior_cov: Array) -> tuple[Array, Array, Array, Array, Array]:
+            prior: Array, prior_cov: Array, k1: float = 0.0) -> tuple[Array, Array, Array, Array, Array]:
     """Least squares over x = (f, cx, cy, ω, C), R = exp([ω]×) R0, with a Gaussian prior on the
-    first six (intrinsics and rotation): mean ``prior``, covariance ``prior_cov`` (∞ = free)."""
+    first six (intrinsics and rotation): mean ``prior``, covariance ``prior_cov`` (∞ = free); the
+    pixels projected through the lens distortion ``k1`` (held)."""
     free = ~np.isfinite(np.diag(prior_cov))
     held = np.flatnonzero(~free)
     L = _whitener(prior_cov[np.ix_(held, held)]) if len(held) else np.zeros((0, 0))
 
     def residuals(x: Array) -> Array:
         K = intrinsic_matrix(*x[:3])
-        r = ((project(K, exp_so3(x[3:6]) @ R0, x[6:9], points) - pixels) / click_sigma).ravel()
+        r = ((project(K, exp_so3(x[3:6]) @ R0, x[6:9], points, k1) - pixels) / click_sigma).ravel()
         return np.concatenate([r, L @ (x[held] - prior[held])])
 
     x0 = np.r_[K0[0, 0], K0[0, 2], K0[1, 2], 0.0, 0.0, 0.0, C0]
@@ -81,29 +96,50 @@ def _refine(points: Array, pixels: Array, K0: Array, R0: Array, C0: Array, click
 
     def res_at(x: Array) -> Array:
         K = intrinsic_matrix(*x[:3])
-        r = ((project(K, exp_so3(x[3:6]) @ R, x[6:9], points) - pixels) / click_sigma).ravel()
+        r = ((project(K, exp_so3(x[3:6]) @ R, x[6:9], points, k1) - pixels) / click_sigma).ravel()
         return np.concatenate([r, L @ (x[held] - prior_at[held])])
 
     r = res_at(x_at)
     cov = covariance_from_jacobian(numeric_jacobian(res_at, x_at, 1e-6)) * variance_factor(r, 9)
     K = intrinsic_matrix(*sol.x[:3])
-    return K, R, sol.x[6:9].copy(), cov, project(K, R, sol.x[6:9], points) - pixels
+    return K, R, sol.x[6:9].copy(), cov, project(K, R, sol.x[6:9], points, k1) - pixels
 
 
 @deterministic
 @photo_numeric_failures("its registration to the model", "check the marked points (at least 4, not all on one "
                         "line) and their known positions")
 def register_from_points(points: ArrayLike, pixels: ArrayLike, width: int, height: int, *, photo: str = "photo",
-                         click_sigma_px: float = 1.0, principal_point_sigma_rel: float = 0.01,
-                         focal: FocalPrior | None = None) -> Registered:
-    """A photo's whole camera from ≥ 4 points of known position and their pixels."""
+                         click_sigma_px: float = 1.0, principal_point: tuple[ArrayLike, float] | None = None,
+                         principal_point_sigma_rel: float = 0.01, focal: FocalPrior | None = None,
+                         distortion: DistortionPrior | None = None) -> Registered:
+    """A photo's whole camera from ≥ 4 points of known position and their pixels.
+
+    ``focal``: a focal length given (the user's, or EXIF's), a prior with its 1σ and the search's
+    only start; ``principal_point``: a known principal point and its 1σ (pixels), the prior's
+    centre and 1σ (default the image centre, 1σ = ``principal_point_sigma_rel`` × the longer side);
+    ``distortion``: the photo's lens distortion where it is known (held at its k1; None: a pinhole).
+    """
+    if focal is not None and not (np.isfinite(focal.value) and focal.value > 0 and np.isfinite(focal.sigma)
+                                  and focal.sigma > 0):
+        raise CalibrationError(photo, f"focal_px: expected a focal length > 0 px with a σ > 0 px, got "
+                               f"{focal.value!r} ± {focal.sigma!r}")
+    if principal_point is not None and not (np.all(np.isfinite(np.asarray(principal_point[0], float)))
+                                            and np.isfinite(principal_point[1]) and principal_point[1] > 0):
+        raise CalibrationError(photo, f"principal_point: expected a finite (u, v) with a σ > 0 px, got "
+                               f"{principal_point[0]!r} ± {principal_point[1]!r}")
+    k1 = 0.0 if distortion is None else float(distortion.k1)
     X = np.asarray(points, float).reshape(-1, 3)
     uv = np.asarray(pixels, float).reshape(-1, 2)
     if len(X) < 4:
         raise CalibrationError(photo, f"registration without vanishing points needs at least 4 marked points of "
                                f"known position (model vertices or markers); this photo has {len(X)}")
     s = max(width, height)
-    c = (width / 2.0, height / 2.0)
+    if principal_point is None:
+        c = (width / 2.0, height / 2.0)
+        pp_sigma = principal_point_sigma_rel * s
+    else:
+        u0, v0 = np.asarray(principal_point[0], float).reshape(2)
+        c, pp_sigma = (float(u0), float(v0)), float(principal_point[1])
     focals = [focal.value] if focal is not None else [k * s for k in SEARCH_FOCAL_REL]
     best: list[tuple[float, Array, Array, Array]] = []
     for f in focals:
@@ -111,45 +147,52 @@ def register_from_points(points: ArrayLike, pixels: ArrayLike, width: int, heigh
         for yaw in SEARCH_YAW_DEG:
             for pitch in SEARCH_PITCH_DEG:
                 R = rotation_from_ypr(np.radians(yaw), np.radians(pitch), 0.0)
-                d = pixel_rays_world(K, R, uv)
+                d = pixel_rays_world(K, R, uv, k1)
                 C = intersect_lines(X, d)
                 depth = world_to_camera(R, C, X)[:, 2]
                 if np.any(depth <= 0):
                     continue
-                err = float(np.sqrt(np.mean((project(K, R, C, X) - uv) ** 2)))
+                err = float(np.sqrt(np.mean((project(K, R, C, X, k1) - uv) ** 2)))
                 best.append((err, K, R, C))
     if not best:
         raise CalibrationError(photo, "no camera in front of all the marked points explains them; check that "
                                "the marked points are the right ones")
     best.sort(key=lambda t: t[0])
-    # Priors: the principal point near the centre; f from the user or EXIF if known; ω free.
+    # Priors: the principal point near the centre (or the one given); f from the user or EXIF if
+    # known; ω free.
     prior = np.r_[0.0, c, 0.0, 0.0, 0.0]
-    prior_cov = np.diag([np.inf, (principal_point_sigma_rel * s) ** 2, (principal_point_sigma_rel * s) ** 2,
-                         np.inf, np.inf, np.inf])
+    prior_cov = np.diag([np.inf, pp_sigma**2, pp_sigma**2, np.inf, np.inf, np.inf])
     if focal is not None:
         prior[0], prior_cov[0, 0] = focal.value, focal.sigma**2
     candidates: list[tuple[float, Array, Array, Array, Array, Array]] = []
     for _, K, R, C in best[:5]:
-        Kr, Rr, Cr, cov, res = _refine(X, uv, K, R, C, click_sigma_px, prior, prior_cov)
+        Kr, Rr, Cr, cov, res = _refine(X, uv, K, R, C, click_sigma_px, prior, prior_cov, k1)
         candidates.append((float(np.sqrt(np.mean(res**2))), Kr, Rr, Cr, cov, res))
     rms, K, R, C, cov, res = min(candidates, key=lambda t: t[0])
-    return Registered(K, R, C, cov, res, "points")
+    if distortion is None:
+        return Registered(K, R, C, cov, res, "points")
+    return Registered(K, R, C, cov, res, "points", k1, float(distortion.sigma), distortion.source)
 
 
 @deterministic
 def register_with_vanishing_points(cal: PhotoCalibration, points: ArrayLike, pixels: ArrayLike, *,
                                    click_sigma_px: float = 1.0) -> Registered:
     """Position (and a refined rotation) of a photo whose K and R came from its vanishing points,
-    from ≥ 2 points of known position."""
+    from ≥ 2 points of known position, through the lens distortion its calibration found (held)."""
+    # The calibration's k1 where it estimated one (its k1, k1_sigma, k1_source; 0 for a pinhole).
+    k1, k1_sigma, k1_source = float(cal.k1), float(cal.k1_sigma), cal.k1_source
     X = np.asarray(points, float).reshape(-1, 3)
     uv = np.asarray(pixels, float).reshape(-1, 2)
     if len(X) < 2:
         raise CalibrationError(cal.photo, f"placing the camera needs at least 2 marked points of known position "
                                f"(model vertices or markers); this photo has {len(X)}")
-    C0 = intersect_lines(X, pixel_rays_world(cal.K, cal.R, uv))
+    C0 = intersect_lines(X, pixel_rays_world(cal.K, cal.R, uv, k1))
     # Intrinsics and rotation held by their vanishing-point estimate and covariance.
     prior = np.r_[cal.f, cal.principal_point, 0.0, 0.0, 0.0]
     with numeric_failures(cal.photo, "placing the camera from its known points", "check the marked points "
                           "(not all on one line through the camera) and their known positions"):
-        K, R, C, cov, res = _refine(X, uv, cal.K, cal.R, C0, click_sigma_px, prior, cal.covariance)
-    return Registered(K, R, C, cov, res, "vanishing points + points")
+        K, R, C, cov, res = _refine(X, uv, cal.K, cal.R, C0, click_sigma_px, prior, cal.covariance, k1)
+    if k1 == 0.0:
+        return Registered(K, R, C, cov, res, "vanishing points + points")
+    return Registered(K, R, C, cov, res, "vanishing points + points", k1, k1_sigma,
+                      k1_source if k1_source not in ("", "none") else "vanishing-point calibration")

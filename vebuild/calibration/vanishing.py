@@ -7,6 +7,13 @@ parallel in the image is an ordinary point of the parameter space and not an err
 The residual of a segment is the paper's: the orthogonal distance of its end points to the line
 that joins the vanishing point to the segment's midpoint (both end points lie at the same
 distance on either side; one signed value is kept per segment).
+
+A vanishing segment may also be a *polyline* ``[u1, v1, u2, v2, ..., un, vn]`` (n ≥ 2 points along
+one straight edge, directed first → last): its middle points say how straight the edge is in the
+photo, which is what lens distortion is estimated from (:mod:`.photo`). Its residuals generalise
+the paper's: every point's distance to the line joining the vanishing point to the points'
+centroid (for two points, the centroid is the midpoint). The vanishing point fit here uses a
+polyline's end points only (:func:`end_segments`), a pinhole start for the joint solve.
 """
 
 from __future__ import annotations
@@ -77,6 +84,40 @@ def segment_residuals(v: ArrayLike, segments: ArrayLike) -> Array:
     lines = np.cross(m, np.asarray(v, float)[None, :])
     norm = np.hypot(lines[:, 0], lines[:, 1])
     return np.einsum("ij,ij->i", lines, p1) / np.maximum(norm, 1e-300)
+
+
+def as_polylines(segments: ArrayLike | list, axis: str, photo: str) -> list[Array]:
+    """One axis' vanishing segments as a list of (m, 2) point arrays (m ≥ 2), checked.
+
+    Accepts an (n, 4) array (today's segments), an (n, 2m) array, or a list of flat rows of
+    different even lengths ``[u1, v1, ..., um, vm]``. Raises CalibrationError for a row that is
+    not pairs of numbers, fewer than two points, fewer than two segments, end points closer than
+    MIN_SEGMENT_LENGTH_PX, or segments that all lie on one image line.
+    """
+    if isinstance(segments, np.ndarray) and segments.dtype != object:
+        rows = list(segments.reshape(-1, 4)) if segments.ndim == 1 else list(segments)
+    else:
+        rows = [np.asarray(r, float).reshape(-1) for r in segments]  # type: ignore[union-attr]
+    polys = []
+    for k, r in enumerate(rows):
+        r = np.asarray(r, float).reshape(-1)
+        if r.size < 4 or r.size % 2:
+            raise CalibrationError(
+                photo, f"axis {axis}, segment {k}: expected [u1, v1, u2, v2, ...] (two points or more, "
+                f"pixels), got {r.size} number{'s' if r.size != 1 else ''}")
+        polys.append(r.reshape(-1, 2))
+    check_segments(end_segments(polys), axis, photo)
+    for k, p in enumerate(polys):
+        if not np.all(np.isfinite(p)):
+            raise CalibrationError(photo, f"axis {axis}: segment {k} has a coordinate that is not a number")
+    return polys
+
+
+def end_segments(polylines: list[Array]) -> Array:
+    """(n, 4) first and last points u1, v1, un, vn of each polyline."""
+    if not polylines:
+        return np.zeros((0, 4))
+    return np.array([np.r_[p[0], p[-1]] for p in polylines], float).reshape(-1, 4)
 
 
 def check_segments(segments: ArrayLike, axis: str, photo: str) -> Array:

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from ..project.units import METRES, LengthUnit, record_unit
+
 
 def _pm(vs: dict[str, Any], fmt: str, scale: float = 1.0) -> str:
     """'value ± sigma' of a {"value", "sigma"} object; '?' where σ is undetermined."""
@@ -17,16 +19,21 @@ def _pm(vs: dict[str, Any], fmt: str, scale: float = 1.0) -> str:
 
 def calibration_table(result: dict[str, Any]) -> str:
     """Per photo: mode, f, principal point, yaw/pitch/roll, position, their 1σ, and residuals."""
-    lines = [f"calibration ({result['software']}); origin marker '{result['origin_marker']}'; "
-             "values ± 1σ", ""]
+    origin = result.get("origin") or f"marker '{result['origin_marker']}'"
+    unit = record_unit(result)
+    units = "; lengths are RELATIVE (no scale given: the camera's height is 1)" if unit.relative else ""
+    lines = [f"calibration ({result['software']}); origin {origin}{units}; values ± 1σ", ""]
     for pid, cam in result["cameras"].items():
         lines += [
             f"photo {pid}: mode {cam['mode']} — {cam['mode_reason']}",
             f"  focal length     {_pm(cam['focal_px'], '.1f')} px   (from {cam['focal_source']})",
             f"  principal point  {_pm(cam['principal_point'], '.1f')} px",
             f"  yaw/pitch/roll   {_pm(cam['ypr_deg'], '.3f')} °",
-            f"  position         {_pm(cam['position'], '.3f')} m",
+            f"  position         {_pm(cam['position'], '.3f')} "
+            + ("(relative units)" if record_unit(cam.get("placement") or {}).relative or unit.relative else "m"),
         ]
+        if cam.get("placement", {}).get("how") == "alone":
+            lines.append(f"  placed alone     scale from {cam['placement']['scale']}")
         vp = "  ".join(f"{a}: {v['rms_px']:.2f} px ({len(v['residuals_px'])} segments)"
                        for a, v in cam["vanishing_points"].items())
         if vp:
@@ -41,11 +48,17 @@ def calibration_table(result: dict[str, Any]) -> str:
             lines.append(f"  EXIF check       EXIF says f = {c['exif_focal_px']:.1f} px "
                          f"({100 * c['difference_rel']:+.2f} % from the estimate)")
         lines.append("")
-    lines.append("markers (m):")
+    lines.append("markers (relative units: the camera height is 1):" if unit.relative else "markers (m):")
     for n, m in result["markers"].items():
         sig = ", ".join("?" if s is None else f"{s:.3f}" for s in m["sigma"])
         lines.append(f"  {n:<12} ({', '.join(f'{x:.3f}' for x in m['position'])}) ± ({sig})")
-    if result["reference_distances"]:
+    if result["reference_distances"] and unit.relative:
+        lines += ["", "reference distances (known in m; measured in relative units: the camera height is 1, so not "
+                  "compared):"]
+        for d in result["reference_distances"]:
+            lines.append(f"  {d['a']}–{d['b']:<10} {d['role']:<6} known {d['distance']:.3f} ± {d['sigma']:.3f} m   "
+                         f"measured {d['measured']:.3f} ± {d['measured_sigma']:.3f} (relative units)")
+    elif result["reference_distances"]:
         lines += ["", "reference distances (m):"]
         for d in result["reference_distances"]:
             lines.append(f"  {d['a']}–{d['b']:<10} {d['role']:<6} known {d['distance']:.3f} ± {d['sigma']:.3f}   "
@@ -58,12 +71,15 @@ def calibration_table(result: dict[str, Any]) -> str:
 
 def model_table(result: dict[str, Any]) -> str:
     """Per node: its joint's degrees of freedom and its dimensions, ± 1σ, then the residuals."""
-    lines = [f"model ({result['software']}{', re-calibrated' if result['recalibrated'] else ''}); values ± 1σ", ""]
+    unit = record_unit(result)
+    lines = [f"model ({result['software']}{', re-calibrated' if result['recalibrated'] else ''}); values ± 1σ"
+             + ("; lengths are RELATIVE (no scale given: the camera's height is 1)" if unit.relative else ""), ""]
+    m = "(relative units)" if unit.relative else "m"
     for name, node in result["nodes"].items():
         dofs = ", ".join(f"{k} {_pm(v, '.3f')}" for k, v in node["dofs"].items())
         lines.append(f"{name}  [{node['joint']}{': ' + dofs if dofs else ''}]")
         if node["params"]:
-            dims = ", ".join(f"{k} {v['value']:.4f} m (held)" if v["sigma"] == 0 else f"{k} {_pm(v, '.4f')} m"
+            dims = ", ".join(f"{k} {v['value']:.4f} {m} (held)" if v["sigma"] == 0 else f"{k} {_pm(v, '.4f')} {m}"
                              for k, v in node["params"].items())
             lines.append(f"    {dims}")
     res = [(p["photo"], p["node"], p["handle"], (p["residual_px"][0] ** 2 + p["residual_px"][1] ** 2) ** 0.5)
@@ -79,9 +95,10 @@ def model_table(result: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def texture_table(record: dict[str, Any]) -> str:
-    """The faces' coverage and the photos' gains of a ``textures`` record."""
-    lines = [f"{'face':<28} {'texels':>11} {'t/m':>6} {'seen':>6}  photos"]
+def texture_table(record: dict[str, Any], unit: LengthUnit = METRES) -> str:
+    """The faces' coverage and the photos' gains of a ``textures`` record; texels per metre, or per
+    relative unit (``unit``: the project's, :mod:`vebuild.project.units`)."""
+    lines = [f"{'face':<28} {'texels':>11} {'t/' + unit.symbol:>6} {'seen':>6}  photos"]
     for f in record["faces"]:
         w, h = f["rect"][2:]
         lines.append(f"{f['node'] + '.' + f['face']:<28} {f'{w}×{h}':>11} {f['texels_per_metre'][0]:>6.0f} "
@@ -95,4 +112,6 @@ def texture_table(record: dict[str, Any]) -> str:
     lines += [f"atlas page {k}: {p['width']}×{p['height']}  {p['atlas']}  (coverage: {p['coverage']})"
               for k, p in enumerate(record["pages"])]
     lines += [f"warning: {w}" for w in record.get("warnings", [])]
+    if unit.relative:
+        lines.append(f"texels per relative unit (t/rel.): {unit.note}")
     return "\n".join(lines)

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -33,13 +33,15 @@ class VanishingState:
     point : (3,) homogeneous pixel coordinates (w = 0 at infinity), or None.
     residuals_px : (n,) each segment's residual, or None.
     problem : why there is no vanishing point yet, or None.
+    polylines : each segment's points, (m, 2) (m = 2 for a plain segment, more for a polyline).
     """
 
     axis: str
-    segments: Array
+    segments: Array  # (n, 4): each segment's first and last points (a polyline's end points)
     point: Array | None = None
     residuals_px: Array | None = None
     problem: str | None = None
+    polylines: list[Array] = field(default_factory=list)
 
 
 class Marks(History):
@@ -58,7 +60,12 @@ class Marks(History):
 
     def add_segment(self, photo: str, axis: str, p1: Sequence[float], p2: Sequence[float]) -> int:
         """Add a directed segment (p1 toward +axis at p2); EditError for one shorter than 2 px."""
-        seg = [float(p1[0]), float(p1[1]), float(p2[0]), float(p2[1])]
+        return self.add_polyline(photo, axis, [p1, p2])
+
+    def add_polyline(self, photo: str, axis: str, points: Sequence[Sequence[float]]) -> int:
+        """Add a directed polyline along one straight edge (first point toward +axis at the last):
+        its middle points let the calibration measure the lens distortion."""
+        seg = [float(v) for p in points for v in (p[0], p[1])]
         self._check_segment(seg, axis)
         with self._edit(f"add {axis} segment in {photo}"):
             segs = self._segments(photo, axis)
@@ -66,16 +73,22 @@ class Marks(History):
         return len(segs) - 1
 
     def _check_segment(self, seg: Sequence[float], axis: str) -> None:
+        if len(seg) < 4 or len(seg) % 2:
+            raise EditError(f"a vanishing segment is two points or more (u, v), not {len(seg)} numbers")
         if not all(math.isfinite(v) for v in seg):
             raise EditError("a segment's end point is not a number")
-        length = math.hypot(seg[2] - seg[0], seg[3] - seg[1])
+        length = math.hypot(seg[-2] - seg[0], seg[-1] - seg[1])
         if length < MIN_SEGMENT_LENGTH_PX:
             raise EditError(f"that {axis} segment is {length:.1f} px long: a vanishing segment needs two distinct "
                             f"end points at least {MIN_SEGMENT_LENGTH_PX:g} px apart along an edge; press, drag "
                             "along the edge, release")
 
     def move_segment(self, photo: str, axis: str, index: int, seg: Sequence[float]) -> None:
+        """Replace a segment; four numbers given for a polyline move its end points, keeping its middle ones."""
         seg = [float(v) for v in seg]
+        old = self._segments(photo, axis)[index]
+        if len(old) > 4 and len(seg) == 4:
+            seg = [*seg[:2], *old[2:-2], *seg[2:]]
         self._check_segment(seg, axis)
         with self._edit(f"move {axis} segment {index} in {photo}"):
             self._segments(photo, axis)[index] = seg
@@ -93,7 +106,7 @@ class Marks(History):
         q = np.asarray(uv, float)
         for axis, segs in (self.photo(photo).get("vanishing_segments") or {}).items():
             for i, s in enumerate(segs):
-                a, b = np.asarray(s[:2]), np.asarray(s[2:])
+                a, b = np.asarray(s[:2]), np.asarray(s[-2:])
                 for end, p in ((0, a), (1, b)):
                     d = float(np.linalg.norm(q - p))
                     if d <= radius_px and (best is None or d < best[0] - 1e-9 or best[2] is None):
@@ -111,8 +124,9 @@ class Marks(History):
             from vebuild.calibration.vanishing import fit_vanishing_point
 
             p = self.photo(photo)
-            segs = np.asarray((p.get("vanishing_segments") or {}).get(axis, []), float).reshape(-1, 4)
-            state = VanishingState(axis, segs)
+            polys = [np.asarray(r, float).reshape(-1, 2) for r in (p.get("vanishing_segments") or {}).get(axis, [])]
+            segs = np.array([np.r_[q[0], q[-1]] for q in polys], float).reshape(-1, 4)
+            state = VanishingState(axis, segs, polylines=polys)
             if len(segs) < 2:
                 state.problem = (f"{axis}: {len(segs)} segment{'s' if len(segs) != 1 else ''}; a vanishing point needs "
                                  "two or more, along different parallel edges")

@@ -3,6 +3,11 @@
 vanishing points, the calibrated camera's horizon and world axes, markers, the model's projected
 edges (white), the user's edges (red), handles (filled where fixed) and observation residuals.
 
+Everything projected is drawn through the photo's lens (the camera's k1): a straight line of the
+world (a model edge, an axis, the horizon) is a curve in a distorted photo, drawn as consecutive
+lines with the same kind and key, within :data:`vebuild.model.drag.CURVE_TOL_PX` of the true
+curve.
+
 Plain data, no GL: :meth:`vebuild.edit.session.EditSession.overlay` computes it, the screen maps it
 to the window and draws it, tests read it.
 """
@@ -15,7 +20,8 @@ from typing import Any
 
 import numpy as np
 
-from vebuild.camera import project, world_to_camera
+from vebuild.camera import project, undistort_pixels, world_to_camera
+from vebuild.model.drag import lens_polyline
 
 RGBA = tuple[float, float, float, float]
 
@@ -33,7 +39,8 @@ GREY: RGBA = (0.7, 0.7, 0.7, 0.8)
 @dataclass
 class Line:
     """A segment from (u1, v1) to (u2, v2), pixels of the photo. ``kind`` says what it is:
-    ``segment`` (a vanishing segment; ``key`` = (axis, index)), ``vp-ray`` (midpoint to vanishing
+    ``segment`` (a vanishing segment; ``key`` = (axis, index)), ``segment-path`` (a polyline
+    segment's path through its middle points), ``vp-ray`` (midpoint to vanishing
     point), ``horizon``, ``axis`` (world axis from the origin), ``edge`` (a projected model edge;
     ``key`` = (node, edge)), ``user-edge`` (an edge observation; ``key`` = index), ``residual``."""
 
@@ -98,6 +105,7 @@ def vanishing_rays(ov: Overlay, vs: Any, width: float, height: float) -> None:
     v = vs.point
     colour = AXIS_COLOURS[vs.axis]
     faint = (*colour[:3], 0.45)
+    polyline_points(ov, vs)
     reach = 3.0 * math.hypot(width, height)
     for s in vs.segments:
         m = 0.5 * (s[:2] + s[2:])
@@ -116,22 +124,60 @@ def vanishing_rays(ov: Overlay, vs: Any, width: float, height: float) -> None:
                                    vs.axis, f"VP {vs.axis}  rms {np.sqrt(np.mean(vs.residuals_px ** 2)):.2f} px"))
 
 
+def curve_lines(ov: Overlay, K: Any, k1: float, a: Any, b: Any, colour: RGBA, width: float, kind: str,
+                key: object = None, label: str | None = None, arrow: bool = False) -> None:
+    """The straight segment a–b of the pinhole image, drawn through the lens k1: one line for a
+    pinhole, else the pieces of :func:`~vebuild.model.drag.lens_polyline`, the label and arrow on
+    the last."""
+    q = lens_polyline(K, k1, a, b)
+    for i in range(len(q) - 1):
+        last = i == len(q) - 2
+        ov.lines.append(Line((float(q[i, 0]), float(q[i, 1]), float(q[i + 1, 0]), float(q[i + 1, 1])), colour,
+                             width, kind, key, label if last else None, arrow and last))
+
+
+#: Points along each side of the photo whose undistorted places bound the pinhole image it shows.
+RIM_SAMPLES = 33
+
+
+def polyline_points(ov: Overlay, vs: Any) -> None:
+    """A polyline segment's path through its middle points (thin, kind ``segment-path``, key (axis,
+    index)) and those points (kind ``segment-point``): how the clicked edge bends in the photo."""
+    colour = AXIS_COLOURS[vs.axis]
+    for i, q in enumerate(getattr(vs, "polylines", [])):
+        if len(q) <= 2:
+            continue
+        for a, b in zip(q[:-1], q[1:], strict=True):
+            ov.lines.append(Line((float(a[0]), float(a[1]), float(b[0]), float(b[1])), colour, 1.0, "segment-path",
+                                 (vs.axis, i)))
+        for m in q[1:-1]:
+            ov.points.append(Point((float(m[0]), float(m[1])), colour, 3.0, True, "segment-point", (vs.axis, i)))
+
+
 def horizon_and_axes(ov: Overlay, cam: Any, width: float, height: float) -> None:
     """The calibrated camera's horizon (the image of the horizontal planes' line at infinity) and
-    the world axes, 1 m long from the origin."""
+    the world axes, 1 m long from the origin, through the camera's lens (its ``k1``, 0 if none)."""
+    k1 = float(getattr(cam, "k1", 0.0))
     horizon = np.linalg.inv(cam.K).T @ cam.R[:, 2]
-    seg = _clip_line(horizon, width, height)
+    # The horizon is straight in the pinhole image: clip it there, to the box of what the photo
+    # shows (the photo's rim undistorted), then bend it through the lens.
+    s = np.linspace(0.0, 1.0, RIM_SAMPLES)[:, None]
+    rim = np.concatenate([s * [width, 0.0], [width, 0.0] + s * [0.0, height], s * [width, 0.0] + [0.0, height],
+                          s * [0.0, height]])
+    und = undistort_pixels(cam.K, rim, k1)
+    lo, hi = und.min(axis=0), und.max(axis=0)
+    seg = _clip_line(horizon + np.r_[0.0, 0.0, horizon[:2] @ lo], *(hi - lo))  # shifted by lo
     if seg is not None:
-        ov.lines.append(Line(seg, CYAN, 1.0, "horizon", None, "horizon"))
+        curve_lines(ov, cam.K, k1, np.add(seg[:2], lo), np.add(seg[2:], lo), CYAN, 1.0, "horizon", None, "horizon")
     origin = np.zeros(3)
     if world_to_camera(cam.R, cam.C, origin)[2] <= 0:
         return
-    o = project(cam.K, cam.R, cam.C, origin)
+    o = project(cam.K, cam.R, cam.C, origin)  # pinhole ends of the axes; drawn through the lens
     for k, axis in enumerate("xyz"):
         E = np.eye(3)[k]
         if world_to_camera(cam.R, cam.C, E)[2] <= 0:
             continue
         e = project(cam.K, cam.R, cam.C, E)
-        ov.lines.append(Line((float(o[0]), float(o[1]), float(e[0]), float(e[1])), AXIS_COLOURS[axis], 3.0, "axis",
-                             axis, f"+{axis} 1 m", arrow=True))
-    ov.points.append(Point((float(o[0]), float(o[1])), WHITE, 4.0, True, "origin", None, "origin"))
+        curve_lines(ov, cam.K, k1, o, e, AXIS_COLOURS[axis], 3.0, "axis", axis, f"+{axis} 1 m", arrow=True)
+    od = project(cam.K, cam.R, cam.C, origin, k1)
+    ov.points.append(Point((float(od[0]), float(od[1])), WHITE, 4.0, True, "origin", None, "origin"))

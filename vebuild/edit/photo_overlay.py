@@ -2,7 +2,9 @@
 photo pixels): segments with their residuals (outliers beyond :data:`vebuild.constants.OUTLIER_SIGMAS`
 click σ, the solver's threshold), vanishing rays, the horizon and axes, markers, the model's
 projected edges and handles, the user's edges and the solved residuals; cached per revision, and
-split during a drag into what stays put and what moves."""
+split during a drag into what stays put and what moves. Whatever is projected goes through the
+photo's lens (its camera's k1): markers and handles where the lens puts them, each model edge as
+the curve it makes in the photo (:func:`vebuild.model.drag.project_edge_curves`)."""
 
 from __future__ import annotations
 
@@ -13,7 +15,7 @@ import numpy as np
 from vebuild import camera as cam_math
 from vebuild.camera import ImageCamera
 from vebuild.constants import OUTLIER_SIGMAS
-from vebuild.model.drag import project_edges
+from vebuild.model.drag import project_edge_curves
 
 from .marks import AXES
 from .modelling import Modelling
@@ -104,7 +106,7 @@ class SessionOverlays(Modelling):
             if cam is not None and name in placed:
                 X = placed[name]
                 if cam_math.world_to_camera(cam.R, cam.C, X)[2] > 0:
-                    q = cam_math.project(cam.K, cam.R, cam.C, X)
+                    q = cam_math.project(cam.K, cam.R, cam.C, X, cam.k1)
                     ov.points.append(Point((float(q[0]), float(q[1])), GREY, 2.5, True, "marker-projected", name))
                     ov.lines.append(Line((float(uv[0]), float(uv[1]), float(q[0]), float(q[1])), MAGENTA, 1.0,
                                          "residual", ("marker", name)))
@@ -127,11 +129,12 @@ class SessionOverlays(Modelling):
         if model is None:
             return
         names = [n for n in nodes if model.node(n).primitive is not None]
-        for node, edges in project_edges(model, cam, names, x, self._transforms()).items():
+        for node, edges in project_edge_curves(model, cam, names, x, self._transforms()).items():
             colour = YELLOW if node == selected else WHITE
-            for e, uv4 in edges:
-                ov.lines.append(Line(_ends(uv4), colour, 2.0 if node == selected else 1.5, "edge",
-                                     (node, e)))
+            for e, q in edges:  # a curve through a distorting lens: its pieces share the key
+                for i in range(len(q) - 1):
+                    ov.lines.append(Line(_ends((*q[i], *q[i + 1])), colour, 2.0 if node == selected else 1.5,
+                                         "edge", (node, e)))
         for n, h, uv, fixed in self.handles(photo, names):
             ov.points.append(Point(uv, RED if fixed else (YELLOW if n == selected else WHITE),
                                    5.0 if fixed or n == selected else 3.0, fixed or n == selected,

@@ -8,12 +8,14 @@ offset into the vector or decides from a name whether a parameter is an angle.
 
 Camera block: with intrinsics, (δf, δcx, δcy) in pixels; then a small turn ω (radians, left-
 multiplied: R' = exp([ω]×) R) and the centre C (metres), in the order of the calibration's
-(9, 9) covariance over (f, cx, cy, ω, C). Marker block: the position (metres).
+(9, 9) covariance over (f, cx, cy, ω, C); last, where the photo's lens distortion is refined, its
+k1 (the division model of vebuild/camera.py, dimensionless), held by its own prior (the k1 and 1σ
+of the calibration's ``distortion`` record). Marker block: the position (metres).
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -22,10 +24,12 @@ from numpy.typing import NDArray
 Array = NDArray[np.float64]
 
 #: The unit of each kind of parameter in the solver (radians for angles: DESIGN.md).
-UNITS = {"position": "m", "angle": "rad", "size": "m", "pixel": "px"}
+UNITS = {"position": "m", "angle": "rad", "size": "m", "pixel": "px", "coefficient": "1"}
 #: A calibrated camera's parameters in the order of its (9, 9) covariance.
 CAMERA_PARAMS = ("f", "cx", "cy", "wx", "wy", "wz", "x", "y", "z")
 CAMERA_KINDS = ("pixel",) * 3 + ("angle",) * 3 + ("position",) * 3
+#: A camera's lens distortion, after its calibration parameters where it is refined.
+DISTORTION_PARAM, DISTORTION_KIND = "k1", "coefficient"
 #: How a block is held besides by the observations: ``pull`` toward its value before the solve
 #: (the model: PRIOR_SIGMA by kind), ``calibration`` by the camera's calibration covariance,
 #: ``none`` (a marker: its sightings and distances alone place it).
@@ -45,6 +49,8 @@ class Block:
     prior: str
     #: A camera block's parameters' places in CAMERA_PARAMS (its calibration covariance's rows).
     calibration_index: tuple[int, ...] = ()
+    #: A camera block whose last parameter is the lens distortion k1.
+    distortion: bool = False
 
     def __len__(self) -> int:
         return len(self.names)
@@ -68,12 +74,17 @@ class Block:
     @property
     def intrinsics(self) -> bool:
         """A camera block with (δf, δcx, δcy) ahead of its pose."""
-        return self.what == "camera" and len(self.names) == 9
+        return self.what == "camera" and len(self.calibration_index) == 9
 
     @property
     def pose_start(self) -> int:
         """Where a camera block's turn ω begins (its centre follows at + 3)."""
         return self.start + (3 if self.intrinsics else 0)
+
+    @property
+    def k1_index(self) -> int | None:
+        """Where a camera block's lens distortion k1 is (None where it is not refined)."""
+        return self.stop - 1 if self.distortion else None
 
     def file_names(self) -> list[str]:
         """The names in the project file's units: an angle's name gains ``_deg``."""
@@ -86,10 +97,11 @@ class Block:
 
 class ParameterLayout:
     """The blocks of one solve, in vector order: the model, each camera (when re-calibrating),
-    each free marker."""
+    each free marker. ``distortion``: the cameras (of ``cameras``) whose lens distortion k1 is
+    refined too."""
 
     def __init__(self, model_names: Sequence[str], model_kinds: Sequence[str], cameras: Sequence[str] = (),
-                 intrinsics: bool = False, markers: Sequence[str] = ()) -> None:
+                 intrinsics: bool = False, markers: Sequence[str] = (), distortion: Collection[str] = ()) -> None:
         if len(model_names) != len(model_kinds):
             raise ValueError(f"{len(model_names)} model parameter names for {len(model_kinds)} kinds")
         self.model = Block("model", "", 0, tuple(model_names), tuple(model_kinds), "pull")
@@ -98,9 +110,11 @@ class ParameterLayout:
         index = tuple(CAMERA_PARAMS.index(p) for p in params)
         self.cameras: dict[str, Block] = {}
         for cid in cameras:
-            self.cameras[cid] = Block("camera", cid, k, tuple(f"camera:{cid}.{p}" for p in params),
-                                      tuple(CAMERA_KINDS[i] for i in index), "calibration", index)
-            k += len(params)
+            lens = cid in distortion
+            names = tuple(f"camera:{cid}.{p}" for p in params) + ((f"camera:{cid}.{DISTORTION_PARAM}",) if lens else ())
+            kinds = tuple(CAMERA_KINDS[i] for i in index) + ((DISTORTION_KIND,) if lens else ())
+            self.cameras[cid] = Block("camera", cid, k, names, kinds, "calibration", index, lens)
+            k += len(names)
         self.markers: dict[str, Block] = {}
         for m in markers:
             self.markers[m] = Block("marker", m, k, tuple(f"marker:{m}.{c}" for c in "xyz"), ("position",) * 3, "none")

@@ -6,7 +6,15 @@ when re-calibrating, marker sightings and reference distances. Residuals are in 
 by the click noise, then the priors: each free model parameter pulled toward its value before
 the solve, each re-calibrated camera held by its calibration covariance.
 
-The Jacobian is analytic for cameras and markers; for a model parameter, the handles it moves are
+Every projection goes through each photo's lens distortion (the division model of
+vebuild/camera.py, :attr:`ImageCamera.k1`): a pin or a marker sighting is compared with the
+distorted projection of its point; an edge observation's clicked points, as the lens put them, are
+undistorted onto the pinhole image, where the model edge is a straight line, and their distance
+from it is converted back to the photo's pixels by the undistortion's local scale across the line
+(so that it is whitened by the same click noise as a pin). When re-calibrating, a photo's k1 may
+be an unknown too, held by its prior (:class:`~vebuild.model.solver.ProblemOptions`).
+
+The Jacobian is analytic for cameras (their k1 included) and markers; for a model parameter, the handles it moves are
 differenced and chained through the analytic projection derivative, column by column, each
 column re-evaluating only the observations that its parameter can move (the node's subtree), so
 its cost grows with the number of observations, not with their square.
@@ -84,6 +92,7 @@ class Residuals:
     owner: list[str]
     prior_sigma: Array
     _prior_L: dict[str, Array]
+    _prior_at: dict[str, Array]  # per re-calibrated camera: the block's values where its prior is 0
     _moving: list[str] | None  # the nodes a free parameter moves; None: all of them
     _T0: dict[str, Array]
     _H0: Array
@@ -119,6 +128,15 @@ class Residuals:
                 K[1, 2] = cam.K[1, 2] + dcy
             o = blk.pose_start
             out[cid] = (K, exp_so3(x[o : o + 3]) @ cam.R, x[o + 3 : o + 6])
+        return out
+
+    def camera_k1(self, x: Array) -> dict[str, float]:
+        """The lens distortion k1 of every photo at x (as calibrated where it is not refined)."""
+        out = {}
+        for cid in self.cam_ids:
+            blk = self.layout.cameras.get(cid)
+            k = None if blk is None else blk.k1_index
+            out[cid] = float(self.cameras[cid].k1) if k is None else float(x[k])
         return out
 
     def marker_positions(self, x: Array) -> dict[str, Array]:
@@ -223,25 +241,44 @@ class Residuals:
             H[o : o + len(hs)] = hs @ T[name][:3, :3].T + T[name][:3, 3]
         return H
 
-    def _camera_arrays(self, x: Array) -> tuple[Array, Array, Array]:
+    def _camera_arrays(self, x: Array) -> tuple[Array, Array, Array, Array]:
         cams = self.camera_matrices(x)
         Ks = np.array([cams[c][0] for c in self.cam_ids]).reshape(-1, 3, 3)
         Rs = np.array([cams[c][1] for c in self.cam_ids]).reshape(-1, 3, 3)
         Cs = np.array([cams[c][2] for c in self.cam_ids]).reshape(-1, 3)
-        return Ks, Rs, Cs
+        k1 = self.camera_k1(x)
+        return Ks, Rs, Cs, np.array([k1[c] for c in self.cam_ids], float)
 
     def _marker_array(self, x: Array) -> Array:
         pos = self.marker_positions(x)
         return np.array([pos[m] for m in self.marker_names], float).reshape(-1, 3)
 
-    def _edge_residuals(self, Xa: Array, Xb: Array, Ks: Array, Rs: Array, Cs: Array, idx: Index) -> Array:
+    def _edge_residuals(self, Xa: Array, Xb: Array, Ks: Array, Rs: Array, Cs: Array, k1s: Array,
+                        idx: Index) -> Array:
+        """Each clicked point's signed distance (in the photo's pixels, whitened) from the model
+        edge's image: the straight line through the edge's ends in the pinhole image, the clicked
+        points undistorted onto it, the distance scaled back by the undistortion's local stretch
+        across the line (first order: exact where the point lies on the edge's curve)."""
         cam = self.edge_cam[idx]
         ha = np.einsum("nij,nj->ni", Ks[cam], np.einsum("nij,nj->ni", Rs[cam], Xa - Cs[cam]))
         hb = np.einsum("nij,nj->ni", Ks[cam], np.einsum("nij,nj->ni", Rs[cam], Xb - Cs[cam]))
         line = np.cross(ha, hb)
         line /= np.hypot(line[:, 0], line[:, 1])[:, None]
-        pts = np.concatenate([self.edge_pts[idx], np.ones((len(idx), 2, 1))], axis=2)
-        return np.einsum("nkj,nj->nk", pts, line) / self.sigma
+        k1 = k1s[cam]
+        if not np.any(k1 != 0.0):
+            pts = np.concatenate([self.edge_pts[idx], np.ones((len(idx), 2, 1))], axis=2)
+            return np.einsum("nkj,nj->nk", pts, line) / self.sigma
+        f, c = Ks[cam, 0, 0][:, None, None], Ks[cam, :2, 2][:, None, :]
+        xd = (self.edge_pts[idx] - c) / f  # (n, 2 points, 2): as the lens put them
+        den = 1.0 + k1[:, None] * np.sum(xd**2, axis=-1)  # x_u = x_d / den
+        pu = xd / den[..., None] * f + c
+        normal = line[:, None, :2]
+        # ∂x_u/∂x_d = (I − 2 k1 x_d x_dᵀ / den) / den (symmetric): a step δ across the curve in the
+        # photo moves the undistorted point by nᵀ J δ across the line.
+        Jn = (normal - 2.0 * k1[:, None, None] * xd * np.sum(xd * normal, axis=-1, keepdims=True)
+              / den[..., None]) / den[..., None]
+        dist = np.sum(pu * normal, axis=-1) + line[:, None, 2]
+        return dist / np.linalg.norm(Jn, axis=-1) / self.sigma
 
     @staticmethod
     def _ends(ends: Index, H: Array, M: Array) -> Array:
@@ -265,20 +302,20 @@ class Residuals:
         """The whitened residual vector."""
         xm = self.model_vector(x)
         T, H = self._posed(xm)
-        Ks, Rs, Cs = self._camera_arrays(x)
+        Ks, Rs, Cs, k1s = self._camera_arrays(x)
         M = self._marker_array(x)
         r = np.zeros(self.m)
         if len(self.pins):
             c = self.pin_cam
-            uv = project_each(Ks[c], Rs[c], Cs[c], H[self.pin_row])
+            uv = project_each(Ks[c], Rs[c], Cs[c], H[self.pin_row], k1s[c])
             r[self.rows_pin.ravel()] = ((uv - self.pin_uv) / self.sigma).ravel()
         if len(self.edges):
             idx = np.arange(len(self.edges))
             r[self.rows_edge.ravel()] = self._edge_residuals(H[self.edge_rows[:, 0]], H[self.edge_rows[:, 1]],
-                                                             Ks, Rs, Cs, idx).ravel()
+                                                             Ks, Rs, Cs, k1s, idx).ravel()
         if len(self.marker_obs):
             c = self.mo_cam
-            uv = project_each(Ks[c], Rs[c], Cs[c], M[self.mo_marker])
+            uv = project_each(Ks[c], Rs[c], Cs[c], M[self.mo_marker], k1s[c])
             r[self.rows_marker.ravel()] = ((uv - self.mo_uv) / self.sigma).ravel()
         if len(self.distances):
             pa = self._ends(self.dist_ends[:, 0], H, M)
@@ -286,9 +323,7 @@ class Residuals:
             r[self.rows_dist] = (np.linalg.norm(pa - pb, axis=1) - self.dist_value) / self.dist_sigma
         r[self.rows_prior_model] = (x[self.layout.model.slice] - self.x_model0[self.free_idx]) / self.prior_sigma
         for cid, blk in self.layout.cameras.items():
-            d = x[blk.slice].copy()
-            d[-3:] -= self.cameras[cid].C
-            r[self.rows_prior_cam[cid]] = self._prior_L[cid] @ d
+            r[self.rows_prior_cam[cid]] = self._prior_L[cid] @ (x[blk.slice] - self._prior_at[cid])
         return r
 
     def residuals(self, x: Array) -> Array:
@@ -299,7 +334,7 @@ class Residuals:
         moves are differenced and chained through the analytic projection derivative."""
         xm = self.model_vector(x)
         T, H = self._posed(xm)
-        Ks, Rs, Cs = self._camera_arrays(x)
+        Ks, Rs, Cs, k1s = self._camera_arrays(x)
         M = self._marker_array(x)
         R_, C_, V_ = [], [], []
         # A drag has a handful of unknowns: a dense matrix is cheaper than sparse bookkeeping.
@@ -316,21 +351,34 @@ class Residuals:
             C_.append(cols)
             V_.append(np.asarray(vals).ravel())
 
-        # d(residual)/d(world point) for pins and marker sightings: A R, A = ∂π/∂x_cam / σ.
-        def proj_parts(cam: Array, X: Array) -> tuple[Array, Array, Array]:
+        # d(residual)/d(world point) for pins and marker sightings: A R, A = ∂u/∂x_cam / σ, through
+        # the lens: u = f s(|p|²) p + c with p = (x/z, y/z) and s the division model's scale
+        # (camera.distortion_scale), so ∂u/∂p = f (s I + 2 s' p pᵀ); also ∂u/∂f = s p and
+        # ∂u/∂k1 = f p ∂s/∂k1.
+        def proj_parts(cam: Array, X: Array) -> tuple[Array, Array, Array, Array, Array]:
             xc = np.einsum("nij,nj->ni", Rs[cam], X - Cs[cam])
             f = Ks[cam, 0, 0]
             z = xc[:, 2]
+            p = xc[:, :2] / z[:, None]
+            k1 = k1s[cam]
+            r2 = np.sum(p**2, axis=1)
+            q = np.sqrt(np.maximum(1.0 - 4.0 * k1 * r2, 1e-12))
+            s = 2.0 / (1.0 + q)
+            g = 4.0 / (q * (1.0 + q) ** 2)  # ∂s/∂(k1 r2)
             A = np.zeros((len(cam), 2, 3))
             A[:, 0, 0] = A[:, 1, 1] = f / z
             A[:, 0, 2] = -f * xc[:, 0] / z**2
             A[:, 1, 2] = -f * xc[:, 1] / z**2
+            if np.any(k1 != 0.0):  # through the lens: ∂u/∂p = f (s I + 2 s' p pᵀ); a pinhole's is f I
+                D = s[:, None, None] * np.eye(2) + (2.0 * g * k1)[:, None, None] * p[:, :, None] * p[:, None, :]
+                A = np.einsum("nij,njk->nik", D, A)
             A /= self.sigma
-            return A, np.einsum("nij,njk->nik", A, Rs[cam]), xc
+            return (A, np.einsum("nij,njk->nik", A, Rs[cam]), xc, s[:, None] * p,
+                    (f * g * r2)[:, None] * p / self.sigma)
 
-        none: tuple[Any, Any, Any] = (None, None, None)  # no such observations
-        A_p, MR_p, xc_p = proj_parts(self.pin_cam, H[self.pin_row]) if len(self.pins) else none
-        A_m, MR_m, xc_m = proj_parts(self.mo_cam, M[self.mo_marker]) if len(self.marker_obs) else none
+        none: tuple[Any, Any, Any, Any, Any] = (None, None, None, None, None)  # no such observations
+        A_p, MR_p, xc_p, pd_p, dk_p = proj_parts(self.pin_cam, H[self.pin_row]) if len(self.pins) else none
+        A_m, MR_m, xc_m, pd_m, dk_m = proj_parts(self.mo_cam, M[self.mo_marker]) if len(self.marker_obs) else none
 
         for j in self.layout.model.indices:
             nodes, hrows = self.moves[j]
@@ -346,8 +394,8 @@ class Residuals:
                 put(self.rows_pin[pin_sel], j, np.einsum("nij,nj->ni", MR_p[pin_sel], dH[self.pin_row[pin_sel]]))
             if len(edge_sel):
                 a, b = self.edge_rows[edge_sel, 0], self.edge_rows[edge_sel, 1]
-                r0 = self._edge_residuals(H[a], H[b], Ks, Rs, Cs, edge_sel)
-                r1 = self._edge_residuals(Hp[a], Hp[b], Ks, Rs, Cs, edge_sel)
+                r0 = self._edge_residuals(H[a], H[b], Ks, Rs, Cs, k1s, edge_sel)
+                r1 = self._edge_residuals(Hp[a], Hp[b], Ks, Rs, Cs, k1s, edge_sel)
                 put(self.rows_edge[edge_sel], j, (r1 - r0) / h)
             if len(dist_sel):
                 e = self.dist_ends[dist_sel]
@@ -363,8 +411,9 @@ class Residuals:
                 o, oc = blk.start, blk.pose_start
                 w = x[oc : oc + 3]
                 Jl = so3_left_jacobian(w)
-                for rows_of, cam_of, A, MR, xc in ((self.rows_pin, self.pin_cam, A_p, MR_p, xc_p),
-                                                   (self.rows_marker, self.mo_cam, A_m, MR_m, xc_m)):
+                for rows_of, cam_of, A, MR, xc, pd, dk in (
+                        (self.rows_pin, self.pin_cam, A_p, MR_p, xc_p, pd_p, dk_p),
+                        (self.rows_marker, self.mo_cam, A_m, MR_m, xc_m, pd_m, dk_m)):
                     if A is None:
                         continue
                     sel = np.flatnonzero(cam_of == k)
@@ -375,19 +424,22 @@ class Residuals:
                     for c in range(3):
                         put(rows, oc + c, dw[:, :, c])
                         put(rows, oc + 3 + c, -MR[sel][:, :, c])
-                    if blk.intrinsics:  # u = f x/z + cx, v = f y/z + cy
-                        put(rows, o, xc[sel, :2] / xc[sel, 2:3] / self.sigma)
+                    if blk.intrinsics:  # u = f s p + c
+                        put(rows, o, pd[sel] / self.sigma)
                         put(rows[:, 0], o + 1, np.full(len(sel), 1.0 / self.sigma))
                         put(rows[:, 1], o + 2, np.full(len(sel), 1.0 / self.sigma))
+                    if blk.k1_index is not None:
+                        put(rows, blk.k1_index, dk[sel])
                 sel = np.flatnonzero(self.edge_cam == k)
                 if len(sel):  # few edges: difference them
                     Xa, Xb = H[self.edge_rows[sel, 0]], H[self.edge_rows[sel, 1]]
                     x1 = x.copy()
-                    r0 = self._edge_residuals(Xa, Xb, Ks, Rs, Cs, sel)
+                    r0 = self._edge_residuals(Xa, Xb, Ks, Rs, Cs, k1s, sel)
                     for c in blk.indices:
                         x1[c] += FD_STEP
-                        K1, R1, C1 = self._camera_arrays(x1)
-                        put(self.rows_edge[sel], c, (self._edge_residuals(Xa, Xb, K1, R1, C1, sel) - r0) / FD_STEP)
+                        K1, R1, C1, k11 = self._camera_arrays(x1)
+                        put(self.rows_edge[sel], c,
+                            (self._edge_residuals(Xa, Xb, K1, R1, C1, k11, sel) - r0) / FD_STEP)
                         x1[c] = x[c]
             m_index = {m: i for i, m in enumerate(self.marker_names)}
             for name, mblk in self.layout.markers.items():

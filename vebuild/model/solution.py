@@ -42,6 +42,8 @@ class Solution:
     undetermined: list[str] = field(default_factory=list)
     variance_factor: float = 1.0
     iterations: int = 0
+    #: photo id → 1σ of its lens distortion k1, for the photos whose k1 the solve refined.
+    k1_sigma: dict[str, float] = field(default_factory=dict)
 
 
 @deterministic
@@ -81,19 +83,24 @@ def solution_at(problem: Problem, x: Array, iterations: int = 0) -> Solution:
         res["markers"].append(d)
         if np.linalg.norm(d) / sigma > OUTLIER_SIGMAS:
             outliers.append(f"marker {m.marker} in photo '{m.photo}' ({np.linalg.norm(d):.1f} px)")
-    cams = {}
+    cams, k1_sigma = {}, {}
+    k1 = problem.camera_k1(x)
     for cid, (K, R, C) in problem.camera_matrices(x).items():
         old = problem.cameras[cid]
         cov_c = old.covariance
         blk = layout.cameras.get(cid)
         if blk is not None:
             cov_c = np.zeros((9, 9)) if old.covariance is None else np.asarray(old.covariance, float).copy()
-            cov_c[np.ix_(blk.calibration_index, blk.calibration_index)] = cov[blk.slice, blk.slice]
-        cams[cid] = ImageCamera(cid, K, R, np.asarray(C, float).copy(), old.width, old.height, covariance=cov_c)
+            cal = slice(blk.start, blk.start + len(blk.calibration_index))
+            cov_c[np.ix_(blk.calibration_index, blk.calibration_index)] = cov[cal, cal]
+            if blk.k1_index is not None:
+                k1_sigma[cid] = float(np.sqrt(max(cov[blk.k1_index, blk.k1_index], 0.0)))
+        cams[cid] = ImageCamera(cid, K, R, np.asarray(C, float).copy(), old.width, old.height, covariance=cov_c,
+                                k1=k1[cid])
     markers = problem.marker_positions(x)
     mcov = {k: cov[blk.slice, blk.slice] for k, blk in layout.markers.items()}
     return Solution(x, list(layout.model.names), cov, cams, {k: np.asarray(v).copy() for k, v in markers.items()},
-                    mcov, res, outliers, undetermined, s2, iterations)
+                    mcov, res, outliers, undetermined, s2, iterations, k1_sigma)
 
 
 def _inverse(A: Array | sparse.spmatrix) -> Array:

@@ -2,8 +2,10 @@
 
 The unknowns are the joints' degrees of freedom and the primitives' parameters of the nodes being
 solved; with ``recalibrate`` also every camera's rotation and position (and focal length and
-principal point if asked) and every free marker's position, each camera held by a prior equal to
-its calibration and covariance, as in :mod:`vebuild.calibration.positions`. Their layout in the
+principal point if asked, and, with them, the lens distortion k1 of each photo whose calibration
+gives k1 a finite 1σ) and every free marker's position, each camera held by a prior equal to its
+calibration and covariance, as in :mod:`vebuild.calibration.positions`, its k1 by its own prior.
+Every projection goes through each photo's lens (:attr:`~vebuild.camera.ImageCamera.k1`). Their layout in the
 vector is a :class:`~vebuild.model.layout.ParameterLayout`; the residuals and their Jacobian are
 in :mod:`.residuals`, the iteration in :mod:`.lm`, what a solve found in :mod:`.solution`.
 
@@ -54,6 +56,10 @@ class ProblemOptions:
     held : ``node.param`` names held at their values besides the nodes' own ``hold``.
     recalibrate : solve the cameras (and the free markers) too (paper §3.2).
     refine_intrinsics : with ``recalibrate``, each camera's f and principal point as well.
+    k1_sigma : with ``recalibrate`` and ``refine_intrinsics``, photo id → the 1σ of its lens
+        distortion's prior (the calibration record's ``distortion.k1.sigma``): that photo's k1 is
+        refined, held by a Gaussian prior at its calibrated value with this 1σ. A photo absent, or
+        with a 1σ of 0 or not finite, keeps its k1 as calibrated.
     """
 
     click_sigma_px: float = 1.0
@@ -62,12 +68,21 @@ class ProblemOptions:
     held: Collection[str] = ()
     recalibrate: bool = False
     refine_intrinsics: bool = False
+    k1_sigma: Mapping[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         for name in ("click_sigma_px", "prior_scale"):
             v = getattr(self, name)
             if not (np.isfinite(v) and v > 0):
                 raise ValueError(f"{name} must be a finite number > 0, got {v!r}")
+        for photo, v in self.k1_sigma.items():
+            if not v >= 0:
+                raise ValueError(f"photo '{photo}': the 1σ of k1 must be ≥ 0, got {v!r}")
+
+    def refines_k1(self, photo: str) -> bool:
+        """Whether the solve refines this photo's lens distortion."""
+        v = self.k1_sigma.get(photo, 0.0)
+        return self.recalibrate and self.refine_intrinsics and bool(np.isfinite(v) and v > 0)
 
 
 @dataclass(frozen=True)
@@ -136,21 +151,29 @@ class Problem(Residuals):
         self.distances = list(markers.distances)
         self.layout = ParameterLayout([names[i] for i in self.free_idx], [kinds[i] for i in self.free_idx],
                                       self.cam_ids if self.recalibrate else (),
-                                      self.recalibrate and self.refine_intrinsics, self.free_markers)
+                                      self.recalibrate and self.refine_intrinsics, self.free_markers,
+                                      [c for c in self.cam_ids if options.refines_k1(c)])
         self.names = list(self.layout.model.names)
         self.n_model = len(self.layout.model)
         self.n = self.layout.n
         self.prior_sigma = np.array([PRIOR_SIGMA[k] for k in self.layout.model.kinds]) * options.prior_scale
-        self._prior_L = {}
+        self._prior_L, self._prior_at = {}, {}
         for cid, blk in self.layout.cameras.items():
-            cov = self.cameras[cid].covariance
+            cam = self.cameras[cid]
             keep = list(blk.calibration_index)
-            if cov is None:
-                self._prior_L[cid] = np.zeros((len(keep), len(keep)))
-                continue
-            c = np.asarray(cov, float)[np.ix_(keep, keep)]
-            w, V = np.linalg.eigh(0.5 * (c + c.T))
-            self._prior_L[cid] = (V / np.sqrt(np.maximum(w, 1e-18))).T
+            # Block-diagonal: the calibration's covariance over (f, cx, cy, ω, C), then k1's 1σ.
+            L = np.zeros((len(blk), len(blk)))
+            if cam.covariance is not None:
+                c = np.asarray(cam.covariance, float)[np.ix_(keep, keep)]
+                w, V = np.linalg.eigh(0.5 * (c + c.T))
+                L[: len(keep), : len(keep)] = (V / np.sqrt(np.maximum(w, 1e-18))).T
+            at = np.zeros(len(blk))  # the prior is 0 at the calibration: no turn, no change of K
+            o = blk.pose_start + 3 - blk.start  # the centre C follows the turn ω
+            at[o : o + 3] = cam.C
+            if blk.k1_index is not None:
+                L[-1, -1] = 1.0 / options.k1_sigma[cid]
+                at[-1] = cam.k1
+            self._prior_L[cid], self._prior_at[cid] = L, at
         self._build_dependencies()
         # Only the subtrees of nodes with a free parameter move (during a drag, one object of the
         # scene): every other node's transform and handles are computed once, here.
@@ -167,7 +190,7 @@ class Problem(Residuals):
         x = np.zeros(self.layout.n)
         x[self.layout.model.slice] = self.x_model0[self.free_idx]
         for cid, blk in self.layout.cameras.items():
-            x[blk.pose_start + 3 : blk.stop] = self.cameras[cid].C  # no turn, no change of K
+            x[blk.slice] = self._prior_at[cid]  # as calibrated: no turn, no change of K
         for k, blk in self.layout.markers.items():
             x[blk.slice] = self.markers0[k]
         return x

@@ -8,9 +8,10 @@ Each part of the document is decoded here, once, and checked as it is decoded; e
   by id or position), :func:`view_camera` and :func:`find_view` (the named evidence views);
 - markers: :func:`markers` (the ``{name: position}`` a stage needs), :func:`marker_sigmas`,
   :func:`known_points` (the markers and the solved model's vertices), :func:`sightings` (a photo's
-  marker observations), :func:`reference_distances`;
-- a photo's marks for calibration: :func:`photo_marks` (vanishing segments, given focal length and
-  principal point);
+  marker observations), :func:`reference_distances`, :func:`floor_markers`;
+- a photo's own scale: :func:`photo_camera_height`, :func:`known_lengths`;
+- a photo's marks for calibration: :func:`photo_marks` (vanishing segments or polylines, given focal
+  length and principal point), :func:`vanishing_segments`;
 - the model: :func:`model` (the scene graph, a ``ModelError`` :func:`located`), :func:`load_model`
   (with its pins and edge observations: :func:`pins_of`, :func:`edge_observations_of`),
   :func:`check_reference_handles`;
@@ -34,6 +35,7 @@ from numpy.typing import NDArray
 
 from ..calibration.photo import FocalPrior
 from ..calibration.positions import ReferenceDistance
+from ..calibration.single_photo import CameraHeight, KnownLength
 from ..camera import ImageCamera, fov_to_focal, intrinsic_matrix, look_rotation
 from ..errors import ProjectError, VebuildError
 from ..lighting import (
@@ -229,19 +231,63 @@ def reference_distances(data: Mapping[str, Any]) -> list[ReferenceDistance]:
             for d in data.get("reference_distances", [])]
 
 
+def photo_camera_height(photo: Mapping[str, Any], index: int) -> CameraHeight | None:
+    """A photo's ``camera_height`` (metres above the floor, with its 1σ), or None."""
+    h = photo.get("camera_height")
+    if h is None:
+        return None
+    return CameraHeight(float(h["value"]), float(h["sigma"]), f"$.photos[{index}].camera_height")
+
+
+#: 1σ of a known length that gives none, metres: a tape read to the millimetre, as a reference distance's.
+DEFAULT_LENGTH_SIGMA_M = 0.002
+
+
+def known_lengths(data: Mapping[str, Any], photo: str) -> list[KnownLength]:
+    """``$.known_lengths`` clicked in ``photo``, each with its JSON path for messages."""
+    return [KnownLength(k["axis"], np.asarray(k["ends"], float), float(k["length"]),
+                        float(k.get("sigma", DEFAULT_LENGTH_SIGMA_M)), int(k.get("floor_end", 0)),
+                        f"$.known_lengths[{i}]")
+            for i, k in enumerate(data.get("known_lengths", [])) if k["photo"] == photo]
+
+
+def floor_markers(data: Mapping[str, Any]) -> set[str]:
+    """The markers that lie on the floor (z = 0): those marked ``on_floor``, and the origin marker."""
+    out = {m["name"] for m in data.get("markers", []) if m.get("on_floor")}
+    if data.get("origin_marker"):
+        out.add(data["origin_marker"])
+    return out
+
+
 @dataclass(frozen=True)
 class PhotoMarks:
-    """What calibrating one photo starts from: its directed vanishing segments by axis (each
-    (n, 4): x1, y1, x2, y2), a focal length the user gave, and a principal point the user gave
-    (pixels, with its 1σ)."""
+    """What calibrating one photo starts from: its directed vanishing segments by axis, a focal
+    length the user gave, and a principal point the user gave (pixels, with its 1σ).
 
-    segments: dict[str, Array]
+    segments : axis → an (n, 4) array u1, v1, u2, v2 where every segment has two points (as
+        before polylines), else a list of (2m,) arrays [u1, v1, ..., um, vm] (polylines with
+        middle points); either is what :func:`vebuild.calibration.photo.calibrate_photo` takes.
+    """
+
+    segments: dict[str, Array | list[Array]]
     focal: FocalPrior | None
     principal_point: tuple[Array, float] | None
 
 
+def vanishing_segments(photo: Mapping[str, Any]) -> dict[str, Array | list[Array]]:
+    """A photo's ``vanishing_segments`` by axis (axes without segments left out): an (n, 4) array
+    where all are two-point segments, else a list of flat polylines (:class:`PhotoMarks`)."""
+    out: dict[str, Array | list[Array]] = {}
+    for a, rows in (photo.get("vanishing_segments") or {}).items():
+        if not rows:
+            continue
+        polys = [np.asarray(r, float) for r in rows]
+        out[a] = np.array(polys).reshape(-1, 4) if all(len(p) == 4 for p in polys) else polys
+    return out
+
+
 def photo_marks(photo: Mapping[str, Any]) -> PhotoMarks:
-    segs = {a: np.asarray(s, float) for a, s in (photo.get("vanishing_segments") or {}).items() if s}
+    segs = vanishing_segments(photo)
     focal = None
     if "focal_px" in photo:
         focal = FocalPrior(photo["focal_px"]["value"], photo["focal_px"]["sigma"], "user")

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 from typing import Any
 
+from ..calibration.priors import PRINCIPAL_POINT_SIGMA_REL
 from ..errors import ProjectError
 from ..lighting import AS_PHOTOGRAPHED
 from .images import MAX_IMAGE_PIXELS, open_image, read_exif, sha256_bytes, sha256_file
@@ -44,7 +45,9 @@ __all__ = [  # what other modules take from here; validation and image files hav
 #: Values of ``settings`` that a project does not give (FORMAT.md, "settings").
 DEFAULT_SETTINGS: dict[str, float] = {
     "click_sigma_px": 1.0,
-    "principal_point_sigma_rel": 0.01,
+    # 3 % of the longer side: real cameras' principal points lie a few per cent off centre
+    # (calibration.priors.PRINCIPAL_POINT_SIGMA_REL says what was measured).
+    "principal_point_sigma_rel": PRINCIPAL_POINT_SIGMA_REL,
     "exif_focal_sigma_rel": 0.01,
 }
 #: Top-level keys written by vebuild's stages; they are not input, so the input hash skips them.

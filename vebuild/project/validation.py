@@ -125,9 +125,14 @@ def _check_semantics(data: dict[str, Any], file: Any) -> None:
             _check_on_photo(uv, size, file, f"{where}.marker_observations{_key(name)}")
         for axis, segments in (photo.get("vanishing_segments") or {}).items():
             for k, seg in enumerate(segments):
-                _check_on_photo(seg[:2], size, file, f"{where}.vanishing_segments.{axis}[{k}]")
-                _check_on_photo(seg[2:], size, file, f"{where}.vanishing_segments.{axis}[{k}]")
-                _check_segment_length(seg, file, f"{where}.vanishing_segments.{axis}[{k}]", photo["id"], axis, k)
+                here = f"{where}.vanishing_segments.{axis}[{k}]"
+                if len(seg) % 2:
+                    raise ProjectError(file, here, f"expected a segment or polyline of (u, v) points [u1, v1, u2, "
+                                       f"v2, ...]: an even count of numbers, found {len(seg)}")
+                for j in range(0, len(seg), 2):  # every point of a polyline is on the photo
+                    _check_on_photo(seg[j:j + 2], size, file, here)
+                # The length is that of its end points: a polyline's middle points may bunch.
+                _check_segment_length([*seg[:2], *seg[-2:]], file, here, photo["id"], axis, k)
         if "principal_point" in photo:
             _check_on_photo(photo["principal_point"]["value"], size, file, f"{where}.principal_point.value")
     model = data.get("model") or {}
@@ -152,6 +157,19 @@ def _check_semantics(data: dict[str, Any], file: Any) -> None:
                                f"runs from the marker {ref['a']!r} to itself; expected two different markers")
     if "origin_marker" in data:
         known_marker(data["origin_marker"], "$.origin_marker")
+    for i, kl in enumerate(data.get("known_lengths", [])):
+        where = f"$.known_lengths[{i}]"
+        if kl["photo"] not in sizes:
+            raise ProjectError(file, f"{where}.photo", f"names the photo {kl['photo']!r}, but $.photos has no photo of "
+                               f"that id (the photos are: {listing(list(sizes))})")
+        for k, uv in enumerate(kl["ends"]):
+            _check_on_photo(uv, sizes[kl["photo"]], file, f"{where}.ends[{k}]")
+        from ..calibration.vanishing import MIN_SEGMENT_LENGTH_PX
+        (u1, v1), (u2, v2) = kl["ends"]
+        if math.hypot(u2 - u1, v2 - v1) < MIN_SEGMENT_LENGTH_PX:
+            raise ProjectError(file, f"{where}.ends", f"photo {kl['photo']!r}: the known length's two ends are "
+                               f"{math.hypot(u2 - u1, v2 - v1):.2f} px apart; expected its two ends clicked at least "
+                               f"{MIN_SEGMENT_LENGTH_PX:g} px apart, one at each end of the length")
     unique(model.get("nodes", []), "name", "$.model.nodes", "node name")
     for key in ("pins", "edge_observations"):
         for i, obs in enumerate(model.get(key, [])):

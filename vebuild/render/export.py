@@ -6,6 +6,11 @@ model node (groups too) with its name and its pose relative to its parent, each 
 its own local frame, one mesh primitive per atlas page, the atlas PNGs embedded byte for byte as
 the project records them, unlit materials (``KHR_materials_unlit``: the textures already hold the
 photographed light), and the named views and calibrated photos as perspective cameras.
+glTF cameras are pinholes with the principal point at the centre: each camera's ``extras`` give
+its K and the principal point's offset, and a photo's lens distortion, which glTF cannot express,
+as ``extras.distortion`` (:func:`distortion_extras`: the division model's name and k1, its
+definition, and how far it moves the photo's corners); a viewer that ignores it shows the photo's
+pinhole view, off the photo by up to that displacement.
 
 OBJ has no hierarchy and no cameras: every primitive node becomes one object (``o``/``g``) with its
 vertices in world coordinates, written +Y up as OBJ readers expect (OBJ (x, y, z) = world
@@ -31,7 +36,7 @@ from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
 from vebuild import __version__
-from vebuild.camera import ImageCamera, focal_to_fov
+from vebuild.camera import ImageCamera, distortion_displacement_px, focal_to_fov
 from vebuild.errors import VebuildError
 from vebuild.project import Project, sha256_file
 from vebuild.project.decode import TexturePage, photo_camera, view_camera
@@ -262,7 +267,8 @@ def gltf_document(contents: _Contents) -> tuple[dict[str, Any], bytes]:
         "scene": 0,
         "scenes": [{"name": str(project.data.get("name") or project.path.name), "nodes": [0]}],
         "nodes": [{"name": ROOT_NAME, "rotation": ROOT_QUATERNION, "children": [],
-                   "extras": {"note": "turns vebuild's world (right-handed, metres, +Z up) into glTF's +Y up"}}],
+                   "extras": {"note": f"turns vebuild's world (right-handed, {_units(project)}, +Z up) into glTF's "
+                                      "+Y up"}}],
     }
     materials: list[dict[str, Any]] = []
     page_material: dict[int, int] = {}
@@ -333,8 +339,10 @@ def gltf_document(contents: _Contents) -> tuple[dict[str, Any], bytes]:
         f = float(cam.K[1, 1])
         # glTF cameras have no principal point: record K and its offset from the image centre.
         offset = [float(cam.K[0, 2] - cam.width / 2), float(cam.K[1, 2] - cam.height / 2)]
-        extras = {"source": kind, "K": np.asarray(cam.K, float).tolist(), "width": int(cam.width),
-                  "height": int(cam.height), "principal_point_offset_px": offset}
+        extras: dict[str, Any] = {"source": kind, "K": np.asarray(cam.K, float).tolist(), "width": int(cam.width),
+                                  "height": int(cam.height), "principal_point_offset_px": offset}
+        if cam.k1 != 0.0:
+            extras["distortion"] = distortion_extras(cam)
         cameras.append({"name": name, "type": "perspective",
                         "perspective": {"yfov": focal_to_fov(f, cam.height),
                                         "aspectRatio": float(cam.width / cam.height), "znear": ZNEAR_M},
@@ -356,9 +364,29 @@ def gltf_document(contents: _Contents) -> tuple[dict[str, Any], bytes]:
     return doc, binary
 
 
+#: How ``extras.distortion`` defines the lens (vebuild/camera.py), for a reader with no vebuild.
+DIVISION_MODEL = ("division model (Fitzgibbon 2001): with x_d = (u - c) / f the normalised coordinate of a pixel u "
+                  "as the lens put it (c the principal point and f the focal length of K, in pixels), the pinhole's "
+                  "is x_u = x_d / (1 + k1 |x_d|^2); k1 < 0 is barrel distortion")
+
+
+def distortion_extras(cam: ImageCamera) -> dict[str, Any]:
+    """A photo camera's lens distortion for its glTF ``extras`` (glTF has no lens model)."""
+    return {"model": "division", "k1": float(cam.k1), "definition": DIVISION_MODEL,
+            "corner_displacement_px": distortion_displacement_px(cam.K, cam.width, cam.height, cam.k1)}
+
+
 def _unit(v: Array) -> Array:
     n = np.linalg.norm(v, axis=1, keepdims=True)
     return np.where(n > 0, v / np.where(n > 0, n, 1.0), v)
+
+
+def _units(project: Project, metres: str = "metres") -> str:
+    """The unit of the exported lengths, in words: metres, or relative units where the project has
+    no scale (:mod:`vebuild.project.units`; glTF's metres are then the camera's height)."""
+    from vebuild.project.units import RELATIVE_UNITS, length_unit
+
+    return RELATIVE_UNITS if length_unit(project.data).relative else metres
 
 
 def _provenance(contents: _Contents) -> dict[str, Any]:
@@ -366,7 +394,7 @@ def _provenance(contents: _Contents) -> dict[str, Any]:
     out: dict[str, Any] = {
         "project": project.path.name,
         "project_sha256": sha256_file(project.path),
-        "units": "metre",
+        "units": _units(project, "metre"),
         "world": "vebuild: right-handed, +Z up; the root node 'vebuild world' rotates it to glTF's +Y up",
         "textured": contents.scene.textured,
     }
@@ -421,7 +449,7 @@ def obj_files(contents: _Contents, path: Path) -> list[tuple[Path, bytes]]:
     mtl = path.with_suffix(".mtl")
     files: list[tuple[Path, bytes]] = []
     head = [f"# vebuild {__version__}: the model of {project.path.name} (SHA-256 {sha256_file(project.path)})",
-            "# Units: metres. Axes: +Y up, right-handed: OBJ (x, y, z) = vebuild world (x, z, -y).",
+            f"# Units: {_units(project)}. Axes: +Y up, right-handed: OBJ (x, y, z) = vebuild world (x, z, -y).",
             "# Blender's default OBJ import (forward -Z, up Y) gives back vebuild's world coordinates (+Z up)."]
     mtl_lines = [head[0], ""]
     face_material: dict[int, str] = {}

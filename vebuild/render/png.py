@@ -1,9 +1,10 @@
 """PNG files with provenance: every image vebuild writes (renders, screenshots, analyses' views
 and maps, the report's images) goes through :func:`write_png`, atomically, with the text chunks of
 :func:`provenance` (:data:`PROVENANCE_KEYS`): the SHA-256 of the project file it was made from, the
-camera (named view or photo, with K, R, C and size), the lighting preset and its lights, the stereo
-settings, the texture pages' hashes and the software version, and no time stamp, so that the same
-project and options give the same file, byte for byte.
+camera (named view or photo, with K, R, C, size and a photo's lens distortion), the lighting preset
+and its lights, the stereo settings, the texture pages' hashes, the unit of lengths (metres, or
+relative units where the project has no scale) and the software version, and no time stamp, so that
+the same project and options give the same file, byte for byte.
 """
 
 from __future__ import annotations
@@ -21,10 +22,11 @@ from vebuild import __version__
 from vebuild.camera import ImageCamera
 from vebuild.errors import VebuildError
 from vebuild.project import Project, sha256_file
+from vebuild.project.units import RELATIVE_UNITS, length_unit
 
 #: Text keys written into every rendered PNG.
 PROVENANCE_KEYS = ("Software", "vebuild:project", "vebuild:project_sha256", "vebuild:camera", "vebuild:lighting",
-                   "vebuild:stereo", "vebuild:textures", "vebuild:options")
+                   "vebuild:stereo", "vebuild:textures", "vebuild:options", "vebuild:lengths")
 
 def check_output(path: Path, suffixes: tuple[str, ...] = (".png",), project: Project | None = None) -> Path:
     """Fail early, before any work, if ``path`` cannot be written as an output file: also where
@@ -77,8 +79,14 @@ def stamp(image: NDArray[np.uint8], text: str) -> NDArray[np.uint8]:
 
 
 def _camera_record(cam: ImageCamera, kind: str) -> dict[str, Any]:
-    return {"kind": kind, "name": cam.id, "width": cam.width, "height": cam.height,
-            "K": np.round(cam.K, 9).tolist(), "R": np.round(cam.R, 12).tolist(), "C": np.round(cam.C, 9).tolist()}
+    """The camera of a render's provenance; a photo's lens distortion (the division model's k1,
+    vebuild/camera.py) where it has one (a pinhole's record is as it always was)."""
+    out: dict[str, Any] = {"kind": kind, "name": cam.id, "width": cam.width, "height": cam.height,
+                           "K": np.round(cam.K, 9).tolist(), "R": np.round(cam.R, 12).tolist(),
+                           "C": np.round(cam.C, 9).tolist()}
+    if cam.k1 != 0.0:
+        out["distortion"] = {"model": "division", "k1": float(np.round(cam.k1, 12))}
+    return out
 
 
 def _lighting_record(project: Project, name: str) -> dict[str, Any]:
@@ -102,4 +110,6 @@ def provenance(project: Project, cam: ImageCamera, kind: str, lighting: str, ste
         "vebuild:stereo": js(stereo),
         "vebuild:textures": js(page_hashes),
         "vebuild:options": js(options),
+        # The unit of the camera's C (and of every length the image shows): metres, or relative.
+        "vebuild:lengths": RELATIVE_UNITS if length_unit(project.data).relative else "metres",
     }

@@ -14,6 +14,14 @@ shared depth atlas for a directional light (orthographic, fitted to the scene) o
 (perspective, its cone), six for a point light (one per cube face). Shadow maps are rendered when
 the scene or the lighting changes, not every frame.
 
+A photo's camera with lens distortion (``ImageCamera.k1`` ≠ 0) is drawn as the lens shows it, so
+that the render lies on the photo: the scene is drawn as the pinhole image over the photo's
+undistorted bounds (:func:`vebuild.texture.lens.pinhole_cover`), then resampled onto the photo's
+pixels through the division model (``shaders/lens.frag``: each pixel undistorted in closed form,
+the pinhole image sampled bilinearly in linear light). Its ID buffer and picks are the lens's too:
+pixel (u, v) of such a camera is where the lens put what it shows. Named views and stereo eyes are
+pinholes, drawn directly.
+
 Stereo (:func:`vebuild.camera.stereo_pair`): parallel eyes with off-axis frusta, composed
 side by side (``sbs``, the left eye left), top and bottom (``tb``, the left eye on top), as a
 red-cyan anaglyph with Dubois's least-squares matrices, or into a window's left and right back
@@ -38,16 +46,18 @@ from vebuild.camera import (
     intrinsic_matrix,
     look_rotation,
     stereo_pair,
+    undistort_pixels,
     view_matrix,
     world_to_camera,
 )
 from vebuild.errors import VebuildError
 from vebuild.gl import load_program
 from vebuild.gl.context import max_texture_size
-from vebuild.gl.shaders import uniform
+from vebuild.gl.shaders import set_uniforms, uniform
 from vebuild.lighting import AS_PHOTOGRAPHED_LIGHTING, MAX_LIGHTS, Light, Lighting
 from vebuild.render.scene import RenderScene
 from vebuild.render.sizes import check_camera, gl_limits
+from vebuild.texture.lens import pinhole_cover
 from vebuild.texture.merge import srgb8_to_linear
 
 Array = NDArray[np.float64]
@@ -111,6 +121,8 @@ class Renderer:
         self._pick_target: moderngl.Framebuffer | None = None
         self.composite = load_program(ctx, "anaglyph", vertex="fullscreen")
         self._fullscreen = ctx.vertex_array(self.composite, [])
+        self.lens_program = load_program(ctx, "lens", vertex="fullscreen")
+        self._lens_fullscreen = ctx.vertex_array(self.lens_program, [])
         self._blank = ctx.texture((1, 1), 3, bytes([255, 255, 255]))
         self._shadow_blank = ctx.depth_texture((1, 1))
         self._shadow_blank.compare_func = "<="
@@ -389,11 +401,37 @@ class Renderer:
         uniform(prog, "anaglyph_right").write(ANAGLYPH_RIGHT.T.astype("f4").tobytes())
         self._fullscreen.render(moderngl.TRIANGLES, vertices=3)
 
+    def _draw_through_lens(self, cam: ImageCamera, target: moderngl.Framebuffer, origin: tuple[int, int],
+                           flip: bool) -> None:
+        """``cam``'s view as its lens shows it (``cam.k1`` ≠ 0): the pinhole cover drawn off-screen,
+        then resampled through the lens into ``target``'s viewport at ``origin``."""
+        cover, corner = pinhole_cover(cam)
+        draw, resolve, image = self._target(cover.width, cover.height, "lens")
+        self._draw_scene(cover, draw, (0, 0), flip=False)
+        if draw is not resolve:
+            self.ctx.copy_framebuffer(resolve, draw)
+        prog = self.lens_program
+        target.use()
+        target.viewport = (origin[0], origin[1], cam.width, cam.height)
+        self.ctx.disable(moderngl.BLEND)
+        image.use(location=0)
+        K = np.asarray(cam.K, float)
+        set_uniforms(prog, pinhole=0, focal=float(K[0, 0]), principal=(float(K[0, 2]), float(K[1, 2])),
+                     k1=float(cam.k1), cover_origin=(float(corner[0]), float(corner[1])),
+                     size=(float(cam.width), float(cam.height)), origin=(float(origin[0]), float(origin[1])),
+                     flip=int(flip))
+        self._lens_fullscreen.render(moderngl.TRIANGLES, vertices=3)
+
     def check_size(self, cam: ImageCamera, stereo: Stereo | None = None) -> tuple[int, int]:
         """The composed image's width and height, if this context can draw it; otherwise a
         VebuildError naming where the size came from (``cam.source``) and what is allowed
-        (:mod:`vebuild.render.sizes`). Every image the renderer allocates passes here first."""
-        return check_camera(cam, stereo.mode if stereo else None, **gl_limits(self.ctx))
+        (:mod:`vebuild.render.sizes`). Every image the renderer allocates passes here first: for
+        a camera with lens distortion, its pinhole cover too (drawn before the lens's resampling)."""
+        limits = gl_limits(self.ctx)
+        size = check_camera(cam, stereo.mode if stereo else None, **limits)
+        if stereo is None and cam.k1 != 0.0:
+            check_camera(pinhole_cover(cam)[0], None, **limits)
+        return size
 
     def output_size(self, cam: ImageCamera, stereo: Stereo | None = None) -> tuple[int, int]:
         """Width and height of the composed image."""
@@ -425,7 +463,9 @@ class Renderer:
         w, h = cam.width, cam.height
         x, y = origin
         mode = stereo.mode if stereo else None
-        if mode is None:
+        if mode is None and cam.k1 != 0.0:
+            self._draw_through_lens(cam, target, origin, flip)
+        elif mode is None:
             self._draw_scene(cam, target, origin, flip)
         elif mode == "anaglyph":
             self._anaglyph(target, origin, eyes[0], eyes[1], flip)
@@ -469,8 +509,25 @@ class Renderer:
 
     def id_buffer(self, cam: ImageCamera) -> tuple[NDArray[np.int32], NDArray[np.float32]]:
         """The ID buffer of ``cam``'s view (the texture-extraction pass, paper Figure 8): per pixel
-        the 1-based global face id seen at its centre (0: nothing) and that face's camera depth."""
+        the 1-based global face id seen at its centre (0: nothing) and that face's camera depth.
+
+        With lens distortion, the pixel centres are where the lens put them: each is undistorted
+        and looked up (nearest pixel) in the ID buffer of the camera's pinhole cover."""
         self.check_size(cam)
+        if cam.k1 == 0.0:
+            return self._pinhole_id_buffer(cam)
+        cover, corner = pinhole_cover(cam)
+        ids, depth = self._pinhole_id_buffer(cover)
+        j, i = np.mgrid[0:cam.height, 0:cam.width]
+        uv = undistort_pixels(cam.K, np.stack([i + 0.5, j + 0.5], axis=-1), cam.k1) - np.array(corner, float)
+        col, row = np.floor(uv[..., 0]).astype(np.intp), np.floor(uv[..., 1]).astype(np.intp)
+        inside = (col >= 0) & (row >= 0) & (col < cover.width) & (row < cover.height)
+        col, row = np.where(inside, col, 0), np.where(inside, row, 0)
+        return np.where(inside, ids[row, col], 0).astype(np.int32), np.where(inside, depth[row, col], 0.0).astype(
+            np.float32)
+
+    def _pinhole_id_buffer(self, cam: ImageCamera) -> tuple[NDArray[np.int32], NDArray[np.float32]]:
+        """:meth:`id_buffer` of a pinhole camera (its lens ignored)."""
         near, far = self._near_far(cam)
         key = (cam.width, cam.height)
         if self._pick_target is None or self._pick_target.size != key:
@@ -506,6 +563,8 @@ class Renderer:
         background."""
         if not (0 <= u < cam.width and 0 <= v < cam.height):
             return None, None
+        if cam.k1 != 0.0:  # where the pinhole of the same K shows what the lens put at (u, v)
+            u, v = (float(t) for t in undistort_pixels(cam.K, np.array([u, v], float), cam.k1))
         near, far = self._near_far(cam)
         K = np.array(cam.K, float)  # (u, v) at the centre of a 1 × 1 image, same near and far planes
         K[0, 2] -= u - 0.5

@@ -24,9 +24,11 @@ if TYPE_CHECKING:
 
 def analyses_html(project: Project, rep: Report, records: list[dict[str, Any]]) -> str:
     from vebuild.analysis.recorded import parse_recorded
+    from vebuild.project.units import RELATIVE_UNITS, length_unit
 
+    lengths = f"in {RELATIVE_UNITS} (no scale was given)" if length_unit(project.data).relative else "in metres"
     parts = ["<p>Each analysis the project records, run again for this report; the command line reproduces it "
-             "(`--json OUT` writes its figures). Lengths in metres; intervals at 95 %.</p>"]
+             f"(`--json OUT` writes its figures). Lengths {lengths}; intervals at 95 %.</p>"]
     (rep.folder / "figures").mkdir(exist_ok=True)
     for i, rec in enumerate(records):
         where = f"$.analyses[{i}]"

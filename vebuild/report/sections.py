@@ -8,6 +8,7 @@ import json
 from typing import Any
 
 from vebuild.project import Project
+from vebuild.project.units import RELATIVE_UNITS, length_unit
 from vebuild.render.sizes import IMAGE_WIDTH, image_size
 
 from .page import Report, esc, fmt, table
@@ -26,6 +27,7 @@ def photos(project: Project, rep: Report) -> None:
 
 def calibration(project: Project, rep: Report) -> None:
     cal = project.data["calibration"]
+    unit = length_unit(project.data)
     rows = []
     for pid, c in cal["cameras"].items():
         rows.append([pid, c.get("mode", ""), f"{c['focal_px']['value']:.1f} ± {c['focal_px']['sigma'] or 0:.1f}",
@@ -36,13 +38,19 @@ def calibration(project: Project, rep: Report) -> None:
                                                                           c["position"]["sigma"], strict=True)),
                      fmt(c.get("rms_px"), 2)])
     body = ("<p>Cameras from vanishing points and markers (paper §2); values ± 1σ.</p>"
+            + (f"<p class='warn'>{esc(unit.note)}.</p>" if unit.relative else "")
             + table(["photo", "mode", "focal px", "principal point px", "yaw / pitch / roll °",
-                     "position x / y / z m", "RMS residual px"], rows))
+                     f"position x / y / z {unit.symbol}", "RMS residual px"], rows))
     dist_rows = [[f"{d['a']} – {d['b']}", d["role"], fmt(d["distance"]), fmt(d.get("measured")),
                   fmt(d.get("measured_sigma")),
                   fmt(None if d.get("measured") is None else d["measured"] - d["distance"])]
                  for d in cal.get("reference_distances", [])]
-    if dist_rows:
+    if dist_rows and unit.relative:
+        body += ("<h3>Reference and check distances</h3><p>Known at the scene in metres, measured here in "
+                 f"{RELATIVE_UNITS}: they are not compared.</p>"
+                 + table(["between", "role", "known m", "measured rel.", "1σ rel."],
+                         [r[:5] for r in dist_rows], {2, 3, 4}))
+    elif dist_rows:
         body += ("<h3>Reference and check distances</h3><p>'scale' distances fix the metric scale; 'check' "
                  "distances are not used by the solve: measured against known, they are the independent accuracy "
                  "check.</p>" + table(["between", "role", "known m", "measured m", "1σ m", "difference m"], dist_rows,
@@ -58,6 +66,7 @@ def model(project: Project, rep: Report) -> None:
     if not sol:
         rep.add("Model", "<p class='warn'>The model has not been solved (`vebuild solve`).</p>")
         return
+    unit = length_unit(project.data)
     rows = []
     for node, rec in sol["nodes"].items():
         for group in ("params", "dofs"):
@@ -67,9 +76,10 @@ def model(project: Project, rep: Report) -> None:
     how = "with" if sol.get("recalibrated") else "without"
     body = (f"<p>Primitives fitted to the pins and edges (paper §3), {how} "
             f"re-calibration of the cameras; RMS residual {fmt(sol.get('rms_px'), 2)} px, variance factor "
-            f"{fmt(sol.get('variance_factor'), 2)}. Lengths in metres, angles in degrees; 1σ and 95 % interval from "
-            "the solve's covariance.</p>" + table(["node", "parameter", "value", "1σ", "95 % interval"], rows,
-                                                  {2, 3}))
+            f"{fmt(sol.get('variance_factor'), 2)}. "
+            + (f"Lengths in {RELATIVE_UNITS} (no scale was given), " if unit.relative else "Lengths in metres, ")
+            + "angles in degrees; 1σ and 95 % interval from the solve's covariance.</p>"
+            + table(["node", "parameter", "value", "1σ", "95 % interval"], rows, {2, 3}))
     outliers = sol.get("outliers") or []
     body += f"<p>Observations flagged as outliers (> 4σ): {len(outliers)}.</p>"
     if outliers:
@@ -107,6 +117,7 @@ def views(project: Project, rep: Report) -> None:
     scene, renderer = _renderer(project)
     rep.warnings += scene.warnings
     markers = project.data.get("evidence_markers", [])
+    unit = length_unit(project.data)
     parts = []
     try:
         for i, (v, cam) in enumerate(zip(views, cams, strict=True)):
@@ -114,14 +125,15 @@ def views(project: Project, rep: Report) -> None:
             img = draw_markers(img, visible_markers(renderer, cam, markers))
             src = rep.image(f"view-{i + 1}.png", img, provenance(project, cam, "view", "as-photographed", None,
                                                                 scene.page_hashes, {"samples": 4}))
-            parts.append(f"<figure><img src='{src}'><figcaption>{esc(v['name'])}: eye at {fmt(v['position'], 2)} m"
+            eye = esc(unit.after(fmt(v["position"], 2)))
+            parts.append(f"<figure><img src='{src}'><figcaption>{esc(v['name'])}: eye at {eye}"
                          f"{', ' + esc(v['description']) if v.get('description') else ''}</figcaption></figure>")
     finally:
         renderer.release()
     body = "".join(parts)
     if markers:
         body += "<h3>Evidence markers</h3>" + table(
-            ["label", "on", "position m", "description"],
+            ["label", "on", f"position {unit.symbol}", "description"],
             [[m["label"], m["node"], fmt(m["position"], 3), m.get("description", "")] for m in markers])
     rep.add("Evidence views", body)
 

@@ -33,6 +33,18 @@ Pass 2, the texels (per photo)
     pyramid, where level k is sampled bilinearly at p / 2^k (texel centres at half-integers,
     coordinates clamped to the level's centres). Its low band l is the same at λ + ``detail_levels``.
 
+Lens distortion (a photo's ``k1``, the division model of :mod:`vebuild.camera`)
+    Pass 1 draws the ID buffer of the photo's pinhole cover (:mod:`vebuild.texture.lens`): the
+    pinhole image of the same K over the photo's undistorted bounds, its pixels the pinhole's
+    pixels of K shifted by a whole ``origin``. In pass 2 the seen test above is made there, at
+    p − origin with the pinhole footprint a, b; then p, a and b are distorted (p_d = c + f·s·x_u,
+    s = 2 / (1 + √(1 − 4 k1 |x_u|²)), x_u = (p − c) / f; a_d = J a, b_d = J b with J the Jacobian
+    s I + (2 k1 s² / √(1 − 4 k1 |x_u|²)) x_u x_uᵀ), the corners p_d ± a_d ± b_d must lie in the
+    photo (as for a pinhole, whose ID buffer ends at the photo's border), and the weight,
+    the level of detail and the colour are those of p_d, a_d, b_d: the photo is sampled once,
+    where the lens recorded the texel. For k1 = 0 the cover is the photo's frame and nothing is
+    distorted.
+
 Merge (over photos)
     With per-photo gain g (exposure compensation, 1 when off), kept views (w ≥ ``drop_ratio`` ×
     the best w any photo has at that texel; all when off) give

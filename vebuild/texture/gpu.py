@@ -23,6 +23,7 @@ from vebuild.gl.shaders import set_uniforms
 from vebuild.texture import BEST_WEIGHT_SCALE, DEPTH_TOLERANCE, pre_pass_erosion
 from vebuild.texture.gpu_pyramid import PhotoPyramid, fullscreen_vao
 from vebuild.texture.layout import SceneMesh
+from vebuild.texture.lens import lens_uniforms, pinhole_cover
 from vebuild.texture.options import Options
 
 Array = NDArray[np.float64]
@@ -190,8 +191,11 @@ class Extractor:
         return depth_range(cam.R, cam.C, self.mesh.vertices)
 
     def id_pass(self, cam: ImageCamera, erode_px: float) -> moderngl.Texture:
-        """Render the ID buffer (face id, depth) of ``cam``; returns its texture."""
+        """Render the ID buffer (face id, depth) of ``cam``; returns its texture. For a photo with
+        lens distortion the buffer is its :func:`~vebuild.texture.lens.pinhole_cover`'s (a pinhole
+        image over the photo's undistorted bounds); for a pinhole, the photo's own frame."""
         ctx = self.ctx
+        cam, _ = pinhole_cover(cam)
         key = (cam.width, cam.height)
         if self._id_tex is None or self._id_tex.size != key:  # one size at a time: photos rarely differ
             self._release_id_target()
@@ -276,7 +280,9 @@ class Extractor:
 
     def _visible_faces(self, cam: ImageCamera) -> set[int]:
         """Faces that may show in ``cam``: some vertex faces it and is in front, and their image
-        bounds meet the image."""
+        bounds meet the image (for a photo with lens distortion, the pinhole image over its
+        undistorted bounds: what the lens shows lies inside it)."""
+        cam, _ = pinhole_cover(cam)
         out = set()
         for fid, (P, N) in self._face_points.items():
             x = world_to_camera(cam.R, cam.C, P)
@@ -323,6 +329,7 @@ class Extractor:
             depth_tolerance=DEPTH_TOLERANCE, id_depth=0, page_size=(float(page_size[0]), float(page_size[1])),
             atlas_scale=float(atlas_scale), detail_levels=float(self.opt.detail_levels),
             sharpness=float(self.opt.detail_sharpness), drop_ratio=float(self.opt.drop_ratio),
+            **lens_uniforms(cam),
         )
         self._photo.bind(prog, values)
         set_uniforms(prog, **values)

@@ -30,6 +30,7 @@ from numpy.typing import NDArray
 from vebuild.camera import depth_range, world_to_camera
 from vebuild.texture import BEST_WEIGHT_SCALE, DEPTH_TOLERANCE, MAX_LEVELS, pre_pass_erosion
 from vebuild.texture.layout import SceneMesh
+from vebuild.texture.lens import pinhole_cover
 from vebuild.texture.merge import srgb8_to_linear
 
 if TYPE_CHECKING:  # gpu.py imports moderngl; the reference must run without it
@@ -246,7 +247,12 @@ def rasterise_ids(mesh: SceneMesh, cam: ImageCamera, erode_px: float = 0.0) -> t
     of a silhouette of a face seen obliquely keeps its pixels), nor across id changes that are no
     edge (two faces passing through each other), where the morphological mask erodes regardless;
     the GPU also erodes next to edges just outside the image, which this mask cannot see.
+
+    For a photo with lens distortion (``cam.k1`` ≠ 0) the ID buffer is that of its
+    :func:`~vebuild.texture.lens.pinhole_cover` (the pinhole image over the photo's undistorted
+    bounds), as on the GPU.
     """
+    cam, _ = pinhole_cover(cam)
     w, h = int(cam.width), int(cam.height)
     ids = np.zeros(h * w, np.int32)
     depth = np.full(h * w, np.inf)
@@ -398,11 +404,19 @@ def _rows(X: Array, M: Array) -> Array:
 
 def _project(tx: PageTexels, lo: int, hi: int, cam: ImageCamera, ids: NDArray[np.int32], depth: Array,
              weight_scale: float = 1.0) -> _Projected:
-    """texel.frag up to the weight, for texels lo:hi of ``tx``: the seen test and w."""
+    """texel.frag up to the weight, for texels lo:hi of ``tx``: the seen test and w.
+
+    ``ids``/``depth`` are the ID buffer of ``cam``'s pinhole cover (:func:`rasterise_ids`): a
+    texel is tested there at its pinhole pixel p − origin; then, for a photo with lens distortion,
+    p and its footprint are distorted (the division model's closed form and its Jacobian), and the
+    distorted p must lie in the photo.
+    """
     K = np.asarray(cam.K, float)
     R = np.asarray(cam.R, float)
     C = np.asarray(cam.C, float)
-    width, height = int(cam.width), int(cam.height)
+    cover, origin = pinhole_cover(cam)
+    width, height = int(cover.width), int(cover.height)
+    o = np.array(origin, float)
     P, N, F = tx.position[lo:hi], tx.normal[lo:hi], tx.face[lo:hi]
     to_cam = C - P
     x = _rows(-to_cam, R)
@@ -411,13 +425,14 @@ def _project(tx: PageTexels, lo: int, hi: int, cam: ImageCamera, ids: NDArray[np
         ok = (x[:, 2] > 0) & (cos > 0)
         hh = _rows(x, K)
         p = hh[:, :2] / hh[:, 2:3]
-    ok &= (p[:, 0] >= 0) & (p[:, 1] >= 0) & (p[:, 0] < width) & (p[:, 1] < height)
+        q = p - o
+    ok &= (q[:, 0] >= 0) & (q[:, 1] >= 0) & (q[:, 0] < width) & (q[:, 1] < height)
     sel = np.flatnonzero(ok)
-    x, p, F, cos = x[sel], p[sel], F[sel], cos[sel]
-    pix = np.floor(p[:, 1]).astype(np.intp) * width + np.floor(p[:, 0]).astype(np.intp)
+    x, p, q, F, cos = x[sel], p[sel], q[sel], F[sel], cos[sel]
+    pix = np.floor(q[:, 1]).astype(np.intp) * width + np.floor(q[:, 0]).astype(np.intp)
     ids_flat, depth_flat = ids.reshape(-1), depth.reshape(-1)
     ok = (ids_flat[pix] == F) & (x[:, 2] <= (1.0 + DEPTH_TOLERANCE) * depth_flat[pix])
-    sel, x, p, F, cos = sel[ok], x[ok], p[ok], F[ok], cos[ok]
+    sel, x, p, q, F, cos = sel[ok], x[ok], p[ok], q[ok], F[ok], cos[ok]
     # The Jacobian of the projection at the texel applied to its steps: a = J e_u, b = J e_v.
     du = _rows(tx.e_u[lo:hi][sel], R)
     dv = _rows(tx.e_v[lo:hi][sel], R)
@@ -427,13 +442,43 @@ def _project(tx: PageTexels, lo: int, hi: int, cam: ImageCamera, ids: NDArray[np
     ok = np.ones(len(sel), bool)
     for sa in (1.0, -1.0):
         for sb in (1.0, -1.0):
-            q = p + sa * a + sb * b
-            inside = (q[:, 0] >= 0) & (q[:, 1] >= 0) & (q[:, 0] < width) & (q[:, 1] < height)
-            q = np.where(inside[:, None], q, 0.0)
-            ok &= inside & (ids_flat[np.floor(q[:, 1]).astype(np.intp) * width
-                                     + np.floor(q[:, 0]).astype(np.intp)] == F)
+            c = q + sa * a + sb * b
+            inside = (c[:, 0] >= 0) & (c[:, 1] >= 0) & (c[:, 0] < width) & (c[:, 1] < height)
+            c = np.where(inside[:, None], c, 0.0)
+            ok &= inside & (ids_flat[np.floor(c[:, 1]).astype(np.intp) * width
+                                     + np.floor(c[:, 0]).astype(np.intp)] == F)
+    if cam.k1 != 0.0:
+        p, a, b, inside = _distort(K, float(cam.k1), p, a, b, int(cam.width), int(cam.height))
+        ok &= inside
     w = np.sqrt(np.abs(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])) * cos * weight_scale
     return _Projected(sel[ok], p[ok], a[ok], b[ok], w[ok])
+
+
+def _distort(K: Array, k1: float, p: Array, a: Array, b: Array, width: int,
+             height: int) -> tuple[Array, Array, Array, NDArray[np.bool_]]:
+    """Pinhole pixels p (n, 2) and footprints a, b → where the lens ``k1`` puts them, and whether
+    the footprint's corners p ± a ± b lie in the width × height photo (and in the lens's field).
+
+    x_d = s x_u with s = 2 / (1 + √(1 − 4 k1 |x_u|²)) (:func:`vebuild.camera.distort_normalised`);
+    its Jacobian s I + (2 k1 s² / √(1 − 4 k1 |x_u|²)) x_u x_uᵀ maps the footprint (in pixels too,
+    as x is divided by f on both sides).
+    """
+    f, c = K[0, 0], K[:2, 2]
+    xu = (p - c) / f
+    disc = 1.0 - 4.0 * k1 * np.einsum("ij,ij->i", xu, xu)
+    field = disc > 0.0  # beyond it (a pincushion lens only) no photo shows anything
+    root = np.sqrt(np.where(field, disc, 1.0))
+    s = 2.0 / (1.0 + root)
+    g = 2.0 * k1 * s * s / root
+    pd = c + f * s[:, None] * xu
+    ad = s[:, None] * a + (g * np.einsum("ij,ij->i", xu, a))[:, None] * xu
+    bd = s[:, None] * b + (g * np.einsum("ij,ij->i", xu, b))[:, None] * xu
+    inside = field.copy()
+    for sa in (1.0, -1.0):  # the footprint in the photo, as the ID buffer's frame is the photo's for a pinhole
+        for sb in (1.0, -1.0):
+            c = pd + sa * ad + sb * bd
+            inside &= (c[:, 0] >= 0) & (c[:, 1] >= 0) & (c[:, 0] < width) & (c[:, 1] < height)
+    return pd, ad, bd, inside
 
 
 def _lod(pr: _Projected) -> Array:
