@@ -70,6 +70,9 @@ def make_plan(folder: Path, seed: int = 11, noise_px: float = CLICK_NOISE_PX) ->
     # claims of tests/claims.py were measured with a prior of that width; the 3 % default is for
     # real cameras (vebuild.calibration.priors.PRINCIPAL_POINT_SIGMA_REL).
     doc["settings"]["principal_point_sigma_rel"] = 0.01
+    # EXIF focal lengths are nominal (the example's p4 records its 2.5 % short): the user states a
+    # realistic accuracy, so that the markers can correct the camera whose f rests on EXIF.
+    doc["settings"]["exif_focal_sigma_rel"] = 0.03
     save_project(path, doc)
     plan = Plan(folder, path, truth, noise_px)
     rng = np.random.default_rng(seed)
