@@ -70,9 +70,9 @@ def make_plan(folder: Path, seed: int = 11, noise_px: float = CLICK_NOISE_PX) ->
     # claims of tests/claims.py were measured with a prior of that width; the 3 % default is for
     # real cameras (vebuild.calibration.priors.PRINCIPAL_POINT_SIGMA_REL).
     doc["settings"]["principal_point_sigma_rel"] = 0.01
-    # The example's EXIF is the true focal length (its generator writes it exactly): the user
-    # states that accuracy, as tests/test_example_room.py does, where the default is EXIF's 3 %.
-    doc["settings"]["exif_focal_sigma_rel"] = 0.01
+    # EXIF focal lengths are nominal (the example's p4 records its 2.5 % short): the user states a
+    # realistic accuracy, so that the markers can correct the camera whose f rests on EXIF.
+    doc["settings"]["exif_focal_sigma_rel"] = 0.03
     save_project(path, doc)
     plan = Plan(folder, path, truth, noise_px)
     rng = np.random.default_rng(seed)
@@ -107,7 +107,10 @@ def assert_cameras_match(plan: Plan, cameras) -> None:
     assert sorted(cameras) == sorted(PHOTOS)
     for pid, cam in cameras.items():
         K, R, C = plan.camera(pid)
-        assert abs(cam.K[0, 0] - K[0, 0]) / K[0, 0] < FOCAL_TOL_REL, pid
+        # p4's f rests on its EXIF, which the example's JPEG records 2.5 % short (the truth's
+        # exif_focal_error_rel): of that error at most all survives (a Gaussian prior's error shrinks)
+        tol = FOCAL_TOL_REL + abs(plan.truth["photos"][pid].get("exif_focal_error_rel", 0.0))
+        assert abs(cam.K[0, 0] - K[0, 0]) / K[0, 0] < tol, pid
         assert np.degrees(np.linalg.norm(log_so3(R @ cam.R.T))) < ROTATION_TOL_DEG, pid
         assert np.linalg.norm(cam.C - C) < POSITION_TOL_REL * diag, pid
 

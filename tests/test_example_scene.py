@@ -3,6 +3,9 @@
 Nothing here imports vebuild: the example scene is test data for vebuild, so it must be right on
 its own terms. Projections in this file are written out again (P = K [R | −R C], homogeneous
 division) rather than borrowed from the generator, so that a slip in one shows up against the other.
+So is the wide photo's lens (the division model x_u = x_d / (1 + k1 |x_d|²) on f-normalised
+coordinates): distorting is done here by fixed-point iteration of x_d = x_u (1 + k1 |x_d|²), not
+by the generator's closed form.
 """
 
 from __future__ import annotations
@@ -67,6 +70,36 @@ def _proj(P: np.ndarray, X) -> np.ndarray:
     return h[:, :2] / h[:, 2:3]
 
 
+def _lens_px(gt: dict, uv_pinhole) -> np.ndarray:
+    """Where the photo's lens puts pinhole pixel positions (n, 2): x_d = x_u (1 + k1 |x_d|²)
+    iterated from x_d = x_u (a contraction for |k1| |x|² ≪ 1; 60 steps reach 1e-12 of a pixel here)."""
+    K, k1 = np.asarray(gt["K"], dtype=float), gt["distortion"]["k1"]
+    f, c = np.array([K[0, 0], K[1, 1]]), K[:2, 2]
+    x_u = (np.atleast_2d(uv_pinhole) - c) / f
+    x_d = x_u.copy()
+    for _ in range(60):
+        x_d = x_u * (1 + k1 * np.sum(x_d**2, axis=1, keepdims=True))
+    return x_d * f + c
+
+
+def _unlens_px(gt: dict, uv) -> np.ndarray:
+    """Where a pinhole would have put the pixel positions (n, 2) the photo's lens put there."""
+    K, k1 = np.asarray(gt["K"], dtype=float), gt["distortion"]["k1"]
+    f, c = np.array([K[0, 0], K[1, 1]]), K[:2, 2]
+    x_d = (np.atleast_2d(np.asarray(uv, dtype=float)) - c) / f
+    return x_d / (1 + k1 * np.sum(x_d**2, axis=1, keepdims=True)) * f + c
+
+
+def _as_truth(cam: dict) -> dict:
+    """A generator camera as ground_truth.json describes one (K, R, C and the lens's k1)."""
+    return {"K": cam["K"], "R": cam["R"], "C": cam["C"], "distortion": {"k1": cam["k1"]}}
+
+
+def _proj_photo(gt: dict, X) -> np.ndarray:
+    """Where the photo shows world points (n, 3): the pinhole's projection, then its lens."""
+    return _lens_px(gt, _proj(_P(gt["K"], gt["R"], gt["C"]), X))
+
+
 def _dist_to_line(p, a, b) -> float:
     d = b - a
     return abs(d[0] * (p[1] - a[1]) - d[1] * (p[0] - a[0])) / math.hypot(*d)
@@ -106,9 +139,34 @@ def test_camera_kinds(truth):
     assert min(abs(fwd3[0]), abs(fwd3[1])) > math.sin(math.radians(15)) and abs(fwd3[2]) < 1e-12
     R4 = np.array(ph["p4"]["R"])
     np.testing.assert_allclose(R4[2], [0, 1, 0], atol=1e-12)  # optical axis along +y
-    for p in ph.values():
-        assert 1.4 <= p["C"][2] <= 1.8
+    for pid, p in ph.items():
+        assert (p["distortion"]["k1"] == 0) == (pid != "p6")
+        # eye height; p6 is an overview held above the head
+        assert 1.4 <= p["C"][2] <= 1.8 or (pid == "p6" and p["C"][2] <= 2.2)
         assert 0 < p["C"][0] < 5 and 0 < p["C"][1] < 4
+
+
+def test_the_wide_lens(truth):
+    """p6: an 18 mm lens on an APS-C sensor (66° across, 1224 px on 1600) with barrel distortion
+    that moves the farthest corner 1.5–3 % of the half-diagonal (the truth says 2.5 %); its EXIF
+    says 18 mm on a 23.5 mm wide sensor. The displacement is recomputed here from k1."""
+    gt = truth["photos"]["p6"]
+    w, h = gt["width"], gt["height"]
+    assert gt["distortion"]["model"] == "division" and gt["distortion"]["k1"] < 0
+    fov = 2 * math.degrees(math.atan(w / 2 / gt["f"]))
+    assert 64 < fov < 68
+    corners = np.array([[0, 0], [w, 0], [0, h], [w, h]], dtype=float)
+    moved = np.linalg.norm(_unlens_px(gt, corners) - corners, axis=1)
+    half_diag = math.hypot(w, h) / 2
+    assert 0.015 < moved.max() / half_diag < 0.03
+    assert moved.max() == pytest.approx(gt["distortion"]["corner_displacement_px"], rel=1e-9)
+    # barrel: every corner shows a point a pinhole would have put farther out
+    c = np.asarray(gt["K"])[:2, 2]
+    assert np.all(np.linalg.norm(_unlens_px(gt, corners) - c, axis=1) > np.linalg.norm(corners - c, axis=1))
+    np.testing.assert_allclose(_unlens_px(gt, _lens_px(gt, corners)), corners, atol=1e-9)
+    for pid, p in truth["photos"].items():
+        if pid != "p6":
+            assert p["distortion"] == {"model": "division", "k1": 0.0, "corner_displacement_px": 0.0}
 
 
 # --- (1) the ray caster and the projection agree, with the pixel-centre convention --------------
@@ -135,18 +193,19 @@ def test_quad_centre_pixel_has_that_quads_colour(scene, low_res):
     index = {q["name"]: k for k, q in enumerate(scene["quads"])}
     checked = 0
     for cam, img, ids in low_res:
-        P = _P(cam["K"], cam["R"], cam["C"])
+        gt = _as_truth(cam)
         Kinv = np.linalg.inv(cam["K"])
         for name in names:
             q = scene["quads"][index[name]]
             centre = q["corner"] + 0.5 * q["edge1"] + 0.5 * q["edge2"]
             if not gen.visible(scene, cam, centre[None], margin=2.0)[0]:
                 continue
-            u, v = _proj(P, centre)[0]
+            u, v = _proj_photo(gt, centre)[0]
             i, j = int(math.floor(u)), int(math.floor(v))
             assert ids[j, i] == index[name], f"{cam['id']} {name}: pixel ({i}, {j}) shows quad {ids[j, i]}"
-            # the ray through the pixel centre, intersected with the quad's plane
-            d = cam["R"].T @ (Kinv @ np.array([i + 0.5, j + 0.5, 1.0]))
+            # the ray through the pixel centre (as a pinhole would have put it), met with the quad's plane
+            pc = _unlens_px(gt, [[i + 0.5, j + 0.5]])[0]
+            d = cam["R"].T @ (Kinv @ np.array([pc[0], pc[1], 1.0]))
             n = np.cross(q["edge1"], q["edge2"])
             X = cam["C"] + ((q["corner"] - cam["C"]) @ n) / (d @ n) * d
             rel = X - q["tex_origin"]
@@ -158,20 +217,26 @@ def test_quad_centre_pixel_has_that_quads_colour(scene, low_res):
             assert np.all(np.abs(got - expected) <= 1), f"{cam['id']} {name}: {got} != {expected}"
             checked += 1
     assert checked >= 12
+    assert any(cam["k1"] != 0 for cam, _, _ in low_res)  # the wide photo is among them
 
 
 def test_id_buffer_matches_projected_outline(scene, low_res):
     """The pixels showing the table top are exactly those whose centre lies inside the projected
-    table-top outline (half a pixel off would flip a whole border row)."""
+    table-top outline (half a pixel off would flip a whole border row); on the wide photo, those
+    whose centre, undistorted, lies inside the pinhole's outline (a ray cast through the pinhole
+    position of the centre: a wrong sign of k1 or a missed undistortion moves the border rows,
+    by up to 4 px at this scale)."""
     index = {q["name"]: k for k, q in enumerate(scene["quads"])}["table.top.+z"]
     q = scene["quads"][index]
     corners = q["corner"] + np.array([[0, 0], [1, 0], [1, 1], [0, 1]]) @ np.array([q["edge1"], q["edge2"]])
     for cam, _, ids in low_res:
-        if cam["id"] not in ("p1", "p4"):  # both see the whole top, unoccluded
+        if cam["id"] not in ("p1", "p4", "p6"):  # all see the whole top, unoccluded
             continue
-        poly = _proj(_P(cam["K"], cam["R"], cam["C"]), corners)
+        poly = _proj(_P(cam["K"], cam["R"], cam["C"]), corners)  # straight in the pinhole's image
         h, w = ids.shape
         uc, vc = np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5)
+        # p6: where a pinhole would have put each pixel centre (its lens bends the outline)
+        uc, vc = _unlens_px(_as_truth(cam), np.column_stack([uc.ravel(), vc.ravel()])).T.reshape(2, h, w)
         # signed distances of pixel centres to the 4 edges (the outline is convex)
         sd = []
         for k in range(4):
@@ -191,11 +256,16 @@ def test_id_buffer_matches_projected_outline(scene, low_res):
 
 
 def test_segments_lie_on_their_edges_and_point_along_their_axis(project, truth, scene):
+    """Every clicked point lies on the image of its edge: for a pinhole photo, within ON_LINE_TOL of
+    the line through the projected run; on the wide photo, once undistorted, of the pinhole's line
+    (undistorting stretches by at most 1/(1 + k1 |x_d|²) ≈ 1.03 here, inside the tolerance's margin).
+    Pinhole photos' segments are two points; the wide photo's are polylines of 3–5 points."""
     edges = {n: (p, q) for a in "xyz" for n, p, q in scene["edges"][a]}
     n_ends = 0
     for ph in project["photos"]:
         gt = truth["photos"][ph["id"]]
         P = _P(gt["K"], gt["R"], gt["C"])
+        wide = gt["distortion"]["k1"] != 0
         assert set(ph["vanishing_segments"]) == set("xyz"), ph["id"]
         for axis, segs in ph["vanishing_segments"].items():
             k = "xyz".index(axis)
@@ -208,27 +278,66 @@ def test_segments_lie_on_their_edges_and_point_along_their_axis(project, truth, 
                 assert X2[k] > X1[k]
                 np.testing.assert_allclose(np.delete(X1, k), np.delete(p, k), atol=1e-12)
                 np.testing.assert_allclose(np.delete(X2, k), np.delete(q, k), atol=1e-12)
+                pts = np.array(seg, dtype=float).reshape(-1, 2)
+                assert len(pts) == 2 or (wide and 3 <= len(pts) <= 5), f"{ph['id']} {axis}: {len(pts)} points"
                 a, b = _proj(P, [X1, X2])
-                p1, p2 = np.array(seg[:2]), np.array(seg[2:])
-                for end in (p1, p2):
+                for end in _unlens_px(gt, pts) if wide else pts:
                     assert _dist_to_line(end, a, b) < ON_LINE_TOL, f"{ph['id']} {axis} {t['edge']}"
-                    assert 0 <= end[0] <= gt["width"] and 0 <= end[1] <= gt["height"]
                     n_ends += 1
-                # p1 → p2 goes the way the positive axis goes in the image
+                assert np.all((pts >= 0) & (pts <= [gt["width"], gt["height"]]))
+                # first → last goes the way the positive axis goes in the image, and so does each step
                 step = _proj(P, [X1, X1 + 0.01 * np.eye(3)[k]])
-                assert (p2 - p1) @ (step[1] - step[0]) > 0, f"{ph['id']} {axis} {t['edge']} reversed"
-                assert np.linalg.norm(p2 - p1) > 75
+                assert np.all(np.diff(pts, axis=0) @ (step[1] - step[0]) > 0), f"{ph['id']} {axis} {t['edge']}"
+                assert np.linalg.norm(pts[-1] - pts[0]) > 75
     assert n_ends > 100
 
 
+def test_wide_photos_polylines_bow_outward(project, truth):
+    """On the wide photo the lens bends the edges: the middle points of a long polyline lie off the
+    chord of its end points by what the lens predicts (its sagitta, computed here from k1), on the
+    side away from the principal point (barrel). Summed over the photo the bow is many times the
+    clicks' noise, so a calibration can read k1 from it (plumb-line)."""
+    ph = next(p for p in project["photos"] if p["id"] == "p6")
+    gt = truth["photos"]["p6"]
+    c = np.asarray(gt["K"])[:2, 2]
+    bows, predicted = [], []
+    for axis, segs in ph["vanishing_segments"].items():
+        for seg, t in zip(segs, gt["segments"][axis], strict=True):
+            pts = np.array(seg, dtype=float).reshape(-1, 2)
+            # the lens's own polyline: the run's pinhole line, cut where the clicks are, distorted
+            pin = _proj(_P(gt["K"], gt["R"], gt["C"]), [t["X1"], t["X2"]])
+            s_ = [(m - pts[0]) @ (pts[-1] - pts[0]) / ((pts[-1] - pts[0]) @ (pts[-1] - pts[0])) for m in pts]
+            lens = _lens_px(gt, pin[0] + np.array(s_)[:, None] * (pin[1] - pin[0]))
+            e0, e1 = _lens_px(gt, pin)
+            n = np.array([e0[1] - e1[1], e1[0] - e0[0]]) / np.linalg.norm(e1 - e0)  # the true chord's normal
+            out = 1.0 if n @ (0.5 * (e0 + e1) - c) > 0 else -1.0  # n turned away from the principal point
+            a, b = pts[0], pts[-1]
+            nab = np.array([a[1] - b[1], b[0] - a[0]]) / np.linalg.norm(b - a)
+            nab *= np.sign(nab @ n)
+            for m, lm in zip(pts[1:-1], lens[1:-1], strict=True):
+                predicted.append(out * (n @ (lm - e0)))
+                bows.append(out * (nab @ (m - a)))  # off the clicked chord
+    bows, predicted = np.array(bows), np.array(predicted)
+    # barrel: the image of a line that misses the centre bows away from it (a line through it stays
+    # straight: predicted ≈ 0), so every predicted sagitta is ≥ 0
+    assert np.all(predicted > -1e-9)
+    # each clicked middle point is off by its noise only: 0.7 px per coordinate, plus the end points'
+    # (the chord moves with them): |error| < 4 px is 4σ of the worst combination
+    assert np.all(np.abs(bows - predicted) < 4.0)
+    assert predicted.max() > 2.0  # the long floor joints near the frame's corners bow by 2 px and more
+    # The plumb-line signal against the noise: a middle point's distance from its chord has the
+    # noise of itself and half of each end's, σ √1.5 = 0.86 px; √Σ sagitta² over it is the
+    # significance with which the segments alone detect k1 (≈ 1 / its relative 1σ): above 5
+    assert math.sqrt(np.sum(predicted**2)) / (CLICK_SIGMA * math.sqrt(1.5)) > 5.0
+
+
 def test_clicks_carry_the_stated_noise(project, truth):
-    """Marker clicks scatter about the true projections with σ ≈ 0.7 px."""
+    """Marker clicks scatter about the true projections (through the photo's lens) with σ ≈ 0.7 px."""
     res = []
     for ph in project["photos"]:
         gt = truth["photos"][ph["id"]]
-        P = _P(gt["K"], gt["R"], gt["C"])
         for name, uv in ph["marker_observations"].items():
-            res.append(np.array(uv) - _proj(P, truth["markers"][name])[0])
+            res.append(np.array(uv) - _proj_photo(gt, truth["markers"][name])[0])
     res = np.array(res).ravel()
     assert np.all(np.abs(res) < 3.5)
     assert 0.45 < np.sqrt(np.mean(res**2)) < 1.0  # ~70 values: a loose two-sided bound on σ
@@ -246,7 +355,9 @@ def test_shipped_annotations_match_regeneration(project, scene):
         assert (ph["width"], ph["height"]) == (cam["width"], cam["height"])
         assert fresh["vanishing_segments"].keys() == ph["vanishing_segments"].keys()
         for axis, segs in fresh["vanishing_segments"].items():
-            np.testing.assert_allclose(ph["vanishing_segments"][axis], segs, atol=2e-3)
+            assert len(ph["vanishing_segments"][axis]) == len(segs)
+            for shipped, seg in zip(ph["vanishing_segments"][axis], segs, strict=True):
+                np.testing.assert_allclose(shipped, seg, atol=2e-3)
         assert fresh["marker_observations"].keys() == ph["marker_observations"].keys()
         for name, uv in fresh["marker_observations"].items():
             np.testing.assert_allclose(ph["marker_observations"][name], uv, atol=2e-3)
@@ -269,12 +380,32 @@ def test_shipped_files_match_their_hashes_and_exif(project, truth):
         assert exif[0x0110] == ph["exif"]["model"] == "synthetic"
         assert int(ifd[0xA210]) == 4  # focal plane resolution unit: mm
         focal_px = float(ifd[0x920A]) * float(ifd[0xA20E])
-        assert focal_px == pytest.approx(truth["photos"][ph["id"]]["f"], rel=1e-4)
+        error = truth["photos"][ph["id"]]["exif_focal_error_rel"]
+        assert focal_px == pytest.approx(truth["photos"][ph["id"]]["f"] * (1 + error), rel=1e-4)
+        assert error == 0 or (ph["id"] == "p4" and -0.03 <= error <= -0.02)  # a nominal focal length
+        # the 35 mm equivalent the camera wrote follows its (nominal) focal length, to the mm
+        assert abs(int(ifd[0xA405]) - focal_px * math.hypot(36, 24) / math.hypot(ph["width"], ph["height"])) <= 0.5
         assert ph["exif"]["focal_length_mm"] == float(ifd[0x920A])
         assert ph["exif"]["focal_plane_x_resolution_per_mm"] == float(ifd[0xA20E])
         assert ph["exif"]["focal_length_35mm"] == int(ifd[0xA405])
         assert ph["exif"]["focal_length_px"] == pytest.approx(focal_px, rel=1e-12)
+    # p6's camera: an 18 mm lens on an APS-C sensor 23.5 mm wide
+    p6 = next(ph["exif"] for ph in project["photos"] if ph["id"] == "p6")
+    assert p6["focal_length_mm"] == 18.0
+    assert 1600 / p6["focal_plane_x_resolution_per_mm"] == pytest.approx(23.53, abs=0.01)
     assert total < 3_000_000
+
+
+def test_wide_photo_regenerates_byte_for_byte(project, scene, tmp_path):
+    """The photo through the lens, rendered again at full size, is the shipped file byte for byte
+    (its pixels through the division model, its EXIF): `python scenes/generate_room` reproduces it.
+    (The pinhole photos' pixels are held by the ray-caster tests above at a quarter of the size.)"""
+    cam = next(c for c in gen.cameras(1.0) if c["id"] == "p6")
+    rgb = gen.render_photo(scene, cam, cam["width"], cam["height"], 2)
+    exif = gen.write_jpeg(tmp_path / "p6.jpg", rgb, cam)
+    shipped = next(ph for ph in project["photos"] if ph["id"] == "p6")
+    assert hashlib.sha256((tmp_path / "p6.jpg").read_bytes()).hexdigest() == shipped["sha256"]
+    assert exif == shipped["exif"]
 
 
 def test_project_top_level(project):
@@ -294,6 +425,7 @@ def test_ground_truth_cameras_are_the_generators(truth):
         np.testing.assert_allclose(gt["K"], cam["K"], atol=0)
         np.testing.assert_allclose(gt["R"], cam["R"], atol=0)
         np.testing.assert_allclose(gt["C"], cam["C"], atol=0)
+        assert gt["distortion"]["k1"] == cam["k1"]
 
 
 # --- (4) marker coverage --------------------------------------------------------------------------
@@ -546,7 +678,7 @@ def test_pins_lie_on_their_true_handles_and_are_visible(project, truth, scene, t
     for pin in project["model"]["pins"]:
         gt, cam = truth["photos"][pin["photo"]], cams[pin["photo"]]
         X = true_handles[pin["node"]][pin["handle"]]
-        d = np.array(pin["uv"]) - _proj(_P(gt["K"], gt["R"], gt["C"]), X)[0]
+        d = np.array(pin["uv"]) - _proj_photo(gt, X)[0]
         assert np.linalg.norm(d) < PIN_TOL, pin
         assert gen.visible(scene, cam, X[None], margin=gen.IMAGE_MARGIN_PX)[0], pin
         assert pin["fixed"] is True
@@ -595,9 +727,9 @@ def test_edge_observations_lie_on_their_true_edges(project, truth, true_handles)
         X = X[np.hstack([X, np.ones((len(X), 1))]) @ P[2] > 0.05]
         pa, pb = _proj(P, X[[0, -1]])
         p1, p2 = (np.array(p) for p in o["points"])
-        for p in (p1, p2):
-            assert _dist_to_line(p, pa, pb) < ON_LINE_TOL, o
-            s = (p - pa) @ (pb - pa) / ((pb - pa) @ (pb - pa))
+        for p, pin in zip((p1, p2), _unlens_px(gt, [p1, p2]), strict=True):  # on the pinhole's line
+            assert _dist_to_line(pin, pa, pb) < ON_LINE_TOL, o
+            s = (pin - pa) @ (pb - pa) / ((pb - pa) @ (pb - pa))
             assert -0.01 < s < 1.01, o  # on the edge itself, not on its extension
             assert 0 <= p[0] <= gt["width"] and 0 <= p[1] <= gt["height"]
         assert np.linalg.norm(p2 - p1) > 50

@@ -526,7 +526,7 @@ def test_example_project_checks(room: Path, capsys: pytest.CaptureFixture) -> No
 
     assert main(["check", str(room)]) == 0
     out = capsys.readouterr().out
-    assert "valid vebuild project" in out and "model: 17 node(s), 76 pin(s)" in out
+    assert "valid vebuild project" in out and "model: 17 node(s), 105 pin(s)" in out
 
 
 def test_whole_number_of_5001_digits(proj: Path, capsys: pytest.CaptureFixture) -> None:
@@ -693,7 +693,7 @@ def test_calibrated_example_checks(room: Path, capsys: pytest.CaptureFixture) ->
 
     rewrite(room, _calibrate_by_hand)
     assert main(["check", str(room)]) == 0
-    assert "calibration: 5 camera(s)" in capsys.readouterr().out
+    assert "calibration: 6 camera(s)" in capsys.readouterr().out
 
 
 @pytest.mark.parametrize(("edit", "where", "expected"), [

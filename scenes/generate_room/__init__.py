@@ -1,4 +1,4 @@
-"""Generate the example project ``scenes/room``: a furnished room photographed five times.
+"""Generate the example project ``scenes/room``: a furnished room photographed six times.
 
     python scenes/generate_room [--out scenes/room] [--scale 1.0] [--supersample 2]
 
@@ -27,6 +27,16 @@ Every surface is a planar rectangle ("quad": a corner and two edge vectors); its
 quad has one constant shade factor (no shadows); each photo has its own exposure gain. Albedo is
 defined in sRGB, shading happens in linear light and the result is encoded back to 8-bit sRGB.
 
+Five photos are pinholes from a phone-sized sensor. The sixth, p6, is an overview from the
+south-west corner, held high, through an 18 mm lens on an APS-C sensor with barrel distortion
+(the division model, k1 = −0.035 on f-normalised coordinates: its farthest corner moves 25 px,
+2.5 % of the half-diagonal; cameras.py): each pixel's ray leaves through the pinhole coordinate
+its position undistorts to, every click on it is where the lens put the point, and its vanishing
+segments are polylines of 3–5 points along the bent images of straight edges (the middle points
+carry the curvature, from which a calibration can estimate k1). p4's JPEG records a nominal focal
+length 2.5 % short of the true one (cameras.EXIF_FOCAL_ERROR_REL); every other EXIF focal length
+is exact. ``ground_truth.json`` records each photo's lens and EXIF error.
+
 The annotations (vanishing segments, marker clicks) depend on geometry only, never on the
 rendered pixels, so they are the same at any rendering quality and cheap to regenerate in tests.
 
@@ -47,8 +57,21 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from .cameras import CAMERA_SPECS, cameras, pixel_rays, project, rotation_from_ypr
-from .clicks import annotate, choose_segments
+from .cameras import (
+    CAMERA_SPECS,
+    EXIF_FOCAL_ERROR_REL,
+    LENS_K1,
+    SENSOR_PITCH_MM,
+    cameras,
+    corner_displacement_px,
+    distort_normalised,
+    pinhole_pixels,
+    pixel_rays,
+    project,
+    rotation_from_ypr,
+    undistort_normalised,
+)
+from .clicks import annotate, choose_segments, polyline_points
 from .documents import (
     EXAMPLE_LIGHTING,
     EXAMPLE_VIEWS,
@@ -100,6 +123,8 @@ from .parameters import (
     JPEG_QUALITY,
     LIGHT_DIR,
     PIXEL_PITCH_MM,
+    POLYLINE_POINTS,
+    POLYLINE_STEP_PX,
     ROOM,
     SEED,
     SEGMENT_MIN_PX,
@@ -146,8 +171,9 @@ def generate(out: Path = DEFAULT_OUT, scale: float = 1.0, supersample: int = 2,
         rgb = render_photo(scene, cam, cam["width"], cam["height"], supersample)
         rel = f"photos/{cam['id']}.jpg"
         exif = write_jpeg(out / rel, rgb, cam)
-        if abs(exif["focal_length_px"] / cam["f"] - 1) > 1e-4:
-            raise AssertionError(f"{rel}: EXIF focal {exif['focal_length_px']} px, expected {cam['f']}")
+        f_exif = cam["f"] * (1 + EXIF_FOCAL_ERROR_REL.get(cam["id"], 0.0))
+        if abs(exif["focal_length_px"] / f_exif - 1) > 1e-4:
+            raise AssertionError(f"{rel}: EXIF focal {exif['focal_length_px']} px, expected {f_exif}")
         files[cam["id"]] = {"file": rel, "sha256": sha256_file(out / rel), "exif": exif}
         log(f"{rel}: {cam['width']}x{cam['height']}, {time.perf_counter() - t1:.1f} s, "
             f"{(out / rel).stat().st_size / 1024:.0f} KiB")
@@ -194,15 +220,20 @@ __all__ = [
     "EDGE_SAMPLES",
     "EXAMPLE_LIGHTING",
     "EXAMPLE_VIEWS",
+    "EXIF_FOCAL_ERROR_REL",
     "Generated",
     "IMAGE_MARGIN_PX",
     "JPEG_QUALITY",
+    "LENS_K1",
     "LIGHT_DIR",
     "PIXEL_PITCH_MM",
+    "POLYLINE_POINTS",
+    "POLYLINE_STEP_PX",
     "QUAD_EDGES",
     "ROOM",
     "SEED",
     "SEGMENT_MIN_PX",
+    "SENSOR_PITCH_MM",
     "TABLE_CENTRE",
     "TABLE_LEG",
     "TABLE_LEG_INSET",
@@ -220,6 +251,8 @@ __all__ = [
     "check_coverage",
     "check_model_coverage",
     "choose_segments",
+    "corner_displacement_px",
+    "distort_normalised",
     "exif_values",
     "face_frame",
     "generate",
@@ -231,6 +264,8 @@ __all__ = [
     "model_json",
     "model_world_transforms",
     "photo_annotations_json",
+    "polyline_points",
+    "pinhole_pixels",
     "pixel_rays",
     "primitive_edges",
     "primitive_handles",
@@ -250,6 +285,7 @@ __all__ = [
     "to_8bit",
     "trace",
     "true_model",
+    "undistort_normalised",
     "true_walls",
     "visible",
     "write_jpeg",

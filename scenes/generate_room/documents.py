@@ -11,23 +11,31 @@ import numpy as np
 from PIL import Image
 from PIL.TiffImagePlugin import IFDRational
 
+from .cameras import EXIF_FOCAL_ERROR_REL, SENSOR_PITCH_MM, corner_displacement_px
 from .clicks import annotate
 from .model import model_handles_world, model_json, rounded, scene_markers, true_model
 from .parameters import BASE_WIDTH, CLICK_SIGMA_PX, JPEG_QUALITY, LIGHT_DIR, PIXEL_PITCH_MM, ROOM, SEED
 
 
 def exif_values(cam: dict) -> dict:
-    """EXIF focal data consistent with f (px): focal_mm × resolution_per_mm = f exactly.
+    """EXIF focal data: the sensor's resolution is the true one, and focal_mm × resolution_per_mm
+    is f (px) exactly, or off by the photo's EXIF_FOCAL_ERROR_REL (a nominal lens focal length).
 
-    The focal length in mm is that of the scale-1 camera on a sensor with PIXEL_PITCH_MM pixels;
-    a scaled-down photo keeps the lens and gets coarser pixels.
+    The focal length in mm is that of the scale-1 camera on its sensor (SENSOR_PITCH_MM, else
+    PIXEL_PITCH_MM: a small phone sensor); a scaled-down photo keeps the lens and gets coarser
+    pixels. The 35 mm equivalent, rounded to 1 mm as cameras write it, follows the recorded focal
+    length (the camera computes it from that).
     """
-    f_base = Fraction(cam["f"]).limit_denominator(10**6) / Fraction(cam["scale"]).limit_denominator(10**6)
-    focal_mm = f_base * Fraction(PIXEL_PITCH_MM).limit_denominator(10**6)
-    res = Fraction(cam["f"]).limit_denominator(10**6) / focal_mm
+    f = Fraction(cam["f"]).limit_denominator(10**6)
+    f_base = f / Fraction(cam["scale"]).limit_denominator(10**6)
+    pitch = Fraction(SENSOR_PITCH_MM.get(cam["id"], PIXEL_PITCH_MM)).limit_denominator(10**6)
+    true_mm = f_base * pitch
+    res = f / true_mm
+    error = Fraction(EXIF_FOCAL_ERROR_REL.get(cam["id"], 0.0)).limit_denominator(10**6)
+    focal_mm = true_mm * (1 + error)
     diag_px = math.hypot(cam["width"], cam["height"])
-    f35 = int(round(cam["f"] * math.hypot(36.0, 24.0) / diag_px))
-    return {"focal_mm": focal_mm, "res_per_mm": res, "f35": f35}
+    f35 = int(round(float(focal_mm * res) * math.hypot(36.0, 24.0) / diag_px))
+    return {"focal_mm": focal_mm, "res_per_mm": res, "f35": f35, "error_rel": float(error)}
 
 
 def write_jpeg(path: Path, rgb: np.ndarray, cam: dict) -> dict:
@@ -149,6 +157,12 @@ def ground_truth_json(scene: dict, cams: list[dict], anns: list[dict], scale: fl
             "C": _l(cam["C"]), "f": cam["f"], "principal_point": list(cam["principal_point"]),
             "yaw_deg": cam["yaw_deg"], "pitch_deg": cam["pitch_deg"], "roll_deg": cam["roll_deg"],
             "exposure": cam["exposure"],
+            # the lens (cameras.py): the division model's k1 on f-normalised coordinates, 0 for a
+            # pinhole, and how far it moves the farthest corner from where a pinhole would put it
+            "distortion": {"model": "division", "k1": cam["k1"],
+                           "corner_displacement_px": corner_displacement_px(cam)},
+            # how far the photo's EXIF focal length is off f, relative (its JPEG records it so)
+            "exif_focal_error_rel": EXIF_FOCAL_ERROR_REL.get(cam["id"], 0.0),
             "segments": {a: [{"edge": s["edge"], "X1": _l(s["X1"]), "X2": _l(s["X2"])} for s in v]
                          for a, v in ann["segments_truth"].items()},
         }

@@ -13,6 +13,11 @@ CLICK_SIGMA_PX = 0.7  # 1σ of a simulated click, per coordinate, at scale 1
 PIXEL_PITCH_MM = 0.0015  # simulated sensor pixel pitch at scale 1 (a small phone sensor)
 JPEG_QUALITY = 92
 SEGMENT_MIN_PX = 80.0  # shortest vanishing segment a careful user would mark, at scale 1
+#: A segment on a photo whose lens bends lines is clicked as a polyline of this many points at
+#: least and at most, one more per POLYLINE_STEP_PX (scale 1) of its image length: 3 up to 250 px,
+#: 4 up to 500 px, 5 beyond.
+POLYLINE_POINTS = (3, 5)
+POLYLINE_STEP_PX = 250.0
 IMAGE_MARGIN_PX = 5.0  # clicks stay this far inside the image, at scale 1
 EDGE_SAMPLES = 200  # points sampled along a 3D edge to find its longest visible run
 VISIBILITY_EPS_M = 1e-3  # an occluder must lie this much nearer than the point to hide it

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .cameras import pixel_rays, project
+from .cameras import pinhole_pixels, pixel_rays, project
 from .parameters import VISIBILITY_EPS_M
 from .textures import TEXTURES, srgb_to_linear, to_8bit
 
@@ -58,7 +58,8 @@ def trace(scene: dict, origin: np.ndarray, dirs: np.ndarray, t_min: float = 1e-9
 
 
 def quad_image_bounds(scene: dict, cam: dict, z_near: float = 1e-4) -> np.ndarray:
-    """Conservative image bounding boxes (Q, 4) = (u_min, v_min, u_max, v_max) of every quad.
+    """Conservative image bounding boxes (Q, 4) = (u_min, v_min, u_max, v_max) of every quad, in
+    the pinhole's image (before the lens: see render_photo).
 
     Each quad is clipped to the half-space z_cam ≥ z_near before projecting (a quad wholly behind
     the camera gets an empty box), so rays of an image tile can only hit quads whose box meets it.
@@ -107,8 +108,10 @@ def render_photo(scene: dict, cam: dict, width: int, height: int, supersample: i
     width) int array of the quad seen through each pixel centre (−1 for none).
 
     Pixel (i, j) averages s × s stratified samples at (i + (k + ½)/s, j + (l + ½)/s); for s = 1
-    that is the pixel centre (i + ½, j + ½). The image is cast in tiles of tile × tile pixels,
-    each against only the quads whose image bounds meet it. cam's K is for cam["width"] ×
+    that is the pixel centre (i + ½, j + ½); its ray leaves through the pinhole's normalised
+    coordinate of that sample, undistorted by the lens (cameras.pixel_rays). The image is cast in
+    tiles of tile × tile pixels, each against only the quads whose (pinhole) image bounds meet the
+    box of the tile's samples as a pinhole would have put them. cam's K is for cam["width"] ×
     cam["height"]; it is rescaled if width × height differs.
     """
     s = int(supersample)
@@ -123,13 +126,19 @@ def render_photo(scene: dict, cam: dict, width: int, height: int, supersample: i
         j1 = min(height, j0 + tile)
         for i0 in range(0, width, tile):
             i1 = min(width, i0 + tile)
-            pad = 1.0  # pixels: the boxes are exact up to rounding; a margin costs nothing
-            cand = np.flatnonzero((bounds[:, 0] <= i1 + pad) & (bounds[:, 2] >= i0 - pad)
-                                  & (bounds[:, 1] <= j1 + pad) & (bounds[:, 3] >= j0 - pad))
             u_s = (np.arange(i0, i1)[:, None] + offs[None, :]).reshape(-1)
             v_s = (np.arange(j0, j1)[:, None] + offs[None, :]).reshape(-1)
             uu, vv = np.meshgrid(u_s, v_s)
-            d = pixel_rays(cam, np.column_stack([uu.ravel(), vv.ravel()]))
+            uv = np.column_stack([uu.ravel(), vv.ravel()])
+            if cam.get("k1", 0.0) == 0.0:
+                lo, hi = (i0, j0), (i1, j1)
+            else:  # every sample's ray is its pinhole position's: the box of those is exact
+                pin = pinhole_pixels(cam, uv)
+                lo, hi = pin.min(axis=0), pin.max(axis=0)
+            pad = 1.0  # pixels: the boxes are exact up to rounding; a margin costs nothing
+            cand = np.flatnonzero((bounds[:, 0] <= hi[0] + pad) & (bounds[:, 2] >= lo[0] - pad)
+                                  & (bounds[:, 1] <= hi[1] + pad) & (bounds[:, 3] >= lo[1] - pad))
+            d = pixel_rays(cam, uv)
             idx, t = trace(scene, cam["C"], d, subset=cand)
             X = cam["C"] + np.where(np.isfinite(t), t, 0.0)[:, None] * d
             col = shade_hits(scene, idx, X) * cam["exposure"]
