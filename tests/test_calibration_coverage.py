@@ -1,4 +1,4 @@
-"""Calibration of photographs as unkind as real ones (issue 16): barrel distortion of a wide lens,
+"""Calibration of photographs as unkind as real ones: barrel distortion of a wide lens,
 principal points a few per cent off centre, EXIF focal lengths a few per cent off, frontal and
 corridor views, long edges marked as polylines.
 
@@ -224,7 +224,7 @@ def test_a_near_infinite_vanishing_point_is_an_ordinary_case(rng: np.random.Gene
 
 
 def test_bench_cases_report_the_issue_figures() -> None:
-    """`vebuild bench calibration`'s real-photograph cases carry issue 16's named figures."""
+    """`vebuild bench calibration`'s real-photograph cases carry their named figures."""
     from vebuild.bench.calibration import CASES, run_case
 
     assert set(CASES) == {"distortion", "off_centre_principal_point", "exif_errors", "frontal", "corridor",

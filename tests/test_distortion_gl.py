@@ -45,7 +45,7 @@ from vebuild.texture.merge import COVERAGE_UNSEEN, linear_to_srgb8, srgb8_to_lin
 from vebuild.texture.options import Options
 
 #: The lens: barrel distortion moving the 320 × 240 photo's corners 3.4 % (7.5 px) inward, as a
-#: wide-angle lens does (the issue: 1–3 % at the corners, here a little more so that ignoring it
+#: wide-angle lens does (1–3 % at the corners, here a little more so that ignoring it
 #: shows).
 K1 = -0.06
 W, H, F = 320, 240, 260.0

@@ -21,7 +21,7 @@ from vebuild.synthetic import CLICK_NOISE_PX, ROOM, model_scene
 
 MARKERS = {"O": np.zeros(3)}
 #: The lens of the tests: barrel distortion moving the photo's corners by this share of their
-#: distance from the principal point (the issue's 1–3 % of a wide-angle lens).
+#: distance from the principal point (1–3 % on a wide-angle lens).
 CORNER_SHARE = 0.03
 
 

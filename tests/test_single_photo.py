@@ -238,7 +238,7 @@ def _placed(ph: OnePhoto) -> Any:
 
 def test_single_view_heights_are_within_one_percent_and_their_sigma_is_honest() -> None:
     """200 generated photos, each scaled by a 2 m door alone (its clicks 0.7 px): a 0.9 m box's
-    height within 1 % (the issue's goal) in 95 % of them and at the median within 0.5 %; the
+    height within 1 % (the goal) in 95 % of them and at the median within 0.5 %; the
     reported σ (first order over calibration, door and clicks) matches the scatter: the z-scores'
     standard deviation within 0.75–1.25 (sampling 1σ 5 %; the calibration's variance factor is
     floored at 1, so slightly conservative), and the 95 % intervals hold the truth in 90–99.5 %

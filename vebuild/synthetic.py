@@ -45,8 +45,8 @@ EXIF_FOCAL_ERROR_REL = 0.02
 #: (calibration.priors.PRINCIPAL_POINT_SIGMA_REL; a real camera measured 2.7 %).
 REAL_PRINCIPAL_POINT_SIGMA_REL = 0.03
 #: 1σ of the relative error of a real EXIF focal length: nominal focal lengths rounded to 0.1 mm or
-#: 1 mm (35 mm equivalent), nominal sensor widths, focus breathing; the issue's real camera was
-#: 4.1 % off. The σ calibration is told for EXIF in these photos.
+#: 1 mm (35 mm equivalent), nominal sensor widths, focus breathing; a real camera, calibrated on
+#: a public set of its photographs, was 4.1 % off. The σ calibration is told for EXIF in these photos.
 REAL_EXIF_FOCAL_ERROR_REL = 0.04
 #: How far a wide APS-C lens (18–24 mm) moves the photo's corners by barrel distortion, as a share
 #: of the half-diagonal: 1–3 %.

@@ -46,7 +46,7 @@ LENS_K1 = {"p6": -0.035}
 SENSOR_PITCH_MM = {"p6": Fraction(1, 68)}
 #: How far each photo's EXIF focal length is off the truth, relative (0 where it is exact). p4's camera
 #: records its lens's nominal focal length, 2.5 % short of the calibrated one (a fixed lens reports
-#: one value; the issue's real camera was 4.1 % short): the photo whose f rests on EXIF.
+#: one value; a real camera's was 4.1 % short of its calibrated value): the photo whose f rests on EXIF.
 EXIF_FOCAL_ERROR_REL = {"p4": -0.025}
 
 

@@ -9,7 +9,7 @@ process, by the paper's method alone (per-axis vanishing points and closed-form 
 is the RMS of (error / reported 1σ): near 1 when the reported uncertainty is honest.
 
 Then photographs as unkind as real ones (``cases``, each calibrated alone with the default priors:
-principal point 1σ 3 % of the longer side, EXIF told 4 %), one case per difficulty of issue 16:
+principal point 1σ 3 % of the longer side, EXIF told 4 %), one case per difficulty of real photographs:
 ``distortion`` (a wide APS-C lens moving the corners by 1–3 % of the half-diagonal; long edges
 marked with two middle points), ``off_centre_principal_point`` (2–4 % of the longer side off
 centre), ``exif_errors`` (EXIF 2–5 % off), ``frontal`` and ``corridor`` views, and ``realistic``
@@ -47,7 +47,7 @@ from ..synthetic import (
 KINDS = ("3vp", "3vp", "2vp", "1vp")
 NOISE_PX = 0.7
 GOALS = {"focal_rel_error_median": 0.005, "focal_rel_error_p95": 0.02, "failures": 0}
-#: Issue 16's goals for the real-photograph cases.
+#: The goals for the real-photograph cases.
 CASE_GOALS = {"focal_rel_error_median": 0.01, "focal_rel_error_p90": 0.03}
 CASE_COVERAGE_GOAL = (0.93, 0.97)
 #: The cases: (kinds cycled through, keyword arguments of realistic_camera, middle points per long edge).

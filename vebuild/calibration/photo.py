@@ -42,7 +42,13 @@ from ..determinism import deterministic
 from ..errors import CalibrationError
 from .intrinsics import focal_squared, orthocentre, rotation_from_vanishing_points
 from .lsq import covariance_from_jacobian, numeric_jacobian, photo_numeric_failures
-from .priors import PRINCIPAL_POINT_SIGMA_REL, DistortionPrior, FocalPrior
+from .priors import (
+    PRINCIPAL_POINT_SIGMA_REL,
+    DistortionPrior,
+    FocalPrior,
+    check_focal_prior,
+    check_principal_point,
+)
 from .vanishing import (
     VanishingPointFit,
     as_polylines,
@@ -251,19 +257,13 @@ def calibrate_photo(
     CalibrationError : when the marks cannot determine the camera; the message names the photo,
         what is missing and what to do.
     """
-    for name, prior in (("focal_px", focal), ("the EXIF focal length", exif_focal)):
-        if prior is not None and not (np.isfinite(prior.value) and prior.value > 0 and np.isfinite(prior.sigma)
-                                      and prior.sigma > 0):
-            raise CalibrationError(photo, f"{name}: expected a focal length > 0 px with a σ > 0 px, got "
-                                   f"{prior.value!r} ± {prior.sigma!r}")
+    check_focal_prior(photo, "focal_px", focal)
+    check_focal_prior(photo, "the EXIF focal length", exif_focal)
     if distortion is not None and not (np.isfinite(distortion.k1) and np.isfinite(distortion.sigma)
                                        and distortion.sigma > 0):
         raise CalibrationError(photo, f"the lens distortion ({distortion.source}): expected a finite k1 with a "
                                f"σ > 0, got {distortion.k1!r} ± {distortion.sigma!r}")
-    if principal_point is not None and not (np.all(np.isfinite(np.asarray(principal_point[0], float)))
-                                            and np.isfinite(principal_point[1]) and principal_point[1] > 0):
-        raise CalibrationError(photo, f"principal_point: expected a finite (u, v) with a σ > 0 px, got "
-                               f"{principal_point[0]!r} ± {principal_point[1]!r}")
+    check_principal_point(photo, principal_point)
     polys = {a: as_polylines(s, a, photo) for a, s in segments.items() if len(_flat(s)) > 0}
     if len(polys) < 2:
         marked = ", ".join(sorted(polys)) or "none"

@@ -9,9 +9,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+from numpy.typing import ArrayLike
+
+from ..errors import CalibrationError
+
 #: Default 1σ of the prior that pulls the principal point toward the image centre, as a fraction
 #: of the image's longer side (per coordinate). Real cameras do not put it at the centre: the
-#: issue's set of real photographs has its calibrated principal point 17 px (2.7 % of the 640 px
+#: calibrated camera of a public set of real photographs has its calibrated principal point 17 px (2.7 % of the 640 px
 #: side) from the centre, and sensor placement, cropping and image stabilisation move it by a few
 #: per cent on other cameras. A 1σ of 1 % left 76 % of such points outside their 95 % interval;
 #: at 3 % a 2.7 % offset is a 0.9σ draw, while three strong vanishing points (1σ of some 5–15 px
@@ -36,3 +41,20 @@ class DistortionPrior:
     k1: float
     sigma: float
     source: str
+
+
+def check_focal_prior(photo: str, name: str, prior: FocalPrior | None) -> None:
+    """Refuse a focal length given as a prior that is not a positive length with a positive 1σ;
+    ``name`` says where it came from (``focal_px``, ``the EXIF focal length``)."""
+    if prior is not None and not (np.isfinite(prior.value) and prior.value > 0 and np.isfinite(prior.sigma)
+                                  and prior.sigma > 0):
+        raise CalibrationError(photo, f"{name}: expected a focal length > 0 px with a σ > 0 px, got "
+                               f"{prior.value!r} ± {prior.sigma!r}")
+
+
+def check_principal_point(photo: str, principal_point: tuple[ArrayLike, float] | None) -> None:
+    """Refuse a principal point given as a prior that is not a finite (u, v) with a positive 1σ."""
+    if principal_point is not None and not (np.all(np.isfinite(np.asarray(principal_point[0], float)))
+                                            and np.isfinite(principal_point[1]) and principal_point[1] > 0):
+        raise CalibrationError(photo, f"principal_point: expected a finite (u, v) with a σ > 0 px, got "
+                               f"{principal_point[0]!r} ± {principal_point[1]!r}")

@@ -41,7 +41,7 @@ from .lsq import (
 )
 from .photo import FocalPrior, PhotoCalibration
 from .positions import intersect_lines
-from .priors import DistortionPrior
+from .priors import DistortionPrior, check_focal_prior, check_principal_point
 
 Array = NDArray[np.float64]
 
@@ -119,14 +119,8 @@ def register_from_points(points: ArrayLike, pixels: ArrayLike, width: int, heigh
     centre and 1σ (default the image centre, 1σ = ``principal_point_sigma_rel`` × the longer side);
     ``distortion``: the photo's lens distortion where it is known (held at its k1; None: a pinhole).
     """
-    if focal is not None and not (np.isfinite(focal.value) and focal.value > 0 and np.isfinite(focal.sigma)
-                                  and focal.sigma > 0):
-        raise CalibrationError(photo, f"focal_px: expected a focal length > 0 px with a σ > 0 px, got "
-                               f"{focal.value!r} ± {focal.sigma!r}")
-    if principal_point is not None and not (np.all(np.isfinite(np.asarray(principal_point[0], float)))
-                                            and np.isfinite(principal_point[1]) and principal_point[1] > 0):
-        raise CalibrationError(photo, f"principal_point: expected a finite (u, v) with a σ > 0 px, got "
-                               f"{principal_point[0]!r} ± {principal_point[1]!r}")
+    check_focal_prior(photo, "focal_px", focal)
+    check_principal_point(photo, principal_point)
     k1 = 0.0 if distortion is None else float(distortion.k1)
     X = np.asarray(points, float).reshape(-1, 3)
     uv = np.asarray(pixels, float).reshape(-1, 2)
