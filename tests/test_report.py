@@ -54,6 +54,13 @@ def test_the_report_holds_every_section_and_is_reproducible(analysed_room, tmp_p
         assert json.loads((out1 / "figures" / f"analysis-{k}.json").read_text())["command"] == rec["command"]
     assert all((out1 / "images" / f"analysis-{k}.png").is_file() for k in (3, 4, 5))
     assert "T2 – C1" in page and "check" in page  # the check distance, measured vs known
+    # Each camera's lens: p6's barrel distortion with its 1σ and corner displacement, p1 a pinhole.
+    cams = project.data["calibration"]["cameras"]
+    d6 = cams["p6"]["distortion"]
+    assert (f"k1 {d6['k1']['value']:+.4f} ± {d6['k1']['sigma']:.4f}, corners "
+            f"{d6['corner_displacement_px']['value']:.1f}") in page
+    assert d6["k1"]["value"] < -0.02 and "distortion" not in cams["p1"]
+    assert "<td>pinhole</td>" in page
     assert "HYPOTHESIS: box by the door (not the measured scene)" in page
     assert "a glass" in page and "vebuild 0." in page
     assert (out1 / "report.pdf").read_bytes().startswith(b"%PDF")

@@ -25,6 +25,18 @@ def photos(project: Project, rep: Report) -> None:
             "hash to this SHA-256.</p>" + table(["id", "file", "pixels", "SHA-256", "camera", "focal mm"], rows))
 
 
+def _lens(camera: dict) -> str:
+    """A camera record's lens distortion in words: k1 ± 1σ and the corner displacement, or pinhole."""
+    d = camera.get("distortion")
+    if not d:
+        return "pinhole"
+    k1, corner = d["k1"], d.get("corner_displacement_px") or {}
+    text = f"k1 {k1['value']:+.4f} ± {k1['sigma'] or 0:.4f}"
+    if corner:
+        text += f", corners {corner['value']:.1f} ± {corner.get('sigma') or 0:.1f} px"
+    return text + f" ({d.get('source', '')})"
+
+
 def calibration(project: Project, rep: Report) -> None:
     cal = project.data["calibration"]
     unit = length_unit(project.data)
@@ -36,11 +48,13 @@ def calibration(project: Project, rep: Report) -> None:
                                                                           c["ypr_deg"]["sigma"], strict=True)),
                      " / ".join(f"{v:.3f} ± {s or 0:.3f}" for v, s in zip(c["position"]["value"],
                                                                           c["position"]["sigma"], strict=True)),
-                     fmt(c.get("rms_px"), 2)])
-    body = ("<p>Cameras from vanishing points and markers (paper §2); values ± 1σ.</p>"
+                     _lens(c), fmt(c.get("rms_px"), 2)])
+    body = ("<p>Cameras from vanishing points and markers (paper §2); values ± 1σ. The lens is the division "
+            "model's k1 (x_u = x_d / (1 + k1 |x_d|²) on f-normalised coordinates; k1 &lt; 0 barrel) and how far "
+            "it moves the photo's farthest corner; a pinhole where no distortion was estimated or given.</p>"
             + (f"<p class='warn'>{esc(unit.note)}.</p>" if unit.relative else "")
             + table(["photo", "mode", "focal px", "principal point px", "yaw / pitch / roll °",
-                     f"position x / y / z {unit.symbol}", "RMS residual px"], rows))
+                     f"position x / y / z {unit.symbol}", "lens", "RMS residual px"], rows))
     dist_rows = [[f"{d['a']} – {d['b']}", d["role"], fmt(d["distance"]), fmt(d.get("measured")),
                   fmt(d.get("measured_sigma")),
                   fmt(None if d.get("measured") is None else d["measured"] - d["distance"])]
