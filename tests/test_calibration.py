@@ -257,3 +257,28 @@ def test_check_distance_is_not_used_but_reported(rng: np.random.Generator) -> No
     # ...and is reported as measured against known, the measurement agreeing with the truth.
     m = next(m for m in p2.distances if m.reference.role == "check")
     assert abs(m.measured - true_check) < UNCERTAINTY_BOUND * m.measured_sigma
+
+
+@pytest.mark.parametrize("exif_error, warned", [(0.04, False), (0.15, True)])
+def test_the_exif_cross_check_weighs_exif_by_its_honest_sigma(tmp_path, exif_error, warned):
+    """EXIF 4 % off is 1.3σ of its 3 % prior: no warning; 15 % off (a crop, a digital zoom) is
+    beyond 3σ of the estimate's and EXIF's 1σ together: named. The record holds both figures."""
+    from vebuild.actions.calibrate import calibrate_project
+    from vebuild.project import load_project, save_project
+    from vebuild.synthetic import random_scene, write_project
+
+    photos, markers = random_scene(np.random.default_rng(5), ("3vp", "3vp", "3vp"))
+    path = write_project(tmp_path, photos, markers)
+    project = load_project(path)
+    p1, true_f = project.data["photos"][0], photos[0].K[0, 0]
+    diag = np.hypot(p1["width"], p1["height"])
+    p1["exif"] = {"focal_length_35mm": float(true_f * (1 + exif_error) * np.hypot(36.0, 24.0) / diag)}
+    save_project(project)
+    result = calibrate_project(load_project(path))
+    check = result["cameras"]["p1"]["exif_focal_check"]
+    assert check["difference_rel"] == pytest.approx(1 / (1 + exif_error) - 1, abs=0.01)
+    assert 0.03 < check["sigma_rel"] < 0.06 and "35 mm" in check["source"]
+    named = [w for w in result["warnings"] if w.startswith("photo 'p1': the focal length from the vanishing points")]
+    assert bool(named) == warned
+    if warned:
+        assert "σ of the two together, more than 3σ): check the segments, or the photo was cropped" in named[0]

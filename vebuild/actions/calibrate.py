@@ -159,7 +159,8 @@ def _calibrate(project: Project, progress: Callable[[Iterable], Iterable]) -> di
         warnings.append("photos " + ", ".join(f"'{p}'" for p in alone) + " are each placed alone, in frames with "
                         "origins of their own: their positions cannot be compared; mark the same origin marker on "
                         "the floor in each")
-    result = _results(data, photos, placement, alone, unplaced, warnings, floor, project.settings["click_sigma_px"])
+    result = _results(data, photos, placement, alone, unplaced, warnings, floor, project.settings["click_sigma_px"],
+                      project.settings["exif_focal_sigma_rel"])
     for pid in missing:
         result["warnings"].append(f"photo '{pid}' has no vanishing segments and is not calibrated: mark segments, "
                                   "or register it to the solved model (`vebuild register`, from 4 known points)")
@@ -316,7 +317,7 @@ def _floor_markers_seen_once(data: dict[str, Any], placement: Placement | None,
 
 def _results(data: dict[str, Any], photos: dict[str, PhotoCalibration], placement: Placement | None,
              alone: dict[str, SinglePhotoPlacement], unplaced: dict[str, str], warnings: list[str],
-             floor: set[str], click: float) -> dict[str, Any]:
+             floor: set[str], click: float, exif_sigma_rel: float) -> dict[str, Any]:
     cameras = {}
     ids = [p["id"] for p in data["photos"]]
     placed: dict[str, PlacedCamera | SinglePhotoPlacement] = dict(placement.cameras) if placement else {}
@@ -366,13 +367,18 @@ def _results(data: dict[str, Any], photos: dict[str, PhotoCalibration], placemen
         else:
             cameras[pid]["placement"] = {"how": "joint", "origin": f"marker '{placement.origin}'" if placement else "",
                                          "lengths": "metres"}
-        exif = (_photo(data, pid).get("exif") or {}).get("focal_length_px")
-        if exif and "exif" not in cal.focal_source:
-            diff = (cam.K[0, 0] - exif) / exif
-            cameras[pid]["exif_focal_check"] = {"exif_focal_px": float(exif), "difference_rel": float(diff)}
-            if abs(diff) > 3 * max(sig[0] / cam.K[0, 0], 0.01):
-                warnings.append(f"photo '{pid}': the focal length from the vanishing points differs from EXIF by "
-                                f"{100 * diff:+.1f} % (more than 3σ): check the segments, or the photo was cropped")
+        # The cross-check against the EXIF focal prior (its value and honest 1σ, as calibration saw it):
+        # beyond 3σ of the two together the photo was cropped or the segments are wrong.
+        exif = exif_focal_prior(_photo(data, pid), exif_sigma_rel)
+        if exif is not None and "exif" not in cal.focal_source:
+            diff = (cam.K[0, 0] - exif.value) / exif.value
+            sigma_rel = float(np.hypot(sig[0] / cam.K[0, 0], exif.sigma / exif.value))
+            cameras[pid]["exif_focal_check"] = {"exif_focal_px": float(exif.value), "difference_rel": float(diff),
+                                                "sigma_rel": sigma_rel, "source": exif.source}
+            if abs(diff) > 3 * sigma_rel:
+                warnings.append(f"photo '{pid}': the focal length from the vanishing points differs from EXIF's by "
+                                f"{100 * diff:+.1f} % ({abs(diff) / sigma_rel:.1f}σ of the two together, more than "
+                                "3σ): check the segments, or the photo was cropped or zoomed digitally")
         for n in getattr(cam, "outliers", []):
             warnings.append(f"photo '{pid}': marker '{n}' lies {np.linalg.norm(cam.marker_residuals_px[n]):.1f} px "
                             "from where the other photos put it: check its placement")
