@@ -34,14 +34,13 @@ from itertools import combinations
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import least_squares
-from scipy.stats import chi2
 
 from ..camera import AXES, distortion_displacement_px, exp_so3, intrinsic_matrix, ypr_from_rotation
 from ..determinism import deterministic
 from ..errors import CalibrationError
 from .intrinsics import focal_squared, orthocentre, rotation_from_vanishing_points
-from .lsq import covariance_from_jacobian, numeric_jacobian, photo_numeric_failures
+from .joint import JointProblem, check_orthogonal_pairs
+from .lsq import numeric_jacobian, photo_numeric_failures
 from .priors import (
     PRINCIPAL_POINT_SIGMA_REL,
     DistortionPrior,
@@ -55,8 +54,6 @@ from .vanishing import (
     end_segments,
     fit_vanishing_point,
     normalising_transform,
-    segment_residuals,
-    tangent_basis,
 )
 
 __all__ = ["PRINCIPAL_POINT_SIGMA_REL", "DistortionPrior", "FocalPrior", "PhotoCalibration", "calibrate_photo",
@@ -87,25 +84,11 @@ FINITE_VP_MAX_RADIUS = 30.0
 #: Where no pair of vanishing points gives a start for f (a frontal or corridor view) and nothing
 #: else does, the joint solve starts from f = this × the longer side (a 53° field across it).
 NOMINAL_FOCAL_REL = 1.0
-#: Two vanishing points give f² ≤ 0 *significantly* (a mislabelled set, not a near-infinite point
-#: on the far side of infinity) when f² w₁w₂ (a smooth function of the points on the sphere, ≤ 0
-#: exactly where no real f fits) lies this many of its 1σ below zero.
-MISLABEL_SIGMAS = 3.0
-#: ... and the joint solve, forced to orthogonal directions, fits the marks this many times worse
+#: A pair that check_orthogonal_pairs (.joint) finds significantly non-orthogonal is refused only
+#: where the joint solve, forced to orthogonal directions, also fits the marks this many times worse
 #: (in variance) than the click noise: 3× in RMS, which no lens distortion of a real photo causes
 #: once it is modelled.
 MISLABEL_FIT_FACTOR = 9.0
-#: The stated click noise is trusted unless the marks reject it: the variance factor stays 1 while
-#: χ² lies below this quantile of its distribution, and is χ²/dof beyond (the global test of a
-#: least-squares adjustment). Flooring at 1 alone reports too much uncertainty on the few segments
-#: a photo has (dof ~ 10: χ²/dof exceeds 1 half the time), taking the 95 % intervals' coverage of
-#: the truth to ~98 %.
-VARIANCE_TEST_QUANTILE = 0.95
-#: Variance of a segment residual for isotropic click noise σ on each end point: the distance of
-#: an end point to the line through the midpoint is ½(n₁ − n₂)⊥, so its variance is σ²/2. (The
-#: joint solve keeps both end points' residuals, each of variance σ², an identical objective that
-#: extends to polylines.)
-SEGMENT_RESIDUAL_VARIANCE_FACTOR = 0.5
 
 
 @dataclass(frozen=True)
@@ -297,7 +280,7 @@ def calibrate_photo(
         c0 = np.asarray(principal_point[0], float)
         sigma_c = float(principal_point[1])
         c_where = "the given point"
-    not_orthogonal = _check_orthogonal_pairs(fits, segs, axes, N, c0, sigma_c, click_sigma_px, photo,
+    not_orthogonal = check_orthogonal_pairs(fits, segs, axes, N, c0, sigma_c, click_sigma_px, photo,
                                              given_principal_point=principal_point is not None)
 
     finite = [a for a in axes if abs(unit[a][2]) > 1.0 / FINITE_VP_MAX_RADIUS]
@@ -315,7 +298,7 @@ def calibrate_photo(
 
     straightness = any(len(p) > 2 for a in axes for p in polys[a])
     estimate_k1 = straightness or distortion is not None
-    problem = _Problem(polys, axes, click_sigma_px, scale, c0, sigma_c, distortion if estimate_k1 else None,
+    problem = JointProblem(polys, axes, click_sigma_px, scale, c0, sigma_c, distortion if estimate_k1 else None,
                        estimate_k1)
     # Solve with every prior first (a focal prior keeps a weakly determined f from wandering), then
     # judge what the segments alone say about f there, and drop EXIF where it is not wanted.
@@ -465,75 +448,6 @@ def _distortion_reason(k1: float, k1_sigma: float, straightness: bool, prior: Di
     return f"lens distortion k1 = {k1:+.4f} ± {k1_sigma:.4f} from {src}, moving the corners by {corner:.1f} px"
 
 
-def _check_orthogonal_pairs(fits: Mapping[str, VanishingPointFit], segs: Mapping[str, Array], axes: list[str],
-                            N: Array, c0: Array, sigma_c: float, click_sigma_px: float,
-                            photo: str, given_principal_point: bool = False) -> CalibrationError | None:
-    """The refusal of a pair of vanishing points that no real focal length makes orthogonal, or None.
-
-    f² = −(v₁ − c)·(v₂ − c) for finite points; on the sphere of normalised homogeneous points x =
-    (p, w), q = −(p₁ − c w₁)·(p₂ − c w₂) · w₁ w₂ = f² w₁² w₂² has f²'s sign, is smooth through
-    w = 0 (a point at infinity) and does not change when either point flips sign. A near-infinite
-    point on the "wrong side" has q ≈ 0 within its noise; a mislabelled set has q well below 0.
-    The end points' vanishing points know nothing of lens distortion, which can tip a pair of
-    near-infinite points: the caller refuses only where the joint solve (which models it) cannot
-    fit orthogonal directions either.
-    """
-    c = (N @ np.r_[c0, 1.0])[:2]
-    sc = N[0, 0] * sigma_c
-    N_inv = np.linalg.inv(N)
-    tangents, covs = {}, {}
-    for a in axes:
-        x = N @ fits[a].point
-        x = x / np.linalg.norm(x)
-        t1, t2 = tangent_basis(x)
-        T = np.column_stack([t1, t2])
-
-        def res(ab: Array, x: Array = x, T: Array = T, a: str = a) -> Array:
-            p = x + T @ ab
-            return segment_residuals(N_inv @ (p / np.linalg.norm(p)), segs[a])
-
-        Jv = numeric_jacobian(res, np.zeros(2), 1e-7) / (click_sigma_px * np.sqrt(SEGMENT_RESIDUAL_VARIANCE_FACTOR))
-        info = Jv.T @ Jv
-        tangents[a] = (x, T)
-        # Widened by how much worse than the click noise the segments fit their point (an
-        # unmodelled lens distortion shows there): the check is then no surer than the marks.
-        r = res(np.zeros(2)) / (click_sigma_px * np.sqrt(SEGMENT_RESIDUAL_VARIANCE_FACTOR))
-        vf = max(1.0, float(r @ r) / (len(r) - 2)) if len(r) > 2 else 1.0
-        covs[a] = np.linalg.pinv(info) * vf
-    for a, b in combinations(axes, 2):
-        (xa, Ta), (xb, Tb) = tangents[a], tangents[b]
-
-        def q(z: Array, xa: Array = xa, Ta: Array = Ta, xb: Array = xb, Tb: Array = Tb) -> Array:
-            pa = xa + Ta @ z[0:2]
-            pb = xb + Tb @ z[2:4]
-            pa, pb = pa / np.linalg.norm(pa), pb / np.linalg.norm(pb)
-            cc = c + z[4:6]
-            return np.array([-float((pa[:2] - cc * pa[2]) @ (pb[:2] - cc * pb[2])) * pa[2] * pb[2]])
-
-        z0 = np.zeros(6)
-        g = numeric_jacobian(q, z0, 1e-7)[0]
-        cov = np.zeros((6, 6))
-        cov[0:2, 0:2], cov[2:4, 2:4], cov[4:6, 4:6] = covs[a], covs[b], np.eye(2) * sc**2
-        q0 = float(q(z0)[0])
-        sq = float(np.sqrt(max(g @ cov @ g, 0.0)))
-        # A point that may lie at infinity (w within its noise of 0) may cross it, and q with it:
-        # the linearised σ of q does not see that where both points are near infinity.
-        may_be_infinite = any(abs(x[2]) < MISLABEL_SIGMAS * np.sqrt(max(T[2] @ covs[k] @ T[2], 0.0))
-                              for k, (x, T) in ((a, tangents[a]), (b, tangents[b])))
-        if not may_be_infinite and q0 + MISLABEL_SIGMAS * sq < 0:
-            pa, pb = fits[a].finite_point(), fits[b].finite_point()
-            f2 = focal_squared(pa, pb, c0) if pa is not None and pb is not None else -np.inf
-            return CalibrationError(
-                photo,
-                f"the vanishing points of axes {a} and {b} give f² = {f2:.4g} px² ≤ 0: for orthogonal "
-                "directions they must lie on opposite sides of the principal point; "
-                + (f"the principal point given for the photo ({c0[0]:.1f}, {c0[1]:.1f} ± {sigma_c:.1f} px) is wrong, "
-                   "or a segment set is labelled with the wrong axis: check its principal_point, then the axes"
-                   if given_principal_point else "a segment set is probably labelled with the wrong axis"),
-            )
-    return None
-
-
 @deterministic
 def closed_form_calibration(
     segments: Mapping[str, ArrayLike], width: int, height: int, *, photo: str = "photo",
@@ -579,192 +493,3 @@ def _closed_form_start(fits: Mapping[str, VanishingPointFit], finite: list[str],
         if f2 > 0:
             return float(np.sqrt(f2)), c0
     return float(f_fallback), c0
-
-
-class _Problem:
-    """The joint least-squares problem over y = (f/s, cx/s, cy/s, ω, [k1]), R = exp([ω]×) R̂.
-
-    Every clicked point is undistorted (division model, closed form) with the current f, c, k1;
-    its residual is its distance to the line joining the vanishing point K R eₐ to the centroid of
-    its polyline's undistorted points, weighted by 1/σ (a polyline of m points has m − 1
-    independent residuals: they sum to zero).
-    """
-
-    def __init__(self, polys: Mapping[str, list[Array]], axes: list[str], sigma_px: float, scale: float,
-                 c0: Array, sigma_c: float, k1_prior: DistortionPrior | None, estimate_k1: bool):
-        self.axes, self.scale, self.c0, self.sigma_c = axes, scale, c0, sigma_c
-        self.weight = 1.0 / sigma_px
-        self.k1_prior, self.estimate_k1 = k1_prior, estimate_k1
-        pts: list[Array] = []
-        pid: list[Array] = []
-        axis_of: list[int] = []
-        first: list[int] = []
-        self.polys_of: dict[str, list[int]] = {}
-        for a in axes:
-            for p in polys[a]:
-                self.polys_of.setdefault(a, []).append(len(axis_of))
-                first.append(int(sum(len(q) for q in pts)))
-                pid.append(np.full(len(p), len(axis_of)))
-                axis_of.append("xyz".index(a))
-                pts.append(np.asarray(p, float))
-        self.P = np.concatenate(pts)
-        self.pid = np.concatenate(pid)
-        self.axis_of = np.array(axis_of)
-        self.first = np.array(first)
-        self.counts = np.bincount(self.pid).astype(float)
-        self.n_data = len(self.P)
-        self.n_independent = int(self.n_data - len(self.counts))
-        self.n_params = 7 if estimate_k1 else 6
-
-    def start(self, f0: float, c: Array) -> Array:
-        k1 = self.k1_prior.k1 if self.k1_prior is not None else 0.0
-        return np.r_[f0 / self.scale, np.asarray(c) / self.scale, 0.0, 0.0, 0.0, [k1] if self.estimate_k1 else []]
-
-    def k1_of(self, y: Array) -> float:
-        return float(y[6]) if self.estimate_k1 else 0.0
-
-    def at_rotation(self, y: Array) -> Array:
-        """y with ω = 0: the rotation is then the R it was solved to."""
-        z = np.array(y, float)
-        z[3:6] = 0.0
-        return z
-
-    def undistorted(self, y: Array) -> Array:
-        f, cx, cy = y[:3] * self.scale
-        k1 = self.k1_of(y)
-        c = np.array([cx, cy])
-        if k1 == 0.0:
-            return self.P
-        xd = (self.P - c) / f
-        return c + f * xd / (1.0 + k1 * np.sum(xd**2, axis=1))[:, None]
-
-    def _point_residuals(self, U: Array, V: Array) -> Array:
-        """Distance of each undistorted point to its polyline's line centroid–vanishing point.
-
-        V : (3, 3) the vanishing points of x, y, z as columns (homogeneous pixels)."""
-        mx = np.bincount(self.pid, U[:, 0]) / self.counts
-        my = np.bincount(self.pid, U[:, 1]) / self.counts
-        v = V[:, self.axis_of]  # (3, n_poly)
-        # l = (mx, my, 1) × v
-        l0 = my * v[2] - v[1]
-        l1 = v[0] - mx * v[2]
-        l2 = mx * v[1] - my * v[0]
-        norm = np.maximum(np.hypot(l0, l1), 1e-300)
-        return (l0[self.pid] * U[:, 0] + l1[self.pid] * U[:, 1] + l2[self.pid]) / norm[self.pid]
-
-    def _noise_scale(self, y: Array, U: Array, V: Array) -> Array:
-        """How much undistorting a point stretches its click noise across its line: |Jᵀn| with J
-        the Jacobian of x_u = x_d / (1 + k1 |x_d|²), n the line's unit normal (1 for a pinhole).
-        A barrel lens's undistortion stretches the corners by a few per cent; weighting those
-        residuals by 1/σ alone would claim that much more certainty than the clicks have."""
-        k1 = self.k1_of(y)
-        if k1 == 0.0:
-            return np.ones(len(U))
-        f, cx, cy = y[:3] * self.scale
-        xd = (self.P - np.array([cx, cy])) / f
-        d = 1.0 + k1 * np.sum(xd**2, axis=1)
-        mx = np.bincount(self.pid, U[:, 0]) / self.counts
-        my = np.bincount(self.pid, U[:, 1]) / self.counts
-        v = V[:, self.axis_of]
-        n = np.stack([my * v[2] - v[1], v[0] - mx * v[2]], axis=1)
-        n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
-        n = n[self.pid]
-        # Jᵀn = (n − 2 k1 x (x·n) / d) / d  (J is symmetric)
-        jn = (n - 2.0 * k1 * xd * np.sum(xd * n, axis=1)[:, None] / d[:, None]) / d[:, None]
-        return np.asarray(np.linalg.norm(jn, axis=1), float)
-
-    def residuals(self, y: Array, R0: Array, prior_f: FocalPrior | None) -> Array:
-        f, cx, cy = y[:3] * self.scale
-        K = intrinsic_matrix(f, cx, cy)
-        R = exp_so3(y[3:6]) @ R0
-        U = self.undistorted(y)
-        V = K @ R
-        parts = [self._point_residuals(U, V) * self.weight / self._noise_scale(y, U, V),
-                 (np.array([cx, cy]) - self.c0) / self.sigma_c]
-        if self.k1_prior is not None:
-            parts.append(np.array([(self.k1_of(y) - self.k1_prior.k1) / self.k1_prior.sigma]))
-        if prior_f is not None:
-            parts.append(np.array([(f - prior_f.value) / prior_f.sigma]))
-        return np.concatenate(parts)
-
-    def solve(self, y0: Array, R0: Array, prior_f: FocalPrior | None) -> tuple[Array, Array]:
-        y0 = self.at_rotation(y0)
-        lower = np.r_[1e-3, -np.inf, -np.inf, -np.pi, -np.pi, -np.pi, [-np.inf] if self.estimate_k1 else []]
-        upper = np.r_[1e3, np.inf, np.inf, np.pi, np.pi, np.pi, [np.inf] if self.estimate_k1 else []]
-        sol = least_squares(
-            self.residuals, y0, args=(R0, prior_f), bounds=(lower, upper), method="trf", x_scale="jac",
-            xtol=1e-12, ftol=1e-12, gtol=1e-12,
-        )
-        R = exp_so3(sol.x[3:6]) @ R0
-        return self.at_rotation(sol.x), R
-
-    def jacobian(self, y: Array, R: Array, prior_f: FocalPrior | None) -> Array:
-        return numeric_jacobian(lambda z: self.residuals(z, R, prior_f), self.at_rotation(y), 1e-7)
-
-    def segment_information(self, y: Array, R: Array) -> tuple[float, float]:
-        """1σ (pixels; inf if none) of f from the segments with the principal point's and the lens
-        profile's priors, and of c (largest axis) from the segments with the lens profile's only."""
-        J = self.jacobian(y, R, None)
-        n = self.n_data
-        sigma_f = _marginal_sigma(J.T @ J, 0) * self.scale
-        rows = np.r_[np.arange(n), np.arange(n + 2, len(J))]  # without the principal point's prior
-        Jd = J[rows]
-        cov = _safe_inverse(Jd.T @ Jd)
-        if cov is None:
-            sigma_c = np.inf
-        else:
-            sigma_c = float(np.sqrt(max(np.linalg.eigvalsh(cov[1:3, 1:3]).max(), 0.0))) * self.scale
-        return sigma_f, sigma_c
-
-    def variance_factor(self, J: Array, r: Array) -> float:
-        """σ0²: 1 unless the marks reject the stated click noise (VARIANCE_TEST_QUANTILE), else χ²/dof.
-
-        dof counts the independent residuals less the parameters the marks determine (the trace of
-        the hat matrix of the data rows: a parameter fixed by its prior uses none of them)."""
-        n = self.n_data
-        cov = _safe_inverse(J.T @ J)
-        if cov is None:
-            return 1.0
-        used = float(np.trace(J[:n] @ cov @ J[:n].T))
-        dof = self.n_independent - used
-        if dof <= 0.5:
-            return 1.0
-        x2 = float(r[:n] @ r[:n])
-        return 1.0 if x2 <= chi2.ppf(VARIANCE_TEST_QUANTILE, dof) else x2 / dof
-
-    def covariance(self, J: Array, vf: float) -> Array:
-        """(7, 7) covariance of y with the data rows' noise widened by vf (the priors' σ are stated,
-        not scaled); k1's row and column 0 where it is fixed."""
-        Jw = np.array(J, float)
-        Jw[: self.n_data] /= np.sqrt(vf)
-        cov = covariance_from_jacobian(Jw)
-        out = np.zeros((7, 7))
-        out[: self.n_params, : self.n_params] = cov
-        return out
-
-    def reported_residuals(self, U: Array, axis: str, v: Array) -> Array:
-        """One value per segment of ``axis``: the RMS of its points' distances to the line through
-        its centroid and v, signed as its first point's (the paper's residual for two points)."""
-        V = np.zeros((3, 3))
-        V[:, "xyz".index(axis)] = v
-        ids = self.polys_of[axis]
-        r = self._point_residuals(U, V)
-        out = []
-        for k in ids:
-            rk = r[self.pid == k]
-            out.append(np.sign(r[self.first[k]]) * np.sqrt(np.mean(rk**2)))
-        return np.array(out)
-
-
-def _safe_inverse(info: Array) -> Array | None:
-    w = np.linalg.eigvalsh(info)
-    if w.min() <= 1e-12 * max(w.max(), 1e-300):
-        return None
-    return np.asarray(np.linalg.inv(info), float)
-
-
-def _marginal_sigma(info: Array, which: int) -> float:
-    cov = _safe_inverse(info)
-    if cov is None:
-        return np.inf
-    return float(np.sqrt(cov[which, which]))
