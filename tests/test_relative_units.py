@@ -11,11 +11,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_single_photo import BOX_M, _cli, _pixels, one_photo, write_one_photo
+from test_single_photo import BOX_M, _cli, box_on_the_floor, one_photo, write_one_photo
 
 from vebuild.project import load_project, save_project
 from vebuild.project.units import METRES, RELATIVE, RELATIVE_UNITS, length_unit, record_unit
-from vebuild.synthetic import CLICK_NOISE_PX
 
 #: What every table of a relative project says of its lengths.
 NOTE = "lengths are RELATIVE (relative units: the camera height is 1: no scale was given"
@@ -35,20 +34,8 @@ def _build(folder: Path, *, scale: bool) -> Built:
     ph = one_photo(rng)
     path = write_one_photo(folder, ph, known_length=scale)
     project = load_project(path)
-    from vebuild.model.scene import model_from_dict
-
+    node, pins = box_on_the_floor(ph, rng)
     foot = ph.truth("box_foot")
-    node = {"name": "box", "primitive": {"type": "box", "params": {"width": 0.6, "depth": 0.4, "height": BOX_M}},
-            "joint": {"type": "rests_on", "face": "top", "position": [float(foot[0]), float(foot[1])],
-                      "yaw_deg": 20.0}}
-    m = model_from_dict([node], {"O": np.zeros(3)})
-    prim = m.node("box").primitive
-    T = m.world_transforms()["box"]
-    world = prim.handles() @ T[:3, :3].T + T[:3, 3]
-    hidden = int(np.argmax(np.linalg.norm(world[:4] - ph.C, axis=1)))
-    pins = [{"photo": "p", "node": "box", "handle": h, "fixed": True,
-             "uv": [float(v) for v in _pixels(ph.cam, X + ph.origin) + rng.normal(0, CLICK_NOISE_PX, 2)]}
-            for k, (h, X) in enumerate(zip(prim.handle_names(), world, strict=True)) if k != hidden]
     start = json.loads(json.dumps(node))
     start["primitive"]["params"] = {"width": 0.5, "depth": 0.5, "height": 0.8}
     project.data["model"] = {"nodes": [start], "pins": pins}

@@ -86,6 +86,26 @@ def one_photo(rng: np.random.Generator, noise_px: float = CLICK_NOISE_PX, level:
     raise RuntimeError("no camera sees the whole scene")
 
 
+def box_on_the_floor(ph: OnePhoto, rng: np.random.Generator) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+    """A 0.6 × 0.4 × BOX_M box resting on the floor at the photo's box foot, yawed 20°, and its
+    corners pinned in the photo (the farthest floor corner hidden), with click noise."""
+    from vebuild.model.scene import model_from_dict
+
+    foot = ph.truth("box_foot")
+    node = {"name": "box", "primitive": {"type": "box", "params": {"width": 0.6, "depth": 0.4, "height": BOX_M}},
+            "joint": {"type": "rests_on", "face": "top", "position": [float(foot[0]), float(foot[1])],
+                      "yaw_deg": 20.0}}
+    m = model_from_dict([node], {"O": np.zeros(3)})
+    prim = m.node("box").primitive
+    T = m.world_transforms()["box"]
+    world = prim.handles() @ T[:3, :3].T + T[:3, 3]
+    hidden = int(np.argmax(np.linalg.norm(world[:4] - ph.C, axis=1)))
+    pins = [{"photo": "p", "node": "box", "handle": h, "fixed": True,
+             "uv": [float(v) for v in _pixels(ph.cam, X + ph.origin) + rng.normal(0, CLICK_NOISE_PX, 2)]}
+            for k, (h, X) in enumerate(zip(prim.handle_names(), world, strict=True)) if k != hidden]
+    return node, pins
+
+
 def write_one_photo(folder: Path, ph: OnePhoto, *, known_length: bool = True, camera_height: float | None = None,
                     floor_distance: bool = False, origin: bool = True) -> Path:
     """A one-photo project of ``ph``: O (the origin) and F1–F3 on the floor marked; the door's height
@@ -716,24 +736,13 @@ def test_a_box_resting_on_the_floor_is_solved_from_one_photo(tmp_path: Path) -> 
     the camera is hidden): resting on the floor (rests_on the world, z = 0) and turning about z only,
     the box has 6 unknowns (3 sizes, s, t, yaw) for 14 click coordinates, and the solve fixes them."""
     from vebuild.actions.solve import solve_project
-    from vebuild.model.scene import model_from_dict
 
     rng = np.random.default_rng(81)
     ph = one_photo(rng)
     project = load_project(write_one_photo(tmp_path, ph))
     calibrate_project(project)
+    truth, pins = box_on_the_floor(ph, rng)
     foot = ph.truth("box_foot")
-    truth = {"name": "box", "primitive": {"type": "box", "params": {"width": 0.6, "depth": 0.4, "height": BOX_M}},
-             "joint": {"type": "rests_on", "face": "top", "position": [float(foot[0]), float(foot[1])],
-                       "yaw_deg": 20.0}}
-    m = model_from_dict([truth], {"O": np.zeros(3)})
-    prim = m.node("box").primitive
-    T = m.world_transforms()["box"]
-    world = prim.handles() @ T[:3, :3].T + T[:3, 3]
-    hidden = int(np.argmax(np.linalg.norm(world[:4] - ph.C, axis=1)))
-    pins = [{"photo": "p", "node": "box", "handle": h, "fixed": True,
-             "uv": [float(v) for v in _pixels(ph.cam, X + ph.origin) + rng.normal(0, CLICK_NOISE_PX, 2)]}
-            for k, (h, X) in enumerate(zip(prim.handle_names(), world, strict=True)) if k != hidden]
     start = json.loads(json.dumps(truth))
     start["primitive"]["params"] = {"width": 0.5, "depth": 0.5, "height": 0.8}
     start["joint"]["position"] = [float(foot[0]) + 0.15, float(foot[1]) - 0.1]
