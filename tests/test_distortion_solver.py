@@ -11,10 +11,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy.stats import chi2
+from test_model import assert_jacobian_matches_differences
 
 from vebuild.calibration.positions import ReferenceDistance
 from vebuild.camera import ImageCamera, distort_pixels, distortion_displacement_px, project
-from vebuild.model.residuals import FD_STEP, EdgeObservation, MarkerObservation, Pin
+from vebuild.model.residuals import EdgeObservation, MarkerObservation, Pin
 from vebuild.model.scene import model_from_dict
 from vebuild.model.solver import FINAL_PRIOR_SCALE, MarkerData, Problem, ProblemOptions
 from vebuild.synthetic import CLICK_NOISE_PX, ROOM, model_scene
@@ -90,28 +91,7 @@ def test_the_jacobian_through_the_lens_agrees_with_central_differences() -> None
         x[b.k1_index] *= 1.3
     for b in layout.markers.values():
         x[b.slice] += rng.normal(0.0, 0.01, 3)
-    J = problem.jacobian(x)
-    J = J.toarray() if hasattr(J, "toarray") else np.asarray(J)
-    h = 1e-5
-    F = np.empty_like(J)
-    for j in range(layout.n):
-        e = np.zeros(layout.n)
-        e[j] = h
-        F[:, j] = (problem.residuals(x + e) - problem.residuals(x - e)) / (2 * h)
-    # As tests/test_model.py: the reference's own error h²·|r‴|/6 + ε·|r|/h with |r‴| ≲ |r'|·L²
-    # (L the room's diagonal), ten times over; the solver's forward differences over
-    # FD_STEP·max(1, |x|) err by ½·step·|r''|, |r''| ≲ |∇r|·L.
-    lever = float(np.linalg.norm(ROOM))
-    r = np.abs(problem.residuals(x))[:, None]
-    tol = 10 * (h**2 * lever**2 * (1.0 + np.abs(F)) + np.finfo(float).eps * (1.0 + r) / h)
-    differenced = np.zeros(J.shape, bool)
-    differenced[:, layout.model.slice] = True
-    for b in layout.cameras.values():
-        differenced[np.ix_(problem.rows_edge.ravel(), b.indices)] = True
-    step = FD_STEP * np.maximum(1.0, np.abs(x))
-    tol = np.where(differenced, step[None, :] * (1.0 + np.abs(F).max(axis=1, keepdims=True)) * lever, tol)
-    worst = np.unravel_index(np.argmax(np.abs(J - F) / tol), J.shape)
-    assert np.all(np.abs(J - F) <= tol), f"{problem.describe_row(int(worst[0]))}, {layout.names[worst[1]]}"
+    J, F = assert_jacobian_matches_differences(problem, layout, x)  # the bounds of tests/test_model.py
     k1_cols = [b.k1_index for b in layout.cameras.values()]
     assert np.count_nonzero(J[: problem.n_data, k1_cols]) > 0.9 * np.count_nonzero(F[: problem.n_data, k1_cols])
     assert np.count_nonzero(F[: problem.n_data, k1_cols]) > 0  # k1 moves the pins: a real comparison
