@@ -16,7 +16,7 @@ from numpy.typing import NDArray
 from scipy.optimize import least_squares
 from scipy.stats import chi2
 
-from ..camera import exp_so3, intrinsic_matrix
+from ..camera import exp_so3, intrinsic_matrix, undistort_pixels
 from ..errors import CalibrationError
 from .intrinsics import focal_squared
 from .lsq import covariance_from_jacobian, numeric_jacobian
@@ -160,13 +160,10 @@ class JointProblem:
         return z
 
     def undistorted(self, y: Array) -> Array:
-        f, cx, cy = y[:3] * self.scale
         k1 = self.k1_of(y)
-        c = np.array([cx, cy])
         if k1 == 0.0:
             return self.P
-        xd = (self.P - c) / f
-        return c + f * xd / (1.0 + k1 * np.sum(xd**2, axis=1))[:, None]
+        return undistort_pixels(intrinsic_matrix(*(y[:3] * self.scale)), self.P, k1)
 
     def _point_residuals(self, U: Array, V: Array) -> Array:
         """Distance of each undistorted point to its polyline's line centroid–vanishing point.
