@@ -4,7 +4,8 @@ Each part of the document is decoded here, once, and checked as it is decoded; e
 :class:`~vebuild.errors.ProjectError` (or, where the part is missing altogether, a
 :class:`~vebuild.errors.VebuildError`) that names the file and the JSON path:
 
-- cameras: :func:`cameras_from_calibration` (every calibrated photo's), :func:`photo_camera` (one,
+- cameras: :func:`cameras` (the final ones: re-calibrated where solved so), :func:`camera_records`,
+  :func:`cameras_from_calibration` (the calibration stage's: a re-calibration's priors), :func:`photo_camera` (one,
   by id or position), :func:`view_camera` and :func:`find_view` (the named evidence views);
 - markers: :func:`markers` (the ``{name: position}`` a stage needs), :func:`marker_sigmas`,
   :func:`known_points` (the markers and the solved model's vertices), :func:`sightings` (a photo's
@@ -68,18 +69,43 @@ FRAME_35MM_WIDTH_MM = 36.0
 
 
 def cameras_from_calibration(project: Project) -> dict[str, ImageCamera]:
-    """The calibrated cameras by photo id, each checked: K a pinhole matrix with a positive focal
-    length, R a rotation; errors name the file and the JSON path. Each carries its photo's size
-    and its calibration covariance (9×9 over f, cx, cy, ω, C; infinite where undetermined)."""
+    """The cameras of the calibration stage (``calibration.cameras``: vanishing points, placement,
+    registration) by photo id: the priors of a re-calibrating solve. Each is checked: K a pinhole
+    matrix with a positive focal length, R a rotation; errors name the file and the JSON path. Each
+    carries its photo's size and its calibration covariance (9×9 over f, cx, cy, ω, C; infinite
+    where undetermined). Later stages draw with :func:`cameras`."""
     cal = project.data.get("calibration")
     if not cal or not cal.get("cameras"):
         raise VebuildError(f"{project.path}: the project has no calibrated cameras; run `vebuild calibrate` first")
+    return _cameras_from_records(project, cal["cameras"], "calibration")
+
+
+def camera_records(data: Mapping[str, Any]) -> dict[str, Mapping[str, Any]]:
+    """The camera records later stages use, by photo id: the calibration's
+    (``calibration.cameras``), each replaced by the re-calibrated one of the solution
+    (``model_solution.cameras``, written by ``vebuild solve --recalibrate``) where it has one."""
+    out = dict((data.get("calibration") or {}).get("cameras") or {})
+    out.update((data.get("model_solution") or {}).get("cameras") or {})
+    return out
+
+
+def cameras(project: Project) -> dict[str, ImageCamera]:
+    """The cameras texturing, rendering, analyses and exports use (the final stage's): each photo's
+    re-calibrated camera where the solution has one (``model_solution.cameras``), else its
+    calibrated one; checked as :func:`cameras_from_calibration` checks them."""
+    out = cameras_from_calibration(project)
+    recal = (project.data.get("model_solution") or {}).get("cameras") or {}
+    out.update(_cameras_from_records(project, recal, "model_solution"))
+    return out
+
+
+def _cameras_from_records(project: Project, records: Mapping[str, Any], key: str) -> dict[str, ImageCamera]:
     out = {}
     for p in project.data["photos"]:
-        c = cal["cameras"].get(p["id"])
+        c = records.get(p["id"])
         if c is None:
             continue
-        where = json_path(["calibration", "cameras", p["id"]])
+        where = json_path([key, "cameras", p["id"]])
         K, R = np.asarray(c["K"], float), np.asarray(c["R"], float)
         _check_camera(project, where, K, R)
         cov = np.array([[np.inf if v is None else v for v in row] for row in c["covariance"]], float)
