@@ -12,6 +12,7 @@ import json
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from . import __version__
 from .errors import VebuildError
@@ -106,7 +107,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
     from .report.write import write_report
 
     project = load_project(args.project)
-    bar = tqdm(total=8 - int(args.no_pdf), desc="report", unit="section", disable=not _progress_wanted(args))
+    bar = tqdm(total=13 - int(args.no_pdf), desc="report", unit="section", disable=not _progress_wanted(args))
 
     def step(what: str) -> None:
         bar.set_postfix_str(what)
@@ -303,6 +304,44 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     return 0
 
 
+# -- vebuild case: the case details of the report's title page --------------------------------------
+
+
+def _cmd_case(args: argparse.Namespace) -> int:
+    from .actions.case import CASE_FIELDS, case_rows, set_case
+    from .project import load_project, save_project
+
+    project = load_project(args.project)
+    values = {key: getattr(args, key) for key, _, _ in CASE_FIELDS}
+    if any(v is not None for v in values.values()):
+        set_case(project, values)
+        save_project(project)
+        print(f"case details written to {project.path}")
+    rows = case_rows(project.data)
+    for label, text in rows:
+        print(f"  {label + ':':<24} {text}")
+    if not rows:
+        print("  no case details (give --number, --examiner, --organisation, --photo-dates or --declaration)")
+    return 0
+
+
+def _add_case_parser(sub: Any) -> None:
+    from .actions.case import CASE_FIELDS
+
+    p = sub.add_parser("case", help="set (or show) the case details on the report's title page")
+    p.add_argument("project")
+    helps = {"number": "the case (or file) number", "examiner": "who made the reconstruction",
+             "organisation": "the examiner's organisation",
+             "photo_dates": "when the photos were taken (one date or several, in words or ISO 8601)",
+             "declaration": "the examiner's declaration, printed on the title page"}
+    for key, _, option in CASE_FIELDS:
+        p.add_argument(option, dest=key, metavar="TEXT", help=helps[key] + " (\"\" removes it)")
+    p.set_defaults(func=_cmd_case)
+
+
+# -- end of vebuild case ----------------------------------------------------------------------------
+
+
 def _progress_wanted(args: argparse.Namespace) -> bool:
     return not getattr(args, "quiet", False) and sys.stderr.isatty()
 
@@ -484,6 +523,7 @@ def build_parser() -> argparse.ArgumentParser:
     from .analysis.cli import add_analyse_parsers
 
     add_analyse_parsers(sub)
+    _add_case_parser(sub)
     return parser
 
 

@@ -227,6 +227,7 @@ class CheckResult:
     known: float
     known_sigma: float
     measured: Measurement
+    role: str = "check"  # the reference distance's role: "check" (not used by the solve) or "scale"
 
     @property
     def difference(self) -> float:
@@ -242,21 +243,39 @@ class CheckResult:
         """Whether the difference lies within its 95 % interval (± 1.96 × ``difference_sigma``)."""
         return bool(abs(self.difference) <= Z95 * self.difference_sigma)
 
+    @property
+    def difference_ci95(self) -> tuple[float, float]:
+        """The 95 % interval of the difference: difference ± 1.96 × ``difference_sigma``."""
+        return (self.difference - Z95 * self.difference_sigma, self.difference + Z95 * self.difference_sigma)
+
+    @property
+    def verdict(self) -> str:
+        """The check's verdict in words: whether the known distance lies within the 95 % interval of
+        the measurement (the difference within ± 1.96 σ of zero)."""
+        return "within the 95 % interval" if self.within_ci95 else "outside the 95 % interval"
+
     def to_json(self) -> dict[str, Any]:
         m = self.measured.to_json()
         return {"a": self.a, "b": self.b, "known_m": self.known, "known_sigma_m": self.known_sigma,
                 "measured_m": m["value_m"], "measured_sigma_m": m["sigma_m"], "measured_ci95_m": m["ci95_m"],
                 "difference_m": self.difference, "difference_sigma_m": self.difference_sigma,
-                "difference_ci95_m": [self.difference - Z95 * self.difference_sigma,
-                                      self.difference + Z95 * self.difference_sigma],
-                "within_ci95": self.within_ci95, "source": m["source"], "rests_on": m["rests_on"]}
+                "difference_ci95_m": list(self.difference_ci95),
+                "within_ci95": self.within_ci95, "verdict": self.verdict, "role": self.role,
+                "source": m["source"], "rests_on": m["rests_on"]}
 
 
-def check_distances(project: Project, solved: SolvedModel) -> list[CheckResult]:
-    """Every ``reference_distances`` entry of role ``check``, measured vs known."""
+def check_distances(project: Project, solved: SolvedModel,
+                    roles: Sequence[str] = ("check",)) -> list[CheckResult]:
+    """Every ``reference_distances`` entry whose role is in ``roles`` (default: the check
+    distances, which the solve did not use), measured on the final model against the known value.
+
+    An end may be a marker or a model vertex (``node:handle``); a scale distance (``roles``
+    including ``"scale"``) is measured the same way, though the solve was made to fit it, so its
+    agreement is no independent check.
+    """
     out = []
     for i, d in enumerate(project.data.get("reference_distances", [])):
-        if d["role"] != "check":
+        if d["role"] not in roles:
             continue
         ends = []
         for key in ("a", "b"):
@@ -274,5 +293,6 @@ def check_distances(project: Project, solved: SolvedModel) -> list[CheckResult]:
                     m = Measurement("distance", m.what, float(c["measured"]), float(c["measured_sigma"]), [],
                                     [d["a"], d["b"]], m.photos, m.points, "calibration")
                     break
-        out.append(CheckResult(d["a"], d["b"], float(d["distance"]), float(d.get("sigma", 0.002)), m))
+        out.append(CheckResult(d["a"], d["b"], float(d["distance"]), float(d.get("sigma", 0.002)), m,
+                               d["role"]))
     return out

@@ -6,12 +6,15 @@ from __future__ import annotations
 import html
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from vebuild import __version__
 from vebuild.project import Project, sha256_file
+
+if TYPE_CHECKING:
+    from vebuild.analysis.measure import CheckResult
 
 #: Renders in the report are this wide (height from the view's aspect).
 
@@ -20,9 +23,17 @@ body { font-family: DejaVu Sans, Helvetica, Arial, sans-serif; font-size: 10.5pt
 h1 { font-size: 18pt; } h2 { font-size: 14pt; border-bottom: 1px solid #999; margin-top: 1.6em; }
 h3 { font-size: 11.5pt; }
 table { border-collapse: collapse; margin: 0.5em 0 1em 0; }
-td, th { border: 1px solid #bbb; padding: 2px 6px; text-align: left; vertical-align: top; overflow-wrap: anywhere; }
-th { background: #eee; } td.n { text-align: right; font-variant-numeric: tabular-nums; }
-img { max-width: 100%; border: 1px solid #888; }
+td, th { border: 1px solid #bbb; padding: 2px 6px; text-align: left; vertical-align: top; overflow-wrap: break-word; }
+th { background: #eee; } td.n { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
+.nw { white-space: nowrap; } td.hash { font-family: DejaVu Sans Mono, monospace; font-size: 6pt; white-space: nowrap; }
+table.wide { font-size: 8pt; } table.wide td, table.wide th { padding: 1px 4px; }
+td.bad { color: #fff; background: #aa1414; font-weight: bold; white-space: nowrap; }
+td.good { white-space: nowrap; } td.entered { font-style: italic; white-space: nowrap; }
+ul.lim { font-size: 9pt; margin-top: 0.2em; } ul.lim li { margin-bottom: 0.15em; }
+.title { page-break-after: always; } .title h1 { font-size: 22pt; margin-top: 3em; }
+.title table td:first-child { font-weight: bold; width: 14em; }
+.declaration { white-space: pre-wrap; border: 1px solid #999; padding: 0.6em; margin-top: 1em; }
+img { max-width: 100%; border: 1px solid #888; } img.plan { max-width: none; border: none; }
 .hyp { color: #fff; background: #aa1414; padding: 2px 6px; font-weight: bold; }
 .small { font-size: 9pt; color: #444; } .warn { color: #a05000; }
 figure { margin: 0.5em 0 1.2em 0; page-break-inside: avoid; }
@@ -36,6 +47,8 @@ class Report:
     sections: list[str] = field(default_factory=list)
     images: list[Path] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
+    #: The reference and check distances measured on the final model (the checks and limitations show them).
+    checks: list[CheckResult] = field(default_factory=list)
 
     def add(self, title: str, body: str) -> None:
         self.sections.append(f"<h2>{esc(title)}</h2>\n{body}")
@@ -62,22 +75,66 @@ def fmt(v: Any, digits: int = 4) -> str:
     return f"{float(v):.{digits}f}"
 
 
-def table(header: list[str], rows: list[list[Any]], numeric: set[int] | None = None) -> str:
+class Cell:
+    """A table cell with a class of its own (``bad``: a failed check, ``entered``, ``hash``)."""
+
+    def __init__(self, text: Any, cls: str) -> None:
+        self.text, self.cls = text, cls
+
+
+def _keep(text: str) -> str:
+    """Escaped, a value and its σ ("1.23 ± 0.04") kept on one line."""
+    return esc(text).replace(" ± ", "\u00a0±\u00a0")
+
+
+def _cell(c: Any, numeric: bool) -> str:
+    if isinstance(c, Cell):
+        return f"<td class='{c.cls}'>{_keep(str(c.text))}</td>"
+    text = str(c)
+    if numeric and " / " in text:
+        # Several numbers: each kept on one line, the cell breaking only between them.
+        return "<td class='n' style='white-space: normal'>" + " / ".join(
+            f"<span class='nw'>{esc(t)}</span>" for t in text.split(" / ")) + "</td>"
+    return f"<td class='n'>{esc(text)}</td>" if numeric else f"<td>{_keep(text)}</td>"
+
+
+def table(header: list[str], rows: list[list[Any]], numeric: set[int] | None = None, wide: bool = False) -> str:
+    """An HTML table; the cells of the ``numeric`` columns are never broken inside a number (a
+    cell of several numbers "a / b / c" breaks only between them); ``wide``: a smaller font."""
     numeric = numeric or set()
-    out = ["<table><tr>" + "".join(f"<th>{esc(h)}</th>" for h in header) + "</tr>"]
+    opening = "<table class='wide'>" if wide else "<table>"
+    out = [opening + "<tr>" + "".join(f"<th>{esc(h)}</th>" for h in header) + "</tr>"]
     for r in rows:
-        out.append("<tr>" + "".join(f"<td class='n'>{esc(c)}</td>" if i in numeric else f"<td>{esc(c)}</td>"
-                                    for i, c in enumerate(r)) + "</tr>")
+        out.append("<tr>" + "".join(_cell(c, i in numeric) for i, c in enumerate(r)) + "</tr>")
     return "\n".join(out) + "</table>"
+
+
+def title_page(project: Project) -> str:
+    """The report's first page: the case details (FORMAT.md ``case``), the project, vebuild's
+    version, the project file's SHA-256 and the photos' count."""
+    from vebuild.actions.case import case_rows
+
+    data = project.data
+    rows: list[list[Any]] = [[label, text] for label, text in case_rows(data) if label != "declaration"]
+    n_photos = len(data.get("photos", []))
+    rows += [["project", data.get("name", project.path.name)], ["project file", project.path.name],
+             ["project file SHA-256", Cell(sha256_file(project.path), "hash")],
+             ["photographs", f"{n_photos} (each listed with its SHA-256 under Photographs)"],
+             ["software", f"vebuild {__version__}"],
+             ["reproduce", f"vebuild report {project.path.name} --out DIR (the same project gives "
+                           "the same figures and images)"]]
+    declaration = (data.get("case") or {}).get("declaration")
+    no_case = "" if data.get("case") else ("<p class='warn'>The project records no case details (`vebuild case "
+                                           "PROJECT --number … --examiner …`).</p>")
+    return ("<div class='title'>" + f"<h1>vebuild report: {esc(data.get('name', project.path.name))}</h1>"
+            + no_case + "<table>" + "".join(f"<tr><td>{esc(a)}</td>{_cell(b, False)}</tr>" for a, b in rows)
+            + "</table>" + (f"<div class='declaration'>{esc(declaration)}</div>" if declaration else "")
+            + "</div>")
 
 
 def page(project: Project, rep: Report) -> str:
     data = project.data
-    head = [f"<h1>vebuild report: {esc(data.get('name', project.path.name))}</h1>",
-            table(["", ""], [["project file", project.path.name], ["project file SHA-256", sha256_file(project.path)],
-                             ["software", f"vebuild {__version__}"],
-                             ["reproduce", f"vebuild report {project.path.name} --out DIR (the same project gives "
-                                           "the same figures and images)"]])]
+    head = [title_page(project)]
     if rep.warnings:
         head.append("<p class='warn'>" + "<br>".join(esc(w) for w in rep.warnings) + "</p>")
     return ("<!DOCTYPE html><html><head><meta charset='utf-8'>"

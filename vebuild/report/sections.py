@@ -5,13 +5,20 @@ analyses (:mod:`vebuild.report.analyses`) and the hypotheses."""
 from __future__ import annotations
 
 import json
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from vebuild.project import Project
 from vebuild.project.units import RELATIVE_UNITS, length_unit
 from vebuild.render.sizes import IMAGE_WIDTH, image_size
 
-from .page import Report, esc, fmt, table
+from .cameras import calibration, final_cameras
+from .page import Cell, Report, esc, fmt, table
+
+if TYPE_CHECKING:
+    from vebuild.analysis.measure import CheckResult
+
+__all__ = ["analyses", "calibration", "checks", "final_cameras", "hypotheses", "limitations", "marked_photos", "model",
+           "photos", "plan", "validation", "views"]
 
 
 def photos(project: Project, rep: Report) -> None:
@@ -19,61 +26,17 @@ def photos(project: Project, rep: Report) -> None:
     for p in project.data["photos"]:
         exif = p.get("exif") or {}
         camera = " ".join(x for x in (exif.get("make", ""), exif.get("model", "")) if x)
-        rows.append([p["id"], p["file"], f"{p['width']}×{p['height']}", p["sha256"], camera or "—",
+        rows.append([p["id"], p["file"], f"{p['width']}×{p['height']}", Cell(p["sha256"], "hash"), camera or "—",
                      fmt(exif.get("focal_length_mm"), 1) if exif.get("focal_length_mm") else "—"])
     rep.add("Photographs", "<p>Each photo as added to the project; vebuild refuses any photo whose bytes no longer "
-            "hash to this SHA-256.</p>" + table(["id", "file", "pixels", "SHA-256", "camera", "focal mm"], rows))
-
-
-def _lens(camera: dict) -> str:
-    """A camera record's lens distortion in words: k1 ± 1σ and the corner displacement, or pinhole."""
-    d = camera.get("distortion")
-    if not d:
-        return "pinhole"
-    k1, corner = d["k1"], d.get("corner_displacement_px") or {}
-    text = f"k1 {k1['value']:+.4f} ± {k1['sigma'] or 0:.4f}"
-    if corner:
-        text += f", corners {corner['value']:.1f} ± {corner.get('sigma') or 0:.1f} px"
-    return text + f" ({d.get('source', '')})"
-
-
-def calibration(project: Project, rep: Report) -> None:
-    cal = project.data["calibration"]
-    unit = length_unit(project.data)
-    rows = []
-    for pid, c in cal["cameras"].items():
-        rows.append([pid, c.get("mode", ""), f"{c['focal_px']['value']:.1f} ± {c['focal_px']['sigma'] or 0:.1f}",
-                     fmt(c["principal_point"]["value"], 1),
-                     " / ".join(f"{v:.2f} ± {s or 0:.2f}" for v, s in zip(c["ypr_deg"]["value"],
-                                                                          c["ypr_deg"]["sigma"], strict=True)),
-                     " / ".join(f"{v:.3f} ± {s or 0:.3f}" for v, s in zip(c["position"]["value"],
-                                                                          c["position"]["sigma"], strict=True)),
-                     _lens(c), fmt(c.get("rms_px"), 2)])
-    body = ("<p>Cameras from vanishing points and markers (paper §2); values ± 1σ. The lens is the division "
-            "model's k1 (x_u = x_d / (1 + k1 |x_d|²) on f-normalised coordinates; k1 &lt; 0 barrel) and how far "
-            "it moves the photo's farthest corner; a pinhole where no distortion was estimated or given.</p>"
-            + (f"<p class='warn'>{esc(unit.note)}.</p>" if unit.relative else "")
-            + table(["photo", "mode", "focal px", "principal point px", "yaw / pitch / roll °",
-                     f"position x / y / z {unit.symbol}", "lens", "RMS residual px"], rows))
-    dist_rows = [[f"{d['a']} – {d['b']}", d["role"], fmt(d["distance"]), fmt(d.get("measured")),
-                  fmt(d.get("measured_sigma")),
-                  fmt(None if d.get("measured") is None else d["measured"] - d["distance"])]
-                 for d in cal.get("reference_distances", [])]
-    if dist_rows and unit.relative:
-        body += ("<h3>Reference and check distances</h3><p>Known at the scene in metres, measured here in "
-                 f"{RELATIVE_UNITS}: they are not compared.</p>"
-                 + table(["between", "role", "known m", "measured rel.", "1σ rel."],
-                         [r[:5] for r in dist_rows], {2, 3, 4}))
-    elif dist_rows:
-        body += ("<h3>Reference and check distances</h3><p>'scale' distances fix the metric scale; 'check' "
-                 "distances are not used by the solve: measured against known, they are the independent accuracy "
-                 "check.</p>" + table(["between", "role", "known m", "measured m", "1σ m", "difference m"], dist_rows,
-                                      {2, 3, 4, 5}))
-    rep.add("Calibration", body)
+            "hash to this SHA-256.</p>" + table(["id", "file", "pixels", "SHA-256", "camera", "focal mm"], rows,
+                                                {2, 5}, wide=True))
 
 
 def model(project: Project, rep: Report) -> None:
     from vebuild.analysis.solved import check_model_solution
+
+    from .limitations import entered_values
 
     check_model_solution(project)
     sol = project.data.get("model_solution")
@@ -81,24 +44,137 @@ def model(project: Project, rep: Report) -> None:
         rep.add("Model", "<p class='warn'>The model has not been solved (`vebuild solve`).</p>")
         return
     unit = length_unit(project.data)
+    entered = entered_values(project)
     rows = []
     for node, rec in sol["nodes"].items():
         for group in ("params", "dofs"):
             for name, v in (rec.get(group) or {}).items():
-                ci = v.get("ci95") or [None, None]
-                rows.append([node, name, fmt(v["value"]), fmt(v["sigma"]), f"{fmt(ci[0])} – {fmt(ci[1])}"])
+                e = entered.get((node, name))
+                if e is not None:
+                    # An entered value is no measurement: its σ is the one entered (none: taken as exact).
+                    sigma = f"{fmt(e.sigma)} (entered)" if e.sigma > 0 else "none (taken as exact)"
+                    rows.append([node, name, fmt(v["value"]), Cell("entered", "entered"), sigma, "—"])
+                elif not v.get("sigma"):
+                    rows.append([node, name, fmt(v["value"]), Cell("held by its joint, not solved", "entered"),
+                                 "—", "—"])
+                else:
+                    ci = v.get("ci95") or [None, None]
+                    rows.append([node, name, fmt(v["value"]), "solved", fmt(v["sigma"]),
+                                 f"{fmt(ci[0])} – {fmt(ci[1])}"])
     how = "with" if sol.get("recalibrated") else "without"
     body = (f"<p>Primitives fitted to the pins and edges (paper §3), {how} "
             f"re-calibration of the cameras; RMS residual {fmt(sol.get('rms_px'), 2)} px, variance factor "
             f"{fmt(sol.get('variance_factor'), 2)}. "
             + (f"Lengths in {RELATIVE_UNITS} (no scale was given), " if unit.relative else "Lengths in metres, ")
-            + "angles in degrees; 1σ and 95 % interval from the solve's covariance.</p>"
-            + table(["node", "parameter", "value", "1σ", "95 % interval"], rows, {2, 3}))
+            + "angles in degrees; 1σ and 95 % interval from the solve's covariance. A value marked 'entered' was "
+            "entered (a tape, a plan, an assumption), not measured in the photos: its σ is the entered one; "
+            "one 'held by its joint' is no measurement either.</p>"
+            + table(["node", "parameter", "value", "from", "1σ", "95 % interval"], rows, {2, 4, 5}, wide=True))
     outliers = sol.get("outliers") or []
     body += f"<p>Observations flagged as outliers (> 4σ): {len(outliers)}.</p>"
     if outliers:
         body += "<pre class='small'>" + esc(json.dumps(outliers, indent=1)[:4000]) + "</pre>"
     rep.add("Model", body)
+
+
+def final_checks(project: Project) -> list[CheckResult]:
+    """The check distances measured on the final model ([] before a solve, or without a scale)."""
+    from vebuild.analysis.measure import check_distances
+    from vebuild.analysis.solved import SolvedModel
+
+    if not project.data.get("model_solution") or length_unit(project.data).relative:
+        return []
+    return check_distances(project, SolvedModel.from_project(project), roles=("check", "scale"))
+
+
+def checks(project: Project, rep: Report) -> None:
+    """Reference and check distances measured on the final model, each with its verdict."""
+    refs = project.data.get("reference_distances") or []
+    if not refs:
+        return
+    unit = length_unit(project.data)
+    if unit.relative:
+        rep.add("Reference and check distances", "<p>Known at the scene in metres, measured here in "
+                f"{RELATIVE_UNITS}: they are not compared.</p>"
+                + table(["between", "role", "known m"], [[f"{d['a']} – {d['b']}", d["role"], fmt(d["distance"])]
+                                                        for d in refs], {2}))
+        return
+    if not project.data.get("model_solution"):
+        rep.add("Reference and check distances", "<p class='warn'>The model has not been solved: the distances "
+                "are measured on the final model, after `vebuild solve`.</p>")
+        return
+    cal = {frozenset((d["a"], d["b"])): d
+           for d in (project.data.get("calibration") or {}).get("reference_distances", [])}
+    rows = []
+    for c in sorted(rep.checks, key=lambda c: c.role != "check"):
+        lo, hi = c.difference_ci95
+        verdict = (Cell("within", "good") if c.within_ci95 else Cell("OUTSIDE", "bad"))
+        stage = cal.get(frozenset((c.a, c.b)), {})
+        before = (f"{1000 * (stage['measured'] - stage['distance']):+.1f}" if stage.get("measured") is not None
+                  else "—")
+        rows.append([f"{c.a} – {c.b}", c.role, fmt(c.known), fmt(c.measured.value), f"{1000 * c.measured.sigma:.1f}",
+                     f"{1000 * c.difference:+.1f}", f"{1000 * c.difference_sigma:.1f}",
+                     f"{1000 * lo:+.1f} … {1000 * hi:+.1f}", verdict, before])
+    failed = [c for c in rep.checks if c.role == "check" and not c.within_ci95]
+    body = ("<p>Each known distance measured on the final model (its cameras and markers as the solve left them; "
+            "an end may be a marker or a model vertex, node:handle). The difference is measured − known; its 1σ "
+            "combines the measurement's and the tape's; the verdict says whether the known distance lies within "
+            "the 95 % interval of the measurement (the difference within ± 1.96σ of zero). 'check' distances were "
+            "not used by the solve: they are the independent accuracy check; 'scale' distances fixed the scale, "
+            "so their agreement proves little. The last column is the calibration stage's difference, before the "
+            "model was solved, for comparison only.</p>"
+            + (f"<p class='warn'>{len(failed)} check distance(s) outside the 95 % interval: the model is less "
+               "accurate there than its σ says.</p>" if failed else "")
+            + table(["between", "role", "known m", "measured m", "1σ mm", "difference mm", "1σ mm",
+                     "95 % interval mm", "verdict", "calibration stage mm"], rows, {2, 3, 4, 5, 6, 7, 9}, wide=True))
+    rep.add("Reference and check distances", body)
+
+
+def limitations(project: Project, rep: Report) -> None:
+    """What the figures rest on that no photo showed (:func:`vebuild.report.limitations.limitations`)."""
+    from .limitations import limitations as items
+    from .limitations import limitations_html
+
+    rep.add("Limitations", "<p>Made from the project itself: what an examiner should know before relying on "
+            "the figures and images of this report.</p>" + limitations_html(items(project, rep.checks)))
+
+
+def plan(project: Project, rep: Report) -> None:
+    """The plan view (:mod:`vebuild.report.plan`), an SVG in the report's images."""
+    from vebuild.project.atomic import write_text
+
+    from .plan import plan_svg
+
+    if not project.data.get("model_solution"):
+        return
+    svg, info = plan_svg(project)
+    path = rep.folder / "images" / "plan.svg"
+    write_text(path, svg)
+    rep.images.append(path)
+    scale = (f"printed at 1 : {info['scale']} (a millimetre on the page is {info['scale']} mm in the scene)"
+             if info["scale"] else "fitted to the page (no scale in metres)")
+    rep.add("Plan view", "<p>The scene from above, " + esc(scale) + ": the model's edges (grey), the final "
+            f"cameras ({info['cameras']}, blue) with their horizontal fields of view, the markers "
+            f"({info['markers']}, orange), the evidence markers (red), the world axes +x (red) and +y (green) "
+            "from the origin, and a scale bar.</p>"
+            "<figure><img class='plan' src='images/plan.svg'><figcaption>plan view</figcaption></figure>")
+
+
+def marked_photos(project: Project, rep: Report) -> None:
+    """Each photo with the operator's marks drawn over it (:mod:`vebuild.report.marked_photos`)."""
+    from .marked_photos import marked_photo
+
+    figs = []
+    for i, p in enumerate(project.data["photos"]):
+        pixels, n = marked_photo(project, i, IMAGE_WIDTH)
+        src = rep.image(f"marks-{i + 1}.png", pixels, {"Software": "vebuild", "Source": p["file"],
+                                                       "Source SHA-256": p["sha256"]})
+        figs.append(f"<figure><img src='{src}'><figcaption>photo {esc(p['id'])} ({esc(p['file'])}) as marked: "
+                    f"{n['segments']} vanishing segments (x red, y green, z blue, arrow at the positive end), "
+                    f"{n['markers']} marker observations (orange rings), {n['pins']} pins (yellow crosses), "
+                    f"{n['edges']} edge observations (magenta)</figcaption></figure>")
+    rep.add("The photos as marked", "<p>Each original photo, reduced to this page, with every mark the operator "
+            "made on it: what the calibration and the solve were given.</p>" + "".join(figs))
 
 
 def _renderer(project: Project, scene: Any = None) -> tuple[Any, Any]:
@@ -156,7 +232,9 @@ def validation(project: Project, rep: Report) -> None:
     from vebuild.actions.render import RenderRequest, render_evidence
 
     rows, figs = [], []
-    cams = project.data["calibration"]["cameras"]
+    from vebuild.project.decode import camera_records
+
+    cams = camera_records(project.data)  # the final cameras
     for i, p in enumerate(project.data["photos"]):
         if p["id"] not in cams:
             continue
@@ -175,7 +253,8 @@ def validation(project: Project, rep: Report) -> None:
                     "rendered from its camera, half and half where the model covers it</figcaption></figure>")
     rep.add("How well the model explains each photo",
             "<p>RMS colour difference (sRGB levels, 0–255) between each photo and the model rendered from its "
-            "calibrated camera, over the pixels the model covers, after one exposure gain.</p>"
+            "final camera (re-calibrated where the solve re-calibrated it), over the pixels the model covers, "
+            "after one exposure gain.</p>"
             + table(["photo", "RMS difference", "covered", "gain"], rows, {1, 2, 3}) + "".join(figs))
 
 

@@ -40,9 +40,12 @@ def write_report(project: Project, out: Path, pdf: bool = True,
         (tmp / "images").mkdir()
         rep = Report(tmp)
         step = progress or (lambda what: None)
-        steps = [("photos", sections.photos), ("calibration", sections.calibration), ("model", sections.model),
-                 ("views", sections.views), ("validation", sections.validation), ("analyses", sections.analyses),
-                 ("hypotheses", sections.hypotheses)]
+        rep.checks = sections.final_checks(project)
+        steps = [("photos", sections.photos), ("calibration", sections.calibration),
+                 ("final cameras", sections.final_cameras), ("model", sections.model), ("checks", sections.checks),
+                 ("limitations", sections.limitations), ("plan", sections.plan), ("views", sections.views),
+                 ("marked photos", sections.marked_photos), ("validation", sections.validation),
+                 ("analyses", sections.analyses), ("hypotheses", sections.hypotheses)]
         for name, fn in steps:
             step(name)
             fn(project, rep)
@@ -74,10 +77,11 @@ def _pdf(folder: Path) -> None:
 
 
 def digest(folder: Path) -> str:
-    """SHA-256 over the report's HTML, images and figures (not the PDF, whose writer stamps it):
-    the same project gives the same digest."""
+    """SHA-256 over the report's HTML, images (PNG and the plan's SVG) and figures (not the PDF, whose
+    writer stamps it): the same project gives the same digest."""
     h = hashlib.sha256()
-    for p in sorted([folder / "report.html", *(folder / "images").glob("*.png"), *(folder / "figures").glob("*")]):
+    images = [*(folder / "images").glob("*.png"), *(folder / "images").glob("*.svg")]
+    for p in sorted([folder / "report.html", *images, *(folder / "figures").glob("*")]):
         h.update(p.name.encode())
         h.update(p.read_bytes())
     return h.hexdigest()

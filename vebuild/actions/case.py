@@ -1,0 +1,52 @@
+"""``vebuild case PROJECT --number … --examiner …``: the case details the report's title page shows
+(the project's ``case`` object, FORMAT.md).
+
+Each option given sets its field; an empty text removes it; fields not named stay as they were.
+The project is saved through :func:`vebuild.project.save_project`, which validates it first.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from ..errors import VebuildError
+from ..project import Project
+
+#: Each field of ``case``: its key, its label on the report's title page, and its ``vebuild case``
+#: option, in the order the title page shows them.
+CASE_FIELDS: tuple[tuple[str, str, str], ...] = (
+    ("number", "case number", "--number"),
+    ("examiner", "examiner", "--examiner"),
+    ("organisation", "organisation", "--organisation"),
+    ("photo_dates", "date(s) of the photos", "--photo-dates"),
+    ("declaration", "declaration", "--declaration"),
+)
+
+
+def case_rows(data: Mapping[str, Any]) -> list[tuple[str, str]]:
+    """The case's fields that the project gives, as (label, text), in :data:`CASE_FIELDS`' order."""
+    case = data.get("case") or {}
+    return [(label, str(case[key])) for key, label, _ in CASE_FIELDS if case.get(key)]
+
+
+def set_case(project: Project, values: Mapping[str, str | None]) -> dict[str, str]:
+    """Set the case fields ``values`` (key → text; None: leave it, "": remove it) in the project's
+    document; returns the case as it now is. The caller saves the project."""
+    unknown = sorted(set(values) - {k for k, _, _ in CASE_FIELDS})
+    if unknown:
+        raise VebuildError(f"case: unknown field(s) {', '.join(unknown)}; the fields are "
+                           + ", ".join(k for k, _, _ in CASE_FIELDS))
+    case = dict(project.data.get("case") or {})
+    for key, text in values.items():
+        if text is None:
+            continue
+        if text.strip():
+            case[key] = text
+        else:
+            case.pop(key, None)
+    if case:
+        project.data["case"] = {k: case[k] for k, _, _ in CASE_FIELDS if k in case}
+    else:
+        project.data.pop("case", None)
+    return dict(project.data.get("case") or {})

@@ -1,0 +1,100 @@
+"""The report's camera sections, one stage at a time: the vanishing-point calibration
+(``calibration.cameras``, each photo's mode and its reason), then the final cameras, those a
+re-calibrating solve wrote (``model_solution.cameras``) or, where it wrote none, the calibration's,
+said in words."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from vebuild.project import Project
+from vebuild.project.units import length_unit
+
+from .page import Report, esc, fmt, table
+
+LENS_NOTE = ("The lens is the division model's k1 (x_u = x_d / (1 + k1 |x_d|²) on f-normalised coordinates; "
+             "k1 &lt; 0 barrel) and how far it moves the photo's farthest corner; a pinhole where no distortion "
+             "was estimated or given.")
+
+
+def lens(camera: Mapping[str, Any]) -> str:
+    """A camera record's lens distortion in words: k1 ± 1σ and the corner displacement, or pinhole."""
+    d = camera.get("distortion")
+    if not d:
+        return "pinhole"
+    k1, corner = d["k1"], d.get("corner_displacement_px") or {}
+    text = f"k1 {k1['value']:+.4f} ± {k1['sigma'] or 0:.4f}"
+    if corner:
+        text += f", corners {corner['value']:.1f} ± {corner.get('sigma') or 0:.1f} px"
+    return text + f" ({d.get('source', '')})"
+
+
+def _pm(values: Any, sigmas: Any, digits: int) -> str:
+    return " / ".join(f"{v:.{digits}f} ± {s or 0:.{digits}f}" for v, s in zip(values, sigmas, strict=True))
+
+
+def camera_rows(records: Mapping[str, Mapping[str, Any]], mode: bool) -> list[list[Any]]:
+    rows = []
+    for pid, c in records.items():
+        row = [pid] + ([c.get("mode", "")] if mode else [])
+        rows.append(row + [f"{c['focal_px']['value']:.1f} ± {c['focal_px']['sigma'] or 0:.1f}",
+                           fmt(c["principal_point"]["value"], 1),
+                           _pm(c["ypr_deg"]["value"], c["ypr_deg"]["sigma"], 2),
+                           _pm(c["position"]["value"], c["position"]["sigma"], 3),
+                           lens(c), fmt(c.get("rms_px"), 2)])
+    return rows
+
+
+def _header(symbol: str, mode: bool) -> list[str]:
+    return ["photo"] + (["mode"] if mode else []) + ["focal px", "principal point px", "yaw / pitch / roll °",
+                                                      f"position x / y / z {symbol}", "lens", "RMS px"]
+
+
+def calibration(project: Project, rep: Report) -> None:
+    cal = project.data["calibration"]
+    unit = length_unit(project.data)
+    cams = cal["cameras"]
+    body = ("<p>The cameras of the calibration stage: vanishing points, markers and placement (paper §2; "
+            "`vebuild calibrate`, `vebuild register`), before any re-calibration with the model. Values ± 1σ. "
+            f"{LENS_NOTE}</p>"
+            + (f"<p class='warn'>{esc(unit.note)}.</p>" if unit.relative else "")
+            + table(_header(unit.symbol, True), camera_rows(cams, True), {2, 3, 4, 5, 7}, wide=True))
+    overwritten = sorted(pid for pid, c in cams.items() if c.get("recalibrated"))
+    if overwritten:
+        body += (f"<p class='warn'>The calibration records of {', '.join(overwritten)} were replaced by an "
+                 "earlier re-calibrating solve: they are not the vanishing-point calibration. Run `vebuild "
+                 "calibrate` and `vebuild solve --recalibrate` again to keep the stages apart.</p>")
+    body += "<h3>Calibration mode of each photo</h3><ul class='lim'>" + "".join(
+        f"<li>{esc(pid)}: {esc(c.get('mode', '?'))}: {esc(c.get('mode_reason', 'no reason recorded'))}</li>"
+        for pid, c in cams.items()) + "</ul>"
+    unplaced = cal.get("unplaced") or {}
+    if unplaced:
+        body += "<p class='warn'>Calibrated but not placed: " + "; ".join(
+            f"{esc(pid)} ({esc(u.get('reason', '') if isinstance(u, Mapping) else u)})"
+            for pid, u in unplaced.items()) + ".</p>"
+    rep.add("Calibration (vanishing points)", body)
+
+
+def final_cameras(project: Project, rep: Report) -> None:
+    """The cameras every later part of the report draws with (:func:`vebuild.project.decode.cameras`)."""
+    sol = project.data.get("model_solution") or {}
+    recal = sol.get("cameras") or {}
+    unit = length_unit(project.data)
+    title = "Final cameras (re-calibrated with the model)"
+    if recal:
+        kept = [pid for pid in project.data["calibration"]["cameras"] if pid not in recal]
+        body = ("<p>The cameras solved jointly with the model and the markers (paper §3.2; `vebuild solve "
+                "--recalibrate`), their calibration above taken as priors. Values ± 1σ. These cameras draw the "
+                "textures, the renders and the plan view of this report."
+                + (f" Not re-calibrated, so their final cameras are the calibration's: {esc(', '.join(kept))}."
+                   if kept else "") + "</p>"
+                + table(_header(unit.symbol, False), camera_rows(recal, False), {1, 2, 3, 4, 6}, wide=True))
+    elif sol.get("recalibrated"):
+        body = ("<p class='warn'>The solve re-calibrated the cameras, but the project keeps no re-calibrated "
+                "cameras apart from the calibration (a project solved by an earlier vebuild); the final cameras "
+                "are the records of the calibration table above.</p>")
+    else:
+        body = ("<p>The solve did not re-calibrate the cameras (`vebuild solve` without --recalibrate): the final "
+                "cameras are the calibration's, in the table above.</p>")
+    rep.add(title, body)

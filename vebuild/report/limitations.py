@@ -1,0 +1,203 @@
+"""What the figures of a project rest on that a photo did not show, gathered from the project itself.
+
+:func:`limitations` returns the items (plain data, :class:`Limitation`); the report's section
+"Limitations" renders them (:func:`limitations_html`). Each item names its kind, says in plain words
+what it is and lists the things it concerns:
+
+- ``unseen``: faces of the model that no photo saw, and how their texture was filled
+  (``textures.faces[].seen_fraction``, ``textures.options``), with their share of the model's
+  surface area;
+- ``entered``: dimensions entered from measurements rather than measured in the photos (a node's
+  ``hold`` list, a node with ``"solve": false``, a parameter marked ``"entered"`` in the solution);
+- ``not-photographed``: parts of the model that no pin or edge in any photo places, held only by
+  their joints and entered values;
+- ``outliers``: observations the solve flagged (``model_solution.outliers``);
+- ``failed-checks``: check distances whose known value lies outside the final model's 95 %
+  interval;
+- ``calibration-modes``: each photo's calibration mode and its reason;
+- ``unplaced``: photos calibrated but not placed (``calibration.unplaced``);
+- ``relative-units``: no scale, lengths in relative units.
+
+Other kinds (results gone stale) are added by whoever computes them; the section shows every item.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+from .page import esc
+
+if TYPE_CHECKING:
+    from vebuild.analysis.measure import CheckResult
+    from vebuild.project import Project
+
+#: How the texture of texels no photo saw is made, by ``textures.options.fill`` (FORMAT.md).
+FILL_WORDS = {"push-pull": "filled smoothly from the seen texels around them (push-pull), an invention",
+              "average": "filled with the face's average seen colour, an invention"}
+
+
+@dataclass(frozen=True)
+class Limitation:
+    """One limitation: its ``kind`` (see the module), a ``title``, a sentence saying what it means,
+    and the ``items`` it concerns (one line each)."""
+
+    kind: str
+    title: str
+    text: str
+    items: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class Entered:
+    """A value entered from a measurement, not measured in the photos: ``sigma`` its 1σ in file
+    units (0 where none was given: the solve took it as exact)."""
+
+    node: str
+    name: str
+    sigma: float
+    why: str  # "hold", "not solved" or "entered"
+
+
+def entered_values(project: Project) -> dict[tuple[str, str], Entered]:
+    """Every entered value by (node, parameter or joint name): a name in a node's ``hold`` list (or
+    an object ``{"name", "sigma"}`` there), every parameter of a node with ``"solve": false``, and
+    every ``model_solution.nodes[n].params[p]`` (or ``dofs``) marked ``"entered": true`` (with its
+    ``entered_sigma``)."""
+    data = project.data
+    out: dict[tuple[str, str], Entered] = {}
+    sol_nodes = (data.get("model_solution") or {}).get("nodes") or {}
+    for n in (data.get("model") or {}).get("nodes", []):
+        name = n["name"]
+        for h in n.get("hold") or []:
+            if isinstance(h, Mapping):
+                out[(name, str(h["name"]))] = Entered(name, str(h["name"]), float(h.get("sigma") or 0.0), "hold")
+            else:
+                out[(name, str(h))] = Entered(name, str(h), 0.0, "hold")
+        if n.get("solve") is False:
+            rec = sol_nodes.get(name) or {}
+            params = list(rec.get("params") or {}) or list((n.get("primitive") or {}).get("params") or {})
+            for p in params:
+                out.setdefault((name, p), Entered(name, p, 0.0, "not solved"))
+    for node, rec in sol_nodes.items():
+        for group in ("params", "dofs"):
+            for p, v in (rec.get(group) or {}).items():
+                if v.get("entered"):
+                    out[(node, p)] = Entered(node, p, float(v.get("entered_sigma") or 0.0), "entered")
+    return out
+
+
+def _unseen(data: Mapping[str, Any]) -> list[Limitation]:
+    tex = data.get("textures") or {}
+    faces = tex.get("faces") or []
+    if not faces:
+        return []
+    area = {f["id"]: float(f["size_m"][0]) * float(f["size_m"][1]) for f in faces}
+    total = sum(area.values()) or 1.0
+    unseen = [f for f in faces if float(f.get("seen_fraction", 1.0)) <= 0.0]
+    unseen_area = sum(area[f["id"]] * (1.0 - float(f.get("seen_fraction", 1.0))) for f in faces)
+    options = tex.get("options") or {}
+    fill = FILL_WORDS.get(str(options.get("fill")), f"filled by {options.get('fill')!r}")
+    if options.get("mode") == "average":
+        fill = "each face one colour, the average of what the photos saw of it; " + fill
+    by_node: dict[str, list[str]] = {}
+    for f in unseen:
+        share = 100 * area[f["id"]] / total
+        by_node.setdefault(f["node"], []).append(
+            f"{f['face']} ({area[f['id']]:.2f} m², {'< 0.1' if share < 0.05 else f'{share:.1f}'} %)")
+    items = tuple(f"{node}: {', '.join(names)}" for node, names in sorted(by_node.items()))
+    text = (f"{len(unseen)} of the model's {len(faces)} faces were seen by no photo "
+            f"({100 * sum(area[f['id']] for f in unseen) / total:.1f} % of its surface area); counting the "
+            f"unseen parts of the other faces, {100 * unseen_area / total:.1f} % of the surface is not "
+            f"photographed. Their texture is {fill}. Each face no photo saw, with its share of the surface:")
+    return [Limitation("unseen", "Surfaces no photo saw", text, items)]
+
+
+def _not_photographed(data: Mapping[str, Any], entered: Mapping[tuple[str, str], Entered]) -> list[Limitation]:
+    model = data.get("model") or {}
+    nodes = model.get("nodes") or []
+    seen = {p["node"] for p in model.get("pins", [])} | {e["node"] for e in model.get("edge_observations", [])}
+    items = []
+    for n in nodes:
+        if "primitive" not in n or n["name"] in seen:
+            continue
+        held = sorted(p for (node, p) in entered if node == n["name"])
+        joint = (n.get("joint") or {}).get("type", "none")
+        how = f"joint {joint}" + (f"; entered: {', '.join(held)}" if held else "")
+        items.append(f"{n['name']} ({how})")
+    if not items:
+        return []
+    return [Limitation("not-photographed", "Parts placed from measurements, not photos",
+                       "No pin or edge in any photo places these parts: where they are and how large comes "
+                       "from their joints and the values entered for them, not from the photos.", tuple(items))]
+
+
+def limitations(project: Project, checks: Sequence[CheckResult] = ()) -> list[Limitation]:
+    """The project's limitations, in the order the report lists them (see the module).
+
+    ``checks``: the check distances measured on the final model
+    (:func:`vebuild.analysis.measure.check_distances`), for the failed ones.
+    """
+    from vebuild.project.units import length_unit
+
+    data = project.data
+    out: list[Limitation] = []
+    unit = length_unit(data)
+    if unit.relative:
+        out.append(Limitation("relative-units", "No scale", f"{unit.note}."))
+    out += _unseen(data)
+    entered = entered_values(project)
+    if entered:
+        by_node: dict[str, list[str]] = {}
+        for e in entered.values():
+            by_node.setdefault(e.node, []).append(e.name + (f" ± {e.sigma:.4f}" if e.sigma > 0 else ""))
+        items = tuple(f"{node}: {', '.join(names)}"
+                      + ("; the node is not solved" if any(e.why == "not solved" for e in entered.values()
+                                                          if e.node == node) else "")
+                      for node, names in by_node.items())
+        out.append(Limitation("entered", "Entered values",
+                              "These dimensions were entered (from a tape, a plan, an assumption), not measured in "
+                              "the photos; a σ (± 1σ, in file units) is the entered one; a value without one was "
+                              "taken as exact.",
+                              items))
+    out += _not_photographed(data, entered)
+    outliers = (data.get("model_solution") or {}).get("outliers") or []
+    if outliers:
+        out.append(Limitation("outliers", "Outliers", f"The solve flagged {len(outliers)} observation(s) as "
+                              "outliers (residual above 4σ): look at them before relying on the figures.",
+                              tuple(str(o) for o in outliers)))
+    failed = [c for c in checks if not c.within_ci95]
+    if failed:
+        out.append(Limitation("failed-checks", "Failed check distances",
+                              "The known distance lies outside the final model's 95 % interval: the model is "
+                              "less accurate there than its σ says.",
+                              tuple(f"{c.a} – {c.b}: difference {1000 * c.difference:+.1f} mm, 95 % interval "
+                                    f"± {1000 * (c.difference_ci95[1] - c.difference):.1f} mm" for c in failed)))
+    cal = data.get("calibration") or {}
+    cams = cal.get("cameras") or {}
+    if cams:
+        out.append(Limitation("calibration-modes", "How each photo was calibrated",
+                              "Each photo's calibration mode and the first part of its reason (the whole reason "
+                              "under Calibration).",
+                              tuple(f"{pid}: {c.get('mode', '?')}: "
+                                    + str(c.get("mode_reason", "no reason recorded")).split(";")[0]
+                                    for pid, c in cams.items())))
+    unplaced = cal.get("unplaced") or {}
+    if unplaced:
+        out.append(Limitation("unplaced", "Photos not placed",
+                              "These photos were calibrated but not placed; nothing in the model rests on them.",
+                              tuple(f"{pid}: {u.get('reason', '') if isinstance(u, Mapping) else u}"
+                                    for pid, u in unplaced.items())))
+    return out
+
+
+def limitations_html(items: Sequence[Limitation]) -> str:
+    if not items:
+        return "<p>None found in the project.</p>"
+    parts = []
+    for lim in items:
+        parts.append(f"<h3>{esc(lim.title)}</h3><p>{esc(lim.text)}</p>")
+        if lim.items:
+            parts.append("<ul class='lim'>" + "".join(f"<li>{esc(i)}</li>" for i in lim.items) + "</ul>")
+    return "".join(parts)
