@@ -478,6 +478,19 @@ case("recorded-analysis-empty", _analysis([]), V + ["report"], [P, "$.analyses[0
 case("recorded-analysis-unknown-node", _analysis(["distance", "sofa:v1", "cabinet:v4"]), ["report"],
      [P, "$.analyses[0]", "sofa"])
 
+# The case details (FORMAT.md "case"): set by `vebuild case`, shown on the report's title page.
+CASE_CMD = ["case", P, "--examiner", "A. Examiner"]
+case("case-not-an-object", setter(("case",), "2026/17"), V + ["report", CASE_CMD], [P, "$.case"], state="raw")
+case("case-unknown-field", setter(("case",), {"numbr": "2026/17"}), V + ["report", CASE_CMD],
+     [P, "$.case", "numbr"], state="raw")
+case("case-number-not-text", setter(("case",), {"number": 17}), V + ["report", CASE_CMD], [P, "$.case.number"],
+     state="raw")
+case("case-examiner-empty", setter(("case",), {"examiner": ""}), V + [CASE_CMD], [P, "$.case.examiner"],
+     state="raw")
+case("case-declaration-control-character", setter(("case",), {"declaration": "I declare\u0000"}), V + [CASE_CMD],
+     [P, "$.case.declaration"], state="raw")
+
+
 # -- 5. results: calibration, model_solution, textures ---------------------------------------------
 
 

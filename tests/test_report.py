@@ -46,8 +46,9 @@ def test_the_report_holds_every_section_and_is_reproducible(analysed_room, tmp_p
     project = load_project(analysed_room)
     for p in project.data["photos"]:
         assert p["sha256"] in page  # every photo with its hash
-    for title in ("Photographs", "Calibration", "Reference and check distances", "Model", "Evidence views",
-                  "How well the model explains each photo", "Analyses", "Hypotheses"):
+    for title in ("Photographs", "Calibration (vanishing points)", "Final cameras (re-calibrated with the model)",
+                  "Reference and check distances", "Model", "Limitations", "Plan view", "Evidence views",
+                  "The photos as marked", "How well the model explains each photo", "Analyses", "Hypotheses"):
         assert f">{title}<" in page, title
     for k, rec in enumerate(json.loads(analysed_room.read_text())["analyses"], start=1):
         assert rec["name"] in page
@@ -57,14 +58,17 @@ def test_the_report_holds_every_section_and_is_reproducible(analysed_room, tmp_p
     # Each camera's lens: p6's barrel distortion with its 1σ and corner displacement, p1 a pinhole.
     cams = project.data["calibration"]["cameras"]
     d6 = cams["p6"]["distortion"]
-    assert (f"k1 {d6['k1']['value']:+.4f} ± {d6['k1']['sigma']:.4f}, corners "
+    pm = "\u00a0±\u00a0"  # a value and its σ kept on one line
+    assert (f"k1 {d6['k1']['value']:+.4f}{pm}{d6['k1']['sigma']:.4f}, corners "
             f"{d6['corner_displacement_px']['value']:.1f}") in page
     assert d6["k1"]["value"] < -0.02 and "distortion" not in cams["p1"]
     assert "<td>pinhole</td>" in page
     assert "HYPOTHESIS: box by the door (not the measured scene)" in page
     assert "a glass" in page and "vebuild 0." in page
     assert (out1 / "report.pdf").read_bytes().startswith(b"%PDF")
-    assert len(list((out1 / "images").glob("*.png"))) >= 3 + 5 + 3 + 1  # views, photos, analyses, hypothesis
+    # views, photos, analyses, hypothesis, the photos as marked; and the plan view
+    assert len(list((out1 / "images").glob("*.png"))) >= 3 + 5 + 3 + 1 + 6
+    assert (out1 / "images" / "plan.svg").is_file()
     # The same project gives the same report: numbers and images byte for byte.
     write_report(load_project(analysed_room), out2, pdf=False)
     assert digest(out1) == digest(out2)
