@@ -109,10 +109,10 @@ def test_each_stage_labelled_and_entered_values_marked(court):
     final = page[page.index(">Final cameras (re-calibrated with the model)<"):page.index(">Model<")]
     for pid, c in data["calibration"]["cameras"].items():
         assert not c.get("recalibrated")
-        assert f"{c['focal_px']['value']:.1f}\u00a0±\u00a0" in calibration
+        assert f">{c['focal_px']['value']:.1f} ± " in calibration  # a numeric cell: never broken
         assert c["mode"] in calibration and c["mode_reason"][:40] in calibration
         r = data["model_solution"]["cameras"][pid]
-        assert f"{r['focal_px']['value']:.1f}\u00a0±\u00a0{r['focal_px']['sigma']:.1f}" in final
+        assert f">{r['focal_px']['value']:.1f} ± {r['focal_px']['sigma']:.1f}<" in final
     # No entered value reads as a perfect measurement.
     model = page[page.index(">Model<"):page.index(">Reference and check distances<")]
     assert "± 0.0000" not in model and "4.0000 – 4.0000" not in model and "0.7200 – 0.7200" not in model
