@@ -77,9 +77,13 @@ def marked_photo(project: Project, index: int, width: int) -> tuple[NDArray[np.u
     for name, uv in sorted((photo.get("marker_observations") or {}).items()):
         x, y = pt(*uv)
         draw.ellipse([(x - R, y - R), (x + R, y + R)], outline=MARKER_RGB, width=lw + 1)
-        box = draw.textbbox((x + R + 2, y - R - 2), name, font=font)
+        at = (x + R + 2, y - R - 2)
+        box = draw.textbbox(at, name, font=font)
+        if box[2] + 2 > width:  # by the right edge: the label goes to the ring's left
+            at = (x - R - 2 - (box[2] - box[0]), at[1])
+            box = draw.textbbox(at, name, font=font)
         draw.rectangle((box[0] - 2, box[1] - 2, box[2] + 2, box[3] + 2), fill=(0, 0, 0))
-        draw.text((x + R + 2, y - R - 2), name, fill=MARKER_RGB, font=font)
+        draw.text(at, name, fill=MARKER_RGB, font=font)
         counts["markers"] += 1
     return np.asarray(img), counts
 

@@ -166,7 +166,7 @@ def plan_svg(project: Project) -> tuple[str, dict[str, Any]]:
         out.append(f"<line x1='{ox}' y1='{oy}' x2='{ex}' y2='{ey}' stroke='{colour}' stroke-width='0.5'/>")
         out.append(f"<text x='{ex}' y='{ey}' dx='1' dy='-1' font-size='3' fill='{colour}'>+{axis}</text>")
     out.append(f"<circle cx='{ox}' cy='{oy}' r='1' fill='none' stroke='#000000' stroke-width='0.35'/>"
-               f"<text x='{ox}' y='{oy}' dx='1.5' dy='3.5' font-size='2.6'>origin (z up, towards you)</text>")
+               f"<text x='{ox}' y='{oy}' dx='1.5' dy='6.5' font-size='2.6'>origin (z up, towards you)</text>")
     # Cameras and their fields of view.
     for c in cams:
         cx, cy = xy(c.position)

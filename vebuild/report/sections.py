@@ -157,7 +157,8 @@ def plan(project: Project, rep: Report) -> None:
             f"cameras ({info['cameras']}, blue) with their horizontal fields of view, the markers "
             f"({info['markers']}, orange), the evidence markers (red), the world axes +x (red) and +y (green) "
             "from the origin, and a scale bar.</p>"
-            "<figure><img class='plan' src='images/plan.svg'><figcaption>plan view</figcaption></figure>")
+            "<figure><img class='plan' src='images/plan.svg'><figcaption>plan view from the final model, cameras "
+            "and markers</figcaption></figure>")
 
 
 def marked_photos(project: Project, rep: Report) -> None:
