@@ -487,7 +487,7 @@ case("case-number-not-text", setter(("case",), {"number": 17}), V + ["report", C
      state="raw")
 case("case-examiner-empty", setter(("case",), {"examiner": ""}), V + [CASE_CMD], [P, "$.case.examiner"],
      state="raw")
-case("case-declaration-control-character", setter(("case",), {"declaration": "I declare\u0000"}), V + [CASE_CMD],
+case("case-declaration-too-long", setter(("case",), {"declaration": "I declare. " * 1000}), V + [CASE_CMD],
      [P, "$.case.declaration"], state="raw")
 
 

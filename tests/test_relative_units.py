@@ -232,6 +232,7 @@ def test_report_sections_say_relative(built: dict[str, Built], tmp_path: Path) -
         (rep.folder / "images").mkdir(parents=True)
         sections.calibration(project, rep)
         sections.model(project, rep)
+        sections.checks(project, rep)
         sections.views(project, rep)  # the named view rendered (headless GL), its caption
         html = "".join(rep.sections) + analyses_html(project, rep, [{"name": "h", "command": ["height", "box:v6"]}])
         if kind == "relative":

@@ -94,10 +94,14 @@ def checks(project: Project, rep: Report) -> None:
         return
     unit = length_unit(project.data)
     if unit.relative:
+        stage = {frozenset((d["a"], d["b"])): d
+                 for d in (project.data.get("calibration") or {}).get("reference_distances", [])}
+        rows = [[f"{d['a']} – {d['b']}", d["role"], fmt(d["distance"]),
+                 fmt(stage.get(frozenset((d["a"], d["b"])), {}).get("measured")),
+                 fmt(stage.get(frozenset((d["a"], d["b"])), {}).get("measured_sigma"))] for d in refs]
         rep.add("Reference and check distances", "<p>Known at the scene in metres, measured here in "
-                f"{RELATIVE_UNITS}: they are not compared.</p>"
-                + table(["between", "role", "known m"], [[f"{d['a']} – {d['b']}", d["role"], fmt(d["distance"])]
-                                                        for d in refs], {2}))
+                f"{RELATIVE_UNITS} (by the calibration stage): they are not compared.</p>"
+                + table(["between", "role", "known m", "measured rel.", "1σ rel."], rows, {2, 3, 4}))
         return
     if not project.data.get("model_solution"):
         rep.add("Reference and check distances", "<p class='warn'>The model has not been solved: the distances "
