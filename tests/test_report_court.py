@@ -100,6 +100,10 @@ def test_check_distances_are_the_final_models_with_a_verdict(court):
     row = _row(page, " – ".join(VERTEX_CHECK))
     assert f"{vertex.measured.value:.4f}" in row and ("OUTSIDE" if not vertex.within_ci95 else "within") in row
     assert vertex.to_json()["verdict"] == vertex.verdict
+    # The scale distances measured the same way, labelled as such (the solve fitted them: no check).
+    scale = check_distances(project, SolvedModel.from_project(project), roles=("scale",))
+    assert [(c.a, c.b, c.role) for c in scale] == [("O", "X5", "scale"), ("O", "Y4", "scale")]
+    assert all(f"{c.measured.value:.4f}" in _row(page, f"{c.a} – {c.b}") for c in scale)
 
 
 def test_each_stage_labelled_and_entered_values_marked(court):
