@@ -141,6 +141,20 @@ def test_entered_values_from_hold_objects_and_the_solution():
         ("w", "height"): (0.0, "not solved")}
 
 
+def test_stale_results_head_the_limitations():
+    from dataclasses import dataclass
+
+    @dataclass(frozen=True)
+    class Stale:  # what the provenance gives: a message naming the change and the command
+        message: str
+
+    data = {"model": {"nodes": []}}
+    got = limitations(Project(Path("x.vebuild.json"), data), (), [Stale("textures: the model changed; run "
+                                                                        "vebuild texture PROJECT")])
+    assert got[0].kind == "stale" and got[0].items == ("textures: the model changed; run vebuild texture PROJECT",)
+    assert [lim.kind for lim in limitations(Project(Path("x.vebuild.json"), data))] == []
+
+
 def test_limitations_come_from_the_project(court):
     proj, _, page = court
     project = load_project(proj)

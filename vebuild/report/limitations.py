@@ -18,7 +18,9 @@ what it is and lists the things it concerns:
 - ``unplaced``: photos calibrated but not placed (``calibration.unplaced``);
 - ``relative-units``: no scale, lengths in relative units.
 
-Other kinds (results gone stale) are added by whoever computes them; the section shows every item.
+- ``stale``: results whose inputs changed since they were computed, each with the command that
+  brings it up to date (given by the caller: objects with a ``message``, such as
+  ``vebuild.project.provenance.stale(data)``'s).
 """
 
 from __future__ import annotations
@@ -133,16 +135,21 @@ def _not_photographed(data: Mapping[str, Any], entered: Mapping[tuple[str, str],
                        "from their joints and the values entered for them, not from the photos.", tuple(items))]
 
 
-def limitations(project: Project, checks: Sequence[CheckResult] = ()) -> list[Limitation]:
+def limitations(project: Project, checks: Sequence[CheckResult] = (), stale: Sequence[Any] = ()) -> list[Limitation]:
     """The project's limitations, in the order the report lists them (see the module).
 
     ``checks``: the check distances measured on the final model
-    (:func:`vebuild.analysis.measure.check_distances`), for the failed ones.
+    (:func:`vebuild.analysis.measure.check_distances`), for the failed ones. ``stale``: the results
+    gone stale, each with a ``message`` saying what changed and the command that brings it up to date.
     """
     from vebuild.project.units import length_unit
 
     data = project.data
     out: list[Limitation] = []
+    if stale:
+        out.append(Limitation("stale", "Stale results", "These results were computed from inputs that have "
+                              "changed since: what they show is not what the project gives now.",
+                              tuple(str(s.message) for s in stale)))
     unit = length_unit(data)
     if unit.relative:
         out.append(Limitation("relative-units", "No scale", f"{unit.note}."))
