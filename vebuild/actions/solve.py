@@ -31,6 +31,7 @@ from ..project import Project, decode, json_path
 from ..project.decode import cameras_from_calibration, load_model
 from ..project.records import camera_record, distortion_record, json_values, value_sigma
 from ..project.units import length_unit
+from .register import recalibration_cameras
 
 #: A pinned handle must project in front of its camera and no farther outside the image than this
 #: share of its size; otherwise the pin is on a vertex that camera cannot see.
@@ -46,6 +47,8 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
     """
     data = project.data
     cameras = cameras_from_calibration(project)
+    if recalibrate:  # a registered photo held by its registration's own prior (actions/register.py)
+        cameras = recalibration_cameras(project, cameras, refine_intrinsics)
     model, pins, edges = load_model(project)
     cal = data["calibration"]
     origin = cal.get("origin_marker")
