@@ -191,11 +191,12 @@ def _results(problem: Problem, solution: Any, model: Model, xm: np.ndarray, reca
             value, s = xm[sq][k], (sig[j] if j is not None else 0.0)
             if n.joint.dof_kinds[k] == "angle":
                 value, s, dof = np.degrees(value), np.degrees(s), dof + "_deg"
-            entry["dofs"][dof] = _vs(value, s)
+            entry["dofs"][dof] = {**_vs(value, s), **n.entered_record(n.joint.dof_names[k])}  # entered: FORMAT.md
         if n.primitive is not None:
             for k, pname in enumerate(n.primitive.PARAMS):
                 j = by_name.get(f"{n.name}.{pname}")
-                entry["params"][pname] = _vs(xm[sp][k], sig[j] if j is not None else 0.0)
+                entry["params"][pname] = {**_vs(xm[sp][k], sig[j] if j is not None else 0.0),
+                                          **n.entered_record(pname)}  # entered values: FORMAT.md
             for h in n.primitive.handle_names():
                 pos, cov = handles[f"{n.name}:{h}"]
                 entry["handles"][h] = _vs(pos, np.sqrt(np.maximum(np.diag(cov), 0.0)))
