@@ -43,6 +43,7 @@ class Entered:
 
 
 def _number(v: Any) -> bool:
+    """A finite JSON number (not a boolean)."""
     return isinstance(v, int | float) and not isinstance(v, bool) and bool(np.isfinite(v))
 
 
@@ -61,17 +62,17 @@ def hold_list(items: Any, known: tuple[str, ...]) -> tuple[tuple[str, ...], tupl
             if extra:
                 raise HoldError(f"{at}.{extra[0]}", f"an entered value has the fields name, sigma and "
                              f"value (optional); got {extra[0]!r}")
-            name, sigma, value = h.get("name"), h.get("sigma"), h.get("value")
+            name, sigma, value = h.get("name"), h["sigma"] if "sigma" in h else None, h.get("value")
             if not isinstance(name, str):
                 raise HoldError(f"{at}.name", f"expected the name of a parameter of this node (it has: "
                              f"{', '.join(known)}), got {name!r}")
-            if not (_number(sigma) and sigma >= 0):
+            if not isinstance(sigma, int | float) or not (_number(sigma) and sigma >= 0):
                 raise HoldError(f"{at}.sigma", f"expected the 1σ of the measurement entered for "
                              f"'{name}' as a number ≥ 0 (metres, or degrees for an angle), got {sigma!r}")
-            if value is not None and not _number(value):
+            if value is not None and not (isinstance(value, int | float) and _number(value)):
                 raise HoldError(f"{at}.value", f"expected the value entered for '{name}' as a "
                              f"finite number (metres, or degrees for an angle), got {value!r}")
-            e = Entered(name, float(sigma), None if value is None else float(value))
+            e = Entered(name, float(sigma), None if value is None else float(value))  # (numbers: checked)
             entered.append(e)
             at_name = f"{at}.name"
         elif isinstance(h, str):
