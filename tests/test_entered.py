@@ -148,3 +148,22 @@ def coverage(tmp_path_factory: pytest.TempPathFactory) -> dict[str, np.ndarray]:
         zd.append((d.value - true_d) / d.sigma)
     assert len(zw) >= 100
     return {"width": np.array(zw), "diagonal": np.array(zd)}
+
+
+def test_the_modelling_screen_shows_entered_sizes_and_a_typed_size_is_the_new_entry(tmp_path: Path) -> None:
+    from vebuild.edit.panels import entered_text
+    from vebuild.edit.session import EditSession
+    from vebuild.project import save_project
+
+    project, _ = _project(tmp_path / "a", 3, [{"name": "width", "sigma": TAPE_SIGMA_M}])
+    save_project(project.path, project.data)
+    doc = project.data["model"]["nodes"][1]
+    solved = project.data["model_solution"]["nodes"]["box0"]["params"]["width"]["sigma"]
+    assert entered_text(doc, "width", project.data["model_solution"]) == \
+        f"entered {doc['hold'][0]['value']:.4f} m ± 2.0 mm; solved ± {1000 * solved:.1f} mm"
+    assert entered_text(project.data["model"]["nodes"][0], "depth") == "entered (exact)"
+    assert entered_text(doc, "depth") == ""
+    session = EditSession.open(project.path)
+    session.set_params("box0", {"width": 0.5})
+    node = next(n for n in session.data["model"]["nodes"] if n["name"] == "box0")
+    assert node["hold"] == [{"name": "width", "sigma": TAPE_SIGMA_M, "value": 0.5}]
