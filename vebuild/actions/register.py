@@ -63,6 +63,8 @@ def register_photos(project: Project, photo_ids: list[str] | None = None) -> dic
     sig = decode.marker_sigmas(data)
     pts = {n: X for n, X in pts.items() if n not in sig or bool(np.all(sig[n] < UNKNOWN_MARKER_SIGMA_M))}
     solved = SolvedModel.from_project(project) if data.get("model_solution") else None
+    if solved is not None:  # the markers where the solution holds them, as its vertices: one solution's points
+        pts.update({n: solved.marker_position(n).copy() for n in pts if ":" not in n and n in solved.marker_col})
     settings = project.settings
     out = {}
     for pid in targets:
