@@ -167,3 +167,17 @@ def test_the_modelling_screen_shows_entered_sizes_and_a_typed_size_is_the_new_en
     session.set_params("box0", {"width": 0.5})
     node = next(n for n in session.data["model"]["nodes"] if n["name"] == "box0")
     assert node["hold"] == [{"name": "width", "sigma": TAPE_SIGMA_M, "value": 0.5}]
+
+
+def test_an_entered_value_determines_a_dimension_no_photo_shows(tmp_path: Path) -> None:
+    """With the floor's pins removed (its turn held) no photo shows its size: entered with a 1σ, it is an
+    observation (the solve does not call it undetermined) and comes back with that 1σ (the boxes'
+    positions on it are free, so they say nothing of it)."""
+    project, _ = _project(tmp_path / "a", 3, [{"name": "width", "sigma": TAPE_SIGMA_M}])
+    data = project.data
+    data["model"]["pins"] = [p for p in data["model"]["pins"] if p["node"] != "floor"]
+    data["model"]["nodes"][0]["hold"] = ["yaw", {"name": "width", "sigma": 0.01}, {"name": "depth", "sigma": 0.01}]
+    solve_project(project)
+    floor = data["model_solution"]["nodes"]["floor"]["params"]
+    for k in ("width", "depth"):
+        assert floor[k]["entered_sigma"] == 0.01 and floor[k]["sigma"] == pytest.approx(0.01, rel=1e-3)
