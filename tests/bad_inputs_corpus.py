@@ -333,6 +333,14 @@ case("unknown-edge", setter(("model", "edge_observations", 0, "edge"), "e99"),
      V + ["solve"], [P, "$.model.edge_observations[0].edge", "e99"])
 case("unknown-hold", setter(("model", "nodes", 5, "hold"), ["heigth"]),
      V + ["solve"], [P, *nd(5, "heigth")])
+case("entered-unknown-name", setter(("model", "nodes", 5, "hold"), [{"name": "heigth", "sigma": 0.002}]),
+     V + ["solve"], [P, "$.model.nodes[5].hold[0].name", "heigth", "it has"])
+case("entered-negative-sigma", setter(("model", "nodes", 5, "hold"), [{"name": "height", "sigma": -0.002}]),
+     V + ["solve"], [P, "$.model.nodes[5].hold[0].sigma", "at least 0"])
+case("entered-text-sigma", setter(("model", "nodes", 5, "hold"), [{"name": "height", "sigma": "2 mm"}]),
+     V + ["solve"], [P, "$.model.nodes[5].hold[0].sigma", "expected a number"])
+case("entered-held-twice", setter(("model", "nodes", 5, "hold"), ["height", {"name": "height", "sigma": 0.002}]),
+     V + ["solve"], [P, "$.model.nodes[5].hold[1].name", "held twice"])
 case("pin-unknown-photo", setter(("model", "pins", 0, "photo"), "p9"),
      V + ["solve"], [P, "$.model.pins[0].photo", "p9"])
 case("pin-unknown-node", setter(("model", "pins", 0, "node"), "sofa"),

@@ -31,6 +31,7 @@ from ..project import Project, decode, json_path
 from ..project.decode import cameras_from_calibration, load_model
 from ..project.records import camera_record, distortion_record, json_values, value_sigma
 from ..project.units import length_unit
+from .register import recalibration_cameras
 
 #: A pinned handle must project in front of its camera and no farther outside the image than this
 #: share of its size; otherwise the pin is on a vertex that camera cannot see.
@@ -46,6 +47,8 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
     """
     data = project.data
     cameras = cameras_from_calibration(project)
+    if recalibrate:  # a registered photo held by its registration's own prior (actions/register.py)
+        cameras = recalibration_cameras(project, cameras, refine_intrinsics)
     model, pins, edges = load_model(project)
     cal = data["calibration"]
     origin = cal.get("origin_marker")
@@ -188,11 +191,12 @@ def _results(problem: Problem, solution: Any, model: Model, xm: np.ndarray, reca
             value, s = xm[sq][k], (sig[j] if j is not None else 0.0)
             if n.joint.dof_kinds[k] == "angle":
                 value, s, dof = np.degrees(value), np.degrees(s), dof + "_deg"
-            entry["dofs"][dof] = _vs(value, s)
+            entry["dofs"][dof] = {**_vs(value, s), **n.entered_record(n.joint.dof_names[k])}  # entered: FORMAT.md
         if n.primitive is not None:
             for k, pname in enumerate(n.primitive.PARAMS):
                 j = by_name.get(f"{n.name}.{pname}")
-                entry["params"][pname] = _vs(xm[sp][k], sig[j] if j is not None else 0.0)
+                entry["params"][pname] = {**_vs(xm[sp][k], sig[j] if j is not None else 0.0),
+                                          **n.entered_record(pname)}  # entered values: FORMAT.md
             for h in n.primitive.handle_names():
                 pos, cov = handles[f"{n.name}:{h}"]
                 entry["handles"][h] = _vs(pos, np.sqrt(np.maximum(np.diag(cov), 0.0)))

@@ -10,6 +10,12 @@ uses the calibration's own figure, which was propagated from its full covariance
 interval is value ± Z95 σ (:data:`vebuild.constants.Z95`). :func:`monte_carlo` samples the same
 Gaussian to verify the linear propagation.
 
+Each measurement says which entered values it rests on (a node's ``hold``, FORMAT.md): a
+dimension entered from a measurement with its 1σ (solved, its σ carried like any parameter's) or
+held exactly (σ 0, carrying no uncertainty: the figure is then only as good as that entry). A
+dimension that is itself entered is marked so (``entered``, ``entered_sigma``), never shown as a
+perfect measurement.
+
 Layer 6 of DESIGN.md: numpy only, no GL.
 """
 
@@ -51,6 +57,9 @@ class Estimate:
     nodes: list[str]
     markers: list[str]
     photos: list[str]
+    #: The entered values it depends on: ("node.param", its entered 1σ (0: held exactly), its unit:
+    #: "m", or "deg" for an angle).
+    entered: list[tuple[str, float, str]] = field(default_factory=list)
 
     @property
     def sigma(self) -> Array:
@@ -82,7 +91,34 @@ def propagate(solved: SolvedModel, f: Callable[[Array], Array]) -> Estimate:
     nodes = [o for o in owners if not o.startswith("marker:")]
     markers = [o[len("marker:"):] for o in owners if o.startswith("marker:")]
     photos = sorted({p for o in owners for p in solved.photos_of.get(o, [])})
-    return Estimate(v0, cov, nodes, markers, photos)
+    return Estimate(v0, cov, nodes, markers, photos, _entered_in(solved, f, v0, {solved.names[j] for j in used}))
+
+
+def _entered_in(solved: SolvedModel, f: Callable[[Array], Array], v0: Array, used: set[str]
+                ) -> list[tuple[str, float, str]]:
+    """The entered values f depends on: a solved one (σ > 0) through its column, one held exactly
+    (not a column) by moving it in the model vector."""
+    out = []
+    index = {n: i for i, n in enumerate(solved.model.parameter_names())}
+    kinds = solved.model.parameter_kinds()
+    for node in solved.model.nodes:
+        for name in sorted({*node.hold, *(e.name for e in node.entered)}):
+            full, sigma = f"{node.name}.{name}", node.entered_sigma(name)
+            assert sigma is not None  # a held or entered name
+            if full in solved.names:
+                depends = full in used
+            else:
+                i = index[full]
+                xm0 = solved.xm0
+                try:
+                    solved.xm0 = xm0.copy()
+                    solved.xm0[i] += FD_STEP * max(1.0, abs(xm0[i]))
+                    depends = bool(np.any(np.atleast_1d(f(solved.x0)) != v0))
+                finally:
+                    solved.xm0 = xm0
+            if depends:
+                out.append((full, sigma, "deg" if kinds[index[full]] == "angle" else "m"))
+    return out
 
 
 def monte_carlo(solved: SolvedModel, f: Callable[[Array], Array], n: int = 2000,
@@ -113,6 +149,10 @@ class Measurement:
     photos: list[str] = field(default_factory=list)
     points: list[dict[str, Any]] = field(default_factory=list)
     source: str = "model solution"
+    #: The entered values it rests on: ("node.param", entered 1σ (0: held exactly), "m" or "deg").
+    entered: list[tuple[str, float, str]] = field(default_factory=list)
+    #: The measurement is itself an entered value, with this 1σ (None: it is not).
+    entered_sigma: float | None = None
 
     @property
     def ci95(self) -> tuple[float, float]:
@@ -127,12 +167,14 @@ class Measurement:
                 unit.key("sigma"): float(self.sigma) if finite else None,
                 unit.key("ci95"): [float(v) for v in self.ci95] if finite else None,
                 "source": self.source, "points": points,
-                "rests_on": {"nodes": self.nodes, "markers": self.markers, "photos": self.photos}}
+                **({} if self.entered_sigma is None else {"entered": True, "entered_sigma": self.entered_sigma}),
+                "rests_on": {"nodes": self.nodes, "markers": self.markers, "photos": self.photos,
+                             "entered": [{"name": n, "entered_sigma": s, "unit": u} for n, s, u in self.entered]}}
 
 
 def _measurement(quantity: str, what: str, est: Estimate, k: int = 0, points: list | None = None) -> Measurement:
     return Measurement(quantity, what, float(est.value[k]), float(est.sigma[k]), est.nodes, est.markers, est.photos,
-                       points or [])
+                       points or [], entered=list(est.entered))
 
 
 def _point_record(solved: SolvedModel, p: Point) -> dict[str, Any]:
@@ -192,7 +234,13 @@ def dimensions(solved: SolvedModel, node: str) -> list[Measurement]:
         def f(x: Array) -> Array:
             return solved._state(x)[0][sp]
         est = propagate(solved, f)
-        return [_measurement("dimension", f"{node}.{p}", est, k) for k, p in enumerate(n.primitive.PARAMS)]
+        out = []
+        for k, p in enumerate(n.primitive.PARAMS):
+            m = _measurement("dimension", f"{node}.{p}", est, k)
+            m.entered_sigma = n.entered_sigma(p)  # the dimension itself entered (or None)
+            m.entered = [] if m.entered_sigma is None else [(f"{node}.{p}", m.entered_sigma, "m")]
+            out.append(m)
+        return out
     parts = [m for m in solved.model.subtree(node) if solved.model.node(m).primitive is not None]
     if not parts:
         raise MeasureError(f"node '{node}' is a group without primitives: it has no dimensions")

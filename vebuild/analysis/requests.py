@@ -82,13 +82,20 @@ def _table(rows: list[Any], unit: LengthUnit) -> str:
     lines = [f"{'quantity':<10} {'what':<44} {'value m':>10} {'1σ mm':>8}  {'95 % interval m':<21}"]
     for m in rows:
         lo, hi = m.ci95
-        lines.append(f"{m.quantity:<10} {m.what:<44} {m.value:>10.4f} {1000 * m.sigma:>8.2f}  [{lo:.4f}, {hi:.4f}]")
+        if getattr(m, "entered_sigma", None) == 0:  # held exactly: entered, not measured
+            lines.append(f"{m.quantity:<10} {m.what:<44} {m.value:>10.4f} {'entered':>8}  (held as entered, no 1σ)")
+            continue
+        mark = "  (entered)" if getattr(m, "entered_sigma", None) is not None else ""
+        lines.append(f"{m.quantity:<10} {m.what:<44} {m.value:>10.4f} {1000 * m.sigma:>8.2f}  [{lo:.4f}, {hi:.4f}]"
+                     f"{mark}")
     return "\n".join(lines)
 
 
 def _rests_on(m: Any) -> str:
+    entered = ", ".join(f"{n} ({'exact' if s == 0 else f'± {1000 * s:.1f} mm' if u == 'm' else f'± {s:g}°'})"
+                        for n, s, u in getattr(m, "entered", []))
     return (f"rests on nodes {', '.join(m.nodes) or '—'}; markers {', '.join(m.markers) or '—'}; "
-            f"photos {', '.join(m.photos) or '—'}")
+            f"photos {', '.join(m.photos) or '—'}" + (f"; entered values {entered}" if entered else ""))
 
 
 class _NoImage:

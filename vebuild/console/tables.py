@@ -17,6 +17,22 @@ def _pm(vs: dict[str, Any], fmt: str, scale: float = 1.0) -> str:
     return f"{format(v * scale, fmt)} ± {'?' if s is None else format(s * scale, fmt)}"
 
 
+def _figure(vs: dict[str, Any], fmt: str, unit: str = "") -> str:
+    """A solved value ± 1σ (with ``unit``); an entered one (FORMAT.md ``hold``) says so: held
+    exactly it reads 'entered' (never '± 0'), entered with a 1σ it shows that 1σ beside the
+    solved one; another held value reads 'held'."""
+    u = f" {unit}" if unit else ""
+    if vs.get("entered"):
+        s = vs.get("entered_sigma") or 0.0
+        if s == 0:
+            return f"{format(vs['value'], fmt)}{u} (entered)"
+        shown = f"{1000 * s:.1f} mm" if unit == "m" else f"{s:g}"
+        return f"{_pm(vs, fmt)}{u} (entered ± {shown})"
+    if unit and vs["sigma"] == 0:
+        return f"{format(vs['value'], fmt)}{u} (held)"
+    return f"{_pm(vs, fmt)}{u}"
+
+
 def calibration_table(result: dict[str, Any]) -> str:
     """Per photo: mode, f, principal point, yaw/pitch/roll, position, their 1σ, and residuals."""
     origin = result.get("origin") or f"marker '{result['origin_marker']}'"
@@ -76,11 +92,10 @@ def model_table(result: dict[str, Any]) -> str:
              + ("; lengths are RELATIVE (no scale given: the camera's height is 1)" if unit.relative else ""), ""]
     m = "(relative units)" if unit.relative else "m"
     for name, node in result["nodes"].items():
-        dofs = ", ".join(f"{k} {_pm(v, '.3f')}" for k, v in node["dofs"].items())
+        dofs = ", ".join(f"{k} {_figure(v, '.3f')}" for k, v in node["dofs"].items())
         lines.append(f"{name}  [{node['joint']}{': ' + dofs if dofs else ''}]")
         if node["params"]:
-            dims = ", ".join(f"{k} {v['value']:.4f} {m} (held)" if v["sigma"] == 0 else f"{k} {_pm(v, '.4f')} {m}"
-                             for k, v in node["params"].items())
+            dims = ", ".join(f"{k} {_figure(v, '.4f', m)}" for k, v in node["params"].items())
             lines.append(f"    {dims}")
     res = [(p["photo"], p["node"], p["handle"], (p["residual_px"][0] ** 2 + p["residual_px"][1] ** 2) ** 0.5)
            for p in result["pins"]]

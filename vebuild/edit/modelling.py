@@ -227,6 +227,9 @@ class Modelling(Marks):
                 if not (math.isfinite(v) and v >= 0):
                     raise EditError(f"{node}.{k} must be a length ≥ 0 m, not {v!r}")
                 doc["primitive"]["params"][k] = float(v)
+                for e in doc.get("hold", []):  # a size typed for an entered value is its new entry
+                    if isinstance(e, dict) and e.get("name") == k:
+                        e["value"] = float(v)
             self._rebuild_check()
 
     def set_joint(self, node: str, joint: dict[str, Any]) -> None:

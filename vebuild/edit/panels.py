@@ -389,6 +389,10 @@ class Panels:
                 new = self._float_field(f"{k} (m)##param:{k}", v)
                 if new is not None and new != v:
                     self.ed.guard(s.set_params, name, {k: new})
+                note = entered_text(doc, k, self.ed.session.data.get("model_solution"))
+                if note:
+                    imgui.same_line()
+                    imgui.text(note)
         joint = doc.get("joint", {})
         jtype = joint.get("type", "fixed")
         types = JOINT_TYPES + ([jtype] if jtype not in JOINT_TYPES else [])
@@ -483,6 +487,25 @@ class Panels:
                 else:
                     imgui.text(text)
         imgui.end_child()
+
+
+def entered_text(doc: dict[str, Any], param: str, solution: dict[str, Any] | None = None) -> str:
+    """What the properties panel says beside a size that is held or entered (FORMAT.md ``hold``):
+    "entered (exact)", or "entered 0.4000 m ± 2.0 mm" with, once solved, the solved 1σ; "" for a
+    size that is solved from the photos alone."""
+    for e in doc.get("hold", []):
+        if e == param or (isinstance(e, dict) and e.get("name") == param):
+            sigma = 0.0 if isinstance(e, str) else float(e.get("sigma", 0.0))
+            if sigma == 0:
+                return "entered (exact)"
+            value = e.get("value")
+            text = f"entered {value:.4f} m ± {1000 * sigma:.1f} mm" if value is not None \
+                else f"entered ± {1000 * sigma:.1f} mm"
+            solved = ((solution or {}).get("nodes", {}).get(doc["name"], {}).get("params", {}).get(param) or {})
+            if solved.get("sigma") is not None:
+                text += f"; solved ± {1000 * solved['sigma']:.1f} mm"
+            return text
+    return ""
 
 
 def _vanishing_point_text(v: Any, width: float, height: float) -> str:

@@ -4,7 +4,9 @@ Observations are the user's marks: vertex pins (a handle of a node seen at a pix
 and edge observations (the user's red edge: two pixels a model edge must pass through), and,
 when re-calibrating, marker sightings and reference distances. Residuals are in pixels, whitened
 by the click noise, then the priors: each free model parameter pulled toward its value before
-the solve, each re-calibrated camera held by its calibration covariance.
+the solve (a dimension entered from a measurement, FORMAT.md ``hold`` ``{"name", "sigma"}``: held
+at its entered value by that measurement's 1σ instead, an observation like a pin), each
+re-calibrated camera held by its calibration covariance.
 
 Every projection goes through each photo's lens distortion (the division model of
 vebuild/camera.py, :attr:`ImageCamera.k1`): a pin or a marker sighting is compared with the
@@ -202,6 +204,7 @@ class Residuals:
             self.rows_prior_cam[cid] = np.arange(rows, rows + len(blk))
             rows += len(blk)
         self.m = rows
+        self._entered_priors()
         # For each free model parameter: the nodes it moves and their handle rows.
         self.moves = []
         self.column_rows = []  # per model parameter: the pins, edges and distances it moves
@@ -221,6 +224,27 @@ class Residuals:
                 )
             self.moves.append(subtree_cache[owner][0])
             self.column_rows.append(subtree_cache[owner][1])
+
+    def _entered_priors(self) -> None:
+        """Where each free model parameter's prior is centred (``prior_model_at``: its value before
+        the solve, or its entered value) and ``rows_entered``: the prior rows of the entered ones
+        (σ > 0), whose 1σ replaces the pull's in ``prior_sigma``. They are observations: they
+        determine a dimension no photo shows."""
+        model = self.model
+        self.prior_model_at = np.array(self.x_model0[self.free_idx], float)
+        self.prior_sigma = np.array(self.prior_sigma, float)
+        index = {nm: j for j, nm in enumerate(self.layout.model.names)}
+        entered = []
+        for n in model.nodes:
+            for e in n.entered:
+                j = index.get(f"{n.name}.{e.name}")
+                if j is None or e.sigma <= 0 or e.value is None:
+                    continue
+                angle = self.layout.model.kinds[j] == "angle"
+                self.prior_model_at[j] = np.radians(e.value) if angle else e.value
+                self.prior_sigma[j] = np.radians(e.sigma) if angle else e.sigma
+                entered.append(j)
+        self.rows_entered = self.rows_prior_model[np.array(entered, dtype=int)]
 
     def set_pin_pixel(self, i: int, uv: ArrayLike) -> None:
         """Move pin i's observed pixel (the mouse, during a drag) without rebuilding the problem."""
@@ -321,7 +345,7 @@ class Residuals:
             pa = self._ends(self.dist_ends[:, 0], H, M)
             pb = self._ends(self.dist_ends[:, 1], H, M)
             r[self.rows_dist] = (np.linalg.norm(pa - pb, axis=1) - self.dist_value) / self.dist_sigma
-        r[self.rows_prior_model] = (x[self.layout.model.slice] - self.x_model0[self.free_idx]) / self.prior_sigma
+        r[self.rows_prior_model] = (x[self.layout.model.slice] - self.prior_model_at) / self.prior_sigma
         for cid, blk in self.layout.cameras.items():
             r[self.rows_prior_cam[cid]] = self._prior_L[cid] @ (x[blk.slice] - self._prior_at[cid])
         return r

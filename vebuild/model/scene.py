@@ -21,6 +21,7 @@ from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
 from ..camera import exp_so3
+from .entered import Entered, HoldError, fill_entered_values, hold_list
 from .primitives import MIN_SIZE_M, PRIMITIVE_TYPES, Primitive, primitive_from_dict
 
 Array = NDArray[np.float64]
@@ -262,7 +263,23 @@ class Node:
     primitive: Primitive | None
     joint: Joint
     solve: bool = True
-    hold: tuple[str, ...] = ()  # parameter or degree-of-freedom names held at their values
+    hold: tuple[str, ...] = ()  # parameter or degree-of-freedom names held exactly at their values
+    #: The ``hold`` entries given as objects (entered with a 1σ); those with σ 0 are in ``hold`` too.
+    entered: tuple[Entered, ...] = ()
+
+    def entered_sigma(self, name: str) -> float | None:
+        """The 1σ (file units) of parameter ``name`` as entered: 0 for one held exactly (a plain
+        name or σ 0), None for one not held."""
+        for e in self.entered:
+            if e.name == name:
+                return e.sigma
+        return 0.0 if name in self.hold else None
+
+    def entered_record(self, name: str) -> dict[str, Any]:
+        """``{"entered": true, "entered_sigma": s}`` for a held or entered parameter (FORMAT.md
+        ``model_solution``), else ``{}``."""
+        s = self.entered_sigma(name)
+        return {} if s is None else {"entered": True, "entered_sigma": s}
 
     def to_dict(self) -> dict[str, Any]:
         d: dict[str, Any] = {"name": self.name}
@@ -273,8 +290,9 @@ class Node:
         d["joint"] = self.joint.to_dict()
         if not self.solve:
             d["solve"] = False
-        if self.hold:
-            d["hold"] = list(self.hold)
+        if self.hold or self.entered:
+            objects = {e.name for e in self.entered}
+            d["hold"] = [h for h in self.hold if h not in objects] + [e.to_dict() for e in self.entered]
         return d
 
 
@@ -538,14 +556,12 @@ def model_from_dict(nodes: list[Mapping[str, Any]], markers: Mapping[str, Array]
                 have = ", ".join(prim.handle_names()) if prim is not None else "none (a group has no handles)"
                 raise _error(f"{where}.joint", f"{path}.joint.handle", f"handle '{joint.handle}' is not a handle of "
                              f"this node's primitive (its handles are: {have})")
-        hold = tuple(d.get("hold", ()))
-        known = (prim.PARAMS if prim is not None else ()) + joint.dof_names
-        for k, h in enumerate(hold):
-            if h not in known:
-                raise _error(f"{where}.hold", f"{path}.hold[{k}]",
-                             f"'{h}' is not a parameter of this node (it has: {', '.join(known)})")
+        try:
+            hold, entered = hold_list(d.get("hold", ()), (prim.PARAMS if prim is not None else ()) + joint.dof_names)
+        except HoldError as e:
+            raise _error(f"{where}.hold", f"{path}.hold{e.at}", e.detail) from None
         index.setdefault(d["name"], i)
-        out.append(Node(d["name"], d.get("parent"), prim, joint, bool(d.get("solve", True)), hold))
+        out.append(Node(d["name"], d.get("parent"), prim, joint, bool(d.get("solve", True)), hold, entered))
     for i, n in enumerate(out):
         if n.parent is not None and n.parent not in index:
             raise ModelError(f"node '{n.name}': its joint attaches it to parent '{n.parent}', which is not a node",
@@ -553,6 +569,7 @@ def model_from_dict(nodes: list[Mapping[str, Any]], markers: Mapping[str, Array]
                              f"node '{n.name}' is attached to parent '{n.parent}', which is not a node")
     _check_cycles(out)
     model = Model(out)
+    fill_entered_values(model)
     for n in model.nodes:
         if isinstance(n.joint, RestsOnJoint) and n.parent is not None:
             parent = model.node(n.parent).primitive
@@ -582,3 +599,4 @@ def _check_cycles(nodes: list[Node]) -> None:
             path.append(name)
             name = parent.get(name)
         done.update(path)
+

@@ -55,8 +55,8 @@ def solution_at(problem: Problem, x: Array, iterations: int = 0) -> Solution:
     s2 = variance_factor(r, layout.n)
     cov = _inverse(J.T @ J) * s2
     # What the observations alone determine: without the pull toward the starting values
-    # (the cameras' calibration priors are observations too).
-    data_rows = np.r_[np.arange(problem.n_data + len(problem.distances)),
+    # (the cameras' calibration priors, and the entered values' measurements, are observations too).
+    data_rows = np.r_[np.arange(problem.n_data + len(problem.distances)), problem.rows_entered,
                       *[problem.rows_prior_cam[c] for c in problem.rows_prior_cam]].astype(int)
     Jd = J[data_rows]
     A = Jd.T @ Jd
