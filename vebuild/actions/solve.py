@@ -273,6 +273,9 @@ def covariance_record(problem: Problem, solution: Any) -> dict[str, Any]:
     return {"parameters": names, "matrix": json_values(cov)}
 
 
+#: Fields of a calibration camera record that describe the vanishing-point calibration's own fit;
+#: a re-calibrated record (``model_solution.cameras``) leaves them out.
+CALIBRATION_DIAGNOSTICS = ("vanishing_points", "marker_residuals_px", "rms_px", "exif_focal_check")
 #: What a refined lens distortion's ``source`` says, after the calibration's.
 REFINED_SOURCE = "refined by vebuild solve --recalibrate"
 
@@ -286,8 +289,16 @@ def recalibrated_records(data: dict[str, Any], solution: Any, problem: Problem
     recomputed for the refined K."""
     cal = data["calibration"]
     cameras: dict[str, Any] = {}
+    marker_res: dict[str, dict[str, Any]] = {}
+    for m, d in zip(problem.marker_obs, solution.residuals_px["markers"], strict=True):
+        marker_res.setdefault(m.photo, {})[m.marker] = json_values(d)
     for cid, cam in solution.cameras.items():
         rec = copy.deepcopy(cal["cameras"][cid])
+        # The calibration's own diagnostics stay with the calibration; the record says what the
+        # re-calibration found.
+        for key in CALIBRATION_DIAGNOSTICS:
+            rec.pop(key, None)
+        rec["marker_residuals_px"] = marker_res.get(cid, {})
         old = rec.get("distortion")
         distortion = None
         if cid in solution.k1_sigma:

@@ -134,10 +134,10 @@ class EditSession(SessionOverlays):
     @property
     def cameras(self) -> dict[str, ImageCamera]:
         if "cameras" not in self._cache:
-            from vebuild.project.decode import cameras_from_calibration
+            from vebuild.project.decode import cameras
 
-            try:
-                self._cache["cameras"] = cameras_from_calibration(self.project)
+            try:  # the final cameras: re-calibrated where the solution has them
+                self._cache["cameras"] = cameras(self.project)
             except VebuildError:
                 self._cache["cameras"] = {}
         return self._cache["cameras"]

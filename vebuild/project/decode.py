@@ -5,11 +5,14 @@ Each part of the document is decoded here, once, and checked as it is decoded; e
 :class:`~vebuild.errors.VebuildError`) that names the file and the JSON path:
 
 - cameras: :func:`cameras` (the final ones: re-calibrated where solved so), :func:`camera_records`,
-  :func:`cameras_from_calibration` (the calibration stage's: a re-calibration's priors), :func:`photo_camera` (one,
-  by id or position), :func:`view_camera` and :func:`find_view` (the named evidence views);
-- markers: :func:`markers` (the ``{name: position}`` a stage needs), :func:`marker_sigmas`,
-  :func:`known_points` (the markers and the solved model's vertices), :func:`sightings` (a photo's
-  marker observations), :func:`reference_distances`, :func:`floor_markers`;
+  :func:`cameras_from_calibration` (the calibration stage's: a re-calibration's priors; it refuses a
+  project whose calibration an older vebuild overwrote, :func:`check_calibration_stage`),
+  :func:`photo_camera` (one final camera, by id or position), :func:`view_camera` and
+  :func:`find_view` (the named evidence views);
+- markers: :func:`markers` (the ``{name: position}`` a stage needs: the calibration's, or
+  ``"final"`` with the re-calibrated ones), :func:`marker_sigmas`, :func:`known_points` (the final
+  markers and the solved model's vertices), :func:`sightings` (a photo's marker observations),
+  :func:`reference_distances`, :func:`floor_markers`;
 - a photo's own scale: :func:`photo_camera_height`, :func:`known_lengths`;
 - a photo's marks for calibration: :func:`photo_marks` (vanishing segments or polylines, given focal
   length and principal point), :func:`vanishing_segments`;
@@ -169,7 +172,8 @@ def _check_camera(project: Project, where: str, K: Array, R: Array) -> None:
 
 
 def photo_camera(project: Project, photo: str) -> ImageCamera:
-    """The calibrated camera of a photo, by id (or by its 1-based position in ``photos``), its
+    """The final camera of a photo (:func:`cameras`: re-calibrated where the solution has it, else
+    calibrated), by id (or by its 1-based position in ``photos``), its
     :attr:`~vebuild.camera.ImageCamera.source` naming the photo (for errors about its size)."""
     ids = [p["id"] for p in project.data["photos"]]
     if photo not in ids and photo.isdigit() and 1 <= int(photo) <= len(ids):
@@ -181,7 +185,7 @@ def photo_camera(project: Project, photo: str) -> ImageCamera:
         raise ProjectError(project.path, "$.calibration.cameras",
                            f"photo {photo!r} has no calibrated camera; run `vebuild calibrate` (or `vebuild register`)")
     i = ids.index(photo)
-    return dataclasses.replace(cameras_from_calibration(project)[photo],
+    return dataclasses.replace(cameras(project)[photo],
                                source=f"$.photos[{i}] (photo {photo!r}: width × height)")
 
 
