@@ -64,6 +64,11 @@ def calibration_table(result: dict[str, Any]) -> str:
             lines.append(f"  {d['a']}–{d['b']:<10} {d['role']:<6} known {d['distance']:.3f} ± {d['sigma']:.3f}   "
                          f"measured {d['measured']:.3f} ± {d['measured_sigma']:.3f}   "
                          f"difference {1000 * (d['measured'] - d['distance']):+.1f} mm")
+    if result.get("checked_after_solve") and not result["reference_distances"]:
+        lines += ["", "reference distances (m):"]
+    for d in result.get("checked_after_solve") or []:
+        lines.append(f"  {d['a']}–{d['b']}  check  known {d['distance']:.3f} ± {d['sigma']:.3f}   ends on a model "
+                     "vertex: checked on the solved model by `vebuild solve`")
     if result["warnings"]:
         lines += ["", "warnings:"] + [f"  - {w}" for w in result["warnings"]]
     return "\n".join(lines)
