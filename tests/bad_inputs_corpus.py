@@ -497,6 +497,18 @@ case("model-solution-covariance-not-square", doc_fn(lambda d: d["model_solution"
 case("model-solution-orphan-node", doc_fn(lambda d: d["model_solution"]["nodes"].__setitem__(
         "sofa", copy.deepcopy(d["model_solution"]["nodes"]["cabinet"]))),
      V + ["analyse", "report"], [P, "$.model_solution.nodes", "sofa"])
+case("calibration-overwritten-by-an-older-recalibration",
+     setter(("calibration", "cameras", "p2", "recalibrated"), True),
+     V + ["solve", "solve-recal", "render-photo", "texture", "export", "report"],
+     [P, "$.calibration.cameras.p2.recalibrated", "vebuild calibrate"])
+
+
+def _recalibrated_orphan(d: dict[str, Any]) -> None:
+    d["model_solution"]["cameras"] = {"p9": copy.deepcopy(d["calibration"]["cameras"]["p1"])}
+
+
+case("recalibrated-camera-without-calibration", doc_fn(_recalibrated_orphan),
+     V + ["render-photo", "export", "report"], [P, "$.model_solution.cameras.p9"])
 case("calibration-marker-1e308", setter(("calibration", "markers", "O", "position"), [1e308, 0.0, 0.0]),
      V + ["solve-recal", "report"], [P, "$.calibration.markers.O"])
 case("atlas-page-50000x50000", doc_fn(lambda d: d["textures"]["pages"][0].update(width=50000, height=50000)),
