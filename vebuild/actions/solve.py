@@ -133,13 +133,18 @@ def uncalibrated_pin_warnings(data: dict[str, Any], cameras: dict[str, ImageCame
 def final_check_distances(project: Project) -> list[dict[str, Any]]:
     """Every reference distance of role ``check``, measured on the final (just solved) model by
     :func:`vebuild.analysis.measure.check_distances`: measured, known, difference, its 1σ and 95 %
-    interval, and whether the difference lies within it."""
+    interval, and whether the difference lies within it. Where the lengths are relative (no scale
+    given) a measurement cannot be compared with a tape: ``within_ci95`` is then null and
+    ``lengths`` says ``"relative"``."""
     from ..analysis.measure import check_distances
     from ..analysis.solved import SolvedModel
 
     if not any(d.role == "check" for d in decode.reference_distances(project.data)):
         return []
-    return [c.to_json() for c in check_distances(project, SolvedModel.from_project(project))]
+    out = [c.to_json() for c in check_distances(project, SolvedModel.from_project(project))]
+    if length_unit(project.data).relative:
+        out = [{**c, "within_ci95": None, "lengths": "relative"} for c in out]
+    return out
 
 
 def distortion_sigmas(project: Project) -> dict[str, float]:

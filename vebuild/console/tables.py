@@ -109,8 +109,8 @@ def check_distance_lines(checks: list[dict[str, Any]], unit: LengthUnit = METRES
     if not checks:
         return []
     if unit.relative:
-        out = ["", "check distances (known in m; the model is in relative units, so they are not compared):"]
-        return out + [f"  {c['a']}–{c['b']}  known {c['known_m']:.4f} m   measured {c['measured_m']:.4f} "
+        out = ["", "check distances, not compared (lengths are relative units; the tape's are not):"]
+        return out + [f"  {c['a']}–{c['b']}  known {c['known_m']:.4f} (tape)   found {c['measured_m']:.4f} "
                       f"± {c['measured_sigma_m']:.4f} (relative units)" for c in checks]
     out = ["", "check distances on the final model (m; difference in mm, its 1σ and 95 % interval):"]
     for c in checks:
