@@ -103,10 +103,18 @@ def check_calibration_stage(project: Project) -> None:
 def camera_records(data: Mapping[str, Any]) -> dict[str, Mapping[str, Any]]:
     """The camera records later stages use, by photo id: the calibration's
     (``calibration.cameras``), each replaced by the re-calibrated one of the solution
-    (``model_solution.cameras``, written by ``vebuild solve --recalibrate``) where it has one."""
+    (``model_solution.cameras``, written by ``vebuild solve --recalibrate``) where it has one (a
+    re-calibrated camera of a photo whose calibrated camera was deleted is not used)."""
     out = dict((data.get("calibration") or {}).get("cameras") or {})
-    out.update((data.get("model_solution") or {}).get("cameras") or {})
+    out.update(_recalibrated_cameras(data, out))
     return out
+
+
+def _recalibrated_cameras(data: Mapping[str, Any], calibrated: Mapping[str, Any]) -> dict[str, Any]:
+    """``model_solution.cameras`` of the photos the calibration still has a camera for: a photo
+    whose calibrated camera was deleted has no camera (its re-calibration was made from it)."""
+    recal = (data.get("model_solution") or {}).get("cameras") or {}
+    return {pid: rec for pid, rec in recal.items() if pid in calibrated}
 
 
 def cameras(project: Project) -> dict[str, ImageCamera]:
@@ -114,7 +122,7 @@ def cameras(project: Project) -> dict[str, ImageCamera]:
     re-calibrated camera where the solution has one (``model_solution.cameras``), else its
     calibrated one; checked as :func:`cameras_from_calibration` checks them."""
     out = cameras_from_calibration(project)
-    recal = (project.data.get("model_solution") or {}).get("cameras") or {}
+    recal = _recalibrated_cameras(project.data, project.data["calibration"]["cameras"])
     out.update(_cameras_from_records(project, recal, "model_solution"))
     return out
 

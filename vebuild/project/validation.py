@@ -193,12 +193,6 @@ def _check_semantics(data: dict[str, Any], file: Any) -> None:
             raise ProjectError(file, f"$.calibration.cameras{_key(pid)}", f"a camera for the photo {pid!r}, but "
                                f"$.photos has no photo of that id (the photos are: {listing(photo_ids)}); run "
                                "`vebuild calibrate` again, or add the photo back")
-    for pid in (data.get("model_solution") or {}).get("cameras") or {}:
-        # (an edit validates only what it changed: a calibration it left as it was is not given)
-        if "calibration" in data and pid not in cameras:
-            raise ProjectError(file, f"$.model_solution.cameras{_key(pid)}", f"a re-calibrated camera for the photo "
-                               f"{pid!r}, which has no camera in $.calibration.cameras (the calibration it was "
-                               "re-calibrated from); run `vebuild solve --recalibrate` again")
     for k, page in enumerate((data.get("textures") or {}).get("pages", [])):
         for key in ("atlas", "coverage"):
             check_relative_path(page[key], file, f"$.textures.pages[{k}].{key}")
