@@ -315,3 +315,20 @@ def test_pins_in_a_photo_without_a_camera_are_named(calibrated, tmp_path, capsys
     path.write_text(json.dumps(doc))
     assert _solve(path)["model_solution"]["warnings"] == []
     capsys.readouterr()
+
+
+def test_pins_in_a_photo_never_calibrated_name_the_register_command(tmp_path, capsys) -> None:
+    folder = tmp_path / "room"
+    shutil.copytree(EXAMPLE, folder)
+    path = folder / "room.vebuild.json"
+    data = json.loads(path.read_text())
+    data["photos"][4]["vanishing_segments"] = {}  # p5: left for `vebuild register`
+    pid = data["photos"][4]["id"]
+    path.write_text(json.dumps(data, indent=1))
+    assert main(["calibrate", str(path), "--quiet"]) == 0
+    sol = _solve(path)["model_solution"]
+    capsys.readouterr()
+    n = sum(p["photo"] == pid and p.get("fixed", True) for p in data["model"]["pins"])
+    assert n > 0 and len(sol["warnings"]) == 1
+    assert sol["warnings"][0].startswith(f"photo '{pid}' has no calibrated camera, so its {n} pins")
+    assert sol["warnings"][0].endswith(f"give it a camera with `vebuild register PROJECT {pid}`, then solve again")

@@ -117,14 +117,21 @@ def uncalibrated_pin_warnings(data: dict[str, Any], cameras: dict[str, ImageCame
     left: dict[str, list[int]] = {}
     for key, k in (("pins", 0), ("edge_observations", 1)):
         for obs in (data.get("model") or {}).get(key, []):
-            if obs["photo"] not in cameras:
+            if obs["photo"] not in cameras and (key != "pins" or obs.get("fixed", True)):
                 left.setdefault(obs["photo"], [0, 0])[k] += 1
     out = []
+    unplaced = (data.get("calibration") or {}).get("unplaced") or {}
     for pid, (pins, edges) in sorted(left.items()):
         what = " and ".join(f"{n} {word}{'s' if n != 1 else ''}" for n, word in
                             ((pins, "pin"), (edges, "edge observation")) if n)
         seg = any(p["id"] == pid and p.get("vanishing_segments") for p in data["photos"])
-        fix = "`vebuild calibrate` (it has vanishing segments)" if seg else f"`vebuild register PROJECT {pid}`"
+        if pid in unplaced:
+            fix = (f"`vebuild register PROJECT {pid}` (the calibration could not place it: "
+                   f"{json_path(['calibration', 'unplaced', pid, 'reason'])})")
+        elif seg:
+            fix = "`vebuild calibrate` (it has vanishing segments)"
+        else:
+            fix = f"`vebuild register PROJECT {pid}`"
         out.append(f"photo '{pid}' has no calibrated camera, so its {what} are left out of the solve; give it a "
                    f"camera with {fix}, then solve again")
     return out
