@@ -46,8 +46,10 @@ SIGMA_TOL_REL = 1e-3
 SIGMA_FLOOR = 1e-12
 #: Image residuals move with the end point by at most ‖δz‖ click σ (1 px): 1e-3 px.
 RESIDUAL_TOL_PX = 1e-3
-#: Keys that are no figure of the solution: how many iterations it took, and who wrote it.
-NOT_FIGURES = {"iterations", "software"}
+#: Keys that are no figure of the solution: how many iterations it took, who wrote it, and the
+#: hashes of what it read (``computed_from``, vebuild.project.provenance: each run reads the solved
+#: values the run before wrote into ``model.nodes``, equal only within the tolerances above).
+NOT_FIGURES = {"iterations", "software", "computed_from"}
 
 
 def _sigmas(s: Any) -> np.ndarray:
