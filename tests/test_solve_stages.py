@@ -334,3 +334,19 @@ def test_pins_in_a_photo_never_calibrated_name_the_register_command(tmp_path, ca
     assert n > 0 and len(sol["warnings"]) == 1
     assert sol["warnings"][0].startswith(f"photo '{pid}' has no calibrated camera, so its {n} pins")
     assert sol["warnings"][0].endswith(f"give it a camera with `vebuild register PROJECT {pid}`, then solve again")
+
+
+def test_the_modelling_screen_says_the_warnings_and_check_distances(calibrated, tmp_path) -> None:
+    from vebuild.edit.session import EditSession
+
+    path = _copy(calibrated, tmp_path / "room")
+    data = json.loads(path.read_text())
+    del data["calibration"]["cameras"]["p4"]
+    path.write_text(json.dumps(data))
+    s = EditSession.open(path)
+    s.solve(recalibrate=True)
+    assert any(m.startswith("photo 'p4' has no calibrated camera, so its ") for m in s.messages)
+    c = s.data["model_solution"]["check_distances"][0]
+    assert (c["a"], c["b"]) == ("T2", "C1")
+    assert any(m.startswith("check distance T2–C1: ") and m.endswith(
+        f"{'within' if c['within_ci95'] else 'OUTSIDE'} its 95 % interval") for m in s.messages)
