@@ -124,6 +124,20 @@ def test_the_tolerance_names_the_solvers_convergence_test() -> None:
     assert np.sqrt(2 * 1e-10 * 64 / (1 - 0.9)) * 2 < FIGURE_TOL_SIGMA
 
 
+def test_the_comparison_sees_a_figure_moved_beyond_its_tolerance() -> None:
+    a = {"nodes": {"box": {"params": {"width": {"value": 0.6, "sigma": 0.001, "ci95": [0.598, 0.602]}}}},
+         "markers": {"T1": {"position": [1.0, 2.0, 0.7], "sigma": [0.002, 0.002, 0.001]}},
+         "covariance": {"parameters": ["box.width"], "matrix": [[1e-6]]}, "iterations": 7}
+    assert not list(_compare(a, copy.deepcopy(a) | {"iterations": 9}))
+    for change in (lambda b: b["nodes"]["box"]["params"]["width"].update(value=0.6 + 2e-3 * 0.001),
+                   lambda b: b["nodes"]["box"]["params"]["width"].update(sigma=0.00101),
+                   lambda b: b["markers"]["T1"]["position"].__setitem__(2, 0.7 + 2e-6),
+                   lambda b: b["covariance"]["matrix"][0].__setitem__(0, 1.01e-6)):
+        b = copy.deepcopy(a)
+        change(b)
+        assert list(_compare(a, b)), change
+
+
 @pytest.fixture(scope="module")
 def calibrated(tmp_path_factory) -> Path:
     folder = tmp_path_factory.mktemp("stages") / "room"
