@@ -518,6 +518,20 @@ case("model-solution-covariance-not-square", doc_fn(lambda d: d["model_solution"
 case("model-solution-orphan-node", doc_fn(lambda d: d["model_solution"]["nodes"].__setitem__(
         "sofa", copy.deepcopy(d["model_solution"]["nodes"]["cabinet"]))),
      V + ["analyse", "report"], [P, "$.model_solution.nodes", "sofa"])
+case("calibration-overwritten-by-an-older-recalibration",
+     setter(("calibration", "cameras", "p2", "recalibrated"), True),
+     V + ["solve", "solve-recal", "render-photo", "texture", "export", "report"],
+     [P, "$.calibration.cameras.p2.recalibrated", "vebuild calibrate"])
+
+
+def _recalibrated_not_a_rotation(d: dict[str, Any]) -> None:
+    rec = copy.deepcopy(d["calibration"]["cameras"]["p1"])
+    rec.update(R=[[2, 0, 0], [0, 1, 0], [0, 0, 1]], recalibrated=True)
+    d["model_solution"]["cameras"] = {"p1": rec}
+
+
+case("recalibrated-camera-not-a-rotation", doc_fn(_recalibrated_not_a_rotation),
+     V + ["render-photo", "texture", "export"], [P, "$.model_solution.cameras.p1.R", "rotation"])
 case("calibration-marker-1e308", setter(("calibration", "markers", "O", "position"), [1e308, 0.0, 0.0]),
      V + ["solve-recal", "report"], [P, "$.calibration.markers.O"])
 case("atlas-page-50000x50000", doc_fn(lambda d: d["textures"]["pages"][0].update(width=50000, height=50000)),

@@ -216,20 +216,24 @@ def test_solve_recalibrate_writes_the_refined_distortion_into_the_record(tmp_pat
     project, truth, cams = _project_file(tmp_path, 2, 0.5, lambda k1: 0.5 * abs(k1))
     result = solve_project(project, recalibrate=True)
     assert not result["outliers"]
+    recal = project.data["model_solution"]["cameras"]
     for cid, c in cams.items():
-        d = project.data["calibration"]["cameras"][cid]["distortion"]
+        d = recal[cid]["distortion"]
         k1, s = d["k1"]["value"], d["k1"]["sigma"]
         assert abs(k1 - c.k1) <= 3 * s < 1.5 * abs(c.k1), cid
         assert d["source"] == f"user; {REFINED_SOURCE}"
-        K = np.array(project.data["calibration"]["cameras"][cid]["K"])
+        K = np.array(recal[cid]["K"])
         assert d["corner_displacement_px"]["value"] == pytest.approx(
             distortion_displacement_px(K, c.width, c.height, k1), rel=1e-12)
         assert d["corner_displacement_px"]["sigma"] > 0
-    # Read back, the project's cameras carry the refined k1.
-    from vebuild.project.decode import cameras_from_calibration
-    back = cameras_from_calibration(project)
-    assert all(back[cid].k1 == project.data["calibration"]["cameras"][cid]["distortion"]["k1"]["value"]
-               for cid in cams)
+        # The calibration's record, the next re-calibration's prior, keeps its own k1.
+        assert project.data["calibration"]["cameras"][cid]["distortion"]["source"] == "user"
+        assert project.data["calibration"]["cameras"][cid]["distortion"]["k1"]["value"] == 0.5 * c.k1
+    # Read back, the final cameras carry the refined k1, the calibration's the prior's.
+    from vebuild.project.decode import cameras, cameras_from_calibration
+    back, prior = cameras(project), cameras_from_calibration(project)
+    assert all(back[cid].k1 == recal[cid]["distortion"]["k1"]["value"] for cid in cams)
+    assert all(prior[cid].k1 == 0.5 * cams[cid].k1 for cid in cams)
     # The solved sizes through the refined lens: within the claimed dimension tolerance.
     from claims import dimension_tolerance
     for node in truth.nodes:
@@ -246,7 +250,7 @@ def test_a_k1_without_a_prior_sigma_stays_as_calibrated(tmp_path, sigma) -> None
     project, _, cams = _project_file(tmp_path, 2, 1.0, lambda k1: sigma)
     solve_project(project, recalibrate=True)
     for cid, c in cams.items():
-        d = project.data["calibration"]["cameras"][cid]["distortion"]
+        d = project.data["model_solution"]["cameras"][cid]["distortion"]
         assert d["k1"] == {"value": c.k1, "sigma": sigma} and d["source"] == "user"
 
 

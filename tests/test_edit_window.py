@@ -371,7 +371,8 @@ def test_recalibrate_register_group_a_marker_primitive_and_textures_from_the_mod
     d.click("Re-calibrate")
     assert e.solve_error is None, e.solve_error
     assert s.data["model_solution"]["recalibrated"] and s.undo_label == "re-calibrate"
-    assert all(c.get("recalibrated") for c in s.data["calibration"]["cameras"].values())
+    assert all(c.get("recalibrated") for c in s.data["model_solution"]["cameras"].values())
+    assert not any(c.get("recalibrated") for c in s.data["calibration"]["cameras"].values())
     # Register the photo shown from the known points marked in it.
     d.click("photo:p2")
     d.click("Register this photo")

@@ -391,7 +391,9 @@ def test_pin_on_a_vertex_the_camera_cannot_see(tmp_path: Path) -> None:
 def test_recalibrated_camera_records_agree_with_their_matrices(origin_only) -> None:
     """Re-calibration refines f and the principal point: every field written must say so."""
     project, _, _ = origin_only
-    for pid, cam in project.data["calibration"]["cameras"].items():
+    assert not any(c.get("recalibrated") for c in project.data["calibration"]["cameras"].values())
+    assert set(project.data["model_solution"]["cameras"]) == set(project.data["calibration"]["cameras"])
+    for pid, cam in project.data["model_solution"]["cameras"].items():
         assert cam["recalibrated"] is True, pid
         assert cam["focal_px"]["value"] == pytest.approx(cam["K"][0][0])
         assert cam["principal_point"]["value"] == pytest.approx([cam["K"][0][2], cam["K"][1][2]])

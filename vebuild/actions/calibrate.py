@@ -85,7 +85,7 @@ def _calibrate(project: Project, progress: Callable[[Iterable], Iterable]) -> di
     if not photos:
         raise CalibrationError(None, "no photo has vanishing segments; mark segments along two world axes at least")
     known = decode.markers(data, "surveyed")
-    refs = decode.reference_distances(data)
+    refs = [d for d in decode.reference_distances(data) if not checked_after_solve(d)]
     floor = decode.floor_markers(data)
     shared = _pinned_handles(data)
     # A point seen once among the calibrated photos but again in a photo left for registration
@@ -166,6 +166,15 @@ def _calibrate(project: Project, progress: Callable[[Iterable], Iterable]) -> di
                                   "or register it to the solved model (`vebuild register`, from 4 known points)")
     data["calibration"] = result
     return result
+
+
+def checked_after_solve(d: ReferenceDistance) -> bool:
+    """A check distance with an end on a model vertex (``node:handle``): the calibration does not
+    place model vertices (a pinned one only ties photos together), so it leaves the distance out of
+    its own checks; ``vebuild solve`` measures it on the final model. A scale distance on a vertex
+    stays: placement uses it where the vertex is pinned in two calibrated photos, and ``vebuild solve
+    --recalibrate`` uses it in any case."""
+    return d.role == "check" and (":" in d.a or ":" in d.b)
 
 
 def _place_jointly(project: Project, photos: dict[str, PhotoCalibration], joint: list[str],
@@ -404,7 +413,11 @@ def _results(data: dict[str, Any], photos: dict[str, PhotoCalibration], placemen
     distances = []
     measured = {(m.reference.a, m.reference.b): (m.measured, m.measured_sigma)
                 for m in (placement.distances if placement else [])}
+    after_solve = []
     for d in decode.reference_distances(data):
+        if checked_after_solve(d):
+            after_solve.append({"a": d.a, "b": d.b, "distance": d.distance, "sigma": d.sigma, "role": d.role})
+            continue
         if (d.a, d.b) in measured:
             dist, dist_sigma = measured[(d.a, d.b)]
         elif d.a in placed_by and placed_by.get(d.b) is placed_by[d.a]:
@@ -448,6 +461,7 @@ def _results(data: dict[str, Any], photos: dict[str, PhotoCalibration], placemen
         "cameras": cameras,
         "markers": markers,
         "reference_distances": distances,
+        "checked_after_solve": after_solve,
         "unplaced": unplaced_records,
         "warnings": warnings,
     }

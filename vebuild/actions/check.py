@@ -31,6 +31,11 @@ def check_project(project: Project) -> list[str]:
     if (data.get("calibration") or {}).get("cameras"):
         cameras = dec.cameras_from_calibration(project)
         lines.append(f"calibration: {len(cameras)} camera(s), each a pinhole camera with a rotation")
+        sol = data.get("model_solution") or {}
+        if sol.get("cameras"):
+            dec.cameras(project)  # the re-calibrated ones decoded and checked as the calibration's
+            lines.append(f"re-calibration: {len(sol['cameras'])} camera(s) and {len(sol.get('markers') or {})} "
+                         "marker(s) in $.model_solution")
     if (data.get("model") or {}).get("nodes"):
         model, pins, edges = dec.load_model(project, dec.markers(data, "joints"))
         lines.append(f"model: {len(model.nodes)} node(s), {len(pins)} pin(s), {len(edges)} edge observation(s)")
@@ -85,7 +90,7 @@ def check_render_sizes(project: Project) -> None:
         located(*image_size(v["width"], v["height"]),
                 f"the report's image of view {v['name']!r} ({IMAGE_WIDTH} pixels wide, its height from the "
                 f"aspect of $.views[{i}], {v['width']}×{v['height']})")
-    calibrated = (data.get("calibration") or {}).get("cameras") or {}
+    calibrated = dec.camera_records(data)
     for i, p in enumerate(data["photos"]):
         if p["id"] in calibrated:
             located(*image_size(p["width"], p["height"]),

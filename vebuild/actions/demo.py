@@ -25,6 +25,7 @@ from ..console.progress import progress_bar
 from ..console.tables import calibration_table, model_table, texture_table
 from ..errors import VebuildError
 from ..project import load_project, save_project
+from ..project.decode import camera_records
 from ..resources import example_project_dir
 from .calibrate import calibrate_project
 from .solve import solve_project
@@ -164,7 +165,7 @@ def run_demo(out: Path, progress: bool = True) -> int:
         print()
         print(model_comparison(model, truth))
     if truth:
-        recal = project.data["calibration"]["cameras"]
+        recal = camera_records(project.data)  # re-calibrated: model_solution.cameras
         print("\nre-calibrated cameras:")
         print(truth_comparison({"cameras": recal}, truth))
         print()

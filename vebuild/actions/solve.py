@@ -1,18 +1,27 @@
 """Solve the model from the pins in the project: ``vebuild solve [--recalibrate]`` (paper §3.1, §3.2).
 
-Reads the calibrated cameras and markers (``vebuild calibrate``), the model and its observations,
-solves every node's joint and parameters (with ``recalibrate`` jointly with the cameras and
-markers), writes the solved values back into ``model.nodes`` and the uncertainties and residuals
-into ``model_solution`` (see scenes/FORMAT.md). The caller saves the project.
+Reads the calibration stage's cameras and markers (``vebuild calibrate``, ``vebuild register``:
+``calibration``), the model and its observations, solves every node's joint and parameters (with
+``recalibrate`` jointly with the cameras and markers), writes the solved values back into
+``model.nodes`` and the uncertainties and residuals into ``model_solution`` (see
+scenes/FORMAT.md). The caller saves the project.
+
+The stages are kept apart: the solve never writes into ``calibration``. Its priors are always the
+calibration stage's (never an earlier solve's output, which would count the same marks again), so
+re-running it gives the same figures. A re-calibrating solve writes its cameras into
+``model_solution.cameras`` and its markers into ``model_solution.markers``; a plain one writes no
+cameras (later stages then use the calibration's).
 
 Every projection goes through each photo's lens distortion (its calibration record's
 ``distortion``). Re-calibrating with intrinsics refines a photo's k1 too where its record gives k1
-a 1σ above 0, held by that prior; the refined k1, its 1σ and its corner displacement replace the
-record's (``source`` says it was refined). A k1 with a 1σ of 0 or null stays as calibrated.
+a 1σ above 0, held by that prior; the refined k1, its 1σ and its corner displacement go into the
+re-calibrated camera record (``source`` says it was refined). A k1 with a 1σ of 0 or null stays as
+calibrated.
 """
 
 from __future__ import annotations
 
+import copy
 from typing import Any
 
 import numpy as np
@@ -97,9 +106,55 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
     data["model"]["nodes"] = model.to_dict()
     result = {**_results(problem, solution, model, xm, recalibrate), "lengths": length_unit(data).word}
     if recalibrate:
-        _write_cameras(data, solution, problem)
+        result["cameras"], result["markers"] = recalibrated_records(data, solution, problem)
+    result["warnings"] = uncalibrated_pin_warnings(data, cameras)
     data["model_solution"] = result
+    result["check_distances"] = final_check_distances(project)
     return result
+
+
+def uncalibrated_pin_warnings(data: dict[str, Any], cameras: dict[str, ImageCamera]) -> list[str]:
+    """One warning per photo whose pins or edge observations the solve leaves out because the photo
+    has no camera in the calibration (its camera was deleted, or it was never calibrated or
+    registered), naming the photo, how many, and the command that gives it a camera."""
+    left: dict[str, list[int]] = {}
+    for key, k in (("pins", 0), ("edge_observations", 1)):
+        for obs in (data.get("model") or {}).get(key, []):
+            if obs["photo"] not in cameras and (key != "pins" or obs.get("fixed", True)):
+                left.setdefault(obs["photo"], [0, 0])[k] += 1
+    out = []
+    unplaced = (data.get("calibration") or {}).get("unplaced") or {}
+    for pid, (pins, edges) in sorted(left.items()):
+        what = " and ".join(f"{n} {word}{'s' if n != 1 else ''}" for n, word in
+                            ((pins, "pin"), (edges, "edge observation")) if n)
+        seg = any(p["id"] == pid and p.get("vanishing_segments") for p in data["photos"])
+        if pid in unplaced:
+            fix = (f"`vebuild register PROJECT {pid}` (the calibration could not place it: "
+                   f"{json_path(['calibration', 'unplaced', pid, 'reason'])})")
+        elif seg:
+            fix = "`vebuild calibrate` (it has vanishing segments)"
+        else:
+            fix = f"`vebuild register PROJECT {pid}`"
+        out.append(f"photo '{pid}' has no calibrated camera, so its {what} are left out of the solve; give it a "
+                   f"camera with {fix}, then solve again")
+    return out
+
+
+def final_check_distances(project: Project) -> list[dict[str, Any]]:
+    """Every reference distance of role ``check``, measured on the final (just solved) model by
+    :func:`vebuild.analysis.measure.check_distances`: measured, known, difference, its 1σ and 95 %
+    interval, and whether the difference lies within it. Where the lengths are relative (no scale
+    given) a measurement cannot be compared with a tape: ``within_ci95`` is then null and
+    ``lengths`` says ``"relative"``."""
+    from ..analysis.measure import check_distances
+    from ..analysis.solved import SolvedModel
+
+    if not any(d.role == "check" for d in decode.reference_distances(project.data)):
+        return []
+    out = [c.to_json() for c in check_distances(project, SolvedModel.from_project(project))]
+    if length_unit(project.data).relative:
+        out = [{**c, "within_ci95": None, "lengths": "relative"} for c in out]
+    return out
 
 
 def distortion_sigmas(project: Project) -> dict[str, float]:
@@ -234,17 +289,32 @@ def covariance_record(problem: Problem, solution: Any) -> dict[str, Any]:
     return {"parameters": names, "matrix": json_values(cov)}
 
 
+#: Fields of a calibration camera record that describe the vanishing-point calibration's own fit;
+#: a re-calibrated record (``model_solution.cameras``) leaves them out.
+CALIBRATION_DIAGNOSTICS = ("vanishing_points", "marker_residuals_px", "rms_px", "exif_focal_check")
 #: What a refined lens distortion's ``source`` says, after the calibration's.
 REFINED_SOURCE = "refined by vebuild solve --recalibrate"
 
 
-def _write_cameras(data: dict[str, Any], solution: Any, problem: Problem) -> None:
-    """Re-calibrated cameras and markers replace the calibration's (paper §3.2); a refined lens
-    distortion replaces the record's, and a held one has its corner displacement recomputed for
-    the refined K."""
+def recalibrated_records(data: dict[str, Any], solution: Any, problem: Problem
+                         ) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The re-calibrated cameras (photo id → a record with the fields of ``calibration.cameras[id]``
+    and ``"recalibrated": true``) and markers (name → ``{"position", "sigma"}``) for
+    ``model_solution`` (paper §3.2); the calibration's records are left as they are. A refined lens
+    distortion goes into the re-calibrated record, and a held one has its corner displacement
+    recomputed for the refined K."""
     cal = data["calibration"]
+    cameras: dict[str, Any] = {}
+    marker_res: dict[str, dict[str, Any]] = {}
+    for m, d in zip(problem.marker_obs, solution.residuals_px["markers"], strict=True):
+        marker_res.setdefault(m.photo, {})[m.marker] = json_values(d)
     for cid, cam in solution.cameras.items():
-        rec = cal["cameras"][cid]
+        rec = copy.deepcopy(cal["cameras"][cid])
+        # The calibration's own diagnostics stay with the calibration; the record says what the
+        # re-calibration found.
+        for key in CALIBRATION_DIAGNOSTICS:
+            rec.pop(key, None)
+        rec["marker_residuals_px"] = marker_res.get(cid, {})
         old = rec.get("distortion")
         distortion = None
         if cid in solution.k1_sigma:
@@ -258,7 +328,10 @@ def _write_cameras(data: dict[str, Any], solution: Any, problem: Problem) -> Non
             if old.get("k1", {}).get("sigma") is None:
                 distortion["k1"]["sigma"] = distortion["corner_displacement_px"]["sigma"] = None
         rec.update(camera_record(cam.K, cam.R, cam.C, cam.covariance, distortion), recalibrated=True)
+        cameras[cid] = rec
+    markers: dict[str, Any] = {}
     for name, pos in solution.markers.items():
         if name in cal["markers"] and name in solution.marker_covariance:
             sigma = np.sqrt(np.maximum(np.diag(solution.marker_covariance[name]), 0.0))
-            cal["markers"][name] = {"position": json_values(pos), "sigma": json_values(sigma)}
+            markers[name] = {"position": json_values(pos), "sigma": json_values(sigma)}
+    return cameras, markers

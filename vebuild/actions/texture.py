@@ -28,7 +28,8 @@ from vebuild import __version__
 from vebuild.errors import VebuildError
 from vebuild.project import Project, autosave_path, canonical_input_hash, load_project, save_project, sha256_file
 from vebuild.project.atomic import write_bytes
-from vebuild.project.decode import cameras_from_calibration, load_model
+from vebuild.project.decode import cameras as final_cameras
+from vebuild.project.decode import load_model
 from vebuild.project.outputs import begin_stage
 from vebuild.texture.extract import PhotoSource, TextureResult, extract
 from vebuild.texture.gpu import Timings
@@ -54,7 +55,7 @@ def texture_project(project: Project, options: Options | None = None,
     folder = texture_folder(project)
     begin_stage(project)
     data = project.data
-    cams = cameras_from_calibration(project)
+    cams = final_cameras(project)  # the final ones: re-calibrated where the solution has them
     model, _, _ = load_model(project)
     if not any(n.primitive is not None for n in model.nodes):
         raise VebuildError(f"{project.path}: $.model.nodes: the model has no primitives to texture")

@@ -208,7 +208,7 @@ class PhotoHeightRequest(_NoImage):
 
     def run(self, project: Project) -> AnalysisResult:
         from vebuild.errors import VebuildError
-        from vebuild.project.decode import photo_camera
+        from vebuild.project.decode import camera_records, photo_camera
 
         from .single_view import floor_distance_on_photo, height_on_photo
 
@@ -218,7 +218,7 @@ class PhotoHeightRequest(_NoImage):
                                f"({'foot, then top' if self.kind == 'height' else 'the two floor points'}), got "
                                f"{len(self.pixels)} number{'s' if len(self.pixels) != 1 else ''}")
         cam = photo_camera(project, self.photo)
-        cal = project.data["calibration"]["cameras"][cam.id]
+        cal = camera_records(project.data)[cam.id]  # the final record, as photo_camera's
         k1_sigma = float(((cal.get("distortion") or {}).get("k1") or {}).get("sigma") or 0.0)
         click = project.settings["click_sigma_px"]
         measure = height_on_photo if self.kind == "height" else floor_distance_on_photo

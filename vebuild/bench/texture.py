@@ -247,7 +247,7 @@ def _solved_example() -> tuple[Model | None, list[ImageCamera], dict[str, PhotoS
     from ..actions.calibrate import calibrate_project
     from ..actions.solve import solve_project
     from ..project import load_project
-    from ..project.decode import cameras_from_calibration, load_model
+    from ..project.decode import cameras, load_model
 
     tmp = Path(tempfile.mkdtemp(prefix="vebuild-bench-texture-"))
     try:
@@ -256,7 +256,7 @@ def _solved_example() -> tuple[Model | None, list[ImageCamera], dict[str, PhotoS
         calibrate_project(project)
         solve_project(project, recalibrate=True)
         model, _, _ = load_model(project)
-        cams = list(cameras_from_calibration(project).values())
+        cams = list(cameras(project).values())
         sources = {c.id: PhotoSource(c.id, truth.photo_path(c.id)) for c in cams}
         # The solved model's faces match the true model's one for one (same nodes, same order).
         return model, cams, sources

@@ -80,6 +80,11 @@ def calibration_table(result: dict[str, Any]) -> str:
             lines.append(f"  {d['a']}–{d['b']:<10} {d['role']:<6} known {d['distance']:.3f} ± {d['sigma']:.3f}   "
                          f"measured {d['measured']:.3f} ± {d['measured_sigma']:.3f}   "
                          f"difference {1000 * (d['measured'] - d['distance']):+.1f} mm")
+    if result.get("checked_after_solve") and not result["reference_distances"]:
+        lines += ["", "reference distances (m):"]
+    for d in result.get("checked_after_solve") or []:
+        lines.append(f"  {d['a']}–{d['b']}  check  known {d['distance']:.3f} ± {d['sigma']:.3f}   ends on a model "
+                     "vertex: checked on the solved model by `vebuild solve`")
     if result["warnings"]:
         lines += ["", "warnings:"] + [f"  - {w}" for w in result["warnings"]]
     return "\n".join(lines)
@@ -107,7 +112,30 @@ def model_table(result: dict[str, Any]) -> str:
     if result["outliers"]:
         lines += ["", "outliers (more than 4σ from the solved model; check these marks):"]
         lines += [f"  - {o}" for o in result["outliers"]]
+    lines += check_distance_lines(result.get("check_distances") or [], unit)
+    if result.get("warnings"):
+        lines += ["", "warnings:"] + [f"  - {w}" for w in result["warnings"]]
     return "\n".join(lines)
+
+
+def check_distance_lines(checks: list[dict[str, Any]], unit: LengthUnit = METRES) -> list[str]:
+    """The check distances measured on the final model (``model_solution.check_distances``): each
+    with measured, known, the difference with its 1σ and 95 % interval, and within/outside."""
+    if not checks:
+        return []
+    if unit.relative:
+        out = ["", "check distances, not compared (lengths are relative units; the tape's are not):"]
+        return out + [f"  {c['a']}–{c['b']}  known {c['known_m']:.4f} (tape)   found {c['measured_m']:.4f} "
+                      f"± {c['measured_sigma_m']:.4f} (relative units)" for c in checks]
+    out = ["", "check distances on the final model (m; difference in mm, its 1σ and 95 % interval):"]
+    for c in checks:
+        lo, hi = (1000 * v for v in c["difference_ci95_m"])
+        verdict = "within" if c["within_ci95"] else "OUTSIDE"
+        out.append(f"  {c['a']}–{c['b']}  measured {c['measured_m']:.4f} ± {c['measured_sigma_m']:.4f}   known "
+                   f"{c['known_m']:.4f} ± {c['known_sigma_m']:.4f}   difference {1000 * c['difference_m']:+.1f} "
+                   f"± {1000 * c['difference_sigma_m']:.1f} mm, 95 % {lo:+.1f} to {hi:+.1f} mm: {verdict} "
+                   "its 95 % interval")
+    return out
 
 
 def texture_table(record: dict[str, Any], unit: LengthUnit = METRES) -> str:

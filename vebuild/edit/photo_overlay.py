@@ -16,6 +16,7 @@ from vebuild import camera as cam_math
 from vebuild.camera import ImageCamera
 from vebuild.constants import OUTLIER_SIGMAS
 from vebuild.model.drag import project_edge_curves
+from vebuild.project import decode
 
 from .marks import AXES, KNOWN_LENGTH_SIGMA_M
 from .modelling import Modelling
@@ -113,9 +114,9 @@ class SessionOverlays(Modelling):
                 ov.points.append(Point((u, v), colour, 4.0, e == foot or foot is None, "known-length-end", (i, e)))
 
     def _markers_overlay(self, ov: Overlay, photo: str, cam: ImageCamera | None) -> None:
-        placed = self._markers_placed()
+        placed = decode.markers(self.data, "final")  # re-calibrated where the solution has them
         origin = self.data.get("origin_marker")
-        res = ((self.data.get("calibration") or {}).get("cameras", {}).get(photo) or {}).get("marker_residuals_px", {})
+        res = (decode.camera_records(self.data).get(photo) or {}).get("marker_residuals_px", {})
         for name, uv in (self.photo(photo).get("marker_observations") or {}).items():
             label = name + (" (origin)" if name == origin else "")
             if name in res:

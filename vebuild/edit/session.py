@@ -134,10 +134,10 @@ class EditSession(SessionOverlays):
     @property
     def cameras(self) -> dict[str, ImageCamera]:
         if "cameras" not in self._cache:
-            from vebuild.project.decode import cameras_from_calibration
+            from vebuild.project.decode import cameras
 
-            try:
-                self._cache["cameras"] = cameras_from_calibration(self.project)
+            try:  # the final cameras: re-calibrated where the solution has them
+                self._cache["cameras"] = cameras(self.project)
             except VebuildError:
                 self._cache["cameras"] = {}
         return self._cache["cameras"]
@@ -163,6 +163,13 @@ class EditSession(SessionOverlays):
         self.say(f"{'re-calibrated and solved' if recalibrate else 'solved'}: rms {result['rms_px']:.2f} px over "
                  f"{len(result['pins'])} vertices and {len(result['edge_observations'])} edges"
                  + (f"; outliers: {'; '.join(result['outliers'])}" if result["outliers"] else "; no outliers"))
+        for w in result.get("warnings", []):
+            self.say(w)
+        for c in result.get("check_distances", []):
+            if c.get("within_ci95") is not None:
+                self.say(f"check distance {c['a']}–{c['b']}: {1000 * c['difference_m']:+.1f} ± "
+                         f"{1000 * c['difference_sigma_m']:.1f} mm from the tape, "
+                         f"{'within' if c['within_ci95'] else 'OUTSIDE'} its 95 % interval")
         return result
 
     def register(self, photo: str) -> None:

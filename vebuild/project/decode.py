@@ -5,11 +5,14 @@ Each part of the document is decoded here, once, and checked as it is decoded; e
 :class:`~vebuild.errors.VebuildError`) that names the file and the JSON path:
 
 - cameras: :func:`cameras` (the final ones: re-calibrated where solved so), :func:`camera_records`,
-  :func:`cameras_from_calibration` (the calibration stage's: a re-calibration's priors), :func:`photo_camera` (one,
-  by id or position), :func:`view_camera` and :func:`find_view` (the named evidence views);
-- markers: :func:`markers` (the ``{name: position}`` a stage needs), :func:`marker_sigmas`,
-  :func:`known_points` (the markers and the solved model's vertices), :func:`sightings` (a photo's
-  marker observations), :func:`reference_distances`, :func:`floor_markers`;
+  :func:`cameras_from_calibration` (the calibration stage's: a re-calibration's priors; it refuses a
+  project whose calibration an older vebuild overwrote, :func:`check_calibration_stage`),
+  :func:`photo_camera` (one final camera, by id or position), :func:`view_camera` and
+  :func:`find_view` (the named evidence views);
+- markers: :func:`markers` (the ``{name: position}`` a stage needs: the calibration's, or
+  ``"final"`` with the re-calibrated ones), :func:`marker_sigmas`, :func:`known_points` (the final
+  markers and the solved model's vertices), :func:`sightings` (a photo's marker observations),
+  :func:`reference_distances`, :func:`floor_markers`;
 - a photo's own scale: :func:`photo_camera_height`, :func:`known_lengths`;
 - a photo's marks for calibration: :func:`photo_marks` (vanishing segments or polylines, given focal
   length and principal point), :func:`vanishing_segments`;
@@ -77,16 +80,41 @@ def cameras_from_calibration(project: Project) -> dict[str, ImageCamera]:
     cal = project.data.get("calibration")
     if not cal or not cal.get("cameras"):
         raise VebuildError(f"{project.path}: the project has no calibrated cameras; run `vebuild calibrate` first")
+    check_calibration_stage(project)
     return _cameras_from_records(project, cal["cameras"], "calibration")
+
+
+def check_calibration_stage(project: Project) -> None:
+    """``calibration`` must hold the calibration stage only. A project written before the stages
+    were kept apart holds, after ``vebuild solve --recalibrate``, re-calibrated cameras inside
+    ``calibration.cameras`` (each marked ``"recalibrated": true``) and re-calibrated markers in
+    ``calibration.markers``: taken as priors they would count the same marks a second time, and
+    the vanishing-point calibration they replaced is gone. Such a project is refused with a
+    ProjectError at the first such camera's ``recalibrated`` field, saying to calibrate again."""
+    for pid, rec in ((project.data.get("calibration") or {}).get("cameras") or {}).items():
+        if isinstance(rec, Mapping) and rec.get("recalibrated"):
+            raise ProjectError(project.path, json_path(["calibration", "cameras", pid, "recalibrated"]),
+                               "this camera was re-calibrated by an older vebuild, which wrote `solve --recalibrate`'s "
+                               "cameras and markers over the calibration's; the vanishing-point calibration is lost "
+                               "and re-calibrating from these would count the same marks twice. Run `vebuild "
+                               "calibrate` again (then `vebuild solve --recalibrate`)")
 
 
 def camera_records(data: Mapping[str, Any]) -> dict[str, Mapping[str, Any]]:
     """The camera records later stages use, by photo id: the calibration's
     (``calibration.cameras``), each replaced by the re-calibrated one of the solution
-    (``model_solution.cameras``, written by ``vebuild solve --recalibrate``) where it has one."""
+    (``model_solution.cameras``, written by ``vebuild solve --recalibrate``) where it has one (a
+    re-calibrated camera of a photo whose calibrated camera was deleted is not used)."""
     out = dict((data.get("calibration") or {}).get("cameras") or {})
-    out.update((data.get("model_solution") or {}).get("cameras") or {})
+    out.update(_recalibrated_cameras(data, out))
     return out
+
+
+def _recalibrated_cameras(data: Mapping[str, Any], calibrated: Mapping[str, Any]) -> dict[str, Any]:
+    """``model_solution.cameras`` of the photos the calibration still has a camera for: a photo
+    whose calibrated camera was deleted has no camera (its re-calibration was made from it)."""
+    recal = (data.get("model_solution") or {}).get("cameras") or {}
+    return {pid: rec for pid, rec in recal.items() if pid in calibrated}
 
 
 def cameras(project: Project) -> dict[str, ImageCamera]:
@@ -94,7 +122,7 @@ def cameras(project: Project) -> dict[str, ImageCamera]:
     re-calibrated camera where the solution has one (``model_solution.cameras``), else its
     calibrated one; checked as :func:`cameras_from_calibration` checks them."""
     out = cameras_from_calibration(project)
-    recal = (project.data.get("model_solution") or {}).get("cameras") or {}
+    recal = _recalibrated_cameras(project.data, project.data["calibration"]["cameras"])
     out.update(_cameras_from_records(project, recal, "model_solution"))
     return out
 
@@ -152,7 +180,8 @@ def _check_camera(project: Project, where: str, K: Array, R: Array) -> None:
 
 
 def photo_camera(project: Project, photo: str) -> ImageCamera:
-    """The calibrated camera of a photo, by id (or by its 1-based position in ``photos``), its
+    """The final camera of a photo (:func:`cameras`: re-calibrated where the solution has it, else
+    calibrated), by id (or by its 1-based position in ``photos``), its
     :attr:`~vebuild.camera.ImageCamera.source` naming the photo (for errors about its size)."""
     ids = [p["id"] for p in project.data["photos"]]
     if photo not in ids and photo.isdigit() and 1 <= int(photo) <= len(ids):
@@ -164,7 +193,7 @@ def photo_camera(project: Project, photo: str) -> ImageCamera:
         raise ProjectError(project.path, "$.calibration.cameras",
                            f"photo {photo!r} has no calibrated camera; run `vebuild calibrate` (or `vebuild register`)")
     i = ids.index(photo)
-    return dataclasses.replace(cameras_from_calibration(project)[photo],
+    return dataclasses.replace(cameras(project)[photo],
                                source=f"$.photos[{i}] (photo {photo!r}: width × height)")
 
 
@@ -201,14 +230,16 @@ def find_view(project: Project, name: str) -> ImageCamera:
 # --------------------------------------------------------------------------------------------------
 # Markers
 
-MarkerSource = Literal["calibration", "surveyed", "named", "joints"]
+MarkerSource = Literal["calibration", "final", "surveyed", "named", "joints"]
 
 
 def markers(data: Mapping[str, Any], source: MarkerSource = "calibration") -> dict[str, Array]:
     """Marker positions by name, from the document ``data``:
 
-    - ``"calibration"``: where the calibration (or a re-calibrating solve) placed them (none
-      before calibration);
+    - ``"calibration"``: where the calibration stage placed them (``calibration.markers``; none
+      before calibration): a re-calibration's priors, and what marker joints tie to;
+    - ``"final"``: what later stages draw, measure and register against: the re-calibrated
+      position where the solution has one (``model_solution.markers``), else the calibration's;
     - ``"surveyed"``: the positions ``$.markers`` gives (surveyed markers only);
     - ``"named"``: every marker of ``$.markers`` at the origin (only the names matter: a model's
       handles can be read before calibration);
@@ -218,8 +249,11 @@ def markers(data: Mapping[str, Any], source: MarkerSource = "calibration") -> di
     calibrated = (data.get("calibration") or {}).get("markers")
     if source == "joints":
         source = "calibration" if calibrated is not None else "named"
-    if source == "calibration":
-        return {n: np.asarray(m["position"], float) for n, m in (calibrated or {}).items()}
+    if source in ("calibration", "final"):
+        records = dict(calibrated or {})
+        if source == "final":
+            records.update(_recalibrated_markers(data))
+        return {n: np.asarray(m["position"], float) for n, m in records.items()}
     if source == "surveyed":
         return {m["name"]: np.asarray(m["position"], float) for m in data.get("markers", []) if "position" in m}
     if source == "named":
@@ -227,22 +261,30 @@ def markers(data: Mapping[str, Any], source: MarkerSource = "calibration") -> di
     raise ValueError(f"unknown marker source {source!r}")
 
 
+def _recalibrated_markers(data: Mapping[str, Any]) -> Mapping[str, Any]:
+    return (data.get("model_solution") or {}).get("markers") or {}
+
+
 def known_points(data: Mapping[str, Any]) -> dict[str, Array]:
-    """Positions known after calibration and solving: the calibrated markers, and the solved
-    model's vertices as ``node:handle`` (``model_solution``)."""
-    pts = markers(data)
+    """Positions known after calibration and solving: the final markers (:func:`markers`
+    ``"final"``), and the solved model's vertices as ``node:handle`` (``model_solution``)."""
+    pts = markers(data, "final")
     for node, entry in (data.get("model_solution") or {}).get("nodes", {}).items():
         for h, v in entry["handles"].items():
             pts[f"{node}:{h}"] = np.asarray(v["value"], float)
     return pts
 
 
-def marker_sigmas(data: Mapping[str, Any]) -> dict[str, Array]:
-    """The calibrated markers' 1σ per axis (metres; the largest float where undetermined, 0 where not
-    given), as the measurements take them."""
-    calibrated = (data.get("calibration") or {}).get("markers") or {}
+def marker_sigmas(data: Mapping[str, Any], source: Literal["calibration", "final"] = "calibration"
+                  ) -> dict[str, Array]:
+    """The markers' 1σ per axis (metres; the largest float where undetermined, 0 where not given),
+    as the measurements take them: the calibration's, or with ``"final"`` the re-calibrated 1σ
+    where the solution has the marker (as :func:`markers`)."""
+    records = dict((data.get("calibration") or {}).get("markers") or {})
+    if source == "final":
+        records.update(_recalibrated_markers(data))
     return {n: np.nan_to_num(np.asarray([np.inf if s is None else s for s in m.get("sigma", [0, 0, 0])], float),
-                             nan=0.0) for n, m in calibrated.items()}
+                             nan=0.0) for n, m in records.items()}
 
 
 def sightings(photo: Mapping[str, Any]) -> dict[str, Array]:
@@ -429,7 +471,7 @@ class Solution:
     values : their solved values, in that order.
     covariance : their covariance (radians and metres; infinite where undetermined).
     model_index : for each model parameter of ``names``, its index in ``model.vector()``.
-    markers, marker_sigma : the calibrated markers' positions and 1σ per axis.
+    markers, marker_sigma : the final markers' positions and 1σ per axis (:func:`markers` ``"final"``).
     solved_markers : the markers whose covariance ``names`` holds (re-calibrated), in order.
     photos_of : the photos observing each node (and ``marker:NAME``).
     """
@@ -467,8 +509,10 @@ def solution(project: Project) -> Solution:
     sol = require_solution(project)
     data, path = project.data, project.path
     rec = sol["covariance"]
-    placed = markers(data)
-    solved_model = model(project, placed)
+    # Marker joints tie to the calibration's markers, as the solve tied them; the markers
+    # themselves are where the re-calibration put them (with its 1σ and covariance).
+    solved_model = model(project, markers(data))
+    placed = markers(data, "final")
     index = {n: i for i, n in enumerate(solved_model.parameter_names())}
     xm = solved_model.vector()
     names: list[str] = []
@@ -507,7 +551,7 @@ def solution(project: Project) -> Solution:
         for m in ph.get("marker_observations") or {}:
             photos.setdefault(f"marker:{m}", set()).add(ph["id"])
     cal = data.get("calibration") or {}
-    return Solution(solved_model, names, np.asarray(x, float), cov, model_index, placed, marker_sigmas(data),
+    return Solution(solved_model, names, np.asarray(x, float), cov, model_index, placed, marker_sigmas(data, "final"),
                     solved_markers, {k: sorted(v) for k, v in photos.items()}, bool(sol.get("recalibrated")),
                     float(sol.get("variance_factor", 1.0)), list(cal.get("reference_distances") or []))
 

@@ -105,7 +105,7 @@ def length_unit(data: Mapping[str, Any]) -> LengthUnit:
     cal = data.get("calibration") or {}
     if cal.get("lengths") == "relative":
         return RELATIVE
-    cameras = cal.get("cameras") or {}
+    cameras = {**(cal.get("cameras") or {}), **((data.get("model_solution") or {}).get("cameras") or {})}
     if any(((c or {}).get("placement") or {}).get("lengths") == "relative" for c in cameras.values()):
         return RELATIVE
     return METRES

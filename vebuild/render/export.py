@@ -39,7 +39,7 @@ from vebuild import __version__
 from vebuild.camera import ImageCamera, distortion_displacement_px, focal_to_fov
 from vebuild.errors import VebuildError
 from vebuild.project import Project, sha256_file
-from vebuild.project.decode import TexturePage, photo_camera, view_camera
+from vebuild.project.decode import TexturePage, camera_records, photo_camera, view_camera
 from vebuild.project.outputs import begin_stage, check_file
 from vebuild.render.scene import RenderScene, load_scene
 from vebuild.texture import layout as lay
@@ -198,7 +198,7 @@ def _collect(project: Project) -> _Contents:
     cameras: list[tuple[str, str, ImageCamera]] = []
     for view in project.data.get("views", []):
         cameras.append((view["name"], "view", view_camera(view)))
-    calibrated = (project.data.get("calibration") or {}).get("cameras") or {}
+    calibrated = camera_records(project.data)  # the final cameras (re-calibrated where solved so)
     for photo in project.data["photos"]:
         if photo["id"] in calibrated:
             cameras.append((f"photo {photo['id']}", "photo", photo_camera(project, photo["id"])))

@@ -29,7 +29,7 @@ from vebuild.gl.window import Window
 from vebuild.model.arrange import CannotMove, ObjectMover
 from vebuild.model.collide import Footprint, footprints, local_vertices
 from vebuild.project import Project, save_project
-from vebuild.project.decode import find_preset, photo_camera, preset_names, view_camera
+from vebuild.project.decode import camera_records, find_preset, photo_camera, preset_names, view_camera
 from vebuild.project.hypotheses import find_hypothesis, label, save_hypothesis
 from vebuild.project.records import view_record
 from vebuild.render.renderer import Renderer, RenderOptions, Stereo
@@ -350,7 +350,7 @@ class Viewer(WindowApp):
 
     def step_photo(self, step: int) -> None:
         photos = [p["id"] for p in self.project.data["photos"]
-                  if p["id"] in ((self.project.data.get("calibration") or {}).get("cameras") or {})]
+                  if p["id"] in camera_records(self.project.data)]
         if photos:
             self.photo_index = (self.photo_index + step) % len(photos)
             self.jump_to_photo(photos[self.photo_index])
