@@ -140,7 +140,7 @@ def _cmd_render(args: argparse.Namespace) -> int:
                         size=parse_size(args.size) if args.size is not None else None, lighting=args.lighting,
                         stereo=args.stereo, eye_separation=args.eye_separation, convergence=args.convergence,
                         samples=args.samples, shadows=not args.no_shadows, validate=args.validate,
-                        hypothesis=args.hypothesis)
+                        hypothesis=args.hypothesis, unobserved=args.unobserved)
     result = render_evidence(project, req)
     for w in result.warnings:
         print(f"warning: {w}")
@@ -310,6 +310,7 @@ def _progress_wanted(args: argparse.Namespace) -> bool:
 def build_parser() -> argparse.ArgumentParser:
     from .actions.render import RenderRequest
     from .bench import BENCHES
+    from .render.observed import add_option as add_unobserved_option
     from .render.video import Timing, VideoRequest
     from .texture.options import FILLS, MODES, Options
 
@@ -359,6 +360,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-shadows", action="store_true", help="lights cast no shadows")
     p.add_argument("--hypothesis", metavar="NAME",
                    help="the objects arranged as in this hypothesis (the image is labelled as one)")
+    add_unobserved_option(p)
     p.add_argument("--validate", action="store_true",
                    help="with --photo: also write the photo overlaid on the render and print the RMS colour "
                         "difference")
