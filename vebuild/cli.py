@@ -195,7 +195,7 @@ def _cmd_video(args: argparse.Namespace) -> int:
                     turn_rate_deg=args.turn_rate)
     size = parse_size(args.size) if args.size is not None else None
     request = VideoRequest(parse_views(args.views), Path(args.out) if args.out else None,
-                           size, timing, args.lighting, args.stereo, args.crf)
+                           size, timing, args.lighting, args.stereo, args.crf, unobserved=args.unobserved)
     with progress_bar(_progress_wanted(args), desc="video", unit="frame") as progress:
         r = render_video(project, request, progress)
     for w in r.warnings:
@@ -450,6 +450,7 @@ def build_parser() -> argparse.ArgumentParser:
                    "or red-cyan anaglyph")
     p.add_argument("--crf", type=int, default=VideoRequest.crf,
                    help="x264 quality, 0 (best) to 51 (default: %(default)s)")
+    add_unobserved_option(p)
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=_cmd_video)
 
