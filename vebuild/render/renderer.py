@@ -178,13 +178,13 @@ class Renderer:
             mask.filter = (moderngl.LINEAR, moderngl.LINEAR)  # a crisp edge at 0.5 between seen and unseen
             mask.repeat_x = mask.repeat_y = False
             self._masks.append(mask)
+        self._any_unseen = scene.textured and any(bool((m > 127).any()) for m in scene.masks)
 
     @property
     def marks_unobserved(self) -> bool:
         """Whether frames mark something as unobserved now: the mode is not ``off`` and some
         texel of the scene's pages no photo saw (what a legend is drawn for)."""
-        return self.unobserved != "off" and self.scene.textured and any(bool((m > 127).any())
-                                                                           for m in self.scene.masks)
+        return self.unobserved != "off" and self._any_unseen
 
     def set_scene(self, scene: RenderScene) -> None:
         """Draw ``scene`` from now on (objects moved, say); its textures must be the same pages."""

@@ -45,6 +45,7 @@ class RenderScene:
         (:func:`vebuild.render.observed.unseen_mask` of the page's coverage map); empty when
         untextured or unknown (then nothing is marked as unobserved).
     mask_hashes : the SHA-256 of each coverage map the masks came from.
+    coverage_files : each coverage map's bytes, as recorded (for exports).
     """
 
     mesh: lay.SceneMesh
@@ -57,6 +58,7 @@ class RenderScene:
     page_files: list[TexturePage] = field(default_factory=list)
     masks: list[NDArray[np.uint8]] = field(default_factory=list)
     mask_hashes: list[str] = field(default_factory=list)
+    coverage_files: list[bytes] = field(default_factory=list)
 
     @property
     def node_names(self) -> list[str]:
@@ -80,7 +82,7 @@ class RenderScene:
         mesh = lay.scene_mesh(model, self.mesh.faces)
         return RenderScene(mesh, self.pages, self.face_colour, model, self.textured, list(self.warnings),
                            list(self.page_hashes), list(self.page_files), list(self.masks),
-                           list(self.mask_hashes))
+                           list(self.mask_hashes), list(self.coverage_files))
 
 
 def untextured_faces(model: Model) -> list[lay.Face]:
@@ -144,12 +146,13 @@ def load_scene(project: Project) -> RenderScene:
             scene.warnings.append("a coverage map is missing (textures/coverage_*.png): surfaces no photo saw cannot "
                                   "be marked; run `vebuild texture` again")
         else:
-            scene.masks, scene.mask_hashes = [m for m, _ in masks], [h for _, h in masks]
+            scene.masks, scene.mask_hashes, scene.coverage_files = ([m for m, _, _ in masks], [h for _, h, _ in masks],
+                                                                    [b for _, _, b in masks])
     return scene
 
 
-def coverage_masks(project: Project) -> list[tuple[NDArray[np.uint8], str]] | None:
-    """Each page's unseen mask and its coverage map's SHA-256, the bytes checked against the
+def coverage_masks(project: Project) -> list[tuple[NDArray[np.uint8], str, bytes]] | None:
+    """Each page's unseen mask, its coverage map's SHA-256 and bytes, the bytes checked against the
     recorded hash and the size against the page's (errors at the JSON path); None if a coverage
     map is missing (not an error: nothing is then marked, and the scene's warnings say so)."""
     import io
@@ -183,5 +186,5 @@ def coverage_masks(project: Project) -> list[tuple[NDArray[np.uint8], str]] | No
                                    f"{page['width']}×{page['height']} texels as recorded, found "
                                    f"{im.size[0]}×{im.size[1]}")
             rgba = np.asarray(im.convert("RGBA"))
-        out.append((unseen_mask(rgba), digest))
+        out.append((unseen_mask(rgba), digest, raw))
     return out
