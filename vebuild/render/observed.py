@@ -55,6 +55,8 @@ LEGEND_TEXT = {
 #: The legend's box and text colours (sRGB).
 LEGEND_BACKGROUND_SRGB = (20, 20, 24)
 LEGEND_TEXT_SRGB = (255, 255, 255)
+#: The key is drawn only where it takes at most this share of the image's width.
+LEGEND_MAX_WIDTH_SHARE = 0.6
 
 
 def check_mode(mode: str, option: str = "--unobserved") -> str:
@@ -101,7 +103,9 @@ def unseen_fraction(mask: NDArray[np.uint8], coverage: NDArray[np.uint8]) -> flo
 
 def draw_legend(image: NDArray[np.uint8], mode: str) -> NDArray[np.uint8]:
     """``image`` (h, w, 3) sRGB with a small key in its lower left corner: a swatch of the mark as
-    the renderer draws it over mid grey, and :data:`LEGEND_TEXT`'s words. ``off``: unchanged."""
+    the renderer draws it over mid grey, and :data:`LEGEND_TEXT`'s words. ``off``, or an image too
+    small for the key to take at most :data:`LEGEND_MAX_WIDTH_SHARE` of its width (a thumbnail):
+    unchanged (the provenance still says what is marked)."""
     from PIL import Image, ImageDraw, ImageFont
 
     check_mode(mode, "unobserved")
@@ -116,6 +120,8 @@ def draw_legend(image: NDArray[np.uint8], mode: str) -> NDArray[np.uint8]:
     pad = max(3, size // 3)
     sw = box[3] - box[1] + pad  # the swatch's side
     w, h = sw + 3 * pad + (box[2] - box[0]), sw + 2 * pad
+    if w + pad > LEGEND_MAX_WIDTH_SHARE * img.width:
+        return image
     x0, y0 = pad, img.height - h - pad
     draw.rectangle((x0, y0, x0 + w, y0 + h), fill=LEGEND_BACKGROUND_SRGB)
     swatch = swatch_pixels(sw, mode)

@@ -517,6 +517,7 @@ def _render(project: Project, request: VideoRequest, path: CameraPath, lighting:
 
     own = renderer is None
     warnings: list[str] = []
+    mode = None if renderer is None else renderer.unobserved  # a caller's renderer gets its mode back
     if renderer is None:
         scene = load_scene(project)
         warnings = list(scene.warnings)
@@ -546,6 +547,8 @@ def _render(project: Project, request: VideoRequest, path: CameraPath, lighting:
     finally:
         if own:
             renderer.release()
+        elif mode is not None:
+            renderer.unobserved = mode
     return VideoResult(out, path.n_frames, path.fps, W, H, path.duration, path.length,
                        list(zip(request.views, path.keyframes, strict=True)),
                        lighting.name, Mp4Writer.CODEC, out.stat().st_size, seconds, warnings)
