@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import json
 import shutil
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -26,6 +25,7 @@ from vebuild.render.observed import (
     HATCH_DUTY,
     HATCH_PERIOD_M,
     HATCH_STRENGTH,
+    LEGEND_BACKGROUND_SRGB,
     LEGEND_TEXT,
     PROVENANCE_KEY,
     TINT_STRENGTH,
@@ -189,10 +189,10 @@ def test_vebuild_render_hatches_by_default_with_a_legend_and_records_it(room, tm
     outs = {}
     for mode in ("hatch", "off"):
         outs[mode] = tmp_path / f"{mode}.png"
-        assert main(["render", str(project.path), "--view", "overview", "--size", "320x180", "--samples", "1",
+        assert main(["render", str(project.path), "--view", "overview", "--size", "640x360", "--samples", "1",
                      "--unobserved", mode, "--out", str(outs[mode])]) == 0
     default = tmp_path / "default.png"
-    assert main(["render", str(project.path), "--view", "overview", "--size", "320x180", "--samples", "1",
+    assert main(["render", str(project.path), "--view", "overview", "--size", "640x360", "--samples", "1",
                  "--out", str(default)]) == 0
     assert default.read_bytes() == outs["hatch"].read_bytes()
     hatch, off = Image.open(outs["hatch"]), Image.open(outs["off"])
@@ -205,8 +205,12 @@ def test_vebuild_render_hatches_by_default_with_a_legend_and_records_it(room, tm
     a, b = np.asarray(hatch.convert("RGB")), np.asarray(off.convert("RGB"))
     # The legend: the lower left corner is the key drawn over the off render's pixels.
     np.testing.assert_array_equal(draw_legend(b, "off"), b)
-    corner = (slice(150, 178), slice(2, 60))
+    corner = (slice(320, 358), slice(2, 60))
     assert (a[corner] != b[corner]).any() and (a != b).any()
+    assert np.all(a[corner] == LEGEND_BACKGROUND_SRGB, axis=-1).sum() > 200  # the key's box
+    assert not np.all(b[corner] == LEGEND_BACKGROUND_SRGB, axis=-1).any()
+    thumb = np.full((120, 160, 3), 128, np.uint8)
+    np.testing.assert_array_equal(draw_legend(thumb, "hatch"), thumb)  # too small to hold the key
     with pytest.raises(VebuildError, match="--unobserved"):
         RenderRequest(out=tmp_path / "x.png", view="overview", unobserved="stripes")
 

@@ -161,7 +161,8 @@ def render_evidence(project: Project, req: RenderRequest) -> RenderResult:
     text = provenance(project, cam, kind, lighting.name, stereo_rec, scene.page_hashes, options)
     result = RenderResult(out, cam, (W, H), lighting.name, list(scene.warnings))
     if req.validate:
-        _validate(project, str(req.photo), cam, plain, out, text, result)
+        _validate(project, str(req.photo), cam, plain, out, text, result, rgba, req.unobserved, marked,
+                  scene.mask_hashes)
     image = rgba[..., :3]
     if placed:
         from vebuild.analysis.markers import draw_markers
@@ -188,8 +189,12 @@ def _size_error(project: Project, req: RenderRequest, e: VebuildError) -> Vebuil
 
 
 def _validate(project: Project, photo_id: str, cam: ImageCamera, rgba: NDArray[np.uint8], out: Path,
-              text: dict[str, str], result: RenderResult) -> None:
-    """Overlay the photo on its render and measure the colour difference where the model covers."""
+              text: dict[str, str], result: RenderResult, shown: NDArray[np.uint8], unobserved: str, marked: bool,
+              coverage_hashes: list[str]) -> None:
+    """Overlay the photo on its render and measure the colour difference where the model covers:
+    measured on ``rgba`` (unmarked), the overlay drawn from ``shown`` (surfaces no photo saw marked
+    as ``unobserved`` says, with the legend)."""
+    from vebuild.render.observed import finish_image
     from vebuild.texture.extract import PhotoSource, read_photo
 
     i = [p["id"] for p in project.data["photos"]].index(photo_id)
@@ -214,11 +219,12 @@ def _validate(project: Project, photo_id: str, cam: ImageCamera, rgba: NDArray[n
     # dimmed elsewhere.
     alpha = 0.5 * cover[..., None]
     overlay = pixels.astype(float) * (1.0 - alpha) * np.where(cover[..., None] > 0, 1.0, 0.6) \
-        + render.astype(float) * alpha
+        + shown[..., :3].astype(float) * alpha
     result.overlay = overlay_path(out)
     text = {**text, "vebuild:validation": json.dumps({"photo": photo_id, "photo_sha256": photo["sha256"],
                                                       "rms_colour_difference_srgb_levels": round(rms, 4),
                                                       "exposure_gain": round(gain, 6),
                                                       "covered_fraction": round(result.covered_fraction, 6)},
                                                      sort_keys=True)}
-    write_png(result.overlay, np.clip(np.rint(overlay), 0, 255).astype(np.uint8), text)
+    image = finish_image(np.clip(np.rint(overlay), 0, 255).astype(np.uint8), unobserved, marked, text, coverage_hashes)
+    write_png(result.overlay, image, text)
