@@ -341,3 +341,52 @@ def test_without_masks_the_figures_are_unknown_not_zero(room):
     assert res.unobserved is None
     f = viewshed(occ, target_object(occ, "box"), cell=0.5, samples=16).figures()["unobserved"]
     assert set(f.values()) == {None}
+
+
+def test_the_walk_through_cycles_the_marks_and_its_screenshots_record_them(room, xvfb_display, tmp_path):
+    from vebuild.gl.window import Window
+    from vebuild.viewer.app import Viewer
+    from vebuild.viewer.keys import VIEWER_KEYS
+
+    project, _ = room
+    assert VIEWER_KEYS.key_for("next_unobserved") == "U"
+    window = Window(640, 360, "vebuild observed test", visible=False)
+    try:
+        v = Viewer(load_project(project.path), window, RenderOptions.interactive(), view="overview")
+        seen = [v.renderer.unobserved]
+        shots = {}
+        for _ in range(3):
+            shots[v.renderer.unobserved] = Image.open(v.screenshot(tmp_path))
+            v.next_unobserved()
+            seen.append(v.renderer.unobserved)
+        assert seen == ["hatch", "tint", "off", "hatch"] and any("unobserved surfaces: off" in m for m in v.messages)
+        for mode, im in shots.items():
+            rec = json.loads(im.text[PROVENANCE_KEY])
+            assert rec["mode"] == mode and rec["marked"] == (mode != "off")
+        a, b = (np.asarray(shots[m].convert("RGB")) for m in ("hatch", "off"))
+        assert (a != b).any()
+    finally:
+        window.close()
+
+
+def test_the_video_hatches_by_default_with_the_legend_in_every_frame(room, tmp_path):
+    import av
+
+    from vebuild.render.video import Timing, VideoRequest, render_video
+
+    project, _ = room
+    got = {}
+    for mode in ("hatch", "off"):
+        out = tmp_path / f"{mode}.mp4"
+        render_video(project, VideoRequest(["doorway", "overview"], out, (640, 360), Timing(fps=2, seconds=1.0),
+                                           unobserved=mode))
+        with av.open(str(out)) as c:
+            meta = json.loads(c.metadata.get("comment", ""))
+            frames = [f.to_ndarray(format="rgb24") for f in c.decode(c.streams.video[0])]
+        got[mode] = (meta, frames)
+    assert got["hatch"][0]["unobserved"] == "hatch" and got["hatch"][0]["unobserved_marked"] is True
+    assert got["off"][0]["unobserved"] == "off" and got["off"][0]["unobserved_marked"] is False
+    corner = (slice(330, 352), slice(12, 40))  # inside the key's box, left of its swatch's right edge
+    for a, b in zip(got["hatch"][1], got["off"][1], strict=True):
+        # The key's dark box survives H.264 within a few levels; the unmarked frame shows the room there.
+        assert np.abs(a[corner].astype(int) - b[corner].astype(int)).mean() > 20

@@ -517,9 +517,9 @@ def viewshed(occ: Occluders, target: Target, eye_height: float = STANDING_EYE_M,
         if len(facing):
             b, t, tri = occ.segments_blocked(np.broadcast_to(e, (len(facing), 3)), P[facing])
             seen[i] = float((~b).sum()) / len(P)
-            if w is not None:  # seen: on what surfaces; hidden: by what
-                w[i] = float(sample_unobserved[facing[~b]].mean()) if (~b).any() else float(
-                    hidden_weights(occ, e, P[facing], b, t, tri).mean())  # type: ignore[index]
+            if w is not None and sample_unobserved is not None:  # seen: on what surfaces; hidden: by what
+                hid = None if (~b).any() else hidden_weights(occ, e, P[facing], b, t, tri)
+                w[i] = float(sample_unobserved[facing[~b]].mean() if hid is None else hid.mean())
     share[places] = seen
     return Viewshed(target, eye_height, origin, cell, states, share.reshape(ny, nx), samples,
                     on_grid(w, places, ny, nx))

@@ -12,7 +12,7 @@ as ``extras.distortion`` (:func:`distortion_extras`: the division model's name a
 definition, and how far it moves the photo's corners); a viewer that ignores it shows the photo's
 pinhole view, off the photo by up to that displacement.
 
-What no photo saw travels too (:data:`COVERAGE_EXTRAS`, :data:`SEEN_EXTRAS`): each atlas page's
+What no photo saw travels too (:mod:`vebuild.render.export_observed`): each atlas page's
 coverage map is embedded byte for byte as a second image and texture (nearest filtering, same
 ``TEXCOORD_0``), referenced from its material's ``extras.vebuild_coverage`` with the colour of
 texels no photo saw; each mesh primitive's ``extras.vebuild_seen`` gives the share of its surface
@@ -48,6 +48,12 @@ from vebuild.errors import VebuildError
 from vebuild.project import Project, sha256_file
 from vebuild.project.decode import TexturePage, photo_camera, view_camera
 from vebuild.project.outputs import begin_stage, check_file
+from vebuild.render.export_observed import (  # COVERAGE_EXTRAS: re-exported, the keys of the format
+    COVERAGE_EXTRAS,  # noqa: F401
+    SEEN_EXTRAS,
+    add_coverage,
+    seen_extras,
+)
 from vebuild.render.scene import RenderScene, load_scene
 from vebuild.texture import layout as lay
 
@@ -66,11 +72,8 @@ GL_FROM_CV = np.diag([1.0, -1.0, -1.0])
 
 _ARRAY_BUFFER, _ELEMENT_ARRAY_BUFFER = 34962, 34963
 _FLOAT, _UNSIGNED_SHORT, _UNSIGNED_INT = 5126, 5123, 5125
-_NEAREST, _LINEAR, _LINEAR_MIPMAP_LINEAR, _CLAMP_TO_EDGE = 9728, 9729, 9987, 33071
-#: The material ``extras`` key that names a page's coverage map, and the primitive ``extras`` key
-#: with the share of its surface some photo saw (FORMAT.md, README "Export").
-COVERAGE_EXTRAS = "vebuild_coverage"
-SEEN_EXTRAS = "vebuild_seen"
+_LINEAR, _LINEAR_MIPMAP_LINEAR, _CLAMP_TO_EDGE = 9729, 9987, 33071
+
 _GLB_MAGIC, _CHUNK_JSON, _CHUNK_BIN = 0x46546C67, 0x4E4F534A, 0x004E4942
 
 
@@ -298,7 +301,7 @@ def gltf_document(contents: _Contents) -> tuple[dict[str, Any], bytes]:
                               "pbrMetallicRoughness": {"baseColorTexture": {"index": len(doc["textures"]) - 1},
                                                        "metallicFactor": 0.0, "roughnessFactor": 1.0},
                               "doubleSided": True, "extensions": {"KHR_materials_unlit": {}}})
-        _add_coverage(doc, buf, contents, used, [materials[page_material[k]] for k in used])
+        add_coverage(doc, buf, contents, used, [materials[page_material[k]] for k in used])
         doc["extensionsUsed"] = ["KHR_materials_unlit"]
     else:
         # Lit: with no photographed light in the colours, shading is what shows the shapes.
@@ -337,7 +340,7 @@ def gltf_document(contents: _Contents) -> tuple[dict[str, Any], bytes]:
                                         "indices": buf.accessor(part.triangles.ravel().astype(itype), "SCALAR",
                                                                 _ELEMENT_ARRAY_BUFFER),
                                         "material": page_material[part.page], "mode": 4}
-                seen = _seen_extras(contents, part)
+                seen = seen_extras(contents, part)
                 if seen is not None:
                     prim["extras"] = {SEEN_EXTRAS: seen}
                 prims.append(prim)
@@ -403,62 +406,6 @@ def _units(project: Project, metres: str = "metres") -> str:
     from vebuild.project.units import RELATIVE_UNITS, length_unit
 
     return RELATIVE_UNITS if length_unit(project.data).relative else metres
-
-
-def _add_coverage(doc: dict[str, Any], buf: _Buffer, contents: _Contents, used: list[int],
-                  materials: list[dict[str, Any]]) -> None:
-    """Each used page's coverage map as an image and texture, named by its material's extras."""
-    from vebuild.render.observed import LEGEND_TEXT
-    from vebuild.texture.merge import COVERAGE_DROPPED_ONLY, COVERAGE_UNSEEN, COVERAGE_VIEWS
-
-    scene = contents.scene
-    if len(scene.coverage_files) != len(contents.pages):
-        return
-    doc["samplers"].append({"magFilter": _NEAREST, "minFilter": _NEAREST, "wrapS": _CLAMP_TO_EDGE,
-                            "wrapT": _CLAMP_TO_EDGE})
-    record = contents.project.data["textures"]["pages"]
-    for k, mat in zip(used, materials, strict=True):
-        doc["images"].append({"name": PurePosixPath(str(record[k]["coverage"])).name, "mimeType": "image/png",
-                              "bufferView": buf.view(scene.coverage_files[k])})
-        doc["textures"].append({"name": f"coverage page {k}", "sampler": len(doc["samplers"]) - 1,
-                                "source": len(doc["images"]) - 1})
-        mask = scene.masks[k]
-        on = mask > 127
-        mat["extras"] = {COVERAGE_EXTRAS: {
-            "texture": {"index": len(doc["textures"]) - 1, "texCoord": 0},
-            "sha256": scene.mask_hashes[k],
-            "unseen_rgba": list(COVERAGE_UNSEEN),
-            "dropped_only_rgba": list(COVERAGE_DROPPED_ONLY),
-            "views_rgba": [list(c) for c in COVERAGE_VIEWS],
-            "off_face_alpha": 0,
-            "meaning": "per texel: unseen_rgba where no photo saw it (its colour was filled in); views_rgba[n-1] "
-                       "where n photos saw it (the last: 4 or more); dropped_only_rgba where only views far worse "
-                       "than the best saw it; transparent off the faces",
-            "unseen_texel_share_of_page": round(float(on.mean()), 6),
-            "legend": LEGEND_TEXT["hatch"]}}
-
-
-def _seen_extras(contents: _Contents, part: Part) -> dict[str, Any] | None:
-    """A primitive's share of surface some photo saw (area-weighted over its faces' recorded
-    ``seen_fraction``) and each face's, or None when the project has no textures record."""
-    faces = {int(f["id"]): f for f in (contents.project.data.get("textures") or {}).get("faces", [])}
-    if not contents.scene.textured or not faces:
-        return None
-    P = part.positions[part.triangles]
-    area = 0.5 * np.linalg.norm(np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]), axis=1)
-    fid = part.face_ids[part.triangles[:, 0]]
-    out, total, seen = [], 0.0, 0.0
-    for f in np.unique(fid):
-        rec = faces.get(int(f))
-        if rec is None:
-            return None
-        a = float(area[fid == f].sum())
-        total += a
-        seen += a * float(rec["seen_fraction"])
-        out.append({"id": int(f), "face": rec["face"], "seen_fraction": rec["seen_fraction"],
-                    "area_m2": round(a, 6)})
-    return {"seen_fraction": round(seen / total, 6) if total else 0.0,
-            "unseen_area_m2": round(total - seen, 6), "faces": out}
 
 
 def _provenance(contents: _Contents) -> dict[str, Any]:

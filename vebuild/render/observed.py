@@ -116,7 +116,7 @@ def draw_legend(image: NDArray[np.uint8], mode: str) -> NDArray[np.uint8]:
     font = ImageFont.load_default(size=size)
     draw = ImageDraw.Draw(img)
     text = LEGEND_TEXT[mode]
-    box = draw.textbbox((0, 0), text, font=font)
+    box = [int(round(v)) for v in draw.textbbox((0, 0), text, font=font)]
     pad = max(3, size // 3)
     sw = box[3] - box[1] + pad  # the swatch's side
     w, h = sw + 3 * pad + (box[2] - box[0]), sw + 2 * pad
