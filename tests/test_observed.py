@@ -113,7 +113,7 @@ def test_the_coverage_maps_give_the_recorded_seen_fraction_of_every_face(room):
     assert unseen_faces > 10  # the example room: many faces no photo saw
 
 
-def test_unseen_mask_fills_off_face_texels_from_the_nearest_face_texel():
+def test_unseen_mask_fills_off_face_texels_from_their_chart():
     cov = np.zeros((6, 8, 4), np.uint8)
     cov[1:5, 1:3] = COVERAGE_UNSEEN
     cov[1:5, 5:7] = (26, 152, 80, 255)  # seen by four photos

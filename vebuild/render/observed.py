@@ -5,9 +5,10 @@ colours in :mod:`vebuild.texture.merge`) records per texel whether a photo saw i
 saw are :data:`~vebuild.texture.merge.COVERAGE_UNSEEN`; every other opaque colour is a texel some
 photo saw (once, twice, …, or only by views far worse than the best); off-face texels are
 transparent. :func:`unseen_mask` turns a coverage map into the renderer's per-texel mask: 255
-where no photo saw the texel, 0 where one did, off-face texels (the gutter, the corners of a
-triangle's chart) taking the value of the nearest on-face texel so that filtering at a chart's
-border never reads a neighbour's answer. No second mask page is written: the coverage map is
+where no photo saw the texel, 0 where one did, off-face texels next to a chart (the gutter, the
+corners of a triangle's chart) taking the value of a neighbouring on-face texel so that filtering
+at a chart's border never reads a neighbour's answer (the gutter between two charts is split
+between them). No second mask page is written: the coverage map is
 already recorded with its SHA-256 and holds exactly this information.
 
 The renderer (:mod:`vebuild.render.renderer`, ``shaders/scene.frag``) shows an unseen texel in one
@@ -45,6 +46,9 @@ HATCH_STRENGTH = 0.7
 HATCH_DUTY = 0.5
 #: Distance between stripes along an axis-aligned face (m; the hatch is in world space).
 HATCH_PERIOD_M = 0.08
+#: Off-face texels this close to a face (4-neighbour steps) take a face texel's value: the gutter's
+#: half (vebuild.texture.layout.GUTTER / 2) and one more, all a chart's filtering can reach.
+FILL_TEXELS = 3
 #: Share of the mark's colour mixed into every unseen texel by ``tint``.
 TINT_STRENGTH = 0.45
 #: The legend's words, one per mode that marks something.
@@ -79,20 +83,36 @@ def legend(mode: str) -> dict[str, object] | None:
 
 def unseen_mask(coverage: NDArray[np.uint8]) -> NDArray[np.uint8]:
     """(h, w) uint8 mask of a coverage map (h, w, 4): 255 where no photo saw the texel, 0 where one
-    did; off-face texels take the value of the nearest on-face texel (see the module's docstring)."""
-    from scipy.ndimage import distance_transform_edt
-
+    did; off-face texels within :data:`FILL_TEXELS` of a face texel take a neighbouring face
+    texel's value (grown one texel at a time, so that each chart fills its own half of the gutter;
+    where both an unseen and a seen texel neighbour, unseen), the rest 0 (no chart reaches them)."""
     cov = np.asarray(coverage)
     if cov.ndim != 3 or cov.shape[2] != 4:
         raise ValueError(f"a coverage map is (h, w, 4) RGBA, got shape {cov.shape}")
-    on_face = cov[..., 3] > 0
-    unseen = np.all(cov == np.array(COVERAGE_UNSEEN, np.uint8), axis=-1)
-    if not on_face.any():
-        return np.zeros(cov.shape[:2], np.uint8)
-    if not on_face.all():
-        _, (rows, cols) = distance_transform_edt(~on_face, return_indices=True)
-        unseen = unseen[rows, cols]
+    known = cov[..., 3] > 0
+    unseen = known & np.all(cov == np.array(COVERAGE_UNSEEN, np.uint8), axis=-1)
+    for _ in range(FILL_TEXELS):
+        if known.all():
+            break
+        grown_known, grown_unseen = known.copy(), unseen.copy()
+        for axis in (0, 1):
+            for step in (1, -1):
+                k, u = _shift(known, step, axis), _shift(unseen, step, axis)
+                new = ~known & k
+                grown_known |= new
+                grown_unseen |= new & u
+        known, unseen = grown_known, grown_unseen
     return np.where(unseen, 255, 0).astype(np.uint8)
+
+
+def _shift(a: NDArray[np.bool_], step: int, axis: int) -> NDArray[np.bool_]:
+    """``a`` moved ``step`` texels along ``axis``, False shifted in."""
+    out = np.zeros_like(a)
+    src = [slice(None)] * 2
+    dst = [slice(None)] * 2
+    src[axis], dst[axis] = (slice(0, -step), slice(step, None)) if step > 0 else (slice(-step, None), slice(0, step))
+    out[tuple(dst)] = a[tuple(src)]
+    return out
 
 
 def unseen_fraction(mask: NDArray[np.uint8], coverage: NDArray[np.uint8]) -> float:
