@@ -26,6 +26,12 @@ uniform sampler2DShadow shadow_atlas;
 uniform mat4 shadow_matrix[MAX_TILES];     // world -> the tile's clip space
 uniform vec4 shadow_rect[MAX_TILES];       // the tile in atlas coordinates: x0, y0, width, height
 uniform vec2 shadow_texel[MAX_TILES];      // world size of one shadow texel: x at 1 m (y = 1) or flat (y = 0)
+uniform sampler2D unseen_mask;    // R8: 1 where no photo saw the texel (vebuild.render.observed)
+uniform int unobserved_mode;      // 0 off, 1 hatch, 2 tint
+uniform vec3 unobserved_colour;   // linear
+uniform float unobserved_strength;
+uniform float hatch_period;       // m between stripes along an axis-aligned face
+uniform float hatch_duty;         // share of the period a stripe covers
 uniform int highlight_node;                // -1: none
 uniform vec3 highlight_colour;
 in vec3 v_world;
@@ -110,6 +116,23 @@ void main() {
         colour = albedo * E;
     }
 #endif
+    // Texels no photo saw (observed.py): striped (hatch) or tinted. The stripes are the planes
+    // x + y + z = const in world space, so they stay put on the surfaces as the camera moves; each
+    // is box-filtered over the pixel's footprint (fwidth), and where the period shrinks below ~4
+    // pixels the stripes fade into their average, an even tint. Derivatives and the mask's sample
+    // are taken outside the branch (uniform control flow).
+    float unseen = texture(unseen_mask, v_uv).r;
+    float s = (v_world.x + v_world.y + v_world.z) / (hatch_period * 1.41421356);
+    float ds = max(fwidth(s), 1e-6);
+    if (textured && unobserved_mode > 0 && unseen > 0.5) {
+        float k = 1.0;
+        if (unobserved_mode == 1) {
+            float tri = abs(fract(s) - 0.5);  // 0 at a stripe's centre, 0.5 midway between stripes
+            float cover = clamp((0.5 * hatch_duty - tri) / ds + 0.5, 0.0, 1.0);
+            k = mix(cover, hatch_duty, smoothstep(0.125, 0.25, ds));
+        }
+        colour = mix(colour, unobserved_colour, unobserved_strength * k);
+    }
     if (v_node == highlight_node) colour = mix(colour, highlight_colour, 0.5);
     out_colour = vec4(to_srgb(colour), 1.0);
 }

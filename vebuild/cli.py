@@ -141,7 +141,7 @@ def _cmd_render(args: argparse.Namespace) -> int:
                         size=parse_size(args.size) if args.size is not None else None, lighting=args.lighting,
                         stereo=args.stereo, eye_separation=args.eye_separation, convergence=args.convergence,
                         samples=args.samples, shadows=not args.no_shadows, validate=args.validate,
-                        hypothesis=args.hypothesis)
+                        hypothesis=args.hypothesis, unobserved=args.unobserved)
     result = render_evidence(project, req)
     for w in result.warnings:
         print(f"warning: {w}")
@@ -196,7 +196,7 @@ def _cmd_video(args: argparse.Namespace) -> int:
                     turn_rate_deg=args.turn_rate)
     size = parse_size(args.size) if args.size is not None else None
     request = VideoRequest(parse_views(args.views), Path(args.out) if args.out else None,
-                           size, timing, args.lighting, args.stereo, args.crf)
+                           size, timing, args.lighting, args.stereo, args.crf, unobserved=args.unobserved)
     with progress_bar(_progress_wanted(args), desc="video", unit="frame") as progress:
         r = render_video(project, request, progress)
     for w in r.warnings:
@@ -349,6 +349,7 @@ def _progress_wanted(args: argparse.Namespace) -> bool:
 def build_parser() -> argparse.ArgumentParser:
     from .actions.render import RenderRequest
     from .bench import BENCHES
+    from .render.observed import add_option as add_unobserved_option
     from .render.video import Timing, VideoRequest
     from .texture.options import FILLS, MODES, Options
 
@@ -398,6 +399,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-shadows", action="store_true", help="lights cast no shadows")
     p.add_argument("--hypothesis", metavar="NAME",
                    help="the objects arranged as in this hypothesis (the image is labelled as one)")
+    add_unobserved_option(p)
     p.add_argument("--validate", action="store_true",
                    help="with --photo: also write the photo overlaid on the render and print the RMS colour "
                         "difference")
@@ -487,6 +489,7 @@ def build_parser() -> argparse.ArgumentParser:
                    "or red-cyan anaglyph")
     p.add_argument("--crf", type=int, default=VideoRequest.crf,
                    help="x264 quality, 0 (best) to 51 (default: %(default)s)")
+    add_unobserved_option(p)
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=_cmd_video)
 

@@ -7,7 +7,12 @@ version, and no time stamp, so that the same project and options give the same f
 byte. A photo's own camera is rendered as its lens shows it (its lens distortion, if calibrated:
 :mod:`vebuild.render.renderer`), so that the render lies on the photo. Rendering it with
 ``validate`` also writes an overlay of the photo on the render and measures how well the model
-explains the photo: the RMS colour difference over the pixels the model covers.
+explains the photo: the RMS colour difference over the pixels the model covers (measured on
+the render without the marks of unobserved surfaces).
+
+Surfaces no photo saw are hatched by default (``unobserved``: hatch, tint or off;
+:mod:`vebuild.render.observed`), with a legend in the image's lower left corner and the setting in
+its ``vebuild:unobserved`` text chunk.
 """
 
 from __future__ import annotations
@@ -48,6 +53,7 @@ class RenderRequest:
     validate: bool = False
     hypothesis: str | None = None
     markers: bool = True  # draw the project's evidence markers (mono views)
+    unobserved: str = "hatch"  # how surfaces no photo saw are shown (vebuild.render.observed)
 
     def __post_init__(self) -> None:
         """Each option checked when the request is made, its error naming the option (as the
@@ -69,6 +75,9 @@ class RenderRequest:
             raise VebuildError(f"--convergence: expected a distance > 0 m, got {self.convergence}")
         if self.samples < 1:
             raise VebuildError(f"--samples: expected 1 or more, got {self.samples}")
+        from vebuild.render.observed import check_mode
+
+        check_mode(self.unobserved)
 
 
 @dataclass
@@ -122,7 +131,8 @@ def render_evidence(project: Project, req: RenderRequest) -> RenderResult:
         scene = scene.with_model(hypothesis_model(project, scene.model, req.hypothesis))
     ctx = headless_context()
     stereo = Stereo(req.stereo, req.eye_separation, req.convergence) if req.stereo else None
-    renderer = Renderer(ctx, scene, RenderOptions(samples=req.samples, shadows=req.shadows))
+    renderer = Renderer(ctx, scene, RenderOptions(samples=req.samples, shadows=req.shadows,
+                                                  unobserved=req.unobserved))
     try:
         try:
             W, H = renderer.check_size(cam, stereo)
@@ -130,6 +140,11 @@ def render_evidence(project: Project, req: RenderRequest) -> RenderResult:
             raise _size_error(project, req, e) from None
         renderer.set_lighting(lighting)
         rgba = renderer.render_rgba(cam, stereo)
+        marked = renderer.marks_unobserved
+        plain = rgba
+        if req.validate and marked:  # the colour difference is the textures', not the marks'
+            renderer.unobserved = "off"
+            plain = renderer.render_rgba(cam, stereo)
         placed = []
         if req.markers and stereo is None and project.data.get("evidence_markers"):
             from vebuild.analysis.markers import visible_markers
@@ -141,11 +156,13 @@ def render_evidence(project: Project, req: RenderRequest) -> RenderResult:
             stereo_rec = {"mode": stereo.mode, "eye_separation_m": stereo.separation, "convergence_m": conv}
     finally:
         renderer.release()
-    options = {"samples": req.samples, "shadows": req.shadows, "size": [cam.width, cam.height]}
+    options = {"samples": req.samples, "shadows": req.shadows, "size": [cam.width, cam.height],
+               "unobserved": req.unobserved}
     text = provenance(project, cam, kind, lighting.name, stereo_rec, scene.page_hashes, options)
     result = RenderResult(out, cam, (W, H), lighting.name, list(scene.warnings))
     if req.validate:
-        _validate(project, str(req.photo), cam, rgba, out, text, result)
+        _validate(project, str(req.photo), cam, plain, out, text, result, rgba, req.unobserved, marked,
+                  scene.mask_hashes)
     image = rgba[..., :3]
     if placed:
         from vebuild.analysis.markers import draw_markers
@@ -157,6 +174,9 @@ def render_evidence(project: Project, req: RenderRequest) -> RenderResult:
 
         image = stamp(image, label(req.hypothesis))
         text["vebuild:hypothesis"] = req.hypothesis
+    from vebuild.render.observed import finish_image
+
+    image = finish_image(image, req.unobserved, marked, text, scene.mask_hashes)
     write_png(out, image, text)
     return result
 
@@ -169,8 +189,12 @@ def _size_error(project: Project, req: RenderRequest, e: VebuildError) -> Vebuil
 
 
 def _validate(project: Project, photo_id: str, cam: ImageCamera, rgba: NDArray[np.uint8], out: Path,
-              text: dict[str, str], result: RenderResult) -> None:
-    """Overlay the photo on its render and measure the colour difference where the model covers."""
+              text: dict[str, str], result: RenderResult, shown: NDArray[np.uint8], unobserved: str, marked: bool,
+              coverage_hashes: list[str]) -> None:
+    """Overlay the photo on its render and measure the colour difference where the model covers:
+    measured on ``rgba`` (unmarked), the overlay drawn from ``shown`` (surfaces no photo saw marked
+    as ``unobserved`` says, with the legend)."""
+    from vebuild.render.observed import finish_image
     from vebuild.texture.extract import PhotoSource, read_photo
 
     i = [p["id"] for p in project.data["photos"]].index(photo_id)
@@ -195,11 +219,12 @@ def _validate(project: Project, photo_id: str, cam: ImageCamera, rgba: NDArray[n
     # dimmed elsewhere.
     alpha = 0.5 * cover[..., None]
     overlay = pixels.astype(float) * (1.0 - alpha) * np.where(cover[..., None] > 0, 1.0, 0.6) \
-        + render.astype(float) * alpha
+        + shown[..., :3].astype(float) * alpha
     result.overlay = overlay_path(out)
     text = {**text, "vebuild:validation": json.dumps({"photo": photo_id, "photo_sha256": photo["sha256"],
                                                       "rms_colour_difference_srgb_levels": round(rms, 4),
                                                       "exposure_gain": round(gain, 6),
                                                       "covered_fraction": round(result.covered_fraction, 6)},
                                                      sort_keys=True)}
-    write_png(result.overlay, np.clip(np.rint(overlay), 0, 255).astype(np.uint8), text)
+    image = finish_image(np.clip(np.rint(overlay), 0, 255).astype(np.uint8), unobserved, marked, text, coverage_hashes)
+    write_png(result.overlay, image, text)

@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from .. import __version__
+from ..render.observed import add_option as add_unobserved_option
 from .requests import (
     ChecksRequest,
     DimensionsRequest,
@@ -74,13 +75,14 @@ def add_analyse_parsers(sub: Any) -> None:
     _add_geometry(asub)
     q = _subcommand(asub, "lighting", "one view under several lighting presets side by side, with the target's "
                     "luminance under each",
-                    lambda a: LightingRequest(a.view, tuple(a.presets), a.target, a.size, a.out))
+                    lambda a: LightingRequest(a.view, tuple(a.presets), a.target, a.size, a.out, a.unobserved))
     q.add_argument("--view", required=True, metavar="NAME", help="a named view")
     q.add_argument("--preset", dest="presets", action="append", required=True, metavar="NAME",
                    help="a lighting preset, once per preset (as-photographed is the photos' own light)")
     q.add_argument("--target", required=True, metavar="NODE", help="the object whose luminance is compared")
     q.add_argument("--size", metavar="WxH", help="size of each view (default: the view's)")
     q.add_argument("--out", metavar="STRIP.png", help="write the views side by side, the target outlined")
+    add_unobserved_option(q)
 
 
 def _photo_height(a: argparse.Namespace) -> Request:
@@ -97,7 +99,7 @@ def _add_geometry(asub: Any) -> None:
     q = _subcommand(asub, "sightline", "could a witness see a point or an object? visible share, what blocks it, "
                     "and the witness's view (--out)",
                     lambda a: S(a.eye, a.standing, a.sitting, a.target, a.object, a.out, a.fov, a.size, a.lighting,
-                                a.samples, a.hypothesis))
+                                a.samples, a.hypothesis, a.unobserved))
     eye = q.add_mutually_exclusive_group(required=True)
     eye.add_argument("--eye", metavar="X,Y,Z", help="the eye point (metres)")
     eye.add_argument("--standing", metavar="X,Y",
@@ -110,6 +112,7 @@ def _add_geometry(asub: Any) -> None:
                    help="horizontal field of view of the rendered view (default: %(default)g)")
     q.add_argument("--size", default=S.size, metavar="WxH", help="size of the rendered view (default: %(default)s)")
     q.add_argument("--lighting", metavar="PRESET", help="lighting of the rendered view (default: as photographed)")
+    add_unobserved_option(q)
     _common(q, S.samples)
 
     q = _subcommand(asub, "viewshed", "a floor map of the places from which a point or an object can be seen",
@@ -123,7 +126,7 @@ def _add_geometry(asub: Any) -> None:
 
     q = _subcommand(asub, "trajectory", "a bullet's path: the surfaces it passes and hits, with an uncertainty cone",
                     lambda a: TrajectoryRequest(a.start, a.to, a.azimuth, a.elevation, a.sigma, a.cone, a.view,
-                                                a.out, a.lighting, a.hypothesis))
+                                                a.out, a.lighting, a.hypothesis, a.unobserved))
     q.add_argument("--from", dest="start", required=True, metavar="POINT",
                    help="the entry hole: X,Y,Z (metres) or node:handle")
     q.add_argument("--to", metavar="POINT", help="the exit hole: X,Y,Z or node:handle")
@@ -137,6 +140,7 @@ def _add_geometry(asub: Any) -> None:
     q.add_argument("--out", metavar="FILE.png", help="with --view: the image to write")
     q.add_argument("--lighting", metavar="PRESET", help="lighting of the view (default: as photographed)")
     q.add_argument("--hypothesis", metavar="NAME", help="the objects arranged as in this hypothesis")
+    add_unobserved_option(q)
 
 
 def _target_args(q: argparse.ArgumentParser) -> None:

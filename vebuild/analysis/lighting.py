@@ -45,7 +45,9 @@ def relative_luminance(srgb: NDArray[np.uint8]) -> NDArray[np.float64]:
 
 def compare_lighting(project, scene: RenderScene, renderer: Renderer, cam: ImageCamera, presets: Sequence[str],
                      target: str) -> list[LightingResult]:
-    """Render ``cam``'s view under each preset and measure the target's luminance in each."""
+    """Render ``cam``'s view under each preset and measure the target's luminance in each. The
+    luminance is measured on a render without the marks of unobserved surfaces; each result's
+    image shows them as the renderer's ``unobserved`` says."""
     if target not in scene.model.index:
         known = ", ".join(repr(n.name) for n in scene.model.nodes)
         raise VebuildError(f"the target {target!r} is no node of the model; the nodes are: {known}")
@@ -58,10 +60,16 @@ def compare_lighting(project, scene: RenderScene, renderer: Renderer, cam: Image
     out = []
     for name in presets:
         renderer.set_lighting(find_preset(project, name))
-        img = renderer.render(cam)
+        mode = renderer.unobserved
+        marked = renderer.marks_unobserved
+        renderer.unobserved = "off"
+        try:
+            img = renderer.render(cam)
+        finally:
+            renderer.unobserved = mode
         y = relative_luminance(img[mask])
         out.append(LightingResult(name, float(y.mean()), float(np.percentile(y, 10)), float(np.percentile(y, 90)),
-                                  img))
+                                  renderer.render(cam) if marked else img))
     return out
 
 

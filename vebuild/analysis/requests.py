@@ -254,6 +254,7 @@ class LightingRequest:
     target: str
     size: str | None = None  # WxH of each view; None: the view's own
     out: str | None = None
+    unobserved: str = "hatch"  # how the strip shows surfaces no photo saw (the luminance never sees it)
 
     def with_image(self, path: str) -> Request | None:
         return replace(self, out=path)
@@ -261,8 +262,9 @@ class LightingRequest:
     def run(self, project: Project) -> AnalysisResult:
         from vebuild.gl import headless_context
         from vebuild.project.decode import find_view
+        from vebuild.render.observed import check_mode, finish_image
         from vebuild.render.png import check_output, provenance, write_png
-        from vebuild.render.renderer import Renderer
+        from vebuild.render.renderer import Renderer, RenderOptions
         from vebuild.render.scene import load_scene
         from vebuild.render.sizes import check_camera, parse_size
 
@@ -276,10 +278,11 @@ class LightingRequest:
             cam = cam.resized(*parse_size(self.size), source="--size")
         check_camera(cam)
         scene = load_scene(project)
-        renderer = Renderer(headless_context(), scene)
+        renderer = Renderer(headless_context(), scene, RenderOptions(unobserved=check_mode(self.unobserved)))
         try:
             results = compare_lighting(project, scene, renderer, cam, presets, self.target)
             mask = renderer.node_mask(cam, self.target)
+            marked = renderer.marks_unobserved
         finally:
             renderer.release()
         lines = [f"{self.target} seen from view '{self.view}' ({int(mask.sum())} pixels); relative luminance "
@@ -296,9 +299,10 @@ class LightingRequest:
         image = None
         if self.out:
             text = provenance(project, cam, "view", ",".join(presets), None, scene.page_hashes,
-                              {"target": self.target})
+                              {"target": self.target, "unobserved": self.unobserved})
             image = Path(self.out)
-            write_png(image, side_by_side(results, mask), text)
+            write_png(image, finish_image(side_by_side(results, mask), self.unobserved, marked, text,
+                                          scene.mask_hashes), text)
             lines.append(f"views side by side written to {self.out}")
             figures["strip_png"] = str(self.out)
         return AnalysisResult("\n".join(lines), figures, image)

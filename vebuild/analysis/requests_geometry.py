@@ -72,13 +72,17 @@ class SightlineRequest:
     lighting: str | None = None
     samples: int = OBJECT_SAMPLES
     hypothesis: str | None = None
+    unobserved: str = "hatch"  # how the witness's view shows surfaces no photo saw
 
     def with_image(self, path: str) -> Request | None:
         return replace(self, out=path)
 
     def run(self, project: Project) -> AnalysisResult:
+        from vebuild.render.observed import check_mode
         from vebuild.render.png import check_output
         from vebuild.render.sizes import parse_size
+
+        check_mode(self.unobserved)
 
         from .rays import Occluders
         from .sightline import Eye, parse_floats, render_witness_view, sight_line
@@ -119,6 +123,11 @@ class SightlineRequest:
             if res.blocked_by:
                 lines.append(f"{'hidden by':<16} " + ", ".join(f"{k} {_pct(v)}" for k, v in res.blocked_by.items())
                              + " of its surface")
+            un = res.unobserved
+            lines.append(f"{'unobserved':<16} " + ("unknown (no coverage maps: run `vebuild texture`)" if un is None
+                         else f"{_pct(un['rests_on_unobserved_share'])} of the answer rests on surfaces no photo "
+                         f"saw: {_pct(un['visible_on_unobserved_share'])} of its surface seen where no photo saw "
+                         f"it, {_pct(un['hidden_by_unobserved_share'])} hidden by surfaces no photo saw"))
         else:
             p = t.point
             assert p is not None  # a point target
@@ -129,14 +138,16 @@ class SightlineRequest:
             b = res.blocker
             lines.append(f"{'nearest blocker':<16} {b['node']} ({b['face']} face) at "
                          f"{b['distance_from_eye_m']:.3f} {u} from the eye, at "
-                         f"({', '.join(f'{v:.3f}' for v in b['point_m'])})")
+                         f"({', '.join(f'{v:.3f}' for v in b['point_m'])})"
+                         + {True: "; a surface no photo saw (inferred, not observed)", False: "; observed by a photo",
+                            None: ""}[b.get("unobserved")])
         if unit.relative:
             lines.append(unit.note)
         figures: dict[str, Any] = {"lengths": unit.word, "sightline": unit.keyed(res.record()), "view_png": None}
         image = None
         if self.out:
             image = Path(self.out)
-            render_witness_view(project, scene, res, image, self.fov, size, self.lighting)
+            render_witness_view(project, scene, res, image, self.fov, size, self.lighting, unobserved=self.unobserved)
             lines.append(f"{'view':<16} written to {self.out} ({self.fov:g}° field of view, the target highlighted)")
             figures["view_png"] = str(self.out)
             figures["view_fov_deg"] = self.fov
@@ -190,6 +201,13 @@ class ViewshedRequest:
         if vs.target.node is not None and f.get("mean_visible_share") is not None:
             lines.append(f"{'mean visible share':<18} {_pct(f['mean_visible_share'])} of its surface "
                          f"({vs.samples} samples per cell)")
+        un = f["unobserved"]
+        lines.append(f"{'unobserved':<18} " + ("unknown (no coverage maps: run `vebuild texture`)"
+                                                 if un["seeing_area_resting_on_unobserved_m2"] is None else
+                     f"{un['seeing_area_resting_on_unobserved_m2']:.2f} m² of the seeing area ("
+                     + _pct(un["seeing_share_resting_on_unobserved"]) + f") and "
+                     f"{un['hidden_area_resting_on_unobserved_m2']:.2f} m² of the hidden area ("
+                     + _pct(un["hidden_share_resting_on_unobserved"]) + ") rest on surfaces no photo saw"))
         lines.append(f"{'map':<18} written to {self.out}")
         lines += [f"warning: {w}" for w in scene.warnings]
         share = np.where(vs.states == PLACE, np.round(vs.share, 4), np.nan)[::-1]
@@ -216,6 +234,7 @@ class TrajectoryRequest:
     out: str | None = None
     lighting: str | None = None
     hypothesis: str | None = None
+    unobserved: str = "hatch"  # how the view shows surfaces no photo saw
 
     def with_image(self, path: str) -> Request | None:
         return replace(self, out=path) if self.view else None
@@ -304,7 +323,7 @@ class TrajectoryRequest:
         image = None
         if cam is not None and self.out is not None:
             image = Path(self.out)
-            render_trajectory_view(project, scene, tr, cam, image, self.lighting)
+            render_trajectory_view(project, scene, tr, cam, image, self.lighting, unobserved=self.unobserved)
             lines.append(f"view '{self.view}' with the trajectory written to {self.out}")
             figures["view_png"] = str(self.out)
         lines += [f"warning: {w}" for w in scene.warnings]

@@ -32,6 +32,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from vebuild.analysis.observed import hidden_weights, object_rays, on_grid, unobserved_at, viewshed_figures
 from vebuild.analysis.rays import Occluders
 from vebuild.camera import ImageCamera, fov_to_focal, intrinsic_matrix, look_rotation, project, world_to_camera
 from vebuild.constants import Z95
@@ -181,6 +182,13 @@ def target_object(occ: Occluders, node: str) -> Target:
 
 def sample_surface(occ: Occluders, nodes: Sequence[str], n: int, seed: int = SAMPLE_SEED) -> tuple[Array, Array]:
     """``n`` points uniformly by area over the nodes' triangles, and their outward normals."""
+    P, N, _ = sample_surface_triangles(occ, nodes, n, seed)
+    return P, N
+
+
+def sample_surface_triangles(occ: Occluders, nodes: Sequence[str], n: int,
+                             seed: int = SAMPLE_SEED) -> tuple[Array, Array, NDArray[np.intp]]:
+    """:func:`sample_surface`, and the triangle each point lies on."""
     tris = np.concatenate([occ.triangles_of(x) for x in nodes])
     area = occ.area[tris]
     rng = np.random.default_rng(seed)
@@ -189,7 +197,7 @@ def sample_surface(occ: Occluders, nodes: Sequence[str], n: int, seed: int = SAM
     flip = a + b > 1.0
     a[flip], b[flip] = 1.0 - a[flip], 1.0 - b[flip]
     P = occ.v0[pick] + a[:, None] * occ.e1[pick] + b[:, None] * occ.e2[pick]
-    return P, occ.normal[pick]
+    return P, occ.normal[pick], pick
 
 
 def wilson95(k: int, n: int) -> tuple[float, float]:
@@ -215,6 +223,9 @@ class SightLine:
     blocker : the nearest surface in the way: node, face, distance from the eye (m), point (None if
         nothing blocks: a visible point, or an object whose every front-facing sample is seen).
     blocked_by : an object: the share of its samples hidden by each node (first surface in the way).
+    unobserved : an object: which part of the answer rests on surfaces no photo saw
+        (:func:`vebuild.analysis.observed.object_rays`; None where the scene cannot tell). A
+        blocker says the same of itself in its ``"unobserved"`` (True, False or None).
     """
 
     eye: Eye
@@ -227,6 +238,7 @@ class SightLine:
     facing_share: float | None = None
     blocker: dict[str, Any] | None = None
     blocked_by: dict[str, float] = field(default_factory=dict)
+    unobserved: dict[str, Any] | None = None
 
     def record(self) -> dict[str, Any]:
         d: dict[str, Any] = {"eye": self.eye.record(), "target": self.target.record(), "visible": self.visible,
@@ -236,14 +248,17 @@ class SightLine:
             d.update({"visible_share": round(self.visible_share, 6),
                       "visible_share_ci95": [round(v, 6) for v in self.share_ci95],
                       "facing_share": round(self.facing_share, 6), "samples": self.samples,
-                      "blocked_share_by_node": {k: round(v, 6) for k, v in self.blocked_by.items()}})
+                      "blocked_share_by_node": {k: round(v, 6) for k, v in self.blocked_by.items()},
+                      "unobserved": self.unobserved})
         d["blocker"] = self.blocker
         return d
 
 
-def _blocker(occ: Occluders, eye: Array, t: float, tri: int) -> dict[str, Any]:
+def _blocker(occ: Occluders, eye: Array, t: float, tri: int, end: Array) -> dict[str, Any]:
+    from vebuild.analysis.observed import blocker_unobserved
+
     return {"node": occ.node_of(tri), "face": occ.face_of(tri), "distance_from_eye_m": round(float(t), 6),
-            "point_m": None}
+            "point_m": None, "unobserved": blocker_unobserved(occ, eye, end, float(t), int(tri))}
 
 
 def sight_line(occ: Occluders, eye: Eye, target: Target, samples: int = OBJECT_SAMPLES,
@@ -256,9 +271,9 @@ def sight_line(occ: Occluders, eye: Eye, target: Target, samples: int = OBJECT_S
         blocked, t, tri = occ.segments_blocked(E[None], T[None])
         res = SightLine(eye, target, not bool(blocked[0]), float(np.linalg.norm(T - E)))
         if blocked[0]:
-            res.blocker = _with_point(_blocker(occ, E, t[0], tri[0]), E, T, t[0])
+            res.blocker = _with_point(_blocker(occ, E, t[0], tri[0], T), E, T, t[0])
         return res
-    P, N = sample_surface(occ, target.nodes, samples, seed)
+    P, N, on_tri = sample_surface_triangles(occ, target.nodes, samples, seed)
     facing = np.einsum("ij,ij->i", E - P, N) > 0.0
     vis = np.zeros(len(P), bool)
     t = np.full(len(P), np.inf)
@@ -271,6 +286,7 @@ def sight_line(occ: Occluders, eye: Eye, target: Target, samples: int = OBJECT_S
     centre = P.mean(axis=0)
     res = SightLine(eye, target, k > 0, float(np.linalg.norm(centre - E)), k / len(P), wilson95(k, len(P)),
                     len(P), float(facing.mean()))
+    res.unobserved = object_rays(occ, E, P, facing, vis, t, tri, on_tri)
     hidden = np.flatnonzero(facing & ~vis)
     if len(hidden):
         nodes = [occ.node_of(i) for i in tri[hidden]]
@@ -278,7 +294,7 @@ def sight_line(occ: Occluders, eye: Eye, target: Target, samples: int = OBJECT_S
         res.blocked_by = {str(a): float(c) / len(P) for a, c in sorted(zip(names, counts, strict=True),
                                                                         key=lambda x: -x[1])}
         j = hidden[np.argmin(t[hidden])]
-        res.blocker = _with_point(_blocker(occ, E, t[j], tri[j]), E, P[j], t[j])
+        res.blocker = _with_point(_blocker(occ, E, t[j], tri[j], P[j]), E, P[j], t[j])
     return res
 
 
@@ -335,12 +351,13 @@ def draw_point_marker(image: NDArray[np.uint8], cam: ImageCamera, point: Array, 
 def render_witness_view(project: Project, scene: RenderScene, result: SightLine, out: Path,
                         fov_deg: float = DEFAULT_FOV_DEG, size: tuple[int, int] = (1280, 720),
                         lighting: str | None = None, samples: int = 4,
-                        extra_text: dict[str, str] | None = None) -> ImageCamera:
+                        extra_text: dict[str, str] | None = None, unobserved: str = "hatch") -> ImageCamera:
     """Render the witness's view of ``result`` to ``out`` (PNG with provenance); the target object
     is highlighted (for a group, its largest part: the renderer highlights one node), a target
     point marked by a ring (dashed when hidden)."""
     from vebuild.gl import headless_context
     from vebuild.project.decode import find_preset
+    from vebuild.render.observed import finish_image
     from vebuild.render.png import check_output, provenance, write_png
     from vebuild.render.renderer import Renderer, RenderOptions
 
@@ -348,21 +365,22 @@ def render_witness_view(project: Project, scene: RenderScene, result: SightLine,
     occ = Occluders(scene)
     cam = witness_camera(result.eye, target_centre(occ, result.target), fov_deg, size)
     preset = find_preset(project, lighting)
-    renderer = Renderer(headless_context(), scene, RenderOptions(samples=samples))
+    renderer = Renderer(headless_context(), scene, RenderOptions(samples=samples, unobserved=unobserved))
     try:
         renderer.set_lighting(preset)
         if result.target.node is not None:
             renderer.highlight = max(result.target.nodes, key=lambda n: occ.area[occ.triangles_of(n)].sum())
         image = renderer.render(cam)
+        marked = renderer.marks_unobserved
     finally:
         renderer.release()
     if result.target.point is not None:
         image = draw_point_marker(image, cam, result.target.point, result.visible)
-    options = {"samples": samples, "size": [cam.width, cam.height], "fov_deg": fov_deg}
+    options = {"samples": samples, "size": [cam.width, cam.height], "fov_deg": fov_deg, "unobserved": unobserved}
     text = provenance(project, cam, "witness", preset.name, None, scene.page_hashes, options)
     text["vebuild:sightline"] = json.dumps(result.record(), sort_keys=True, ensure_ascii=False)
     text.update(extra_text or {})
-    write_png(out, image, text)
+    write_png(out, finish_image(image, unobserved, marked, text, scene.mask_hashes), text)
     return cam
 
 
@@ -379,6 +397,9 @@ class Viewshed:
     origin : (x, y) of the grid's lower-left corner; cell : its side (m); states (ny, nx): OUTSIDE
     the floor, OCCUPIED (no place to stand) or PLACE; share (ny, nx): the target point seen (1 or
     0) or the object's visible share, NaN where not a place. Row j is y = origin[1] + (j + ½) cell.
+    unobserved (ny, nx): of each place's deciding rays (those that reach the target, or, where none
+    does, those hidden by a surface), the share resting on surfaces no photo saw
+    (:mod:`vebuild.analysis.observed`); None where the scene cannot tell.
     """
 
     target: Target
@@ -388,6 +409,7 @@ class Viewshed:
     states: NDArray[np.int8]
     share: Array
     samples: int | None = None
+    unobserved: Array | None = None  # (ny, nx) share of each place's deciding rays resting on unobserved surfaces
 
     def centres(self) -> tuple[Array, Array]:
         ny, nx = self.states.shape
@@ -414,6 +436,7 @@ class Viewshed:
             d["samples_per_cell"] = self.samples
             d["mean_visible_share"] = round(float(np.nanmean(np.where(places, self.share, np.nan))), 6) \
                 if places.any() else None
+        d["unobserved"] = viewshed_figures(self.unobserved, self.seeing, places, self.cell)
         return d
 
 
@@ -477,20 +500,29 @@ def viewshed(occ: Occluders, target: Target, eye_height: float = STANDING_EYE_M,
     E = np.stack([X.ravel()[places], Y.ravel()[places], np.full(len(places), eye_height)], axis=1)
     share = np.full(nx * ny, np.nan)
     if target.point is not None:
-        blocked, _, _ = occ.segments_blocked(E, np.broadcast_to(target.point, E.shape))
+        T = np.broadcast_to(target.point, E.shape)
+        blocked, t, tri = occ.segments_blocked(E, T)
         share[places] = (~blocked).astype(float)
-        return Viewshed(target, eye_height, origin, cell, states, share.reshape(ny, nx))
-    P, N = sample_surface(occ, target.nodes, samples, seed)
+        w = hidden_weights(occ, E, T, blocked, t, tri)
+        return Viewshed(target, eye_height, origin, cell, states, share.reshape(ny, nx),
+                        unobserved=on_grid(w, places, ny, nx))
+    P, N, on_tri = sample_surface_triangles(occ, target.nodes, samples, seed)
+    sample_unobserved = unobserved_at(occ, on_tri, P)
+    w = None if sample_unobserved is None else np.zeros(len(places))
     seen = np.zeros(len(places))
     # One cell's eye against all samples per batch: the segments share the eye, so their bounding box
     # (the eye and the object) prunes the triangles well.
     for i, e in enumerate(E):
         facing = np.flatnonzero(np.einsum("ij,ij->i", e - P, N) > 0.0)
         if len(facing):
-            b, _, _ = occ.segments_blocked(np.broadcast_to(e, (len(facing), 3)), P[facing])
+            b, t, tri = occ.segments_blocked(np.broadcast_to(e, (len(facing), 3)), P[facing])
             seen[i] = float((~b).sum()) / len(P)
+            if w is not None and sample_unobserved is not None:  # seen: on what surfaces; hidden: by what
+                hid = None if (~b).any() else hidden_weights(occ, e, P[facing], b, t, tri)
+                w[i] = float(sample_unobserved[facing[~b]].mean() if hid is None else hid.mean())
     share[places] = seen
-    return Viewshed(target, eye_height, origin, cell, states, share.reshape(ny, nx), samples)
+    return Viewshed(target, eye_height, origin, cell, states, share.reshape(ny, nx), samples,
+                    on_grid(w, places, ny, nx))
 
 
 def viewshed_image(vs: Viewshed, occ: Occluders, px_per_cell: int | None = None) -> NDArray[np.uint8]:

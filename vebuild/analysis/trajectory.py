@@ -337,23 +337,25 @@ def draw_trajectory(image: NDArray[np.uint8], cam: ImageCamera, tr: Trajectory, 
 
 
 def render_trajectory_view(project: Project, scene: Any, tr: Trajectory, cam: ImageCamera, out: Path,
-                           lighting: str | None = None, samples: int = 4) -> None:
+                           lighting: str | None = None, samples: int = 4, unobserved: str = "hatch") -> None:
     """Render ``cam``'s view headless, draw the trajectory over it, and write a PNG with provenance."""
     from vebuild.gl import headless_context
     from vebuild.project.decode import find_preset
+    from vebuild.render.observed import finish_image
     from vebuild.render.png import check_output, provenance, write_png
     from vebuild.render.renderer import Renderer, RenderOptions
 
     out = check_output(Path(out))
     preset = find_preset(project, lighting)
-    renderer = Renderer(headless_context(), scene, RenderOptions(samples=samples))
+    renderer = Renderer(headless_context(), scene, RenderOptions(samples=samples, unobserved=unobserved))
     try:
         renderer.set_lighting(preset)
         image = renderer.render(cam)
+        marked = renderer.marks_unobserved
     finally:
         renderer.release()
     image = draw_trajectory(image, cam, tr, Occluders(scene))
     text = provenance(project, cam, "view", preset.name, None, scene.page_hashes,
-                      {"samples": samples, "size": [cam.width, cam.height]})
+                      {"samples": samples, "size": [cam.width, cam.height], "unobserved": unobserved})
     text["vebuild:trajectory"] = json.dumps(tr.record(), sort_keys=True, ensure_ascii=False)
-    write_png(out, image, text)
+    write_png(out, finish_image(image, unobserved, marked, text, scene.mask_hashes), text)

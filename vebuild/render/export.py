@@ -12,6 +12,13 @@ as ``extras.distortion`` (:func:`distortion_extras`: the division model's name a
 definition, and how far it moves the photo's corners); a viewer that ignores it shows the photo's
 pinhole view, off the photo by up to that displacement.
 
+What no photo saw travels too (:mod:`vebuild.render.export_observed`): each atlas page's
+coverage map is embedded byte for byte as a second image and texture (nearest filtering, same
+``TEXCOORD_0``), referenced from its material's ``extras.vebuild_coverage`` with the colour of
+texels no photo saw; each mesh primitive's ``extras.vebuild_seen`` gives the share of its surface
+some photo saw and each face's ``seen_fraction`` (as ``textures.faces`` records them), so that
+another viewer can mark the inferred surfaces as vebuild's renders do.
+
 OBJ has no hierarchy and no cameras: every primitive node becomes one object (``o``/``g``) with its
 vertices in world coordinates, written +Y up as OBJ readers expect (OBJ (x, y, z) = world
 (x, z, −y), so Blender's default import, forward −Z up Y, shows vebuild's own coordinates); the MTL
@@ -41,6 +48,12 @@ from vebuild.errors import VebuildError
 from vebuild.project import Project, sha256_file
 from vebuild.project.decode import TexturePage, camera_records, photo_camera, view_camera
 from vebuild.project.outputs import begin_stage, check_file
+from vebuild.render.export_observed import (  # COVERAGE_EXTRAS: re-exported, the keys of the format
+    COVERAGE_EXTRAS,  # noqa: F401
+    SEEN_EXTRAS,
+    add_coverage,
+    seen_extras,
+)
 from vebuild.render.scene import RenderScene, load_scene
 from vebuild.texture import layout as lay
 
@@ -60,6 +73,7 @@ GL_FROM_CV = np.diag([1.0, -1.0, -1.0])
 _ARRAY_BUFFER, _ELEMENT_ARRAY_BUFFER = 34962, 34963
 _FLOAT, _UNSIGNED_SHORT, _UNSIGNED_INT = 5126, 5123, 5125
 _LINEAR, _LINEAR_MIPMAP_LINEAR, _CLAMP_TO_EDGE = 9729, 9987, 33071
+
 _GLB_MAGIC, _CHUNK_JSON, _CHUNK_BIN = 0x46546C67, 0x4E4F534A, 0x004E4942
 
 
@@ -287,6 +301,7 @@ def gltf_document(contents: _Contents) -> tuple[dict[str, Any], bytes]:
                               "pbrMetallicRoughness": {"baseColorTexture": {"index": len(doc["textures"]) - 1},
                                                        "metallicFactor": 0.0, "roughnessFactor": 1.0},
                               "doubleSided": True, "extensions": {"KHR_materials_unlit": {}}})
+        add_coverage(doc, buf, contents, used, [materials[page_material[k]] for k in used])
         doc["extensionsUsed"] = ["KHR_materials_unlit"]
     else:
         # Lit: with no photographed light in the colours, shading is what shows the shapes.
@@ -321,10 +336,14 @@ def gltf_document(contents: _Contents) -> tuple[dict[str, Any], bytes]:
                     attributes["COLOR_0"] = buf.accessor(np.clip(part.colour, 0, 1).astype(np.float32), "VEC3",
                                                          _ARRAY_BUFFER)
                 itype = np.uint16 if len(part.positions) <= 65535 else np.uint32
-                prims.append({"attributes": attributes,
-                              "indices": buf.accessor(part.triangles.ravel().astype(itype), "SCALAR",
-                                                      _ELEMENT_ARRAY_BUFFER),
-                              "material": page_material[part.page], "mode": 4})
+                prim: dict[str, Any] = {"attributes": attributes,
+                                        "indices": buf.accessor(part.triangles.ravel().astype(itype), "SCALAR",
+                                                                _ELEMENT_ARRAY_BUFFER),
+                                        "material": page_material[part.page], "mode": 4}
+                seen = seen_extras(contents, part)
+                if seen is not None:
+                    prim["extras"] = {SEEN_EXTRAS: seen}
+                prims.append(prim)
             meshes.append({"name": n.name, "primitives": prims})
             gnode["mesh"] = len(meshes) - 1
         doc["nodes"].append(gnode)

@@ -26,6 +26,10 @@ Stereo (:func:`vebuild.camera.stereo_pair`): parallel eyes with off-axis frusta,
 side by side (``sbs``, the left eye left), top and bottom (``tb``, the left eye on top), as a
 red-cyan anaglyph with Dubois's least-squares matrices, or into a window's left and right back
 buffers (``quad``) where its context offers quad-buffered stereo.
+
+Texels no photo saw (the scene's masks, from the coverage maps: :mod:`vebuild.render.observed`)
+are hatched, tinted or left as extracted (``RenderOptions.unobserved``, or the renderer's
+``unobserved`` attribute, which may change between frames); hatched by default.
 """
 
 from __future__ import annotations
@@ -55,6 +59,16 @@ from vebuild.gl import load_program
 from vebuild.gl.context import max_texture_size
 from vebuild.gl.shaders import set_uniforms, uniform
 from vebuild.lighting import AS_PHOTOGRAPHED_LIGHTING, MAX_LIGHTS, Light, Lighting
+from vebuild.render.observed import (
+    DEFAULT_UNOBSERVED,
+    HATCH_DUTY,
+    HATCH_PERIOD_M,
+    HATCH_STRENGTH,
+    TINT_STRENGTH,
+    UNOBSERVED_MODES,
+    UNOBSERVED_SRGB,
+    check_mode,
+)
 from vebuild.render.scene import RenderScene
 from vebuild.render.sizes import check_camera, gl_limits
 from vebuild.texture.lens import pinhole_cover
@@ -89,6 +103,7 @@ class RenderOptions:
     shadow_size: int = 1024  # texels along a shadow tile's side
     background_srgb: tuple[int, int, int] = (38, 38, 44)
     highlight_srgb: tuple[int, int, int] = (255, 190, 0)
+    unobserved: str = DEFAULT_UNOBSERVED  # how texels no photo saw are shown: hatch, tint or off
 
     @classmethod
     def interactive(cls) -> RenderOptions:
@@ -132,7 +147,11 @@ class Renderer:
         self._shadow_state: dict[str, object] | None = None
         self.lighting: Lighting = AS_PHOTOGRAPHED_LIGHTING
         self.highlight: str | None = None
+        #: How texels no photo saw are drawn (one of UNOBSERVED_MODES); may change between frames.
+        self.unobserved: str = check_mode(self.options.unobserved, "unobserved")
         self._pages: list[moderngl.Texture] = []
+        self._masks: list[moderngl.Texture] = []
+        self._no_mask = ctx.texture((1, 1), 1, bytes([0]))
         self._resources: list[moderngl.Buffer | moderngl.VertexArray] = []
         self.scene: RenderScene
         self._upload_pages(scene)
@@ -154,6 +173,18 @@ class Renderer:
             tex.anisotropy = float(self.options.anisotropy)
             tex.repeat_x = tex.repeat_y = False
             self._pages.append(tex)
+        for m in scene.masks:
+            mask = self.ctx.texture((m.shape[1], m.shape[0]), 1, np.ascontiguousarray(m, np.uint8).tobytes())
+            mask.filter = (moderngl.LINEAR, moderngl.LINEAR)  # a crisp edge at 0.5 between seen and unseen
+            mask.repeat_x = mask.repeat_y = False
+            self._masks.append(mask)
+        self._any_unseen = scene.textured and any(bool((m > 127).any()) for m in scene.masks)
+
+    @property
+    def marks_unobserved(self) -> bool:
+        """Whether frames mark something as unobserved now: the mode is not ``off`` and some
+        texel of the scene's pages no photo saw (what a legend is drawn for)."""
+        return self.unobserved != "off" and self._any_unseen
 
     def set_scene(self, scene: RenderScene) -> None:
         """Draw ``scene`` from now on (objects moved, say); its textures must be the same pages."""
@@ -306,6 +337,12 @@ class Renderer:
             "highlight_colour": srgb8_to_linear(np.array(self.options.highlight_srgb, np.uint8)),
             "highlight_node": self.scene.node_names.index(self.highlight)
             if self.highlight in self.scene.node_names else -1,
+            "unobserved_mode": UNOBSERVED_MODES.index(check_mode(self.unobserved, "unobserved")) + 1
+            if self.unobserved != "off" and self._masks else 0,
+            "unobserved_colour": srgb8_to_linear(np.array(UNOBSERVED_SRGB, np.uint8)),
+            "unobserved_strength": HATCH_STRENGTH if self.unobserved == "hatch" else TINT_STRENGTH,
+            "hatch_period": HATCH_PERIOD_M,
+            "hatch_duty": HATCH_DUTY,
         }
         if light.lit:
             if self._shadow_state is None:
@@ -333,7 +370,7 @@ class Renderer:
                     u.value = int(v)
                 else:
                     u.write(np.ascontiguousarray(v, dtype="f4").tobytes())
-        for name, unit in (("atlas", 0), ("shadow_atlas", 1)):
+        for name, unit in (("atlas", 0), ("shadow_atlas", 1), ("unseen_mask", 2)):
             if name in prog:
                 uniform(prog, name).value = unit
 
@@ -377,6 +414,7 @@ class Renderer:
         vao = self._vaos[self.lighting.lit]
         for page, first, count in self._ranges:
             (self._pages[page] if self.scene.textured else self._blank).use(location=0)
+            (self._masks[page] if self.scene.textured and page < len(self._masks) else self._no_mask).use(location=2)
             vao.render(moderngl.TRIANGLES, vertices=count, first=first)
         ctx.disable(moderngl.DEPTH_TEST)
 
@@ -589,8 +627,10 @@ class Renderer:
         for r in self._resources:
             r.release()
         self._resources = []
-        for t in self._pages:
+        for t in self._pages + self._masks:
             t.release()
+        self._pages, self._masks = [], []
+        self._no_mask.release()
         for draw, resolve, image in self._targets.values():
             if draw is not resolve:
                 draw.release()

@@ -41,6 +41,11 @@ class RenderScene:
     warnings : what the user should know (textures missing, faces drawn untextured).
     page_hashes : the SHA-256 of each atlas page drawn (for a render's provenance).
     page_files : the atlas pages as read from the project (bytes, hash, size), when textured.
+    masks : per page, (h, w) uint8: 255 where no photo saw the texel, 0 where one did
+        (:func:`vebuild.render.observed.unseen_mask` of the page's coverage map); empty when
+        untextured or unknown (then nothing is marked as unobserved).
+    mask_hashes : the SHA-256 of each coverage map the masks came from.
+    coverage_files : each coverage map's bytes, as recorded (for exports).
     """
 
     mesh: lay.SceneMesh
@@ -51,6 +56,9 @@ class RenderScene:
     warnings: list[str] = field(default_factory=list)
     page_hashes: list[str] = field(default_factory=list)
     page_files: list[TexturePage] = field(default_factory=list)
+    masks: list[NDArray[np.uint8]] = field(default_factory=list)
+    mask_hashes: list[str] = field(default_factory=list)
+    coverage_files: list[bytes] = field(default_factory=list)
 
     @property
     def node_names(self) -> list[str]:
@@ -73,7 +81,8 @@ class RenderScene:
         """The same scene with its objects where ``model`` puts them (same faces, same textures)."""
         mesh = lay.scene_mesh(model, self.mesh.faces)
         return RenderScene(mesh, self.pages, self.face_colour, model, self.textured, list(self.warnings),
-                           list(self.page_hashes), list(self.page_files))
+                           list(self.page_hashes), list(self.page_files), list(self.masks),
+                           list(self.mask_hashes), list(self.coverage_files))
 
 
 def untextured_faces(model: Model) -> list[lay.Face]:
@@ -132,4 +141,50 @@ def load_scene(project: Project) -> RenderScene:
     if scene.textured:
         scene.page_hashes = [p.sha256 for p in pages]
         scene.page_files = pages
+        masks = coverage_masks(project)
+        if masks is None:
+            scene.warnings.append("a coverage map is missing (textures/coverage_*.png): surfaces no photo saw cannot "
+                                  "be marked; run `vebuild texture` again")
+        else:
+            scene.masks, scene.mask_hashes, scene.coverage_files = ([m for m, _, _ in masks], [h for _, h, _ in masks],
+                                                                    [b for _, _, b in masks])
     return scene
+
+
+def coverage_masks(project: Project) -> list[tuple[NDArray[np.uint8], str, bytes]] | None:
+    """Each page's unseen mask, its coverage map's SHA-256 and bytes, the bytes checked against the
+    recorded hash and the size against the page's (errors at the JSON path); None if a coverage
+    map is missing (not an error: nothing is then marked, and the scene's warnings say so)."""
+    import io
+
+    from vebuild.errors import ProjectError
+    from vebuild.project.file import texture_page_path
+    from vebuild.project.images import open_image, sha256_bytes
+    from vebuild.render.observed import unseen_mask
+
+    out = []
+    for k, page in enumerate((project.data.get("textures") or {}).get("pages", [])):
+        where = f"$.textures.pages[{k}].coverage"
+        if not page.get("coverage"):
+            return None
+        path = texture_page_path(project, k, "coverage")
+        if not path.is_file():
+            return None
+        try:
+            raw = path.read_bytes()
+        except OSError as e:
+            raise ProjectError(project.path, where, f"cannot read the coverage map {page['coverage']!r}: "
+                               f"{e.strerror or e}") from None
+        digest = sha256_bytes(raw)
+        if digest != page.get("coverage_sha256"):
+            raise ProjectError(project.path, f"{where}_sha256", f"the coverage map {page['coverage']!r} changed since "
+                               "`vebuild texture` wrote it (its bytes no longer hash to the recorded SHA-256); run "
+                               "`vebuild texture` again")
+        with open_image(io.BytesIO(raw), project.path, where, label=repr(page["coverage"])) as im:
+            if im.size != (page["width"], page["height"]):
+                raise ProjectError(project.path, where, f"expected the coverage map {page['coverage']!r} to be "
+                                   f"{page['width']}×{page['height']} texels as recorded, found "
+                                   f"{im.size[0]}×{im.size[1]}")
+            rgba = np.asarray(im.convert("RGBA"))
+        out.append((unseen_mask(rgba), digest, raw))
+    return out

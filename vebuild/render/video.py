@@ -25,6 +25,10 @@ H.264 encoder (PyAV's FFmpeg with libx264, yuv420p, BT.709 limited range, so ord
 it; width and height must be even), never all frames in memory. The MP4 is written to a temporary
 name beside the output and moved into place only when complete; on any error or Ctrl-C nothing is
 left behind.
+
+Surfaces no photo saw are hatched by default (``VideoRequest.unobserved``: hatch, tint or off;
+:mod:`vebuild.render.observed`); each frame then carries the legend in its lower left corner, and
+the MP4's comment metadata records the setting (``"unobserved"``).
 """
 
 from __future__ import annotations
@@ -403,6 +407,12 @@ class VideoRequest:
     lighting: str | None = None  # a preset's name; None: as photographed
     stereo: str | None = None  # sbs, tb or anaglyph
     crf: int = DEFAULT_CRF
+    unobserved: str = "hatch"  # how surfaces no photo saw are shown (vebuild.render.observed)
+
+    def __post_init__(self) -> None:
+        from vebuild.render.observed import check_mode
+
+        check_mode(self.unobserved)
 
 
 @dataclass
@@ -500,12 +510,14 @@ def _render(project: Project, request: VideoRequest, path: CameraPath, lighting:
             progress: Callable[[int, int, str], None] | None, renderer: Renderer | None) -> VideoResult:
     from vebuild.gl import headless_context
     from vebuild.project import sha256_file
+    from vebuild.render.observed import draw_legend
     from vebuild.render.renderer import Renderer, Stereo
     from vebuild.render.scene import load_scene
     from vebuild.render.sizes import check_camera, gl_limits
 
     own = renderer is None
     warnings: list[str] = []
+    mode = None if renderer is None else renderer.unobserved  # a caller's renderer gets its mode back
     if renderer is None:
         scene = load_scene(project)
         warnings = list(scene.warnings)
@@ -516,21 +528,27 @@ def _render(project: Project, request: VideoRequest, path: CameraPath, lighting:
         W, H = check_camera(path.views[0], request.stereo,
                             **{**limits, "max_side": min(MAX_SIDE, limits.get("max_side", MAX_SIDE))})
         renderer.set_lighting(lighting)
+        renderer.unobserved = request.unobserved
+        marked = renderer.marks_unobserved
         meta = {"title": " → ".join(request.views), "encoder": f"vebuild {__version__}",
                 "comment": json.dumps({"project": project.path.name, "project_sha256": sha256_file(project.path),
                                        "views": request.views, "keyframes": path.keyframes,
                                        "lighting": lighting.name, "stereo": request.stereo,
-                                       "fps": path.fps}, ensure_ascii=False)}
+                                       "fps": path.fps, "unobserved": request.unobserved,
+                                       "unobserved_marked": marked}, ensure_ascii=False)}
         start = time.perf_counter()
         with Mp4Writer(out, W, H, path.fps, request.crf, metadata=meta) as writer:
             for k in range(path.n_frames):
-                writer.write(renderer.render(path.camera(k), stereo))
+                frame = renderer.render(path.camera(k), stereo)
+                writer.write(draw_legend(frame, request.unobserved) if marked else frame)
                 if progress is not None:
                     progress(k + 1, path.n_frames, _label(path, request.views, k))
         seconds = time.perf_counter() - start
     finally:
         if own:
             renderer.release()
+        elif mode is not None:
+            renderer.unobserved = mode
     return VideoResult(out, path.n_frames, path.fps, W, H, path.duration, path.length,
                        list(zip(request.views, path.keyframes, strict=True)),
                        lighting.name, Mp4Writer.CODEC, out.stat().st_size, seconds, warnings)

@@ -304,13 +304,17 @@ class Viewer(WindowApp):
         """The current view rendered off the window's context to a PNG with provenance."""
         from PIL import Image
 
+        from vebuild.render.observed import finish_image
         from vebuild.render.png import provenance, stamp, write_png
 
         cam = self.camera()
         stereo = Stereo(self.stereo) if self.stereo not in (None, "quad") else None
         img = self.renderer.render(cam if stereo is None else self.eye_camera(), stereo)
         text = provenance(self.project, cam, "viewer", self.lighting, {"mode": self.stereo} if stereo else None,
-                          self.scene.page_hashes, {"samples": self.renderer.options.samples})
+                          self.scene.page_hashes, {"samples": self.renderer.options.samples,
+                                                   "unobserved": self.renderer.unobserved})
+        img = finish_image(img, self.renderer.unobserved, self.renderer.marks_unobserved, text,
+                           self.scene.mask_hashes)
         banner = self.banner()
         if banner:
             img = stamp(img, banner)
@@ -360,6 +364,15 @@ class Viewer(WindowApp):
 
     def next_lighting(self) -> None:
         self.set_lighting((self.lighting_index + 1) % len(self.lightings))
+
+    def next_unobserved(self) -> None:
+        """Show surfaces no photo saw hatched, tinted or as extracted (the next of the three)."""
+        from vebuild.render.observed import LEGEND_TEXT, UNOBSERVED_MODES
+
+        mode = UNOBSERVED_MODES[(UNOBSERVED_MODES.index(self.renderer.unobserved) + 1) % len(UNOBSERVED_MODES)]
+        self.renderer.unobserved = mode
+        self.say(f"unobserved surfaces: {mode}" + (f" ({LEGEND_TEXT[mode]})" if mode in LEGEND_TEXT else
+                                                   " (filled-in texture shown unmarked)"))
 
     def next_stereo(self) -> None:
         self.stereo_index = (self.stereo_index + 1) % len(self.stereo_modes)

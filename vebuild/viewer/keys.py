@@ -36,6 +36,8 @@ VIEWER_KEYS = KeyTable([
              Chord(glfw.KEY_RIGHT_BRACKET, "change_opacity", (0.1,)))),
     Binding("L", "next lighting preset (as photographed, then the project's presets)",
             (Chord(glfw.KEY_L, "next_lighting"),)),
+    Binding("U", "surfaces no photo saw: hatched, tinted, as extracted (the texture filled in, unmarked)",
+            (Chord(glfw.KEY_U, "next_unobserved"),)),
     Binding("B", "next stereo mode (off, anaglyph, side by side, top and bottom, quad-buffered where offered)",
             (Chord(glfw.KEY_B, "next_stereo"),)),
     Binding("F1", "show or hide the panel", (Chord(glfw.KEY_F1, "toggle_panel"),)),

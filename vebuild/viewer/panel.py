@@ -49,6 +49,7 @@ class ViewerPanel:
                        f"({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f}) m")
             imgui.text(f"lighting: {self.v.lighting}   ({keys.key_for('next_lighting')})")
             imgui.text(f"stereo: {self.v.stereo or 'off'}   ({keys.key_for('next_stereo')})")
+            self._draw_unobserved(imgui)
             if self.v.photo is not None:
                 opacity = f"{keys.key_for('change_opacity', -0.1)} {keys.key_for('change_opacity', 0.1)}"
                 imgui.text(f"photo {self.v.photo}, overlay {100 * self.v.photo_opacity:.0f} %  ({opacity})")
@@ -79,6 +80,16 @@ class ViewerPanel:
                     self.v.guard(self.v.save_hypothesis, self._new_hypothesis_name)
             imgui.end()
         gui.render()
+
+    def _draw_unobserved(self, imgui: Any) -> None:
+        """The unobserved-surface setting, and its legend in the mark's colour where it marks any."""
+        from vebuild.render.observed import LEGEND_TEXT, UNOBSERVED_SRGB
+
+        r = self.v.renderer
+        imgui.text(f"unobserved: {r.unobserved}   ({self.v.keys.key_for('next_unobserved')})")
+        if r.marks_unobserved:
+            c = [v / 255.0 for v in UNOBSERVED_SRGB]
+            imgui.text_colored(imgui.ImVec4(c[0], c[1], c[2], 1.0), LEGEND_TEXT[r.unobserved])
 
     def _draw_markers(self, imgui: Any) -> None:
         """The project's evidence markers over the view: a filled pin where seen, hollow where hidden."""
