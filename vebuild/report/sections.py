@@ -194,6 +194,7 @@ def _renderer(project: Project, scene: Any = None) -> tuple[Any, Any]:
 def views(project: Project, rep: Report) -> None:
     from vebuild.analysis.markers import draw_markers, visible_markers
     from vebuild.project.decode import view_camera
+    from vebuild.render.observed import LEGEND_TEXT, UNOBSERVED_SRGB, finish_image
     from vebuild.render.png import provenance
     from vebuild.render.sizes import check_camera
 
@@ -218,14 +219,20 @@ def views(project: Project, rep: Report) -> None:
         for i, (v, cam) in enumerate(zip(views, cams, strict=True)):
             img = renderer.render(cam)
             img = draw_markers(img, visible_markers(renderer, cam, markers))
-            src = rep.image(f"view-{i + 1}.png", img, provenance(project, cam, "view", "as-photographed", None,
-                                                                scene.page_hashes, {"samples": 4}))
+            text = provenance(project, cam, "view", "as-photographed", None, scene.page_hashes, {"samples": 4})
+            img = finish_image(img, renderer.unobserved, renderer.marks_unobserved, text, scene.mask_hashes)
+            src = rep.image(f"view-{i + 1}.png", img, text)
             eye = esc(unit.after(fmt(v["position"], 2)))
             parts.append(f"<figure><img src='{src}'><figcaption>{esc(v['name'])}: eye at {eye}"
                          f"{', ' + esc(v['description']) if v.get('description') else ''}</figcaption></figure>")
     finally:
         renderer.release()
     body = "".join(parts)
+    if renderer.marks_unobserved:
+        r, g, b = UNOBSERVED_SRGB
+        body = (f"<p><span style='display:inline-block;width:1.2em;height:0.8em;background:rgb({r},{g},{b})'>"
+                f"</span> {esc(LEGEND_TEXT[renderer.unobserved])}; the key is in each image's lower left corner "
+                "(see Limitations for the faces).</p>" + body)
     if markers:
         body += "<h3>Evidence markers</h3>" + table(
             ["label", "on", f"position {unit.symbol}", "description"],
