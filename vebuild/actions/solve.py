@@ -27,7 +27,7 @@ from ..model.residuals import MarkerObservation
 from ..model.scene import Model
 from ..model.solution import handle_covariances
 from ..model.solver import FINAL_PRIOR_SCALE, MarkerData, Problem, ProblemOptions
-from ..project import Project, decode, json_path
+from ..project import Project, decode, json_path, provenance
 from ..project.decode import cameras_from_calibration, load_model
 from ..project.records import camera_record, distortion_record, json_values, value_sigma
 from ..project.units import length_unit
@@ -96,6 +96,7 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
     if recalibrate:
         _write_cameras(data, solution, problem)
     data["model_solution"] = result
+    provenance.stamp(data, "model_solution")  # what it was computed from (vebuild.project.provenance)
     return result
 
 
