@@ -121,7 +121,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
 
     project = load_project(args.project)
     _warn_stale(project, "report")
-    bar = tqdm(total=8 - int(args.no_pdf), desc="report", unit="section", disable=not _progress_wanted(args))
+    bar = tqdm(total=9 - int(args.no_pdf), desc="report", unit="section", disable=not _progress_wanted(args))
 
     def step(what: str) -> None:
         bar.set_postfix_str(what)

@@ -48,8 +48,9 @@ from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-__all__ = ["STAGES", "AuditProblem", "Stale", "audit_entry", "command_context", "current_command",
-           "document_sha256", "inputs", "stale", "stamp", "verify_audit"]
+__all__ = ["READS", "STAGES", "TITLES", "AuditProblem", "Stale", "audit_entry", "command_context", "current_command",
+           "document_sha256", "inputs", "stage_hashes", "stale", "stale_line", "stale_record", "stale_warnings",
+           "stamp", "verify_audit"]
 
 #: The stages, in the order they are run; each reads the results of those before it.
 STAGES = ("calibration", "model_solution", "textures")
@@ -167,10 +168,12 @@ class Stale:
 
     @property
     def message(self) -> str:
-        return f"{_TITLE[self.stage]} is stale: {self.reason}; run `{self.command}`"
+        verb = "are" if self.stage == "textures" else "is"
+        return f"{TITLES[self.stage]} {verb} stale: {self.reason}; run `{self.command}`"
 
 
-_TITLE = {"calibration": "the calibration", "model_solution": "the model's solution", "textures": "the textures"}
+#: Each stage's name in a sentence.
+TITLES = {"calibration": "the calibration", "model_solution": "the model's solution", "textures": "the textures"}
 
 
 def _describe(key: str) -> str:
@@ -249,7 +252,7 @@ def stale(data: Mapping[str, Any], project: str = "PROJECT") -> list[Stale]:
         else:
             reasons += _differences(recorded, inputs(data, stage), stage)
         if behind is not None:
-            reasons.append(f"it was computed from {_TITLE[behind.stage]}, which is stale ({behind.reason})")
+            reasons.append(f"it was computed from {TITLES[behind.stage]}, which is stale ({behind.reason})")
         if reasons:
             s = Stale(stage, "; ".join(reasons), " && ".join([*commands, mine]))
             out.append(s)
@@ -338,3 +341,23 @@ def stale_warnings(project: Any, command: str) -> list[str]:
     """``warning: …`` lines for the stale results that ``command`` reads, for a Project."""
     reads = READS.get(command, _ALL)
     return [f"warning: {s.message}" for s in stale(project.data, str(project.path)) if s.stage in reads]
+
+
+def stage_hashes(data: Mapping[str, Any]) -> dict[str, str]:
+    """SHA-256 of each stage's record present (the results an output used), by stage."""
+    return {s: _sha(data[s]) for s in STAGES if isinstance(data.get(s), Mapping)}
+
+
+def stale_record(data: Mapping[str, Any]) -> dict[str, str]:
+    """The stale stages, each with its reason: what an output made from them records."""
+    return {s.stage: s.reason for s in stale(data)}
+
+
+def stale_line(found: Sequence[Stale]) -> str | None:
+    """One short line for a screen's status: which results are stale and what updates them (the
+    full messages go in its tooltip or the panel), or None when all are current."""
+    if not found:
+        return None
+    steps = [c.split(" ", 2)[1] for c in found[-1].command.split(" && ")]
+    return (f"STALE: {', '.join(TITLES[s.stage].removeprefix('the ') for s in found)}: "
+            f"{' then '.join(steps)} again")

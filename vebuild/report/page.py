@@ -13,6 +13,8 @@ import numpy as np
 from vebuild import __version__
 from vebuild.project import Project, sha256_file
 
+from .stale import banner_html
+
 #: Renders in the report are this wide (height from the view's aspect).
 
 CSS = """
@@ -78,6 +80,7 @@ def page(project: Project, rep: Report) -> str:
                              ["software", f"vebuild {__version__}"],
                              ["reproduce", f"vebuild report {project.path.name} --out DIR (the same project gives "
                                            "the same figures and images)"]])]
+    head.insert(0, banner_html(project))  # with its <style>; "" for a current project (vebuild.report.stale)
     if rep.warnings:
         head.append("<p class='warn'>" + "<br>".join(esc(w) for w in rep.warnings) + "</p>")
     return ("<!DOCTYPE html><html><head><meta charset='utf-8'>"

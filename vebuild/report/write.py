@@ -13,6 +13,7 @@ from vebuild.project import Project
 
 from . import sections
 from .page import Report, page
+from .processing import processing
 
 
 def write_report(project: Project, out: Path, pdf: bool = True,
@@ -42,7 +43,7 @@ def write_report(project: Project, out: Path, pdf: bool = True,
         step = progress or (lambda what: None)
         steps = [("photos", sections.photos), ("calibration", sections.calibration), ("model", sections.model),
                  ("views", sections.views), ("validation", sections.validation), ("analyses", sections.analyses),
-                 ("hypotheses", sections.hypotheses)]
+                 ("hypotheses", sections.hypotheses), ("processing", processing)]
         for name, fn in steps:
             step(name)
             fn(project, rep)
