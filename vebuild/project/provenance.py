@@ -17,7 +17,8 @@ What each stage reads (the names in ``computed_from``; scenes/FORMAT.md, "Proven
 - ``model_solution``: ``model/nodes/NAME`` per node (as written after the solve), ``model/pins``,
   ``model/edge_observations``, ``markers``, ``reference_distances``, ``settings``, and the
   calibration it started from: ``calibration/cameras/ID`` per camera and ``calibration/markers``
-  and ``calibration/other`` (the rest of the record, without its ``computed_from``).
+  and ``calibration/other`` (the rest of the record, without its ``computed_from`` and
+  ``input_sha256``).
 - ``textures``: ``model/nodes/NAME`` per node, ``model_solution`` (the record without its
   ``computed_from``), ``cameras/ID`` per camera it could use (the final camera record:
   ``decode.camera_records``), and ``photos/ID/image`` per photo.
@@ -121,7 +122,8 @@ def inputs(data: Mapping[str, Any], stage: str) -> dict[str, str]:
         for pid, rec in (cal.get("cameras") or {}).items():
             out[f"calibration/cameras/{pid}"] = _sha(rec)
         out["calibration/markers"] = _sha(cal.get("markers"))
-        out["calibration/other"] = _sha(_without(cal, "cameras", "markers", "computed_from"))
+        # Not its stamps: the older whole-document hash (input_sha256) moves with the solved model.
+        out["calibration/other"] = _sha(_without(cal, "cameras", "markers", "computed_from", "input_sha256"))
         return out
     if stage == "textures":
         from .decode import camera_records
