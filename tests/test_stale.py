@@ -188,7 +188,7 @@ def test_views_analyses_and_other_non_inputs_leave_everything_current(room: Path
     assert stale(data) == []
     code, out, _ = run("check", str(room))
     assert "stale" not in out
-    assert code == 1 and "valid but changed outside vebuild" in out  # the hand edit, seen by the audit trail
+    assert code == 1 and ": valid vebuild project" in out and "changed outside vebuild" in out  # the hand edit, seen by the audit trail
 
 
 def test_a_record_from_before_provenance_is_not_known_to_be_current(room: Path) -> None:

@@ -275,9 +275,9 @@ def _cmd_check(args: argparse.Namespace) -> int:
     details = check_project(project)
     photos = project.data["photos"]
     status = project_status(project)
-    word = "valid" if status.clean else "stale" if status.stale else "valid but changed outside vebuild"
-    print(f"{project.path}: {word} vebuild project (format version {project.data['version']}), "
-          f"{len(photos)} photo(s), hashes verified")
+    outside = "; changed outside vebuild (see the audit trail below)" if status.audit else ""
+    print(f"{project.path}: {'stale' if status.stale else 'valid'} vebuild project (format version "
+          f"{project.data['version']}), {len(photos)} photo(s), hashes verified{outside}")
     for p in photos:
         n_seg = sum(len(v) for v in (p.get("vanishing_segments") or {}).values())
         print(f"  {p['id']:<10} {p['file']:<28} {p['width']}×{p['height']}  sha256 {p['sha256'][:16]}…  "
