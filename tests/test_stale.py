@@ -188,7 +188,8 @@ def test_views_analyses_and_other_non_inputs_leave_everything_current(room: Path
     assert stale(data) == []
     code, out, _ = run("check", str(room))
     assert "stale" not in out
-    assert code == 1 and ": valid vebuild project" in out and "changed outside vebuild" in out  # the hand edit, seen by the audit trail
+    # The hand edit changed no input; the audit trail sees it all the same.
+    assert code == 1 and ": valid vebuild project" in out and "changed outside vebuild" in out
 
 
 def test_a_record_from_before_provenance_is_not_known_to_be_current(room: Path) -> None:
@@ -220,7 +221,8 @@ def test_the_modelling_screen_shows_a_stale_line(room: Path) -> None:
     u, v = s.data["photos"][1]["marker_observations"]["T1"]
     s.place_marker("p2", "T1", (u + MOVED_PX, v))
     assert [x.stage for x in s.stale] == ["calibration", "model_solution", "textures"]
-    assert stale_line(s.stale) == "STALE: calibration, model's solution, textures: calibrate then solve then texture again"
+    assert stale_line(s.stale) == ("STALE: calibration, model's solution, textures: calibrate then solve then "
+                                   "texture again")
     s.calibrate()  # the screen's Calibrate runs the same action, which records what it read
     found = {x.stage: x for x in s.stale}
     assert set(found) == {"model_solution", "textures"}
@@ -234,4 +236,5 @@ def test_the_walk_through_panel_lists_stale_results(room: Path) -> None:
     edit(room, lambda d: d["model"]["pins"].pop())
     lines = stale_lines(load_project(room))
     assert lines[0] == "STALE: model's solution, textures: solve then texture again"
-    assert lines[1].startswith("the model's solution is stale: the model's pins changed after solving; run `vebuild solve")
+    assert lines[1].startswith("the model's solution is stale: the model's pins changed after solving; "
+                               "run `vebuild solve")
