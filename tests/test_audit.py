@@ -169,3 +169,10 @@ def test_the_report_shows_the_processing_record(room: Path) -> None:
     for e in trail:
         assert e["after_sha256"][:12] in section
     assert "The chain verifies" in section
+
+
+def test_source_date_epoch_sets_the_time(monkeypatch: pytest.MonkeyPatch) -> None:
+    from vebuild.project.provenance import audit_entry
+
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1700000000")
+    assert audit_entry("solve", ["P"], None, "0" * 64)["time"] == "2023-11-14T22:13:20Z"

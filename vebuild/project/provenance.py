@@ -44,6 +44,7 @@ import contextvars
 import datetime
 import hashlib
 import json
+import os
 import shlex
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
@@ -287,10 +288,15 @@ def current_command() -> tuple[str, tuple[str, ...]] | None:
 
 
 def audit_entry(command: str, arguments: Sequence[str], before: str | None, after: str) -> dict[str, Any]:
-    """One audit entry (FORMAT.md, "audit")."""
+    """One audit entry (FORMAT.md, "Audit trail"). Its time is now, or, where the environment sets
+    ``SOURCE_DATE_EPOCH`` (the reproducible-builds convention: seconds since 1970 UTC), that time,
+    so that a run can be reproduced byte for byte."""
     from .. import __version__
 
-    time = datetime.datetime.now(datetime.UTC).replace(microsecond=0).isoformat().replace("+00:00", "Z")
+    epoch = os.environ.get("SOURCE_DATE_EPOCH", "").strip()
+    when = (datetime.datetime.fromtimestamp(int(epoch), datetime.UTC) if epoch.isdigit()
+            else datetime.datetime.now(datetime.UTC))
+    time = when.replace(microsecond=0).isoformat().replace("+00:00", "Z")
     return {"command": command, "arguments": list(arguments), "vebuild": __version__, "time": time,
             "before_sha256": before, "after_sha256": after}
 
