@@ -176,3 +176,9 @@ def test_source_date_epoch_sets_the_time(monkeypatch: pytest.MonkeyPatch) -> Non
 
     monkeypatch.setenv("SOURCE_DATE_EPOCH", "1700000000")
     assert audit_entry("solve", ["P"], None, "0" * 64)["time"] == "2023-11-14T22:13:20Z"
+
+
+def test_a_word_that_is_not_utf8_is_kept_as_its_bytes() -> None:
+    from vebuild.project.provenance import audit_entry
+
+    assert audit_entry("calibrate", ["caf\udce9.json"], None, "0" * 64)["arguments"] == ["caf\\xe9.json"]

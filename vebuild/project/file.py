@@ -171,11 +171,11 @@ def save_project(project_or_path: Project | str | os.PathLike[str],
         if data is None:
             raise TypeError("save_project(path, data): data is required when a path is given")
         before = None
+    if not validated:
+        validate(data, path)
     trail = data.get("audit")
-    after = _append_audit(path, data, before)
+    after = _append_audit(path, data, before)  # an entry valid by construction (provenance.audit_entry)
     try:
-        if not validated:
-            validate(data, path)
         _write_document(path, data)
     except BaseException:
         if after is not None:  # the entry is taken back: the document is as it was given

@@ -297,7 +297,9 @@ def audit_entry(command: str, arguments: Sequence[str], before: str | None, afte
     when = (datetime.datetime.fromtimestamp(int(epoch), datetime.UTC) if epoch.isdigit()
             else datetime.datetime.now(datetime.UTC))
     time = when.replace(microsecond=0).isoformat().replace("+00:00", "Z")
-    return {"command": command, "arguments": list(arguments), "vebuild": __version__, "time": time,
+    # A word the shell gave as bytes that are not UTF-8 (a file name) is kept with those bytes as \xNN.
+    words = [os.fsencode(a).decode("utf-8", "backslashreplace") for a in arguments]
+    return {"command": command, "arguments": words, "vebuild": __version__, "time": time,
             "before_sha256": before, "after_sha256": after}
 
 
