@@ -180,17 +180,18 @@ TITLES = {"calibration": "the calibration", "model_solution": "the model's solut
 
 
 def _describe(key: str) -> str:
+    """An input's name in words (a name vebuild does not write, from an edited file, as it is)."""
     parts = key.split("/")
-    if parts[0] == "photos":
+    if parts[0] == "photos" and len(parts) == 3:
         pid, part = parts[1], parts[2]
         return {"image": f"the image of photo {pid}", "camera": f"the camera data of photo {pid} (EXIF, focal "
                 "length, principal point or height)", "marks": f"the marks of photo {pid}",
-                "pins": f"the pins of photo {pid}"}[part]
-    if parts[0] == "model" and parts[1] == "nodes":
+                "pins": f"the pins of photo {pid}"}.get(part, key)
+    if parts[0] == "model" and len(parts) > 2 and parts[1] == "nodes":
         return f"node {'/'.join(parts[2:])} of the model"
-    if key.startswith("calibration/cameras/"):
+    if key.startswith("calibration/cameras/") and len(parts) == 3:
         return f"the calibrated camera of photo {parts[2]}"
-    if key.startswith("cameras/"):
+    if key.startswith("cameras/") and len(parts) == 2:
         return f"the camera of photo {parts[1]}"
     return {"model/pins": "the model's pins", "model/edge_observations": "the model's edge observations",
             "calibration/markers": "the calibrated markers", "calibration/other": "the calibration record",
@@ -204,11 +205,11 @@ def _differences(recorded: Mapping[str, Any], now: Mapping[str, str], stage: str
     out = []
     whole = {}  # photos added or removed as a whole: named once
     for key in sorted(set(recorded) ^ set(now)):
-        if key.startswith("photos/") and key.endswith("/image"):
+        if key.startswith("photos/") and key.endswith("/image") and key.count("/") == 2:
             whole[key.split("/")[1]] = "added" if key in now else "removed"
             out.append(f"photo {key.split('/')[1]} was {whole[key.split('/')[1]]} after {verb}")
     for key in sorted(set(recorded) | set(now)):
-        if key.startswith("photos/") and key.split("/")[1] in whole:
+        if key.startswith("photos/") and key.count("/") == 2 and key.split("/")[1] in whole:
             continue
         if key not in now:
             out.append(f"{_describe(key)} was removed after {verb}")
