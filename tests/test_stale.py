@@ -238,3 +238,23 @@ def test_the_walk_through_panel_lists_stale_results(room: Path) -> None:
     assert lines[0] == "STALE: model's solution, textures: solve then texture again"
     assert lines[1].startswith("the model's solution is stale: the model's pins changed after solving; "
                                "run `vebuild solve")
+
+
+def test_a_registered_photo_is_stamped_with_its_pins(tmp_path: Path) -> None:
+    folder = tmp_path / "room"
+    shutil.copytree(ROOM, folder)
+    path = folder / PROJECT
+    edit(path, lambda d: d["photos"][4].update(vanishing_segments={}))  # p5 is left to `vebuild register`
+    for words in (["calibrate", str(path), "--quiet"], ["solve", str(path)], ["register", str(path), "p5"]):
+        code, _, err = run(*words)
+        assert code == 0, err
+    data = json.loads(path.read_text(encoding="utf-8"))
+    assert "photos/p5/pins" in data["calibration"]["computed_from"]
+    assert "photos/p1/pins" not in data["calibration"]["computed_from"]  # p1 was not placed from the model
+    (s,) = stale(data)  # the new camera is one the solution did not have
+    assert (s.stage, s.reason) == ("model_solution", "the calibrated camera of photo p5 was added after solving")
+
+    def move_pin(d: dict) -> None:
+        next(p for p in d["model"]["pins"] if p["photo"] == "p5")["uv"][0] += MOVED_PX
+    found = stale(edit(path, move_pin))
+    assert found[0].stage == "calibration" and found[0].reason == "the pins of photo p5 changed after calibrating"
