@@ -545,6 +545,20 @@ case("coverage-page-path-dotdot", setter(("textures", "pages", 0, "coverage"), "
 case("atlas-page-path-backslash", setter(("textures", "pages", 0, "atlas"), "textures\\atlas_0.png"),
      V + ["render-view", "export"], [P, "$.textures.pages[0].atlas"])
 
+# The audit trail (FORMAT.md, "Audit trail"): every entry as the schema gives it, else refused at load.
+case("audit-not-a-list", setter(("audit",), {"command": "solve"}), LOAD_SHORT, [P, "$.audit"])
+case("audit-entry-without-after-hash", doc_fn(lambda d: d["audit"][0].pop("after_sha256")), LOAD_SHORT,
+     [P, "$.audit[0]", "after_sha256"])
+case("audit-before-hash-not-hex", setter(("audit", 0, "before_sha256"), "not a hash"), V + ["solve"],
+     [P, "$.audit[0].before_sha256"])
+case("audit-time-not-iso", setter(("audit", 0, "time"), "yesterday"), V + ["solve"], [P, "$.audit[0].time"])
+case("audit-arguments-not-words", setter(("audit", 0, "arguments"), [1, 2]), V + ["solve"],
+     [P, "$.audit[0].arguments[0]"])
+case("audit-entry-unknown-key", doc_fn(lambda d: d["audit"][0].update(comment="edited")), V + ["solve"],
+     [P, "$.audit[0]", "comment"])
+case("computed-from-not-a-hash", setter(("model_solution", "computed_from", "settings"), 42), V + ["solve"],
+     [P, "$.model_solution.computed_from.settings"])
+
 
 def _atlas_file(ctx: Ctx) -> Path:
     return ctx.folder / ctx.doc["textures"]["pages"][0]["atlas"]

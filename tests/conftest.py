@@ -67,10 +67,7 @@ def textured_room(tmp_path_factory):
     import shutil
     from pathlib import Path
 
-    from vebuild.actions.texture import texture_project
     from vebuild.cli import main
-    from vebuild.project import load_project, save_project
-    from vebuild.texture.options import Options
 
     room = Path(__file__).resolve().parents[1] / "scenes" / "room"
     folder = tmp_path_factory.mktemp("render") / "room"
@@ -78,7 +75,6 @@ def textured_room(tmp_path_factory):
     proj = folder / "room.vebuild.json"
     assert main(["calibrate", str(proj), "--quiet"]) == 0
     assert main(["solve", str(proj)]) == 0
-    project = load_project(proj)
-    texture_project(project, Options(texels_per_metre=100.0))
-    save_project(project)
+    # Through the command line, as the stages before it, so that the audit trail records it too.
+    assert main(["texture", str(proj), "--density", "100", "--quiet"]) == 0
     return proj

@@ -5,7 +5,9 @@ BLAS adds its partial sums in an order that depends on its thread count, so each
 fresh process with its own ``OPENBLAS_NUM_THREADS`` / ``OMP_NUM_THREADS`` (and llvmpipe's
 ``LP_NUM_THREADS``), set before numpy loads, as on a machine with that many cores. The pipeline
 is the example room with a coarse texture and small renders: calibrate, solve --recalibrate,
-texture, render, export (.glb and .obj), analyses and the report (HTML and its images).
+texture, render, export (.glb and .obj), analyses and the report (HTML and its images). Both
+runs give the same words from inside their folders and the same ``SOURCE_DATE_EPOCH``, so that
+the project's audit trail, which records the commands and their time, is the same too.
 """
 
 from __future__ import annotations
@@ -24,25 +26,27 @@ ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "scenes" / "room"
 
 PIPELINE = """
+import os
 import sys
 from pathlib import Path
 from vebuild.cli import main
 
 out = Path(sys.argv[1])
-p = str(out / "room.vebuild.json")
+os.chdir(out)  # the same words in both runs: the audit trail records them
+p = "room.vebuild.json"
 (out / "renders").mkdir()
 (out / "export").mkdir()
 steps = [
     ["calibrate", p, "--quiet"],
     ["solve", p, "--recalibrate"],
     ["texture", p, "--density", "50", "--quiet"],
-    ["render", p, "--view", "doorway", "--size", "320x180", "--out", str(out / "renders" / "doorway.png")],
+    ["render", p, "--view", "doorway", "--size", "320x180", "--out", "renders/doorway.png"],
     ["render", p, "--view", "overview", "--lighting", "daylight", "--size", "320x180",
-     "--out", str(out / "renders" / "overview-daylight.png")],
-    ["render", p, "--photo", "p1", "--validate", "--size", "320x240", "--out", str(out / "renders" / "p1.png")],
-    ["export", p, "--out", str(out / "export" / "room.glb")],
-    ["export", p, "--out", str(out / "export" / "room.obj")],
-    ["report", p, "--out", str(out / "report"), "--no-pdf", "--quiet"],
+     "--out", "renders/overview-daylight.png"],
+    ["render", p, "--photo", "p1", "--validate", "--size", "320x240", "--out", "renders/p1.png"],
+    ["export", p, "--out", "export/room.glb"],
+    ["export", p, "--out", "export/room.obj"],
+    ["report", p, "--out", "report", "--no-pdf", "--quiet"],
 ]
 for argv in steps:
     if main(argv) != 0:
@@ -60,7 +64,8 @@ def _run(folder: Path, threads: int) -> None:
     ]
     project.write_text(json.dumps(data, indent=1))
     env = dict(os.environ, OPENBLAS_NUM_THREADS=str(threads), OMP_NUM_THREADS=str(threads),
-               LP_NUM_THREADS=str(threads), PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))
+               LP_NUM_THREADS=str(threads), SOURCE_DATE_EPOCH="1700000000",  # the audit trail's time
+               PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))
     proc = subprocess.run([sys.executable, "-c", PIPELINE, str(folder)], env=env, capture_output=True, text=True,
                           timeout=600)
     assert proc.returncode == 0, proc.stderr[-3000:]

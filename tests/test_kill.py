@@ -63,7 +63,8 @@ def state(folder: Path) -> dict[str, object]:
 
 
 def spawn(folder: Path, argv: list[str]) -> subprocess.Popen[bytes]:
-    env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""),
+           "SOURCE_DATE_EPOCH": "1700000000"}  # the audit trail's time: the same new state in every run
     return subprocess.Popen([sys.executable, "-m", "vebuild.cli", *argv], cwd=folder, env=env,
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
 
@@ -232,7 +233,8 @@ def test_sigkill_inside_a_write_leaves_the_old_state_and_the_next_run_cleans_up(
     folder = tmp_path / "room"
     shutil.copytree(base, folder)
     old = state(folder)
-    env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""),
+           "SOURCE_DATE_EPOCH": "1700000000"}  # the audit trail's time: the same new state in every run
     proc = subprocess.Popen([sys.executable, "-c", STALL.format(kind=kind), "-", *STAGES[stage]], cwd=folder,
                             env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     try:

@@ -12,10 +12,21 @@ import json
 import sys
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from . import __version__
 from .errors import VebuildError
+
+if TYPE_CHECKING:
+    from .project import Project
+
+
+def _warn_stale(project: Project, command: str) -> None:
+    """Name each stale result the command reads (vebuild.project.provenance.READS), on stderr."""
+    from .project.provenance import stale_warnings
+
+    for line in stale_warnings(project, command):
+        print(line, file=sys.stderr)
 
 
 def _cmd_calibrate(args: argparse.Namespace) -> int:
@@ -43,6 +54,7 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     from .project.outputs import begin_stage
 
     project = load_project(args.project)
+    _warn_stale(project, "solve")
     begin_stage(project)
     result = solve_project(project, recalibrate=args.recalibrate, refine_intrinsics=not args.fixed_intrinsics)
     save_project(project)
@@ -57,6 +69,7 @@ def _cmd_view(args: argparse.Namespace) -> int:
     from .viewer.app import run_viewer
 
     project = load_project(args.project)
+    _warn_stale(project, "view")
     run_viewer(project, parse_size(args.size), hypothesis=args.hypothesis, view=args.view, samples=args.samples,
                quad_stereo=args.quad_stereo)
     return 0
@@ -107,7 +120,8 @@ def _cmd_report(args: argparse.Namespace) -> int:
     from .report.write import write_report
 
     project = load_project(args.project)
-    bar = tqdm(total=13 - int(args.no_pdf), desc="report", unit="section", disable=not _progress_wanted(args))
+    _warn_stale(project, "report")
+    bar = tqdm(total=14 - int(args.no_pdf), desc="report", unit="section", disable=not _progress_wanted(args))
 
     def step(what: str) -> None:
         bar.set_postfix_str(what)
@@ -137,6 +151,7 @@ def _cmd_render(args: argparse.Namespace) -> int:
         return 0
     if not args.out:
         raise VebuildError("render: --out FILE.png is required (or --list to see the views and presets)")
+    _warn_stale(project, "render")
     req = RenderRequest(out=Path(args.out), view=args.view, photo=args.photo,
                         size=parse_size(args.size) if args.size is not None else None, lighting=args.lighting,
                         stereo=args.stereo, eye_separation=args.eye_separation, convergence=args.convergence,
@@ -171,6 +186,7 @@ def _cmd_texture(args: argparse.Namespace) -> int:
                           exposure=not args.no_exposure)
     except VebuildError as e:
         raise VebuildError(f"{project.path}: {e}") from None
+    _warn_stale(project, "texture")
     with progress_bar(_progress_wanted(args)) as progress:
         record, _ = texture_project(project, options, progress)  # pages, then the project, then old pages
     from .project.units import length_unit
@@ -188,6 +204,7 @@ def _cmd_video(args: argparse.Namespace) -> int:
     from .render.video import DEFAULT_SPEED, Timing, VideoRequest, parse_views, render_video
 
     project = load_project(args.project)
+    _warn_stale(project, "video")
     unit = length_unit(project.data)
     if args.seconds is None:
         unit.refuse(f"video: the walking speed ({args.speed or DEFAULT_SPEED:g} m/s; give --seconds per segment "
@@ -215,6 +232,7 @@ def _cmd_register(args: argparse.Namespace) -> int:
     from .project import load_project, save_project
 
     project = load_project(args.project)
+    _warn_stale(project, "register")
     done = register_photos(project, args.photos or None)
     save_project(project)
     cal = project.data["calibration"]
@@ -229,6 +247,7 @@ def _cmd_export(args: argparse.Namespace) -> int:
     from .render.export import export_model
 
     project = load_project(args.project)
+    _warn_stale(project, "export")
     r = export_model(project, args.out)
     what = {"glb": "glTF 2.0 binary", "obj": "Wavefront OBJ + MTL"}[r.format]
     size = sum(f.stat().st_size for f in r.files)
@@ -249,21 +268,23 @@ def _cmd_export(args: argparse.Namespace) -> int:
 
 
 def _cmd_check(args: argparse.Namespace) -> int:
-    from .actions.check import check_project
+    from .actions.check import check_project, project_status
     from .project import load_project
 
     project = load_project(args.project)
     details = check_project(project)
     photos = project.data["photos"]
-    print(f"{project.path}: valid vebuild project (format version {project.data['version']}), "
-          f"{len(photos)} photo(s), hashes verified")
+    status = project_status(project)
+    outside = "; changed outside vebuild (see the audit trail below)" if status.audit else ""
+    print(f"{project.path}: {'stale' if status.stale else 'valid'} vebuild project (format version "
+          f"{project.data['version']}), {len(photos)} photo(s), hashes verified{outside}")
     for p in photos:
         n_seg = sum(len(v) for v in (p.get("vanishing_segments") or {}).values())
         print(f"  {p['id']:<10} {p['file']:<28} {p['width']}×{p['height']}  sha256 {p['sha256'][:16]}…  "
               f"{n_seg} segments, {len(p.get('marker_observations') or {})} markers")
-    for line in details:
+    for line in details + status.lines:
         print(f"  {line}")
-    return 0
+    return 0 if status.clean else 1
 
 
 def _cmd_new(args: argparse.Namespace) -> int:
@@ -504,7 +525,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="FILE.glb (model, textures, views and photo cameras) or FILE.obj (model and textures)")
     p.set_defaults(func=_cmd_export)
 
-    p = sub.add_parser("check", help="validate a project file and verify its photos' hashes")
+    p = sub.add_parser("check", help="validate a project file, verify its photos' hashes and audit trail, and say "
+                       "which results are stale (exit status 1 if any is, or if the file was changed outside vebuild)")
     p.add_argument("project")
     p.set_defaults(func=_cmd_check)
 
@@ -535,8 +557,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         from .determinism import fixed_threads
+        from .project.provenance import command_context
 
-        with fixed_threads():  # every figure, not only the solvers', the same on any machine
+        words = list(sys.argv[1:] if argv is None else argv)
+        arguments = words[words.index(args.command) + 1:] if args.command in words else words
+        # Every save of the project file while the command runs appends its audit entry (project/file.py).
+        with fixed_threads(), command_context(args.command, arguments):
             return int(args.func(args))
     except VebuildError as e:
         print(f"vebuild {args.command}: error: {e}", file=sys.stderr)

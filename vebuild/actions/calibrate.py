@@ -26,7 +26,7 @@ from ..calibration.single_photo import (
     place_single_photo,
 )
 from ..errors import CalibrationError
-from ..project import Project, canonical_input_hash, decode
+from ..project import Project, canonical_input_hash, decode, provenance
 from ..project.decode import check_reference_handles
 from ..project.records import camera_record, distortion_record, json_values, value_sigma
 from ..project.units import METRES, RELATIVE
@@ -165,6 +165,7 @@ def _calibrate(project: Project, progress: Callable[[Iterable], Iterable]) -> di
         result["warnings"].append(f"photo '{pid}' has no vanishing segments and is not calibrated: mark segments, "
                                   "or register it to the solved model (`vebuild register`, from 4 known points)")
     data["calibration"] = result
+    provenance.stamp(data, "calibration")  # what it was computed from (vebuild.project.provenance)
     return result
 
 

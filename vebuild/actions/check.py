@@ -9,11 +9,13 @@ same functions as those commands, so it reports the very error they would, and i
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from ..errors import ProjectError, VebuildError
 from ..project import Project
 from ..project import decode as dec
+from ..project.provenance import AuditProblem, Stale, stale, verify_audit
 
 if TYPE_CHECKING:
     from ..model.scene import Model
@@ -118,3 +120,40 @@ def _check_model_solution(project: Project) -> None:
     from ..analysis.solved import check_model_solution
 
     check_model_solution(project)
+
+
+@dataclass(frozen=True)
+class Status:
+    """Whether a project's results are current and its audit trail whole (``vebuild check``).
+
+    ``stale``: the stale results (vebuild.project.provenance.stale); ``audit``: the breaks in the
+    audit chain; ``lines``: both in words, for the check's report; ``clean``: neither.
+    """
+
+    stale: list[Stale]
+    audit: list[AuditProblem]
+    lines: list[str]
+
+    @property
+    def clean(self) -> bool:
+        return not self.stale and not self.audit
+
+
+def project_status(project: Project) -> Status:
+    """The stale results and the audit trail's breaks, with lines saying so (or that all is current)."""
+    data = project.data
+    found = stale(data, str(project.path))
+    breaks = verify_audit(data)
+    lines = [f"stale: {s.message}" for s in found]
+    present = [s for s in ("calibration", "model_solution", "textures") if isinstance(data.get(s), dict)]
+    if present and not found:
+        lines.append(f"current: {', '.join(present)} (each computed from the project as it is now)")
+    trail = data.get("audit") or []
+    if not trail:
+        lines.append("audit trail: none (no command of this vebuild has changed the project yet)")
+    elif not breaks:
+        last = trail[-1]
+        lines.append(f"audit trail: {len(trail)} command(s), the chain verified; the file is as `vebuild "
+                     f"{last['command']}` wrote it ({last['time']})")
+    lines += [f"audit trail: {b.message}" for b in breaks]
+    return Status(found, breaks, lines)

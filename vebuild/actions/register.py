@@ -37,7 +37,7 @@ from ..calibration.priors import DistortionPrior
 from ..calibration.register import Registered, register_from_points, register_with_vanishing_points
 from ..camera import ImageCamera
 from ..errors import CalibrationError, VebuildError
-from ..project import Project, decode
+from ..project import Project, decode, provenance
 from ..project.decode import known_points
 from ..project.records import camera_record, distortion_record, json_values
 from .calibrate import exif_focal_prior
@@ -112,6 +112,7 @@ def register_photos(project: Project, photo_ids: list[str] | None = None) -> dic
             reason += f", through its lens distortion (k1 {reg.k1:+.4f}, {reg.k1_source})"
         cal["cameras"][pid] = _record(reg, names, reason, photo["width"], photo["height"])
         out[pid] = reg
+    provenance.stamp(data, "calibration", photos=list(out))  # these photos' inputs (vebuild.project.provenance)
     return out
 
 

@@ -36,7 +36,7 @@ from ..model.residuals import MarkerObservation
 from ..model.scene import Model
 from ..model.solution import handle_covariances
 from ..model.solver import FINAL_PRIOR_SCALE, MarkerData, Problem, ProblemOptions
-from ..project import Project, decode, json_path
+from ..project import Project, decode, json_path, provenance
 from ..project.decode import cameras_from_calibration, load_model
 from ..project.records import camera_record, distortion_record, json_values, value_sigma
 from ..project.units import length_unit
@@ -110,6 +110,7 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
     result["warnings"] = uncalibrated_pin_warnings(data, cameras)
     data["model_solution"] = result
     result["check_distances"] = final_check_distances(project)
+    provenance.stamp(data, "model_solution")  # what it was computed from (vebuild.project.provenance)
     return result
 
 

@@ -31,6 +31,7 @@ from vebuild.project.atomic import write_bytes
 from vebuild.project.decode import cameras as final_cameras
 from vebuild.project.decode import load_model
 from vebuild.project.outputs import begin_stage
+from vebuild.project.provenance import stamp
 from vebuild.texture.extract import PhotoSource, TextureResult, extract
 from vebuild.texture.gpu import Timings
 from vebuild.texture.merge import linear_to_srgb8
@@ -70,6 +71,7 @@ def texture_project(project: Project, options: Options | None = None,
     folder = texture_folder(project, make=True)
     record = _write(project, result, options, folder)
     data["textures"] = record
+    stamp(data, "textures")  # what it was computed from (vebuild.project.provenance)
     if not save:
         return record, result
     try:

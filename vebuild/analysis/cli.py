@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -170,8 +171,11 @@ def request_from_args(args: argparse.Namespace) -> Request:
 
 def _run(args: argparse.Namespace, to_request: ToRequest) -> int:
     from ..project import load_project
+    from ..project.provenance import stale_warnings
 
     project = load_project(args.project)
+    for line in stale_warnings(project, "analyse"):  # the stale results it reads (vebuild.project.provenance)
+        print(line, file=sys.stderr)
     if args.json:
         from ..project.outputs import check_file
 

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from imgui_bundle import imgui
 
+from vebuild.project.provenance import stale_line
+
 from .keys import EDITOR_KEYS, tool_key
 from .layout import MESSAGES_SHOWN, MIDDLE_POINT_HINT, STRIP_H, THUMB_H, TOOL_HINTS, TOOLBAR_H, TOOLS, EditorPart
 
@@ -59,7 +61,16 @@ class Bars(EditorPart):
         if s.dirty:
             status += "   unsaved (autosaved)"
         imgui.text(status)
+        self._draw_stale()
         imgui.end()
+
+    def _draw_stale(self) -> None:
+        """The stale line: which results no longer fit the project, each message in its tooltip."""
+        line = stale_line(self.session.stale)
+        if line:
+            imgui.same_line()
+            imgui.text_colored(imgui.ImVec4(1.0, 0.45, 0.1, 1.0), line)
+            imgui.set_item_tooltip("\n".join(s.message for s in self.session.stale))
 
     def _draw_strip(self) -> None:
         W, H = self.size()

@@ -27,6 +27,7 @@ from vebuild.camera import ImageCamera
 from vebuild.errors import VebuildError
 from vebuild.model.undo import UndoStack
 from vebuild.project import Project, load_project, new_photo_entry
+from vebuild.project.provenance import Stale, stale
 
 from .history import UNDO_DEPTH, EditError
 from .marks import AXES, VanishingState
@@ -77,6 +78,13 @@ class EditSession(SessionOverlays):
         if s.recovery_available and recover is not None:
             s.recover() if recover else s.discard_recovery()
         return s
+
+    @property
+    def stale(self) -> list[Stale]:
+        """The stale results of the project as edited (the toolbar's stale line), once per change."""
+        if "stale" not in self._cache:
+            self._cache["stale"] = stale(self.data, str(self.project.path))
+        return list(self._cache["stale"])
 
     # -- photos -----------------------------------------------------------------------------------
 

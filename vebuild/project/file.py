@@ -15,7 +15,7 @@ import hashlib
 import json
 import os
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 from typing import Any
 
@@ -50,8 +50,9 @@ DEFAULT_SETTINGS: dict[str, float] = {
     "principal_point_sigma_rel": PRINCIPAL_POINT_SIGMA_REL,
     "exif_focal_sigma_rel": 0.03,  # vebuild.calibration.exif.NOMINAL_FOCAL_SIGMA_REL: EXIF is nominal
 }
-#: Top-level keys written by vebuild's stages; they are not input, so the input hash skips them.
-RESULT_KEYS = ("calibration", "model_solution", "textures")
+#: Top-level keys written by vebuild's stages; they are not input, so the input hash skips them. The
+#: audit trail (``audit``, vebuild.project.provenance) is written with every save and is no input either.
+RESULT_KEYS = ("calibration", "model_solution", "textures", "audit")
 
 
 _ID_UNSAFE = re.compile(r"[^A-Za-z0-9_.-]+")
@@ -66,10 +67,13 @@ class Project:
     ----------
     path : the project file.
     data : the JSON document, as plain dicts and lists.
+    loaded_sha256 : :func:`vebuild.project.provenance.document_sha256` of the document as loaded (or
+        last saved): the ``before_sha256`` of the audit entry the next save appends.
     """
 
     path: Path
     data: dict[str, Any]
+    loaded_sha256: str | None = field(default=None, compare=False)
 
     @property
     def folder(self) -> Path:
@@ -129,7 +133,9 @@ def load_project(path: str | os.PathLike[str], *, verify_photos: bool = True) ->
         raise ProjectError(path, "", f"cannot read the project file: {e.strerror}") from None
     data = parse_document(text, path)
     validate(data, path)
-    project = Project(path, data)
+    from .provenance import document_sha256
+
+    project = Project(path, data, document_sha256(data))
     if verify_photos:
         for i, photo in enumerate(data["photos"]):
             _verify_photo(project, i, photo)
@@ -159,13 +165,47 @@ def save_project(project_or_path: Project | str | os.PathLike[str],
     if isinstance(project_or_path, Project):
         path = project_or_path.path
         data = project_or_path.data if data is None else data
+        before = project_or_path.loaded_sha256
     else:
         path = Path(project_or_path)
         if data is None:
             raise TypeError("save_project(path, data): data is required when a path is given")
+        before = None
     if not validated:
         validate(data, path)
+    trail = data.get("audit")
+    after = _append_audit(path, data, before)  # an entry valid by construction (provenance.audit_entry)
+    try:
+        _write_document(path, data)
+    except BaseException:
+        if after is not None:  # the entry is taken back: the document is as it was given
+            if trail is None:
+                del data["audit"]
+            else:
+                data["audit"] = trail
+        raise
+    if isinstance(project_or_path, Project) and after is not None:
+        project_or_path.loaded_sha256 = after
+    return path
 
+
+def _append_audit(path: Path, data: dict[str, Any], before: str | None) -> str | None:
+    """Append the running command's audit entry (vebuild.project.provenance) to ``data`` when a
+    command is running (``vebuild.cli``) and this is the project file itself, not its autosave
+    side file, and the document changed; the document's hash after, or None."""
+    from .provenance import audit_entry, current_command, document_sha256
+
+    running = current_command()
+    if running is None or path.name.endswith(".autosave"):
+        return None
+    after = document_sha256(data)
+    if after == before and data.get("audit"):
+        return None
+    data["audit"] = [*(data.get("audit") or []), audit_entry(running[0], running[1], before, after)]
+    return after
+
+
+def _write_document(path: Path, data: dict[str, Any]) -> None:
     import io
 
     from .atomic import write_with  # beside the target, fsync'ed, renamed over it (vebuild/project/atomic.py)
@@ -182,7 +222,6 @@ def save_project(project_or_path: Project | str | os.PathLike[str],
     except OSError as e:
         raise ProjectError(path, "", f"cannot write the project file ({e.strerror or e}); "
                            "the file on disk is unchanged") from e
-    return path
 
 
 def autosave_path(project_path: str | os.PathLike[str]) -> Path:

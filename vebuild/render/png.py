@@ -22,11 +22,13 @@ from vebuild import __version__
 from vebuild.camera import ImageCamera
 from vebuild.errors import VebuildError
 from vebuild.project import Project, sha256_file
+from vebuild.project.provenance import stage_hashes, stale_record
 from vebuild.project.units import RELATIVE_UNITS, length_unit
 
 #: Text keys written into every rendered PNG.
 PROVENANCE_KEYS = ("Software", "vebuild:project", "vebuild:project_sha256", "vebuild:camera", "vebuild:lighting",
-                   "vebuild:stereo", "vebuild:textures", "vebuild:options", "vebuild:lengths")
+                   "vebuild:stereo", "vebuild:textures", "vebuild:options", "vebuild:lengths",
+                   "vebuild:stages", "vebuild:stale")  # the last two: vebuild.project.provenance
 
 def check_output(path: Path, suffixes: tuple[str, ...] = (".png",), project: Project | None = None) -> Path:
     """Fail early, before any work, if ``path`` cannot be written as an output file: also where
@@ -112,4 +114,6 @@ def provenance(project: Project, cam: ImageCamera, kind: str, lighting: str, ste
         "vebuild:options": js(options),
         # The unit of the camera's C (and of every length the image shows): metres, or relative.
         "vebuild:lengths": RELATIVE_UNITS if length_unit(project.data).relative else "metres",
+        # The SHA-256 of each stage's record the render used, and the stale ones with their reasons.
+        "vebuild:stages": js(stage_hashes(project.data)), "vebuild:stale": js(stale_record(project.data)),
     }

@@ -13,6 +13,8 @@ import numpy as np
 from vebuild import __version__
 from vebuild.project import Project, sha256_file
 
+from .stale import banner_html
+
 if TYPE_CHECKING:
     from vebuild.analysis.measure import CheckResult
 
@@ -135,6 +137,7 @@ def title_page(project: Project) -> str:
 def page(project: Project, rep: Report) -> str:
     data = project.data
     head = [title_page(project)]
+    head.insert(0, banner_html(project))  # with its <style>; "" for a current project (vebuild.report.stale)
     if rep.warnings:
         head.append("<p class='warn'>" + "<br>".join(esc(w) for w in rep.warnings) + "</p>")
     return ("<!DOCTYPE html><html><head><meta charset='utf-8'>"

@@ -136,11 +136,14 @@ def checks(project: Project, rep: Report) -> None:
 
 def limitations(project: Project, rep: Report) -> None:
     """What the figures rest on that no photo showed (:func:`vebuild.report.limitations.limitations`)."""
+    from vebuild.project.provenance import stale
+
     from .limitations import limitations as items
     from .limitations import limitations_html
 
+    found = stale(project.data, project.path.name)
     rep.add("Limitations", "<p>Made from the project itself: what an examiner should know before relying on "
-            "the figures and images of this report.</p>" + limitations_html(items(project, rep.checks)))
+            "the figures and images of this report.</p>" + limitations_html(items(project, rep.checks, found)))
 
 
 def plan(project: Project, rep: Report) -> None:

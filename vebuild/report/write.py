@@ -13,6 +13,7 @@ from vebuild.project import Project
 
 from . import sections
 from .page import Report, page
+from .processing import processing
 
 
 def write_report(project: Project, out: Path, pdf: bool = True,
@@ -45,7 +46,7 @@ def write_report(project: Project, out: Path, pdf: bool = True,
                  ("final cameras", sections.final_cameras), ("model", sections.model), ("checks", sections.checks),
                  ("limitations", sections.limitations), ("plan", sections.plan), ("views", sections.views),
                  ("marked photos", sections.marked_photos), ("validation", sections.validation),
-                 ("analyses", sections.analyses), ("hypotheses", sections.hypotheses)]
+                 ("analyses", sections.analyses), ("hypotheses", sections.hypotheses), ("processing", processing)]
         for name, fn in steps:
             step(name)
             fn(project, rep)

@@ -10,10 +10,19 @@ import glfw
 import numpy as np
 
 from vebuild.camera import project, world_to_camera
+from vebuild.project import Project
 from vebuild.project.hypotheses import LABEL
+from vebuild.project.provenance import stale, stale_line
 
 if TYPE_CHECKING:
     from vebuild.viewer.app import Viewer
+
+
+def stale_lines(project: Project) -> list[str]:
+    """The panel's stale lines: the short line, then each stale result's message; none if current."""
+    found = stale(project.data, str(project.path))
+    line = stale_line(found)
+    return [line, *(s.message for s in found)] if line else []
 
 
 class ViewerPanel:
@@ -24,6 +33,7 @@ class ViewerPanel:
         self.v = viewer
         self._new_view_name = ""
         self._new_hypothesis_name = ""
+        self.stale = stale_lines(viewer.project)  # the walk-through never changes a result
 
     def draw(self) -> None:
         from imgui_bundle import imgui
@@ -53,6 +63,10 @@ class ViewerPanel:
             if self.v.photo is not None:
                 opacity = f"{keys.key_for('change_opacity', -0.1)} {keys.key_for('change_opacity', 0.1)}"
                 imgui.text(f"photo {self.v.photo}, overlay {100 * self.v.photo_opacity:.0f} %  ({opacity})")
+            imgui.push_style_color(imgui.Col_.text, imgui.ImVec4(1.0, 0.45, 0.1, 1.0))
+            for line in self.stale:
+                imgui.text_wrapped(line)
+            imgui.pop_style_color()
             imgui.separator()
             imgui.text_wrapped("selection: " + (self.v.describe(self.v.selection) if self.v.selection else "none"))
             if banner:
