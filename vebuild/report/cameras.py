@@ -34,7 +34,9 @@ def _pm(values: Any, sigmas: Any, digits: int) -> str:
     return " / ".join(f"{v:.{digits}f} ± {s or 0:.{digits}f}" for v, s in zip(values, sigmas, strict=True))
 
 
-def camera_rows(records: Mapping[str, Mapping[str, Any]], mode: bool) -> list[list[Any]]:
+def camera_rows(records: Mapping[str, Mapping[str, Any]], mode: bool,
+                rms: Mapping[str, float | None] | None = None) -> list[list[Any]]:
+    """One row per camera record; ``rms`` (photo id → px) in place of the records' own ``rms_px``."""
     rows = []
     for pid, c in records.items():
         row = [pid] + ([c.get("mode", "")] if mode else [])
@@ -42,13 +44,29 @@ def camera_rows(records: Mapping[str, Mapping[str, Any]], mode: bool) -> list[li
                            fmt(c["principal_point"]["value"], 1),
                            _pm(c["ypr_deg"]["value"], c["ypr_deg"]["sigma"], 2),
                            _pm(c["position"]["value"], c["position"]["sigma"], 3),
-                           lens(c), fmt(c.get("rms_px"), 2)])
+                           lens(c), fmt(rms.get(pid) if rms is not None else c.get("rms_px"), 2)])
     return rows
 
 
-def _header(symbol: str, mode: bool) -> list[str]:
+def solve_rms(solution: Mapping[str, Any], records: Mapping[str, Mapping[str, Any]]) -> dict[str, float | None]:
+    """Photo id → the RMS (px, over both image axes) of the re-calibrating solve's residuals in that
+    photo: its pins, edge observations and marker sightings (``model_solution.pins``,
+    ``edge_observations``, the record's ``marker_residuals_px``); None where it has none."""
+    import numpy as np
+
+    out: dict[str, float | None] = {}
+    for pid, c in records.items():
+        res = [r["residual_px"] for key in ("pins", "edge_observations") for r in solution.get(key, [])
+               if r.get("photo") == pid]
+        res += list((c.get("marker_residuals_px") or {}).values())
+        flat = np.concatenate([np.ravel(np.asarray(r, float)) for r in res]) if res else np.zeros(0)
+        out[pid] = float(np.sqrt(np.mean(flat**2))) if flat.size else None
+    return out
+
+
+def _header(symbol: str, mode: bool, rms: str = "RMS px") -> list[str]:
     return ["photo"] + (["mode"] if mode else []) + ["focal px", "principal point px", "yaw / pitch / roll °",
-                                                      f"position x / y / z {symbol}", "lens", "RMS px"]
+                                                      f"position x / y / z {symbol}", "lens", rms]
 
 
 def calibration(project: Project, rep: Report) -> None:
@@ -89,7 +107,11 @@ def final_cameras(project: Project, rep: Report) -> None:
                 "textures, the renders and the plan view of this report."
                 + (f" Not re-calibrated, so their final cameras are the calibration's: {esc(', '.join(kept))}."
                    if kept else "") + "</p>"
-                + table(_header(unit.symbol, False), camera_rows(recal, False), {1, 2, 3, 4, 6}, wide=True))
+                + table(_header(unit.symbol, False, "RMS px (solve)"), camera_rows(recal, False, solve_rms(sol, recal)),
+                        {1, 2, 3, 4, 6}, wide=True)
+                + "<p>RMS px (solve): the residuals of the photo's pins, edges and marker sightings in the "
+                  "re-calibrating solve; in the table above, those of its vanishing segments and markers in the "
+                  "calibration.</p>")
     elif sol.get("recalibrated"):
         body = ("<p class='warn'>The solve re-calibrated the cameras, but the project keeps no re-calibrated "
                 "cameras apart from the calibration (a project solved by an earlier vebuild); the final cameras "
