@@ -258,3 +258,41 @@ def test_a_registered_photo_is_stamped_with_its_pins(tmp_path: Path) -> None:
         next(p for p in d["model"]["pins"] if p["photo"] == "p5")["uv"][0] += MOVED_PX
     found = stale(edit(path, move_pin))
     assert found[0].stage == "calibration" and found[0].reason == "the pins of photo p5 changed after calibrating"
+
+
+def test_the_glb_and_the_video_of_a_stale_project_say_so(room: Path) -> None:
+    """Every output made from a stale result records it: the glTF's ``asset.extras`` and the MP4's
+    comment carry the stage hashes they used and the stale stages with their reasons."""
+    import av
+
+    from vebuild.project.provenance import stage_hashes
+
+    current = json.loads(room.read_text(encoding="utf-8"))
+    glb = room.parent / "room.glb"
+    assert run("export", str(room), "--out", str(glb))[0] == 0
+    extras = _glb_json(glb)["asset"]["extras"]
+    assert extras["stale"] == {} and extras["stages"] == stage_hashes(current)
+
+    edit(room, lambda d: next(n for n in d["model"]["nodes"] if n["name"] == "cabinet")["primitive"]["params"]
+         .update(width=1.0))
+    code, _, err = run("export", str(room), "--out", str(glb))
+    assert code == 0 and "warning: the textures are stale" in err
+    assert set(_glb_json(glb)["asset"]["extras"]["stale"]) == {"model_solution", "textures"}
+
+    mp4 = room.parent / "walk.mp4"
+    code, _, err = run("video", str(room), "--views", "doorway,overview", "--out", str(mp4), "--size", "64x48",
+                       "--fps", "4", "--seconds", "0.5", "--quiet")
+    assert code == 0, err
+    with av.open(str(mp4)) as f:
+        comment = json.loads(f.metadata["comment"])
+    assert set(comment["stale"]) == {"model_solution", "textures"}
+    assert set(comment["stages"]) == {"calibration", "model_solution", "textures"}
+
+
+def _glb_json(path: Path) -> dict:
+    import struct
+
+    data = path.read_bytes()
+    length, kind = struct.unpack_from("<II", data, 12)
+    assert kind == 0x4E4F534A  # "JSON"
+    return json.loads(data[20:20 + length])

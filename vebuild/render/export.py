@@ -48,6 +48,7 @@ from vebuild.errors import VebuildError
 from vebuild.project import Project, sha256_file
 from vebuild.project.decode import TexturePage, camera_records, photo_camera, view_camera
 from vebuild.project.outputs import begin_stage, check_file
+from vebuild.project.provenance import stage_hashes, stale_record
 from vebuild.render.export_observed import (  # COVERAGE_EXTRAS: re-exported, the keys of the format
     COVERAGE_EXTRAS,  # noqa: F401
     SEEN_EXTRAS,
@@ -426,6 +427,8 @@ def _provenance(contents: _Contents) -> dict[str, Any]:
     solution = project.data.get("model_solution") or {}
     if "rms_px" in solution:
         out["model_rms_px"] = solution["rms_px"]
+    # what it was made from (vebuild.project.provenance): each stage record's SHA-256, and the stale ones
+    out["stages"], out["stale"] = stage_hashes(project.data), stale_record(project.data)
     return out
 
 

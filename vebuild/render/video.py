@@ -52,6 +52,7 @@ from vebuild import __version__
 from vebuild.camera import ImageCamera, focal_to_fov, intrinsic_matrix
 from vebuild.errors import ProjectError, VebuildError
 from vebuild.project.atomic import commit, temp_path
+from vebuild.project.provenance import stage_hashes, stale_record
 
 if TYPE_CHECKING:
     from vebuild.project import Project
@@ -535,7 +536,8 @@ def _render(project: Project, request: VideoRequest, path: CameraPath, lighting:
                                        "views": request.views, "keyframes": path.keyframes,
                                        "lighting": lighting.name, "stereo": request.stereo,
                                        "fps": path.fps, "unobserved": request.unobserved,
-                                       "unobserved_marked": marked}, ensure_ascii=False)}
+                                       "unobserved_marked": marked, "stages": stage_hashes(project.data),
+                                       "stale": stale_record(project.data)}, ensure_ascii=False)}
         start = time.perf_counter()
         with Mp4Writer(out, W, H, path.fps, request.crf, metadata=meta) as writer:
             for k in range(path.n_frames):
