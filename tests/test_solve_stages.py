@@ -164,7 +164,15 @@ def _mismatches(a: dict[str, Any], b: dict[str, Any]) -> list[str]:
 def test_recalibrating_three_times_gives_the_first_runs_figures(calibrated, tmp_path, capsys) -> None:
     path = _copy(calibrated, tmp_path / "room")
     calibration = json.loads(path.read_text())["calibration"]
-    runs = [_solve(path, "--recalibrate") for _ in range(3)]
+    runs = [_solve(path, "--recalibrate")]
+    # A re-run on unchanged inputs that reproduces the recorded figures keeps them (the next test's
+    # subject); to measure the solve itself, runs 2 and 3 start without a recorded solution, from
+    # the solved values run 1 wrote into model.nodes.
+    for _ in range(2):
+        data = json.loads(path.read_text())
+        del data["model_solution"]
+        path.write_text(json.dumps(data))
+        runs.append(_solve(path, "--recalibrate"))
     capsys.readouterr()
     for k, doc in enumerate(runs):
         # The calibration stage is untouched: it stays the prior of every re-calibration.
@@ -180,6 +188,19 @@ def test_recalibrating_three_times_gives_the_first_runs_figures(calibrated, tmp_
     # The issue's symptom: the table's width σ shrank run after run (1.0 → 0.8 → 0.8 mm here).
     widths = [r["model_solution"]["nodes"]["table.top"]["params"]["width"]["sigma"] for r in runs]
     assert widths[2] >= widths[0] * (1 - SIGMA_TOL_REL) and widths[1] >= widths[0] * (1 - SIGMA_TOL_REL), widths
+
+
+def test_a_rerun_that_reproduces_the_figures_keeps_the_recorded_solution(calibrated, tmp_path, capsys) -> None:
+    """Solving again on unchanged inputs, the same way, gives the recorded figures within the solver's
+    tolerance: the recorded solution and model stand, byte for byte, and nothing made from them turns
+    stale. Solved another way (plain after re-calibrating) the solution is written anew."""
+    path = _copy(calibrated, tmp_path / "room")
+    _solve(path, "--recalibrate")
+    text = path.read_text()
+    _solve(path, "--recalibrate")
+    assert path.read_text() == text
+    assert not _solve(path)["model_solution"]["recalibrated"]
+    capsys.readouterr()
 
 
 def test_plain_and_recalibrating_solves_in_either_order(calibrated, tmp_path, capsys) -> None:
@@ -364,3 +385,30 @@ def test_the_modelling_screen_says_the_warnings_and_check_distances(calibrated, 
     assert (c["a"], c["b"]) == ("T2", "C1")
     assert any(m.startswith("check distance T2–C1: ") and m.endswith(
         f"{'within' if c['within_ci95'] else 'OUTSIDE'} its 95 % interval") for m in s.messages)
+
+
+def test_a_solution_that_moved_past_the_solvers_tolerance_is_not_the_recorded_one() -> None:
+    """The recorded solution stands on a re-run only where every figure agrees within
+    REPRODUCED_SIGMA of its 1σ: a node moved by 2 × that share of its 1σ is a different answer,
+    and so is a 1σ grown by as much, or another set of outliers."""
+    import copy
+
+    from vebuild.actions.solve import REPRODUCED_SIGMA, reproduces
+
+    old = {"outliers": [], "nodes": {"box": {
+        "dofs": {"x": {"value": 1.0, "sigma": 0.002}},
+        "params": {"width": {"value": 0.6, "sigma": 0.001}, "depth": {"value": 0.4, "sigma": 0.0}},
+        "handles": {"v0": {"value": [1.0, 2.0, 0.0], "sigma": [0.002, 0.002, None]}}}}}
+    assert reproduces(old, copy.deepcopy(old))
+    near = copy.deepcopy(old)
+    near["nodes"]["box"]["params"]["width"]["value"] += 0.5 * REPRODUCED_SIGMA * 0.001
+    assert reproduces(old, near)
+    for change in (lambda n: n["params"]["width"].update(value=0.6 + 2 * REPRODUCED_SIGMA * 0.001),
+                   lambda n: n["params"]["width"].update(sigma=0.001 * (1 + 2 * REPRODUCED_SIGMA)),
+                   lambda n: n["params"]["depth"].update(value=0.4 + 1e-6),  # held (σ 0): any change counts
+                   lambda n: n["handles"]["v0"].update(sigma=[0.002, 0.002, 0.003]),
+                   lambda n: n["dofs"].pop("x")):
+        moved = copy.deepcopy(old)
+        change(moved["nodes"]["box"])
+        assert not reproduces(old, moved)
+    assert not reproduces(old, {**copy.deepcopy(old), "outliers": [{"photo": "p1", "node": "box"}]})
