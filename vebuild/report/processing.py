@@ -37,7 +37,8 @@ def processing(project: Project, rep: Report) -> None:
         body.append(table(["#", "time (UTC)", "command", "vebuild", "before SHA-256", "after SHA-256"],
                           [[i + 1, e["time"], " ".join(["vebuild", e["command"], *e["arguments"]]), e["vebuild"],
                             (e["before_sha256"] or "none")[:_HASH] + ("…" if e["before_sha256"] else ""),
-                            e["after_sha256"][:_HASH] + "…"] for i, e in enumerate(trail)], numeric={0}))
+                            e["after_sha256"][:_HASH] + "…"] for i, e in enumerate(trail)], numeric={0, 1, 4, 5},
+                          wide=True))
         breaks = verify_audit(data)
         body.append("<p class='warn'>" + "<br>".join(esc(b.message) for b in breaks) + "</p>" if breaks else
                     "<p>The chain verifies: each entry starts from the document the one before it wrote, and the "
