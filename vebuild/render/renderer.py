@@ -11,8 +11,8 @@ Two modes: unlit, the extracted textures as photographed (the built-in ``as-phot
 preset), and re-lit, the textures as surface colour under a preset's lights
 (:mod:`vebuild.lighting`), with shadow maps for the lights that cast them: one tile of a
 shared depth atlas for a directional light (orthographic, fitted to the scene) or a spot light
-(perspective, its cone), six for a point light (one per cube face). Shadow maps are rendered when
-the scene or the lighting changes, not every frame.
+(perspective, its cone), six for a point light (one per cube face; :mod:`vebuild.render.shadows`).
+Shadow maps are rendered when the scene or the lighting changes, not every frame.
 
 A photo's camera with lens distortion (``ImageCamera.k1`` ≠ 0) is drawn as the lens shows it, so
 that the render lies on the photo: the scene is drawn as the pinhole image over the photo's
@@ -45,10 +45,7 @@ from numpy.typing import NDArray
 from vebuild.camera import (
     ImageCamera,
     depth_range,
-    gl_orthographic,
     gl_projection,
-    intrinsic_matrix,
-    look_rotation,
     stereo_pair,
     undistort_pixels,
     view_matrix,
@@ -58,7 +55,7 @@ from vebuild.errors import VebuildError
 from vebuild.gl import load_program
 from vebuild.gl.context import max_texture_size
 from vebuild.gl.shaders import set_uniforms, uniform
-from vebuild.lighting import AS_PHOTOGRAPHED_LIGHTING, MAX_LIGHTS, Light, Lighting
+from vebuild.lighting import AS_PHOTOGRAPHED_LIGHTING, MAX_LIGHTS, Lighting
 from vebuild.render.observed import (
     DEFAULT_UNOBSERVED,
     HATCH_DUTY,
@@ -70,6 +67,7 @@ from vebuild.render.observed import (
     check_mode,
 )
 from vebuild.render.scene import RenderScene
+from vebuild.render.shadows import MAX_TILES, ShadowAtlas
 from vebuild.render.sizes import check_camera, gl_limits
 from vebuild.texture.lens import pinhole_cover
 from vebuild.texture.merge import srgb8_to_linear
@@ -77,8 +75,6 @@ from vebuild.texture.merge import srgb8_to_linear
 Array = NDArray[np.float64]
 
 GL_SRGB8 = 0x8C41
-#: Shadow tiles at most: a directional or spot light takes one, a point light six.
-MAX_TILES = 24
 STEREO_MODES = ("sbs", "tb", "anaglyph", "quad")
 #: Red-cyan anaglyph matrices (E. Dubois, "A projection method to generate anaglyph stereo
 #: images", ICASSP 2001): the least-squares fit of the perceived colours through red and cyan
@@ -86,10 +82,6 @@ STEREO_MODES = ("sbs", "tb", "anaglyph", "quad")
 ANAGLYPH_LEFT = np.array([[0.456, 0.500, 0.176], [-0.040, -0.038, -0.016], [-0.015, -0.021, -0.005]])
 ANAGLYPH_RIGHT = np.array([[-0.043, -0.088, -0.002], [0.378, 0.734, -0.018], [-0.072, -0.113, 1.226]])
 ANAGLYPH_LEFT.flags.writeable = ANAGLYPH_RIGHT.flags.writeable = False  # shared constants
-#: A point light's tiles look along these directions, in the order scene.frag's cube_face uses.
-CUBE_DIRECTIONS = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], float)
-#: Pixels kept free around a point light's 90° cube face inside its tile, for the shadow filter.
-CUBE_MARGIN_PX = 2.0
 
 
 @dataclass(frozen=True)
@@ -143,7 +135,7 @@ class Renderer:
         self._shadow_blank.compare_func = "<="
         self._targets: dict[tuple[int, int, str], tuple[moderngl.Framebuffer, moderngl.Framebuffer,
                                                         moderngl.Texture]] = {}
-        self._shadow: tuple[moderngl.Texture, moderngl.Framebuffer] | None = None
+        self._shadow = ShadowAtlas(ctx)
         self._shadow_state: dict[str, object] | None = None
         self.lighting: Lighting = AS_PHOTOGRAPHED_LIGHTING
         self.highlight: str | None = None
@@ -230,80 +222,10 @@ class Renderer:
 
     # -- shadows ---------------------------------------------------------------------------------
 
-    def _light_tiles(self, light: Light, size: int) -> list[tuple[Array, tuple[float, float]]]:
-        """(world → clip matrix, shadow texel size (at 1 m, perspective?)) of each of a light's tiles."""
-        lo, hi = self._bounds
-        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
-        if light.type == "directional":
-            assert light.direction is not None  # a directional light has one (lighting.Light)
-            R = look_rotation(light.direction)
-            xc = corners @ R.T
-            pad = 0.01 * max(1e-3, float(np.ptp(xc, axis=0).max())) + 1e-3
-            a, b = xc.min(axis=0) - pad, xc.max(axis=0) + pad
-            return [(gl_orthographic(R, a, b), (float((b - a)[:2].max()) / size, 0.0))]
-        position = light.position
-        assert position is not None  # point and spot lights have one (lighting.Light)
-        far = float(np.linalg.norm(corners - position, axis=1).max()) * 1.05 + 0.1
-        near = min(0.02, 0.5 * far)
-        dirs: list[Array]
-        if light.type == "spot":
-            assert light.direction is not None
-            half = min(light.outer_cone + math.radians(2.0), math.radians(89.0))
-            f = 0.5 * size / math.tan(half)
-            dirs = [light.direction]
-        else:
-            f = 0.5 * size - CUBE_MARGIN_PX
-            dirs = list(CUBE_DIRECTIONS)
-        K = intrinsic_matrix(f, size / 2, size / 2)
-        P = gl_projection(K, size, size, near, far)
-        return [(P @ view_matrix(look_rotation(d), position), (1.0 / f, 1.0)) for d in dirs]
-
     def _update_shadows(self) -> None:
-        shadows = self.options.shadows and self.lighting.lit
-        tiles: list[tuple[Array, tuple[float, float]]] = []
-        first: dict[int, int] = {}
-        size = int(self.options.shadow_size)
-        for i, light in enumerate(self.lighting.lights):
-            if shadows and light.shadows:
-                first[i] = len(tiles)
-                tiles += self._light_tiles(light, size)
-        state: dict[str, object] = {"first": first, "n": len(tiles)}
-        if tiles:
-            cols = math.ceil(math.sqrt(len(tiles)))
-            rows = math.ceil(len(tiles) / cols)
-            limit = max_texture_size(self.ctx)
-            size = min(size, limit // cols, limit // rows)
-            W, H = cols * size, rows * size
-            if self._shadow is None or self._shadow[0].size != (W, H):
-                if self._shadow is not None:
-                    self._shadow[1].release()
-                    self._shadow[0].release()
-                depth = self.ctx.depth_texture((W, H))
-                depth.compare_func = "<="
-                depth.filter = (moderngl.LINEAR, moderngl.LINEAR)
-                depth.repeat_x = depth.repeat_y = False
-                self._shadow = (depth, self.ctx.framebuffer(depth_attachment=depth))
-            depth, fbo = self._shadow
-            fbo.use()
-            fbo.viewport = (0, 0, W, H)
-            fbo.clear(depth=1.0)
-            self.ctx.enable(moderngl.DEPTH_TEST)
-            rects = []
-            for k, (M, _) in enumerate(tiles):
-                x, y = (k % cols) * size, (k // cols) * size
-                fbo.viewport = (x, y, size, size)
-                uniform(self.shadow_program, "light_matrix").write(M.T.astype("f4").tobytes())
-                self._shadow_vao.render(moderngl.TRIANGLES, vertices=self._n_indices)
-                rects.append((x / W, y / H, size / W, size / H))
-            self.ctx.disable(moderngl.DEPTH_TEST)
-            texel = np.zeros((MAX_TILES, 2), "f4")
-            texel[: len(tiles)] = [t for _, t in tiles]
-            mats = np.zeros((MAX_TILES, 4, 4), "f4")
-            mats[: len(tiles)] = [M.T for M, _ in tiles]
-            rect = np.zeros((MAX_TILES, 4), "f4")
-            rect[: len(tiles)] = rects
-            state.update(matrices=mats, rects=rect, texels=texel)
-        self._shadow_state = state
+        lights = self.lighting.lights if self.options.shadows and self.lighting.lit else ()
+        self._shadow_state = self._shadow.update(lights, int(self.options.shadow_size), self._bounds,
+                                                 self.shadow_program, self._shadow_vao, self._n_indices)
 
     # -- drawing ---------------------------------------------------------------------------------
 
@@ -406,8 +328,8 @@ class Renderer:
         target.clear(float(bg[0]), float(bg[1]), float(bg[2]), 0.0, depth=1.0, viewport=viewport)
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.disable(moderngl.CULL_FACE)
-        shadow_tex = self._shadow[0] if (self._shadow is not None and (self._shadow_state or {}).get("n")) \
-            else self._shadow_blank
+        shadow_tex = self._shadow.texture if (self._shadow.texture is not None
+                                              and (self._shadow_state or {}).get("n")) else self._shadow_blank
         shadow_tex.use(location=1)
         if "textured" in self.program:
             uniform(self.program, "textured").value = int(self.scene.textured)
@@ -637,10 +559,7 @@ class Renderer:
             resolve.release()
             image.release()
         self._targets.clear()
-        if self._shadow is not None:
-            self._shadow[1].release()
-            self._shadow[0].release()
-            self._shadow = None
+        self._shadow.release()
         self._release_pick_target()
 
 
