@@ -183,27 +183,15 @@ class Panels:
         imgui.set_next_item_width(60)
         self.length_axis = self.ed.combo("length axis", self.length_axis, list(AXES))
         imgui.same_line()
-        imgui.set_next_item_width(80)
-        _, self.length_m = imgui.input_text("m##length", self.length_m)
-        self.ed.rect("length m")
-        imgui.same_line()
-        imgui.set_next_item_width(70)
-        _, self.length_sigma = imgui.input_text("σ m##length", self.length_sigma)
-        self.ed.rect("length sigma")
-        imgui.set_item_tooltip(f"its 1σ in metres; blank: {KNOWN_LENGTH_SIGMA_M:g} m")
+        self.length_m, self.length_sigma = self._metres_and_sigma("length", self.length_m, self.length_sigma,
+                                                                  KNOWN_LENGTH_SIGMA_M)
         if self.ed.button("Add length", tip="the length drawn with the Known length tool, with these metres"):
             self.add_length()
         imgui.separator()
         h = s.photo(photo).get("camera_height")
         imgui.text(f"camera height in {photo}: " + (f"{h['value']:g} ± {h['sigma']:g} m" if h else "not given"))
-        imgui.set_next_item_width(80)
-        _, self.height_m = imgui.input_text("m##height", self.height_m)
-        self.ed.rect("height m")
-        imgui.same_line()
-        imgui.set_next_item_width(70)
-        _, self.height_sigma = imgui.input_text("σ m##height", self.height_sigma)
-        self.ed.rect("height sigma")
-        imgui.set_item_tooltip(f"its 1σ in metres; blank: {CAMERA_HEIGHT_SIGMA_M:g} m")
+        self.height_m, self.height_sigma = self._metres_and_sigma("height", self.height_m, self.height_sigma,
+                                                                  CAMERA_HEIGHT_SIGMA_M)
         imgui.same_line()
         if self.ed.button("Set height", tip="the camera's height above the floor when the photo was taken"):
             self.set_height()
@@ -211,6 +199,19 @@ class Panels:
             imgui.same_line()
             if self.ed.button("Remove height"):
                 self.ed.guard(s.set_camera_height, photo, None)
+
+    def _metres_and_sigma(self, what: str, metres: str, sigma: str, default_sigma: float) -> tuple[str, str]:
+        """A length's two fields, metres and its 1σ (blank: ``default_sigma``), as typed; each
+        registered under "WHAT m" and "WHAT sigma" for the window tests."""
+        imgui.set_next_item_width(80)
+        _, metres = imgui.input_text(f"m##{what}", metres)
+        self.ed.rect(f"{what} m")
+        imgui.same_line()
+        imgui.set_next_item_width(70)
+        _, sigma = imgui.input_text(f"σ m##{what}", sigma)
+        self.ed.rect(f"{what} sigma")
+        imgui.set_item_tooltip(f"its 1σ in metres; blank: {default_sigma:g} m")
+        return metres, sigma
 
     def set_height(self) -> None:
         """Set height: the typed camera height and σ for the photo shown."""
