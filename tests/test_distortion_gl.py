@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 from PIL import Image
 from scipy import ndimage
+from test_render import box_on_floor_model
 from test_texture_reference import (
     COLOUR_ATOL,
     COUNT_MISMATCH,
@@ -33,7 +34,6 @@ from test_texture_reference import (
 from vebuild.camera import ImageCamera, look_rotation, project
 from vebuild.errors import VebuildError
 from vebuild.gl import headless_context
-from vebuild.model.scene import model_from_dict
 from vebuild.render.renderer import Renderer, RenderOptions
 from vebuild.render.scene import scene_from_model
 from vebuild.texture import layout as lay
@@ -92,15 +92,7 @@ CONTINUITY_ATOL = 1e-5
 # -- the scene and its photos ----------------------------------------------------------------------
 
 
-@cache
-def _model():
-    return model_from_dict([
-        {"name": "floor", "primitive": {"type": "quad", "params": {"width": 4.0, "depth": 3.0}},
-         "joint": {"type": "fixed", "translation": [2.0, 1.5, 0.0], "rotation_deg": [0, 0, 0]}},
-        {"name": "box", "parent": "floor", "primitive": {"type": "box", "params": {"width": 0.8, "depth": 0.6,
-                                                                                   "height": 0.7}},
-         "joint": {"type": "rests_on", "face": "top", "position": [0.3, -0.1], "yaw_deg": 25.0}},
-    ])
+_model = cache(box_on_floor_model)  # the render tests' scene, built once
 
 
 @cache

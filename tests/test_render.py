@@ -41,7 +41,8 @@ EXACT = RenderOptions(samples=1, anisotropy=1.0)
 TEXEL_TOL_LEVELS = 3
 
 
-def _model():
+def box_on_floor_model():
+    """A 4 × 3 m floor and a box resting on it, turned 25°: the scene of the render tests."""
     return model_from_dict([
         {"name": "floor", "primitive": {"type": "quad", "params": {"width": 4.0, "depth": 3.0}},
          "joint": {"type": "fixed", "translation": [2.0, 1.5, 0.0], "rotation_deg": [0, 0, 0]}},
@@ -52,7 +53,7 @@ def _model():
 
 
 def _textured_scene(rng, texels_per_metre=40.0):
-    model = _model()
+    model = box_on_floor_model()
     faces = lay.layout(model, texels_per_metre, 512, 1024)
     (w, h), = lay.page_sizes(faces)
     page = rng.integers(0, 256, (h, w, 3), dtype=np.uint8)
@@ -142,7 +143,7 @@ def test_each_texel_lands_on_the_pixel_an_independent_projection_gives(ctx, rng)
 
 
 def test_untextured_faces_show_their_colour_and_alpha_is_coverage(ctx):
-    scene = scene_from_model(_model())
+    scene = scene_from_model(box_on_floor_model())
     assert not scene.textured
     cam = _camera([2.3, -1.2, 1.9], [2.1, 1.4, 0.2])
     r = Renderer(ctx, scene, RenderOptions(samples=4))
@@ -168,7 +169,7 @@ def test_untextured_faces_show_their_colour_and_alpha_is_coverage(ctx):
 
 
 def test_a_shadow_falls_where_geometry_says(ctx):
-    scene = scene_from_model(_model())
+    scene = scene_from_model(box_on_floor_model())
     sun = np.array([-0.6, -0.3, -1.0])  # the shadow falls toward the camera
     ambient = 0.2
     lighting = preset_from_record({"name": "sun", "ambient": [ambient] * 3,
@@ -211,7 +212,7 @@ def test_a_shadow_falls_where_geometry_says(ctx):
      "inner_cone_deg": 35.0, "intensity": 3.0},
 ])
 def test_point_and_spot_light_shadows_fall_where_geometry_says(ctx, light):
-    scene = scene_from_model(_model())
+    scene = scene_from_model(box_on_floor_model())
     cam = _camera([0.2, -0.8, 2.6], [2.6, 1.6, 0.0], f=260.0)
     r = Renderer(ctx, scene, RenderOptions(samples=1))
     r.set_lighting(preset_from_record({"name": "lamp", "ambient": [0.1] * 3, "lights": [light]}))
@@ -456,11 +457,11 @@ def test_parse_size():
 
 
 def test_a_renderer_can_draw_its_scene_moved(ctx):
-    scene = scene_from_model(_model())
+    scene = scene_from_model(box_on_floor_model())
     cam = _camera([2.3, -1.2, 1.9], [2.1, 1.4, 0.2])
     r = Renderer(ctx, scene)
     before = r.render_rgba(cam)[..., 3]
-    model = _model()
+    model = box_on_floor_model()
     model.node("box").joint.set_values(np.array([-1.0, 0.5, 0.0]))
     r.set_scene(scene.with_model(model))
     after = r.render_rgba(cam)[..., 3]
@@ -475,7 +476,7 @@ def test_load_scene_of_the_example_reads_its_textures(textured_room):
 
 
 def test_the_id_buffer_and_picking_agree_with_ray_queries(ctx):
-    scene = scene_from_model(_model())
+    scene = scene_from_model(box_on_floor_model())
     cam = _camera([2.3, -1.2, 1.9], [2.1, 1.4, 0.2])
     r = Renderer(ctx, scene, EXACT)
     faces, depth = r.id_buffer(cam)
