@@ -14,8 +14,9 @@ from PIL import Image
 
 from vebuild.actions.render import RenderRequest, render_evidence
 from vebuild.analysis.rays import Occluders
-from vebuild.analysis.sightline import Eye, target_object, target_point, viewshed
+from vebuild.analysis.sightline import Eye, target_object, target_point
 from vebuild.analysis.sightline import sight_line as cast_sight_line
+from vebuild.analysis.viewshed import viewshed
 from vebuild.cli import main
 from vebuild.errors import ProjectError, VebuildError
 from vebuild.gl import headless_context

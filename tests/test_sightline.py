@@ -13,6 +13,7 @@ from PIL import Image
 from viewer_scene import nodes, write_project
 
 from vebuild.analysis import sightline as sl
+from vebuild.analysis import viewshed as vsh
 from vebuild.analysis.rays import END_EPS_M, Occluders
 from vebuild.cli import main
 from vebuild.errors import VebuildError
@@ -111,11 +112,11 @@ def test_object_share_agrees_with_trimesh(open_room):
 def test_viewshed_of_a_point_matches_trimesh_cell_by_cell():
     occ = Occluders(_scene(10.0))
     target = sl.target_point(occ, (3.0, 3.3, 0.4))  # under the table's edge: the table top shades much
-    vs = sl.viewshed(occ, target, eye_height=1.6, cell=0.1)
-    places = vs.states == sl.PLACE
+    vs = vsh.viewshed(occ, target, eye_height=1.6, cell=0.1)
+    places = vs.states == vsh.PLACE
     assert vs.states.shape == (50, 60) and places.sum() > 2500
     # Occupied: the box, the cabinet, the table top and its leg, the door (all below eye height).
-    assert 0.5 < (vs.states == sl.OCCUPIED).sum() * 0.01 < 3.0
+    assert 0.5 < (vs.states == vsh.OCCUPIED).sum() * 0.01 < 3.0
     xs, ys = vs.centres()
     X, Y = np.meshgrid(xs, ys)
     E = np.stack([X[places], Y[places], np.full(places.sum(), 1.6)], axis=1)
@@ -130,12 +131,12 @@ def test_viewshed_of_a_point_matches_trimesh_cell_by_cell():
 
 def test_viewshed_of_an_object_matches_trimesh_on_the_same_samples(open_room):
     target = sl.target_object(open_room, "box")
-    vs = sl.viewshed(open_room, target, eye_height=1.2, cell=0.5, samples=128)
+    vs = vsh.viewshed(open_room, target, eye_height=1.2, cell=0.5, samples=128)
     P, N = sl.sample_surface(open_room, target.nodes, 128)
     tm = _tm(open_room)
     xs, ys = vs.centres()
     worst = 0.0
-    for j, i in zip(*np.nonzero(vs.states == sl.PLACE), strict=True):
+    for j, i in zip(*np.nonzero(vs.states == vsh.PLACE), strict=True):
         e = np.array([xs[i], ys[j], 1.2])
         facing = np.einsum("ij,ij->i", e - P, N) > 0
         share = (~_tm_blocked(tm, e[None], P[facing])).sum() / len(P) if facing.any() else 0.0

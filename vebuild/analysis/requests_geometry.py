@@ -12,7 +12,8 @@ from vebuild.errors import VebuildError
 from vebuild.project.units import length_unit
 
 from .requests import AnalysisResult, Request
-from .sightline import DEFAULT_FOV_DEG, OBJECT_SAMPLES, STANDING_EYE_M, VIEWSHED_OBJECT_SAMPLES
+from .sightline import DEFAULT_FOV_DEG, OBJECT_SAMPLES, STANDING_EYE_M
+from .viewshed import VIEWSHED_OBJECT_SAMPLES
 
 if TYPE_CHECKING:
     from vebuild.project import Project
@@ -178,7 +179,7 @@ class ViewshedRequest:
         from vebuild.render.png import check_output
 
         from .rays import Occluders
-        from .sightline import PLACE, viewshed, write_viewshed_png
+        from .viewshed import PLACE, viewshed, write_viewshed_png
 
         length_unit(project.data).refuse(f"viewshed: the eye height ({self.height:g}) and the grid's cell "
                                          f"({self.cell:g})")

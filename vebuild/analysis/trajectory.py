@@ -34,7 +34,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vebuild.analysis.rays import Hit, Occluders
-from vebuild.analysis.sightline import _r, check_in_scene, parse_floats
+from vebuild.analysis.sightline import check_in_scene, parse_floats, rounded
 from vebuild.camera import ImageCamera, project, world_to_camera
 from vebuild.errors import VebuildError
 
@@ -134,24 +134,24 @@ class Trajectory:
         return "between" if t < self.length else "beyond exit"
 
     def hit_record(self, h: Hit) -> dict[str, Any]:
-        return {"node": h.node, "face": h.face, "distance_m": round(h.t, 6), "point_m": _r(h.point),
+        return {"node": h.node, "face": h.face, "distance_m": round(h.t, 6), "point_m": rounded(h.point),
                 "where": self.where(h.t), "angle_to_surface_deg": round(math.degrees(math.asin(min(1.0, abs(
                     float(h.normal @ self.direction))))), 3),
                 "cone_radius_95_m": round(self.cone_radius(h.t), 6)}
 
     def record(self) -> dict[str, Any]:
         d: dict[str, Any] = {
-            "entry_m": _r(self.entry), "exit_m": _r(self.exit) if self.length > 0 else None,
-            "separation_m": round(self.length, 6), "direction": _r(self.direction, 9),
+            "entry_m": rounded(self.entry), "exit_m": rounded(self.exit) if self.length > 0 else None,
+            "separation_m": round(self.length, 6), "direction": rounded(self.direction, 9),
             "azimuth_deg": round(self.azimuth_deg, 6), "elevation_deg": round(self.elevation_deg, 6),
             "sigma_m": list(self.sigma) if self.sigma else None,
             "cone_half_angle_95_deg": round(self.cone_deg, 6) if self.cone_deg is not None else None,
             "surfaces": [self.hit_record(h) for h in self.hits],
             "stops_at": self.hit_record(self.stop) if self.stop else None,
             "leaves_scene": self.stop is None,
-            "leaves_scene_at_m": _r(self.leaves_at) if self.leaves_at is not None else None,
+            "leaves_scene_at_m": rounded(self.leaves_at) if self.leaves_at is not None else None,
             "from_surface": self.hit_record(self.source) if self.source else None,
-            "behind_leaves_scene_at_m": _r(self.leaves_behind_at) if self.leaves_behind_at is not None else None,
+            "behind_leaves_scene_at_m": rounded(self.leaves_behind_at) if self.leaves_behind_at is not None else None,
         }
         if self.cone_deg:
             d["cone_stops_at_share_by_node"] = {k: round(v, 6) for k, v in self.cone_stop_nodes.items()}
