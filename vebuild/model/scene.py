@@ -5,7 +5,8 @@ floor has three degrees of freedom (a position in the floor's plane and a turn a
 a door on its hinge has one. The solver moves only these degrees of freedom and the primitives'
 own parameters, so every joint holds exactly, whatever the observations say.
 
-Transforms are 4×4 matrices mapping a node's local frame into its parent's (``parent_from_node``);
+The joints themselves are in :mod:`vebuild.model.joints` (re-exported here). Transforms are 4×4
+matrices mapping a node's local frame into its parent's (``parent_from_node``);
 a node attached to the world has the world as parent. Lengths in metres, angles in radians here
 (degrees in the project file).
 """
@@ -13,248 +14,34 @@ a node attached to the world has the world as parent. Lengths in metres, angles 
 from __future__ import annotations
 
 from collections.abc import Collection, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial.transform import Rotation
 
-from ..camera import exp_so3
 from .entered import Entered, HoldError, fill_entered_values, hold_list
+from .joints import (  # noqa: F401  (re-exported: the scene graph and its joints, one import)
+    DOF_KINDS,
+    JOINT_TYPES,
+    FreeJoint,
+    HingeJoint,
+    Joint,
+    MarkerJoint,
+    ModelError,
+    RestsOnJoint,
+    SliderJoint,
+    error_at,
+    joint_from_dict,
+    pose_matrix,
+    pose_to_dict,
+    rotation4,
+    rz,
+    translation,
+)
 from .primitives import MIN_SIZE_M, PRIMITIVE_TYPES, Primitive, primitive_from_dict
 
 Array = NDArray[np.float64]
-
-JOINT_TYPES = ("fixed", "free", "rests_on", "hinge", "slider", "marker")
-#: What a degree of freedom measures: a position (metres), an angle (radians; degrees in files)
-#: or, for a primitive's parameters, a size (metres). The solver's pull toward the value before a
-#: solve and the file's units follow the kind.
-DOF_KINDS = ("position", "angle", "size")
-
-
-class ModelError(ValueError):
-    """The model as written is not a valid scene graph; the message names the node and the field.
-
-    ``where`` is the JSON path of the field at fault (None where unknown: a model built in code),
-    ``detail`` the message without the location, for errors that name the path separately.
-    """
-
-    def __init__(self, message: str, where: str | None = None, detail: str | None = None) -> None:
-        super().__init__(message)
-        self.where = where
-        self.detail = detail or message
-
-
-def _error(human: str, path: str | None, detail: str) -> ModelError:
-    """A ModelError located by ``human`` in its text ("$.model.nodes[2] (node 'x').joint") and by
-    ``path`` (the JSON path) for the project file's error."""
-    return ModelError(f"{human}: {detail}", path, detail)
-
-
-def translation(t: Array) -> Array:
-    T = np.eye(4)
-    T[:3, 3] = t
-    return T
-
-
-def rotation4(R: Array) -> Array:
-    T = np.eye(4)
-    T[:3, :3] = R
-    return T
-
-
-def rz(a: float) -> Array:
-    c, s = np.cos(a), np.sin(a)
-    return rotation4(np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]))
-
-
-def pose_matrix(t: Any, rotation_deg: Any) -> Array:
-    """Translation then XYZ Euler rotation (degrees, about the parent's axes) as a 4×4 matrix."""
-    T = rotation4(Rotation.from_euler("xyz", np.asarray(rotation_deg, float), degrees=True).as_matrix())
-    T[:3, 3] = np.asarray(t, float)
-    return T
-
-
-def pose_to_dict(T: Array) -> dict[str, list[float]]:
-    return {"translation": [float(x) for x in T[:3, 3]],
-            "rotation_deg": [float(x) for x in Rotation.from_matrix(T[:3, :3]).as_euler("xyz", degrees=True)]}
-
-
-@dataclass
-class Joint:
-    """How a node sits on its parent. Subclasses define the degrees of freedom ``q``."""
-
-    type: str = "fixed"
-    base: Array = field(default_factory=lambda: np.eye(4))  # the pose at q = 0 (fixed, free, hinge, slider)
-
-    dof_names: tuple[str, ...] = ()
-    #: The kind (DOF_KINDS) of each degree of freedom, in dof_names order.
-    dof_kinds: tuple[str, ...] = ()
-
-    def values(self) -> Array:
-        return np.zeros(0)
-
-    def set_values(self, q: Array) -> None:
-        """Store solved values (free joints fold their small rotation into the base here)."""
-
-    def bounds(self) -> tuple[Array, Array]:
-        n = len(self.dof_names)
-        return np.full(n, -np.inf), np.full(n, np.inf)
-
-    def clip(self, q: Array) -> Array:
-        """The degrees of freedom ``q`` brought within the joint's limits (a hinge's stops, a
-        slider's travel); the solver and the viewer's moves keep a joint in range through this."""
-        lo, hi = self.bounds()
-        return np.clip(np.asarray(q, float), lo, hi)
-
-    def transform(self, q: Array, parent: Primitive | None, parent_params: Array | None,
-                  node: Primitive | None, node_params: Array | None) -> Array:
-        """parent_from_node for dof values q (and the current primitive parameters)."""
-        return self.base
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"type": "fixed", **pose_to_dict(self.base)}
-
-
-@dataclass
-class FreeJoint(Joint):
-    dof_names: tuple[str, ...] = ("tx", "ty", "tz", "wx", "wy", "wz")
-    dof_kinds: tuple[str, ...] = ("position",) * 3 + ("angle",) * 3
-
-    def values(self) -> Array:
-        return np.r_[self.base[:3, 3], 0.0, 0.0, 0.0]
-
-    def set_values(self, q: Array) -> None:
-        # Local re-parameterisation (paper §3.1): the rotation is kept as a matrix and each solve
-        # works on a small rotation about the current one, so it never meets a singularity.
-        R = exp_so3(q[3:6]) @ self.base[:3, :3]
-        self.base = rotation4(R)
-        self.base[:3, 3] = q[:3]
-
-    def transform(self, q, parent, parent_params, node, node_params):
-        T = rotation4(exp_so3(q[3:6]) @ self.base[:3, :3])
-        T[:3, 3] = q[:3]
-        return T
-
-    def to_dict(self):
-        return {"type": "free", **pose_to_dict(self.base)}
-
-
-@dataclass
-class RestsOnJoint(Joint):
-    """The node's bottom face lies on the parent's face ``face`` (the floor z = 0 for the world)."""
-
-    face: str | None = None
-    s: float = 0.0
-    t: float = 0.0
-    yaw: float = 0.0
-    dof_names: tuple[str, ...] = ("s", "t", "yaw")
-    dof_kinds: tuple[str, ...] = ("position", "position", "angle")
-
-    def values(self):
-        return np.array([self.s, self.t, self.yaw])
-
-    def set_values(self, q):
-        self.s, self.t, self.yaw = (float(v) for v in q)
-
-    def transform(self, q, parent, parent_params, node, node_params):
-        F = np.eye(4)
-        if parent is not None:
-            o, x, y, n = parent.face_frame(self.face, parent_params)
-            F[:3, 0], F[:3, 1], F[:3, 2], F[:3, 3] = x, y, n, o
-        return F @ translation(np.array([q[0], q[1], 0.0])) @ rz(q[2])
-
-    def to_dict(self):
-        d: dict[str, Any] = {"type": "rests_on", "position": [self.s, self.t], "yaw_deg": float(np.degrees(self.yaw))}
-        if self.face is not None:
-            d["face"] = self.face
-        return d
-
-
-def _axis_rotation(axis: Array, angle: float) -> Array:
-    return rotation4(exp_so3(axis / np.linalg.norm(axis) * angle))
-
-
-@dataclass
-class HingeJoint(Joint):
-    axis_point: Array = field(default_factory=lambda: np.zeros(3))
-    axis: Array = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
-    angle: float = 0.0
-    limits: tuple[float, float] = (-np.pi, np.pi)
-    dof_names: tuple[str, ...] = ("angle",)
-    dof_kinds: tuple[str, ...] = ("angle",)
-
-    def values(self):
-        return np.array([self.angle])
-
-    def set_values(self, q):
-        self.angle = float(q[0])
-
-    def bounds(self):
-        return np.array([self.limits[0]]), np.array([self.limits[1]])
-
-    def transform(self, q, parent, parent_params, node, node_params):
-        turn = _axis_rotation(self.axis, q[0])
-        return translation(self.axis_point) @ turn @ translation(-self.axis_point) @ self.base
-
-    def to_dict(self):
-        return {"type": "hinge", "axis_point": [float(v) for v in self.axis_point],
-                "axis": [float(v) for v in self.axis], **pose_to_dict(self.base),
-                "angle_deg": float(np.degrees(self.angle)), "limits_deg": [float(np.degrees(v)) for v in self.limits]}
-
-
-@dataclass
-class SliderJoint(Joint):
-    axis: Array = field(default_factory=lambda: np.array([1.0, 0.0, 0.0]))
-    offset: float = 0.0
-    limits: tuple[float, float] = (-np.inf, np.inf)
-    dof_names: tuple[str, ...] = ("offset",)
-    dof_kinds: tuple[str, ...] = ("position",)
-
-    def values(self):
-        return np.array([self.offset])
-
-    def set_values(self, q):
-        self.offset = float(q[0])
-
-    def bounds(self):
-        return np.array([self.limits[0]]), np.array([self.limits[1]])
-
-    def transform(self, q, parent, parent_params, node, node_params):
-        return translation(self.axis / np.linalg.norm(self.axis) * q[0]) @ self.base
-
-    def to_dict(self):
-        d = {"type": "slider", "axis": [float(v) for v in self.axis], **pose_to_dict(self.base), "offset": self.offset}
-        if all(np.isfinite(self.limits)):  # no limits: none written (JSON has no infinity)
-            d["limits"] = [float(v) for v in self.limits]
-        return d
-
-
-@dataclass
-class MarkerJoint(Joint):
-    """The node's ``handle`` sits exactly on a calibrated marker; the node turns about +Z (§3.1)."""
-
-    marker: str = ""
-    handle: str = ""
-    position: Array = field(default_factory=lambda: np.zeros(3))  # the marker's world position
-    yaw: float = 0.0
-    dof_names: tuple[str, ...] = ("yaw",)
-    dof_kinds: tuple[str, ...] = ("angle",)
-
-    def values(self):
-        return np.array([self.yaw])
-
-    def set_values(self, q):
-        self.yaw = float(q[0])
-
-    def transform(self, q, parent, parent_params, node, node_params):
-        h = node.handles(node_params)[node.handle_names().index(self.handle)]
-        return translation(self.position) @ rz(q[0]) @ translation(-h)
-
-    def to_dict(self):
-        return {"type": "marker", "marker": self.marker, "handle": self.handle, "yaw_deg": float(np.degrees(self.yaw))}
-
 
 @dataclass
 class Node:
@@ -451,68 +238,10 @@ def _topological(nodes: list[Node]) -> list[Node]:
     return order
 
 
-def joint_from_dict(d: Mapping[str, Any], where: str, markers: Mapping[str, Array] | None = None,
-                    path: str | None = None) -> Joint:
-    """A joint from its project-file form (degrees); ModelError names ``where`` (and has the JSON
-    path ``path``) on bad input."""
-    kind = d.get("type")
-    base = pose_matrix(d.get("translation", [0, 0, 0]), d.get("rotation_deg", [0, 0, 0]))
-
-    def at(key: str) -> str | None:
-        return None if path is None else f"{path}.{key}"
-
-    def axis_of(default: list[float]) -> Array:
-        axis = np.asarray(d.get("axis", default), float)
-        if not np.hypot.reduce(np.abs(axis)) >= 1e-6:
-            raise _error(where, at("axis"), f"the {kind} joint's axis {list(axis)} has no direction; expected a "
-                         "non-zero vector [x, y, z], at least 1e-6 long")
-        return axis
-
-    def limits_of(key: str, default: list[float], unit: str) -> tuple[float, float]:
-        lo, hi = (float(v) for v in d.get(key, default))
-        if lo > hi:
-            raise _error(where, at(key), f"the {kind} joint's limits [{lo:g}{unit}, {hi:g}{unit}] are reversed; "
-                         "expected [lo, hi] with lo no greater than hi")
-        return lo, hi
-
-    if kind == "fixed":
-        return Joint(base=base)
-    if kind == "free":
-        return FreeJoint(type="free", base=base)
-    if kind == "rests_on":
-        s, t = d.get("position", [0.0, 0.0])
-        return RestsOnJoint(type="rests_on", face=d.get("face"), s=float(s), t=float(t),
-                            yaw=float(np.radians(d.get("yaw_deg", 0.0))))
-    if kind == "hinge":
-        axis = axis_of([0, 0, 1])
-        lo, hi = np.radians(limits_of("limits_deg", [-180.0, 180.0], "°"))
-        angle = float(np.radians(d.get("angle_deg", 0.0)))
-        if not lo <= angle <= hi:
-            raise _error(where, at("angle_deg"), f"hinge angle {np.degrees(angle):.1f}° lies outside its limits "
-                         f"[{np.degrees(lo):.1f}°, {np.degrees(hi):.1f}°]")
-        return HingeJoint(type="hinge", base=base, axis_point=np.asarray(d.get("axis_point", [0, 0, 0]), float),
-                          axis=axis, angle=angle, limits=(float(lo), float(hi)))
-    if kind == "slider":
-        axis = axis_of([1, 0, 0])
-        lo, hi = limits_of("limits", [-np.inf, np.inf], " m")
-        off = float(d.get("offset", 0.0))
-        if not lo <= off <= hi:
-            raise _error(where, at("offset"), f"slider offset {off} lies outside its limits [{lo}, {hi}]")
-        return SliderJoint(type="slider", base=base, axis=axis, offset=off, limits=(float(lo), float(hi)))
-    if kind == "marker":
-        name = d.get("marker", "")
-        if markers is None or name not in markers:
-            raise _error(where, at("marker"), f"the joint ties the node to marker '{name}', which has no calibrated "
-                         "position; run vebuild calibrate first, or name a marker the calibration placed")
-        return MarkerJoint(type="marker", marker=name, handle=d.get("handle", ""),
-                           position=np.asarray(markers[name], float), yaw=float(np.radians(d.get("yaw_deg", 0.0))))
-    raise _error(where, at("type"), f"joint type '{kind}' is not one of {', '.join(JOINT_TYPES)}")
-
-
 def _primitive(d: Any, human: str, path: str) -> Primitive:
     """A node's primitive, its sizes checked with the JSON path of the one at fault."""
     if not isinstance(d, Mapping) or not isinstance(d.get("params", {}), Mapping):
-        raise _error(human, path, "expected an object {\"type\": T, \"params\": {...}}")
+        raise error_at(human, path, "expected an object {\"type\": T, \"params\": {...}}")
     params = d.get("params", {})
     kind = d.get("type")
     cls = PRIMITIVE_TYPES.get(kind) if isinstance(kind, str) else None
@@ -523,16 +252,16 @@ def _primitive(d: Any, human: str, path: str) -> Primitive:
         if value >= least:
             continue
         if least > 0 and value <= 0:
-            raise _error(human, f"{path}.params.{name}", f"{cls.TYPE}: {name} must be > 0, got {value!r}")
-        raise _error(human, f"{path}.params.{name}", f"{cls.TYPE}: {name} must be at least {least:g} m (sizes "
+            raise error_at(human, f"{path}.params.{name}", f"{cls.TYPE}: {name} must be > 0, got {value!r}")
+        raise error_at(human, f"{path}.params.{name}", f"{cls.TYPE}: {name} must be at least {least:g} m (sizes "
                      f"stay above {MIN_SIZE_M:g} m, the solver's least), got {value!r}")
     try:
         prim = primitive_from_dict(d)
     except (ValueError, TypeError) as e:
-        raise _error(human, f"{path}.params" if isinstance(d.get("type"), str) else f"{path}.type", str(e)) from None
+        raise error_at(human, f"{path}.params" if isinstance(d.get("type"), str) else f"{path}.type", str(e)) from None
     for name, value, least in zip(prim.PARAMS, prim.params, prim.minimum_sizes(), strict=True):
         if not value >= least:
-            raise _error(human, f"{path}.params.{name}", f"{prim.TYPE}: {name} must be at least {least:g} m (sizes "
+            raise error_at(human, f"{path}.params.{name}", f"{prim.TYPE}: {name} must be at least {least:g} m (sizes "
                          f"stay above {MIN_SIZE_M:g} m, the solver's least), got {params.get(name, value)!r}")
     return prim
 
@@ -550,16 +279,16 @@ def model_from_dict(nodes: list[Mapping[str, Any]], markers: Mapping[str, Array]
         joint = joint_from_dict(d.get("joint", {"type": "fixed"}), f"{where}.joint", markers, f"{path}.joint")
         if isinstance(joint, MarkerJoint):
             if d.get("parent") is not None:
-                raise _error(f"{where}.joint", f"{path}.parent",
+                raise error_at(f"{where}.joint", f"{path}.parent",
                              "a marker joint ties a node to the world; this node has a parent")
             if prim is None or joint.handle not in prim.handle_names():
                 have = ", ".join(prim.handle_names()) if prim is not None else "none (a group has no handles)"
-                raise _error(f"{where}.joint", f"{path}.joint.handle", f"handle '{joint.handle}' is not a handle of "
+                raise error_at(f"{where}.joint", f"{path}.joint.handle", f"handle '{joint.handle}' is not a handle of "
                              f"this node's primitive (its handles are: {have})")
         try:
             hold, entered = hold_list(d.get("hold", ()), (prim.PARAMS if prim is not None else ()) + joint.dof_names)
         except HoldError as e:
-            raise _error(f"{where}.hold", f"{path}.hold{e.at}", e.detail) from None
+            raise error_at(f"{where}.hold", f"{path}.hold{e.at}", e.detail) from None
         index.setdefault(d["name"], i)
         out.append(Node(d["name"], d.get("parent"), prim, joint, bool(d.get("solve", True)), hold, entered))
     for i, n in enumerate(out):
