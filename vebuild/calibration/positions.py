@@ -20,6 +20,7 @@ and covariance, so that the positions' uncertainty includes theirs; where a phot
 estimated its lens distortion k1 (a 7×7 covariance, k1 last), k1 is refined the same way. Every
 marker is projected through its photo's distortion (vebuild/camera.py).
 
+Where the placement starts (baselines, resection, triangulation) is :mod:`vebuild.calibration.start`'s.
 A photo placed alone, from the floor plane, is :mod:`vebuild.calibration.single_photo`'s.
 """
 
@@ -33,18 +34,14 @@ from numpy.typing import NDArray
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
-from ..camera import distortion_scale, intrinsic_matrix, pixel_rays_world, project, skew_batch, so3_left_jacobian
+from ..camera import distortion_scale, intrinsic_matrix, project, skew_batch, so3_left_jacobian
 from ..constants import OUTLIER_SIGMAS, ROBUST_SCALE
 from ..determinism import deterministic
 from ..errors import CalibrationError
 from .lsq import covariance_from_jacobian, is_numeric_failure, variance_factor
+from .start import initial_positions
 
 Array = NDArray[np.float64]
-
-#: Lines meeting at a smaller angle than this (degrees) do not fix a point along them well enough
-#: to start from (with 1 px clicks at f ≈ 1500 px a 2° parallax leaves ~2 % depth error).
-MIN_INTERSECTION_ANGLE_DEG = 2.0
-
 
 @dataclass(frozen=True)
 class PhotoInput:
@@ -105,39 +102,6 @@ class Placement:
     distances: list[MeasuredDistance]
     origin: str
     variance_factor: float
-
-
-def intersect_lines(points: Array, dirs: Array) -> Array:
-    """The point nearest, in least squares, to the lines pᵢ + t dᵢ (dᵢ unit), shape (3,)."""
-    A = np.zeros((3, 3))
-    b = np.zeros(3)
-    for p, d in zip(points, dirs, strict=True):
-        M = np.eye(3) - np.outer(d, d)
-        A += M
-        b += M @ p
-    return np.asarray(np.linalg.solve(A, b), float)
-
-
-def _max_angle_deg(dirs: Array) -> float:
-    c = np.clip(np.abs(dirs @ dirs.T), -1.0, 1.0)
-    return float(np.degrees(np.arccos(c.min())))
-
-
-def unit_baseline(rays_j: Array, rays_k: Array) -> Array:
-    """Unit baseline B̂ from camera j to camera k from shared-marker rays (eqs. 5–7).
-
-    The smallest eigenvector of Γ = Σ (M̂ⱼ × M̂ₖ)(M̂ⱼ × M̂ₖ)ᵀ, signed so that the markers lie in
-    front of both cameras: X = Cⱼ + a M̂ⱼ = Cₖ + b M̂ₖ with a, b > 0.
-    """
-    Cc = np.cross(rays_j, rays_k)
-    Gamma = Cc.T @ Cc
-    _, vecs = np.linalg.eigh(Gamma)
-    B = vecs[:, 0]
-    votes = 0.0
-    for mj, mk in zip(rays_j, rays_k, strict=True):
-        ab, *_ = np.linalg.lstsq(np.column_stack([mj, -mk]), B, rcond=None)
-        votes += np.sign(ab[0]) + np.sign(ab[1])
-    return B if votes >= 0 else -B
 
 
 @deterministic
@@ -208,7 +172,7 @@ def place_cameras(
                 )
 
     by_id = {p.id: p for p in photos}
-    C, X = _initial_positions(photos, origin, known)
+    C, X = initial_positions(photos, origin, known)
     _check_finite_start(C, X)
     check_scale_distances(X, scale_refs)
     s = _metric_scale(X, known, scale_refs, origin, C, heights)
@@ -289,106 +253,6 @@ def _check_finite_start(C: Mapping[str, Array], X: Mapping[str, Array]) -> None:
             raise CalibrationError(None, f"marker '{name}': its position from the photos is not a finite number "
                                    "(its rays from two photos are parallel); check its clicks, or mark it in a "
                                    "photo taken from elsewhere")
-
-
-def _rays(p: PhotoInput, names: Sequence[str]) -> Array:
-    return pixel_rays_world(p.K, p.R, np.array([p.markers[n] for n in names]), p.k1)
-
-
-def _initial_positions(
-    photos: Sequence[PhotoInput], origin: str, known: Mapping[str, Array]
-) -> tuple[dict[str, Array], dict[str, Array]]:
-    """Unit-scale positions by the paper's construction, then triangulation and resection."""
-    with_origin = [p for p in photos if origin in p.markers]
-    first = max(with_origin, key=lambda p: len(p.markers))
-    C: dict[str, Array] = {first.id: -_rays(first, [origin])[0]}
-    X: dict[str, Array] = {origin: np.zeros(3)}
-    # Known positions are metric while the start is unit-scale: they join after scaling.
-    pending = [p for p in photos if p.id != first.id]
-    while pending:
-        for p in pending:
-            placed = _place_by_baseline(p, C, X, photos)
-            if placed is None:
-                placed = _resect(p, X)
-            if placed is not None:
-                C[p.id] = placed
-                pending.remove(p)
-                _triangulate_all(photos, C, X)
-                break
-        else:
-            break
-    if pending:
-        p = pending[0]
-        n_known = sum(1 for n in p.markers if n in X)
-        raise CalibrationError(
-            p.id,
-            f"the camera cannot be placed: it sees {n_known} marker(s) whose position is known from "
-            "other photos and does not share two markers with a placed photo; mark at least two "
-            "markers that other photos also show (or, to place it alone, give it a scale of its own, a "
-            "camera_height or a known length, and mark the origin marker in it)",
-        )
-    _triangulate_all(photos, C, X)
-    return C, X
-
-
-def _place_by_baseline(p: PhotoInput, C: Mapping[str, Array], X: Mapping[str, Array],
-                       photos: Sequence[PhotoInput]) -> Array | None:
-    """Figure 4: meet the line from a placed marker back along p's ray with the baseline line.
-
-    The paper's placed marker is the origin; any marker already placed serves the same way, so a
-    photo without the origin is placed as soon as it shares two markers with a placed photo and
-    sees one placed marker.
-    """
-    best = None
-    for q in photos:
-        if q.id not in C:
-            continue
-        shared = sorted(set(p.markers) & set(q.markers))
-        if len(shared) >= 2 and (best is None or len(shared) > len(best[1])):
-            best = (q, shared)
-    if best is None:
-        return None
-    q, shared = best
-    B = unit_baseline(_rays(q, shared), _rays(p, shared))
-    anchors = [n for n in sorted(p.markers) if n in X]
-    if not anchors:
-        return None
-    t_all = -_rays(p, anchors)
-    # The anchor whose line meets the baseline at the widest angle fixes the position best.
-    k = int(np.argmin(np.abs(t_all @ B)))
-    t, anchor = t_all[k], X[anchors[k]]
-    if np.degrees(np.arccos(min(1.0, abs(float(B @ t))))) < MIN_INTERSECTION_ANGLE_DEG:
-        return None  # marker, camera j and camera k in a line: the two lines do not meet
-    # Line 1: anchor + s t (s > 0); line 2: C_q + r B.
-    (s, r), *_ = np.linalg.lstsq(np.column_stack([t, -B]), C[q.id] - anchor, rcond=None)
-    if s <= 0:
-        return None
-    return 0.5 * (anchor + s * t + C[q.id] + r * B)
-
-
-def _resect(p: PhotoInput, X: Mapping[str, Array]) -> Array | None:
-    """Camera centre from ≥ 2 markers of known position, K and R known."""
-    names = [n for n in sorted(p.markers) if n in X]
-    if len(names) < 2:
-        return None
-    rays = _rays(p, names)
-    if _max_angle_deg(rays) < MIN_INTERSECTION_ANGLE_DEG:
-        return None
-    return intersect_lines(np.array([X[n] for n in names]), rays)
-
-
-def _triangulate_all(photos: Sequence[PhotoInput], C: Mapping[str, Array], X: dict[str, Array]) -> None:
-    names = sorted({n for p in photos for n in p.markers})
-    for n in names:
-        if n in X:
-            continue
-        obs = [p for p in photos if n in p.markers and p.id in C]
-        if len(obs) < 2:
-            continue
-        rays = np.array([_rays(p, [n])[0] for p in obs])
-        if _max_angle_deg(rays) < MIN_INTERSECTION_ANGLE_DEG:
-            continue
-        X[n] = intersect_lines(np.array([C[p.id] for p in obs]), rays)
 
 
 def _metric_scale(X: Mapping[str, Array], known: Mapping[str, Array], refs: Sequence[ReferenceDistance],

@@ -48,8 +48,8 @@ from .lsq import (
     variance_factor,
 )
 from .photo import FocalPrior, PhotoCalibration
-from .positions import intersect_lines
 from .priors import DistortionPrior, check_focal_prior, check_principal_point
+from .start import intersect_lines
 
 Array = NDArray[np.float64]
 
