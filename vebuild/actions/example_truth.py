@@ -154,7 +154,7 @@ def texture_psnr(model: Model, result, exposures: dict[str, float], every: int =
     from vebuild.gl import headless_context
     from vebuild.texture import layout as lay
     from vebuild.texture.gpu import Extractor
-    from vebuild.texture.merge import COVERAGE_UNSEEN, linear_to_srgb8
+    from vebuild.texture.merge import linear_to_srgb8, unseen_texels
     from vebuild.texture.options import Options
 
     G = float(np.exp(np.mean(np.log([exposures[c] for c in result.order]))))
@@ -168,7 +168,7 @@ def texture_psnr(model: Model, result, exposures: dict[str, float], every: int =
     for p, g in enumerate(geo):
         colour, on_quad = truth_texels(mesh, g, [f for f in result.faces if f.page == p], every)
         cov = result.coverage[p]
-        seen = on_quad & (cov[..., 3] > 0) & ~np.all(cov == COVERAGE_UNSEEN, axis=-1)
+        seen = on_quad & (cov[..., 3] > 0) & ~unseen_texels(cov)
         got.append(result.atlases[p][seen])
         want.append(linear_to_srgb8(colour * G)[seen])
     return psnr(np.concatenate(got), np.concatenate(want))

@@ -51,7 +51,7 @@ from ..texture import layout as lay
 from ..texture.extract import PhotoSource, extract
 from ..texture.gpu import Timings
 from ..texture.lens import cover_growth
-from ..texture.merge import COVERAGE_UNSEEN
+from ..texture.merge import unseen_texels
 from ..texture.options import Options
 
 GOALS = {"total_over_decode": 2.0, "speedup_over_cpu_reference": 10.0, "psnr_db": 30.0}
@@ -238,7 +238,7 @@ def quality(progress: bool, quick: bool) -> dict[str, Any]:
 def _psnr(model, cams, sources, opts, exposures) -> dict[str, float]:
     res = extract(model, cams, sources, opts)
     value = truth.texture_psnr(model, res, {p: v["exposure"] for p, v in exposures.items()})
-    seen = sum(int((c[..., 3] > 0).sum() - np.all(c == COVERAGE_UNSEEN, axis=-1).sum()) for c in res.coverage)
+    seen = sum(int((c[..., 3] > 0).sum() - unseen_texels(c).sum()) for c in res.coverage)
     on_face = sum(int((c[..., 3] > 0).sum()) for c in res.coverage)
     return {"psnr_db": value, "seen_texel_share": seen / max(1, on_face)}
 

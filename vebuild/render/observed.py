@@ -32,7 +32,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vebuild.errors import VebuildError
-from vebuild.texture.merge import COVERAGE_UNSEEN
+from vebuild.texture.merge import COVERAGE_UNSEEN, unseen_texels
 
 #: How a render shows the texels no photo saw (the first is the default of evidence outputs).
 UNOBSERVED_MODES = ("hatch", "tint", "off")
@@ -90,7 +90,7 @@ def unseen_mask(coverage: NDArray[np.uint8]) -> NDArray[np.uint8]:
     if cov.ndim != 3 or cov.shape[2] != 4:
         raise ValueError(f"a coverage map is (h, w, 4) RGBA, got shape {cov.shape}")
     known = cov[..., 3] > 0
-    unseen = known & np.all(cov == np.array(COVERAGE_UNSEEN, np.uint8), axis=-1)
+    unseen = known & unseen_texels(cov)
     for _ in range(FILL_TEXELS):
         if known.all():
             break

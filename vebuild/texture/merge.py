@@ -31,6 +31,12 @@ class FaceStats:
     mean_linear: Array  # (3,) weighted mean linear colour of the seen texels (nan if none)
 
 
+def unseen_texels(coverage: NDArray[np.uint8]) -> NDArray[np.bool_]:
+    """Where a coverage map (h, w, 4) says no photo saw the texel (:data:`COVERAGE_UNSEEN`):
+    on-face texels that were filled."""
+    return np.all(np.asarray(coverage) == np.array(COVERAGE_UNSEEN, np.uint8), axis=-1)
+
+
 def push_pull(colour: NDArray[np.floating[Any]], known: NDArray[np.bool_]) -> NDArray[np.floating[Any]]:
     """Fill the unknown texels of ``colour`` (h, w, 3) smoothly from the known ones (float32).
 
