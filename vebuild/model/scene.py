@@ -40,6 +40,8 @@ from .joints import (  # noqa: F401  (re-exported: the scene graph and its joint
     translation,
 )
 from .primitives import MIN_SIZE_M, PRIMITIVE_TYPES, Primitive, primitive_from_dict
+from .room import RoomError
+from .room_joints import check_room_joints
 
 Array = NDArray[np.float64]
 
@@ -163,7 +165,7 @@ class Model:
         for n in self.nodes:
             out += list(n.joint.dof_kinds)
             if n.primitive is not None:
-                out += ["size"] * len(n.primitive.PARAMS)
+                out += list(n.primitive.param_kinds())
         return out
 
     def world_transforms(self, x: Array | None = None, only: Collection[str] | None = None,
@@ -248,7 +250,7 @@ def _primitive(d: Any, human: str, path: str) -> Primitive:
     for name, value in params.items():
         if cls is None or name not in cls.PARAMS or not isinstance(value, int | float):
             continue
-        least = cls.minimum_size(name)
+        least = cls.minimum_size(name)  # (a room's PARAMS depend on its structure: it checks its own)
         if value >= least:
             continue
         if least > 0 and value <= 0:
@@ -257,6 +259,8 @@ def _primitive(d: Any, human: str, path: str) -> Primitive:
                      f"stay above {MIN_SIZE_M:g} m, the solver's least), got {value!r}")
     try:
         prim = primitive_from_dict(d)
+    except RoomError as e:  # a room names its field: params.c2_y, openings[1].wall, corners
+        raise error_at(human, f"{path}.{e.at}", str(e)) from None
     except (ValueError, TypeError) as e:
         raise error_at(human, f"{path}.params" if isinstance(d.get("type"), str) else f"{path}.type", str(e)) from None
     for name, value, least in zip(prim.PARAMS, prim.params, prim.minimum_sizes(), strict=True):
@@ -299,6 +303,7 @@ def model_from_dict(nodes: list[Mapping[str, Any]], markers: Mapping[str, Array]
     _check_cycles(out)
     model = Model(out)
     fill_entered_values(model)
+    check_room_joints(model, index)
     for n in model.nodes:
         if isinstance(n.joint, RestsOnJoint) and n.parent is not None:
             parent = model.node(n.parent).primitive
