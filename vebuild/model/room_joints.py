@@ -114,13 +114,14 @@ def check_room_joints(model: Model, index: Mapping[str, int]) -> None:
         j = n.joint
         path = f"$.model.nodes[{index.get(n.name, 0)}]"
         parent = None if n.parent is None else model.node(n.parent).primitive
+        theirs = "its parent" if n.parent is None else f"parent '{n.parent}'"
         needs: list[tuple[Primitive | None, str, str, str]] = []  # (room, opening, field, whose)
         if isinstance(j, HingeJoint) and j.jamb is not None:
-            needs.append((parent, j.jamb[0], "joint.jamb.opening", f"parent '{n.parent}'"))
+            needs.append((parent, j.jamb[0], "joint.jamb.opening", theirs))
         elif isinstance(j, OpeningJoint):
-            needs.append((parent, j.opening, "joint.opening", f"parent '{n.parent}'"))
+            needs.append((parent, j.opening, "joint.opening", theirs))
         elif isinstance(j, ThroughJoint):
-            needs += [(parent, j.opening, "joint.opening", f"parent '{n.parent}'"),
+            needs += [(parent, j.opening, "joint.opening", theirs),
                       (n.primitive, j.own_opening, "joint.own_opening", "this node")]
         for prim, opening, field, whose in needs:
             what = f"node '{n.name}': its {j.type} joint"
@@ -128,8 +129,8 @@ def check_room_joints(model: Model, index: Mapping[str, int]) -> None:
                 kind = ("the world (no parent)" if n.parent is None else "a group") if prim is None else \
                     f"a {prim.TYPE}"
                 where = f"{path}.parent" if whose != "this node" else f"{path}.primitive"
-                raise ModelError(f"{what} needs a room ({whose}), but that is {kind}", where,
-                                 f"{what} is tied to a room's opening; {whose} is {kind}, not a room")
+                detail = f"{what} is tied to a room's opening, but {whose} is {kind}, not a room"
+                raise ModelError(detail, where, detail)
             if opening not in prim.opening_names():
                 have = ", ".join(prim.opening_names()) or "none"
                 detail = f"{what} names opening '{opening}', which {whose} lacks (its openings: {have})"
