@@ -263,8 +263,18 @@ def test_a_room_in_a_project_file_loads_and_bad_fields_are_refused_with_the_file
     assert m.node("room").primitive == primitive_from_dict(L_ROOM)
     doc["model"]["nodes"][0]["primitive"] = {**L_ROOM, "corners": 7}
     path.write_text(json.dumps(doc))
-    with pytest.raises(ProjectError, match=r"\$\.model\.nodes\[0\]\.primitive\.corners"):
+    with pytest.raises(ProjectError, match=r"\$\.model\.nodes\[0\]\.primitive\.corners: .*even number"):
         decode_model(load_project(path), MARKERS)
+    # The schema: a room's keys on another primitive, a corner beyond 10 km, an unknown kind.
+    box = {"type": "box", "params": {"width": 1, "depth": 1, "height": 1}}
+    for prim, where, what in (({**box, "openings": []}, "primitive", "belong to a room"),
+                              (with_params(L_ROOM, c1_x=2e4), "primitive.params.c1_x", "at least -10000"),
+                              ({**L_ROOM, "openings": [{"name": "d", "wall": 0, "kind": "arch"}]},
+                               r"primitive.openings\[0\].kind", '"door" or "window"')):
+        doc["model"]["nodes"][0]["primitive"] = prim
+        path.write_text(json.dumps(doc))
+        with pytest.raises(ProjectError, match=rf"\$\.model\.nodes\[0\]\.{where}: .*{what}"):
+            load_project(path)
 
 
 def polygon_area(c: np.ndarray) -> float:
