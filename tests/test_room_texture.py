@@ -132,3 +132,29 @@ def test_a_room_exports_to_a_valid_gltf(tmp_path: Path) -> None:
     r = subprocess.run([node, str(REPO / "tests" / "gltf_validate.mjs"), str(res.path)], capture_output=True,
                        text=True, timeout=120, cwd=REPO)
     assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
+
+
+def test_a_room_renders_with_its_openings_open(gl) -> None:
+    """`vebuild render`'s renderer on a room: from inside, the ID buffer shows the wall around the
+    doorway and the window, the sky (nothing) through them, and their reveals at their sides."""
+    from vebuild.camera import project
+    from vebuild.render.renderer import Renderer, RenderOptions
+    from vebuild.render.scene import scene_from_model
+
+    model = model_from_dict(NODES, MARKERS)
+    scene = scene_from_model(model)
+    r = Renderer(gl, scene, RenderOptions(samples=1, anisotropy=1.0))
+    try:
+        for C, target, wall, reveal, hole in (
+                ((3.4, 2.0, 1.2), (1.65, 0.0, 1.0), "wall0", "door_reveal", (1.65, 0.0, 1.0)),
+                ((1.6, 1.5, 1.4), (1.1, 4.0, 1.45), "wall4", "win_reveal", (1.1, 4.0, 1.45))):
+            K = np.array([[F, 0, W / 2], [0, F, H / 2], [0, 0, 1.0]])
+            cam = ImageCamera("v", K, look_at(np.array(C, float), np.array(target, float)), np.array(C, float), W, H)
+            ids, _ = r.id_buffer(cam)
+            name = {f.id: f.name for f in scene.mesh.faces}
+            u, v = project(cam.K, cam.R, cam.C, np.array(hole, float))
+            assert ids[int(v), int(u)] == 0, "the opening's middle shows nothing: it is a hole"
+            seen = {name[i] for i in np.unique(ids) if i}
+            assert {wall, reveal} <= seen, seen
+    finally:
+        r.release()
