@@ -289,3 +289,16 @@ def test_a_room_pinned_at_its_corners_moves_its_jamb_hinged_door_with_it() -> No
     for k in ("c1_x", "c2_y", "c4_y"):
         assert abs(got[f"room.{k}"] - ROOM["params"][k]) < 4 * sigma[f"room.{k}"]
     np.testing.assert_allclose(world(model, "leaf", "v0"), world(model, "room", "door_sb"), atol=EXACT)
+
+
+def test_solved_values_that_make_an_impossible_room_are_a_clear_error() -> None:
+    from vebuild.errors import VebuildError
+
+    model = model_from_dict([room_node(), leaf_node(20.0)], MARKERS)
+    x = model.vector()
+    x[model.slices["room"][1].start + model.node("room").primitive.PARAMS.index("door_width")] = 4.0
+    x[model.slices["leaf"][0]] = 0.5
+    with pytest.raises(VebuildError, match=r"node 'room': the solved values make an impossible room .*door"):
+        model.set_vector(x)
+    assert model.node("room").primitive.param("door_width") == 0.9  # nothing half-changed
+    assert model.node("leaf").joint.angle == pytest.approx(np.radians(20.0))

@@ -126,11 +126,22 @@ class Model:
         return x
 
     def set_vector(self, x: Array) -> None:
+        """Store x in the joints and primitives; nothing changes when a value cannot be kept (a
+        solve that bent a room out of shape is a VebuildError naming the node)."""
+        prims = {}
         for n in self.nodes:
-            sq, sp = self.slices[n.name]
-            n.joint.set_values(x[sq])
             if n.primitive is not None:
-                n.primitive = n.primitive.with_params(x[sp])
+                try:
+                    prims[n.name] = n.primitive.with_params(x[self.slices[n.name][1]])
+                except RoomError as e:  # a solve or a drag bent a room out of shape: say which and how
+                    from vebuild.errors import VebuildError
+
+                    raise VebuildError(f"node '{n.name}': the solved values make an impossible room ({e}); check "
+                                       "the pins and edges on it, or hold the dimensions a tape measured") from None
+        for n in self.nodes:
+            n.joint.set_values(x[self.slices[n.name][0]])
+            if n.primitive is not None:
+                n.primitive = prims[n.name]
 
     def bounds(self) -> tuple[Array, Array]:
         lo, hi = np.full(self.size, -np.inf), np.full(self.size, np.inf)
