@@ -302,3 +302,27 @@ def test_solved_values_that_make_an_impossible_room_are_a_clear_error() -> None:
         model.set_vector(x)
     assert model.node("room").primitive.param("door_width") == 0.9  # nothing half-changed
     assert model.node("leaf").joint.angle == pytest.approx(np.radians(20.0))
+
+
+def test_the_room_joints_load_from_a_project_file_and_round_trip(tmp_path) -> None:
+    import json
+
+    from vebuild.project import load_project
+    from vebuild.project.decode import model as decode_model
+
+    pane = {"name": "pane", "parent": "room",
+            "primitive": {"type": "box", "params": {"width": 1.2, "depth": 0.01, "height": 1.1}},
+            "joint": {"type": "opening", "opening": "win", "translation": [0, -0.05, 0], "rotation_deg": [0, 0, 0]}}
+    hall = {"name": "hall", "parent": "room", "primitive": ROOM,
+            "joint": {"type": "through", "opening": "door", "own_opening": "door"}}
+    nodes = [room_node(), leaf_node(20.0), pane, hall]
+    path = tmp_path / "r.vebuild.json"
+    path.write_text(json.dumps({"format": "vebuild-project", "version": 1, "name": "r",
+                                "settings": {"click_sigma_px": 0.7}, "reference_distances": [], "photos": [],
+                                "markers": [{"name": "O"}], "origin_marker": "O", "model": {"nodes": nodes}}))
+    model = decode_model(load_project(path), MARKERS)
+    assert [n.joint.type for n in model.nodes] == ["marker", "hinge", "opening", "through"]
+    again = model_from_dict(model.to_dict(), MARKERS)
+    assert again.to_dict() == model.to_dict()
+    assert model.to_dict()[1]["joint"]["jamb"] == {"opening": "door", "side": "start"}
+    np.testing.assert_allclose(world(again, "leaf", "v1"), world(model, "leaf", "v1"), atol=EXACT)
