@@ -336,3 +336,21 @@ def test_ear_clipping_covers_non_convex_floors_exactly_once() -> None:
         e1, e2 = a[:, 1] - a[:, 0], a[:, 2] - a[:, 0]
         signed = 0.5 * (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
         assert np.all(signed > 0) and signed.sum() == pytest.approx(polygon_area(poly), rel=1e-12)
+
+
+def test_a_point_on_a_wall_stays_on_its_wall_as_the_corners_move() -> None:
+    """Analysis points on a room (vebuild/analysis/solved.py): a stain 1 m along wall 1's inner
+    face, 1.2 m up, stays 1 m along that wall, at 1.2 m of 2.6, when wall 1 moves out; one on
+    the outer face stays on the outer face; coordinates round-trip."""
+    from vebuild.analysis.solved import from_coords, to_coords
+
+    room = primitive_from_dict(L_ROOM)
+    moved = room.with_params({"c1_x": 5.5, "height": 3.0})
+    for local, want in (([5.0, 1.0, 1.2], [5.5, 1.0, 1.2 * 3.0 / 2.6]), ([5.1, 2.0, 0.5], [5.6, 2.0, 0.5 * 3.0 / 2.6]),
+                        ([2.5, 3.0, 2.0], [2.5, 3.0, 2.0 * 3.0 / 2.6])):  # wall 3 (x = 2.5) stays put
+        c = to_coords(room, np.array(local))
+        np.testing.assert_allclose(from_coords(room, room.params, c), local, atol=EXACT)
+        np.testing.assert_allclose(from_coords(room, moved.params, c), want, atol=EXACT)
+    # Round the corner: the end of wall 0 is the start of wall 1.
+    np.testing.assert_allclose(room.from_coords([1.0, 0.0, 0.0]), [5.0, 0.0, 0.0], atol=EXACT)
+    np.testing.assert_allclose(room.from_coords([6.0, 0.0, 0.0]), [0.0, 0.0, 0.0], atol=EXACT)

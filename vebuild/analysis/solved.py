@@ -3,7 +3,8 @@
 A point is tied to the model, so that its world position is a function of the solved parameters:
 a handle (``node:handle``), a point on a face kept in *normalised* local coordinates of its
 primitive (x / width, y / depth, z / height for a box; the angle and height fraction on a cylinder
-or frustum; the direction from a sphere's centre), fixed when the point is placed, so that when a
+or frustum; the direction from a sphere's centre; on a room, the place along its nearest wall,
+:meth:`~vebuild.model.room.Room.to_coords`), fixed when the point is placed, so that when a
 parameter changes the point stays at the same place on the face, the face scaled with it; or a
 marker. How points are written and picked: :mod:`vebuild.analysis.points`; what is measured
 between them: :mod:`vebuild.analysis.measure`.
@@ -27,6 +28,7 @@ from numpy.typing import NDArray
 
 from ..errors import ProjectError, VebuildError
 from ..model.primitives import Primitive, Sphere, _Round
+from ..model.room import Room
 from ..model.scene import Model
 from ..project.units import METRES, LengthUnit, length_unit
 
@@ -100,6 +102,8 @@ def to_coords(prim: Primitive, local: Array, snap_face: str | None = None) -> Ar
     """
     p = prim.params
     local = np.asarray(local, float)
+    if isinstance(prim, Room):  # along its walls: a point stays on its wall as the corners move
+        return prim.to_coords(local)
     if isinstance(prim, _Round):
         rb, rt, h = (float(v) for v in prim._radii(p))
         zeta = local[2] / h
@@ -120,6 +124,8 @@ def to_coords(prim: Primitive, local: Array, snap_face: str | None = None) -> Ar
 def from_coords(prim: Primitive, params: Array, coords: Array) -> Array:
     """The local point of normalised ``coords`` on ``prim`` with trial ``params``."""
     c = np.asarray(coords, float)
+    if isinstance(prim, Room):
+        return prim.from_coords(c, params)
     if isinstance(prim, _Round):
         rb, rt, h = (float(v) for v in prim._radii(np.asarray(params, float)))
         r = rb + (rt - rb) * c[2]

@@ -368,6 +368,33 @@ class Room(Primitive):
             out[:, :, j] = (self.handles(hi) - self.handles(lo)) / (2 * step)
         return out
 
+    # -- points tied to the room (analysis: a stain on a wall) --------------------------------
+
+    def to_coords(self, local: ArrayLike) -> Array:
+        """A local point's coordinates that follow the walls when the room's params change:
+        (i + t, s, z / height) with wall i the nearest (in plan), t ∈ [0, 1] the fraction along
+        it from corner i, s the distance out from its inner face (metres: 0 on the inner face,
+        ``thickness`` on the outer, negative into the room). i + t is continuous round the room
+        (the end of wall i is the start of wall i + 1)."""
+        X = np.asarray(local, float)
+        w = self.walls()
+        c, e = w["start"], np.roll(w["start"], -1, axis=0) - w["start"]
+        t = np.clip(np.einsum("ij,ij->i", X[:2] - c, e) / np.einsum("ij,ij->i", e, e), 0.0, 1.0)
+        i = int(np.argmin(np.linalg.norm(c + t[:, None] * e - X[:2], axis=1)))
+        return np.array([i + t[i], float((X[:2] - c[i]) @ w["normal"][i]), X[2] / self.param("height")])
+
+    def from_coords(self, coords: ArrayLike, params: ArrayLike | None = None) -> Array:
+        """The local point of :meth:`to_coords`'s ``coords`` at trial ``params``."""
+        q = np.asarray(coords, float)
+        p = self._as_params(params)
+        w = self.walls(p)
+        n = self.n_corners
+        i = min(int(np.floor(q[0])), n - 1)
+        t = q[0] - i
+        a, b = w["start"][i % n], w["start"][(i + 1) % n]
+        xy = a + t * (b - a) + q[1] * w["normal"][i % n]
+        return np.array([xy[0], xy[1], q[2] * self._value(p, "height")])
+
     # -- faces and frames ----------------------------------------------------------------------
 
     def _plane_names(self) -> tuple[str, ...]:
