@@ -469,7 +469,9 @@ def test_the_schema_lists_exactly_the_registered_primitive_types() -> None:
 
     def walk(node: object) -> None:
         if isinstance(node, dict):
-            if "params" in node.get("properties", {}) and "type" in node.get("properties", {}):
+            props = node.get("properties", {})
+            # A primitive record: a type and an object of params (a relation's params are a list).
+            if "type" in props and props.get("params", {}).get("type") == "object":
                 found.append(node["properties"]["type"]["enum"])
             for v in node.values():
                 walk(v)
