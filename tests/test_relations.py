@@ -13,11 +13,17 @@ from typing import Any
 import numpy as np
 import pytest
 
+from vebuild.camera import ImageCamera
 from vebuild.errors import ProjectError
+from vebuild.model.constraints import HARD_SIGMA_M, conflicts, constraint_rank
+from vebuild.model.drag import DragSession
 from vebuild.model.joints import FlushJoint, RestsOnJoint
 from vebuild.model.relations import Relation, relation_residual, rows_of, world_plane
+from vebuild.model.residuals import Pin
 from vebuild.model.scene import ModelError, model_from_dict
+from vebuild.model.solver import FINAL_PRIOR_SCALE, Problem, ProblemOptions
 from vebuild.project import decode, load_project
+from vebuild.synthetic import CLICK_NOISE_PX, _inside, _project, _rotation, projection_matrix, random_camera
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "scenes" / "room"
 MARKERS = {"O": np.zeros(3)}
@@ -274,3 +280,255 @@ def test_flush_joint_errors_name_the_face() -> None:
     nodes[2]["parent"] = None
     nodes[2]["joint"] = {"type": "flush", "face": "front", "own_face": "back"}
     assert error([], nodes).where == "$.model.nodes[2].joint.face"
+
+
+# ------------------------------------------------------------------------------------------------
+# Solves of a generated scene: two cabinets against a wall, of one width
+
+
+#: The wall (0.12 m thick, its front face at y = 2.14 in the floor's frame) and the cabinets
+#: against it: cab1 and cab2 of one width, their backs on the wall's front.
+WALL_Y, WALL_D = 2.2, 0.12
+SCENE_TRUTH: list[dict[str, Any]] = [
+    {"name": "floor", "primitive": {"type": "quad", "params": {"width": 6.0, "depth": 5.0}},
+     "joint": {"type": "marker", "marker": "O", "handle": "v0"}, "solve": False},
+    _box("wall", (5.0, WALL_D, 2.5), (0.0, WALL_Y)),
+    _box("cab1", (0.8, 0.55, 0.9), (-1.2, WALL_Y - WALL_D / 2 - 0.55 / 2)),
+    _box("cab2", (0.8, 0.45, 1.1), (0.9, WALL_Y - WALL_D / 2 - 0.45 / 2)),
+]
+RELATIONS = [{"type": "flush", "a": "cab1:back", "b": "wall:front"},
+             {"type": "flush", "a": "cab2:back", "b": "wall:front"},
+             {"type": "equal", "params": ["cab1.width", "cab2.width"]}]
+#: The handles a photo sees: none of a cabinet's bottom back corners (behind it, at the wall).
+SEEN = {"wall": ("v0", "v1", "v4", "v5", "v6", "v7"), "cab1": ("v0", "v1", "v4", "v5", "v6", "v7"),
+        "cab2": ("v0", "v1", "v4", "v5", "v6", "v7")}
+
+
+def wall_scene(seed: int, guess_off: float = 0.15) -> tuple[Any, list[dict[str, Any]], dict[str, ImageCamera],
+                                                             list[Pin]]:
+    """The truth model, a first guess (sizes and positions off by up to ``guess_off``, yaws by
+    up to 5°), six photos from the room's open side, and noisy pins (CLICK_NOISE_PX)."""
+    rng = np.random.default_rng(seed)
+    truth = model_from_dict(copy.deepcopy(SCENE_TRUTH), MARKERS, RELATIONS)
+    cams: dict[str, ImageCamera] = {}
+    for i in range(6):
+        cam = random_camera(rng, "3vp", 1600, 1200, f"p{i + 1}")
+        a = np.pi + 0.35 + (np.pi - 0.7) * i / 5
+        cam.C = np.array([3.0 + 3.2 * np.cos(a), 2.5 + 3.0 * np.sin(a), rng.uniform(1.4, 1.9)])
+        d = np.array([3.0, 4.2, 1.1]) - cam.C
+        cam.R = _rotation(np.arctan2(d[1], d[0]), np.arctan2(d[2], np.hypot(d[0], d[1])), 0.0)
+        cams[cam.id] = ImageCamera(cam.id, cam.K, cam.R, cam.C, cam.width, cam.height)
+    T = truth.world_transforms()
+    pins = []
+    for cam in cams.values():
+        P = projection_matrix(cam.K, cam.R, cam.C)
+        for node, seen in SEEN.items():
+            prim = truth.node(node).primitive
+            names = prim.handle_names()
+            hs = prim.handles() @ T[node][:3, :3].T + T[node][:3, 3]
+            uv, z = _project(P, hs)
+            for h in seen:
+                k = names.index(h)
+                if z[k] > 0.3 and _inside(uv[k][None], cam.width, cam.height, 5.0):
+                    pins.append(Pin(cam.id, node, h, uv[k] + rng.normal(0, CLICK_NOISE_PX, 2)))
+    start = copy.deepcopy(SCENE_TRUTH)
+    for n in start[1:]:  # the floor is placed (not solved): the boxes on it are guessed
+        n["primitive"]["params"] = {k: v * (1 + rng.uniform(-guess_off, guess_off))
+                                    for k, v in n["primitive"]["params"].items()}
+        n["joint"]["position"] = [p + rng.uniform(-0.1, 0.1) for p in n["joint"]["position"]]
+        n["joint"]["yaw_deg"] = float(rng.uniform(-5, 5))
+    return truth, start, cams, pins
+
+
+def solve(start: list[dict[str, Any]], cams: dict[str, ImageCamera], pins: list[Pin], relations: Any = RELATIONS
+          ) -> tuple[Any, Problem, Any, Any]:
+    m = model_from_dict(copy.deepcopy(start), MARKERS, relations)
+    problem = Problem(m, cams, pins, options=ProblemOptions(click_sigma_px=CLICK_NOISE_PX,
+                                                            prior_scale=FINAL_PRIOR_SCALE))
+    fit = problem.solve()
+    assert fit.converged
+    return m, problem, fit, problem.solution(fit.x, fit.iterations)
+
+
+#: A relation holds after a solve to this (metres): the brief's micrometre; the stiff rows'
+#: slack is (the observations' pull)·HARD_SIGMA_M², measured at most 3e-9 m here.
+RELATION_HOLDS_M = 1e-6
+#: An estimate beyond this many of its 1σ fails (p ≈ 6e-5 per parameter for a Gaussian).
+Z_BOUND = 4.0
+
+
+def test_cabinets_flush_on_a_wall_of_one_width_recover_the_truth_and_hold_exactly() -> None:
+    truth, start, cams, pins = wall_scene(1)
+    m, problem, fit, sol = solve(start, cams, pins)
+    xm = problem.model_vector(fit.x)
+    for r in m.relations:
+        assert relation_residual(r, m, xm) < RELATION_HOLDS_M, r.label()
+    names, x_true = truth.parameter_names(), truth.vector()
+    sig = np.sqrt(np.diag(sol.covariance))
+    inside = []
+    for j, name in enumerate(problem.names):
+        z = (fit.x[j] - x_true[names.index(name)]) / sig[j]
+        assert abs(z) < Z_BOUND, (name, fit.x[j], x_true[names.index(name)], sig[j])
+        inside.append(abs(z) < 1.96)
+    assert np.mean(inside) >= 0.75  # 95 % intervals: most hold in one scene; Z_BOUND bounds every one
+    assert "cab2.width" not in problem.names and xm[names.index("cab2.width")] == xm[names.index("cab1.width")]
+    # Without the relations the same pins give wider intervals on what the relations tie.
+    m0, problem0, fit0, sol0 = solve(start, cams, pins, [])
+    sig0 = dict(zip(problem0.names, np.sqrt(np.diag(sol0.covariance)), strict=True))
+    sig1 = dict(zip(problem.names, sig, strict=True))
+    for name in ("cab1.width", "cab1.depth", "cab2.depth", "cab1.t", "cab2.t", "wall.t"):
+        assert sig1[name] < sig0[name], (name, sig1[name], sig0[name])
+    assert sig1["cab1.width"] < 0.9 * min(sig0["cab1.width"], sig0["cab2.width"])
+
+
+def test_the_covariance_is_the_constrained_one() -> None:
+    """Along a relation's rows (cab1's back off the wall's plane) the covariance is ~0."""
+    _, start, cams, pins = wall_scene(2)
+    m, problem, fit, sol = solve(start, cams, pins)
+    x = fit.x
+    T = m.world_transforms(problem.model_vector(x))
+    rel = m.relations[0]
+    r0 = rows_of(rel, m, T, problem.model_vector(x))
+    G = np.zeros((3, len(x)))
+    for j in range(len(problem.names)):
+        xp = x.copy()
+        xp[j] += 1e-6
+        xmp = problem.model_vector(xp)
+        G[:, j] = (rows_of(rel, m, m.world_transforms(xmp), xmp) - r0) / 1e-6
+    along = G @ sol.covariance @ G.T
+    t = problem.names.index("cab1.t")
+    # What is left there is the hard rows' own micrometre (their whitening), a few thousandths of
+    # the cabinet's position's 1σ.
+    assert np.max(np.sqrt(np.abs(np.diag(along)))) <= 1.01 * HARD_SIGMA_M * np.sqrt(sol.variance_factor)
+    assert np.max(np.sqrt(np.abs(np.diag(along)))) < 0.01 * np.sqrt(sol.covariance[t, t])
+
+
+def test_noise_only_fits_have_a_variance_factor_of_one_with_and_without_relations() -> None:
+    """χ² of the observations over rows − unknowns + independent constraints: ≈ 1 whether or not
+    the relations take unknowns away (each flush relation 2 here, the equal one by sharing)."""
+    ratios: dict[bool, list[float]] = {True: [], False: []}
+    dofs: dict[bool, int] = {True: 0, False: 0}
+    for seed in range(6):
+        _, start, cams, pins = wall_scene(10 + seed)
+        for with_rel in (True, False):
+            m, problem, fit, sol = solve(start, cams, pins, RELATIONS if with_rel else [])
+            r = fit.residuals
+            J = problem.jacobian(fit.x)
+            hard = np.concatenate(problem.rows_hard).astype(int) if problem.rows_hard else np.zeros(0, int)
+            c = constraint_rank(J[hard])
+            # Each flush relation between two boxes standing on the floor constrains 2 directions
+            # (the distance and the turn; neither can tilt): its third row is identically 0.
+            assert c == (4 if with_rel else 0)
+            dof = problem.n_data - problem.layout.n + c
+            ratios[with_rel].append(float(r[: problem.n_data] @ r[: problem.n_data]))
+            dofs[with_rel] += dof
+    for with_rel in (True, False):
+        s2 = sum(ratios[with_rel]) / dofs[with_rel]
+        # χ² over the pooled redundancy: its 1σ is √(2 / dof); 4σ bounds chance.
+        assert abs(s2 - 1.0) < 4 * np.sqrt(2 / dofs[with_rel]), (with_rel, s2, dofs[with_rel])
+
+
+def test_first_guesses_10_to_25_percent_off_give_the_same_figures() -> None:
+    truth, _, cams, pins = wall_scene(3)
+    runs = []
+    for seed, off in ((30, 0.10), (31, 0.25)):
+        _, start, _, _ = wall_scene(3, guess_off=off)
+        rng = np.random.default_rng(seed)
+        for n in start[1:]:  # a different first guess from the same photos and pins
+            n["primitive"]["params"] = {k: v * (1 + rng.uniform(-off, off)) for k, v in
+                                        next(t for t in SCENE_TRUTH if t["name"] == n["name"])["primitive"]
+                                        ["params"].items()}
+        _, problem, fit, sol = solve(start, cams, pins)
+        runs.append((problem.names, fit.x, np.sqrt(np.diag(sol.covariance))))
+    (n1, x1, s1), (n2, x2, s2) = runs
+    assert n1 == n2
+    assert np.all(np.abs(x1 - x2) < 0.1 * s1)
+    assert np.all(np.abs(s1 - s2) < 0.1 * s1)
+
+
+def test_a_drag_keeps_a_flush_relation() -> None:
+    _, start, cams, pins = wall_scene(4)
+    m, problem, fit, _ = solve(start, cams, pins)
+    m.set_vector(problem.model_vector(fit.x))
+    photo = next(p.photo for p in pins if p.node == "cab1" and p.handle == "v1")
+    others = [p for p in pins if p.node != "cab1"]  # no fixed vertex: the cabinet moves as a whole
+    drag = DragSession(m, cams, others, [], photo, "cab1", "v1", click_sigma_px=CLICK_NOISE_PX)
+    start_px = drag.pin.uv.copy()
+    moved = 0.0
+    for step in range(1, 6):
+        res = drag.move(start_px + np.array([6.0, -4.0]) * step)
+        for r in m.relations:
+            assert relation_residual(r, m, res.x) < RELATION_HOLDS_M, (step, r.label())
+        moved = max(moved, float(np.abs(res.x - problem.model_vector(fit.x)).max()))
+    assert moved > 0.03  # the drag did move the cabinet (along the wall: the relation keeps it there)
+    drag.release()
+    assert all(relation_residual(r, m) < RELATION_HOLDS_M for r in m.relations)
+
+
+def test_relations_that_cannot_hold_together_are_a_conflict_after_the_solve() -> None:
+    _, start, cams, pins = wall_scene(5)
+    rels = [*RELATIONS, {"type": "flush", "a": "cab1:front", "b": "wall:front"}]
+    m, problem, fit, _ = solve(start, cams, pins, rels)
+    found = conflicts(m, problem.model_vector(fit.x))
+    assert {i for i, _, _ in found} & {0, 3}, found
+
+
+# ------------------------------------------------------------------------------------------------
+# The example room, solved with relations
+
+
+def _example_with(tmp_path: Path, relations: list[dict[str, Any]]) -> Any:
+    from vebuild.actions.calibrate import calibrate_project
+
+    shutil.copytree(EXAMPLE, tmp_path / "room")
+    path = tmp_path / "room" / "room.vebuild.json"
+    data = json.loads(path.read_text())
+    data["model"]["relations"] = relations
+    path.write_text(json.dumps(data))
+    project = load_project(path)
+    calibrate_project(project)
+    return project
+
+
+#: The example's cabinet stands against the west wall (its left face on the wall's inner face),
+#: and its table's four legs are one size (scenes/room/ground_truth.json).
+EXAMPLE_RELATIONS = [{"type": "flush", "a": "cabinet:left", "b": "wall_west:front", "name": "cabinet on the wall"},
+                     {"type": "equal", "params": [f"table.leg{i}.width" for i in range(1, 5)]},
+                     {"type": "equal", "params": [f"table.leg{i}.depth" for i in range(1, 5)]}]
+
+
+def test_the_example_solves_with_relations_and_records_how_they_hold(tmp_path: Path) -> None:
+    from vebuild.actions.solve import solve_project
+
+    project = _example_with(tmp_path, EXAMPLE_RELATIONS)
+    result = solve_project(project)
+    truth = {n["name"]: n for n in json.loads((EXAMPLE / "ground_truth.json").read_text())["model"]["nodes"]}
+    rec = result["relations"]
+    assert [r["type"] for r in rec] == ["flush", "equal", "equal"] and rec[0]["name"] == "cabinet on the wall"
+    assert all(r["residual_m"] < RELATION_HOLDS_M for r in rec), rec
+    nodes = result["nodes"]
+    widths = {nodes[f"table.leg{i}"]["params"]["width"]["value"] for i in range(1, 5)}
+    assert len(widths) == 1 and nodes["table.leg4"]["params"]["width"]["sigma"] > 0
+    # The legs' shared width, the cabinet's place and turn: the truth within 4σ.
+    for value, true in ((nodes["table.leg1"]["params"]["width"], 0.06),
+                        (nodes["cabinet"]["dofs"]["s"], truth["cabinet"]["joint"]["position"][0]),
+                        (nodes["cabinet"]["params"]["width"], truth["cabinet"]["primitive"]["params"]["width"])):
+        assert abs(value["value"] - true) < Z_BOUND * value["sigma"], (value, true)
+    # Against the wall the cabinet turns as the wall does (90° from it: yaw 0) to the hard rows' micrometre.
+    assert abs(nodes["cabinet"]["dofs"]["yaw_deg"]["value"]) < 1e-4
+    # Saved and read back: the relations stay in the file as written.
+    assert project.data["model"]["relations"] == EXAMPLE_RELATIONS
+
+
+def test_the_solve_names_relations_that_cannot_hold_together(tmp_path: Path) -> None:
+    from vebuild.actions.solve import solve_project
+    from vebuild.errors import VebuildError
+
+    both = [EXAMPLE_RELATIONS[0], {"type": "flush", "a": "cabinet:right", "b": "wall_west:front"}]
+    project = _example_with(tmp_path, both)
+    with pytest.raises(VebuildError) as e:
+        solve_project(project)
+    msg = str(e.value)
+    assert str(project.path) in msg and "$.model.relations: the relations cannot all hold" in msg
+    assert "$.model.relations[0] (cabinet on the wall)" in msg or "$.model.relations[1] (flush cabinet:right" in msg
+    assert "model_solution" not in project.data
