@@ -446,6 +446,41 @@ def test_first_guesses_10_to_25_percent_off_give_the_same_figures() -> None:
     assert np.all(np.abs(s1 - s2) < 0.1 * s1)
 
 
+def test_aligned_rows_measure_faces_out_of_plane_and_edges_off_line() -> None:
+    m = model([{"type": "aligned", "a": "cab1:front", "b": "cab2:front"},
+               {"type": "aligned", "a": "cab1:e0", "b": "cab2:e0"}])
+    x = m.vector()
+    faces, edges = m.relations
+    assert relation_residual(faces, m, x) < 1e-12 and relation_residual(edges, m, x) < 1e-12
+    x[m.slices["cab2"][0].start + 1] += 0.01  # cab2 1 cm toward the wall
+    assert relation_residual(faces, m, x) == pytest.approx(0.01, abs=1e-12)
+    assert relation_residual(edges, m, x) == pytest.approx(0.01 * np.sqrt(2), abs=1e-12)  # both ends
+    x = m.vector()
+    x[m.slices["cab2"][0].start + 1] = 1.5  # turned round about a point 0.6 m nearer:
+    x[m.slices["cab2"][0].start + 2] = np.pi  # its front in the plane, but facing the other way
+    assert np.max(np.abs(rows_of(faces, m, m.world_transforms(x), x))) < 1e-9
+    assert relation_residual(faces, m, x) == pytest.approx(2.0)
+
+
+def test_edges_aligned_along_a_wall_place_a_cabinet_as_its_back_would() -> None:
+    """The bottom back edges of the two cabinets on one line, the first flush on the wall: the
+    second is held to the wall through the first. Its rows overlap the flush one's (both edges at
+    the floor): the constraints' rank counts each direction once."""
+    truth, start, cams, pins = wall_scene(6)
+    rels = [RELATIONS[0], {"type": "aligned", "a": "cab2:e2", "b": "cab1:e2"}, RELATIONS[2]]
+    m, problem, fit, sol = solve(start, cams, pins, rels)
+    xm = problem.model_vector(fit.x)
+    assert all(relation_residual(r, m, xm) < RELATION_HOLDS_M for r in m.relations)
+    J = problem.jacobian(fit.x)
+    assert constraint_rank(J[np.concatenate(problem.rows_hard)]) == 4  # 2 per relation: distance, turn
+    names, x_true = truth.parameter_names(), truth.vector()
+    sig = np.sqrt(np.diag(sol.covariance))
+    for j, name in enumerate(problem.names):
+        assert abs(fit.x[j] - x_true[names.index(name)]) < Z_BOUND * sig[j], name
+    # cab2's back is on the wall although no relation names the wall and the back.
+    assert relation_residual(Relation("flush", "cab2:back", "wall:front"), m, xm) < RELATION_HOLDS_M
+
+
 def test_a_drag_keeps_a_flush_relation() -> None:
     _, start, cams, pins = wall_scene(4)
     m, problem, fit, _ = solve(start, cams, pins)
