@@ -267,6 +267,28 @@ def test_a_node_flush_on_a_face_stays_flush_under_any_s_t_yaw(own: str, face: st
             assert [(oa - ob) @ xb, (oa - ob) @ yb, (oa - ob) @ nb] == pytest.approx([*x[sq][:2], offset], abs=1e-12)
 
 
+def test_the_viewer_slides_a_flush_node_along_its_parent_face() -> None:
+    from vebuild.model.arrange import ObjectMover
+
+    nodes = copy.deepcopy(NODES)
+    nodes[2]["parent"] = "wall"
+    nodes[2]["joint"] = {"type": "flush", "face": "front", "own_face": "back", "position": [-1.5, -0.8]}
+    m = model([], nodes)
+    mover = ObjectMover(m)
+    rel = Relation("flush", "cab1:back", "wall:front")
+    assert mover.begin("cab1", m.handle_world("cab1", "v0")) == "cab1"
+    grab = m.handle_world("cab1", "v0")
+    eye = grab + np.array([0.3, -3.0, 0.5])
+    target = grab + np.array([-0.4, 0.0, 0.0])  # 40 cm along the wall: its front face's x is +x
+    assert mover.drag(eye, (target - eye) / np.linalg.norm(target - eye))
+    mover.end()
+    q = mover.model.node("cab1").joint.values()
+    assert q[0] == pytest.approx(-1.5 - 0.4, abs=1e-9) and q[1] == pytest.approx(-0.8, abs=1e-9)
+    assert relation_residual(rel, mover.model) < 1e-12
+    assert mover.turn("cab1", 0.2) and mover.model.node("cab1").joint.values()[2] == pytest.approx(0.2)
+    assert relation_residual(rel, mover.model) < 1e-12
+
+
 def test_flush_joint_errors_name_the_face() -> None:
     nodes = copy.deepcopy(NODES)
     nodes[2]["parent"] = "wall"
