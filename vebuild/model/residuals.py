@@ -108,6 +108,7 @@ class Residuals:
     also: dict[int, tuple[str, ...]]
     alias: dict[str, str]
     hard: list[Relation]  # the flush and aligned relations kept as hard rows
+    _hard_J: Array | None = None  # their rows of the last Jacobian (whitened)
 
     def primitive_of(self, node: str) -> Primitive:
         """The primitive of node ``node`` (observations name only primitive nodes)."""
@@ -514,10 +515,12 @@ class Residuals:
         for cid, blk in self.layout.cameras.items():
             rr, cc = np.meshgrid(self.rows_prior_cam[cid], blk.indices, indexing="ij")
             put(rr, cc, self._prior_L[cid])
-        if dense is not None:
-            return dense
-        J = sparse.coo_matrix((np.concatenate(V_), (np.concatenate(R_), np.concatenate(C_))), shape=(self.m, n))
-        return J.tocsr()
+        J = dense if dense is not None else \
+            sparse.coo_matrix((np.concatenate(V_), (np.concatenate(R_), np.concatenate(C_))), shape=(self.m, n)).tocsr()
+        if self.hard:  # the hard rows' linearisation, for the steps' return onto the relations (Problem.clip)
+            Jh: Any = J[np.concatenate(self.rows_hard)]
+            self._hard_J = Jh.toarray() if sparse.issparse(Jh) else np.array(Jh)
+        return J
 
     def describe_row(self, row: int) -> str:
         """What residual ``row`` measures: a pin, an edge, a marker sighting, a distance or a prior."""

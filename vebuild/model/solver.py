@@ -28,7 +28,7 @@ from numpy.typing import NDArray
 from ..calibration.positions import ReferenceDistance
 from ..camera import ImageCamera
 from ..determinism import deterministic
-from .constraints import hard_relations, tie_equal
+from .constraints import hard_relations, restore, tie_equal
 from .layout import ParameterLayout
 from .lm import LMResult, levenberg_marquardt
 from .residuals import EdgeObservation, MarkerObservation, Pin, Residuals
@@ -209,7 +209,8 @@ class Problem(Residuals):
 
     def clip(self, x: Array) -> Array:
         """x with every joint's degrees of freedom clipped by the joint to its limits and every size
-        at least its primitive's least."""
+        at least its primitive's least; within a solve, brought back onto its flush and aligned
+        relations (:func:`~vebuild.model.constraints.restore`)."""
         x = np.array(x, float)
         m = self.layout.model.slice
         if self._limited:
@@ -218,6 +219,9 @@ class Problem(Residuals):
                 xm[sq] = joint.clip(xm[sq])
             x[m] = xm[self.free_idx]
         x[m] = np.maximum(x[m], self._least)
+        if self._hard_J is not None:  # a step of the solve: back onto the relations (constraints.py)
+            x = restore(self, x, self._hard_J)
+            x[m] = np.maximum(x[m], self._least)
         return x
 
     # -- solving -----------------------------------------------------------------------------
