@@ -578,6 +578,13 @@ def test_the_example_solves_with_relations_and_records_how_they_hold(tmp_path: P
         assert abs(value["value"] - true) < Z_BOUND * value["sigma"], (value, true)
     # Against the wall the cabinet turns as the wall does (90° from it: yaw 0) to the hard rows' micrometre.
     assert abs(nodes["cabinet"]["dofs"]["yaw_deg"]["value"]) < 1e-4
+    # The covariance lists every leg's width, each the shared unknown's (correlation 1), so a
+    # measurement through two legs (the solved model's, decode.solution) carries the shared σ.
+    cov = result["covariance"]
+    i1, i2 = cov["parameters"].index("table.leg1.width"), cov["parameters"].index("table.leg3.width")
+    assert cov["matrix"][i1][i2] == cov["matrix"][i1][i1] == cov["matrix"][i2][i2] > 0
+    solved = decode.solution(project)
+    assert "table.leg3.width" in solved.names
     # Saved and read back: the relations stay in the file as written.
     assert project.data["model"]["relations"] == EXAMPLE_RELATIONS
 
@@ -594,3 +601,24 @@ def test_the_solve_names_relations_that_cannot_hold_together(tmp_path: Path) -> 
     assert str(project.path) in msg and "$.model.relations: the relations cannot all hold" in msg
     assert "$.model.relations[0] (cabinet on the wall)" in msg or "$.model.relations[1] (flush cabinet:right" in msg
     assert "model_solution" not in project.data
+
+
+def test_equal_with_a_held_member_holds_the_group_and_an_entered_member_enters_the_shared_value() -> None:
+    _, start, cams, pins = wall_scene(7)
+    held = copy.deepcopy(start)
+    held[3]["hold"] = ["width"]  # cab2's width held at its (wrong) first guess: cab1's follows it
+    m, problem, fit, _ = solve(held, cams, pins)
+    xm = problem.model_vector(fit.x)
+    names = m.parameter_names()
+    w2 = held[3]["primitive"]["params"]["width"]
+    assert "cab1.width" not in problem.names and "cab2.width" not in problem.names
+    assert xm[names.index("cab1.width")] == xm[names.index("cab2.width")] == w2
+    # A tape's width of cab2 (σ 1 mm): the shared unknown is held by it, cab1's pins and cab2's.
+    entered = copy.deepcopy(start)
+    entered[3]["hold"] = [{"name": "width", "sigma": 0.001, "value": 0.8}]
+    m, problem, fit, sol = solve(entered, cams, pins)
+    j = problem.names.index("cab1.width")
+    assert problem.alias["cab2.width"] == "cab1.width"
+    assert problem.prior_model_at[j] == 0.8 and problem.prior_sigma[j] == 0.001
+    assert problem.rows_prior_model[j] in problem.rows_entered
+    assert np.sqrt(sol.covariance[j, j]) < 0.001

@@ -350,6 +350,15 @@ def covariance_record(problem: Problem, solution: Any) -> dict[str, Any]:
     blocks = [layout.model, *layout.markers.values()]
     keep = layout.model_and_markers()
     names, s = layout.file_names(blocks), layout.file_scale(blocks)
+    # The members of an equal group share one unknown: each is listed with its row (correlation 1),
+    # so a measurement through any of them carries the shared σ, correlations included.
+    index = {n: j for j, n in enumerate(layout.model.names)}
+    tied = [(m, index[rep]) for m, rep in problem.alias.items() if m != rep and rep in index]
+    n_model = len(layout.model)
+    order = np.r_[np.arange(n_model), [j for _, j in tied], np.arange(n_model, len(keep))].astype(int)
+    keep, s = keep[order], s[order]
+    names = names[:n_model] + [f"{m}_deg" if layout.model.kinds[j] == "angle" else m for m, j in tied] + \
+        names[n_model:]
     cov = solution.covariance[np.ix_(keep, keep)] * s[:, None] * s[None, :]
     return {"parameters": names, "matrix": json_values(cov)}
 
