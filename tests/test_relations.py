@@ -622,3 +622,25 @@ def test_equal_with_a_held_member_holds_the_group_and_an_entered_member_enters_t
     assert problem.prior_model_at[j] == 0.8 and problem.prior_sigma[j] == 0.001
     assert problem.rows_prior_model[j] in problem.rows_entered
     assert np.sqrt(sol.covariance[j, j]) < 0.001
+
+
+def test_a_project_with_a_flush_joint_and_relations_passes_the_schema(tmp_path: Path) -> None:
+    from vebuild.project.validation import validate
+
+    shutil.copytree(EXAMPLE, tmp_path / "room")
+    path = tmp_path / "room" / "room.vebuild.json"
+    data = json.loads(path.read_text())
+    rests = next(n for n in data["model"]["nodes"] if n["name"] == "cabinet")["joint"]
+    before = decode.model(load_project(path), MARKERS).world_transforms()
+    rests.update({"type": "flush", "own_face": "bottom", "offset": 0.0})
+    data["model"]["relations"] = EXAMPLE_RELATIONS
+    path.write_text(json.dumps(data))
+    after = decode.model(load_project(path), MARKERS).world_transforms()  # load_project validates
+    assert all(np.array_equal(before[k], after[k]) for k in before)  # flush on its bottom: rests_on
+    for bad, where in (({"type": "aligned", "a": "cabinet:front", "b": "box:front", "offset": 0.1}, "offset"),
+                       ({"type": "equal", "a": "cabinet:front", "params": ["box.width", "cabinet.width"]}, "a"),
+                       ({"type": "flush", "a": "cabinet", "b": "box:front"}, "a")):
+        data["model"]["relations"] = [bad]
+        with pytest.raises(ProjectError) as e:
+            validate(data, path)
+        assert "$.model.relations[0]" in str(e.value), str(e.value)
