@@ -297,6 +297,9 @@ def test_flush_joint_errors_name_the_face() -> None:
     assert e.where == "$.model.nodes[2].joint.face" and "front, right, back, left, top, bottom" in str(e)
     nodes[2]["joint"] = {"type": "flush", "face": "front", "own_face": "rear"}
     assert error([], nodes).where == "$.model.nodes[2].joint.own_face"
+    nodes[2]["joint"] = {"type": "flush", "own_face": "back"}
+    e = error([], nodes)
+    assert e.where == "$.model.nodes[2].joint.face" and "names no face" in str(e)
     nodes[2]["joint"] = {"type": "flush", "face": "front", "own_face": "back", "offset": "x"}
     assert error([], nodes).where == "$.model.nodes[2].joint.offset"
     nodes[2]["parent"] = None

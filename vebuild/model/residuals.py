@@ -6,7 +6,9 @@ when re-calibrating, marker sightings and reference distances. Residuals are in 
 by the click noise, then the priors: each free model parameter pulled toward its value before
 the solve (a dimension entered from a measurement, FORMAT.md ``hold`` ``{"name", "sigma"}``: held
 at its entered value by that measurement's 1σ instead, an observation like a pin), each
-re-calibrated camera held by its calibration covariance.
+re-calibrated camera held by its calibration covariance, and last the hard rows of the flush and
+aligned relations (:mod:`.constraints`: metres whitened by a micrometre, constraints rather than
+observations). An ``equal`` relation is no row: its members share one unknown (``model_vector``).
 
 Every projection goes through each photo's lens distortion (the division model of
 vebuild/camera.py, :attr:`ImageCamera.k1`): a pin or a marker sighting is compared with the

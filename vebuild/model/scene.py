@@ -332,6 +332,10 @@ def _check_flush_joint(model: Model, n: Node, path: str) -> None:
                   "parent, leave out \"face\" (the floor z = 0)")
         raise ModelError(f"node '{n.name}': {detail}", f"{path}.joint.face", detail)
     for key, face, owner, prim in sides:
+        if face is None:
+            detail = f"node '{n.name}' is flush against its parent '{owner}' but names no face; expected \"face\": " \
+                     f"one of the parent's flat faces: {', '.join(prim.planes()) if prim else 'none (a group)'}"
+            raise ModelError(f"node '{n.name}': {detail}", f"{path}.joint.face", detail)
         if prim is None or face not in prim.planes():
             have = ", ".join(prim.planes()) or "none" if prim is not None else "none (a group)"
             detail = f"node '{n.name}' is flush with face '{face}' of '{owner}', which has flat faces: {have}"

@@ -9,6 +9,9 @@ Every projection goes through each photo's lens (:attr:`~vebuild.camera.ImageCam
 vector is a :class:`~vebuild.model.layout.ParameterLayout`; the residuals and their Jacobian are
 in :mod:`.residuals`, the iteration in :mod:`.lm`, what a solve found in :mod:`.solution`.
 
+Relations between nodes (``model.relations``) are taken from the model: an ``equal`` group is one
+unknown, a ``flush`` or ``aligned`` relation hard rows (:mod:`.constraints`).
+
 Vertex fixing (paper Figure 7) emerges from two ingredients rather than from a hand-made choice
 of parameters: fixed vertices are pins that stay in the problem, and every parameter is pulled
 gently toward its value before the solve, more gently for a joint's position than for a size.
