@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from scipy.stats import chi2
 
 from vebuild.camera import ImageCamera
 from vebuild.errors import ProjectError
@@ -433,13 +434,18 @@ def test_the_covariance_is_the_constrained_one() -> None:
     assert np.max(np.sqrt(np.abs(np.diag(along)))) < 0.01 * np.sqrt(sol.covariance[t, t])
 
 
-def test_noise_only_fits_have_a_variance_factor_of_one_with_and_without_relations() -> None:
-    """χ² of the observations over rows − unknowns + independent constraints: ≈ 1 whether or not
-    the relations take unknowns away (each flush relation 2 here, the equal one by sharing)."""
-    ratios: dict[bool, list[float]] = {True: [], False: []}
+def test_the_redundancy_counts_each_constraint_and_the_intervals_hold_the_truth() -> None:
+    """Six noise-only scenes, with and without the relations. χ² of the observations over their
+    redundancy, rows − unknowns + independent constraints, is ≈ 1 either way (each flush relation
+    takes 2 unknowns here, the equal one 1 by sharing), so the hard rows add no noise; and the
+    true values lie inside their 95 % intervals ≥ 90 % of the time, the errors over their 1σ
+    neither too large nor too small (an RMS within its 99.9 % band)."""
+    chi2_sum: dict[bool, float] = {True: 0.0, False: 0.0}
     dofs: dict[bool, int] = {True: 0, False: 0}
+    z: dict[bool, list[float]] = {True: [], False: []}
     for seed in range(6):
-        _, start, cams, pins = wall_scene(10 + seed)
+        truth, start, cams, pins = wall_scene(10 + seed)
+        names, x_true = truth.parameter_names(), truth.vector()
         for with_rel in (True, False):
             m, problem, fit, sol = solve(start, cams, pins, RELATIONS if with_rel else [])
             r = fit.residuals
@@ -449,13 +455,22 @@ def test_noise_only_fits_have_a_variance_factor_of_one_with_and_without_relation
             # Each flush relation between two boxes standing on the floor constrains 2 directions
             # (the distance and the turn; neither can tilt): its third row is identically 0.
             assert c == (4 if with_rel else 0)
-            dof = problem.n_data - problem.layout.n + c
-            ratios[with_rel].append(float(r[: problem.n_data] @ r[: problem.n_data]))
-            dofs[with_rel] += dof
+            chi2_sum[with_rel] += float(r[: problem.n_data] @ r[: problem.n_data])
+            dofs[with_rel] += problem.n_data - problem.layout.n + c
+            sig = np.sqrt(np.diag(sol.covariance))
+            z[with_rel] += [(fit.x[j] - x_true[names.index(n)]) / sig[j] for j, n in enumerate(problem.names)]
     for with_rel in (True, False):
-        s2 = sum(ratios[with_rel]) / dofs[with_rel]
-        # χ² over the pooled redundancy: its 1σ is √(2 / dof); 4σ bounds chance.
+        s2 = chi2_sum[with_rel] / dofs[with_rel]
+        # χ² over the pooled redundancy: its 1σ is √(2 / dof); 4σ bounds chance. Measured: 1.005
+        # with the relations (902 degrees of freedom), 1.003 without (872).
         assert abs(s2 - 1.0) < 4 * np.sqrt(2 / dofs[with_rel]), (with_rel, s2, dofs[with_rel])
+        zz = np.array(z[with_rel])
+        # Measured: 99.0 % inside with the relations (102 parameters), 96.3 % without (108); over
+        # 40 scenes 96.8 % and 94.6 %.
+        assert np.mean(np.abs(zz) < 1.96) >= 0.9, with_rel
+        n = len(zz)
+        lo, hi = np.sqrt(chi2.ppf(0.0005, n) / n), np.sqrt(chi2.ppf(0.9995, n) / n)
+        assert lo < np.sqrt(np.mean(zz**2)) < hi, (with_rel, np.sqrt(np.mean(zz**2)), lo, hi)
 
 
 def test_first_guesses_10_to_25_percent_off_give_the_same_figures() -> None:
@@ -640,10 +655,10 @@ def test_a_project_with_a_flush_joint_and_relations_passes_the_schema(tmp_path: 
     path.write_text(json.dumps(data))
     after = decode.model(load_project(path), MARKERS).world_transforms()  # load_project validates
     assert all(np.array_equal(before[k], after[k]) for k in before)  # flush on its bottom: rests_on
-    for bad, where in (({"type": "aligned", "a": "cabinet:front", "b": "box:front", "offset": 0.1}, "offset"),
-                       ({"type": "equal", "a": "cabinet:front", "params": ["box.width", "cabinet.width"]}, "a"),
-                       ({"type": "flush", "a": "cabinet", "b": "box:front"}, "a")):
+    for bad, where in (({"type": "flush", "a": "cabinet", "b": "box:front"}, "$.model.relations[0].a"),
+                       ({"type": "equal", "params": ["box.width"]}, "$.model.relations[0].params"),
+                       ({"type": "touching", "a": "cabinet:front", "b": "box:front"}, "$.model.relations[0].type")):
         data["model"]["relations"] = [bad]
         with pytest.raises(ProjectError) as e:
             validate(data, path)
-        assert "$.model.relations[0]" in str(e.value), str(e.value)
+        assert where in str(e.value), str(e.value)
