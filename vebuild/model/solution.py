@@ -54,7 +54,10 @@ def solution_at(problem: Problem, x: Array, iterations: int = 0) -> Solution:
     J = problem.jacobian(x)
     r = problem.evaluate(x)
     # Hard rows (flush, aligned) are constraints: each independent one takes an unknown away
-    # rather than adding an observation, so the redundancy is rows − unknowns + constraints.
+    # rather than adding an observation, so the redundancy is rows − unknowns + constraints. The
+    # pulls toward the values before the solve are counted among the rows as they always were
+    # (their residuals are ~0 in a final solve, so this count exceeds the observations' own
+    # redundancy by the number of pulled unknowns; kept so that a project solves as before).
     hard = np.concatenate(problem.rows_hard).astype(int) if problem.rows_hard else np.zeros(0, int)
     soft = np.setdiff1d(np.arange(len(r)), hard)
     s2 = variance_factor(r[soft], layout.n - constraint_rank(J[hard]))
