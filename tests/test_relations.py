@@ -116,7 +116,7 @@ BAD: list[tuple[str, Any, str, list[str]]] = [
     ("equal twice", [{"type": "equal", "params": ["cab1.width", "cab2.width", "cab1.width"]}],
      "$.model.relations[0].params[2]", ["listed twice"]),
     ("equal kinds", [{"type": "equal", "params": ["cab1.width", "cab2.yaw"]}], "$.model.relations[0].params[1]",
-     ["'cab2.yaw' is a angle", "one kind"]),
+     ["'cab2.yaw' is an angle and 'cab1.width' a size", "one kind"]),
     ("the same twice", [FLUSH, {"type": "flush", "a": "wall:front", "b": "cab1:back"}], "$.model.relations[1]",
      ["the same relation as $.model.relations[0]"]),
     ("two offsets", [FLUSH, {**FLUSH, "offset": 0.02}], "$.model.relations[1].offset",
