@@ -34,6 +34,7 @@ from ..constants import Z95
 from ..errors import CalibrationError, ProjectError, VebuildError
 from ..model.residuals import MarkerObservation
 from ..model.scene import Model
+from ..model.determination import axis_records, too_few_observations
 from ..model.solution import handle_covariances
 from ..model.solver import FINAL_PRIOR_SCALE, MarkerData, Problem, ProblemOptions
 from ..project import Project, decode, json_path, provenance
@@ -99,8 +100,9 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
     if solution.undetermined:
         raise VebuildError(
             f"{project.path}: $.model: too few observations: the pins and edges do not determine "
-            f"{', '.join(solution.undetermined[:12])}{' …' if len(solution.undetermined) > 12 else ''}; "
-            "pin more vertices of those nodes in a second photo, or mark them solve: false")
+            f"{', '.join(solution.undetermined[:12])}{' …' if len(solution.undetermined) > 12 else ''}. "
+            f"What would: {too_few_observations(problem, solution)} (FORMAT.md \"entered value\"; pins in a "
+            "photo, or a second one); or mark those nodes solve: false")
     xm = problem.model_vector(sol.x)
     _check_visible(project, problem, xm, solution.cameras)
     model.set_vector(xm)
@@ -296,6 +298,15 @@ def _results(problem: Problem, solution: Any, model: Model, xm: np.ndarray, reca
     sig = np.sqrt(np.maximum(np.diag(solution.covariance), 0.0))
     handles = handle_covariances(problem, solution.x, solution.covariance)
     by_name = {n: j for j, n in enumerate(problem.names)}
+    axes = axis_records(problem, solution)
+    prior_only = set(solution.prior_only)
+
+    def determined_by(full: str) -> dict[str, str]:
+        """Where a solved parameter's value comes from (FORMAT.md ``determined_by``)."""
+        if full not in by_name:
+            return {}
+        return {"determined_by": "entered value" if full in prior_only else "observations"}
+
     nodes = {}
     for n in model.nodes:
         sq, sp = model.slices[n.name]
@@ -305,15 +316,19 @@ def _results(problem: Problem, solution: Any, model: Model, xm: np.ndarray, reca
             value, s = xm[sq][k], (sig[j] if j is not None else 0.0)
             if n.joint.dof_kinds[k] == "angle":
                 value, s, dof = np.degrees(value), np.degrees(s), dof + "_deg"
-            entry["dofs"][dof] = {**_vs(value, s), **n.entered_record(n.joint.dof_names[k])}  # entered: FORMAT.md
+            entry["dofs"][dof] = {**_vs(value, s), **n.entered_record(n.joint.dof_names[k]),  # entered: FORMAT.md
+                                  **determined_by(f"{n.name}.{n.joint.dof_names[k]}")}
         if n.primitive is not None:
             for k, pname in enumerate(n.primitive.PARAMS):
                 j = by_name.get(f"{n.name}.{pname}")
                 entry["params"][pname] = {**_vs(xm[sp][k], sig[j] if j is not None else 0.0),
-                                          **n.entered_record(pname)}  # entered values: FORMAT.md
+                                          **n.entered_record(pname),  # entered values: FORMAT.md
+                                          **determined_by(f"{n.name}.{pname}")}
             for h in n.primitive.handle_names():
                 pos, cov = handles[f"{n.name}:{h}"]
                 entry["handles"][h] = _vs(pos, np.sqrt(np.maximum(np.diag(cov), 0.0)))
+        if n.name in axes:
+            entry["axis"] = axes[n.name]  # a solved hinge's or slider's axis: FORMAT.md
         nodes[n.name] = entry
     pins = [{"photo": p.photo, "node": p.node, "handle": p.handle, "residual_px": [float(a) for a in d]}
             for p, d in zip(problem.pins, solution.residuals_px["pins"], strict=True)]
