@@ -124,7 +124,7 @@ def too_few_observations(problem: Problem, solution: Solution, limit: int = 12) 
         unit = "°" if kind == "angle" else " m"
         value = _file_value(xmodel[j], kind)
         hold = f'{{"name": "{param}", "sigma": {SUGGESTED_SIGMA[kind]:g}, "value": <measured>}}'
-        text = f"{full} (now {value:.4g}{unit}): enter a measured value by adding {hold} to node '{node}''s \"hold\""
+        text = f"{full} (now {value:.4g}{unit}): enter a measured value by adding {hold} to the \"hold\" list of node '{node}'"
         pins = _pins_that_determine(G, cov_obs, j, layout.model.slice, handle_names, photos) if G is not None else []
         if pins:
             text += "; or pin " + ", ".join(f"{h} (now in {len(photos.get(h, ()))} photo"
