@@ -96,9 +96,10 @@ def test_the_rule_is_relative_to_the_scene_the_value_and_for_angles_its_own() ->
     # The same figures scaled by 100 (a project in other units, or a model of a cupboard) agree.
     assert determined((0.99 * edge / 100) ** 2, 0.06, "size", scene / 100)
     # A size known to no better than half itself has not been measured, however small the σ.
-    assert not determined((0.51 * UNDETERMINED_SHARE_OF_VALUE * 0.02) ** 2 * 4, 0.02, "size", scene)
-    assert determined((0.9 * UNDETERMINED_SHARE_OF_VALUE * 0.02) ** 2, 0.02, "size", scene)
-    assert determined((0.9 * UNDETERMINED_SHARE_OF_VALUE * 0.02) ** 2, 0.02, "position", scene)  # positions: no value rule
+    half = UNDETERMINED_SHARE_OF_VALUE * 0.02
+    assert not determined((1.02 * half) ** 2, 0.02, "size", scene)
+    assert determined((0.98 * half) ** 2, 0.02, "size", scene)
+    assert determined((1.02 * half) ** 2, 0.02, "position", scene)  # a position has no value rule
     assert determined((0.99 * UNDETERMINED_ANGLE_RAD) ** 2, 0.0, "angle", scene)
     assert not determined((1.01 * UNDETERMINED_ANGLE_RAD) ** 2, 0.0, "angle", scene)
     assert not determined(np.inf, 1.0, "size", scene)

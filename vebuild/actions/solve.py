@@ -32,9 +32,9 @@ from ..calibration.positions import ReferenceDistance, check_scale_distances
 from ..camera import ImageCamera
 from ..constants import Z95
 from ..errors import CalibrationError, ProjectError, VebuildError
+from ..model.determination import axis_records, too_few_observations
 from ..model.residuals import MarkerObservation
 from ..model.scene import Model
-from ..model.determination import axis_records, too_few_observations
 from ..model.solution import handle_covariances
 from ..model.solver import FINAL_PRIOR_SCALE, MarkerData, Problem, ProblemOptions
 from ..project import Project, decode, json_path, provenance

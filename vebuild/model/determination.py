@@ -43,7 +43,9 @@ def _axis_frame(problem: Problem, xm: Array, name: str, T: dict[str, Array]) -> 
     holds whatever frame the joint places its axis in."""
     j = problem.model.node(name).joint
     q = xm[problem.model.slices[name][0]]
-    local = j.turned(q) if isinstance(j, HingeJoint) else j.slid(q)  # type: ignore[union-attr]
+    if not isinstance(j, HingeJoint | SliderJoint):
+        raise TypeError(f"node '{name}' has a {j.type} joint: no axis")
+    local = j.turned(q) if isinstance(j, HingeJoint) else j.slid(q)
     return T[name] @ np.linalg.inv(local)
 
 
@@ -124,8 +126,10 @@ def too_few_observations(problem: Problem, solution: Solution, limit: int = 12) 
         unit = "°" if kind == "angle" else " m"
         value = _file_value(xmodel[j], kind)
         hold = f'{{"name": "{param}", "sigma": {SUGGESTED_SIGMA[kind]:g}, "value": <measured>}}'
-        text = f"{full} (now {value:.4g}{unit}): enter a measured value by adding {hold} to the \"hold\" list of node '{node}'"
-        pins = _pins_that_determine(G, cov_obs, j, layout.model.slice, handle_names, photos) if G is not None else []
+        text = (f"{full} (now {value:.4g}{unit}): enter a measured value by adding {hold} to the \"hold\" list "
+                f"of node '{node}'")
+        pins = _pins_that_determine(G, cov_obs, j, layout.model.slice, handle_names, photos) \
+            if G is not None and cov_obs is not None else []
         if pins:
             text += "; or pin " + ", ".join(f"{h} (now in {len(photos.get(h, ()))} photo"
                                            f"{'' if len(photos.get(h, ())) == 1 else 's'})" for h in pins)

@@ -25,9 +25,10 @@ Array = NDArray[np.float64]
 #: A position or size whose 1σ from the observations alone exceeds this share of the scene's extent
 #: (the diagonal of the box around every handle of the model) is undetermined, not measured: its
 #: 95 % interval would span a tenth of the scene and more. Relative, so that the rule holds for a
-#: cupboard as for a hall and for a project in relative units. A wall left free that solves to
-#: 6.04 ± 0.87 m in an 8 m scene (11 %) is undetermined; the example room's least determined
-#: parameter is at 0.7 % of its 8.1 m extent (tests/test_determination.py).
+#: cupboard as for a hall and for a project in relative units. A wall whose far end one photo sees
+#: at a grazing angle, solving to 6.1 ± 0.85 m in a 6.6 m scene (13 %), is undetermined; the
+#: example room's least determined length (± 1.0 cm) is 0.14 % of its 7.2 m extent
+#: (tests/test_determination.py).
 UNDETERMINED_SHARE_OF_SCENE = 0.05
 #: A size whose 1σ exceeds this share of its value is undetermined whatever the scene's size: its
 #: 95 % interval reaches zero (the photos do not show that it has a size at all).
