@@ -167,7 +167,8 @@ class Residuals:
         """Row layout, index arrays for vectorised evaluation, and what each parameter moves."""
         model = self.model
         self.prim_nodes = [n.name for n in model.nodes if n.primitive is not None]
-        self._hmat = {n: self.primitive_of(n).handle_jacobian() for n in self.prim_nodes}
+        # Linear primitives' handles are one matrix product (A p); the others (a room) are asked.
+        self._hmat = {n: self.primitive_of(n).handle_jacobian() for n in self.prim_nodes if self.primitive_of(n).LINEAR}
         self.h_offset: dict[str, int] = {}
         k = 0
         for name in self.prim_nodes:
@@ -284,8 +285,9 @@ class Residuals:
         """World positions of every handle, stacked (n_handles, 3); only ``nodes`` are recomputed."""
         H = np.zeros((self.n_handles, 3)) if out is None else out
         for name in self.prim_nodes if nodes is None else [n for n in nodes if n in self.h_offset]:
-            # Handles are linear in a primitive's parameters: one matrix product per node.
-            hs = self._hmat[name] @ xm[self.model.slices[name][1]]
+            # Handles linear in a primitive's parameters: one matrix product per node.
+            p = xm[self.model.slices[name][1]]
+            hs = self._hmat[name] @ p if name in self._hmat else self.primitive_of(name).handles(p)
             o = self.h_offset[name]
             H[o : o + len(hs)] = hs @ T[name][:3, :3].T + T[name][:3, 3]
         return H
