@@ -268,6 +268,30 @@ def test_a_node_flush_on_a_face_stays_flush_under_any_s_t_yaw(own: str, face: st
             assert [(oa - ob) @ xb, (oa - ob) @ yb, (oa - ob) @ nb] == pytest.approx([*x[sq][:2], offset], abs=1e-12)
 
 
+def test_a_cabinet_flush_on_a_wall_at_yaw_0_stands_upright_on_the_floor() -> None:
+    """Against a wall's face (a box's or a room's inner wall), a cabinet's back at yaw 0 keeps the
+    cabinet upright: its up is the wall face's up, its right the wall's right seen from the room,
+    and with t = −(face centre's height) + half the cabinet's height it stands on the floor."""
+    nodes = copy.deepcopy(NODES)
+    nodes[2]["parent"] = "wall"
+    nodes[2]["joint"] = {"type": "flush", "face": "front", "own_face": "back", "position": [-1.5, -1.25 + 0.45]}
+    m = model([{"type": "flush", "a": "cab1:bottom", "b": "floor:top"}], nodes)
+    T = m.world_transforms()
+    assert T["cab1"][:3, :3] == pytest.approx(T["wall"][:3, :3], abs=1e-15)
+    assert T["cab1"][:3, 3] == pytest.approx(T["wall"][:3, 3] + [-1.5, -0.05 - 0.3, 0.0], abs=1e-12)
+    assert relation_residual(m.relations[0], m) < 1e-12  # on the floor
+    room = {"name": "room", "primitive": {"type": "room", "params": {"c1_x": 4.0, "c2_y": 3.0, "height": 2.5,
+                                                                        "thickness": 0.1}},
+            "joint": {"type": "marker", "marker": "O", "handle": "f0"}}
+    cab = _box("cab", (0.8, 0.5, 0.9), (0.5, -1.25 + 0.45), parent="room")
+    cab["joint"] = {"type": "flush", "face": "wall2", "own_face": "back", "position": [0.5, -1.25 + 0.45]}
+    m = model_from_dict([room, cab], MARKERS, [{"type": "flush", "a": "cab:bottom", "b": "room:floor"}])
+    T = m.world_transforms()
+    assert T["cab"][:3, :3] == pytest.approx(np.eye(3), abs=1e-15)  # wall 2 runs along the room's far side
+    assert T["cab"][:3, 3] == pytest.approx([2.5, 3.0 - 0.25, 0.0], abs=1e-12)
+    assert relation_residual(m.relations[0], m) < 1e-12
+
+
 def test_the_viewer_slides_a_flush_node_along_its_parent_face() -> None:
     from vebuild.model.arrange import ObjectMover
 
