@@ -292,6 +292,19 @@ def test_a_cabinet_flush_on_a_wall_at_yaw_0_stands_upright_on_the_floor() -> Non
     assert relation_residual(m.relations[0], m) < 1e-12
 
 
+def test_values_for_inverts_the_flush_joint() -> None:
+    """From a pose the joint can take, values_for gives back its (s, t, yaw); from any other it
+    gives the nearest (the own face's centre over the same point, turned alike)."""
+    rng = np.random.default_rng(5)
+    m = model([])
+    wall, cab = m.node("wall").primitive, m.node("cab1").primitive
+    for own, face in (("back", "front"), ("left", "right"), ("bottom", "top"), ("top", "front"), ("right", "top")):
+        j = FlushJoint(type="flush", face=face, own_face=own, offset=0.02)
+        for _ in range(5):
+            q = np.r_[rng.uniform(-1, 1, 2), rng.uniform(-3, 3)]
+            assert j.values_for(j.transform(q, wall, None, cab, None), wall, cab) == pytest.approx(q, abs=1e-12)
+
+
 def test_the_viewer_slides_a_flush_node_along_its_parent_face() -> None:
     from vebuild.model.arrange import ObjectMover
 
