@@ -15,6 +15,7 @@ import pytest
 from scipy.stats import chi2
 
 from vebuild.camera import ImageCamera
+from vebuild.console.tables import model_table
 from vebuild.errors import ProjectError
 from vebuild.model.constraints import HARD_SIGMA_M, conflicts, constraint_rank
 from vebuild.model.drag import DragSession
@@ -640,6 +641,9 @@ def test_the_example_solves_with_relations_and_records_how_they_hold(tmp_path: P
     assert cov["matrix"][i1][i2] == cov["matrix"][i1][i1] == cov["matrix"][i2][i2] > 0
     solved = decode.solution(project)
     assert "table.leg3.width" in solved.names
+    table = model_table(result)  # what `vebuild solve` prints
+    assert "relations (each kept by the solve; how far it misses):" in table
+    assert "  - cabinet on the wall: " in table and "  - equal table.leg1.width, table.leg2.width" in table
     # Saved and read back: the relations stay in the file as written.
     assert project.data["model"]["relations"] == EXAMPLE_RELATIONS
 
