@@ -20,8 +20,11 @@ def _pm(vs: dict[str, Any], fmt: str, scale: float = 1.0) -> str:
 def _figure(vs: dict[str, Any], fmt: str, unit: str = "") -> str:
     """A solved value ± 1σ (with ``unit``); an entered one (FORMAT.md ``hold``) says so: held
     exactly it reads 'entered' (never '± 0'), entered with a 1σ it shows that 1σ beside the
-    solved one; another held value reads 'held'."""
+    solved one; another held value reads 'held'. A value that only entered values determine (no
+    photo shows it: FORMAT.md ``determined_by``) says so."""
     u = f" {unit}" if unit else ""
+    if vs.get("determined_by") == "entered value":
+        return _figure({k: v for k, v in vs.items() if k != "determined_by"}, fmt, unit) + " [entered value only]"
     if vs.get("entered"):
         s = vs.get("entered_sigma") or 0.0
         if s == 0:
@@ -112,10 +115,24 @@ def model_table(result: dict[str, Any]) -> str:
     if result["outliers"]:
         lines += ["", "outliers (more than 4σ from the solved model; check these marks):"]
         lines += [f"  - {o}" for o in result["outliers"]]
+    lines += relation_lines(result.get("relations") or [])
     lines += check_distance_lines(result.get("check_distances") or [], unit)
     if result.get("warnings"):
         lines += ["", "warnings:"] + [f"  - {w}" for w in result["warnings"]]
     return "\n".join(lines)
+
+
+def relation_lines(relations: list[dict[str, Any]]) -> list[str]:
+    """The model's relations (``model_solution.relations``), each with how closely it holds."""
+    if not relations:
+        return []
+    lines = ["", "relations (each kept by the solve; how far it misses):"]
+    for r in relations:
+        what = r.get("name") or (f"equal {', '.join(r['params'])}" if r["type"] == "equal"
+                                 else f"{r['type']} {r['a']} – {r['b']}")
+        miss = f"{r['residual_deg']:.2g}°" if "residual_deg" in r else f"{1000 * r['residual_m']:.2g} mm"
+        lines.append(f"  - {what}: {miss}")
+    return lines
 
 
 def check_distance_lines(checks: list[dict[str, Any]], unit: LengthUnit = METRES) -> list[str]:

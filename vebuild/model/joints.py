@@ -22,7 +22,7 @@ from .primitives import Primitive
 
 Array = NDArray[np.float64]
 
-JOINT_TYPES = ("fixed", "free", "rests_on", "hinge", "slider", "marker", "opening", "through")
+JOINT_TYPES = ("fixed", "free", "rests_on", "flush", "hinge", "slider", "marker", "opening", "through")
 #: What a degree of freedom measures: a position (metres), an angle (radians; degrees in files)
 #: or, for a primitive's parameters, a size (metres). The solver's pull toward the value before a
 #: solve and the file's units follow the kind.
@@ -168,12 +168,130 @@ class RestsOnJoint(Joint):
         return d
 
 
+def _frame4(frame: tuple[Array, Array, Array, Array]) -> Array:
+    """A face frame (origin, x, y, normal) as the 4×4 matrix from face coordinates."""
+    F = np.eye(4)
+    F[:3, 0], F[:3, 1], F[:3, 2], F[:3, 3] = frame[1], frame[2], frame[3], frame[0]
+    return F
+
+
+#: A face whose y axis has a z component above this is upright (a side face's y is +z exactly; a
+#: wedge's slope, at most 45° from the vertical for a ramp no steeper than its depth, is not).
+UPRIGHT_AXIS = 0.9
+
+
+@dataclass
+class FlushJoint(Joint):
+    """The node's face ``own_face`` lies against the parent's face ``face``, ``offset`` metres out
+    along its normal, the two facing each other: a cabinet's back against a wall, a wall on the
+    floor. Degrees of freedom as ``rests_on`` (which this is, with ``own_face`` bottom and offset 0):
+    the own face's centre at (s, t) in the parent face's frame, turned ``yaw`` about its normal.
+
+    The own face is carried by a resting frame at its centre, z into the node (−normal), that
+    goes onto the parent face's frame at (s, t, offset) turned by ``yaw``. Two faces that face each
+    other cannot keep both in-plane axes: one of them turns half round. A face whose y axis is
+    upright (a side face: y is +z) keeps y, so at yaw 0 a cabinet's back against a wall stands
+    upright (its up along the wall face's y, up); any other face keeps x, so a bottom face's
+    resting frame is the node's own frame and the transform is rests_on's, bit for bit. Faces are
+    any flat face (``Primitive.planes``), the parent's and the node's; with no parent, the face is
+    the floor z = 0, as for ``rests_on``.
+    """
+
+    face: str | None = None
+    own_face: str = "bottom"
+    offset: float = 0.0
+    s: float = 0.0
+    t: float = 0.0
+    yaw: float = 0.0
+    dof_names: tuple[str, ...] = ("s", "t", "yaw")
+    dof_kinds: tuple[str, ...] = ("position", "position", "angle")
+
+    def values(self):
+        return np.array([self.s, self.t, self.yaw])
+
+    def set_values(self, q):
+        self.s, self.t, self.yaw = (float(v) for v in q)
+
+    def rest_frame(self, node: Primitive | None, node_params: Array | None = None) -> Array:
+        """node_from_rest (4×4): the own face's resting frame in the node's frame (identity for a
+        bottom face: rests_on)."""
+        if node is None or self.own_face == "bottom" and "bottom" in node.faces():
+            return np.eye(4)
+        o, x, y, n = node.plane_frame(self.own_face, node_params)
+        keep_y = abs(y[2]) > UPRIGHT_AXIS  # (−x, y) or (x, −y), then −n (into the node), at the centre
+        rest = np.eye(4)
+        rest[:3, 0], rest[:3, 1], rest[:3, 2], rest[:3, 3] = (-x, y, -n, o) if keep_y else (x, -y, -n, o)
+        return rest
+
+    def transform(self, q, parent, parent_params, node, node_params):
+        F = np.eye(4) if parent is None else _frame4(parent.plane_frame(self.face, parent_params))
+        T = F @ translation(np.array([q[0], q[1], self.offset])) @ rz(q[2])
+        if node is None or self.own_face == "bottom" and "bottom" in node.faces():
+            return T  # the node's frame is its bottom face's resting frame (rests_on)
+        rest = self.rest_frame(node, node_params)
+        inv = np.eye(4)
+        inv[:3, :3] = rest[:3, :3].T
+        inv[:3, 3] = -rest[:3, :3].T @ rest[:3, 3]
+        return T @ inv
+
+    def values_for(self, parent_from_node: Array, parent: Primitive | None, node: Primitive | None) -> Array:
+        """(s, t, yaw) that put the node as near ``parent_from_node`` as the joint allows: its own
+        face's centre over the point it is over now, turned as it is now about the face's normal
+        (what a modelling screen gives a node it makes flush where it stands)."""
+        F = np.eye(4) if parent is None or self.face is None else _frame4(parent.plane_frame(self.face))
+        M = np.linalg.inv(F) @ np.asarray(parent_from_node, float) @ self.rest_frame(node)
+        return np.array([M[0, 3], M[1, 3], float(np.arctan2(M[1, 0], M[0, 0]))])
+
+    def to_dict(self):
+        d: dict[str, Any] = {"type": "flush"}
+        if self.face is not None:
+            d["face"] = self.face
+        d.update({"own_face": self.own_face, "offset": self.offset, "position": [self.s, self.t],
+                  "yaw_deg": float(np.degrees(self.yaw))})
+        return d
+
+
 def _axis_rotation(axis: Array, angle: float) -> Array:
     return rotation4(exp_so3(axis / np.linalg.norm(axis) * angle))
 
 
+#: Beyond this |axis·x̂| the axis is too near x for x̂'s perpendicular part to give a steady unit
+#: vector u: ŷ's is taken instead (FORMAT.md, ``solve_axis``).
+AXIS_NEAR_X = 0.9
+
+
+def axis_basis(axis: Array) -> tuple[Array, Array, Array]:
+    """(â, u, v): the unit axis and two unit vectors perpendicular to it, u the normalised part of
+    x̂ perpendicular to the axis (of ŷ where |â·x̂| > AXIS_NEAR_X), v = â × u. A solved axis is
+    moved along u and v: the two directions in which an axis can be wrong."""
+    a = np.asarray(axis, float) / np.linalg.norm(axis)
+    e = np.array([1.0, 0.0, 0.0]) if abs(a[0]) <= AXIS_NEAR_X else np.array([0.0, 1.0, 0.0])
+    u = e - (e @ a) * a
+    u /= np.linalg.norm(u)
+    return a, u, np.cross(a, u)
+
+
+def _solve_axis_flag(d: Mapping[str, Any], where: str, path: str | None) -> bool:
+    value = d.get("solve_axis", False)
+    if not isinstance(value, bool):
+        raise error_at(where, None if path is None else f"{path}.solve_axis",
+                       f"solve_axis must be true or false (whether the photos solve the {d.get('type')} joint's "
+                       f"axis), got {value!r}")
+    return value
+
+
 @dataclass
 class HingeJoint(Joint):
+    """A turn by ``angle`` about the line through ``axis_point`` along ``axis`` (the parent's
+    frame), from the pose at angle 0 (``base``: the door shut).
+
+    With ``solve_axis`` the axis point is solved too, by its coordinates ``axis_u``, ``axis_v``
+    along the two directions perpendicular to the axis (:func:`axis_basis`; its position along
+    the axis changes nothing). The pose at angle 0 stays fixed, so the photos find the axis from
+    the door seen turned: the turn that carries the shut door to where the photos see it has one
+    axis. The solved values are written back into ``axis_point``.
+    """
+
     axis_point: Array = field(default_factory=lambda: np.zeros(3))
     axis: Array = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
     angle: float = 0.0
@@ -181,21 +299,44 @@ class HingeJoint(Joint):
     #: (opening, side) of the parent room's jamb the hinge hangs on: axis_point, axis and the pose
     #: at angle 0 are then in that jamb's frame (Room.jamb_frame), which follows the solved room.
     jamb: tuple[str, str] | None = None
+    solve_axis: bool = False
     dof_names: tuple[str, ...] = ("angle",)
     dof_kinds: tuple[str, ...] = ("angle",)
 
+    def __post_init__(self) -> None:
+        if self.solve_axis:
+            self.dof_names, self.dof_kinds = ("angle", "axis_u", "axis_v"), ("angle", "position", "position")
+
     def values(self):
-        return np.array([self.angle])
+        if not self.solve_axis:
+            return np.array([self.angle])
+        _, u, v = axis_basis(self.axis)
+        return np.array([self.angle, self.axis_point @ u, self.axis_point @ v])
+
+    def point(self, q: Array) -> Array:
+        """The axis point for degrees of freedom q (its part along the axis kept as it is)."""
+        if not self.solve_axis:
+            return np.asarray(self.axis_point, float)
+        a, u, v = axis_basis(self.axis)
+        return (self.axis_point @ a) * a + q[1] * u + q[2] * v
 
     def set_values(self, q):
+        if self.solve_axis:
+            self.axis_point = self.point(q)
         self.angle = float(q[0])
 
     def bounds(self):
-        return np.array([self.limits[0]]), np.array([self.limits[1]])
+        n = len(self.dof_names) - 1
+        return np.r_[self.limits[0], np.full(n, -np.inf)], np.r_[self.limits[1], np.full(n, np.inf)]
+
+    def turned(self, q: Array) -> Array:
+        """axis_frame_from_node: the turn about the axis from the shut pose, in the frame the axis
+        is given in (the parent's)."""
+        p = self.point(q)
+        return translation(p) @ _axis_rotation(self.axis, q[0]) @ translation(-p) @ self.base
 
     def transform(self, q, parent, parent_params, node, node_params):
-        turn = _axis_rotation(self.axis, q[0])
-        T = translation(self.axis_point) @ turn @ translation(-self.axis_point) @ self.base
+        T = self.turned(q)
         if self.jamb is None:
             return T
         from .room_joints import jamb_frame_of
@@ -208,33 +349,64 @@ class HingeJoint(Joint):
              "angle_deg": float(np.degrees(self.angle)), "limits_deg": [float(np.degrees(v)) for v in self.limits]}
         if self.jamb is not None:
             d["jamb"] = {"opening": self.jamb[0], "side": self.jamb[1]}
+        if self.solve_axis:
+            d["solve_axis"] = True
         return d
 
 
 @dataclass
 class SliderJoint(Joint):
+    """A slide by ``offset`` along ``axis`` (the parent's frame) from the pose at offset 0 (``base``).
+
+    With ``solve_axis`` the axis's direction is solved too: two small turns ``axis_a``, ``axis_b``
+    (radians) about the directions u, v perpendicular to it (:func:`axis_basis`), folded into
+    ``axis`` after each solve (as the free joint folds its rotation), so that the file keeps only
+    the axis and a solve always starts from zero turns, far from any singularity.
+    """
+
     axis: Array = field(default_factory=lambda: np.array([1.0, 0.0, 0.0]))
     offset: float = 0.0
     limits: tuple[float, float] = (-np.inf, np.inf)
+    solve_axis: bool = False
     dof_names: tuple[str, ...] = ("offset",)
     dof_kinds: tuple[str, ...] = ("position",)
 
+    def __post_init__(self) -> None:
+        if self.solve_axis:
+            self.dof_names, self.dof_kinds = ("offset", "axis_a", "axis_b"), ("position", "angle", "angle")
+
     def values(self):
-        return np.array([self.offset])
+        return np.r_[self.offset, np.zeros(len(self.dof_names) - 1)]
+
+    def direction(self, q: Array) -> Array:
+        """The unit axis for degrees of freedom q: the axis turned by q[1] about u, q[2] about v."""
+        a, u, v = axis_basis(self.axis)
+        if not self.solve_axis:
+            return a
+        return exp_so3(q[1] * u + q[2] * v) @ a
 
     def set_values(self, q):
+        if self.solve_axis:
+            self.axis = self.direction(q)
         self.offset = float(q[0])
 
     def bounds(self):
-        return np.array([self.limits[0]]), np.array([self.limits[1]])
+        n = len(self.dof_names) - 1
+        return np.r_[self.limits[0], np.full(n, -np.inf)], np.r_[self.limits[1], np.full(n, np.inf)]
+
+    def slid(self, q: Array) -> Array:
+        """axis_frame_from_node: the slide along the axis, in the frame the axis is given in."""
+        return translation(self.direction(q) * q[0]) @ self.base
 
     def transform(self, q, parent, parent_params, node, node_params):
-        return translation(self.axis / np.linalg.norm(self.axis) * q[0]) @ self.base
+        return self.slid(q)
 
     def to_dict(self):
         d = {"type": "slider", "axis": [float(v) for v in self.axis], **pose_to_dict(self.base), "offset": self.offset}
         if all(np.isfinite(self.limits)):  # no limits: none written (JSON has no infinity)
             d["limits"] = [float(v) for v in self.limits]
+        if self.solve_axis:
+            d["solve_axis"] = True
         return d
 
 
@@ -295,6 +467,18 @@ def joint_from_dict(d: Mapping[str, Any], where: str, markers: Mapping[str, Arra
         s, t = d.get("position", [0.0, 0.0])
         return RestsOnJoint(type="rests_on", face=d.get("face"), s=float(s), t=float(t),
                             yaw=float(np.radians(d.get("yaw_deg", 0.0))))
+    if kind == "flush":
+        s, t = d.get("position", [0.0, 0.0])
+        off = d.get("offset", 0.0)
+        if isinstance(off, bool) or not isinstance(off, int | float) or not np.isfinite(off):
+            raise error_at(where, at("offset"), f"the flush joint's offset {off!r} is not a number; expected the "
+                           "distance in metres between the two faces (0 for faces in contact)")
+        own = d.get("own_face", "bottom")
+        if not isinstance(own, str):
+            raise error_at(where, at("own_face"), f"own_face {own!r} is not a face name; expected one of the "
+                           "node's flat faces, such as \"back\"")
+        return FlushJoint(type="flush", face=d.get("face"), own_face=own, offset=float(off), s=float(s),
+                          t=float(t), yaw=float(np.radians(d.get("yaw_deg", 0.0))))
     if kind == "hinge":
         axis = axis_of([0, 0, 1])
         lo, hi = np.radians(limits_of("limits_deg", [-180.0, 180.0], "°"))
@@ -308,14 +492,16 @@ def joint_from_dict(d: Mapping[str, Any], where: str, markers: Mapping[str, Arra
 
             jamb = jamb_of(d["jamb"], where, at("jamb"))
         return HingeJoint(type="hinge", base=base, axis_point=np.asarray(d.get("axis_point", [0, 0, 0]), float),
-                          axis=axis, angle=angle, limits=(float(lo), float(hi)), jamb=jamb)
+                          axis=axis, angle=angle, limits=(float(lo), float(hi)), jamb=jamb,
+                          solve_axis=_solve_axis_flag(d, where, path))
     if kind == "slider":
         axis = axis_of([1, 0, 0])
         lo, hi = limits_of("limits", [-np.inf, np.inf], " m")
         off = float(d.get("offset", 0.0))
         if not lo <= off <= hi:
             raise error_at(where, at("offset"), f"slider offset {off} lies outside its limits [{lo}, {hi}]")
-        return SliderJoint(type="slider", base=base, axis=axis, offset=off, limits=(float(lo), float(hi)))
+        return SliderJoint(type="slider", base=base, axis=axis, offset=off, limits=(float(lo), float(hi)),
+                           solve_axis=_solve_axis_flag(d, where, path))
     if kind == "marker":
         name = d.get("marker", "")
         if markers is None or name not in markers:

@@ -29,6 +29,10 @@ Restable flat faces (``faces``): quad ``top``; box ``top``, ``bottom``; wedge ``
 (it has no top; its tilted slope is not named); cylinder and frustum ``top`` (not for a cone) and
 ``bottom``; sphere none.
 
+Planes (``planes``: every flat face, named as its mesh face, for relations between faces): the
+restable faces, box ``front``, ``right``, ``back``, ``left``, wedge ``right``, ``left``, ``slope``;
+side faces have y up and x to the right seen from outside, the slope y up the slope.
+
 Logical mesh faces (``Mesh.face_ids``, 1-based): quad 1 top; box 1 front (−y), 2 right (+x),
 3 back (+y), 4 left (−x), 5 top, 6 bottom (side face i + 1 stands on bottom edge e_i); wedge
 1 right, 2 back, 3 left, 4 slope, 5 bottom; cylinder and frustum 1 side, 2 top, 3 bottom (a cone:
@@ -54,45 +58,21 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .mesh import Mesh, Patch, assemble, circle, polygon_patch, revolution_patch
+from .shapes import EX as _EX
+from .shapes import EY as _EY
+from .shapes import EZ as _EZ
+from .shapes import Frame  # noqa: F401  (re-exported: a face frame, as every primitive returns it)
+from .shapes import level_frame as _level_frame
+from .shapes import points as _points
+from .shapes import rim as _rim
+from .shapes import ring as _ring
+from .shapes import side_frame as _side_frame
 
 Array = NDArray[np.float64]
-#: A face frame: origin (3,), x axis (3,), y axis (3,), outward normal (3,); x × y = normal.
-Frame = tuple[Array, Array, Array, Array]
-
-_EX, _EY, _EZ = np.eye(3)
-#: Quad corners v0…v3 as multiples of (width, depth): counter-clockwise from (−x, −y) seen from +z.
-_CORNERS = np.array([[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]])
-#: Rim handle directions at 0°, 90°, 180°, 270° from +x, exact (no cos(π/2) ≈ 6e-17).
-_RIM = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])
 
 _REGISTRY: dict[str, type[Primitive]] = {}
 #: Sizes never go below this (metres): "sizes stay positive" with a margin the solver can use.
 MIN_SIZE_M = 1e-3
-
-
-# ----------------------------------------------------------------------------------------------
-# Small vectorised builders shared by the handle formulas: (...,) parameter arrays → (..., n, 3)
-
-
-def _points(x: ArrayLike, y: ArrayLike, z: ArrayLike) -> Array:
-    return np.stack(np.broadcast_arrays(x, y, z), axis=-1)
-
-
-def _ring(w: Array, d: Array, z: Array) -> Array:
-    """The four corners v0…v3 of a w × d rectangle at height z: (...,) → (..., 4, 3)."""
-    return _points(w[..., None] * _CORNERS[:, 0], d[..., None] * _CORNERS[:, 1], z[..., None])
-
-
-def _rim(r: Array, z: Array) -> Array:
-    """Rim points at 0°, 90°, 180°, 270° from +x, radius r, height z: (...,) → (..., 4, 3)."""
-    return _points(r[..., None] * _RIM[:, 0], r[..., None] * _RIM[:, 1], z[..., None])
-
-
-def _level_frame(z: float, up: bool = True) -> Frame:
-    """A level face centred on the z axis; a downward face keeps +x and so takes −y (right-handed)."""
-    if up:
-        return np.array([0.0, 0.0, z]), _EX.copy(), _EY.copy(), _EZ.copy()
-    return np.array([0.0, 0.0, z]), _EX.copy(), -_EY, -_EZ
 
 
 def _param_value(self: Primitive, index: int) -> float:
@@ -126,6 +106,7 @@ class Primitive(abc.ABC):
     HANDLE_NAMES: ClassVar[tuple[str, ...]] = ()
     EDGES: ClassVar[tuple[tuple[str, str, str], ...]] = ()
     _RESTABLE: ClassVar[tuple[str, ...]] = ()  # names of the flat faces others can rest on
+    _PLANES: ClassVar[tuple[str, ...]] = ()  # every flat face (``planes``), if not just the restable
     _MAY_BE_ZERO: ClassVar[frozenset[str]] = frozenset()  # sizes allowed to be 0 (a cone's top)
     #: Sizes (metres) of a new primitive of this type: something of furniture scale to drag into place.
     DEFAULT_PARAMS: ClassVar[Mapping[str, float]] = {}
@@ -302,6 +283,24 @@ class Primitive(abc.ABC):
         """The frame of a flat face; primitives with flat faces override this (a sphere has none)."""
         raise ValueError(f"{self.TYPE} has no flat face {name!r}")
 
+    def _plane_names(self) -> tuple[str, ...]:  # by default the restable faces (a cone: no top)
+        return self._PLANES or self._restable()
+
+    def planes(self) -> dict[str, Frame]:
+        """{name: frame} of every flat face (what relations name), as ``faces``: centre (a triangle's
+        centroid), unit axes, x × y = the outward normal."""
+        return {name: self.plane_frame(name) for name in self._plane_names()}
+
+    def plane_frame(self, name: str, params: ArrayLike | None = None) -> Frame:
+        """The frame of flat face ``name`` (as in ``planes``) at trial ``params`` (k,), or at our own."""
+        if name not in self._plane_names():
+            have = ", ".join(self._plane_names()) or "none"
+            raise ValueError(f"{self.TYPE} has no flat face {name!r}; its flat faces: {have}")
+        return self._plane_frame(name, self._as_params(params))
+
+    def _plane_frame(self, name: str, p: Array) -> Frame:  # by default the restable face's
+        return self._face_frame(name, p)
+
     # -- mesh ----------------------------------------------------------------------------------
 
     def mesh(self, texels_per_metre: float | None = None, segments: int = 32) -> Mesh:
@@ -414,6 +413,7 @@ class Box(_Prism):
         (f"e{i + 8}", f"v{i}", f"v{i + 4}") for i in range(4))
     _RESTABLE = ("top", "bottom")
     _MESH_FACES = ("front", "right", "back", "left", "top", "bottom")
+    _PLANES = _MESH_FACES
 
     @classmethod
     def _handles_of(cls, P):
@@ -427,6 +427,12 @@ class Box(_Prism):
     def _face_frame(self, name, p):
         return _level_frame(p[2]) if name == "top" else _level_frame(0.0, up=False)
 
+    def _plane_frame(self, name, p):
+        w, d, h = (float(v) for v in p)
+        sides = {"front": ([0.0, -d / 2, h / 2], -_EY), "right": ([w / 2, 0.0, h / 2], _EX),
+                 "back": ([0.0, d / 2, h / 2], _EY), "left": ([-w / 2, 0.0, h / 2], -_EX)}
+        return _side_frame(*sides[name]) if name in sides else self._face_frame(name, p)
+
 
 class Wedge(_Prism):
     """A ramp on a ``width`` × ``depth`` base, rising from its front (−y) edge to ``height`` at its back (+y)."""
@@ -437,6 +443,7 @@ class Wedge(_Prism):
              ("e5", "v2", "v5"), ("e6", "v3", "v4"), ("e7", "v0", "v4"), ("e8", "v1", "v5"))
     _RESTABLE = ("bottom", "back")
     _MESH_FACES = ("", "right", "back", "left", "slope", "bottom")
+    _PLANES = ("right", "back", "left", "bottom", "slope")
 
     @classmethod
     def _handles_of(cls, P):
@@ -454,6 +461,15 @@ class Wedge(_Prism):
             return _level_frame(0.0, up=False)
         # The back wall seen from behind (+y): x runs toward −x so that x × up = +y.
         return np.array([0.0, p[1] / 2, p[2] / 2]), -_EX, _EZ.copy(), _EY.copy()
+
+    def _plane_frame(self, name, p):
+        w, d, h = (float(v) for v in p)
+        sign = {"right": 1.0, "left": -1.0}.get(name)  # triangles v1 v2 v5, v0 v3 v4: their centroids
+        if sign is not None:
+            return _side_frame([sign * w / 2, d / 6, h / 3], sign * _EX)
+        L = float(np.hypot(d, h))  # the slope: y up it, from the front bottom edge to the back top edge
+        return (np.array([0.0, 0.0, h / 2]), _EX.copy(), np.array([0.0, d, h]) / L,
+                np.array([0.0, -h, d]) / L) if name == "slope" else self._face_frame(name, p)
 
 
 class _Round(Primitive):
