@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 from vebuild import camera as cam_math
 from vebuild.errors import ProjectError
 from vebuild.model.drag import DragSession, drag_nodes
-from vebuild.model.primitives import PRIMITIVE_TYPES, primitive_kinds
+from vebuild.model.primitives import PRIMITIVE_TYPES, primitive_from_dict, primitive_kinds
 from vebuild.model.residuals import EdgeObservation, Pin
 from vebuild.model.scene import Model, ModelError
 from vebuild.project import decode
@@ -155,14 +155,19 @@ class Modelling(Marks):
             joint = {"type": "rests_on", "position": [0.0, 0.0], "yaw_deg": 0.0}
             if parent is not None:
                 prim = self.model.node(parent).primitive if self.model else None
-                if prim is None or "top" not in prim.faces():
+                face = _resting_face(prim)
+                if prim is None or face is None:
                     faces = ", ".join(prim.faces()) if prim else "none (a group)"
                     raise EditError(f"'{parent}' has no top face for '{name}' to rest on (its faces: {faces}); "
                                     "attach it to another node")
-                joint["face"] = "top"
+                joint["face"] = face
             if at is not None:
                 joint["position"] = self._surface_point(parent, at, values, ptype)
-        node = {"name": name, "primitive": {"type": ptype, "params": values}, "joint": joint}
+        try:  # as the primitive writes itself (a room adds its corners, ceiling and openings)
+            prim_doc = primitive_from_dict({"type": ptype, "params": values}).to_dict()
+        except ValueError as e:
+            raise EditError(f"a new {kind}: {e}") from None
+        node = {"name": name, "primitive": prim_doc, "joint": joint}
         if parent is not None:
             node["parent"] = parent
         with self._edit(f"add {kind} {name}"):
@@ -187,7 +192,7 @@ class Modelling(Marks):
             prim = model.node(parent).primitive if model is not None else None
             assert model is not None and prim is not None  # add_primitive checked the parent's top face
             T = model.world_transforms()[parent]
-            fo, fx, fy, fn = prim.face_frame("top")
+            fo, fx, fy, fn = prim.face_frame(_resting_face(prim) or "top")
             o, x, y, n = T[:3, :3] @ fo + T[:3, 3], T[:3, :3] @ fx, T[:3, :3] @ fy, T[:3, :3] @ fn
         denom = float(d @ n)
         lam = float((o - C) @ n) / denom if abs(denom) > 1e-9 else -1.0
@@ -221,10 +226,13 @@ class Modelling(Marks):
             doc = self._node_doc(node)
             if "primitive" not in doc:
                 raise EditError(f"'{node}' is a group: it has no sizes")
+            kinds = _param_kinds(doc["primitive"])
             for k, v in params.items():
                 if k not in doc["primitive"]["params"]:
                     raise EditError(f"'{node}' has no size '{k}' (it has {', '.join(doc['primitive']['params'])})")
-                if not (math.isfinite(v) and v >= 0):
+                if not math.isfinite(v):
+                    raise EditError(f"{node}.{k} must be a number of metres, not {v!r}")
+                if kinds.get(k, "size") == "size" and not v >= 0:
                     raise EditError(f"{node}.{k} must be a length ≥ 0 m, not {v!r}")
                 doc["primitive"]["params"][k] = float(v)
                 for e in doc.get("hold", []):  # a size typed for an entered value is its new entry
@@ -504,6 +512,27 @@ class Modelling(Marks):
         with self._edit(f"unfix {node}:{handle} in {photo}"):
             key = (photo, node, handle)
             self._model_doc()["pins"] = [p for p in pins if (p["photo"], p["node"], p["handle"]) != key]
+
+
+def _resting_face(prim: Any) -> str | None:
+    """The face a new primitive rests on: a parent's top, or a room's floor (its one restable face)."""
+    if prim is None:
+        return None
+    faces = list(prim.faces())
+    return "top" if "top" in faces else ("floor" if "floor" in faces else None)
+
+
+def _param_kinds(prim_doc: dict[str, Any]) -> dict[str, str]:
+    """Each parameter's kind ("size" ≥ 0, or "position": a room's corner coordinates, any sign)."""
+    try:
+        prim = primitive_from_dict(prim_doc)
+    except ValueError:
+        return {}
+    kinds = getattr(prim, "param_kinds", None)
+    if not callable(kinds):
+        return {}
+    got = kinds()
+    return dict(got) if isinstance(got, dict) else dict(zip(prim.PARAMS, got, strict=True))
 
 
 def _at_limit(j: Any) -> bool:

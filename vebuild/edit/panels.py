@@ -19,6 +19,7 @@ from vebuild.project import decode
 
 from .keys import EDITOR_KEYS, tool_key
 from .marks import AXES, CAMERA_HEIGHT_SIGMA_M, KNOWN_LENGTH_SIGMA_M
+from .model_panels import equal_section, relations_section, room_section
 from .overlay import AXIS_COLOURS
 from .session import placement_text
 
@@ -43,6 +44,8 @@ class Panels:
         self.dist_a, self.dist_b, self.dist_m, self.dist_role = "", "", 1.0, 0
         self.length_axis, self.length_m, self.length_sigma = 2, "", ""  # z; typed as text: checked on Add
         self.height_m, self.height_sigma = "", ""
+        self.equal_param = 0  # the size "Make equal" shares
+        self.room_corner, self.room_wall, self.room_kind = 0, 0, 0  # a room's corner, wall, opening kind
         self._param_edits: dict[str, Any] = {}
 
     def forget_edits(self) -> None:
@@ -289,6 +292,7 @@ class Panels:
                 if n.parent is None:
                     self._tree_node(model, n.name)
         imgui.end_child()
+        relations_section(self)
         if self.ed.selected is not None and model is not None and self.ed.selected in model.index:
             self._properties(model, self.ed.selected)
         self._residuals()
@@ -384,7 +388,10 @@ class Panels:
                 self.ed.select(None)
                 return
         prim = doc.get("primitive")
+        if prim is not None and prim.get("type") == "room":
+            room_section(self, name, prim)
         if prim is not None:
+            equal_section(self, name, prim)
             for k, v in prim["params"].items():
                 imgui.set_next_item_width(110)
                 new = self._float_field(f"{k} (m)##param:{k}", v)

@@ -1,0 +1,245 @@
+"""The modelling screen's relations and rooms without a window (vebuild.edit.relating, vebuild.edit.rooms):
+picking a face by the ray through a pixel, making faces flush or aligned and sizes equal, removing a
+relation, each undoable and decoded into the model; a room's corners, ceiling and openings, a door
+leaf on a jamb, a window pane and a room joined through an opening; and the clear messages for bad
+input."""
+
+from __future__ import annotations
+
+import json
+import shutil
+
+import numpy as np
+import pytest
+
+from vebuild import camera as cam_math
+from vebuild.cli import main
+from vebuild.edit.relating import relation_residual
+from vebuild.edit.session import EditError, EditSession
+from vebuild.project import load_project
+from vebuild.resources import example_project_dir
+
+#: A face's centre picked through its own pixel comes back within this (metres): the ray and the
+#: triangle are intersected in float64, so only the projection's round trip (~1e-12 m at 5 m) is lost.
+PICK_TOL_M = 1e-6
+
+
+@pytest.fixture(scope="module")
+def solved_room(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("relate") / "room"
+    shutil.copytree(example_project_dir(), folder)
+    path = folder / "room.vebuild.json"
+    assert main(["calibrate", str(path), "--quiet"]) == 0
+    assert main(["solve", str(path)]) == 0
+    return path
+
+
+@pytest.fixture
+def session(solved_room, tmp_path):
+    shutil.copytree(solved_room.parent, tmp_path / "room")
+    return EditSession.open(tmp_path / "room" / solved_room.name, recover=False)
+
+
+def _face_centre(s, node, corners, along=0.5):
+    """A point of a box face from its corner handles (independent of the meshes): half way up,
+    ``along`` of the way from its first side (corners 0, 3) to its second (1, 2)."""
+    c = [s.model.handle_world(node, h) for h in corners]
+    return (1 - along) * (c[0] + c[3]) / 2 + along * (c[1] + c[2]) / 2
+
+
+def _pixel(s, photo, X):
+    cam = s.cameras[photo]
+    return cam_math.project(cam.K, cam.R, cam.C, np.asarray(X, float), cam.k1)
+
+
+def test_a_face_is_picked_by_the_ray_through_its_pixel(session):
+    s = session
+    # In p1 the cabinet shows its +x side (handles v1, v2, v6, v5), the west wall its front (−y)
+    # face (beside the cabinet, which hides its middle), the table its top.
+    for node, face, corners, along in (("cabinet", "right", ("v1", "v2", "v6", "v5"), 0.5),
+                                       ("wall_west", "front", ("v0", "v1", "v5", "v4"), 0.85),
+                                       ("table.top", "top", ("v4", "v5", "v6", "v7"), 0.5)):
+        X = _face_centre(s, node, corners, along)
+        pick = s.face_at("p1", _pixel(s, "p1", X))
+        assert (pick.node, pick.name, pick.what) == (node, face, "face")
+        assert np.linalg.norm(np.subtract(pick.point, X)) < PICK_TOL_M
+        assert pick.ref == f"{node}:{face}"
+        outline = s.pick_outline("p1", pick)  # the face's two triangles, each three pixels
+        assert len(outline) == 2 and all(len(t) == 3 for t in outline)
+    # Nearest along the ray: the table's top hides the floor under it.
+    X = _face_centre(s, "table.top", ("v4", "v5", "v6", "v7"))
+    assert s.face_at("p1", _pixel(s, "p1", X)).node == "table.top"
+    # A ray over the walls of a room without a ceiling meets nothing.
+    assert s.face_at("p3", (800.0, -6000.0)) is None
+    # The planes offered by name (a face no photo shows), the edge of a pick.
+    assert {"front", "right", "back", "left", "top", "bottom"} <= set(s.plane_names("cabinet"))
+    assert s.edge_pick("cabinet", "e8").ref == "cabinet:e8"
+    with pytest.raises(EditError, match="'cabinet' has no edge 'e99'"):
+        s.edge_pick("cabinet", "e99")
+
+
+def test_flush_and_aligned_relations_are_saved_undone_and_decoded(session):
+    s = session
+    i = s.add_relation("flush", "cabinet:left", "wall_west:front")
+    assert s.data["model"]["relations"][i] == {"type": "flush", "a": "cabinet:left", "b": "wall_west:front"}
+    assert s.undo_label == "flush cabinet:left – wall_west:front"
+    assert "cabinet:left is flush against wall_west:front" in s.messages[-1]
+    assert [r.type for r in s.model.relations] == ["flush"]  # the screen's model carries it (drags keep it)
+    j = s.add_relation("aligned", "table.top:top", "box:top")
+    k = s.add_relation("flush", "box:bottom", "floor:top", offset=0.02)
+    assert s.data["model"]["relations"][k]["offset"] == 0.02
+    assert s.data["model"]["relations"][j] == {"type": "aligned", "a": "table.top:top", "b": "box:top"}
+    e = s.add_relation("aligned", s.edge_pick("cabinet", "e8"), s.edge_pick("table.top", "e8"))
+    assert s.data["model"]["relations"][e]["a"] == "cabinet:e8"
+    # Residuals, from the model as shown: the box stands on the floor, 0 mm from flush with it
+    # (20 mm asked), its top 0.36 m below the table's.
+    states = s.relation_states()
+    assert len(states) == 4 and states[k].distance_m == pytest.approx(0.02, abs=1e-6)
+    assert states[k].angle_deg == pytest.approx(0.0, abs=1e-6)
+    table_z = s.model.handle_world("table.top", "v4")[2]
+    box_z = s.model.handle_world("box", "v4")[2]
+    assert states[j].distance_m == pytest.approx(abs(table_z - box_z), abs=1e-6)
+    # Removed, undone, redone.
+    s.remove_relation(j)
+    assert len(s.data["model"]["relations"]) == 3 and "removed relations[1] (aligned" in s.messages[-1]
+    s.undo()
+    assert s.data["model"]["relations"][j]["type"] == "aligned"
+    s.save()
+    data = load_project(s.project.path).data
+    assert [r["type"] for r in data["model"]["relations"]] == ["flush", "aligned", "flush", "aligned"]
+
+
+def test_equal_shares_one_size_and_bad_relations_are_refused(session):
+    s = session
+    i = s.add_equal(["table.leg1.width", "table.leg2.width", "table.leg3.width"])
+    assert s.data["model"]["relations"][i] == {"type": "equal",
+                                               "params": ["table.leg1.width", "table.leg2.width", "table.leg3.width"]}
+    st = s.relation_states()[i]
+    assert st.spread is not None and st.distance_m is None
+    rev = s.revision
+    for call, message in (
+            (lambda: s.add_relation("flush", "cabinet:left", "cabinet:right"), "faces of one node"),
+            (lambda: s.add_relation("aligned", "cabinet:left", "box:left", offset=0.1), "aligned relation has no offset"),
+            (lambda: s.add_relation("touching", "cabinet:left", "box:left"), "flush or aligned, not 'touching'"),
+            (lambda: s.add_relation("flush", s.edge_pick("cabinet", "e8"), s.edge_pick("box", "e8")),
+             "two edges are aligned"),
+            (lambda: s.add_relation("flush", "cabinet:nowhere", "box:left"), "nowhere"),
+            (lambda: s.add_equal(["table.leg1.width"]), "two or more different parameters"),
+            (lambda: s.add_equal(["table.leg1.width", "table.leg1.width"]), "two or more different parameters"),
+            (lambda: s.add_equal(["table.leg1.width", "table.leg2.girth"]), "'table.leg2' has no size 'girth'"),
+            (lambda: s.remove_relation(7), "there is no relation 7")):
+        with pytest.raises(EditError, match=message):
+            call()
+    assert s.revision == rev and len(s.data["model"]["relations"]) == 1
+
+
+def test_relation_residuals_measure_the_model_not_the_document():
+    """relation_residual on a model built in code: a box 0.3 m off a wall, turned 90° from it."""
+    from vebuild.model.scene import model_from_dict
+
+    nodes = [{"name": "floor", "primitive": {"type": "quad", "params": {"width": 4.0, "depth": 4.0}},
+              "joint": {"type": "fixed", "translation": [0.0, 0.0, 0.0], "rotation_deg": [0.0, 0.0, 0.0]}},
+             {"name": "wall", "parent": "floor", "primitive": {"type": "box", "params": {"width": 4.0, "depth": 0.1,
+                                                                                         "height": 2.5}},
+              "joint": {"type": "rests_on", "face": "top", "position": [0.0, 2.0], "yaw_deg": 0.0}},
+             {"name": "crate", "parent": "floor", "primitive": {"type": "box", "params": {"width": 0.4, "depth": 0.6,
+                                                                                          "height": 0.5}},
+              "joint": {"type": "rests_on", "face": "top", "position": [0.0, 1.35], "yaw_deg": 0.0}}]
+    m = model_from_dict(nodes)
+    x = m.vector()
+    # crate's back (+y, at y = 1.65) faces the wall's front (−y, at y = 1.95): 0.30 m apart, facing.
+    d, a, _ = relation_residual(m, x, {"type": "flush", "a": "crate:back", "b": "wall:front"})
+    assert d == pytest.approx(0.30, abs=1e-9) and a == pytest.approx(0.0, abs=1e-6)
+    d, a, _ = relation_residual(m, x, {"type": "flush", "a": "crate:back", "b": "wall:front", "offset": 0.30})
+    assert d == pytest.approx(0.0, abs=1e-9)
+    d, a, _ = relation_residual(m, x, {"type": "aligned", "a": "crate:back", "b": "wall:front"})
+    assert a == pytest.approx(180.0, abs=1e-6)  # facing each other, not the same way
+    d, a, _ = relation_residual(m, x, {"type": "flush", "a": "crate:right", "b": "wall:front"})
+    assert a == pytest.approx(90.0, abs=1e-6)
+
+
+def test_room_corners_ceiling_and_openings_are_edited_and_renumbered(session):
+    s = session
+    s.add_primitive("room", name="hall")
+    doc = next(n for n in s.data["model"]["nodes"] if n["name"] == "hall")
+    assert doc["primitive"]["type"] == "room" and doc["primitive"]["corners"] == 4
+    assert doc["joint"]["type"] == "rests_on"
+    room = s.model.node("hall").primitive
+    np.testing.assert_allclose(room.corners(), [[0, 0], [4, 0], [4, 3], [0, 3]])
+    # A pin on corner 2 and a relation on wall 2 follow the corners' renumbering.
+    s.fix("p1", "hall", "f2", (100.0, 100.0))
+    s.add_relation("flush", "cabinet:left", "hall:wall2")
+    s.room_add_corner("hall", 1)  # a rectilinear room: a step of two corners in wall 1
+    room = s.model.node("hall").primitive
+    assert len(room.corners()) == 6
+    assert any((p["node"], p["handle"]) == ("hall", "f4") for p in s.data["model"]["pins"])
+    assert s.data["model"]["relations"][-1]["b"] == "hall:wall4"
+    s.room_remove_corner("hall", 2)
+    assert len(s.model.node("hall").primitive.corners()) == 4
+    assert any((p["node"], p["handle"]) == ("hall", "f2") for p in s.data["model"]["pins"])
+    assert s.data["model"]["relations"][-1]["b"] == "hall:wall2"
+    with pytest.raises(EditError, match="corner 0 is the room's origin"):
+        s.room_remove_corner("hall", 0)
+    with pytest.raises(EditError, match="keeps at least 4"):
+        s.room_remove_corner("hall", 1)
+    # Ceiling on, off.
+    s.room_set_ceiling("hall", True)
+    assert s.model.node("hall").primitive.to_dict()["ceiling"] is True and "ceiling" in s.plane_names("hall")
+    s.room_set_ceiling("hall", False)
+    # A door on wall 0, a window on wall 1: usual sizes, centred.
+    door = s.add_opening("hall", 0, "door")
+    win = s.add_opening("hall", 1, "window")
+    p = s.model.node("hall").primitive.to_dict()["params"]
+    assert (door, win) == ("door1", "window1")
+    assert (p["door1_width"], p["door1_height"], p["door1_sill"]) == (0.9, 2.05, 0.0)
+    assert (p["window1_width"], p["window1_sill"]) == (1.2, 0.9)
+    with pytest.raises(EditError, match="opening 'door1' is on wall 0|corner 0"):
+        s.room_remove_corner("hall", 0)
+    with pytest.raises(EditError, match="a door or a window, not 'hatch'"):
+        s.add_opening("hall", 0, "hatch")
+    with pytest.raises(EditError, match="walls 0 to 3, not 9"):
+        s.add_opening("hall", 9, "door")
+    with pytest.raises(EditError, match="'cabinet' is not a room"):
+        s.add_opening("cabinet", 0, "door")
+
+
+def test_door_leaf_window_pane_and_a_joined_room(session):
+    s = session
+    s.add_primitive("room", name="hall")
+    s.add_opening("hall", 0, "door")
+    s.add_opening("hall", 1, "window")
+    leaf = s.add_door_leaf("hall", "door1")
+    j = next(n for n in s.data["model"]["nodes"] if n["name"] == leaf)
+    assert j["parent"] == "hall" and j["primitive"]["type"] == "box"
+    assert j["joint"]["type"] == "hinge" and j["joint"]["jamb"] == {"opening": "door1", "side": "start"}
+    assert j["joint"]["solve_axis"] is True
+    assert j["primitive"]["params"]["width"] == 0.9 and j["primitive"]["params"]["height"] == 2.05
+    # Shut at angle 0: the leaf fills the doorway, its corners on the jambs.
+    m = s.model
+    sb, eb = (m.handle_world("hall", h) for h in ("door1_sb", "door1_eb"))
+    lo = np.array([m.handle_world(leaf, h) for h in ("v0", "v1", "v2", "v3")])
+    assert min(np.linalg.norm(lo - sb, axis=1)) < 0.05 and min(np.linalg.norm(lo - eb, axis=1)) < 0.05
+    pane = s.add_window_pane("hall", "window1")
+    pj = next(n for n in s.data["model"]["nodes"] if n["name"] == pane)
+    assert pj["joint"]["type"] == "opening" and pj["joint"]["opening"] == "window1"
+    corners = np.array([m.handle_world("hall", h) for h in ("window1_sb", "window1_st", "window1_eb", "window1_et")])
+    got = np.array([s.model.handle_world(pane, h) for h in ("v0", "v1", "v2", "v3")])
+    # The pane's corners lie on the window's jambs, half the wall's thickness out of the room.
+    t = s.model.node("hall").primitive.to_dict()["params"]["thickness"]
+    d = np.min(np.linalg.norm(got[:, None, :] - corners[None, :, :], axis=2), axis=1)
+    np.testing.assert_allclose(d, t / 2, atol=1e-9)
+    with pytest.raises(EditError, match="has no opening 'hatch'"):
+        s.add_window_pane("hall", "hatch")
+    other = s.join_room("hall", "door1")
+    o = next(n for n in s.data["model"]["nodes"] if n["name"] == other)
+    assert o["joint"] == {"type": "through", "opening": "door1", "own_opening": "door1"}
+    assert o["primitive"]["openings"][0]["wall"] == 0
+    rels = s.data["model"]["relations"][-2:]
+    assert rels == [{"type": "equal", "params": ["hall.door1_width", f"{other}.door1_width"]},
+                    {"type": "equal", "params": ["hall.door1_height", f"{other}.door1_height"]}]
+    s.undo()
+    assert other not in s.model.index and "relations" not in s.data["model"]
+    s.redo()
+    s.save()
+    data = json.loads(s.project.path.read_text())
+    assert [n["name"] for n in data["model"]["nodes"]][-4:] == ["hall", leaf, pane, other]
