@@ -119,7 +119,8 @@ def test_equal_shares_one_size_and_bad_relations_are_refused(session):
     rev = s.revision
     for call, message in (
             (lambda: s.add_relation("flush", "cabinet:left", "cabinet:right"), "faces of one node"),
-            (lambda: s.add_relation("aligned", "cabinet:left", "box:left", offset=0.1), "aligned relation has no offset"),
+            (lambda: s.add_relation("aligned", "cabinet:left", "box:left", offset=0.1),
+             "aligned relation has no offset"),
             (lambda: s.add_relation("touching", "cabinet:left", "box:left"), "flush or aligned, not 'touching'"),
             (lambda: s.add_relation("flush", s.edge_pick("cabinet", "e8"), s.edge_pick("box", "e8")),
              "two edges are aligned"),
