@@ -13,7 +13,7 @@ a node attached to the world has the world as parent. Lengths in metres, angles 
 
 from __future__ import annotations
 
-from collections.abc import Collection, Mapping
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -24,6 +24,7 @@ from .entered import Entered, HoldError, fill_entered_values, hold_list
 from .joints import (  # noqa: F401  (re-exported: the scene graph and its joints, one import)
     DOF_KINDS,
     JOINT_TYPES,
+    FlushJoint,
     FreeJoint,
     HingeJoint,
     Joint,
@@ -40,6 +41,7 @@ from .joints import (  # noqa: F401  (re-exported: the scene graph and its joint
     translation,
 )
 from .primitives import MIN_SIZE_M, PRIMITIVE_TYPES, Primitive, primitive_from_dict
+from .relations import Relation, relations_from_dict
 
 Array = NDArray[np.float64]
 
@@ -90,8 +92,11 @@ class Model:
     primitive's parameters, exactly the values the model stores (see ``layout``).
     """
 
-    def __init__(self, nodes: list[Node]):
+    def __init__(self, nodes: list[Node], relations: Sequence[Relation] = ()):
         self.nodes = _topological(nodes)
+        #: Relations between faces, edges and parameters of the nodes (:mod:`.relations`), checked
+        #: against the nodes by :func:`model_from_dict`; the solver keeps them.
+        self.relations: list[Relation] = list(relations)
         self.index = {n.name: i for i, n in enumerate(self.nodes)}
         self.children: dict[str, list[str]] = {n.name: [] for n in self.nodes}
         for n in self.nodes:
@@ -266,8 +271,10 @@ def _primitive(d: Any, human: str, path: str) -> Primitive:
     return prim
 
 
-def model_from_dict(nodes: list[Mapping[str, Any]], markers: Mapping[str, Array] | None = None) -> Model:
-    """The model from the project file's ``model.nodes``; ModelError names the node and the field."""
+def model_from_dict(nodes: list[Mapping[str, Any]], markers: Mapping[str, Array] | None = None,
+                    relations: Any = None) -> Model:
+    """The model from the project file's ``model.nodes`` and ``model.relations`` (None: none);
+    ModelError names the node (or the relation) and the field."""
     out = []
     index: dict[str, int] = {}
     for i, d in enumerate(nodes):
@@ -307,7 +314,28 @@ def model_from_dict(nodes: list[Mapping[str, Any]], markers: Mapping[str, Array]
                 detail = f"rests on face '{n.joint.face}' of '{n.parent}', which has faces: {faces}"
                 raise ModelError(f"node '{n.name}': {detail}", f"$.model.nodes[{index[n.name]}].joint.face",
                                  f"node '{n.name}' {detail}")
+        if isinstance(n.joint, FlushJoint):
+            _check_flush_joint(model, n, f"$.model.nodes[{index[n.name]}]")
+    model.relations = relations_from_dict([] if relations is None else relations, model)
     return model
+
+
+def _check_flush_joint(model: Model, n: Node, path: str) -> None:
+    """A flush joint's faces must be flat faces of the parent and of the node."""
+    joint = n.joint
+    assert isinstance(joint, FlushJoint)
+    sides: list[tuple[str, str | None, str, Primitive | None]] = [("own_face", joint.own_face, n.name, n.primitive)]
+    if n.parent is not None:
+        sides.insert(0, ("face", joint.face, n.parent, model.node(n.parent).primitive))
+    elif joint.face is not None:
+        detail = (f"node '{n.name}' is flush against face '{joint.face}' of the world, which has none; with no "
+                  "parent, leave out \"face\" (the floor z = 0)")
+        raise ModelError(f"node '{n.name}': {detail}", f"{path}.joint.face", detail)
+    for key, face, owner, prim in sides:
+        if prim is None or face not in prim.planes():
+            have = ", ".join(prim.planes()) or "none" if prim is not None else "none (a group)"
+            detail = f"node '{n.name}' is flush with face '{face}' of '{owner}', which has flat faces: {have}"
+            raise ModelError(f"node '{n.name}': {detail}", f"{path}.joint.{key}", detail)
 
 
 def _check_cycles(nodes: list[Node]) -> None:
