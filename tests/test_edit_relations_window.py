@@ -15,10 +15,15 @@ from edit_driver import Driver
 
 from vebuild import camera as cam_math
 from vebuild.cli import main
+from vebuild.edit.relate_tool import PICK_COLOURS
 from vebuild.project import decode, load_project
 from vebuild.resources import example_project_dir
 
 pytestmark = pytest.mark.usefixtures("xvfb_display")
+
+#: A blended pixel's channels within this of the exact blend: 8-bit rounding of the colour, its
+#: alpha and the result (three half-levels), no more.
+BLEND_TOL = 2.0
 
 #: Box faces by the handles at their corners (first side, second side), as the primitives name them.
 BOX_FACES = {"front": ("v0", "v1", "v5", "v4"), "right": ("v1", "v2", "v6", "v5"), "back": ("v2", "v3", "v7", "v6"),
@@ -76,12 +81,15 @@ def test_flush_is_made_with_the_relate_tool_and_its_popup(driver):
     e, s = d.editor, d.session
     d.send("key", "r")
     assert e.tool == "relate"
+    x, y = (int(v) for v in e.image_to_window("p1", _face_pixel(s, "p1", "cabinet", "right")))
+    before = d.screen()[y, x].astype(float)
     _click_photo(d, _face_pixel(s, "p1", "cabinet", "right"))
     assert [p.ref for p in e.relate_picks] == ["cabinet:right"]
     assert "cabinet:right picked" in s.messages[-1]
-    # The picked face is drawn translucent orange over the photo.
-    x, y = e.image_to_window("p1", _face_pixel(s, "p1", "cabinet", "right"))
-    assert d.screen()[int(y), int(x)].astype(int)[0] > 150
+    # The picked face is drawn translucent orange over the photo: blended over what was there.
+    r, g, b, alpha = PICK_COLOURS[0]
+    want = before + alpha * (255.0 * np.array([r, g, b]) - before)
+    assert np.abs(d.screen()[y, x].astype(float) - want).max() <= BLEND_TOL
     _click_photo(d, _face_pixel(s, "p1", "wall_west", "front"))
     assert [p.ref for p in e.relate_picks] == ["cabinet:right", "wall_west:front"]
     d.frames(2)
