@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vebuild import camera as cam_math
+from vebuild.model.relations import is_edge, world_edge, world_plane
 from vebuild.model.scene import Model
 
 from .history import EditError
@@ -117,7 +118,7 @@ class Relating(Modelling):
             model, x = self._model_now()
             if model is None or x is None:
                 return []
-            P = np.array(_world_edge(model, x, self._transforms(), pick.ref))
+            P = np.array(world_edge(model, pick.ref, self._transforms(), x))
         else:
             found = [(tri, ids, names) for node, tri, ids, _, names in self._world_meshes() if node == pick.node]
             if not found or pick.name not in found[0][2]:
@@ -265,27 +266,6 @@ def _ray_triangles(C: Array, d: Array, tri: Array) -> Array:
     return np.where(hit, t, np.inf)
 
 
-def _world_plane(model: Model, x: Array, T: dict[str, Array], ref: str) -> tuple[Array, Array]:
-    """A face's centre and outward unit normal in the world, from ``node:plane``."""
-    node, _, name = ref.rpartition(":")
-    prim = model.node(node).primitive
-    assert prim is not None
-    o, _, _, n = prim.plane_frame(name, x[model.slices[node][1]])
-    R, t = T[node][:3, :3], T[node][:3, 3]
-    return R @ np.asarray(o, float) + t, R @ np.asarray(n, float)
-
-
-def _world_edge(model: Model, x: Array, T: dict[str, Array], ref: str) -> tuple[Array, Array]:
-    node, _, name = ref.rpartition(":")
-    prim = model.node(node).primitive
-    assert prim is not None
-    _, h0, h1 = next(e for e in prim.edges() if e[0] == name)
-    hs = prim.handles(x[model.slices[node][1]])
-    names = list(prim.handle_names())
-    W = hs @ T[node][:3, :3].T + T[node][:3, 3]
-    return W[names.index(h0)], W[names.index(h1)]
-
-
 def relation_residual(model: Model, x: Array, rel: dict[str, Any]
                       ) -> tuple[float | None, float | None, float | None]:
     """How far the model at ``x`` is from one relation: (distance m, angle °, spread) — flush: the
@@ -298,19 +278,16 @@ def relation_residual(model: Model, x: Array, rel: dict[str, Any]
         vals = [float(x[names.index(p)]) for p in rel["params"]]
         return None, None, float(max(vals) - min(vals))
     T = model.world_transforms(x)
-    a_node, _, a_name = rel["a"].rpartition(":")
-    prim = model.node(a_node).primitive
-    assert prim is not None
-    if kind == "aligned" and a_name in [e[0] for e in prim.edges()]:
-        a0, a1 = _world_edge(model, x, T, rel["a"])
-        b0, b1 = _world_edge(model, x, T, rel["b"])
+    if kind == "aligned" and is_edge(model, rel["a"]):
+        a0, a1 = world_edge(model, rel["a"], T, x)
+        b0, b1 = world_edge(model, rel["b"], T, x)
         db = (b1 - b0) / np.linalg.norm(b1 - b0)
         da = (a1 - a0) / np.linalg.norm(a1 - a0)
         dist = max(float(np.linalg.norm(np.cross(p - b0, db))) for p in (a0, a1))
         ang = math.degrees(math.acos(min(1.0, abs(float(da @ db)))))
         return dist, ang, None
-    oa, na = _world_plane(model, x, T, rel["a"])
-    ob, nb = _world_plane(model, x, T, rel["b"])
+    oa, _, _, na = world_plane(model, rel["a"], T, x)
+    ob, _, _, nb = world_plane(model, rel["b"], T, x)
     offset = float(rel.get("offset", 0.0)) if kind == "flush" else 0.0
     dist = abs(float((oa - ob) @ nb) - offset)
     want = -nb if kind == "flush" else nb

@@ -210,11 +210,9 @@ class Rooms(Relating):
         if name in taken:
             raise EditError(f"'{node}' already has an opening called '{name}'")
         size = OPENING_DEFAULTS[kind]
-        thickness = float(room.to_dict()["params"]["thickness"])
-        length = float(np.linalg.norm(c[(wall + 1) % n] - c[wall]))
-        inner = length - 2 * thickness  # the inner face ends where the neighbouring walls' faces meet it
-        width = min(size["width"], 0.8 * max(inner, 0.0))
-        offset = max(0.5 * (inner - width), 0.0)
+        inner = float(np.linalg.norm(c[(wall + 1) % n] - c[wall]))  # the inner face, corner to corner
+        width = min(size["width"], 0.8 * inner)
+        offset = 0.5 * (inner - width)
         try:
             new = room.with_opening(name, wall, kind, offset, width, size["height"], size["sill"])
         except ValueError as e:
@@ -290,7 +288,7 @@ class Rooms(Relating):
         params = self._room(node).to_dict()["params"]
         own = opening
         c = np.asarray(base.corners(), float)
-        length = float(np.linalg.norm(c[1] - c[0])) - 2 * float(base.to_dict()["params"]["thickness"])
+        length = float(np.linalg.norm(c[1] - c[0]))
         width = float(params[f"{opening}_width"])
         try:
             room = base.with_opening(own, 0, kind, max(0.5 * (length - width), 0.0), width,
