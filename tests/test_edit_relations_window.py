@@ -39,7 +39,12 @@ def driver(tmp_path_factory, xvfb_display, xdotool):
     assert main(["calibrate", str(path), "--quiet"]) == 0
     assert main(["solve", str(path)]) == 0
     d = Driver(path, xdotool)
-    d.click("tab:Model")
+    for _ in range(3):  # a click on a tab the window had not drawn yet is lost: again, until it shows
+        d.click("tab:Model")
+        d.frames(2)
+        if "Add" in d.editor.widget_rects:
+            break
+    assert "Add" in d.editor.widget_rects
     yield d
     d.close()
 

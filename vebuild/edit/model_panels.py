@@ -74,7 +74,8 @@ def room_section(p: Panels, name: str, prim: dict[str, Any]) -> None:
     """A room's corners (a corner, or a step in a rectilinear room, after the chosen corner; one
     removed), its ceiling, and its openings with what each can hold."""
     s = p.ed.session
-    n = len(p.ed.guard(lambda: s._room(name).corners()) or [])
+    corners = p.ed.guard(lambda: s._room(name).corners())
+    n = 0 if corners is None else len(corners)
     rect = prim.get("rectilinear", True)
     imgui.text(f"room: {n} corners{' (rectilinear)' if rect else ''}, {len(prim.get('openings', []))} openings")
     changed, on = imgui.checkbox("ceiling##room", bool(prim.get("ceiling", False)))

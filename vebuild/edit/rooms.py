@@ -284,10 +284,10 @@ class Rooms(Relating):
         name = (name or "").strip() or self._new_node_name("room")
         from .modelling import DEFAULT_PARAMS
 
-        base = primitive_from_dict({"type": "room", "params": dict(DEFAULT_PARAMS["room"])})
+        base: Any = primitive_from_dict({"type": "room", "params": dict(DEFAULT_PARAMS["room"])})
         params = self._room(node).to_dict()["params"]
         own = opening
-        c = np.asarray(base.corners(), float)
+        c = np.asarray(base.corners(), dtype=float)
         length = float(np.linalg.norm(c[1] - c[0]))
         width = float(params[f"{opening}_width"])
         try:
