@@ -430,6 +430,9 @@ class Modelling(Marks):
                 res.fixed_error_px <= d.baseline_fixed + FOLLOW_TOL_PX
         except (np.linalg.LinAlgError, FloatingPointError, ValueError):
             ok, reach, res = False, float("inf"), None
+        shape = _shape_problem(d, res.x) if ok and res is not None else None
+        if shape is not None:
+            ok = False
         if ok:
             d.x_good, d.xp_good, d.uv_good, d.moved = res.x.copy(), ds.x.copy(), target.copy(), True
             d.revision += 1
@@ -438,7 +441,7 @@ class Modelling(Marks):
                                 1e3 * (time.perf_counter() - t0))
         ds.x = x_prev
         ds.problem.set_pin_pixel(ds._pin_index, d.uv_good)
-        reason = self._why_stuck(d, res.fixed_error_px - d.baseline_fixed if res is not None else None)
+        reason = shape or self._why_stuck(d, res.fixed_error_px - d.baseline_fixed if res is not None else None)
         cam = self.cameras[ds.photo]
         hp = cam_math.project(cam.K, cam.R, cam.C, d.model.handle_world(ds.node, ds.handle, d.x_good), cam.k1)
         return DragFeedback(False, reason, (float(hp[0]), float(hp[1])), 1e3 * (time.perf_counter() - t0))
@@ -474,7 +477,12 @@ class Modelling(Marks):
             self.revision += 1
             return
         ds.x = d.xp_good
-        pin = ds.release()
+        try:
+            pin = ds.release()
+        except ValueError as e:  # a shape the primitive refuses: nothing is kept
+            self._drag = None
+            self.revision += 1
+            raise EditError(f"the drag of {ds.node}:{ds.handle} is not kept: {e}") from None
         pin.uv = d.uv_good
         self._drag = None
         with self._edit(f"drag {pin.node}:{pin.handle} in {pin.photo}"):
@@ -533,6 +541,23 @@ def _param_kinds(prim_doc: dict[str, Any]) -> dict[str, str]:
         return {}
     got = kinds()
     return dict(got) if isinstance(got, dict) else dict(zip(prim.PARAMS, got, strict=True))
+
+
+def _shape_problem(d: _Drag, x: Array) -> str | None:
+    """Why the moved primitives cannot take the shape of model vector ``x`` (a room whose corners
+    would cross or turn clockwise), or None: the model stays as it was, as when the joints cannot
+    follow."""
+    model = d.model
+    for name in d.session.moved:
+        prim = model.node(name).primitive
+        if prim is None or getattr(prim, "LINEAR", True):
+            continue  # a linear primitive takes any sizes the solver's bounds allow
+        try:
+            prim.with_params(x[model.slices[name][1]])
+        except ValueError as e:
+            return (f"{d.session.node}:{d.session.handle} cannot go there: {name} would not be a valid "
+                    f"{prim.TYPE} ({e}); it stays where it was")
+    return None
 
 
 def _at_limit(j: Any) -> bool:
