@@ -296,3 +296,35 @@ def test_a_room_is_sized_by_dragging_its_corners_onto_the_photos(bare):
 
 def _node_doc(s, name):
     return next(n for n in s.data["model"]["nodes"] if n["name"] == name)
+
+
+def test_a_flush_joint_puts_a_child_against_its_parents_face_where_it_is(bare):
+    """A crate on a room's floor made flush against the room's wall 2 by its joint: its back on the
+    wall's inner face exactly, over the point of the wall it stood before, as it was turned."""
+    s = bare
+    s.add_primitive("room", name="hall")
+    s.add_primitive("box", name="crate", parent="hall")
+    assert _node_doc(s, "crate")["joint"]["face"] == "floor"  # furniture added on a room stands on its floor
+    s.set_joint("crate", {"type": "rests_on", "face": "floor", "position": [2.0, 2.5], "yaw_deg": 0.0})
+    s.add_relation("flush", "crate:back", "hall:wall2")  # the relation first: the joint replaces it
+    before = s.model.world_transforms()["crate"]
+    s.make_flush_joint("crate:back", "hall:wall2")
+    j = _node_doc(s, "crate")["joint"]
+    assert (j["type"], j["face"], j["own_face"], j["offset"]) == ("flush", "wall2", "back", 0.0)
+    assert "relations" not in s.data["model"]  # made by the joint now
+    assert "'crate' is flush against hall:wall2 by its joint" in s.messages[-1]
+    m = s.model
+    d, a, _ = relation_residual(m, m.vector(), {"type": "flush", "a": "crate:back", "b": "hall:wall2"})
+    assert d < 1e-9 and a < 1e-6
+    after = m.world_transforms()["crate"]
+    # Turned as before (its back, +y, already faced wall 2 at y = 3 m), moved only toward the wall,
+    # from which it stood 0.25 m (its centre at 2.5 m, half its 0.5 m depth behind it).
+    np.testing.assert_allclose(after[:3, :3], before[:3, :3], atol=1e-9)
+    shift = after[:3, 3] - before[:3, 3]
+    assert abs(shift[0]) < 1e-9 and abs(shift[2]) < 1e-9
+    assert shift[1] == pytest.approx(3.0 - 2.5 - 0.25, abs=1e-9)
+    s.add_primitive("room", name="den")
+    with pytest.raises(EditError, match="'crate' hangs on 'hall', not on 'den'"):
+        s.make_flush_joint("crate:back", "den:wall0")
+    with pytest.raises(EditError, match="'crate' has no flat face 'rim'"):
+        s.make_flush_joint("crate:rim", "hall:wall2")

@@ -28,7 +28,7 @@ if TYPE_CHECKING:
 
 #: The primitives the panel offers, from the registry (each type, then its named variants).
 KINDS = list(primitive_kinds())
-JOINT_TYPES = ["rests_on", "fixed", "hinge", "slider", "free"]
+JOINT_TYPES = ["rests_on", "flush", "fixed", "hinge", "slider", "free"]
 
 
 class Panels:
@@ -408,7 +408,7 @@ class Panels:
         changed, idx = imgui.combo("joint##type", types.index(jtype), types)
         self.ed.rect("joint type")
         if changed and types[idx] != jtype:
-            self.ed.guard(s.set_joint, name, self._default_joint(model, name, types[idx], joint))
+            self.ed.guard(lambda: s.set_joint(name, self._default_joint(model, name, types[idx], joint)))
         for key, value in joint.items():
             if key in ("type", "limits", "limits_deg") or isinstance(value, str):
                 if isinstance(value, str) and key != "type":
@@ -465,6 +465,14 @@ class Panels:
                 j["face"] = "top"
                 j["position"] = old.get("position", [0.0, 0.0])
             return j
+        if jtype == "flush":  # its bottom on its parent's top (a room's floor), or on the floor
+            from .relating import flush_joint_here
+
+            parent = model.node(node.parent).primitive if node.parent is not None else None
+            if parent is None:
+                return {"type": "flush", "own_face": "bottom", "offset": 0.0,
+                        "position": [float(rel[0, 3]), float(rel[1, 3])], "yaw_deg": float(pose["rotation_deg"][2])}
+            return flush_joint_here(model, name, "bottom", "top" if "top" in parent.planes() else "floor")
         if jtype == "hinge":
             return {"type": "hinge", "axis_point": [0.0, 0.0, 0.0], "axis": [0.0, 0.0, 1.0], **pose,
                     "angle_deg": 0.0, "limits_deg": [-180.0, 180.0]}

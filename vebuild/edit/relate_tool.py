@@ -66,7 +66,7 @@ class RelateTool(EditorPart):
             return
         text = self.relate_offset.strip()
         offset = 0.0
-        if kind == "flush" and text:
+        if kind in ("flush", "flush joint") and text:
             try:
                 offset = float(text)
             except ValueError:
@@ -74,12 +74,21 @@ class RelateTool(EditorPart):
                 return
         a, b = self.relate_picks
         try:
-            self.session.add_relation(kind, a, b, offset=offset)
+            if kind == "flush joint":
+                if self._parent_of(a.node) != b.node:
+                    a, b = b, a  # the child's face on its parent's
+                self.session.make_flush_joint(a, b, offset=offset)
+            else:
+                self.session.add_relation(kind, a, b, offset=offset)
         except VebuildError as e:
             self.say(str(e))
             return
         self.relate_picks = []
         self._relate_popup = False
+
+    def _parent_of(self, node: str) -> str | None:
+        model = self.session.model
+        return model.node(node).parent if model is not None and node in model.index else None
 
     def relate_cancel(self) -> bool:
         """Esc: drop the picks (True if there were any)."""
@@ -143,6 +152,13 @@ class RelateTool(EditorPart):
             if self.button("Flush (F)##relate", tip="a's face against b's, facing it (a cabinet's back on a wall)"):
                 self.relate_choose("flush")
             imgui.same_line()
+            a, b = self.relate_picks
+            child = self._parent_of(a.node) == b.node or self._parent_of(b.node) == a.node
+            if child and self.button("Flush joint##relate", tip="the same, exactly, by the node's joint: it hangs on "
+                                                                "that face of its parent and slides and turns on it"):
+                self.relate_choose("flush joint")
+            if child:
+                imgui.same_line()
         if self.button("Aligned (A)##relate", tip="coplanar faces facing the same way (cabinet fronts in a row), "
                                                   "or collinear edges"):
             self.relate_choose("aligned")

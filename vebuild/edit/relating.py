@@ -208,6 +208,36 @@ class Relating(Modelling):
         self.say(f"{', '.join(params)} share one value now (relation {index})")
         return index
 
+    def make_flush_joint(self, a: Pick | str, b: Pick | str, offset: float = 0.0) -> None:
+        """Make face a's node flush against face b of its parent by its joint (the exact form of a
+        flush relation where the scene graph allows it: the node keeps only its slide and turn on
+        that face), placed where it is now as nearly as the joint allows."""
+        ra = a.ref if isinstance(a, Pick) else str(a)
+        rb = b.ref if isinstance(b, Pick) else str(b)
+        node, _, own = ra.rpartition(":")
+        parent, _, face = rb.rpartition(":")
+        model = self.model
+        if model is None or node not in model.index or parent not in model.index:
+            raise EditError(f"the model has no node '{node if model is None or node not in model.index else parent}'")
+        if model.node(node).parent != parent:
+            raise EditError(f"'{node}' hangs on '{model.node(node).parent or 'the world'}', not on '{parent}': a "
+                            "flush joint ties a node to a face of its parent; make a flush relation (F) instead")
+        if not (isinstance(offset, (int, float)) and math.isfinite(offset)):
+            raise EditError(f"a flush offset is a number of metres, not {offset!r}")
+        joint = flush_joint_here(model, node, own, face, float(offset))
+        with self._edit(f"flush joint {ra} – {rb}"):
+            self._node_doc(node)["joint"] = joint
+            doc = self._model_doc()
+            same = [r for r in doc.get("relations", []) if r.get("type") == "flush"
+                    and {r.get("a"), r.get("b")} == {ra, rb} and float(r.get("offset", 0.0)) == float(offset)]
+            if same:  # the joint makes it now
+                doc["relations"] = [r for r in doc["relations"] if r not in same]
+                if not doc["relations"]:
+                    del doc["relations"]
+            self._rebuild_check()
+        self.say(f"'{node}' is flush against {rb} by its joint (its {own} face on it"
+                 + (f", {1000 * offset:+.0f} mm off" if offset else "") + "): it slides and turns on that face only")
+
     def remove_relation(self, index: int) -> None:
         rels = self._relation_docs()
         if not 0 <= index < len(rels):
@@ -238,6 +268,29 @@ class Relating(Modelling):
                 out.append(RelationState(i, relation_label(i, r), dist, ang, spread))
             self._cache[key] = out
         return self._cache[key]
+
+
+def flush_joint_here(model: Model, node: str, own: str, face: str, offset: float = 0.0) -> dict[str, Any]:
+    """A flush joint (file form) of ``node``'s face ``own`` on its parent's face ``face`` that keeps
+    the node where it is as nearly as the joint allows: its own face's centre over the point it is
+    over now, turned as it is now about the face's normal."""
+    n = model.node(node)
+    prim = n.primitive
+    parent = model.node(n.parent).primitive if n.parent is not None else None
+    for what, p, name in ((node, prim, own), (n.parent, parent, face)):
+        planes = list(p.planes()) if p is not None else []
+        if name not in planes:
+            raise EditError(f"'{what}' has no flat face '{name}' (its faces: {', '.join(planes) or 'none'})")
+    assert prim is not None and parent is not None and n.parent is not None
+    T = model.world_transforms()
+    rel = np.linalg.inv(T[n.parent]) @ T[node]
+    o, x, _, _ = prim.plane_frame(own)
+    c = rel[:3, :3] @ np.asarray(o, float) + rel[:3, 3]
+    xo = rel[:3, :3] @ np.asarray(x, float)
+    fo, fx, fy, _ = (np.asarray(v, float) for v in parent.plane_frame(face))
+    return {"type": "flush", "face": face, "own_face": own, "offset": float(offset),
+            "position": [float((c - fo) @ fx), float((c - fo) @ fy)],
+            "yaw_deg": math.degrees(math.atan2(float(xo @ fy), float(xo @ fx)))}
 
 
 def relation_label(index: int, rel: dict[str, Any]) -> str:
