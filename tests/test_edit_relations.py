@@ -328,3 +328,20 @@ def test_a_flush_joint_puts_a_child_against_its_parents_face_where_it_is(bare):
         s.make_flush_joint("crate:back", "den:wall0")
     with pytest.raises(EditError, match="'crate' has no flat face 'rim'"):
         s.make_flush_joint("crate:rim", "hall:wall2")
+
+
+def test_removing_a_node_removes_the_relations_that_name_it(session):
+    s = session
+    s.add_relation("flush", "cabinet:left", "wall_west:front")
+    s.add_relation("aligned", "table.top:top", "box:top")
+    s.add_equal(["box.height", "cabinet.height", "table.top.height"])
+    s.remove_node("box")
+    assert s.data["model"]["relations"] == [
+        {"type": "flush", "a": "cabinet:left", "b": "wall_west:front"},
+        {"type": "equal", "params": ["cabinet.height", "table.top.height"]}]
+    assert "removed with it: aligned table.top:top – box:top" in s.messages[-1]
+    assert s.model is not None and len(s.model.relations) == 2
+    s.remove_node("cabinet")
+    assert "relations" not in s.data["model"]
+    s.undo()
+    assert len(s.data["model"]["relations"]) == 2

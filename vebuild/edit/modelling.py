@@ -24,6 +24,7 @@ from vebuild.project import decode
 
 from .history import EditError
 from .marks import Marks
+from .model_doc import drop_relations_of, merge_nodes, param_kinds, resting_face
 
 Array = NDArray[np.float64]
 
@@ -155,7 +156,7 @@ class Modelling(Marks):
             joint = {"type": "rests_on", "position": [0.0, 0.0], "yaw_deg": 0.0}
             if parent is not None:
                 prim = self.model.node(parent).primitive if self.model else None
-                face = _resting_face(prim)
+                face = resting_face(prim)
                 if prim is None or face is None:
                     faces = ", ".join(prim.faces()) if prim else "none (a group)"
                     raise EditError(f"'{parent}' has no top face for '{name}' to rest on (its faces: {faces}); "
@@ -192,7 +193,7 @@ class Modelling(Marks):
             prim = model.node(parent).primitive if model is not None else None
             assert model is not None and prim is not None  # add_primitive checked the parent's top face
             T = model.world_transforms()[parent]
-            fo, fx, fy, fn = prim.face_frame(_resting_face(prim) or "top")
+            fo, fx, fy, fn = prim.face_frame(resting_face(prim) or "top")
             o, x, y, n = T[:3, :3] @ fo + T[:3, 3], T[:3, :3] @ fx, T[:3, :3] @ fy, T[:3, :3] @ fn
         denom = float(d @ n)
         lam = float((o - C) @ n) / denom if abs(denom) > 1e-9 else -1.0
@@ -217,16 +218,19 @@ class Modelling(Marks):
                                                            if ":" in e)]
             for h in self.data.get("hypotheses", []):
                 h["joints"] = {k: v for k, v in h["joints"].items() if k not in gone}
+            dropped = drop_relations_of(doc, gone)
             if not doc["nodes"]:
                 del self.data["model"]
             self.data.pop("model_solution", None)
+        if dropped:
+            self.say(f"removed with it: {'; '.join(dropped)}")
 
     def set_params(self, node: str, params: dict[str, float]) -> None:
         with self._edit(f"sizes of {node}"):
             doc = self._node_doc(node)
             if "primitive" not in doc:
                 raise EditError(f"'{node}' is a group: it has no sizes")
-            kinds = _param_kinds(doc["primitive"])
+            kinds = param_kinds(doc["primitive"])
             for k, v in params.items():
                 if k not in doc["primitive"]["params"]:
                     raise EditError(f"'{node}' has no size '{k}' (it has {', '.join(doc['primitive']['params'])})")
@@ -486,7 +490,7 @@ class Modelling(Marks):
         pin.uv = d.uv_good
         self._drag = None
         with self._edit(f"drag {pin.node}:{pin.handle} in {pin.photo}"):
-            self._model_doc()["nodes"] = _merge_nodes(self._nodes(), d.model.to_dict())
+            self._model_doc()["nodes"] = merge_nodes(self._nodes(), d.model.to_dict())
             key = (pin.photo, pin.node, pin.handle)
             pins = [p for p in self._pins() if (p["photo"], p["node"], p["handle"]) != key]
             pins.append({"photo": pin.photo, "node": pin.node, "handle": pin.handle,
@@ -522,27 +526,6 @@ class Modelling(Marks):
             self._model_doc()["pins"] = [p for p in pins if (p["photo"], p["node"], p["handle"]) != key]
 
 
-def _resting_face(prim: Any) -> str | None:
-    """The face a new primitive rests on: a parent's top, or a room's floor (its one restable face)."""
-    if prim is None:
-        return None
-    faces = list(prim.faces())
-    return "top" if "top" in faces else ("floor" if "floor" in faces else None)
-
-
-def _param_kinds(prim_doc: dict[str, Any]) -> dict[str, str]:
-    """Each parameter's kind ("size" ≥ 0, or "position": a room's corner coordinates, any sign)."""
-    try:
-        prim = primitive_from_dict(prim_doc)
-    except ValueError:
-        return {}
-    kinds = getattr(prim, "param_kinds", None)
-    if not callable(kinds):
-        return {}
-    got = kinds()
-    return dict(got) if isinstance(got, dict) else dict(zip(prim.PARAMS, got, strict=True))
-
-
 def _shape_problem(d: _Drag, x: Array) -> str | None:
     """Why the moved primitives cannot take the shape of model vector ``x`` (a room whose corners
     would cross or turn clockwise), or None: the model stays as it was, as when the joints cannot
@@ -566,18 +549,3 @@ def _at_limit(j: Any) -> bool:
         return False
     v = j.values()[0]
     return bool(min(abs(v - lims[0]), abs(v - lims[1])) < 1e-6)
-
-
-def _merge_nodes(docs: list[dict[str, Any]], solved: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """The nodes' documents with joints and sizes from the solved model (other keys kept)."""
-    by = {d["name"]: d for d in solved}
-    out = []
-    for d in docs:
-        s = by.get(d["name"], {})
-        d = copy.deepcopy(d)
-        if "joint" in s:
-            d["joint"] = s["joint"]
-        if "primitive" in s:
-            d["primitive"] = s["primitive"]
-        out.append(d)
-    return out
