@@ -138,3 +138,50 @@ def test_door_leaf_window_pane_and_a_room_joined_through_the_doorway(driver):
     a = np.array([model.handle_world(room, h) for h in ("door1_osb", "door1_oeb")])
     b = np.array([model.handle_world(other, h) for h in ("door1_osb", "door1_oeb")])
     assert np.allclose(np.sort(a, axis=0), np.sort(b, axis=0), atol=1e-6)
+
+
+def test_a_box_on_the_room_floor_made_flush_against_a_wall_by_its_joint(driver):
+    """From p6 (inside the room, facing its walls 1 and 2): a box added on the room stands on its
+    floor where clicked; the Relate tool's clicks on the box and on wall 2, its back chosen by name,
+    and Flush joint put the box's back on the wall by its joint."""
+    from vebuild import camera as cam_math
+
+    d = driver
+    e, s = d.editor, d.session
+    room = next(n["name"] for n in s.data["model"]["nodes"] if n["primitive"]["type"] == "room"
+                and n["joint"]["type"] == "marker")
+    d.click("photo:p6")
+    assert e.photo == "p6"
+    cam = s.cameras["p6"]
+
+    def pixel(X):
+        return cam_math.project(cam.K, cam.R, cam.C, np.asarray(X, float), cam.k1)
+
+    d.click("kind")
+    d.frames(2)
+    d.click("kind:box")
+    d.click("parent")
+    d.frames(2)
+    d.click(f"parent:{room}")
+    d.click("Add")
+    d.send(*d.move_to(*e.image_to_window("p6", pixel((2.0, 1.5, 0.0)))), "sleep", "0.05", "click", "1")
+    box = e.selected
+    j = _node(s, box)["joint"]
+    assert _node(s, box)["parent"] == room and (j["type"], j["face"]) == ("rests_on", "floor")
+    np.testing.assert_allclose(s.model.handle_world(box, "v0")[:2] + 0.25, (2.0, 1.5), atol=0.01)
+    # Relate: the box's top (seen from above), then wall 2's inner face; the box's back chosen by name.
+    d.send("key", "r")
+    top = np.mean([s.model.handle_world(box, h) for h in ("v4", "v5", "v6", "v7")], axis=0)
+    d.send(*d.move_to(*e.image_to_window("p6", pixel(top))), "sleep", "0.05", "click", "1")
+    d.send(*d.move_to(*e.image_to_window("p6", pixel((2.0, 3.0, 1.5)))), "sleep", "0.05", "click", "1")
+    assert [p.ref for p in e.relate_picks] == [f"{box}:top", f"{room}:wall2"]
+    d.frames(2)
+    d.click("relate a")
+    d.frames(2)
+    d.click("relate a:back")
+    d.click("Flush joint##relate")
+    j = _node(s, box)["joint"]
+    assert (j["type"], j["face"], j["own_face"]) == ("flush", "wall2", "back")
+    assert s.model.handle_world(box, "v2")[1] == pytest.approx(3.0, abs=1e-9)  # its back on the wall
+    data, model = _saved(d)
+    assert model.node(box).joint.type == "flush"
