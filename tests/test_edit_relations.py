@@ -83,7 +83,8 @@ def test_flush_and_aligned_relations_are_saved_undone_and_decoded(session):
     i = s.add_relation("flush", "cabinet:left", "wall_west:front")
     assert s.data["model"]["relations"][i] == {"type": "flush", "a": "cabinet:left", "b": "wall_west:front"}
     assert s.undo_label == "flush cabinet:left – wall_west:front"
-    assert "cabinet:left is flush against wall_west:front" in s.messages[-1]
+    assert "cabinet:left is flush against wall_west:front (relation 0); the model is" in s.messages[-1]
+    assert "from it now: Solve brings the model onto it, and drags keep it" in s.messages[-1]
     assert [r.type for r in s.model.relations] == ["flush"]  # the screen's model carries it (drags keep it)
     j = s.add_relation("aligned", "table.top:top", "box:top")
     k = s.add_relation("flush", "box:back", "wall_north:front", offset=0.02)

@@ -28,6 +28,10 @@ Array = NDArray[np.float64]
 
 #: Relation kinds made between two picked faces or edges (``equal`` relates sizes, not faces).
 PAIR_RELATIONS = ("flush", "aligned")
+#: A new relation "holds already" when the model as shown is within these of it: a tenth of a
+#: millimetre and a hundredth of a degree, far below what a photo shows (a pixel is millimetres).
+HOLDS_M = 1e-4
+HOLDS_DEG = 0.01
 #: A ray meeting a triangle this close to its edge still hits it (barycentric units): the faces of
 #: a box meet at its edges, and a click exactly on an edge picks the nearer face, not none.
 HIT_EPS = 1e-9
@@ -180,7 +184,11 @@ class Relating(Modelling):
         index = len(self._relation_docs()) - 1
         how = f"flush against {rb}" + (f" {1000 * offset:+.0f} mm off it" if offset else "") \
             if kind == "flush" else f"aligned with {rb}"
-        self.say(f"{ra} is {how} (relation {index}): the solve and every drag keep it")
+        state = self.relation_states()[index]
+        off = "" if state.distance_m is None or state.angle_deg is None else (
+            f"; the model is {1000 * state.distance_m:.0f} mm and {state.angle_deg:.1f}° from it now"
+            if state.distance_m > HOLDS_M or state.angle_deg > HOLDS_DEG else "; it holds already")
+        self.say(f"{ra} is {how} (relation {index}){off}: Solve brings the model onto it, and drags keep it")
         return index
 
     def add_equal(self, params: Sequence[str], name: str | None = None) -> int:
