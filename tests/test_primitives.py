@@ -418,12 +418,12 @@ def test_params_are_read_only_and_with_params_makes_a_new_primitive() -> None:
     assert taller == Box(1.0, 2.0, 4.0) and box.height == 3.0
     assert box.with_params(np.array([3.0, 2.0, 1.0])) == Box(width=3, depth=2, height=1)
     assert Box.from_dict({"type": "box", "params": {"width": 1, "depth": 2, "height": 3}}) == box
-    assert list(PRIMITIVE_TYPES) == ["quad", "box", "wedge", "cylinder", "frustum", "sphere"]
+    assert list(PRIMITIVE_TYPES) == ["quad", "box", "wedge", "cylinder", "frustum", "sphere", "room"]
 
 
 @pytest.mark.parametrize(("d", "message"), [
-    ({"type": "cone", "params": {}}, "expected one of quad, box, wedge, cylinder, frustum, sphere; got 'cone'"),
-    ({"params": {}}, "expected one of quad, box, wedge, cylinder, frustum, sphere; got None"),
+    ({"type": "cone", "params": {}}, "expected one of quad, box, wedge, cylinder, frustum, sphere, room; got 'cone'"),
+    ({"params": {}}, "expected one of quad, box, wedge, cylinder, frustum, sphere, room; got None"),
     ({"type": "box", "params": {"width": 1, "depth": 2}}, "box needs params width, depth, height; missing height"),
     ({"type": "box", "params": {"width": 1}}, "box needs params width, depth, height; missing depth, height"),
     ({"type": "box", "params": {"width": -1, "depth": 2, "height": 3}}, "box: width must be > 0, got -1.0"),

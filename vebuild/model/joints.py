@@ -22,7 +22,7 @@ from .primitives import Primitive
 
 Array = NDArray[np.float64]
 
-JOINT_TYPES = ("fixed", "free", "rests_on", "flush", "hinge", "slider", "marker")
+JOINT_TYPES = ("fixed", "free", "rests_on", "flush", "hinge", "slider", "marker", "opening", "through")
 #: What a degree of freedom measures: a position (metres), an angle (radians; degrees in files)
 #: or, for a primitive's parameters, a size (metres). The solver's pull toward the value before a
 #: solve and the file's units follow the kind.
@@ -235,6 +235,9 @@ class HingeJoint(Joint):
     axis: Array = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
     angle: float = 0.0
     limits: tuple[float, float] = (-np.pi, np.pi)
+    #: (opening, side) of the parent room's jamb the hinge hangs on: axis_point, axis and the pose
+    #: at angle 0 are then in that jamb's frame (Room.jamb_frame), which follows the solved room.
+    jamb: tuple[str, str] | None = None
     dof_names: tuple[str, ...] = ("angle",)
     dof_kinds: tuple[str, ...] = ("angle",)
 
@@ -249,12 +252,20 @@ class HingeJoint(Joint):
 
     def transform(self, q, parent, parent_params, node, node_params):
         turn = _axis_rotation(self.axis, q[0])
-        return translation(self.axis_point) @ turn @ translation(-self.axis_point) @ self.base
+        T = translation(self.axis_point) @ turn @ translation(-self.axis_point) @ self.base
+        if self.jamb is None:
+            return T
+        from .room_joints import jamb_frame_of
+
+        return jamb_frame_of(parent, parent_params, *self.jamb) @ T
 
     def to_dict(self):
-        return {"type": "hinge", "axis_point": [float(v) for v in self.axis_point],
-                "axis": [float(v) for v in self.axis], **pose_to_dict(self.base),
-                "angle_deg": float(np.degrees(self.angle)), "limits_deg": [float(np.degrees(v)) for v in self.limits]}
+        d = {"type": "hinge", "axis_point": [float(v) for v in self.axis_point],
+             "axis": [float(v) for v in self.axis], **pose_to_dict(self.base),
+             "angle_deg": float(np.degrees(self.angle)), "limits_deg": [float(np.degrees(v)) for v in self.limits]}
+        if self.jamb is not None:
+            d["jamb"] = {"opening": self.jamb[0], "side": self.jamb[1]}
+        return d
 
 
 @dataclass
@@ -360,8 +371,13 @@ def joint_from_dict(d: Mapping[str, Any], where: str, markers: Mapping[str, Arra
         if not lo <= angle <= hi:
             raise error_at(where, at("angle_deg"), f"hinge angle {np.degrees(angle):.1f}° lies outside its limits "
                          f"[{np.degrees(lo):.1f}°, {np.degrees(hi):.1f}°]")
+        jamb = None
+        if "jamb" in d:
+            from .room_joints import jamb_of
+
+            jamb = jamb_of(d["jamb"], where, at("jamb"))
         return HingeJoint(type="hinge", base=base, axis_point=np.asarray(d.get("axis_point", [0, 0, 0]), float),
-                          axis=axis, angle=angle, limits=(float(lo), float(hi)))
+                          axis=axis, angle=angle, limits=(float(lo), float(hi)), jamb=jamb)
     if kind == "slider":
         axis = axis_of([1, 0, 0])
         lo, hi = limits_of("limits", [-np.inf, np.inf], " m")
@@ -376,4 +392,8 @@ def joint_from_dict(d: Mapping[str, Any], where: str, markers: Mapping[str, Arra
                          "position; run vebuild calibrate first, or name a marker the calibration placed")
         return MarkerJoint(type="marker", marker=name, handle=d.get("handle", ""),
                            position=np.asarray(markers[name], float), yaw=float(np.radians(d.get("yaw_deg", 0.0))))
+    if kind in ("opening", "through"):
+        from .room_joints import room_joint_from_dict
+
+        return room_joint_from_dict(d, where, path, base)
     raise error_at(where, at("type"), f"joint type '{kind}' is not one of {', '.join(JOINT_TYPES)}")

@@ -143,6 +143,9 @@ class Primitive(abc.ABC):
     ANCHOR_HANDLE: ClassVar[str] = ""
     #: Named variants a user can add: kind → the default parameters it changes (a cone is a frustum).
     VARIANTS: ClassVar[Mapping[str, Mapping[str, float]]] = {}
+    #: Whether the handles are linear in the parameters (``handles(p) = A p``, A from
+    #: ``handle_jacobian``); a primitive whose are not (a room) is asked ``handles(p)`` at each trial.
+    LINEAR: ClassVar[bool] = True
 
     _p: Array
 
@@ -225,11 +228,22 @@ class Primitive(abc.ABC):
             raise ValueError(f"expected type {cls.TYPE!r}, got {prim.TYPE!r}")
         return prim
 
+    def param_kinds(self) -> tuple[str, ...]:
+        """The kind (DOF_KINDS) of each parameter in PARAMS order: all sizes here; a room's corner
+        coordinates are positions (no least value, the solver's pull of a position)."""
+        return ("size",) * len(self.PARAMS)
+
     @classmethod
     def minimum_size(cls, name: str) -> float:
         """The least value parameter ``name`` may take in a solve (metres): 0 where a size may
         vanish (a cone's top radius), MIN_SIZE_M for every other size."""
         return 0.0 if name in cls._MAY_BE_ZERO else MIN_SIZE_M
+
+    @classmethod
+    def _from_file(cls, d: Mapping[str, Any], params: Mapping[str, Any]) -> Primitive:
+        """The primitive of a project-file dict whose ``params`` are checked to be an object; a
+        primitive with more than params in the file (a room's corners and openings) reads them here."""
+        return cls(**params)
 
     @classmethod
     def minimum_sizes(cls) -> Array:
@@ -369,7 +383,7 @@ def primitive_from_dict(d: Mapping[str, Any]) -> Primitive:
     params = d.get("params", {})
     if not isinstance(params, Mapping):
         raise ValueError(f"{kind}: params must be an object {{{', '.join(cls.PARAMS)}}}, got {type(params).__name__}")
-    return cls(**params)
+    return cls._from_file(d, params)
 
 
 class Quad(Primitive):
