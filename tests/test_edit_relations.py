@@ -346,3 +346,46 @@ def test_removing_a_node_removes_the_relations_that_name_it(session):
     assert "relations" not in s.data["model"]
     s.undo()
     assert len(s.data["model"]["relations"]) == 2
+
+
+#: A drag keeps a flush relation within this (metres): the solver's hard rows are whitened by a
+#: micrometre (vebuild.model.constraints.HARD_SIGMA_M) and nothing pulls the crate off the wall.
+KEPT_TOL_M = 1e-6
+
+
+def test_a_drag_keeps_a_flush_relation(session):
+    """A crate standing with its back on the north wall, flush by a relation (the two are not parent
+    and child): dragged along the wall it follows the mouse and stays on the wall; dragged away from
+    the wall it cannot follow and says why."""
+    s = session
+    s.add_primitive("box", name="crate", parent="floor")
+    # wall_north rests on the floor at y = 2.05 (0.1 m thick): its front face at y = 2.0; the
+    # crate (0.5 m deep) at y = 1.75 has its back there.
+    s.set_joint("crate", {"type": "rests_on", "face": "top", "position": [0.5, 1.75], "yaw_deg": 0.0})
+    s.add_relation("flush", "crate:back", "wall_north:front")
+    assert "as the model stands already: drags keep it" in s.messages[-1]
+    rel = s.data["model"]["relations"][0]
+    photo = "p4"  # sees the whole crate
+    W = s.model.handle_world("crate", "v0")
+    along = s.model.world_transforms()["wall_north"][:3, 0]
+    goal = _pixel(s, photo, W + 0.3 * along)
+    start = np.array(next(uv for n, h, uv, _ in s.handles(photo) if (n, h) == ("crate", "v0")))
+    s.begin_drag(photo, "crate", "v0")
+    feedback = [s.drag_to(start + (goal - start) * k / 6) for k in range(1, 7)]
+    live = relation_residual(s._drag.model, s._drag.x_good, rel)[0]
+    s.end_drag()
+    assert all(f.ok for f in feedback), [f.reason for f in feedback if not f.ok]
+    assert live < KEPT_TOL_M
+    m = s.model
+    assert relation_residual(m, m.vector(), rel)[0] < KEPT_TOL_M
+    assert np.linalg.norm(m.handle_world("crate", "v0") - (W + 0.3 * along)) < DRAG_TOL_M
+    assert s.relation_states()[0].distance_m < KEPT_TOL_M
+    # Away from the wall (toward the room's middle): the relation holds it; it stays.
+    start = np.array(next(uv for n, h, uv, _ in s.handles(photo) if (n, h) == ("crate", "v0")))
+    W = m.handle_world("crate", "v0")
+    away = _pixel(s, photo, W - 0.4 * m.world_transforms()["wall_north"][:3, 1])
+    s.begin_drag(photo, "crate", "v0")
+    fb = [s.drag_to(start + (away - start) * k / 4) for k in range(1, 5)]
+    s.cancel_drag()
+    assert not fb[-1].ok and "it stays where it was" in fb[-1].reason
+    assert np.allclose(m.handle_world("crate", "v0"), W)

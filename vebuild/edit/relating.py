@@ -185,10 +185,13 @@ class Relating(Modelling):
         how = f"flush against {rb}" + (f" {1000 * offset:+.0f} mm off it" if offset else "") \
             if kind == "flush" else f"aligned with {rb}"
         state = self.relation_states()[index]
-        off = "" if state.distance_m is None or state.angle_deg is None else (
-            f"; the model is {1000 * state.distance_m:.0f} mm and {state.angle_deg:.1f}° from it now"
-            if state.distance_m > HOLDS_M or state.angle_deg > HOLDS_DEG else "; it holds already")
-        self.say(f"{ra} is {how} (relation {index}){off}: Solve brings the model onto it, and drags keep it")
+        if state.distance_m is not None and state.angle_deg is not None and \
+                state.distance_m <= HOLDS_M and state.angle_deg <= HOLDS_DEG:
+            self.say(f"{ra} is {how} (relation {index}), as the model stands already: drags keep it")
+        else:
+            off = "" if state.distance_m is None or state.angle_deg is None else \
+                f"; the model is {1000 * state.distance_m:.0f} mm and {state.angle_deg:.1f}° from it now"
+            self.say(f"{ra} is {how} (relation {index}){off}: Solve brings the model onto it, and drags keep it")
         return index
 
     def add_equal(self, params: Sequence[str], name: str | None = None) -> int:
