@@ -145,6 +145,8 @@ class RelateTool(EditorPart):
             a, b = (p.ref for p in self.relate_picks) if len(self.relate_picks) == 2 else ("?", "?")
             imgui.text(f"{a}  and  {b}")
         if faces:
+            a, b = self.relate_picks  # read before a button below clears them
+            child = self._parent_of(a.node) == b.node or self._parent_of(b.node) == a.node
             imgui.set_next_item_width(90)
             _, self.relate_offset = imgui.input_text("offset m##relate", self.relate_offset)
             self.rect("relate offset")
@@ -152,8 +154,6 @@ class RelateTool(EditorPart):
             if self.button("Flush (F)##relate", tip="a's face against b's, facing it (a cabinet's back on a wall)"):
                 self.relate_choose("flush")
             imgui.same_line()
-            a, b = self.relate_picks
-            child = self._parent_of(a.node) == b.node or self._parent_of(b.node) == a.node
             if child and self.button("Flush joint##relate", tip="the same, exactly, by the node's joint: it hangs on "
                                                                 "that face of its parent and slides and turns on it"):
                 self.relate_choose("flush joint")
