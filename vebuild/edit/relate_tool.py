@@ -103,7 +103,8 @@ class RelateTool(EditorPart):
         """The picked faces (or edges) over the photo."""
         if self.photo is None or not self.relate_picks:
             return
-        for pick, colour in zip(self.relate_picks, PICK_COLOURS, strict=False):
+        # The second first, so that the first (often in front: a cabinet before its wall) shows over it.
+        for pick, colour in reversed(list(zip(self.relate_picks, PICK_COLOURS, strict=False))):
             col = u32(colour)
             edge = u32((colour[0], colour[1], colour[2], 1.0))
             for poly in self.guard(self.session.pick_outline, self.photo, pick) or []:
