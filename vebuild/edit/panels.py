@@ -410,9 +410,11 @@ class Panels:
         if changed and types[idx] != jtype:
             self.ed.guard(lambda: s.set_joint(name, self._default_joint(model, name, types[idx], joint)))
         for key, value in joint.items():
-            if key in ("type", "limits", "limits_deg", "solve_axis") or isinstance(value, str | bool):
+            if key in ("type", "limits", "limits_deg", "solve_axis") or isinstance(value, str | bool | dict):
                 if isinstance(value, str) and key != "type":
                     imgui.text(f"{key}: {value}")
+                elif isinstance(value, dict):  # a hinge's jamb: the opening and its side
+                    imgui.text(f"{key}: " + ", ".join(f"{k} {v}" for k, v in value.items()))
                 continue
             if isinstance(value, (int, float)):
                 imgui.set_next_item_width(110)
