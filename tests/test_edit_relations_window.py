@@ -119,6 +119,20 @@ def test_flush_is_made_with_the_relate_tool_and_its_popup(driver):
     data, model = _saved(d)
     assert data["model"]["relations"][i] == rel
     assert any(r.type == "flush" and r.a == "cabinet:left" for r in model.relations)
+    # The same faces again, 2 cm off: a conflict, named on screen; nothing added.
+    _click_photo(d, _face_pixel(s, "p1", "cabinet", "right"))
+    _click_photo(d, _face_pixel(s, "p1", "wall_west", "front"))
+    d.frames(2)
+    d.click("relate a")
+    d.frames(2)
+    d.click("relate a:left")
+    d.click("relate offset")
+    d.send("key", "ctrl+a", "type", "--delay", "30", "0.02")
+    d.click("Flush (F)##relate")
+    assert "conflicts with $.model.relations[0]" in s.messages[-1], s.messages[-1]
+    assert len(s.data["model"]["relations"]) == i + 1 and len(e.relate_picks) == 2  # still picked: try again
+    d.send("key", "Escape")
+    assert e.relate_picks == []
 
 
 def test_aligned_edges_by_shift_click_and_the_a_key_and_esc_cancels(driver):
