@@ -173,15 +173,25 @@ def test_room_corners_ceiling_and_openings_are_edited_and_renumbered(session):
     # A pin on corner 2 and a relation on wall 2 follow the corners' renumbering.
     s.fix("p1", "hall", "f2", (100.0, 100.0))
     s.add_relation("flush", "cabinet:left", "hall:wall2")
+    s.add_primitive("room", name="den")
+    s.add_equal(["hall.c2_y", "den.c2_y"])  # corner 2's y, shared with the other room's
     s.room_add_corner("hall", 1)  # a rectilinear room: a step of two corners in wall 1
     room = s.model.node("hall").primitive
     assert len(room.corners()) == 6
     assert any((p["node"], p["handle"]) == ("hall", "f4") for p in s.data["model"]["pins"])
-    assert s.data["model"]["relations"][-1]["b"] == "hall:wall4"
+    assert s.data["model"]["relations"][0]["b"] == "hall:wall4"
+    assert s.data["model"]["relations"][1]["params"] == ["hall.c4_y", "den.c2_y"]
     s.room_remove_corner("hall", 2)
     assert len(s.model.node("hall").primitive.corners()) == 4
     assert any((p["node"], p["handle"]) == ("hall", "f2") for p in s.data["model"]["pins"])
-    assert s.data["model"]["relations"][-1]["b"] == "hall:wall2"
+    assert s.data["model"]["relations"][0]["b"] == "hall:wall2"
+    assert s.data["model"]["relations"][1]["params"] == ["hall.c2_y", "den.c2_y"]
+    s.room_add_corner("hall", 0)  # corners 1 and 2 are the step's: den shares corner 4's y now
+    assert s.data["model"]["relations"][1]["params"] == ["hall.c4_y", "den.c2_y"]
+    with pytest.raises(EditError, match="relation 0 names hall:wall4, which this change removes"):
+        s.room_remove_corner("hall", 3)  # corners 3 and 4 go, and wall 4 with them
+    s.undo()
+    s.remove_node("den")
     with pytest.raises(EditError, match="corner 0 is the room's origin"):
         s.room_remove_corner("hall", 0)
     with pytest.raises(EditError, match="keeps at least 4"):

@@ -35,6 +35,7 @@ LEAF_DEPTH_M = 0.04
 #: as a fraction of the wall's thickness (the middle of the reveal).
 PANE_DEPTH_FRACTION = 0.5
 #: Names a room's corner numbering reaches: its handles, edges and planes with a corner index.
+_CORNER_PARAM = re.compile(r"^c(\d+)_([xy])$")
 _INDEXED = re.compile(r"^(f|t|fo|to|floor|top|corner|ofloor|otop|ocorner|wall|outer|wtop)(\d+)$")
 
 
@@ -74,6 +75,13 @@ class Rooms(Relating):
             j = renumber(int(m.group(2)))
             return None if j is None else f"{m.group(1)}{j}"
 
+        def new_param(name: str) -> str | None:
+            m = _CORNER_PARAM.match(name)
+            if m is None:
+                return name
+            j = renumber(int(m.group(1)))
+            return None if j is None else f"c{j}_{m.group(2)}"
+
         doc = self._model_doc()
         for key, field in (("pins", "handle"), ("edge_observations", "edge")):
             kept = []
@@ -94,6 +102,25 @@ class Rooms(Relating):
                         raise EditError(f"relation {i} names {ref}, which this change removes: remove the "
                                         "relation first")
                     r[side] = f"{node}:{name}"
+            if r.get("type") == "equal":  # a corner's coordinate shared with another's
+                params = []
+                for ref in r.get("params", []):
+                    owner, _, param = ref.rpartition(".")
+                    moved = new_param(param) if owner == node else param
+                    if moved is None:
+                        raise EditError(f"relation {i} names {ref}, which this change removes: remove the "
+                                        "relation first")
+                    params.append(f"{owner}.{moved}")
+                r["params"] = params
+        for n in self._nodes():  # the room's held or entered corner coordinates
+            if n["name"] == node and n.get("hold"):
+                kept = []
+                for e in n["hold"]:
+                    param = e if isinstance(e, str) else e.get("name", "")
+                    moved = new_param(param)
+                    if moved is not None:
+                        kept.append(moved if isinstance(e, str) else {**e, "name": moved})
+                n["hold"] = kept
         for d in self.data.get("reference_distances", []):
             for side in ("a", "b"):
                 ref = d.get(side, "")
