@@ -233,6 +233,13 @@ def test_door_leaf_window_pane_and_a_joined_room(session):
     sb, eb = (m.handle_world("hall", h) for h in ("door1_sb", "door1_eb"))
     lo = np.array([m.handle_world(leaf, h) for h in ("v0", "v1", "v2", "v3")])
     assert min(np.linalg.norm(lo - sb, axis=1)) < 0.05 and min(np.linalg.norm(lo - eb, axis=1)) < 0.05
+    # On the end jamb instead: the same doorway filled, hung from its other side.
+    other_leaf = s.add_door_leaf("hall", "door1", side="end")
+    lo2 = np.array([s.model.handle_world(other_leaf, h) for h in ("v0", "v1", "v2", "v3")])
+    np.testing.assert_allclose(np.sort(lo2[:, :2], axis=0), np.sort(lo[:, :2], axis=0), atol=1e-9)
+    with pytest.raises(EditError, match="a jamb is the opening's start or end, not 'middle'"):
+        s.add_door_leaf("hall", "door1", side="middle")
+    s.remove_node(other_leaf)
     pane = s.add_window_pane("hall", "window1")
     pj = next(n for n in s.data["model"]["nodes"] if n["name"] == pane)
     assert pj["joint"]["type"] == "opening" and pj["joint"]["opening"] == "window1"
