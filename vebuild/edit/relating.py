@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vebuild import camera as cam_math
+from vebuild.model.joints import FlushJoint
 from vebuild.model.relations import is_edge, world_edge, world_plane
 from vebuild.model.scene import Model
 
@@ -295,13 +296,9 @@ def flush_joint_here(model: Model, node: str, own: str, face: str, offset: float
     assert prim is not None and parent is not None and n.parent is not None
     T = model.world_transforms()
     rel = np.linalg.inv(T[n.parent]) @ T[node]
-    o, x, _, _ = prim.plane_frame(own)
-    c = rel[:3, :3] @ np.asarray(o, float) + rel[:3, 3]
-    xo = rel[:3, :3] @ np.asarray(x, float)
-    fo, fx, fy, _ = (np.asarray(v, float) for v in parent.plane_frame(face))
+    s, t, yaw = FlushJoint(type="flush", face=face, own_face=own, offset=float(offset)).values_for(rel, parent, prim)
     return {"type": "flush", "face": face, "own_face": own, "offset": float(offset),
-            "position": [float((c - fo) @ fx), float((c - fo) @ fy)],
-            "yaw_deg": math.degrees(math.atan2(float(xo @ fy), float(xo @ fx)))}
+            "position": [float(s), float(t)], "yaw_deg": math.degrees(float(yaw))}
 
 
 def relation_label(index: int, rel: dict[str, Any]) -> str:
