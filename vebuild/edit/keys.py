@@ -28,6 +28,13 @@ EDITOR_KEYS = KeyTable([
     Binding("K", "Known length: press on one end of an edge along an axis whose length is known (a vertical's foot "
             "on the floor first, or an edge on the floor), drag to its other end, release; then type its axis, metres "
             "and σ (optional) in the Scale tab and press Add length", (Chord(glfw.KEY_K, "set_tool", ("length",)),)),
+    Binding("R", "Relate: click a face of a node in the photo (it is highlighted), then a face of another node "
+            "(Shift+click picks a projected edge instead); then, in the popup or by key, Flush (the first face "
+            "against the second, facing it, with the offset typed in metres) or Aligned (coplanar faces facing the "
+            "same way, or collinear edges); the Model tab lists the relations with their residuals",
+            (Chord(glfw.KEY_R, "set_tool", ("relate",)),)),
+    Binding("F, A (two faces picked with Relate)", "make them flush (F) or aligned (A); Esc cancels",
+            (Chord(glfw.KEY_A, "relate_choose", ("aligned",)),)),
     Binding("Delete", "Delete: click a segment, a middle point, a marker, a known length or a drawn edge to remove it",
             (Chord(glfw.KEY_DELETE, "set_tool", ("delete",)),)),
     Binding("Esc", "Select (also cancels a drag or stroke): press on a vertex and drag, the solver fits the model on "

@@ -36,13 +36,15 @@ PHOTO_CACHE = 3
 PREVIEW_FOV_DEG = 50.0
 
 TOOLS = {"select": "Select", "x": "Segment X", "y": "Segment Y", "z": "Segment Z", "marker": "Marker",
-         "edge": "Edge", "length": "Known length", "delete": "Delete"}
+         "edge": "Edge", "length": "Known length", "relate": "Relate", "delete": "Delete"}
 TOOL_HINTS = {"select": "drag a vertex; click an edge to select its primitive",
               "x": "press, drag along an edge toward +x, release", "y": "press, drag along an edge toward +y, release",
               "z": "press, drag along an edge toward +z (up), release", "marker": "click where the marker is",
               "edge": "press, drag along an edge of the selected primitive, release",
               "length": "press on a known length's end (a vertical's foot on the floor first), drag to its other end, "
                         "release; then type its metres in the Scale tab",
+              "relate": "click a face of one node, then a face of another (Shift+click: an edge), then Flush (F) "
+                        "or Aligned (A)",
               "delete": "click a segment, a middle point, a marker, a known length or a drawn edge to remove it"}
 #: Ctrl+click with a Segment tool adds a middle point to the segment of that axis whose path passes
 #: within this many window pixels (more than the picking radius: a lens bends an edge away from the

@@ -17,13 +17,14 @@ from numpy.typing import NDArray
 from vebuild import camera as cam_math
 from vebuild.errors import ProjectError
 from vebuild.model.drag import DragSession, drag_nodes
-from vebuild.model.primitives import PRIMITIVE_TYPES, primitive_kinds
+from vebuild.model.primitives import PRIMITIVE_TYPES, primitive_from_dict, primitive_kinds
 from vebuild.model.residuals import EdgeObservation, Pin
 from vebuild.model.scene import Model, ModelError
 from vebuild.project import decode
 
 from .history import EditError
 from .marks import Marks
+from .model_doc import drop_relations_of, merge_nodes, param_kinds, resting_face
 
 Array = NDArray[np.float64]
 
@@ -155,14 +156,19 @@ class Modelling(Marks):
             joint = {"type": "rests_on", "position": [0.0, 0.0], "yaw_deg": 0.0}
             if parent is not None:
                 prim = self.model.node(parent).primitive if self.model else None
-                if prim is None or "top" not in prim.faces():
+                face = resting_face(prim)
+                if prim is None or face is None:
                     faces = ", ".join(prim.faces()) if prim else "none (a group)"
                     raise EditError(f"'{parent}' has no top face for '{name}' to rest on (its faces: {faces}); "
                                     "attach it to another node")
-                joint["face"] = "top"
+                joint["face"] = face
             if at is not None:
                 joint["position"] = self._surface_point(parent, at, values, ptype)
-        node = {"name": name, "primitive": {"type": ptype, "params": values}, "joint": joint}
+        try:  # as the primitive writes itself (a room adds its corners, ceiling and openings)
+            prim_doc = primitive_from_dict({"type": ptype, "params": values}).to_dict()
+        except ValueError as e:
+            raise EditError(f"a new {kind}: {e}") from None
+        node = {"name": name, "primitive": prim_doc, "joint": joint}
         if parent is not None:
             node["parent"] = parent
         with self._edit(f"add {kind} {name}"):
@@ -187,7 +193,7 @@ class Modelling(Marks):
             prim = model.node(parent).primitive if model is not None else None
             assert model is not None and prim is not None  # add_primitive checked the parent's top face
             T = model.world_transforms()[parent]
-            fo, fx, fy, fn = prim.face_frame("top")
+            fo, fx, fy, fn = prim.face_frame(resting_face(prim) or "top")
             o, x, y, n = T[:3, :3] @ fo + T[:3, 3], T[:3, :3] @ fx, T[:3, :3] @ fy, T[:3, :3] @ fn
         denom = float(d @ n)
         lam = float((o - C) @ n) / denom if abs(denom) > 1e-9 else -1.0
@@ -212,19 +218,25 @@ class Modelling(Marks):
                                                            if ":" in e)]
             for h in self.data.get("hypotheses", []):
                 h["joints"] = {k: v for k, v in h["joints"].items() if k not in gone}
+            dropped = drop_relations_of(doc, gone)
             if not doc["nodes"]:
                 del self.data["model"]
             self.data.pop("model_solution", None)
+        if dropped:
+            self.say(f"removed with it: {'; '.join(dropped)}")
 
     def set_params(self, node: str, params: dict[str, float]) -> None:
         with self._edit(f"sizes of {node}"):
             doc = self._node_doc(node)
             if "primitive" not in doc:
                 raise EditError(f"'{node}' is a group: it has no sizes")
+            kinds = param_kinds(doc["primitive"])
             for k, v in params.items():
                 if k not in doc["primitive"]["params"]:
                     raise EditError(f"'{node}' has no size '{k}' (it has {', '.join(doc['primitive']['params'])})")
-                if not (math.isfinite(v) and v >= 0):
+                if not math.isfinite(v):
+                    raise EditError(f"{node}.{k} must be a number of metres, not {v!r}")
+                if kinds.get(k, "size") == "size" and not v >= 0:
                     raise EditError(f"{node}.{k} must be a length ≥ 0 m, not {v!r}")
                 doc["primitive"]["params"][k] = float(v)
                 for e in doc.get("hold", []):  # a size typed for an entered value is its new entry
@@ -422,6 +434,9 @@ class Modelling(Marks):
                 res.fixed_error_px <= d.baseline_fixed + FOLLOW_TOL_PX
         except (np.linalg.LinAlgError, FloatingPointError, ValueError):
             ok, reach, res = False, float("inf"), None
+        shape = _shape_problem(d, res.x) if ok and res is not None else None
+        if shape is not None:
+            ok = False
         if ok:
             d.x_good, d.xp_good, d.uv_good, d.moved = res.x.copy(), ds.x.copy(), target.copy(), True
             d.revision += 1
@@ -430,7 +445,7 @@ class Modelling(Marks):
                                 1e3 * (time.perf_counter() - t0))
         ds.x = x_prev
         ds.problem.set_pin_pixel(ds._pin_index, d.uv_good)
-        reason = self._why_stuck(d, res.fixed_error_px - d.baseline_fixed if res is not None else None)
+        reason = shape or self._why_stuck(d, res.fixed_error_px - d.baseline_fixed if res is not None else None)
         cam = self.cameras[ds.photo]
         hp = cam_math.project(cam.K, cam.R, cam.C, d.model.handle_world(ds.node, ds.handle, d.x_good), cam.k1)
         return DragFeedback(False, reason, (float(hp[0]), float(hp[1])), 1e3 * (time.perf_counter() - t0))
@@ -466,11 +481,16 @@ class Modelling(Marks):
             self.revision += 1
             return
         ds.x = d.xp_good
-        pin = ds.release()
+        try:
+            pin = ds.release()
+        except ValueError as e:  # a shape the primitive refuses: nothing is kept
+            self._drag = None
+            self.revision += 1
+            raise EditError(f"the drag of {ds.node}:{ds.handle} is not kept: {e}") from None
         pin.uv = d.uv_good
         self._drag = None
         with self._edit(f"drag {pin.node}:{pin.handle} in {pin.photo}"):
-            self._model_doc()["nodes"] = _merge_nodes(self._nodes(), d.model.to_dict())
+            self._model_doc()["nodes"] = merge_nodes(self._nodes(), d.model.to_dict())
             key = (pin.photo, pin.node, pin.handle)
             pins = [p for p in self._pins() if (p["photo"], p["node"], p["handle"]) != key]
             pins.append({"photo": pin.photo, "node": pin.node, "handle": pin.handle,
@@ -506,24 +526,26 @@ class Modelling(Marks):
             self._model_doc()["pins"] = [p for p in pins if (p["photo"], p["node"], p["handle"]) != key]
 
 
+def _shape_problem(d: _Drag, x: Array) -> str | None:
+    """Why the moved primitives cannot take the shape of model vector ``x`` (a room whose corners
+    would cross or turn clockwise), or None: the model stays as it was, as when the joints cannot
+    follow."""
+    model = d.model
+    for name in d.session.moved:
+        prim = model.node(name).primitive
+        if prim is None or getattr(prim, "LINEAR", True):
+            continue  # a linear primitive takes any sizes the solver's bounds allow
+        try:
+            prim.with_params(x[model.slices[name][1]])
+        except ValueError as e:
+            return (f"{d.session.node}:{d.session.handle} cannot go there: {name} would not be a valid "
+                    f"{prim.TYPE} ({e}); it stays where it was")
+    return None
+
+
 def _at_limit(j: Any) -> bool:
     lims = getattr(j, "limits", None)
     if lims is None:
         return False
     v = j.values()[0]
     return bool(min(abs(v - lims[0]), abs(v - lims[1])) < 1e-6)
-
-
-def _merge_nodes(docs: list[dict[str, Any]], solved: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """The nodes' documents with joints and sizes from the solved model (other keys kept)."""
-    by = {d["name"]: d for d in solved}
-    out = []
-    for d in docs:
-        s = by.get(d["name"], {})
-        d = copy.deepcopy(d)
-        if "joint" in s:
-            d["joint"] = s["joint"]
-        if "primitive" in s:
-            d["primitive"] = s["primitive"]
-        out.append(d)
-    return out

@@ -19,6 +19,7 @@ from vebuild.project import decode
 
 from .keys import EDITOR_KEYS, tool_key
 from .marks import AXES, CAMERA_HEIGHT_SIGMA_M, KNOWN_LENGTH_SIGMA_M
+from .model_panels import equal_section, relations_section, room_section
 from .overlay import AXIS_COLOURS
 from .session import placement_text
 
@@ -27,7 +28,7 @@ if TYPE_CHECKING:
 
 #: The primitives the panel offers, from the registry (each type, then its named variants).
 KINDS = list(primitive_kinds())
-JOINT_TYPES = ["rests_on", "fixed", "hinge", "slider", "free"]
+JOINT_TYPES = ["rests_on", "flush", "fixed", "hinge", "slider", "free"]
 
 
 class Panels:
@@ -43,6 +44,8 @@ class Panels:
         self.dist_a, self.dist_b, self.dist_m, self.dist_role = "", "", 1.0, 0
         self.length_axis, self.length_m, self.length_sigma = 2, "", ""  # z; typed as text: checked on Add
         self.height_m, self.height_sigma = "", ""
+        self.equal_param = 0  # the size "Make equal" shares
+        self.room_corner, self.room_wall, self.room_kind = 0, 0, 0  # a room's corner, wall, opening kind
         self._param_edits: dict[str, Any] = {}
 
     def forget_edits(self) -> None:
@@ -289,6 +292,7 @@ class Panels:
                 if n.parent is None:
                     self._tree_node(model, n.name)
         imgui.end_child()
+        relations_section(self)
         if self.ed.selected is not None and model is not None and self.ed.selected in model.index:
             self._properties(model, self.ed.selected)
         self._residuals()
@@ -384,7 +388,10 @@ class Panels:
                 self.ed.select(None)
                 return
         prim = doc.get("primitive")
+        if prim is not None and prim.get("type") == "room":
+            room_section(self, name, prim)
         if prim is not None:
+            equal_section(self, name, prim)
             for k, v in prim["params"].items():
                 imgui.set_next_item_width(110)
                 new = self._float_field(f"{k} (m)##param:{k}", v)
@@ -401,11 +408,13 @@ class Panels:
         changed, idx = imgui.combo("joint##type", types.index(jtype), types)
         self.ed.rect("joint type")
         if changed and types[idx] != jtype:
-            self.ed.guard(s.set_joint, name, self._default_joint(model, name, types[idx], joint))
+            self.ed.guard(lambda: s.set_joint(name, self._default_joint(model, name, types[idx], joint)))
         for key, value in joint.items():
-            if key in ("type", "limits", "limits_deg", "solve_axis") or isinstance(value, str | bool):
+            if key in ("type", "limits", "limits_deg", "solve_axis") or isinstance(value, str | bool | dict):
                 if isinstance(value, str) and key != "type":
                     imgui.text(f"{key}: {value}")
+                elif isinstance(value, dict):  # a hinge's jamb: the opening and its side
+                    imgui.text(f"{key}: " + ", ".join(f"{k} {v}" for k, v in value.items()))
                 continue
             if isinstance(value, (int, float)):
                 imgui.set_next_item_width(110)
@@ -463,6 +472,14 @@ class Panels:
                 j["face"] = "top"
                 j["position"] = old.get("position", [0.0, 0.0])
             return j
+        if jtype == "flush":  # its bottom on its parent's top (a room's floor), or on the floor
+            from .relating import flush_joint_here
+
+            parent = model.node(node.parent).primitive if node.parent is not None else None
+            if parent is None:
+                return {"type": "flush", "own_face": "bottom", "offset": 0.0,
+                        "position": [float(rel[0, 3]), float(rel[1, 3])], "yaw_deg": float(pose["rotation_deg"][2])}
+            return flush_joint_here(model, name, "bottom", "top" if "top" in parent.planes() else "floor")
         if jtype == "hinge":
             return {"type": "hinge", "axis_point": [0.0, 0.0, 0.0], "axis": [0.0, 0.0, 1.0], **pose,
                     "angle_deg": 0.0, "limits_deg": [-180.0, 180.0]}

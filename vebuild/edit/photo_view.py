@@ -194,6 +194,7 @@ class PhotoView(EditorPart):
         ov = self.overlay()
         if ov is not None:
             self._draw_overlay(dl, ov)
+        self._draw_relate(dl)
         self._draw_stroke(dl)
         dl.pop_clip_rect()
 

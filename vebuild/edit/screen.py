@@ -40,10 +40,11 @@ from .overlay import Overlay
 from .panels import Panels
 from .photo_view import PhotoView
 from .preview import Preview
+from .relate_tool import RelateTool
 from .tools import ScreenTools
 
 
-class Editor(ScreenTools, PhotoView, Bars, Preview, WindowApp):
+class Editor(ScreenTools, RelateTool, PhotoView, Bars, Preview, WindowApp):
     """The modelling screen over one :class:`~vebuild.edit.session.EditSession`, drawing into one
     surface (:class:`~vebuild.gl.surface.WindowSurface` or :class:`~vebuild.gl.surface.OffscreenSurface`).
     :meth:`frame` polls, draws and runs what a button asked for; :meth:`draw` only draws."""
@@ -80,6 +81,10 @@ class Editor(ScreenTools, PhotoView, Bars, Preview, WindowApp):
         self._placing = None
         self.open_polyline = None  # a polyline being clicked with Shift: its axis, photo and points
         self.pending_length = None  # a known length's two ends drawn, its metres not typed yet
+        self.relate_picks = []  # the faces (or edges) picked with the Relate tool, up to two
+        self.relate_offset = ""  # a flush offset typed in the Relate popup (metres)
+        self._relate_popup = False
+        self._relate_popup_shown = False
         self._photo_tex = {}
         self._photo_errors = {}
         self._thumbs = {}
@@ -335,6 +340,7 @@ class Editor(ScreenTools, PhotoView, Bars, Preview, WindowApp):
         self._draw_magnifier()
         if not live:
             self._draw_recovery()
+            self._draw_relate_popup()
         self._draw_busy()
         self.gui.render()
         self.widget_rects = {**self.widget_rects, **self._rects} if live else self._rects

@@ -33,6 +33,7 @@ from .history import UNDO_DEPTH, EditError
 from .marks import AXES, VanishingState
 from .modelling import ANCHOR_HANDLE, DEFAULT_PARAMS, FOLLOW_TOL_PX, DragFeedback
 from .photo_overlay import SessionOverlays
+from .rooms import Rooms
 
 Progress = Callable[[float, str], None]
 
@@ -40,10 +41,11 @@ __all__ = ["ANCHOR_HANDLE", "AXES", "DEFAULT_PARAMS", "FOLLOW_TOL_PX", "UNDO_DEP
            "EditSession", "VanishingState"]
 
 
-class EditSession(SessionOverlays):
+class EditSession(Rooms, SessionOverlays):
     """One project being edited; see the module's docstring. Its parts, by concern: the history
     (:mod:`.history`: edits, undo, autosave), the marks (:mod:`.marks`), the modelling
-    (:mod:`.modelling`: primitives, drags, fixes, joints) and the overlays (:mod:`.photo_overlay`)."""
+    (:mod:`.modelling`: primitives, drags, fixes, joints), the relations between faces and sizes
+    (:mod:`.relating`), room shells (:mod:`.rooms`) and the overlays (:mod:`.photo_overlay`)."""
 
     def __init__(self, project: Project, autosave: bool = True):
         self.project = project

@@ -58,6 +58,10 @@ class ScreenTools(EditorPart):
         self.show_labels = not self.show_labels
 
     def fix_under_cursor(self) -> None:
+        """F: fix the vertex under the cursor; with two faces picked by the Relate tool, flush them."""
+        if self.tool == "relate" and len(self.relate_picks) == 2:
+            self.relate_choose("flush")
+            return
         self.toggle_fix_at(*self._cursor)
 
     def save(self) -> None:
@@ -72,7 +76,7 @@ class ScreenTools(EditorPart):
     def escape(self, keep_tool: bool = False) -> None:
         """Cancel what is under way (a drag, a stroke, a placement); if nothing, the Select tool."""
         busy = self.session.dragging or self._press is not None or self._placing is not None \
-            or self.pending_length is not None or self.open_polyline is not None
+            or self.pending_length is not None or self.open_polyline is not None or bool(self.relate_picks)
         if self.session.dragging:
             self.session.cancel_drag()
             self.say("drag cancelled")
@@ -80,6 +84,7 @@ class ScreenTools(EditorPart):
         self._pending_drag = None
         self.drag_problem = None
         self._placing = None
+        self.relate_cancel()
         if self.open_polyline is not None:
             self.open_polyline = None
             self.say("polyline cancelled")
@@ -189,7 +194,7 @@ class ScreenTools(EditorPart):
                                    f"no {self.tool} segment passes within {MIDDLE_PICK_PX:g} px of the click")
             self._press = {**base, "kind": "insert-point", "axis": self.tool, "index": index}
             return
-        if self.tool in ("x", "y", "z", "edge", "marker", "delete", "length"):
+        if self.tool in ("x", "y", "z", "edge", "marker", "delete", "length", "relate"):
             self._press = {**base, "kind": self.tool}
             return
         hit = s.handle_at(photo, uv, r, prefer=self.selected)
@@ -254,6 +259,8 @@ class ScreenTools(EditorPart):
                     self._marker_name_default = True
             elif kind == "delete":
                 self.delete_at(x, y)
+            elif kind == "relate":
+                self.relate_click(x, y)
             elif kind == "segment-end" and p.get("moved"):
                 seg = list(p["segment"])
                 seg[2 * p["end"]:2 * p["end"] + 2] = uv
