@@ -1,0 +1,599 @@
+"""Seeded generated rooms with known answers: an L-shaped room shell with a doorway and a window,
+a door leaf on a hinge at the doorway's jamb, a cabinet flush against a wall and a row of equal
+units flush against another, photographed from inside so that no photo sees any corner of the floor.
+
+The geometry here is the room's own (corners, walls, openings, boxes as plain numpy), written out
+apart from vebuild's room primitive and joints, so that a convention slip in those is caught by
+comparing the two (tests/test_room_scenes.py): the true world points, the visibility tests and the
+clicks all come from this module. The cameras, lenses, vanishing segments, click noise and the
+project writer are vebuild.synthetic's. The project-file side (the true and the guessed model as
+FORMAT.md nodes and relations, the pins and edge observations) is
+:mod:`vebuild.synthetic_room_model`.
+
+Room frame (as FORMAT.md's room primitive): the floor at z = 0, inner floor corner 0 at the origin,
+corner 1 on +x, corners counter-clockwise seen from above; wall i runs from corner i to corner i + 1
+with the room on its left; its thickness lies outside (to the right). The world frame is the room
+frame moved so that the doorway's start jamb's foot (handle ``door_sb``) is the origin marker O:
+a marker at a floor corner would be a floor corner seen by a photo, which these rooms exclude.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .synthetic import CLICK_NOISE_PX, SyntheticPhoto, _project, _rotation, add_segments, distort, \
+    projection_matrix, realistic_camera
+
+Array = NDArray[np.float64]
+
+#: How far inside the image (px) a point must project to count as seen: a user does not click in
+#: the last few pixels, and synthetic.add_segments keeps the same margin.
+IMAGE_MARGIN_PX = 5.0
+#: Nearest a seen point may be in front of the camera, metres (as synthetic.observe_markers).
+MIN_DEPTH_M = 0.3
+#: Boxes are shrunk by this much (metres) for the occlusion test, so that a box's own corner is not
+#: hidden by the face it lies on (its sight line touches the box at its end).
+OCCLUDER_SHRINK_M = 1e-3
+#: Points along an edge tested for visibility, to find the stretch of it a photo shows.
+EDGE_SAMPLES = 41
+#: The least length (px, on the photo) of an edge's seen stretch for a user to mark it.
+MIN_STRETCH_PX = 150.0
+
+
+@dataclass
+class Opening:
+    """A hole in wall ``wall``: from ``offset`` metres along the wall's inner face (from corner
+    ``wall``) for ``width``, from ``sill`` above the floor for ``height``."""
+
+    name: str
+    wall: int
+    kind: str
+    offset: float
+    width: float
+    height: float
+    sill: float
+
+
+@dataclass
+class Box:
+    """A box standing upright: bottom centre ``centre`` (world), turned ``yaw`` (radians) about +z;
+    ``size`` = (width along its x, depth along its y, height)."""
+
+    name: str
+    size: Array
+    centre: Array
+    yaw: float
+
+    def corners(self) -> Array:
+        """v0…v7 as FORMAT.md's box: v0…v3 the bottom ring counter-clockwise from (−x, −y), then the top."""
+        w, d, h = self.size
+        ring = np.array([[-w / 2, -d / 2], [w / 2, -d / 2], [w / 2, d / 2], [-w / 2, d / 2]])
+        c, s = np.cos(self.yaw), np.sin(self.yaw)
+        xy = ring @ np.array([[c, s], [-s, c]]) + self.centre[:2]
+        z0 = self.centre[2]
+        return np.vstack([np.c_[xy, np.full(4, z0)], np.c_[xy, np.full(4, z0 + h)]])
+
+    def frame(self) -> Array:
+        """world_from_box (4×4)."""
+        c, s = np.cos(self.yaw), np.sin(self.yaw)
+        T = np.eye(4)
+        T[:3, :3] = [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]
+        T[:3, 3] = self.centre
+        return T
+
+    def hides(self, C: Array, X: Array) -> Array:
+        """Whether the box (shrunk by OCCLUDER_SHRINK_M) cuts the sight lines from C to each X (n, 3)."""
+        T = self.frame()
+        a = (C - T[:3, 3]) @ T[:3, :3]
+        b = (X - T[:3, 3]) @ T[:3, :3]
+        half = self.size[:2] / 2 - OCCLUDER_SHRINK_M
+        lo = np.array([-half[0], -half[1], OCCLUDER_SHRINK_M])
+        hi = np.array([half[0], half[1], self.size[2] - OCCLUDER_SHRINK_M])
+        d = b - a
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t1 = (lo - a) / d
+            t2 = (hi - a) / d
+        tmin = np.where(d == 0, np.where((a >= lo) & (a <= hi), -np.inf, np.inf), np.minimum(t1, t2))
+        tmax = np.where(d == 0, np.where((a >= lo) & (a <= hi), np.inf, -np.inf), np.maximum(t1, t2))
+        enter = np.max(np.maximum(tmin, 0.0), axis=1)
+        leave = np.min(np.minimum(tmax, 1.0), axis=1)
+        return enter < leave
+
+
+@dataclass
+class Hinge:
+    """The door leaf's hinge at the doorway's jamb ``side`` ("start" or "end"): the axis point and the
+    leaf's shut pose in the jamb frame (origin at the jamb's foot on the wall's inner face, x along
+    the wall from corner i to i + 1, y into the room, z up), its axis ±z, open ``angle`` (radians)."""
+
+    side: str
+    axis_point: Array
+    axis: Array
+    shut_centre: Array
+    angle: float
+
+
+@dataclass
+class RoomScene:
+    """A generated room, its furniture, its photos and what a user marks in them.
+
+    ``corners`` (N, 2) in the room frame; ``origin`` the room frame's origin in the world (the room
+    is not turned: its walls lie along the world's x and y); the boxes in the world frame.
+    """
+
+    corners: Array
+    height: float
+    thickness: float
+    openings: list[Opening]
+    origin: Array
+    cabinet: Box
+    cabinet_wall: int
+    row: list[Box]
+    row_wall: int
+    leaf: Box
+    hinge: Hinge
+    photos: list[SyntheticPhoto] = field(default_factory=list)
+    markers: dict[str, Array] = field(default_factory=dict)
+    #: Derived geometry, keyed by what it derives from (the scene is plain data: a changed field
+    #: gives a new key).
+    _cache: dict = field(default_factory=dict, repr=False, compare=False)
+
+    # ---- the room's own geometry (world frame) ------------------------------------------------
+    def wall(self, i: int) -> tuple[Array, Array, Array, float]:
+        """Wall i: its start corner (world, z = 0), unit direction, outward unit normal, length."""
+        key = ("wall", i, self.corners.tobytes(), self.origin.tobytes())
+        if key not in self._cache:
+            self._cache[key] = self._wall(i)
+        return self._cache[key]
+
+    def _wall(self, i: int) -> tuple[Array, Array, Array, float]:
+        n = len(self.corners)
+        a, b = self.corners[i], self.corners[(i + 1) % n]
+        d = (b - a) / np.linalg.norm(b - a)
+        return np.r_[a + self.origin[:2], 0.0], np.r_[d, 0.0], np.r_[d[1], -d[0], 0.0], float(np.linalg.norm(b - a))
+
+    def outer_corners(self) -> Array:
+        """The walls' outer faces' corners (N, 2, world): each wall's inner line moved out by the
+        thickness, neighbours meeting (mitred)."""
+        n = len(self.corners)
+        out = []
+        for i in range(n):
+            _, _, n_prev, _ = self.wall((i - 1) % n)
+            _, _, n_here, _ = self.wall(i)
+            A = np.array([n_prev[:2], n_here[:2]])
+            out.append(self.corners[i] + self.origin[:2] + np.linalg.solve(A, [self.thickness, self.thickness]))
+        return np.array(out)
+
+    def opening(self, name: str) -> Opening:
+        return next(o for o in self.openings if o.name == name)
+
+    def handles(self) -> dict[str, Array]:
+        """Every room handle (FORMAT.md's names) in the world."""
+        key = ("handles", self.corners.tobytes(), self.origin.tobytes(), self.height, self.thickness,
+               tuple((o.wall, o.offset, o.width, o.height, o.sill) for o in self.openings))
+        if key not in self._cache:
+            self._cache[key] = self._handles()
+        return self._cache[key]
+
+    def _handles(self) -> dict[str, Array]:
+        n = len(self.corners)
+        out: dict[str, Array] = {}
+        fl = self.corners + self.origin[:2]
+        for i in range(n):
+            out[f"f{i}"] = np.r_[fl[i], 0.0]
+            out[f"t{i}"] = np.r_[fl[i], self.height]
+        for i, p in enumerate(self.outer_corners()):
+            out[f"fo{i}"] = np.r_[p, 0.0]
+            out[f"to{i}"] = np.r_[p, self.height]
+        for o in self.openings:
+            a, d, nrm, _ = self.wall(o.wall)
+            z0, z1 = np.array([0, 0, o.sill]), np.array([0, 0, o.sill + o.height])
+            s, e = a + o.offset * d, a + (o.offset + o.width) * d
+            for pre, shift in (("", 0.0), ("o", self.thickness)):
+                out[f"{o.name}_{pre}sb"] = s + shift * nrm + z0
+                out[f"{o.name}_{pre}st"] = s + shift * nrm + z1
+                out[f"{o.name}_{pre}eb"] = e + shift * nrm + z0
+                out[f"{o.name}_{pre}et"] = e + shift * nrm + z1
+        return out
+
+    def edges(self) -> dict[str, tuple[str, str]]:
+        """The room's inner edges a photo can show: floor{i}, top{i}, corner{i} (FORMAT.md's names)."""
+        n = len(self.corners)
+        out = {}
+        for i in range(n):
+            out[f"floor{i}"] = (f"f{i}", f"f{(i + 1) % n}")
+            out[f"top{i}"] = (f"t{i}", f"t{(i + 1) % n}")
+            out[f"corner{i}"] = (f"f{i}", f"t{i}")
+        return out
+
+    def jamb_frame(self, name: str, side: str) -> Array:
+        """world_from_jamb (4×4): origin at the jamb's foot on the inner face, x along the wall,
+        y into the room, z up."""
+        o = self.opening(name)
+        a, d, nrm, _ = self.wall(o.wall)
+        T = np.eye(4)
+        T[:3, 0], T[:3, 1], T[:3, 2] = d, -nrm, [0.0, 0.0, 1.0]
+        T[:3, 3] = a + (o.offset if side == "start" else o.offset + o.width) * d + np.array([0, 0, o.sill])
+        return T
+
+    def boxes(self) -> list[Box]:
+        return [self.cabinet, *self.row, self.leaf]
+
+    def seen_points(self) -> dict[tuple[str, str], Array]:
+        """Every point a user could pin: (node, handle) → world. The room's floor corners are
+        included (to be checked unseen), its outer corners are not (seen only through an opening)."""
+        pts = {("room", h): X for h, X in self.handles().items() if not (h.startswith("fo") or h.startswith("to")
+                                                                             or "_o" in h)}
+        for b in self.boxes():
+            pts.update({(b.name, f"v{k}"): X for k, X in enumerate(b.corners())})
+        return pts
+
+    # ---- visibility ---------------------------------------------------------------------------
+    def inside(self, xy: Array) -> bool:
+        """Whether a world point (x, y) lies inside the floor polygon (ray casting)."""
+        p = self.corners + self.origin[:2]
+        x, y = xy
+        c = False
+        for i in range(len(p)):
+            (x1, y1), (x2, y2) = p[i], p[(i + 1) % len(p)]
+            if (y1 > y) != (y2 > y) and x < x1 + (y - y1) * (x2 - x1) / (y2 - y1):
+                c = not c
+        return c
+
+    def wall_distance(self, xy: Array) -> float:
+        """Distance (m) from a world point (x, y) to the nearest wall's inner face."""
+        best = np.inf
+        for i in range(len(self.corners)):
+            a, d, _, L = self.wall(i)
+            t = np.clip((xy - a[:2]) @ d[:2], 0.0, L)
+            best = min(best, float(np.linalg.norm(xy - a[:2] - t * d[:2])))
+        return best
+
+    def visible(self, photo: SyntheticPhoto, X: Array) -> tuple[Array, Array]:
+        """(seen mask, pixels on the distorted photo) of world points X (n, 3): in front, inside the
+        image, and no wall or box cutting the sight line."""
+        P = projection_matrix(photo.K, photo.R, photo.C)
+        uv, z = _project(P, X)
+        uv = distort(photo, uv)
+        ok = (z > MIN_DEPTH_M) & (uv[:, 0] >= IMAGE_MARGIN_PX) & (uv[:, 0] <= photo.width - IMAGE_MARGIN_PX)
+        ok &= (uv[:, 1] >= IMAGE_MARGIN_PX) & (uv[:, 1] <= photo.height - IMAGE_MARGIN_PX)
+        ok &= ~self._walls_hide(photo.C, X)
+        for b in self.boxes():
+            ok &= ~b.hides(photo.C, X)
+        return ok, uv
+
+    def _walls_hide(self, C: Array, X: Array) -> Array:
+        """Whether a wall cuts the sight line from C (inside the room) to X: the line crosses a
+        wall's inner face strictly before X (a point on a wall is not hidden by its own wall) and
+        not through an opening's hole. A point beyond the inner face in a hole (the leaf's edge in
+        the doorway) is seen through it: the hole is a convex prism through the wall. A sight line
+        that leaves the room through an opening cannot come back in (one doorway on wall 0, whose
+        outside is open, one window elsewhere, and a line crosses a wall's plane once)."""
+        hidden = np.zeros(len(X), bool)
+        D = X[:, :2] - C[:2]
+        eps = 1e-6
+        for i in range(len(self.corners)):
+            a, d, _, L = self.wall(i)
+            w = d[:2] * L
+            den = D[:, 0] * w[1] - D[:, 1] * w[0]
+            r = a[:2] - C[:2]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                t = (r[0] * w[1] - r[1] * w[0]) / den
+                s = (r[0] * D[:, 1] - r[1] * D[:, 0]) / den
+            cut = (np.abs(den) > 1e-12) & (t > eps) & (t < 1 - 1e-4) & (s >= 0.0) & (s <= 1.0)
+            z = C[2] + t * (X[:, 2] - C[2])
+            for o in self.openings:
+                if o.wall == i:
+                    cut &= ~((s * L > o.offset) & (s * L < o.offset + o.width) & (z > o.sill) & (z < o.sill + o.height))
+            hidden |= cut
+        return hidden
+
+    def seen_floor_corners(self, photo: SyntheticPhoto) -> list[str]:
+        """The room's floor corners the photo shows (none, in a scene this module generates)."""
+        h = self.handles()
+        names = [f"f{i}" for i in range(len(self.corners))]
+        seen, _ = self.visible(photo, np.array([h[n] for n in names]))
+        return [n for n, s in zip(names, seen, strict=True) if s]
+
+    def edge_stretch(self, photo: SyntheticPhoto, edge: str) -> tuple[Array, Array] | None:
+        """The longest stretch of a room edge the photo shows, as its two ends in the world, or
+        None where none is MIN_STRETCH_PX long."""
+        return self.edge_stretches(photo)[edge]
+
+    def edge_stretches(self, photo: SyntheticPhoto) -> dict[str, tuple[Array, Array] | None]:
+        """edge_stretch of every room edge (one visibility test for all)."""
+        h = self.handles()
+        edges = self.edges()
+        t = np.linspace(0.0, 1.0, EDGE_SAMPLES)[:, None]
+        X = np.concatenate([h[a] + t * (h[b] - h[a]) for a, b in edges.values()])
+        seen_all, uv_all = self.visible(photo, X)
+        out: dict[str, tuple[Array, Array] | None] = {}
+        for k, e in enumerate(edges):
+            rows = slice(k * EDGE_SAMPLES, (k + 1) * EDGE_SAMPLES)
+            seen, uv, pts = seen_all[rows], uv_all[rows], X[rows]
+            best, run, start = (0, 0), 0, 0
+            for j, v in enumerate(seen):
+                run = run + 1 if v else 0
+                if run == 1:
+                    start = j
+                if run > best[1] - best[0]:
+                    best = (start, start + run)
+            i, j = best[0], best[1] - 1
+            ok = best[1] - best[0] >= 3 and np.linalg.norm(uv[j] - uv[i]) >= MIN_STRETCH_PX
+            out[e] = (pts[i], pts[j]) if ok else None
+        return out
+
+
+def _l_room(rng: np.random.Generator) -> tuple[Array, float, float]:
+    """Six corners of an L-shaped room (5–7 m × 4–6 m, the notch at the far corner), its height and
+    wall thickness."""
+    W, D = rng.uniform(5.0, 7.0), rng.uniform(4.0, 6.0)
+    c3x, c2y = W * rng.uniform(0.45, 0.65), D * rng.uniform(0.4, 0.6)
+    corners = np.array([[0.0, 0.0], [W, 0.0], [W, c2y], [c3x, c2y], [c3x, D], [0.0, D]])
+    return corners, float(rng.uniform(2.4, 2.8)), float(rng.uniform(0.08, 0.2))
+
+
+def room_geometry(rng: np.random.Generator) -> RoomScene:
+    """The room, its openings and furniture, drawn from ``rng`` (no photos yet)."""
+    corners, height, thickness = _l_room(rng)
+    n = len(corners)
+    lengths = [float(np.linalg.norm(corners[(i + 1) % n] - corners[i])) for i in range(n)]
+    dw = float(rng.uniform(0.8, 0.95))
+    door = Opening("door", 0, "door", float(rng.uniform(1.5, lengths[0] - dw - 1.5)), dw,
+                   float(rng.uniform(2.0, 2.1)), 0.0)
+    win_wall = int(rng.choice([i for i in (1, 3, 4, 5) if lengths[i] >= 2.2]))
+    ww = float(rng.uniform(0.9, min(1.4, lengths[win_wall] - 1.0)))
+    sill = float(rng.uniform(0.8, 1.0))
+    win = Opening("win", win_wall, "window", float(rng.uniform(0.5, lengths[win_wall] - ww - 0.5)), ww,
+                  float(rng.uniform(0.9, min(1.3, height - 0.2 - sill))), sill)
+    # The world's origin is the doorway's start jamb's foot (wall 0 runs along +x from corner 0).
+    origin = np.array([-door.offset, 0.0, 0.0])
+    side = str(rng.choice(["start", "end"]))
+    sign = 1.0 if side == "start" else -1.0
+    leaf_size = np.array([dw - 0.01, rng.uniform(0.035, 0.045), door.height - 0.01])
+    hinge = Hinge(side, np.array([sign * rng.uniform(0.005, 0.02), rng.uniform(0.01, 0.03), 0.0]),
+                  np.array([0.0, 0.0, sign]), np.array([sign * (0.005 + leaf_size[0] / 2), -leaf_size[1] / 2, 0.0]),
+                  float(np.radians(rng.uniform(20.0, 70.0))))
+    dummy = Box("x", np.ones(3), np.zeros(3), 0.0)
+    scene = RoomScene(corners, height, thickness, [door, win], origin, dummy, 0, [], 0, dummy, hinge)
+    scene.leaf = _leaf(scene, leaf_size)
+    # The cabinet stands with its back flush against a wall with no opening; a row of two or three
+    # equal units with their backs flush against another.
+    free = [i for i in range(1, n) if i != win_wall]
+    cab_wall = int(rng.choice([i for i in free if lengths[i] >= 1.6]))
+    size = np.array([rng.uniform(0.8, 1.2), rng.uniform(0.4, 0.6), rng.uniform(1.6, 2.0)])
+    scene.cabinet = _against(scene, "cabinet", cab_wall, size, rng.uniform(0.3 + size[0] / 2,
+                                                                          lengths[cab_wall] - 0.3 - size[0] / 2))
+    scene.cabinet_wall = cab_wall
+    unit = np.array([rng.uniform(0.5, 0.7), rng.uniform(0.35, 0.5), rng.uniform(1.2, 1.8)])
+    k = int(rng.integers(2, 4))
+    walls = [i for i in free if i != cab_wall and lengths[i] >= k * unit[0] + 0.6] or \
+            [i for i in free if i != cab_wall and lengths[i] >= 2 * unit[0] + 0.6]
+    if not walls:
+        raise RuntimeError("no wall is free for the row of units")
+    row_wall = int(rng.choice(walls))
+    k = min(k, int((lengths[row_wall] - 0.6) // unit[0]))
+    start = rng.uniform(0.3, lengths[row_wall] - 0.3 - k * unit[0])
+    scene.row = [_against(scene, f"unit{j + 1}", row_wall, unit.copy(), start + (j + 0.5) * unit[0])
+                 for j in range(k)]
+    scene.row_wall = row_wall
+    return scene
+
+
+def _against(scene: RoomScene, name: str, wall: int, size: Array, along: float) -> Box:
+    """A box with its back (+y face) flush against wall ``wall``'s inner face, its centre ``along``
+    metres from the wall's start corner."""
+    a, d, nrm, _ = scene.wall(wall)
+    x_axis = np.cross(nrm, [0.0, 0.0, 1.0])  # the box's +y along the wall's outward normal
+    return Box(name, size, a + along * d - nrm * size[1] / 2, float(np.arctan2(x_axis[1], x_axis[0])))
+
+
+def _leaf(scene: RoomScene, size: Array) -> Box:
+    """The door leaf where its hinge puts it: the shut pose turned about the axis by the angle."""
+    hg = scene.hinge
+    turn = hg.angle * hg.axis[2]  # about +z
+    c, s = np.cos(turn), np.sin(turn)
+    Rz = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    q = hg.axis_point + Rz @ (hg.shut_centre - hg.axis_point)
+    J = scene.jamb_frame("door", hg.side)
+    centre = J[:3, :3] @ q + J[:3, 3]
+    x = J[:3, :3] @ Rz[:, 0]
+    return Box("door", size, centre, float(np.arctan2(x[1], x[0])))
+
+
+def _markers(rng: np.random.Generator, scene: RoomScene, n: int = 40) -> dict[str, Array]:
+    """The origin O (the doorway's start jamb's foot) and n − 1 marks on the walls' inner faces
+    (posters, switches: 0.3–2.2 m up, clear of the openings and the cabinet) and the furniture's tops."""
+    out = {"O": scene.handles()["door_sb"].copy()}
+    k = 1
+    for _ in range(4000):
+        if k >= n:
+            break
+        i = int(rng.integers(len(scene.corners)))
+        a, d, _, L = scene.wall(i)
+        s, z = rng.uniform(0.3, L - 0.3), rng.uniform(0.3, min(2.2, scene.height - 0.2))
+        if any(o.wall == i and o.offset - 0.1 < s < o.offset + o.width + 0.1 for o in scene.openings):
+            continue
+        if i == scene.cabinet_wall:
+            X = a + s * d
+            if np.linalg.norm(X[:2] - scene.cabinet.centre[:2]) < scene.cabinet.size[0] / 2 + 0.2:
+                continue
+        out[f"M{k}"] = a + s * d + np.array([0.0, 0.0, z])
+        k += 1
+    return out
+
+
+def _view(rng: np.random.Generator, scene: RoomScene) -> tuple[str, Array, Array, float]:
+    """A photo a user would take: its kind, where the photographer stands (x, y), what they aim at,
+    and the camera's pitch (radians, up > 0). Facing the doorway's foot (the origin) from 1.5–3 m,
+    level or tilted down; or, tilted up 12–30° (a 3vp photo: no floor in the frame's lower part
+    beyond a metre or two), from anywhere in the room at the window, the cabinet, a unit of the row
+    or a wall's upper stretch."""
+    h = scene.handles()
+    pick = int(rng.integers(5))
+    if pick == 0:
+        at = (h["door_sb"] + h["door_eb"]) / 2 + np.array([0.0, 0.0, rng.uniform(0.2, 1.0)])
+        _, d, nrm, _ = scene.wall(0)
+        xy = (at - nrm * rng.uniform(1.5, 3.0) + d * rng.uniform(-0.8, 0.8))[:2]
+        if rng.random() < 0.5:
+            return "2vp", xy, at, float(np.radians(rng.uniform(-1.5, 1.5)))
+        return "3vp", xy, at, float(-np.radians(rng.uniform(12.0, 30.0)))
+    if pick == 1:
+        at = (h["win_sb"] + h["win_et"]) / 2
+    elif pick == 2:
+        at = scene.cabinet.centre + np.array([0, 0, scene.cabinet.size[2] * 0.7])
+    elif pick == 3:
+        b = scene.row[int(rng.integers(len(scene.row)))]
+        at = b.centre + np.array([0, 0, b.size[2] * 0.8])
+    else:
+        wall = int(rng.integers(len(scene.corners)))
+        a, d, _, L = scene.wall(wall)
+        at = a + rng.uniform(0.2, 0.8) * L * d + np.array([0.0, 0.0, rng.uniform(1.2, scene.height)])
+    lo, hi = scene.corners.min(axis=0) + scene.origin[:2], scene.corners.max(axis=0) + scene.origin[:2]
+    return "3vp", rng.uniform(lo, hi), at, float(np.radians(rng.uniform(12.0, 30.0)))
+
+
+def _candidate(rng: np.random.Generator, scene: RoomScene, pid: str, width: int,
+               height: int) -> SyntheticPhoto | None:
+    """A camera standing in the room (_view), that sees no floor corner (or None)."""
+    kind, xy, target, pitch = _view(rng, scene)
+    if not scene.inside(xy) or scene.wall_distance(xy) < 0.5:
+        return None
+    if any(np.linalg.norm(xy - b.centre[:2]) < np.hypot(*b.size[:2]) / 2 + 0.3 for b in scene.boxes()):
+        return None
+    cam = realistic_camera(rng, kind, width, height, pid, distortion=bool(rng.random() < 0.5))
+    cam.C = np.r_[xy, rng.uniform(1.3, 1.8)]
+    dvec = target - cam.C
+    yaw = float(np.arctan2(dvec[1], dvec[0]))
+    cam.R = _rotation(yaw, pitch, float(np.radians(rng.normal(0.0, 2.0))))
+    if scene.seen_floor_corners(cam):
+        return None
+    return cam
+
+
+def _coverage(scene: RoomScene, cam: SyntheticPhoto, markers: dict[str, Array]) -> dict[str, set]:
+    """What one photo shows: the room's walls (a stretch of a line of each), the pinnable points
+    ((node, handle)), the markers."""
+    pts = scene.seen_points()
+    keys = list(pts)
+    seen, _ = scene.visible(cam, np.array([pts[k] for k in keys]))
+    walls = set()
+    n = len(scene.corners)
+    for e, stretch in scene.edge_stretches(cam).items():
+        if stretch is not None:
+            i = int(re.sub(r"\D", "", e))
+            walls.add(i)
+            if e.startswith("corner"):
+                walls.add((i - 1) % n)
+    mk = list(markers)
+    mseen, _ = scene.visible(cam, np.array([markers[m] for m in mk]))
+    return {"walls": walls, "points": {k for k, s in zip(keys, seen, strict=True) if s},
+            "markers": {m for m, s in zip(mk, mseen, strict=True) if s}}
+
+
+#: What the photos must show together, for the model to be determined from them: each wall's line
+#: in two photos, each box by two corners in two photos (a box with its back flush against a wall
+#: keeps four unknowns, a leaf on its hinge four with its depth entered: two corners of the front's
+#: top, in two photos, give them), the doorway's top corners and the window's corners in two, every
+#: photo MIN_SHARED_MARKERS markers that another photo shows too (to be placed with the others), the
+#: origin in one (it is exact: the world's origin).
+MIN_PHOTOS_PER_THING = 2
+MIN_BOX_CORNERS = 2
+MIN_MARKERS_PER_PHOTO = 4
+MIN_SHARED_MARKERS = 3
+
+
+def _needs(scene: RoomScene, covs: list[dict[str, set]]) -> int:
+    """How far a set of photos falls short of MIN_PHOTOS_PER_THING (0: enough)."""
+    return sum(shortfall(scene, covs).values())
+
+
+def shortfall(scene: RoomScene, covs: list[dict[str, set]]) -> dict[str, int]:
+    """What a set of photos (their _coverage) shows too seldom: thing → photos missing."""
+    short = {}
+    for i in range(len(scene.corners)):
+        short[f"wall{i}"] = max(0, MIN_PHOTOS_PER_THING - sum(i in c["walls"] for c in covs))
+    for b in scene.boxes():
+        k = sum(sum((b.name, f"v{j}") in c["points"] for j in range(8)) >= MIN_BOX_CORNERS for c in covs)
+        short[b.name] = max(0, MIN_PHOTOS_PER_THING - k)
+    for h in ("door_st", "door_et", "win_st", "win_et", "win_sb", "win_eb"):
+        short[h] = max(0, MIN_PHOTOS_PER_THING - sum(("room", h) in c["points"] for c in covs))
+    short["O"] = max(0, 1 - sum("O" in c["markers"] for c in covs))
+    for k, c in enumerate(covs):
+        others = set().union(*(o["markers"] for j, o in enumerate(covs) if j != k))
+        short[f"photo{k}"] = max(0, MIN_SHARED_MARKERS - len(c["markers"] & (others | {"O"})))
+    return {k: v for k, v in short.items() if v}
+
+
+#: Greedy choices of photos tried, each from another first photo, before giving up on a scene.
+CHOICE_RESTARTS = 40
+
+
+def _greedy(rng: np.random.Generator, scene: RoomScene, covs: list[dict[str, set]], n_photos: tuple[int, int],
+            first: int) -> list[int]:
+    """Photos chosen one by one from ``first``, each the one that leaves the least short."""
+    chosen = [first]
+    while len(chosen) < n_photos[1]:
+        now = _needs(scene, [covs[i] for i in chosen])
+        if now == 0 and len(chosen) >= n_photos[0]:
+            break
+        gains = [(now - _needs(scene, [covs[i] for i in chosen] + [c]), len(c["points"]), rng.random(), i)
+                 for i, c in enumerate(covs) if i not in chosen]
+        if not gains:
+            break
+        chosen.append(max(gains)[3])
+    return chosen
+
+
+def _choose(rng: np.random.Generator, scene: RoomScene, covs: list[dict[str, set]],
+            n_photos: tuple[int, int]) -> list[int] | None:
+    """A set of 4–6 photos that leaves nothing short (None where CHOICE_RESTARTS greedy tries fail)."""
+    for first in rng.permutation(len(covs))[:CHOICE_RESTARTS]:
+        chosen = _greedy(rng, scene, covs, n_photos, int(first))
+        if len(chosen) >= n_photos[0] and _needs(scene, [covs[i] for i in chosen]) == 0:
+            return chosen
+    return None
+
+
+def photograph(rng: np.random.Generator, scene: RoomScene, n_photos: tuple[int, int] = (4, 6),
+               width: int = 1600, height: int = 1200, n_candidates: int = 100) -> None:
+    """Choose 4–6 photos (greedily, from random candidates that see no floor corner) that together
+    show what the model needs (_needs), then mark their vanishing segments; sets ``scene.photos``
+    and ``scene.markers`` (the markers seen in two photos or more). RuntimeError where no such set
+    is found."""
+    markers = _markers(rng, scene)
+    cands: list[tuple[SyntheticPhoto, dict[str, set]]] = []
+    for k in range(40 * n_candidates):
+        if len(cands) >= n_candidates:
+            break
+        cam = _candidate(rng, scene, f"c{k}", width, height)
+        if cam is None:
+            continue
+        cov = _coverage(scene, cam, markers)
+        if len(cov["markers"]) >= MIN_MARKERS_PER_PHOTO:
+            cands.append((cam, cov))
+    covs = [c for _, c in cands]
+    chosen = _choose(rng, scene, covs, n_photos)
+    if chosen is None:
+        best = min((_greedy(rng, scene, covs, n_photos, int(rng.integers(len(covs)))) for _ in range(5)),
+                   key=lambda ch: _needs(scene, [covs[i] for i in ch]))
+        raise RuntimeError("no set of photos shows every wall, box and opening twice without a floor corner: "
+                           f"short of {shortfall(scene, [covs[i] for i in best])}")
+    scene.photos = []
+    for j, i in enumerate(chosen):
+        cam = cands[i][0]
+        cam.id = f"p{j + 1}"
+        add_segments(cam, rng, CLICK_NOISE_PX, middle_points=3 if cam.k1 != 0.0 else 0)
+        _, uv = scene.visible(cam, np.array(list(markers.values())))
+        seen = cands[i][1]["markers"]
+        cam.markers = {m: p + rng.normal(0.0, CLICK_NOISE_PX, 2) for m, p in zip(markers, uv, strict=True) if m in seen}
+        scene.photos.append(cam)
+    # A user marks a marker where it helps: in two photos or more (the origin, exact, in one).
+    counts = {m: sum(m in p.markers for p in scene.photos) + (m == "O") for m in markers}
+    for p in scene.photos:
+        p.markers = {m: uv for m, uv in p.markers.items() if counts[m] >= 2}
+    scene.markers = {m: X for m, X in markers.items() if counts[m] >= 2}
