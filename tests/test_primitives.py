@@ -199,6 +199,58 @@ def test_named_faces() -> None:
         Frustum(1, 0, 1).face_frame("top")
 
 
+PLANES = {"quad": {"top"}, "box": {"front", "right", "back", "left", "top", "bottom"},
+          "wedge": {"right", "back", "left", "bottom", "slope"}, "cylinder": {"top", "bottom"},
+          "frustum": {"top", "bottom"}, "sphere": set()}
+
+
+def _random_like(prim: Primitive, rng: np.random.Generator) -> Primitive:
+    """The same type with sizes drawn from 0.1–3 m (a cone stays a cone)."""
+    p = rng.uniform(0.1, 3.0, len(prim.PARAMS))
+    return prim.with_params(np.where(prim.params == 0, 0.0, p))
+
+
+@pytest.mark.parametrize("prim", SAMPLES, ids=ids)
+def test_planes_are_named_right_handed_outward_and_on_their_mesh_faces(prim: Primitive) -> None:
+    """Every flat face, for random sizes: an orthonormal right-handed frame whose normal points
+    out of the solid, centred on the mesh face of the same name (a click on it picks the plane),
+    every corner of that face in the plane, the mesh's normals the plane's."""
+    rng = np.random.default_rng(18)
+    cone = isinstance(prim, Frustum) and prim.params[1] == 0
+    for _ in range(5):
+        q = _random_like(prim, rng)
+        assert set(q.planes()) == PLANES[q.TYPE] - ({"top"} if cone else set())
+        m = q.mesh()
+        centre = m.vertices.mean(axis=0)
+        for name, (o, x, y, n) in q.planes().items():
+            M = np.column_stack([x, y, n])
+            assert M.T @ M == pytest.approx(np.eye(3), abs=1e-12), name
+            assert np.linalg.det(M) == pytest.approx(1.0), name
+            if not isinstance(q, Quad):
+                assert (o - centre) @ n > 0, name
+            v = np.unique(m.faces[m.face_ids == m.face_names.index(name) + 1])
+            assert (m.vertices[v] - o) @ n == pytest.approx(np.zeros(len(v)), abs=1e-12), name
+            assert m.normals[v] == pytest.approx(np.tile(n, (len(v), 1)), abs=1e-12), name
+            assert m.vertices[v].mean(axis=0) == pytest.approx(o, abs=1e-12), name
+            if abs(n[2]) < 1e-12:  # a vertical face: y up, x to the right seen from outside
+                assert y == pytest.approx([0, 0, 1]) and np.cross(y, n) == pytest.approx(x), name
+        for name, frame in q.faces().items():  # the restable faces are the same planes
+            assert all(np.array_equal(a, b) for a, b in zip(frame, q.plane_frame(name), strict=True)), name
+
+
+def test_plane_frames_take_trial_params_and_name_what_a_primitive_has() -> None:
+    o, x, y, n = Box(1, 1, 1).plane_frame("front", [2.0, 4.0, 3.0])
+    assert o == pytest.approx([0, -2, 1.5]) and x == pytest.approx([1, 0, 0]) and n == pytest.approx([0, -1, 0])
+    o, x, y, n = Wedge(1, 1, 1).plane_frame("slope", [1.0, 4.0, 3.0])
+    assert o == pytest.approx([0, 0, 1.5]) and y == pytest.approx([0, 0.8, 0.6]) and n == pytest.approx([0, -0.6, 0.8])
+    o, _, _, n = Wedge(1, 1, 1).plane_frame("left", [1.2, 3.0, 0.9])
+    assert o == pytest.approx([-0.6, 0.5, 0.3]) and n == pytest.approx([-1, 0, 0])
+    with pytest.raises(ValueError, match="sphere has no flat face 'top'; its flat faces: none"):
+        Sphere(1).plane_frame("top")
+    with pytest.raises(ValueError, match="box has no flat face 'side'; its flat faces: front, right, back, left"):
+        Box(1, 1, 1).plane_frame("side")
+
+
 # ---------------------------------------------------------------------------------------------
 # Meshes
 
@@ -366,12 +418,12 @@ def test_params_are_read_only_and_with_params_makes_a_new_primitive() -> None:
     assert taller == Box(1.0, 2.0, 4.0) and box.height == 3.0
     assert box.with_params(np.array([3.0, 2.0, 1.0])) == Box(width=3, depth=2, height=1)
     assert Box.from_dict({"type": "box", "params": {"width": 1, "depth": 2, "height": 3}}) == box
-    assert list(PRIMITIVE_TYPES) == ["quad", "box", "wedge", "cylinder", "frustum", "sphere"]
+    assert list(PRIMITIVE_TYPES) == ["quad", "box", "wedge", "cylinder", "frustum", "sphere", "room"]
 
 
 @pytest.mark.parametrize(("d", "message"), [
-    ({"type": "cone", "params": {}}, "expected one of quad, box, wedge, cylinder, frustum, sphere; got 'cone'"),
-    ({"params": {}}, "expected one of quad, box, wedge, cylinder, frustum, sphere; got None"),
+    ({"type": "cone", "params": {}}, "expected one of quad, box, wedge, cylinder, frustum, sphere, room; got 'cone'"),
+    ({"params": {}}, "expected one of quad, box, wedge, cylinder, frustum, sphere, room; got None"),
     ({"type": "box", "params": {"width": 1, "depth": 2}}, "box needs params width, depth, height; missing height"),
     ({"type": "box", "params": {"width": 1}}, "box needs params width, depth, height; missing depth, height"),
     ({"type": "box", "params": {"width": -1, "depth": 2, "height": 3}}, "box: width must be > 0, got -1.0"),
@@ -417,7 +469,9 @@ def test_the_schema_lists_exactly_the_registered_primitive_types() -> None:
 
     def walk(node: object) -> None:
         if isinstance(node, dict):
-            if "params" in node.get("properties", {}) and "type" in node.get("properties", {}):
+            props = node.get("properties", {})
+            # A primitive record: a type and an object of params (a relation's params are a list).
+            if "type" in props and props.get("params", {}).get("type") == "object":
                 found.append(node["properties"]["type"]["enum"])
             for v in node.values():
                 walk(v)

@@ -45,7 +45,7 @@ def ground_truth() -> dict:
 def true_model() -> Model:
     gt = ground_truth()
     markers = {k: np.asarray(v, float) for k, v in gt["markers"].items()}
-    return model_from_dict(gt["model"]["nodes"], markers)
+    return model_from_dict(gt["model"]["nodes"], markers, gt["model"].get("relations"))
 
 
 def true_cameras() -> list[ImageCamera]:

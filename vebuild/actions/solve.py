@@ -32,6 +32,7 @@ from ..calibration.positions import ReferenceDistance, check_scale_distances
 from ..camera import ImageCamera
 from ..constants import Z95
 from ..errors import CalibrationError, ProjectError, VebuildError
+from ..model.constraints import conflict_message, conflicts, relation_records
 from ..model.residuals import MarkerObservation
 from ..model.scene import Model
 from ..model.solution import handle_covariances
@@ -96,16 +97,20 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
             raise
         raise VebuildError(f"{project.path}: $.model: the solve failed numerically ({e}); an observation or a "
                            "node's dimensions make it degenerate: check the pins of the nodes last edited") from None
+    xm = problem.model_vector(sol.x)
+    if found := conflicts(model, xm):
+        raise VebuildError(f"{project.path}: $.model.relations: {conflict_message(found)}")
     if solution.undetermined:
         raise VebuildError(
             f"{project.path}: $.model: too few observations: the pins and edges do not determine "
             f"{', '.join(solution.undetermined[:12])}{' …' if len(solution.undetermined) > 12 else ''}; "
             "pin more vertices of those nodes in a second photo, or mark them solve: false")
-    xm = problem.model_vector(sol.x)
     _check_visible(project, problem, xm, solution.cameras)
     model.set_vector(xm)
     data["model"]["nodes"] = model.to_dict()
     result = {**_results(problem, solution, model, xm, recalibrate), "lengths": length_unit(data).word}
+    if model.relations:  # how closely each relation holds after the solve (FORMAT.md model_solution)
+        result["relations"] = relation_records(model)
     if recalibrate:
         result["cameras"], result["markers"] = recalibrated_records(data, solution, problem)
     result["warnings"] = uncalibrated_pin_warnings(data, cameras)
@@ -296,6 +301,7 @@ def _results(problem: Problem, solution: Any, model: Model, xm: np.ndarray, reca
     sig = np.sqrt(np.maximum(np.diag(solution.covariance), 0.0))
     handles = handle_covariances(problem, solution.x, solution.covariance)
     by_name = {n: j for j, n in enumerate(problem.names)}
+    by_name.update({m: by_name[rep] for m, rep in problem.alias.items() if rep in by_name})  # equal: shared
     nodes = {}
     for n in model.nodes:
         sq, sp = model.slices[n.name]
@@ -344,6 +350,15 @@ def covariance_record(problem: Problem, solution: Any) -> dict[str, Any]:
     blocks = [layout.model, *layout.markers.values()]
     keep = layout.model_and_markers()
     names, s = layout.file_names(blocks), layout.file_scale(blocks)
+    # The members of an equal group share one unknown: each is listed with its row (correlation 1),
+    # so a measurement through any of them carries the shared σ, correlations included.
+    index = {n: j for j, n in enumerate(layout.model.names)}
+    tied = [(m, index[rep]) for m, rep in problem.alias.items() if m != rep and rep in index]
+    n_model = len(layout.model)
+    order = np.r_[np.arange(n_model), [j for _, j in tied], np.arange(n_model, len(keep))].astype(int)
+    keep, s = keep[order], s[order]
+    names = names[:n_model] + [f"{m}_deg" if layout.model.kinds[j] == "angle" else m for m, j in tied] + \
+        names[n_model:]
     cov = solution.covariance[np.ix_(keep, keep)] * s[:, None] * s[None, :]
     return {"parameters": names, "matrix": json_values(cov)}
 

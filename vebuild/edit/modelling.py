@@ -88,7 +88,7 @@ class Modelling(Marks):
         """``$.model.nodes`` decoded, marker joints tied to the calibrated markers; a model that is
         not valid is an EditError naming the node and the field, as the screen shows it."""
         try:
-            return decode.model_nodes(self._nodes(), self._markers_placed())
+            return decode.model_nodes(self._nodes(), self._markers_placed(), self._model_doc().get("relations"))
         except ModelError as e:
             raise EditError(str(e)) from None
 

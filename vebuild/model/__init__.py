@@ -13,6 +13,7 @@ from .primitives import (
     Wedge,
     primitive_from_dict,
 )
+from .room import Room  # registers the room type (it builds on the primitives above)
 
 __all__ = [
     "PRIMITIVE_TYPES",
@@ -23,6 +24,7 @@ __all__ = [
     "Mesh",
     "Primitive",
     "Quad",
+    "Room",
     "Sphere",
     "Wedge",
     "primitive_from_dict",

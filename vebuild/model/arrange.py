@@ -3,8 +3,9 @@ hypotheses (pure numpy).
 
 A drag grabs a node at a point and follows the mouse ray:
 
-- ``rests_on`` (furniture on the floor): the grabbed point slides in the plane of the face it
-  rests on; the object turns about that face's normal with :meth:`ObjectMover.turn`;
+- ``rests_on`` (furniture on the floor) and ``flush`` (a cabinet against a wall): the grabbed
+  point slides in the plane of the parent's face; the object turns about that face's normal with
+  :meth:`ObjectMover.turn`;
 - ``hinge`` (a door): the object turns about its axis to follow the ray's meeting with the plane
   across the axis, within the joint's limits;
 - ``slider`` (a drawer): the object slides along its axis to the point nearest the ray, within
@@ -32,7 +33,16 @@ from numpy.typing import NDArray
 
 from vebuild.errors import VebuildError
 from vebuild.model.collide import Footprint, footprints, local_vertices, overlap_depth
-from vebuild.model.scene import FreeJoint, HingeJoint, MarkerJoint, Model, RestsOnJoint, SliderJoint, joint_from_dict
+from vebuild.model.scene import (
+    FlushJoint,
+    FreeJoint,
+    HingeJoint,
+    MarkerJoint,
+    Model,
+    RestsOnJoint,
+    SliderJoint,
+    joint_from_dict,
+)
 from vebuild.model.undo import UndoStack
 
 Array = NDArray[np.float64]
@@ -104,7 +114,7 @@ class ObjectMover:
         if isinstance(n.joint, HingeJoint | SliderJoint):
             lo, hi = n.joint.bounds()
             return bool(hi[0] > lo[0])
-        return isinstance(n.joint, RestsOnJoint | FreeJoint)
+        return isinstance(n.joint, RestsOnJoint | FlushJoint | FreeJoint)
 
     def joint_type(self, node: str) -> str:
         return self.model.node(node).joint.type
@@ -131,8 +141,8 @@ class ObjectMover:
         j = n.joint
         P = self._parent_world(g.node)
         q = g.q0.copy()
-        if isinstance(j, RestsOnJoint | FreeJoint):
-            if isinstance(j, RestsOnJoint):
+        if isinstance(j, RestsOnJoint | FlushJoint | FreeJoint):
+            if isinstance(j, RestsOnJoint | FlushJoint):
                 o, x, y, normal = self._face_world(g.node, j)
             else:
                 x, y, normal = P[:3, 0], P[:3, 1], np.array([0.0, 0.0, 1.0])
@@ -140,7 +150,7 @@ class ObjectMover:
             if hit is None:
                 return False
             d = hit - g.point
-            if isinstance(j, RestsOnJoint):
+            if isinstance(j, RestsOnJoint | FlushJoint):
                 q[0] += d @ x
                 q[1] += d @ y
             else:
@@ -175,13 +185,13 @@ class ObjectMover:
         """Turn a resting or free object about the vertical by ``angle`` radians (no drag needed)."""
         node = self.movable(node)
         j = self.model.node(node).joint
-        if not isinstance(j, RestsOnJoint | FreeJoint):
+        if not isinstance(j, RestsOnJoint | FlushJoint | FreeJoint):
             raise CannotMove(f"'{node}' turns only on its {j.type} joint; drag it instead")
         before = self._snapshot()
         self._fixed_obstacles = {}
         self._allowed = self.overlaps(node)
         q = j.values().copy()
-        if isinstance(j, RestsOnJoint):
+        if isinstance(j, RestsOnJoint | FlushJoint):  # about the face's normal
             q[2] += angle
         else:
             q[3:6] = [0.0, 0.0, angle]
@@ -277,14 +287,14 @@ class ObjectMover:
         parent = self.model.node(node).parent
         return np.eye(4) if parent is None else self.model.world_transforms()[parent]
 
-    def _face_world(self, node: str, joint: RestsOnJoint) -> tuple[Array, Array, Array, Array]:
-        """The world frame (origin, x, y, normal) of the face ``node`` rests on by ``joint``."""
+    def _face_world(self, node: str, joint: RestsOnJoint | FlushJoint) -> tuple[Array, Array, Array, Array]:
+        """The world frame (origin, x, y, normal) of the face ``node`` rests (or is flush) on by ``joint``."""
         parent = self.model.node(node).parent
         prim = None if parent is None else self.model.node(parent).primitive
         P = self._parent_world(node)
         if prim is None or joint.face is None:  # on the floor (the model's loader names a primitive's face)
             return P[:3, 3], P[:3, 0], P[:3, 1], P[:3, 2]
-        o, x, y, normal = prim.face_frame(joint.face)
+        o, x, y, normal = prim.plane_frame(joint.face) if isinstance(joint, FlushJoint) else prim.face_frame(joint.face)
         return P[:3, :3] @ o + P[:3, 3], P[:3, :3] @ x, P[:3, :3] @ y, P[:3, :3] @ normal
 
     def _apply_q(self, node: str, q: Array) -> None:

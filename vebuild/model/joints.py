@@ -22,7 +22,7 @@ from .primitives import Primitive
 
 Array = NDArray[np.float64]
 
-JOINT_TYPES = ("fixed", "free", "rests_on", "hinge", "slider", "marker")
+JOINT_TYPES = ("fixed", "free", "rests_on", "flush", "hinge", "slider", "marker", "opening", "through")
 #: What a degree of freedom measures: a position (metres), an angle (radians; degrees in files)
 #: or, for a primitive's parameters, a size (metres). The solver's pull toward the value before a
 #: solve and the file's units follow the kind.
@@ -168,6 +168,63 @@ class RestsOnJoint(Joint):
         return d
 
 
+def _frame4(frame: tuple[Array, Array, Array, Array]) -> Array:
+    """A face frame (origin, x, y, normal) as the 4×4 matrix from face coordinates."""
+    F = np.eye(4)
+    F[:3, 0], F[:3, 1], F[:3, 2], F[:3, 3] = frame[1], frame[2], frame[3], frame[0]
+    return F
+
+
+@dataclass
+class FlushJoint(Joint):
+    """The node's face ``own_face`` lies against the parent's face ``face``, ``offset`` metres out
+    along its normal, the two facing each other: a cabinet's back against a wall, a wall on the
+    floor. Degrees of freedom as ``rests_on`` (which this is, with ``own_face`` bottom and offset 0):
+    the own face's centre at (s, t) in the parent face's frame, turned ``yaw`` about its normal.
+
+    The own face is carried by a frame at its centre with z into the node (−normal), x its x axis:
+    for a bottom face exactly the node's own frame, so the transform is rests_on's bit for bit.
+    Faces are any flat face (``Primitive.planes``), the parent's and the node's; with no parent,
+    the face is the floor z = 0, as for ``rests_on``.
+    """
+
+    face: str | None = None
+    own_face: str = "bottom"
+    offset: float = 0.0
+    s: float = 0.0
+    t: float = 0.0
+    yaw: float = 0.0
+    dof_names: tuple[str, ...] = ("s", "t", "yaw")
+    dof_kinds: tuple[str, ...] = ("position", "position", "angle")
+
+    def values(self):
+        return np.array([self.s, self.t, self.yaw])
+
+    def set_values(self, q):
+        self.s, self.t, self.yaw = (float(v) for v in q)
+
+    def transform(self, q, parent, parent_params, node, node_params):
+        F = np.eye(4) if parent is None else _frame4(parent.plane_frame(self.face, parent_params))
+        T = F @ translation(np.array([q[0], q[1], self.offset])) @ rz(q[2])
+        if node is None or self.own_face == "bottom" and "bottom" in node.faces():
+            return T  # the node's frame is its bottom face's resting frame (rests_on)
+        o, x, y, n = node.plane_frame(self.own_face, node_params)
+        rest = np.eye(4)  # node_from_rest: x, then −y, −n (into the node), at the face's centre
+        rest[:3, 0], rest[:3, 1], rest[:3, 2], rest[:3, 3] = x, -y, -n, o
+        inv = np.eye(4)
+        inv[:3, :3] = rest[:3, :3].T
+        inv[:3, 3] = -rest[:3, :3].T @ o
+        return T @ inv
+
+    def to_dict(self):
+        d: dict[str, Any] = {"type": "flush"}
+        if self.face is not None:
+            d["face"] = self.face
+        d.update({"own_face": self.own_face, "offset": self.offset, "position": [self.s, self.t],
+                  "yaw_deg": float(np.degrees(self.yaw))})
+        return d
+
+
 def _axis_rotation(axis: Array, angle: float) -> Array:
     return rotation4(exp_so3(axis / np.linalg.norm(axis) * angle))
 
@@ -178,6 +235,9 @@ class HingeJoint(Joint):
     axis: Array = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
     angle: float = 0.0
     limits: tuple[float, float] = (-np.pi, np.pi)
+    #: (opening, side) of the parent room's jamb the hinge hangs on: axis_point, axis and the pose
+    #: at angle 0 are then in that jamb's frame (Room.jamb_frame), which follows the solved room.
+    jamb: tuple[str, str] | None = None
     dof_names: tuple[str, ...] = ("angle",)
     dof_kinds: tuple[str, ...] = ("angle",)
 
@@ -192,12 +252,20 @@ class HingeJoint(Joint):
 
     def transform(self, q, parent, parent_params, node, node_params):
         turn = _axis_rotation(self.axis, q[0])
-        return translation(self.axis_point) @ turn @ translation(-self.axis_point) @ self.base
+        T = translation(self.axis_point) @ turn @ translation(-self.axis_point) @ self.base
+        if self.jamb is None:
+            return T
+        from .room_joints import jamb_frame_of
+
+        return jamb_frame_of(parent, parent_params, *self.jamb) @ T
 
     def to_dict(self):
-        return {"type": "hinge", "axis_point": [float(v) for v in self.axis_point],
-                "axis": [float(v) for v in self.axis], **pose_to_dict(self.base),
-                "angle_deg": float(np.degrees(self.angle)), "limits_deg": [float(np.degrees(v)) for v in self.limits]}
+        d = {"type": "hinge", "axis_point": [float(v) for v in self.axis_point],
+             "axis": [float(v) for v in self.axis], **pose_to_dict(self.base),
+             "angle_deg": float(np.degrees(self.angle)), "limits_deg": [float(np.degrees(v)) for v in self.limits]}
+        if self.jamb is not None:
+            d["jamb"] = {"opening": self.jamb[0], "side": self.jamb[1]}
+        return d
 
 
 @dataclass
@@ -284,6 +352,18 @@ def joint_from_dict(d: Mapping[str, Any], where: str, markers: Mapping[str, Arra
         s, t = d.get("position", [0.0, 0.0])
         return RestsOnJoint(type="rests_on", face=d.get("face"), s=float(s), t=float(t),
                             yaw=float(np.radians(d.get("yaw_deg", 0.0))))
+    if kind == "flush":
+        s, t = d.get("position", [0.0, 0.0])
+        off = d.get("offset", 0.0)
+        if isinstance(off, bool) or not isinstance(off, int | float) or not np.isfinite(off):
+            raise error_at(where, at("offset"), f"the flush joint's offset {off!r} is not a number; expected the "
+                           "distance in metres between the two faces (0 for faces in contact)")
+        own = d.get("own_face", "bottom")
+        if not isinstance(own, str):
+            raise error_at(where, at("own_face"), f"own_face {own!r} is not a face name; expected one of the "
+                           "node's flat faces, such as \"back\"")
+        return FlushJoint(type="flush", face=d.get("face"), own_face=own, offset=float(off), s=float(s),
+                          t=float(t), yaw=float(np.radians(d.get("yaw_deg", 0.0))))
     if kind == "hinge":
         axis = axis_of([0, 0, 1])
         lo, hi = np.radians(limits_of("limits_deg", [-180.0, 180.0], "°"))
@@ -291,8 +371,13 @@ def joint_from_dict(d: Mapping[str, Any], where: str, markers: Mapping[str, Arra
         if not lo <= angle <= hi:
             raise error_at(where, at("angle_deg"), f"hinge angle {np.degrees(angle):.1f}° lies outside its limits "
                          f"[{np.degrees(lo):.1f}°, {np.degrees(hi):.1f}°]")
+        jamb = None
+        if "jamb" in d:
+            from .room_joints import jamb_of
+
+            jamb = jamb_of(d["jamb"], where, at("jamb"))
         return HingeJoint(type="hinge", base=base, axis_point=np.asarray(d.get("axis_point", [0, 0, 0]), float),
-                          axis=axis, angle=angle, limits=(float(lo), float(hi)))
+                          axis=axis, angle=angle, limits=(float(lo), float(hi)), jamb=jamb)
     if kind == "slider":
         axis = axis_of([1, 0, 0])
         lo, hi = limits_of("limits", [-np.inf, np.inf], " m")
@@ -307,4 +392,8 @@ def joint_from_dict(d: Mapping[str, Any], where: str, markers: Mapping[str, Arra
                          "position; run vebuild calibrate first, or name a marker the calibration placed")
         return MarkerJoint(type="marker", marker=name, handle=d.get("handle", ""),
                            position=np.asarray(markers[name], float), yaw=float(np.radians(d.get("yaw_deg", 0.0))))
+    if kind in ("opening", "through"):
+        from .room_joints import room_joint_from_dict
+
+        return room_joint_from_dict(d, where, path, base)
     raise error_at(where, at("type"), f"joint type '{kind}' is not one of {', '.join(JOINT_TYPES)}")

@@ -29,6 +29,10 @@ Restable flat faces (``faces``): quad ``top``; box ``top``, ``bottom``; wedge ``
 (it has no top; its tilted slope is not named); cylinder and frustum ``top`` (not for a cone) and
 ``bottom``; sphere none.
 
+Planes (``planes``: every flat face, named as its mesh face, for relations between faces): the
+restable faces, box ``front``, ``right``, ``back``, ``left``, wedge ``right``, ``left``, ``slope``;
+side faces have y up and x to the right seen from outside, the slope y up the slope.
+
 Logical mesh faces (``Mesh.face_ids``, 1-based): quad 1 top; box 1 front (−y), 2 right (+x),
 3 back (+y), 4 left (−x), 5 top, 6 bottom (side face i + 1 stands on bottom edge e_i); wedge
 1 right, 2 back, 3 left, 4 slope, 5 bottom; cylinder and frustum 1 side, 2 top, 3 bottom (a cone:
@@ -95,6 +99,11 @@ def _level_frame(z: float, up: bool = True) -> Frame:
     return np.array([0.0, 0.0, z]), _EX.copy(), -_EY, -_EZ
 
 
+def _side_frame(centre: ArrayLike, n: Array) -> Frame:
+    """A vertical face's frame: y up (+z), x = y × n (to the right seen from outside), n out."""
+    return np.asarray(centre, float), np.cross(_EZ, n), _EZ.copy(), np.array(n, float)
+
+
 def _param_value(self: Primitive, index: int) -> float:
     """Parameter ``index`` of a primitive (the read-only attribute of each parameter name)."""
     return float(self._p[index])
@@ -126,6 +135,7 @@ class Primitive(abc.ABC):
     HANDLE_NAMES: ClassVar[tuple[str, ...]] = ()
     EDGES: ClassVar[tuple[tuple[str, str, str], ...]] = ()
     _RESTABLE: ClassVar[tuple[str, ...]] = ()  # names of the flat faces others can rest on
+    _PLANES: ClassVar[tuple[str, ...]] = ()  # every flat face (``planes``), if not just the restable
     _MAY_BE_ZERO: ClassVar[frozenset[str]] = frozenset()  # sizes allowed to be 0 (a cone's top)
     #: Sizes (metres) of a new primitive of this type: something of furniture scale to drag into place.
     DEFAULT_PARAMS: ClassVar[Mapping[str, float]] = {}
@@ -133,6 +143,9 @@ class Primitive(abc.ABC):
     ANCHOR_HANDLE: ClassVar[str] = ""
     #: Named variants a user can add: kind → the default parameters it changes (a cone is a frustum).
     VARIANTS: ClassVar[Mapping[str, Mapping[str, float]]] = {}
+    #: Whether the handles are linear in the parameters (``handles(p) = A p``, A from
+    #: ``handle_jacobian``); a primitive whose are not (a room) is asked ``handles(p)`` at each trial.
+    LINEAR: ClassVar[bool] = True
 
     _p: Array
 
@@ -215,11 +228,22 @@ class Primitive(abc.ABC):
             raise ValueError(f"expected type {cls.TYPE!r}, got {prim.TYPE!r}")
         return prim
 
+    def param_kinds(self) -> tuple[str, ...]:
+        """The kind (DOF_KINDS) of each parameter in PARAMS order: all sizes here; a room's corner
+        coordinates are positions (no least value, the solver's pull of a position)."""
+        return ("size",) * len(self.PARAMS)
+
     @classmethod
     def minimum_size(cls, name: str) -> float:
         """The least value parameter ``name`` may take in a solve (metres): 0 where a size may
         vanish (a cone's top radius), MIN_SIZE_M for every other size."""
         return 0.0 if name in cls._MAY_BE_ZERO else MIN_SIZE_M
+
+    @classmethod
+    def _from_file(cls, d: Mapping[str, Any], params: Mapping[str, Any]) -> Primitive:
+        """The primitive of a project-file dict whose ``params`` are checked to be an object; a
+        primitive with more than params in the file (a room's corners and openings) reads them here."""
+        return cls(**params)
 
     @classmethod
     def minimum_sizes(cls) -> Array:
@@ -288,6 +312,24 @@ class Primitive(abc.ABC):
         """The frame of a flat face; primitives with flat faces override this (a sphere has none)."""
         raise ValueError(f"{self.TYPE} has no flat face {name!r}")
 
+    def _plane_names(self) -> tuple[str, ...]:  # by default the restable faces (a cone: no top)
+        return self._PLANES or self._restable()
+
+    def planes(self) -> dict[str, Frame]:
+        """{name: frame} of every flat face (what relations name), as ``faces``: centre (a triangle's
+        centroid), unit axes, x × y = the outward normal."""
+        return {name: self.plane_frame(name) for name in self._plane_names()}
+
+    def plane_frame(self, name: str, params: ArrayLike | None = None) -> Frame:
+        """The frame of flat face ``name`` (as in ``planes``) at trial ``params`` (k,), or at our own."""
+        if name not in self._plane_names():
+            have = ", ".join(self._plane_names()) or "none"
+            raise ValueError(f"{self.TYPE} has no flat face {name!r}; its flat faces: {have}")
+        return self._plane_frame(name, self._as_params(params))
+
+    def _plane_frame(self, name: str, p: Array) -> Frame:  # by default the restable face's
+        return self._face_frame(name, p)
+
     # -- mesh ----------------------------------------------------------------------------------
 
     def mesh(self, texels_per_metre: float | None = None, segments: int = 32) -> Mesh:
@@ -341,7 +383,7 @@ def primitive_from_dict(d: Mapping[str, Any]) -> Primitive:
     params = d.get("params", {})
     if not isinstance(params, Mapping):
         raise ValueError(f"{kind}: params must be an object {{{', '.join(cls.PARAMS)}}}, got {type(params).__name__}")
-    return cls(**params)
+    return cls._from_file(d, params)
 
 
 class Quad(Primitive):
@@ -400,6 +442,7 @@ class Box(_Prism):
         (f"e{i + 8}", f"v{i}", f"v{i + 4}") for i in range(4))
     _RESTABLE = ("top", "bottom")
     _MESH_FACES = ("front", "right", "back", "left", "top", "bottom")
+    _PLANES = _MESH_FACES
 
     @classmethod
     def _handles_of(cls, P):
@@ -413,6 +456,12 @@ class Box(_Prism):
     def _face_frame(self, name, p):
         return _level_frame(p[2]) if name == "top" else _level_frame(0.0, up=False)
 
+    def _plane_frame(self, name, p):
+        w, d, h = (float(v) for v in p)
+        sides = {"front": ([0.0, -d / 2, h / 2], -_EY), "right": ([w / 2, 0.0, h / 2], _EX),
+                 "back": ([0.0, d / 2, h / 2], _EY), "left": ([-w / 2, 0.0, h / 2], -_EX)}
+        return _side_frame(*sides[name]) if name in sides else self._face_frame(name, p)
+
 
 class Wedge(_Prism):
     """A ramp on a ``width`` × ``depth`` base, rising from its front (−y) edge to ``height`` at its back (+y)."""
@@ -423,6 +472,7 @@ class Wedge(_Prism):
              ("e5", "v2", "v5"), ("e6", "v3", "v4"), ("e7", "v0", "v4"), ("e8", "v1", "v5"))
     _RESTABLE = ("bottom", "back")
     _MESH_FACES = ("", "right", "back", "left", "slope", "bottom")
+    _PLANES = ("right", "back", "left", "bottom", "slope")
 
     @classmethod
     def _handles_of(cls, P):
@@ -440,6 +490,15 @@ class Wedge(_Prism):
             return _level_frame(0.0, up=False)
         # The back wall seen from behind (+y): x runs toward −x so that x × up = +y.
         return np.array([0.0, p[1] / 2, p[2] / 2]), -_EX, _EZ.copy(), _EY.copy()
+
+    def _plane_frame(self, name, p):
+        w, d, h = (float(v) for v in p)
+        sign = {"right": 1.0, "left": -1.0}.get(name)  # triangles v1 v2 v5, v0 v3 v4: their centroids
+        if sign is not None:
+            return _side_frame([sign * w / 2, d / 6, h / 3], sign * _EX)
+        L = float(np.hypot(d, h))  # the slope: y up it, from the front bottom edge to the back top edge
+        return (np.array([0.0, 0.0, h / 2]), _EX.copy(), np.array([0.0, d, h]) / L,
+                np.array([0.0, -h, d]) / L) if name == "slope" else self._face_frame(name, p)
 
 
 class _Round(Primitive):

@@ -6,7 +6,9 @@ when re-calibrating, marker sightings and reference distances. Residuals are in 
 by the click noise, then the priors: each free model parameter pulled toward its value before
 the solve (a dimension entered from a measurement, FORMAT.md ``hold`` ``{"name", "sigma"}``: held
 at its entered value by that measurement's 1σ instead, an observation like a pin), each
-re-calibrated camera held by its calibration covariance.
+re-calibrated camera held by its calibration covariance, and last the hard rows of the flush and
+aligned relations (:mod:`.constraints`: metres whitened by a micrometre, constraints rather than
+observations). An ``equal`` relation is no row: its members share one unknown (``model_vector``).
 
 Every projection goes through each photo's lens distortion (the division model of
 vebuild/camera.py, :attr:`ImageCamera.k1`): a pin or a marker sighting is compared with the
@@ -34,9 +36,12 @@ from scipy import sparse
 
 from ..calibration.positions import ReferenceDistance  # ends: marker names or 'node:handle'
 from ..camera import ImageCamera, exp_so3, project_each, skew_batch, so3_left_jacobian
+from .constraints import HARD_SIGMA_M
 from .layout import ParameterLayout
 from .lm import SPARSE_SOLVE_ABOVE
 from .primitives import Primitive
+from .relations import Relation, is_edge
+from .relations import rows_of as relation_rows
 from .scene import Model
 
 Array = NDArray[np.float64]
@@ -98,6 +103,14 @@ class Residuals:
     _moving: list[str] | None  # the nodes a free parameter moves; None: all of them
     _T0: dict[str, Array]
     _H0: Array
+    #: Equal relations (:class:`~vebuild.model.constraints.Ties`): xm[tie_dst] = xm[tie_src];
+    #: column → the other nodes a shared unknown moves; member name → the unknown it shares.
+    tie_src: NDArray[np.intp]
+    tie_dst: NDArray[np.intp]
+    also: dict[int, tuple[str, ...]]
+    alias: dict[str, str]
+    hard: list[Relation]  # the flush and aligned relations kept as hard rows
+    _hard_J: Array | None = None  # their rows of the last Jacobian (whitened)
 
     def primitive_of(self, node: str) -> Primitive:
         """The primitive of node ``node`` (observations name only primitive nodes)."""
@@ -111,6 +124,7 @@ class Residuals:
         """The whole model's parameter vector (free ones from x, the others as they were)."""
         xm = self.x_model0.copy()
         xm[self.free_idx] = x[self.layout.model.slice]
+        xm[self.tie_dst] = xm[self.tie_src]  # equal relations: the members copy the shared unknown
         return xm
 
     def camera_matrices(self, x: Array) -> dict[str, tuple[Array, Array, Array]]:
@@ -153,7 +167,8 @@ class Residuals:
         """Row layout, index arrays for vectorised evaluation, and what each parameter moves."""
         model = self.model
         self.prim_nodes = [n.name for n in model.nodes if n.primitive is not None]
-        self._hmat = {n: self.primitive_of(n).handle_jacobian() for n in self.prim_nodes}
+        # Linear primitives' handles are one matrix product (A p); the others (a room) are asked.
+        self._hmat = {n: self.primitive_of(n).handle_jacobian() for n in self.prim_nodes if self.primitive_of(n).LINEAR}
         self.h_offset: dict[str, int] = {}
         k = 0
         for name in self.prim_nodes:
@@ -203,27 +218,37 @@ class Residuals:
         for cid, blk in self.layout.cameras.items():
             self.rows_prior_cam[cid] = np.arange(rows, rows + len(blk))
             rows += len(blk)
+        # Hard rows (flush, aligned) last: constraints, outside the robust loss and the observations.
+        self.rows_hard: list[Index] = []
+        for r in self.hard:
+            n_rows = 4 if is_edge(model, r.a or "") else 3
+            self.rows_hard.append(np.arange(rows, rows + n_rows))
+            rows += n_rows
         self.m = rows
         self._entered_priors()
         # For each free model parameter: the nodes it moves and their handle rows.
         self.moves = []
         self.column_rows = []  # per model parameter: the pins, edges and distances it moves
-        subtree_cache: dict[str, tuple] = {}
+        subtree_cache: dict[tuple[str, ...], tuple] = {}
+        self.column_hard = []  # per model parameter: the hard relations it moves
         for j in range(n_model):
             owner = self.owner[j]
-            if owner not in subtree_cache:
-                nodes = model.subtree(owner)
+            key = (owner, *self.also.get(j, ()))
+            if key not in subtree_cache:
+                nodes = sorted(set().union(*(model.subtree(o) for o in key)), key=model.index.__getitem__)
                 hrows = np.concatenate(
                     [np.arange(self.h_offset[n], self.h_offset[n] + len(self.primitive_of(n).handle_names()))
                      for n in nodes if n in self.h_offset] or [np.zeros(0, dtype=int)])
-                subtree_cache[owner] = (
+                subtree_cache[key] = (
                     (nodes, hrows),
                     (np.flatnonzero(np.isin(self.pin_row, hrows)),
                      np.flatnonzero(np.isin(self.edge_rows, hrows).any(axis=1)),
                      np.flatnonzero(np.isin(self.dist_ends, hrows).any(axis=1))),
+                    [k for k, r in enumerate(self.hard) if set(r.nodes()) & set(nodes)],
                 )
-            self.moves.append(subtree_cache[owner][0])
-            self.column_rows.append(subtree_cache[owner][1])
+            self.moves.append(subtree_cache[key][0])
+            self.column_rows.append(subtree_cache[key][1])
+            self.column_hard.append(subtree_cache[key][2])
 
     def _entered_priors(self) -> None:
         """Where each free model parameter's prior is centred (``prior_model_at``: its value before
@@ -237,7 +262,8 @@ class Residuals:
         entered = []
         for n in model.nodes:
             for e in n.entered:
-                j = index.get(f"{n.name}.{e.name}")
+                name = f"{n.name}.{e.name}"
+                j = index.get(self.alias.get(name, name))  # a member of an equal group: its shared unknown
                 if j is None or e.sigma <= 0 or e.value is None:
                     continue
                 angle = self.layout.model.kinds[j] == "angle"
@@ -259,8 +285,9 @@ class Residuals:
         """World positions of every handle, stacked (n_handles, 3); only ``nodes`` are recomputed."""
         H = np.zeros((self.n_handles, 3)) if out is None else out
         for name in self.prim_nodes if nodes is None else [n for n in nodes if n in self.h_offset]:
-            # Handles are linear in a primitive's parameters: one matrix product per node.
-            hs = self._hmat[name] @ xm[self.model.slices[name][1]]
+            # Handles linear in a primitive's parameters: one matrix product per node.
+            p = xm[self.model.slices[name][1]]
+            hs = self._hmat[name] @ p if name in self._hmat else self.primitive_of(name).handles(p)
             o = self.h_offset[name]
             H[o : o + len(hs)] = hs @ T[name][:3, :3].T + T[name][:3, 3]
         return H
@@ -345,6 +372,8 @@ class Residuals:
             pa = self._ends(self.dist_ends[:, 0], H, M)
             pb = self._ends(self.dist_ends[:, 1], H, M)
             r[self.rows_dist] = (np.linalg.norm(pa - pb, axis=1) - self.dist_value) / self.dist_sigma
+        for rows, rel in zip(self.rows_hard, self.hard, strict=True):
+            r[rows] = relation_rows(rel, self.model, T, xm) / HARD_SIGMA_M
         r[self.rows_prior_model] = (x[self.layout.model.slice] - self.prior_model_at) / self.prior_sigma
         for cid, blk in self.layout.cameras.items():
             r[self.rows_prior_cam[cid]] = self._prior_L[cid] @ (x[blk.slice] - self._prior_at[cid])
@@ -404,6 +433,7 @@ class Residuals:
         A_p, MR_p, xc_p, pd_p, dk_p = proj_parts(self.pin_cam, H[self.pin_row]) if len(self.pins) else none
         A_m, MR_m, xc_m, pd_m, dk_m = proj_parts(self.mo_cam, M[self.mo_marker]) if len(self.marker_obs) else none
 
+        hard0 = [relation_rows(rel, self.model, T, xm) for rel in self.hard]
         for j in self.layout.model.indices:
             nodes, hrows = self.moves[j]
             h = FD_STEP * max(1.0, abs(x[j]))
@@ -414,6 +444,9 @@ class Residuals:
             Hp = self.handle_positions(xmp, Tp, nodes, H.copy())
             dH = (Hp - H) / h
             pin_sel, edge_sel, dist_sel = self.column_rows[j]
+            for k in self.column_hard[j]:
+                rel = self.hard[k]
+                put(self.rows_hard[k], j, (relation_rows(rel, self.model, Tp, xmp) - hard0[k]) / h / HARD_SIGMA_M)
             if len(pin_sel):
                 put(self.rows_pin[pin_sel], j, np.einsum("nij,nj->ni", MR_p[pin_sel], dH[self.pin_row[pin_sel]]))
             if len(edge_sel):
@@ -486,10 +519,12 @@ class Residuals:
         for cid, blk in self.layout.cameras.items():
             rr, cc = np.meshgrid(self.rows_prior_cam[cid], blk.indices, indexing="ij")
             put(rr, cc, self._prior_L[cid])
-        if dense is not None:
-            return dense
-        J = sparse.coo_matrix((np.concatenate(V_), (np.concatenate(R_), np.concatenate(C_))), shape=(self.m, n))
-        return J.tocsr()
+        J = dense if dense is not None else \
+            sparse.coo_matrix((np.concatenate(V_), (np.concatenate(R_), np.concatenate(C_))), shape=(self.m, n)).tocsr()
+        if self.hard:  # the hard rows' linearisation, for the steps' return onto the relations (Problem.clip)
+            Jh: Any = J[np.concatenate(self.rows_hard)]
+            self._hard_J = Jh.toarray() if sparse.issparse(Jh) else np.array(Jh)
+        return J
 
     def describe_row(self, row: int) -> str:
         """What residual ``row`` measures: a pin, an edge, a marker sighting, a distance or a prior."""
@@ -509,6 +544,9 @@ class Residuals:
         for cid, prior_rows in self.rows_prior_cam.items():
             if prior_rows[0] <= row <= prior_rows[-1]:
                 return f"the calibration of photo '{cid}'"
+        for hard_rows, rel in zip(self.rows_hard, self.hard, strict=True):
+            if hard_rows[0] <= row <= hard_rows[-1]:
+                return f"the relation {rel.label()}"
         return f"residual {row}"
 
     def check_finite(self, x: Array, when: str) -> None:

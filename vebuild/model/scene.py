@@ -13,7 +13,7 @@ a node attached to the world has the world as parent. Lengths in metres, angles 
 
 from __future__ import annotations
 
-from collections.abc import Collection, Mapping
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -24,6 +24,7 @@ from .entered import Entered, HoldError, fill_entered_values, hold_list
 from .joints import (  # noqa: F401  (re-exported: the scene graph and its joints, one import)
     DOF_KINDS,
     JOINT_TYPES,
+    FlushJoint,
     FreeJoint,
     HingeJoint,
     Joint,
@@ -40,6 +41,9 @@ from .joints import (  # noqa: F401  (re-exported: the scene graph and its joint
     translation,
 )
 from .primitives import MIN_SIZE_M, PRIMITIVE_TYPES, Primitive, primitive_from_dict
+from .relations import Relation, relations_from_dict
+from .room import RoomError
+from .room_joints import check_room_joints
 
 Array = NDArray[np.float64]
 
@@ -90,8 +94,11 @@ class Model:
     primitive's parameters, exactly the values the model stores (see ``layout``).
     """
 
-    def __init__(self, nodes: list[Node]):
+    def __init__(self, nodes: list[Node], relations: Sequence[Relation] = ()):
         self.nodes = _topological(nodes)
+        #: Relations between faces, edges and parameters of the nodes (:mod:`.relations`), checked
+        #: against the nodes by :func:`model_from_dict`; the solver keeps them.
+        self.relations: list[Relation] = list(relations)
         self.index = {n.name: i for i, n in enumerate(self.nodes)}
         self.children: dict[str, list[str]] = {n.name: [] for n in self.nodes}
         for n in self.nodes:
@@ -124,11 +131,22 @@ class Model:
         return x
 
     def set_vector(self, x: Array) -> None:
+        """Store x in the joints and primitives; nothing changes when a value cannot be kept (a
+        solve that bent a room out of shape is a VebuildError naming the node)."""
+        prims = {}
         for n in self.nodes:
-            sq, sp = self.slices[n.name]
-            n.joint.set_values(x[sq])
             if n.primitive is not None:
-                n.primitive = n.primitive.with_params(x[sp])
+                try:
+                    prims[n.name] = n.primitive.with_params(x[self.slices[n.name][1]])
+                except RoomError as e:  # a solve or a drag bent a room out of shape: say which and how
+                    from vebuild.errors import VebuildError
+
+                    raise VebuildError(f"node '{n.name}': the solved values make an impossible room ({e}); check "
+                                       "the pins and edges on it, or hold the dimensions a tape measured") from None
+        for n in self.nodes:
+            n.joint.set_values(x[self.slices[n.name][0]])
+            if n.primitive is not None:
+                n.primitive = prims[n.name]
 
     def bounds(self) -> tuple[Array, Array]:
         lo, hi = np.full(self.size, -np.inf), np.full(self.size, np.inf)
@@ -163,7 +181,7 @@ class Model:
         for n in self.nodes:
             out += list(n.joint.dof_kinds)
             if n.primitive is not None:
-                out += ["size"] * len(n.primitive.PARAMS)
+                out += list(n.primitive.param_kinds())
         return out
 
     def world_transforms(self, x: Array | None = None, only: Collection[str] | None = None,
@@ -248,7 +266,7 @@ def _primitive(d: Any, human: str, path: str) -> Primitive:
     for name, value in params.items():
         if cls is None or name not in cls.PARAMS or not isinstance(value, int | float):
             continue
-        least = cls.minimum_size(name)
+        least = cls.minimum_size(name)  # (a room's PARAMS depend on its structure: it checks its own)
         if value >= least:
             continue
         if least > 0 and value <= 0:
@@ -257,6 +275,8 @@ def _primitive(d: Any, human: str, path: str) -> Primitive:
                      f"stay above {MIN_SIZE_M:g} m, the solver's least), got {value!r}")
     try:
         prim = primitive_from_dict(d)
+    except RoomError as e:  # a room names its field: params.c2_y, openings[1].wall, corners
+        raise error_at(human, f"{path}.{e.at}", str(e)) from None
     except (ValueError, TypeError) as e:
         raise error_at(human, f"{path}.params" if isinstance(d.get("type"), str) else f"{path}.type", str(e)) from None
     for name, value, least in zip(prim.PARAMS, prim.params, prim.minimum_sizes(), strict=True):
@@ -266,8 +286,10 @@ def _primitive(d: Any, human: str, path: str) -> Primitive:
     return prim
 
 
-def model_from_dict(nodes: list[Mapping[str, Any]], markers: Mapping[str, Array] | None = None) -> Model:
-    """The model from the project file's ``model.nodes``; ModelError names the node and the field."""
+def model_from_dict(nodes: list[Mapping[str, Any]], markers: Mapping[str, Array] | None = None,
+                    relations: Any = None) -> Model:
+    """The model from the project file's ``model.nodes`` and ``model.relations`` (None: none);
+    ModelError names the node (or the relation) and the field."""
     out = []
     index: dict[str, int] = {}
     for i, d in enumerate(nodes):
@@ -299,6 +321,7 @@ def model_from_dict(nodes: list[Mapping[str, Any]], markers: Mapping[str, Array]
     _check_cycles(out)
     model = Model(out)
     fill_entered_values(model)
+    check_room_joints(model, index)
     for n in model.nodes:
         if isinstance(n.joint, RestsOnJoint) and n.parent is not None:
             parent = model.node(n.parent).primitive
@@ -307,7 +330,32 @@ def model_from_dict(nodes: list[Mapping[str, Any]], markers: Mapping[str, Array]
                 detail = f"rests on face '{n.joint.face}' of '{n.parent}', which has faces: {faces}"
                 raise ModelError(f"node '{n.name}': {detail}", f"$.model.nodes[{index[n.name]}].joint.face",
                                  f"node '{n.name}' {detail}")
+        if isinstance(n.joint, FlushJoint):
+            _check_flush_joint(model, n, f"$.model.nodes[{index[n.name]}]")
+    model.relations = relations_from_dict([] if relations is None else relations, model)
     return model
+
+
+def _check_flush_joint(model: Model, n: Node, path: str) -> None:
+    """A flush joint's faces must be flat faces of the parent and of the node."""
+    joint = n.joint
+    assert isinstance(joint, FlushJoint)
+    sides: list[tuple[str, str | None, str, Primitive | None]] = [("own_face", joint.own_face, n.name, n.primitive)]
+    if n.parent is not None:
+        sides.insert(0, ("face", joint.face, n.parent, model.node(n.parent).primitive))
+    elif joint.face is not None:
+        detail = (f"node '{n.name}' is flush against face '{joint.face}' of the world, which has none; with no "
+                  "parent, leave out \"face\" (the floor z = 0)")
+        raise ModelError(f"node '{n.name}': {detail}", f"{path}.joint.face", detail)
+    for key, face, owner, prim in sides:
+        if face is None:
+            detail = f"node '{n.name}' is flush against its parent '{owner}' but names no face; expected \"face\": " \
+                     f"one of the parent's flat faces: {', '.join(prim.planes()) if prim else 'none (a group)'}"
+            raise ModelError(f"node '{n.name}': {detail}", f"{path}.joint.face", detail)
+        if prim is None or face not in prim.planes():
+            have = ", ".join(prim.planes()) or "none" if prim is not None else "none (a group)"
+            detail = f"node '{n.name}' is flush with face '{face}' of '{owner}', which has flat faces: {have}"
+            raise ModelError(f"node '{n.name}': {detail}", f"{path}.joint.{key}", detail)
 
 
 def _check_cycles(nodes: list[Node]) -> None:

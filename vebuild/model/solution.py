@@ -15,6 +15,7 @@ from ..calibration.lsq import variance_factor
 from ..camera import ImageCamera
 from ..constants import OUTLIER_SIGMAS
 from ..determinism import deterministic
+from .constraints import constraint_rank
 from .residuals import FD_STEP
 
 if TYPE_CHECKING:
@@ -52,16 +53,25 @@ def solution_at(problem: Problem, x: Array, iterations: int = 0) -> Solution:
     layout = problem.layout
     J = problem.jacobian(x)
     r = problem.evaluate(x)
-    s2 = variance_factor(r, layout.n)
+    # Hard rows (flush, aligned) are constraints: each independent one takes an unknown away
+    # rather than adding an observation, so the redundancy is rows − unknowns + constraints. The
+    # pulls toward the values before the solve are counted among the rows as they always were
+    # (their residuals are ~0 in a final solve, so this count exceeds the observations' own
+    # redundancy by the number of pulled unknowns; kept so that a project solves as before).
+    hard = np.concatenate(problem.rows_hard).astype(int) if problem.rows_hard else np.zeros(0, int)
+    soft = np.setdiff1d(np.arange(len(r)), hard)
+    s2 = variance_factor(r[soft], layout.n - constraint_rank(J[hard]))
     cov = _inverse(J.T @ J) * s2
     # What the observations alone determine: without the pull toward the starting values
     # (the cameras' calibration priors, and the entered values' measurements, are observations too).
     data_rows = np.r_[np.arange(problem.n_data + len(problem.distances)), problem.rows_entered,
-                      *[problem.rows_prior_cam[c] for c in problem.rows_prior_cam]].astype(int)
+                      *[problem.rows_prior_cam[c] for c in problem.rows_prior_cam], hard].astype(int)
     Jd = J[data_rows]
     A = Jd.T @ Jd
     A = cast(Any, A).toarray() if sparse.issparse(A) else np.asarray(A)
-    ridge = 1e-12 * max(float(np.max(np.diag(A))), 1e-30)
+    Js = J[data_rows[: len(data_rows) - len(hard)]]  # the ridge's scale: the observations' (not the stiff rows')
+    As = Js.T @ Js
+    ridge = 1e-12 * max(float(np.max(cast(Any, As).diagonal())), 1e-30)
     cov_data = _inverse(A + ridge * np.eye(layout.n))
     undetermined = [layout.model.names[j] for j in range(len(layout.model))
                     if not np.isfinite(cov_data[j, j]) or np.sqrt(max(cov_data[j, j], 0)) > UNDETERMINED_SIGMA]

@@ -9,6 +9,9 @@ Every projection goes through each photo's lens (:attr:`~vebuild.camera.ImageCam
 vector is a :class:`~vebuild.model.layout.ParameterLayout`; the residuals and their Jacobian are
 in :mod:`.residuals`, the iteration in :mod:`.lm`, what a solve found in :mod:`.solution`.
 
+Relations between nodes (``model.relations``) are taken from the model: an ``equal`` group is one
+unknown, a ``flush`` or ``aligned`` relation hard rows (:mod:`.constraints`).
+
 Vertex fixing (paper Figure 7) emerges from two ingredients rather than from a hand-made choice
 of parameters: fixed vertices are pins that stay in the problem, and every parameter is pulled
 gently toward its value before the solve, more gently for a joint's position than for a size.
@@ -28,6 +31,7 @@ from numpy.typing import NDArray
 from ..calibration.positions import ReferenceDistance
 from ..camera import ImageCamera
 from ..determinism import deterministic
+from .constraints import hard_relations, restore, tie_equal
 from .layout import ParameterLayout
 from .lm import LMResult, levenberg_marquardt
 from .residuals import EdgeObservation, MarkerObservation, Pin, Residuals
@@ -132,15 +136,19 @@ class Problem(Residuals):
                         if nm not in n.hold and f"{n.name}.{nm}" not in options.held]
                 free_idx += keep
                 owner += [n.name] * len(keep)  # the node each parameter moves (with its subtree)
-        self.free_idx = np.array(free_idx, dtype=np.intp)
-        self.owner = owner
+        # Equal relations: one unknown per group (or the group held at its held member's value).
+        ties = tie_equal(model, self.x_model0, np.array(free_idx, dtype=np.intp), owner)
+        self.x_model0, self.free_idx, self.owner = ties.x_model0, ties.free_idx, ties.owner
+        self.tie_src, self.tie_dst, self.also, self.alias = ties.src, ties.dst, ties.also, ties.alias
+        owner = self.owner
         names, kinds = model.parameter_names(), model.parameter_kinds()
         lo, _ = model.bounds()
         self._least = np.where(np.array(kinds)[self.free_idx] == "size", lo[self.free_idx], -np.inf) \
             if len(self.free_idx) else np.zeros(0)
         # Free nodes whose joints have limits: each clips its own degrees of freedom in a step.
+        movers = set(owner).union(*self.also.values())
         self._limited = [(n.joint, model.slices[n.name][0]) for n in model.nodes
-                         if n.name in set(owner) and np.isfinite(np.r_[n.joint.bounds()]).any()]
+                         if n.name in movers and np.isfinite(np.r_[n.joint.bounds()]).any()]
 
         self.recalibrate = options.recalibrate
         self.refine_intrinsics = options.refine_intrinsics
@@ -174,13 +182,14 @@ class Problem(Residuals):
                 L[-1, -1] = 1.0 / options.k1_sigma[cid]
                 at[-1] = cam.k1
             self._prior_L[cid], self._prior_at[cid] = L, at
-        self._build_dependencies()
         # Only the subtrees of nodes with a free parameter move (during a drag, one object of the
         # scene): every other node's transform and handles are computed once, here.
         moving: set[str] = set()
-        for name in set(self.owner):
+        for name in movers:
             moving.update(model.subtree(name))
         self._moving = None if len(moving) == len(model.nodes) else sorted(moving, key=model.index.__getitem__)
+        self.hard = hard_relations(model, moving)
+        self._build_dependencies()
         self._T0 = model.world_transforms(self.x_model0)
         self._H0 = self.handle_positions(self.x_model0, self._T0)
 
@@ -203,7 +212,8 @@ class Problem(Residuals):
 
     def clip(self, x: Array) -> Array:
         """x with every joint's degrees of freedom clipped by the joint to its limits and every size
-        at least its primitive's least."""
+        at least its primitive's least; within a solve, brought back onto its flush and aligned
+        relations (:func:`~vebuild.model.constraints.restore`)."""
         x = np.array(x, float)
         m = self.layout.model.slice
         if self._limited:
@@ -212,6 +222,9 @@ class Problem(Residuals):
                 xm[sq] = joint.clip(xm[sq])
             x[m] = xm[self.free_idx]
         x[m] = np.maximum(x[m], self._least)
+        if self._hard_J is not None:  # a step of the solve: back onto the relations (constraints.py)
+            x = restore(self, x, self._hard_J)
+            x[m] = np.maximum(x[m], self._least)
         return x
 
     # -- solving -----------------------------------------------------------------------------

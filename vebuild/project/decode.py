@@ -218,22 +218,26 @@ def located(project: Project, error: ModelError, where: str = "$.model.nodes") -
 
 
 def model(project: Project, marker_positions: Mapping[str, Array] | None = None) -> Model:
-    """The scene graph of ``$.model.nodes``; a :class:`~vebuild.model.scene.ModelError` becomes a
+    """The scene graph of ``$.model.nodes`` with its ``$.model.relations``; a
+    :class:`~vebuild.model.scene.ModelError` becomes a
     ProjectError at its JSON path. ``marker_positions``: what marker joints tie to (default: the
     calibrated markers)."""
     if marker_positions is None:
         marker_positions = markers(project.data)
     try:
-        return model_nodes(project.data["model"]["nodes"], marker_positions)
+        return model_nodes(project.data["model"]["nodes"], marker_positions,
+                           project.data["model"].get("relations", []))
     except ModelError as e:
         raise located(project, e) from None
 
 
-def model_nodes(nodes: Sequence[Mapping[str, Any]], marker_positions: Mapping[str, Array]) -> Model:
-    """The scene graph of node records being edited (the modelling screen's document in memory);
-    a bad one raises the :class:`~vebuild.model.scene.ModelError`, whose text names the node
-    (``$.model.nodes[2] (node 'box1').joint: ...``) for the screen to show."""
-    return model_from_dict(list(nodes), marker_positions)
+def model_nodes(nodes: Sequence[Mapping[str, Any]], marker_positions: Mapping[str, Array],
+                relations: Any = None) -> Model:
+    """The scene graph of node records being edited (the modelling screen's document in memory)
+    and its relations (``$.model.relations``; None: none); a bad one raises the
+    :class:`~vebuild.model.scene.ModelError`, whose text names the node
+    (``$.model.nodes[2] (node 'box1').joint: ...``) or the relation for the screen to show."""
+    return model_from_dict(list(nodes), marker_positions, relations)
 
 
 def load_model(project: Project, marker_positions: Mapping[str, Array] | None = None
