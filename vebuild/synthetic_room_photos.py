@@ -1,0 +1,211 @@
+"""The photos of a generated room (vebuild.synthetic_rooms): random candidate cameras standing in
+the room, aimed as a photographer would (at the doorway, the window, the furniture, a wall's upper
+stretch), each refused if it sees any corner of the floor; then a set of 4–6 of them chosen that
+together show every wall, box and opening twice, and their marks (vanishing segments, markers).
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .synthetic import CLICK_NOISE_PX, SyntheticPhoto, _rotation, add_segments, realistic_camera
+from .synthetic_rooms import RoomScene
+
+Array = NDArray[np.float64]
+
+
+def _markers(rng: np.random.Generator, scene: RoomScene, n: int = 40) -> dict[str, Array]:
+    """The origin O (the doorway's start jamb's foot) and n − 1 marks on the walls' inner faces
+    (posters, switches: 0.3–2.2 m up, clear of the openings and the cabinet) and the furniture's tops."""
+    out = {"O": scene.handles()["door_sb"].copy()}
+    k = 1
+    for _ in range(4000):
+        if k >= n:
+            break
+        i = int(rng.integers(len(scene.corners)))
+        a, d, _, L = scene.wall(i)
+        s, z = rng.uniform(0.3, L - 0.3), rng.uniform(0.3, min(2.2, scene.height - 0.2))
+        if any(o.wall == i and o.offset - 0.1 < s < o.offset + o.width + 0.1 for o in scene.openings):
+            continue
+        if i == scene.cabinet_wall:
+            X = a + s * d
+            if np.linalg.norm(X[:2] - scene.cabinet.centre[:2]) < scene.cabinet.size[0] / 2 + 0.2:
+                continue
+        out[f"M{k}"] = a + s * d + np.array([0.0, 0.0, z])
+        k += 1
+    return out
+
+
+def _view(rng: np.random.Generator, scene: RoomScene) -> tuple[str, Array, Array, float]:
+    """A photo a user would take: its kind, where the photographer stands (x, y), what they aim at,
+    and the camera's pitch (radians, up > 0). Facing the doorway's foot (the origin) from 1.5–3 m,
+    level or tilted down; or, tilted up 12–30° (a 3vp photo: no floor in the frame's lower part
+    beyond a metre or two), from anywhere in the room at the window, the cabinet, a unit of the row
+    or a wall's upper stretch."""
+    h = scene.handles()
+    pick = int(rng.integers(5))
+    if pick == 0:
+        at = (h["door_sb"] + h["door_eb"]) / 2 + np.array([0.0, 0.0, rng.uniform(0.2, 1.0)])
+        _, d, nrm, _ = scene.wall(0)
+        xy = (at - nrm * rng.uniform(1.5, 3.0) + d * rng.uniform(-0.8, 0.8))[:2]
+        if rng.random() < 0.5:
+            return "2vp", xy, at, float(np.radians(rng.uniform(-1.5, 1.5)))
+        return "3vp", xy, at, float(-np.radians(rng.uniform(12.0, 30.0)))
+    if pick == 1:
+        at = (h["win_sb"] + h["win_et"]) / 2
+    elif pick == 2:
+        at = scene.cabinet.centre + np.array([0, 0, scene.cabinet.size[2] * 0.7])
+    elif pick == 3:
+        b = scene.row[int(rng.integers(len(scene.row)))]
+        at = b.centre + np.array([0, 0, b.size[2] * 0.8])
+    else:
+        wall = int(rng.integers(len(scene.corners)))
+        a, d, _, L = scene.wall(wall)
+        at = a + rng.uniform(0.2, 0.8) * L * d + np.array([0.0, 0.0, rng.uniform(1.2, scene.height)])
+    lo, hi = scene.corners.min(axis=0) + scene.origin[:2], scene.corners.max(axis=0) + scene.origin[:2]
+    return "3vp", rng.uniform(lo, hi), at, float(np.radians(rng.uniform(12.0, 30.0)))
+
+
+def _candidate(rng: np.random.Generator, scene: RoomScene, pid: str, width: int,
+               height: int) -> SyntheticPhoto | None:
+    """A camera standing in the room (_view), that sees no floor corner (or None)."""
+    kind, xy, target, pitch = _view(rng, scene)
+    if not scene.inside(xy) or scene.wall_distance(xy) < 0.5:
+        return None
+    if any(np.linalg.norm(xy - b.centre[:2]) < np.hypot(*b.size[:2]) / 2 + 0.3 for b in scene.boxes()):
+        return None
+    cam = realistic_camera(rng, kind, width, height, pid, distortion=bool(rng.random() < 0.5))
+    cam.C = np.r_[xy, rng.uniform(1.3, 1.8)]
+    dvec = target - cam.C
+    yaw = float(np.arctan2(dvec[1], dvec[0]))
+    cam.R = _rotation(yaw, pitch, float(np.radians(rng.normal(0.0, 2.0))))
+    if scene.seen_floor_corners(cam):
+        return None
+    return cam
+
+
+def _coverage(scene: RoomScene, cam: SyntheticPhoto, markers: dict[str, Array]) -> dict[str, set]:
+    """What one photo shows: the room's walls (a stretch of a line of each), the pinnable points
+    ((node, handle)), the markers."""
+    pts = scene.seen_points()
+    keys = list(pts)
+    seen, _ = scene.visible(cam, np.array([pts[k] for k in keys]))
+    walls = set()
+    n = len(scene.corners)
+    for e, stretch in scene.edge_stretches(cam).items():
+        if stretch is not None:
+            i = int(re.sub(r"\D", "", e))
+            walls.add(i)
+            if e.startswith("corner"):
+                walls.add((i - 1) % n)
+    mk = list(markers)
+    mseen, _ = scene.visible(cam, np.array([markers[m] for m in mk]))
+    return {"walls": walls, "points": {k for k, s in zip(keys, seen, strict=True) if s},
+            "markers": {m for m, s in zip(mk, mseen, strict=True) if s}}
+
+
+#: What the photos must show together, for the model to be determined from them: each wall's line
+#: in two photos, each box by two corners in two photos (a box with its back flush against a wall
+#: keeps four unknowns, a leaf on its hinge four with its depth entered: two corners of the front's
+#: top, in two photos, give them), the doorway's top corners and the window's corners in two, every
+#: photo MIN_SHARED_MARKERS markers that another photo shows too (to be placed with the others), the
+#: origin in one (it is exact: the world's origin).
+MIN_PHOTOS_PER_THING = 2
+MIN_BOX_CORNERS = 2
+MIN_MARKERS_PER_PHOTO = 4
+MIN_SHARED_MARKERS = 3
+
+
+def _needs(scene: RoomScene, covs: list[dict[str, set]]) -> int:
+    """How far a set of photos falls short of MIN_PHOTOS_PER_THING (0: enough)."""
+    return sum(shortfall(scene, covs).values())
+
+
+def shortfall(scene: RoomScene, covs: list[dict[str, set]]) -> dict[str, int]:
+    """What a set of photos (their _coverage) shows too seldom: thing → photos missing."""
+    short = {}
+    for i in range(len(scene.corners)):
+        short[f"wall{i}"] = max(0, MIN_PHOTOS_PER_THING - sum(i in c["walls"] for c in covs))
+    for b in scene.boxes():
+        k = sum(sum((b.name, f"v{j}") in c["points"] for j in range(8)) >= MIN_BOX_CORNERS for c in covs)
+        short[b.name] = max(0, MIN_PHOTOS_PER_THING - k)
+    for h in ("door_st", "door_et", "win_st", "win_et", "win_sb", "win_eb"):
+        short[h] = max(0, MIN_PHOTOS_PER_THING - sum(("room", h) in c["points"] for c in covs))
+    short["O"] = max(0, 1 - sum("O" in c["markers"] for c in covs))
+    for k, c in enumerate(covs):
+        others = set().union(*(o["markers"] for j, o in enumerate(covs) if j != k))
+        short[f"photo{k}"] = max(0, MIN_SHARED_MARKERS - len(c["markers"] & (others | {"O"})))
+    return {k: v for k, v in short.items() if v}
+
+
+#: Greedy choices of photos tried, each from another first photo, before giving up on a scene.
+CHOICE_RESTARTS = 40
+
+
+def _greedy(rng: np.random.Generator, scene: RoomScene, covs: list[dict[str, set]], n_photos: tuple[int, int],
+            first: int) -> list[int]:
+    """Photos chosen one by one from ``first``, each the one that leaves the least short."""
+    chosen = [first]
+    while len(chosen) < n_photos[1]:
+        now = _needs(scene, [covs[i] for i in chosen])
+        if now == 0 and len(chosen) >= n_photos[0]:
+            break
+        gains = [(now - _needs(scene, [covs[i] for i in chosen] + [c]), len(c["points"]), rng.random(), i)
+                 for i, c in enumerate(covs) if i not in chosen]
+        if not gains:
+            break
+        chosen.append(max(gains)[3])
+    return chosen
+
+
+def _choose(rng: np.random.Generator, scene: RoomScene, covs: list[dict[str, set]],
+            n_photos: tuple[int, int]) -> list[int] | None:
+    """A set of 4–6 photos that leaves nothing short (None where CHOICE_RESTARTS greedy tries fail)."""
+    for first in rng.permutation(len(covs))[:CHOICE_RESTARTS]:
+        chosen = _greedy(rng, scene, covs, n_photos, int(first))
+        if len(chosen) >= n_photos[0] and _needs(scene, [covs[i] for i in chosen]) == 0:
+            return chosen
+    return None
+
+
+def photograph(rng: np.random.Generator, scene: RoomScene, n_photos: tuple[int, int] = (4, 6),
+               width: int = 1600, height: int = 1200, n_candidates: int = 100) -> None:
+    """Choose 4–6 photos (greedily, from random candidates that see no floor corner) that together
+    show what the model needs (_needs), then mark their vanishing segments; sets ``scene.photos``
+    and ``scene.markers`` (the markers seen in two photos or more). RuntimeError where no such set
+    is found."""
+    markers = _markers(rng, scene)
+    cands: list[tuple[SyntheticPhoto, dict[str, set]]] = []
+    for k in range(40 * n_candidates):
+        if len(cands) >= n_candidates:
+            break
+        cam = _candidate(rng, scene, f"c{k}", width, height)
+        if cam is None:
+            continue
+        cov = _coverage(scene, cam, markers)
+        if len(cov["markers"]) >= MIN_MARKERS_PER_PHOTO:
+            cands.append((cam, cov))
+    covs = [c for _, c in cands]
+    chosen = _choose(rng, scene, covs, n_photos)
+    if chosen is None:
+        best = min((_greedy(rng, scene, covs, n_photos, int(rng.integers(len(covs)))) for _ in range(5)),
+                   key=lambda ch: _needs(scene, [covs[i] for i in ch]))
+        raise RuntimeError("no set of photos shows every wall, box and opening twice without a floor corner: "
+                           f"short of {shortfall(scene, [covs[i] for i in best])}")
+    scene.photos = []
+    for j, i in enumerate(chosen):
+        cam = cands[i][0]
+        cam.id = f"p{j + 1}"
+        add_segments(cam, rng, CLICK_NOISE_PX, middle_points=3 if cam.k1 != 0.0 else 0)
+        _, uv = scene.visible(cam, np.array(list(markers.values())))
+        seen = cands[i][1]["markers"]
+        cam.markers = {m: p + rng.normal(0.0, CLICK_NOISE_PX, 2) for m, p in zip(markers, uv, strict=True) if m in seen}
+        scene.photos.append(cam)
+    # A user marks a marker where it helps: in two photos or more (the origin, exact, in one).
+    counts = {m: sum(m in p.markers for p in scene.photos) + (m == "O") for m in markers}
+    for p in scene.photos:
+        p.markers = {m: uv for m, uv in p.markers.items() if counts[m] >= 2}
+    scene.markers = {m: X for m, X in markers.items() if counts[m] >= 2}
