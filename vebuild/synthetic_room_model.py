@@ -92,7 +92,28 @@ def _off(rng: np.random.Generator, v: float, rel: tuple[float, float]) -> float:
     return float(v * (1.0 + rng.choice([-1.0, 1.0]) * rng.uniform(*rel)))
 
 
+#: First guesses drawn until one is a valid room (its openings inside its walls, under its height):
+#: a user's first model is one vebuild accepts.
+GUESS_ATTEMPTS = 200
+
+
 def guessed_nodes(rng: np.random.Generator, scene: RoomScene, guess_rel: tuple[float, float]) -> list[dict[str, Any]]:
+    """:func:`guessed_node_draw` until the room it guesses is valid (GUESS_ATTEMPTS)."""
+    from .model.joints import ModelError
+    from .model.scene import model_from_dict
+
+    for _ in range(GUESS_ATTEMPTS):
+        nodes = guessed_node_draw(rng, scene, guess_rel)
+        try:
+            model_from_dict(nodes, {"O": np.zeros(3)}, relations(scene))
+        except (ModelError, ValueError):
+            continue
+        return nodes
+    raise RuntimeError(f"no valid first guess in {GUESS_ATTEMPTS} draws")
+
+
+def guessed_node_draw(rng: np.random.Generator, scene: RoomScene, guess_rel: tuple[float, float]
+                      ) -> list[dict[str, Any]]:
     """A user's first model: every size and position guess_rel off (relative, either sign), turns
     GUESS_YAW_DEG off, the hinge's axis at the jamb's corner ([0, 0, 0]); the doorway's sill held at
     0 (a doorway has none), the walls' and the leaf's thicknesses entered from a tape (their faces'

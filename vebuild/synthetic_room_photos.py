@@ -112,7 +112,7 @@ def _coverage(scene: RoomScene, cam: SyntheticPhoto, markers: dict[str, Array]) 
 #: keeps four unknowns, a leaf on its hinge four with its depth entered: two corners of the front's
 #: top, in two photos, give them), the doorway's top corners and the window's corners in two, every
 #: photo MIN_SHARED_MARKERS markers that another photo shows too (to be placed with the others), the
-#: origin in one (it is exact: the world's origin).
+#: origin in two (the calibration places photos together from markers two of them show).
 MIN_PHOTOS_PER_THING = 2
 MIN_BOX_CORNERS = 2
 MIN_MARKERS_PER_PHOTO = 4
@@ -134,10 +134,11 @@ def shortfall(scene: RoomScene, covs: list[dict[str, set]]) -> dict[str, int]:
         short[b.name] = max(0, MIN_PHOTOS_PER_THING - k)
     for h in ("door_st", "door_et", "win_st", "win_et", "win_sb", "win_eb"):
         short[h] = max(0, MIN_PHOTOS_PER_THING - sum(("room", h) in c["points"] for c in covs))
-    short["O"] = max(0, 1 - sum("O" in c["markers"] for c in covs))
+    short["O"] = max(0, MIN_PHOTOS_PER_THING - sum("O" in c["markers"] for c in covs))
     for k, c in enumerate(covs):
         others = set().union(*(o["markers"] for j, o in enumerate(covs) if j != k))
         short[f"photo{k}"] = max(0, MIN_SHARED_MARKERS - len(c["markers"] & (others | {"O"})))
+    short["placement"] = _unlinked(covs)
     return {k: v for k, v in short.items() if v}
 
 
@@ -169,6 +170,20 @@ def _choose(rng: np.random.Generator, scene: RoomScene, covs: list[dict[str, set
         if len(chosen) >= n_photos[0] and _needs(scene, [covs[i] for i in chosen]) == 0:
             return chosen
     return None
+
+
+def _unlinked(covs: list[dict[str, set]]) -> int:
+    """How many photos the calibration could not place with the others: photos are placed together
+    where one shares two markers with another already placed (vebuild calibrate), so the photos
+    linked by two shared markers must form one group; the count outside the largest."""
+    if not covs:
+        return 0
+    groups: list[set[int]] = []
+    for k in range(len(covs)):
+        linked = [g for g in groups if any(len(covs[k]["markers"] & covs[j]["markers"]) >= 2 for j in g)]
+        merged = {k}.union(*linked)
+        groups = [g for g in groups if g not in linked] + [merged]
+    return len(covs) - max(len(g) for g in groups)
 
 
 def photograph(rng: np.random.Generator, scene: RoomScene, n_photos: tuple[int, int] = (4, 6),
@@ -204,8 +219,8 @@ def photograph(rng: np.random.Generator, scene: RoomScene, n_photos: tuple[int, 
         seen = cands[i][1]["markers"]
         cam.markers = {m: p + rng.normal(0.0, CLICK_NOISE_PX, 2) for m, p in zip(markers, uv, strict=True) if m in seen}
         scene.photos.append(cam)
-    # A user marks a marker where it helps: in two photos or more (the origin, exact, in one).
-    counts = {m: sum(m in p.markers for p in scene.photos) + (m == "O") for m in markers}
+    # A user marks a marker where it helps: in two photos or more.
+    counts = {m: sum(m in p.markers for p in scene.photos) for m in markers}
     for p in scene.photos:
         p.markers = {m: uv for m, uv in p.markers.items() if counts[m] >= 2}
     scene.markers = {m: X for m, X in markers.items() if counts[m] >= 2}
