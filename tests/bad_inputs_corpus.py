@@ -278,6 +278,8 @@ case("reversed-hinge-limits", setter(DOOR + ("joint", "limits_deg"), [150.0, 0.0
      V + ["solve", "render-view"], [P, *nd(9, "limits_deg")])
 case("hinge-angle-outside-limits", setter(DOOR + ("joint", "angle_deg"), 400.0),
      V + ["solve", "render-view"], [P, *nd(9, "angle_deg")])
+case("hinge-solve-axis-not-a-boolean", setter(DOOR + ("joint", "solve_axis"), "yes"),
+     V + ["solve"], [P, *nd(9, "solve_axis")])
 case("slider-zero-axis", setter(DOOR + ("joint",), {"type": "slider", "axis": [0, 0, 0],
                                                     "translation": [1.25, -1.98, 0], "rotation_deg": [0, 0, 0],
                                                     "offset": 0.0, "limits": [0.0, 1.0]}),

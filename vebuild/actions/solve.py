@@ -33,6 +33,7 @@ from ..camera import ImageCamera
 from ..constants import Z95
 from ..errors import CalibrationError, ProjectError, VebuildError
 from ..model.constraints import conflict_message, conflicts, relation_records
+from ..model.determination import axis_records, too_few_observations
 from ..model.residuals import MarkerObservation
 from ..model.scene import Model
 from ..model.solution import handle_covariances
@@ -103,8 +104,9 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
     if solution.undetermined:
         raise VebuildError(
             f"{project.path}: $.model: too few observations: the pins and edges do not determine "
-            f"{', '.join(solution.undetermined[:12])}{' …' if len(solution.undetermined) > 12 else ''}; "
-            "pin more vertices of those nodes in a second photo, or mark them solve: false")
+            f"{', '.join(solution.undetermined[:12])}{' …' if len(solution.undetermined) > 12 else ''}. "
+            f"What would: {too_few_observations(problem, solution)} (FORMAT.md \"entered value\"; pins in a "
+            "photo, or a second one); or mark those nodes solve: false")
     _check_visible(project, problem, xm, solution.cameras)
     model.set_vector(xm)
     data["model"]["nodes"] = model.to_dict()
@@ -302,6 +304,15 @@ def _results(problem: Problem, solution: Any, model: Model, xm: np.ndarray, reca
     handles = handle_covariances(problem, solution.x, solution.covariance)
     by_name = {n: j for j, n in enumerate(problem.names)}
     by_name.update({m: by_name[rep] for m, rep in problem.alias.items() if rep in by_name})  # equal: shared
+    axes = axis_records(problem, solution)
+    prior_only = set(solution.prior_only)
+
+    def determined_by(full: str) -> dict[str, str]:
+        """Where a solved parameter's value comes from (FORMAT.md ``determined_by``)."""
+        if full not in by_name:
+            return {}
+        return {"determined_by": "entered value" if full in prior_only else "observations"}
+
     nodes = {}
     for n in model.nodes:
         sq, sp = model.slices[n.name]
@@ -311,15 +322,19 @@ def _results(problem: Problem, solution: Any, model: Model, xm: np.ndarray, reca
             value, s = xm[sq][k], (sig[j] if j is not None else 0.0)
             if n.joint.dof_kinds[k] == "angle":
                 value, s, dof = np.degrees(value), np.degrees(s), dof + "_deg"
-            entry["dofs"][dof] = {**_vs(value, s), **n.entered_record(n.joint.dof_names[k])}  # entered: FORMAT.md
+            entry["dofs"][dof] = {**_vs(value, s), **n.entered_record(n.joint.dof_names[k]),  # entered: FORMAT.md
+                                  **determined_by(f"{n.name}.{n.joint.dof_names[k]}")}
         if n.primitive is not None:
             for k, pname in enumerate(n.primitive.PARAMS):
                 j = by_name.get(f"{n.name}.{pname}")
                 entry["params"][pname] = {**_vs(xm[sp][k], sig[j] if j is not None else 0.0),
-                                          **n.entered_record(pname)}  # entered values: FORMAT.md
+                                          **n.entered_record(pname),  # entered values: FORMAT.md
+                                          **determined_by(f"{n.name}.{pname}")}
             for h in n.primitive.handle_names():
                 pos, cov = handles[f"{n.name}:{h}"]
                 entry["handles"][h] = _vs(pos, np.sqrt(np.maximum(np.diag(cov), 0.0)))
+        if n.name in axes:
+            entry["axis"] = axes[n.name]  # a solved hinge's or slider's axis: FORMAT.md
         nodes[n.name] = entry
     pins = [{"photo": p.photo, "node": p.node, "handle": p.handle, "residual_px": [float(a) for a in d]}
             for p, d in zip(problem.pins, solution.residuals_px["pins"], strict=True)]

@@ -20,8 +20,11 @@ def _pm(vs: dict[str, Any], fmt: str, scale: float = 1.0) -> str:
 def _figure(vs: dict[str, Any], fmt: str, unit: str = "") -> str:
     """A solved value ± 1σ (with ``unit``); an entered one (FORMAT.md ``hold``) says so: held
     exactly it reads 'entered' (never '± 0'), entered with a 1σ it shows that 1σ beside the
-    solved one; another held value reads 'held'."""
+    solved one; another held value reads 'held'. A value that only entered values determine (no
+    photo shows it: FORMAT.md ``determined_by``) says so."""
     u = f" {unit}" if unit else ""
+    if vs.get("determined_by") == "entered value":
+        return _figure({k: v for k, v in vs.items() if k != "determined_by"}, fmt, unit) + " [entered value only]"
     if vs.get("entered"):
         s = vs.get("entered_sigma") or 0.0
         if s == 0:

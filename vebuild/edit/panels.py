@@ -403,7 +403,7 @@ class Panels:
         if changed and types[idx] != jtype:
             self.ed.guard(s.set_joint, name, self._default_joint(model, name, types[idx], joint))
         for key, value in joint.items():
-            if key in ("type", "limits", "limits_deg") or isinstance(value, str):
+            if key in ("type", "limits", "limits_deg", "solve_axis") or isinstance(value, str | bool):
                 if isinstance(value, str) and key != "type":
                     imgui.text(f"{key}: {value}")
                 continue
@@ -437,6 +437,11 @@ class Panels:
             if imgui.is_item_deactivated_after_edit():
                 vec = self._param_edits.pop(label, list(vec))
                 self.ed.guard(s.set_limits, name, float(vec[0]), float(vec[1]))
+            # Whether the photos solve the axis too (a door seen open, a drawer pulled out: FORMAT.md).
+            changed, on = imgui.checkbox("solve axis (from the photos)##solve_axis", bool(joint.get("solve_axis")))
+            self.ed.rect("solve axis")
+            if changed:
+                self.ed.guard(s.set_joint, name, {**joint, "solve_axis": bool(on)})
         solve = doc.get("solve", True)
         changed, on = imgui.checkbox("solve (untick: hold as it is)", bool(solve))
         self.ed.rect("solve")

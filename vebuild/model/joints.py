@@ -229,8 +229,43 @@ def _axis_rotation(axis: Array, angle: float) -> Array:
     return rotation4(exp_so3(axis / np.linalg.norm(axis) * angle))
 
 
+#: Beyond this |axis·x̂| the axis is too near x for x̂'s perpendicular part to give a steady unit
+#: vector u: ŷ's is taken instead (FORMAT.md, ``solve_axis``).
+AXIS_NEAR_X = 0.9
+
+
+def axis_basis(axis: Array) -> tuple[Array, Array, Array]:
+    """(â, u, v): the unit axis and two unit vectors perpendicular to it, u the normalised part of
+    x̂ perpendicular to the axis (of ŷ where |â·x̂| > AXIS_NEAR_X), v = â × u. A solved axis is
+    moved along u and v: the two directions in which an axis can be wrong."""
+    a = np.asarray(axis, float) / np.linalg.norm(axis)
+    e = np.array([1.0, 0.0, 0.0]) if abs(a[0]) <= AXIS_NEAR_X else np.array([0.0, 1.0, 0.0])
+    u = e - (e @ a) * a
+    u /= np.linalg.norm(u)
+    return a, u, np.cross(a, u)
+
+
+def _solve_axis_flag(d: Mapping[str, Any], where: str, path: str | None) -> bool:
+    value = d.get("solve_axis", False)
+    if not isinstance(value, bool):
+        raise error_at(where, None if path is None else f"{path}.solve_axis",
+                       f"solve_axis must be true or false (whether the photos solve the {d.get('type')} joint's "
+                       f"axis), got {value!r}")
+    return value
+
+
 @dataclass
 class HingeJoint(Joint):
+    """A turn by ``angle`` about the line through ``axis_point`` along ``axis`` (the parent's
+    frame), from the pose at angle 0 (``base``: the door shut).
+
+    With ``solve_axis`` the axis point is solved too, by its coordinates ``axis_u``, ``axis_v``
+    along the two directions perpendicular to the axis (:func:`axis_basis`; its position along
+    the axis changes nothing). The pose at angle 0 stays fixed, so the photos find the axis from
+    the door seen turned: the turn that carries the shut door to where the photos see it has one
+    axis. The solved values are written back into ``axis_point``.
+    """
+
     axis_point: Array = field(default_factory=lambda: np.zeros(3))
     axis: Array = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
     angle: float = 0.0
@@ -238,21 +273,44 @@ class HingeJoint(Joint):
     #: (opening, side) of the parent room's jamb the hinge hangs on: axis_point, axis and the pose
     #: at angle 0 are then in that jamb's frame (Room.jamb_frame), which follows the solved room.
     jamb: tuple[str, str] | None = None
+    solve_axis: bool = False
     dof_names: tuple[str, ...] = ("angle",)
     dof_kinds: tuple[str, ...] = ("angle",)
 
+    def __post_init__(self) -> None:
+        if self.solve_axis:
+            self.dof_names, self.dof_kinds = ("angle", "axis_u", "axis_v"), ("angle", "position", "position")
+
     def values(self):
-        return np.array([self.angle])
+        if not self.solve_axis:
+            return np.array([self.angle])
+        _, u, v = axis_basis(self.axis)
+        return np.array([self.angle, self.axis_point @ u, self.axis_point @ v])
+
+    def point(self, q: Array) -> Array:
+        """The axis point for degrees of freedom q (its part along the axis kept as it is)."""
+        if not self.solve_axis:
+            return np.asarray(self.axis_point, float)
+        a, u, v = axis_basis(self.axis)
+        return (self.axis_point @ a) * a + q[1] * u + q[2] * v
 
     def set_values(self, q):
+        if self.solve_axis:
+            self.axis_point = self.point(q)
         self.angle = float(q[0])
 
     def bounds(self):
-        return np.array([self.limits[0]]), np.array([self.limits[1]])
+        n = len(self.dof_names) - 1
+        return np.r_[self.limits[0], np.full(n, -np.inf)], np.r_[self.limits[1], np.full(n, np.inf)]
+
+    def turned(self, q: Array) -> Array:
+        """axis_frame_from_node: the turn about the axis from the shut pose, in the frame the axis
+        is given in (the parent's)."""
+        p = self.point(q)
+        return translation(p) @ _axis_rotation(self.axis, q[0]) @ translation(-p) @ self.base
 
     def transform(self, q, parent, parent_params, node, node_params):
-        turn = _axis_rotation(self.axis, q[0])
-        T = translation(self.axis_point) @ turn @ translation(-self.axis_point) @ self.base
+        T = self.turned(q)
         if self.jamb is None:
             return T
         from .room_joints import jamb_frame_of
@@ -265,33 +323,64 @@ class HingeJoint(Joint):
              "angle_deg": float(np.degrees(self.angle)), "limits_deg": [float(np.degrees(v)) for v in self.limits]}
         if self.jamb is not None:
             d["jamb"] = {"opening": self.jamb[0], "side": self.jamb[1]}
+        if self.solve_axis:
+            d["solve_axis"] = True
         return d
 
 
 @dataclass
 class SliderJoint(Joint):
+    """A slide by ``offset`` along ``axis`` (the parent's frame) from the pose at offset 0 (``base``).
+
+    With ``solve_axis`` the axis's direction is solved too: two small turns ``axis_a``, ``axis_b``
+    (radians) about the directions u, v perpendicular to it (:func:`axis_basis`), folded into
+    ``axis`` after each solve (as the free joint folds its rotation), so that the file keeps only
+    the axis and a solve always starts from zero turns, far from any singularity.
+    """
+
     axis: Array = field(default_factory=lambda: np.array([1.0, 0.0, 0.0]))
     offset: float = 0.0
     limits: tuple[float, float] = (-np.inf, np.inf)
+    solve_axis: bool = False
     dof_names: tuple[str, ...] = ("offset",)
     dof_kinds: tuple[str, ...] = ("position",)
 
+    def __post_init__(self) -> None:
+        if self.solve_axis:
+            self.dof_names, self.dof_kinds = ("offset", "axis_a", "axis_b"), ("position", "angle", "angle")
+
     def values(self):
-        return np.array([self.offset])
+        return np.r_[self.offset, np.zeros(len(self.dof_names) - 1)]
+
+    def direction(self, q: Array) -> Array:
+        """The unit axis for degrees of freedom q: the axis turned by q[1] about u, q[2] about v."""
+        a, u, v = axis_basis(self.axis)
+        if not self.solve_axis:
+            return a
+        return exp_so3(q[1] * u + q[2] * v) @ a
 
     def set_values(self, q):
+        if self.solve_axis:
+            self.axis = self.direction(q)
         self.offset = float(q[0])
 
     def bounds(self):
-        return np.array([self.limits[0]]), np.array([self.limits[1]])
+        n = len(self.dof_names) - 1
+        return np.r_[self.limits[0], np.full(n, -np.inf)], np.r_[self.limits[1], np.full(n, np.inf)]
+
+    def slid(self, q: Array) -> Array:
+        """axis_frame_from_node: the slide along the axis, in the frame the axis is given in."""
+        return translation(self.direction(q) * q[0]) @ self.base
 
     def transform(self, q, parent, parent_params, node, node_params):
-        return translation(self.axis / np.linalg.norm(self.axis) * q[0]) @ self.base
+        return self.slid(q)
 
     def to_dict(self):
         d = {"type": "slider", "axis": [float(v) for v in self.axis], **pose_to_dict(self.base), "offset": self.offset}
         if all(np.isfinite(self.limits)):  # no limits: none written (JSON has no infinity)
             d["limits"] = [float(v) for v in self.limits]
+        if self.solve_axis:
+            d["solve_axis"] = True
         return d
 
 
@@ -377,14 +466,16 @@ def joint_from_dict(d: Mapping[str, Any], where: str, markers: Mapping[str, Arra
 
             jamb = jamb_of(d["jamb"], where, at("jamb"))
         return HingeJoint(type="hinge", base=base, axis_point=np.asarray(d.get("axis_point", [0, 0, 0]), float),
-                          axis=axis, angle=angle, limits=(float(lo), float(hi)), jamb=jamb)
+                          axis=axis, angle=angle, limits=(float(lo), float(hi)), jamb=jamb,
+                          solve_axis=_solve_axis_flag(d, where, path))
     if kind == "slider":
         axis = axis_of([1, 0, 0])
         lo, hi = limits_of("limits", [-np.inf, np.inf], " m")
         off = float(d.get("offset", 0.0))
         if not lo <= off <= hi:
             raise error_at(where, at("offset"), f"slider offset {off} lies outside its limits [{lo}, {hi}]")
-        return SliderJoint(type="slider", base=base, axis=axis, offset=off, limits=(float(lo), float(hi)))
+        return SliderJoint(type="slider", base=base, axis=axis, offset=off, limits=(float(lo), float(hi)),
+                           solve_axis=_solve_axis_flag(d, where, path))
     if kind == "marker":
         name = d.get("marker", "")
         if markers is None or name not in markers:

@@ -23,9 +23,22 @@ if TYPE_CHECKING:
 
 Array = NDArray[np.float64]
 
-#: A parameter whose 1σ from the observations alone exceeds this (metres or radians) is reported
-#: as undetermined rather than given a value.
-UNDETERMINED_SIGMA = 1.0
+#: A position or size whose 1σ from the observations alone exceeds this share of the scene's extent
+#: (the diagonal of the box around every handle of the model) is undetermined, not measured: its
+#: 95 % interval would span a tenth of the scene and more. Relative, so that the rule holds for a
+#: cupboard as for a hall and for a project in relative units. A wall whose far end one photo sees
+#: at a grazing angle, solving to 6.1 ± 0.85 m in a 6.6 m scene (13 %), is undetermined; the
+#: example room's least determined length (± 1.0 cm) is 0.14 % of its 7.2 m extent
+#: (tests/test_determination.py).
+UNDETERMINED_SHARE_OF_SCENE = 0.05
+#: A size whose 1σ exceeds this share of its value is undetermined whatever the scene's size: its
+#: 95 % interval reaches zero (the photos do not show that it has a size at all).
+UNDETERMINED_SHARE_OF_VALUE = 0.5
+#: An angle whose 1σ exceeds this (radians, 11.5°) is undetermined: its 95 % interval spans ±22°,
+#: a turn no one would call measured. Angles have no scale to be relative to.
+UNDETERMINED_ANGLE_RAD = 0.2
+#: The extent taken for a model with fewer than two distinct handles (metres).
+LEAST_SCENE_EXTENT = 1e-3
 
 
 @dataclass
@@ -45,6 +58,15 @@ class Solution:
     iterations: int = 0
     #: photo id → 1σ of its lens distortion k1, for the photos whose k1 the solve refined.
     k1_sigma: dict[str, float] = field(default_factory=dict)
+    #: The model parameters that only an entered value (a ``hold`` with σ > 0) determines: without
+    #: the entered values they would be undetermined (FORMAT.md ``determined_by``).
+    prior_only: list[str] = field(default_factory=list)
+    #: The covariance of the model parameters from the observations alone (the pins, edges,
+    #: markers, distances and camera priors, without entered values or the pull toward the start),
+    #: slightly regularised so that it is finite: its columns give the directions no photo fixes.
+    covariance_observed: Array | None = None
+    #: The diagonal of the box around every handle of the solved model (metres).
+    scene_extent: float = 1.0
 
 
 @deterministic
@@ -63,18 +85,24 @@ def solution_at(problem: Problem, x: Array, iterations: int = 0) -> Solution:
     s2 = variance_factor(r[soft], layout.n - constraint_rank(J[hard]))
     cov = _inverse(J.T @ J) * s2
     # What the observations alone determine: without the pull toward the starting values
-    # (the cameras' calibration priors, and the entered values' measurements, are observations too).
-    data_rows = np.r_[np.arange(problem.n_data + len(problem.distances)), problem.rows_entered,
-                      *[problem.rows_prior_cam[c] for c in problem.rows_prior_cam], hard].astype(int)
-    Jd = J[data_rows]
-    A = Jd.T @ Jd
-    A = cast(Any, A).toarray() if sparse.issparse(A) else np.asarray(A)
-    Js = J[data_rows[: len(data_rows) - len(hard)]]  # the ridge's scale: the observations' (not the stiff rows')
-    As = Js.T @ Js
-    ridge = 1e-12 * max(float(np.max(cast(Any, As).diagonal())), 1e-30)
-    cov_data = _inverse(A + ridge * np.eye(layout.n))
-    undetermined = [layout.model.names[j] for j in range(len(layout.model))
-                    if not np.isfinite(cov_data[j, j]) or np.sqrt(max(cov_data[j, j], 0)) > UNDETERMINED_SIGMA]
+    # (the cameras' calibration priors are observations too, and the relations' hard rows hold);
+    # then again with the entered values' measurements, to tell a parameter only an entered value
+    # determines.
+    observed = np.r_[np.arange(problem.n_data + len(problem.distances)),
+                     *[problem.rows_prior_cam[c] for c in problem.rows_prior_cam]].astype(int)
+    cov_obs = _data_covariance(J, observed, hard, layout.n)
+    cov_data = _data_covariance(J, np.r_[observed, problem.rows_entered].astype(int), hard, layout.n) \
+        if len(problem.rows_entered) else cov_obs
+    extent = scene_extent(problem, x)
+    names, kinds = layout.model.names, layout.model.kinds
+    xmodel = x[layout.model.slice]
+
+    def undetermined_in(c: Array) -> list[str]:
+        return [names[j] for j in range(len(layout.model))
+                if not determined(float(c[j, j]), float(xmodel[j]), kinds[j], extent)]
+
+    undetermined = undetermined_in(cov_data)
+    prior_only = [nm for nm in undetermined_in(cov_obs) if nm not in undetermined] if len(problem.rows_entered) else []
     sigma = problem.sigma
     res: dict[str, list[Array]] = {"pins": [], "edges": [], "markers": []}
     outliers = []
@@ -109,8 +137,49 @@ def solution_at(problem: Problem, x: Array, iterations: int = 0) -> Solution:
                                 k1=k1[cid])
     markers = problem.marker_positions(x)
     mcov = {k: cov[blk.slice, blk.slice] for k, blk in layout.markers.items()}
+    n_model = len(layout.model)
     return Solution(x, list(layout.model.names), cov, cams, {k: np.asarray(v).copy() for k, v in markers.items()},
-                    mcov, res, outliers, undetermined, s2, iterations, k1_sigma)
+                    mcov, res, outliers, undetermined, s2, iterations, k1_sigma, prior_only,
+                    cov_obs[:n_model, :n_model], extent)
+
+
+def determined(variance: float, value: float, kind: str, extent: float) -> bool:
+    """Whether a parameter with this variance from the observations (its value, its kind in
+    DOF_KINDS, the scene's extent in metres) is measured rather than undetermined: the rule of
+    UNDETERMINED_SHARE_OF_SCENE, UNDETERMINED_SHARE_OF_VALUE and UNDETERMINED_ANGLE_RAD."""
+    if not np.isfinite(variance):
+        return False
+    s = float(np.sqrt(max(variance, 0.0)))
+    if kind == "angle":
+        return s <= UNDETERMINED_ANGLE_RAD
+    if s > UNDETERMINED_SHARE_OF_SCENE * extent:
+        return False
+    return kind != "size" or s <= UNDETERMINED_SHARE_OF_VALUE * abs(value)
+
+
+def scene_extent(problem: Problem, x: Array) -> float:
+    """The diagonal (metres) of the axis-aligned box around every handle of the model at x."""
+    xm = problem.model_vector(x)
+    H = problem.handle_positions(xm, problem.model.world_transforms(xm))
+    if len(H) < 2:
+        return LEAST_SCENE_EXTENT
+    return max(float(np.linalg.norm(np.ptp(H, axis=0))), LEAST_SCENE_EXTENT)
+
+
+def _data_covariance(J: Array | sparse.spmatrix, rows: Array, hard: Array, n: int) -> Array:
+    """(J_rowsᵀ J_rows + J_hardᵀ J_hard + a tiny ridge)⁻¹: the covariance the rows alone give (unit
+    weights) with the relations' hard rows holding. The ridge's scale is the rows' own, not the
+    stiff hard rows'."""
+    Js = J[rows]
+    As = Js.T @ Js
+    As = cast(Any, As).toarray() if sparse.issparse(As) else np.asarray(As)
+    ridge = 1e-12 * max(float(np.max(np.diag(As))) if As.size else 0.0, 1e-30)
+    A = As
+    if len(hard):
+        Jh = J[hard]
+        Ah = Jh.T @ Jh
+        A = As + (cast(Any, Ah).toarray() if sparse.issparse(Ah) else np.asarray(Ah))
+    return _inverse(A + ridge * np.eye(n))
 
 
 def _inverse(A: Array | sparse.spmatrix) -> Array:
@@ -124,12 +193,9 @@ def _inverse(A: Array | sparse.spmatrix) -> Array:
         return cov
 
 
-@deterministic
-def handle_covariances(problem: Problem, x: Array, cov: Array) -> dict[str, tuple[Array, Array]]:
-    """World position and 3×3 covariance of every handle, propagated from the parameters'.
-
-    Returns 'node:handle' → (position (3,), covariance (3, 3)).
-    """
+def handle_gradients(problem: Problem, x: Array) -> tuple[Array, Array]:
+    """World positions of every handle at x, stacked (n_handles, 3), and their derivatives with
+    respect to every unknown, (n_handles, 3, n) (zero for the cameras')."""
     xm = problem.model_vector(x)
     T = problem.model.world_transforms(xm)
     H = problem.handle_positions(xm, T)
@@ -144,6 +210,16 @@ def handle_covariances(problem: Problem, x: Array, cov: Array) -> dict[str, tupl
         xmp = problem.model_vector(xp)
         Hp = problem.handle_positions(xmp, problem.model.world_transforms(xmp, only=nodes, cache=T), nodes, H.copy())
         G[hrows, :, j] = (Hp[hrows] - H[hrows]) / h
+    return H, G
+
+
+@deterministic
+def handle_covariances(problem: Problem, x: Array, cov: Array) -> dict[str, tuple[Array, Array]]:
+    """World position and 3×3 covariance of every handle, propagated from the parameters'.
+
+    Returns 'node:handle' → (position (3,), covariance (3, 3)).
+    """
+    H, G = handle_gradients(problem, x)
     out = {}
     for name in problem.prim_nodes:
         o = problem.h_offset[name]

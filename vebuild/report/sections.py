@@ -50,7 +50,13 @@ def model(project: Project, rep: Report) -> None:
         for group in ("params", "dofs"):
             for name, v in (rec.get(group) or {}).items():
                 e = entered.get((node, name))
-                if e is not None:
+                if v.get("determined_by") == "entered value":
+                    # No photo shows it: its value and σ are the entered values' (FORMAT.md determined_by).
+                    ci = v.get("ci95") or [None, None]
+                    rows.append([node, name, fmt(v["value"]), Cell("entered value only (no photo shows it)",
+                                                                   "entered"),
+                                 fmt(v["sigma"]), f"{fmt(ci[0])} – {fmt(ci[1])}"])
+                elif e is not None:
                     # An entered value is no measurement: its σ is the one entered (none: taken as exact).
                     sigma = f"{fmt(e.sigma)} (entered)" if e.sigma > 0 else "none (taken as exact)"
                     rows.append([node, name, fmt(v["value"]), Cell("entered", "entered"), sigma, "—"])
@@ -68,7 +74,8 @@ def model(project: Project, rep: Report) -> None:
             + (f"Lengths in {RELATIVE_UNITS} (no scale was given), " if unit.relative else "Lengths in metres, ")
             + "angles in degrees; 1σ and 95 % interval from the solve's covariance. A value marked 'entered' was "
             "entered (a tape, a plan, an assumption), not measured in the photos: its σ is the entered one; "
-            "one 'held by its joint' is no measurement either.</p>"
+            "one 'held by its joint' is no measurement either; one 'entered value only' is solved, but only "
+            "entered values determine it (no photo shows it).</p>"
             + table(["node", "parameter", "value", "from", "1σ", "95 % interval"], rows, {2, 4, 5}, wide=True))
     outliers = sol.get("outliers") or []
     body += f"<p>Observations flagged as outliers (> 4σ): {len(outliers)}.</p>"
