@@ -3,7 +3,7 @@ first guess as FORMAT.md nodes and relations, and the user's marks on the model 
 each photo shows, edge observations on the stretches of the room's edges whose ends it does not).
 
 The nodes: the room (a rectilinear six-corner room with its doorway and window) tied to the origin
-marker by the doorway's start jamb's foot; the door leaf on a hinge at its jamb, its axis solved
+marker by the foot of the doorway's jamb away from the hinge; the door leaf on a hinge at its jamb, its axis solved
 (``solve_axis``); the cabinet and the row's units resting on the room's floor, each with a ``flush``
 relation putting its back against its wall, and ``equal`` relations making the units one size.
 """
@@ -65,7 +65,8 @@ def true_nodes(scene: RoomScene) -> list[dict[str, Any]]:
                                        "ceiling": False, "params": room_params(scene),
                                        "openings": [{"name": o.name, "wall": o.wall, "kind": o.kind}
                                                     for o in scene.openings]},
-         "joint": {"type": "marker", "marker": "O", "handle": "door_sb", "yaw_deg": 0.0}},
+         "joint": {"type": "marker", "marker": "O", "handle": scene.origin_handle,
+                   "yaw_deg": 0.0}},
         {"name": "door", "parent": "room", "primitive": _box(scene.leaf),
          "joint": {"type": "hinge", "jamb": {"opening": "door", "side": hg.side},
                    "axis_point": [float(v) for v in hg.axis_point], "axis": [float(v) for v in hg.axis],
@@ -152,7 +153,7 @@ def marks(rng: np.random.Generator, scene: RoomScene, noise_px: float = CLICK_NO
     whose seen stretch is long enough (MIN_STRETCH_PX) and whose ends the photo does not both show
     gets two clicks on that stretch (EDGE_CLICK_AT)."""
     pts = scene.seen_points()
-    keys = [k for k in pts if k != ("room", "door_sb")]
+    keys = [k for k in pts if k != ("room", scene.origin_handle)]
     pins, edges = [], []
     for photo in scene.photos:
         seen, uv = scene.visible(photo, np.array([pts[k] for k in keys]))

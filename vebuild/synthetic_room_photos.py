@@ -17,24 +17,35 @@ from .synthetic_rooms import RoomScene
 Array = NDArray[np.float64]
 
 
-def _markers(rng: np.random.Generator, scene: RoomScene, n: int = 40) -> dict[str, Array]:
-    """The origin O (the doorway's start jamb's foot) and n − 1 marks on the walls' inner faces
-    (posters, switches: 0.3–2.2 m up, clear of the openings and the cabinet) and the furniture's tops."""
-    out = {"O": scene.handles()["door_sb"].copy()}
+def _markers(rng: np.random.Generator, scene: RoomScene, n_wall: int = 80, n_floor: int = 16) -> dict[str, Array]:
+    """The origin O (RoomScene.origin_handle), n_wall marks on the walls' inner faces (posters,
+    switches: 0.3–2.2 m up, clear of the openings and of the furniture against them) and n_floor
+    taped crosses on the floor (at least 0.5 m from the walls, clear of the furniture)."""
+    out = {"O": scene.handles()[scene.origin_handle].copy()}
     k = 1
     for _ in range(4000):
-        if k >= n:
+        if k > n_wall:
             break
         i = int(rng.integers(len(scene.corners)))
         a, d, _, L = scene.wall(i)
         s, z = rng.uniform(0.3, L - 0.3), rng.uniform(0.3, min(2.2, scene.height - 0.2))
         if any(o.wall == i and o.offset - 0.1 < s < o.offset + o.width + 0.1 for o in scene.openings):
             continue
-        if i == scene.cabinet_wall:
-            X = a + s * d
-            if np.linalg.norm(X[:2] - scene.cabinet.centre[:2]) < scene.cabinet.size[0] / 2 + 0.2:
-                continue
-        out[f"M{k}"] = a + s * d + np.array([0.0, 0.0, z])
+        X = a + s * d + np.array([0.0, 0.0, z])
+        if any(np.linalg.norm(X[:2] - b.centre[:2]) < np.hypot(*b.size[:2]) / 2 + 0.2 for b in scene.boxes()):
+            continue
+        out[f"M{k}"] = X
+        k += 1
+    lo, hi = scene.corners.min(axis=0) + scene.origin[:2], scene.corners.max(axis=0) + scene.origin[:2]
+    for _ in range(4000):
+        if k > n_wall + n_floor:
+            break
+        xy = rng.uniform(lo, hi)
+        if not scene.inside(xy) or scene.wall_distance(xy) < 0.5:
+            continue
+        if any(np.linalg.norm(xy - b.centre[:2]) < np.hypot(*b.size[:2]) / 2 + 0.2 for b in scene.boxes()):
+            continue
+        out[f"M{k}"] = np.r_[xy, 0.0]
         k += 1
     return out
 
@@ -42,18 +53,16 @@ def _markers(rng: np.random.Generator, scene: RoomScene, n: int = 40) -> dict[st
 def _view(rng: np.random.Generator, scene: RoomScene) -> tuple[str, Array, Array, float]:
     """A photo a user would take: its kind, where the photographer stands (x, y), what they aim at,
     and the camera's pitch (radians, up > 0). Facing the doorway's foot (the origin) from 1.5–3 m,
-    level or tilted down; or, tilted up 12–30° (a 3vp photo: no floor in the frame's lower part
+    tilted down 15–35° (a level camera so near would not see the floor there); or, tilted up 12–30° (a 3vp photo: no floor in the frame's lower part
     beyond a metre or two), from anywhere in the room at the window, the cabinet, a unit of the row
     or a wall's upper stretch."""
     h = scene.handles()
-    pick = int(rng.integers(5))
-    if pick == 0:
+    pick = int(rng.integers(6)) - 1
+    if pick <= 0:
         at = (h["door_sb"] + h["door_eb"]) / 2 + np.array([0.0, 0.0, rng.uniform(0.2, 1.0)])
-        _, d, nrm, _ = scene.wall(0)
+        _, d, nrm, _ = scene.wall(scene.openings[0].wall)
         xy = (at - nrm * rng.uniform(1.5, 3.0) + d * rng.uniform(-0.8, 0.8))[:2]
-        if rng.random() < 0.5:
-            return "2vp", xy, at, float(np.radians(rng.uniform(-1.5, 1.5)))
-        return "3vp", xy, at, float(-np.radians(rng.uniform(12.0, 30.0)))
+        return "3vp", xy, at, float(-np.radians(rng.uniform(15.0, 35.0)))
     if pick == 1:
         at = (h["win_sb"] + h["win_et"]) / 2
     elif pick == 2:
@@ -115,7 +124,7 @@ def _coverage(scene: RoomScene, cam: SyntheticPhoto, markers: dict[str, Array]) 
 #: origin in two (the calibration places photos together from markers two of them show).
 MIN_PHOTOS_PER_THING = 2
 MIN_BOX_CORNERS = 2
-MIN_MARKERS_PER_PHOTO = 4
+MIN_MARKERS_PER_PHOTO = 3
 MIN_SHARED_MARKERS = 3
 
 
@@ -172,21 +181,33 @@ def _choose(rng: np.random.Generator, scene: RoomScene, covs: list[dict[str, set
     return None
 
 
+def _placed(covs: list[dict[str, set]], chosen: list[int]) -> list[int]:
+    """The photos ``chosen`` that vebuild calibrate's start (calibration/start.py) can place, in the
+    order it places them: first the one showing the origin with the most markers, then each that
+    shares two markers with a placed photo and sees a marker that two placed photos show."""
+    with_origin = [i for i in chosen if "O" in covs[i]["markers"]]
+    if not with_origin:
+        return []
+    order = [max(with_origin, key=lambda i: len(covs[i]["markers"]))]
+    left = [i for i in chosen if i != order[0]]
+    while left:
+        known = {"O"} | {m for m in set().union(*(covs[i]["markers"] for i in order))
+                         if sum(m in covs[i]["markers"] for i in order) >= 2}
+        nxt = next((i for i in left if covs[i]["markers"] & known and
+                    any(len(covs[i]["markers"] & covs[j]["markers"]) >= 2 for j in order)), None)
+        if nxt is None:
+            break
+        order.append(nxt)
+        left.remove(nxt)
+    return order
+
+
 def _unlinked(covs: list[dict[str, set]]) -> int:
-    """How many photos the calibration could not place with the others: photos are placed together
-    where one shares two markers with another already placed (vebuild calibrate), so the photos
-    linked by two shared markers must form one group; the count outside the largest."""
-    if not covs:
-        return 0
-    groups: list[set[int]] = []
-    for k in range(len(covs)):
-        linked = [g for g in groups if any(len(covs[k]["markers"] & covs[j]["markers"]) >= 2 for j in g)]
-        merged = {k}.union(*linked)
-        groups = [g for g in groups if g not in linked] + [merged]
-    return len(covs) - max(len(g) for g in groups)
+    """How many of the photos the calibration could not place (_placed)."""
+    return len(covs) - len(_placed(covs, list(range(len(covs))))) if covs else 0
 
 
-def photograph(rng: np.random.Generator, scene: RoomScene, n_photos: tuple[int, int] = (4, 6),
+def photograph(rng: np.random.Generator, scene: RoomScene, n_photos: tuple[int, int] = (4, 8),
                width: int = 1600, height: int = 1200, n_candidates: int = 100) -> None:
     """Choose 4–6 photos (greedily, from random candidates that see no floor corner) that together
     show what the model needs (_needs), then mark their vanishing segments; sets ``scene.photos``
@@ -211,7 +232,7 @@ def photograph(rng: np.random.Generator, scene: RoomScene, n_photos: tuple[int, 
         raise RuntimeError("no set of photos shows every wall, box and opening twice without a floor corner: "
                            f"short of {shortfall(scene, [covs[i] for i in best])}")
     scene.photos = []
-    for j, i in enumerate(chosen):
+    for j, i in enumerate(_placed(covs, chosen)):
         cam = cands[i][0]
         cam.id = f"p{j + 1}"
         add_segments(cam, rng, CLICK_NOISE_PX, middle_points=3 if cam.k1 != 0.0 else 0)

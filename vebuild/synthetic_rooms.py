@@ -13,8 +13,9 @@ FORMAT.md nodes and relations, the pins and edge observations) is
 Room frame (as FORMAT.md's room primitive): the floor at z = 0, inner floor corner 0 at the origin,
 corner 1 on +x, corners counter-clockwise seen from above; wall i runs from corner i to corner i + 1
 with the room on its left; its thickness lies outside (to the right). The world frame is the room
-frame moved so that the doorway's start jamb's foot (handle ``door_sb``) is the origin marker O:
-a marker at a floor corner would be a floor corner seen by a photo, which these rooms exclude.
+frame moved so that the foot of the doorway's jamb away from the hinge (handle ``door_sb`` or
+``door_eb``: the leaf, open, would hide the other) is the origin marker O: a marker at a floor
+corner would be a floor corner seen by a photo, which these rooms exclude.
 """
 
 from __future__ import annotations
@@ -218,6 +219,11 @@ class RoomScene:
         T[:3, 3] = a + (o.offset if side == "start" else o.offset + o.width) * d + np.array([0, 0, o.sill])
         return T
 
+    @property
+    def origin_handle(self) -> str:
+        """The room handle at the origin marker O: the foot of the doorway's jamb away from the hinge."""
+        return "door_eb" if self.hinge.side == "start" else "door_sb"
+
     def boxes(self) -> list[Box]:
         return [self.cabinet, *self.row, self.leaf]
 
@@ -269,8 +275,9 @@ class RoomScene:
         wall's inner face strictly before X (a point on a wall is not hidden by its own wall) and
         not through an opening's hole. A point beyond the inner face in a hole (the leaf's edge in
         the doorway) is seen through it: the hole is a convex prism through the wall. A sight line
-        that leaves the room through an opening cannot come back in (one doorway on wall 0, whose
-        outside is open, one window elsewhere, and a line crosses a wall's plane once)."""
+        that leaves the room through an opening cannot come back in (one doorway on wall N − 1,
+        the plane x = 0 with the whole room on its +x side, one window elsewhere, and a line
+        crosses a plane once)."""
         hidden = np.zeros(len(X), bool)
         D = X[:, :2] - C[:2]
         eps = 1e-6
@@ -341,16 +348,21 @@ def room_geometry(rng: np.random.Generator) -> RoomScene:
     n = len(corners)
     lengths = [float(np.linalg.norm(corners[(i + 1) % n] - corners[i])) for i in range(n)]
     dw = float(rng.uniform(0.8, 0.95))
-    door = Opening("door", 0, "door", float(rng.uniform(1.5, lengths[0] - dw - 1.5)), dw,
+    # The doorway in wall N − 1 (x = 0), the room's full width in front of it (the L's notch is
+    # across the room from it).
+    dwall = n - 1
+    door = Opening("door", dwall, "door", float(rng.uniform(1.2, lengths[dwall] - dw - 1.2)), dw,
                    float(rng.uniform(2.0, 2.1)), 0.0)
-    win_wall = int(rng.choice([i for i in (1, 3, 4, 5) if lengths[i] >= 2.2]))
+    win_wall = int(rng.choice([i for i in (1, 3, 4) if lengths[i] >= 2.2]))
     ww = float(rng.uniform(0.9, min(1.4, lengths[win_wall] - 1.0)))
     sill = float(rng.uniform(0.8, 1.0))
     win = Opening("win", win_wall, "window", float(rng.uniform(0.5, lengths[win_wall] - ww - 0.5)), ww,
                   float(rng.uniform(0.9, min(1.3, height - 0.2 - sill))), sill)
-    # The world's origin is the doorway's start jamb's foot (wall 0 runs along +x from corner 0).
-    origin = np.array([-door.offset, 0.0, 0.0])
+    # The world's origin is the foot of the doorway's jamb away from the hinge.
     side = str(rng.choice(["start", "end"]))
+    a = corners[dwall]
+    d = (corners[0] - a) / lengths[dwall]
+    origin = -np.r_[a + (door.offset + (door.width if side == "start" else 0.0)) * d, 0.0]
     sign = 1.0 if side == "start" else -1.0
     leaf_size = np.array([dw - 0.01, rng.uniform(0.035, 0.045), door.height - 0.01])
     hinge = Hinge(side, np.array([sign * rng.uniform(0.005, 0.02), rng.uniform(0.01, 0.03), 0.0]),
@@ -361,7 +373,7 @@ def room_geometry(rng: np.random.Generator) -> RoomScene:
     scene.leaf = _leaf(scene, leaf_size)
     # The cabinet stands with its back flush against a wall with no opening; a row of two or three
     # equal units with their backs flush against another.
-    free = [i for i in range(1, n) if i != win_wall]
+    free = [i for i in range(n) if i not in (dwall, win_wall)]
     cab_wall = int(rng.choice([i for i in free if lengths[i] >= 1.6]))
     size = np.array([rng.uniform(0.8, 1.2), rng.uniform(0.4, 0.6), rng.uniform(1.6, 2.0)])
     scene.cabinet = _against(scene, "cabinet", cab_wall, size, rng.uniform(0.3 + size[0] / 2,
