@@ -106,7 +106,7 @@ def guessed_nodes(rng: np.random.Generator, scene: RoomScene, guess_rel: tuple[f
     for _ in range(GUESS_ATTEMPTS):
         nodes = guessed_node_draw(rng, scene, guess_rel)
         try:
-            model_from_dict(nodes, {"O": np.zeros(3)}, relations(scene))
+            model_from_dict(list(nodes), {"O": np.zeros(3)}, relations(scene))
         except (ModelError, ValueError):
             continue
         return nodes
@@ -124,7 +124,7 @@ def guessed_node_draw(rng: np.random.Generator, scene: RoomScene, guess_rel: tup
     nodes = true_nodes(scene)
     room = nodes[0]
     params = room["primitive"]["params"]
-    tape = float(scene.thickness + rng.normal(0.0, THICKNESS_TAPE_SIGMA_M))
+    tape = scene.tapes["thickness"]
     for k in params:
         if k == "thickness":
             params[k] = tape
@@ -134,7 +134,7 @@ def guessed_node_draw(rng: np.random.Generator, scene: RoomScene, guess_rel: tup
     room["hold"] = ["door_sill", {"name": "thickness", "sigma": THICKNESS_TAPE_SIGMA_M, "value": tape}]
     door = nodes[1]
     leaf = door["primitive"]["params"]
-    leaf_tape = float(scene.leaf.size[1] + rng.normal(0.0, LEAF_TAPE_SIGMA_M))
+    leaf_tape = scene.tapes["leaf_depth"]
     leaf.update(width=_off(rng, leaf["width"], guess_rel), height=_off(rng, leaf["height"], guess_rel),
                 depth=leaf_tape)
     door["hold"] = [{"name": "depth", "sigma": LEAF_TAPE_SIGMA_M, "value": leaf_tape}]

@@ -50,12 +50,22 @@ def _markers(rng: np.random.Generator, scene: RoomScene, n_wall: int = 80, n_flo
     return out
 
 
+#: How far a photo's heading is off the walls' directions (degrees, modulo 90°): a photo facing a
+#: wall squarely has a vanishing point near infinity, and its focal length is undetermined.
+OBLIQUE_DEG = (20.0, 70.0)
+#: The share of the photos not facing the doorway taken level (2vp: the window's sill and the
+#: furniture's fronts in frame; the floor far off, so that most of them see a floor corner and are
+#: refused); the others are tilted up.
+LEVEL_VIEWS = 0.4
+
+
 def _view(rng: np.random.Generator, scene: RoomScene) -> tuple[str, Array, Array, float]:
     """A photo a user would take: its kind, where the photographer stands (x, y), what they aim at,
     and the camera's pitch (radians, up > 0). Facing the doorway's foot (the origin) from 1.5–3 m,
-    tilted down 15–35° (a level camera so near would not see the floor there); or, tilted up 12–30° (a 3vp photo: no floor in the frame's lower part
-    beyond a metre or two), from anywhere in the room at the window, the cabinet, a unit of the row
-    or a wall's upper stretch."""
+    tilted down 15–35° (a level camera so near would not see the floor there); or, level (2vp,
+    LEVEL_VIEWS of them) or tilted up 12–30° (3vp: no floor in the frame's lower part beyond a
+    metre or two), from anywhere in the room at the window, the cabinet, a unit of the row or a
+    wall's upper stretch."""
     h = scene.handles()
     pick = int(rng.integers(6)) - 1
     if pick <= 0:
@@ -75,6 +85,8 @@ def _view(rng: np.random.Generator, scene: RoomScene) -> tuple[str, Array, Array
         a, d, _, L = scene.wall(wall)
         at = a + rng.uniform(0.2, 0.8) * L * d + np.array([0.0, 0.0, rng.uniform(1.2, scene.height)])
     lo, hi = scene.corners.min(axis=0) + scene.origin[:2], scene.corners.max(axis=0) + scene.origin[:2]
+    if rng.random() < LEVEL_VIEWS:
+        return "2vp", rng.uniform(lo, hi), at, float(np.radians(rng.uniform(-1.5, 1.5)))
     return "3vp", rng.uniform(lo, hi), at, float(np.radians(rng.uniform(12.0, 30.0)))
 
 
@@ -90,6 +102,9 @@ def _candidate(rng: np.random.Generator, scene: RoomScene, pid: str, width: int,
     cam.C = np.r_[xy, rng.uniform(1.3, 1.8)]
     dvec = target - cam.C
     yaw = float(np.arctan2(dvec[1], dvec[0]))
+    off_axis = np.degrees(yaw) % 90.0
+    if not OBLIQUE_DEG[0] <= off_axis <= OBLIQUE_DEG[1]:
+        return None  # facing a wall squarely: one vanishing point near infinity, f undetermined
     cam.R = _rotation(yaw, pitch, float(np.radians(rng.normal(0.0, 2.0))))
     if scene.seen_floor_corners(cam):
         return None
@@ -112,8 +127,12 @@ def _coverage(scene: RoomScene, cam: SyntheticPhoto, markers: dict[str, Array]) 
                 walls.add((i - 1) % n)
     mk = list(markers)
     mseen, _ = scene.visible(cam, np.array([markers[m] for m in mk]))
-    return {"walls": walls, "points": {k for k, s in zip(keys, seen, strict=True) if s},
-            "markers": {m for m, s in zip(mk, mseen, strict=True) if s}}
+    points = {k for k, s in zip(keys, seen, strict=True) if s}
+    markers_seen = {m for m, s in zip(mk, mseen, strict=True) if s}
+    # What ties the photo to others in the calibration: its markers and its pinned handles (a fixed
+    # pin in two photos is a shared point named node:handle, vebuild calibrate's _pinned_handles).
+    ties = markers_seen | {f"{n}:{h}" for n, h in points if (n, h) != ("room", scene.origin_handle)}
+    return {"walls": walls, "points": points, "markers": markers_seen, "ties": ties}
 
 
 #: What the photos must show together, for the model to be determined from them: each wall's line
@@ -145,8 +164,8 @@ def shortfall(scene: RoomScene, covs: list[dict[str, set]]) -> dict[str, int]:
         short[h] = max(0, MIN_PHOTOS_PER_THING - sum(("room", h) in c["points"] for c in covs))
     short["O"] = max(0, MIN_PHOTOS_PER_THING - sum("O" in c["markers"] for c in covs))
     for k, c in enumerate(covs):
-        others = set().union(*(o["markers"] for j, o in enumerate(covs) if j != k))
-        short[f"photo{k}"] = max(0, MIN_SHARED_MARKERS - len(c["markers"] & (others | {"O"})))
+        others = set().union(*(o["ties"] for j, o in enumerate(covs) if j != k))
+        short[f"photo{k}"] = max(0, MIN_SHARED_MARKERS - len(c["ties"] & (others | {"O"})))
     short["placement"] = _unlinked(covs)
     return {k: v for k, v in short.items() if v}
 
@@ -155,16 +174,25 @@ def shortfall(scene: RoomScene, covs: list[dict[str, set]]) -> dict[str, int]:
 CHOICE_RESTARTS = 40
 
 
+def _placeable(covs: list[dict[str, set]], order: list[int], i: int) -> bool:
+    """Whether vebuild calibrate's start can place photo i after the photos ``order``: it shares two
+    ties with one of them and sees a tie two of them show (or the origin)."""
+    known = {"O"} | {m for m in set().union(*(covs[j]["ties"] for j in order))
+                     if sum(m in covs[j]["ties"] for j in order) >= 2}
+    return bool(covs[i]["ties"] & known) and any(len(covs[i]["ties"] & covs[j]["ties"]) >= 2 for j in order)
+
+
 def _greedy(rng: np.random.Generator, scene: RoomScene, covs: list[dict[str, set]], n_photos: tuple[int, int],
             first: int) -> list[int]:
-    """Photos chosen one by one from ``first``, each the one that leaves the least short."""
+    """Photos chosen one by one from ``first``, each one the calibration can place after those
+    before it (_placeable), the one that leaves the least short."""
     chosen = [first]
     while len(chosen) < n_photos[1]:
         now = _needs(scene, [covs[i] for i in chosen])
         if now == 0 and len(chosen) >= n_photos[0]:
             break
         gains = [(now - _needs(scene, [covs[i] for i in chosen] + [c]), len(c["points"]), rng.random(), i)
-                 for i, c in enumerate(covs) if i not in chosen]
+                 for i, c in enumerate(covs) if i not in chosen and _placeable(covs, chosen, i)]
         if not gains:
             break
         chosen.append(max(gains)[3])
@@ -174,7 +202,8 @@ def _greedy(rng: np.random.Generator, scene: RoomScene, covs: list[dict[str, set
 def _choose(rng: np.random.Generator, scene: RoomScene, covs: list[dict[str, set]],
             n_photos: tuple[int, int]) -> list[int] | None:
     """A set of 4–6 photos that leaves nothing short (None where CHOICE_RESTARTS greedy tries fail)."""
-    for first in rng.permutation(len(covs))[:CHOICE_RESTARTS]:
+    firsts = [i for i in rng.permutation(len(covs)) if "O" in covs[i]["markers"]]
+    for first in firsts[:CHOICE_RESTARTS]:
         chosen = _greedy(rng, scene, covs, n_photos, int(first))
         if len(chosen) >= n_photos[0] and _needs(scene, [covs[i] for i in chosen]) == 0:
             return chosen
@@ -184,17 +213,18 @@ def _choose(rng: np.random.Generator, scene: RoomScene, covs: list[dict[str, set
 def _placed(covs: list[dict[str, set]], chosen: list[int]) -> list[int]:
     """The photos ``chosen`` that vebuild calibrate's start (calibration/start.py) can place, in the
     order it places them: first the one showing the origin with the most markers, then each that
-    shares two markers with a placed photo and sees a marker that two placed photos show."""
+    shares two markers with a placed photo and sees a marker that two placed photos show (a
+    handle pinned in two photos counts as a marker: "ties")."""
     with_origin = [i for i in chosen if "O" in covs[i]["markers"]]
     if not with_origin:
         return []
-    order = [max(with_origin, key=lambda i: len(covs[i]["markers"]))]
+    order = [max(with_origin, key=lambda i: len(covs[i]["ties"]))]
     left = [i for i in chosen if i != order[0]]
     while left:
-        known = {"O"} | {m for m in set().union(*(covs[i]["markers"] for i in order))
-                         if sum(m in covs[i]["markers"] for i in order) >= 2}
-        nxt = next((i for i in left if covs[i]["markers"] & known and
-                    any(len(covs[i]["markers"] & covs[j]["markers"]) >= 2 for j in order)), None)
+        known = {"O"} | {m for m in set().union(*(covs[i]["ties"] for i in order))
+                         if sum(m in covs[i]["ties"] for i in order) >= 2}
+        nxt = next((i for i in left if covs[i]["ties"] & known and
+                    any(len(covs[i]["ties"] & covs[j]["ties"]) >= 2 for j in order)), None)
         if nxt is None:
             break
         order.append(nxt)
@@ -207,7 +237,7 @@ def _unlinked(covs: list[dict[str, set]]) -> int:
     return len(covs) - len(_placed(covs, list(range(len(covs))))) if covs else 0
 
 
-def photograph(rng: np.random.Generator, scene: RoomScene, n_photos: tuple[int, int] = (4, 8),
+def photograph(rng: np.random.Generator, scene: RoomScene, n_photos: tuple[int, int] = (4, 10),
                width: int = 1600, height: int = 1200, n_candidates: int = 100) -> None:
     """Choose 4–6 photos (greedily, from random candidates that see no floor corner) that together
     show what the model needs (_needs), then mark their vanishing segments; sets ``scene.photos``
@@ -222,12 +252,13 @@ def photograph(rng: np.random.Generator, scene: RoomScene, n_photos: tuple[int, 
         if cam is None:
             continue
         cov = _coverage(scene, cam, markers)
-        if len(cov["markers"]) >= MIN_MARKERS_PER_PHOTO:
+        if len(cov["ties"]) >= MIN_MARKERS_PER_PHOTO:
             cands.append((cam, cov))
     covs = [c for _, c in cands]
     chosen = _choose(rng, scene, covs, n_photos)
     if chosen is None:
-        best = min((_greedy(rng, scene, covs, n_photos, int(rng.integers(len(covs)))) for _ in range(5)),
+        firsts = [i for i, c in enumerate(covs) if "O" in c["markers"]] or [0]
+        best = min((_greedy(rng, scene, covs, n_photos, i) for i in firsts[:5]),
                    key=lambda ch: _needs(scene, [covs[i] for i in ch]))
         raise RuntimeError("no set of photos shows every wall, box and opening twice without a floor corner: "
                            f"short of {shortfall(scene, [covs[i] for i in best])}")

@@ -28,6 +28,7 @@ from numpy.typing import NDArray
 from .synthetic import SyntheticPhoto, _project, distort, projection_matrix
 
 Array = NDArray[np.float64]
+Mask = NDArray[np.bool_]
 
 #: How far inside the image (px) a point must project to count as seen: a user does not click in
 #: the last few pixels, and synthetic.add_segments keeps the same margin.
@@ -84,7 +85,7 @@ class Box:
         T[:3, 3] = self.centre
         return T
 
-    def hides(self, C: Array, X: Array) -> Array:
+    def hides(self, C: Array, X: Array) -> Mask:
         """Whether the box (shrunk by OCCLUDER_SHRINK_M) cuts the sight lines from C to each X (n, 3)."""
         T = self.frame()
         a = (C - T[:3, 3]) @ T[:3, :3]
@@ -135,6 +136,10 @@ class RoomScene:
     row_wall: int
     leaf: Box
     hinge: Hinge
+    #: What the user tapes at the scene: the walls' thickness at the doorway's reveal, the leaf's
+    #: thickness (the true values plus the tape's error, drawn with the room: one measurement,
+    #: whatever the first guess).
+    tapes: dict[str, float] = field(default_factory=dict)
     photos: list[SyntheticPhoto] = field(default_factory=list)
     markers: dict[str, Array] = field(default_factory=dict)
     #: Derived geometry, keyed by what it derives from (the scene is plain data: a changed field
@@ -257,7 +262,7 @@ class RoomScene:
             best = min(best, float(np.linalg.norm(xy - a[:2] - t * d[:2])))
         return best
 
-    def visible(self, photo: SyntheticPhoto, X: Array) -> tuple[Array, Array]:
+    def visible(self, photo: SyntheticPhoto, X: Array) -> tuple[Mask, Array]:
         """(seen mask, pixels on the distorted photo) of world points X (n, 3): in front, inside the
         image, and no wall or box cutting the sight line."""
         P = projection_matrix(photo.K, photo.R, photo.C)
@@ -270,7 +275,7 @@ class RoomScene:
             ok &= ~b.hides(photo.C, X)
         return ok, uv
 
-    def _walls_hide(self, C: Array, X: Array) -> Array:
+    def _walls_hide(self, C: Array, X: Array) -> Mask:
         """Whether a wall cuts the sight line from C (inside the room) to X: the line crosses a
         wall's inner face strictly before X (a point on a wall is not hidden by its own wall) and
         not through an opening's hole. A point beyond the inner face in a hole (the leaf's edge in
@@ -371,6 +376,10 @@ def room_geometry(rng: np.random.Generator) -> RoomScene:
     dummy = Box("x", np.ones(3), np.zeros(3), 0.0)
     scene = RoomScene(corners, height, thickness, [door, win], origin, dummy, 0, [], 0, dummy, hinge)
     scene.leaf = _leaf(scene, leaf_size)
+    from .synthetic_room_model import LEAF_TAPE_SIGMA_M, THICKNESS_TAPE_SIGMA_M
+
+    scene.tapes = {"thickness": float(thickness + rng.normal(0.0, THICKNESS_TAPE_SIGMA_M)),
+                   "leaf_depth": float(leaf_size[1] + rng.normal(0.0, LEAF_TAPE_SIGMA_M))}
     # The cabinet stands with its back flush against a wall with no opening; a row of two or three
     # equal units with their backs flush against another.
     free = [i for i in range(n) if i not in (dwall, win_wall)]
