@@ -11,6 +11,7 @@ import re
 import numpy as np
 from numpy.typing import NDArray
 
+from .calibration.start import MIN_INTERSECTION_ANGLE_DEG
 from .synthetic import CLICK_NOISE_PX, SyntheticPhoto, _rotation, add_segments, realistic_camera
 from .synthetic_rooms import RoomScene
 
@@ -132,7 +133,10 @@ def _coverage(scene: RoomScene, cam: SyntheticPhoto, markers: dict[str, Array]) 
     # What ties the photo to others in the calibration: its markers and its pinned handles (a fixed
     # pin in two photos is a shared point named node:handle, vebuild calibrate's _pinned_handles).
     ties = markers_seen | {f"{n}:{h}" for n, h in points if (n, h) != ("room", scene.origin_handle)}
-    return {"walls": walls, "points": points, "markers": markers_seen, "ties": ties}
+    where = {**{f"{n}:{h}": pts[(n, h)] for n, h in points}, **{m: markers[m] for m in markers_seen}}
+    # The unit sight line to each tie, for the calibration's least intersection angle (_placed).
+    rays = {t: (where[t] - cam.C) / np.linalg.norm(where[t] - cam.C) for t in ties}
+    return {"walls": walls, "points": points, "markers": markers_seen, "ties": ties, "rays": rays}
 
 
 #: What the photos must show together, for the model to be determined from them: each wall's line
@@ -174,11 +178,22 @@ def shortfall(scene: RoomScene, covs: list[dict[str, set]]) -> dict[str, int]:
 CHOICE_RESTARTS = 40
 
 
-def _placeable(covs: list[dict[str, set]], order: list[int], i: int) -> bool:
+def _known(covs: list[dict[str, set]], order: list[int]) -> set[str]:
+    """The ties the calibration's start has placed once the photos ``order`` are: the origin, and
+    each tie two of them see with sight lines at least MIN_INTERSECTION_ANGLE_DEG apart."""
+    out = {"O"}
+    for t in set().union(*(covs[j]["ties"] for j in order)):
+        rays = [covs[j]["rays"][t] for j in order if t in covs[j]["ties"]]
+        if len(rays) >= 2 and max(np.degrees(np.arccos(np.clip(a @ b, -1.0, 1.0))) for k, a in enumerate(rays)
+                                  for b in rays[k + 1:]) >= MIN_INTERSECTION_ANGLE_DEG:
+            out.add(t)
+    return out
+
+
+def _placeable(covs: list[dict[str, set]], order: list[int], i: int, known: set[str] | None = None) -> bool:
     """Whether vebuild calibrate's start can place photo i after the photos ``order``: it shares two
-    ties with one of them and sees a tie two of them show (or the origin)."""
-    known = {"O"} | {m for m in set().union(*(covs[j]["ties"] for j in order))
-                     if sum(m in covs[j]["ties"] for j in order) >= 2}
+    ties with one of them and sees a tie they have placed (_known)."""
+    known = _known(covs, order) if known is None else known
     return bool(covs[i]["ties"] & known) and any(len(covs[i]["ties"] & covs[j]["ties"]) >= 2 for j in order)
 
 
@@ -191,8 +206,9 @@ def _greedy(rng: np.random.Generator, scene: RoomScene, covs: list[dict[str, set
         now = _needs(scene, [covs[i] for i in chosen])
         if now == 0 and len(chosen) >= n_photos[0]:
             break
+        known = _known(covs, chosen)
         gains = [(now - _needs(scene, [covs[i] for i in chosen] + [c]), len(c["points"]), rng.random(), i)
-                 for i, c in enumerate(covs) if i not in chosen and _placeable(covs, chosen, i)]
+                 for i, c in enumerate(covs) if i not in chosen and _placeable(covs, chosen, i, known)]
         if not gains:
             break
         chosen.append(max(gains)[3])
@@ -221,10 +237,8 @@ def _placed(covs: list[dict[str, set]], chosen: list[int]) -> list[int]:
     order = [max(with_origin, key=lambda i: len(covs[i]["ties"]))]
     left = [i for i in chosen if i != order[0]]
     while left:
-        known = {"O"} | {m for m in set().union(*(covs[i]["ties"] for i in order))
-                         if sum(m in covs[i]["ties"] for i in order) >= 2}
-        nxt = next((i for i in left if covs[i]["ties"] & known and
-                    any(len(covs[i]["ties"] & covs[j]["ties"]) >= 2 for j in order)), None)
+        known = _known(covs, order)
+        nxt = next((i for i in left if _placeable(covs, order, i, known)), None)
         if nxt is None:
             break
         order.append(nxt)
