@@ -235,3 +235,39 @@ def test_solve_axis_is_read_written_and_checked() -> None:
         model_from_dict([{"name": "door", "primitive": {"type": "box", "params": DOOR},
                           "joint": {"type": "hinge", "solve_axis": "yes"}}])
     assert e.value.where == "$.model.nodes[0].joint.solve_axis"
+
+
+def test_vebuild_solve_writes_the_solved_axis_into_the_file_and_the_solution(tmp_path) -> None:
+    """Through `vebuild solve` (solve_project) on a project file: the solved axis point goes back
+    into the joint's axis_point (solve_axis kept), model_solution has the door's axis record and
+    the dofs axis_u, axis_v, and the saved file loads again (the schema knows every new field)."""
+    from vebuild.actions.solve import solve_project
+    from vebuild.project import load_project, save_project
+    from vebuild.project.records import camera_record
+    from vebuild.synthetic import SyntheticPhoto, write_project
+
+    truth, problem, rng, angle = door_scene(0)
+    photos = [SyntheticPhoto(c.id, "3vp", c.width, c.height, c.K, c.R, c.C) for c in problem.cameras.values()]
+    path = write_project(tmp_path, photos, {"O": np.zeros(3), "M1": np.array([1.0, 0.0, 0.0])})
+    project = load_project(path)
+    data = project.data
+    data["reference_distances"], data["markers"] = [], [{"name": "O"}]
+    guess = _guess(rng, angle)
+    data["model"] = {"nodes": [guess], "pins": [{"photo": p.photo, "node": p.node, "handle": p.handle,
+                                                  "uv": [float(v) for v in p.uv], "fixed": True} for p in problem.pins]}
+    data["calibration"] = {
+        "cameras": {c.id: {"mode": "3vp", **camera_record(c.K, c.R, c.C, np.zeros((9, 9)))}
+                    for c in problem.cameras.values()},
+        "lengths": "metres", "origin_marker": "O",
+        "markers": {"O": {"position": [0.0, 0.0, 0.0], "sigma": [0.0, 0.0, 0.0]}}}
+    result = solve_project(project)
+    save_project(project)
+    again = load_project(path)
+    joint = again.data["model"]["nodes"][0]["joint"]
+    rec = again.data["model_solution"]["nodes"]["door"]
+    assert joint["solve_axis"] is True and rec["axis"] == result["nodes"]["door"]["axis"]
+    point = np.array(rec["axis"]["point"]["value"])
+    assert np.linalg.norm(point[:2] - HINGE[:2]) < AXIS_TOL_M
+    assert joint["axis_point"][:2] == pytest.approx(list(point[:2]), abs=1e-9)
+    assert rec["dofs"]["axis_u"]["value"] == pytest.approx(joint["axis_point"][0], abs=1e-9)
+    assert rec["dofs"]["axis_v"]["ci95"][0] < HINGE[1] < rec["dofs"]["axis_v"]["ci95"][1]

@@ -15,6 +15,7 @@ import pytest
 from scipy.stats import chi2
 
 from vebuild.camera import ImageCamera
+from vebuild.console.tables import model_table
 from vebuild.errors import ProjectError
 from vebuild.model.constraints import HARD_SIGMA_M, conflicts, constraint_rank
 from vebuild.model.drag import DragSession
@@ -116,7 +117,7 @@ BAD: list[tuple[str, Any, str, list[str]]] = [
     ("equal twice", [{"type": "equal", "params": ["cab1.width", "cab2.width", "cab1.width"]}],
      "$.model.relations[0].params[2]", ["listed twice"]),
     ("equal kinds", [{"type": "equal", "params": ["cab1.width", "cab2.yaw"]}], "$.model.relations[0].params[1]",
-     ["'cab2.yaw' is a angle", "one kind"]),
+     ["'cab2.yaw' is an angle and 'cab1.width' a size", "one kind"]),
     ("the same twice", [FLUSH, {"type": "flush", "a": "wall:front", "b": "cab1:back"}], "$.model.relations[1]",
      ["the same relation as $.model.relations[0]"]),
     ("two offsets", [FLUSH, {**FLUSH, "offset": 0.02}], "$.model.relations[1].offset",
@@ -266,6 +267,43 @@ def test_a_node_flush_on_a_face_stays_flush_under_any_s_t_yaw(own: str, face: st
             oa = world_plane(m, f"cab1:{own}", T, x)[0]
             ob, xb, yb, nb = world_plane(m, f"wall:{face}", T, x)
             assert [(oa - ob) @ xb, (oa - ob) @ yb, (oa - ob) @ nb] == pytest.approx([*x[sq][:2], offset], abs=1e-12)
+
+
+def test_a_cabinet_flush_on_a_wall_at_yaw_0_stands_upright_on_the_floor() -> None:
+    """Against a wall's face (a box's or a room's inner wall), a cabinet's back at yaw 0 keeps the
+    cabinet upright: its up is the wall face's up, its right the wall's right seen from the room,
+    and with t = −(face centre's height) + half the cabinet's height it stands on the floor."""
+    nodes = copy.deepcopy(NODES)
+    nodes[2]["parent"] = "wall"
+    nodes[2]["joint"] = {"type": "flush", "face": "front", "own_face": "back", "position": [-1.5, -1.25 + 0.45]}
+    m = model([{"type": "flush", "a": "cab1:bottom", "b": "floor:top"}], nodes)
+    T = m.world_transforms()
+    assert T["cab1"][:3, :3] == pytest.approx(T["wall"][:3, :3], abs=1e-15)
+    assert T["cab1"][:3, 3] == pytest.approx(T["wall"][:3, 3] + [-1.5, -0.05 - 0.3, 0.0], abs=1e-12)
+    assert relation_residual(m.relations[0], m) < 1e-12  # on the floor
+    room = {"name": "room", "primitive": {"type": "room", "params": {"c1_x": 4.0, "c2_y": 3.0, "height": 2.5,
+                                                                        "thickness": 0.1}},
+            "joint": {"type": "marker", "marker": "O", "handle": "f0"}}
+    cab = _box("cab", (0.8, 0.5, 0.9), (0.5, -1.25 + 0.45), parent="room")
+    cab["joint"] = {"type": "flush", "face": "wall2", "own_face": "back", "position": [0.5, -1.25 + 0.45]}
+    m = model_from_dict([room, cab], MARKERS, [{"type": "flush", "a": "cab:bottom", "b": "room:floor"}])
+    T = m.world_transforms()
+    assert T["cab"][:3, :3] == pytest.approx(np.eye(3), abs=1e-15)  # wall 2 runs along the room's far side
+    assert T["cab"][:3, 3] == pytest.approx([2.5, 3.0 - 0.25, 0.0], abs=1e-12)
+    assert relation_residual(m.relations[0], m) < 1e-12
+
+
+def test_values_for_inverts_the_flush_joint() -> None:
+    """From a pose the joint can take, values_for gives back its (s, t, yaw); from any other it
+    gives the nearest (the own face's centre over the same point, turned alike)."""
+    rng = np.random.default_rng(5)
+    m = model([])
+    wall, cab = m.node("wall").primitive, m.node("cab1").primitive
+    for own, face in (("back", "front"), ("left", "right"), ("bottom", "top"), ("top", "front"), ("right", "top")):
+        j = FlushJoint(type="flush", face=face, own_face=own, offset=0.02)
+        for _ in range(5):
+            q = np.r_[rng.uniform(-1, 1, 2), rng.uniform(-3, 3)]
+            assert j.values_for(j.transform(q, wall, None, cab, None), wall, cab) == pytest.approx(q, abs=1e-12)
 
 
 def test_the_viewer_slides_a_flush_node_along_its_parent_face() -> None:
@@ -603,6 +641,9 @@ def test_the_example_solves_with_relations_and_records_how_they_hold(tmp_path: P
     assert cov["matrix"][i1][i2] == cov["matrix"][i1][i1] == cov["matrix"][i2][i2] > 0
     solved = decode.solution(project)
     assert "table.leg3.width" in solved.names
+    table = model_table(result)  # what `vebuild solve` prints
+    assert "relations (each kept by the solve; how far it misses):" in table
+    assert "  - cabinet on the wall: " in table and "  - equal table.leg1.width, table.leg2.width" in table
     # Saved and read back: the relations stay in the file as written.
     assert project.data["model"]["relations"] == EXAMPLE_RELATIONS
 

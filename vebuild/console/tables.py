@@ -115,10 +115,24 @@ def model_table(result: dict[str, Any]) -> str:
     if result["outliers"]:
         lines += ["", "outliers (more than 4σ from the solved model; check these marks):"]
         lines += [f"  - {o}" for o in result["outliers"]]
+    lines += relation_lines(result.get("relations") or [])
     lines += check_distance_lines(result.get("check_distances") or [], unit)
     if result.get("warnings"):
         lines += ["", "warnings:"] + [f"  - {w}" for w in result["warnings"]]
     return "\n".join(lines)
+
+
+def relation_lines(relations: list[dict[str, Any]]) -> list[str]:
+    """The model's relations (``model_solution.relations``), each with how closely it holds."""
+    if not relations:
+        return []
+    lines = ["", "relations (each kept by the solve; how far it misses):"]
+    for r in relations:
+        what = r.get("name") or (f"equal {', '.join(r['params'])}" if r["type"] == "equal"
+                                 else f"{r['type']} {r['a']} – {r['b']}")
+        miss = f"{r['residual_deg']:.2g}°" if "residual_deg" in r else f"{1000 * r['residual_m']:.2g} mm"
+        lines.append(f"  - {what}: {miss}")
+    return lines
 
 
 def check_distance_lines(checks: list[dict[str, Any]], unit: LengthUnit = METRES) -> list[str]:

@@ -175,6 +175,11 @@ def _frame4(frame: tuple[Array, Array, Array, Array]) -> Array:
     return F
 
 
+#: A face whose y axis has a z component above this is upright (a side face's y is +z exactly; a
+#: wedge's slope, at most 45° from the vertical for a ramp no steeper than its depth, is not).
+UPRIGHT_AXIS = 0.9
+
+
 @dataclass
 class FlushJoint(Joint):
     """The node's face ``own_face`` lies against the parent's face ``face``, ``offset`` metres out
@@ -182,10 +187,14 @@ class FlushJoint(Joint):
     floor. Degrees of freedom as ``rests_on`` (which this is, with ``own_face`` bottom and offset 0):
     the own face's centre at (s, t) in the parent face's frame, turned ``yaw`` about its normal.
 
-    The own face is carried by a frame at its centre with z into the node (−normal), x its x axis:
-    for a bottom face exactly the node's own frame, so the transform is rests_on's bit for bit.
-    Faces are any flat face (``Primitive.planes``), the parent's and the node's; with no parent,
-    the face is the floor z = 0, as for ``rests_on``.
+    The own face is carried by a resting frame at its centre, z into the node (−normal), that
+    goes onto the parent face's frame at (s, t, offset) turned by ``yaw``. Two faces that face each
+    other cannot keep both in-plane axes: one of them turns half round. A face whose y axis is
+    upright (a side face: y is +z) keeps y, so at yaw 0 a cabinet's back against a wall stands
+    upright (its up along the wall face's y, up); any other face keeps x, so a bottom face's
+    resting frame is the node's own frame and the transform is rests_on's, bit for bit. Faces are
+    any flat face (``Primitive.planes``), the parent's and the node's; with no parent, the face is
+    the floor z = 0, as for ``rests_on``.
     """
 
     face: str | None = None
@@ -203,18 +212,35 @@ class FlushJoint(Joint):
     def set_values(self, q):
         self.s, self.t, self.yaw = (float(v) for v in q)
 
+    def rest_frame(self, node: Primitive | None, node_params: Array | None = None) -> Array:
+        """node_from_rest (4×4): the own face's resting frame in the node's frame (identity for a
+        bottom face: rests_on)."""
+        if node is None or self.own_face == "bottom" and "bottom" in node.faces():
+            return np.eye(4)
+        o, x, y, n = node.plane_frame(self.own_face, node_params)
+        keep_y = abs(y[2]) > UPRIGHT_AXIS  # (−x, y) or (x, −y), then −n (into the node), at the centre
+        rest = np.eye(4)
+        rest[:3, 0], rest[:3, 1], rest[:3, 2], rest[:3, 3] = (-x, y, -n, o) if keep_y else (x, -y, -n, o)
+        return rest
+
     def transform(self, q, parent, parent_params, node, node_params):
         F = np.eye(4) if parent is None else _frame4(parent.plane_frame(self.face, parent_params))
         T = F @ translation(np.array([q[0], q[1], self.offset])) @ rz(q[2])
         if node is None or self.own_face == "bottom" and "bottom" in node.faces():
             return T  # the node's frame is its bottom face's resting frame (rests_on)
-        o, x, y, n = node.plane_frame(self.own_face, node_params)
-        rest = np.eye(4)  # node_from_rest: x, then −y, −n (into the node), at the face's centre
-        rest[:3, 0], rest[:3, 1], rest[:3, 2], rest[:3, 3] = x, -y, -n, o
+        rest = self.rest_frame(node, node_params)
         inv = np.eye(4)
         inv[:3, :3] = rest[:3, :3].T
-        inv[:3, 3] = -rest[:3, :3].T @ o
+        inv[:3, 3] = -rest[:3, :3].T @ rest[:3, 3]
         return T @ inv
+
+    def values_for(self, parent_from_node: Array, parent: Primitive | None, node: Primitive | None) -> Array:
+        """(s, t, yaw) that put the node as near ``parent_from_node`` as the joint allows: its own
+        face's centre over the point it is over now, turned as it is now about the face's normal
+        (what a modelling screen gives a node it makes flush where it stands)."""
+        F = np.eye(4) if parent is None or self.face is None else _frame4(parent.plane_frame(self.face))
+        M = np.linalg.inv(F) @ np.asarray(parent_from_node, float) @ self.rest_frame(node)
+        return np.array([M[0, 3], M[1, 3], float(np.arctan2(M[1, 0], M[0, 0]))])
 
     def to_dict(self):
         d: dict[str, Any] = {"type": "flush"}

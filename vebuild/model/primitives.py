@@ -58,50 +58,21 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .mesh import Mesh, Patch, assemble, circle, polygon_patch, revolution_patch
+from .shapes import EX as _EX
+from .shapes import EY as _EY
+from .shapes import EZ as _EZ
+from .shapes import Frame  # noqa: F401  (re-exported: a face frame, as every primitive returns it)
+from .shapes import level_frame as _level_frame
+from .shapes import points as _points
+from .shapes import rim as _rim
+from .shapes import ring as _ring
+from .shapes import side_frame as _side_frame
 
 Array = NDArray[np.float64]
-#: A face frame: origin (3,), x axis (3,), y axis (3,), outward normal (3,); x × y = normal.
-Frame = tuple[Array, Array, Array, Array]
-
-_EX, _EY, _EZ = np.eye(3)
-#: Quad corners v0…v3 as multiples of (width, depth): counter-clockwise from (−x, −y) seen from +z.
-_CORNERS = np.array([[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]])
-#: Rim handle directions at 0°, 90°, 180°, 270° from +x, exact (no cos(π/2) ≈ 6e-17).
-_RIM = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])
 
 _REGISTRY: dict[str, type[Primitive]] = {}
 #: Sizes never go below this (metres): "sizes stay positive" with a margin the solver can use.
 MIN_SIZE_M = 1e-3
-
-
-# ----------------------------------------------------------------------------------------------
-# Small vectorised builders shared by the handle formulas: (...,) parameter arrays → (..., n, 3)
-
-
-def _points(x: ArrayLike, y: ArrayLike, z: ArrayLike) -> Array:
-    return np.stack(np.broadcast_arrays(x, y, z), axis=-1)
-
-
-def _ring(w: Array, d: Array, z: Array) -> Array:
-    """The four corners v0…v3 of a w × d rectangle at height z: (...,) → (..., 4, 3)."""
-    return _points(w[..., None] * _CORNERS[:, 0], d[..., None] * _CORNERS[:, 1], z[..., None])
-
-
-def _rim(r: Array, z: Array) -> Array:
-    """Rim points at 0°, 90°, 180°, 270° from +x, radius r, height z: (...,) → (..., 4, 3)."""
-    return _points(r[..., None] * _RIM[:, 0], r[..., None] * _RIM[:, 1], z[..., None])
-
-
-def _level_frame(z: float, up: bool = True) -> Frame:
-    """A level face centred on the z axis; a downward face keeps +x and so takes −y (right-handed)."""
-    if up:
-        return np.array([0.0, 0.0, z]), _EX.copy(), _EY.copy(), _EZ.copy()
-    return np.array([0.0, 0.0, z]), _EX.copy(), -_EY, -_EZ
-
-
-def _side_frame(centre: ArrayLike, n: Array) -> Frame:
-    """A vertical face's frame: y up (+z), x = y × n (to the right seen from outside), n out."""
-    return np.asarray(centre, float), np.cross(_EZ, n), _EZ.copy(), np.array(n, float)
 
 
 def _param_value(self: Primitive, index: int) -> float:

@@ -98,6 +98,10 @@ def relations_from_dict(items: Any, model: Model, path: str = "$.model.relations
     return out
 
 
+def _an(word: str) -> str:
+    return f"{'an' if word[:1] in 'aeiou' else 'a'} {word}"
+
+
 def _fail(rel_path: str, label: str | None, key: str | None, detail: str) -> ModelError:
     human = rel_path if label is None else f"{rel_path} ({label})"
     return error_at(human if key is None else f"{human}.{key}", rel_path if key is None else f"{rel_path}.{key}",
@@ -132,8 +136,8 @@ def _relation(d: Any, model: Model, at: str) -> Relation:
         key = "ab"[what.index("edge")]
         raise _fail(at, label, key, f"'{d[key]}' is an edge; flush relates two faces (an edge can be aligned)")
     if what[0] != what[1]:
-        raise _fail(at, label, "b", f"'{rel.a}' is a {what[0]} and '{rel.b}' a {what[1]}; aligned relates two "
-                    "faces or two edges")
+        raise _fail(at, label, "b", f"'{rel.a}' is {_an(what[0])} and '{rel.b}' {_an(what[1])}; aligned relates "
+                    "two faces or two edges")
     if rel.a == rel.b:
         raise _fail(at, label, "b", f"relates '{rel.a}' with itself; name two different {what[0]}s")
     if split_ref(rel.a or "")[0] == split_ref(rel.b or "")[0]:
@@ -186,8 +190,8 @@ def _equal(d: Mapping[str, Any], model: Model, at: str, name: str | None) -> Rel
             raise _fail(at, label, f"params[{i}]", detail)
     for i, p in enumerate(params[1:], 1):
         if kind_of[p] != kind_of[params[0]]:
-            raise _fail(at, label, f"params[{i}]", f"'{p}' is a {kind_of[p]} and '{params[0]}' a "
-                        f"{kind_of[params[0]]}; equal relates parameters of one kind")
+            raise _fail(at, label, f"params[{i}]", f"'{p}' is {_an(kind_of[p])} and '{params[0]}' "
+                        f"{_an(kind_of[params[0]])}; equal relates parameters of one kind")
     return rel
 
 
