@@ -3,15 +3,20 @@ calibrate`, then `vebuild solve --recalibrate`, on a written project.
 
 Each room is L-shaped (six corners) with a doorway and a window, a door leaf open 20–70° on a hinge
 at a jamb (its axis solved: ``solve_axis``), a cabinet and a row of equal units with their backs
-flush against walls; 4–6 photos from inside, none of which sees a corner of the floor (the room's
-corners are solved from its walls' lines and top corners). The first guess is 10–25 % off in every
-size and position. What the issue asks to be shown:
+flush against walls; 4–10 photos from inside (9 and 8 in the rooms tested), none of which sees a
+corner of the floor (the room's corners are solved from its walls' lines and top corners). The
+first guess is 10–25 % off in every size and position. What the issue asks to be shown:
 
 - dimensions (the walls' lengths, the height, the openings' and the furniture's sizes) within 1 cm
   per metre of the truth, the hinge's axis within 1 cm;
 - over several rooms, the share of true values inside their 95 % intervals at least 90 % and not
   more than an upper bound (too-wide intervals are as wrong);
 - from two different first guesses, the same figures within 0.1 σ.
+
+Measured at this commit (seed 1; coverage over seeds 1 and 3, 46 values, the time that fits): worst
+dimension 0.93 cm per metre, hinge axis 2.0 mm off, two guesses within 1.3e-6 σ, coverage 84.8 %:
+below the issue's 90 % (the errors outside are 2.0–3.6 σ), so that test fails, as it should until
+the intervals are honest on these rooms.
 """
 
 from __future__ import annotations

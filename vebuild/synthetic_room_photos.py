@@ -1,12 +1,13 @@
 """The photos of a generated room (vebuild.synthetic_rooms): random candidate cameras standing in
 the room, aimed as a photographer would (at the doorway, the window, the furniture, a wall's upper
-stretch), each refused if it sees any corner of the floor; then a set of 4–6 of them chosen that
+stretch), each refused if it sees any corner of the floor; then a set of 4–10 of them chosen that
 together show every wall, box and opening twice, and their marks (vanishing segments, markers).
 """
 
 from __future__ import annotations
 
 import re
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -16,6 +17,8 @@ from .synthetic import CLICK_NOISE_PX, SyntheticPhoto, _rotation, add_segments, 
 from .synthetic_rooms import RoomScene
 
 Array = NDArray[np.float64]
+#: What one photo shows (_coverage): walls, points, markers, ties (sets) and rays (tie → unit sight line).
+Coverage = dict[str, Any]
 
 
 def _markers(rng: np.random.Generator, scene: RoomScene, n_wall: int = 80, n_floor: int = 16) -> dict[str, Array]:
@@ -112,7 +115,7 @@ def _candidate(rng: np.random.Generator, scene: RoomScene, pid: str, width: int,
     return cam
 
 
-def _coverage(scene: RoomScene, cam: SyntheticPhoto, markers: dict[str, Array]) -> dict[str, set]:
+def _coverage(scene: RoomScene, cam: SyntheticPhoto, markers: dict[str, Array]) -> Coverage:
     """What one photo shows: the room's walls (a stretch of a line of each), the pinnable points
     ((node, handle)), the markers."""
     pts = scene.seen_points()
@@ -151,12 +154,12 @@ MIN_MARKERS_PER_PHOTO = 3
 MIN_SHARED_MARKERS = 3
 
 
-def _needs(scene: RoomScene, covs: list[dict[str, set]]) -> int:
+def _needs(scene: RoomScene, covs: list[Coverage]) -> int:
     """How far a set of photos falls short of MIN_PHOTOS_PER_THING (0: enough)."""
     return sum(shortfall(scene, covs).values())
 
 
-def shortfall(scene: RoomScene, covs: list[dict[str, set]]) -> dict[str, int]:
+def shortfall(scene: RoomScene, covs: list[Coverage]) -> dict[str, int]:
     """What a set of photos (their _coverage) shows too seldom: thing → photos missing."""
     short = {}
     for i in range(len(scene.corners)):
@@ -178,7 +181,7 @@ def shortfall(scene: RoomScene, covs: list[dict[str, set]]) -> dict[str, int]:
 CHOICE_RESTARTS = 40
 
 
-def _known(covs: list[dict[str, set]], order: list[int]) -> set[str]:
+def _known(covs: list[Coverage], order: list[int]) -> set[str]:
     """The ties the calibration's start has placed once the photos ``order`` are: the origin, and
     each tie two of them see with sight lines at least MIN_INTERSECTION_ANGLE_DEG apart."""
     out = {"O"}
@@ -190,14 +193,14 @@ def _known(covs: list[dict[str, set]], order: list[int]) -> set[str]:
     return out
 
 
-def _placeable(covs: list[dict[str, set]], order: list[int], i: int, known: set[str] | None = None) -> bool:
+def _placeable(covs: list[Coverage], order: list[int], i: int, known: set[str] | None = None) -> bool:
     """Whether vebuild calibrate's start can place photo i after the photos ``order``: it shares two
     ties with one of them and sees a tie they have placed (_known)."""
     known = _known(covs, order) if known is None else known
     return bool(covs[i]["ties"] & known) and any(len(covs[i]["ties"] & covs[j]["ties"]) >= 2 for j in order)
 
 
-def _greedy(rng: np.random.Generator, scene: RoomScene, covs: list[dict[str, set]], n_photos: tuple[int, int],
+def _greedy(rng: np.random.Generator, scene: RoomScene, covs: list[Coverage], n_photos: tuple[int, int],
             first: int) -> list[int]:
     """Photos chosen one by one from ``first``, each one the calibration can place after those
     before it (_placeable), the one that leaves the least short."""
@@ -215,9 +218,9 @@ def _greedy(rng: np.random.Generator, scene: RoomScene, covs: list[dict[str, set
     return chosen
 
 
-def _choose(rng: np.random.Generator, scene: RoomScene, covs: list[dict[str, set]],
+def _choose(rng: np.random.Generator, scene: RoomScene, covs: list[Coverage],
             n_photos: tuple[int, int]) -> list[int] | None:
-    """A set of 4–6 photos that leaves nothing short (None where CHOICE_RESTARTS greedy tries fail)."""
+    """A set of 4–10 photos that leaves nothing short (None where CHOICE_RESTARTS greedy tries fail)."""
     firsts = [i for i in rng.permutation(len(covs)) if "O" in covs[i]["markers"]]
     for first in firsts[:CHOICE_RESTARTS]:
         chosen = _greedy(rng, scene, covs, n_photos, int(first))
@@ -226,7 +229,7 @@ def _choose(rng: np.random.Generator, scene: RoomScene, covs: list[dict[str, set
     return None
 
 
-def _placed(covs: list[dict[str, set]], chosen: list[int]) -> list[int]:
+def _placed(covs: list[Coverage], chosen: list[int]) -> list[int]:
     """The photos ``chosen`` that vebuild calibrate's start (calibration/start.py) can place, in the
     order it places them: first the one showing the origin with the most markers, then each that
     shares two markers with a placed photo and sees a marker that two placed photos show (a
@@ -246,19 +249,19 @@ def _placed(covs: list[dict[str, set]], chosen: list[int]) -> list[int]:
     return order
 
 
-def _unlinked(covs: list[dict[str, set]]) -> int:
+def _unlinked(covs: list[Coverage]) -> int:
     """How many of the photos the calibration could not place (_placed)."""
     return len(covs) - len(_placed(covs, list(range(len(covs))))) if covs else 0
 
 
 def photograph(rng: np.random.Generator, scene: RoomScene, n_photos: tuple[int, int] = (4, 10),
                width: int = 1600, height: int = 1200, n_candidates: int = 100) -> None:
-    """Choose 4–6 photos (greedily, from random candidates that see no floor corner) that together
+    """Choose 4–10 photos (greedily, from random candidates that see no floor corner) that together
     show what the model needs (_needs), then mark their vanishing segments; sets ``scene.photos``
     and ``scene.markers`` (the markers seen in two photos or more). RuntimeError where no such set
     is found."""
     markers = _markers(rng, scene)
-    cands: list[tuple[SyntheticPhoto, dict[str, set]]] = []
+    cands: list[tuple[SyntheticPhoto, Coverage]] = []
     for k in range(40 * n_candidates):
         if len(cands) >= n_candidates:
             break
