@@ -7,7 +7,7 @@ from __future__ import annotations
 import copy
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -61,6 +61,16 @@ class _Drag:
         self.revision = 0  # counts the moves the model followed
         self.T = session.problem.transforms(self.x_good)
         self.T_key = 0
+
+
+def fresh_name(name: str | None, kind: str, taken: Collection[str]) -> str:
+    """``name`` stripped, or where none is given the first of kind1, kind2, … not in ``taken``."""
+    if name is not None and name.strip():
+        return name.strip()
+    k = 1
+    while f"{kind}{k}" in taken:
+        k += 1
+    return f"{kind}{k}"
 
 
 class Modelling(Marks):
@@ -127,12 +137,7 @@ class Modelling(Marks):
             raise EditError(f"a primitive is one of {', '.join(DEFAULT_PARAMS)}, not {kind!r}")
         ptype = "frustum" if kind == "cone" else kind
         existing = {n["name"] for n in self._nodes()}
-        if name is None or not name.strip():
-            k = 1
-            while f"{kind}{k}" in existing:
-                k += 1
-            name = f"{kind}{k}"
-        name = name.strip()
+        name = fresh_name(name, kind, existing)
         if name in existing:
             raise EditError(f"the model already has a node called '{name}'")
         if parent is not None and parent not in existing:

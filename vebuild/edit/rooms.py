@@ -227,13 +227,10 @@ class Rooms(Relating):
         n = len(c)
         if not 0 <= wall < n:
             raise EditError(f"'{node}' has walls 0 to {n - 1}, not {wall}")
+        from .modelling import fresh_name
+
         taken = set(room.opening_names())
-        if name is None or not name.strip():
-            k = 1
-            while f"{kind}{k}" in taken:
-                k += 1
-            name = f"{kind}{k}"
-        name = name.strip()
+        name = fresh_name(name, kind, taken)
         if name in taken:
             raise EditError(f"'{node}' already has an opening called '{name}'")
         size = OPENING_DEFAULTS[kind]

@@ -137,6 +137,13 @@ class FreeJoint(Joint):
         return {"type": "free", **pose_to_dict(self.base)}
 
 
+def _frame4(frame: tuple[Array, Array, Array, Array]) -> Array:
+    """A face frame (origin, x, y, normal) as the 4×4 matrix from face coordinates."""
+    F = np.eye(4)
+    F[:3, 0], F[:3, 1], F[:3, 2], F[:3, 3] = frame[1], frame[2], frame[3], frame[0]
+    return F
+
+
 @dataclass
 class RestsOnJoint(Joint):
     """The node's bottom face lies on the parent's face ``face`` (the floor z = 0 for the world)."""
@@ -155,10 +162,7 @@ class RestsOnJoint(Joint):
         self.s, self.t, self.yaw = (float(v) for v in q)
 
     def transform(self, q, parent, parent_params, node, node_params):
-        F = np.eye(4)
-        if parent is not None:
-            o, x, y, n = parent.face_frame(self.face, parent_params)
-            F[:3, 0], F[:3, 1], F[:3, 2], F[:3, 3] = x, y, n, o
+        F = np.eye(4) if parent is None else _frame4(parent.face_frame(self.face, parent_params))
         return F @ translation(np.array([q[0], q[1], 0.0])) @ rz(q[2])
 
     def to_dict(self):
@@ -166,13 +170,6 @@ class RestsOnJoint(Joint):
         if self.face is not None:
             d["face"] = self.face
         return d
-
-
-def _frame4(frame: tuple[Array, Array, Array, Array]) -> Array:
-    """A face frame (origin, x, y, normal) as the 4×4 matrix from face coordinates."""
-    F = np.eye(4)
-    F[:3, 0], F[:3, 1], F[:3, 2], F[:3, 3] = frame[1], frame[2], frame[3], frame[0]
-    return F
 
 
 #: A face whose y axis has a z component above this is upright (a side face's y is +z exactly; a
