@@ -226,6 +226,26 @@ def _distortion_prior(cal: PhotoCalibration) -> tuple[np.ndarray, float, float]:
     return cal.covariance, k1, k1_sigma
 
 
+def vanishing_point_prior(cal: PhotoCalibration, height: tuple[float, float] | None) -> dict[str, Any]:
+    """What held a jointly placed photo's camera before any marker (FORMAT.md
+    ``vanishing_point_prior``): its vanishing-point K, R and covariance over (f, cx, cy, ω), its
+    k1 where the vanishing points estimated it, and of its position only the height its own scale
+    gave (camera height, known lengths); null where nothing but the markers held it. A
+    re-calibration (``vebuild solve --recalibrate``) holds the photo by this alone, since the
+    markers, pins and scale distances the placement used are in it again."""
+    cov = np.full((9, 9), np.nan)
+    cov[:6, :6] = cal.covariance
+    if height is not None:
+        cov[:6, 8] = cov[8, :6] = 0.0
+        cov[8, 8] = height[1] ** 2
+    out: dict[str, Any] = {"K": json_values(cal.K), "R": json_values(cal.R),
+                           "covariance": [[None if not np.isfinite(v) else float(v) for v in row] for row in cov]}
+    prior, k1, k1_sigma = _distortion_prior(cal)
+    if prior.shape == (7, 7):
+        out["k1"] = value_sigma(k1, float(np.sqrt(prior[6, 6])))
+    return out
+
+
 def _scale_sources(data: dict[str, Any], pid: str, obs: dict[str, np.ndarray], refs: list[ReferenceDistance],
                    floor: set[str], with_floor_distances: bool) -> list[ScaleSource]:
     """A photo's own scale: its camera height, the known lengths clicked in it, and (placed alone)
@@ -377,6 +397,8 @@ def _results(data: dict[str, Any], photos: dict[str, PhotoCalibration], placemen
         else:
             cameras[pid]["placement"] = {"how": "joint", "origin": f"marker '{placement.origin}'" if placement else "",
                                          "lengths": "metres"}
+            cameras[pid]["vanishing_point_prior"] = vanishing_point_prior(
+                cal, placement.camera_heights.get(pid) if placement else None)
         # The cross-check against the EXIF focal prior (its value and honest 1σ, as calibration saw it):
         # beyond 3σ of the two together the photo was cropped or the segments are wrong.
         exif = exif_focal_prior(_photo(data, pid), exif_sigma_rel)

@@ -149,15 +149,19 @@ def points_covariance(names: list[str], solved: SolvedModel | None, sigmas: dict
 
 def recalibration_cameras(project: Project, cameras: dict[str, ImageCamera], refine_intrinsics: bool
                           ) -> dict[str, ImageCamera]:
-    """The priors of a re-calibration with each registered photo (``calibration.cameras[id].mode``
-    "registered") held by its ``registration_prior`` alone, not by its registration: the photo's
-    pins and sightings, and the model points its registration rested on, are in the re-calibration
-    themselves. Free entries of the prior get FREE_PRIOR_VARIANCE. Without ``refine_intrinsics``
-    the registered K is held (as every photo's is) and its covariance kept for the record."""
+    """The priors of a re-calibration: each photo held by what held its camera before any point,
+    not by its calibration, whose covariance already counts the marker sightings, pins and scale
+    distances that the re-calibration uses again (counted twice they would make every interval too
+    narrow). A registered photo (``calibration.cameras[id].mode`` "registered") is held by its
+    ``registration_prior``, a jointly placed photo by its ``vanishing_point_prior`` (its
+    vanishing-point K, R and k1, and its own camera height; FORMAT.md); a photo placed alone keeps
+    its calibration. Free entries of the prior get FREE_PRIOR_VARIANCE. Without
+    ``refine_intrinsics`` the calibrated K is held (as every photo's is) and its covariance kept
+    for the record."""
     out = dict(cameras)
     for pid, rec in (project.data.get("calibration") or {}).get("cameras", {}).items():
-        prior = rec.get("registration_prior")
-        if rec.get("mode") != "registered" or not prior or pid not in cameras:
+        prior = rec.get("registration_prior") if rec.get("mode") == "registered" else rec.get("vanishing_point_prior")
+        if not prior or pid not in cameras:
             continue
         cam = cameras[pid]
         P = np.array([[np.nan if v is None else v for v in row] for row in prior["covariance"]], float)
@@ -169,8 +173,21 @@ def recalibration_cameras(project: Project, cameras: dict[str, ImageCamera], ref
             K = cam.K
             P[:3, :] = P[:, :3] = 0.0
             P[:3, :3] = np.asarray(cam.covariance, float)[:3, :3]
+        k1 = float(prior["k1"]["value"]) if "k1" in prior else cam.k1
         out[pid] = ImageCamera(pid, K, np.asarray(prior["R"], float), cam.C, cam.width, cam.height,
-                               covariance=P, k1=cam.k1)
+                               covariance=P, k1=k1)
+    return out
+
+
+def recalibration_k1_sigmas(project: Project, sigmas: dict[str, float]) -> dict[str, float]:
+    """``sigmas`` (photo id → k1's 1σ, from the calibration records) with the 1σ of each
+    ``vanishing_point_prior`` that has a k1 in its place: a re-calibration holds that photo's k1 by
+    what the vanishing points alone said of it (:func:`recalibration_cameras`)."""
+    out = dict(sigmas)
+    for pid, rec in (project.data.get("calibration") or {}).get("cameras", {}).items():
+        prior = rec.get("vanishing_point_prior") if rec.get("mode") != "registered" else None
+        if prior and "k1" in prior and pid in out:
+            out[pid] = float(prior["k1"]["sigma"])
     return out
 
 

@@ -42,7 +42,7 @@ from ..project import Project, decode, json_path, provenance
 from ..project.decode import cameras_from_calibration, load_model
 from ..project.records import camera_record, distortion_record, json_values, value_sigma
 from ..project.units import length_unit
-from .register import recalibration_cameras
+from .register import recalibration_cameras, recalibration_k1_sigmas
 
 #: A pinned handle must project in front of its camera and no farther outside the image than this
 #: share of its size; otherwise the pin is on a vertex that camera cannot see.
@@ -83,7 +83,8 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
                       options=ProblemOptions(click_sigma_px=project.settings["click_sigma_px"],
                                              prior_scale=FINAL_PRIOR_SCALE, recalibrate=recalibrate,
                                              refine_intrinsics=refine_intrinsics,
-                                             k1_sigma=distortion_sigmas(project) if recalibrate else {}),
+                                             k1_sigma=recalibration_k1_sigmas(project, distortion_sigmas(project))
+                                             if recalibrate else {}),
                       markers=MarkerData(markers, [origin, *surveyed], marker_obs, distances))
     try:
         x0 = problem.x0()

@@ -102,6 +102,8 @@ class Placement:
     distances: list[MeasuredDistance]
     origin: str
     variance_factor: float
+    #: photo id → (camera height above the floor, 1σ) each photo's own scale gave (``camera_heights``)
+    camera_heights: dict[str, tuple[float, float]] = field(default_factory=dict)
 
 
 @deterministic
@@ -491,4 +493,4 @@ def _refine(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mappi
         if d.b in col:
             g[col[d.b] : col[d.b] + 3] -= u
         measured.append(MeasuredDistance(d, dist, float(np.sqrt(max(float(g @ cov @ g), 0.0)))))
-    return Placement(cameras, markers, measured, origin, s2)
+    return Placement(cameras, markers, measured, origin, s2, dict(heights))
