@@ -3,7 +3,7 @@ calibrate`, then `vebuild solve --recalibrate`, on a written project.
 
 Each room is L-shaped (six corners) with a doorway and a window, a door leaf open 20–70° on a hinge
 at a jamb (its axis solved: ``solve_axis``), a cabinet and a row of equal units with their backs
-flush against walls; 4–10 photos from inside (9 and 8 in the rooms tested), none of which sees a
+flush against walls; 4–10 photos from inside, none of which sees a
 corner of the floor (the room's corners are solved from its walls' lines and top corners). The
 first guess is 10–25 % off in every size and position. What the issue asks to be shown:
 
@@ -13,11 +13,13 @@ first guess is 10–25 % off in every size and position. What the issue asks to 
   more than an upper bound (too-wide intervals are as wrong);
 - from two different first guesses, the same figures within 0.1 σ.
 
-Measured at this commit (seed 1; coverage over seeds 1 and 3, 46 values, the time that fits): worst
-dimension 0.82 cm per metre, coverage 95.7 %. The cameras are held by their vanishing-point priors
-(FORMAT.md ``vanishing_point_prior``), not by their calibration, which already counts the marker
-sightings the re-calibration uses again: held that way the same rooms gave 84.8 %. Over 12 rooms
-(seeds 1–20 that draw and solve) the share is 90.9 % (79.7 % before); see the README.
+Measured at this commit (seed 1; coverage over seeds 1, 3, 4, 6, 10 and 18, 138 values, the
+rooms that generate and solve in about 10 s each): worst dimension 0.82 cm per metre, coverage
+95.7 %. The cameras are held by their vanishing-point priors (FORMAT.md ``vanishing_point_prior``),
+not by their calibration, which already counts the marker sightings the re-calibration uses again.
+The solve starts from staged_start (the room alone first, then everything): from the raw guess
+seeds 6 and 8 ended with pinned vertices behind a camera. Over 14 rooms (seeds 1–20 that draw)
+the share is 92.2 %; see the README.
 """
 
 from __future__ import annotations
@@ -31,7 +33,9 @@ from vebuild.actions.calibrate import calibrate_project
 from vebuild.actions.solve import solve_project
 from vebuild.constants import Z95
 from vebuild.model.scene import model_from_dict
+from vebuild.model.solver import staged_start
 from vebuild.project import load_project, save_project
+from vebuild.project.decode import cameras_from_calibration, load_model
 from vebuild.synthetic_room_model import guessed_nodes, room_params, write_room_project
 from vebuild.synthetic_room_photos import shortfall
 from vebuild.synthetic_rooms import GeneratedRoom, RoomScene, room_scene
@@ -39,7 +43,7 @@ from vebuild.synthetic_rooms import GeneratedRoom, RoomScene, room_scene
 #: The room whose figures are checked one by one (and whose solve is repeated from another guess).
 SEED = 1
 #: Rooms for the coverage figure.
-COVERAGE_SEEDS = (1, 3)
+COVERAGE_SEEDS = (1, 3, 4, 6, 10, 18)
 #: The issue's accuracy: a dimension within 1 cm per metre of it (1 %), the hinge's axis within 1 cm.
 DIMENSION_TOL_REL = 0.01
 AXIS_TOL_M = 0.01
@@ -189,3 +193,34 @@ def test_two_first_guesses_give_the_same_figures(generated: GeneratedRoom, solve
                 worst = max(worst, d)
                 assert d < REPEAT_SIGMA, (node, k, v["value"], again["nodes"][node]["params"][k]["value"])
     print("largest difference between the two guesses' solutions (σ):", worst)
+
+
+def test_the_staged_start_places_the_room_before_its_furniture(generated: GeneratedRoom, tmp_path: Path) -> None:
+    """staged_start solves the room alone first (one stage: the room, then its children in the
+    final solve), from its own pins and edges with the calibrated cameras held: the room's sizes
+    come much nearer the truth than the 10–25 % guess, the furniture is left where it was, and the
+    model's relations are as they were. (Seed 1: the room's mean error goes from 16 % to 5.0 %;
+    what remains is the calibration's cameras, which the re-calibrating solve then corrects.)"""
+    path = write_room_project(tmp_path, generated.scene, generated.guess, generated.pins, generated.edges)
+    project = load_project(path)
+    calibrate_project(project)
+    save_project(path, project.data)
+    project = load_project(path)
+    model, pins, edges = load_model(project)
+    relations = list(model.relations)
+    children = {n.name: list(n.primitive.params) for n in model.nodes if n.parent is not None and n.primitive}
+    truth = room_params(generated.scene)
+
+    def room_error() -> float:
+        r = model.node("room").primitive
+        got = dict(zip(r.PARAMS, r.params, strict=True))
+        return float(np.mean([abs(got[k] / v - 1) for k, v in truth.items() if v != 0 and k != "thickness"]))
+
+    before = room_error()
+    stages = staged_start(model, cameras_from_calibration(project), [p for p in pins if p.fixed], edges,
+                          project.settings["click_sigma_px"])
+    print(f"room's mean error: guess {before:.3f}, after the staged start {room_error():.3f}")
+    assert stages == 1
+    assert room_error() < 0.5 * before
+    assert model.relations == relations
+    assert {n: list(model.node(n).primitive.params) for n in children} == children

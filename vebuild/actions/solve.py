@@ -37,7 +37,7 @@ from ..model.determination import axis_records, too_few_observations
 from ..model.residuals import MarkerObservation
 from ..model.scene import Model
 from ..model.solution import handle_covariances
-from ..model.solver import FINAL_PRIOR_SCALE, MarkerData, Problem, ProblemOptions
+from ..model.solver import FINAL_PRIOR_SCALE, MarkerData, Problem, ProblemOptions, staged_start
 from ..project import Project, decode, json_path, provenance
 from ..project.decode import cameras_from_calibration, load_model
 from ..project.records import camera_record, distortion_record, json_values, value_sigma
@@ -79,6 +79,13 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
                 distances.append(d)
         check_recalibration_scale(project, model, markers, distances)
     surveyed = list(decode.markers(data, "surveyed"))
+    guess = model.vector()
+    try:  # the parents first, from their own marks (staged_start): a start the final solve can use
+        staged_start(model, cameras, [p for p in pins if p.fixed], edges, project.settings["click_sigma_px"])
+    except (ValueError, np.linalg.LinAlgError) as e:
+        if not is_numeric_failure(e):
+            raise
+        model.set_vector(guess)  # a degenerate stage: the final solve starts from the guess and says why
     problem = Problem(model, cameras, [p for p in pins if p.fixed], edges,
                       options=ProblemOptions(click_sigma_px=project.settings["click_sigma_px"],
                                              prior_scale=FINAL_PRIOR_SCALE, recalibrate=recalibrate,
