@@ -277,6 +277,9 @@ def photograph(rng: np.random.Generator, scene: RoomScene, n_photos: tuple[int, 
         firsts = [i for i, c in enumerate(covs) if "O" in c["markers"]] or [0]
         best = min((_greedy(rng, scene, covs, n_photos, i) for i in firsts[:5]),
                    key=lambda ch: _needs(scene, [covs[i] for i in ch]))
+        if len(best) >= n_photos[0] and _needs(scene, [covs[i] for i in best]) == 0:
+            chosen = best  # the first photos in candidate order found a set the random restarts missed
+    if chosen is None:
         raise RuntimeError("no set of photos shows every wall, box and opening twice without a floor corner: "
                            f"short of {shortfall(scene, [covs[i] for i in best])}")
     scene.photos = []
