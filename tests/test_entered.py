@@ -181,3 +181,23 @@ def test_an_entered_value_determines_a_dimension_no_photo_shows(tmp_path: Path) 
     floor = data["model_solution"]["nodes"]["floor"]["params"]
     for k in ("width", "depth"):
         assert floor[k]["entered_sigma"] == 0.01 and floor[k]["sigma"] == pytest.approx(0.01, rel=1e-3)
+
+
+def test_two_entered_members_of_an_equal_group_combine_as_two_measurements(tmp_path: Path) -> None:
+    """The floor's width and depth made equal, no photo showing either, each entered from its own
+    tape: the one unknown is held by both, at their inverse-variance mean with 1σ (1/σ₁² + 1/σ₂²)^-½,
+    not by whichever entry came last."""
+    project, _ = _project(tmp_path / "a", 3, [{"name": "width", "sigma": TAPE_SIGMA_M}])
+    data = project.data
+    data["model"]["pins"] = [p for p in data["model"]["pins"] if p["node"] != "floor"]
+    (w, s_w), (d, s_d) = (4.00, 0.01), (4.03, 0.02)
+    data["model"]["nodes"][0]["hold"] = ["yaw", {"name": "width", "sigma": s_w, "value": w},
+                                         {"name": "depth", "sigma": s_d, "value": d}]
+    data["model"]["relations"] = [{"type": "equal", "params": ["floor.width", "floor.depth"]}]
+    solve_project(project)
+    floor = data["model_solution"]["nodes"]["floor"]["params"]
+    weights = np.array([s_w, s_d]) ** -2.0
+    mean, sigma = float(weights @ [w, d] / weights.sum()), float(weights.sum() ** -0.5)
+    for k in ("width", "depth"):
+        assert floor[k]["value"] == pytest.approx(mean, abs=1e-3 * sigma)
+        assert floor[k]["sigma"] == pytest.approx(sigma, rel=1e-3)

@@ -254,12 +254,15 @@ class Residuals:
         """Where each free model parameter's prior is centred (``prior_model_at``: its value before
         the solve, or its entered value) and ``rows_entered``: the prior rows of the entered ones
         (σ > 0), whose 1σ replaces the pull's in ``prior_sigma``. They are observations: they
-        determine a dimension no photo shows."""
+        determine a dimension no photo shows. Members of one ``equal`` group share an unknown: each
+        entered member is a measurement of it, so their entries combine as independent Gaussian
+        measurements do (the inverse-variance mean, 1σ = (Σ 1/σᵢ²)^-½), none overriding another."""
         model = self.model
         self.prior_model_at = np.array(self.x_model0[self.free_idx], float)
         self.prior_sigma = np.array(self.prior_sigma, float)
         index = {nm: j for j, nm in enumerate(self.layout.model.names)}
-        entered = []
+        weight: dict[int, float] = {}  # per unknown: Σ 1/σ², and Σ value/σ²
+        moment: dict[int, float] = {}
         for n in model.nodes:
             for e in n.entered:
                 name = f"{n.name}.{e.name}"
@@ -267,10 +270,13 @@ class Residuals:
                 if j is None or e.sigma <= 0 or e.value is None:
                     continue
                 angle = self.layout.model.kinds[j] == "angle"
-                self.prior_model_at[j] = np.radians(e.value) if angle else e.value
-                self.prior_sigma[j] = np.radians(e.sigma) if angle else e.sigma
-                entered.append(j)
-        self.rows_entered = self.rows_prior_model[np.array(entered, dtype=int)]
+                value, sigma = (np.radians(e.value), np.radians(e.sigma)) if angle else (e.value, e.sigma)
+                weight[j] = weight.get(j, 0.0) + 1.0 / sigma**2
+                moment[j] = moment.get(j, 0.0) + value / sigma**2
+        for j, w in weight.items():
+            self.prior_model_at[j] = moment[j] / w
+            self.prior_sigma[j] = 1.0 / np.sqrt(w)
+        self.rows_entered = self.rows_prior_model[np.array(sorted(weight), dtype=int)]
 
     def set_pin_pixel(self, i: int, uv: ArrayLike) -> None:
         """Move pin i's observed pixel (the mouse, during a drag) without rebuilding the problem."""
