@@ -418,7 +418,7 @@ def test_vebuild_solve_names_a_parameter_that_ends_non_finite(calibrated_room, c
         return sol
     monkeypatch.setattr(Problem, "solve", to_nan)
     err = _failing_solve(calibrated_room, capsys)
-    assert f"$.model: the model parameter {names[0]} is not a finite number at the end of the solve" in err, err
+    assert f"$.model: the model parameter {names[-1]} is not a finite number at the end of the solve" in err, err
 
 
 @pytest.mark.parametrize("failure", [__import__("numpy").linalg.LinAlgError("Singular matrix"),

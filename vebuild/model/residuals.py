@@ -261,8 +261,7 @@ class Residuals:
         self.prior_model_at = np.array(self.x_model0[self.free_idx], float)
         self.prior_sigma = np.array(self.prior_sigma, float)
         index = {nm: j for j, nm in enumerate(self.layout.model.names)}
-        weight: dict[int, float] = {}  # per unknown: Σ 1/σ², and Σ value/σ²
-        moment: dict[int, float] = {}
+        entries: dict[int, list[tuple[float, float]]] = {}  # per unknown: (value, σ) of each entry
         for n in model.nodes:
             for e in n.entered:
                 name = f"{n.name}.{e.name}"
@@ -271,12 +270,14 @@ class Residuals:
                     continue
                 angle = self.layout.model.kinds[j] == "angle"
                 value, sigma = (np.radians(e.value), np.radians(e.sigma)) if angle else (e.value, e.sigma)
-                weight[j] = weight.get(j, 0.0) + 1.0 / sigma**2
-                moment[j] = moment.get(j, 0.0) + value / sigma**2
-        for j, w in weight.items():
-            self.prior_model_at[j] = moment[j] / w
-            self.prior_sigma[j] = 1.0 / np.sqrt(w)
-        self.rows_entered = self.rows_prior_model[np.array(sorted(weight), dtype=int)]
+                entries.setdefault(j, []).append((float(value), float(sigma)))
+        for j, vs in entries.items():
+            v, s = np.array(vs).T
+            w = s ** -2.0
+            # One entry: its own value and σ, exactly as entered.
+            self.prior_model_at[j] = v[0] if len(vs) == 1 else float(w @ v / w.sum())
+            self.prior_sigma[j] = s[0] if len(vs) == 1 else float(w.sum() ** -0.5)
+        self.rows_entered = self.rows_prior_model[np.array(sorted(entries), dtype=int)]
 
     def set_pin_pixel(self, i: int, uv: ArrayLike) -> None:
         """Move pin i's observed pixel (the mouse, during a drag) without rebuilding the problem."""

@@ -277,7 +277,9 @@ def staged_start(model: Model, cameras: Mapping[str, ImageCamera], pins: Sequenc
                               options=ProblemOptions(click_sigma_px=click_sigma_px, prior_scale=FINAL_PRIOR_SCALE,
                                                      free_nodes=sorted(names)))
             if problem.n_model and problem.n_data:
-                model.set_vector(problem.model_vector(problem.solve(robust=True).x))
+                x = problem.model_vector(problem.solve(problem.x0(), robust=True).x)
+                if np.all(np.isfinite(x)):  # else the final solve starts from where this stage did, and says why
+                    model.set_vector(x)
         finally:
             model.relations = every
     return max(len(levels) - 1, 0)
