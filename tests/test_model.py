@@ -398,3 +398,27 @@ def test_recalibrated_camera_records_agree_with_their_matrices(origin_only) -> N
         assert cam["focal_px"]["value"] == pytest.approx(cam["K"][0][0])
         assert cam["principal_point"]["value"] == pytest.approx([cam["K"][0][2], cam["K"][1][2]])
         assert all(s is not None and s > 0 for s in cam["principal_point"]["sigma"])
+
+
+def test_the_variance_factor_counts_the_observations_redundancy_not_the_pulls() -> None:
+    """Clicks twice as noisy as stated (stated σ half the generator's): σ0² = χ² / redundancy
+    comes out near 4 on average, with the redundancy that of the pins (rows − unknowns where every
+    unknown is determined), not rows + pulled unknowns − unknowns (the weak pull toward the start,
+    counted as rows, added one per unknown: σ0² would be low by the share of the unknowns)."""
+    s2, spread = [], []
+    for seed in range(12, 24):
+        _, problem = _with_lid(seed, (0.0, 60.0))
+        problem = Problem(problem.model, problem.cameras, problem.pins,
+                          options=ProblemOptions(click_sigma_px=CLICK_NOISE_PX / 2, prior_scale=1e5))
+        r = problem.solve()
+        sol = problem.solution(r.x, r.iterations)
+        if sol.undetermined:
+            continue
+        res = problem.evaluate(r.x)[: problem.n_data]
+        redundancy = problem.n_data - problem.layout.n
+        assert sol.variance_factor == pytest.approx(max(1.0, res @ res / redundancy), rel=1e-6)
+        s2.append(sol.variance_factor)
+        spread.append(4.0 * np.sqrt(2.0 / redundancy))  # the sampling 1σ of χ²/dof at σ0² = 4
+    # The mean of the draws within 3 of its sampling σ of 4.
+    print(f"mean σ0² {np.mean(s2):.3f} over {len(s2)} scenes (expected 4)")
+    assert abs(np.mean(s2) - 4.0) < 3.0 * np.sqrt(np.sum(np.square(spread))) / len(s2)

@@ -43,7 +43,7 @@ def covariance_from_jacobian(J: Array) -> Array:
     return cov
 
 
-def variance_factor(whitened_residuals: Array, n_params: int) -> float:
+def variance_factor(whitened_residuals: Array, n_params: float) -> float:
     """A-posteriori variance factor σ0² = χ² / dof, floored at 1.
 
     Floored so that reported uncertainties are never smaller than the stated click noise implies;

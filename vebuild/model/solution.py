@@ -75,24 +75,31 @@ def solution_at(problem: Problem, x: Array, iterations: int = 0) -> Solution:
     layout = problem.layout
     J = problem.jacobian(x)
     r = problem.evaluate(x)
-    # Hard rows (flush, aligned) are constraints: each independent one takes an unknown away
-    # rather than adding an observation, so the redundancy is rows − unknowns + constraints. The
-    # pulls toward the values before the solve are counted among the rows as they always were
-    # (their residuals are ~0 in a final solve, so this count exceeds the observations' own
-    # redundancy by the number of pulled unknowns; kept so that a project solves as before).
+    # The a-posteriori variance factor of the clicks (pins, edges, marker sightings): their χ²
+    # over their redundancy, Σ (1 − h_ii) over their rows, h the hat matrix J (JᵀJ)⁻¹ Jᵀ (the
+    # redundancy numbers; one step of variance-component estimation). The weak pull toward the
+    # values before the solve takes no redundancy from them (counted as rows, it added one per
+    # pulled unknown and under-stated σ0²), each independent hard row (flush, aligned) takes one
+    # unknown's worth. Where the clicks fit worse than the stated click noise (σ0² > 1) their
+    # weight is divided by σ0²; the measurements with their own σ (distances, the cameras'
+    # calibration priors, entered values) keep theirs.
     hard = np.concatenate(problem.rows_hard).astype(int) if problem.rows_hard else np.zeros(0, int)
-    soft = np.setdiff1d(np.arange(len(r)), hard)
-    s2 = variance_factor(r[soft], layout.n - constraint_rank(J[hard]))
-    cov = _inverse(J.T @ J) * s2
+    observed = np.r_[np.arange(problem.n_data + len(problem.distances)),
+                     *[problem.rows_prior_cam[c] for c in problem.rows_prior_cam]].astype(int)
+    measured = np.r_[observed, problem.rows_entered].astype(int)  # the entered values are measurements
+    clicks = np.arange(problem.n_data)
+    unit = _inverse(J.T @ J)
+    fitted = _leverage(J, unit, clicks) if np.all(np.isfinite(unit)) else \
+        min(len(clicks), layout.n - constraint_rank(J[hard]))  # singular: the unknowns' count
+    s2 = variance_factor(r[clicks], fitted)
+    Jw = _scaled_rows(J, clicks, 1.0 / s2) if s2 > 1.0 else J
+    cov = unit if s2 == 1.0 else _inverse(Jw.T @ Jw)
     # What the observations alone determine: without the pull toward the starting values
     # (the cameras' calibration priors are observations too, and the relations' hard rows hold);
     # then again with the entered values' measurements, to tell a parameter only an entered value
     # determines.
-    observed = np.r_[np.arange(problem.n_data + len(problem.distances)),
-                     *[problem.rows_prior_cam[c] for c in problem.rows_prior_cam]].astype(int)
     cov_obs = _data_covariance(J, observed, hard, layout.n)
-    cov_data = _data_covariance(J, np.r_[observed, problem.rows_entered].astype(int), hard, layout.n) \
-        if len(problem.rows_entered) else cov_obs
+    cov_data = _data_covariance(J, measured, hard, layout.n) if len(problem.rows_entered) else cov_obs
     extent = scene_extent(problem, x)
     names, kinds = layout.model.names, layout.model.kinds
     xmodel = x[layout.model.slice]
@@ -164,6 +171,22 @@ def scene_extent(problem: Problem, x: Array) -> float:
     if len(H) < 2:
         return LEAST_SCENE_EXTENT
     return max(float(np.linalg.norm(np.ptp(H, axis=0))), LEAST_SCENE_EXTENT)
+
+
+def _scaled_rows(J: Array | sparse.spmatrix, rows: NDArray[np.intp], weight: float) -> Array | sparse.spmatrix:
+    """J with ``rows`` multiplied by √weight (their weight in JᵀJ by ``weight``)."""
+    w = np.ones(J.shape[0])
+    w[rows] = np.sqrt(weight)
+    return sparse.diags(w) @ J if sparse.issparse(J) else w[:, None] * J
+
+
+def _leverage(J: Array | sparse.spmatrix, unit: Array, rows: NDArray[np.intp]) -> float:
+    """Σ h_ii over ``rows``: the unknowns' worth those rows fit (h the hat matrix J (JᵀJ)⁻¹ Jᵀ of
+    the whitened rows, ``unit`` = (JᵀJ)⁻¹, finite)."""
+    Jr = J[rows]
+    JC = Jr @ unit
+    h = cast(Any, Jr).multiply(JC).sum() if sparse.issparse(Jr) else np.einsum("ij,ij->", Jr, JC)
+    return float(h)
 
 
 def _data_covariance(J: Array | sparse.spmatrix, rows: Array, hard: Array, n: int) -> Array:
