@@ -92,8 +92,10 @@ def solution_at(problem: Problem, x: Array, iterations: int = 0) -> Solution:
     fitted = _leverage(J, unit, clicks) if np.all(np.isfinite(unit)) else \
         min(len(clicks), layout.n - constraint_rank(J[hard]))  # singular: the unknowns' count
     s2 = variance_factor(r[clicks], fitted)
-    Jw = _scaled_rows(J, clicks, 1.0 / s2) if s2 > 1.0 else J
-    cov = unit if s2 == 1.0 else _inverse(Jw.T @ Jw)
+    cov = unit
+    if s2 > 1.0:
+        Jw = _scaled_rows(J, clicks, 1.0 / s2)
+        cov = _inverse(Jw.T @ Jw)
     # What the observations alone determine: without the pull toward the starting values
     # (the cameras' calibration priors are observations too, and the relations' hard rows hold);
     # then again with the entered values' measurements, to tell a parameter only an entered value
@@ -182,10 +184,11 @@ def _scaled_rows(J: Array | sparse.spmatrix, rows: NDArray[np.intp], weight: flo
 
 def _leverage(J: Array | sparse.spmatrix, unit: Array, rows: NDArray[np.intp]) -> float:
     """Σ h_ii over ``rows``: the unknowns' worth those rows fit (h the hat matrix J (JᵀJ)⁻¹ Jᵀ of
-    the whitened rows, ``unit`` = (JᵀJ)⁻¹, finite)."""
+    the whitened rows, ``unit`` = (JᵀJ)⁻¹, finite), as trace((JᵀJ)⁻¹ J_rowsᵀ J_rows): the rows'
+    normal matrix, no m × n product."""
     Jr = J[rows]
-    JC = Jr @ unit
-    h = cast(Any, Jr).multiply(JC).sum() if sparse.issparse(Jr) else np.einsum("ij,ij->", Jr, JC)
+    A = Jr.T @ Jr
+    h = cast(Any, A).multiply(unit).sum() if sparse.issparse(A) else np.einsum("ij,ij->", np.asarray(A), unit)
     return float(h)
 
 

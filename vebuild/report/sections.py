@@ -69,8 +69,8 @@ def model(project: Project, rep: Report) -> None:
                                  f"{fmt(ci[0])} – {fmt(ci[1])}"])
     how = "with" if sol.get("recalibrated") else "without"
     body = (f"<p>Primitives fitted to the pins and edges (paper §3), {how} "
-            f"re-calibration of the cameras; RMS residual {fmt(sol.get('rms_px'), 2)} px, variance factor of the clicks "
-            f"{fmt(sol.get('variance_factor'), 2)}. "
+            f"re-calibration of the cameras; RMS residual {fmt(sol.get('rms_px'), 2)} px, variance factor of "
+            f"the clicks {fmt(sol.get('variance_factor'), 2)}. "
             + (f"Lengths in {RELATIVE_UNITS} (no scale was given), " if unit.relative else "Lengths in metres, ")
             + "angles in degrees; 1σ and 95 % interval from the solve's covariance. A value marked 'entered' was "
             "entered (a tape, a plan, an assumption), not measured in the photos: its σ is the entered one; "
