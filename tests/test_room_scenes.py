@@ -18,8 +18,8 @@ rooms that generate and solve in about 10 s each): worst dimension 0.82 cm per m
 95.7 %. The cameras are held by their vanishing-point priors (FORMAT.md ``vanishing_point_prior``),
 not by their calibration, which already counts the marker sightings the re-calibration uses again.
 The solve starts from staged_start (the room alone first, then everything): from the raw guess
-seeds 6 and 8 ended with pinned vertices behind a camera. Over 14 rooms (seeds 1–20 that draw)
-the share is 92.2 %; see the README.
+seeds 6 and 8 ended with pinned vertices behind a camera. Over 15 rooms (seeds 1–20 that draw)
+the share is 92.8 %; see the README.
 """
 
 from __future__ import annotations
