@@ -79,13 +79,8 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
                 distances.append(d)
         check_recalibration_scale(project, model, markers, distances)
     surveyed = list(decode.markers(data, "surveyed"))
-    guess = model.vector()
-    try:  # the parents first, from their own marks (staged_start): a start the final solve can use
-        staged_start(model, cameras, [p for p in pins if p.fixed], edges, project.settings["click_sigma_px"])
-    except (ValueError, np.linalg.LinAlgError) as e:
-        if not is_numeric_failure(e):
-            raise
-        model.set_vector(guess)  # a degenerate stage: the final solve starts from the guess and says why
+    # The parents first, from their own marks: a start the final solve can use.
+    staged_start(model, cameras, [p for p in pins if p.fixed], edges, project.settings["click_sigma_px"])
     problem = Problem(model, cameras, [p for p in pins if p.fixed], edges,
                       options=ProblemOptions(click_sigma_px=project.settings["click_sigma_px"],
                                              prior_scale=FINAL_PRIOR_SCALE, recalibrate=recalibrate,

@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from ..calibration.lsq import is_numeric_failure
 from ..calibration.positions import ReferenceDistance
 from ..camera import ImageCamera
 from ..determinism import deterministic
@@ -260,13 +261,15 @@ def staged_start(model: Model, cameras: Mapping[str, ImageCamera], pins: Sequenc
     puts pinned vertices behind a camera (seeds 6 and 8 of tests/test_room_scenes.py did); a parent
     solved first from its own observations gives its children a start near theirs. The final
     solve, from here, is the same least-squares problem as before: only where it starts changes.
+    A stage that fails numerically (a degenerate sub-problem) puts the model back where it was
+    before the first and stops: the final solve then starts from the guess and says what fails.
     """
     depth: dict[str, int] = {}
     for n in model.nodes:  # parents before children
         depth[n.name] = 0 if n.parent is None else depth[n.parent] + 1
     free = [n.name for n in model.nodes if n.solve]
     levels = sorted({depth[n] for n in free})
-    every = model.relations
+    every, guess = model.relations, model.vector()
     for level in levels[:-1]:
         names = {n for n in free if depth[n] <= level}
         # A relation to a node not yet solved would hold the solved ones to that node's guess.
@@ -280,6 +283,11 @@ def staged_start(model: Model, cameras: Mapping[str, ImageCamera], pins: Sequenc
                 x = problem.model_vector(problem.solve(problem.x0(), robust=True).x)
                 if np.all(np.isfinite(x)):  # else the final solve starts from where this stage did, and says why
                     model.set_vector(x)
+        except (ValueError, np.linalg.LinAlgError) as e:
+            if not is_numeric_failure(e):
+                raise
+            model.set_vector(guess)
+            return 0
         finally:
             model.relations = every
     return max(len(levels) - 1, 0)
