@@ -1,7 +1,8 @@
 """Where a joint placement starts (:mod:`vebuild.calibration.positions`): the first photo at the
-origin marker's ray, each further photo from a baseline to a placed photo or by resection from the
-markers placed so far, the markers triangulated from the photos that see them. Rays leave each
-camera through its lens distortion (vebuild/camera.py)."""
+origin marker's ray (or another marker's, where that start cannot place every photo), each further
+photo from a baseline to a placed photo or by resection from the markers placed so far, the markers
+triangulated from the photos that see them. Rays leave each camera through its lens distortion
+(vebuild/camera.py)."""
 
 from __future__ import annotations
 
@@ -22,6 +23,10 @@ Array = NDArray[np.float64]
 #: Lines meeting at a smaller angle than this (degrees) do not fix a point along them well enough
 #: to start from (with 1 px clicks at f ≈ 1500 px a 2° parallax leaves ~2 % depth error).
 MIN_INTERSECTION_ANGLE_DEG = 2.0
+#: The origin's rays from the photos that see it may meet at this smaller angle (degrees) where no
+#: start from the origin itself places every photo: its depth along them is then held by the
+#: refinement, not by them.
+ORIGIN_MIN_ANGLE_DEG = 0.2
 
 
 def intersect_lines(points: Array, dirs: Array) -> Array:
@@ -64,11 +69,53 @@ def _rays(p: PhotoInput, names: Sequence[str]) -> Array:
 def initial_positions(
     photos: Sequence[PhotoInput], origin: str, known: Mapping[str, Array]
 ) -> tuple[dict[str, Array], dict[str, Array]]:
-    """Unit-scale positions by the paper's construction, then triangulation and resection."""
-    with_origin = [p for p in photos if origin in p.markers]
-    first = max(with_origin, key=lambda p: len(p.markers))
-    C: dict[str, Array] = {first.id: -_rays(first, [origin])[0]}
-    X: dict[str, Array] = {origin: np.zeros(3)}
+    """Unit-scale positions by the paper's construction, then triangulation and resection.
+
+    The construction starts at the origin marker's ray from the photo that sees the most markers
+    with it. Where that start leaves photos it cannot place (two photos alone see the origin and
+    their baseline nearly meets it: its line and the baseline do not cross), it starts again from
+    each other marker in turn, most seen first, until one start places every photo; the origin is
+    then triangulated from the photos that see it, even at less than MIN_INTERSECTION_ANGLE_DEG
+    (down to ORIGIN_MIN_ANGLE_DEG: the refinement then fixes its depth from everything else), and
+    the result moved so that the origin is at zero. Only where the start lies changes, not what
+    is solved from it."""
+    C, X, pending = _construct(photos, origin)
+    if pending:
+        seen = {n: sum(n in p.markers for p in photos) for p in photos for n in p.markers}
+        for anchor in sorted((n for n in seen if n != origin and seen[n] >= 2), key=lambda n: (-seen[n], n)):
+            C2, X2, left = _construct(photos, anchor)
+            o = X2.get(origin)
+            if not left and o is None:
+                obs = [p for p in photos if origin in p.markers and p.id in C2]
+                rays = np.array([_rays(p, [origin])[0] for p in obs])
+                if len(obs) >= 2 and _max_angle_deg(rays) >= ORIGIN_MIN_ANGLE_DEG:
+                    o = intersect_lines(np.array([C2[p.id] for p in obs]), rays)
+            if not left and o is not None:
+                C, X, pending = {k: v - o for k, v in C2.items()}, {k: v - o for k, v in X2.items()}, []
+                X[origin] = np.zeros(3)
+                break
+    if pending:
+        p = pending[0]
+        n_known = sum(1 for n in p.markers if n in X)
+        raise CalibrationError(
+            p.id,
+            f"the camera cannot be placed: it sees {n_known} marker(s) whose position is known from "
+            "other photos and does not share two markers with a placed photo; mark at least two "
+            "markers that other photos also show (or, to place it alone, give it a scale of its own, a "
+            "camera_height or a known length, and mark the origin marker in it)",
+        )
+    return C, X
+
+
+def _construct(photos: Sequence[PhotoInput], anchor: str) -> tuple[dict[str, Array], dict[str, Array],
+                                                                   list[PhotoInput]]:
+    """The construction from marker ``anchor`` at zero, the first photo (the one that sees the
+    most markers with it) at unit distance along its ray: the cameras and markers it places and
+    the photos it cannot place."""
+    with_anchor = [p for p in photos if anchor in p.markers]
+    first = max(with_anchor, key=lambda p: len(p.markers))
+    C: dict[str, Array] = {first.id: -_rays(first, [anchor])[0]}
+    X: dict[str, Array] = {anchor: np.zeros(3)}
     # Known positions are metric while the start is unit-scale: they join after scaling.
     pending = [p for p in photos if p.id != first.id]
     while pending:
@@ -83,18 +130,8 @@ def initial_positions(
                 break
         else:
             break
-    if pending:
-        p = pending[0]
-        n_known = sum(1 for n in p.markers if n in X)
-        raise CalibrationError(
-            p.id,
-            f"the camera cannot be placed: it sees {n_known} marker(s) whose position is known from "
-            "other photos and does not share two markers with a placed photo; mark at least two "
-            "markers that other photos also show (or, to place it alone, give it a scale of its own, a "
-            "camera_height or a known length, and mark the origin marker in it)",
-        )
     _triangulate_all(photos, C, X)
-    return C, X
+    return C, X, pending
 
 
 def _place_by_baseline(p: PhotoInput, C: Mapping[str, Array], X: Mapping[str, Array],
