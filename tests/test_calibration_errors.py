@@ -276,3 +276,30 @@ def test_a_segment_coordinate_that_is_not_a_number(good: dict) -> None:
     with pytest.raises(CalibrationError, match=r"^photo 'p7': axis z: a vanishing segment has a coordinate that is "
                        r"not a number"):
         calibrate_photo(dict(good, z=z), W, H, photo="p7")
+
+
+def test_a_scale_distance_seen_only_in_photos_left_out_says_which_and_why(tmp_path: Path,
+                                                                          rng: np.random.Generator) -> None:
+    """The only scale distance joins two markers that only photos p4 and p5 show, and they share no
+    marker with the photos that see the origin: the joint placement leaves them out, and then
+    nothing fixes its scale. The error says so, and names the photos left out and why (it used to
+    say only "nothing fixes the metric scale", in a project that has a scale distance)."""
+    from vebuild.actions.calibrate import calibrate_project
+    from vebuild.project import load_project, save_project
+
+    photos, markers = random_scene(rng, ("3vp", "3vp", "2vp"))
+    others, far = random_scene(rng, ("3vp", "3vp"))
+    for k, p in enumerate(others):
+        p.id = f"p{4 + k}"
+        p.markers = {f"X{n}": uv for n, uv in p.markers.items()}
+    path = write_project(tmp_path, photos + others, {**markers, **{f"X{n}": v for n, v in far.items()}})
+    a, b = sorted(set(others[0].markers) & set(others[1].markers))[:2]
+    project = load_project(path)
+    project.data["reference_distances"] = [{"a": a, "b": b, "distance": 1.5, "sigma": 0.002, "role": "scale"}]
+    save_project(path, project.data)
+    with pytest.raises(CalibrationError, match=rf"nothing fixes the metric scale: the scale distance\(s\) {a}–{b} join "
+                       rf"markers that the joint placement cannot place \('{a}' is marked in 'p4', 'p5'; "
+                       rf"'{b}' is marked in 'p4', 'p5'\).*with photo\(s\) 'p4' left out of the joint placement, which "
+                       "could not place them: 'p4': the camera cannot be placed") as e:
+        calibrate_project(load_project(path))
+    print(e.value)

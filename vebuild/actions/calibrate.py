@@ -118,7 +118,7 @@ def _calibrate(project: Project, progress: Callable[[Iterable], Iterable]) -> di
                 unplaced[e.photo] = e.detail
                 joint.remove(e.photo)
                 continue
-            joint_error = e
+            joint_error = _after_leaving_out(e, unplaced)
             break
     jointly = set(placement.cameras) if placement is not None else set()
     alone: dict[str, SinglePhotoPlacement] = {}
@@ -169,6 +169,16 @@ def _calibrate(project: Project, progress: Callable[[Iterable], Iterable]) -> di
     return result
 
 
+def _after_leaving_out(e: CalibrationError, left_out: dict[str, str]) -> CalibrationError:
+    """The joint placement's error once photos were left out of it: the same error, saying which
+    photos were left out and why (what is missing may be in them: a scale distance's marker)."""
+    if not left_out or e.photo in left_out:
+        return e
+    why = "; ".join(f"'{pid}': {detail}" for pid, detail in left_out.items())
+    return CalibrationError(e.photo, f"{e.detail} (with photo(s) {', '.join(repr(p) for p in left_out)} left out of "
+                            f"the joint placement, which could not place them: {why})")
+
+
 def checked_after_solve(d: ReferenceDistance) -> bool:
     """A check distance with an end on a model vertex (``node:handle``): the calibration does not
     place model vertices (a pinned one only ties photos together), so it leaves the distance out of
@@ -207,11 +217,22 @@ def _place_jointly(project: Project, photos: dict[str, PhotoCalibration], joint:
             h, sigma, _ = camera_height_estimate(pid, cal.K, cal.R, cov, sources, k1=k1, click_sigma_px=click)
             heights[pid] = (h, sigma)
     seen = {n for p in inputs for n in p.markers} | set(known)
+    usable = [d for d in refs if d.a in seen and d.b in seen]
+    scales = [d for d in refs if d.role == "scale"]
+    if scales and not any(d.role == "scale" for d in usable) and not heights and not set(known) - {
+            data.get("origin_marker")}:
+        ends = sorted({n for d in scales for n in (d.a, d.b) if n not in seen})
+        where = "; ".join(f"'{n}' is marked in " + (", ".join(f"'{pid}'" for pid in obs_of if n in obs_of[pid])
+                                                     or "no calibrated photo") for n in ends)
+        raise CalibrationError(None, "nothing fixes the metric scale: the scale distance(s) "
+                               + ", ".join(f"{d.a}–{d.b}" for d in scales) + " join markers that the joint "
+                               f"placement cannot place ({where}); mark them in two or more of the photos that see "
+                               "the origin, or tie the photos that show them to those with shared markers")
     return place_cameras(
         inputs,
         origin=data.get("origin_marker"),
         known_markers=known,
-        distances=[d for d in refs if d.a in seen and d.b in seen],
+        distances=usable,
         click_sigma_px=click,
         camera_heights=heights,
     )
