@@ -30,15 +30,17 @@ import numpy as np
 import pytest
 
 from vebuild.actions.calibrate import calibrate_project
-from vebuild.actions.solve import solve_project
+from vebuild.bench import rooms as rooms_bench
+from vebuild.bench.rooms import dimensions, solve_room, true_axis, z_scores
 from vebuild.constants import Z95
 from vebuild.model.scene import model_from_dict
 from vebuild.model.solver import staged_start
 from vebuild.project import load_project, save_project
 from vebuild.project.decode import cameras_from_calibration, load_model
-from vebuild.synthetic_room_model import guessed_nodes, room_params, write_room_project
+from vebuild.synthetic import CLICK_NOISE_PX
+from vebuild.synthetic_room_model import THICKNESS_TAPE_SIGMA_M, guessed_nodes, room_params, write_room_project
 from vebuild.synthetic_room_photos import shortfall
-from vebuild.synthetic_rooms import GeneratedRoom, RoomScene, room_scene
+from vebuild.synthetic_rooms import GeneratedRoom, room_scene
 
 #: The room whose figures are checked one by one (and whose solve is repeated from another guess).
 SEED = 1
@@ -56,72 +58,6 @@ Z_BINOMIAL = 2.5
 REPEAT_SIGMA = 0.1
 
 
-def _solved(g: GeneratedRoom, folder: Path, nodes: list | None = None) -> dict:
-    """Calibrate and solve (re-calibrating) the generated room's project; the model's solution."""
-    path = write_room_project(folder, g.scene, g.guess if nodes is None else nodes, g.pins, g.edges)
-    project = load_project(path)
-    calibrate_project(project)
-    save_project(path, project.data)
-    project = load_project(path)
-    solve_project(project, recalibrate=True)
-    return project.data["model_solution"]
-
-
-def _wall_lengths(corners: np.ndarray) -> np.ndarray:
-    return np.linalg.norm(np.roll(corners, -1, axis=0) - corners, axis=1)
-
-
-def _solved_corners(sol: dict) -> np.ndarray:
-    p = {k: v["value"] for k, v in sol["nodes"]["room"]["params"].items()}
-    return np.array([[0, 0], [p["c1_x"], 0], [p["c1_x"], p["c2_y"]], [p["c3_x"], p["c2_y"]], [p["c3_x"], p["c4_y"]],
-                     [0, p["c4_y"]]], float)
-
-
-def _true_axis(scene: RoomScene) -> np.ndarray:
-    """The hinge's true axis in the world: its point nearest the leaf's bottom centre (the axis is
-    vertical: the axis point at the leaf's bottom's height)."""
-    J = scene.jamb_frame("door", scene.hinge.side)
-    p = J[:3, :3] @ scene.hinge.axis_point + J[:3, 3]
-    return np.r_[p[:2], scene.leaf.centre[2]]
-
-
-def _dimensions(scene: RoomScene, sol: dict) -> list[tuple[str, float, float]]:
-    """(name, solved, true) of every dimension the issue names."""
-    out = []
-    for i, (a, b) in enumerate(zip(_wall_lengths(_solved_corners(sol)), _wall_lengths(scene.corners), strict=True)):
-        out.append((f"wall{i} length", float(a), float(b)))
-    rp, tp = sol["nodes"]["room"]["params"], room_params(scene)
-    for k in ("height", "door_width", "door_height", "win_width", "win_height", "win_sill"):
-        out.append((k, rp[k]["value"], tp[k]))
-    for b in scene.boxes():
-        for i, k in enumerate(("width", "depth", "height")):
-            if b.name == "door" and k == "depth":
-                continue  # entered from a tape: no photo measures it
-            out.append((f"{b.name}.{k}", sol["nodes"][b.name]["params"][k]["value"], float(b.size[i])))
-    return out
-
-
-def _z_scores(g: GeneratedRoom, sol: dict) -> list[float]:
-    """(solved − true) / σ of every solved parameter and degree of freedom the photos determine."""
-    truth = model_from_dict(g.truth["nodes"], {"O": np.zeros(3)}, g.truth["relations"])
-    out = []
-    # The members of an equal group share one unknown: counted once (by the first member).
-    shared = {p for r in g.truth["relations"] if r["type"] == "equal" for p in r["params"][1:]}
-    for n in truth.nodes:
-        rec = sol["nodes"][n.name]
-        if n.primitive is not None:
-            for k, v in zip(n.primitive.PARAMS, n.primitive.params, strict=True):
-                r = rec["params"][k]
-                if r["sigma"] > 0 and r.get("determined_by") == "observations" and f"{n.name}.{k}" not in shared:
-                    out.append((r["value"] - float(v)) / r["sigma"])
-        axis = rec.get("axis")
-        if axis is not None:
-            err = np.asarray(axis["point"]["value"]) - _true_axis(g.scene)
-            s = np.asarray(axis["point"]["sigma"])
-            out += [float(e / q) for e, q in zip(err, s, strict=True) if q > 0]
-    return out
-
-
 @pytest.fixture(scope="module")
 def generated() -> GeneratedRoom:
     return room_scene(np.random.default_rng(SEED))
@@ -129,7 +65,7 @@ def generated() -> GeneratedRoom:
 
 @pytest.fixture(scope="module")
 def solved(generated: GeneratedRoom, tmp_path_factory: pytest.TempPathFactory) -> dict:
-    return _solved(generated, tmp_path_factory.mktemp("room"))
+    return solve_room(generated, tmp_path_factory.mktemp("room"))
 
 
 def test_the_generated_geometry_is_vebuilds_room(generated: GeneratedRoom) -> None:
@@ -152,7 +88,7 @@ def test_the_generated_geometry_is_vebuilds_room(generated: GeneratedRoom) -> No
 
 def test_dimensions_within_a_centimetre_per_metre(generated: GeneratedRoom, solved: dict) -> None:
     worst = []
-    for name, got, true in _dimensions(generated.scene, solved):
+    for name, got, true in dimensions(generated.scene, solved):
         worst.append((abs(got - true) / max(true, 1.0), name, got, true))
         assert abs(got - true) <= DIMENSION_TOL_REL * max(true, 1.0), (name, got, true)
     print("worst dimension error (per metre, name, solved, true):", max(worst))
@@ -160,19 +96,19 @@ def test_dimensions_within_a_centimetre_per_metre(generated: GeneratedRoom, solv
 
 def test_hinge_axis_within_a_centimetre(generated: GeneratedRoom, solved: dict) -> None:
     axis = solved["nodes"]["door"]["axis"]
-    err = np.asarray(axis["point"]["value"]) - _true_axis(generated.scene)
+    err = np.asarray(axis["point"]["value"]) - true_axis(generated.scene)
     print("hinge axis error (m):", err, "1σ", axis["point"]["sigma"])
     assert np.linalg.norm(err[:2]) < AXIS_TOL_M
 
 
 def test_true_values_inside_their_95_percent_intervals(generated: GeneratedRoom, solved: dict,
                                                        tmp_path_factory: pytest.TempPathFactory) -> None:
-    z = _z_scores(generated, solved)
+    z = z_scores(generated, solved)
     for seed in COVERAGE_SEEDS:
         if seed == SEED:
             continue
         g = room_scene(np.random.default_rng(seed))
-        z += _z_scores(g, _solved(g, tmp_path_factory.mktemp(f"room{seed}")))
+        z += z_scores(g, solve_room(g, tmp_path_factory.mktemp(f"room{seed}")))
     inside = float(np.mean(np.abs(z) < Z95))
     print("z of the values outside:", sorted(round(float(v), 2) for v in z if abs(v) >= Z95))
     hi = 0.95 + Z_BINOMIAL * np.sqrt(0.95 * 0.05 / len(z))
@@ -184,7 +120,7 @@ def test_true_values_inside_their_95_percent_intervals(generated: GeneratedRoom,
 def test_two_first_guesses_give_the_same_figures(generated: GeneratedRoom, solved: dict, tmp_path: Path) -> None:
     other = guessed_nodes(np.random.default_rng(SEED + 1000), generated.scene, (0.10, 0.25))
     assert other != generated.guess
-    again = _solved(generated, tmp_path, other)
+    again = solve_room(generated, tmp_path, other)
     worst = 0.0
     for node, rec in solved["nodes"].items():
         for k, v in rec["params"].items():
@@ -224,3 +160,54 @@ def test_the_staged_start_places_the_room_before_its_furniture(generated: Genera
     assert room_error() < 0.5 * before
     assert model.relations == relations
     assert {n: list(model.node(n).primitive.params) for n in children} == children
+
+
+def test_a_room_drawn_with_exact_clicks_is_the_same_room_and_fresh_noise_is_as_stated(generated: GeneratedRoom) -> None:
+    """``noise_px=0`` draws the same room, photos and first guess with the clicks exactly on the
+    truth (the generator's stream does not depend on the noise), and with_fresh_noise then adds
+    noise of the stated σ to every click and draws both tapes again into the guess. The clicks'
+    spread is checked on both sides: within 4 sampling σ (σ/√(2n)) of CLICK_NOISE_PX."""
+    exact = room_scene(np.random.default_rng(SEED), noise_px=0.0)
+    assert [p.id for p in exact.scene.photos] == [p.id for p in generated.scene.photos]
+    for a, b in zip(exact.scene.photos, generated.scene.photos, strict=True):
+        assert np.allclose(a.K, b.K) and np.allclose(a.R, b.R) and np.allclose(a.C, b.C) and a.k1 == b.k1
+        assert a.markers.keys() == b.markers.keys()
+    assert np.allclose(exact.scene.corners, generated.scene.corners)
+    assert [(p["photo"], p["node"], p["handle"]) for p in exact.pins] == \
+        [(p["photo"], p["node"], p["handle"]) for p in generated.pins]
+
+    def clicks(g: GeneratedRoom) -> np.ndarray:
+        out = [np.asarray(p["uv"]) for p in g.pins] + [np.asarray(q) for e in g.edges for q in e["points"]]
+        for cam in g.scene.photos:
+            out += [np.asarray(uv) for uv in cam.markers.values()]
+            for segs in cam.segments.values():
+                out += [np.asarray(s).reshape(-1, 2) for s in segs]
+        return np.vstack([np.reshape(c, (-1, 2)) for c in out])
+
+    def spread_ok(d: np.ndarray) -> bool:
+        return abs(float(d.std()) - CLICK_NOISE_PX) < 4 * CLICK_NOISE_PX / np.sqrt(2 * d.size)
+
+    base = clicks(exact)
+    assert spread_ok(clicks(generated) - base)
+    fresh = exact.with_fresh_noise(np.random.default_rng(99), CLICK_NOISE_PX)
+    assert spread_ok(clicks(fresh) - base)
+    assert np.array_equal(clicks(exact), base)  # the exact room is left as it was
+    room = next(n for n in fresh.guess if n["name"] == "room")
+    assert room["primitive"]["params"]["thickness"] == fresh.scene.tapes["thickness"] != exact.scene.tapes["thickness"]
+    tape = fresh.scene.tapes["thickness"]
+    assert {"name": "thickness", "sigma": THICKNESS_TAPE_SIGMA_M, "value": tape} in room["hold"]
+
+
+def test_vebuild_bench_rooms_reports_the_rooms_figures(generated: GeneratedRoom, solved: dict) -> None:
+    """``vebuild bench rooms`` on one room and two redraws: the room's figures are the ones this
+    module checks, the redraws' are finite, and the table names them."""
+    fig = rooms_bench.run(seeds=(SEED,), n_redraws=2, progress=False)
+    assert fig["rooms_drawn"] == 1 and fig["seeds_not_drawn"] == []
+    ours = rooms_bench.room_figures(generated, solved)
+    got = fig["rooms"][str(SEED)]
+    assert {k: got[k] for k in ours} == pytest.approx(ours, rel=1e-6)
+    assert fig["coverage_values"] == got["values"] and fig["coverage_share"] == got["inside"] / got["values"]
+    assert fig["redraw_seed"] == SEED and fig["redraw_count"] == 2
+    assert 0.0 < fig["redraw_z_rms"] < np.inf and 0.0 <= fig["redraw_coverage_share"] <= 1.0
+    text = rooms_bench.table(fig)
+    assert f"{got['inside']}/{got['values']}" in text and "redrawn 2 times" in text

@@ -255,11 +255,13 @@ def _unlinked(covs: list[Coverage]) -> int:
 
 
 def photograph(rng: np.random.Generator, scene: RoomScene, n_photos: tuple[int, int] = (4, 10),
-               width: int = 1600, height: int = 1200, n_candidates: int = 100) -> None:
+               width: int = 1600, height: int = 1200, n_candidates: int = 100,
+               noise_px: float = CLICK_NOISE_PX) -> None:
     """Choose 4–10 photos (greedily, from random candidates that see no floor corner) that together
-    show what the model needs (_needs), then mark their vanishing segments; sets ``scene.photos``
-    and ``scene.markers`` (the markers seen in two photos or more). RuntimeError where no such set
-    is found."""
+    show what the model needs (_needs), then mark their vanishing segments and markers (clicked
+    with noise_px 1σ); sets ``scene.photos`` and ``scene.markers`` (the markers seen in two photos
+    or more). RuntimeError where no such set is found. The stream of ``rng`` does not depend on
+    noise_px (a noise of 0 gives the same room and photos with exact clicks)."""
     markers = _markers(rng, scene)
     cands: list[tuple[SyntheticPhoto, Coverage]] = []
     for k in range(40 * n_candidates):
@@ -286,10 +288,10 @@ def photograph(rng: np.random.Generator, scene: RoomScene, n_photos: tuple[int, 
     for j, i in enumerate(_placed(covs, chosen)):
         cam = cands[i][0]
         cam.id = f"p{j + 1}"
-        add_segments(cam, rng, CLICK_NOISE_PX, middle_points=3 if cam.k1 != 0.0 else 0)
+        add_segments(cam, rng, noise_px, middle_points=3 if cam.k1 != 0.0 else 0)
         _, uv = scene.visible(cam, np.array(list(markers.values())))
         seen = cands[i][1]["markers"]
-        cam.markers = {m: p + rng.normal(0.0, CLICK_NOISE_PX, 2) for m, p in zip(markers, uv, strict=True) if m in seen}
+        cam.markers = {m: p + rng.normal(0.0, noise_px, 2) for m, p in zip(markers, uv, strict=True) if m in seen}
         scene.photos.append(cam)
     # A user marks a marker where it helps: in two photos or more.
     counts = {m: sum(m in p.markers for p in scene.photos) for m in markers}

@@ -449,20 +449,59 @@ class GeneratedRoom:
         return write_room_project(folder, self.scene, self.guess if guess else self.truth["nodes"], self.pins,
                                   self.edges)
 
+    def with_fresh_noise(self, rng: np.random.Generator, noise_px: float) -> GeneratedRoom:
+        """The same room, photos and first guess with every click drawn again: noise_px (1σ) added
+        to each vanishing-segment point, marker sighting, pin and edge click, and both tapes drawn
+        again from the true thicknesses. Only meaningful on a room drawn with exact clicks
+        (room_scene's ``noise_px=0``): the noise is added to the clicks as they are. Repeated
+        draws on one room measure its intervals' coverage over the noise alone."""
+        import copy
 
-def room_scene(rng: np.random.Generator, guess_rel: tuple[float, float] = (0.10, 0.25)) -> GeneratedRoom:
+        from .synthetic_room_model import LEAF_TAPE_SIGMA_M, THICKNESS_TAPE_SIGMA_M
+
+        g = copy.deepcopy(self)
+        for cam in g.scene.photos:
+            cam.markers = {m: uv + rng.normal(0.0, noise_px, 2) for m, uv in cam.markers.items()}
+            for axis, segs in cam.segments.items():
+                cam.segments[axis] = (segs + rng.normal(0.0, noise_px, segs.shape) if isinstance(segs, np.ndarray)
+                                      else [s + rng.normal(0.0, noise_px, s.shape) for s in segs])
+        for pin in g.pins:
+            pin["uv"] = [float(v) for v in np.asarray(pin["uv"]) + rng.normal(0.0, noise_px, 2)]
+        for e in g.edges:
+            e["points"] = [[float(v) for v in np.asarray(q) + rng.normal(0.0, noise_px, 2)] for q in e["points"]]
+        tapes = {"thickness": g.scene.thickness + rng.normal(0.0, THICKNESS_TAPE_SIGMA_M),
+                 "leaf_depth": float(g.scene.leaf.size[1]) + rng.normal(0.0, LEAF_TAPE_SIGMA_M)}
+        g.scene.tapes = {k: float(v) for k, v in tapes.items()}
+        for node in g.guess:
+            key, param = {"room": ("thickness", "thickness"), "door": ("leaf_depth", "depth")}.get(node["name"],
+                                                                                                (None, None))
+            if key is None:
+                continue
+            node["primitive"]["params"][param] = g.scene.tapes[key]
+            for h in node["hold"]:
+                if isinstance(h, dict) and h["name"] == param:
+                    h["value"] = g.scene.tapes[key]
+        return g
+
+
+def room_scene(rng: np.random.Generator, guess_rel: tuple[float, float] = (0.10, 0.25),
+               noise_px: float | None = None) -> GeneratedRoom:
     """A generated L-shaped room (room_geometry), photographed from inside with no photo seeing a
-    floor corner, marked as a careful user would, with a first guess guess_rel off."""
+    floor corner, marked as a careful user would (clicks with noise_px 1σ, vebuild.synthetic's
+    CLICK_NOISE_PX unless given), with a first guess guess_rel off. The stream of ``rng`` does not
+    depend on noise_px: ``noise_px=0`` gives the same room, photos and guess with exact clicks."""
+    from .synthetic import CLICK_NOISE_PX
     from .synthetic_room_model import guessed_nodes, marks, relations, true_nodes
     from .synthetic_room_photos import photograph
 
+    noise = CLICK_NOISE_PX if noise_px is None else noise_px
     for _ in range(ROOM_ATTEMPTS):
         scene = room_geometry(rng)
         try:
-            photograph(rng, scene)
+            photograph(rng, scene, noise_px=noise)
         except RuntimeError:
             continue
-        pins, edges = marks(rng, scene)
+        pins, edges = marks(rng, scene, noise)
         return GeneratedRoom(scene, {"nodes": true_nodes(scene), "relations": relations(scene)},
                              guessed_nodes(rng, scene, guess_rel), pins, edges)
     raise RuntimeError(f"no room drawn in {ROOM_ATTEMPTS} tries could be photographed without a floor corner")
