@@ -213,12 +213,12 @@ def test_vebuild_bench_rooms_reports_the_rooms_figures(generated: GeneratedRoom,
     """``vebuild bench rooms`` on one room and two redraws: the room's figures are the ones this
     module checks, the redraws' are finite, and the table names them."""
     fig = rooms_bench.run(seeds=(SEED,), n_redraws=2, progress=False)
-    assert fig["rooms_drawn"] == 1 and fig["seeds_not_drawn"] == []
+    assert fig["rooms_drawn"] == 1 and fig["seeds_not_drawn"] == [] and fig["solve_failures"] == []
     ours = rooms_bench.room_figures(generated, solved)
     got = fig["rooms"][str(SEED)]
     assert {k: got[k] for k in ours} == pytest.approx(ours, rel=1e-6)
     assert fig["coverage_values"] == got["values"] and fig["coverage_share"] == got["inside"] / got["values"]
-    assert fig["redraw_seed"] == SEED and fig["redraw_count"] == 2
+    assert fig["redraw_seed"] == SEED and fig["redraw_count"] == 2 and fig["redraw_failures"] == []
     assert 0.0 < fig["redraw_z_rms"] < np.inf and 0.0 <= fig["redraw_coverage_share"] <= 1.0
     text = rooms_bench.table(fig)
     assert f"{got['inside']}/{got['values']}" in text and "redrawn 2 times" in text

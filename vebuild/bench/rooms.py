@@ -19,7 +19,8 @@ Figures (``--json``): ``rooms_drawn``, ``seeds_not_drawn``, ``coverage_share`` o
 ``coverage_values``, ``dimension_error_worst_cm_per_m``, ``axis_error_max_mm``,
 ``solve_time_s_median``, per room under ``rooms``; ``redraw_seed``, ``redraw_count``,
 ``redraw_coverage_share``, ``redraw_z_rms`` and ``redraw_z_std_min``/``_max`` (each value's spread
-over the redraws).
+over the redraws). A room or redraw whose calibration or solve fails is a finding, not a crash: its
+message is in ``solve_failures`` or ``redraw_failures`` (``redraw_count`` counts the solved ones).
 """
 
 from __future__ import annotations
@@ -35,6 +36,7 @@ from tqdm import tqdm
 from ..actions.calibrate import calibrate_project
 from ..actions.solve import solve_project
 from ..constants import Z95
+from ..errors import VebuildError
 from ..model.scene import model_from_dict
 from ..project import load_project, save_project
 from ..synthetic import CLICK_NOISE_PX
@@ -133,14 +135,21 @@ def redraws(seed: int, count: int, progress: bool = True) -> dict[str, Any]:
     value's z over the redraws."""
     exact = room_scene(np.random.default_rng(seed), noise_px=0.0)
     rng = np.random.default_rng(seed + 10_000)
-    zs = []
+    zs, failures = [], []
     for _ in tqdm(range(count), desc=f"bench rooms: room {seed} redrawn", unit="solve", disable=not progress):
         g = exact.with_fresh_noise(rng, CLICK_NOISE_PX)
         with tempfile.TemporaryDirectory() as d:
-            zs.append(z_scores(g, solve_room(g, Path(d))))
+            try:
+                zs.append(z_scores(g, solve_room(g, Path(d))))
+            except VebuildError as e:  # a failed calibration or solve is a finding: counted, named
+                failures.append(str(e).replace(d, "<project>"))
+    out: dict[str, Any] = {"redraw_seed": seed, "redraw_count": len(zs), "redraw_failures": failures}
+    if len(zs) < 2:
+        return {**out, "redraw_coverage_share": float("nan"), "redraw_z_rms": float("nan"),
+                "redraw_z_std_min": float("nan"), "redraw_z_std_max": float("nan")}
     Z = np.array(zs)
     std = Z.std(axis=0, ddof=1)
-    return {"redraw_seed": seed, "redraw_count": count, "redraw_coverage_share": float(np.mean(np.abs(Z) < Z95)),
+    return {**out, "redraw_coverage_share": float(np.mean(np.abs(Z) < Z95)),
             "redraw_z_rms": float(np.sqrt(np.mean(Z ** 2))), "redraw_z_std_min": float(std.min()),
             "redraw_z_std_max": float(std.max())}
 
@@ -151,6 +160,7 @@ def run(quick: bool = False, progress: bool = True, seeds: tuple[int, ...] | Non
     seeds = seeds or (QUICK_SEEDS if quick else SEEDS)
     rooms: dict[str, dict[str, Any]] = {}
     not_drawn: list[int] = []
+    failures: list[str] = []
     z_all: list[float] = []
     for seed in tqdm(seeds, desc="bench rooms", unit="room", disable=not progress):
         t0 = time.perf_counter()
@@ -161,16 +171,21 @@ def run(quick: bool = False, progress: bool = True, seeds: tuple[int, ...] | Non
             continue
         t1 = time.perf_counter()
         with tempfile.TemporaryDirectory() as d:
-            sol = solve_room(g, Path(d))
+            try:
+                sol = solve_room(g, Path(d))
+            except VebuildError as e:  # a failed calibration or solve is a finding: counted, named
+                failures.append(f"seed {seed}: " + str(e).replace(d, "<project>"))
+                continue
         fig = room_figures(g, sol)
         fig.update(draw_time_s=t1 - t0, solve_time_s=time.perf_counter() - t1)
         rooms[str(seed)] = fig
         z_all += z_scores(g, sol)
     if not rooms:
-        raise RuntimeError(f"bench rooms: no room drawn from seeds {list(seeds)}")
+        raise VebuildError(f"bench rooms: no room drawn and solved from seeds {list(seeds)} "
+                           f"({'; '.join(failures) or 'none drawn'})")
     out: dict[str, Any] = {
         "click_noise_px": CLICK_NOISE_PX,
-        "rooms_drawn": len(rooms), "seeds_not_drawn": not_drawn,
+        "rooms_drawn": len(rooms), "seeds_not_drawn": not_drawn, "solve_failures": failures,
         "coverage_values": len(z_all), "coverage_share": float(np.mean(np.abs(np.array(z_all)) < Z95)),
         "dimension_error_worst_cm_per_m": max(r["dimension_error_worst_cm_per_m"] for r in rooms.values()),
         "axis_error_max_mm": max(r["axis_error_mm"] for r in rooms.values()),
@@ -186,6 +201,7 @@ def table(fig: dict[str, Any]) -> str:
     """The figures as a text table: one row per room, then the pooled and the redrawn figures."""
     lines = [f"rooms benchmark: {fig['rooms_drawn']} generated rooms solved (seeds not drawn: "
              f"{fig['seeds_not_drawn'] or 'none'}), {fig['click_noise_px']} px click noise", "",
+             *(f"not solved: {m}" for m in fig["solve_failures"]),
              f"{'seed':>4}{'photos':>8}{'inside 95 %':>14}{'worst dimension (cm/m)':>34}{'axis (mm)':>11}"
              f"{'solve (s)':>11}"]
     for seed, r in fig["rooms"].items():
@@ -200,5 +216,6 @@ def table(fig: dict[str, Any]) -> str:
               f"{fig['axis_error_max_mm']:.1f} mm off, median solve {fig['solve_time_s_median']:.1f} s",
               f"room {fig['redraw_seed']} (the least covered) redrawn {fig['redraw_count']} times, clicks only: "
               f"{100 * fig['redraw_coverage_share']:.1f} % inside, z rms {fig['redraw_z_rms']:.2f}, each value's "
-              f"spread {fig['redraw_z_std_min']:.2f}–{fig['redraw_z_std_max']:.2f} (1 where the σ are honest)"]
+              f"spread {fig['redraw_z_std_min']:.2f}–{fig['redraw_z_std_max']:.2f} (1 where the σ are honest)",
+              *(f"a redraw not solved: {m}" for m in fig["redraw_failures"])]
     return "\n".join(lines)
