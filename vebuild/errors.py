@@ -22,12 +22,24 @@ class ProjectError(VebuildError):
     message : what was expected and what was found.
     """
 
-    def __init__(self, file: object, where: str, message: str) -> None:
+    def __init__(self, file: object, where: str, message: str, words: str = "") -> None:
         self.file = str(file)
         self.where = where
         self.detail = message
-        loc = f"{self.file}: {where}: " if where else f"{self.file}: "
+        self.words = words
+        if words:
+            loc = f"{self.file}: {words}, at {where}: "
+        else:
+            loc = f"{self.file}: {where}: " if where else f"{self.file}: "
         super().__init__(loc + message)
+
+    def named(self, words: str) -> ProjectError:
+        """The same error with the place also said in words (``photo 'door', field "width"``)."""
+        if not words or self.words:
+            return self
+        e = ProjectError(self.file, self.where, self.detail, words)
+        e.__traceback__ = self.__traceback__
+        return e
 
 
 class CalibrationError(VebuildError):
