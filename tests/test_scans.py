@@ -1,0 +1,330 @@
+"""Laser scans: reading E57, PLY, LAS and LAZ, registration by a similarity (Umeyama) with its
+uncertainty, the deviation of a scan from each face of the model, and scan points as observations
+of the solve. The scans are sampled from the example room's solved model with Gaussian noise of
+a known σ along each face's normal (tests/scan_scene.py) and put in a scan frame by a known
+similarity."""
+
+from __future__ import annotations
+
+import copy
+import json
+import shutil
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).parent))
+from scan_scene import WRITERS, colours_of, random_rotation, sample_surfaces, to_scan_frame  # noqa: E402
+
+from vebuild.analysis.scans import face_deviations, project_model_as_written, scan_points_world  # noqa: E402
+from vebuild.calibration.similarity import (  # noqa: E402
+    DegenerateTargets,
+    Similarity,
+    fit_similarity,
+    umeyama,
+)
+from vebuild.cli import main  # noqa: E402
+from vebuild.errors import VebuildError  # noqa: E402
+from vebuild.project import load_project  # noqa: E402
+from vebuild.project.scans import read_point_cloud  # noqa: E402
+
+#: 1σ of a scan point along its surface's normal (a phase scanner at a few metres), metres.
+POINT_SIGMA = 0.003
+#: 1σ of a target's centre as picked in the scan, per coordinate, metres.
+TARGET_SIGMA = 0.002
+#: Points per synthetic scan.
+N_POINTS = 20_000
+#: The scan frame: millimetres (scale 1e-3 into metres), turned and moved.
+SCAN_SCALE = 1e-3
+#: Handles of the example room used as targets (spread over the room, not on one line).
+TARGETS = ("floor:v0", "floor:v1", "floor:v2", "floor:v3", "cabinet:v6", "wall_north:v4", "box:v5",
+           "table.top:v6")
+#: The 99.99 % point of χ² with 7 degrees of freedom (scipy.stats.chi2.ppf(0.9999, 7)).
+CHI2_7_9999 = 29.88
+
+
+def _sim(rng: np.random.Generator, scale: float = SCAN_SCALE) -> Similarity:
+    return Similarity(scale, random_rotation(rng), rng.normal(0, 3.0, 3))
+
+
+# ----------------------------------------------------------------------------------------------
+# The math
+
+
+def test_umeyama_exact_without_noise(rng):
+    for _ in range(5):
+        sim = _sim(rng, float(np.exp(rng.normal())))
+        X = rng.normal(size=(6, 3))
+        fit = umeyama(X, sim.apply(X))
+        assert fit.scale == pytest.approx(sim.scale, rel=1e-12)
+        assert np.abs(fit.rotation - sim.rotation).max() < 1e-10
+        assert np.abs(fit.translation - sim.translation).max() < 1e-9
+
+
+def test_umeyama_refuses_a_reflection_and_degenerate_targets(rng):
+    X = rng.normal(size=(5, 3))
+    fit = umeyama(X, X * [1, 1, -1])  # a mirror image: the nearest rotation, never a reflection
+    assert np.linalg.det(fit.rotation) == pytest.approx(1.0)
+    with pytest.raises(DegenerateTargets, match="at least 3"):
+        umeyama(X[:2], X[:2])
+    line = np.outer(np.arange(4.0), [1.0, 2.0, 0.5])
+    with pytest.raises(DegenerateTargets, match="one line"):
+        umeyama(line, line)
+
+
+def test_registration_covariance_is_calibrated(rng):
+    """Over many draws of the target noise, the error of the seven parameters measured by the
+    covariance (with the true σ) is χ² with 7 degrees of freedom, and σ̂² estimates σ² without
+    bias: both means are held to 4 standard errors of the mean on each side."""
+    draws, n = 300, 6
+    sigma = 0.004
+    chi2, ratio = [], []
+    X = rng.uniform(-3, 3, size=(n, 3))
+    for _ in range(draws):
+        sim = _sim(rng, 1.0 + 0.1 * rng.normal())
+        Y = sim.apply(X) + rng.normal(0, sigma, size=(n, 3))
+        fit = fit_similarity(X, Y)
+        est = fit.similarity
+        dR = est.rotation @ sim.rotation.T  # exp([ω]×) with R = exp([ω]×) R_true
+        omega = 0.5 * np.array([dR[2, 1] - dR[1, 2], dR[0, 2] - dR[2, 0], dR[1, 0] - dR[0, 1]])
+        e = np.r_[est.scale - sim.scale, omega, est.translation - sim.translation]
+        cov_true_sigma = fit.covariance * (sigma / fit.sigma) ** 2
+        chi2.append(e @ np.linalg.solve(cov_true_sigma, e))
+        ratio.append(fit.sigma**2 / sigma**2)
+    dof = 3 * n - 7
+    assert abs(np.mean(chi2) - 7) <= 4 * np.sqrt(2 * 7 / draws)
+    assert abs(np.mean(ratio) - 1) <= 4 * np.sqrt(2 / (dof * draws))
+
+
+# ----------------------------------------------------------------------------------------------
+# Files
+
+
+@pytest.mark.parametrize("fmt", sorted(WRITERS))
+def test_reader_round_trip(tmp_path, rng, fmt):
+    P = rng.normal(0, 2.0, size=(2000, 3)) + [10.0, -4.0, 1.0]
+    col = colours_of(P)
+    path = tmp_path / f"scan.{fmt}"
+    WRITERS[fmt](path, P, col)
+    cloud = read_point_cloud(path)
+    assert cloud.format == fmt
+    # PLY (as trimesh writes it) and E57 (as pye57 writes it) hold float32; LAS stores 10 µm steps.
+    tol = {"las": 5e-6, "laz": 5e-6}.get(fmt, 4e-6 * np.abs(P).max())
+    assert cloud.points.shape == P.shape and np.abs(cloud.points - P).max() <= tol
+    assert cloud.colours is not None and np.array_equal(cloud.colours, col)
+
+
+@pytest.mark.parametrize("fmt", sorted(WRITERS))
+def test_unreadable_scan_names_the_file(tmp_path, fmt):
+    path = tmp_path / f"broken.{fmt}"
+    path.write_bytes(b"this is not a point cloud\n" * 20)
+    with pytest.raises(VebuildError, match=rf"broken\.{fmt}.*cannot read it as {fmt.upper()}|broken\.{fmt}.*no points"):
+        read_point_cloud(path)
+    with pytest.raises(VebuildError, match="missing"):
+        read_point_cloud(tmp_path / f"absent.{fmt}")
+    with pytest.raises(VebuildError, match="ending in '.xyz'"):
+        read_point_cloud(tmp_path / "scan.xyz")
+
+
+# ----------------------------------------------------------------------------------------------
+# The example room, solved, scanned
+
+
+@pytest.fixture(scope="module")
+def solved_room(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("scans") / "room"
+    shutil.copytree(Path(__file__).resolve().parents[1] / "scenes" / "room", folder)
+    proj = folder / "room.vebuild.json"
+    assert main(["calibrate", str(proj), "--quiet"]) == 0
+    assert main(["solve", str(proj)]) == 0
+    return proj
+
+
+def _copy(solved_room, tmp_path) -> Path:
+    folder = tmp_path / "room"
+    shutil.copytree(solved_room.parent, folder)
+    return folder / solved_room.name
+
+
+def _scan(proj: Path, fmt: str, seed: int, truth_nodes=None, n=N_POINTS, skip=frozenset()):
+    """Write a scan of the project's model (or of ``truth_nodes`` in its place) into its folder;
+    return its file, the true similarity and the --target words."""
+    rng = np.random.default_rng(seed)
+    project = load_project(proj)
+    truth = copy.deepcopy(project)
+    if truth_nodes is not None:
+        truth.data["model"]["nodes"] = truth_nodes
+    model = project_model_as_written(truth)
+    P, owner = sample_surfaces(model, n, POINT_SIGMA, rng, skip)
+    sim = _sim(rng)
+    path = proj.parent / f"scan{seed}.{fmt}"
+    WRITERS[fmt](path, to_scan_frame(sim, P), colours_of(P))
+    from vebuild.analysis.scans import resolve_points
+
+    W = resolve_points(project, list(TARGETS), list(TARGETS))
+    S = to_scan_frame(sim, W + rng.normal(0, TARGET_SIGMA, W.shape))
+    words = [f"--target=T{k}={float(s[0])!r},{float(s[1])!r},{float(s[2])!r}:{t}"
+             for k, (s, t) in enumerate(zip(S, TARGETS, strict=True))]
+    return path, sim, words
+
+
+@pytest.mark.parametrize("fmt", ["laz", "e57", "ply"])
+def test_scan_add_registers_within_the_noise(solved_room, tmp_path, capsys, fmt):
+    proj = _copy(solved_room, tmp_path)
+    path, sim, words = _scan(proj, fmt, 11)
+    before = path.read_bytes()
+    assert main(["scan", "add", str(proj), str(path), *words]) == 0
+    assert path.read_bytes() == before  # the scan file is never altered
+    entry = load_project(proj).data["scans"][0]
+    assert entry["file"] == path.name and entry["format"] == fmt and entry["point_count"] == N_POINTS
+    assert not entry["use_in_solve"]
+    reg = entry["registration"]
+    assert [t["point"] for t in reg["targets"]] == list(TARGETS) and len(reg["residuals"]) == len(TARGETS)
+    # Each coordinate of a target is off by TARGET_SIGMA; its residual is smaller by the fit's
+    # redundancy (3n − 7 of 3n): the rms is held within a factor 2 either way.
+    expect_rms = TARGET_SIGMA * np.sqrt(3 * (3 * len(TARGETS) - 7) / (3 * len(TARGETS)))
+    assert expect_rms / 2 < reg["rms_m"] < 2 * expect_rms
+    cov = np.array(reg["covariance"]["matrix"])
+    sd = np.sqrt(np.diag(cov))
+    s = reg["similarity"]
+    # The whole error (scale, turn, translation) measured by the recorded covariance: below the
+    # 99.99 % point of χ² with 7 degrees of freedom (the calibration over many draws is tested above).
+    dR = np.array(s["rotation"]) @ sim.rotation.T
+    omega = 0.5 * np.array([dR[2, 1] - dR[1, 2], dR[0, 2] - dR[2, 0], dR[1, 0] - dR[0, 1]])
+    e = np.r_[s["scale"] - sim.scale, omega, np.array(s["translation"]) - sim.translation]
+    assert e @ np.linalg.solve(cov, e) < CHI2_7_9999
+    assert abs(e[0]) < 5 * sd[0]
+    pts, col = scan_points_world(load_project(proj), 0, 1000)
+    assert pts.shape == (1000, 3) and col.shape == (1000, 3)
+    assert "registered from 8 targets" in capsys.readouterr().out
+
+
+def test_scan_check_deviations(solved_room, tmp_path, capsys):
+    """An undisplaced face: median ≈ 0, p95 of the distance ≈ 1.96 σ. The cabinet moved by a known
+    offset along +x in the model: its right face (+x) shows −offset, its top and front 0."""
+    proj = _copy(solved_room, tmp_path)
+    path, _, words = _scan(proj, "laz", 12)
+    assert main(["scan", "add", str(proj), str(path), *words]) == 0
+    capsys.readouterr()
+    assert main(["scan", "check", str(proj), "--json", str(tmp_path / "dev.json")]) == 0
+    out = capsys.readouterr().out
+    assert "cabinet:front" in out and "median mm" in out
+    doc = json.loads((tmp_path / "dev.json").read_text())
+    faces = {(r["node"], r["face"]): r for r in doc["scans"][0]["faces"]}
+    # Faces with many points: their median (registration error, ≲ 1 mm, plus σ/√n) and p95.
+    big = [r for r in faces.values() if r["count"] >= 1500]
+    assert len(big) >= 3
+    for r in big:
+        # The median of n points of noise σ has 1σ 1.2533 σ/√n; the registration moves the face's
+        # points by its own 1σ (carried from the covariance): 4σ of the two together.
+        tol = 4 * np.hypot(1.2533 * POINT_SIGMA / np.sqrt(r["count"]), r["registration_sigma_m"])
+        assert 0 < r["registration_sigma_m"] < 0.002 and abs(r["median_m"]) < tol, r
+        assert 1.96 * POINT_SIGMA * 0.85 < r["p95_m"] < 1.96 * POINT_SIGMA * 1.25, r
+
+    offset = 0.03
+    data = json.loads(proj.read_text())
+    cab = next(n for n in data["model"]["nodes"] if n["name"] == "cabinet")
+    yaw = np.radians(cab["joint"]["yaw_deg"])
+    cab["joint"]["position"][0] += offset  # along the floor's x (the cabinet turned by yaw ≈ 0)
+    proj.write_text(json.dumps(data))
+    project = load_project(proj)
+    dev = face_deviations(project, 0)
+    faces = {(r["node"], r["face"]): r for r in dev["faces"]}
+    along = offset * np.cos(yaw)
+    # (Its left face stands against the west wall, whose face takes those points.)
+    for face, sign in (("right", -1.0), ("top", 0.0), ("front", 0.0)):
+        r = faces[("cabinet", face)]
+        tol = 4 * np.hypot(1.2533 * POINT_SIGMA / np.sqrt(r["count"]), r["registration_sigma_m"])
+        assert abs(r["median_m"] - sign * along) < tol, r
+    assert faces[("cabinet", "right")]["count"] > 150
+
+
+def test_solve_with_scan_moves_a_perturbed_primitive_toward_the_truth(solved_room, tmp_path):
+    """The scan sees the cabinet 4 cm wider than the photos' solution: solved with the scan, the
+    width moves to within a fifth of that of the scan's; without it, it stays."""
+    proj = _copy(solved_room, tmp_path)
+    data = json.loads(proj.read_text())
+    solved_width = next(n for n in data["model"]["nodes"] if n["name"] == "cabinet")["primitive"]["params"]["width"]
+    truth = copy.deepcopy(data["model"]["nodes"])
+    cab = next(n for n in truth if n["name"] == "cabinet")
+    true_width = solved_width + 0.04
+    cab["primitive"]["params"]["width"] = true_width
+    path, _, words = _scan(proj, "laz", 13, truth_nodes=truth)
+    assert main(["scan", "add", str(proj), str(path), *words, "--use-in-solve", "--point-sigma", "0.003"]) == 0
+    assert main(["solve", str(proj)]) == 0
+    after = json.loads(proj.read_text())
+    width = next(n for n in after["model"]["nodes"] if n["name"] == "cabinet")["primitive"]["params"]["width"]
+    assert abs(width - true_width) < 0.2 * abs(solved_width - true_width)
+    assert "scans/use_in_solve" in after["model_solution"]["computed_from"]
+
+
+# ----------------------------------------------------------------------------------------------
+# Bad input
+
+
+@pytest.fixture(scope="module")
+def scanned_room(solved_room, tmp_path_factory):
+    folder = tmp_path_factory.mktemp("bad") / "room"
+    shutil.copytree(solved_room.parent, folder)
+    proj = folder / solved_room.name
+    path, _, words = _scan(proj, "laz", 14, n=3000)
+    return proj, path, words
+
+
+def _fails(capsys, argv, *needles):
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    for n in needles:
+        assert n in err, err
+    return err
+
+
+def test_bad_scan_input(scanned_room, capsys):
+    proj, path, words = scanned_room
+    before = proj.read_bytes()
+    _fails(capsys, ["scan", "add", str(proj), str(proj.parent / "absent.laz"), *words], "absent.laz", "missing")
+    bad = proj.parent / "garbage.las"
+    bad.write_bytes(b"\0" * 500)
+    _fails(capsys, ["scan", "add", str(proj), str(bad), *words], "garbage.las", "cannot read it as LAS")
+    _fails(capsys, ["scan", "add", str(proj), str(path), *words[:2]], "2 targets", "at least 3")
+    line = [f"--target=L{k}={k}.0,{2 * k}.0,0.5:{t}" for k, t in enumerate(("floor:v0", "floor:v1", "floor:v2"))]
+    # Three targets on one line in the scan (the project points are not: the scan's are degenerate).
+    _fails(capsys, ["scan", "add", str(proj), str(path), *line], "one line")
+    unknown = [*words[:3], "--target=T9=1,2,3:nosuchnode:v0"]
+    _fails(capsys, ["scan", "add", str(proj), str(path), *unknown], "T9", "nosuchnode", "unknown project point")
+    _fails(capsys, ["scan", "add", str(proj), str(path), "--target", "T1=1,2:floor:v0"], "T1=1,2:floor:v0",
+           "three finite numbers")
+    _fails(capsys, ["scan", "add", str(proj), str(path), "--target", "T1"], "NAME=X,Y,Z:POINT")
+    _fails(capsys, ["scan", "add", str(proj), str(path), *words[:3], words[0]], "given twice")
+    csv = proj.parent / "targets.csv"
+    csv.write_text("name,x,y\nT1,1,2\n")
+    _fails(capsys, ["scan", "add", str(proj), str(path), "--targets", str(csv)], "targets.csv", "name, x, y, z, point")
+    outside = proj.parent.parent / "outside.laz"
+    shutil.copy(path, outside)
+    _fails(capsys, ["scan", "add", str(proj), str(outside), *words], "outside.laz", "outside the project folder")
+    _fails(capsys, ["scan", "check", str(proj)], "$.scans", "no laser scans")
+    assert proj.read_bytes() == before  # nothing was written by a refused command
+
+
+def test_scan_targets_from_csv_and_hash_mismatch_on_reload(scanned_room, tmp_path, capsys):
+    proj0, path0, words = scanned_room
+    folder = tmp_path / "room"
+    shutil.copytree(proj0.parent, folder)
+    proj, path = folder / proj0.name, folder / path0.name
+    rows = ["name,x,y,z,point"]
+    for w in words:
+        name, rest = w.split("=", 1)[1].split("=", 1)
+        xyz, point = rest.split(":", 1)
+        rows.append(f"{name},{xyz},{point}")
+    (folder / "targets.csv").write_text("\n".join(rows) + "\n")
+    assert main(["scan", "add", str(proj), str(path), "--targets", str(folder / "targets.csv")]) == 0
+    assert len(load_project(proj).data["scans"][0]["registration"]["targets"]) == len(TARGETS)
+    raw = bytearray(path.read_bytes())
+    raw[-10] ^= 0xFF
+    path.write_bytes(bytes(raw))
+    capsys.readouterr()
+    _fails(capsys, ["scan", "check", str(proj)], path.name, "$.scans[0].sha256", "changed or replaced")
+    path.unlink()
+    _fails(capsys, ["scan", "check", str(proj)], path.name, "$.scans[0].file", "missing")
