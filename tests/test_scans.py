@@ -240,6 +240,24 @@ def test_scan_check_deviations(solved_room, tmp_path, capsys):
         assert abs(r["median_m"] - sign * along) < tol, r
     assert faces[("cabinet", "right")]["count"] > 150
 
+    # The report's section: the table marks the displaced face, the map colours it.
+    from PIL import Image
+
+    from vebuild.report.deviation import scans
+    from vebuild.report.page import Report
+
+    (tmp_path / "rep" / "images").mkdir(parents=True)
+    rep = Report(tmp_path / "rep")
+    scans(project, rep)
+    html = rep.sections[0]
+    assert "<h2>Laser scans</h2>" in html and "scan-0-deviation.png" in html
+    row = html[html.index("cabinet:right"):].split("</tr>")[0]
+    assert "bad" in row
+    for face in ("wall_north:front", "cabinet:top"):
+        assert "bad" not in html[html.index(face):].split("</tr>")[0]
+    img = np.asarray(Image.open(rep.images[0]))
+    assert img.ndim == 3 and img.shape[0] > 300
+
 
 def test_solve_with_scan_moves_a_perturbed_primitive_toward_the_truth(solved_room, tmp_path):
     """The scan sees the cabinet 4 cm wider than the photos' solution: solved with the scan, the
