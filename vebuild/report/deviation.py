@@ -88,7 +88,7 @@ def scans(project: Project, rep: Report) -> None:
         sd_scale = np.sqrt(cov["matrix"][0][0]) if cov else None
         parts.append(f"<h3>Scan {i}: {esc(e['file'])}</h3><p>{esc(e['format'].upper())}, {e['point_count']} points, "
                      f"SHA-256 <span class='hash'>{esc(e['sha256'])}</span>; "
-                     f"{'used as observations in the solve' if e['use_in_solve'] else 'a check only (not in the solve)'}"
+                     f"{'used as observations in the solve' if e['use_in_solve'] else 'a check only'}"
                      f". Scale {fmt(reg['similarity']['scale'], 6)}"
                      f"{' ± ' + fmt(sd_scale, 6) if sd_scale is not None else ''}, rms of the targets "
                      f"{fmt(reg['rms_m'] * 1000, 1)} mm over {len(reg['targets'])} targets.</p>")
