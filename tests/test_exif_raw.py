@@ -451,7 +451,7 @@ def test_missing_photo_file(tmp_path: Path) -> None:
 
 
 def test_big_photo_bench_decodes_a_jpeg_and_a_raw(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    # The benchmark at a small size (its 45 MP figures are in the README): each case written,
+    # The benchmark at a small size (its 45 MP figures are in docs/accuracy.md): each case written,
     # decoded in a fresh process by the one photo decoder, its figures named with their units.
     pytest.importorskip("tifffile")
     from vebuild.bench import big_photo

@@ -1,4 +1,4 @@
-"""Each window's keys are stated once (a KeyTable): the README's key list is that table's
+"""Each window's keys are stated once (a KeyTable): the manual's key list is that table's
 rendering, and the window's dispatch calls the command of every chord in it."""
 
 from __future__ import annotations
@@ -14,13 +14,13 @@ from vebuild.gl.app import CTRL, SHIFT, WindowApp
 from vebuild.viewer.app import Viewer
 from vebuild.viewer.keys import VIEWER_KEYS
 
-README = Path(__file__).resolve().parents[1] / "README.md"
-WINDOWS = {"viewer": (Viewer, VIEWER_KEYS, "### The walk-through: `vebuild view`"),
-           "editor": (Editor, EDITOR_KEYS, "### The modelling screen: `vebuild edit`")}
+MANUAL = Path(__file__).resolve().parents[1] / "docs" / "manual.md"
+WINDOWS = {"viewer": (Viewer, VIEWER_KEYS, "## The walk-through: `vebuild view`"),
+           "editor": (Editor, EDITOR_KEYS, "## The modelling screen: `vebuild edit`")}
 
 
 def readme_key_list(heading: str) -> str:
-    text = README.read_text(encoding="utf-8")
+    text = MANUAL.read_text(encoding="utf-8")
     start = text.index("| input | does |", text.index(heading))
     lines = []
     for line in text[start:].splitlines():
@@ -31,7 +31,7 @@ def readme_key_list(heading: str) -> str:
 
 
 @pytest.mark.parametrize("window", WINDOWS)
-def test_the_readme_lists_the_keys_the_table_binds(window):
+def test_the_manual_lists_the_keys_the_table_binds(window):
     _, table, heading = WINDOWS[window]
     assert readme_key_list(heading) == table.markdown()
 

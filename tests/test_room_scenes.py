@@ -21,7 +21,7 @@ sightings the re-calibration uses again. The solve starts from staged_start (the
 then everything): from the raw guess seeds 6 and 8 ended with pinned vertices behind a camera.
 The helpers that solve a room and compare it with its truth are `vebuild bench rooms`'s, which
 runs all rooms of seeds 1–20 (15 draw; 92.8 % inside) and redraws the least covered one's clicks;
-see the README.
+see docs/accuracy.md.
 """
 
 from __future__ import annotations

@@ -39,11 +39,11 @@ from vebuild.texture.options import Options
 #: (measured on llvmpipe: 35.6 dB with every improvement on, 36.5 dB on 600-texel pages, 34.0 dB as
 #: in the paper; bench texture has the figures). The example is one fixed draw of the generator's
 #: noise, so only the GL implementation moves the figure: a GPU's colours agree with llvmpipe's and
-#: the CPU reference's within 2e-3 (README), worth < 0.1 dB against this 4-level RMS error; the
+#: the CPU reference's within 2e-3 (docs/accuracy.md), worth < 0.1 dB against this 4-level RMS error; the
 #: 0.6 dB left is for changes in the photos' order or in rounding.
 PSNR_GOAL_DB = 35.0
 #: The same from the solved model and cameras (measured 32.3 dB): the clicks' 0.7 px noise leaves
-#: the solved model a few millimetres off (README: dimensions within 6.5 mm, about one 5 mm texel),
+#: the solved model a few millimetres off (docs/accuracy.md: dimensions within 6.5 mm, about one 5 mm texel),
 #: which misregisters the texels and costs 3.3 dB; 0.8 dB below the measurement leaves room for the
 #: solver converging a little differently within its stated accuracy.
 SOLVED_PSNR_DB = 31.5

@@ -19,7 +19,7 @@ without a covariance are taken as exact. ``Registered.prior_covariance`` keeps w
 held by before any point: the vanishing-point calibration's (f, cx, cy, ω), or the principal
 point's (and a given focal length's) prior, every other entry free (∞); a re-calibration holds
 the photo by that alone, since its pins and sightings are in the re-calibration themselves
-(README, "Registering further photos").
+(docs/manual.md, "Modelling": registering further photos).
 
 A photo's lens distortion, where it is known (the vanishing-point calibration's k1, or one given:
 a lens profile, the user, an earlier calibration), is used as known and held: every marked pixel

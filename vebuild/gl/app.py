@@ -2,8 +2,8 @@
 callbacks, the keys held, a key-binding table, and a user's mistakes shown as messages.
 
 Each window states its keys once, as a :class:`KeyTable`; from it come the dispatch
-(:meth:`WindowApp.on_key` calls the bound command), the window's on-screen help and the README's
-key list (:meth:`KeyTable.markdown`; a test holds the README to it).
+(:meth:`WindowApp.on_key` calls the bound command), the window's on-screen help and the manual's
+key list (:meth:`KeyTable.markdown`; a test holds the manual to it).
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ _NAMES = {glfw.KEY_ESCAPE: "Esc", glfw.KEY_DELETE: "Delete", glfw.KEY_HOME: "Hom
 
 
 def key_label(key: int, mods: int = 0) -> str:
-    """How a key (with modifiers) is written on screen and in the README: ``Ctrl+Shift+Z``, ``F1``."""
+    """How a key (with modifiers) is written on screen and in the manual: ``Ctrl+Shift+Z``, ``F1``."""
     if key in _NAMES:
         name = _NAMES[key]
     elif glfw.KEY_F1 <= key <= glfw.KEY_F25:
@@ -107,7 +107,7 @@ class KeyTable:
         return [(b.keys, b.does) for b in self.bindings]
 
     def markdown(self) -> str:
-        """The README's key list: a two-column table, one row per binding."""
+        """The manual's key list: a two-column table, one row per binding."""
         lines = ["| input | does |", "|---|---|"]
         lines += [f"| {k} | {d} |" for k, d in self.rows()]
         return "\n".join(lines) + "\n"

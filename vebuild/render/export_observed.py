@@ -1,4 +1,4 @@
-"""What no photo saw, in a glTF export (:mod:`vebuild.render.export`; README "Export"): each
+"""What no photo saw, in a glTF export (:mod:`vebuild.render.export`; docs/manual.md, "Export"): each
 atlas page's coverage map as a second image and texture named by its material's
 ``extras.vebuild_coverage``, and each mesh primitive's share of surface some photo saw in its
 ``extras.vebuild_seen``."""
