@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))
-from scan_scene import WRITERS, colours_of, random_rotation, sample_surfaces, to_scan_frame  # noqa: E402
+from scan_scene import WRITERS, colours_of, random_rotation, sample_surfaces, to_scan_frame, write_ply  # noqa: E402
 
 from vebuild.analysis.scans import face_deviations, project_model_as_written, scan_points_world  # noqa: E402
 from vebuild.calibration.similarity import (  # noqa: E402
@@ -346,3 +346,65 @@ def test_scan_targets_from_csv_and_hash_mismatch_on_reload(scanned_room, tmp_pat
     _fails(capsys, ["scan", "check", str(proj)], path.name, "$.scans[0].sha256", "changed or replaced")
     path.unlink()
     _fails(capsys, ["scan", "check", str(proj)], path.name, "$.scans[0].file", "missing")
+
+
+# ----------------------------------------------------------------------------------------------
+# Drawn in the walk-through
+
+
+def test_the_walk_through_draws_the_scan_as_points_and_k_hides_it(tmp_path, xvfb_display):
+    """A green scan of the box's top, registered by the identity from the box's corners, is drawn
+    where the box's top is in the window; K hides it; a project without scans draws none."""
+    from viewer_scene import write_project
+
+    from vebuild.gl.window import Window
+    from vebuild.render.renderer import RenderOptions
+    from vebuild.viewer.app import Viewer
+    from vebuild.viewer.keys import VIEWER_KEYS
+
+    proj = write_project(tmp_path)
+    project = load_project(proj)
+    model = project_model_as_written(project)
+    from vebuild.analysis.scans import world_faces
+
+    others = {f for f in world_faces(model).names if f != ("box", "top")}
+    top, _ = sample_surfaces(model, 20_000, 0.0, np.random.default_rng(5), skip=others)
+    write_ply(proj.parent / "box.ply", top, np.tile([0, 255, 0], (len(top), 1)).astype(np.uint8))
+    from vebuild.analysis.scans import resolve_points
+
+    corners = ["box:v4", "box:v5", "box:v6", "box:v3"]
+    W = resolve_points(project, corners, corners)
+    words = [f"--target=C{k}={x!r},{y!r},{z!r}:{c}" for k, ((x, y, z), c) in enumerate(zip(W.tolist(), corners,
+                                                                                              strict=True))]
+    assert main(["scan", "add", str(proj), str(proj.parent / "box.ply"), *words]) == 0
+    assert any(c.command == "toggle_scans" for b in VIEWER_KEYS.bindings for c in b.chords)
+
+    window = Window(480, 320, "vebuild scan test", visible=True)
+    try:
+        viewer = Viewer(load_project(proj), window, RenderOptions.interactive(), view="at the box")
+        assert viewer.show_scans
+
+        def green() -> int:
+            viewer.draw()
+            img = np.frombuffer(window.ctx.screen.read(viewport=(0, 0, 480, 320), components=3, alignment=1),
+                                np.uint8).reshape(320, 480, 3).astype(int)
+            return int(np.sum((img[..., 1] > 200) & (img[..., 0] < 60) & (img[..., 2] < 60)))
+
+        shown = green()
+        assert shown > 200
+        # Points inside the box (its top's, shrunk toward the middle and lowered by half its
+        # height) are hidden by its faces: the frame's depth.
+        mid = top.mean(axis=0)
+        height = next(n for n in project.data["model"]["nodes"] if n["name"] == "box")["primitive"]["params"]["height"]
+        hidden = mid + 0.8 * (top - mid) - [0.0, 0.0, height / 2]
+        layer = viewer.scan_layer()
+        layer.set_points(hidden, np.tile([0, 255, 0], (len(hidden), 1)))
+        n_hidden = green()
+        assert n_hidden < shown / 50
+        layer.set_points(top, np.tile([0, 255, 0], (len(top), 1)))
+        assert green() == shown
+        viewer.toggle_scans()
+        assert not viewer.show_scans and green() < shown / 50
+        viewer.close()
+    finally:
+        window.close()
