@@ -307,3 +307,71 @@ def test_photo_is_laid_over_its_camera_view(browser, plain_html):
     assert photo["src"] == "photos/p2.jpg" and float(photo["o"]) == pytest.approx(0.5)
     # 1600×1200 photo in an 800×600 window: it fills it.
     assert (photo["w"], photo["h"], photo["l"], photo["t"]) == (800, 600, 0, 0)
+
+
+@needs_chromium
+def test_page_works_from_a_plain_web_server(browser, plain_html):
+    """Served over HTTP (here Python's http.server on the loopback), it loads from its own origin only."""
+    import functools
+    import http.server
+    import threading
+
+    handler = functools.partial(http.server.SimpleHTTPRequestHandler, directory=str(plain_html))
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler)
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    try:
+        origin = f"http://127.0.0.1:{server.server_address[1]}/"
+        browser.open("about:blank")
+        browser.wait_for("location.href === 'about:blank'", 10)
+        browser.requests.clear()
+        browser.open(origin + "index.html")
+        browser.wait_for(READY, LOAD_S)
+        state = browser.evaluate(STATE)
+    finally:
+        server.shutdown()
+        server.server_close()
+    assert state["errors"] == [] and state["ok"] is True
+    outside = [u for u in browser.requests if not (u.startswith(origin) or u.startswith(("blob:", "data:")))]
+    assert outside == [] and origin + "scene.js" in browser.requests
+
+
+def _key(browser: Browser, kind: str, key: str, code: str, vk: int) -> None:
+    browser.page("Input.dispatchKeyEvent", {"type": kind, "key": key, "code": code, "windowsVirtualKeyCode": vk})
+
+
+@needs_chromium
+def test_walk_with_the_keys_and_click_a_camera(browser, plain_html):
+    state = _open(browser, plain_html)
+    start = np.array(state["camera"]["position"])
+    direction = np.array(state["camera"]["direction"])
+    frames = state["frames"]
+    _key(browser, "keyDown", "w", "KeyW", 87)
+    browser.wait_for(f"{STATE}.frames > {frames + 20}", 20)
+    _key(browser, "keyUp", "w", "KeyW", 87)
+    moved = np.array(browser.evaluate(STATE)["camera"]["position"]) - start
+    ahead = direction[:2] / np.linalg.norm(direction[:2])
+    assert moved[2] == pytest.approx(0.0, abs=1e-9)  # a walk: level
+    assert moved[:2] @ ahead > 0.05 and abs(moved[0] * ahead[1] - moved[1] * ahead[0]) < 1e-6  # straight ahead
+    # Clicking a photo camera's glyph looks through it.
+    state = browser.evaluate(STATE)
+    glyph = next(x for x in state["labels"]  # one clear of the panel (left, 350 px wide)
+                 if x["text"].startswith("photo ") and x["on_screen"] and 360 < x["x"] < SIZE[0] - 10)
+    want = "photo-" + glyph["text"].split()[1]
+    for kind in ("mousePressed", "mouseReleased"):
+        browser.page("Input.dispatchMouseEvent", {"type": kind, "x": glyph["x"], "y": glyph["y"], "button": "left",
+                                                  "clickCount": 1})
+    browser.wait_for(f"{STATE}.camera.id === '{want}'", 10)
+    assert browser.evaluate("location.hash") == f"#camera={want}"
+
+
+def test_vendored_bundle_is_the_pinned_three():
+    """The committed bundle names the versions web/package.json pins, and three.js's licence travels with it."""
+    from vebuild.render.html import WEB
+
+    pins = json.loads((WEB / "package.json").read_text())
+    head = (WEB / "three-bundle.min.js").read_text()[:300]
+    assert head.startswith(f"/* three.js {pins['dependencies']['three']} (MIT")
+    assert f"esbuild {pins['devDependencies']['esbuild']} " in head
+    assert "var VEBUILD_THREE=" in head  # a classic script setting one global: no ES module
+    assert (WEB / "THREE-LICENSE").read_text().startswith("The MIT License")
