@@ -408,3 +408,47 @@ def test_the_walk_through_draws_the_scan_as_points_and_k_hides_it(tmp_path, xvfb
         viewer.close()
     finally:
         window.close()
+
+
+def test_the_modelling_screens_preview_draws_the_scan_over_its_frame(tmp_path):
+    """Headless (EGL): points of the box's top drawn over the renderer's off-screen frame land on
+    the box's top; points inside the box are hidden by it."""
+    from viewer_scene import write_project
+
+    from vebuild.analysis.scans import world_faces
+    from vebuild.camera import project as project_points
+    from vebuild.edit.preview import draw_points_over_frame
+    from vebuild.gl import headless_context
+    from vebuild.gl.points import PointLayer
+    from vebuild.project.decode import view_camera
+    from vebuild.render.renderer import Renderer, RenderOptions
+    from vebuild.render.scene import load_scene
+
+    proj = write_project(tmp_path)
+    project = load_project(proj)
+    model = project_model_as_written(project)
+    others = {f for f in world_faces(model).names if f != ("box", "top")}
+    top, _ = sample_surfaces(model, 5000, 0.0, np.random.default_rng(7), skip=others)
+    ctx = headless_context()
+    renderer = Renderer(ctx, load_scene(project), RenderOptions(samples=1, anisotropy=1.0, trilinear=False))
+    cam = view_camera(next(v for v in project.data["views"] if v["name"] == "at the box"))
+    layer = PointLayer(ctx)
+    green = np.tile([0, 255, 0], (len(top), 1))
+
+    def drawn(points) -> np.ndarray:
+        layer.set_points(points, green)
+        tex = renderer.frame(cam)
+        draw_points_over_frame(renderer, cam, layer)
+        img = np.frombuffer(tex.read(alignment=1), np.uint8).reshape(cam.height, cam.width, 4)[..., :3].astype(int)
+        return (img[..., 1] > 200) & (img[..., 0] < 60) & (img[..., 2] < 60)
+
+    mask = drawn(top)
+    uv = project_points(cam.K, cam.R, cam.C, top)
+    inside = (uv[:, 0] >= 0) & (uv[:, 0] < cam.width) & (uv[:, 1] >= 0) & (uv[:, 1] < cam.height)
+    col, row = uv[inside, 0].astype(int), uv[inside, 1].astype(int)
+    assert inside.sum() > 1000 and mask[row, col].mean() > 0.95  # each point at its own pixel (image order)
+    height = next(n for n in project.data["model"]["nodes"] if n["name"] == "box")["primitive"]["params"]["height"]
+    mid = top.mean(axis=0)
+    assert drawn(mid + 0.8 * (top - mid) - [0.0, 0.0, height / 2]).sum() < mask.sum() / 50
+    layer.release()
+    renderer.release()
