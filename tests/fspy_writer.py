@@ -159,12 +159,14 @@ class StateBuilder:
             vp2 = self.lines_along(second, self.starts(second))
         vp3 = self.lines_along(third, self.starts(third))
         origin = self.rel(self.cam.project(np.zeros(3)))
-        # The reference distance: along z from a floor anchor, handles at 0.3 m and 1.8 m.
-        A = np.array([0.8, 0.9, 0.0])
+        # The reference distance: along its axis from an anchor in the plane through the origin at
+        # right angles to it (for z, the floor), handles 0.3 m and 1.8 m along.
+        ref_axis = self.reference_axis or "zPositive"
+        A = {"z": np.array([0.8, 0.9, 0.0]), "x": np.array([0.0, 0.9, 0.7]),
+             "y": np.array([0.9, 0.0, 0.7])}[ref_axis[0]]
         z0, z1 = 0.3, 1.8
         anchor_uv = self.cam.project(A)
         anchor = self.rel(anchor_uv)
-        ref_axis = self.reference_axis or "zPositive"
         w = axis_vec(ref_axis)
         vz = self.cam.K @ self.cam.R @ w
         vz_rel = np.array([vz[0] / vz[2] / W, vz[1] / vz[2] / H])

@@ -255,6 +255,31 @@ def test_units_and_no_reference(tmp_path):
     assert not any(row.quantity.startswith("position") for row in r.rows)
 
 
+@pytest.mark.parametrize("axis", ["xPositive", "yPositive"])
+def test_reference_distance_along_a_horizontal_axis(tmp_path, axis):
+    """A reference distance along x (or y), from an anchor on the wall plane x = 0 (y = 0) above the
+    floor: the handles need not lie on the floor; the camera's height still comes out."""
+    cam = KnownCamera.looking_at_corner()
+    b = StateBuilder(cam, np.random.default_rng(0), noise_px=0.0, reference_axis=axis)
+    r = import_fspy(write(tmp_path, b)[0], tmp_path / "o")
+    rec = camera_of(r)[1]
+    assert np.allclose(rec["position"]["value"], cam.C, atol=EXACT_M)
+    assert load_project(r.project).data["calibration"]["lengths"] == "metres"
+
+
+def test_a_killed_import_is_cleaned_up(tmp_path):
+    """A staging folder left by an import that was killed (its process gone, vebuild's mark in it)
+    is removed by the next import into the same parent folder; nothing else there is touched."""
+    b = StateBuilder(KnownCamera.looking_at_corner(), np.random.default_rng(0), noise_px=0.0)
+    path, _, _ = write(tmp_path, b)
+    dead = tmp_path / ".old.999999999.0123abcd.vebuild-tmp"
+    dead.mkdir()
+    (dead / ".vebuild-output.json").write_text('{"software": "vebuild", "files": {}}')
+    (dead / "scene.jpg").write_bytes(b"half")
+    import_fspy(path, tmp_path / "new")
+    assert not dead.exists() and path.exists()
+
+
 def test_empty_out_folder_is_used_and_a_full_one_refused(tmp_path):
     b = StateBuilder(KnownCamera.looking_at_corner(), np.random.default_rng(0), noise_px=0.0)
     path, _, _ = write(tmp_path, b)

@@ -36,6 +36,7 @@ stored camera (``cameraParameters``, where saved) is returned.
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import re
@@ -46,10 +47,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .. import __version__
 from ..camera import ypr_from_rotation
 from ..errors import CalibrationError, ProjectError, VebuildError
 from ..project import Project, new_photo_entry, new_project, save_project
-from ..project.atomic import fsync_folder, remove_tree, temp_path, write_bytes
+from ..project.atomic import MANIFEST, clean_stale, fsync_folder, remove_tree, temp_path, write_bytes, write_text
 from ..project.fspy import (
     AXES,
     MODE_1VP,
@@ -385,14 +387,17 @@ def import_fspy(fspy_file: str | os.PathLike[str], out: str | os.PathLike[str], 
     fp = read_fspy(src)
     stem = _safe_name(src.stem)
     marks = marks_from_fspy(fp, click_sigma_px)
+    clean_stale(out.parent)  # a staging folder left by an import that was killed
     staging = temp_path(out)
     staging.mkdir()
     try:
+        # Marked as vebuild's while it is built, so that clean_stale removes it if this process dies.
+        write_text(staging / MANIFEST, json.dumps({"software": f"vebuild {__version__}", "kind": "import",
+                                                   "files": {}}) + "\n")
         result = _build(fp, src, staging, out, stem, marks, click_sigma_px, name)
+        (staging / MANIFEST).unlink()
         check_out_folder(out)  # nothing appeared there meanwhile
-        if out.exists():
-            out.rmdir()  # empty (checked): the staging folder takes its place
-        os.rename(staging, out)
+        os.rename(staging, out)  # one rename; over an empty folder too (POSIX)
         fsync_folder(out.parent)
     except BaseException:
         remove_tree(staging)
