@@ -116,6 +116,27 @@ def test_reader_round_trip(tmp_path, rng, fmt):
     assert cloud.colours is not None and np.array_equal(cloud.colours, col)
 
 
+def test_e57_scans_are_put_in_the_files_frame_by_their_poses(tmp_path, rng):
+    """Two scans in one E57 file, the first with a pose (0.5 rad about z, then 10 m along x), the
+    second with every tenth return marked invalid: one cloud in the file's frame, without them."""
+    import pye57
+
+    P = rng.normal(size=(100, 3))
+    path = tmp_path / "two.e57"
+    e57 = pye57.E57(str(path), mode="w")
+    xyz = {"cartesianX": P[:, 0].copy(), "cartesianY": P[:, 1].copy(), "cartesianZ": P[:, 2].copy()}
+    e57.write_scan_raw(xyz, rotation=np.array([np.cos(0.25), 0, 0, np.sin(0.25)]), translation=np.array([10.0, 0, 0]))
+    invalid = np.arange(100) % 10 == 0
+    e57.write_scan_raw({**xyz, "cartesianInvalidState": invalid.astype(np.int8)})
+    e57.close()
+    cloud = read_point_cloud(path)
+    c, s = np.cos(0.5), np.sin(0.5)
+    Rz = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+    assert cloud.points.shape == (190, 3) and cloud.colours is None
+    assert np.abs(cloud.points[:100] - (P @ Rz.T + [10, 0, 0])).max() < 1e-6
+    assert np.abs(cloud.points[100:] - P[~invalid]).max() < 1e-6
+
+
 @pytest.mark.parametrize("fmt", sorted(WRITERS))
 def test_unreadable_scan_names_the_file(tmp_path, fmt):
     path = tmp_path / f"broken.{fmt}"
