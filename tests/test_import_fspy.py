@@ -192,6 +192,13 @@ def test_photo_is_the_embedded_image_byte_for_byte(tmp_path):
     # Written as `vebuild new` writes a project: one audit entry, for the command that made it.
     (entry,) = project.data["audit"]
     assert entry["command"] == "import" and entry["before_sha256"] is None
+    # The calibration is current, and `vebuild calibrate` run again gives the same camera.
+    assert main(["check", str(proj)]) == 0
+    before = project.data["calibration"]["cameras"]["scene"]
+    assert main(["calibrate", str(proj), "--quiet"]) == 0
+    after = load_project(proj).data["calibration"]["cameras"]["scene"]
+    assert np.allclose(after["K"], before["K"]) and np.allclose(after["R"], before["R"])
+    assert np.allclose(after["position"]["value"], before["position"]["value"])
 
 
 # -- noisy marks: within vebuild's own 1σ, both sides ----------------------------------------------
@@ -351,6 +358,8 @@ BAD = {
                  "$.calibrationSettingsBase.referenceDistance", "above 0"),
     "matrix": (fspy_bytes(_with(["cameraParameters", "viewTransform"], {"rows": [[1, 0, 0]]}), IMG),
                "$.cameraParameters.viewTransform.rows", "4×4"),
+    "vp-axes": (fspy_bytes(_with(["cameraParameters", "vanishingPointAxes"], ["xPositive", "xNegative", "zPositive"]),
+                        IMG), "$.cameraParameters.vanishingPointAxes", "one each of x, y and z"),
     "image-dims": (fspy_bytes(_with(["cameraParameters", "imageWidth"], 480), IMG),
                    "$.cameraParameters.imageWidth", "embedded image is 640×480"),
     "parallel": (fspy_bytes(_with(["controlPointsStateBase", "firstVanishingPoint", "lineSegments"],

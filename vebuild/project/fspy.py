@@ -482,9 +482,10 @@ class _State:
             raise self.error(f"{base}.vanishingPoints", f"expected three points, found {_kind(vps)}")
         points = tuple(self.point(f"{base}.vanishingPoints[{i}]", relative=False) for i in range(3))
         axes = self.get(f"{base}.vanishingPointAxes")
-        if not isinstance(axes, list) or len(axes) != 3 or any(a not in AXES for a in axes):
-            raise self.error(f"{base}.vanishingPointAxes", f"expected three axis names such as 'xPositive', found "
-                             f"{_kind(axes)}")
+        if not isinstance(axes, list) or len(axes) != 3 or any(a not in AXES for a in axes) or \
+                sorted(AXES[a][0] for a in axes) != ["x", "y", "z"]:
+            raise self.error(f"{base}.vanishingPointAxes", f"expected three axis names, one each of x, y and z "
+                             f"(such as 'xPositive'), found {_kind(axes)}")
         return FspyCamera(
             principal_point=pp, view_transform=view, camera_transform=inverse,
             horizontal_fov_rad=self.number(f"{base}.horizontalFieldOfView", lo=1e-9, hi=math.pi,
