@@ -132,6 +132,17 @@ class Browser:
             time.sleep(0.1)
         raise TimeoutError(f"timed out waiting for {expression}")
 
+    def wait_event(self, method: str, timeout: float = 10) -> list[dict[str, Any]]:
+        """The parameters of every ``method`` event received so far, waiting up to ``timeout``
+        seconds for a first one."""
+        end = time.time() + timeout
+        while True:
+            found = [e["params"] for e in self.events if e.get("method") == method]
+            if found or time.time() > end:
+                return found
+            self.evaluate("0")  # reads what chromium sent meanwhile
+            time.sleep(0.05)
+
     def screenshot(self, path: Path) -> Path:
         data = self.page("Page.captureScreenshot", {"format": "png"})["data"]
         path.write_bytes(base64.b64decode(data))

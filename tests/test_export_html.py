@@ -375,3 +375,39 @@ def test_vendored_bundle_is_the_pinned_three():
     assert f"esbuild {pins['devDependencies']['esbuild']} " in head
     assert "var VEBUILD_THREE=" in head  # a classic script setting one global: no ES module
     assert (WEB / "THREE-LICENSE").read_text().startswith("The MIT License")
+
+
+@needs_chromium
+def test_untextured_model_is_drawn_lit(browser, textured_room, tmp_path):
+    """A project with no textures yet: the faces in their colours, shaded, and the page says so."""
+    from vebuild.project import load_project, save_project
+
+    folder = tmp_path / "room"
+    shutil.copytree(textured_room.parent, folder)
+    project = load_project(folder / textured_room.name)
+    del project.data["textures"]
+    save_project(project)
+    out = tmp_path / "viewer"
+    assert main(["export", str(project.path), "--html", str(out)]) == 0
+    state = _open(browser, out, "#camera=photo-p1&photo=0&clean=1")
+    assert state["errors"] == [] and state["ok"] is True and state["textured"] is False
+    assert any("untextured" in w for w in state["warnings"])
+    img = _pixels(browser.screenshot(tmp_path / "page.png")).astype(float)
+    grey = img.mean(axis=2)
+    assert grey.mean() > 60 and grey.std() > 10  # lit and shaded, not black and not flat
+
+
+@needs_chromium
+def test_page_policy_blocks_anything_from_elsewhere(browser, plain_html):
+    """The page's Content-Security-Policy holds under file://: a request for an outside image is
+    blocked before it is made, and the page reports it in its state."""
+    _open(browser, plain_html)
+    browser.events.clear()
+    browser.evaluate("(function(){var i=new Image();i.src='https://example.com/x.png';"
+                     "document.body.appendChild(i);return 1;})()")
+    errors = browser.wait_for(f"(function(){{var e={STATE}.errors;return e.length?e:null;}})()", 10)
+    assert any("Content-Security-Policy" in e and "example.com" in e for e in errors), errors
+    # Chromium reports the attempt (requestWillBeSent), then its failure, blocked by the policy.
+    failed = browser.wait_event("Network.loadingFailed")
+    assert any(f.get("blockedReason") == "csp" for f in failed), failed
+    assert browser.evaluate(STATE)["ok"] is False

@@ -536,8 +536,12 @@
       renderer.setClearColor(0x202024, 1);
       document.getElementById("view").appendChild(renderer.domElement);
       scene = new THREE.Scene();
-      scene.add(new THREE.HemisphereLight(0xffffff, 0x606060, 1.6));  // only the untextured model is lit
+      scene.add(new THREE.HemisphereLight(0xffffff, 0x808080, 2.0));  // only the untextured model is lit
       camera = new THREE.PerspectiveCamera(60, window.innerWidth / window.innerHeight, 0.05, 500);
+      var headlight = new THREE.DirectionalLight(0xffffff, 1.5);  // shading that shows the shapes
+      headlight.position.set(0.3, 0.5, 1);
+      camera.add(headlight);
+      camera.add(headlight.target);
       dolly = new THREE.Group();
       dolly.add(camera);
       scene.add(dolly);
