@@ -287,13 +287,17 @@ def test_a_killed_import_is_cleaned_up(tmp_path):
     assert not dead.exists() and path.exists()
 
 
-def test_empty_out_folder_is_used_and_a_full_one_refused(tmp_path):
+def test_empty_out_folder_is_used_and_a_full_one_refused(tmp_path, monkeypatch):
     b = StateBuilder(KnownCamera.looking_at_corner(), np.random.default_rng(0), noise_px=0.0)
     path, _, _ = write(tmp_path, b)
     (tmp_path / "empty").mkdir()
     import_fspy(path, tmp_path / "empty")
     with pytest.raises(VebuildError, match="not empty"):
         import_fspy(path, tmp_path / "empty")
+    (tmp_path / "here").mkdir()
+    monkeypatch.chdir(tmp_path / "here")
+    with pytest.raises(VebuildError, match="working in"):
+        import_fspy(path, ".")
     (tmp_path / "afile").write_text("x")
     with pytest.raises(VebuildError, match="is a file"):
         import_fspy(path, tmp_path / "afile")
@@ -405,7 +409,10 @@ def test_fspy_state_is_kept_readable(tmp_path):
     a, c = state["controlPointsStateBase"]["firstVanishingPoint"]["lineSegments"]
     assert fp.second_segments == (((a[0]["x"], a[0]["y"]), (c[0]["x"], c[0]["y"])),
                                   ((a[1]["x"], a[1]["y"]), (c[1]["x"], c[1]["y"])))
-    assert fp.third_axis == "zPositive"
+    assert fp.third_axis == "zPositive"  # (−x) × (−y)
+    # A file from before fSpy had a quad mode has no quadModeEnabled: off, as fSpy reads it.
+    del state["calibrationSettings2VP"]["quadModeEnabled"]
+    assert not parse_fspy(fspy_bytes(state, make_image(480, 640)), path).quad_mode
     assert json.loads(json.dumps(fp.state)) == state
 
 

@@ -357,6 +357,9 @@ def check_out_folder(out: Path) -> None:
     if out.is_symlink():
         raise VebuildError(f"{out}: is a symbolic link; choose a new folder for the imported project")
     if out.exists():
+        if os.path.realpath(out) == os.path.realpath(os.getcwd()):
+            raise VebuildError(f"{out}: is the folder you are working in; vebuild puts the imported project in place "
+                               "as a new folder: choose another --out")
         if not out.is_dir():
             raise VebuildError(f"{out}: is a file; expected a new (or empty) folder for the imported project")
         if any(out.iterdir()):

@@ -383,7 +383,8 @@ class _State:
         assert pp_mode is not None
         quad = False
         if not one:
-            q = self.get("$.calibrationSettings2VP.quadModeEnabled")
+            # Absent in files from before fSpy had a quad mode; fSpy then reads it as off.
+            q = self.get("$.calibrationSettings2VP.quadModeEnabled", optional=True) or False
             if not isinstance(q, bool):
                 raise self.error("$.calibrationSettings2VP.quadModeEnabled",
                                  f"expected true or false, found {_kind(q)}")
