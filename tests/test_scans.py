@@ -360,11 +360,16 @@ def test_scan_targets_from_csv_and_hash_mismatch_on_reload(scanned_room, tmp_pat
     (folder / "targets.csv").write_text("\n".join(rows) + "\n")
     assert main(["scan", "add", str(proj), str(path), "--targets", str(folder / "targets.csv")]) == 0
     assert len(load_project(proj).data["scans"][0]["registration"]["targets"]) == len(TARGETS)
+    capsys.readouterr()
+    assert main(["check", str(proj)]) == 0
+    assert "laser scans: 1 scan(s), hashes verified" in capsys.readouterr().out
     raw = bytearray(path.read_bytes())
     raw[-10] ^= 0xFF
     path.write_bytes(bytes(raw))
     capsys.readouterr()
     _fails(capsys, ["scan", "check", str(proj)], path.name, "$.scans[0].sha256", "changed or replaced")
+    assert main(["check", str(proj)]) != 0
+    assert "$.scans[0].sha256" in capsys.readouterr().err
     path.unlink()
     _fails(capsys, ["scan", "check", str(proj)], path.name, "$.scans[0].file", "missing")
 
