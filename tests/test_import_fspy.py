@@ -410,10 +410,10 @@ def test_fspy_state_is_kept_readable(tmp_path):
     assert fp.second_segments == (((a[0]["x"], a[0]["y"]), (c[0]["x"], c[0]["y"])),
                                   ((a[1]["x"], a[1]["y"]), (c[1]["x"], c[1]["y"])))
     assert fp.third_axis == "zPositive"  # (−x) × (−y)
+    assert json.loads(json.dumps(fp.state)) == state
     # A file from before fSpy had a quad mode has no quadModeEnabled: off, as fSpy reads it.
     del state["calibrationSettings2VP"]["quadModeEnabled"]
     assert not parse_fspy(fspy_bytes(state, make_image(480, 640)), path).quad_mode
-    assert json.loads(json.dumps(fp.state)) == state
 
 
 def test_exif_turned_photo_uses_the_displayed_size(tmp_path):
