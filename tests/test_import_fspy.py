@@ -395,9 +395,14 @@ def test_bad_input_names_file_and_field(tmp_path, case, capsys):
     assert not out.exists()
 
 
-def test_missing_file(tmp_path):
+def test_missing_file_and_bad_click_sigma(tmp_path):
     with pytest.raises(VebuildError, match="not found"):
         read_fspy(tmp_path / "nothing.fspy")
+    b = StateBuilder(KnownCamera.looking_at_corner(), np.random.default_rng(0), noise_px=0.0)
+    path, _, _ = write(tmp_path, b)
+    with pytest.raises(VebuildError, match="--click-sigma"):
+        import_fspy(path, tmp_path / "o", click_sigma_px=0.0)
+    assert not (tmp_path / "o").exists()
 
 
 def test_fspy_state_is_kept_readable(tmp_path):

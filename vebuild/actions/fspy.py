@@ -386,6 +386,8 @@ def import_fspy(fspy_file: str | os.PathLike[str], out: str | os.PathLike[str], 
     """
     src = Path(fspy_file)
     out = Path(out)
+    if not (isinstance(click_sigma_px, (int, float)) and 0.001 <= click_sigma_px <= 1000):
+        raise VebuildError(f"--click-sigma: expected a 1σ of 0.001 to 1000 pixels, found {click_sigma_px!r}")
     check_out_folder(out)
     fp = read_fspy(src)
     stem = _safe_name(src.stem)
