@@ -231,7 +231,9 @@ def test_scan_check_deviations(solved_room, tmp_path, capsys):
     capsys.readouterr()
     assert main(["scan", "check", str(proj), "--json", str(tmp_path / "dev.json")]) == 0
     out = capsys.readouterr().out
-    assert "cabinet:front" in out and "median mm" in out
+    assert "cabinet:front" in out and "median mm" in out and f"{N_POINTS} points" in out
+    assert main(["scan", "check", str(proj), "--max-points", "5000"]) == 0
+    assert f"5000 of its {N_POINTS} points (a regular subsample)" in capsys.readouterr().out
     doc = json.loads((tmp_path / "dev.json").read_text())
     faces = {(r["node"], r["face"]): r for r in doc["scans"][0]["faces"]}
     # Faces with many points: their median (registration error, ≲ 1 mm, plus σ/√n) and p95.

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from .. import __version__
-from ..analysis.scans import MAX_DISTANCE_M, deviation_table, face_deviations, register_scan
+from ..analysis.scans import CHECK_POINTS, MAX_DISTANCE_M, deviation_table, face_deviations, register_scan
 from ..errors import VebuildError
 from ..project import Project, load_project, save_project
 from ..project.scans import (
@@ -74,6 +74,8 @@ def _cmd_check(args: argparse.Namespace) -> int:
     if not scans:
         raise VebuildError(f"{project.path}: $.scans: the project has no laser scans; add one with `vebuild scan add`")
     which = range(len(scans)) if args.scan is None else [args.scan]
+    if args.max_points < 1:
+        raise VebuildError(f"--max-points: expected a whole number of points ≥ 1, got {args.max_points}")
     if args.json:
         from ..project.outputs import check_file
 
@@ -82,7 +84,7 @@ def _cmd_check(args: argparse.Namespace) -> int:
     for i in which:
         if not 0 <= i < len(scans):
             raise VebuildError(f"--scan {i}: the project has {len(scans)} scan(s), numbered from 0")
-        r = face_deviations(project, i, args.max_distance)
+        r = face_deviations(project, i, args.max_distance, args.max_points)
         print(deviation_table(r))
         results.append({k: v for k, v in r.items() if k not in ("world", "signed")})
     if args.json:
@@ -119,5 +121,7 @@ def add_scan_parsers(sub: Any) -> None:
     q.add_argument("--scan", type=int, metavar="N", help="only scan N (from 0; default: every scan)")
     q.add_argument("--max-distance", type=float, default=MAX_DISTANCE_M, metavar="M",
                    help=f"points farther than this from every face are not the model's (default {MAX_DISTANCE_M} m)")
+    q.add_argument("--max-points", type=int, default=CHECK_POINTS, metavar="N",
+                   help=f"compare a regular subsample of at most N points of each scan (default {CHECK_POINTS})")
     q.add_argument("--json", metavar="OUT", help="write the figures to OUT as JSON")
     q.set_defaults(func=_cmd_check)

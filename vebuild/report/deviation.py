@@ -108,7 +108,9 @@ def scans(project: Project, rep: Report) -> None:
             med = fmt(r["median_m"] * 1000, 1)
             rows.append([f"{r['node']}:{r['face']}", r["count"], Cell(med, "bad") if far else med,
                          fmt(r["p95_m"] * 1000, 1), "—" if rs is None else fmt(rs * 1000, 1)])
-        parts.append(f"<p>{dev['points']} points; {dev['unassigned']} lie farther than "
+        shown = f"{dev['points']} points" if dev["points"] == dev["scan_points"] else \
+            f"{dev['points']} of its {dev['scan_points']} points (a regular subsample)"
+        parts.append(f"<p>{shown}; {dev['unassigned']} lie farther than "
                      f"{dev['max_distance_m'] * 1000:.0f} mm from every face (not the model's).</p>")
         parts.append(table(["face", "points", "median mm", "p95 mm", "registration 1σ mm"], rows, {1, 2, 3, 4}))
         step = max(1, len(dev["world"]) // MAP_POINTS)
