@@ -86,11 +86,12 @@ def scans(project: Project, rep: Report) -> None:
         reg = e["registration"]
         cov = reg.get("covariance")
         sd_scale = np.sqrt(cov["matrix"][0][0]) if cov else None
+        scale = reg["similarity"]["scale"]
+        ppm = f", 1σ {sd_scale / scale * 1e6:.0f} ppm" if sd_scale is not None else ""
         parts.append(f"<h3>Scan {i}: {esc(e['file'])}</h3><p>{esc(e['format'].upper())}, {e['point_count']} points, "
                      f"SHA-256 <span class='hash'>{esc(e['sha256'])}</span>; "
                      f"{'used as observations in the solve' if e['use_in_solve'] else 'a check only'}"
-                     f". Scale {fmt(reg['similarity']['scale'], 6)}"
-                     f"{' ± ' + fmt(sd_scale, 6) if sd_scale is not None else ''}, rms of the targets "
+                     f". Scale {scale:.9g} (project metres per scan unit{ppm}), rms of the targets "
                      f"{fmt(reg['rms_m'] * 1000, 1)} mm over {len(reg['targets'])} targets.</p>")
         parts.append(table(["target", "project point", "residual mm"],
                            [[t["name"], t.get("point", "—"), fmt(r["distance_m"] * 1000, 1)]
