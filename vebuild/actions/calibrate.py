@@ -46,6 +46,7 @@ def calibrate_photos(project: Project, progress: Callable[[Iterable], Iterable] 
             photo["height"],
             photo=photo["id"],
             click_sigma_px=settings["click_sigma_px"],
+            segment_sigma_px=decode.vanishing_segment_sigmas(photo, settings["click_sigma_px"]),
             principal_point=marks.principal_point,
             principal_point_sigma_rel=settings["principal_point_sigma_rel"],
             focal=marks.focal,

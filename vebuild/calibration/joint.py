@@ -120,10 +120,10 @@ class JointProblem:
     independent residuals: they sum to zero).
     """
 
-    def __init__(self, polys: Mapping[str, list[Array]], axes: list[str], sigma_px: float, scale: float,
-                 c0: Array, sigma_c: float, k1_prior: DistortionPrior | None, estimate_k1: bool):
+    def __init__(self, polys: Mapping[str, list[Array]], axes: list[str], sigma_px: float | Mapping[str, Array],
+                 scale: float, c0: Array, sigma_c: float, k1_prior: DistortionPrior | None, estimate_k1: bool):
+        """sigma_px: 1σ of every point, or axis → one 1σ per polyline (a detected segment's own)."""
         self.axes, self.scale, self.c0, self.sigma_c = axes, scale, c0, sigma_c
-        self.weight = 1.0 / sigma_px
         self.k1_prior, self.estimate_k1 = k1_prior, estimate_k1
         pts: list[Array] = []
         pid: list[Array] = []
@@ -145,6 +145,11 @@ class JointProblem:
         self.n_data = len(self.P)
         self.n_independent = int(self.n_data - len(self.counts))
         self.n_params = 7 if estimate_k1 else 6
+        if isinstance(sigma_px, Mapping):
+            per_poly = np.concatenate([np.asarray(sigma_px[a], float).reshape(-1) for a in axes])
+            self.weight = 1.0 / per_poly[self.pid]
+        else:
+            self.weight = np.full(self.n_data, 1.0 / float(sigma_px))
 
     def start(self, f0: float, c: Array) -> Array:
         k1 = self.k1_prior.k1 if self.k1_prior is not None else 0.0

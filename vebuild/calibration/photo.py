@@ -210,6 +210,7 @@ def calibrate_photo(
     *,
     photo: str = "photo",
     click_sigma_px: float = 1.0,
+    segment_sigma_px: Mapping[str, ArrayLike] | None = None,
     principal_point: tuple[ArrayLike, float] | None = None,
     principal_point_sigma_rel: float = PRINCIPAL_POINT_SIGMA_REL,
     focal: FocalPrior | None = None,
@@ -226,6 +227,8 @@ def calibrate_photo(
     width, height : image size in pixels.
     photo : name used in error messages.
     click_sigma_px : 1σ of one clicked point.
+    segment_sigma_px : axis → each segment's own 1σ per point (a detected segment's measured
+        noise, vebuild.calibration.lines), in the order of ``segments``; absent: click_sigma_px.
     principal_point : a known principal point and its 1σ (pixels); default the image centre
         with 1σ = principal_point_sigma_rel × the longer side.
     focal : a focal length the user gives (always combined).
@@ -298,7 +301,8 @@ def calibrate_photo(
 
     straightness = any(len(p) > 2 for a in axes for p in polys[a])
     estimate_k1 = straightness or distortion is not None
-    problem = JointProblem(polys, axes, click_sigma_px, scale, c0, sigma_c, distortion if estimate_k1 else None,
+    sigmas = _segment_sigmas(polys, axes, click_sigma_px, segment_sigma_px, photo)
+    problem = JointProblem(polys, axes, sigmas, scale, c0, sigma_c, distortion if estimate_k1 else None,
                        estimate_k1)
     # Solve with every prior first (a focal prior keeps a weakly determined f from wandering), then
     # judge what the segments alone say about f there, and drop EXIF where it is not wanted.
@@ -380,6 +384,22 @@ def calibrate_photo(
                    else distortion.source if distortion else "none"),
         covariance_k1=cov7,
     )
+
+
+def _segment_sigmas(polys: Mapping[str, list], axes: list[str], click_sigma_px: float,
+                    given: Mapping[str, ArrayLike] | None, photo: str) -> dict[str, Array]:
+    """Each segment's 1σ by axis: the given one, else the click's."""
+    out = {}
+    for a in axes:
+        sig = np.full(len(polys[a]), float(click_sigma_px))
+        if given is not None and a in given:
+            g = np.asarray(given[a], float).ravel()
+            if len(g) != len(sig) or not np.all(np.isfinite(g) & (g > 0)):
+                raise CalibrationError(photo, f"the 1σ of the {a} segments: expected {len(sig)} finite values > 0 "
+                                       f"(one per segment), got {len(g)}")
+            sig = g
+        out[a] = sig
+    return out
 
 
 def _flat(s: ArrayLike) -> list:

@@ -196,6 +196,20 @@ def vanishing_segments(photo: Mapping[str, Any]) -> dict[str, Array | list[Array
     return out
 
 
+def vanishing_segment_sigmas(photo: Mapping[str, Any], click_sigma_px: float) -> dict[str, Array]:
+    """Each vanishing segment's 1σ by axis (as :func:`vanishing_segments`): the measured one of a
+    detected segment (``vanishing_segment_sigmas``), else the click's."""
+    given = photo.get("vanishing_segment_sigmas") or {}
+    out: dict[str, Array] = {}
+    for a, rows in (photo.get("vanishing_segments") or {}).items():
+        if not rows:
+            continue
+        sig = list(given.get(a) or [])
+        sig += [None] * (len(rows) - len(sig))
+        out[a] = np.array([click_sigma_px if v is None else float(v) for v in sig[: len(rows)]], float)
+    return out
+
+
 def photo_marks(photo: Mapping[str, Any]) -> PhotoMarks:
     segs = vanishing_segments(photo)
     focal = None

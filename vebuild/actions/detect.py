@@ -1,0 +1,231 @@
+"""Detected vanishing segments: proposals per photo, and their acceptance as ordinary marks.
+
+:func:`detect_photo` decodes a photo (vebuild.project.images.decode_photo: EXIF orientation,
+RAW), finds its straight edges and groups them into three orthogonal vanishing directions
+(vebuild.calibration.lines), and proposes per world axis the segments that agree, directed by
+DESIGN.md's convention. :func:`accept_proposals` writes proposals into the project document as
+ordinary ``vanishing_segments``, each with its own measured 1σ in the parallel
+``vanishing_segment_sigmas`` (scenes/FORMAT.md), which the calibration weights it by.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..calibration.exif import exif_distortion_prior, exif_focal_prior
+from ..calibration.lines import (
+    DARK_MEAN_GREY,
+    X_AXIS_CHOICES,
+    detect_lines,
+    direct_segment,
+    group_manhattan,
+    orient_axes,
+    to_grey,
+)
+from ..camera import AXES, distort_pixels, intrinsic_matrix, undistort_pixels
+from ..errors import ProjectError
+from ..project import Project
+from ..project.images import decode_photo
+
+#: At most this many proposals per axis are kept (the best-scored): more add little to a
+#: calibration and slow it.
+MAX_PER_AXIS = 40
+#: A focal estimate whose relative 1σ exceeds this is not reported (a frontal or level view).
+FOCAL_REPORT_MAX_REL_SIGMA = 0.1
+
+
+@dataclass(frozen=True)
+class SegmentProposal:
+    axis: str                                   # 'x', 'y' or 'z'
+    segment: tuple[float, float, float, float]  # u1, v1, u2, v2 in photo pixels, directed (DESIGN.md)
+    sigma_px: float                             # its end points' measured 1σ
+    score: float                                # agreement with its vanishing point (higher is better)
+
+
+@dataclass(frozen=True)
+class PhotoProposals:
+    photo: str                                  # the photo's id
+    segments: tuple[SegmentProposal, ...]
+    focal_px: float | None                      # the grouping's focal estimate, if any
+    message: str                                # what was found, or why nothing
+
+
+def check_x_axis(x_axis: str | None, where: str = "--x-axis") -> str:
+    """The x-axis choice, default ``right``; ProjectError naming ``where`` for an unknown one."""
+    if x_axis is None:
+        return "right"
+    if x_axis not in X_AXIS_CHOICES:
+        raise ProjectError("the command line", where, f"expected one of {', '.join(X_AXIS_CHOICES)}, got {x_axis!r}")
+    return x_axis
+
+
+def x_axis_choices(project: Project, ids: Sequence[str], x_axis: str | Sequence[str] | None) -> dict[str, str]:
+    """Photo id → its x-axis choice from ``--x-axis`` items (CHOICE or PHOTO=CHOICE)."""
+    items = [x_axis] if isinstance(x_axis, str) else list(x_axis or [])
+    default = "right"
+    for item in items:
+        if "=" not in item:
+            default = check_x_axis(item)
+    out = {pid: default for pid in ids}
+    for item in items:
+        if "=" in item:
+            pid, choice = item.split("=", 1)
+            project.photo(pid)
+            out[pid] = check_x_axis(choice, f"--x-axis {item}")
+    return out
+
+
+def photo_pixels(project: Project, photo_id: str) -> np.ndarray:
+    """The photo's pixels as displayed (ProjectError naming the file and field if unreadable)."""
+    photo = project.photo(photo_id)
+    index = project.data["photos"].index(photo)
+    where = f"$.photos[{index}].file"
+    path = project.photo_path(photo)
+    try:
+        data = path.read_bytes()
+    except FileNotFoundError:
+        raise ProjectError(project.path, where, f"photo file not found: {path}") from None
+    except OSError as e:
+        raise ProjectError(project.path, where, f"cannot read the photo {path}: {e.strerror or e}") from None
+    return decode_photo(data, path.name, project.path, where, label=str(path))
+
+
+def detect_photo(project: Project, photo_id: str, *, x_axis: str | None = None) -> PhotoProposals:
+    """Proposals of directed vanishing segments for one photo (nothing is written)."""
+    choice = check_x_axis(x_axis)
+    photo = project.photo(photo_id)
+    pixels = photo_pixels(project, photo_id)
+    return propose(pixels, photo, x_axis=choice)
+
+
+def propose(pixels: np.ndarray, photo: dict[str, Any], *, x_axis: str = "right", seed: int = 0) -> PhotoProposals:
+    """:func:`detect_photo` on pixels already decoded, for a photo object (its id, size, EXIF)."""
+    pid = str(photo.get("id", "photo"))
+    h, w = pixels.shape[:2]
+    t0 = time.perf_counter()
+    grey = to_grey(pixels)
+    found = detect_lines(grey)
+    prior = exif_focal_prior(photo) if photo.get("exif") else None
+    focal_prior = (prior.value, prior.sigma) if prior is not None else None
+    dist = exif_distortion_prior(photo) if prior is not None else None
+    k1 = dist.k1 if dist is not None else 0.0
+    c = np.array([w / 2.0, h / 2.0])
+    if len(found.segments) < 4:
+        if found.mean_grey < DARK_MEAN_GREY:
+            why = f"the photo is too dark (mean grey level {found.mean_grey:.0f} of 255): no edges to detect"
+        else:
+            why = f"no straight lines found ({len(found.segments)} straight edges, at least 4 are needed)"
+        return PhotoProposals(pid, (), None, why)
+    segs = found.segments
+    if k1 != 0.0:
+        K0 = intrinsic_matrix(prior.value if prior else max(w, h), *c)
+        segs = undistort_pixels(K0, found.segments.reshape(-1, 2), k1).reshape(-1, 4)
+    frame = group_manhattan(segs, w, h, focal_prior=focal_prior, seed=seed, sigma_px=found.sigma_px)
+    elapsed = time.perf_counter() - t0
+    if frame is None:
+        return PhotoProposals(pid, (), None, f"{len(segs)} straight edges, but they do not share two vanishing "
+                              "directions (one direction only, or no vanishing points): mark the segments by hand")
+    D, cols = orient_axes(frame.directions, x_axis)
+    f = frame.focal_px
+    props: list[SegmentProposal] = []
+    counts = {}
+    for k, a in enumerate(AXES):
+        idx = np.flatnonzero(frame.labels == cols[k])
+        score = 1.0 / (1.0 + frame.residual_px[idx] / np.maximum(found.sigma_px[idx], 1e-6))
+        length = np.hypot(*(segs[idx, 2:] - segs[idx, :2]).T)
+        idx = idx[np.argsort(-(score * length))][:MAX_PER_AXIS]
+        counts[a] = len(idx)
+        for i in idx:
+            s_u = direct_segment(segs[i], D[:, k], f, c)
+            flipped = not np.allclose(s_u, segs[i])
+            s = found.segments[i]
+            s = np.r_[s[2:], s[:2]] if flipped else s
+            sc = float(1.0 / (1.0 + frame.residual_px[i] / max(found.sigma_px[i], 1e-6)))
+            props.append(SegmentProposal(a, (float(s[0]), float(s[1]), float(s[2]), float(s[3])),
+                                         float(found.sigma_px[i]), sc))
+    rel = frame.focal_sigma_px / f if np.isfinite(frame.focal_sigma_px) else np.inf
+    focal = f if rel <= FOCAL_REPORT_MAX_REL_SIGMA else None
+    K = intrinsic_matrix(f, *c)
+    angles = []
+    for k, a in enumerate(AXES):
+        if counts[a]:
+            v = K @ D[:, k]
+            if abs(v[2]) > 1e-9 * np.linalg.norm(v):
+                p = v[:2] / v[2]
+                if k1 != 0.0:
+                    p = distort_pixels(K, p, k1)
+                angles.append(f"{a} at ({p[0]:.0f}, {p[1]:.0f})")
+            else:
+                tilt = np.degrees(np.arctan2(v[1], v[0]))
+                angles.append(f"{a} at infinity ({tilt:.1f}° in the image)")
+    axes_seen = [a for a in AXES if counts[a]]
+    parts = [", ".join(f"{counts[a]} {a}" for a in AXES) + " segments",
+             "vanishing points " + "; ".join(angles),
+             (f"focal length {f:.0f} px (1σ {100 * rel:.1f} %)" if focal is not None
+              else "focal length not determined by the lines (a frontal or level view)"),
+             f"{1000 * elapsed:.0f} ms"]
+    if len(axes_seen) < 2:
+        return PhotoProposals(pid, tuple(props), focal, "one direction only: " + "; ".join(parts))
+    return PhotoProposals(pid, tuple(props), focal, "; ".join(parts))
+
+
+def accept_proposals(project: Project, proposals: PhotoProposals, indices: Sequence[int] | None = None) -> int:
+    """Write proposals (all, or those at ``indices``) into the photo's ``vanishing_segments``, each
+    with its 1σ in ``vanishing_segment_sigmas`` (not saved); returns how many were written."""
+    photo = project.photo(proposals.photo)
+    chosen = list(proposals.segments) if indices is None else []
+    if indices is not None:
+        for i in indices:
+            if not 0 <= int(i) < len(proposals.segments):
+                raise ProjectError(project.path, f"$.photos[{project.data['photos'].index(photo)}]",
+                                   f"proposal index {i} is out of range (photo '{proposals.photo}' has "
+                                   f"{len(proposals.segments)} proposals)")
+            chosen.append(proposals.segments[int(i)])
+    if not chosen:
+        return 0
+    segs = photo.setdefault("vanishing_segments", {})
+    sigmas = photo.setdefault("vanishing_segment_sigmas", {})
+    for a in AXES:
+        added = [p for p in chosen if p.axis == a]
+        rows = list(segs.get(a) or [])
+        if not added and a not in sigmas:
+            continue
+        # Segments without a recorded 1σ (clicked by hand) keep the click's: null.
+        sig = list(sigmas.get(a) or [])[: len(rows)]
+        sig += [None] * (len(rows) - len(sig))
+        segs[a] = rows + [[round(v, 3) for v in p.segment] for p in added]
+        sigmas[a] = sig + [round(max(p.sigma_px, 1e-3), 4) for p in added]
+    return len(chosen)
+
+
+def clear_segments(project: Project, photo_id: str) -> None:
+    """Remove a photo's vanishing segments and their 1σ (``vebuild detect --replace``)."""
+    photo = project.photo(photo_id)
+    photo.pop("vanishing_segments", None)
+    photo.pop("vanishing_segment_sigmas", None)
+
+
+def detect_project(project: Project, photos: Sequence[str] | None = None, *, replace: bool = False,
+                   x_axis: str | Sequence[str] | None = None) -> list[tuple[PhotoProposals, int]]:
+    """``vebuild detect``: detect on each photo named (default all), accept every proposal into
+    the document (not saved), and return each photo's proposals with how many were written.
+
+    A photo's user-marked segments are kept (the detected ones are added) unless ``replace``.
+    ``x_axis``: one choice for every photo, or a list of ``CHOICE`` (every photo) and
+    ``PHOTO=CHOICE`` items (that photo; later items win)."""
+    ids = list(photos) if photos else [p["id"] for p in project.data["photos"]]
+    for pid in ids:
+        project.photo(pid)  # an unknown id is refused before any photo is read
+    choices = x_axis_choices(project, ids, x_axis)
+    out = []
+    for pid in ids:
+        props = detect_photo(project, pid, x_axis=choices[pid])
+        if replace and props.segments:
+            clear_segments(project, pid)
+        out.append((props, accept_proposals(project, props)))
+    return out
