@@ -115,9 +115,9 @@ def scans(project: Project, rep: Report) -> None:
                      f"{dev['max_distance_m'] * 1000:.0f} mm from every face (not the model's).</p>")
         parts.append(table(["face", "points", "median mm", "p95 mm", "registration 1σ mm"], rows, {1, 2, 3, 4}))
         step = max(1, len(dev["world"]) // MAP_POINTS)
-        img, span, ppm = deviation_map(dev["world"][::step], dev["signed"][::step])
+        img, span, px_per_m = deviation_map(dev["world"][::step], dev["signed"][::step])
         src = rep.image(f"scan-{i}-deviation.png", img, {"vebuild:scan": e["file"]})
-        parts.append(f"<figure><img src='{src}'><figcaption>Scan {i} seen from above ({ppm:.0f} px per metre), "
+        parts.append(f"<figure><img src='{src}'><figcaption>Scan {i} seen from above ({px_per_m:.0f} px per metre), "
                      f"each point coloured by its signed distance from the nearest face, ±{span * 1000:.1f} mm "
                      "at the ends; grey: not the model's.</figcaption></figure>")
     rep.add("Laser scans", "\n".join(parts))
