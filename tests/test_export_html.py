@@ -38,7 +38,8 @@ READY = f"(function(){{var s={STATE};return s.errors.length>0||(s.stage==='runni
 MARKERS = [{"label": "A", "position": [3.5, 2.5, 0.0], "node": "floor", "description": "a cartridge case"},
            {"label": "C", "position": [2.5, 1.5, 0.0], "node": "floor"}]
 ANALYSES = [{"name": "cabinet to table", "command": ["distance", "cabinet:v4", "table.top@top"]},
-            {"name": "shot", "command": ["trajectory", "--from", "1,3,1.2", "--to", "2,2.8,1", "--sigma", "0.005"]}]
+            {"name": "shot", "command": ["trajectory", "--from", "1,3,1.2", "--to", "2,2.8,1", "--sigma", "0.005",
+                                         "--view", "overview", "--out", "shot.png"]}]
 
 
 @pytest.fixture(scope="session")
@@ -100,6 +101,16 @@ def _open(browser: Browser, folder: Path, hash_: str = "") -> dict[str, Any]:
     return state
 
 
+def _rehash(browser: Browser, hash_: str, until: str) -> dict[str, Any]:
+    """Change the page's hash in place (no reload) and wait until ``until`` (JS, on ``s``, the state)
+    holds and two more frames were drawn."""
+    frames = browser.evaluate(STATE)["frames"]
+    browser.evaluate(f"location.hash = {json.dumps(hash_)}")
+    browser.wait_for(f"(function(){{var s={STATE};return ({until})&&s.frames>{frames + 2};}})()", LOAD_S)
+    state: dict[str, Any] = browser.evaluate(STATE)
+    return state
+
+
 def _pixels(path: Path) -> np.ndarray:
     from PIL import Image
 
@@ -157,6 +168,12 @@ def test_measurement_label_carries_its_figures(html_project):
     assert f"95 % [{m['ci95_m'][0]:.3f}, {m['ci95_m'][1]:.3f}]" in label
     tr = data["analyses"][1]
     assert tr["kind"] == "trajectory" and "cone" in tr["label"] and len(tr["cone"]) > 0
+    # Its image goes into the folder (with vebuild's mark), not where the recorded command says.
+    from vebuild.project.outputs import written_by_vebuild
+
+    assert tr["image"] == "analyses/analysis-2.png" and written_by_vebuild(out / tr["image"])
+    assert not (proj.parent / "shot.png").exists() and not Path("shot.png").exists()
+    assert data["analyses"][0]["image"] is None
 
 
 def test_export_again_into_its_own_folder(html_project):
@@ -243,7 +260,7 @@ def test_hypothesis_is_labelled_and_moves_its_object(browser, html_project):
 
     proj, out = html_project
     measured = _open(browser, out)
-    state = _open(browser, out, "#hypothesis=box%20by%20the%20window")
+    state = _rehash(browser, "#hypothesis=box%20by%20the%20window", "s.hypothesis==='box by the window'")
     assert state["errors"] == [] and state["hypothesis"] == "box by the window"
     banner = browser.evaluate("document.getElementById('banner').textContent")
     assert banner.startswith("HYPOTHESIS: box by the window")
@@ -286,7 +303,11 @@ def test_camera_view_matches_vebuild_render(browser, plain_html, textured_room, 
     # The renders' legend, drawn the same way into the page's screenshot: it is not part of the scene.
     shots = {}
     for cam in ("photo-p1", "photo-p2"):
-        state = _open(browser, plain_html, f"#camera={cam}&photo=0&clean=1")
+        hash_ = f"#camera={cam}&photo=0&clean=1"
+        if cam == "photo-p1":
+            state = _open(browser, plain_html, hash_)
+        else:  # the same page, its hash changed
+            state = _rehash(browser, hash_, f"s.camera.id==='{cam}'")
         assert state["errors"] == [] and state["camera"]["id"] == cam
         shots[cam] = draw_legend(_pixels(browser.screenshot(tmp_path / f"{cam}.png")), "hatch").astype(float)
     diff = float(np.abs(shots["photo-p1"] - r).mean())
@@ -341,40 +362,36 @@ def _key(browser: Browser, kind: str, key: str, code: str, vk: int) -> None:
 
 
 @needs_chromium
-def test_walk_with_the_keys_and_click_a_camera(browser, plain_html):
-    state = _open(browser, plain_html)
-    start = np.array(state["camera"]["position"])
-    direction = np.array(state["camera"]["direction"])
-    frames = state["frames"]
-    _key(browser, "keyDown", "w", "KeyW", 87)
-    browser.wait_for(f"{STATE}.frames > {frames + 20}", 20)
-    _key(browser, "keyUp", "w", "KeyW", 87)
-    moved = np.array(browser.evaluate(STATE)["camera"]["position"]) - start
-    ahead = direction[:2] / np.linalg.norm(direction[:2])
-    assert moved[2] == pytest.approx(0.0, abs=1e-9)  # a walk: level
-    assert moved[:2] @ ahead > 0.05 and abs(moved[0] * ahead[1] - moved[1] * ahead[0]) < 1e-6  # straight ahead
+def test_click_a_camera_and_walk_with_the_keys(browser, plain_html):
+    _open(browser, plain_html)
+    _key(browser, "keyDown", "h", "KeyH", 72)  # H hides the panel
+    _key(browser, "keyUp", "h", "KeyH", 72)
+    assert browser.evaluate("document.getElementById('panel').style.display") == "none"
     # Clicking a photo camera's glyph looks through it.
     state = browser.evaluate(STATE)
-    glyph = next(x for x in state["labels"]  # one clear of the panel (left, 350 px wide)
-                 if x["text"].startswith("photo ") and x["on_screen"] and 360 < x["x"] < SIZE[0] - 10)
+    glyph = next(x for x in state["labels"]
+                 if x["text"].startswith("photo ") and x["on_screen"] and 10 < x["x"] < SIZE[0] - 10
+                 and 10 < x["y"] < SIZE[1] - 10)
     want = "photo-" + glyph["text"].split()[1]
     for kind in ("mousePressed", "mouseReleased"):
         browser.page("Input.dispatchMouseEvent", {"type": kind, "x": glyph["x"], "y": glyph["y"], "button": "left",
                                                   "clickCount": 1})
     browser.wait_for(f"{STATE}.camera.id === '{want}'", 10)
     assert browser.evaluate("location.hash") == f"#camera={want}"
-
-
-def test_vendored_bundle_is_the_pinned_three():
-    """The committed bundle names the versions web/package.json pins, and three.js's licence travels with it."""
-    from vebuild.render.html import WEB
-
-    pins = json.loads((WEB / "package.json").read_text())
-    head = (WEB / "three-bundle.min.js").read_text()[:300]
-    assert head.startswith(f"/* three.js {pins['dependencies']['three']} (MIT")
-    assert f"esbuild {pins['devDependencies']['esbuild']} " in head
-    assert "var VEBUILD_THREE=" in head  # a classic script setting one global: no ES module
-    assert (WEB / "THREE-LICENSE").read_text().startswith("The MIT License")
+    # W walks straight ahead, level (and leaves the camera's view).
+    state = browser.evaluate(STATE)
+    start = np.array(state["camera"]["position"])
+    direction = np.array(state["camera"]["direction"])
+    frames = state["frames"]
+    _key(browser, "keyDown", "w", "KeyW", 87)
+    browser.wait_for(f"{STATE}.frames > {frames + 20}", 20)
+    _key(browser, "keyUp", "w", "KeyW", 87)
+    state = browser.evaluate(STATE)
+    moved = np.array(state["camera"]["position"]) - start
+    ahead = direction[:2] / np.linalg.norm(direction[:2])
+    assert state["camera"]["id"] is None
+    assert moved[2] == pytest.approx(0.0, abs=1e-9)
+    assert moved[:2] @ ahead > 0.05 and abs(moved[0] * ahead[1] - moved[1] * ahead[0]) < 1e-6
 
 
 @needs_chromium
@@ -411,3 +428,15 @@ def test_page_policy_blocks_anything_from_elsewhere(browser, plain_html):
     failed = browser.wait_event("Network.loadingFailed")
     assert any(f.get("blockedReason") == "csp" for f in failed), failed
     assert browser.evaluate(STATE)["ok"] is False
+
+
+def test_vendored_bundle_is_the_pinned_three():
+    """The committed bundle names the versions web/package.json pins, and three.js's licence travels with it."""
+    from vebuild.render.html import WEB
+
+    pins = json.loads((WEB / "package.json").read_text())
+    head = (WEB / "three-bundle.min.js").read_text()[:300]
+    assert head.startswith(f"/* three.js {pins['dependencies']['three']} (MIT")
+    assert f"esbuild {pins['devDependencies']['esbuild']} " in head
+    assert "var VEBUILD_THREE=" in head  # a classic script setting one global: no ES module
+    assert (WEB / "THREE-LICENSE").read_text().startswith("The MIT License")

@@ -70,23 +70,36 @@ def _trajectory_item(rec: dict[str, Any], request: Any, occ: Any, unit: Any) -> 
             "cone": [[[float(v) for v in p] for p in P] for P in lines["cone"]]}
 
 
-def analyses_for_page(project: Project) -> list[dict[str, Any]]:
-    """The project's recorded analyses, each run again, as :func:`vebuild.render.html.write_html` draws them."""
+def analyses_for_page(project: Project) -> tuple[list[dict[str, Any]], list[tuple[str, bytes]]]:
+    """The project's recorded analyses, each run again, as :func:`vebuild.render.html.write_html`
+    draws them, and the images they make (``analyses/analysis-N.png``, N from 1), written for the
+    page's folder instead of where the recorded command says (as the report does)."""
+    import tempfile
+
+    records = project.data.get("analyses") or []
+    if not records:
+        return [], []
+    with tempfile.TemporaryDirectory(prefix="vebuild-html-") as tmp:
+        return _analyses(project, records, Path(tmp))
+
+
+def _analyses(project: Project, records: list[dict[str, Any]],
+              tmp: Path) -> tuple[list[dict[str, Any]], list[tuple[str, bytes]]]:
     from vebuild.analysis.recorded import parse_recorded
     from vebuild.analysis.requests_geometry import TrajectoryRequest
     from vebuild.project.units import length_unit
 
-    records = project.data.get("analyses") or []
-    if not records:
-        return []
     unit = length_unit(project.data)
     occ = None
     out: list[dict[str, Any]] = []
+    images: list[tuple[str, bytes]] = []
     for i, rec in enumerate(records):
         where = f"$.analyses[{i}]"
         words = list(rec["command"])
+        image = f"analyses/analysis-{i + 1}.png"
         try:
             request = parse_recorded(words)
+            request = request.with_image(str(tmp / f"analysis-{i + 1}.png")) or request
             result = request.run(project)
             if isinstance(request, TrajectoryRequest):
                 if occ is None:
@@ -100,15 +113,19 @@ def analyses_for_page(project: Project) -> list[dict[str, Any]]:
         except VebuildError as e:
             raise ProjectError(project.path, f"{where}.command", str(e)) from None
         base = {"name": rec["name"], "description": rec.get("description", ""), "command": words,
-                "analysis": request.name, "table": result.table}
+                "analysis": request.name, "table": result.table.replace(str(tmp) + "/", ""), "image": None}
+        if result.image is not None and result.image.is_file():
+            images.append((image, result.image.read_bytes()))
+            base["image"] = image
         if not items:  # a sight line, a viewshed, a lighting comparison: listed, not drawn
             items = [{"kind": request.name, "label": f"{rec['name']}: {request.name} (see its table)", "anchor": None,
                       "paths": [], "cone": []}]
         for item in items:
             out.append({**base, **item})
-    return out
+    return out, images
 
 
 def export_html(project: Project, folder: str | os.PathLike[str]) -> HtmlResult:
     """Write the viewer folder ``folder`` for ``project``, its analyses run again."""
-    return write_html(project, Path(folder), analyses_for_page(project))
+    analyses, images = analyses_for_page(project)
+    return write_html(project, Path(folder), analyses, extra_files=images)

@@ -157,13 +157,16 @@ def _check_folder(project: Project, folder: Path) -> set[str]:
 
 
 def write_html(project: Project, folder: str | os.PathLike[str], analyses: list[dict[str, Any]] | None = None,
-               photo_max_px: int = PHOTO_MAX_PX, warnings: list[str] | None = None) -> HtmlResult:
+               photo_max_px: int = PHOTO_MAX_PX, warnings: list[str] | None = None,
+               extra_files: list[tuple[str, bytes]] | None = None) -> HtmlResult:
     """Write the viewer folder for ``project`` (see the module's docstring).
 
     ``analyses``: the recorded analyses as the page draws them, each a dict with ``name``,
     ``description``, ``kind``, ``label`` (the figures and uncertainty, in words), ``table``,
     ``command``, ``anchor`` (a world point for the label, or None), ``paths`` and ``cone``
-    (world polylines: the measured segment or trajectory, and its uncertainty region).
+    (world polylines: the measured segment or trajectory, and its uncertainty region), and
+    ``image`` (a path in the folder, or None). ``extra_files``: (path in the folder, bytes) written
+    with the rest, such as the analyses' images.
     """
     folder = Path(folder)
     ours = _check_folder(project, folder)
@@ -217,6 +220,8 @@ def write_html(project: Project, folder: str | os.PathLike[str], analyses: list[
         "unobserved": _unobserved(),
         "warnings": out_warnings,
     }
+    for rel, blob in extra_files or []:
+        files.append((folder.joinpath(*Path(rel).parts), blob))
     files.append((folder / "scene.glb", glb))
     files.append((folder / "scene.js", b"window.VEBUILD_SCENE = \"" + base64.b64encode(glb) + b"\";\n"))
     files.append((folder / "data.js", ("window.VEBUILD_DATA = " + _js_string(data_js) + ";\n").encode("utf-8")))
@@ -237,9 +242,10 @@ def write_html(project: Project, folder: str | os.PathLike[str], analyses: list[
             check_file(project, path, "HTML export")  # a file the earlier export did not write: vebuild's own only
         elif path.exists() and not path.is_file():
             raise VebuildError(f"{path}: is not a regular file; nothing was written")
-    folder.mkdir(exist_ok=True)
-    (folder / "photos").mkdir(exist_ok=True)
-    begin_stage(project, folder, folder / "photos")
+    subfolders = sorted({p.parent for p, _ in files})
+    for sub in subfolders:
+        sub.mkdir(parents=True, exist_ok=True)
+    begin_stage(project, *subfolders)
     from vebuild.project.atomic import write_many
 
     try:

@@ -351,6 +351,10 @@
       if (a.description) d.appendChild(el("div", {}, a.description));
       d.appendChild(el("div", {}, "vebuild analyse " + data.project + " " + a.command.join(" ")));
       d.appendChild(el("pre", {}, a.table));
+      if (a.image) {
+        var link = el("a", { href: a.image, target: "_blank" }, "its image: " + a.image);
+        d.appendChild(link);
+      }
       box.appendChild(d);
     });
     if (!data.analyses.length) box.textContent = "none recorded";
