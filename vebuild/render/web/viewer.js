@@ -295,12 +295,35 @@
       var visible = onScreen && !state.clean;
       item.el.classList.toggle("off", !visible);
       item.el.classList.toggle("hidden", item.hidden);
-      if (visible) { item.el.style.left = x.toFixed(1) + "px"; item.el.style.top = y.toFixed(1) + "px"; }
+      item.visible = visible; item.x = x; item.y = y;
       out.push({ text: item.text, kind: item.kind, x: +x.toFixed(1), y: +y.toFixed(1), on_screen: onScreen,
                  hidden_by_model: item.hidden, world: toWorld(p) });
     });
+    placeLabels();
     labelsDirty = false;
     state.labels = out;
+  }
+
+  // Each visible label at its point, lifted above any label already placed that it would cover
+  // (nearest the viewer first: markers, then measurements, then cameras). The state keeps the points.
+  var ORDER = { marker: 0, measure: 1, trajectory: 1, camera: 2 };
+  function placeLabels() {
+    var placed = [];
+    labels.filter(function (it) { return it.visible; })
+      .sort(function (a, b) { return (ORDER[a.kind] - ORDER[b.kind]) || (b.y - a.y); })
+      .forEach(function (it) {
+        var w = it.el.offsetWidth, h = it.el.offsetHeight + 2, y = it.y;
+        for (var tries = 0; tries < 20; tries++) {
+          var hit = placed.some(function (r) {
+            return Math.abs(r.x - it.x) < (r.w + w) / 2 && y > r.y - h && y - h < r.y;
+          });
+          if (!hit) break;
+          y -= h;
+        }
+        placed.push({ x: it.x, y: y, w: w });
+        it.el.style.left = it.x.toFixed(1) + "px";
+        it.el.style.top = y.toFixed(1) + "px";
+      });
   }
 
   // -- overlays -------------------------------------------------------------------------------------
