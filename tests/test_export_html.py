@@ -440,3 +440,22 @@ def test_vendored_bundle_is_the_pinned_three():
     assert f"esbuild {pins['devDependencies']['esbuild']} " in head
     assert "var VEBUILD_THREE=" in head  # a classic script setting one global: no ES module
     assert (WEB / "THREE-LICENSE").read_text().startswith("The MIT License")
+
+
+@needs_chromium
+def test_enter_vr_button_where_webxr_offers_a_headset(browser, plain_html):
+    """Headless Chromium has no headset; a stand-in navigator.xr that offers immersive-vr (set before
+    the page's scripts run) makes the page show three.js's "ENTER VR" button."""
+    fake = ("Object.defineProperty(navigator, 'xr', {configurable: true, value: {"
+            "isSessionSupported: function (mode) { return Promise.resolve(mode === 'immersive-vr'); },"
+            "requestSession: function () { return Promise.reject(new Error('no headset')); },"
+            "addEventListener: function () {}, removeEventListener: function () {}}});")
+    script = browser.page("Page.addScriptToEvaluateOnNewDocument", {"source": fake})["identifier"]
+    try:
+        state = _open(browser, plain_html)
+        browser.wait_for(f"{STATE}.xr === 'offered'", 10)
+        text = browser.wait_for("(function(){var b=document.getElementById('vr');return b&&b.textContent;})()", 10)
+    finally:
+        browser.page("Page.removeScriptToEvaluateOnNewDocument", {"identifier": script})
+    assert state["errors"] == []
+    assert text == "ENTER VR"
