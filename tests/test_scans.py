@@ -282,6 +282,29 @@ def test_scan_check_deviations(solved_room, tmp_path, capsys):
     assert img.ndim == 3 and img.shape[0] > 300
 
 
+def test_a_registration_whose_targets_moved_is_called_stale(solved_room, tmp_path, capsys):
+    """Re-solved after the scan was registered, with the cabinet's pins moved: the target on the
+    cabinet (cabinet:v6) now lies elsewhere, and `scan check` says the registration is stale."""
+    proj = _copy(solved_room, tmp_path)
+    path, _, words = _scan(proj, "laz", 14)
+    assert main(["scan", "add", str(proj), str(path), *words]) == 0
+    capsys.readouterr()
+    assert main(["scan", "check", str(proj)]) == 0
+    assert "stale" not in capsys.readouterr().out  # nothing moved: no warning
+    data = json.loads(proj.read_text())
+    for pin in data["model"]["pins"]:
+        if pin["node"] == "cabinet":
+            pin["uv"][0] += 6.0  # every sighting of the cabinet 6 px to the right
+    proj.write_text(json.dumps(data))
+    assert main(["solve", str(proj)]) == 0
+    capsys.readouterr()
+    assert main(["scan", "check", str(proj)]) == 0
+    out = capsys.readouterr().out
+    warned = [line for line in out.splitlines() if line.startswith("warning: ") and "stale" in line]
+    assert any("target T4 (cabinet:v6) now lies" in line for line in warned), out
+    assert not any("(floor:v0)" in line for line in warned), out  # the floor did not move
+
+
 def test_solve_with_scan_moves_a_perturbed_primitive_toward_the_truth(solved_room, tmp_path):
     """The scan sees the cabinet 4 cm wider than the photos' solution: solved with the scan, the
     width moves to within a fifth of that of the scan's; without it, it stays."""

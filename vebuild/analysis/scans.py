@@ -126,6 +126,34 @@ def register_scan(project: Any, targets: Sequence[Target], where: str = "--targe
     return registration_record(targets, P, f"{project.path}: {where}")
 
 
+#: How far a target's project point may have moved since its scan was registered before the
+#: registration is called stale, metres: a tenth of a millimetre, far below any scan's noise and far
+#: above the rounding of the recorded coordinates.
+DRIFT_TOLERANCE_M = 1e-4
+
+
+def registration_drift(project: Any, index: int) -> list[str]:
+    """Why ``$.scans[index]``'s registration no longer matches the project: each target whose
+    project point (a marker, a model vertex or face point) now lies elsewhere than where it was
+    when the scan was registered, by more than :data:`DRIFT_TOLERANCE_M`; [] where none moved."""
+    reg = project.data["scans"][index]["registration"]
+    targets = reg["targets"]
+    try:
+        now = resolve_points(project, [t["point"] for t in targets],
+                             [f"$.scans[{index}].registration.targets[{k}].point" for k in range(len(targets))])
+    except VebuildError as e:
+        return [f"scan {index}: a target's project point can no longer be found ({e}); register the scan again "
+                f"with `vebuild scan add`"]
+    out = []
+    for t, p in zip(targets, now, strict=True):
+        moved = float(np.linalg.norm(p - np.asarray(t["project_xyz"], float)))
+        if moved > DRIFT_TOLERANCE_M:
+            out.append(f"scan {index}: target {t['name']} ({t['point']}) now lies {moved * 1000:.1f} mm from where it "
+                       "was when the scan was registered (the model or the markers changed since); the "
+                       "registration is stale: register the scan again with `vebuild scan add`")
+    return out
+
+
 def similarity_of(project: Any, index: int) -> Similarity:
     """The recorded similarity of ``$.scans[index]`` (scan frame → project frame)."""
     rec = project.data["scans"][index]["registration"]["similarity"]
@@ -300,7 +328,7 @@ def face_deviations(project: Any, scan_index: int, max_distance: float = MAX_DIS
         rows.append(row)
     entry = project.data["scans"][scan_index]
     return {"scan": scan_index, "file": entry["file"], "points": int(len(cloud.points)),
-            "scan_points": int(entry["point_count"]),
+            "scan_points": int(entry["point_count"]), "warnings": registration_drift(project, scan_index),
             "unassigned": int(np.sum(idx < 0)), "max_distance_m": float(max_distance), "faces": rows,
             "world": cloud.points, "signed": d}
 
@@ -336,4 +364,5 @@ def deviation_table(result: dict[str, Any]) -> str:
         lines.append(f"{r['node'] + ':' + r['face']:<32} {r['count']:>8} {r['median_m'] * 1000:>10.1f} "
                      f"{r['p95_m'] * 1000:>8.1f} {r['rms_m'] * 1000:>8.1f}")
     lines.append("median: signed (positive in front of the face); p95: of the distance")
+    lines += [f"warning: {w}" for w in result.get("warnings", [])]
     return "\n".join(lines)

@@ -102,6 +102,9 @@ def scans(project: Project, rep: Report) -> None:
             parts.append(f"<p class='warn'>{esc(err)}</p>")
             rep.warnings.append(f"scan {i}: {err}")
             continue
+        for w in dev["warnings"]:
+            parts.append(f"<p class='warn'>{esc(w)}</p>")
+            rep.warnings.append(w)
         rows = []
         for r in dev["faces"]:
             rs = r.get("registration_sigma_m")
