@@ -45,6 +45,8 @@ class SegmentProposal:
     segment: tuple[float, float, float, float]  # u1, v1, u2, v2 in photo pixels, directed (DESIGN.md)
     sigma_px: float                             # its end points' measured 1σ
     score: float                                # agreement with its vanishing point (higher is better)
+    points: tuple[float, ...] = ()              # what is written: a polyline u1, v1, ..., un, vn along the
+                                                # edge (directed; sigma_px is each point's 1σ); () = segment
 
 
 @dataclass(frozen=True)
@@ -139,15 +141,20 @@ def propose(pixels: np.ndarray, photo: dict[str, Any], *, x_axis: str = "right",
         score = 1.0 / (1.0 + frame.residual_px[idx] / np.maximum(found.sigma_px[idx], 1e-6))
         length = np.hypot(*(segs[idx, 2:] - segs[idx, :2]).T)
         idx = idx[np.argsort(-(score * length))][:MAX_PER_AXIS]
+        if _one_image_line(segs[idx], max(w, h)):
+            idx = idx[:0]  # pieces of one edge fix no vanishing point: the axis is not proposed
         counts[a] = len(idx)
         for i in idx:
             s_u = direct_segment(segs[i], D[:, k], f, c)
             flipped = not np.allclose(s_u, segs[i])
             s = found.segments[i]
             s = np.r_[s[2:], s[:2]] if flipped else s
+            poly = found.polylines[i].reshape(-1, 2)
+            poly = poly[::-1] if flipped else poly
             sc = float(1.0 / (1.0 + frame.residual_px[i] / max(found.sigma_px[i], 1e-6)))
             props.append(SegmentProposal(a, (float(s[0]), float(s[1]), float(s[2]), float(s[3])),
-                                         float(found.sigma_px[i]), sc))
+                                         float(found.polyline_sigma_px[i]), sc,
+                                         tuple(float(v) for v in poly.ravel())))
     rel = frame.focal_sigma_px / f if np.isfinite(frame.focal_sigma_px) else np.inf
     focal = f if rel <= FOCAL_REPORT_MAX_REL_SIGMA else None
     K = intrinsic_matrix(f, *c)
@@ -174,6 +181,16 @@ def propose(pixels: np.ndarray, photo: dict[str, Any], *, x_axis: str = "right",
     return PhotoProposals(pid, tuple(props), focal, "; ".join(parts))
 
 
+def _one_image_line(segs: np.ndarray, side: int) -> bool:
+    """Whether all segments lie on one image line (within 0.2 % of the photo's longer side)."""
+    if len(segs) == 0:
+        return False
+    a, b = segs[0, :2], segs[0, 2:]
+    n = np.array([a[1] - b[1], b[0] - a[0]]) / max(float(np.linalg.norm(b - a)), 1e-9)
+    d = np.abs(np.r_[(segs[:, :2] - a) @ n, (segs[:, 2:] - a) @ n])
+    return bool(np.all(d < 0.002 * side))
+
+
 def accept_proposals(project: Project, proposals: PhotoProposals, indices: Sequence[int] | None = None) -> int:
     """Write proposals (all, or those at ``indices``) into the photo's ``vanishing_segments``, each
     with its 1σ in ``vanishing_segment_sigmas`` (not saved); returns how many were written."""
@@ -198,7 +215,7 @@ def accept_proposals(project: Project, proposals: PhotoProposals, indices: Seque
         # Segments without a recorded 1σ (clicked by hand) keep the click's: null.
         sig = list(sigmas.get(a) or [])[: len(rows)]
         sig += [None] * (len(rows) - len(sig))
-        segs[a] = rows + [[round(v, 3) for v in p.segment] for p in added]
+        segs[a] = rows + [[round(v, 3) for v in (p.points or p.segment)] for p in added]
         sigmas[a] = sig + [round(max(p.sigma_px, 1e-3), 4) for p in added]
     return len(chosen)
 

@@ -52,8 +52,10 @@ MIN_LENGTH_REL = 0.02
 REFINE_SAMPLES = 24
 #: Half-width of the intensity profile taken across a segment, full-resolution pixels.
 PROFILE_HALF_PX = 3.0
+#: Points of the polyline a detected segment is written as (its bend measures the lens distortion).
+POLYLINE_POINTS = 4
 #: Floor of a detected end point's 1σ, pixels (see the module docstring).
-SIGMA_FLOOR_PX = 0.08
+SIGMA_FLOOR_PX = 0.3
 #: Most segments grouped (the longest).
 MAX_SEGMENTS = 600
 #: A segment agrees with a vanishing point where its end points lie within this distance of the
@@ -78,12 +80,17 @@ class DetectedLines:
     sigma_px : (n,) 1σ of each segment's end points across the line.
     level_scale : full-resolution pixels per pixel of the level LSD ran on.
     mean_grey : the photo's mean grey level (0–255).
+    polylines : (n, 2 POLYLINE_POINTS) each segment as the centroids of its edge points in
+        POLYLINE_POINTS equal stretches along it, in the order of ``segments``' end points.
+    polyline_sigma_px : (n,) 1σ across the line of each polyline point.
     """
 
     segments: Array
     sigma_px: Array
     level_scale: float
     mean_grey: float
+    polylines: Array
+    polyline_sigma_px: Array
 
 
 @dataclass(frozen=True)
@@ -128,23 +135,25 @@ def detect_lines(grey: NDArray[np.float32], *, long_side: int = DETECT_LONG_SIDE
     found = lsd.detect(level)[0]
     mean_grey = float(np.mean(level))
     if found is None or len(found) == 0:
-        return DetectedLines(np.zeros((0, 4)), np.zeros(0), scale, mean_grey)
+        return DetectedLines(np.zeros((0, 4)), np.zeros(0), scale, mean_grey,
+                             np.zeros((0, 2 * POLYLINE_POINTS)), np.zeros(0))
     s = found.reshape(-1, 4).astype(float) * np.array([sx, sy, sx, sy])
     length = np.hypot(s[:, 2] - s[:, 0], s[:, 3] - s[:, 1])
     keep = length >= max(12.0, MIN_LENGTH_REL * max(w, h))
     s, length = s[keep], length[keep]
     order = np.argsort(-length)[: 2 * MAX_SEGMENTS]
     s = s[order]
-    segs, sig = refine_segments(grey, s)
-    return DetectedLines(segs, sig, scale, mean_grey)
+    segs, sig, polys, psig = refine_segments(grey, s)
+    return DetectedLines(segs, sig, scale, mean_grey, polys, psig)
 
 
-def refine_segments(grey: NDArray[np.float32], s: Array) -> tuple[Array, Array]:
+def refine_segments(grey: NDArray[np.float32], s: Array) -> tuple[Array, Array, Array, Array]:
     """Each segment (n, 4) refined on the image's intensity profiles across it (module docstring):
-    the kept segments and their end points' 1σ."""
+    the kept segments, their end points' 1σ, their polylines (m, 2 POLYLINE_POINTS) and the 1σ of
+    each polyline point."""
     n = len(s)
     if n == 0:
-        return np.zeros((0, 4)), np.zeros(0)
+        return np.zeros((0, 4)), np.zeros(0), np.zeros((0, 2 * POLYLINE_POINTS)), np.zeros(0)
     a, b = s[:, :2], s[:, 2:]
     d = b - a
     L = np.linalg.norm(d, axis=1)
@@ -171,7 +180,10 @@ def refine_segments(grey: NDArray[np.float32], s: Array) -> tuple[Array, Array]:
     # A clear edge: its gradient stands out of the profile's (and is not at the window's rim).
     strong = (g1 > 2.0) & (g1 > 2.0 * np.median(grad, axis=2)) & (j > 0) & (j < k - 1)
     E = P + off[..., None] * nrm[:, None, :]  # (n, m, 2) edge points
-    out, sig = [], []
+    out: list[Array] = []
+    sig: list[float] = []
+    polys: list[Array] = []
+    psig: list[float] = []
     for i in range(n):
         ok = strong[i]
         if ok.sum() < max(6, REFINE_SAMPLES // 2):
@@ -200,11 +212,22 @@ def refine_segments(grey: NDArray[np.float32], s: Array) -> tuple[Array, Array]:
         ta, tb = (a[i] - c) @ direction, (b[i] - c) @ direction
         spread = max(float(np.sum((tt - tt.mean()) ** 2)), 1e-9)
         var_end = res_rms**2 * (1.0 / m + max((ta - tt.mean()) ** 2, (tb - tt.mean()) ** 2) / spread)
+        # The polyline: the centroids of the edge points of each of POLYLINE_POINTS stretches, in
+        # order along the segment (real edge positions: their bend measures the lens distortion).
+        order = np.argsort(tt)
+        groups = np.array_split(order, POLYLINE_POINTS)
+        if min(len(g) for g in groups) < 2:
+            continue
+        poly = np.concatenate([pts[g].mean(axis=0) for g in groups])
+        if (tb - ta) * (tt[order[-1]] - tt[order[0]]) < 0:
+            poly = poly.reshape(-1, 2)[::-1].ravel()
         out.append(np.r_[c + ta * direction, c + tb * direction])
         sig.append(max(float(np.sqrt(var_end)), SIGMA_FLOOR_PX))
+        polys.append(poly)
+        psig.append(max(res_rms / np.sqrt(min(len(g) for g in groups)), SIGMA_FLOOR_PX))
     if not out:
-        return np.zeros((0, 4)), np.zeros(0)
-    return np.array(out), np.array(sig)
+        return np.zeros((0, 4)), np.zeros(0), np.zeros((0, 2 * POLYLINE_POINTS)), np.zeros(0)
+    return np.array(out), np.array(sig), np.array(polys), np.array(psig)
 
 
 # --------------------------------------------------------------------------------------------------
