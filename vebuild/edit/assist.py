@@ -170,11 +170,11 @@ class Assist:
                  "the Delete tool rejects it; D again turns x to the next horizontal direction")
         return len(items)
 
-    def suggest_markers(self, photo: str) -> int:
+    def suggest_markers(self, photo: str, features: bool = False) -> int:
         """Markers proposed in a calibrated photo: each marker placed in another calibrated photo
-        but not here, found along its epipolar line; and new markers at feature points matched
-        between this photo and the others and checked against the cameras' epipolar geometry.
-        Returns how many were proposed."""
+        but not here (triangulated from two, or along its epipolar line from one); with
+        ``features``, new markers at feature points matched between this photo and the others and
+        checked against the cameras' epipolar geometry instead. Returns how many were proposed."""
         from .suggest import match_photos
 
         cams = self.cameras
@@ -188,7 +188,7 @@ class Assist:
         pix = self.photo_pixels(photo)
         items: list[Proposal] = []
         rejected = 0
-        for name in self.project.marker_names():
+        for name in [] if features else self.project.marker_names():
             if name in here:
                 continue
             seen = [(o, uv) for o in others
@@ -198,7 +198,7 @@ class Assist:
                 items.append(Proposal("marker", photo, uv=got[0], name=name, score=got[1], why=got[2]))
         taken = set(self.project.marker_names())
         new: list[Proposal] = []
-        for o in others:
+        for o in others if features else []:
             matches, rej = match_photos(pix, cams[photo], self.photo_pixels(o), cams[o])
             rejected += rej
             for m in matches:
@@ -215,8 +215,13 @@ class Assist:
                                                              f"epipolar line (≤ {m.threshold_px:.2f})"))
         items += new
         self._set_proposals(photo, "marker", items)
-        self.say(f"suggested {len(items)} markers in {photo} ({len(items) - len(new)} along their epipolar lines, "
-                 f"{len(new)} from matched features; {rejected} matches off their epipolar lines rejected)")
+        if features:
+            self.say(f"suggested {len(new)} new markers in {photo} at feature points matched with the other calibrated "
+                     f"photos ({rejected} matches off their epipolar lines rejected); the epipolar check cannot see a "
+                     "wrong match along the line (a repeated pattern): look before accepting")
+        else:
+            self.say(f"suggested {len(items)} of the markers placed elsewhere in {photo} (Shift+N: new markers at "
+                     "matched feature points)")
         return len(items)
 
     def _marker_here(self, photo: str, pix: NDArray[np.uint8], seen: list[tuple[str, Any]],

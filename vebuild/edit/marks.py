@@ -109,11 +109,15 @@ class Marks(History):
         p = self.photo(photo)
         return p.setdefault("vanishing_segments", {}).setdefault(axis, [])
 
-    def add_segment(self, photo: str, axis: str, p1: Sequence[float], p2: Sequence[float]) -> int:
-        """Add a directed segment (p1 toward +axis at p2); EditError for one shorter than 2 px."""
-        return self.add_polyline(photo, axis, [p1, p2])
+    def add_segment(self, photo: str, axis: str, p1: Sequence[float], p2: Sequence[float],
+                    sigma_px: float | None = None) -> int:
+        """Add a directed segment (p1 toward +axis at p2); EditError for one shorter than 2 px.
+        ``sigma_px``: its end points' measured 1σ (a segment refined to the image line), or None
+        (a click's, ``settings.click_sigma_px``)."""
+        return self.add_polyline(photo, axis, [p1, p2], sigma_px)
 
-    def add_polyline(self, photo: str, axis: str, points: Sequence[Sequence[float]]) -> int:
+    def add_polyline(self, photo: str, axis: str, points: Sequence[Sequence[float]],
+                     sigma_px: float | None = None) -> int:
         """Add a directed polyline along one straight edge (first point toward +axis at the last):
         its middle points let the calibration measure the lens distortion."""
         seg = [float(v) for p in points for v in (p[0], p[1])]
@@ -121,7 +125,26 @@ class Marks(History):
         with self._edit(f"add {axis} segment in {photo}"):
             segs = self._segments(photo, axis)
             segs.append(seg)
+            self._set_segment_sigma(photo, axis, len(segs) - 1, sigma_px)
         return len(segs) - 1
+
+    def _set_segment_sigma(self, photo: str, axis: str, index: int, sigma_px: float | None) -> None:
+        """Keep ``vanishing_segment_sigmas`` parallel to the segments: segment ``index`` gets
+        ``sigma_px`` (None: a click's), the list made only once some segment has its own."""
+        p = self.photo(photo)
+        n = len((p.get("vanishing_segments") or {}).get(axis) or [])
+        sig = (p.get("vanishing_segment_sigmas") or {}).get(axis)
+        if sig is None and sigma_px is None:
+            return
+        sig = list(sig or [])[:n]
+        sig += [None] * (n - len(sig))
+        sig[index] = None if sigma_px is None else round(max(float(sigma_px), 1e-3), 4)
+        p.setdefault("vanishing_segment_sigmas", {})[axis] = sig
+
+    def segment_sigma(self, photo: str, axis: str, index: int) -> float | None:
+        """Segment ``index``'s own measured 1σ (pixels), or None for a click's."""
+        sig = (self.photo(photo).get("vanishing_segment_sigmas") or {}).get(axis) or []
+        return sig[index] if 0 <= index < len(sig) else None
 
     def _check_segment(self, seg: Sequence[float], axis: str) -> None:
         if len(seg) < 4 or len(seg) % 2:
@@ -143,6 +166,7 @@ class Marks(History):
         self._check_segment(seg, axis)
         with self._edit(f"move {axis} segment {index} in {photo}"):
             self._segments(photo, axis)[index] = seg
+            self._set_segment_sigma(photo, axis, index, None)  # placed by hand now
 
     # -- middle points of a polyline segment (plumb-line: the lens distortion) ----------------------
 
@@ -223,6 +247,13 @@ class Marks(History):
         with self._edit(f"delete {axis} segment {index} in {photo}"):
             segs = self._segments(photo, axis)
             del segs[index]
+            sigmas = self.photo(photo).get("vanishing_segment_sigmas") or {}
+            if axis in sigmas:
+                del sigmas[axis][index:index + 1]
+                if not segs:
+                    del sigmas[axis]
+                if not sigmas:
+                    del self.photo(photo)["vanishing_segment_sigmas"]
             if not segs:
                 del self.photo(photo)["vanishing_segments"][axis]
 

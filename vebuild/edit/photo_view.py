@@ -194,9 +194,82 @@ class PhotoView(EditorPart):
         ov = self.overlay()
         if ov is not None:
             self._draw_overlay(dl, ov)
+        self._draw_proposals(dl)
         self._draw_relate(dl)
         self._draw_stroke(dl)
+        self._draw_snap_preview(dl)
         dl.pop_clip_rect()
+
+    def _draw_proposals(self, dl: Any) -> None:
+        """The shown photo's proposals, thinner than accepted marks and dashed: segments in their
+        axis' colour, markers as circles, pins as squares."""
+        items = self.session.proposals.get(self.photo) or []
+        for p in items:
+            if p.kind == "segment":
+                col = u32((*AXIS_COLOURS[p.axis][:3], 0.9))
+                a, b = self.image_to_window(None, p.segment[:2]), self.image_to_window(None, p.segment[2:])
+                _dashed(dl, a, b, col, 1.2)
+                self._arrow_head(dl, a, b, col, 6.0)
+            else:
+                c = self.image_to_window(None, p.uv)
+                col = u32((1.0, 0.6, 0.1, 0.95) if p.kind == "marker" else (0.2, 0.95, 0.95, 0.95))
+                r = 7.0
+                if p.kind == "marker":
+                    for k in range(0, 12, 2):
+                        dl.path_arc_to(c, r, k * math.pi / 6, (k + 1) * math.pi / 6)
+                        dl.path_stroke(col, 0, 1.5)
+                    dl.add_text((c[0] + r + 3, c[1] - 7), col, f"{p.name}?")
+                else:
+                    q = [(c[0] - r, c[1] - r), (c[0] + r, c[1] - r), (c[0] + r, c[1] + r), (c[0] - r, c[1] + r)]
+                    for a, b in zip(q, q[1:] + q[:1], strict=True):
+                        _dashed(dl, a, b, col, 1.5, dash=3.0)
+                    dl.add_text((c[0] + r + 3, c[1] - 7), col, f"{p.node}:{p.handle}?")
+
+    def snap_preview(self) -> Any:
+        """Where the mark being placed will land (shown before release): ("point", uv, snap) for a
+        marker or a segment's end, ("segment", (a, b), fit) for a segment stroke, or None."""
+        if self.photo is None:
+            return None
+        x, y = self._cursor
+        if not self._photo_takes(x, y):
+            return None
+        p = self._press
+        uv = self.window_to_image(x, y)
+        alt = self.alt_held()
+        key = (self.photo, uv, alt, None if p is None else (p["kind"], p["uv"], p.get("moved")), self.session.revision)
+        if key == getattr(self, "_snap_key", None):
+            return getattr(self, "_snap_shown", None)
+        shown: Any = None
+        try:
+            if p is None and self.tool == "marker":
+                at, snapped = self.session.snap(self.photo, uv, exact=alt)
+                shown = ("point", at, snapped)
+            elif p is not None and p["kind"] in ("marker-move", "segment-end") and p.get("moved"):
+                at, snapped = self.session.snap(self.photo, uv, exact=alt)
+                shown = ("point", at, snapped)
+            elif p is not None and p["kind"] in ("x", "y", "z") and p.get("moved") and self.open_polyline is None \
+                    and not self.shift_held():
+                a, b, fit = self.session.snap_segment(self.photo, p["uv"], uv, exact=alt)
+                shown = ("segment", (a, b), fit)
+        except VebuildError:
+            shown = None
+        self._snap_key, self._snap_shown = key, shown
+        return shown
+
+    def _draw_snap_preview(self, dl: Any) -> None:
+        shown = self.snap_preview()
+        if shown is None or shown[2] is None:
+            return
+        col = u32((1.0, 1.0, 0.3, 1.0))
+        if shown[0] == "point":
+            c = self.image_to_window(None, shown[1])
+            dl.add_line((c[0] - 6, c[1]), (c[0] + 6, c[1]), col, 1.5)
+            dl.add_line((c[0], c[1] - 6), (c[0], c[1] + 6), col, 1.5)
+            dl.add_text((c[0] + 8, c[1] + 4), col, f"snaps to the {shown[2].kind}")
+        else:
+            a, b = (self.image_to_window(None, q) for q in shown[1])
+            dl.add_line(a, b, col, 1.5)
+            dl.add_text((b[0] + 8, b[1] + 4), col, f"snaps to the line, σ {shown[2].sigma_px:.2f} px")
 
     def _draw_overlay(self, dl: Any, ov: Overlay) -> None:
         z, (px, py) = self.zoom, self.pan
@@ -315,3 +388,16 @@ class PhotoView(EditorPart):
         self._rects["magnifier"] = (mn.x, mn.y, mn.x + side, mn.y + side)
         imgui.end()
         imgui.pop_style_var()
+
+
+def _dashed(dl: Any, a: tuple[float, float], b: tuple[float, float], col: int, width: float, dash: float = 6.0) -> None:
+    """A dashed line from a to b (window pixels): dashes and gaps of ``dash`` pixels."""
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    n = math.hypot(dx, dy)
+    if n < 1e-6:
+        return
+    k = 0.0
+    while k < n:
+        e = min(k + dash, n)
+        dl.add_line((a[0] + dx * k / n, a[1] + dy * k / n), (a[0] + dx * e / n, a[1] + dy * e / n), col, width)
+        k += 2 * dash

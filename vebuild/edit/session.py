@@ -29,6 +29,7 @@ from vebuild.model.undo import UndoStack
 from vebuild.project import Project, load_project, new_photo_entry
 from vebuild.project.provenance import Stale, stale
 
+from .assist import Assist, Proposal
 from .history import UNDO_DEPTH, EditError
 from .marks import AXES, VanishingState
 from .modelling import ANCHOR_HANDLE, DEFAULT_PARAMS, FOLLOW_TOL_PX, DragFeedback
@@ -38,10 +39,10 @@ from .rooms import Rooms
 Progress = Callable[[float, str], None]
 
 __all__ = ["ANCHOR_HANDLE", "AXES", "DEFAULT_PARAMS", "FOLLOW_TOL_PX", "UNDO_DEPTH", "DragFeedback", "EditError",
-           "EditSession", "VanishingState"]
+           "EditSession", "Proposal", "VanishingState"]
 
 
-class EditSession(Rooms, SessionOverlays):
+class EditSession(Assist, Rooms, SessionOverlays):
     """One project being edited; see the module's docstring. Its parts, by concern: the history
     (:mod:`.history`: edits, undo, autosave), the marks (:mod:`.marks`), the modelling
     (:mod:`.modelling`: primitives, drags, fixes, joints), the relations between faces and sizes

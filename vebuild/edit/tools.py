@@ -187,6 +187,11 @@ class ScreenTools(EditorPart):
                                    marker=place.get("marker"), at=(photo, uv))
             self.select(made)
             return
+        if self.tool == "select" and s.proposals.get(photo):
+            k = s.proposal_at(photo, uv, r)
+            if k is not None:
+                s.accept_proposal(photo, k)
+                return
         if self.tool in ("x", "y", "z") and self.ctrl_held():
             index = s.nearest_segment(photo, self.tool, uv, MIDDLE_PICK_PX / self.zoom)
             if index is None:
@@ -252,8 +257,9 @@ class ScreenTools(EditorPart):
                 self._add_edge(p["uv"], uv)
             elif kind == "marker":
                 name = self.marker_name.strip()
+                uv, snapped = s.snap(photo, uv, exact=self.alt_held())
                 s.place_marker(photo, name, uv)
-                self.say(f"marker {name} at ({uv[0]:.2f}, {uv[1]:.2f}) in {photo}")
+                self.say(f"marker {name} at ({uv[0]:.2f}, {uv[1]:.2f}) in {photo}" + snap_note(snapped))
                 if self._marker_name_default or name == "":
                     self.marker_name = s.next_marker_name()
                     self._marker_name_default = True
@@ -263,10 +269,16 @@ class ScreenTools(EditorPart):
                 self.relate_click(x, y)
             elif kind == "segment-end" and p.get("moved"):
                 seg = list(p["segment"])
+                uv, snapped = s.snap(photo, uv, exact=self.alt_held())
+                if snapped is not None:
+                    self.say("segment end" + snap_note(snapped))
                 seg[2 * p["end"]:2 * p["end"] + 2] = uv
                 s.move_segment(photo, p["axis"], p["index"], seg)
             elif kind == "marker-move" and p.get("moved"):
+                uv, snapped = s.snap(photo, uv, exact=self.alt_held())
                 s.place_marker(photo, p["name"], uv)
+                if snapped is not None:
+                    self.say(f"marker {p['name']}" + snap_note(snapped))
         except VebuildError as e:
             self.say(str(e))
 
@@ -296,7 +308,12 @@ class ScreenTools(EditorPart):
             return
         self.open_polyline = None
         if len(points) == 2:
-            s.add_segment(photo, axis, points[0], points[1])
+            a, b, fit = s.snap_segment(photo, points[0], points[1], exact=self.alt_held())
+            index = s.add_segment(photo, axis, a, b, sigma_px=fit.sigma_px if fit is not None else None)
+            if fit is not None:
+                self.say(f"{axis} segment {index} in {photo} snapped to the image line: ends moved up to "
+                         f"{fit.moved_px:.2f} px, σ {fit.sigma_px:.2f} px from {fit.points} edge points "
+                         "(hold Alt to place it exactly as drawn)")
         else:
             index = s.add_polyline(photo, axis, points)
             self.say(f"{axis} segment {index} in {photo}: a polyline of {len(points)} points "
@@ -317,6 +334,10 @@ class ScreenTools(EditorPart):
         s, photo = self.session, self.photo
         uv = self.window_to_image(x, y)
         r = PICK_RADIUS_PX / self.zoom
+        k = s.proposal_at(photo, uv, r) if s.proposals.get(photo) else None
+        if k is not None:
+            s.reject_proposal(photo, k)
+            return
         point = s.segment_point_at(photo, uv, r)
         if point is not None:
             s.delete_segment_point(photo, *point)
@@ -375,6 +396,39 @@ class ScreenTools(EditorPart):
         self.panels.forget_edits()
         self._scroll_to_selected = True
 
+    def alt_held(self) -> bool:
+        """Whether Alt is down: a mark is placed exactly where the cursor is, not snapped."""
+        return bool({glfw.KEY_LEFT_ALT, glfw.KEY_RIGHT_ALT} & self._held) or bool(self._mods & glfw.MOD_ALT)
+
+    # -- proposals (D, N, P, Enter, C) ------------------------------------------------------------
+
+    def detect_here(self) -> None:
+        """D: detect the shown photo's vanishing segments and show them as proposals."""
+        if self.photo is not None:
+            self._long("detecting lines", lambda progress: self.session.detect_lines(self.photo))
+
+    def suggest_markers_here(self, features: bool = False) -> None:
+        """N: the markers placed in the other calibrated photos, suggested in the shown photo;
+        Shift+N: new markers at feature points matched with them."""
+        if self.photo is not None:
+            self._long("suggesting markers", lambda progress: self.session.suggest_markers(self.photo, features))
+
+    def suggest_pins_here(self) -> None:
+        """P: pins proposed at the image corners near the model's vertices in the shown photo."""
+        if self.photo is not None:
+            self.session.suggest_pins(self.photo)
+
+    def accept_all_here(self) -> None:
+        """Enter: accept every proposal shown on the photo (one undoable edit)."""
+        if self.photo is not None:
+            self.session.accept_all(self.photo)
+
+    def clear_proposals_here(self) -> None:
+        """C: drop the photo's proposals."""
+        if self.photo is not None and self.session.proposals.get(self.photo):
+            self.session.clear_proposals(self.photo)
+            self.say(f"proposals in {self.photo} dropped")
+
     def ctrl_held(self) -> bool:
         """Whether Ctrl is down (the keys held, as glfw reported them: X11 gives a modifier key's own
         press without its modifier, which ImGui's key_ctrl then misses)."""
@@ -383,3 +437,11 @@ class ScreenTools(EditorPart):
     def _over_preview(self, x: float, y: float) -> bool:
         r = self.widget_rects.get("preview")
         return r is not None and inside(r, x, y)
+
+
+def snap_note(snapped: Any) -> str:
+    """The status line's note of a snap (nothing where the mark was placed as clicked)."""
+    if snapped is None:
+        return ""
+    return (f", snapped {snapped.moved_px:.2f} px to the image {snapped.kind} (σ {snapped.sigma_px:.2f} px; "
+            "hold Alt to place exactly)")

@@ -1,0 +1,166 @@
+"""The example room rebuilt from nothing by clicking, with assistance (tests/test_edit_rebuild.py's
+twin): the same photos, markers, distances, floor and box under the same tolerances, but the
+vanishing segments come from detection (D, pressed again until the proposed x arrows run along the
+world's x, then Enter), and each marker click snaps to the image. The clicks and key presses of
+both are counted by the same rules and printed beside each other.
+
+Counting: a mouse press (a click or a drag's press) is one click; a key or chord is one key press;
+a typed character is one key press too (file names, marker names, distances).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from edit_driver import Driver, H, W
+from edit_scene import (
+    BOX_DRAGS,
+    DISTANCES,
+    FLOOR_DRAGS,
+    PHOTOS,
+    assert_box_matches,
+    assert_cameras_match,
+    make_plan,
+    photo_file,
+)
+from test_edit_rebuild import User, _window_noise
+
+from vebuild.calibration.lines import X_AXIS_CHOICES
+from vebuild.edit.layout import PANEL_W, STRIP_H, TOOLBAR_H
+
+pytestmark = pytest.mark.usefixtures("xvfb_display")
+
+
+class Count:
+    def __init__(self, clicks: int = 0, keys: int = 0) -> None:
+        self.clicks = clicks
+        self.keys = keys
+
+    def events(self, args) -> None:
+        args = list(args)
+        for a in args:
+            if a in ("click", "mousedown"):
+                self.clicks += 1
+            elif a == "key":
+                self.keys += 1
+            elif a == "type":
+                self.keys += len(args[-1])
+
+
+def x_choice(R) -> str:
+    """Which horizontal direction of the photo world x runs (what a user sees from the arrows)."""
+    D = np.asarray(R) @ np.eye(3)
+    side = max((0, 1), key=lambda i: abs(D[0, i]) / max(np.hypot(D[0, i], D[2, i]), 1e-12))
+    if side == 0:
+        return "right" if D[0, 0] >= 0 else "left"
+    return "away" if D[2, 0] >= 0 else "toward"
+
+
+def original_counts(plan, shows: int) -> Count:
+    """The clicks and key presses of tests/test_edit_rebuild.py's plan, by the same rules (``shows``:
+    the thumbnails clicked to show each photo, as the assisted run clicked them)."""
+    c = Count(clicks=shows)
+    for pid in PHOTOS:
+        c.clicks += 2  # the file field, Add photo
+        c.keys += 2 + len(photo_file(plan, pid).relative_to(plan.folder).as_posix())  # ctrl+a, Return, the name
+        c.keys += 3 + 1  # the three Segment tools, Esc
+        c.clicks += sum(len(s) for s in plan.segments[pid].values())
+        for name in plan.markers[pid]:
+            c.clicks += 2
+            c.keys += 3 + len(name)  # ctrl+a, Return, m and the name
+    for a, b, d in DISTANCES:
+        c.clicks += 4
+        c.keys += 6 + len(a) + len(b) + len(f"{d}")
+    c.clicks += 1  # Calibrate
+    return c
+
+
+def test_the_example_rebuilt_with_assistance(tmp_path, xdotool):
+    x0, y0, x1, y1 = 0, TOOLBAR_H, W - PANEL_W, H - STRIP_H
+    zoom = min((x1 - x0) / 1600, (y1 - y0) / 1200)
+    plan = make_plan(tmp_path / "room", noise_px=_window_noise(zoom))
+    d = Driver(plan.project, xdotool)
+    count = Count()
+    send = d.send
+
+    def counted(*args):
+        count.events(args)
+        send(*args)
+
+    d.send = counted  # type: ignore[method-assign]
+    try:
+        u = User(d)
+        s, e = d.session, d.editor
+        for pid in PHOTOS:
+            u.type_into("add photo file", photo_file(plan, pid).relative_to(plan.folder).as_posix())
+            d.click("Add photo")
+        shows = 0
+        for pid in PHOTOS:
+            shows += e.photo != pid
+            u.show(pid)
+            want = x_choice(plan.camera(pid)[1])
+            for _ in range(X_AXIS_CHOICES.index(want) + 1):
+                d.send("key", "d")
+            assert s.__dict__["_x_axis"][pid] == want
+            assert {p.axis for p in s.proposals[pid]} == {"x", "y", "z"}
+            if pid == "p3":
+                import os
+
+                from PIL import Image
+
+                shot = d.screen()
+                out = os.environ.get("VEBUILD_PROPOSALS_SHOT")
+                if out:  # docs/images/proposals.png: `VEBUILD_PROPOSALS_SHOT=docs/images/proposals.png`
+                    im = Image.fromarray(shot[:, :, :3]).crop((0, 0, W - PANEL_W, H))
+                    im.resize((im.width // 2, im.height // 2)).save(out, optimize=True)
+            d.send("key", "Return")
+            assert not s.proposals[pid] and all(len(s.vanishing(pid, a).segments) >= 2 for a in "xyz")
+            for name, uv in plan.markers[pid].items():
+                u.type_into("marker name", name)
+                d.send("key", "m", *u.xy(uv), "click", "1")
+                assert name in s.photo(pid)["marker_observations"], (pid, name)
+            d.send("key", "Escape")
+        for a, b, dist in DISTANCES:
+            u.type_into("distance a", a)
+            u.type_into("distance b", b)
+            u.type_into("distance m", f"{dist}")
+            d.click("add##distance")
+        d.click("Calibrate")
+        d.frames(3)
+        assert e.calibration_error is None, e.calibration_error
+        assert_cameras_match(plan, s.cameras)
+        before = Count()
+        before.clicks, before.keys = count.clicks, count.keys
+
+        # The floor and the box as in the twin (their drags are the same clicks in both).
+        rng = np.random.default_rng(17)
+        d.click("tab:Model")
+        u.choose("kind", "quad")
+        u.type_into("new name", "floor")
+        d.click("Add")
+        d.send(*u.xy((800, 600)), "click", "1")
+        for pid, h in FLOOR_DRAGS:
+            u.show(pid)
+            u.drag("floor", h, plan.pixel(pid, plan.vertex("floor", h), rng))
+        u.choose("kind", "box")
+        u.choose("parent", "floor")
+        u.type_into("new name", "box")
+        d.click("Add")
+        u.show("p3")
+        d.send(*u.xy(plan.pixel("p3", plan.vertex("box", "v0"), rng)), "click", "1")
+        for pid, h in BOX_DRAGS:
+            u.show(pid)
+            u.drag("box", h, plan.pixel(pid, plan.vertex("box", h), rng))
+            assert e.drag_problem is None, e.drag_problem
+        assert_box_matches(plan, s.model)
+        d.send("key", "ctrl+s")
+        assert not s.dirty
+        orig = original_counts(plan, shows)
+        strokes = sum(len(v) for segs in plan.segments.values() for v in segs.values())
+        print(f"\nmarking up to calibration: by hand {orig.clicks} clicks and {orig.keys} key presses "
+              f"({strokes} segment strokes); assisted {before.clicks} clicks and {before.keys} key presses")
+        # Every segment stroke is gone; the Segment tools' keys become D (once or more) and Enter.
+        assert before.clicks == orig.clicks - strokes
+        assert before.keys <= orig.keys + len(PHOTOS)  # D pressed again to turn x: up to 3 a photo
+    finally:
+        d.close()
