@@ -77,7 +77,7 @@ def test_snapping_proposals_accept_reject_and_undo(bare, xdotool):
         d.send(*d.move_to(*e.image_to_window(None, mid)), "click", "1")
         assert first not in s.proposals[pid] and len(s.proposals[pid]) == len(props) - 1
         rows = s.photo(pid)["vanishing_segments"][first.axis]
-        assert rows[-1] == pytest.approx(list(first.segment), abs=1e-3)
+        assert rows[-1] == pytest.approx(list(first.points or first.segment), abs=1e-3)
         sig = s.photo(pid)["vanishing_segment_sigmas"][first.axis][-1]
         assert sig == pytest.approx(first.sigma_px, abs=1e-3)
         second = s.proposals[pid][0]

@@ -44,6 +44,7 @@ class Proposal:
     node: str = ""
     handle: str = ""
     also: tuple[tuple[str, tuple[float, float]], ...] = ()
+    points: tuple[float, ...] = ()  # a detected segment's polyline along its edge (written), or () for the segment
     score: float = 0.0
     why: str = ""
 
@@ -162,7 +163,9 @@ class Assist:
         except VebuildError as e:
             raise EditError(f"line detection on photo '{photo}' failed: {e}") from None
         items = [Proposal("segment", photo, axis=s.axis, segment=tuple(float(v) for v in s.segment),  # type: ignore[arg-type]
-                          sigma_px=float(s.sigma_px), score=float(s.score)) for s in found.segments]
+                          sigma_px=float(s.sigma_px), score=float(s.score),
+                          points=tuple(float(v) for v in getattr(s, "points", ()) or ()))
+                 for s in found.segments]
         self._set_proposals(photo, "segment", items)
         per_axis = {a: sum(p.axis == a for p in items) for a in ("x", "y", "z")}
         self.say(f"detected in {photo} with x {x_axis}: " + ", ".join(f"{n} {a}" for a, n in per_axis.items())
@@ -328,9 +331,10 @@ class Assist:
     def _apply(self, p: Proposal) -> None:
         """Make proposal p an ordinary mark (inside an edit)."""
         if p.kind == "segment":
-            self._check_segment(p.segment, p.axis)
+            row = [round(v, 3) for v in (p.points or p.segment)]
+            self._check_segment(row, p.axis)
             segs = self._segments(p.photo, p.axis)
-            segs.append([round(v, 3) for v in p.segment])
+            segs.append(row)
             self._set_segment_sigma(p.photo, p.axis, len(segs) - 1, p.sigma_px)
         elif p.kind == "marker":
             if p.name not in self.project.marker_names():

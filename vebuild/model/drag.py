@@ -56,7 +56,7 @@ def lens_polylines(K: ArrayLike, k1: float, a: ArrayLike, b: ArrayLike, tol: flo
     All segments are refined together, one level at a time (a drag redraws dozens per move).
     """
     a, b = np.asarray(a, float).reshape(-1, 2), np.asarray(b, float).reshape(-1, 2)
-    if k1 == 0.0:
+    if k1 == 0.0 or not len(a):  # (np.split of nothing would give one empty piece)
         return [np.array([p, q]) for p, q in zip(a, b, strict=True)]
     K = np.asarray(K, float)
     ticks = np.array([0.0, 0.25, 0.5, 0.75, 1.0])
