@@ -13,6 +13,7 @@ from __future__ import annotations
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
+from itertools import combinations
 from typing import Any
 
 import numpy as np
@@ -27,6 +28,8 @@ from ..calibration.lines import (
     orient_axes,
     to_grey,
 )
+from ..calibration.photo import SAME_VANISHING_POINT_DEG
+from ..calibration.vanishing import normalising_transform
 from ..camera import AXES, distort_pixels, intrinsic_matrix, undistort_pixels
 from ..errors import ProjectError
 from ..project import Project
@@ -155,6 +158,7 @@ def propose(pixels: np.ndarray, photo: dict[str, Any], *, x_axis: str = "right",
             props.append(SegmentProposal(a, (float(s[0]), float(s[1]), float(s[2]), float(s[3])),
                                          float(found.polyline_sigma_px[i]), sc,
                                          tuple(float(v) for v in poly.ravel())))
+    _drop_same_point(props, counts, D, f, c, w, h)
     rel = frame.focal_sigma_px / f if np.isfinite(frame.focal_sigma_px) else np.inf
     focal = f if rel <= FOCAL_REPORT_MAX_REL_SIGMA else None
     K = intrinsic_matrix(f, *c)
@@ -179,6 +183,22 @@ def propose(pixels: np.ndarray, photo: dict[str, Any], *, x_axis: str = "right",
     if len(axes_seen) < 2:
         return PhotoProposals(pid, tuple(props), focal, "one direction only: " + "; ".join(parts))
     return PhotoProposals(pid, tuple(props), focal, "; ".join(parts))
+
+
+def _drop_same_point(props: list[SegmentProposal], counts: dict[str, int], D: np.ndarray, f: float,
+                     c: np.ndarray, w: int, h: int) -> None:
+    """Drop the smaller of two axes whose vanishing points coincide in the image (within
+    SAME_VANISHING_POINT_DEG on the sphere of normalised points: the calibration's refusal of
+    a mislabelled set; a strong lens bends one direction's edges into two such sets)."""
+    N = normalising_transform(w, h)
+    K = intrinsic_matrix(f, *c)
+    unit = {a: (N @ K @ D[:, k]) / np.linalg.norm(N @ K @ D[:, k]) for k, a in enumerate(AXES)}
+    for a, b in combinations([a for a in AXES if counts[a]], 2):
+        if counts[a] and counts[b] and np.degrees(np.arccos(min(1.0, abs(float(unit[a] @ unit[b]))))) \
+                < SAME_VANISHING_POINT_DEG:
+            weaker = a if counts[a] < counts[b] else b
+            props[:] = [p for p in props if p.axis != weaker]
+            counts[weaker] = 0
 
 
 def _one_image_line(segs: np.ndarray, side: int) -> bool:

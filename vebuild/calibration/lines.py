@@ -113,21 +113,22 @@ class ManhattanFrame:
     residual_px: Array
 
 
-def to_grey(pixels: NDArray[np.uint8]) -> NDArray[np.float32]:
-    """(h, w, 3) RGB or (h, w) grey → (h, w) float32 grey (Rec. 601 luma)."""
+def to_grey(pixels: NDArray[np.uint8]) -> NDArray[np.uint8]:
+    """(h, w, 3) RGB or (h, w) grey → (h, w) uint8 grey (Rec. 601 luma, OpenCV's)."""
+    import cv2
+
     if pixels.ndim == 2:
-        return pixels.astype(np.float32)
-    p = pixels.astype(np.float32)
-    return np.asarray(0.299 * p[..., 0] + 0.587 * p[..., 1] + 0.114 * p[..., 2], np.float32)
+        return np.ascontiguousarray(pixels, np.uint8)
+    return np.asarray(cv2.cvtColor(np.ascontiguousarray(pixels, np.uint8), cv2.COLOR_RGB2GRAY), np.uint8)
 
 
-def detect_lines(grey: NDArray[np.float32], *, long_side: int = DETECT_LONG_SIDE) -> DetectedLines:
+def detect_lines(grey: NDArray[np.uint8], *, long_side: int = DETECT_LONG_SIDE) -> DetectedLines:
     """LSD segments of a grey image, refined to sub-pixel end points on the full resolution."""
     import cv2
 
     h, w = grey.shape
     scale = max(1.0, max(w, h) / long_side)
-    g8 = np.clip(grey, 0, 255).astype(np.uint8)
+    g8 = np.ascontiguousarray(np.clip(grey, 0, 255), np.uint8) if grey.dtype != np.uint8 else grey
     level = g8 if scale == 1.0 else cv2.resize(g8, (max(1, round(w / scale)), max(1, round(h / scale))),
                                                interpolation=cv2.INTER_AREA)
     sx, sy = w / level.shape[1], h / level.shape[0]
@@ -147,7 +148,7 @@ def detect_lines(grey: NDArray[np.float32], *, long_side: int = DETECT_LONG_SIDE
     return DetectedLines(segs, sig, scale, mean_grey, polys, psig)
 
 
-def refine_segments(grey: NDArray[np.float32], s: Array) -> tuple[Array, Array, Array, Array]:
+def refine_segments(grey: NDArray[np.uint8], s: Array) -> tuple[Array, Array, Array, Array]:
     """Each segment (n, 4) refined on the image's intensity profiles across it (module docstring):
     the kept segments, their end points' 1σ, their polylines (m, 2 POLYLINE_POINTS) and the 1σ of
     each polyline point."""
@@ -166,7 +167,7 @@ def refine_segments(grey: NDArray[np.float32], s: Array) -> tuple[Array, Array, 
     Q = P[:, :, None, :] + offs[None, None, :, None] * nrm[:, None, None, :]  # (n, m, k, 2)
     # map_coordinates takes (row, col) of pixel centres: pixel (u, v) sits at column u − 0.5.
     coords = np.stack([Q[..., 1].ravel() - 0.5, Q[..., 0].ravel() - 0.5])
-    prof = map_coordinates(grey, coords, order=1, mode="nearest").reshape(Q.shape[:3])
+    prof = map_coordinates(grey, coords, order=1, mode="nearest", output=np.float32).reshape(Q.shape[:3])
     grad = np.abs(np.diff(prof, axis=2))  # between samples: offsets offs[:-1] + 0.25
     k = grad.shape[2]
     j = np.argmax(grad[:, :, 1:-1], axis=2) + 1
@@ -324,6 +325,12 @@ def _unit(x: Array) -> Array:
     return np.asarray(x / np.maximum(np.linalg.norm(x, axis=-1, keepdims=True), 1e-300), float)
 
 
+def _distinct(idx: NDArray[np.int64]) -> NDArray[np.int64]:
+    """The rows of idx whose entries differ."""
+    srt = np.sort(idx, axis=1)
+    return idx[np.all(np.diff(srt, axis=1) > 0, axis=1)]
+
+
 def _hypotheses(rng: np.random.Generator, segs: Array, p: Array, c: Array, fmin: float, fmax: float,
                 focal_prior: tuple[float, float] | None, count: int) -> tuple[Array, Array]:
     """Manhattan frames (H, 3, 3) and focal lengths (H,) drawn as the module docstring says."""
@@ -333,7 +340,7 @@ def _hypotheses(rng: np.random.Generator, segs: Array, p: Array, c: Array, fmin:
     lines = np.cross(H1, H2)
     # Four segments: f from the orthogonality of their two vanishing points.
     n4 = count // 2
-    idx = np.array([rng.choice(n, 4, replace=False, p=p) for _ in range(n4)]).reshape(-1, 4)
+    idx = _distinct(rng.choice(n, (n4, 4), p=p))
     v1 = np.cross(lines[idx[:, 0]], lines[idx[:, 1]])
     v2 = np.cross(lines[idx[:, 2]], lines[idx[:, 3]])
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -353,7 +360,8 @@ def _hypotheses(rng: np.random.Generator, segs: Array, p: Array, c: Array, fmin:
                    np.exp(rng.uniform(np.log(fmin), np.log(fmax), n3 - half))]
     else:
         fB = np.exp(rng.uniform(np.log(fmin), np.log(fmax), n3))
-    idx = np.array([rng.choice(n, 3, replace=False, p=p) for _ in range(n3)]).reshape(-1, 3)
+    idx = _distinct(rng.choice(n, (n3, 3), p=p))
+    fB = fB[: len(idx)]
 
     def normal(k: Array) -> Array:
         q1 = np.c_[(segs[k, :2] - c) / fB[:, None], np.ones(len(k))]
