@@ -157,8 +157,12 @@ def test_the_example_rebuilt_with_assistance(tmp_path, xdotool):
         assert not s.dirty
         orig = original_counts(plan, shows)
         strokes = sum(len(v) for segs in plan.segments.values() for v in segs.values())
+        model_clicks, model_keys = count.clicks - before.clicks, count.keys - before.keys  # the same in both
         print(f"\nmarking up to calibration: by hand {orig.clicks} clicks and {orig.keys} key presses "
-              f"({strokes} segment strokes); assisted {before.clicks} clicks and {before.keys} key presses")
+              f"({strokes} segment strokes); assisted {before.clicks} clicks and {before.keys} key presses"
+              f"\nthe whole rebuild (with the floor and the box, the same in both): by hand "
+              f"{orig.clicks + model_clicks} clicks and {orig.keys + model_keys} key presses; assisted "
+              f"{count.clicks} clicks and {count.keys} key presses")
         # Every segment stroke is gone; the Segment tools' keys become D (once or more) and Enter.
         assert before.clicks == orig.clicks - strokes
         assert before.keys <= orig.keys + len(PHOTOS)  # D pressed again to turn x: up to 3 a photo
