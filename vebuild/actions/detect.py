@@ -26,6 +26,7 @@ from ..calibration.lines import (
     direct_segment,
     group_manhattan,
     orient_axes,
+    plumb_line_k1,
     to_grey,
 )
 from ..calibration.photo import SAME_VANISHING_POINT_DEG
@@ -127,9 +128,13 @@ def propose(pixels: np.ndarray, photo: dict[str, Any], *, x_axis: str = "right",
             why = f"no straight lines found ({len(found.segments)} straight edges, at least 4 are needed)"
         return PhotoProposals(pid, (), None, why)
     segs = found.segments
+    f0 = prior.value if prior else float(max(w, h))
+    if dist is None:
+        # No lens profile: the edges' own bend (plumb lines) undistorts them for the grouping, so
+        # that a wide lens's long edges are grouped too (the calibration estimates k1 itself).
+        k1 = plumb_line_k1(found.polylines, found.polyline_sigma_px, f0, c, w, h)
     if k1 != 0.0:
-        K0 = intrinsic_matrix(prior.value if prior else max(w, h), *c)
-        segs = undistort_pixels(K0, found.segments.reshape(-1, 2), k1).reshape(-1, 4)
+        segs = undistort_pixels(intrinsic_matrix(f0, *c), found.segments.reshape(-1, 2), k1).reshape(-1, 4)
     frame = group_manhattan(segs, w, h, focal_prior=focal_prior, seed=seed, sigma_px=found.sigma_px)
     elapsed = time.perf_counter() - t0
     if frame is None:

@@ -363,7 +363,7 @@ def _hypotheses(rng: np.random.Generator, segs: Array, p: Array, c: Array, fmin:
     idx = _distinct(rng.choice(n, (n3, 3), p=p))
     fB = fB[: len(idx)]
 
-    def normal(k: Array) -> Array:
+    def normal(k: NDArray[np.int64]) -> Array:
         q1 = np.c_[(segs[k, :2] - c) / fB[:, None], np.ones(len(k))]
         q2 = np.c_[(segs[k, 2:] - c) / fB[:, None], np.ones(len(k))]
         return np.cross(q1, q2)
@@ -469,3 +469,35 @@ def direct_segment(seg: Array, d: Array, f: float, c: Array) -> Array:
     if (seg[2:] - seg[:2]) @ motion < 0:
         return np.r_[seg[2:], seg[:2]]
     return np.asarray(seg, float)
+
+
+def plumb_line_k1(polylines: Array, sigma_px: Array, f: float, c: Array, width: int, height: int) -> float:
+    """The division model's k1 that makes the detected edges straightest (the plumb-line method):
+    the robust sum over polylines (n, 2m) of their middle points' squared distances, in units of
+    their 1σ, to the line through their end points once undistorted with f, c and k1. A prior for
+    grouping only (the calibration estimates k1 itself); 0 where the edges do not say."""
+    from scipy.optimize import minimize_scalar
+
+    if len(polylines) < 4:
+        return 0.0
+    P = polylines.reshape(len(polylines), -1, 2)
+    length = np.linalg.norm(P[:, -1] - P[:, 0], axis=1)
+    keep = length >= 0.1 * max(width, height)
+    if keep.sum() < 4:
+        return 0.0
+    P, s = P[keep], sigma_px[keep]
+    r_max2 = float(np.max(np.sum(((np.array([[0, 0], [width, height]]) - c) / f) ** 2, axis=1)))
+
+    def cost(k1: float) -> float:
+        x = (P - c) / f
+        u = x / (1.0 + k1 * np.sum(x**2, axis=2, keepdims=True))
+        a, b = u[:, :1], u[:, -1:]
+        d = b - a
+        n = np.stack([-d[..., 1], d[..., 0]], axis=-1) / np.maximum(np.linalg.norm(d, axis=-1, keepdims=True), 1e-12)
+        off = np.sum((u[:, 1:-1] - a) * n, axis=-1) * f / s[:, None]
+        return float(np.sum(np.log1p(off**2 / 9.0)))  # Cauchy: edges that are truly curved do not pull
+
+    bound = 0.25 / r_max2  # at most 25 % of the corner's radius either way
+    best = minimize_scalar(cost, bounds=(-bound, bound), method="bounded", options={"xatol": 1e-4 / r_max2})
+    k1 = float(best.x)
+    return k1 if cost(k1) < cost(0.0) - 4.0 else 0.0
