@@ -30,7 +30,7 @@ from ..calibration.lines import (
     to_grey,
 )
 from ..calibration.photo import SAME_VANISHING_POINT_DEG
-from ..calibration.vanishing import normalising_transform
+from ..calibration.vanishing import COLLINEAR_TOLERANCE_PX, normalising_transform
 from ..camera import AXES, distort_pixels, intrinsic_matrix, undistort_pixels
 from ..errors import ProjectError
 from ..project import Project
@@ -149,7 +149,8 @@ def propose(pixels: np.ndarray, photo: dict[str, Any], *, x_axis: str = "right",
         score = 1.0 / (1.0 + frame.residual_px[idx] / np.maximum(found.sigma_px[idx], 1e-6))
         length = np.hypot(*(segs[idx, 2:] - segs[idx, :2]).T)
         idx = idx[np.argsort(-(score * length))][:MAX_PER_AXIS]
-        if _one_image_line(segs[idx], max(w, h)):
+        ends = np.c_[found.polylines[idx, :2], found.polylines[idx, -2:]]  # what is written
+        if _one_image_line(ends, max(w, h)):
             idx = idx[:0]  # pieces of one edge fix no vanishing point: the axis is not proposed
         counts[a] = len(idx)
         for i in idx:
@@ -207,13 +208,14 @@ def _drop_same_point(props: list[SegmentProposal], counts: dict[str, int], D: np
 
 
 def _one_image_line(segs: np.ndarray, side: int) -> bool:
-    """Whether all segments lie on one image line (within 0.2 % of the photo's longer side)."""
+    """Whether all segments lie on one image line: what the calibration refuses for an axis
+    (within COLLINEAR_TOLERANCE_PX; ``side`` is unused, kept for the call's shape)."""
     if len(segs) == 0:
         return False
     a, b = segs[0, :2], segs[0, 2:]
     n = np.array([a[1] - b[1], b[0] - a[0]]) / max(float(np.linalg.norm(b - a)), 1e-9)
     d = np.abs(np.r_[(segs[:, :2] - a) @ n, (segs[:, 2:] - a) @ n])
-    return bool(np.all(d < 0.002 * side))
+    return bool(np.all(d < COLLINEAR_TOLERANCE_PX))
 
 
 def accept_proposals(project: Project, proposals: PhotoProposals, indices: Sequence[int] | None = None) -> int:
