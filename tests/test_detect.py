@@ -22,6 +22,7 @@ from vebuild.actions.detect import (
     PhotoProposals,
     SegmentProposal,
     accept_proposals,
+    calibrates,
     detect_photo,
     detect_project,
     propose,
@@ -186,6 +187,7 @@ def test_no_straight_lines_one_direction_and_dark_photos() -> None:
     p = propose(stripes, _photo(stripes))
     assert "one direction" in p.message or "do not share two vanishing directions" in p.message, p.message
     assert len({s.axis for s in p.segments}) <= 1
+    assert not calibrates(p)  # vebuild detect writes none of them: they would only stop calibrate
 
     dark = (rng.uniform(0, 4, (900, 1200))).astype(np.uint8)
     p = propose(dark, _photo(dark))

@@ -254,12 +254,18 @@ def clear_segments(project: Project, photo_id: str) -> None:
     photo.pop("vanishing_segment_sigmas", None)
 
 
+def calibrates(props: PhotoProposals) -> bool:
+    """Whether the proposals span two axes at least (what a photo's calibration needs)."""
+    return len({p.axis for p in props.segments}) >= 2
+
+
 def detect_project(project: Project, photos: Sequence[str] | None = None, *, replace: bool = False,
                    x_axis: str | Sequence[str] | None = None) -> list[tuple[PhotoProposals, int]]:
     """``vebuild detect``: detect on each photo named (default all), accept every proposal into
     the document (not saved), and return each photo's proposals with how many were written.
 
-    A photo's user-marked segments are kept (the detected ones are added) unless ``replace``.
+    A photo's user-marked segments are kept (the detected ones are added) unless ``replace``. A
+    photo whose proposals span one axis only gets none written (its message says why).
     ``x_axis``: one choice for every photo, or a list of ``CHOICE`` (every photo) and
     ``PHOTO=CHOICE`` items (that photo; later items win)."""
     ids = list(photos) if photos else [p["id"] for p in project.data["photos"]]
@@ -269,7 +275,10 @@ def detect_project(project: Project, photos: Sequence[str] | None = None, *, rep
     out = []
     for pid in ids:
         props = detect_photo(project, pid, x_axis=choices[pid])
-        if replace and props.segments:
+        if not calibrates(props):  # one direction only: written, it would only stop `calibrate`
+            out.append((props, 0))
+            continue
+        if replace:
             clear_segments(project, pid)
         out.append((props, accept_proposals(project, props)))
     return out
