@@ -136,6 +136,12 @@ def _check_semantics(data: dict[str, Any], file: Any) -> None:
                     _check_on_photo(seg[j:j + 2], size, file, here)
                 # The length is that of its end points: a polyline's middle points may bunch.
                 _check_segment_length([*seg[:2], *seg[-2:]], file, here, photo["id"], axis, k)
+        for axis, sigmas in (photo.get("vanishing_segment_sigmas") or {}).items():
+            n_seg = len((photo.get("vanishing_segments") or {}).get(axis) or [])
+            if len(sigmas) != n_seg:
+                raise ProjectError(file, f"{where}.vanishing_segment_sigmas.{axis}",
+                                   f"expected one 1σ (or null) per segment of vanishing_segments.{axis} "
+                                   f"({n_seg}), found {len(sigmas)}")
         if "principal_point" in photo:
             _check_on_photo(photo["principal_point"]["value"], size, file, f"{where}.principal_point.value")
     model = data.get("model") or {}
