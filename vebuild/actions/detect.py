@@ -39,6 +39,9 @@ from ..project.images import decode_photo
 #: At most this many proposals per axis are kept (the best-scored): more add little to a
 #: calibration and slow it.
 MAX_PER_AXIS = 40
+#: An axis is proposed with this many segments at least: two lines always meet, so a pair has no
+#: redundancy to show that one of them (a poster's edge, clutter) belongs to no axis.
+MIN_PER_AXIS = 3
 #: A focal estimate whose relative 1σ exceeds this is not reported (a frontal or level view).
 FOCAL_REPORT_MAX_REL_SIGMA = 0.1
 
@@ -150,7 +153,7 @@ def propose(pixels: np.ndarray, photo: dict[str, Any], *, x_axis: str = "right",
         length = np.hypot(*(segs[idx, 2:] - segs[idx, :2]).T)
         idx = idx[np.argsort(-(score * length))][:MAX_PER_AXIS]
         ends = np.c_[found.polylines[idx, :2], found.polylines[idx, -2:]]  # what is written
-        if _one_image_line(ends, max(w, h)):
+        if len(idx) < MIN_PER_AXIS or _one_image_line(ends, max(w, h)):
             idx = idx[:0]  # pieces of one edge fix no vanishing point: the axis is not proposed
         counts[a] = len(idx)
         for i in idx:
