@@ -39,6 +39,8 @@ CMDS: dict[str, list[str]] = {
     "report": ["report", "{P}", "--out", "{OUT}/report", "--no-pdf", "--quiet"],
     "export": ["export", "{P}", "--out", "{OUT}/m.glb"],
     "export-obj": ["export", "{P}", "--out", "{OUT}/m.obj"],
+    "export-html": ["export", "{P}", "--html", "{OUT}/viewer"],
+    "scan-check": ["scan", "check", "{P}"],
     "video": ["video", "{P}", "--views", "doorway,overview", "--out", "{OUT}/w.mp4", "--size", "64x36", "--fps", "2",
               "--quiet"],
     "video-own-size": ["video", "{P}", "--views", "doorway,overview", "--out", "{OUT}/w.mp4", "--fps", "2",
@@ -53,6 +55,7 @@ CMDS: dict[str, list[str]] = {
 }
 #: Every command that loads the project: a document that fails validation fails them all.
 LOAD = ["check", "calibrate", "solve", "solve-recal", "texture", "render-view", "render-photo", "report", "export",
+        "export-html", "scan-check",
         "video", "analyse", "mark", "register"]
 #: A shorter list for the many systematic type errors (each fails in the shared loader).
 LOAD_SHORT = ["check", "calibrate", "solve", "render-view", "analyse", "mark"]

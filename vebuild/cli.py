@@ -248,6 +248,19 @@ def _cmd_export(args: argparse.Namespace) -> int:
 
     project = load_project(args.project)
     _warn_stale(project, "export")
+    if args.html is not None:
+        from .actions.export_html import export_html
+
+        h = export_html(project, args.html)
+        print(f"wrote the viewer {h.folder}/index.html ({len(h.files)} files; open it in a browser, no network needed)")
+        print(f"  {len(h.cameras)} camera(s), {h.photos} photo(s), {h.markers} evidence marker(s), "
+              f"{h.analyses} analysis item(s), {h.hypotheses} hypothesis(es)")
+        for w in h.warnings:
+            print(f"warning: {w}")
+        if args.out is None:
+            return 0
+    if args.out is None:
+        raise VebuildError("export: give --out FILE.glb|FILE.obj, --html DIR, or both")
     r = export_model(project, args.out)
     what = {"glb": "glTF 2.0 binary", "obj": "Wavefront OBJ + MTL"}[r.format]
     size = sum(f.stat().st_size for f in r.files)
@@ -296,6 +309,36 @@ def _cmd_new(args: argparse.Namespace) -> int:
     data["photos"] = [new_photo_entry(path.parent, img) for img in args.photos]
     save_project(path, data)
     print(f"created {path} with {len(data['photos'])} photo(s)")
+    return 0
+
+
+def _cmd_detect(args: argparse.Namespace) -> int:
+    from .actions.detect import detect_project
+    from .project import load_project, save_project
+
+    project = load_project(args.project)
+    results = detect_project(project, args.photos, replace=args.replace, x_axis=args.x_axis)
+    for props, written in results:
+        print(f"{props.photo}: {props.message}" + (f"; {written} segments written" if written else ""))
+    if any(written for _, written in results):
+        save_project(project)
+        print(f"\nsegments written to {project.path}; `vebuild calibrate {args.project}` calibrates from them")
+    return 0
+
+
+def _cmd_import_fspy(args: argparse.Namespace) -> int:
+    from .actions.fspy import comparison_table, import_fspy
+
+    r = import_fspy(args.file, args.out, click_sigma_px=args.click_sigma, name=args.name)
+    print(f"imported {args.file} ({'one' if r.mode == 'OneVanishingPoint' else 'two'}-vanishing-point fSpy project) "
+          f"into {r.project} with the photo {r.photo.name}")
+    for note in r.notes:
+        print(f"  {note}")
+    for w in r.warnings:
+        print(f"warning: {w}")
+    if r.calibrated:
+        print()
+        print(comparison_table(r))
     return 0
 
 
@@ -370,11 +413,12 @@ def _progress_wanted(args: argparse.Namespace) -> bool:
 def build_parser() -> argparse.ArgumentParser:
     from .actions.render import RenderRequest
     from .bench import BENCHES
+    from .console.arguments import SuggestingParser
     from .render.observed import add_option as add_unobserved_option
     from .render.video import Timing, VideoRequest
     from .texture.options import FILLS, MODES, Options
 
-    parser = argparse.ArgumentParser(
+    parser = SuggestingParser(
         prog="vebuild",
         description="Rebuild a real place as a measurable virtual environment from a few photographs.",
     )
@@ -521,8 +565,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("export", help="write the textured model as glTF 2.0 binary (.glb) or OBJ + MTL (.obj)")
     p.add_argument("project")
-    p.add_argument("--out", required=True, metavar="FILE",
+    p.add_argument("--out", metavar="FILE",
                    help="FILE.glb (model, textures, views and photo cameras) or FILE.obj (model and textures)")
+    p.add_argument("--html", metavar="DIR", help="a folder with a web viewer (index.html, the .glb, the photos, "
+                   "markers, analyses and hypotheses) that opens in a browser with no network (docs/html-viewer.md)")
     p.set_defaults(func=_cmd_export)
 
     p = sub.add_parser("check", help="validate a project file, verify its photos' hashes and audit trail, and say "
@@ -538,6 +584,26 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--force", action="store_true", help="replace an existing vebuild project file (never another file)")
     p.set_defaults(func=_cmd_new)
 
+    p = sub.add_parser("import", help="import an fSpy project (.fspy) as a new project folder, calibrate it and "
+                       "compare fSpy's camera with vebuild's")
+    p.add_argument("file", help="the fSpy project file (FILE.fspy)")
+    p.add_argument("--out", required=True, help="a new (or empty) folder for the project and its photo")
+    p.add_argument("--name", help="title of the project (default: from the file name)")
+    p.add_argument("--click-sigma", type=float, default=1.0, metavar="PX",
+                   help="1σ of one of fSpy's control points, pixels (default: %(default)s)")
+    p.set_defaults(func=_cmd_import_fspy)
+
+    p = sub.add_parser("detect", help="detect straight edges, group them by vanishing point and add them to the "
+                       "photos as vanishing segments (then calibrate)")
+    p.add_argument("project")
+    p.add_argument("photos", nargs="*", metavar="PHOTO", help="photo ids (default: every photo)")
+    p.add_argument("--replace", action="store_true", help="remove the photos' existing vanishing segments first")
+    p.add_argument("--x-axis", action="append", metavar="[PHOTO=]CHOICE",
+                   help="which horizontal direction is world x (right, left, away or toward): the more horizontal "
+                   "one in the image, pointing right (default) or left, or the one nearer the optical axis, "
+                   "pointing away from or toward the camera; PHOTO=CHOICE for one photo (repeatable)")
+    p.set_defaults(func=_cmd_detect)
+
     p = sub.add_parser("bench", help="measure accuracy and speed (prints a table; --json writes the figures)")
     p.add_argument("name", choices=sorted(BENCHES))
     p.add_argument("--quick", action="store_true", help="a smaller run, for a quick look")
@@ -548,8 +614,28 @@ def build_parser() -> argparse.ArgumentParser:
     from .analysis.cli import add_analyse_parsers
 
     add_analyse_parsers(sub)
+    from .actions.scan import add_scan_parsers
+
+    add_scan_parsers(sub)
     _add_case_parser(sub)
     return parser
+
+
+def _in_words(e: VebuildError) -> str:
+    """The error's message, naming the place in the project file in words where it gives a JSON path."""
+    from .errors import ProjectError
+
+    if not isinstance(e, ProjectError) or e.words or not e.where.startswith("$."):
+        return str(e)
+    try:
+        from .project.validation import field_words
+
+        path = Path(e.file)
+        if not path.name.endswith(".json") or path.stat().st_size > 256 * 2**20:
+            return str(e)
+        return str(e.named(field_words(e.where, json.loads(path.read_text("utf-8")))))
+    except (OSError, ValueError, RecursionError):  # unreadable, not JSON, nested too deep: as it was
+        return str(e)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -565,7 +651,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         with fixed_threads(), command_context(args.command, arguments):
             return int(args.func(args))
     except VebuildError as e:
-        print(f"vebuild {args.command}: error: {e}", file=sys.stderr)
+        print(f"vebuild {args.command}: error: {_in_words(e)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)

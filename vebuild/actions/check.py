@@ -51,6 +51,14 @@ def check_project(project: Project) -> list[str]:
     check_render_sizes(project)
     if data.get("analyses"):
         lines.append(f"analyses: {len(data['analyses'])} recorded command(s), each a `vebuild analyse` command")
+    if data.get("scans"):  # each scan's file read and its hash checked, its registration decoded
+        from ..analysis.scans import similarity_of
+        from ..project.scans import load_point_cloud
+
+        for i in range(len(data["scans"])):
+            load_point_cloud(project, i)
+            similarity_of(project, i)
+        lines.append(f"laser scans: {len(data['scans'])} scan(s), hashes verified, registrations decoded")
     pages = (data.get("textures") or {}).get("pages", [])
     present, _ = dec.texture_pages(project)
     read = {p.index for p in present}

@@ -22,11 +22,13 @@ calibrated.
 from __future__ import annotations
 
 import copy
+from functools import partial
 from typing import Any
 
 import numpy as np
 
 from .. import __version__, camera
+from ..analysis.scans import surface_observations as scan_surfaces
 from ..calibration.lsq import is_numeric_failure
 from ..calibration.positions import ReferenceDistance, check_scale_distances
 from ..camera import ImageCamera
@@ -35,6 +37,7 @@ from ..errors import CalibrationError, ProjectError, VebuildError
 from ..model.constraints import conflict_message, conflicts, relation_records
 from ..model.determination import axis_records, too_few_observations
 from ..model.residuals import MarkerObservation
+from ..model.scan_fit import ScanProblem
 from ..model.scene import Model
 from ..model.solution import handle_covariances
 from ..model.solver import FINAL_PRIOR_SCALE, MarkerData, Problem, ProblemOptions, staged_start
@@ -81,7 +84,10 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
     surveyed = list(decode.markers(data, "surveyed"))
     # The parents first, from their own marks: a start the final solve can use.
     staged_start(model, cameras, [p for p in pins if p.fixed], edges, project.settings["click_sigma_px"])
-    problem = Problem(model, cameras, [p for p in pins if p.fixed], edges,
+    # Laser scans marked use_in_solve: their points observe the faces nearest them (FORMAT.md "Laser scans").
+    surfaces = scan_surfaces(project, model) if any(s.get("use_in_solve") for s in data.get("scans") or []) else []
+    problem = (partial(ScanProblem, surfaces=surfaces) if surfaces else Problem)(
+                      model, cameras, [p for p in pins if p.fixed], edges,
                       options=ProblemOptions(click_sigma_px=project.settings["click_sigma_px"],
                                              prior_scale=FINAL_PRIOR_SCALE, recalibrate=recalibrate,
                                              refine_intrinsics=refine_intrinsics,

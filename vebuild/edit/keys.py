@@ -1,5 +1,5 @@
 """The modelling screen's keys and mouse: one table, from which the screen's dispatch, its
-on-screen help (the Keys tab, the tools' tooltips) and the README's list are made."""
+on-screen help (the Keys tab, the tools' tooltips) and the manual's list (docs/manual.md) are made."""
 
 from __future__ import annotations
 
@@ -44,8 +44,26 @@ EDITOR_KEYS = KeyTable([
             (Chord(glfw.KEY_F, "fix_under_cursor"),)),
     Binding("L", "labels over the photo (residuals, vertex names) on or off; markers' names stay",
             (Chord(glfw.KEY_L, "toggle_labels"),)),
+    Binding("Ctrl+L", "laser scans in the 3-D preview on or off (shown where the project has any)",
+            (Chord(glfw.KEY_L, "toggle_preview_scans", mods=CTRL),)),
     Binding("Shift", "magnifier (6 window pixels per photo pixel, a crosshair, the stroke being drawn and the "
             "sub-pixel position; always on with the Segment, Marker, Edge and Known length tools)"),
+    Binding("Alt (held while placing)", "place a click, a segment, a marker or a segment's end exactly where the "
+            "cursor is: without it a mark within 3 px of an image corner or edge snaps to it (a drawn segment to the "
+            "image line it covers, with its σ from the fit), and the status line says how far it moved"),
+    Binding("D", "detect the photo's straight edges and propose them as vanishing segments, dashed in their axis' "
+            "colour, world x to the right; D again turns x to the left, away, toward (the arrows show it)",
+            (Chord(glfw.KEY_D, "detect_here"),)),
+    Binding("N, Shift+N", "suggest markers in this calibrated photo (dashed circles): the markers placed in other "
+            "calibrated photos, triangulated or found along their epipolar lines; Shift+N: new markers at feature "
+            "points matched with the other calibrated photos and checked against their epipolar geometry",
+            (Chord(glfw.KEY_N, "suggest_markers_here"), Chord(glfw.KEY_N, "suggest_markers_here", (True,), SHIFT))),
+    Binding("P", "propose pins: the image corner near each model vertex in view (dashed squares)",
+            (Chord(glfw.KEY_P, "suggest_pins_here"),)),
+    Binding("Enter; click (Select); click (Delete); C", "accept every proposal on the photo (one undoable "
+            "edit); accept the one clicked; reject the one clicked; drop them all",
+            (Chord(glfw.KEY_ENTER, "accept_all_here"),
+             Chord(glfw.KEY_C, "clear_proposals_here"))),
     Binding("PageUp / PageDown", "previous / next photo (or click its thumbnail)",
             (Chord(glfw.KEY_PAGE_UP, "step_photo", (-1,)), Chord(glfw.KEY_PAGE_DOWN, "step_photo", (1,)))),
     Binding("Ctrl+Z, Ctrl+Y (Ctrl+Shift+Z), Ctrl+S", "undo, redo, save",

@@ -87,10 +87,48 @@ class Preview(EditorPart):
             self._renderer.highlight = self.selected
             cam = self.preview_camera()
             self._preview_tex = self._renderer.frame(cam)
+            self._preview_scans(cam)
             self.preview_note = ""
         except VebuildError as e:
             self.preview_note = str(e)
         self._preview_key = (s.revision, self.preview_yaw, self.preview_pitch, self.preview_distance, self.selected)
+
+    def toggle_preview_scans(self) -> None:
+        """Show or hide the project's laser scans in the 3-D preview (Ctrl+L)."""
+        if not self.session.project.data.get("scans"):
+            self.session.say("the project has no laser scans (vebuild scan add)")
+            return
+        self.preview_scans = getattr(self, "preview_scans", True) is False
+        self._preview_key = None  # drawn again
+        self.session.say(f"laser scans {'shown' if self.preview_scans else 'hidden'} in the 3-D preview")
+
+    def _preview_scans(self, cam: ImageCamera | None) -> None:
+        """The project's registered laser scans as points over the preview (where it has any and
+        ``preview_scans`` is not False); a scan that cannot be read is named in the note instead."""
+        scans = self.session.project.data.get("scans") or []
+        if cam is None or not scans or getattr(self, "preview_scans", True) is False:
+            return
+        from vebuild.analysis.scans import DRAW_POINTS, scan_points_world
+        from vebuild.gl.points import PointLayer
+
+        key = tuple((e["file"], e["sha256"], repr(e["registration"]["similarity"])) for e in scans)
+        layer = getattr(self, "_scan_layer", None)
+        if layer is None or getattr(self, "_scan_key", None) != key:
+            pts, cols = [], []
+            try:
+                for i in range(len(scans)):
+                    P, C = scan_points_world(self.session.project, i, max(1, DRAW_POINTS // len(scans)))
+                    pts.append(P)
+                    cols.append(C)
+            except VebuildError as e:
+                self.preview_scans = False
+                self.session.say(f"laser scans not shown: {e}")
+                return
+            if layer is None:
+                layer = self._scan_layer = PointLayer(self.ctx)
+            layer.set_points(np.concatenate(pts), np.concatenate(cols))
+            self._scan_key = key
+        draw_points_over_frame(self._renderer, cam, layer)
 
     def _draw_preview(self) -> None:
         W, H = self.size()
@@ -113,3 +151,15 @@ class Preview(EditorPart):
             if io.mouse_wheel and self.preview_distance is not None:
                 self.preview_distance *= 0.9 ** io.mouse_wheel
         imgui.end()
+
+
+def draw_points_over_frame(renderer: Any, cam: ImageCamera, layer: Any) -> None:
+    """Draw ``layer`` (a :class:`vebuild.gl.points.PointLayer`) over the frame ``renderer.frame(cam)``
+    just drew, depth-tested against it, into the texture it returned."""
+    near, far = renderer._near_far(cam)
+    draw, resolve, _ = renderer._target(cam.width, cam.height, "output")  # the frame's own targets (cached)
+    draw.use()
+    draw.viewport = (0, 0, cam.width, cam.height)
+    layer.draw(cam, near, far, flip=False, depth_test=cam.k1 == 0.0)
+    if draw is not resolve:
+        renderer.ctx.copy_framebuffer(resolve, draw)

@@ -59,7 +59,7 @@ STAGES = ("calibration", "model_solution", "textures")
 _VERB = {"calibration": "calibrating", "model_solution": "solving", "textures": "texturing"}
 _PHOTO_PARTS = {"image": ("file", "width", "height", "sha256"),
                 "camera": ("exif", "focal_px", "principal_point", "camera_height"),
-                "marks": ("vanishing_segments", "marker_observations")}
+                "marks": ("vanishing_segments", "vanishing_segment_sigmas", "marker_observations")}
 _SHOWN = 3  # differences named in one reason; the rest are counted
 
 
@@ -84,7 +84,8 @@ def _photo_hashes(data: Mapping[str, Any], registered: set[str]) -> dict[str, st
     for p in data.get("photos") or []:
         pid = p["id"]
         for part, keys in _PHOTO_PARTS.items():
-            value: dict[str, Any] = {k: p.get(k) for k in keys}
+            # vanishing_segment_sigmas (later than the others) counts where present: older hashes stand.
+            value: dict[str, Any] = {k: p.get(k) for k in keys if k != "vanishing_segment_sigmas" or k in p}
             if part == "marks":
                 value["known_lengths"] = [k for k in lengths if k.get("photo") == pid]
             out[f"photos/{pid}/{part}"] = _sha(value)
@@ -125,6 +126,9 @@ def inputs(data: Mapping[str, Any], stage: str) -> dict[str, str]:
         out["calibration/markers"] = _sha(cal.get("markers"))
         # Not its stamps: the older whole-document hash (input_sha256) moves with the solved model.
         out["calibration/other"] = _sha(_without(cal, "cameras", "markers", "computed_from", "input_sha256"))
+        used = [s for s in data.get("scans") or [] if isinstance(s, Mapping) and s.get("use_in_solve")]
+        if used:  # laser scans the solve observed (FORMAT.md "Laser scans"): only where there are any
+            out["scans/use_in_solve"] = _sha(used)
         return out
     if stage == "textures":
         from .decode import camera_records
@@ -197,7 +201,7 @@ def _describe(key: str) -> str:
             "calibration/markers": "the calibrated markers", "calibration/other": "the calibration record",
             "model_solution": "the model's solution", "origin_marker": "the origin marker",
             "reference_distances": "the reference distances", "settings": "the settings",
-            "markers": "the markers"}.get(key, key)
+            "markers": "the markers", "scans/use_in_solve": "the laser scans used in the solve"}.get(key, key)
 
 
 def _differences(recorded: Mapping[str, Any], now: Mapping[str, str], stage: str) -> list[str]:

@@ -11,7 +11,7 @@ from pathlib import Path
 from vebuild.errors import VebuildError
 from vebuild.project import Project
 
-from . import sections
+from . import deviation, sections
 from .page import Report, page
 from .processing import processing
 
@@ -46,6 +46,7 @@ def write_report(project: Project, out: Path, pdf: bool = True,
                  ("final cameras", sections.final_cameras), ("model", sections.model), ("checks", sections.checks),
                  ("limitations", sections.limitations), ("plan", sections.plan), ("views", sections.views),
                  ("marked photos", sections.marked_photos), ("validation", sections.validation),
+                 ("laser scans", deviation.scans),
                  ("analyses", sections.analyses), ("hypotheses", sections.hypotheses), ("processing", processing)]
         for name, fn in steps:
             step(name)

@@ -85,6 +85,9 @@ class Viewer(WindowApp):
         self._last = time.perf_counter()
         self.panel = ViewerPanel(self)
         self.screenshots = 0
+        # Registered laser scans as points (K): shown where the project has any, read on first draw.
+        self.show_scans = bool(project.data.get("scans"))
+        self._scan_layer: Any = None
         self.install_callbacks(window.handle)
         views = project.data.get("views", [])
         if view is not None:
@@ -381,6 +384,48 @@ class Viewer(WindowApp):
     def toggle_panel(self) -> None:
         self.show_panel = not self.show_panel
 
+    def toggle_scans(self) -> None:
+        """Show or hide the project's registered laser scans (K)."""
+        if not self.project.data.get("scans"):
+            self.show_scans = False
+            self.say("the project has no laser scans (vebuild scan add)")
+            return
+        self.show_scans = not self.show_scans
+        self.say(f"laser scans {'shown' if self.show_scans else 'hidden'}")
+
+    def scan_layer(self) -> Any:
+        """The scans' points on the GPU (:class:`vebuild.gl.points.PointLayer`), read once; None
+        where a scan cannot be read (the message says why, and the scans are hidden)."""
+        if self._scan_layer is None:
+            from vebuild.analysis.scans import DRAW_POINTS, scan_points_world
+            from vebuild.gl.points import PointLayer
+
+            scans = self.project.data.get("scans") or []
+            pts, cols = [], []
+            try:
+                for i in range(len(scans)):
+                    P, C = scan_points_world(self.project, i, max(1, DRAW_POINTS // len(scans)))
+                    pts.append(P)
+                    cols.append(C)
+            except VebuildError as e:
+                self.say(f"laser scans not shown: {e}")
+                self.show_scans = False
+                return None
+            self._scan_layer = PointLayer(self.ctx)
+            self._scan_layer.set_points(np.concatenate(pts), np.concatenate(cols))
+        return self._scan_layer
+
+    def _draw_scans(self) -> None:
+        layer = self.scan_layer()
+        if layer is None:
+            return
+        cam = self.eye_camera()
+        x, y, w, h = self.viewport()
+        self.ctx.screen.viewport = (x, y, cam.width, cam.height)
+        near, far = self.renderer._near_far(cam)
+        # The scene's depth is on the screen only for a mono pinhole view drawn straight into it.
+        layer.draw(cam, near, far, flip=True, depth_test=self.stereo is None and cam.k1 == 0.0)
+
     def set_lighting(self, index: int) -> None:
         self.lighting_index = index
         self.renderer.set_lighting(find_preset(self.project, self.lighting))
@@ -481,6 +526,8 @@ class Viewer(WindowApp):
         stereo = Stereo(self.stereo) if self.stereo else None
         self.renderer.draw(screen, self.eye_camera(), stereo, flip=True, origin=(x, y),
                            select_buffer=self.window.select_buffer if self.stereo == "quad" else None)
+        if self.show_scans and self.stereo is None:
+            self._draw_scans()
         if self.photo is not None and self._photo_tex is not None and self.photo_opacity > 0:
             self._draw_overlay()
         if self.gui is not None:
@@ -531,6 +578,8 @@ class Viewer(WindowApp):
             self.gui = None
         if self._photo_tex is not None:
             self._photo_tex.release()
+        if self._scan_layer is not None:
+            self._scan_layer.release()
         self.renderer.release()
 
 

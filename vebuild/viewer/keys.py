@@ -1,5 +1,5 @@
 """The walk-through's keys and mouse (they follow games and 3-D viewers): one table, from which
-the window's dispatch, its panel's key list (F1) and the README's list are made."""
+the window's dispatch, its panel's key list (F1) and the manual's list (docs/manual.md) are made."""
 
 from __future__ import annotations
 
@@ -40,6 +40,8 @@ VIEWER_KEYS = KeyTable([
             (Chord(glfw.KEY_U, "next_unobserved"),)),
     Binding("B", "next stereo mode (off, anaglyph, side by side, top and bottom, quad-buffered where offered)",
             (Chord(glfw.KEY_B, "next_stereo"),)),
+    Binding("K", "show or hide the registered laser scans (points; shown where the project has any)",
+            (Chord(glfw.KEY_K, "toggle_scans"),)),
     Binding("F1", "show or hide the panel", (Chord(glfw.KEY_F1, "toggle_panel"),)),
     Binding("F12", "screenshot with provenance (labelled if a hypothesis is shown)",
             (Chord(glfw.KEY_F12, "screenshot"),)),
