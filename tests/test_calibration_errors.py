@@ -303,3 +303,19 @@ def test_a_scale_distance_seen_only_in_photos_left_out_says_which_and_why(tmp_pa
                        "could not place them: 'p4': the camera cannot be placed") as e:
         calibrate_project(load_project(path))
     print(e.value)
+
+
+def test_a_variance_ignores_undetermined_parameters_it_does_not_depend_on():
+    """The covariance holds ∞ for what the data do not determine; a distance between two placed
+    markers keeps its finite 1σ (gᵀCg over all parameters gave 0·∞ = NaN, written into
+    calibration.reference_distances[].measured_sigma), one that depends on them gets ∞."""
+    from vebuild.calibration.lsq import covariance_from_jacobian, propagated_variance
+
+    J = np.array([[1.0, 0.0, 0.0], [0.0, 2.0, 0.0], [1.0, 1.0, 0.0]])  # the third parameter unseen
+    cov = covariance_from_jacobian(J)
+    g = np.array([1.0, -1.0, 0.0])
+    with np.errstate(invalid="ignore"):
+        assert np.isinf(cov[2, 2]) and np.isnan(g @ cov @ g)
+    assert propagated_variance(g, cov) == pytest.approx(g[:2] @ np.linalg.inv(J[:, :2].T @ J[:, :2]) @ g[:2])
+    assert propagated_variance(np.array([0.0, 1.0, 1.0]), cov) == np.inf
+    assert propagated_variance(np.zeros(3), cov) == 0.0

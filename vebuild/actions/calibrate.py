@@ -471,7 +471,7 @@ def _results(data: dict[str, Any], photos: dict[str, PhotoCalibration], placemen
             continue
         relative = d.a in placed_by and placed_by[d.a].relative
         distances.append({"a": d.a, "b": d.b, "distance": d.distance, "sigma": d.sigma, "role": d.role,
-                          "measured": dist, "measured_sigma": dist_sigma,
+                          "measured": dist, "measured_sigma": json_values(dist_sigma),
                           **({"lengths": "relative"} if relative else {})})
         if d.role == "check" and relative:
             warnings.append(f"check distance {d.a}–{d.b}: measured {dist:.3f} in units of the camera's height, not "

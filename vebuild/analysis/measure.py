@@ -337,7 +337,8 @@ def check_distances(project: Project, solved: SolvedModel,
             # Neither marker was solved with the model: the calibration measured this distance from
             # its own full covariance (the markers' correlations, which it does not store).
             for c in solved.calibration_distances:
-                if {c.get("a"), c.get("b")} == {d["a"], d["b"]} and c.get("measured") is not None:
+                if {c.get("a"), c.get("b")} == {d["a"], d["b"]} and c.get("measured") is not None \
+                        and c.get("measured_sigma") is not None:
                     m = Measurement("distance", m.what, float(c["measured"]), float(c["measured_sigma"]), [],
                                     [d["a"], d["b"]], m.photos, m.points, "calibration")
                     break

@@ -43,6 +43,23 @@ def covariance_from_jacobian(J: Array) -> Array:
     return cov
 
 
+def propagated_variance(g: Array, cov: Array) -> float:
+    """gᵀ C g, the variance of a function with gradient ``g``, over the parameters it depends on only.
+
+    A covariance from :func:`covariance_from_jacobian` holds ∞ for what the data do not determine
+    (a marker seen in one photo); a quantity that does not depend on those parameters keeps its
+    finite variance (the full product would give 0 · ∞ = NaN), one that does gets ∞.
+    """
+    g = np.asarray(g, float)
+    idx = np.flatnonzero(g)
+    if idx.size == 0:
+        return 0.0
+    sub = cov[np.ix_(idx, idx)]
+    if not np.all(np.isfinite(sub)):
+        return float("inf")
+    return max(float(g[idx] @ sub @ g[idx]), 0.0)
+
+
 def variance_factor(whitened_residuals: Array, n_params: float) -> float:
     """A-posteriori variance factor σ0² = χ² / dof, floored at 1.
 

@@ -38,7 +38,7 @@ from ..camera import distortion_scale, intrinsic_matrix, project, skew_batch, so
 from ..constants import OUTLIER_SIGMAS, ROBUST_SCALE
 from ..determinism import deterministic
 from ..errors import CalibrationError
-from .lsq import covariance_from_jacobian, is_numeric_failure, variance_factor
+from .lsq import covariance_from_jacobian, is_numeric_failure, propagated_variance, variance_factor
 from .start import initial_positions
 
 Array = NDArray[np.float64]
@@ -492,5 +492,5 @@ def _refine(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mappi
             g[col[d.a] : col[d.a] + 3] += u
         if d.b in col:
             g[col[d.b] : col[d.b] + 3] -= u
-        measured.append(MeasuredDistance(d, dist, float(np.sqrt(max(float(g @ cov @ g), 0.0)))))
+        measured.append(MeasuredDistance(d, dist, float(np.sqrt(propagated_variance(g, cov)))))
     return Placement(cameras, markers, measured, origin, s2, dict(heights))

@@ -36,6 +36,11 @@ def _figure(vs: dict[str, Any], fmt: str, unit: str = "") -> str:
     return f"{_pm(vs, fmt)}{u}"
 
 
+def _sigma(s: float | None) -> str:
+    """A 1σ, or "?" where the data do not determine it (recorded as null)."""
+    return "?" if s is None else f"{s:.3f}"
+
+
 def calibration_table(result: dict[str, Any]) -> str:
     """Per photo: mode, f, principal point, yaw/pitch/roll, position, their 1σ, and residuals."""
     origin = result.get("origin") or f"marker '{result['origin_marker']}'"
@@ -76,12 +81,12 @@ def calibration_table(result: dict[str, Any]) -> str:
                   "compared):"]
         for d in result["reference_distances"]:
             lines.append(f"  {d['a']}–{d['b']:<10} {d['role']:<6} known {d['distance']:.3f} ± {d['sigma']:.3f} m   "
-                         f"measured {d['measured']:.3f} ± {d['measured_sigma']:.3f} (relative units)")
+                         f"measured {d['measured']:.3f} ± {_sigma(d['measured_sigma'])} (relative units)")
     elif result["reference_distances"]:
         lines += ["", "reference distances (m):"]
         for d in result["reference_distances"]:
             lines.append(f"  {d['a']}–{d['b']:<10} {d['role']:<6} known {d['distance']:.3f} ± {d['sigma']:.3f}   "
-                         f"measured {d['measured']:.3f} ± {d['measured_sigma']:.3f}   "
+                         f"measured {d['measured']:.3f} ± {_sigma(d['measured_sigma'])}   "
                          f"difference {1000 * (d['measured'] - d['distance']):+.1f} mm")
     if result.get("checked_after_solve") and not result["reference_distances"]:
         lines += ["", "reference distances (m):"]
