@@ -126,3 +126,23 @@ def test_fixed_threads_holds_while_any_thread_is_inside() -> None:
     t.join(10)
     assert seen == [{THREADS}]
     assert _blas_threads() == before
+
+
+def test_fixed_threads_holds_a_blas_loaded_after_its_first_use() -> None:
+    """OpenCV's wheel bundles an OpenBLAS of its own; imported after the first solve, it is held
+    to one thread too (the controller is made again when modules were imported since)."""
+    import subprocess
+    import sys
+
+    code = ("from vebuild.determinism import fixed_threads\n"
+            "from threadpoolctl import threadpool_info\n"
+            "with fixed_threads(): pass\n"
+            "import cv2\n"
+            "with fixed_threads():\n"
+            "    print(sorted({d['num_threads'] for d in threadpool_info() if d['user_api'] in ('blas', 'openmp')}))\n"
+            "print(len([d for d in threadpool_info() if 'opencv' in d['filepath']]))\n")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
+                       env={**__import__("os").environ, "OPENBLAS_NUM_THREADS": "2", "OMP_NUM_THREADS": "2"})
+    assert r.returncode == 0, r.stderr
+    inside, opencv_pools = r.stdout.split()
+    assert inside == f"[{THREADS}]" and int(opencv_pools) >= 1, r.stdout

@@ -25,6 +25,7 @@ caller's own numpy work in another thread also runs single-threaded while a solv
 from __future__ import annotations
 
 import functools
+import sys
 import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -39,18 +40,22 @@ _lock = threading.Lock()
 _depth = 0
 _limiter: Any = None
 _controller: Any = None
+_modules_seen = 0
 
 
 def _threadpools() -> Any:
     """threadpoolctl's controller over the BLAS and OpenMP libraries loaded (made on first use,
-    after numpy's and scipy's BLAS are loaded, so that it finds both: their wheels bring one each)."""
-    global _controller
-    if _controller is None:
+    after numpy's and scipy's BLAS are loaded, so that it finds both: their wheels bring one each),
+    made again when modules were imported since, which may have brought another (OpenCV's wheel
+    bundles an OpenBLAS of its own)."""
+    global _controller, _modules_seen
+    if _controller is None or len(sys.modules) != _modules_seen:
         import numpy  # noqa: F401
         import scipy.linalg  # noqa: F401
         from threadpoolctl import ThreadpoolController
 
         _controller = ThreadpoolController()
+        _modules_seen = len(sys.modules)
     return _controller
 
 
