@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from ..calibration.axes_choice import choose_turns, direction_turn, turn_between
 from ..calibration.exif import exif_distortion_prior, exif_focal_prior
 from ..calibration.lines import (
     DARK_MEAN_GREY,
@@ -64,28 +65,35 @@ class PhotoProposals:
     message: str                                # what was found, or why nothing
 
 
-def check_x_axis(x_axis: str | None, where: str = "--x-axis") -> str:
-    """The x-axis choice, default ``right``; ProjectError naming ``where`` for an unknown one."""
+#: ``--x-axis auto``: each photo's choice made from the markers the photos share (the default).
+AUTO = "auto"
+
+
+def check_x_axis(x_axis: str | None, where: str = "--x-axis", *, auto: bool = False) -> str:
+    """The x-axis choice, default ``right`` (``auto`` where ``auto`` is allowed, and the default
+    then); ProjectError naming ``where`` for an unknown one."""
     if x_axis is None:
-        return "right"
-    if x_axis not in X_AXIS_CHOICES:
-        raise ProjectError("the command line", where, f"expected one of {', '.join(X_AXIS_CHOICES)}, got {x_axis!r}")
+        return AUTO if auto else "right"
+    allowed = X_AXIS_CHOICES + ((AUTO,) if auto else ())
+    if x_axis not in allowed:
+        raise ProjectError("the command line", where, f"expected one of {', '.join(allowed)}, got {x_axis!r}")
     return x_axis
 
 
 def x_axis_choices(project: Project, ids: Sequence[str], x_axis: str | Sequence[str] | None) -> dict[str, str]:
-    """Photo id → its x-axis choice from ``--x-axis`` items (CHOICE or PHOTO=CHOICE)."""
+    """Photo id → its x-axis choice from ``--x-axis`` items (CHOICE or PHOTO=CHOICE; ``auto``,
+    the default, to be chosen from the markers)."""
     items = [x_axis] if isinstance(x_axis, str) else list(x_axis or [])
-    default = "right"
+    default = AUTO
     for item in items:
         if "=" not in item:
-            default = check_x_axis(item)
+            default = check_x_axis(item, auto=True)
     out = {pid: default for pid in ids}
     for item in items:
         if "=" in item:
             pid, choice = item.split("=", 1)
             project.photo(pid)
-            out[pid] = check_x_axis(choice, f"--x-axis {item}")
+            out[pid] = check_x_axis(choice, f"--x-axis {item}", auto=True)
     return out
 
 
@@ -112,8 +120,32 @@ def detect_photo(project: Project, photo_id: str, *, x_axis: str | None = None) 
     return propose(pixels, photo, x_axis=choice)
 
 
+@dataclass(frozen=True)
+class Grouped:
+    """A photo's edges grouped into vanishing directions, before any choice of x."""
+    pid: str
+    width: int
+    height: int
+    found: Any                                  # lines.DetectedLines
+    segs: np.ndarray                            # the segments as grouped (undistorted by k1)
+    k1: float
+    f0: float                                   # the focal length the undistortion used
+    frame: Any                                  # lines.ManhattanFrame, or None
+    elapsed: float
+    failure: PhotoProposals | None              # nothing to propose, and why
+
+    def rotation(self, x_axis: str) -> np.ndarray:
+        """World → camera rotation for a choice of x (its columns: world x, y, z in the camera)."""
+        return orient_axes(self.frame.directions, x_axis)[0]
+
+
 def propose(pixels: np.ndarray, photo: dict[str, Any], *, x_axis: str = "right", seed: int = 0) -> PhotoProposals:
     """:func:`detect_photo` on pixels already decoded, for a photo object (its id, size, EXIF)."""
+    return orient_proposals(group(pixels, photo, seed=seed), x_axis)
+
+
+def group(pixels: np.ndarray, photo: dict[str, Any], *, seed: int = 0) -> Grouped:
+    """Detect a photo's edges and group them into three orthogonal vanishing directions."""
     pid = str(photo.get("id", "photo"))
     h, w = pixels.shape[:2]
     t0 = time.perf_counter()
@@ -129,7 +161,7 @@ def propose(pixels: np.ndarray, photo: dict[str, Any], *, x_axis: str = "right",
             why = f"the photo is too dark (mean grey level {found.mean_grey:.0f} of 255): no edges to detect"
         else:
             why = f"no straight lines found ({len(found.segments)} straight edges, at least 4 are needed)"
-        return PhotoProposals(pid, (), None, why)
+        return Grouped(pid, w, h, found, found.segments, k1, 0.0, None, 0.0, PhotoProposals(pid, (), None, why))
     segs = found.segments
     f0 = prior.value if prior else float(max(w, h))
     if dist is None:
@@ -141,8 +173,18 @@ def propose(pixels: np.ndarray, photo: dict[str, Any], *, x_axis: str = "right",
     frame = group_manhattan(segs, w, h, focal_prior=focal_prior, seed=seed, sigma_px=found.sigma_px)
     elapsed = time.perf_counter() - t0
     if frame is None:
-        return PhotoProposals(pid, (), None, f"{len(segs)} straight edges, but they do not share two vanishing "
-                              "directions (one direction only, or no vanishing points): mark the segments by hand")
+        return Grouped(pid, w, h, found, segs, k1, f0, None, elapsed, PhotoProposals(
+            pid, (), None, f"{len(segs)} straight edges, but they do not share two vanishing "
+            "directions (one direction only, or no vanishing points): mark the segments by hand"))
+    return Grouped(pid, w, h, found, segs, k1, f0, frame, elapsed, None)
+
+
+def orient_proposals(g: Grouped, x_axis: str = "right") -> PhotoProposals:
+    """The proposals of a grouped photo, directed for a choice of x."""
+    if g.failure is not None:
+        return g.failure
+    pid, w, h, found, segs, k1, frame, elapsed = g.pid, g.width, g.height, g.found, g.segs, g.k1, g.frame, g.elapsed
+    c = np.array([w / 2.0, h / 2.0])
     D, cols = orient_axes(frame.directions, x_axis)
     f = frame.focal_px
     props: list[SegmentProposal] = []
@@ -270,14 +312,43 @@ def detect_project(project: Project, photos: Sequence[str] | None = None, *, rep
     A photo's user-marked segments are kept (the detected ones are added) unless ``replace``. A
     photo whose proposals span one axis only gets none written (its message says why).
     ``x_axis``: one choice for every photo, or a list of ``CHOICE`` (every photo) and
-    ``PHOTO=CHOICE`` items (that photo; later items win)."""
+    ``PHOTO=CHOICE`` items (that photo; later items win); ``auto`` (the default) chooses from
+    the markers the photos share (:func:`auto_x_axes`)."""
     ids = list(photos) if photos else [p["id"] for p in project.data["photos"]]
     for pid in ids:
         project.photo(pid)  # an unknown id is refused before any photo is read
     choices = x_axis_choices(project, ids, x_axis)
+    notes: dict[str, str] = {}
+    grouped: dict[str, Grouped] = {}
+    if any(c == AUTO for c in choices.values()):
+        grouped = {pid: group(photo_pixels(project, pid), project.photo(pid)) for pid in ids}
+        auto = [pid for pid in ids if choices[pid] == AUTO]
+        given = {pid: c for pid, c in choices.items() if c != AUTO}
+        # Photos not detected now, and detected photos keeping their segments, are held to the
+        # choice their segments show.
+        for p in project.data["photos"]:
+            pid = p["id"]
+            if pid in given or not p.get("vanishing_segments") or (replace and pid in ids):
+                continue
+            if pid not in grouped:
+                try:
+                    grouped[pid] = group(photo_pixels(project, pid), p)
+                except ProjectError:
+                    continue
+            shown = choice_from_segments(grouped[pid], p["vanishing_segments"])
+            if shown is not None:
+                given[pid] = shown
+        found, notes = auto_x_axes(project, grouped, given)
+        for pid in auto:
+            choices[pid] = found.get(pid, "right")
     out = []
     for pid in ids:
-        props = detect_photo(project, pid, x_axis=choices[pid])
+        g = grouped.get(pid)
+        if g is None:
+            g = group(photo_pixels(project, pid), project.photo(pid))
+        props = orient_proposals(g, choices[pid])
+        if pid in notes:
+            props = replace_message(props, f"{props.message}; x axis: {notes[pid]}")
         if not calibrates(props):  # one direction only: written, it would only stop `calibrate`
             out.append((props, 0))
             continue
@@ -285,3 +356,101 @@ def detect_project(project: Project, photos: Sequence[str] | None = None, *, rep
             clear_segments(project, pid)
         out.append((props, accept_proposals(project, props)))
     return out
+
+
+def replace_message(props: PhotoProposals, message: str) -> PhotoProposals:
+    return PhotoProposals(props.photo, props.segments, props.focal_px, message)
+
+
+def marker_rays(project: Project, g: Grouped) -> dict[str, np.ndarray]:
+    """The photo's markers as camera-frame rays (3,), through the grouping's f and lens."""
+    obs = project.photo(g.pid).get("marker_observations") or {}
+    if not obs or g.frame is None:
+        return {}
+    c = np.array([g.width / 2.0, g.height / 2.0])
+    names = sorted(obs)
+    uv = np.array([obs[m][:2] for m in names], float)
+    if g.k1 != 0.0:
+        uv = undistort_pixels(intrinsic_matrix(g.f0, *c), uv, g.k1)
+    f = float(g.frame.focal_px)
+    return {m: np.array([(u - c[0]) / f, (v - c[1]) / f, 1.0]) for m, (u, v) in zip(names, uv, strict=True)}
+
+
+def choice_turns(g: Grouped) -> dict[str, int]:
+    """Each x-axis choice as a turn k about z of the photo's ``right`` axes."""
+    R0 = g.rotation("right")
+    return {c: turn_between(R0, g.rotation(c)) for c in X_AXIS_CHOICES}
+
+
+def choice_from_segments(g: Grouped, segments: dict[str, Any]) -> str | None:
+    """The x-axis choice a photo's marked segments show (their horizontal ones directed along the
+    choice's axes), or None where they show none clearly (within 25° on average)."""
+    if g.frame is None:
+        return None
+    c = np.array([g.width / 2.0, g.height / 2.0])
+    f = float(g.frame.focal_px)
+    best: tuple[float, str] | None = None
+    for choice in X_AXIS_CHOICES:
+        D = g.rotation(choice)
+        cos = []
+        for k, a in enumerate("xy"):
+            for row in segments.get(a) or []:
+                p = np.asarray(row, float).reshape(-1, 2)
+                step = p[-1] - p[0]
+                motion = D[:2, k] - ((p.mean(axis=0) - c) / f) * D[2, k]
+                n = np.linalg.norm(step) * np.linalg.norm(motion)
+                if n > 0:
+                    cos.append(float(step @ motion / n))
+        if cos and (best is None or np.mean(cos) > best[0]):
+            best = (float(np.mean(cos)), choice)
+    return best[1] if best is not None and best[0] >= np.cos(np.radians(25.0)) else None
+
+
+def auto_x_axes(project: Project, grouped: dict[str, Grouped], given: dict[str, str]
+                ) -> tuple[dict[str, str], dict[str, str]]:
+    """Each grouped photo's x-axis choice such that the world axes mean the same directions in
+    every photo, from the markers they share, and a note per photo saying how it was chosen.
+
+    The photos with a ``given`` choice keep it. Where none is given, the reference is the photo
+    that sees the origin marker and the most markers, and every choice is then turned together
+    so that the first reference distance from the origin marker runs along +x (where it runs
+    along a horizontal axis within 20°); otherwise the reference keeps ``right``."""
+    ok = {pid: g for pid, g in grouped.items() if g.frame is not None}
+    turns = {pid: choice_turns(g) for pid, g in ok.items()}
+    rotations = {pid: g.rotation("right") for pid, g in ok.items()}
+    rays = {pid: marker_rays(project, g) for pid, g in ok.items()}
+    fixed = {pid: turns[pid][c] for pid, c in given.items() if pid in ok}
+    notes: dict[str, str] = {pid: "its edges show no vanishing directions to orient" for pid in grouped
+                             if pid not in ok and pid not in given}
+    origin = project.data.get("origin_marker")
+    ref = None
+    if not fixed and ok:
+        ref = max(ok, key=lambda p: (origin in rays[p], len(rays[p])))
+        fixed = {ref: 0}
+    if not ok:
+        return {}, notes
+    decided = choose_turns(rotations, rays, fixed)
+    k = {pid: d.turn for pid, d in decided.items() if d.turn is not None}
+    if ref is not None:
+        sees = ", the origin marker among them)" if origin in rays[ref] else ")"
+        notes[ref] = "the reference photo (it sees the most markers" + sees
+        far = next((r["b"] if r["a"] == origin else r["a"] for r in project.data.get("reference_distances") or []
+                    if origin in (r.get("a"), r.get("b"))), None)
+        g = direction_turn(rotations, rays, k, origin, far) if origin and far else None
+        if g is not None:
+            k = {pid: (t + g) % 4 for pid, t in k.items()}
+            notes[ref] += f"; turned so that the reference distance {origin}→{far} runs along +x"
+    out: dict[str, str] = {}
+    for pid, d in decided.items():
+        if d.turn is None:
+            notes[pid] = f"not chosen, kept 'right': {d.message}; give --x-axis {pid}=CHOICE for it"
+            continue
+        choice = next(c for c, t in turns[pid].items() if t == k[pid])
+        out[pid] = choice
+        if pid in given:
+            notes[pid] = f"{choice} (given, or shown by its marked segments)"
+        elif pid == ref:
+            notes[pid] = f"{choice}, {notes[pid]}"
+        else:
+            notes[pid] = f"{choice}: {d.message}"
+    return out, notes
