@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from vebuild.actions.calibrate import calibrate_project
-from vebuild.actions.detect import choice_turns, detect_project, group, photo_pixels
+from vebuild.actions.detect import choice_from_segments, choice_turns, detect_project, group, photo_pixels
 from vebuild.calibration.axes_choice import MIN_SHARED_MARKERS, choose_turns, rz, two_view
 from vebuild.cli import main
 from vebuild.errors import ProjectError
@@ -111,34 +111,72 @@ def test_a_given_choice_is_kept_and_the_others_follow_it(tmp_path: Path) -> None
     assert (seg[-1] - seg[0]) @ motion > 0
 
 
-def test_choose_turns_on_exact_rays() -> None:
-    """Two synthetic cameras seeing 5 points: the true turn wins with no miss; 2 points decide nothing."""
-    rng = np.random.default_rng(2)
-    X = rng.uniform([-2, -2, 0], [2, 2, 2], (5, 3)) + [0, 6, 0]
-    C = {"a": np.array([0.0, 0.0, 1.5]), "b": np.array([3.0, 1.0, 1.6])}
-    look = {"a": 0.3, "b": -0.4}
+#: Marker noise in the synthetic views: 1 px at f = 1200 px, in normalised image coordinates.
+MARKER_NOISE = 1.0 / 1200.0
+#: ... the true turn then misses by about that angle (0.05°); allow 4× it.
+TRUE_MISS_MAX_DEG = 4 * np.degrees(MARKER_NOISE)
+
+
+def _views(seed: int, noise: float) -> tuple[dict, dict]:
+    """Three level cameras seeing six points of a room, their true rotations and marker rays."""
+    rng = np.random.default_rng(seed)
+    X = rng.uniform([-2, -2, 0], [2, 2, 2], (6, 3)) + [0, 6, 0]
+    C = {"a": np.array([0.0, 0.0, 1.5]), "b": np.array([3.0, 1.0, 1.6]), "c": np.array([-2.5, 1.5, 1.4])}
+    look = {"a": 0.3, "b": -0.4, "c": 0.6}
     R, rays = {}, {}
     for p in C:
-        ang = look[p]
-        fwd = np.array([np.sin(ang), np.cos(ang), 0.0])
-        right = np.cross(fwd, [0, 0, 1.0])
-        R[p] = np.vstack([right, -np.array([0, 0, 1.0]), fwd])  # rows: camera axes in world
+        fwd = np.array([np.sin(look[p]), np.cos(look[p]), 0.0])
+        R[p] = np.vstack([np.cross(fwd, [0, 0, 1.0]), [0, 0, -1.0], fwd])  # rows: camera axes in world
         d = (X - C[p]) @ R[p].T
-        rays[p] = {f"m{i}": d[i] / d[i, 2] for i in range(5)}
-    true_turn = 3
-    given = {"a": R["a"], "b": R["b"] @ rz(-true_turn)}  # b's k = 0 candidate is turned off
-    d = choose_turns(given, rays, {"a": 0})
-    # The true turn meets with no miss; two views over five points may leave another turn near
-    # enough (here 180° misses by 1.4°) for the margin rule to refuse: never a wrong choice.
-    assert int(np.argmin(d["b"].residual_deg)) == true_turn and min(d["b"].residual_deg) < 1e-6
-    assert d["b"].turn in (true_turn, None)
+        d = d / d[:, 2:]
+        d[:, :2] += rng.normal(0.0, noise, (len(d), 2))
+        rays[p] = {f"m{i}": d[i] for i in range(len(d))}
+    return R, rays
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_choose_turns_on_synthetic_views(seed: int) -> None:
+    """The true turn of each photo is found from the rays of 1 px markers; exact rays meet exactly."""
+    R, rays = _views(seed, MARKER_NOISE)
+    true_turn = {"b": 3, "c": 1}
+    k0 = {"a": R["a"], **{p: R[p] @ rz(-k) for p, k in true_turn.items()}}  # the k = 0 candidates
+    d = choose_turns(k0, rays, {"a": 0})
+    for p, k in true_turn.items():
+        assert d[p].turn == k, d[p]
+        assert min(d[p].residual_deg) <= TRUE_MISS_MAX_DEG
+        assert sorted(d[p].residual_deg)[1] >= 3 * min(d[p].residual_deg)
+    R, rays = _views(seed, 0.0)
     rms, _, _ = two_view(R["a"], np.array(list(rays["a"].values())), R["b"], np.array(list(rays["b"].values())))
     assert rms < 1e-6
+
+
+def test_choose_turns_refuses_what_it_cannot_decide() -> None:
+    R, rays = _views(0, MARKER_NOISE)
     few = {p: dict(list(r.items())[:2]) for p, r in rays.items()}
-    d = choose_turns(given, few, {"a": 0})
+    d = choose_turns(R, few, {"a": 0})
     assert d["b"].turn is None and "shares at most 2 markers" in d["b"].message
+    # Rays that meet under no turn (b's markers shuffled): refused, not guessed.
+    names = list(rays["b"])
+    bad = {**rays, "b": {m: rays["b"][names[(i + 2) % len(names)]] for i, m in enumerate(names)}}
+    d = choose_turns({"a": R["a"], "b": R["b"]}, {"a": rays["a"], "b": bad["b"]}, {"a": 0})
+    assert d["b"].turn is None and "no choice of x makes its markers' rays meet" in d["b"].message
     with pytest.raises(ValueError):
-        choose_turns(given, rays, {})
+        choose_turns(R, rays, {})
+
+
+def test_photos_keeping_marked_segments_hold_the_choice_they_show(tmp_path: Path) -> None:
+    """The example room as shipped (segments marked by hand): detecting p2 alone, with its own
+    segments replaced, chooses the x that agrees with the other photos' marked segments."""
+    folder = tmp_path / "room"
+    shutil.copytree(ROOM, folder)
+    project = load_project(folder / "room.vebuild.json")
+    for pid in ("p1", "p4", "p6"):
+        photo = project.photo(pid)
+        g = group(photo_pixels(project, pid), photo)
+        assert choice_from_segments(g, photo["vanishing_segments"]) == X_AXIS[pid]
+        assert choice_from_segments(g, {"z": photo["vanishing_segments"]["z"]}) is None  # no x or y: none
+    results = detect_project(project, ["p2", "p3"], replace=True)
+    assert _chosen(results) == {"p2": X_AXIS["p2"], "p3": X_AXIS["p3"]}
 
 
 def test_bad_x_axis_names_the_option(tmp_path: Path) -> None:

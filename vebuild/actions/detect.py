@@ -431,6 +431,7 @@ def auto_x_axes(project: Project, grouped: dict[str, Grouped], given: dict[str, 
         return {}, notes
     decided = choose_turns(rotations, rays, fixed)
     k = {pid: d.turn for pid, d in decided.items() if d.turn is not None}
+    g_all = 0  # the turn applied to every photo after the choice
     if ref is not None:
         sees = ", the origin marker among them)" if origin in rays[ref] else ")"
         notes[ref] = "the reference photo (it sees the most markers" + sees
@@ -438,6 +439,7 @@ def auto_x_axes(project: Project, grouped: dict[str, Grouped], given: dict[str, 
                     if origin in (r.get("a"), r.get("b"))), None)
         g = direction_turn(rotations, rays, k, origin, far) if origin and far else None
         if g is not None:
+            g_all = g
             k = {pid: (t + g) % 4 for pid, t in k.items()}
             notes[ref] += f"; turned so that the reference distance {origin}→{far} runs along +x"
     out: dict[str, str] = {}
@@ -452,5 +454,6 @@ def auto_x_axes(project: Project, grouped: dict[str, Grouped], given: dict[str, 
         elif pid == ref:
             notes[pid] = f"{choice}, {notes[pid]}"
         else:
-            notes[pid] = f"{choice}: {d.message}"
+            per = ", ".join(f"{c} {d.residual_deg[(t - g_all) % 4]:.1f}°" for c, t in turns[pid].items())
+            notes[pid] = f"{choice}: {d.message} (RMS miss per choice: {per})"
     return out, notes
