@@ -70,15 +70,16 @@ def test_auto_is_the_default_and_calibrates_every_photo(tmp_path: Path, capsys: 
         assert _rot_deg(np.array(cam["R"]), np.array(T["R"])) <= ROTATION_TOL_DEG, pid
 
 
-def test_a_photo_sharing_too_few_markers_is_told_to_be_given_its_choice(tmp_path: Path) -> None:
+@pytest.mark.parametrize("kept", [0, 2])
+def test_a_photo_sharing_too_few_markers_is_told_to_be_given_its_choice(tmp_path: Path, kept: int) -> None:
     path = _stripped(tmp_path / "room")
     project = load_project(path)
     p4 = project.photo("p4")
-    p4["marker_observations"] = {m: p4["marker_observations"][m] for m in list(p4["marker_observations"])[:2]}
+    p4["marker_observations"] = {m: p4["marker_observations"][m] for m in list(p4["marker_observations"])[:kept]}
     results = detect_project(project, x_axis="auto")
     msg = next(p.message for p, _ in results if p.photo == "p4")
     assert "not chosen, kept 'right'" in msg and "give --x-axis p4=CHOICE" in msg, msg
-    assert f"{MIN_SHARED_MARKERS} are needed" in msg
+    assert f"shares at most {kept} markers" in msg and f"{MIN_SHARED_MARKERS} are needed" in msg
     chosen = _chosen(results)
     assert chosen["p4"] == "?"  # not chosen: its segments are directed as 'right' (below)
     assert {p: c for p, c in chosen.items() if p != "p4"} == {p: c for p, c in X_AXIS.items() if p != "p4"}
