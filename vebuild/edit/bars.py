@@ -106,6 +106,12 @@ class Bars(EditorPart):
             if pid is not None:
                 self.add_photo_path = ""
                 self.guard(self.set_photo, pid)
+        imgui.same_line()
+        if self.button("Add all photos", tip="every image file in the project's folder (and the folders inside it) "
+                       "that the project lacks, one undoable edit"):
+            ids = self.guard(self.session.add_folder_photos)
+            if ids:
+                self.guard(self.set_photo, ids[0])
         imgui.end()
 
     def _draw_messages(self) -> None:

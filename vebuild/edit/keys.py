@@ -22,7 +22,9 @@ EDITOR_KEYS = KeyTable([
             "click) with Shift held goes on from there, each Shift+click adds a middle point, a click without Shift "
             "ends it at its last point (Esc cancels)"),
     Binding("M", "Marker: a click places the marker named in the toolbar's field (a new name makes a new marker; "
-            "the first is the origin until another is chosen)", (Chord(glfw.KEY_M, "set_tool", ("marker",)),)),
+            "the first is the origin until another is chosen); after each click the field shows the next free name "
+            "(M1, M2, …), and a marker's name in the Calibration tab picks it for the next click",
+            (Chord(glfw.KEY_M, "set_tool", ("marker",)),)),
     Binding("E", "Edge: press and drag along an edge of the selected primitive: an edge observation (drawn red) on "
             "the nearest projected edge", (Chord(glfw.KEY_E, "set_tool", ("edge",)),)),
     Binding("K", "Known length: press on one end of an edge along an axis whose length is known (a vertical's foot "

@@ -30,6 +30,9 @@ if TYPE_CHECKING:
 KINDS = list(primitive_kinds())
 JOINT_TYPES = ["rests_on", "flush", "fixed", "hinge", "slider", "free"]
 
+#: The most markers the Calibration tab's list shows without scrolling.
+MARKER_ROWS = 11
+
 
 class Panels:
     """The right-hand panels of an :class:`~vebuild.edit.screen.Editor` (``editor.panels``): they
@@ -109,11 +112,17 @@ class Panels:
         imgui.separator()
         origin = s.data.get("origin_marker")
         imgui.text(f"markers (origin: {origin or 'none'})")
-        imgui.begin_child("markers", (0, 130), imgui.ChildFlags_.borders)
         observed = (s.photo(self.ed.photo).get("marker_observations") or {}) if self.ed.photo else {}
+        rows = min(max(len(decode.markers(s.data, "named")), 5), MARKER_ROWS)  # then it scrolls
+        imgui.begin_child("markers", (0, rows * imgui.get_frame_height_with_spacing() + 10), imgui.ChildFlags_.borders)
         floor = decode.floor_markers(s.data)
-        for name in decode.markers(s.data, "named"):
-            imgui.text(f"{name:<6}{'  in this photo' if name in observed else ''}")
+        # Those not yet placed in this photo first: a click on the name places it with the next click.
+        for name in sorted(decode.markers(s.data, "named"), key=lambda n: n in observed):
+            if self.ed.button(f"{name}##pick", tip=f"the Marker tool, placing {name} with the next click"):
+                self.ed.pick_marker(name)
+            if name in observed:
+                imgui.same_line(60)
+                imgui.text("in this photo")
             imgui.same_line(140)
             if name == origin:
                 imgui.text("on the floor")

@@ -36,6 +36,9 @@ from .modelling import ANCHOR_HANDLE, DEFAULT_PARAMS, FOLLOW_TOL_PX, DragFeedbac
 from .photo_overlay import SessionOverlays
 from .rooms import Rooms
 
+#: The file name endings of the images "Add all photos" adds (what vebuild reads).
+PHOTO_SUFFIXES = (".jpg", ".jpeg", ".png", ".tif", ".tiff")
+
 Progress = Callable[[float, str], None]
 
 __all__ = ["ANCHOR_HANDLE", "AXES", "DEFAULT_PARAMS", "FOLLOW_TOL_PX", "UNDO_DEPTH", "DragFeedback", "EditError",
@@ -113,6 +116,47 @@ class EditSession(Assist, Rooms, SessionOverlays):
         self.say(f"added photo '{entry['id']}' ({entry['width']}×{entry['height']}, "
                  f"SHA-256 {entry['sha256'][:12]}…)")
         return entry["id"]
+
+    def folder_photos(self) -> list[Path]:
+        """The image files (:data:`PHOTO_SUFFIXES`) in the project's folder and the folders inside it
+        that no photo of the project is made from yet, sorted by their path; hidden ones left out."""
+        folder = Path(self.project.folder)
+        have = {Path(self.project.photo_path(p)).resolve() for p in self.data["photos"]}
+        out = []
+        for f in sorted(folder.rglob("*")):
+            rel = f.relative_to(folder)
+            if any(part.startswith(".") for part in rel.parts) or not f.is_file():
+                continue
+            if f.suffix.lower() in PHOTO_SUFFIXES and f.resolve() not in have:
+                out.append(f)
+        return out
+
+    def add_folder_photos(self) -> list[str]:
+        """Add every image of :meth:`folder_photos` (one undoable edit); returns their ids. A file
+        that is not an image after all is left out and named in the status line."""
+        entries, bad = [], []
+        taken = set(self.photo_ids)
+        for f in self.folder_photos():
+            try:
+                entry = new_photo_entry(self.project.folder, f, None)
+            except VebuildError as e:
+                bad.append(f"{f.relative_to(self.project.folder).as_posix()} ({e})")
+                continue
+            base, k = entry["id"], 2
+            while entry["id"] in taken:
+                entry["id"] = f"{base}-{k}"
+                k += 1
+            taken.add(entry["id"])
+            entries.append(entry)
+        if not entries:
+            self.say("no photos in the project's folder that the project lacks"
+                     + (f"; not images: {', '.join(bad)}" if bad else ""))
+            return []
+        with self._edit(f"add {len(entries)} photos"):
+            self.data["photos"].extend(entries)
+        self.say(f"added {len(entries)} photos from the project's folder: " + ", ".join(e["id"] for e in entries)
+                 + (f"; left out, not images: {', '.join(bad)}" if bad else ""))
+        return [e["id"] for e in entries]
 
     def photo_pixels(self, photo_id: str) -> NDArray[np.uint8]:
         """The photo's pixels (h, w, 3); EditError naming the file if it is missing, changed or unreadable."""

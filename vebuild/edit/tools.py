@@ -67,6 +67,12 @@ class ScreenTools(EditorPart):
     def save(self) -> None:
         self.session.save()
 
+    def pick_marker(self, name: str) -> None:
+        """The Marker tool, placing marker ``name`` (one already in the project) with the next click."""
+        self.marker_name, self._marker_name_default = name, False
+        self.set_tool("marker")
+        self.say(f"marker {name}: click where it is in {self.photo or 'the photo'}")
+
     def set_tool(self, tool: str) -> None:
         if tool not in TOOLS:
             raise VebuildError(f"no tool '{tool}'; the tools are {', '.join(TOOLS)}")
@@ -260,9 +266,9 @@ class ScreenTools(EditorPart):
                 uv, snapped = s.snap(photo, uv, exact=self.alt_held())
                 s.place_marker(photo, name, uv)
                 self.say(f"marker {name} at ({uv[0]:.2f}, {uv[1]:.2f}) in {photo}" + snap_note(snapped))
-                if self._marker_name_default or name == "":
-                    self.marker_name = s.next_marker_name()
-                    self._marker_name_default = True
+                # The next click makes a new marker (a marker's name in the Calibration tab picks it again).
+                self.marker_name = s.next_marker_name()
+                self._marker_name_default = True
             elif kind == "delete":
                 self.delete_at(x, y)
             elif kind == "relate":
