@@ -599,8 +599,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("photos", nargs="*", metavar="PHOTO", help="photo ids (default: every photo)")
     p.add_argument("--replace", action="store_true", help="remove the photos' existing vanishing segments first")
     p.add_argument("--x-axis", action="append", metavar="[PHOTO=]CHOICE",
-                   help="which horizontal direction is world x (right, left, away or toward): the more horizontal "
-                   "one in the image, pointing right (default) or left, or the one nearer the optical axis, "
+                   help="which horizontal direction is world x (auto, right, left, away or toward): auto (default) "
+                   "chooses it from the markers the photos share, so the world axes agree across photos; or the "
+                   "more horizontal one in the image, pointing right or left, or the one nearer the optical axis, "
                    "pointing away from or toward the camera; PHOTO=CHOICE for one photo (repeatable)")
     p.set_defaults(func=_cmd_detect)
 
