@@ -166,7 +166,8 @@ class PhotoView(EditorPart):
             dl.pop_clip_rect()
             return
         if self.photo is None:
-            dl.add_text((x0 + 20, y0 + 20), u32((1, 1, 1, 1)), "no photos yet: type a file name below and Add photo")
+            dl.add_text((x0 + 20, y0 + 20), u32((1, 1, 1, 1)),
+                        "no photos yet: Add all photos below (or type a file name and Add photo)")
             dl.pop_clip_rect()
             return
         w, h = self.photo_size()
