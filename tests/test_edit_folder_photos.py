@@ -43,3 +43,15 @@ def test_photos_already_added_hidden_files_and_non_images_are_left_out(tmp_path)
     assert s.photo("p1")["file"] == "more/p1.png" and s.photo("p1-2")["file"] == "photos/p1.jpg"
     assert "broken.jpg" in s.messages[-1] and "p3" not in added
     assert sorted(s.photo_ids) == sorted(["p3", *added])
+
+
+def test_camera_raw_files_are_offered_too(tmp_path):
+    """Forensic photographers shoot RAW: a .NEF or .dng in the folder is one of its photos (one
+    that is not a RAW file after all is named and left out, as any other)."""
+    plan = make_plan(tmp_path / "room")
+    s = EditSession.open(plan.project)
+    (plan.folder / "raw").mkdir()
+    (plan.folder / "raw" / "scene.NEF").write_bytes(b"not a raw file")
+    assert plan.folder / "raw" / "scene.NEF" in s.folder_photos()
+    added = s.add_folder_photos()
+    assert added == list(PHOTOS) and "raw/scene.NEF" in s.messages[-1]

@@ -27,6 +27,7 @@ from vebuild.camera import ImageCamera
 from vebuild.errors import VebuildError
 from vebuild.model.undo import UndoStack
 from vebuild.project import Project, load_project, new_photo_entry
+from vebuild.project.images import RAW_SUFFIXES
 from vebuild.project.provenance import Stale, stale
 
 from .assist import Assist, Proposal
@@ -36,8 +37,8 @@ from .modelling import ANCHOR_HANDLE, DEFAULT_PARAMS, FOLLOW_TOL_PX, DragFeedbac
 from .photo_overlay import SessionOverlays
 from .rooms import Rooms
 
-#: The file name endings of the images "Add all photos" adds (what vebuild reads).
-PHOTO_SUFFIXES = (".jpg", ".jpeg", ".png", ".tif", ".tiff")
+#: The file name endings of the images "Add all photos" adds (what vebuild reads: camera RAW too).
+PHOTO_SUFFIXES = frozenset({".jpg", ".jpeg", ".png", ".tif", ".tiff"}) | RAW_SUFFIXES
 
 Progress = Callable[[float, str], None]
 
