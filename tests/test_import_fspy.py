@@ -12,11 +12,8 @@ import numpy as np
 import pytest
 from fspy_writer import KnownCamera, StateBuilder, axis_vec, fspy_bytes, make_image
 
-from vebuild.actions.fspy import (
-    fspy_camera_in_vebuild,
-    import_fspy,
-    rotation_difference_deg,
-)
+from vebuild.actions.fspy import import_fspy
+from vebuild.actions.fspy_compare import fspy_camera_in_vebuild, rotation_difference_deg
 from vebuild.calibration.priors import PRINCIPAL_POINT_SIGMA_REL
 from vebuild.camera import log_so3
 from vebuild.cli import main

@@ -327,7 +327,8 @@ def _cmd_detect(args: argparse.Namespace) -> int:
 
 
 def _cmd_import_fspy(args: argparse.Namespace) -> int:
-    from .actions.fspy import comparison_table, import_fspy
+    from .actions.fspy import import_fspy
+    from .actions.fspy_compare import comparison_table
 
     r = import_fspy(args.file, args.out, click_sigma_px=args.click_sigma, name=args.name)
     print(f"imported {args.file} ({'one' if r.mode == 'OneVanishingPoint' else 'two'}-vanishing-point fSpy project) "

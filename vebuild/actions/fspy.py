@@ -48,9 +48,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .. import __version__
-from ..camera import ypr_from_rotation
+from ..calibration.intrinsics import orthocentre
 from ..errors import CalibrationError, ProjectError, VebuildError
-from ..project import Project, new_photo_entry, new_project, save_project
+from ..project import Project, new_photo_entry, new_project, save_project, sha256_file
 from ..project.atomic import MANIFEST, clean_stale, fsync_folder, remove_tree, temp_path, write_bytes, write_text
 from ..project.fspy import (
     AXES,
@@ -63,6 +63,7 @@ from ..project.fspy import (
     read_fspy,
     relative_to_pixels,
 )
+from .fspy_compare import ComparisonRow, comparison_rows
 
 Array = NDArray[np.float64]
 
@@ -74,8 +75,6 @@ REFERENCE_SIGMA_M = 0.002
 #: A vanishing point's homogeneous w below this share of its norm (in pixels) is at infinity:
 #: fSpy cannot solve such a pair of lines either.
 PARALLEL_W = 1e-9
-#: fSpy's camera (OpenGL: y up, looking along −z) → vebuild's (y down, looking along +z).
-GL_TO_CV = np.diag([1.0, -1.0, -1.0])
 
 
 @dataclass
@@ -89,23 +88,6 @@ class ImportedMarks:
     notes: list[str]
     derived_axis: str | None = None
     vanishing_points: dict[str, Array] = field(default_factory=dict)
-
-
-@dataclass
-class ComparisonRow:
-    quantity: str
-    fspy: float | None
-    vebuild: float | None
-    sigma: float | None
-
-    @property
-    def difference(self) -> float | None:
-        if self.fspy is None or self.vebuild is None:
-            return None
-        d = self.vebuild - self.fspy
-        if "(°)" in self.quantity and self.quantity.startswith(("yaw", "roll")):
-            d = (d + 180.0) % 360.0 - 180.0
-        return d
 
 
 @dataclass
@@ -156,14 +138,6 @@ def _segment_set(fp: FspyProject, segs: tuple[Segment, Segment], where: str) -> 
             raise ProjectError(fp.path, f"{where}.lineSegments[{i}]", f"the segment's two ends are "
                                f"{np.linalg.norm(b - a):.2f} px apart; expected at least 2 px")
     return px, _vanishing_point(px, f"{where}.lineSegments", fp)
-
-
-def orthocentre(a: Array, b: Array, c: Array) -> Array:
-    """The orthocentre of the triangle a, b, c (pixels): where the principal point lies for three
-    orthogonal vanishing points."""
-    # Altitudes: (x - a)·(b - c) = 0 and (x - b)·(a - c) = 0.
-    M = np.array([b - c, a - c])
-    return np.asarray(np.linalg.solve(M, np.array([a @ (b - c), b @ (a - c)])), float)
 
 
 def focal_px_1vp(fp: FspyProject) -> float:
@@ -444,7 +418,7 @@ def _build(fp: FspyProject, src: Path, folder: Path, out: Path, stem: str, marks
                         "on_floor": True}]
     data["origin_marker"] = ORIGIN_MARKER
     data["photos"] = [entry]
-    entry["imported_from"] = {"software": "fSpy", "file": src.name, "sha256": _sha256_file(src), "notes": notes}
+    entry["imported_from"] = {"software": "fSpy", "file": src.name, "sha256": sha256_file(src), "notes": notes}
     project_path = folder / f"{stem}.vebuild.json"
     project = Project(project_path, data)
     guide = (fp.state.get("globalSettings") or {}).get("overlay3DGuide")
@@ -503,100 +477,4 @@ def _px(p: Any) -> str:
     return f"({p[0]:.1f}, {p[1]:.1f}) px"
 
 
-def _sha256_file(path: Path) -> str:
-    from ..project import sha256_file
-
-    return sha256_file(path)
-
-
-# --------------------------------------------------------------------------------------------------
-# fSpy's camera beside vebuild's
-
-
-@dataclass(frozen=True)
-class FspyCameraInPixels:
-    """fSpy's stored camera in vebuild's conventions (pixels, R world → camera, C in metres or in
-    fSpy's units)."""
-
-    f: float
-    c: Array
-    R: Array
-    C: Array
-    metric: bool
-
-
-def fspy_camera_in_vebuild(fp: FspyProject) -> FspyCameraInPixels | None:
-    cam = fp.camera
-    if cam is None:
-        return None
-    W, H = fp.width, fp.height
-    f = cam.relative_focal_length * max(W, H) / 2.0
-    c = image_plane_to_pixels(cam.principal_point, W, H)
-    V = cam.view_transform
-    R = GL_TO_CV @ V[:3, :3]
-    C = -V[:3, :3].T @ V[:3, 3]
-    unit = UNITS_M[fp.reference_unit] if fp.reference_axis is not None else None
-    return FspyCameraInPixels(f, c, R, C * (unit or 1.0), unit is not None)
-
-
-def rotation_difference_deg(R1: Array, R2: Array) -> float:
-    cos = (np.trace(R1 @ R2.T) - 1.0) / 2.0
-    return float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))))
-
-
-def comparison_rows(fp: FspyProject, data: dict[str, Any], pid: str, scaled: bool) -> list[ComparisonRow]:
-    cal = data.get("calibration") or {}
-    cam = (cal.get("cameras") or {}).get(pid) or (cal.get("unplaced") or {}).get(pid)
-    if cam is None:
-        return []
-    W = fp.width
-    fs = fspy_camera_in_vebuild(fp)
-    f = cam["focal_px"]
-    fv, fsig = float(f["value"]) if isinstance(f, dict) else float(f), (f.get("sigma") if isinstance(f, dict) else None)
-    pp = cam["principal_point"]
-    pv = pp["value"] if isinstance(pp, dict) else pp
-    psig = pp.get("sigma") if isinstance(pp, dict) else None
-    R = np.array(cam["R"], float)
-    ypr_v = np.degrees(ypr_from_rotation(R))
-    ysig = cam["ypr_deg"]["sigma"] if isinstance(cam.get("ypr_deg"), dict) else [None] * 3
-
-    def fov(fx: float) -> float:
-        return math.degrees(2 * math.atan(W / (2 * fx)))
-
-    fov_sig = None if fsig is None else abs(fov(fv) - fov(fv + fsig))
-    rows = [ComparisonRow("focal length (px)", fs.f if fs else None, fv, fsig),
-            ComparisonRow("horizontal FOV (°)", fov(fs.f) if fs else None, fov(fv), fov_sig),
-            ComparisonRow("principal point u (px)", float(fs.c[0]) if fs else None, float(pv[0]),
-                          psig[0] if psig else None),
-            ComparisonRow("principal point v (px)", float(fs.c[1]) if fs else None, float(pv[1]),
-                          psig[1] if psig else None)]
-    ypr_f = [float(a) for a in np.degrees(ypr_from_rotation(fs.R))] if fs else [None, None, None]
-    for k, label in enumerate(("yaw", "pitch", "roll")):
-        rows.append(ComparisonRow(f"{label} (°)", ypr_f[k], float(ypr_v[k]), ysig[k]))
-    if fs is not None:  # the angle of the rotation that takes one camera's orientation to the other's
-        rows.append(ComparisonRow("rotation between the two (°)", 0.0, rotation_difference_deg(R, fs.R), None))
-    pos = cam.get("position")
-    if isinstance(pos, dict) and scaled:
-        for k, axis in enumerate("xyz"):
-            rows.append(ComparisonRow(f"position {axis} (m)", float(fs.C[k]) if fs and fs.metric else None,
-                                      float(pos["value"][k]), pos["sigma"][k]))
-    return rows
-
-
-def comparison_table(result: ImportResult) -> str:
-    """The comparison as a small text table: fSpy, vebuild (± 1σ), vebuild − fSpy."""
-    def num(v: float | None, w: int = 11) -> str:
-        return f"{'—':>{w}}" if v is None else f"{v:>{w}.3f}"
-
-    lines = []
-    if not result.fspy_camera:
-        lines.append("the fSpy file holds no saved camera (cameraParameters is null): vebuild's calibration only")
-    lines.append(f"{'':<30}{'fSpy':>11}{'vebuild':>11}{'± 1σ':>10}{'difference':>12}")
-    for r in result.rows:
-        sig = "" if r.sigma is None else f"{r.sigma:.3f}"
-        lines.append(f"{r.quantity:<30}{num(r.fspy)}{num(r.vebuild)}{sig:>10}{num(r.difference, 12)}")
-    return "\n".join(lines)
-
-
-__all__ = ["ImportResult", "ImportedMarks", "camera_height_from_reference", "comparison_table",
-           "fspy_camera_in_vebuild", "import_fspy", "marks_from_fspy", "orthocentre"]
+__all__ = ["ImportResult", "ImportedMarks", "camera_height_from_reference", "import_fspy", "marks_from_fspy"]
