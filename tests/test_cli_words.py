@@ -13,7 +13,7 @@ from vebuild.cli import _in_words, main
 from vebuild.console.arguments import suggestion
 from vebuild.errors import ProjectError, VebuildError
 from vebuild.project import new_photo_entry, new_project, save_project
-from vebuild.project.validation import field_words, parse_json_path
+from vebuild.project.json_paths import field_words, parse_json_path
 
 
 def error_of(capsys: pytest.CaptureFixture[str], *argv: str) -> str:

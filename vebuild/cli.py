@@ -630,7 +630,7 @@ def _in_words(e: VebuildError) -> str:
     if not isinstance(e, ProjectError) or e.words or not e.where.startswith("$."):
         return str(e)
     try:
-        from .project.validation import field_words
+        from .project.json_paths import field_words
 
         path = Path(e.file)
         if not path.name.endswith(".json") or path.stat().st_size > 256 * 2**20:
