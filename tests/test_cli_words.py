@@ -9,8 +9,9 @@ from pathlib import Path
 import pytest
 from PIL import Image
 
-from vebuild.cli import _in_words, main
+from vebuild.cli import main
 from vebuild.console.arguments import suggestion
+from vebuild.console.messages import error_in_words as _in_words
 from vebuild.errors import ProjectError, VebuildError
 from vebuild.project import new_photo_entry, new_project, save_project
 from vebuild.project.json_paths import field_words, parse_json_path

@@ -312,37 +312,6 @@ def _cmd_new(args: argparse.Namespace) -> int:
     return 0
 
 
-def _cmd_detect(args: argparse.Namespace) -> int:
-    from .actions.detect import detect_project
-    from .project import load_project, save_project
-
-    project = load_project(args.project)
-    results = detect_project(project, args.photos, replace=args.replace, x_axis=args.x_axis)
-    for props, written in results:
-        print(f"{props.photo}: {props.message}" + (f"; {written} segments written" if written else ""))
-    if any(written for _, written in results):
-        save_project(project)
-        print(f"\nsegments written to {project.path}; `vebuild calibrate {args.project}` calibrates from them")
-    return 0
-
-
-def _cmd_import_fspy(args: argparse.Namespace) -> int:
-    from .actions.fspy import import_fspy
-    from .actions.fspy_compare import comparison_table
-
-    r = import_fspy(args.file, args.out, click_sigma_px=args.click_sigma, name=args.name)
-    print(f"imported {args.file} ({'one' if r.mode == 'OneVanishingPoint' else 'two'}-vanishing-point fSpy project) "
-          f"into {r.project} with the photo {r.photo.name}")
-    for note in r.notes:
-        print(f"  {note}")
-    for w in r.warnings:
-        print(f"warning: {w}")
-    if r.calibrated:
-        print()
-        print(comparison_table(r))
-    return 0
-
-
 def _cmd_demo(args: argparse.Namespace) -> int:
     from .actions.demo import run_demo
 
@@ -585,27 +554,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--force", action="store_true", help="replace an existing vebuild project file (never another file)")
     p.set_defaults(func=_cmd_new)
 
-    p = sub.add_parser("import", help="import an fSpy project (.fspy) as a new project folder, calibrate it and "
-                       "compare fSpy's camera with vebuild's")
-    p.add_argument("file", help="the fSpy project file (FILE.fspy)")
-    p.add_argument("--out", required=True, help="a new (or empty) folder for the project and its photo")
-    p.add_argument("--name", help="title of the project (default: from the file name)")
-    p.add_argument("--click-sigma", type=float, default=1.0, metavar="PX",
-                   help="1σ of one of fSpy's control points, pixels (default: %(default)s)")
-    p.set_defaults(func=_cmd_import_fspy)
-
-    p = sub.add_parser("detect", help="detect straight edges, group them by vanishing point and add them to the "
-                       "photos as vanishing segments (then calibrate)")
-    p.add_argument("project")
-    p.add_argument("photos", nargs="*", metavar="PHOTO", help="photo ids (default: every photo)")
-    p.add_argument("--replace", action="store_true", help="remove the photos' existing vanishing segments first")
-    p.add_argument("--x-axis", action="append", metavar="[PHOTO=]CHOICE",
-                   help="which horizontal direction is world x (auto, right, left, away or toward): auto (default) "
-                   "chooses it from the markers the photos share, so the world axes agree across photos; or the "
-                   "more horizontal one in the image, pointing right or left, or the one nearer the optical axis, "
-                   "pointing away from or toward the camera; PHOTO=CHOICE for one photo (repeatable)")
-    p.set_defaults(func=_cmd_detect)
-
     p = sub.add_parser("bench", help="measure accuracy and speed (prints a table; --json writes the figures)")
     p.add_argument("name", choices=sorted(BENCHES))
     p.add_argument("--quick", action="store_true", help="a smaller run, for a quick look")
@@ -616,28 +564,14 @@ def build_parser() -> argparse.ArgumentParser:
     from .analysis.cli import add_analyse_parsers
 
     add_analyse_parsers(sub)
+    from .actions.detect import add_detect_parser
+    from .actions.fspy_compare import add_import_parser
     from .actions.scan import add_scan_parsers
 
-    add_scan_parsers(sub)
+    for add_parsers in (add_import_parser, add_detect_parser, add_scan_parsers):
+        add_parsers(sub)
     _add_case_parser(sub)
     return parser
-
-
-def _in_words(e: VebuildError) -> str:
-    """The error's message, naming the place in the project file in words where it gives a JSON path."""
-    from .errors import ProjectError
-
-    if not isinstance(e, ProjectError) or e.words or not e.where.startswith("$."):
-        return str(e)
-    try:
-        from .project.json_paths import field_words
-
-        path = Path(e.file)
-        if not path.name.endswith(".json") or path.stat().st_size > 256 * 2**20:
-            return str(e)
-        return str(e.named(field_words(e.where, json.loads(path.read_text("utf-8")))))
-    except (OSError, ValueError, RecursionError):  # unreadable, not JSON, nested too deep: as it was
-        return str(e)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -653,7 +587,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         with fixed_threads(), command_context(args.command, arguments):
             return int(args.func(args))
     except VebuildError as e:
-        print(f"vebuild {args.command}: error: {_in_words(e)}", file=sys.stderr)
+        from .console.messages import error_in_words
+
+        print(f"vebuild {args.command}: error: {error_in_words(e)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)

@@ -10,6 +10,7 @@ ordinary ``vanishing_segments``, each with its own measured 1σ in the parallel
 
 from __future__ import annotations
 
+import argparse
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -457,3 +458,31 @@ def auto_x_axes(project: Project, grouped: dict[str, Grouped], given: dict[str, 
             per = ", ".join(f"{c} {d.residual_deg[(t - g_all) % 4]:.1f}°" for c, t in turns[pid].items())
             notes[pid] = f"{choice}: {d.message} (RMS miss per choice: {per})"
     return out, notes
+
+
+def _cmd_detect(args: argparse.Namespace) -> int:
+    from ..project import load_project, save_project
+
+    project = load_project(args.project)
+    results = detect_project(project, args.photos, replace=args.replace, x_axis=args.x_axis)
+    for props, written in results:
+        print(f"{props.photo}: {props.message}" + (f"; {written} segments written" if written else ""))
+    if any(written for _, written in results):
+        save_project(project)
+        print(f"\nsegments written to {project.path}; `vebuild calibrate {args.project}` calibrates from them")
+    return 0
+
+
+def add_detect_parser(sub: Any) -> None:
+    """Add ``vebuild detect`` to the top-level subparsers ``sub``."""
+    p = sub.add_parser("detect", help="detect straight edges, group them by vanishing point and add them to the "
+                       "photos as vanishing segments (then calibrate)")
+    p.add_argument("project")
+    p.add_argument("photos", nargs="*", metavar="PHOTO", help="photo ids (default: every photo)")
+    p.add_argument("--replace", action="store_true", help="remove the photos' existing vanishing segments first")
+    p.add_argument("--x-axis", action="append", metavar="[PHOTO=]CHOICE",
+                   help="which horizontal direction is world x (auto, right, left, away or toward): auto (default) "
+                   "chooses it from the markers the photos share, so the world axes agree across photos; or the "
+                   "more horizontal one in the image, pointing right or left, or the one nearer the optical axis, "
+                   "pointing away from or toward the camera; PHOTO=CHOICE for one photo (repeatable)")
+    p.set_defaults(func=_cmd_detect)
