@@ -148,9 +148,8 @@ def test_a_pin_proposal_accepted_and_undone(tmp_path):
     folder = tmp_path / "room"
     shutil.copytree(ROOM, folder)
     s = EditSession.open(folder / "room.vebuild.json", autosave=False)
-    nodes = [n["name"] for n in (s.data.get("model") or {}).get("nodes", [])]
-    if not nodes:
-        pytest.skip("the example has no model")
+    nodes = [n["name"] for n in s.data["model"]["nodes"]]
+    assert nodes, "the example room has a model"
     before = json.dumps(s.data, sort_keys=True)
     s.proposals["p3"] = [Proposal("pin", "p3", uv=(100.0, 200.0), node=nodes[0], handle="v0")]
     s.accept_proposal("p3", 0)
