@@ -85,7 +85,7 @@ def analyses_for_page(project: Project) -> tuple[list[dict[str, Any]], list[tupl
 
 def _analyses(project: Project, records: list[dict[str, Any]],
               tmp: Path) -> tuple[list[dict[str, Any]], list[tuple[str, bytes]]]:
-    from vebuild.analysis.recorded import parse_recorded
+    from vebuild.analysis.recorded import run_recorded
     from vebuild.analysis.requests_geometry import TrajectoryRequest
     from vebuild.project.units import length_unit
 
@@ -97,10 +97,8 @@ def _analyses(project: Project, records: list[dict[str, Any]],
         where = f"$.analyses[{i}]"
         words = list(rec["command"])
         image = f"analyses/analysis-{i + 1}.png"
+        request, result = run_recorded(project, i, str(tmp / f"analysis-{i + 1}.png"))
         try:
-            request = parse_recorded(words)
-            request = request.with_image(str(tmp / f"analysis-{i + 1}.png")) or request
-            result = request.run(project)
             if isinstance(request, TrajectoryRequest):
                 if occ is None:
                     from vebuild.analysis.rays import Occluders

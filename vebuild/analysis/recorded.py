@@ -14,7 +14,7 @@ from typing import Any, NoReturn
 
 from vebuild.errors import VebuildError
 
-from .requests import Request
+from .requests import AnalysisResult, Request
 from .requests_geometry import TrajectoryRequest
 
 #: Words that ask for help rather than an analysis.
@@ -79,3 +79,19 @@ def parse_recorded_trajectory(words: Any, where: str | None = None) -> Trajector
     if not isinstance(request, TrajectoryRequest):
         raise VebuildError(f"{where + ': ' if where else ''}expected a trajectory, got a {request.name} analysis")
     return request
+
+
+def run_recorded(project: Any, index: int, image: str | None = None) -> tuple[Request, AnalysisResult]:
+    """Run ``$.analyses[index]`` of the project again (the report and the web viewer show what the
+    project gives now), its image, if it makes one, written to ``image``: the request and its
+    result. A record that no longer runs is a ProjectError naming ``$.analyses[index].command``."""
+    from vebuild.errors import ProjectError
+
+    try:
+        request = parse_recorded(list(project.data["analyses"][index]["command"]))
+        if image is not None:
+            request = request.with_image(image) or request
+        return request, request.run(project)
+    except VebuildError as e:
+        raise ProjectError(project.path, f"$.analyses[{index}].command", str(e)) from None
+

@@ -13,7 +13,6 @@ import json
 import shlex
 from typing import TYPE_CHECKING, Any
 
-from vebuild.errors import ProjectError, VebuildError
 from vebuild.project.atomic import write_text
 
 from .page import Report, esc
@@ -23,7 +22,7 @@ if TYPE_CHECKING:
 
 
 def analyses_html(project: Project, rep: Report, records: list[dict[str, Any]]) -> str:
-    from vebuild.analysis.recorded import parse_recorded
+    from vebuild.analysis.recorded import run_recorded
     from vebuild.project.units import RELATIVE_UNITS, length_unit
 
     lengths = f"in {RELATIVE_UNITS} (no scale was given)" if length_unit(project.data).relative else "in metres"
@@ -31,15 +30,9 @@ def analyses_html(project: Project, rep: Report, records: list[dict[str, Any]]) 
              f"(`--json OUT` writes its figures). Lengths {lengths}; intervals at 95 %.</p>"]
     (rep.folder / "figures").mkdir(exist_ok=True)
     for i, rec in enumerate(records):
-        where = f"$.analyses[{i}]"
         words = list(rec["command"])
         image = f"images/analysis-{i + 1}.png"
-        try:
-            request = parse_recorded(words)
-            request = request.with_image(str(rep.folder / image)) or request
-            result = request.run(project)
-        except VebuildError as e:
-            raise ProjectError(project.path, f"{where}.command", str(e)) from None
+        request, result = run_recorded(project, i, str(rep.folder / image))
         figures = {k: v for k, v in result.figures.items() if not str(k).endswith("_png")}  # paths of this run
         fig_name = f"figures/analysis-{i + 1}.json"
         write_text(rep.folder / fig_name, json.dumps({"analysis": request.name, "command": words, **figures},
