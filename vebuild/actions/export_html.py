@@ -97,7 +97,7 @@ def _analyses(project: Project, records: list[dict[str, Any]],
         where = f"$.analyses[{i}]"
         words = list(rec["command"])
         image = f"analyses/analysis-{i + 1}.png"
-        request, result = run_recorded(project, i, str(tmp / f"analysis-{i + 1}.png"))
+        request, result = run_recorded(project, i, rec, str(tmp / f"analysis-{i + 1}.png"))
         try:
             if isinstance(request, TrajectoryRequest):
                 if occ is None:

@@ -81,14 +81,16 @@ def parse_recorded_trajectory(words: Any, where: str | None = None) -> Trajector
     return request
 
 
-def run_recorded(project: Any, index: int, image: str | None = None) -> tuple[Request, AnalysisResult]:
-    """Run ``$.analyses[index]`` of the project again (the report and the web viewer show what the
-    project gives now), its image, if it makes one, written to ``image``: the request and its
-    result. A record that no longer runs is a ProjectError naming ``$.analyses[index].command``."""
+def run_recorded(project: Any, index: int, record: dict[str, Any],
+                 image: str | None = None) -> tuple[Request, AnalysisResult]:
+    """Run the recorded analysis ``record`` (``$.analyses[index]``) on the project again (the report
+    and the web viewer show what the project gives now), its image, if it makes one, written to
+    ``image``: the request and its result. A record that no longer runs is a ProjectError naming
+    ``$.analyses[index].command``."""
     from vebuild.errors import ProjectError
 
     try:
-        request = parse_recorded(list(project.data["analyses"][index]["command"]))
+        request = parse_recorded(list(record["command"]))
         if image is not None:
             request = request.with_image(image) or request
         return request, request.run(project)

@@ -32,7 +32,7 @@ def analyses_html(project: Project, rep: Report, records: list[dict[str, Any]]) 
     for i, rec in enumerate(records):
         words = list(rec["command"])
         image = f"images/analysis-{i + 1}.png"
-        request, result = run_recorded(project, i, str(rep.folder / image))
+        request, result = run_recorded(project, i, rec, str(rep.folder / image))
         figures = {k: v for k, v in result.figures.items() if not str(k).endswith("_png")}  # paths of this run
         fig_name = f"figures/analysis-{i + 1}.json"
         write_text(rep.folder / fig_name, json.dumps({"analysis": request.name, "command": words, **figures},
