@@ -4,6 +4,8 @@ HYPOTHESIS banner, and the evidence markers and recorded trajectories drawn over
 
 from __future__ import annotations
 
+import math
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import glfw
@@ -13,6 +15,7 @@ from vebuild.camera import project, world_to_camera
 from vebuild.project import Project
 from vebuild.project.hypotheses import LABEL
 from vebuild.project.provenance import stale, stale_line
+from vebuild.viewer.layout import PanelLayout, panel_layout, screen_px_per_mm, text_size
 
 if TYPE_CHECKING:
     from vebuild.viewer.app import Viewer
@@ -34,66 +37,191 @@ class ViewerPanel:
         self._new_view_name = ""
         self._new_hypothesis_name = ""
         self.stale = stale_lines(viewer.project)  # the walk-through never changes a result
+        self.show_keys = False
+        self.layout: PanelLayout | None = None
+        #: The panel's and the key sheet's rectangles in the last frame (window coordinates).
+        self.rects: dict[str, tuple[float, float, float, float]] = {}
+        self._style_scale = 0.0
+        self.keys_text_px = 0.0
+
+    def make_gui(self) -> Any:
+        """The window's Dear ImGui layer, with a TrueType font (ImGui's own lacks −, °, σ, Δ)."""
+        import imgui_bundle
+
+        from vebuild.gl.imgui import Gui
+
+        font_file = Path(imgui_bundle.__file__).parent / "assets" / "fonts" / "DroidSans.ttf"
+        return Gui(self.v.ctx, self.v.window.handle, font=str(font_file) if font_file.is_file() else None)
+
+    def _layout(self, imgui: Any) -> PanelLayout:
+        """The text size and the panel's place for this frame (the window's size and screen)."""
+        h = self.v.window.handle
+        W, H = glfw.get_window_size(h)
+        fw, _ = glfw.get_framebuffer_size(h)
+        fb = fw / max(W, 1)
+        d = screen_px_per_mm(h)
+        f = text_size(H, d, fb)
+        imgui.push_font(None, f)
+        title_px = imgui.calc_text_size(self.title()).x
+        imgui.pop_font()
+        return panel_layout(W, H, d, fb, title_px)
+
+    def title(self) -> str:
+        return f"vebuild: {self.v.project.data.get('name', self.v.project.path.name)}"
+
+    def _scale_style(self, imgui: Any, scale: float) -> None:
+        """Paddings, spacings and scroll bars grown with the text (from ImGui's dark style)."""
+        if abs(scale - self._style_scale) < 1e-3:
+            return
+        style = imgui.Style()
+        imgui.style_colors_dark(style)
+        style.scale_all_sizes(scale)
+        imgui.get_current_context().style = style
+        self._style_scale = scale
 
     def draw(self) -> None:
         from imgui_bundle import imgui
 
-        gui, keys = self.v.gui, self.v.keys
+        gui = self.v.gui
         gui.new_frame()
+        lay = self.layout = self._layout(imgui)
+        self._scale_style(imgui, lay.scale)
+        imgui.push_font(None, lay.text_px)
+        self.rects = {}
         self._draw_markers(imgui)
         self._draw_trajectories(imgui)
+        self.v.draw_measures(imgui)  # what was measured by clicking (vebuild.viewer.measure)
+        fb = self.v.window.framebuffer_size()[0] / max(glfw.get_window_size(self.v.window.handle)[0], 1)
+        if self.v.presentation.on:
+            self.v.presentation.draw_legend(imgui, lay.text_px, fb)
+        else:
+            self.v.presentation.drawn = []
+            self._draw_banner(imgui, lay)
+        if self.v.show_panel:
+            self._draw_panel(imgui, lay)
+            if self.show_keys:
+                self._draw_keys(imgui, lay)
+        imgui.pop_font()
+        gui.render()
+
+    def _draw_banner(self, imgui: Any, lay: PanelLayout) -> None:
         banner = self.v.banner()
         if banner:
-            imgui.set_next_window_pos(imgui.ImVec2(10, 10))
+            m = 0.5 * lay.text_px
+            W = glfw.get_window_size(self.v.window.handle)[0]
+            room = (lay.x if self.v.show_panel else W) - 2 * m  # left of the panel, wrapped if need be
+            imgui.set_next_window_pos(imgui.ImVec2(m, m))
+            imgui.set_next_window_size_constraints(imgui.ImVec2(0, 0), imgui.ImVec2(max(room, 4 * m), 1e6))
             imgui.begin("##hypothesis", None, imgui.WindowFlags_.no_decoration | imgui.WindowFlags_.always_auto_resize
                         | imgui.WindowFlags_.no_inputs)
+            imgui.push_text_wrap_pos(max(room, 4 * m) - m)
             imgui.text_colored(imgui.ImVec4(1.0, 0.25, 0.2, 1.0), banner)
+            imgui.pop_text_wrap_pos()
             imgui.end()
-        if self.v.show_panel:
-            W, _ = glfw.get_window_size(self.v.window.handle)
-            imgui.set_next_window_pos(imgui.ImVec2(W - 370, 10), imgui.Cond_.first_use_ever)
-            imgui.set_next_window_size(imgui.ImVec2(360, 0), imgui.Cond_.first_use_ever)
-            imgui.begin(f"vebuild: {self.v.project.data.get('name', self.v.project.path.name)}")
-            p = self.v.walker.position
-            imgui.text(f"{self.v.fps:5.1f} fps   {'flying' if self.v.walker.fly else 'walking'}   "
-                       f"({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f}) m")
-            imgui.text(f"lighting: {self.v.lighting}   ({keys.key_for('next_lighting')})")
-            imgui.text(f"stereo: {self.v.stereo or 'off'}   ({keys.key_for('next_stereo')})")
-            self._draw_unobserved(imgui)
-            if self.v.photo is not None:
-                opacity = f"{keys.key_for('change_opacity', -0.1)} {keys.key_for('change_opacity', 0.1)}"
-                imgui.text(f"photo {self.v.photo}, overlay {100 * self.v.photo_opacity:.0f} %  ({opacity})")
-            imgui.push_style_color(imgui.Col_.text, imgui.ImVec4(1.0, 0.45, 0.1, 1.0))
-            for line in self.stale:
-                imgui.text_wrapped(line)
+
+    def _window_rect(self, imgui: Any, name: str) -> None:
+        p, s = imgui.get_window_pos(), imgui.get_window_size()
+        self.rects[name] = (p.x, p.y, p.x + s.x, p.y + s.y)
+
+    def _draw_panel(self, imgui: Any, lay: PanelLayout) -> None:
+        keys = self.v.keys
+        banner = self.v.banner()
+        imgui.set_next_window_pos(imgui.ImVec2(lay.x, lay.y))
+        imgui.set_next_window_size_constraints(imgui.ImVec2(lay.width, 0.0), imgui.ImVec2(lay.width, lay.max_height))
+        imgui.begin(self.title(), None, imgui.WindowFlags_.always_auto_resize | imgui.WindowFlags_.no_move
+                    | imgui.WindowFlags_.no_collapse)
+        self._window_rect(imgui, "panel")
+        p = self.v.walker.position
+        imgui.text_wrapped(f"{'flying' if self.v.walker.fly else 'walking'}: x {p[0]:.2f}, y {p[1]:.2f}, "
+                           f"z {p[2]:.2f} m   {self.v.fps:.0f} fps")
+        imgui.text(f"lighting: {self.v.lighting}   ({keys.key_for('next_lighting')})")
+        imgui.text(f"stereo: {self.v.stereo or 'off'}   ({keys.key_for('next_stereo')})")
+        self._draw_unobserved(imgui)
+        if self.v.photo is not None:
+            opacity = f"{keys.key_for('change_opacity', -0.1)} {keys.key_for('change_opacity', 0.1)}"
+            imgui.text_wrapped(f"photo {self.v.photo}, overlay {100 * self.v.photo_opacity:.0f} %  ({opacity})")
+        imgui.push_style_color(imgui.Col_.text, imgui.ImVec4(1.0, 0.45, 0.1, 1.0))
+        for line in self.stale:
+            imgui.text_wrapped(line)
+        imgui.pop_style_color()
+        imgui.separator()
+        imgui.text_wrapped("selection: " + (self.v.describe(self.v.selection) if self.v.selection else "none"))
+        if banner:
+            imgui.push_style_color(imgui.Col_.text, imgui.ImVec4(1.0, 0.25, 0.2, 1.0))
+            imgui.text_wrapped(LABEL)
             imgui.pop_style_color()
-            imgui.separator()
-            imgui.text_wrapped("selection: " + (self.v.describe(self.v.selection) if self.v.selection else "none"))
-            if banner:
-                imgui.text_colored(imgui.ImVec4(1.0, 0.25, 0.2, 1.0), LABEL)
-            for m in self.v.messages[-3:]:
+        for m in self.v.messages[-2:]:  # the newest two (the selection's line is above)
+            if m:
                 imgui.text_wrapped(m)
-            if imgui.collapsing_header("Keys"):
-                for k, what in self.v.keys.rows():
-                    imgui.text_wrapped(f"{k}: {what}")
-            if imgui.collapsing_header("Views"):
-                for v in self.v.project.data.get("views", []):
-                    if imgui.button(v["name"]):
-                        self.v.jump_to_view(v["name"])
-                _, self._new_view_name = imgui.input_text("name##view", self._new_view_name)
-                if imgui.button("save the current view"):
-                    self.v.guard(self.v.save_view, self._new_view_name)
-            if imgui.collapsing_header("Hypotheses"):
-                if imgui.button("measured scene"):
-                    self.v.reset(everything=True)
-                for h in self.v.project.data.get("hypotheses", []):
-                    if imgui.button(h["name"]):
-                        self.v.guard(self.v.load_hypothesis, h["name"])
-                _, self._new_hypothesis_name = imgui.input_text("name##hyp", self._new_hypothesis_name)
-                if imgui.button("save this arrangement as a hypothesis"):
-                    self.v.guard(self.v.save_hypothesis, self._new_hypothesis_name)
-            imgui.end()
-        gui.render()
+        imgui.separator()
+        if imgui.button("Keys (hide)" if self.show_keys else "Keys"):
+            self.show_keys = not self.show_keys
+        imgui.same_line()
+        imgui.text_disabled(f"{keys.key_for('toggle_panel')}: panel   {keys.key_for('toggle_presentation')}: present")
+        if imgui.collapsing_header("Views"):
+            for v in self.v.project.data.get("views", []):
+                if imgui.button(v["name"]):
+                    self.v.jump_to_view(v["name"])
+            _, self._new_view_name = imgui.input_text("name##view", self._new_view_name)
+            if imgui.button("save the current view"):
+                self.v.guard(self.v.save_view, self._new_view_name)
+        if imgui.collapsing_header("Hypotheses"):
+            if imgui.button("measured scene"):
+                self.v.reset(everything=True)
+            for h in self.v.project.data.get("hypotheses", []):
+                if imgui.button(h["name"]):
+                    self.v.guard(self.v.load_hypothesis, h["name"])
+            _, self._new_hypothesis_name = imgui.input_text("name##hyp", self._new_hypothesis_name)
+            if imgui.button("save this arrangement as a hypothesis"):
+                self.v.guard(self.v.save_hypothesis, self._new_hypothesis_name)
+        imgui.end()
+
+    def _draw_keys(self, imgui: Any, lay: PanelLayout) -> None:
+        """The key table as a sheet left of the panel, in two columns, its text made smaller until
+        every binding fits (never a scrolled list)."""
+        W, H = glfw.get_window_size(self.v.window.handle)
+        m = 0.5 * lay.text_px
+        width, height = max(1.0, lay.x - 2 * m), lay.max_height
+        rows = self.v.keys.rows()
+        half = (len(rows) + 1) // 2
+        f = lay.text_px
+        for _ in range(8):  # shrink the text until both columns fit the sheet's height
+            imgui.push_font(None, f)
+            style = imgui.get_style()
+            col = (width - 2 * style.window_padding.x) / 2 - style.item_spacing.x
+            kw, dw = 0.3 * col, 0.7 * col - style.item_spacing.x
+            need = max(sum(max(imgui.calc_text_size(k, False, kw).y, imgui.calc_text_size(d, False, dw).y)
+                           + style.item_spacing.y for k, d in part) for part in (rows[:half], rows[half:]))
+            need += 2 * style.window_padding.y + imgui.get_frame_height() + style.item_spacing.y
+            imgui.pop_font()
+            if need <= height or f <= 8.0:
+                break
+            f = max(8.0, f * math.sqrt(0.97 * height / need))  # the height goes as f²
+        imgui.push_font(None, f)
+        imgui.set_next_window_pos(imgui.ImVec2(m, lay.y))
+        imgui.set_next_window_size(imgui.ImVec2(width, min(height, need)))
+        imgui.begin("Keys and mouse", None, imgui.WindowFlags_.no_move | imgui.WindowFlags_.no_collapse
+                    | imgui.WindowFlags_.no_resize | imgui.WindowFlags_.no_scrollbar)
+        self._window_rect(imgui, "keys")
+        self.keys_text_px = f
+        if imgui.begin_table("##keys", 4):
+            imgui.table_setup_column("k1", imgui.TableColumnFlags_.width_fixed, kw)
+            imgui.table_setup_column("d1", imgui.TableColumnFlags_.width_fixed, dw)
+            imgui.table_setup_column("k2", imgui.TableColumnFlags_.width_fixed, kw)
+            imgui.table_setup_column("d2", imgui.TableColumnFlags_.width_fixed, dw)
+            for i in range(half):
+                imgui.table_next_row()
+                for j, (k, d) in enumerate(p for p in (rows[i], rows[i + half] if i + half < len(rows) else None)
+                                           if p is not None):
+                    imgui.table_set_column_index(2 * j)
+                    imgui.push_style_color(imgui.Col_.text, imgui.ImVec4(1.0, 0.85, 0.4, 1.0))
+                    imgui.text_wrapped(k)
+                    imgui.pop_style_color()
+                    imgui.table_set_column_index(2 * j + 1)
+                    imgui.text_wrapped(d)
+            imgui.end_table()
+        imgui.end()
+        imgui.pop_font()
 
     def _draw_unobserved(self, imgui: Any) -> None:
         """The unobserved-surface setting, and its legend in the mark's colour where it marks any."""
