@@ -1,0 +1,208 @@
+"""The modelling screen's measuring and marking by clicking on the photo (a part of the Editor):
+the Measure tool (T: distance, height, dimension in turn), the Evidence marker tool (X: a click on
+a surface places one, a click on one removes it) and the Trajectory tool (J: the entry hole, then
+the exit hole); U clears what was measured from the view.
+
+A click at photo pixel (u, v) is the command line's ``photo:ID@u,v`` pick on the solved model,
+written as its ``node@face:s,t`` reference and measured by the command line's own request
+(:mod:`vebuild.actions.click_measure`). Each result is drawn over the photo (a line with its
+label) and added to the project's ``analyses`` as one undoable edit of the session (saved with
+the project, Ctrl+S); markers likewise to ``evidence_markers``.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from imgui_bundle import imgui
+
+from vebuild.actions import click_measure as cm
+from vebuild.camera import project as project_points
+from vebuild.camera import world_to_camera
+from vebuild.errors import VebuildError
+
+from .layout import EditorPart, u32
+
+#: The tools this part handles.
+MEASURE_TOOLS = ("measure", "evidence", "trajectory")
+MEASURE_COLOUR = (0.15, 0.85, 1.0, 1.0)
+TRAJECTORY_COLOUR = (0.9, 0.1, 0.1, 1.0)
+CONE_COLOUR = (1.0, 0.6, 0.1, 0.9)
+
+
+class MeasureTool(EditorPart):
+    """Measure, Evidence marker and Trajectory tools (a part of the Editor)."""
+
+    measure_kind: str = cm.MEASURES[0]
+
+    def _measure_state(self) -> dict[str, Any]:
+        st = self.__dict__.get("_measure")
+        if st is None:
+            st = self.__dict__["_measure"] = {"clicks": [], "drawn": [], "solved": None, "revision": None}
+        return st
+
+    @property
+    def measure_clicks(self) -> list[cm.Clicked]:
+        return list(self._measure_state()["clicks"])
+
+    @property
+    def measured(self) -> list[cm.Measured]:
+        """What was measured by clicking, drawn over the photos."""
+        return list(self._measure_state()["drawn"])
+
+    def measure_cycle(self) -> None:
+        """T: the Measure tool; pressed again, the next measurement (distance, height, dimension)."""
+        if self.tool == "measure":
+            self.measure_kind = cm.MEASURES[(cm.MEASURES.index(self.measure_kind) + 1) % len(cm.MEASURES)]
+        else:
+            self.set_tool("measure")
+        self._measure_state()["clicks"] = []
+        hint = {"distance": "click two points on the model's surfaces",
+                "height": "click a point (its height above the floor)", "dimension": "click an object"}
+        self.say(f"measure {self.measure_kind}: {hint[self.measure_kind]} in the photo (T: the next measurement)")
+
+    def clear_measures(self) -> None:
+        """U: stop drawing the measurements (they stay in the project's analyses)."""
+        self._measure_state().update(clicks=[], drawn=[])
+        self.say("measurements cleared from the view (the analyses stay in the project)")
+
+    def _solved(self) -> Any:
+        st = self._measure_state()
+        if st["solved"] is None or st["revision"] != self.session.revision:
+            st["solved"], st["revision"] = cm.solved_model(self.session.project), self.session.revision
+        return st["solved"]
+
+    def measure_release(self, x: float, y: float) -> None:
+        """A click with one of :data:`MEASURE_TOOLS` at window point (x, y)."""
+        if self.photo is None:
+            return
+        uv = self.window_to_image(x, y)
+        s, st = self.session, self._measure_state()
+        if st.get("for") != (self.tool, self.measure_kind, self.photo):  # clicks of another tool or photo
+            st["clicks"], st["for"] = [], (self.tool, self.measure_kind, self.photo)
+        if self.tool == "measure" and self.measure_kind == "dimension":
+            clicked = cm.photo_reference(s.project, self._solved(), self.photo, uv)
+            self._measured(cm.measure(s.project, "dimension", [cm.Clicked(clicked.node, clicked.node, "",
+                                                                          clicked.world)]))
+            return
+        if self.tool == "evidence":
+            label = self._marker_at(uv)
+            if label is not None:
+                with s._edit(f"remove evidence marker {label}"):
+                    cm.remove_marker(s.data, label)
+                self.say(f"evidence marker {label} removed")
+                return
+        clicked = cm.photo_reference(s.project, self._solved(), self.photo, uv)
+        if self.tool == "evidence":
+            with s._edit("place an evidence marker"):
+                rec = cm.place_marker(s.data, clicked.node, clicked.world)
+            self.say(f"evidence marker {rec['label']} on {clicked.node} at "
+                     f"({', '.join(f'{c:.3f}' for c in clicked.world)}) m")
+            return
+        kind = "trajectory" if self.tool == "trajectory" else self.measure_kind
+        st["clicks"].append(clicked)
+        if len(st["clicks"]) < cm.CLICKS[kind]:
+            then = "the exit hole" if kind == "trajectory" else "the second point"
+            self.say(f"{kind}: {clicked.reference}; click {then}")
+            return
+        clicks, st["clicks"] = st["clicks"], []
+        if kind == "trajectory":
+            self._measured(cm.trajectory(s.project, clicks[0], clicks[1]))
+        else:
+            self._measured(cm.measure(s.project, kind, clicks))
+
+    def _measured(self, m: cm.Measured) -> None:
+        with self.session._edit(f"clicked {m.kind}"):
+            cm.save_analysis(self.session.data, m)
+        self._measure_state()["drawn"].append(m)
+        self.say(f"{m.label}; added to the analyses as '{m.name}' (Ctrl+S saves)")
+
+    def _marker_at(self, uv: tuple[float, float]) -> str | None:
+        markers = self.session.data.get("evidence_markers") or []
+        cam = self.session.cameras.get(self.photo)
+        if not markers or cam is None:
+            return None
+        pins = []
+        for m in markers:
+            X = np.asarray(m["position"], float)
+            if world_to_camera(cam.R, cam.C, X)[2] > 0:
+                u, v = project_points(cam.K, cam.R, cam.C, X, cam.k1)
+                pins.append((m["label"], float(u), float(v)))
+        return cm.marker_near(self.session.data, pins, uv, cm.MARKER_PICK_PX / self.zoom)
+
+    # -- drawing ---------------------------------------------------------------------------------
+
+    def _photo_points(self, P: Any) -> list[tuple[float, float] | None]:
+        cam = self.session.cameras.get(self.photo)
+        out: list[tuple[float, float] | None] = []
+        for X in np.asarray(P, float).reshape(-1, 3):
+            if cam is None or world_to_camera(cam.R, cam.C, X)[2] <= 0.05:
+                out.append(None)
+                continue
+            out.append(self.image_to_window(None, project_points(cam.K, cam.R, cam.C, X, cam.k1)))
+        return out
+
+    def _draw_measures(self) -> None:
+        """The measurements, the evidence markers and the points clicked so far, over the photo."""
+        if self.photo is None:
+            return
+        st = self._measure_state()
+        markers = self.session.data.get("evidence_markers") or []
+        if not (st["drawn"] or st["clicks"] or markers):
+            return
+        try:
+            self._draw_measures_on(imgui.get_background_draw_list(), st, markers)
+        except VebuildError as e:
+            self.say(str(e))
+
+    def _draw_measures_on(self, dl: Any, st: dict[str, Any], markers: list[dict[str, Any]]) -> None:
+        from vebuild.analysis.markers import MARKER_COLOUR
+
+        x0, y0, x1, y1 = self.view_rect()
+        dl.push_clip_rect((x0, y0), (x1, y1), True)
+        colour, white, back = u32(MEASURE_COLOUR), u32((1, 1, 1, 1)), u32((0, 0, 0, 0.75))
+        pin = u32((*(c / 255 for c in MARKER_COLOUR), 1.0))
+        for m, p in zip(markers, self._photo_points([m["position"] for m in markers]), strict=True):
+            if p is not None:
+                dl.add_circle_filled(p, 6.0, pin)
+                dl.add_text((p[0] + 9, p[1] - 8), white, m["label"])
+        for c in st["clicks"]:
+            (p,) = self._photo_points(c.world)
+            if p is not None:
+                dl.add_circle(p, 5.0, colour, 0, 2.0)
+        for m in st["drawn"]:
+            pts = self._photo_points(np.array(m.points))
+            if m.kind == "trajectory":
+                self._draw_trajectory(dl, m)
+            for a, b in zip(pts[:-1], pts[1:], strict=True):
+                if a is not None and b is not None:
+                    dl.add_line(a, b, colour, 2.0)
+            shown = [p for p in pts if p is not None]
+            for p in shown:
+                dl.add_circle_filled(p, 4.0, colour)
+            if shown:
+                at = (sum(p[0] for p in shown) / len(shown) + 8, sum(p[1] for p in shown) / len(shown))
+                size = imgui.calc_text_size(m.label)
+                dl.add_rect_filled((at[0] - 2, at[1] - 1), (at[0] + size.x + 2, at[1] + size.y + 1), back)
+                dl.add_text(at, white, m.label)
+        dl.pop_clip_rect()
+
+    def _draw_trajectory(self, dl: Any, m: cm.Measured) -> None:
+        """The path and its cone (the world polylines :func:`vebuild.analysis.trajectory.path_polylines`
+        gives), over the photo."""
+        from vebuild.analysis.rays import Occluders
+        from vebuild.analysis.trajectory import path_polylines
+        from vebuild.render.scene import load_scene
+
+        cache = self._measure_state().setdefault("polylines", {})
+        if id(m) not in cache:
+            request: Any = m.request  # a TrajectoryRequest
+            cache[id(m)] = path_polylines(request.trajectory(Occluders(load_scene(self.session.project))))
+        for kind, lines in cache[id(m)].items():
+            c = u32(TRAJECTORY_COLOUR if kind == "path" else CONE_COLOUR)
+            for P in lines:
+                pts = self._photo_points(P)
+                for a, b in zip(pts[:-1], pts[1:], strict=True):
+                    if a is not None and b is not None:
+                        dl.add_line(a, b, c, 2.0 if kind == "path" else 1.0)
