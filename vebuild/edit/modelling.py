@@ -467,9 +467,12 @@ class Modelling(Marks):
                "slider": "it slides along its runner only" + (" and is at its limit" if _at_limit(j) else ""),
                "marker": f"it is tied to marker '{getattr(j, 'marker', '?')}' (it turns about it only)",
                "fixed": "it is fixed to its parent", "free": "it moves freely"}.get(j.type, f"its {j.type} joint")
-        fixed = sorted({f"{p.node}:{p.handle}" for p in ds.other_pins
-                        if p.fixed and p.node in set(ds.moved) and p.photo in self.cameras})
+        pins = [p for p in ds.other_pins if p.fixed and p.node in set(ds.moved) and p.photo in self.cameras]
+        fixed = sorted({f"{p.node}:{p.handle}" for p in pins if (p.node, p.handle) != (ds.node, ds.handle)})
+        itself = sorted({p.photo for p in pins if (p.node, p.handle) == (ds.node, ds.handle)})
         held = f"; its fixed vertices {', '.join(fixed[:4])} hold it" if fixed else ""
+        if itself:  # the dragged vertex fixed where another photo sees it: the photo names it, not the list
+            held += f"; {what} itself is fixed in photo {', '.join(itself)}"
         shift = (f" (they would move {fixed_shift:.1f} px)"
                  if fixed and fixed_shift and fixed_shift > FOLLOW_TOL_PX else "")
         return (f"{what} cannot go there: {how}{held}{shift}; it stays where it was. Unfix a vertex (F), "

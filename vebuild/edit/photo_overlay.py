@@ -9,6 +9,7 @@ the curve it makes in the photo (:func:`vebuild.model.drag.project_edge_curves`)
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -20,6 +21,7 @@ from vebuild.project import decode
 
 from .marks import AXES, KNOWN_LENGTH_SIGMA_M
 from .modelling import Modelling
+from .names import corner_directions, face_places, shown
 from .overlay import (
     AXIS_COLOURS,
     CYAN,
@@ -154,10 +156,11 @@ class SessionOverlays(Modelling):
                 for i in range(len(q) - 1):
                     ov.lines.append(Line(_ends((*q[i], *q[i + 1])), colour, 2.0 if node == selected else 1.5,
                                          "edge", (node, e)))
+        corners = {n: self.corner_names(photo, n) for n in names}
         for n, h, uv, fixed in self.handles(photo, names):
             ov.points.append(Point(uv, RED if fixed else (YELLOW if n == selected else WHITE),
                                    5.0 if fixed or n == selected else 3.0, fixed or n == selected,
-                                   "pin" if fixed else "handle", (n, h), h if n == selected else None))
+                                   "pin" if fixed else "handle", (n, h), f"{n}: {corners[n].get(h, h)}"))
 
     def _observations_overlay(self, ov: Overlay, photo: str) -> None:
         """The user's edges (red) and, after a solve, each fixed vertex's residual (outliers magenta)."""
@@ -178,6 +181,59 @@ class SessionOverlays(Modelling):
                                      MAGENTA if bad else CYAN, 3.0 if bad else 1.0, "residual",
                                      (r["node"], r["handle"]),
                                      f"{np.hypot(*r['residual_px']):.2f} px" + (" outlier" if bad else "")))
+
+
+    # -- what the screen names and hides -----------------------------------------------------------
+
+    def edge_world_ends(self, nodes: Sequence[str] | None = None) -> dict[tuple[str, str],
+                                                                          tuple[np.ndarray, np.ndarray]]:
+        """Each primitive edge's world ends as shown, (node, edge) → (a, b) (of ``nodes``, or all)."""
+        model, x = self._model_now()
+        if model is None or x is None:
+            return {}
+        T = self._transforms()
+        out = {}
+        for node in model.nodes if nodes is None else [model.node(n) for n in nodes]:
+            prim = node.primitive
+            if prim is None:
+                continue
+            hs = prim.handles(x[model.slices[node.name][1]]) @ T[node.name][:3, :3].T + T[node.name][:3, 3]
+            idx = {h: i for i, h in enumerate(prim.handle_names())}
+            for e, a, b in prim.edges():
+                out[(node.name, e)] = (hs[idx[a]], hs[idx[b]])
+        return out
+
+    def corner_names(self, photo: str | None, node: str) -> dict[str, str]:
+        """What the screen calls each handle of ``node`` (:mod:`vebuild.edit.names`) from the
+        camera of ``photo`` (the world's axes where it has none): handle → shown name."""
+        world = self.corners_world(node)
+        if not world:
+            return {}
+        cam = self.cameras.get(photo) if photo is not None else None
+        places = corner_directions(np.array(list(world.values())), None if cam is None else cam.R)
+        return {h: shown(p, h) for h, p in zip(world, places, strict=True)}
+
+    def corners_world(self, node: str) -> dict[str, np.ndarray]:
+        """The handles of ``node`` in the world as shown: handle → (3,)."""
+        model, x = self._model_now()
+        if model is None or x is None or node not in model.index:
+            return {}
+        prim = model.node(node).primitive
+        if prim is None:
+            return {}
+        T = self._transforms()[node]
+        hs = prim.handles(x[model.slices[node][1]]) @ T[:3, :3].T + T[:3, 3]
+        return dict(zip(prim.handle_names(), hs, strict=True))
+
+    def face_names(self, photo: str | None, node: str) -> dict[str, str]:
+        """What the screen calls each face of ``node``: stored face name → shown name."""
+        cam = self.cameras.get(photo) if photo is not None else None
+        meshes: list[Any] = getattr(self, "_world_meshes", list)()  # the session's (relating.py), per revision
+        for n, tri, face_ids, _, names in meshes:
+            if n == node:
+                places = face_places(tri, face_ids, names, None if cam is None else cam.R)
+                return {k: shown(v, k) for k, v in places.items()}
+        return {}
 
 
 def _ends(v: Sequence[float]) -> tuple[float, float, float, float]:

@@ -27,6 +27,12 @@ from .layout import (
     u32,
 )
 from .overlay import AXIS_COLOURS, RED, WHITE, Overlay
+from .visibility import clip_segment
+
+#: A model edge's hidden parts: dashes and gaps this long (window pixels), this opaque and wide.
+HIDDEN_DASH_PX = 5.0
+HIDDEN_ALPHA = 0.5
+HIDDEN_WIDTH = 1.0
 
 
 class PhotoView(EditorPart):
@@ -273,26 +279,110 @@ class PhotoView(EditorPart):
             dl.add_text((b[0] + 8, b[1] + 4), col, f"snaps to the line, σ {shown[2].sigma_px:.2f} px")
 
     def _draw_overlay(self, dl: Any, ov: Overlay) -> None:
+        """The overlay's layers shown (:mod:`vebuild.edit.layers`), its lines clipped to the photo,
+        the model's edges seen solid and hidden dashed and dim, labels as each layer says."""
         z, (px, py) = self.zoom, self.pan
+        w, h = self.photo_size(ov.photo)
+        hover = None if self.session.dragging else self.hovered(ov)  # a drag's frames keep their labels
+        runs = self.edge_visibility()
+        moving = set(self.session._drag.session.moved) if self.session.dragging else set()
+        drawn: set[Any] = set()
         for ln in ov.lines:
-            u1, v1, u2, v2 = ln.p
-            a, b = (px + z * u1, py + z * v1), (px + z * u2, py + z * v2)
+            if not self.shows(ln.kind):
+                continue
             col = u32(ln.colour)
-            dl.add_line(a, b, col, ln.width)
-            if ln.arrow:
-                self._arrow_head(dl, a, b, col, 6.0 + 2.0 * ln.width)
-            if ln.label and ((self.show_labels and ln.kind in ("segment", "axis", "user-edge", "horizon", "residual"))
-                             or ln.kind == "known-length"):
-                dl.add_text((0.5 * (a[0] + b[0]) + 6, 0.5 * (a[1] + b[1]) + 2), col, ln.label)
+            key: Any = ln.key
+            if ln.kind == "edge" and runs is not None and key in runs and key[0] not in moving:
+                if key not in drawn:
+                    drawn.add(key)
+                    self._draw_edge_runs(dl, runs[key], ln, w, h)
+                clipped = clip_segment(ln.p, w, h)
+            else:
+                clipped = clip_segment(ln.p, w, h)
+                if clipped is None:
+                    continue
+                u1, v1, u2, v2 = clipped
+                a, b = (px + z * u1, py + z * v1), (px + z * u2, py + z * v2)
+                dl.add_line(a, b, col, ln.width)
+                if ln.arrow and clipped[2:] == tuple(float(t) for t in ln.p[2:]):
+                    self._arrow_head(dl, a, b, col, 6.0 + 2.0 * ln.width)
+            label = ln.label if ln.label else (f"{key[0]}:{key[1]}" if ln.kind == "edge" else None)
+            if clipped is not None and label and self.labelled(ln, ln is hover):
+                u1, v1, u2, v2 = clipped
+                dl.add_text((px + z * 0.5 * (u1 + u2) + 6, py + z * 0.5 * (v1 + v2) + 2), col, label)
         for pt in ov.points:
+            if not self.shows(pt.kind) or (pt.kind != "vp" and not (0 <= pt.uv[0] <= w and 0 <= pt.uv[1] <= h)):
+                continue  # what is off the photo is not drawn (but a vanishing point, wherever it is)
             c = (px + z * pt.uv[0], py + z * pt.uv[1])
             col = u32(pt.colour)
             if pt.filled:
                 dl.add_circle_filled(c, pt.radius, col)
             else:
                 dl.add_circle(c, pt.radius, col, 0, 1.5)
-            if pt.label and (self.show_labels or pt.kind == "marker"):
-                dl.add_text((c[0] + pt.radius + 3, c[1] - 7), col, pt.label)
+            if pt.label and self.labelled(pt, pt is hover):
+                pkey: Any = pt.key
+                node = pkey[0] if pt.kind in ("handle", "pin") else None
+                text = pt.label if node is None or pt is hover else pt.label.split(": ", 1)[-1]
+                dl.add_text((c[0] + pt.radius + 3, c[1] - 7), col, text)
+        self._draw_names(dl, ov)
+
+    def _draw_edge_runs(self, dl: Any, runs: Any, ln: Any, w: float, h: float) -> None:
+        """One model edge: its seen runs solid, its hidden runs dashed and dim (clipped to the photo)."""
+        z, (px, py) = self.zoom, self.pan
+        solid = u32(ln.colour)
+        dim = u32((*ln.colour[:3], HIDDEN_ALPHA))
+        for run in runs:
+            pts = []
+            for q0, q1 in zip(run.points[:-1], run.points[1:], strict=True):
+                c = clip_segment((*q0, *q1), w, h)
+                if c is None:
+                    continue
+                a, b = (px + z * c[0], py + z * c[1]), (px + z * c[2], py + z * c[3])
+                if run.visible:
+                    dl.add_line(a, b, solid, ln.width)
+                else:
+                    pts.append((a, b))
+            if pts:
+                _dashed_pieces(dl, pts, dim, HIDDEN_WIDTH)
+
+    def _draw_names(self, dl: Any, ov: Overlay) -> None:
+        """The picked corner or face (ringed or outlined, named), and with I every face of the
+        selected primitive named at its centre."""
+        s = self.session
+        pk = self.picked
+        if s.dragging:  # the pick moves with the drag: named again on release
+            return
+        faces: list[tuple[str, str]] = []
+        if pk is not None and pk["what"] == "face":
+            faces.append((pk["node"], pk["stored"]))
+        if self.show_names and self.selected is not None:
+            faces += [(self.selected, f) for f in s.face_names(ov.photo, self.selected)]
+        col = u32((0.3, 1.0, 1.0, 1.0))
+        for node, face in faces:
+            from .relating import Pick
+
+            tris = s.pick_outline(ov.photo, Pick(node, face, "face", (0.0, 0.0, 0.0)))
+            if not tris:
+                continue
+            P = np.array(tris, float).reshape(-1, 2)
+            c = self.image_to_window(None, P.mean(axis=0))
+            picked = pk is not None and (pk["node"], pk["stored"]) == (node, face)
+            if picked:
+                for t in tris:
+                    a, b, d = (self.image_to_window(None, q) for q in t)
+                    dl.add_triangle_filled(a, b, d, u32((0.3, 1.0, 1.0, 0.18)))
+            name = s.face_names(ov.photo, node).get(face, face)
+            dl.add_text((c[0] - 20, c[1] - 7), col, f"{node}: {name}" if picked else name)
+        if pk is not None and pk["what"] == "corner":
+            X = s.corners_world(pk["node"]).get(pk["stored"])
+            cam = s.cameras.get(ov.photo)
+            if X is not None and cam is not None:
+                from vebuild import camera as cam_math
+
+                if cam_math.world_to_camera(cam.R, cam.C, X)[2] > 0:
+                    c = self.image_to_window(None, cam_math.project(cam.K, cam.R, cam.C, X, cam.k1))
+                    dl.add_circle(c, 9.0, col, 0, 2.0)
+                    dl.add_text((c[0] + 12, c[1] + 4), col, f"{pk['node']}: {pk['shown']}")
 
     @staticmethod
     def _arrow_head(dl: Any, a: tuple[float, float], b: tuple[float, float], col: int, size: float) -> None:
@@ -389,6 +479,25 @@ class PhotoView(EditorPart):
         self._rects["magnifier"] = (mn.x, mn.y, mn.x + side, mn.y + side)
         imgui.end()
         imgui.pop_style_var()
+
+
+def _dashed_pieces(dl: Any, pieces: list[tuple[tuple[float, float], tuple[float, float]]], col: int, width: float,
+                   dash: float = HIDDEN_DASH_PX) -> None:
+    """Consecutive pieces (window pixels) dashed as one line: the pattern carries on from piece to
+    piece (dashes and gaps of ``dash`` pixels along the whole)."""
+    phase = 0.0  # how far along the pattern (dash then gap) the next piece starts
+    for a, b in pieces:
+        dx, dy = b[0] - a[0], b[1] - a[1]
+        n = math.hypot(dx, dy)
+        k = 0.0
+        while k < n:
+            in_dash = phase < dash
+            step = min((dash - phase) if in_dash else (2 * dash - phase), n - k)
+            if in_dash:
+                dl.add_line((a[0] + dx * k / n, a[1] + dy * k / n), (a[0] + dx * (k + step) / n,
+                            a[1] + dy * (k + step) / n), col, width)
+            k += step
+            phase = (phase + step) % (2 * dash)
 
 
 def _dashed(dl: Any, a: tuple[float, float], b: tuple[float, float], col: int, width: float, dash: float = 6.0) -> None:

@@ -12,7 +12,11 @@ from imgui_bundle import imgui
 from vebuild.camera import ImageCamera, fov_to_focal, intrinsic_matrix, look_rotation
 from vebuild.errors import VebuildError
 
-from .layout import PANEL_W, PREVIEW_FOV_DEG, PREVIEW_H, EditorPart, u32
+from .layout import CLICK_SLOP_PX, PANEL_W, PREVIEW_FOV_DEG, PREVIEW_H, EditorPart, u32
+
+#: Without a photo's camera inside the model, the first view is this share of the way from the
+#: model's centre to its box's side (inside a room).
+INSIDE_SHARE = 0.7
 
 
 class Preview(EditorPart):
@@ -25,13 +29,39 @@ class Preview(EditorPart):
         lo, hi = r.scene.bounds()
         target = 0.5 * (lo + hi)
         if self.preview_distance is None:
-            self.preview_distance = max(1.0, 1.2 * float(np.linalg.norm(hi - lo)))
+            self._preview_inside(lo, hi, target)
         cp, sp = math.cos(self.preview_pitch), math.sin(self.preview_pitch)
         C = target + self.preview_distance * np.array([cp * math.cos(self.preview_yaw),
                                                        cp * math.sin(self.preview_yaw), sp])
         w, h = self.preview_size
         f = fov_to_focal(math.radians(PREVIEW_FOV_DEG), w)
         return ImageCamera("preview", intrinsic_matrix(f, w / 2, h / 2), look_rotation(target - C), C, w, h)
+
+    def _preview_inside(self, lo: Any, hi: Any, target: Any) -> None:
+        """The first view: from inside the model's box, looking at its centre: from the shown
+        photo's camera where that is inside the box (the room as the photo shows it), else from
+        :data:`INSIDE_SHARE` of the way from the centre to the box's side (under its ceiling)."""
+        cam = self.session.cameras.get(self.photo) if self.photo is not None else None
+        d = None
+        if cam is not None and np.all(np.asarray(cam.C) > lo) and np.all(np.asarray(cam.C) < hi):
+            d = np.asarray(cam.C, float) - target
+        if d is None or float(np.linalg.norm(d)) < 1e-3:
+            half = 0.5 * (np.asarray(hi, float) - np.asarray(lo, float))
+            cp, sp = math.cos(self.preview_pitch), math.sin(self.preview_pitch)
+            u = np.array([cp * math.cos(self.preview_yaw), cp * math.sin(self.preview_yaw), sp])
+            reach = min(half[k] / abs(u[k]) for k in range(3) if abs(u[k]) > 1e-9)  # to the box's side
+            d = INSIDE_SHARE * max(reach, 0.5) * u
+        n = float(np.linalg.norm(d))
+        self.preview_distance = n
+        self.preview_yaw = math.atan2(d[1], d[0])
+        self.preview_pitch = math.asin(float(np.clip(d[2] / n, -1.0, 1.0)))
+
+    def preview_from_outside(self) -> None:
+        """The preview's camera outside the model's box (the whole model in view)."""
+        r = self._renderer
+        if r is not None:
+            lo, hi = r.scene.bounds()
+            self.preview_distance = max(1.0, 1.2 * float(np.linalg.norm(hi - lo)))
 
     def _preview_scene(self, model: Any) -> Any:
         """The model as a render scene: the last one's faces and pages when only the sizes and
@@ -144,6 +174,10 @@ class Preview(EditorPart):
         self.rect("preview")
         if imgui.is_item_hovered():
             io = imgui.get_io()
+            moved = imgui.get_mouse_drag_delta(imgui.MouseButton_.left, 0.0)
+            if imgui.is_mouse_released(imgui.MouseButton_.left) and math.hypot(moved.x, moved.y) <= CLICK_SLOP_PX:
+                mn = imgui.get_item_rect_min()  # a click, not an orbit: name the corner or face there
+                self.guard(self.pick_in_preview, io.mouse_pos.x - mn.x, io.mouse_pos.y - mn.y)
             if imgui.is_mouse_dragging(imgui.MouseButton_.left):
                 d = io.mouse_delta
                 self.preview_yaw -= 0.01 * d.x

@@ -1,0 +1,215 @@
+"""The modelling screen's overlay: hidden model edges dashed and dim (checked pixel by pixel against
+the model's ID buffer from the photo's camera), lines clipped to the photo, layers and labels,
+messages that expire newest first, the refused drag's message, and corners and faces named by
+where they are, picked by a click."""
+
+from __future__ import annotations
+
+import shutil
+
+import numpy as np
+import pytest
+from edit_driver import Driver
+
+from vebuild import camera as cam_math
+from vebuild.cli import main
+from vebuild.edit.messages import MESSAGE_SECONDS, new_messages
+from vebuild.edit.names import corner_directions, face_direction
+from vebuild.edit.visibility import clip_segment
+from vebuild.resources import example_project_dir
+
+#: An ID-buffer sample is "clearly hidden" when all 5 × 5 pixels about it show a face nearer by more
+#: than this share of its depth (10 × the screen's own 0.5 % threshold: no doubt at the boundary).
+CLEAR_HIDDEN = 0.05
+#: A dashed line of equal dashes and gaps covers half its length; 1.5 px-wide antialiased ends and
+#: the 1 px search radius widen the dashes: a hidden stretch is covered 25–80 %, a solid one ≥ 90 %.
+DASHED_COVER = (0.25, 0.8)
+SOLID_COVER = 0.9
+#: How far past its clipped end a drawn line reaches: half the widest line (4 px) and 1 px of antialiasing.
+LINE_REACH_PX = 3
+
+
+def test_clip_segment_keeps_the_part_inside_the_photo():
+    assert clip_segment((-10, 50, 110, 50), 100, 80) == pytest.approx((0, 50, 100, 50))
+    assert clip_segment((10, 10, 20, 20), 100, 80) == pytest.approx((10, 10, 20, 20))
+    assert clip_segment((-10, -10, -5, 90), 100, 80) is None
+    assert clip_segment((50, -40, 50, 200), 100, 80) == pytest.approx((50, 0, 50, 80))
+
+
+def test_new_messages_follow_what_was_seen():
+    assert new_messages(["a", "b"], ["a", "b", "b"]) == ["b"]
+    assert new_messages([f"m{i}" for i in range(50)], [f"m{i}" for i in range(1, 51)]) == ["m50"]
+    assert new_messages([], ["x"]) == ["x"]
+
+
+def test_faces_and_corners_are_named_from_the_camera():
+    R = cam_math.look_rotation(np.array([0.0, 1.0, 0.0]))  # looking along +y: +x is to the right
+    assert face_direction([0, -1, 0], [0, -0.5, 0], R) == "front"  # facing the camera
+    assert face_direction([0, 1, 0], [0, -0.5, 0], R) == "front"  # an inward normal, turned outward
+    assert face_direction([1, 0, 0], [0.5, 0, 0], R) == "right"
+    assert face_direction([0, 0, 1], [0, 0, 0.5], R) == "top"
+    box = np.array([[x, y, z] for z in (0, 1) for y in (0, 1) for x in (0, 1)], float)
+    names = corner_directions(box, R)
+    assert names[0] == "front-left-bottom" and names[7] == "back-right-top" and len(set(names)) == 8
+
+
+
+
+@pytest.fixture(scope="module")
+def solved_room(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("overlay") / "room"
+    shutil.copytree(example_project_dir(), folder)
+    path = folder / "room.vebuild.json"
+    assert main(["calibrate", str(path), "--quiet"]) == 0
+    assert main(["solve", str(path)]) == 0
+    return path
+
+
+@pytest.fixture
+def driver(solved_room, tmp_path, xdotool, xvfb_display):
+    shutil.copytree(solved_room.parent, tmp_path / "room")
+    d = Driver(tmp_path / "room" / solved_room.name, xdotool)
+    yield d
+    d.close()
+
+
+def _layers(d, want):
+    """Set the Layers popup's checkboxes by clicking them (V opens it)."""
+    e = d.editor
+    if "layer model" not in e.widget_rects:
+        d.send("key", "v")
+    for layer, on in want.items():
+        if e.layer_shown[layer] != on:
+            d.click(f"layer {layer}")
+        assert e.layer_shown[layer] == on
+
+
+def test_hidden_edges_are_dashed_where_the_id_buffer_hides_them(driver):
+    d = driver
+    e, s = d.editor, d.session
+    d.send(*d.move_to(5, 5))  # the cursor off the photo: no hover labels
+    cam = s.cameras["p1"]
+    _layers(d, {k: k == "model" for k in e.layer_shown})
+    d.send("key", "v")  # the popup closed, over the photo no more
+    with_edges = d.screen().astype(int)
+    d.send("key", "v")
+    _layers(d, {"model": False})
+    d.send("key", "v")
+    without = d.screen().astype(int)
+    drawn = np.abs(with_edges - without).sum(axis=2) > 30  # where the model layer draws
+    ids, depth = e._renderer.id_buffer(cam)  # the photo's own size
+    handles = np.array([p for _, _, p, _ in s.handles("p1")])
+    cover = {"hidden": [], "seen": []}
+    x0, y0, x1, y1 = e.view_rect()
+    for a, b in s.edge_world_ends().values():
+        n = int(np.linalg.norm(cam_math.project(cam.K, cam.R, cam.C, b) - cam_math.project(cam.K, cam.R, cam.C, a)))
+        if n < 4 or cam_math.world_to_camera(cam.R, cam.C, np.stack([a, b]))[:, 2].min() <= 0:
+            continue
+        X = a + np.linspace(0, 1, 2 * n)[:, None] * (b - a)
+        z = cam_math.world_to_camera(cam.R, cam.C, X)[:, 2]
+        uv = cam_math.project(cam.K, cam.R, cam.C, X, cam.k1)
+        for q, zi in zip(uv, z, strict=True):
+            c, r = int(q[0]), int(q[1])
+            if not (2 <= c < cam.width - 2 and 2 <= r < cam.height - 2):
+                continue
+            if np.min(np.hypot(*(handles - q).T)) < 12 / e.zoom:  # the corners' dots are drawn too
+                continue
+            patch_i, patch_d = ids[r - 2:r + 3, c - 2:c + 3], depth[r - 2:r + 3, c - 2:c + 3]
+            if np.all(patch_i > 0) and np.all(patch_d < zi * (1 - CLEAR_HIDDEN)):
+                kind = "hidden"
+            elif np.any(patch_i[1:4, 1:4] == 0) or np.any(patch_d[1:4, 1:4] >= zi * (1 - 1e-3)):
+                kind = "seen"
+            else:
+                continue
+            x, y = e.image_to_window("p1", q)
+            if not (x0 + 2 <= x < x1 - 2 and y0 + 2 <= y < y1 - 2):
+                continue
+            cover[kind].append(bool(drawn[int(y) - 1:int(y) + 2, int(x) - 1:int(x) + 2].any()))
+    hidden, seen = np.mean(cover["hidden"]), np.mean(cover["seen"])
+    assert len(cover["hidden"]) > 200 and len(cover["seen"]) > 200, {k: len(v) for k, v in cover.items()}
+    assert DASHED_COVER[0] <= hidden <= DASHED_COVER[1], hidden
+    assert seen >= SOLID_COVER, seen
+
+
+def test_lines_stay_inside_the_photo(driver):
+    d = driver
+    e = d.editor
+    d.send(*d.move_to(5, 5))
+    e.zoom_at(*np.mean(np.reshape(e.view_rect(), (2, 2)), axis=0), 0.6)  # the photo smaller than the view
+    _layers(d, {k: True for k in e.layer_shown} | {"vanishing points": False, "markers": False})
+    d.send("key", "v")
+    d.send("key", "l")  # no labels: their text may reach past the photo's edge, the lines may not
+    assert not e.show_labels
+    shown = d.screen().astype(int)
+    d.send("key", "v")
+    _layers(d, {k: False for k in e.layer_shown})
+    d.send("key", "v")
+    bare = d.screen().astype(int)
+    changed = np.abs(shown - bare).sum(axis=2) > 30
+    x0, y0, x1, y1 = (int(v) for v in e.view_rect())
+    w, h = e.photo_size()
+    (px0, py0), (px1, py1) = e.image_to_window(None, (0, 0)), e.image_to_window(None, (w, h))
+    view = np.zeros_like(changed)
+    view[y0:y1 - 90, x0:x1] = True  # above the message area
+    photo = np.zeros_like(changed)
+    m = LINE_REACH_PX
+    photo[int(py0) - m:int(np.ceil(py1)) + m, int(px0) - m:int(np.ceil(px1)) + m] = True
+    inside = (changed & view & photo).sum()
+    outside = changed & view & ~photo
+    assert inside > 1000 and outside.sum() == 0, (inside, outside.sum())
+
+
+def test_a_refused_drag_does_not_name_the_dragged_vertex_among_those_that_hold_it(driver):
+    d = driver
+    e, s = d.editor, d.session
+    e.select("cabinet")
+    d.frames(2)
+    uv0 = next(p for n, h, p, _ in s.handles("p1") if (n, h) == ("cabinet", "v0"))
+    x, y = e.image_to_window("p1", uv0)
+    d.send(*d.move_to(x, y), "sleep", "0.05", "mousedown", "1", "sleep", "0.05", *d.move_to(x - 30, y + 15),
+           "sleep", "0.1", *d.move_to(x - 60, y + 30), "sleep", "0.1")
+    text = e.drag_problem
+    assert text is not None and "cannot go there" in text
+    if "hold it" in text:
+        held = text.split("its fixed vertices ", 1)[1].split(" hold it", 1)[0]
+        assert "cabinet:v0" not in held.split(", "), text
+    assert e.shown_messages()[0][0] == text  # on top of the one message area
+    d.send("key", "Escape", "mouseup", "1")
+
+
+def test_messages_expire_newest_on_top(driver):
+    d = driver
+    e = d.editor
+    now = [1000.0]
+    e.message_clock = lambda: now[0]
+    e.say("first")
+    d.frames(1)
+    now[0] += 1.0
+    e.say("second")
+    d.frames(1)
+    texts = [t for t, _ in e.shown_messages()]
+    assert texts.index("second") < texts.index("first")
+    now[0] += MESSAGE_SECONDS - 0.5
+    texts = [t for t, _ in e.shown_messages()]
+    assert "first" not in texts and "second" in texts
+    now[0] += 1.0
+    assert "second" not in [t for t, _ in e.shown_messages()]
+
+
+def test_a_click_on_a_face_names_it_by_where_it_is(driver):
+    d = driver
+    e, s = d.editor, d.session
+    from vebuild.edit.relating import Pick
+
+    tris = s.pick_outline("p1", Pick("cabinet", "right", "face", (0.0, 0.0, 0.0)))  # the door's face
+    centre = np.array(tris, float).reshape(-1, 2).mean(axis=0)
+    before = d.screen().astype(int)
+    d.send(*d.move_to(*e.image_to_window("p1", centre)), "sleep", "0.05", "click", "1")
+    pk = e.picked
+    assert pk is not None and (pk["node"], pk["what"], pk["stored"]) == ("cabinet", "face", "right")
+    assert pk["shown"] == "front · right"  # p1 looks at the door: its front, whatever the file calls it
+    assert any("front · right" in t for t, _ in e.shown_messages())
+    after = d.screen().astype(int)
+    x, y = e.image_to_window("p1", centre)
+    near = np.abs(after - before).sum(axis=2)[int(y) - 20:int(y) + 20, int(x) - 60:int(x) + 60]
+    assert (near > 30).sum() > 50  # the face tinted and named where it was clicked

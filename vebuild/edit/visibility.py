@@ -1,0 +1,131 @@
+"""Which parts of the model's edges a photo's camera sees, by the model's own ID buffer: the
+modelling screen draws an edge's seen parts solid and its hidden parts (behind another face of the
+model, from that camera) dashed and dim.
+
+Each edge is sampled in the world every :data:`SAMPLE_PX` photo pixels; a sample is hidden when
+every pixel of the 3 × 3 pixels around it in the ID buffer (:meth:`vebuild.render.renderer.Renderer.id_buffer`
+of the photo's calibrated camera, scaled to at most :data:`ID_LONG_SIDE_PX` on its long side) shows
+a face nearer the camera than the sample by more than :data:`DEPTH_TOLERANCE` of its depth. The
+neighbourhood keeps an edge's own faces from hiding it: beside a seen edge one of those pixels shows
+one of its faces at its own depth, or what lies beyond it. A sample outside the ID buffer counts as
+seen (nothing there says otherwise).
+
+Plain numpy over the ID buffer; the screen renders it (:mod:`vebuild.edit.photo_view`)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vebuild import camera as cam_math
+from vebuild.camera import ImageCamera
+
+Array = NDArray[np.float64]
+
+#: The ID buffer of a photo's camera is rendered at most this many pixels on its long side (a
+#: 24-megapixel photo's own size would cost a software renderer seconds per model change).
+ID_LONG_SIDE_PX = 1600
+#: A face nearer than the sample by more than this share of its depth hides it: 0.5 %, as
+#: texture extraction's edge band (:data:`vebuild.texture.gpu.EDGE_SHRINK`): 1.5 cm at 3 m.
+DEPTH_TOLERANCE = 5e-3
+#: Samples along an edge, every this many photo pixels (at least two an edge, at most MAX_SAMPLES).
+SAMPLE_PX = 3.0
+MAX_SAMPLES = 600
+
+
+@dataclass(frozen=True)
+class EdgeRun:
+    """Consecutive samples of one edge that are all seen or all hidden: their places in the photo's
+    pixels (through its lens), (n, 2), n ≥ 2; neighbouring runs share their end sample."""
+
+    points: Array
+    visible: bool
+
+
+def id_camera(cam: ImageCamera) -> ImageCamera:
+    """The photo's camera at the size its ID buffer is rendered (:data:`ID_LONG_SIDE_PX`)."""
+    s = min(1.0, ID_LONG_SIDE_PX / max(cam.width, cam.height))
+    return cam if s == 1.0 else cam.scaled(s)
+
+
+def edge_samples(ends: Mapping[object, tuple[Array, Array]], cam: ImageCamera) -> dict[object, Array]:
+    """World samples (n, 3) along each edge (world ends a, b, both in front of ``cam``), about
+    :data:`SAMPLE_PX` apart in the photo; edges with an end behind the camera are left out."""
+    out: dict[object, Array] = {}
+    for key, (a, b) in ends.items():
+        a, b = np.asarray(a, float), np.asarray(b, float)
+        z = cam_math.world_to_camera(cam.R, cam.C, np.stack([a, b]))[:, 2]
+        if np.any(z <= 0):
+            continue
+        pa, pb = cam_math.project(cam.K, cam.R, cam.C, np.stack([a, b]))
+        n = int(min(MAX_SAMPLES, max(2, math.ceil(float(np.linalg.norm(pb - pa)) / SAMPLE_PX) + 1)))
+        t = np.linspace(0.0, 1.0, n)[:, None]
+        out[key] = a + t * (b - a)
+    return out
+
+
+def seen(X: Array, cam: ImageCamera, ids: NDArray[np.int32], depth: NDArray[np.float32]) -> NDArray[np.bool_]:
+    """Whether each world point of X (n, 3) is seen from ``cam`` (the camera of the ID buffer
+    ``ids``, ``depth``: :meth:`~vebuild.render.renderer.Renderer.id_buffer`), by the rule of the
+    module docstring."""
+    X = np.asarray(X, float).reshape(-1, 3)
+    z = cam_math.world_to_camera(cam.R, cam.C, X)[:, 2]
+    uv = cam_math.project(cam.K, cam.R, cam.C, X, cam.k1).reshape(-1, 2)
+    col, row = np.floor(uv[:, 0]).astype(np.intp), np.floor(uv[:, 1]).astype(np.intp)
+    h, w = ids.shape
+    inside = (col >= 0) & (row >= 0) & (col < w) & (row < h) & (z > 0)
+    visible = ~inside
+    limit = z * (1.0 - DEPTH_TOLERANCE)
+    for dr in (-1, 0, 1):
+        for dc in (-1, 0, 1):
+            r, c = np.clip(row + dr, 0, h - 1), np.clip(col + dc, 0, w - 1)
+            visible |= inside & ((ids[r, c] == 0) | (depth[r, c] >= limit))
+    return visible
+
+
+def runs(X: Array, visible: NDArray[np.bool_], photo_cam: ImageCamera) -> list[EdgeRun]:
+    """The samples X (n, 3) of one edge as runs of equal visibility, in the photo's pixels."""
+    uv = cam_math.project(photo_cam.K, photo_cam.R, photo_cam.C, X, photo_cam.k1).reshape(-1, 2)
+    out = []
+    start = 0
+    for i in range(1, len(X) + 1):
+        if i == len(X) or visible[i] != visible[start]:
+            stop = min(i, len(X) - 1)  # the run reaches the next run's first sample: no gap
+            if stop > start:
+                out.append(EdgeRun(uv[start:stop + 1].copy(), bool(visible[start])))
+            start = i
+    return out
+
+
+def edge_runs(ends: Mapping[object, tuple[Array, Array]], photo_cam: ImageCamera, id_cam: ImageCamera,
+              ids: NDArray[np.int32], depth: NDArray[np.float32]) -> dict[object, list[EdgeRun]]:
+    """Every edge (world ends by key) as its seen and hidden runs in the photo."""
+    out = {}
+    for key, X in edge_samples(ends, photo_cam).items():
+        out[key] = runs(X, seen(X, id_cam, ids, depth), photo_cam)
+    return out
+
+
+def clip_segment(p: Sequence[float], width: float, height: float) -> tuple[float, float, float, float] | None:
+    """The part of segment (u1, v1, u2, v2) inside the photo [0, width] × [0, height] (Liang–Barsky),
+    or None where none of it is."""
+    u1, v1, u2, v2 = (float(t) for t in p)
+    du, dv = u2 - u1, v2 - v1
+    t0, t1 = 0.0, 1.0
+    for q, r in ((-du, u1), (du, width - u1), (-dv, v1), (dv, height - v1)):
+        if abs(q) < 1e-12:
+            if r < 0:
+                return None
+            continue
+        t = r / q
+        if q < 0:
+            t0 = max(t0, t)
+        else:
+            t1 = min(t1, t)
+        if t0 > t1:
+            return None
+    return u1 + t0 * du, v1 + t0 * dv, u1 + t1 * du, v1 + t1 * dv
