@@ -27,7 +27,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial.transform import Rotation
 
 Array = NDArray[np.float64]
 
@@ -187,11 +186,15 @@ def so3_left_jacobian(w: ArrayLike) -> Array:
 
 def exp_so3(w: ArrayLike) -> Array:
     """exp([w]×): the rotation by |w| radians about w."""
+    from scipy.spatial.transform import Rotation  # imported at first use: docs/start-up.md
+
     return Rotation.from_rotvec(np.asarray(w, float)).as_matrix()
 
 
 def log_so3(R: ArrayLike) -> Array:
     """The rotation vector w with exp([w]×) = R."""
+    from scipy.spatial.transform import Rotation
+
     return Rotation.from_matrix(np.asarray(R, float)).as_rotvec()
 
 

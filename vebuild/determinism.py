@@ -18,13 +18,17 @@ Mesa.
 the solvers' entry points (so the editor's drags, which call them directly, are covered too)
 and around every command of the command line. It nests, and it is safe when solves run in more
 than one thread at once: the first to enter sets one thread, the last to leave restores what was
-there before. The thread counts of the BLAS and OpenMP libraries are process-wide settings, so a
-caller's own numpy work in another thread also runs single-threaded while a solve is under way.
+there before. A library loaded while it is in force (scipy's, imported at a solver's first use so
+that ``vebuild check`` never loads it: docs/start-up.md) starts with one thread, from the
+environment variables it reads as it loads, which are set for as long. The thread counts of the
+BLAS and OpenMP libraries are process-wide settings, so a caller's own numpy work in another
+thread also runs single-threaded while a solve is under way.
 """
 
 from __future__ import annotations
 
 import functools
+import os
 import sys
 import threading
 from collections.abc import Callable, Iterator
@@ -41,17 +45,19 @@ _depth = 0
 _limiter: Any = None
 _controller: Any = None
 _modules_seen = 0
+_environment: dict[str, str | None] = {}
+
+#: The environment variables from which a BLAS or OpenMP library takes its thread count as it loads.
+THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS")
 
 
 def _threadpools() -> Any:
-    """threadpoolctl's controller over the BLAS and OpenMP libraries loaded (made on first use,
-    after numpy's and scipy's BLAS are loaded, so that it finds both: their wheels bring one each),
-    made again when modules were imported since, which may have brought another (OpenCV's wheel
-    bundles an OpenBLAS of its own)."""
+    """threadpoolctl's controller over the BLAS and OpenMP libraries loaded (numpy's and scipy's
+    wheels bring one each), made again when modules were imported since, which may have brought
+    another (OpenCV's wheel bundles an OpenBLAS of its own). One loaded later takes its count from
+    :data:`THREAD_VARIABLES`."""
     global _controller, _modules_seen
     if _controller is None or len(sys.modules) != _modules_seen:
-        import numpy  # noqa: F401
-        import scipy.linalg  # noqa: F401
         from threadpoolctl import ThreadpoolController
 
         _controller = ThreadpoolController()
@@ -65,6 +71,8 @@ def fixed_threads() -> Iterator[None]:
     global _depth, _limiter
     with _lock:
         if _depth == 0:
+            _environment.update({v: os.environ.get(v) for v in THREAD_VARIABLES})
+            os.environ.update({v: str(THREADS) for v in THREAD_VARIABLES})
             _limiter = _threadpools().limit(limits=THREADS)
             _release_openblas()
         _depth += 1
@@ -77,6 +85,12 @@ def fixed_threads() -> Iterator[None]:
                 _limiter.restore_original_limits()
                 _limiter = None
                 _release_openblas()
+                for v, value in _environment.items():
+                    if value is None:
+                        os.environ.pop(v, None)
+                    else:
+                        os.environ[v] = value
+                _environment.clear()
 
 
 def _release_openblas() -> None:

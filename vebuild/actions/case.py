@@ -7,11 +7,12 @@ The project is saved through :func:`vebuild.project.save_project`, which validat
 
 from __future__ import annotations
 
+import argparse
 from collections.abc import Mapping
 from typing import Any
 
 from ..errors import VebuildError
-from ..project import Project
+from ..project import Project, load_project, save_project
 
 #: Each field of ``case``: its key, its label on the report's title page, and its ``vebuild case``
 #: option, in the order the title page shows them.
@@ -50,3 +51,31 @@ def set_case(project: Project, values: Mapping[str, str | None]) -> dict[str, st
     else:
         project.data.pop("case", None)
     return dict(project.data.get("case") or {})
+
+
+def _cmd_case(args: argparse.Namespace) -> int:
+    project = load_project(args.project)
+    values = {key: getattr(args, key) for key, _, _ in CASE_FIELDS}
+    if any(v is not None for v in values.values()):
+        set_case(project, values)
+        save_project(project)
+        print(f"case details written to {project.path}")
+    rows = case_rows(project.data)
+    for label, text in rows:
+        print(f"  {label + ':':<24} {text}")
+    if not rows:
+        print("  no case details (give --number, --examiner, --organisation, --photo-dates or --declaration)")
+    return 0
+
+
+def add_case_parser(sub: Any) -> None:
+    """Add ``vebuild case`` to the top-level subparsers ``sub``."""
+    p = sub.add_parser("case", help="set (or show) the case details on the report's title page")
+    p.add_argument("project")
+    helps = {"number": "the case (or file) number", "examiner": "who made the reconstruction",
+             "organisation": "the examiner's organisation",
+             "photo_dates": "when the photos were taken (one date or several, in words or ISO 8601)",
+             "declaration": "the examiner's declaration, printed on the title page"}
+    for key, _, option in CASE_FIELDS:
+        p.add_argument(option, dest=key, metavar="TEXT", help=helps[key] + " (\"\" removes it)")
+    p.set_defaults(func=_cmd_case)

@@ -70,6 +70,8 @@ def check_project(project: Project) -> list[str]:
 
 
 def _check_analyses(project: Project) -> None:
+    if not project.data.get("analyses"):
+        return  # the analyses' parsers (and the geometry they import) are not needed
     from ..analysis.recorded import parse_recorded
 
     for i, rec in enumerate(project.data.get("analyses") or []):

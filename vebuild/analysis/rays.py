@@ -18,7 +18,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial import ConvexHull, QhullError
 
 from vebuild.project.units import METRES, LengthUnit
 from vebuild.render.scene import RenderScene
@@ -93,6 +92,8 @@ class Occluders:
         """Half-space equations (k, 4) of a node's convex hull (every primitive is convex), or None
         for a flat one (a quad), which has no inside."""
         if node not in self._hulls:
+            from scipy.spatial import ConvexHull, QhullError  # imported at first use: docs/start-up.md
+
             tris = self.triangles_of(node)
             pts = np.concatenate([self.v0[tris], self.v0[tris] + self.e1[tris], self.v0[tris] + self.e2[tris]])
             try:

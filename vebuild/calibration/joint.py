@@ -13,8 +13,6 @@ from itertools import combinations
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import least_squares
-from scipy.stats import chi2
 
 from ..camera import exp_so3, intrinsic_matrix, undistort_pixels
 from ..errors import CalibrationError
@@ -220,6 +218,8 @@ class JointProblem:
         return np.concatenate(parts)
 
     def solve(self, y0: Array, R0: Array, prior_f: FocalPrior | None) -> tuple[Array, Array]:
+        from scipy.optimize import least_squares  # imported at first use: docs/start-up.md
+
         y0 = self.at_rotation(y0)
         lower = np.r_[1e-3, -np.inf, -np.inf, -np.pi, -np.pi, -np.pi, [-np.inf] if self.estimate_k1 else []]
         upper = np.r_[1e3, np.inf, np.inf, np.pi, np.pi, np.pi, [np.inf] if self.estimate_k1 else []]
@@ -253,6 +253,8 @@ class JointProblem:
 
         dof counts the independent residuals less the parameters the marks determine (the trace of
         the hat matrix of the data rows: a parameter fixed by its prior uses none of them)."""
+        from scipy.stats import chi2  # imported at first use: docs/start-up.md
+
         n = self.n_data
         cov = _safe_inverse(J.T @ J)
         if cov is None:

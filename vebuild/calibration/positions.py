@@ -31,8 +31,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import least_squares
-from scipy.spatial.transform import Rotation
 
 from ..camera import distortion_scale, intrinsic_matrix, project, skew_batch, so3_left_jacobian
 from ..constants import OUTLIER_SIGMAS, ROBUST_SCALE
@@ -287,6 +285,9 @@ def _metric_scale(X: Mapping[str, Array], known: Mapping[str, Array], refs: Sequ
 def _refine(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mapping[str, Array], origin: str,
             known: Mapping[str, Array], distances: Sequence[ReferenceDistance], click_sigma: float,
             heights: Mapping[str, tuple[float, float]] | None = None) -> Placement:
+    from scipy.optimize import least_squares  # imported at first use: docs/start-up.md
+    from scipy.spatial.transform import Rotation
+
     ids = list(photos)
     heights = {i: h for i, h in (heights or {}).items() if i in photos}
     free_markers = [n for n in sorted(X0) if n != origin and n not in known]

@@ -22,7 +22,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import least_squares
 
 from ..determinism import deterministic
 from ..errors import CalibrationError
@@ -194,6 +193,8 @@ def fit_vanishing_point(
     Non-linear least squares over the unit sphere of normalised homogeneous points, each step
     re-parameterised in the tangent plane at the current estimate.
     """
+    from scipy.optimize import least_squares  # imported at first use: docs/start-up.md
+
     seg = check_segments(segments, axis, photo)
     N = normalising_transform(width, height)
     N_inv = np.linalg.inv(N)

@@ -9,13 +9,13 @@ file, read by :func:`joint_from_dict`). The scene graph that holds them is
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial.transform import Rotation
 
 from ..camera import exp_so3
 from .primitives import Primitive
@@ -65,14 +65,40 @@ def rz(a: float) -> Array:
     return rotation4(np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]))
 
 
+def euler_xyz_matrix(rotation_deg: Any) -> Array:
+    """The rotation by XYZ Euler angles (degrees, about the parent's axes): the very bits of scipy's
+    ``Rotation.from_euler("xyz", rotation_deg, degrees=True).as_matrix()`` (its quaternions, composed
+    and turned into a matrix in the same order, tests/test_cli_start.py), without importing scipy's
+    spatial package (a quarter of a second), so that decoding a model stays light (docs/start-up.md)."""
+    q = np.array([0.0, 0.0, 0.0, 1.0])
+    for axis, angle in enumerate(np.deg2rad(np.asarray(rotation_deg, float)).reshape(3)):
+        e = np.zeros(4)
+        e[3], e[axis] = math.cos(angle / 2), math.sin(angle / 2)
+        if axis == 0:
+            q = e
+            continue
+        p = e  # extrinsic: the next elementary rotation composed on the left
+        cross = [p[1] * q[2] - p[2] * q[1], p[2] * q[0] - p[0] * q[2], p[0] * q[1] - p[1] * q[0]]
+        q = np.array([p[3] * q[0] + q[3] * p[0] + cross[0], p[3] * q[1] + q[3] * p[1] + cross[1],
+                      p[3] * q[2] + q[3] * p[2] + cross[2], p[3] * q[3] - p[0] * q[0] - p[1] * q[1] - p[2] * q[2]])
+    x, y, z, w = q
+    x2, y2, z2, w2 = x * x, y * y, z * z, w * w
+    xy, zw, xz, yw, yz, xw = x * y, z * w, x * z, y * w, y * z, x * w
+    return np.array([[x2 - y2 - z2 + w2, 2 * (xy - zw), 2 * (xz + yw)],
+                     [2 * (xy + zw), -x2 + y2 - z2 + w2, 2 * (yz - xw)],
+                     [2 * (xz - yw), 2 * (yz + xw), -x2 - y2 + z2 + w2]])
+
+
 def pose_matrix(t: Any, rotation_deg: Any) -> Array:
     """Translation then XYZ Euler rotation (degrees, about the parent's axes) as a 4×4 matrix."""
-    T = rotation4(Rotation.from_euler("xyz", np.asarray(rotation_deg, float), degrees=True).as_matrix())
+    T = rotation4(euler_xyz_matrix(rotation_deg))
     T[:3, 3] = np.asarray(t, float)
     return T
 
 
 def pose_to_dict(T: Array) -> dict[str, list[float]]:
+    from scipy.spatial.transform import Rotation
+
     return {"translation": [float(x) for x in T[:3, 3]],
             "rotation_deg": [float(x) for x in Rotation.from_matrix(T[:3, :3]).as_euler("xyz", degrees=True)]}
 

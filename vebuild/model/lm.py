@@ -14,8 +14,6 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import sparse
-from scipy.sparse.linalg import spsolve
 
 from ..constants import ROBUST_SCALE
 from ..determinism import deterministic
@@ -51,6 +49,9 @@ def levenberg_marquardt(fun: Callable[[Array], Array], jac: Callable[[Array], An
     step lowers the cost. The robust loss is handled
     by iteratively reweighted least squares: row i is weighted by ρ'(rᵢ²/c²)^½.
     """
+    from scipy import sparse  # imported at first use: docs/start-up.md
+    from scipy.sparse.linalg import spsolve
+
     x = clip(np.asarray(x0, float))
 
     def weights(r: Array) -> Array:

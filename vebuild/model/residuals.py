@@ -28,11 +28,10 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import sparse
 
 from ..calibration.positions import ReferenceDistance  # ends: marker names or 'node:handle'
 from ..camera import ImageCamera, exp_so3, project_each, skew_batch, so3_left_jacobian
@@ -43,6 +42,9 @@ from .primitives import Primitive
 from .relations import Relation, is_edge
 from .relations import rows_of as relation_rows
 from .scene import Model
+
+if TYPE_CHECKING:
+    from scipy import sparse
 
 Array = NDArray[np.float64]
 Index = NDArray[np.intp]
@@ -392,6 +394,8 @@ class Residuals:
     def jacobian(self, x: Array) -> Array | sparse.csr_matrix:
         """Sparse Jacobian: analytic for cameras and markers; for a model parameter, the handles it
         moves are differenced and chained through the analytic projection derivative."""
+        from scipy import sparse  # imported at first use: docs/start-up.md
+
         xm = self.model_vector(x)
         T, H = self._posed(xm)
         Ks, Rs, Cs, k1s = self._camera_arrays(x)
