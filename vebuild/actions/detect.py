@@ -319,29 +319,7 @@ def detect_project(project: Project, photos: Sequence[str] | None = None, *, rep
     for pid in ids:
         project.photo(pid)  # an unknown id is refused before any photo is read
     choices = x_axis_choices(project, ids, x_axis)
-    notes: dict[str, str] = {}
-    grouped: dict[str, Grouped] = {}
-    if any(c == AUTO for c in choices.values()):
-        grouped = {pid: group(photo_pixels(project, pid), project.photo(pid)) for pid in ids}
-        auto = [pid for pid in ids if choices[pid] == AUTO]
-        given = {pid: c for pid, c in choices.items() if c != AUTO}
-        # Photos not detected now, and detected photos keeping their segments, are held to the
-        # choice their segments show.
-        for p in project.data["photos"]:
-            pid = p["id"]
-            if pid in given or not p.get("vanishing_segments") or (replace and pid in ids):
-                continue
-            if pid not in grouped:
-                try:
-                    grouped[pid] = group(photo_pixels(project, pid), p)
-                except ProjectError:
-                    continue
-            shown = choice_from_segments(grouped[pid], p["vanishing_segments"])
-            if shown is not None:
-                given[pid] = shown
-        found, notes = auto_x_axes(project, grouped, given)
-        for pid in auto:
-            choices[pid] = found.get(pid, "right")
+    grouped, notes = choose_x_axes(project, ids, choices, replace=replace)
     out = []
     for pid in ids:
         g = grouped.get(pid)
@@ -357,6 +335,40 @@ def detect_project(project: Project, photos: Sequence[str] | None = None, *, rep
             clear_segments(project, pid)
         out.append((props, accept_proposals(project, props)))
     return out
+
+
+def choose_x_axes(project: Project, ids: Sequence[str], choices: dict[str, str], *, replace: bool = False,
+                  grouped: dict[str, Grouped] | None = None) -> tuple[dict[str, Grouped], dict[str, str]]:
+    """Settle every ``auto`` entry of ``choices`` (photo id → x-axis choice, changed in place) from
+    the markers the photos share (:func:`auto_x_axes`); returns the photos grouped on the way
+    (``grouped``: those already grouped, reused and added to) and a note per photo on its choice.
+    Photos not among ``ids``, and photos keeping their marked segments, are held to the choice
+    their segments show (``replace``: the segments of ``ids`` are about to go)."""
+    grouped = {} if grouped is None else grouped
+    notes: dict[str, str] = {}
+    if not any(c == AUTO for c in choices.values()):
+        return grouped, notes
+    for pid in ids:
+        if pid not in grouped:
+            grouped[pid] = group(photo_pixels(project, pid), project.photo(pid))
+    auto = [pid for pid in ids if choices[pid] == AUTO]
+    given = {pid: c for pid, c in choices.items() if c != AUTO}
+    for p in project.data["photos"]:
+        pid = p["id"]
+        if pid in given or not p.get("vanishing_segments") or (replace and pid in ids):
+            continue
+        if pid not in grouped:
+            try:
+                grouped[pid] = group(photo_pixels(project, pid), p)
+            except ProjectError:
+                continue
+        shown = choice_from_segments(grouped[pid], p["vanishing_segments"])
+        if shown is not None:
+            given[pid] = shown
+    found, notes = auto_x_axes(project, grouped, given)
+    for pid in auto:
+        choices[pid] = found.get(pid, "right")
+    return grouped, notes
 
 
 def replace_message(props: PhotoProposals, message: str) -> PhotoProposals:

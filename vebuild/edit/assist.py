@@ -143,35 +143,91 @@ class Assist:
         self.proposals[photo] = [p for p in self.proposals.get(photo, []) if p.kind != kind] + items
         self.revision += 1
 
-    def detect_lines(self, photo: str, x_axis: str | None = None) -> int:
-        """Detect the photo's vanishing segments (:func:`vebuild.actions.detect.detect_photo`) and
-        show them as proposals; returns how many. ``x_axis``: which horizontal direction of the
-        photo world x runs (``right``, ``left``, ``away``, ``toward``); None: ``right`` the first
-        time, the next choice each time after (D again turns the proposed axes)."""
-        from vebuild.actions.detect import detect_photo
-        from vebuild.calibration.lines import X_AXIS_CHOICES
+    def _grouped(self) -> dict[str, Any]:
+        """The photos' edges grouped into vanishing directions (:func:`vebuild.actions.detect.group`),
+        kept per photo file: D and Shift+D group each photo once."""
+        store: dict[str, Any] = self.__dict__.setdefault("_grouped_store", {})
+        files = {p["id"]: p.get("file") for p in self.data.get("photos", [])}
+        for pid in [k for k, (f, _) in store.items() if files.get(k) != f]:
+            del store[pid]
+        return {pid: g for pid, (_, g) in store.items()}
+
+    def _keep_grouped(self, grouped: dict[str, Any]) -> None:
+        store: dict[str, Any] = self.__dict__.setdefault("_grouped_store", {})
+        for pid, g in grouped.items():
+            store[pid] = (self.photo(pid).get("file"), g)
+
+    def _detect(self, photos: Sequence[str], x_axis: dict[str, str | None]) -> dict[str, Any]:
+        """The proposals of each photo (PhotoProposals), x chosen as given or (None) from the
+        markers the photos share (:func:`vebuild.actions.detect.choose_x_axes`)."""
+        from vebuild.actions.detect import AUTO, choose_x_axes, group, orient_proposals, photo_pixels, replace_message
         from vebuild.errors import VebuildError
 
-        self.photo(photo)
-        last: dict[str, str] = self.__dict__.setdefault("_x_axis", {})
-        if x_axis is None:
-            x_axis = X_AXIS_CHOICES[(X_AXIS_CHOICES.index(last[photo]) + 1) % len(X_AXIS_CHOICES)] \
-                if photo in last else X_AXIS_CHOICES[0]
-        last[photo] = x_axis
+        choices = {pid: c or AUTO for pid, c in x_axis.items()}
         try:
-            found = detect_photo(self.project, photo, x_axis=x_axis)
+            grouped, notes = choose_x_axes(self.project, list(photos), choices, grouped=self._grouped())
+            out = {}
+            for pid in photos:
+                if pid not in grouped:
+                    grouped[pid] = group(photo_pixels(self.project, pid), self.photo(pid))
+                props = orient_proposals(grouped[pid], choices[pid])
+                if pid in notes and x_axis.get(pid) is None:
+                    props = replace_message(props, f"{props.message}; x {choices[pid]}: {notes[pid]}")
+                out[pid] = props
         except VebuildError as e:
-            raise EditError(f"line detection on photo '{photo}' failed: {e}") from None
+            raise EditError(f"line detection failed: {e}") from None
+        self._keep_grouped(grouped)
+        last: dict[str, str] = self.__dict__.setdefault("_x_axis", {})
+        last.update(choices)
+        return out
+
+    def _show_detected(self, photo: str, found: Any) -> list[Proposal]:
         items = [Proposal("segment", photo, axis=s.axis, segment=tuple(float(v) for v in s.segment),  # type: ignore[arg-type]
                           sigma_px=float(s.sigma_px), score=float(s.score),
                           points=tuple(float(v) for v in getattr(s, "points", ()) or ()))
                  for s in found.segments]
         self._set_proposals(photo, "segment", items)
+        return items
+
+    def detect_lines(self, photo: str, x_axis: str | None = None) -> int:
+        """Detect the photo's vanishing segments (:func:`vebuild.actions.detect.detect_photo`) and
+        show them as proposals; returns how many. ``x_axis``: which horizontal direction of the
+        photo world x runs (``right``, ``left``, ``away``, ``toward``); None: the first time, the
+        choice that agrees with the other photos through the markers they share (``vebuild
+        detect``'s ``auto``; ``right`` where they do not tell), the next choice each time after
+        (D again turns the proposed axes)."""
+        from vebuild.calibration.lines import X_AXIS_CHOICES
+
+        self.photo(photo)
+        last: dict[str, str] = self.__dict__.setdefault("_x_axis", {})
+        if x_axis is None and photo in last:
+            x_axis = X_AXIS_CHOICES[(X_AXIS_CHOICES.index(last[photo]) + 1) % len(X_AXIS_CHOICES)]
+        found = self._detect([photo], {photo: x_axis})[photo]
+        items = self._show_detected(photo, found)
         per_axis = {a: sum(p.axis == a for p in items) for a in ("x", "y", "z")}
-        self.say(f"detected in {photo} with x {x_axis}: " + ", ".join(f"{n} {a}" for a, n in per_axis.items())
+        self.say(f"detected in {photo} with x {last[photo]}: " + ", ".join(f"{n} {a}" for a, n in per_axis.items())
                  + f" segment proposals ({found.message}); Enter accepts all, a click on one accepts it, "
                  "the Delete tool rejects it; D again turns x to the next horizontal direction")
         return len(items)
+
+    def detect_everywhere(self) -> int:
+        """Shift+D: detect on every photo and show the proposals, each photo's x chosen from the
+        markers the photos share (place three or more markers shared between photos first); returns
+        how many proposals in all. The photos where nothing was found, or x was not chosen, are named."""
+        ids = self.photo_ids
+        if not ids:
+            raise EditError("no photos to detect lines on: add photos first")
+        found = self._detect(ids, {pid: None for pid in ids})
+        total = 0
+        lines = []
+        for pid in ids:
+            n = len(self._show_detected(pid, found[pid]))
+            total += n
+            note = found[pid].message.split("; x ")[-1] if "; x " in found[pid].message else found[pid].message
+            lines.append(f"{pid}: {n} ({note})" if n else f"{pid}: none ({found[pid].message})")
+        self.say(f"detected {total} segment proposals over {len(ids)} photos; Q accepts every photo's, D on a "
+                 "photo turns its x: " + "; ".join(lines))
+        return total
 
     def suggest_markers(self, photo: str, features: bool = False) -> int:
         """Markers proposed in a calibrated photo: each marker placed in another calibrated photo
@@ -393,6 +449,38 @@ class Assist:
         kinds = {k: sum(p.kind == k for p in items) for k in ("segment", "marker", "pin")}
         self.say(f"accepted in {photo}: " + ", ".join(f"{n} {k}{'s' if n != 1 else ''}" for k, n in kinds.items() if n))
         return len(items)
+
+    def accept_everywhere(self) -> int:
+        """Q: accept every proposal of every photo (one undoable edit); returns how many."""
+        items = [p for pid in self.photo_ids for p in self.proposals.get(pid, [])]
+        if not items:
+            self.say("no proposals to accept (Shift+D detects lines on every photo, W suggests markers)")
+            return 0
+        photos = sorted({p.photo for p in items}, key=self.photo_ids.index)
+        with self._edit(f"accept {len(items)} proposals in {len(photos)} photos"):
+            for p in items:
+                self._apply(p)
+        for pid in photos:
+            self.proposals.pop(pid, None)
+        self.revision += 1
+        kinds = {k: sum(p.kind == k for p in items) for k in ("segment", "marker", "pin")}
+        self.say(f"accepted in {', '.join(photos)}: "
+                 + ", ".join(f"{n} {k}{'s' if n != 1 else ''}" for k, n in kinds.items() if n))
+        return len(items)
+
+    def suggest_markers_everywhere(self) -> int:
+        """W: :meth:`suggest_markers` on every calibrated photo; returns how many in all (the
+        photos not calibrated are named)."""
+        cams = self.cameras
+        done = [pid for pid in self.photo_ids if pid in cams]
+        if len(done) < 2:
+            raise EditError("markers are suggested once two or more photos are calibrated (calibrate first)")
+        per = {pid: self.suggest_markers(pid) for pid in done}
+        left = [pid for pid in self.photo_ids if pid not in cams]
+        self.say(f"suggested {sum(per.values())} markers: " + ", ".join(f"{n} in {p}" for p, n in per.items())
+                 + (f"; not calibrated, so none in {', '.join(left)}" if left else "")
+                 + "; Q accepts them all, then calibrate again")
+        return sum(per.values())
 
     def clear_proposals(self, photo: str) -> None:
         self.proposals.pop(photo, None)

@@ -1,0 +1,32 @@
+"""The modelling screen's proposal keys over every photo at once: Shift+D detects on every photo
+(x chosen from the markers the photos share), W suggests markers in every calibrated photo, Q
+accepts every photo's proposals (one undoable edit). The session does the work
+(:class:`vebuild.edit.assist.Assist`)."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+
+class AssistKeys:
+    """Mixed into the screen (:class:`vebuild.edit.screen.Editor`)."""
+
+    if TYPE_CHECKING:
+        session: Any
+
+        def _long(self, title: str, fn: Callable[[Callable[[float, str], None]], Any]) -> tuple[Any, str | None]: ...
+
+    def detect_everywhere(self) -> None:
+        """Shift+D: every photo's detected segments proposed, each photo's x from the markers."""
+        self._long("detecting lines on every photo", lambda progress: self.session.detect_everywhere())
+
+    def suggest_markers_everywhere(self) -> None:
+        """W: the markers placed elsewhere suggested in every calibrated photo."""
+        self._long("suggesting markers", lambda progress: self.session.suggest_markers_everywhere())
+
+    def accept_everywhere(self) -> None:
+        """Q: every photo's proposals accepted (one undoable edit)."""
+        self._long("accepting every proposal", lambda progress: self.session.accept_everywhere())
