@@ -119,6 +119,8 @@ def test_a_height_and_a_dimension_clicked_on_the_photo(room, drive, capsys):
     assert e.measured[-1].command == ["dimensions", "table.top"]
     d.send("key", "ctrl+z")  # one undoable edit each
     assert [r["name"] for r in e.session.data["analyses"]] == ["clicked height 1"]
+    d.send("key", "u")  # the view cleared, the analyses kept
+    assert e.measured == [] and len(e.session.data["analyses"]) == 1
 
 
 def test_an_evidence_marker_clicked_on_the_photo_appears_in_a_render(room, drive, tmp_path):

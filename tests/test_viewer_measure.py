@@ -175,6 +175,8 @@ def test_a_clicked_height_and_dimensions(room, drive, capsys):
     assert v.measure_mode is None
     names = [r["name"] for r in json.loads(room.read_text())["analyses"]]
     assert names == ["clicked height 1", "clicked dimension 1"]
+    d.send("key", "n")  # the view cleared, the analyses kept
+    assert v.measured == [] and len(json.loads(room.read_text())["analyses"]) == 2
 
 
 def test_a_marker_placed_by_clicking_appears_in_a_render_and_a_click_removes_it(room, drive, tmp_path):
@@ -232,3 +234,19 @@ def test_measuring_needs_a_solved_model(tmp_path, drive):
     d.click_at(_top_centre(v, "box"))
     assert v.measured == [] and any("measuring needs a solved model" in m for m in v.messages)
     assert "analyses" not in json.loads(proj.read_text())
+
+
+def test_a_trajectory_from_a_clicked_hole_along_the_view(room, drive):
+    d = drive(room)
+    v = d.viewer
+    d.send("key", "h")
+    assert any("click the entry hole first" in m for m in v.messages)
+    d.send("key", "j")
+    d.click_at(_top_centre(v) + [0.1, 0.0, 0.0])
+    d.send("key", "h")
+    words = json.loads(room.read_text())["analyses"][-1]["command"]
+    forward = np.asarray(v.camera().R, float)[2]  # the camera's optical axis in the world
+    az, el = float(words[words.index("--azimuth") + 1]), float(words[words.index("--elevation") + 1])
+    assert az == pytest.approx(np.degrees(np.arctan2(forward[1], forward[0])), abs=0.005)
+    assert el == pytest.approx(np.degrees(np.arcsin(forward[2])), abs=0.005)
+    assert "--sigma" not in words and v.measure_clicks == []

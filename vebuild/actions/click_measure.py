@@ -139,10 +139,11 @@ def surface_reference(solved: SolvedModel, node: str, world: Any, face: str | No
     """The reference ``node@face:s,t`` of a world point on a flat face of ``node`` (``face``: the
     face it lies on, if known; else the face nearest the point)."""
     from vebuild.analysis.points import PICK_SEGMENTS, face_point
+    from vebuild.model.scene import ModelError
 
     try:
         n = solved.model.node(node)
-    except VebuildError:
+    except (VebuildError, ModelError):
         raise ClickError(f"'{node}' is not a node of the solved model; solve the model again") from None
     if n.primitive is None:
         raise ClickError(f"'{node}' is a group with no surface of its own")
