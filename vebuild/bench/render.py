@@ -58,8 +58,15 @@ from ..project.decode import preset_from_record
 from ..render.renderer import Renderer, RenderOptions, Stereo
 from ..render.scene import RenderScene, scene_from_model
 from ..texture import layout as lay
+from .render_floor import Floor, paired_fps
 
-GOALS = {"frame_loop_mono_fps": 60.0, "speedup_over_pyrender": 10.0}
+GOALS = {"frame_loop_mono_fps": 60.0, "speedup_over_pyrender": 10.0, "share_of_floor": 0.6}
+#: The frame loop's settings as its figures name them (``frame_fps_<name>``), and their fps goals.
+FRAME_SETTINGS = {("example", "unlit"): "example_unlit", ("example", "lit"): "example_lit_sun",
+                  ("example", "shadows"): "example_shadows", ("primitives200", "unlit"): "200_unlit",
+                  ("primitives200", "lit"): "200_lit", ("primitives200", "shadows"): "200_shadows"}
+FRAME_GOALS = {"example_lit_sun": 60.0, "example_shadows": 45.0, "200_unlit": 60.0, "200_lit": 30.0}
+FLOOR_NAMES = {"example": "example", "primitives200": "200"}
 WIDTH, HEIGHT = 1280, 720
 SCENES = {"example": "example room", "primitives200": "200 primitives"}
 LIGHTINGS = {"unlit": "unlit", "lit": "sun, no shadows", "shadows": "sun + shadows"}
@@ -189,6 +196,7 @@ def measure_vebuild(ctx: moderngl.Context, scene: RenderScene, cam: ImageCamera,
     the stereo pair's eyes."""
     _current(ctx)
     r = Renderer(ctx, scene, SETTINGS[settings])
+    floor = Floor(ctx, scene, cam) if settings == "frame_loop" else None
     out: dict[str, float] = {}
     images: dict[str, np.ndarray] = {}
     eyes = r.eyes(cam, Stereo("sbs"))
@@ -206,7 +214,12 @@ def measure_vebuild(ctx: moderngl.Context, scene: RenderScene, cam: ImageCamera,
                     def draw(stereo: Stereo | None = stereo) -> None:
                         _current(ctx)
                         r.render(cam, stereo)
-                out[f"{prefix}_{lname}_{view}_{settings}_fps"] = _fps(draw, timing)
+                if floor is not None and view == "mono":  # beside the floor, frame by frame
+                    c = f"{prefix}_{lname}_{view}"
+                    out[f"{c}_{settings}_fps"], out[f"{c}_floor_fps"], out[f"{c}_share_of_floor"] = paired_fps(
+                        draw, floor.frame, max(5, timing.min_frames), timing.seconds, timing.max_frames)
+                else:
+                    out[f"{prefix}_{lname}_{view}_{settings}_fps"] = _fps(draw, timing)
                 bar.update(1)
                 if settings == "render" and view == "mono":
                     images[lname] = r.render(cam)
@@ -222,6 +235,8 @@ def measure_vebuild(ctx: moderngl.Context, scene: RenderScene, cam: ImageCamera,
     finally:
         _current(ctx)
         r.release()
+        if floor is not None:
+            floor.release()
     return out, images, eyes
 
 
@@ -435,11 +450,45 @@ def run(quick: bool = False, progress: bool = True) -> dict[str, Any]:
     loop = [fig[f"{p}_{lname}_mono_frame_loop_fps"] for p in SCENES for lname in ("unlit", "lit")]
     fig["frame_loop_mono_no_shadows_fps_min"] = min(loop)
     fig["goal_frame_loop_met"] = bool(min(loop) >= GOALS["frame_loop_mono_fps"])
+    _frame_figures(fig)
     speedups = [v for k, v in fig.items() if k.endswith("_speedup_over_pyrender") and "redrawn" not in k]
     if speedups:
         fig["speedup_over_pyrender_min"] = min(speedups)
         fig["goal_speedup_met"] = bool(min(speedups) >= GOALS["speedup_over_pyrender"])
     return fig
+
+
+def _frame_figures(fig: dict[str, Any]) -> None:
+    """The frame loop's figures by setting: ``frame_fps_<setting>``, ``frame_share_of_floor_<setting>``,
+    ``frame_fps_floor_<scene>`` (its fastest frame over the runs beside the settings) and the goals."""
+    for (p, lname), name in FRAME_SETTINGS.items():
+        c = f"{p}_{lname}_mono"
+        fig[f"frame_fps_{name}"] = fig[f"{c}_frame_loop_fps"]
+        fig[f"frame_share_of_floor_{name}"] = fig[f"{c}_share_of_floor"]
+    for p, name in FLOOR_NAMES.items():
+        fig[f"frame_fps_floor_{name}"] = max(fig[f"{p}_{lname}_mono_floor_fps"] for lname in LIGHTINGS)
+    fig["goal_frame_fps_met"] = all(fig[f"frame_fps_{n}"] >= g for n, g in FRAME_GOALS.items())
+    fig["goal_share_of_floor_met"] = all(fig[f"frame_share_of_floor_{n}"] >= GOALS["share_of_floor"]
+                                         for n in FRAME_SETTINGS.values())
+
+
+def floor_table(fig: dict[str, Any]) -> list[str]:
+    """The frame loop beside the floor program, one row per setting."""
+    if "frame_fps_floor_example" not in fig:
+        return []
+    share = GOALS["share_of_floor"]
+    lines = ["", f"{'frame loop vs the floor':<36}{'fps':>8}{'goal':>8}{'ms':>8}{'floor fps':>11}"
+             f"{'share':>8}  (goal ≥ {share:.1f})"]
+    for (p, _), name in FRAME_SETTINGS.items():
+        fps, goal = fig[f"frame_fps_{name}"], FRAME_GOALS.get(name)
+        lines.append(f"{'  ' + name:<36}{fps:>8.1f}{_cell(goal, '{:.0f}'):>8}{1000 / fps:>8.1f}"
+                     f"{fig[f'frame_fps_floor_{FLOOR_NAMES[p]}']:>11.1f}{fig[f'frame_share_of_floor_{name}']:>8.2f}")
+    lines += ["floor: a minimal program in the same context drawing the same triangles (none culled) with one "
+              "texture, no lighting;",
+              "  share: the median over alternating frame pairs of floor time / frame time (robust to other load).",
+              f"goal: fps goals {'met' if fig['goal_frame_fps_met'] else 'NOT met'}; every share ≥ {share:.1f} "
+              f"{'met' if fig['goal_share_of_floor_met'] else 'NOT met'}"]
+    return lines
 
 
 def _cell(v: float | None, fmt: str = "{:.1f}") -> str:
@@ -506,6 +555,7 @@ def table(fig: dict[str, Any]) -> str:
             lines.append("  pixels off the background, vebuild / pyrender: " + ", ".join(shares))
     for why, n in notes.items():
         lines.append(f"[{n}] pyrender unavailable: {why}")
+    lines += floor_table(fig)
     lines += ["", f"goal: frame loop ≥ {GOALS['frame_loop_mono_fps']:.0f} fps mono without shadows (unlit and lit, "
               f"both scenes): slowest {fig['frame_loop_mono_no_shadows_fps_min']:.1f} fps, "
               f"{'met' if fig['goal_frame_loop_met'] else 'NOT met'}"]

@@ -12,7 +12,9 @@ preset), and re-lit, the textures as surface colour under a preset's lights
 (:mod:`vebuild.lighting`), with shadow maps for the lights that cast them: one tile of a
 shared depth atlas for a directional light (orthographic, fitted to the scene) or a spot light
 (perspective, its cone), six for a point light (one per cube face; :mod:`vebuild.render.shadows`).
-Shadow maps are rendered when the scene or the lighting changes, not every frame.
+Shadow maps are rendered when the scene or the lighting changes, not every frame. The scene
+program is compiled per lighting preset and mode (:mod:`vebuild.render.variants`), and each view
+draws closed primitives' back faces culled, nearest blocks first (:mod:`vebuild.render.draworder`).
 
 A photo's camera with lens distortion (``ImageCamera.k1`` ≠ 0) is drawn as the lens shows it, so
 that the render lies on the photo: the scene is drawn as the pinhole image over the photo's
@@ -34,7 +36,6 @@ are hatched, tinted or left as extracted (``RenderOptions.unobserved``, or the r
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -56,6 +57,7 @@ from vebuild.gl import load_program
 from vebuild.gl.context import max_texture_size
 from vebuild.gl.shaders import set_uniforms, uniform
 from vebuild.lighting import AS_PHOTOGRAPHED_LIGHTING, MAX_LIGHTS, Lighting
+from vebuild.render.draworder import DrawOrder, near_reach
 from vebuild.render.observed import (
     DEFAULT_UNOBSERVED,
     HATCH_DUTY,
@@ -69,6 +71,8 @@ from vebuild.render.observed import (
 from vebuild.render.scene import RenderScene
 from vebuild.render.shadows import MAX_TILES, ShadowAtlas
 from vebuild.render.sizes import check_camera, gl_limits
+from vebuild.render.variants import UNIFORM_ARRAYS, light_uniforms, scene_defines
+from vebuild.render.variants import vertex_array as _vertex_array
 from vebuild.texture.lens import pinhole_cover
 from vebuild.texture.merge import srgb8_to_linear
 
@@ -120,9 +124,8 @@ class Renderer:
     def __init__(self, ctx: moderngl.Context, scene: RenderScene, options: RenderOptions | None = None):
         self.ctx = ctx
         self.options = options or RenderOptions()
-        # Two variants of the scene program: unlit (as photographed) and re-lit.
-        self._programs = {lit: load_program(ctx, "scene", {"LIT": int(lit), "MAX_LIGHTS": MAX_LIGHTS,
-                                                           "MAX_TILES": MAX_TILES}) for lit in (False, True)}
+        # The scene program's variants (vebuild.render.variants), and a vertex array for each used.
+        self._vaos: dict[int, moderngl.VertexArray] = {}
         self.shadow_program = load_program(ctx, "shadow")
         self.pick_program = load_program(ctx, "id")  # the ID-buffer pass of texture extraction
         self._pick_target: moderngl.Framebuffer | None = None
@@ -180,7 +183,7 @@ class Renderer:
 
     def set_scene(self, scene: RenderScene) -> None:
         """Draw ``scene`` from now on (objects moved, say); its textures must be the same pages."""
-        for r in self._resources:
+        for r in [*self._resources, *self._vaos.values()]:
             r.release()
         mesh = scene.mesh
         self.scene = scene
@@ -194,16 +197,14 @@ class Renderer:
         tri_page = vpage[mesh.triangles[:, 0]] if len(mesh.triangles) else np.zeros(0, np.int32)
         order = np.argsort(tri_page, kind="stable")
         index = mesh.triangles[order].astype("i4")
-        counts = np.bincount(tri_page, minlength=max(1, len(self._pages)))
-        starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-        self._ranges = [(int(p), int(3 * s), int(3 * c)) for p, (s, c) in enumerate(zip(starts, counts, strict=True))
-                        if c > 0]
-        vbo = self.ctx.buffer(data.tobytes())
+        self._order = DrawOrder(scene, tri_page.astype(np.int32))
+        self._draw_ibo = self.ctx.buffer(self._order.index.tobytes())  # rewritten per view (draworder)
+        self._vbo = vbo = self.ctx.buffer(data.tobytes())
         ibo = self.ctx.buffer(index.tobytes())
-        self._vaos = {lit: _vertex_array(self.ctx, prog, vbo, ibo) for lit, prog in self._programs.items()}
+        self._vaos = {}
         self._shadow_vao = _vertex_array(self.ctx, self.shadow_program, vbo, ibo)
-        self._pick_vao = _vertex_array(self.ctx, self.pick_program, vbo, ibo)
-        self._resources = [*self._vaos.values(), self._shadow_vao, self._pick_vao, vbo, ibo]
+        self._pick_vao = _vertex_array(self.ctx, self.pick_program, vbo, self._draw_ibo)  # as the colour pass
+        self._resources = [self._shadow_vao, self._pick_vao, vbo, ibo, self._draw_ibo]
         self._n_indices = int(index.size)
         self._bounds = scene.bounds()
         self._shadow_state = None  # the geometry moved: shadows are drawn again
@@ -241,13 +242,22 @@ class Renderer:
         centre = 0.5 * (self._bounds[0] + self._bounds[1])
         return max(0.5, float(world_to_camera(cam.R, cam.C, centre)[2]))
 
+    def _unobserved_mode(self) -> int:
+        return (UNOBSERVED_MODES.index(check_mode(self.unobserved, "unobserved")) + 1
+                if self.unobserved != "off" and self._masks else 0)
+
     @property
     def program(self) -> moderngl.Program:
-        """The scene program of the current lighting (unlit or re-lit)."""
-        return self._programs[self.lighting.lit]
+        """The scene program's variant for the current lighting and modes (compiled once)."""
+        defines = scene_defines(self.lighting, self.options.shadows, self.scene.textured, self._unobserved_mode())
+        return load_program(self.ctx, "scene", defines)
 
-    def _set_uniforms(self, cam: ImageCamera, flip: bool) -> None:
-        prog = self.program
+    def _vao(self, prog: moderngl.Program) -> moderngl.VertexArray:
+        if prog.glo not in self._vaos:
+            self._vaos[prog.glo] = _vertex_array(self.ctx, prog, self._vbo, self._draw_ibo)
+        return self._vaos[prog.glo]
+
+    def _set_uniforms(self, cam: ImageCamera, flip: bool, prog: moderngl.Program) -> tuple[float, float]:
         near, far = self._near_far(cam)
         light = self.lighting
         values: dict[str, object] = {
@@ -259,8 +269,7 @@ class Renderer:
             "highlight_colour": srgb8_to_linear(np.array(self.options.highlight_srgb, np.uint8)),
             "highlight_node": self.scene.node_names.index(self.highlight)
             if self.highlight in self.scene.node_names else -1,
-            "unobserved_mode": UNOBSERVED_MODES.index(check_mode(self.unobserved, "unobserved")) + 1
-            if self.unobserved != "off" and self._masks else 0,
+            "unobserved_mode": self._unobserved_mode(),
             "unobserved_colour": srgb8_to_linear(np.array(UNOBSERVED_SRGB, np.uint8)),
             "unobserved_strength": HATCH_STRENGTH if self.unobserved == "hatch" else TINT_STRENGTH,
             "hatch_period": HATCH_PERIOD_M,
@@ -270,18 +279,7 @@ class Renderer:
             if self._shadow_state is None:
                 self._update_shadows()
             state = self._shadow_state or {}
-            first: dict[int, int] = state.get("first", {})  # type: ignore[assignment]
-            arr = {k: np.zeros((MAX_LIGHTS, 4), "f4") for k in ("light_colour", "light_position", "light_direction")}
-            inner = np.zeros(MAX_LIGHTS, "f4")
-            for i, li in enumerate(light.lights):
-                arr["light_colour"][i] = [*li.colour, ("directional", "point", "spot").index(li.type)]
-                pos = li.position if li.position is not None else np.zeros(3)
-                arr["light_position"][i] = [*pos, first.get(i, -1)]
-                d = li.direction if li.direction is not None else np.array([0.0, 0.0, -1.0])
-                arr["light_direction"][i] = [*d, math.cos(li.outer_cone)]
-                inner[i] = math.cos(li.inner_cone)
-            values.update(arr)
-            values["light_cos_inner"] = inner
+            values.update(light_uniforms(light, state.get("first", {})))  # type: ignore[arg-type]
             if state.get("n"):
                 values.update(shadow_matrix=state["matrices"], shadow_rect=state["rects"],
                               shadow_texel=state["texels"])
@@ -290,11 +288,13 @@ class Renderer:
                 u = uniform(prog, name)
                 if isinstance(v, bool | int | np.integer):
                     u.value = int(v)
-                else:
+                else:  # a variant may use the first elements of an array only
+                    v = np.asarray(v)[: u.array_length] if name in UNIFORM_ARRAYS else v
                     u.write(np.ascontiguousarray(v, dtype="f4").tobytes())
         for name, unit in (("atlas", 0), ("shadow_atlas", 1), ("unseen_mask", 2)):
             if name in prog:
                 uniform(prog, name).value = unit
+        return near, far
 
     def _target(self, w: int, h: int, key: str) -> tuple[moderngl.Framebuffer, moderngl.Framebuffer,
                                                          moderngl.Texture]:
@@ -319,7 +319,8 @@ class Renderer:
                     flip: bool) -> None:
         """One view of the scene into ``target``'s viewport at ``origin`` (sRGB encoded)."""
         ctx = self.ctx
-        self._set_uniforms(cam, flip)  # may render shadow maps, so before binding the target
+        prog = self.program
+        near, _ = self._set_uniforms(cam, flip, prog)  # may render shadow maps, so before binding the target
         viewport = (origin[0], origin[1], cam.width, cam.height)
         target.use()
         target.viewport = viewport
@@ -327,18 +328,36 @@ class Renderer:
         # Alpha is cleared to 0 and drawn as 1: off-screen, it is the share of each pixel the model covers.
         target.clear(float(bg[0]), float(bg[1]), float(bg[2]), 0.0, depth=1.0, viewport=viewport)
         ctx.enable(moderngl.DEPTH_TEST)
-        ctx.disable(moderngl.CULL_FACE)
         shadow_tex = self._shadow.texture if (self._shadow.texture is not None
                                               and (self._shadow_state or {}).get("n")) else self._shadow_blank
         shadow_tex.use(location=1)
-        if "textured" in self.program:
-            uniform(self.program, "textured").value = int(self.scene.textured)
-        vao = self._vaos[self.lighting.lit]
-        for page, first, count in self._ranges:
-            (self._pages[page] if self.scene.textured else self._blank).use(location=0)
-            (self._masks[page] if self.scene.textured and page < len(self._masks) else self._no_mask).use(location=2)
-            vao.render(moderngl.TRIANGLES, vertices=count, first=first)
+        if "textured" in prog:
+            uniform(prog, "textured").value = int(self.scene.textured)
+        self._draw_ordered(self._vao(prog), cam, near, flip, textures=True)
         ctx.disable(moderngl.DEPTH_TEST)
+
+    def _draw_ordered(self, vao: moderngl.VertexArray, cam: ImageCamera, near: float, flip: bool,
+                      textures: bool) -> None:
+        """All triangles through ``vao``, closed primitives' back faces culled, nearest first
+        (:mod:`vebuild.render.draworder`); ``textures``: bind each page's atlas and mask."""
+        ctx = self.ctx
+        reach = cam.reach if isinstance(cam, _NarrowCamera) else near_reach(cam.K, cam.width, cam.height, near)
+        index, ranges = self._order.plan(np.asarray(cam.C, float), reach)
+        if index is not None:
+            self._draw_ibo.write(index.tobytes())
+        # Outward (counter-clockwise) triangles wind clockwise in image order, counter-clockwise flipped.
+        ctx.front_face = "ccw" if flip else "cw"
+        bound = -1
+        for r in ranges:
+            if textures and r.page != bound:
+                bound = r.page
+                (self._pages[r.page] if self.scene.textured else self._blank).use(location=0)
+                (self._masks[r.page] if self.scene.textured and r.page < len(self._masks)
+                 else self._no_mask).use(location=2)
+            (ctx.enable if r.cull else ctx.disable)(moderngl.CULL_FACE)
+            vao.render(moderngl.TRIANGLES, vertices=r.count, first=r.first)
+        ctx.disable(moderngl.CULL_FACE)
+        ctx.front_face = "ccw"
 
     def _anaglyph(self, target: moderngl.Framebuffer, origin: tuple[int, int], left: ImageCamera,
                   right: ImageCamera, flip: bool) -> None:
@@ -503,7 +522,7 @@ class Renderer:
         P = gl_projection(cam.K, cam.width, cam.height, near, far)
         uniform(prog, "projection").write(P.T.astype("f4").tobytes())
         self.ctx.enable(moderngl.DEPTH_TEST)
-        self._pick_vao.render(moderngl.TRIANGLES, vertices=self._n_indices)
+        self._draw_ordered(self._pick_vao, cam, near, False, textures=False)
         self.ctx.disable(moderngl.DEPTH_TEST)
         target = fbo.color_attachments[0]
         assert isinstance(target, moderngl.Texture)
@@ -529,7 +548,8 @@ class Renderer:
         K = np.array(cam.K, float)  # (u, v) at the centre of a 1 × 1 image, same near and far planes
         K[0, 2] -= u - 0.5
         K[1, 2] -= v - 0.5
-        faces, depth = self.id_buffer(_NarrowCamera(cam.id, K, cam.R, cam.C, 1, 1, near, far))
+        reach = near_reach(cam.K, cam.width, cam.height, near)  # the whole view's, so that it culls alike
+        faces, depth = self.id_buffer(_NarrowCamera(cam.id, K, cam.R, cam.C, 1, 1, near, far, reach))
         face = int(faces[0, 0])
         if face == 0:
             return None, None
@@ -546,9 +566,9 @@ class Renderer:
 
     def release(self) -> None:
         """Free the GPU resources."""
-        for r in self._resources:
+        for r in [*self._resources, *self._vaos.values()]:
             r.release()
-        self._resources = []
+        self._resources, self._vaos = [], {}
         for t in self._pages + self._masks:
             t.release()
         self._pages, self._masks = [], []
@@ -563,18 +583,6 @@ class Renderer:
         self._release_pick_target()
 
 
-#: The scene's vertex layout: attribute names and float counts, in buffer order.
-VERTEX_LAYOUT = (("in_position", 3), ("in_normal", 3), ("in_uv", 2), ("in_colour", 3), ("in_node", 1), ("in_face", 1))
-
-
-def _vertex_array(ctx: moderngl.Context, prog: moderngl.Program, vbo: moderngl.Buffer,
-                  ibo: moderngl.Buffer) -> moderngl.VertexArray:
-    """A vertex array over the scene's buffer for ``prog``, skipping attributes it does not use."""
-    fmt = " ".join(f"{n}f" if name in prog else f"{4 * n}x" for name, n in VERTEX_LAYOUT)
-    names = [name for name, _ in VERTEX_LAYOUT if name in prog]
-    return ctx.vertex_array(prog, [(vbo, fmt, *names)], index_buffer=ibo)
-
-
 @dataclass(frozen=True)
 class _NarrowCamera(ImageCamera):
     """A camera narrowed to part of another's image, keeping that camera's near and far planes (so
@@ -582,3 +590,4 @@ class _NarrowCamera(ImageCamera):
 
     near: float = 0.0
     far: float = 0.0
+    reach: float = 0.0  # how far the whole view's near plane reaches (vebuild.render.draworder)
