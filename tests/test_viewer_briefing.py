@@ -25,6 +25,7 @@ from vebuild.viewer.layout import (
     MIN_TEXT_MM,
     PANEL_WIDTH_EM,
     TEXT_FRACTION_OF_HEIGHT,
+    fit_text,
     panel_layout,
     screen_px_per_mm,
     text_size,
@@ -118,8 +119,12 @@ def test_text_is_sized_for_the_room_and_never_below_the_desk_minimum():
     # per window coordinate halves it in window coordinates.
     assert text_size(360, 163 / 25.4) == pytest.approx(MIN_TEXT_MM * 163 / 25.4)
     assert text_size(360, 163 / 25.4, 2.0) == pytest.approx(MIN_TEXT_MM * 163 / 25.4 / 2)
-    lay = panel_layout(1920, 1080, 96 / 25.4, title_px=2000)
-    assert lay.width == pytest.approx(1920 - 2 * 0.5 * lay.text_px)  # a long title: as wide as the window allows
+    lay = panel_layout(1920, 1080, 96 / 25.4)
+    assert lay.width == pytest.approx(max(PANEL_WIDTH_EM * lay.text_px, 0.3 * 1920))
+    assert lay.x + lay.width == pytest.approx(1920 - 0.5 * lay.text_px)
+    # A title too long for the panel is shortened with "…" (one unit a character here).
+    assert fit_text("vebuild: a long name", 12, len) == "vebuild: a…"
+    assert fit_text("short", 12, len) == "short"
 
 
 def test_the_panel_follows_the_window_size(room, drive):
@@ -284,7 +289,18 @@ def test_the_legend_marks_unobserved_surfaces_in_their_colour(textured_room, dri
     items = {kind: (text, rect) for kind, text, rect in v.presentation.drawn}
     assert "no photo saw" in items["unobserved"][0]
     sx0, sy0, sx1, sy1 = (int(round(c)) for c in items["unobserved swatch"][1])
-    swatch = d.screen().astype(int)[sy0 + 2:sy1 - 2, sx0 + 2:sx1 - 2].reshape(-1, 3)
+    assert items["unobserved swatch"][1][2] - items["unobserved swatch"][1][0] > 10
+    swatch = d.screen().astype(int)[sy0 + 1:sy1 - 1, sx0 + 1:sx1 - 1].reshape(-1, 3)
+    # Hatched as the surfaces are: stripes of the mark's colour on light grey, both present.
+    mark = np.abs(swatch - np.array(UNOBSERVED_SRGB)).max(axis=1) <= 2
+    grey = np.abs(swatch - 204).max(axis=1) <= 2
+    assert 0.2 < mark.mean() < 0.8 and 0.2 < grey.mean() < 0.8
+    # U: tinted surfaces, a filled swatch.
+    d.send("key", "u")
+    assert v.renderer.unobserved == "tint"
+    items = {kind: (text, rect) for kind, text, rect in v.presentation.drawn}
+    sx0, sy0, sx1, sy1 = (int(round(c)) for c in items["unobserved swatch"][1])
+    swatch = d.screen().astype(int)[sy0 + 1:sy1 - 1, sx0 + 1:sx1 - 1].reshape(-1, 3)
     assert np.abs(swatch - np.array(UNOBSERVED_SRGB)).max() <= 2
 
 

@@ -12,14 +12,16 @@ sized for the back of the room as well as for the desk:
   letter of about 2.8 mm, so the text is never smaller than that in the screen's own pixels per
   millimetre (glfw's monitor physical size, or its content scale where the monitor does not say).
 
-The larger of the two wins. The panel is as wide as :data:`PANEL_WIDTH_EM` text heights (its title
-and most lines fit without wrapping), or :data:`PANEL_WIDTH_FRACTION` of the window if that is wider,
-and as tall as what it holds, at most the window less a margin.
+The larger of the two wins. The panel is as wide as :data:`PANEL_WIDTH_EM` text heights (most of
+its lines fit without wrapping), or :data:`PANEL_WIDTH_FRACTION` of the window if that is wider,
+and as tall as what it holds, at most the window less a margin. A title longer than the panel is
+shortened with "…" (:func:`fit_text`) and given in full on the panel's first line.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -39,7 +41,7 @@ MIN_TEXT_MM = 1000.0 * DESK_DISTANCE_M * math.tan(math.radians(MIN_CAP_ARCMIN / 
 FALLBACK_PX_PER_MM = 96.0 / 25.4
 #: A physical size giving fewer or more pixels per millimetre than this is not believed.
 PLAUSIBLE_PX_PER_MM = (1.5, 25.0)
-PANEL_WIDTH_EM = 20.0
+PANEL_WIDTH_EM = 16.0
 PANEL_WIDTH_FRACTION = 0.3
 #: The panel's distance from the window's edges, in text heights.
 MARGIN_EM = 0.5
@@ -70,13 +72,11 @@ def text_size(window_h: float, px_per_mm: float, framebuffer_scale: float = 1.0)
     return float(max(room, desk))
 
 
-def panel_layout(window_w: float, window_h: float, px_per_mm: float, framebuffer_scale: float = 1.0,
-                 title_px: float = 0.0) -> PanelLayout:
-    """The panel's text size and place: against the window's right edge, below its top.
-    ``title_px``: the width the title needs at that text size, if known."""
+def panel_layout(window_w: float, window_h: float, px_per_mm: float, framebuffer_scale: float = 1.0) -> PanelLayout:
+    """The panel's text size and place: against the window's right edge, below its top."""
     f = text_size(window_h, px_per_mm, framebuffer_scale)
     m = MARGIN_EM * f
-    width = max(PANEL_WIDTH_EM * f, PANEL_WIDTH_FRACTION * window_w, title_px + 3.0 * f)
+    width = max(PANEL_WIDTH_EM * f, PANEL_WIDTH_FRACTION * window_w)
     width = max(1.0, min(width, window_w - 2 * m))
     return PanelLayout(f, window_w - width - m, m, width, max(1.0, window_h - 2 * m))
 
@@ -96,3 +96,17 @@ def screen_px_per_mm(handle: Any) -> float:
                 return float(d)
     sx, _ = glfw.get_window_content_scale(handle)
     return FALLBACK_PX_PER_MM * float(sx or 1.0)
+
+
+def fit_text(text: str, width: float, measure: Callable[[str], float]) -> str:
+    """``text``, or its longest beginning that with "…" is at most ``width`` wide by ``measure``."""
+    if measure(text) <= width:
+        return text
+    lo, hi = 0, len(text)
+    while lo < hi:  # the longest prefix that fits
+        mid = (lo + hi + 1) // 2
+        if measure(text[:mid].rstrip() + "…") <= width:
+            lo = mid
+        else:
+            hi = mid - 1
+    return text[:lo].rstrip() + "…"

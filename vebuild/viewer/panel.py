@@ -15,7 +15,7 @@ from vebuild.camera import project, world_to_camera
 from vebuild.project import Project
 from vebuild.project.hypotheses import LABEL
 from vebuild.project.provenance import stale, stale_line
-from vebuild.viewer.layout import PanelLayout, panel_layout, screen_px_per_mm, text_size
+from vebuild.viewer.layout import PanelLayout, fit_text, panel_layout, screen_px_per_mm
 
 if TYPE_CHECKING:
     from vebuild.viewer.app import Viewer
@@ -58,13 +58,7 @@ class ViewerPanel:
         h = self.v.window.handle
         W, H = glfw.get_window_size(h)
         fw, _ = glfw.get_framebuffer_size(h)
-        fb = fw / max(W, 1)
-        d = screen_px_per_mm(h)
-        f = text_size(H, d, fb)
-        imgui.push_font(None, f)
-        title_px = imgui.calc_text_size(self.title()).x
-        imgui.pop_font()
-        return panel_layout(W, H, d, fb, title_px)
+        return panel_layout(W, H, screen_px_per_mm(h), fw / max(W, 1))
 
     def title(self) -> str:
         return f"vebuild: {self.v.project.data.get('name', self.v.project.path.name)}"
@@ -128,9 +122,14 @@ class ViewerPanel:
         banner = self.v.banner()
         imgui.set_next_window_pos(imgui.ImVec2(lay.x, lay.y))
         imgui.set_next_window_size_constraints(imgui.ImVec2(lay.width, 0.0), imgui.ImVec2(lay.width, lay.max_height))
-        imgui.begin(self.title(), None, imgui.WindowFlags_.always_auto_resize | imgui.WindowFlags_.no_move
-                    | imgui.WindowFlags_.no_collapse)
+        title = self.title()
+        room = lay.width - 2 * imgui.get_style().window_padding.x - imgui.get_style().frame_padding.x
+        shown = fit_text(title, room, lambda t: float(imgui.calc_text_size(t).x))
+        imgui.begin(f"{shown}###vebuild-panel", None, imgui.WindowFlags_.always_auto_resize
+                    | imgui.WindowFlags_.no_move | imgui.WindowFlags_.no_collapse)
         self._window_rect(imgui, "panel")
+        if shown != title:  # the title shortened: in full here
+            imgui.text_wrapped(title)
         p = self.v.walker.position
         imgui.text_wrapped(f"{'flying' if self.v.walker.fly else 'walking'}: x {p[0]:.2f}, y {p[1]:.2f}, "
                            f"z {p[2]:.2f} m   {self.v.fps:.0f} fps")
@@ -150,8 +149,9 @@ class ViewerPanel:
             imgui.push_style_color(imgui.Col_.text, imgui.ImVec4(1.0, 0.25, 0.2, 1.0))
             imgui.text_wrapped(LABEL)
             imgui.pop_style_color()
-        for m in self.v.messages[-2:]:  # the newest two (the selection's line is above)
-            if m:
+        sel = self.v.selection
+        for m in self.v.messages[-2:]:  # the newest two, but what the selection's line above says
+            if m and not (sel and (m.startswith((f"{sel}: ", f"{sel} in ")) or m == f"selected '{sel}'")):
                 imgui.text_wrapped(m)
         imgui.separator()
         if imgui.button("Keys (hide)" if self.show_keys else "Keys"):
@@ -231,7 +231,9 @@ class ViewerPanel:
         imgui.text(f"unobserved: {r.unobserved}   ({self.v.keys.key_for('next_unobserved')})")
         if r.marks_unobserved:
             c = [v / 255.0 for v in UNOBSERVED_SRGB]
-            imgui.text_colored(imgui.ImVec4(c[0], c[1], c[2], 1.0), LEGEND_TEXT[r.unobserved])
+            imgui.push_style_color(imgui.Col_.text, imgui.ImVec4(c[0], c[1], c[2], 1.0))
+            imgui.text_wrapped(LEGEND_TEXT[r.unobserved])
+            imgui.pop_style_color()
 
     def _draw_markers(self, imgui: Any) -> None:
         """The project's evidence markers over the view: a filled pin where seen, hollow where hidden."""

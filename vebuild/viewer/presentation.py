@@ -161,9 +161,9 @@ class Presentation:
             if kind == "unobserved":
                 c = [v / 255.0 for v in UNOBSERVED_SRGB]
                 box = (x, y + 0.1 * s.y, x + lead - 0.4 * f, y + 0.9 * s.y)
-                dl.add_rect_filled(imgui.ImVec2(box[0], box[1]), imgui.ImVec2(box[2], box[3]),
-                                   imgui.get_color_u32(imgui.ImVec4(c[0], c[1], c[2], 1.0)))
-                self.drawn.append(("unobserved swatch", "", box))
+                self._swatch(imgui, dl, box, imgui.get_color_u32(imgui.ImVec4(c[0], c[1], c[2], 1.0)),
+                             hatched=r.unobserved == "hatch", stripe=0.2 * f)
+                self.drawn.append(("unobserved swatch", r.unobserved, box))
             elif kind == "scale" and bar is not None:
                 white = imgui.get_color_u32(imgui.ImVec4(1.0, 1.0, 1.0, 1.0))
                 length = bar.pixels / fb_scale
@@ -179,6 +179,24 @@ class Presentation:
             self.drawn.append((kind, text, (x + lead, y, x + lead + s.x, y + s.y)))
             y += s.y + gap
         imgui.pop_font()
+
+
+    @staticmethod
+    def _swatch(imgui: Any, dl: Any, box: tuple[float, float, float, float], colour: int, hatched: bool,
+                stripe: float) -> None:
+        """The mark's sample: diagonal stripes on light grey as the hatching draws them, or filled."""
+        a, b = imgui.ImVec2(box[0], box[1]), imgui.ImVec2(box[2], box[3])
+        if not hatched:
+            dl.add_rect_filled(a, b, colour)
+            return
+        dl.add_rect_filled(a, b, imgui.get_color_u32(imgui.ImVec4(0.8, 0.8, 0.8, 1.0)))
+        dl.push_clip_rect(a, b, True)
+        h = box[3] - box[1]
+        x = box[0] - h
+        while x < box[2]:
+            dl.add_line(imgui.ImVec2(x, box[3]), imgui.ImVec2(x + h, box[1]), colour, stripe)
+            x += 2.0 * stripe * 1.4142
+        dl.pop_clip_rect()
 
 
 class PresentationCommands:

@@ -1,0 +1,221 @@
+"""Screenshots of vebuild's screens for the README, made from the bundled example room so that
+they stay current: ``python3 scripts/screenshots.py [--out docs/images]``.
+
+The example is copied to a temporary folder, calibrated, solved and textured there (as `vebuild
+demo` does); then each screen is opened in a real window and its frame saved:
+
+- ``edit-photo.png``: the modelling screen with a photo and its marks (segments, markers, the model
+  over the photo);
+- ``edit-proposals.png``: the same photo with the detected edges proposed as segments (D);
+- ``view-panel.png``: the walk-through with its panel, the door opened by a drag (a hypothesis);
+- ``view-present.png``: the same in presentation mode (Tab; F11 is the same full screen): the panel
+  hidden, the legend (hypothesis, unobserved surfaces, scale bar) in its place;
+- ``report-pages.png``: the report's first two pages side by side (needs pypdfium2; left out, and
+  said, without it).
+
+Windows need a display: without one the script runs itself again under ``xvfb-run`` (Debian's
+xvfb). Each image is downscaled to :data:`SHOTS`' width and saved with a 256-colour palette, so
+that the committed files stay small.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+from PIL import Image
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLE = ROOT / "scenes" / "room"
+#: Each image: the window it is taken from (width, height) and the width it is saved at.
+SHOTS = {
+    "edit-photo.png": ((1280, 800), 960),
+    "edit-proposals.png": ((1280, 800), 960),
+    "view-panel.png": ((1280, 720), 960),
+    "view-present.png": ((1280, 720), 960),
+    "report-pages.png": (None, 960),
+}
+#: The photo shown in the modelling screen, and the view and door opening in the walk-through.
+PHOTO = "p3"
+VIEW = "overview"
+#: The door is opened this much further than measured (a hypothesis), in its hinge's sense.
+DOOR_TURN_DEG = 30.0
+XVFB_SCREEN = "1600x1200x24"
+
+
+def save(img: np.ndarray | Image.Image, path: Path, width: int) -> Path:
+    """Downscale to ``width`` (keeping the shape) and write a palette PNG, atomically."""
+    im = img if isinstance(img, Image.Image) else Image.fromarray(np.ascontiguousarray(img))
+    im = im.convert("RGB")
+    if im.width != width:
+        im = im.resize((width, round(im.height * width / im.width)), Image.Resampling.LANCZOS)
+    im = im.quantize(colors=256, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.FLOYDSTEINBERG)
+    tmp = path.with_name(path.name + ".part")
+    im.save(tmp, format="PNG", optimize=True)
+    os.replace(tmp, path)
+    return path
+
+
+def prepare(folder: Path) -> Path:
+    """The example copied into ``folder``, calibrated, solved and textured; its project file."""
+    from vebuild.cli import main
+
+    shutil.copytree(EXAMPLE, folder / "room")
+    project = folder / "room" / "room.vebuild.json"
+    for argv in (["calibrate", str(project), "--quiet"], ["solve", str(project)],
+                 ["texture", str(project), "--density", "100", "--quiet"]):
+        with open(os.devnull, "w") as null:
+            old, sys.stdout = sys.stdout, null
+            try:
+                rc = main(argv)
+            finally:
+                sys.stdout = old
+        if rc != 0:
+            raise SystemExit(f"screenshots: `vebuild {' '.join(argv[:1])}` failed on the example ({rc})")
+    return project
+
+
+def shoot_editor(project: Path, out: Path) -> list[Path]:
+    import glfw
+
+    from vebuild.edit.screen import Editor
+    from vebuild.edit.session import EditSession
+    from vebuild.gl.surface import WindowSurface
+    from vebuild.gl.window import Window
+
+    (w, h), width = SHOTS["edit-photo.png"]
+    written = []
+    with Window(w, h, "vebuild edit — screenshots", visible=True) as window:
+        session = EditSession.open(project, recover=False)
+        editor = Editor(session, WindowSurface(window))
+        try:
+            editor.set_photo(PHOTO)
+            for _ in range(len(session.photo_ids) + 4):  # the thumbnails come one a frame
+                editor.frame()
+            editor.draw()
+            written.append(save(editor.surface.read(), out / "edit-photo.png", width))
+            editor.key_pressed(glfw.KEY_D, 0)  # D: the photo's edges proposed as segments
+            for _ in range(3):
+                editor.frame()
+            editor.draw()
+            written.append(save(editor.surface.read(), out / "edit-proposals.png", width))
+        finally:
+            editor.close()
+    return written
+
+
+def _open_door(viewer: object) -> None:
+    """Open the door DOOR_TURN_DEG further as a drag would (one undoable move), and say it."""
+    from vebuild.viewer.moves import moved_line
+
+    v = viewer
+    mover = v.mover  # type: ignore[attr-defined]
+    j = mover.model.node("door").joint
+    q = j.values().copy()
+    q[0] += math.radians(DOOR_TURN_DEG)
+    before = mover._snapshot()
+    mover._set_limited("door", j.clip(q))
+    mover._push(before)
+    v._model_changed()  # type: ignore[attr-defined]
+    v.select("door")  # type: ignore[attr-defined]
+    v.say(moved_line(mover, "door"))  # type: ignore[attr-defined]
+
+
+def shoot_viewer(project: Path, out: Path) -> list[Path]:
+    import glfw
+
+    from vebuild.gl.window import Window
+    from vebuild.project import load_project
+    from vebuild.render.renderer import RenderOptions
+    from vebuild.viewer.app import Viewer
+
+    (w, h), width = SHOTS["view-panel.png"]
+    written = []
+    with Window(w, h, "vebuild view — screenshots", visible=True) as window:
+        viewer = Viewer(load_project(project), window, RenderOptions.interactive(), view=VIEW)
+        viewer.enable_gui()
+        try:
+            _open_door(viewer)
+
+            def grab(name: str) -> Path:
+                for _ in range(3):
+                    viewer.frame()
+                viewer.draw()
+                fw, fh = window.framebuffer_size()
+                data = window.ctx.screen.read(viewport=(0, 0, fw, fh), components=3, alignment=1)
+                return save(np.frombuffer(data, np.uint8).reshape(fh, fw, 3)[::-1], out / name, width)
+
+            written.append(grab("view-panel.png"))
+            viewer.key_pressed(glfw.KEY_TAB, 0)  # presentation in the window (F11: the same, full screen)
+            written.append(grab("view-present.png"))
+        finally:
+            viewer.close()
+    return written
+
+
+def shoot_report(project: Path, out: Path) -> list[Path]:
+    try:
+        import pypdfium2 as pdfium
+    except ImportError:
+        print("screenshots: report-pages.png left out (it needs pypdfium2: pip install pypdfium2)", file=sys.stderr)
+        return []
+    from vebuild.cli import main
+
+    folder = project.parent / "report"
+    with open(os.devnull, "w") as null:
+        old, sys.stdout = sys.stdout, null
+        try:
+            rc = main(["report", str(project), "--out", str(folder)])
+        finally:
+            sys.stdout = old
+    if rc != 0:
+        raise SystemExit(f"screenshots: `vebuild report` failed on the example ({rc})")
+    _, width = SHOTS["report-pages.png"]
+    pdf = pdfium.PdfDocument(str(folder / "report.pdf"))
+    try:
+        pages = [pdf[i].render(scale=width / pdf[i].get_width()).to_pil().convert("RGB") for i in range(2)]
+    finally:
+        pdf.close()
+    gap = width // 40
+    sheet = Image.new("RGB", (sum(p.width for p in pages) + 3 * gap, max(p.height for p in pages) + 2 * gap),
+                      (128, 128, 128))  # the pages on grey, as a PDF reader shows them
+    x = gap
+    for p in pages:
+        sheet.paste(p, (x, gap))
+        x += p.width + gap
+    return [save(sheet, out / "report-pages.png", width)]
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--out", type=Path, default=ROOT / "docs" / "images", help="where the PNGs go")
+    parser.add_argument("--no-report", action="store_true", help="leave out the report's first page")
+    args = parser.parse_args(argv)
+    if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        xvfb = shutil.which("xvfb-run")
+        if xvfb is None:
+            print("screenshots: the windows need a display; none here and no xvfb-run (apt-get install xvfb)",
+                  file=sys.stderr)
+            return 2
+        return subprocess.call([xvfb, "-a", "-s", f"-screen 0 {XVFB_SCREEN}", sys.executable, __file__,
+                                *(argv if argv is not None else sys.argv[1:])])
+    args.out.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(prefix="vebuild-screenshots-") as tmp:
+        project = prepare(Path(tmp))
+        written = shoot_editor(project, args.out) + shoot_viewer(project, args.out)
+        if not args.no_report:
+            written += shoot_report(project, args.out)
+    for p in written:
+        print(f"{p}  {Image.open(p).size[0]}×{Image.open(p).size[1]}  {p.stat().st_size // 1024} KiB")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
