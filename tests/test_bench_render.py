@@ -90,3 +90,35 @@ def test_vebuild_context_works_afterwards(figures: dict[str, Any]) -> None:
     px = np.frombuffer(fbo.read(components=3), np.uint8).reshape(8, 8, 3)
     assert px[0, 0].tolist() == [255, 0, 0]
     fbo.release()
+
+
+def test_frame_loop_beside_the_floor(figures: dict[str, Any]) -> None:
+    """Each frame-loop setting's fps and its share of the floor program's, with the goals judged."""
+    for name in bench.FRAME_SETTINGS.values():
+        _positive(figures, f"frame_fps_{name}")
+        share = figures[f"frame_share_of_floor_{name}"]
+        _positive(figures, f"frame_share_of_floor_{name}")
+        assert share < 20.0  # the floor draws every triangle: a frame cannot be that much cheaper
+    for name in bench.FLOOR_NAMES.values():
+        _positive(figures, f"frame_fps_floor_{name}")
+    assert set(bench.FRAME_GOALS) <= set(bench.FRAME_SETTINGS.values())
+    assert isinstance(figures["goal_frame_fps_met"], bool) and isinstance(figures["goal_share_of_floor_met"], bool)
+    text = bench.table(figures)
+    assert "frame loop vs the floor" in text and "example_lit_sun" in text
+
+
+def test_paired_fps_ratio(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The share is floor time over frame time, pair by pair, the median: a frame of twice the
+    floor's work is ½, whatever one disturbed pair says. A clock that the draws advance stands in
+    for the real one (so that the machine's load cannot enter)."""
+    from vebuild.bench import render_floor
+
+    now = [0.0]
+    frames = iter([0.004, 0.002, 0.004, 0.002, 0.050, 0.002, 0.004, 0.002, 0.004, 0.002, 0.004, 0.002])
+
+    def draw() -> None:
+        now[0] += next(frames)
+    monkeypatch.setattr(render_floor.time, "perf_counter", lambda: now[0])
+    fps, floor, share = render_floor.paired_fps(draw, draw, 5, 0.0, 5)
+    assert share == pytest.approx(0.5)  # the disturbed pair (0.050 s) is outvoted
+    assert fps == pytest.approx(250.0) and floor == pytest.approx(500.0)
