@@ -148,11 +148,14 @@ def test_the_panel_follows_the_window_size(room, drive):
         inside = img[int(y0) + 4:int(y1) - 4, int(x0) + 4:int(x1) - 4]
         assert inside.mean() < 90 and inside.max() > 200
         sizes[W] = (f, x1 - x0)
-        # The key sheet, left of the panel, holds every binding without scrolling.
+        # The key sheet holds every binding in the window, without scrolling, its text as large as fits.
         v.panel.show_keys = True
         d.frames(3)
         kx0, ky0, kx1, ky1 = v.panel.rects["keys"]
-        assert kx1 <= x0 and ky1 <= H - m + 1.5
+        assert kx0 >= m - 1.5 and kx1 <= W - m + 1.5 and ky1 <= H - m + 1.5
+        assert 8.0 <= v.panel.keys_text_px <= f
+        if W == 1280:
+            assert v.panel.keys_text_px > 15  # a 720-pixel window reads its keys at a desk
         v.panel.show_keys = False
     # Twice the window: larger text and a wider panel (the text by H/30 over the desk's minimum).
     assert sizes[1280][0] > sizes[640][0] * 1.3 and sizes[1280][1] > sizes[640][1] * 1.3

@@ -20,6 +20,9 @@ from vebuild.viewer.layout import PanelLayout, fit_text, panel_layout, screen_px
 if TYPE_CHECKING:
     from vebuild.viewer.app import Viewer
 
+#: The key sheet's text is made no smaller than this (window coordinates) to fit.
+MIN_KEYS_TEXT_PX = 8.0
+
 
 def stale_lines(project: Project) -> list[str]:
     """The panel's stale lines: the short line, then each stale result's message; none if current."""
@@ -176,15 +179,11 @@ class ViewerPanel:
                 self.v.guard(self.v.save_hypothesis, self._new_hypothesis_name)
         imgui.end()
 
-    def _draw_keys(self, imgui: Any, lay: PanelLayout) -> None:
-        """The key table as a sheet left of the panel, in two columns, its text made smaller until
-        every binding fits (never a scrolled list)."""
-        W, H = glfw.get_window_size(self.v.window.handle)
-        m = 0.5 * lay.text_px
-        width, height = max(1.0, lay.x - 2 * m), lay.max_height
+    def _fit_keys(self, imgui: Any, width: float, height: float, f: float) -> tuple[float, float, float, float]:
+        """The text size (at most ``f``) at which the key table's two columns fit a sheet of
+        ``width`` × ``height``; with the key and description columns' widths and the height needed."""
         rows = self.v.keys.rows()
         half = (len(rows) + 1) // 2
-        f = lay.text_px
         for _ in range(8):  # shrink the text until both columns fit the sheet's height
             imgui.push_font(None, f)
             style = imgui.get_style()
@@ -194,14 +193,28 @@ class ViewerPanel:
                            + style.item_spacing.y for k, d in part) for part in (rows[:half], rows[half:]))
             need += 2 * style.window_padding.y + imgui.get_frame_height() + style.item_spacing.y
             imgui.pop_font()
-            if need <= height or f <= 8.0:
+            if need <= height or f <= MIN_KEYS_TEXT_PX:
                 break
-            f = max(8.0, f * math.sqrt(0.97 * height / need))  # the height goes as f²
+            f = max(MIN_KEYS_TEXT_PX, f * math.sqrt(0.97 * height / need))  # the height goes as f²
+        return f, kw, dw, need
+
+    def _draw_keys(self, imgui: Any, lay: PanelLayout) -> None:
+        """The key table as a sheet in two columns, its text made smaller until every binding fits
+        (never a scrolled list): left of the panel, or over it where the whole window gives larger
+        text (a narrow window). Its close box or the Keys button hides it."""
+        W, _ = glfw.get_window_size(self.v.window.handle)
+        m = 0.5 * lay.text_px
+        rows = self.v.keys.rows()
+        half = (len(rows) + 1) // 2
+        height = lay.max_height
+        fits = [(self._fit_keys(imgui, w, height, lay.text_px), w) for w in (max(1.0, lay.x - 2 * m), W - 2 * m)]
+        (f, kw, dw, need), width = max(fits, key=lambda fw: fw[0][0])  # the larger text; the left on a tie
         imgui.push_font(None, f)
         imgui.set_next_window_pos(imgui.ImVec2(m, lay.y))
         imgui.set_next_window_size(imgui.ImVec2(width, min(height, need)))
-        imgui.begin("Keys and mouse", None, imgui.WindowFlags_.no_move | imgui.WindowFlags_.no_collapse
-                    | imgui.WindowFlags_.no_resize | imgui.WindowFlags_.no_scrollbar)
+        _, self.show_keys = imgui.begin("Keys and mouse", True, imgui.WindowFlags_.no_move
+                                        | imgui.WindowFlags_.no_collapse | imgui.WindowFlags_.no_resize
+                                        | imgui.WindowFlags_.no_scrollbar)
         self._window_rect(imgui, "keys")
         self.keys_text_px = f
         if imgui.begin_table("##keys", 4):
