@@ -30,7 +30,7 @@ from vebuild.viewer.layout import (
     screen_px_per_mm,
     text_size,
 )
-from vebuild.viewer.presentation import SCALE_BAR_MAX_EM, scale_bar
+from vebuild.viewer.presentation import SCALE_BAR_LENGTHS_M, SCALE_BAR_MAX_EM, scale_bar
 
 pytestmark = pytest.mark.usefixtures("xvfb_display")
 TITLE = "vebuild briefing test"
@@ -253,7 +253,8 @@ def test_tab_presents_the_view_with_a_legend_and_a_true_scale_bar(room, drive):
     assert text.endswith("at 1.0 m from the eye")
     bx0, by0, bx1, by1 = items["scale bar"][1]
     assert bx1 - bx0 == pytest.approx(f * L / 1.0, abs=0.01)
-    assert f * L <= SCALE_BAR_MAX_EM * v.panel.layout.text_px < f * 2.5 * L  # the longest that fits
+    longer = SCALE_BAR_LENGTHS_M[SCALE_BAR_LENGTHS_M.index(L) + 1]
+    assert f * L <= SCALE_BAR_MAX_EM * v.panel.layout.text_px < f * longer  # the longest that fits
     bar = img[int(by0) + 1:int(by1), int(bx0) + 2:int(bx1) - 2]
     assert bar.size and bar.min() > 230  # drawn white
     lx0, ly0, lx1, ly1 = items["legend"][1]

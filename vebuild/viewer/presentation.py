@@ -25,8 +25,9 @@ from vebuild.camera import ImageCamera, world_to_camera
 if TYPE_CHECKING:
     from vebuild.viewer.app import Viewer
 
-#: The lengths a scale bar may have (metres): the longest that fits in SCALE_BAR_MAX_EM is drawn.
-SCALE_BAR_LENGTHS_M = (0.01, 0.02, 0.05, 0.1, 0.2, 0.25, 0.5, 1.0, 2.0, 2.5, 5.0, 10.0, 20.0, 50.0)
+#: The lengths a scale bar may have (metres: 1, 2, 2.5 and 5 cm to 50 m): the longest that fits in
+#: SCALE_BAR_MAX_EM text heights is drawn.
+SCALE_BAR_LENGTHS_M = tuple(round(m * 10.0 ** k, 6) for k in range(-2, 2) for m in (1.0, 2.0, 2.5, 5.0))
 SCALE_BAR_MAX_EM = 10.0
 #: The legend's text as a share of the panel's (a legend is small; it still reads from the room).
 LEGEND_TEXT_SHARE = 1.0
