@@ -173,8 +173,9 @@ class MeasureTool(EditorPart):
                 dl.add_circle(p, 5.0, colour, 0, 2.0)
         for m in st["drawn"]:
             pts = self._photo_points(np.array(m.points))
-            if m.kind == "trajectory":
+            if m.kind == "trajectory":  # its path and cone, the label at the entry hole
                 self._draw_trajectory(dl, m)
+                pts = pts[:1]
             for a, b in zip(pts[:-1], pts[1:], strict=True):
                 if a is not None and b is not None:
                     dl.add_line(a, b, colour, 2.0)
@@ -182,8 +183,9 @@ class MeasureTool(EditorPart):
             for p in shown:
                 dl.add_circle_filled(p, 4.0, colour)
             if shown:
-                at = (sum(p[0] for p in shown) / len(shown) + 8, sum(p[1] for p in shown) / len(shown))
-                size = imgui.calc_text_size(m.label)
+                size = imgui.calc_text_size(m.label)  # the label kept inside the photo's view
+                at = (max(x0 + 2, min(sum(p[0] for p in shown) / len(shown) + 8, x1 - size.x - 4)),
+                      sum(p[1] for p in shown) / len(shown))
                 dl.add_rect_filled((at[0] - 2, at[1] - 1), (at[0] + size.x + 2, at[1] + size.y + 1), back)
                 dl.add_text(at, white, m.label)
         dl.pop_clip_rect()

@@ -212,8 +212,10 @@ class ViewerMeasure:
             for p in shown:
                 dl.add_circle_filled(p, 4.0, colour)
             if shown:
-                at = imgui.ImVec2(sum(p.x for p in shown) / len(shown) + 8, sum(p.y for p in shown) / len(shown))
                 size = imgui.calc_text_size(m.label)
+                ww = glfw.get_window_size(v.window.handle)[0]  # the label kept inside the window
+                at = imgui.ImVec2(max(2.0, min(sum(p.x for p in shown) / len(shown) + 8, ww - size.x - 4)),
+                                  sum(p.y for p in shown) / len(shown))
                 dl.add_rect_filled(imgui.ImVec2(at.x - 2, at.y - 1), imgui.ImVec2(at.x + size.x + 2, at.y + size.y + 1),
                                    black)
                 dl.add_text(at, white, m.label)
