@@ -213,3 +213,43 @@ def test_a_click_on_a_face_names_it_by_where_it_is(driver):
     x, y = e.image_to_window("p1", centre)
     near = np.abs(after - before).sum(axis=2)[int(y) - 20:int(y) + 20, int(x) - 60:int(x) + 60]
     assert (near > 30).sum() > 50  # the face tinted and named where it was clicked
+
+
+def test_the_preview_is_inside_the_room_and_a_click_in_it_names_a_face(driver):
+    d = driver
+    e = d.editor
+    cam = e.preview_camera()
+    lo, hi = e._renderer.scene.bounds()
+    assert np.all(cam.C > lo) and np.all(cam.C < hi)  # inside the model's box (the room's walls round it)
+    ids, _ = e._renderer.id_buffer(cam)
+    faces = e._renderer.scene.mesh.faces
+    cabinet = [f.id for f in faces if f.node == "cabinet"]
+    rows, cols = np.nonzero(np.isin(ids, cabinet))
+    assert len(rows) > 50
+    k = len(rows) // 2
+    want = faces[ids[rows[k], cols[k]] - 1]
+    x0, y0, _, _ = e.widget_rects["preview"]
+    d.send(*d.move_to(x0 + cols[k] + 0.5, y0 + rows[k] + 0.5), "sleep", "0.05", "click", "1")
+    pk = e.picked
+    assert pk is not None and pk["where"] == "preview"
+    assert (pk["node"], pk["stored"]) == (want.node, want.name) or pk["what"] == "corner", (pk, want)
+
+
+def test_the_preview_follows_a_drag_now_and_then(driver):
+    d = driver
+    e, s = d.editor, d.session
+    node = s.add_primitive("box", name="crate", parent="floor", at=("p1", (800.0, 1000.0)))
+    e.select(node)
+    d.frames(3)
+    x0, y0, x1, y1 = (int(v) for v in e.widget_rects["preview"])
+    before = d.screen()[y0:y1, x0:x1].astype(int)
+    start = e.image_to_window("p1", next(p for n, k, p, _ in s.handles("p1") if (n, k) == (node, "v0")))
+    moves = []
+    for k in range(1, 5):
+        moves += [*d.move_to(start[0] - 25 * k, start[1] + 12 * k), "sleep", "0.6"]  # slower than the preview's period
+    d.send(*d.move_to(*start), "sleep", "0.05", "mousedown", "1", "sleep", "0.05", *moves)
+    assert s.dragging and e.preview_following()
+    during = e.surface.read()[y0:y1, x0:x1].astype(int)  # the drag's frame as shown, not redrawn
+    assert (np.abs(during - before).sum(axis=2) > 30).sum() > 20  # the crate moved in the preview too
+    d.send("key", "Escape", "mouseup", "1")
+    assert not s.dragging

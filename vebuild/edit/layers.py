@@ -171,7 +171,7 @@ class OverlayLayers(EditorPart):
 
     def pick(self, what: str, node: str, stored: str, shown: str, where: str) -> None:
         self._picked = {"what": what, "node": node, "stored": stored, "shown": shown, "where": where}
-        self.say(f"{node}: {what} {shown}" + ("" if shown == stored else f" (the project file calls it {stored})"))
+        self.say(f"{node}: {what} {shown}")  # a place name ends with the name the project file keeps
 
     def pick_in_preview(self, u: float, v: float) -> None:
         """A click at pixel (u, v) of the 3-D preview: the corner within the picking radius, else the

@@ -99,3 +99,22 @@ def face_places(triangles: Array, face_ids: NDArray[np.intp], names: Sequence[st
             continue
         out[name] = face_direction(n, offset, R)
     return out
+
+
+def facing(triangles: Array, face_ids: NDArray[np.intp], names: Sequence[str], C: Array) -> set[str]:
+    """The logical faces whose outward side (away from the primitive's centre) faces the camera at
+    C: those a camera can see unless something stands in front (a room's walls from inside)."""
+    tri = np.asarray(triangles, float)
+    centre = 0.5 * (tri.reshape(-1, 3).min(axis=0) + tri.reshape(-1, 3).max(axis=0))
+    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    out = set()
+    for k, name in enumerate(names):
+        sel = np.asarray(face_ids) == k + 1
+        if not np.any(sel):
+            continue
+        n, mid = cross[sel].sum(axis=0), tri[sel].reshape(-1, 3).mean(axis=0)
+        if n @ (mid - centre) < 0:
+            n = -n
+        if np.linalg.norm(n) < 1e-12 or n @ (np.asarray(C, float) - mid) > 0:
+            out.add(name)
+    return out

@@ -21,7 +21,7 @@ from vebuild.project import decode
 
 from .marks import AXES, KNOWN_LENGTH_SIGMA_M
 from .modelling import Modelling
-from .names import corner_directions, face_places, shown
+from .names import corner_directions, face_places, facing, shown
 from .overlay import (
     AXIS_COLOURS,
     CYAN,
@@ -234,6 +234,16 @@ class SessionOverlays(Modelling):
                 places = face_places(tri, face_ids, names, None if cam is None else cam.R)
                 return {k: shown(v, k) for k, v in places.items()}
         return {}
+
+
+    def faces_facing(self, photo: str, node: str) -> set[str]:
+        """The faces of ``node`` whose outer side faces the camera of ``photo`` (none without one)."""
+        cam = self.cameras.get(photo)
+        meshes: list[Any] = getattr(self, "_world_meshes", list)()
+        for n, tri, face_ids, _, names in meshes:
+            if n == node and cam is not None:
+                return facing(tri, face_ids, names, np.asarray(cam.C, float))
+        return set()
 
 
 def _ends(v: Sequence[float]) -> tuple[float, float, float, float]:

@@ -356,7 +356,8 @@ class PhotoView(EditorPart):
         if pk is not None and pk["what"] == "face":
             faces.append((pk["node"], pk["stored"]))
         if self.show_names and self.selected is not None:
-            faces += [(self.selected, f) for f in s.face_names(ov.photo, self.selected)]
+            seen = s.faces_facing(ov.photo, self.selected)  # a face turned away is not named over the photo
+            faces += [(self.selected, f) for f in s.face_names(ov.photo, self.selected) if f in seen]
         col = u32((0.3, 1.0, 1.0, 1.0))
         for node, face in faces:
             from .relating import Pick

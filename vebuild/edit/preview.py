@@ -3,7 +3,9 @@
 
 from __future__ import annotations
 
+import copy
 import math
+import time
 from typing import Any
 
 import numpy as np
@@ -17,6 +19,10 @@ from .layout import CLICK_SLOP_PX, PANEL_W, PREVIEW_FOV_DEG, PREVIEW_H, EditorPa
 #: Without a photo's camera inside the model, the first view is this share of the way from the
 #: model's centre to its box's side (inside a room).
 INSIDE_SHARE = 0.7
+#: During a drag the preview is drawn again at most this often (seconds), and only when a frame of
+#: it takes under this share of that period (else it waits for the release).
+PREVIEW_DRAG_PERIOD_S = 0.5
+PREVIEW_DRAG_SHARE = 0.3
 
 
 class Preview(EditorPart):
@@ -27,9 +33,10 @@ class Preview(EditorPart):
         if r is None:
             return None
         lo, hi = r.scene.bounds()
-        target = 0.5 * (lo + hi)
         if self.preview_distance is None:
-            self._preview_inside(lo, hi, target)
+            self._preview_target = self._preview_inside(lo, hi, 0.5 * (lo + hi))
+        target = self.__dict__.get("_preview_target")
+        target = 0.5 * (lo + hi) if target is None else target
         cp, sp = math.cos(self.preview_pitch), math.sin(self.preview_pitch)
         C = target + self.preview_distance * np.array([cp * math.cos(self.preview_yaw),
                                                        cp * math.sin(self.preview_yaw), sp])
@@ -37,14 +44,18 @@ class Preview(EditorPart):
         f = fov_to_focal(math.radians(PREVIEW_FOV_DEG), w)
         return ImageCamera("preview", intrinsic_matrix(f, w / 2, h / 2), look_rotation(target - C), C, w, h)
 
-    def _preview_inside(self, lo: Any, hi: Any, target: Any) -> None:
-        """The first view: from inside the model's box, looking at its centre: from the shown
-        photo's camera where that is inside the box (the room as the photo shows it), else from
-        :data:`INSIDE_SHARE` of the way from the centre to the box's side (under its ceiling)."""
+    def _preview_inside(self, lo: Any, hi: Any, target: Any) -> Any:
+        """The first view, from inside the model's box; returns the point it orbits. From the shown
+        photo's camera where that is inside the box, looking as the photo does (the room as the
+        photo shows it, orbiting the point of its view axis as deep as the box's centre), else
+        from :data:`INSIDE_SHARE` of the way from the centre to the box's side, looking at the
+        centre."""
         cam = self.session.cameras.get(self.photo) if self.photo is not None else None
         d = None
         if cam is not None and np.all(np.asarray(cam.C) > lo) and np.all(np.asarray(cam.C) < hi):
-            d = np.asarray(cam.C, float) - target
+            C, forward = np.asarray(cam.C, float), np.asarray(cam.R, float)[2]
+            target = C + max(float((target - C) @ forward), 0.5) * forward
+            d = C - target
         if d is None or float(np.linalg.norm(d)) < 1e-3:
             half = 0.5 * (np.asarray(hi, float) - np.asarray(lo, float))
             cp, sp = math.cos(self.preview_pitch), math.sin(self.preview_pitch)
@@ -55,12 +66,14 @@ class Preview(EditorPart):
         self.preview_distance = n
         self.preview_yaw = math.atan2(d[1], d[0])
         self.preview_pitch = math.asin(float(np.clip(d[2] / n, -1.0, 1.0)))
+        return target
 
     def preview_from_outside(self) -> None:
         """The preview's camera outside the model's box (the whole model in view)."""
         r = self._renderer
         if r is not None:
             lo, hi = r.scene.bounds()
+            self._preview_target = 0.5 * (lo + hi)
             self.preview_distance = max(1.0, 1.2 * float(np.linalg.norm(hi - lo)))
 
     def _preview_scene(self, model: Any) -> Any:
@@ -93,7 +106,10 @@ class Preview(EditorPart):
     def _update_preview(self) -> None:
         s = self.session
         key = (s.revision, self.preview_yaw, self.preview_pitch, self.preview_distance, self.selected)
-        if key == self._preview_key or s.dragging:  # during a drag the photo view shows the model; after it, this
+        if s.dragging:  # the photo view follows the drag on every move; the preview, every so often
+            self._preview_follow_drag()
+            return
+        if key == self._preview_key:
             return
         model = s.model
         if model is None or not any(n.primitive is not None for n in model.nodes):
@@ -122,6 +138,40 @@ class Preview(EditorPart):
         except VebuildError as e:
             self.preview_note = str(e)
         self._preview_key = (s.revision, self.preview_yaw, self.preview_pitch, self.preview_distance, self.selected)
+
+    def _preview_follow_drag(self) -> None:
+        """During a drag, the preview drawn again with the drag's model at most every
+        :data:`PREVIEW_DRAG_PERIOD_S`, and only where its last frame took less than
+        :data:`PREVIEW_DRAG_SHARE` of that (a slow renderer leaves it for the release)."""
+        d, r = self.session._drag, self._renderer
+        now = time.perf_counter()
+        follow = self.__dict__.get("_preview_follow")  # (the drag, when last drawn, its seconds)
+        if follow is not None and follow[0] is d and now - follow[1] < PREVIEW_DRAG_PERIOD_S:
+            return
+        if r is None or d is None or (follow is not None and follow[2] > PREVIEW_DRAG_SHARE * PREVIEW_DRAG_PERIOD_S):
+            return
+        try:
+            model = copy.deepcopy(d.model)  # the session's model stays as it was until the drag is kept
+            model.set_vector(d.x_good)
+            r.set_scene(r.scene.with_model(model))
+            cam = self.preview_camera()
+            self._preview_tex = r.frame(cam)
+        except (VebuildError, ValueError, KeyError):
+            return
+        self._preview_follow = (d, now, time.perf_counter() - now)
+        self._preview_key = None  # drawn again from the project's model after the drag
+
+    def _draw_preview_image(self) -> None:
+        """The preview's image alone, where the last whole frame drew it (a drag's frames copy the
+        rest of the panels from the frame of the press)."""
+        r = self.widget_rects.get("preview")
+        if r is not None and self._preview_tex is not None and not self.preview_note:
+            imgui.get_background_draw_list().add_image(self.gui.texture_ref(self._preview_tex), r[:2], r[2:])
+
+    def preview_following(self) -> bool:
+        """Whether the preview has been drawn during this drag (then every frame of the drag shows it)."""
+        follow = self.__dict__.get("_preview_follow")
+        return follow is not None and self.session.dragging and follow[0] is self.session._drag
 
     def toggle_preview_scans(self) -> None:
         """Show or hide the project's laser scans in the 3-D preview (Ctrl+L)."""
