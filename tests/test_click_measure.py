@@ -4,6 +4,7 @@ surface point is the command line's, its measurement the command line's request,
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import shutil
 
@@ -127,3 +128,22 @@ def test_bad_clicks_are_clear_errors(solved, tmp_path):
     shutil.copytree(example_project_dir(), tmp_path / "room")
     with pytest.raises(cm.ClickError, match="measuring needs a solved model"):
         cm.solved_model(load_project(tmp_path / "room" / "room.vebuild.json"))
+
+
+def test_a_clicked_measurement_appears_in_the_report(solved, tmp_path):
+    """The report's section of recorded analyses runs the clicked record again and shows its figure."""
+    from vebuild.report.page import Report
+    from vebuild.report.sections import analyses
+
+    project, s = solved
+    a, b = cm.photo_reference(project, s, "p1", (800, 600)), cm.photo_reference(project, s, "p1", (400, 900))
+    m = cm.measure(project, "distance", [a, b])
+    data = dict(project.data)
+    cm.save_analysis(data, m)
+    shown = dataclasses.replace(project, data=data)  # the module's project stays as it is
+    rep = Report(tmp_path)
+    (tmp_path / "images").mkdir()
+    analyses(shown, rep)
+    (html,) = rep.sections
+    value = m.result.figures["measurements"][0]["value_m"]
+    assert "clicked distance 1" in html and f"{value:.4f}" in html and a.reference in html
