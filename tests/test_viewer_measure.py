@@ -250,3 +250,18 @@ def test_a_trajectory_from_a_clicked_hole_along_the_view(room, drive):
     assert az == pytest.approx(np.degrees(np.arctan2(forward[1], forward[0])), abs=0.005)
     assert el == pytest.approx(np.degrees(np.arcsin(forward[2])), abs=0.005)
     assert "--sigma" not in words and v.measure_clicks == []
+
+
+def test_measurements_are_of_the_measured_scene(room, drive):
+    d = drive(room)
+    v = d.viewer
+    v.select("box")
+    v.turn_selection(0.3)  # a hypothesis: the box turned
+    assert v.arranged()
+    d.send("key", "t")
+    d.click_at(_top_centre(v))
+    assert v.measure_clicks == [] and any("measurements are of the measured scene" in m for m in v.messages)
+    d.send("key", "R")  # Shift+R: everything back where it was measured
+    assert not v.arranged()
+    d.click_at(_top_centre(v))
+    assert len(v.measure_clicks) == 1
