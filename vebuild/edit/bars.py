@@ -10,14 +10,30 @@ from vebuild.project.provenance import stale_line
 from .keys import EDITOR_KEYS, tool_key
 from .layout import MESSAGES_SHOWN, MIDDLE_POINT_HINT, STRIP_H, THUMB_H, TOOL_HINTS, TOOLBAR_H, TOOLS, EditorPart
 
+#: The toolbar's marker name field's width, window pixels.
+MARKER_FIELD_W = 90.0
+
 
 class Bars(EditorPart):
     """Toolbar, strip, messages and the busy bar (a part of the Editor)."""
 
+    def _flow(self, width: float, first: bool = False) -> None:
+        """The next toolbar item beside the last, or on the next row where it would not fit."""
+        if first:
+            return
+        imgui.same_line()
+        if imgui.get_content_region_avail().x < width:
+            imgui.new_line()
+
+    @staticmethod
+    def _button_w(label: str) -> float:
+        return float(imgui.calc_text_size(label.split("##")[0]).x + 2 * imgui.get_style().frame_padding.x)
+
     def _draw_toolbar(self) -> None:
         x0, _, x1, _ = self.view_rect()
         self.fixed_window("##toolbar", (x0, 0, x1, TOOLBAR_H), imgui.WindowFlags_.no_decoration)
-        for tool, label in TOOLS.items():
+        for i, (tool, label) in enumerate(TOOLS.items()):  # in rows as the view's width allows
+            self._flow(self._button_w(label), first=i == 0)
             active = self.tool == tool
             if active:
                 imgui.push_style_color(imgui.Col_.button, imgui.ImVec4(0.85, 0.55, 0.1, 1.0))
@@ -26,29 +42,40 @@ class Bars(EditorPart):
                 self.set_tool(tool)
             if active:
                 imgui.pop_style_color()
-            imgui.same_line()
-        imgui.set_next_item_width(90)
+        style = imgui.get_style()
+        self._flow(MARKER_FIELD_W + style.item_inner_spacing.x + imgui.calc_text_size("marker name").x)
+        imgui.set_next_item_width(MARKER_FIELD_W)
         changed, name = imgui.input_text("marker name", self.marker_name)
         self.rect("marker name")
+        imgui.set_item_tooltip("the name the Marker tool's next click places (a new name makes a new marker)")
         if changed:
             self.marker_name, self._marker_name_default = name, False
         s = self.session
+        self._flow(self._button_w("Undo"))
         imgui.begin_disabled(s.undo_label is None)
         if self.button("Undo", tip=f"{EDITOR_KEYS.key_for('undo')}: undo {s.undo_label or ''}"):
             self.undo()
         imgui.end_disabled()
-        imgui.same_line()
+        self._flow(self._button_w("Redo"))
         imgui.begin_disabled(s.redo_label is None)
         if self.button("Redo", tip=f"{EDITOR_KEYS.key_for('redo')}: redo {s.redo_label or ''}"):
             self.redo()
         imgui.end_disabled()
-        imgui.same_line()
+        self._flow(self._button_w("Save"))
         if self.button("Save", tip=f"{EDITOR_KEYS.key_for('save')}: write the project file (the autosave is removed)"):
             self.guard(s.save)
-        imgui.same_line()
+        self._flow(self._button_w("Fit"))
         if self.button("Fit", tip=f"{EDITOR_KEYS.key_for('fit')}: the whole photo"):
             self.fit()
-        imgui.same_line()
+        self._flow(self._button_w("Photos…"))
+        if self.button("Photos…", tip=f"{EDITOR_KEYS.key_for('open_browser')}: add photos from a file browser (or "
+                       "drop image files onto the window)"):
+            self.open_browser()
+        self._flow(self._button_w("Help"))
+        if self.button("Help", tip=f"{EDITOR_KEYS.key_for('toggle_help')} or ?: every key and mouse input; "
+                       f"{EDITOR_KEYS.key_for('toggle_guide')}: the first steps"):
+            self.toggle_help()
+        self._flow(imgui.get_frame_height() + style.item_inner_spacing.x + imgui.calc_text_size("labels").x)
         _, self.show_labels = imgui.checkbox("labels", self.show_labels)
         self.rect("labels")
         imgui.set_item_tooltip(f"{EDITOR_KEYS.key_for('toggle_labels')}: residuals and names over the photo "
@@ -97,9 +124,14 @@ class Bars(EditorPart):
                 self.guard(self.set_photo, pid)
             imgui.same_line()
         imgui.new_line()
-        imgui.set_next_item_width(260)
-        _, self.add_photo_path = imgui.input_text("##add photo file", self.add_photo_path)
+        if self.button("Browse…##strip", tip=f"{EDITOR_KEYS.key_for('open_browser')}: pick photos in a file browser "
+                       "(or drop image files onto the window)"):
+            self.open_browser()
+        imgui.same_line()
+        imgui.set_next_item_width(220)
+        _, self.add_photo_path = imgui.input_text("file##add photo file", self.add_photo_path)
         self.rect("add photo file")
+        imgui.set_item_tooltip("an image file's path in the project's folder, for Add photo")
         imgui.same_line()
         if self.button("Add photo", tip="an image file in the project's folder (its SHA-256 is recorded)"):
             pid = self.guard(self.session.add_photo, self.add_photo_path.strip())
@@ -152,11 +184,11 @@ class Bars(EditorPart):
         opened, _ = imgui.begin_popup_modal("Recover autosaved edits?", None, imgui.WindowFlags_.always_auto_resize)
         if opened:
             imgui.text(f"{s.autosave_path.name} holds edits that were not saved.")
-            if self.button("Recover the autosaved edits"):
+            if self.button("Recover the autosaved edits", tip="take the edits kept in the autosave side file"):
                 self.guard(s.recover)
                 imgui.close_current_popup()
             imgui.same_line()
-            if self.button("Discard"):
+            if self.button("Discard", tip="open the project as it was last saved (the side file is removed)"):
                 self.guard(s.discard_recovery)
                 imgui.close_current_popup()
             imgui.end_popup()

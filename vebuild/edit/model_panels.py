@@ -59,6 +59,7 @@ def equal_section(p: Panels, name: str, prim: dict[str, Any]) -> None:
     p.equal_param = min(p.equal_param, len(params) - 1)
     imgui.set_next_item_width(110)
     p.equal_param = p.ed.combo("equal param", p.equal_param, params)
+    imgui.set_item_tooltip("the size that Make equal shares")
     imgui.same_line()
     param = params[p.equal_param]
     if p.ed.button("Make equal", tip=f"{name}.{param} and the same size of the other selected nodes "
@@ -80,11 +81,13 @@ def room_section(p: Panels, name: str, prim: dict[str, Any]) -> None:
     imgui.text(f"room: {n} corners{' (rectilinear)' if rect else ''}, {len(prim.get('openings', []))} openings")
     changed, on = imgui.checkbox("ceiling##room", bool(prim.get("ceiling", False)))
     p.ed.rect("ceiling")
+    imgui.set_item_tooltip("the room has a ceiling at its walls' height (its faces are textured too)")
     if changed:
         p.ed.guard(s.room_set_ceiling, name, bool(on))
     imgui.set_next_item_width(80)
     _, p.room_corner = imgui.input_int("corner##room", p.room_corner)
     p.ed.rect("room corner")
+    imgui.set_item_tooltip("the number of the corner that Add corner after and Remove corner act on")
     p.room_corner = max(0, min(p.room_corner, max(n - 1, 0)))
     imgui.same_line()
     if p.ed.button("Add corner after", tip="split the wall after this corner: a corner in its middle (a step of "
@@ -96,9 +99,11 @@ def room_section(p: Panels, name: str, prim: dict[str, Any]) -> None:
         p.ed.guard(s.room_remove_corner, name, p.room_corner)
     imgui.set_next_item_width(70)
     p.room_wall = p.ed.combo("wall", min(p.room_wall, max(n - 1, 0)), [f"wall{i}" for i in range(max(n, 1))])
+    imgui.set_item_tooltip("the wall that Add opening cuts")
     imgui.same_line()
     imgui.set_next_item_width(80)
     p.room_kind = p.ed.combo("opening kind", p.room_kind, OPENING_KINDS)
+    imgui.set_item_tooltip("a doorway or a window")
     imgui.same_line()
     if p.ed.button("Add opening", tip="a doorway or window of the usual size, centred on the wall"):
         p.ed.guard(s.add_opening, name, p.room_wall, OPENING_KINDS[p.room_kind])

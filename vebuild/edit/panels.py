@@ -50,17 +50,31 @@ class Panels:
         self.equal_param = 0  # the size "Make equal" shares
         self.room_corner, self.room_wall, self.room_kind = 0, 0, 0  # a room's corner, wall, opening kind
         self._param_edits: dict[str, Any] = {}
+        self._select_tab: str | None = None  # a tab to bring forward at the next frame (the first steps')
 
     def forget_edits(self) -> None:
         """Drop the values typed but not committed (another node was selected)."""
         self._param_edits.clear()
 
+    def show_tab(self, name: str) -> None:
+        """Bring a tab forward at the next frame."""
+        self._select_tab = name
+
+    def prepare_add(self, kind: str, name: str, parent: str | None) -> None:
+        """Set the Model tab's kind, name and parent fields (what its Add then adds)."""
+        self.new_kind = KINDS.index(kind)
+        self.new_name = name
+        choices = self._attach_choices()
+        self.new_parent = choices.index(parent) if parent in choices else 0
+
     def draw(self) -> None:
         self.ed.fixed_window("##panels", self.ed.panels_rect(), imgui.WindowFlags_.no_title_bar)
         if imgui.begin_tab_bar("panels"):
+            select, self._select_tab = self._select_tab, None
             for name, fn in (("Calibration", self._calibration_tab), ("Scale", self._scale_tab),
                              ("Model", self._model_tab), ("Keys", self._keys_tab)):
-                shown, _ = imgui.begin_tab_item(name)
+                flags = imgui.TabItemFlags_.set_selected if name == select else 0
+                shown, _ = imgui.begin_tab_item(name, None, flags)
                 self.ed.rect(f"tab:{name}")
                 if shown:
                     fn()
@@ -142,22 +156,26 @@ class Panels:
         for i, d in enumerate(s.data.get("reference_distances", [])):
             imgui.text(f"{d['a']}–{d['b']} {d['distance']:.4f} m ({d.get('role', 'scale')})")
             imgui.same_line()
-            if self.ed.button(f"remove##distance{i}"):
+            if self.ed.button(f"remove##distance{i}", tip=f"remove the distance {d['a']}–{d['b']}"):
                 self.ed.guard(s.remove_distance, i)
         imgui.set_next_item_width(70)
-        _, self.dist_a = imgui.input_text("##distance a", self.dist_a)
+        _, self.dist_a = imgui.input_text("marker a##distance a", self.dist_a)
         self.ed.rect("distance a")
+        imgui.set_item_tooltip("the first marker's name (or node:vertex, e.g. floor:v1)")
         imgui.same_line()
         imgui.set_next_item_width(70)
-        _, self.dist_b = imgui.input_text("##distance b", self.dist_b)
+        _, self.dist_b = imgui.input_text("marker b##distance b", self.dist_b)
         self.ed.rect("distance b")
-        imgui.same_line()
+        imgui.set_item_tooltip("the second marker's name (or node:vertex)")
         imgui.set_next_item_width(80)
         _, self.dist_m = imgui.input_float("m##distance", self.dist_m, 0.0, 0.0, "%.4f")
         self.ed.rect("distance m")
+        imgui.set_item_tooltip("the distance measured at the scene between the two, in metres")
+        imgui.same_line()
         imgui.set_next_item_width(90)
         _, self.dist_role = imgui.combo("role##distance", self.dist_role, ["scale", "check"])
         self.ed.rect("distance role")
+        imgui.set_item_tooltip("scale: it sets the model's size; check: kept aside, its residual reported")
         imgui.same_line()
         if self.ed.button("add##distance", tip="a measured distance between two markers (or node:vertex)"):
             self.ed.guard(s.add_distance, self.dist_a, self.dist_b, float(self.dist_m),
@@ -182,7 +200,7 @@ class Panels:
                 continue
             imgui.text(f"L{i}: {k['length']:g} m ± {1e3 * k.get('sigma', KNOWN_LENGTH_SIGMA_M):g} mm along {k['axis']}")
             imgui.same_line()
-            if self.ed.button(f"remove##length{i}"):
+            if self.ed.button(f"remove##length{i}", tip=f"remove the known length L{i}"):
                 self.ed.guard(s.remove_known_length, i)
         pending = self.ed.pending_length
         if pending is None or pending["photo"] != photo:
@@ -194,6 +212,9 @@ class Panels:
             imgui.text_colored(imgui.ImVec4(1.0, 0.8, 0.2, 1.0), "drawn: now its axis, metres and σ, then Add length")
         imgui.set_next_item_width(60)
         self.length_axis = self.ed.combo("length axis", self.length_axis, list(AXES))
+        imgui.set_item_tooltip("the world axis the length runs along (z: a vertical standing on the floor)")
+        imgui.same_line()
+        imgui.text("axis")
         imgui.same_line()
         self.length_m, self.length_sigma = self._metres_and_sigma("length", self.length_m, self.length_sigma,
                                                                   KNOWN_LENGTH_SIGMA_M)
@@ -209,7 +230,7 @@ class Panels:
             self.set_height()
         if h:
             imgui.same_line()
-            if self.ed.button("Remove height"):
+            if self.ed.button("Remove height", tip=f"forget the camera height of {photo}"):
                 self.ed.guard(s.set_camera_height, photo, None)
 
     def _metres_and_sigma(self, what: str, metres: str, sigma: str, default_sigma: float) -> tuple[str, str]:
@@ -218,6 +239,7 @@ class Panels:
         imgui.set_next_item_width(80)
         _, metres = imgui.input_text(f"m##{what}", metres)
         self.ed.rect(f"{what} m")
+        imgui.set_item_tooltip(f"the {what} in metres")
         imgui.same_line()
         imgui.set_next_item_width(70)
         _, sigma = imgui.input_text(f"σ m##{what}", sigma)
@@ -258,22 +280,30 @@ class Panels:
         model = s.model
         imgui.set_next_item_width(100)
         self.new_kind = self.ed.combo("kind", self.new_kind, KINDS)
+        imgui.set_item_tooltip("the kind of primitive Add makes")
+        imgui.same_line()
+        imgui.text("kind")
         imgui.same_line()
         parents = self._attach_choices()
         self.new_parent = min(self.new_parent, len(parents) - 1)
         imgui.set_next_item_width(110)
         self.new_parent = self.ed.combo("parent", self.new_parent, parents)
+        imgui.set_item_tooltip("what it rests on: nothing (the first goes on the origin marker), a node's top, or a "
+                               "calibrated marker")
         imgui.same_line()
-        imgui.set_next_item_width(90)
-        _, self.new_name = imgui.input_text("##new name", self.new_name)
+        imgui.text("on")
+        imgui.set_next_item_width(150)
+        _, self.new_name = imgui.input_text("name##new name", self.new_name)
         self.ed.rect("new name")
+        imgui.set_item_tooltip("the new node's name (blank: made from its kind)")
+        imgui.same_line()
         if self.ed.button("Add", tip="then click in the photo where it stands"):
             self.arm_placement()
         imgui.same_line()
         if self.ed.button("Add at centre", tip="where the photo's centre looks at its support"):
             self.add_at_centre()
         imgui.separator()
-        if self.ed.button("Solve"):
+        if self.ed.button("Solve", tip="fit the model's sizes and poses to the pins and edges in every photo"):
             self.ed.later(lambda: self.ed.solve(False))
         imgui.same_line()
         if self.ed.button("Re-calibrate", tip="solve the cameras and markers with the model (paper §3.2)"):
@@ -282,12 +312,13 @@ class Panels:
         if self.ed.button("Register this photo", tip="place this photo's camera from known points (paper §3.2)"):
             if self.ed.photo is not None:
                 self.ed.later(lambda: self.ed.guard(s.register, self.ed.photo))
-        if self.ed.button("Extract textures"):
+        if self.ed.button("Extract textures", tip="each face's texture from the photos that see it best (paper §4)"):
             self.ed.later(self.ed.extract_textures)
         imgui.same_line()
         imgui.set_next_item_width(90)
-        _, self.group_name = imgui.input_text("##group name", self.group_name)
+        _, self.group_name = imgui.input_text("group##group name", self.group_name)
         self.ed.rect("group name")
+        imgui.set_item_tooltip("the name of the group that Group makes")
         imgui.same_line()
         if self.ed.button("Group", tip="the selected nodes (Ctrl+click in the tree) become one object"):
             if self.ed.guard(s.group, list(self.ed.selected_nodes), self.group_name) is not None:
@@ -391,7 +422,7 @@ class Panels:
         imgui.separator()
         imgui.text(f"{name}" + (f" on {doc['parent']}" if doc.get("parent") else ""))
         imgui.same_line()
-        if self.ed.button("Remove##node"):
+        if self.ed.button("Remove##node", tip=f"remove {name} (and what rests on it) from the model"):
             self.ed.guard(s.remove_node, name)
             if s.model is None or name not in s.model.index:
                 self.ed.select(None)
@@ -416,6 +447,8 @@ class Panels:
         imgui.set_next_item_width(110)
         changed, idx = imgui.combo("joint##type", types.index(jtype), types)
         self.ed.rect("joint type")
+        imgui.set_item_tooltip("how it is attached: resting on, flush with, fixed to its parent, on a hinge or a "
+                               "slider, or free")
         if changed and types[idx] != jtype:
             self.ed.guard(lambda: s.set_joint(name, self._default_joint(model, name, types[idx], joint)))
         for key, value in joint.items():

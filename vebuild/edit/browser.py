@@ -1,0 +1,234 @@
+"""Photos added from a file browser inside the modelling screen (no desktop dialog program), and
+from files dropped onto its window.
+
+:class:`FileBrowser` is the browser's state without a window: the folder shown, its sub-folders
+and the image files vebuild reads (:data:`~vebuild.edit.session.PHOTO_SUFFIXES`: JPEG, PNG, TIFF
+and camera RAW; hidden ones left out), the files picked, a typed folder to go to. :func:`add_files`
+adds chosen files through the session's :meth:`~vebuild.edit.session.EditSession.add_photo` (the
+same code as the strip's Add photo: the size, SHA-256 and EXIF recorded, the file itself never
+changed), and names each that cannot be added, and why. :func:`draw_browser` draws the browser as
+a modal window of the editor.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from imgui_bundle import imgui
+
+from vebuild.errors import VebuildError
+
+from .session import PHOTO_SUFFIXES
+
+if TYPE_CHECKING:
+    from .first_steps import FirstSteps
+
+#: The browser window's title (ImGui's popup id).
+BROWSER_TITLE = "Add photos"
+#: Its size, window pixels (less where the window is smaller).
+BROWSER_SIZE = (660.0, 500.0)
+ERROR_COLOUR = (1.0, 0.45, 0.4, 1.0)
+
+
+def is_photo_name(path: str | os.PathLike[str]) -> bool:
+    """Whether the file's ending is one of the images vebuild reads."""
+    return Path(path).suffix.lower() in PHOTO_SUFFIXES
+
+
+def endings_text() -> str:
+    plain = sorted(s for s in PHOTO_SUFFIXES if s in (".jpg", ".jpeg", ".png", ".tif", ".tiff"))
+    return ", ".join(plain) + f" and camera RAW ({len(PHOTO_SUFFIXES) - len(plain)} kinds: .nef, .cr2, .dng, …)"
+
+
+@dataclass
+class FileBrowser:
+    """The folder shown, what it holds, and the files picked in it."""
+
+    folder: Path
+    have: set[Path] = field(default_factory=set)  # the project's photos (absolute): marked, not offered
+    picked: set[str] = field(default_factory=set)
+    error: str = ""
+    typed: str = ""
+    _listing: tuple[list[str], list[str]] | None = None
+
+    def __post_init__(self) -> None:
+        self.folder = Path(os.path.abspath(self.folder))
+        self.typed = str(self.folder)
+
+    def listing(self) -> tuple[list[str], list[str]]:
+        """The folder's sub-folders and image files, each sorted by name (case-insensitive)."""
+        if self._listing is None:
+            dirs: list[str] = []
+            files: list[str] = []
+            try:
+                with os.scandir(self.folder) as it:
+                    for e in it:
+                        if e.name.startswith("."):
+                            continue
+                        try:
+                            if e.is_dir():
+                                dirs.append(e.name)
+                            elif e.is_file() and is_photo_name(e.name):
+                                files.append(e.name)
+                        except OSError:
+                            continue
+            except OSError as e:
+                self.error = f"cannot list the folder {self.folder}: {e.strerror or e}"
+            self._listing = (sorted(dirs, key=str.lower), sorted(files, key=str.lower))
+        return self._listing
+
+    def go(self, folder: str | os.PathLike[str]) -> bool:
+        """Show another folder (a typed one: relative to the one shown); False, with the error
+        said, when it is no folder."""
+        target = Path(os.path.expanduser(str(folder)).strip())
+        if not target.is_absolute():
+            target = self.folder / target
+        target = Path(os.path.abspath(target))
+        if not target.is_dir():
+            self.error = f"{target} is not a folder"
+            self.typed = str(self.folder)
+            return False
+        self.folder, self.typed, self.error = target, str(target), ""
+        self.picked.clear()
+        self._listing = None
+        return True
+
+    def up(self) -> bool:
+        return self.go(self.folder.parent)
+
+    def enter(self, name: str) -> bool:
+        return self.go(self.folder / name)
+
+    def in_project(self, name: str) -> bool:
+        return Path(os.path.abspath(self.folder / name)) in self.have
+
+    def toggle(self, name: str) -> None:
+        """Pick a file, or unpick it (a photo the project has already is not picked)."""
+        if name in self.picked:
+            self.picked.discard(name)
+        elif name in self.listing()[1] and not self.in_project(name):
+            self.picked.add(name)
+
+    def pick_all(self) -> None:
+        self.picked = {f for f in self.listing()[1] if not self.in_project(f)}
+
+    def chosen(self) -> list[Path]:
+        """The picked files, in name order."""
+        return [self.folder / f for f in self.listing()[1] if f in self.picked]
+
+
+def add_files(session: Any, paths: Iterable[str | os.PathLike[str]]) -> tuple[list[str], list[str]]:
+    """Add each file as a photo through ``session.add_photo``; returns the ids added and, for each
+    file that could not be, a sentence naming it and why (no image vebuild reads, outside the
+    project's folder, unreadable, in the project already). A folder adds the image files directly
+    inside it."""
+    added: list[str] = []
+    problems: list[str] = []
+    for raw in paths:
+        path = Path(raw)
+        if path.is_dir():
+            inside = sorted(p for p in path.iterdir()
+                            if p.is_file() and is_photo_name(p) and not p.name.startswith("."))
+            if not inside:
+                problems.append(f"{path}: a folder with no image files vebuild reads ({endings_text()})")
+            more, bad = add_files(session, inside)
+            added += more
+            problems += bad
+            continue
+        if not path.exists():
+            problems.append(f"{path}: no such file")
+            continue
+        if not is_photo_name(path):
+            problems.append(f"{path.name}: not a photo vebuild reads (expected {endings_text()}); not added")
+            continue
+        have = {os.path.abspath(session.project.photo_path(p)): p["id"] for p in session.data["photos"]}
+        if os.path.abspath(path) in have:
+            problems.append(f"{path.name}: the project has it already, as photo '{have[os.path.abspath(path)]}'")
+            continue
+        try:
+            added.append(session.add_photo(path))
+        except VebuildError as e:
+            problems.append(f"{path.name}: {e}")
+    return added, problems
+
+
+def draw_browser(ed: FirstSteps) -> None:
+    """The browser as a modal window over the editor (while ``ed.browser`` is set)."""
+    b = ed.browser
+    if b is None:
+        return
+    if not imgui.is_popup_open(BROWSER_TITLE):
+        imgui.open_popup(BROWSER_TITLE)
+    W, H = ed.size()
+    size = (min(BROWSER_SIZE[0], W - 40.0), min(BROWSER_SIZE[1], H - 40.0))
+    imgui.set_next_window_pos((W / 2, H / 2), imgui.Cond_.always, (0.5, 0.5))
+    imgui.set_next_window_size(size, imgui.Cond_.always)
+    opened, keep = imgui.begin_popup_modal(BROWSER_TITLE, True, imgui.WindowFlags_.no_saved_settings
+                                           | imgui.WindowFlags_.no_resize | imgui.WindowFlags_.no_move)
+    if not opened:
+        ed.browser = None
+        return
+    if not keep or ed.browser is None:
+        ed.browser = None
+        imgui.close_current_popup()
+        imgui.end_popup()
+        return
+    pos = imgui.get_window_pos()
+    ed._rects["browser"] = (pos.x, pos.y, pos.x + size[0], pos.y + size[1])
+    if ed.button("Up", tip="the folder that holds this one"):
+        b.up()
+    imgui.same_line()
+    imgui.set_next_item_width(size[0] - 160)
+    entered, b.typed = imgui.input_text("folder##browser", b.typed, imgui.InputTextFlags_.enter_returns_true)
+    ed.rect("browser folder")
+    imgui.set_item_tooltip("type a folder and press Enter to show it")
+    if entered:
+        b.go(b.typed)
+    imgui.push_text_wrap_pos(0.0)
+    imgui.text_disabled(f"photos lie in the project's folder ({ed.session.project.folder}) or a folder inside it; "
+                        f"shown: folders and {endings_text()}. Click files to pick them, then Add.")
+    imgui.pop_text_wrap_pos()
+    dirs, files = b.listing()
+    list_h = max(80.0, size[1] - imgui.get_cursor_pos_y() - 110)
+    imgui.begin_child("browser list", (0, list_h), imgui.ChildFlags_.borders)
+    for d in dirs:
+        if imgui.selectable(f"[folder] {d}/##dir:{d}", False)[0]:
+            b.enter(d)
+            break
+        ed.rect(f"browser:{d}/")
+    else:
+        for f in files:
+            there = b.in_project(f)
+            imgui.begin_disabled(there)
+            if imgui.selectable(f"{f}{'   (in the project)' if there else ''}##file:{f}", f in b.picked)[0]:
+                b.toggle(f)
+            imgui.end_disabled()
+            ed.rect(f"browser:{f}")
+        if not dirs and not files and not b.error:
+            imgui.text_disabled("no folders or photos here")
+    imgui.end_child()
+    if b.error:
+        imgui.push_text_wrap_pos(0.0)
+        imgui.text_colored(imgui.ImVec4(*ERROR_COLOUR), b.error)
+        imgui.pop_text_wrap_pos()
+    n = len(b.picked)
+    imgui.begin_disabled(n == 0)
+    if ed.button(f"Add {n} photo{'s' if n != 1 else ''}###browser add",
+                 tip="add the picked files to the project (their size, SHA-256 and EXIF recorded; the files are not "
+                     "changed)"):
+        ed.add_dropped_or_picked(b.chosen(), from_browser=True)
+    ed.rect("browser add")
+    imgui.end_disabled()
+    imgui.same_line()
+    if ed.button("Pick all##browser", tip="pick every photo shown that the project lacks"):
+        b.pick_all()
+    imgui.same_line()
+    if ed.button("Cancel##browser", tip="close the browser (Esc)"):
+        ed.browser = None
+    if ed.browser is None:
+        imgui.close_current_popup()
+    imgui.end_popup()
