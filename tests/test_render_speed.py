@@ -170,3 +170,23 @@ def test_near_reach_is_the_near_rectangles_far_corner():
     K = intrinsic_matrix(100.0, 50.0, 25.0)
     reach = draworder.near_reach(K, 100, 50, 0.01)
     assert reach == pytest.approx(0.01 * np.sqrt(1 + 0.5 ** 2 + 0.25 ** 2), rel=0.02)
+
+
+def test_blocks_out_of_view_are_not_drawn(ctx, scene):
+    """A camera looking away from most of the scene draws only the blocks in its view, and the
+    picture (and ID buffer) is the one drawing everything gives."""
+    cam = _camera([1.5, 1.5, 1.0], [-1.0, -1.0, -2.0])  # near a corner of the floor, looking out and down
+    order = draworder.DrawOrder(scene, np.zeros(len(scene.mesh.triangles), np.int32))
+    planes = draworder.side_planes(cam.K, cam.R, W, H)
+    index, _ = order.plan(np.asarray(cam.C, float), 0.01, planes)
+    assert index is not None and 0 < len(index) < len(scene.mesh.triangles) // 4
+    seen, ids = _render(ctx, scene, cam)
+    r = Renderer(ctx, scene, RenderOptions(samples=1, anisotropy=1.0))
+    try:
+        r._order.plan = lambda C, reach, planes=None, plan=r._order.plan: plan(C, reach, None)  # type: ignore
+        everything, all_ids = r.render(cam), r.id_buffer(cam)[0]
+    finally:
+        r.release()
+    np.testing.assert_array_equal(seen, everything)
+    np.testing.assert_array_equal(ids, all_ids)
+    assert (ids > 0).mean() > 0.2  # the floor is in view

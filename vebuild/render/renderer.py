@@ -57,7 +57,7 @@ from vebuild.gl import load_program
 from vebuild.gl.context import max_texture_size
 from vebuild.gl.shaders import set_uniforms, uniform
 from vebuild.lighting import AS_PHOTOGRAPHED_LIGHTING, MAX_LIGHTS, Lighting
-from vebuild.render.draworder import DrawOrder, near_reach
+from vebuild.render.draworder import DrawOrder, near_reach, side_planes
 from vebuild.render.observed import (
     DEFAULT_UNOBSERVED,
     HATCH_DUTY,
@@ -342,7 +342,8 @@ class Renderer:
         (:mod:`vebuild.render.draworder`); ``textures``: bind each page's atlas and mask."""
         ctx = self.ctx
         reach = cam.reach if isinstance(cam, _NarrowCamera) else near_reach(cam.K, cam.width, cam.height, near)
-        index, ranges = self._order.plan(np.asarray(cam.C, float), reach)
+        planes = side_planes(cam.K, cam.R, cam.width, cam.height)
+        index, ranges = self._order.plan(np.asarray(cam.C, float), reach, planes)
         if index is not None:
             self._draw_ibo.write(index.tobytes())
         # Outward (counter-clockwise) triangles wind clockwise in image order, counter-clockwise flipped.
