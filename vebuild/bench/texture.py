@@ -19,6 +19,12 @@ taken in turns, ``LENS_REPEATS`` of each, every stage waited for; ``lens_*_ms_pe
 (``passes``: the ID, texel and best-weight passes together; ``total``: the whole extraction). The photos' pixels are the
 pinhole ones: what is timed does not depend on them.
 
+Atlas: the faces no photo can see get token charts (:mod:`vebuild.texture.visibility`):
+``token_chart_count`` of them, the atlas ``atlas_texels`` (gutters included) against
+``atlas_texels_full_charts``, its size had they kept their full charts (the same layout, packed
+without the test), and ``visibility_ms_per_photo`` the test's cost; likewise on the example room
+(``room_*``).
+
 Memory: peak resident memory of the process during an extraction (Linux VmHWM, reset before each
 run) for 5 and 20 photos, and for 20 photos at twice the density (four times the texels).
 
@@ -142,7 +148,8 @@ def speed(n_photos: int, progress: bool) -> dict[str, Any]:
         bar.close()
         fig["faces"] = len(res.faces)
         fig["atlas_texels_millions"] = sum(a.shape[0] * a.shape[1] for a in res.atlases) / 1e6
-        for st in (*STAGES, "best_weight", "merge"):
+        fig.update(atlas_figures(model, res, opts))
+        for st in (*STAGES, "visibility", "best_weight", "merge"):
             fig[f"{st}_ms_per_photo"] = 1e3 * timings.seconds.get(st, 0.0) / n_photos
         fig["total_ms_per_photo"] = 1e3 * total / n_photos
         # The same photos through a lens.
@@ -196,6 +203,15 @@ def speed(n_photos: int, progress: bool) -> dict[str, Any]:
     return fig
 
 
+def atlas_figures(model: Model, res: Any, opts: Options, prefix: str = "") -> dict[str, Any]:
+    """The atlas with token charts against the one full charts would make (laid out alone)."""
+    full = lay.page_sizes(lay.layout(model, opts.texels_per_metre, opts.max_face_texels, res.page_size))
+    before = sum(w * h for w, h in full)
+    return {f"{prefix}token_chart_count": len(res.token_faces), f"{prefix}atlas_texels": res.atlas_texels,
+            f"{prefix}atlas_texels_full_charts": before,
+            f"{prefix}atlas_share_of_full_charts": res.atlas_texels / max(1, before)}
+
+
 def memory(progress: bool, quick: bool) -> dict[str, Any]:
     model = bench_model()
     fig: dict[str, Any] = {}
@@ -226,21 +242,24 @@ def quality(progress: bool, quick: bool) -> dict[str, Any]:
         variants = {k: variants[k] for k in ("all", "paper")}
     fig: dict[str, Any] = {}
     for name, kw in tqdm(variants.items(), desc="bench texture: quality", unit="variant", disable=not progress):
-        fig.update({f"{k}_{name}": v for k, v in _psnr(model, cams, sources, Options(**kw), exposures).items()})
+        got, res = _psnr(model, cams, sources, Options(**kw), exposures)
+        fig.update({f"{k}_{name}": v for k, v in got.items()})
+        if name == "all":
+            fig.update(atlas_figures(model, res, Options(), "room_"))
     # The whole pipeline: calibrated and solved from the noisy marks.
     solved_model, solved_cams, solved_sources = _solved_example()
     if solved_model is not None:
-        fig.update({f"{k}_solved": v for k, v in _psnr(solved_model, solved_cams, solved_sources, Options(),
-                                                       exposures).items()})
+        got, _ = _psnr(solved_model, solved_cams, solved_sources, Options(), exposures)
+        fig.update({f"{k}_solved": v for k, v in got.items()})
     return fig
 
 
-def _psnr(model, cams, sources, opts, exposures) -> dict[str, float]:
+def _psnr(model, cams, sources, opts, exposures) -> tuple[dict[str, float], Any]:
     res = extract(model, cams, sources, opts)
     value = truth.texture_psnr(model, res, {p: v["exposure"] for p, v in exposures.items()})
     seen = sum(int((c[..., 3] > 0).sum() - unseen_texels(c).sum()) for c in res.coverage)
     on_face = sum(int((c[..., 3] > 0).sum()) for c in res.coverage)
-    return {"psnr_db": value, "seen_texel_share": seen / max(1, on_face)}
+    return {"psnr_db": value, "seen_texel_share": seen / max(1, on_face)}, res
 
 
 def _solved_example() -> tuple[Model | None, list[ImageCamera], dict[str, PhotoSource]]:
@@ -280,14 +299,21 @@ def table(fig: dict[str, Any]) -> str:
              f"{fig['photos']} photos of {fig['photo_megapixels']:.1f} MP (JPEG {fig['jpeg_mb_mean']:.1f} MB), "
              f"{fig['faces']} faces, atlas {fig['atlas_texels_millions']:.2f} M texels", "",
              f"{'per photo (ms)':<34}{'time':>10}"]
-    for st in (*STAGES, "best_weight", "merge"):
-        lines.append(f"{'  ' + st.replace('_', ' '):<34}{fig[f'{st}_ms_per_photo']:>10.1f}")
+    for st in (*STAGES, "visibility", "best_weight", "merge"):
+        lines.append(f"{'  ' + st.replace('_', ' '):<34}{fig.get(f'{st}_ms_per_photo', 0.0):>10.1f}")
     lines += [f"{'  total':<34}{fig['total_ms_per_photo']:>10.1f}",
               f"{'JPEG decode alone (reference)':<34}{fig['jpeg_decode_alone_ms']:>10.1f}",
               f"{'total / decode alone':<34}{fig['total_over_decode']:>10.2f}   (goal ≤ 2)",
               f"{'GPU passes per photo':<34}{fig['gpu_passes_ms_per_photo']:>10.1f}",
               f"{'CPU reference per photo':<34}{fig['cpu_reference_ms_per_photo']:>10.1f}",
               f"{'speed-up over the CPU reference':<34}{fig['speedup_over_cpu_reference']:>10.1f}   (goal ≥ 10)", ""]
+    for prefix, what in (("", "bench model"), ("room_", "example room")):
+        if f"{prefix}atlas_texels" in fig:
+            lines.append(f"atlas ({what}): {fig[f'{prefix}token_chart_count']} faces no photo can see given token "
+                         f"charts; {fig[f'{prefix}atlas_texels'] / 1e6:.2f} M texels against "
+                         f"{fig[f'{prefix}atlas_texels_full_charts'] / 1e6:.2f} M with full charts "
+                         f"({100 * fig[f'{prefix}atlas_share_of_full_charts']:.0f} %)")
+    lines.append("")
     if "lens_total_ms_per_photo" in fig:
         lines += [f"through a lens (k1 = {fig['lens_k1']:g}, corners moved "
                   f"{fig['lens_corner_displacement_px']:.0f} px, ID buffer {fig['lens_cover_growth']:.3f}× the photo's "

@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -52,10 +53,17 @@ class TextureResult:
     exposure_scale: float
     page_size: int
     timings: Timings = field(default_factory=Timings)
+    #: The faces no photo can see, given token charts (vebuild.texture.visibility).
+    token_faces: list[lay.Face] = field(default_factory=list)
 
     @property
     def unseen_faces(self) -> list[lay.Face]:
         return [f for f in self.faces if self.face_stats[f.id].seen_fraction == 0.0]
+
+    @property
+    def atlas_texels(self) -> int:
+        """Texels of the atlas pages, gutters included."""
+        return sum(int(a.shape[0]) * int(a.shape[1]) for a in self.atlases)
 
 
 def read_photo(src: PhotoSource, cam: ImageCamera, timings: Timings | None = None) -> NDArray[np.uint8]:
@@ -111,10 +119,11 @@ def extract(model: Model, cameras: Sequence[ImageCamera], sources: dict[str, Pho
     """Extract and merge the textures of every face of ``model`` from the photos of ``cameras``."""
     ctx = headless_context()
     page_size = min(int(options.page_size), max_texture_size(ctx))
-    faces = lay.layout(model, options.texels_per_metre, options.max_face_texels, page_size)
-    mesh = lay.scene_mesh(model, faces)
     profile = timings is not None
     timings = timings or Timings()
+    token = unseen_keys(ctx, model, cameras, options, page_size, timings, profile) if options.token_charts else set()
+    faces = lay.layout(model, options.texels_per_metre, options.max_face_texels, page_size, token=token)
+    mesh = lay.scene_mesh(model, faces)
     ex = Extractor(ctx, mesh, options, timings if profile else None)
     try:
         order = photo_order(ex, cameras)
@@ -150,4 +159,19 @@ def extract(model: Model, cameras: Sequence[ImageCamera], sources: dict[str, Pho
         ex.release()
     face_photos = {f.id: [c.id for c in order if contributions[c.id].get(f.id, 0) > 0] for f in faces}
     return TextureResult(faces, atlases, coverage, stats, face_photos, gains, dict(ex.overlap),
-                         [c.id for c in order], scale, page_size, timings)
+                         [c.id for c in order], scale, page_size, timings,
+                         [f for f in faces if (f.node, f.name) in token])
+
+
+def unseen_keys(ctx: Any, model: Model, cameras: Sequence[ImageCamera], options: Options, page_size: int,
+                timings: Timings, profile: bool = False) -> set[tuple[str, str]]:
+    """(node, face) of every face that no camera can see (:mod:`vebuild.texture.visibility`): the
+    faces that get token charts. Found on the model's mesh before its atlas is laid out (charts
+    of one texel: the atlas does not matter to the test)."""
+    from vebuild.texture.visibility import seen_faces, token_faces
+
+    plan = lay.plan_faces(model, options.texels_per_metre, options.max_face_texels, page_size)
+    rough = lay.scene_mesh(model, [lay.Face(i + 1, node, name, size, 0, (0, 0, 1, 1))
+                                   for i, (node, name, size, _) in enumerate(plan)])
+    with timings.stage("visibility", ctx if profile else None):
+        return token_faces(rough, seen_faces(ctx, rough, cameras))

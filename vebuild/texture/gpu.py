@@ -25,6 +25,7 @@ from vebuild.texture.gpu_pyramid import PhotoPyramid, fullscreen_vao
 from vebuild.texture.layout import SceneMesh
 from vebuild.texture.lens import lens_uniforms, pinhole_cover
 from vebuild.texture.options import Options
+from vebuild.texture.visibility import face_points, faces_in_view
 
 Array = NDArray[np.float64]
 #: Exposure statistics are taken on the atlas reduced this much per side.
@@ -120,7 +121,7 @@ class Extractor:
         self._face_range = {int(soup["face"][a]): (int(a), int(b - a)) for a, b in zip(starts, ends, strict=True)}
         self._face_page = {f.id: f.page for f in mesh.faces}
         self._soup_vaos: dict[str, moderngl.VertexArray] = {}
-        self._face_points = self._face_vertices()
+        self._face_points = face_points(mesh)
         self._pages = [self._make_page(size) for size in mesh.pages]
         self._photo = PhotoPyramid(ctx)
         self._fullscreen_vaos: dict[int, moderngl.VertexArray] = {}
@@ -135,14 +136,6 @@ class Extractor:
         self.overlap: dict[str, int] = {}
 
     # -- set-up ------------------------------------------------------------------------------
-
-    def _face_vertices(self) -> dict[int, tuple[Array, Array]]:
-        """For each face, its vertices and normals (for culling faces a photo cannot see)."""
-        out = {}
-        for f in self.mesh.faces:
-            sel = self.mesh.face_of_vertex == f.id
-            out[f.id] = (self.mesh.vertices[sel], self.mesh.normals[sel])
-        return out
 
     def _make_page(self, size: tuple[int, int]) -> Page:
         ctx = self.ctx
@@ -279,23 +272,8 @@ class Extractor:
     # -- pass 2 ------------------------------------------------------------------------------
 
     def _visible_faces(self, cam: ImageCamera) -> set[int]:
-        """Faces that may show in ``cam``: some vertex faces it and is in front, and their image
-        bounds meet the image (for a photo with lens distortion, the pinhole image over its
-        undistorted bounds: what the lens shows lies inside it)."""
-        cam, _ = pinhole_cover(cam)
-        out = set()
-        for fid, (P, N) in self._face_points.items():
-            x = world_to_camera(cam.R, cam.C, P)
-            front = x[:, 2] > 1e-6
-            if not front.any() or not (np.einsum("ij,ij->i", N, cam.C - P) > 0).any():
-                continue
-            if front.all():
-                uv = x[:, :2] / x[:, 2:3] * [cam.K[0, 0], cam.K[1, 1]] + cam.K[:2, 2]
-                if (uv[:, 0].max() < 0 or uv[:, 1].max() < 0 or uv[:, 0].min() > cam.width
-                        or uv[:, 1].min() > cam.height):
-                    continue
-            out.add(fid)
-        return out
+        """Faces that may show in ``cam`` (:func:`vebuild.texture.visibility.faces_in_view`)."""
+        return faces_in_view(self._face_points, cam)
 
     def _draw_texels(self, mode: str, page: int, faces: set[int] | None,
                      queries: dict[int, moderngl.Query] | None = None) -> None:

@@ -2,7 +2,8 @@
 
 Every logical face of every primitive node (``Mesh.face_ids``) becomes one global face with a
 1-based id, in model order; id 0 is "nothing" in GPU buffers. Each face gets a chart of whole
-texels on one atlas page; pages are at most ``page_size`` texels on a side (the GL maximum texture
+texels on one atlas page (a face no photo can see, a token chart of :data:`TOKEN_TEXELS` a side:
+:mod:`vebuild.texture.visibility`); pages are at most ``page_size`` texels on a side (the GL maximum texture
 size or less), so a scene whose texels do not fit one texture is split over several.
 
 Used by texture extraction, and by anything that later draws the textured scene: given the same
@@ -12,7 +13,7 @@ model and the face records of an extraction, :func:`scene_mesh` rebuilds the sam
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,6 +27,10 @@ Array = NDArray[np.float64]
 
 #: Texels between charts and around a page's border; each chart bleeds into half of it.
 GUTTER = 4
+#: The side, in texels, of the token chart of a face no photo can see (its texels are all filled
+#: from its node's seen faces, and marked unseen): enough for each texel of any chart's shape to
+#: have on-face neighbours, so that the coverage map marks the whole face.
+TOKEN_TEXELS = 4
 #: Facets around curved surfaces.
 SEGMENTS = 32
 #: Memory the extraction takes per atlas texel: its per-page sums on the GPU (three RGBA and one
@@ -133,15 +138,18 @@ def _texels(length_m: float, texels_per_metre: float, cap: int) -> int:
     return cap if not t < cap else max(1, math.ceil(t))
 
 
-def plan_faces(model: Model, texels_per_metre: float, max_face_texels: int,
-               page_size: int) -> list[tuple[str, str, tuple[float, float], tuple[int, int]]]:
-    """(node, face name, chart size in metres, chart size in texels) of every face, model order.
+def plan_faces(model: Model, texels_per_metre: float, max_face_texels: int, page_size: int,
+               token: Collection[tuple[str, str]] = ()) -> list[tuple[str, str, tuple[float, float], tuple[int, int]]]:
+    """(node, face name, chart size in metres, chart size in texels) of every face, model order;
+    the faces (node, face name) in ``token`` get a token chart (:data:`TOKEN_TEXELS` a side, or
+    less under a smaller cap).
 
     A face whose size is not a finite number of metres (a primitive sized beyond floating point)
     is a :class:`LayoutError` naming it."""
     if not (math.isfinite(texels_per_metre) and texels_per_metre > 0):
         raise LayoutError(f"--density: expected a positive number of texels per metre, got {texels_per_metre!r}")
     cap = max(1, min(int(max_face_texels), int(page_size) - 2 * GUTTER))
+    small = min(TOKEN_TEXELS, cap)
     out = []
     for node in model.nodes:
         if node.primitive is None:
@@ -152,6 +160,9 @@ def plan_faces(model: Model, texels_per_metre: float, max_face_texels: int,
             if not (math.isfinite(w) and math.isfinite(h) and w >= 0 and h >= 0):
                 raise LayoutError(f"node '{node.name}' face '{name}': its chart is {w:g} m × {h:g} m, not a finite "
                                   "size; give the primitive finite dimensions in metres")
+            if (node.name, name) in token:
+                out.append((node.name, name, (w, h), (small, small)))
+                continue
             out.append((node.name, name, (w, h), (_texels(w, texels_per_metre, cap),
                                                   _texels(h, texels_per_metre, cap))))
     return out
@@ -166,16 +177,18 @@ def atlas_bytes(texels: int) -> int:
     return int(texels) * BYTES_PER_TEXEL
 
 
-def _packed_texels(sizes_m: Sequence[tuple[float, float]], texels_per_metre: float, cap: int, page_size: int) -> int:
-    """Texels of the pages that charts of these sizes in metres pack into at a density."""
-    _, pages = pack([(_texels(w, texels_per_metre, cap), _texels(h, texels_per_metre, cap)) for w, h in sizes_m],
-                    page_size)
+def _packed_texels(sizes_m: Sequence[tuple[float, float]], texels_per_metre: float, cap: int, page_size: int,
+                   fixed: Sequence[tuple[int, int]] = ()) -> int:
+    """Texels of the pages that charts of these sizes in metres pack into at a density (with the
+    charts ``fixed`` in texels, whatever the density: the token charts)."""
+    _, pages = pack([(_texels(w, texels_per_metre, cap), _texels(h, texels_per_metre, cap)) for w, h in sizes_m]
+                    + list(fixed), page_size)
     return sum(w * h for w, h in pages)  # Python ints: no overflow
 
 
 def check_atlas(plan: Sequence[tuple[str, str, tuple[float, float], tuple[int, int]]], texels_per_metre: float,
-                max_face_texels: int, page_size: int,
-                max_texels: int) -> tuple[list[tuple[int, int, int]], list[tuple[int, int]]]:
+                max_face_texels: int, page_size: int, max_texels: int,
+                token: Collection[tuple[str, str]] = ()) -> tuple[list[tuple[int, int, int]], list[tuple[int, int]]]:
     """Pack the charts of ``plan`` (:func:`pack`) and refuse pages of more than ``max_texels``
     texels in all (see :data:`MAX_ATLAS_TEXELS`) before anything is allocated: the message names
     the largest faces, the texels and pages the layout would need, the limit, and the density that
@@ -185,23 +198,24 @@ def check_atlas(plan: Sequence[tuple[str, str, tuple[float, float], tuple[int, i
     if need <= max_texels:
         return place, pages
     cap = max(1, min(int(max_face_texels), int(page_size) - 2 * GUTTER))
-    sizes_m = [size for _, _, size, _ in plan]
+    sizes_m = [size for node, face, size, _ in plan if (node, face) not in token]
+    fixed = [n for node, face, _, n in plan if (node, face) in token]
     biggest = sorted(plan, key=lambda p: -p[3][0] * p[3][1])[:3]
     faces = "; ".join(f"node '{n}' face '{f}' {w}×{h} texels ({a:g} m × {b:g} m)" for n, f, (a, b), (w, h) in biggest)
     what = (f"the texture atlas would need {need:,} texels on {len(pages)} page(s) of at most {page_size}² "
             f"({atlas_bytes(need) / 2**30:.1f} GiB for the extraction's sums at {BYTES_PER_TEXEL} bytes a texel) at "
             f"{texels_per_metre:g} texels per metre: more than the limit of {max_texels:,} texels "
             f"({atlas_bytes(max_texels) / 2**30:.0f} GiB); the largest faces: {faces}")
-    if _packed_texels(sizes_m, 1e-300, cap, page_size) > max_texels:
+    if _packed_texels(sizes_m, 1e-300, cap, page_size, fixed) > max_texels:
         raise LayoutError(f"{what}. The model has {len(plan)} faces: too many to texture even at one texel each; "
                           "texture fewer objects (or use --mode average)")
     lo, hi = 0.0, float(texels_per_metre)  # the densest that fits, by bisection (the pages grow with density)
     for _ in range(40):
         mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if _packed_texels(sizes_m, mid, cap, page_size) <= max_texels else (lo, mid)
+        lo, hi = (mid, hi) if _packed_texels(sizes_m, mid, cap, page_size, fixed) <= max_texels else (lo, mid)
     digits = 2 - math.floor(math.log10(lo)) if lo > 0 else 3
     fit = math.floor(lo * 10.0 ** digits) / 10.0 ** digits  # three figures, rounded down
-    while fit > 0 and _packed_texels(sizes_m, fit, cap, page_size) > max_texels:
+    while fit > 0 and _packed_texels(sizes_m, fit, cap, page_size, fixed) > max_texels:
         fit = math.floor(fit * 0.99 * 10.0 ** digits) / 10.0 ** digits
     raise LayoutError(f"{what}. Lower --density (texels per metre) to {fit:g} or less, or lower --max-face-texels")
 
@@ -238,12 +252,13 @@ def pack(sizes: Sequence[tuple[int, int]], page_size: int) -> tuple[list[tuple[i
 
 
 def layout(model: Model, texels_per_metre: float, max_face_texels: int, page_size: int,
-           max_texels: int | None = None) -> list[Face]:
+           max_texels: int | None = None, token: Collection[tuple[str, str]] = ()) -> list[Face]:
     """Faces with charts packed into pages, once the pages' texels are known to be within
-    ``max_texels`` (default :data:`MAX_ATLAS_TEXELS`; :func:`check_atlas`)."""
-    plan = plan_faces(model, texels_per_metre, max_face_texels, page_size)
+    ``max_texels`` (default :data:`MAX_ATLAS_TEXELS`; :func:`check_atlas`); the faces (node, face
+    name) in ``token`` with token charts (:func:`plan_faces`)."""
+    plan = plan_faces(model, texels_per_metre, max_face_texels, page_size, token)
     place, _ = check_atlas(plan, texels_per_metre, max_face_texels, page_size,
-                           MAX_ATLAS_TEXELS if max_texels is None else int(max_texels))
+                           MAX_ATLAS_TEXELS if max_texels is None else int(max_texels), token)
     return [Face(i + 1, node, name, size, page, (x, y, n[0], n[1]))
             for i, ((node, name, size, n), (page, x, y)) in enumerate(zip(plan, place, strict=True))]
 

@@ -133,6 +133,17 @@ def linear_to_srgb8(c: Array) -> NDArray[np.uint8]:
     return np.rint(s * 255.0).astype(np.uint8)
 
 
-def srgb8_to_linear(s: NDArray[np.uint8]) -> Array:
+def _srgb8_to_linear(s: NDArray[Any]) -> Array:
     c = np.asarray(s, np.float64) / 255.0
     return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+#: :func:`srgb8_to_linear` of each 8-bit level, looked up for uint8 input: the same values, some
+#: twenty times faster than the power law on a photo.
+_SRGB8_LINEAR = _srgb8_to_linear(np.arange(256, dtype=np.uint8))
+
+
+def srgb8_to_linear(s: NDArray[np.uint8]) -> Array:
+    """8-bit sRGB → linear [0, 1] (IEC 61966-2-1)."""
+    a = np.asarray(s)
+    return _SRGB8_LINEAR[a] if a.dtype == np.uint8 else _srgb8_to_linear(a)

@@ -33,6 +33,7 @@ class Options:
     exposure: bool = True  # compensate exposure differences between photos
     fill: str = "push-pull"  # or "average" (the paper: the face's average colour)
     mode: str = "texture"  # or "average": one colour per face (paper Figure 9, middle)
+    token_charts: bool = True  # a face no photo can see gets a token chart (False: its full one)
 
     def __post_init__(self) -> None:
         def bad(option: str, expected: str, value: object) -> VebuildError:
@@ -59,6 +60,8 @@ class Options:
             raise bad("mode", "'texture' or 'average'", self.mode)
         if self.fill not in FILLS:
             raise bad("fill", "'push-pull' or 'average'", self.fill)
+        if not isinstance(self.token_charts, bool):
+            raise bad("token_charts", "true or false", self.token_charts)
 
     def as_dict(self) -> dict[str, object]:
         return dict(self.__dict__)

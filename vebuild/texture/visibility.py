@@ -1,0 +1,141 @@
+"""Which faces a photo can see at all, known before the atlas is laid out (moderngl).
+
+A face no photo can see, by the cameras' frusta and the model's own occlusion (a wall's back, its
+top and ends, the underside of what rests on the floor), gets a token chart of
+:data:`vebuild.texture.layout.TOKEN_TEXELS` a side instead of its full resolution: its texels would
+all be filled anyway (its node's average colour, marked unseen), and full-sized they cost atlas
+space, every full-page pass and merge, the PNGs, and every later load of the pages.
+
+The test is exactly pass 2's precondition (:mod:`vebuild.texture`): a texel is seen only where its
+face is one of the photo's :func:`faces_in_view` and holds the texel's pixel in the photo's ID
+buffer. Here each photo's depth buffer is drawn as pass 1 draws it (the same program, vertices,
+near and far planes, and for a lens the same pinhole cover), then each face in view not yet
+known to be seen is drawn again with the depth test ``<=`` and no depth writes inside an
+occlusion query: it passes wherever it is the nearest surface at a pixel centre (or ties the
+nearest), so every face that holds a pixel of an ID buffer is counted, whatever the erosion, and
+a face no query counts has no seen texel. A photo whose faces in view are all known seen is not
+drawn.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+
+import moderngl
+import numpy as np
+from numpy.typing import NDArray
+
+from vebuild.camera import ImageCamera, depth_range, gl_projection, view_matrix, world_to_camera
+from vebuild.gl import load_program
+from vebuild.gl.shaders import set_uniforms
+from vebuild.texture.layout import SceneMesh
+from vebuild.texture.lens import pinhole_cover
+
+Array = NDArray[np.float64]
+FacePoints = dict[int, tuple[Array, Array]]
+
+
+def face_points(mesh: SceneMesh) -> FacePoints:
+    """For each face id, its vertices and normals (for culling the faces a photo cannot see)."""
+    order = np.argsort(mesh.face_of_vertex, kind="stable")
+    ids = mesh.face_of_vertex[order]
+    starts = np.searchsorted(ids, [f.id for f in mesh.faces], side="left")
+    ends = np.searchsorted(ids, [f.id for f in mesh.faces], side="right")
+    return {f.id: (mesh.vertices[order[a:b]], mesh.normals[order[a:b]])
+            for f, a, b in zip(mesh.faces, starts, ends, strict=True)}
+
+
+def faces_in_view(points: FacePoints, cam: ImageCamera) -> set[int]:
+    """Faces that may show in ``cam``: some vertex faces it and is in front, and their image
+    bounds meet the image (for a photo with lens distortion, the pinhole image over its
+    undistorted bounds: what the lens shows lies inside it)."""
+    cam, _ = pinhole_cover(cam)
+    out = set()
+    for fid, (P, N) in points.items():
+        x = world_to_camera(cam.R, cam.C, P)
+        front = x[:, 2] > 1e-6
+        if not front.any() or not (np.einsum("ij,ij->i", N, cam.C - P) > 0).any():
+            continue
+        if front.all():
+            uv = x[:, :2] / x[:, 2:3] * [cam.K[0, 0], cam.K[1, 1]] + cam.K[:2, 2]
+            if (uv[:, 0].max() < 0 or uv[:, 1].max() < 0 or uv[:, 0].min() > cam.width
+                    or uv[:, 1].min() > cam.height):
+                continue
+        out.add(fid)
+    return out
+
+
+def seen_faces(ctx: moderngl.Context, mesh: SceneMesh, cameras: Iterable[ImageCamera],
+               points: FacePoints | None = None) -> set[int]:
+    """The ids of the faces of ``mesh`` that some camera's ID buffer holds (see the module's
+    docstring); every other face has no texel any photo sees."""
+    points = face_points(mesh) if points is None else points
+    prog = load_program(ctx, "id")
+    tri_face = mesh.triangle_faces
+    order = np.argsort(tri_face, kind="stable")
+    by_face = tri_face[order]
+    fids = np.unique(by_face)
+    first = np.searchsorted(by_face, fids, side="left")
+    last = np.searchsorted(by_face, fids, side="right")
+    runs = {int(f): (int(a), int(b - a)) for f, a, b in zip(fids, first, last, strict=True)}
+    vbo = ctx.buffer(np.column_stack([mesh.vertices, mesh.face_of_vertex]).astype("f4").tobytes())
+    ibo_all = ctx.buffer(mesh.triangles.astype("i4").tobytes())
+    ibo_sorted = ctx.buffer(mesh.triangles[order].astype("i4").tobytes())
+    layout = [(vbo, "3f 1f", "in_position", "in_face")]
+    vao_all = ctx.vertex_array(prog, layout, ibo_all)
+    vao_face = ctx.vertex_array(prog, layout, ibo_sorted)
+    seen: set[int] = set()
+    depth: moderngl.Renderbuffer | None = None
+    fbo: moderngl.Framebuffer | None = None
+    queries: list[moderngl.Query] = []
+    try:
+        for cam in cameras:
+            todo = sorted((faces_in_view(points, cam) - seen) & set(runs))
+            if not todo:
+                continue
+            cover, _ = pinhole_cover(cam)
+            key = (cover.width, cover.height)
+            if depth is None or depth.size != key:
+                if fbo is not None:
+                    fbo.release()
+                if depth is not None:
+                    depth.release()
+                depth = ctx.depth_renderbuffer(key)
+                fbo = ctx.framebuffer(depth_attachment=depth)
+            assert fbo is not None
+            near, far = depth_range(cover.R, cover.C, mesh.vertices)
+            V = view_matrix(cover.R, cover.C).astype("f4").T.copy()
+            P = gl_projection(cover.K, cover.width, cover.height, near, far).astype("f4").T.copy()
+            fbo.use()
+            fbo.viewport = (0, 0, *key)
+            fbo.clear(depth=1.0)
+            ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)
+            ctx.enable(moderngl.DEPTH_TEST)
+            ctx.depth_func = "<"
+            fbo.depth_mask = True
+            set_uniforms(prog, view=V, projection=P)
+            vao_all.render(moderngl.TRIANGLES)
+            ctx.depth_func = "<="
+            fbo.depth_mask = False
+            while len(queries) < len(todo):
+                queries.append(ctx.query(samples=True))
+            for fid, q in zip(todo, queries, strict=False):
+                start, count = runs[fid]
+                with q:
+                    vao_face.render(moderngl.TRIANGLES, vertices=3 * count, first=3 * start)
+            seen.update(fid for fid, q in zip(todo, queries, strict=False) if q.samples > 0)
+            fbo.depth_mask = True
+            ctx.depth_func = "<"
+            ctx.disable(moderngl.DEPTH_TEST)
+    finally:
+        for obj in (vao_all, vao_face, vbo, ibo_all, ibo_sorted, fbo, depth):
+            if obj is not None:
+                obj.release()
+        # moderngl's queries hold no GL memory worth freeing one by one; they go with the context.
+    return seen
+
+
+def token_faces(mesh: SceneMesh, seen: Sequence[int] | set[int]) -> set[tuple[str, str]]:
+    """(node, face) of each face of ``mesh`` not in ``seen``: those that get a token chart."""
+    s = set(seen)
+    return {(f.node, f.name) for f in mesh.faces if f.id not in s}
