@@ -4,10 +4,10 @@ browser inside the window (Ctrl+O) and files dropped onto it, tooltips on the bu
 the fields.
 
 The window tests run under a virtual X server and drive the screen by real input (xdotool), as
-tests/test_edit_window.py does; widgets are found by ``Editor.widget_rects``. xdotool cannot drag
-and drop files between programs (X's XDND protocol needs a drag source), so the drop test calls
-the window's drop callback the way GLFW's C code does on a drop: the C function pointer registered
-with glfwSetDropCallback, with a count and an array of UTF-8 paths.
+tests/test_edit_window.py does; widgets are found by ``Editor.widget_rects``. xdotool has no drag
+source, so files are dropped by X's drag and drop protocol from tests/xdnd_source.py, as a file
+manager drops them; another test calls the C function registered with glfwSetDropCallback with a
+count and an array of paths, as GLFW does on a drop, with a file that is no photo among them.
 """
 
 from __future__ import annotations
@@ -365,6 +365,21 @@ def test_files_dropped_onto_the_window_are_added(tmp_path, driver_factory):
     assert s.photo_ids == ["p3", "p5"] and e.photo == "p3"
     assert any("notes.txt: not a photo vebuild reads" in m for m in s.messages)
     assert all(len(s.photo(p)["sha256"]) == 64 for p in ("p3", "p5"))
+
+
+def test_files_dropped_by_x_drag_and_drop_are_added(tmp_path, driver_factory):
+    """A real drop over the X server, as a file manager makes it (tests/xdnd_source.py)."""
+    from xdnd_source import drop_files
+
+    plan = make_plan(tmp_path / "room")
+    d = driver_factory(plan.project)
+    e, s = d.editor, d.session
+    x0, y0, x1, y1 = e.view_rect()
+    files = [photo_file(plan, "p4"), photo_file(plan, "p1")]
+    answer = drop_files(int(d.wid), (int((x0 + x1) / 2), int((y0 + y1) / 2)), files, lambda: d.frames(1))
+    d.frames(2)
+    assert answer == {"accepted": True, "finished": True}
+    assert s.photo_ids == ["p4", "p1"] and e.photo == "p4"
 
 
 def test_every_button_has_a_tooltip_and_every_field_a_label(driver_factory, tmp_path, monkeypatch):
