@@ -21,10 +21,14 @@ from vebuild.resources import example_project_dir
 #: An ID-buffer sample is "clearly hidden" when all 5 × 5 pixels about it show a face nearer by more
 #: than this share of its depth (10 × the screen's own 0.5 % threshold: no doubt at the boundary).
 CLEAR_HIDDEN = 0.05
-#: A dashed line of equal dashes and gaps covers half its length; 1.5 px-wide antialiased ends and
-#: the 1 px search radius widen the dashes: a hidden stretch is covered 25–80 %, a solid one ≥ 90 %.
-DASHED_COVER = (0.25, 0.8)
-SOLID_COVER = 0.9
+#: Dashes and gaps of 5 px cover half a hidden stretch's pixels; antialiasing adds up to a pixel at
+#: each end of a dash (+0.2) and a faint end pixel may fall under the threshold (−0.15): a hidden
+#: stretch's centre pixels are drawn 35–75 % of the time, a seen one's (solid) ≥ 95 %.
+DASHED_COVER = (0.35, 0.75)
+SOLID_COVER = 0.95
+#: Hidden parts are drawn at half the opacity: their drawn pixels change the photo less than
+#: 0.8 × what the solid ones change it.
+DIM_RATIO = 0.8
 #: How far past its clipped end a drawn line reaches: half the widest line (4 px) and 1 px of antialiasing.
 LINE_REACH_PX = 3
 
@@ -96,10 +100,12 @@ def test_hidden_edges_are_dashed_where_the_id_buffer_hides_them(driver):
     _layers(d, {"model": False})
     d.send("key", "v")
     without = d.screen().astype(int)
-    drawn = np.abs(with_edges - without).sum(axis=2) > 30  # where the model layer draws
+    change = np.abs(with_edges - without).sum(axis=2)
+    drawn = change > 30  # where the model layer draws
     ids, depth = e._renderer.id_buffer(cam)  # the photo's own size
     handles = np.array([p for _, _, p, _ in s.handles("p1")])
     cover = {"hidden": [], "seen": []}
+    strength = {"hidden": [], "seen": []}
     x0, y0, x1, y1 = e.view_rect()
     for a, b in s.edge_world_ends().values():
         n = int(np.linalg.norm(cam_math.project(cam.K, cam.R, cam.C, b) - cam_math.project(cam.K, cam.R, cam.C, a)))
@@ -124,11 +130,15 @@ def test_hidden_edges_are_dashed_where_the_id_buffer_hides_them(driver):
             x, y = e.image_to_window("p1", q)
             if not (x0 + 2 <= x < x1 - 2 and y0 + 2 <= y < y1 - 2):
                 continue
-            cover[kind].append(bool(drawn[int(y) - 1:int(y) + 2, int(x) - 1:int(x) + 2].any()))
+            cover[kind].append(bool(drawn[int(y), int(x)]))  # the pixel the line's centre crosses
+            if drawn[int(y), int(x)]:
+                strength[kind].append(change[int(y), int(x)])
     hidden, seen = np.mean(cover["hidden"]), np.mean(cover["seen"])
     assert len(cover["hidden"]) > 200 and len(cover["seen"]) > 200, {k: len(v) for k, v in cover.items()}
     assert DASHED_COVER[0] <= hidden <= DASHED_COVER[1], hidden
     assert seen >= SOLID_COVER, seen
+    assert np.mean(strength["hidden"]) < DIM_RATIO * np.mean(strength["seen"]), \
+        (np.mean(strength["hidden"]), np.mean(strength["seen"]))
 
 
 def test_lines_stay_inside_the_photo(driver):
