@@ -40,6 +40,23 @@ def test_clip_segment_keeps_the_part_inside_the_photo():
     assert clip_segment((50, -40, 50, 200), 100, 80) == pytest.approx((50, 0, 50, 80))
 
 
+def test_an_edge_behind_a_nearer_face_is_hidden_where_the_face_covers_it():
+    from vebuild.camera import ImageCamera, intrinsic_matrix
+    from vebuild.edit.visibility import edge_runs
+
+    cam = ImageCamera("c", intrinsic_matrix(100.0, 50.0, 40.0), np.eye(3), np.zeros(3), 100, 80)
+    ids = np.ones((80, 100), np.int32)
+    depth = np.full((80, 100), 1.0, np.float32)  # a face 1 m away over the left half ...
+    ids[:, 50:], depth[:, 50:] = 0, 0.0  # ... nothing over the right half
+    a, b = np.array([-1.0, 0.0, 2.0]), np.array([1.0, 0.0, 2.0])  # an edge 2 m away across the image
+    runs = edge_runs({"e": (a, b)}, cam, cam, ids, depth)["e"]
+    assert [r.visible for r in runs] == [False, True]
+    # The change within a pixel or two of the face's side (u = 50: its 3 × 3 pixels reach across).
+    assert 48.0 <= runs[0].points[-1, 0] <= 50.0 and np.all(runs[0].points[-1] == runs[1].points[0])
+    depth[:, :50] = 2.0 * (1 - 0.004)  # a face nearer by less than the tolerance (0.5 %) hides nothing
+    assert [r.visible for r in edge_runs({"e": (a, b)}, cam, cam, ids, depth)["e"]] == [True]
+
+
 def test_new_messages_follow_what_was_seen():
     assert new_messages(["a", "b"], ["a", "b", "b"]) == ["b"]
     assert new_messages([f"m{i}" for i in range(50)], [f"m{i}" for i in range(1, 51)]) == ["m50"]

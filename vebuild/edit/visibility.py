@@ -87,26 +87,32 @@ def seen(X: Array, cam: ImageCamera, ids: NDArray[np.int32], depth: NDArray[np.f
     return visible
 
 
-def runs(X: Array, visible: NDArray[np.bool_], photo_cam: ImageCamera) -> list[EdgeRun]:
-    """The samples X (n, 3) of one edge as runs of equal visibility, in the photo's pixels."""
-    uv = cam_math.project(photo_cam.K, photo_cam.R, photo_cam.C, X, photo_cam.k1).reshape(-1, 2)
-    out = []
-    start = 0
-    for i in range(1, len(X) + 1):
-        if i == len(X) or visible[i] != visible[start]:
-            stop = min(i, len(X) - 1)  # the run reaches the next run's first sample: no gap
-            if stop > start:
-                out.append(EdgeRun(uv[start:stop + 1].copy(), bool(visible[start])))
-            start = i
-    return out
+def runs(X: Array, visible: NDArray[np.bool_], photo_cam: ImageCamera, uv: Array | None = None) -> list[EdgeRun]:
+    """The samples X (n, 3) of one edge as runs of equal visibility, in the photo's pixels (``uv``:
+    their places there, when already projected)."""
+    if uv is None:
+        uv = cam_math.project(photo_cam.K, photo_cam.R, photo_cam.C, X, photo_cam.k1).reshape(-1, 2)
+    cuts = np.flatnonzero(np.diff(visible.astype(np.int8))) + 1  # the first sample of each new run
+    starts, stops = np.r_[0, cuts], np.r_[cuts, len(X) - 1]  # a run reaches the next one's first sample
+    return [EdgeRun(uv[a:b + 1].copy(), bool(visible[a])) for a, b in zip(starts, stops, strict=True) if b > a]
 
 
 def edge_runs(ends: Mapping[object, tuple[Array, Array]], photo_cam: ImageCamera, id_cam: ImageCamera,
               ids: NDArray[np.int32], depth: NDArray[np.float32]) -> dict[object, list[EdgeRun]]:
-    """Every edge (world ends by key) as its seen and hidden runs in the photo."""
+    """Every edge (world ends by key) as its seen and hidden runs in the photo (all samples judged
+    and projected at once)."""
+    samples = edge_samples(ends, photo_cam)
+    if not samples:
+        return {}
+    X = np.concatenate(list(samples.values()))
+    vis = seen(X, id_cam, ids, depth)
+    uv = cam_math.project(photo_cam.K, photo_cam.R, photo_cam.C, X, photo_cam.k1).reshape(-1, 2)
     out = {}
-    for key, X in edge_samples(ends, photo_cam).items():
-        out[key] = runs(X, seen(X, id_cam, ids, depth), photo_cam)
+    at = 0
+    for key, Xe in samples.items():
+        n = len(Xe)
+        out[key] = runs(Xe, vis[at:at + n], photo_cam, uv[at:at + n])
+        at += n
     return out
 
 
