@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .history import EditError
+from .rename import MarkerRename
 from .snap import SNAP_RADIUS_PX, SegmentFit, Snap, grey, noise_sigma, refine_segment, snap_point
 
 if TYPE_CHECKING:
@@ -49,7 +50,7 @@ class Proposal:
     why: str = ""
 
 
-class Assist:
+class Assist(MarkerRename):
     """Snapping and proposals (mixed into the session)."""
 
     if TYPE_CHECKING:

@@ -27,6 +27,12 @@ class AssistKeys:
         """W: the markers placed elsewhere suggested in every calibrated photo."""
         self._long("suggesting markers", lambda progress: self.session.suggest_markers_everywhere())
 
+    def draw_rename_field(self, panels: Any) -> None:
+        """The Calibration tab's marker rename field (:mod:`vebuild.edit.rename_field`)."""
+        from .rename_field import rename_field
+
+        rename_field(panels)
+
     def accept_everywhere(self) -> None:
         """Q: every photo's proposals accepted (one undoable edit)."""
         self._long("accepting every proposal", lambda progress: self.session.accept_everywhere())
