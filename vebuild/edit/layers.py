@@ -138,7 +138,7 @@ class OverlayLayers(EditorPart):
         best: tuple[float, Any] = (r, None)
         for p in ov.points:
             d = float(np.hypot(p.uv[0] - u, p.uv[1] - v))
-            if d <= best[0] and self.shows(p.kind):
+            if d <= best[0] and p.label and self.shows(p.kind):  # a point without a name: its line's
                 best = (d, p)
         if best[1] is None:
             for ln in ov.lines:
