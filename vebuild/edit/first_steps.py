@@ -154,7 +154,9 @@ class FirstSteps(EditorPart):
             return
         s, photo = self.session, self.photo
         x0, y0, x1, _ = self.view_rect()
-        imgui.set_next_window_pos((x1 - GUIDE_W - GUIDE_GAP, y0 + GUIDE_GAP), imgui.Cond_.always)
+        other = self.widget_rects.get("Layers")  # the Layers popup (V) has the same corner: below it
+        top = other[3] + GUIDE_GAP if other is not None else y0 + GUIDE_GAP
+        imgui.set_next_window_pos((x1 - GUIDE_W - GUIDE_GAP, top), imgui.Cond_.always)
         imgui.set_next_window_size((GUIDE_W, 0.0), imgui.Cond_.always)
         imgui.set_next_window_bg_alpha(0.92)
         imgui.begin("First steps##guide", None, imgui.WindowFlags_.no_move | imgui.WindowFlags_.no_resize
