@@ -84,7 +84,8 @@ TRUTH_SUPERSAMPLE = 4
 PSNR_SAMPLE_EVERY = 7
 
 
-def truth_texels(mesh, geometry: dict, faces, every: int = 1) -> tuple[np.ndarray, np.ndarray]:
+def truth_texels(mesh, geometry: dict, faces, every: int = 1,
+                 keep: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The true linear colour (before exposure) of every texel of one page, averaged over the
     texel's square (TRUTH_SUPERSAMPLE² samples): the ideal texel at this density. Also the mask of
     texels that lie on a quad of the generator's scene (every model face does, except hidden ones).
@@ -94,7 +95,8 @@ def truth_texels(mesh, geometry: dict, faces, every: int = 1) -> tuple[np.ndarra
     n-th texel of the page in raster order (the mask leaves the others out), for a PSNR estimated
     from a sample: with n = 7 (prime, so the sample does not beat with the textures' periods) the
     sample still holds some 10⁵ texels, which fixes the mean square error within a few tenths of a
-    percent (a few hundredths of a dB).
+    percent (a few hundredths of a dB). ``keep``: only these texels (h, w) are shaded (the others
+    are left out of the mask, as texels off every face are): the ones a caller will compare.
     """
     gen = generator()
     scene = gen.build_scene()
@@ -116,6 +118,8 @@ def truth_texels(mesh, geometry: dict, faces, every: int = 1) -> tuple[np.ndarra
             e_u[y0:y0 + fh, x0:x0 + fw] = np.median(du, axis=0)
             e_v[y0:y0 + fh, x0:x0 + fw] = np.median(dv, axis=0)
     flat = (F > 0).ravel()
+    if keep is not None:
+        flat &= np.asarray(keep, bool).ravel()
     if every > 1:
         flat &= np.arange(flat.size) % every == 0
     Xf, Nf, eu, ev = X.reshape(-1, 3)[flat], N.reshape(-1, 3)[flat], e_u.reshape(-1, 3)[flat], e_v.reshape(-1, 3)[flat]
@@ -166,9 +170,10 @@ def texture_psnr(model: Model, result, exposures: dict[str, float], every: int =
         ex.release()
     got, want = [], []
     for p, g in enumerate(geo):
-        colour, on_quad = truth_texels(mesh, g, [f for f in result.faces if f.page == p], every)
         cov = result.coverage[p]
-        seen = on_quad & (cov[..., 3] > 0) & ~unseen_texels(cov)
+        compared = (cov[..., 3] > 0) & ~unseen_texels(cov)
+        colour, on_quad = truth_texels(mesh, g, [f for f in result.faces if f.page == p], every, compared)
+        seen = on_quad & compared
         got.append(result.atlases[p][seen])
         want.append(linear_to_srgb8(colour * G)[seen])
     return psnr(np.concatenate(got), np.concatenate(want))

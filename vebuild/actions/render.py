@@ -20,6 +20,7 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -29,6 +30,9 @@ from vebuild.camera import ImageCamera
 from vebuild.errors import ProjectError, VebuildError
 from vebuild.project import Project
 from vebuild.render.png import check_output, provenance, stamp, write_png
+
+if TYPE_CHECKING:
+    from vebuild.render.scene import RenderScene
 from vebuild.texture.merge import linear_to_srgb8, srgb8_to_linear
 
 #: Share of a pixel the model must cover to count in the validation's colour difference.
@@ -54,6 +58,7 @@ class RenderRequest:
     hypothesis: str | None = None
     markers: bool = True  # draw the project's evidence markers (mono views)
     unobserved: str = "hatch"  # how surfaces no photo saw are shown (vebuild.render.observed)
+    png_compress_level: int = 6  # zlib's, for the PNG (and overlay): the demo writes fast ones
 
     def __post_init__(self) -> None:
         """Each option checked when the request is made, its error naming the option (as the
@@ -75,6 +80,9 @@ class RenderRequest:
             raise VebuildError(f"--convergence: expected a distance > 0 m, got {self.convergence}")
         if self.samples < 1:
             raise VebuildError(f"--samples: expected 1 or more, got {self.samples}")
+        if not (isinstance(self.png_compress_level, int) and 0 <= self.png_compress_level <= 9):
+            raise VebuildError(f"render: the PNG's compression level: expected a whole number 0 to 9, got "
+                               f"{self.png_compress_level!r}")
         from vebuild.render.observed import check_mode
 
         check_mode(self.unobserved)
@@ -98,8 +106,10 @@ def overlay_path(out: Path) -> Path:
     return out.with_name(out.stem + "-overlay.png")
 
 
-def render_evidence(project: Project, req: RenderRequest) -> RenderResult:
-    """Render ``req`` and write its PNG (and overlay); see the module's docstring."""
+def render_evidence(project: Project, req: RenderRequest, scene: RenderScene | None = None) -> RenderResult:
+    """Render ``req`` and write its PNG (and overlay); see the module's docstring. ``scene``: the
+    project's :func:`~vebuild.render.scene.load_scene`, loaded once by a caller that renders many
+    views (its pages and coverage maps decoded once)."""
     from vebuild.gl import headless_context
     from vebuild.project.decode import find_preset, find_view, photo_camera
     from vebuild.project.outputs import begin_stage
@@ -124,7 +134,7 @@ def render_evidence(project: Project, req: RenderRequest) -> RenderResult:
     except VebuildError as e:
         raise _size_error(project, req, e) from None
     lighting = find_preset(project, req.lighting)
-    scene = load_scene(project)
+    scene = load_scene(project) if scene is None else scene
     if req.hypothesis is not None:
         from vebuild.project.hypotheses import hypothesis_model
 
@@ -162,7 +172,7 @@ def render_evidence(project: Project, req: RenderRequest) -> RenderResult:
     result = RenderResult(out, cam, (W, H), lighting.name, list(scene.warnings))
     if req.validate:
         _validate(project, str(req.photo), cam, plain, out, text, result, rgba, req.unobserved, marked,
-                  scene.mask_hashes)
+                  scene.mask_hashes, req.png_compress_level)
     image = rgba[..., :3]
     if placed:
         from vebuild.analysis.markers import draw_markers
@@ -177,7 +187,7 @@ def render_evidence(project: Project, req: RenderRequest) -> RenderResult:
     from vebuild.render.observed import finish_image
 
     image = finish_image(image, req.unobserved, marked, text, scene.mask_hashes)
-    write_png(out, image, text)
+    write_png(out, image, text, req.png_compress_level)
     return result
 
 
@@ -190,7 +200,7 @@ def _size_error(project: Project, req: RenderRequest, e: VebuildError) -> Vebuil
 
 def _validate(project: Project, photo_id: str, cam: ImageCamera, rgba: NDArray[np.uint8], out: Path,
               text: dict[str, str], result: RenderResult, shown: NDArray[np.uint8], unobserved: str, marked: bool,
-              coverage_hashes: list[str]) -> None:
+              coverage_hashes: list[str], compress_level: int = 6) -> None:
     """Overlay the photo on its render and measure the colour difference where the model covers:
     measured on ``rgba`` (unmarked), the overlay drawn from ``shown`` (surfaces no photo saw marked
     as ``unobserved`` says, with the legend)."""
@@ -227,4 +237,4 @@ def _validate(project: Project, photo_id: str, cam: ImageCamera, rgba: NDArray[n
                                                       "covered_fraction": round(result.covered_fraction, 6)},
                                                      sort_keys=True)}
     image = finish_image(np.clip(np.rint(overlay), 0, 255).astype(np.uint8), unobserved, marked, text, coverage_hashes)
-    write_png(result.overlay, image, text)
+    write_png(result.overlay, image, text, compress_level)

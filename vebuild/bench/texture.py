@@ -30,7 +30,8 @@ run) for 5 and 20 photos, and for 20 photos at twice the density (four times the
 
 Quality: on the example room at its true geometry and cameras, the PSNR of the extracted textures
 against the true textures (averaged over each texel's square) over texels some photo saw, with
-every improvement on, and with each switched off in turn; also from the solved model and cameras
+every improvement on, and with each switched off in turn (``seen_texel_share``: of the atlas's
+on-face texels, which token charts make larger); also from the solved model and cameras
 (``vebuild calibrate`` + ``solve --recalibrate`` on the noisy marks).
 """
 

@@ -52,15 +52,18 @@ def check_output(path: Path, suffixes: tuple[str, ...] = (".png",), project: Pro
     return path
 
 
-def write_png(path: Path, image: NDArray[np.uint8], text: dict[str, str]) -> None:
-    """Write an RGB image with text chunks atomically (:mod:`vebuild.project.atomic`)."""
+def write_png(path: Path, image: NDArray[np.uint8], text: dict[str, str], compress_level: int = 6) -> None:
+    """Write an RGB image with text chunks atomically (:mod:`vebuild.project.atomic`); ``compress_level``
+    is zlib's (the same pixels at any: 1 writes a 1600 × 1200 render some four times faster, a
+    quarter larger)."""
     from vebuild.project.atomic import write_with
 
     info = PngImagePlugin.PngInfo()
     for k, v in text.items():
         info.add_itxt(k, v) if not v.isascii() else info.add_text(k, v)
     try:
-        write_with(path, lambda f: Image.fromarray(image, "RGB").save(f, format="PNG", pnginfo=info))
+        write_with(path, lambda f: Image.fromarray(image, "RGB").save(f, format="PNG", pnginfo=info,
+                                                                   compress_level=compress_level))
     except OSError as e:
         raise VebuildError(f"{path}: cannot write the image ({e.strerror or e})") from None
 
