@@ -87,7 +87,6 @@ def check_render_sizes(project: Project) -> None:
     (``render --view``, ``video``), the report's image of each view and of each calibrated photo,
     and the ``--size`` of each recorded analysis (the report runs it). A photo's own size is not
     a render's: only its report image is checked."""
-    from ..analysis.recorded import parse_recorded
     from ..render.sizes import IMAGE_WIDTH, check_render_size, image_size, parse_size
 
     def located(width: Any, height: Any, source: str) -> None:  # source: the JSON path and what it is
@@ -109,6 +108,8 @@ def check_render_sizes(project: Project) -> None:
                     f"the report's image of photo {p['id']!r} ({IMAGE_WIDTH} pixels wide, its height from the "
                     f"aspect of $.photos[{i}], {p['width']}×{p['height']})")
     for i, rec in enumerate(data.get("analyses") or []):
+        from ..analysis.recorded import parse_recorded  # only where analyses are recorded: docs/start-up.md
+
         size = getattr(parse_recorded(list(rec["command"])), "size", None)
         if size is not None:
             try:
