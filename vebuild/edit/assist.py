@@ -115,6 +115,23 @@ class Assist(MarkerRename):
         s = snap_point(g, q, SNAP_RADIUS_PX, noise)
         return (s.uv, s) if s is not None else (q, None)
 
+    def snap_vertex(self, photo: str, uv: Sequence[float], exact: bool = False,
+                    ) -> tuple[tuple[float, float], Snap | None]:
+        """Where a dragged vertex released at uv lands: at the image corner near it (at most
+        :data:`~vebuild.edit.snap.SNAP_RADIUS_PX` away; a vertex is a corner, never a point along an
+        edge), or exactly at uv (``exact``: Alt held, or no corner there)."""
+        from .snap import snap_corner
+
+        q = (float(uv[0]), float(uv[1]))
+        if exact:
+            return q, None
+        try:
+            g, noise = self._grey(photo)
+        except EditError:
+            return q, None
+        s = snap_corner(g, q, SNAP_RADIUS_PX, noise)
+        return (s.uv, s) if s is not None else (q, None)
+
     def snap_segment(self, photo: str, p1: Sequence[float], p2: Sequence[float], exact: bool = False,
                      ) -> tuple[tuple[float, float], tuple[float, float], SegmentFit | None]:
         """A drawn segment refined to the image line it covers (both ends on the fitted line), or
