@@ -151,7 +151,8 @@ def primitives_scene(texels_per_metre: float = 200.0) -> tuple[RenderScene, Imag
     """:func:`primitives_model` with a procedural atlas (a checker in each face's own colour), and a
     camera in a corner of the floor at eye height looking across it."""
     model = primitives_model()
-    faces = lay.layout(model, texels_per_metre, 2048, 4096)
+    # A drawn atlas, not an extraction's: the extraction's limit on its sums (2 GiB) does not apply.
+    faces = lay.layout(model, texels_per_metre, 2048, 4096, max_texels=1 << 27)
     sizes = lay.page_sizes(faces)
     rng = np.random.default_rng(5)
     pages = [np.full((h, w, 3), 128, np.uint8) for w, h in sizes]
