@@ -8,11 +8,12 @@ never as a traceback.
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import sys
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from . import __version__
 from .errors import VebuildError
@@ -338,55 +339,19 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     return 0
 
 
-# -- vebuild case: the case details of the report's title page --------------------------------------
-
-
-def _cmd_case(args: argparse.Namespace) -> int:
-    from .actions.case import CASE_FIELDS, case_rows, set_case
-    from .project import load_project, save_project
-
-    project = load_project(args.project)
-    values = {key: getattr(args, key) for key, _, _ in CASE_FIELDS}
-    if any(v is not None for v in values.values()):
-        set_case(project, values)
-        save_project(project)
-        print(f"case details written to {project.path}")
-    rows = case_rows(project.data)
-    for label, text in rows:
-        print(f"  {label + ':':<24} {text}")
-    if not rows:
-        print("  no case details (give --number, --examiner, --organisation, --photo-dates or --declaration)")
-    return 0
-
-
-def _add_case_parser(sub: Any) -> None:
-    from .actions.case import CASE_FIELDS
-
-    p = sub.add_parser("case", help="set (or show) the case details on the report's title page")
-    p.add_argument("project")
-    helps = {"number": "the case (or file) number", "examiner": "who made the reconstruction",
-             "organisation": "the examiner's organisation",
-             "photo_dates": "when the photos were taken (one date or several, in words or ISO 8601)",
-             "declaration": "the examiner's declaration, printed on the title page"}
-    for key, _, option in CASE_FIELDS:
-        p.add_argument(option, dest=key, metavar="TEXT", help=helps[key] + " (\"\" removes it)")
-    p.set_defaults(func=_cmd_case)
-
-
-# -- end of vebuild case ----------------------------------------------------------------------------
-
-
 def _progress_wanted(args: argparse.Namespace) -> bool:
     return not getattr(args, "quiet", False) and sys.stderr.isatty()
 
 
-def build_parser() -> argparse.ArgumentParser:
-    from .actions.render import RenderRequest
-    from .bench import BENCHES
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The command line's parser; with ``command``, one that adds that command's arguments only.
+
+    Every command is named, with its line of help, so that ``vebuild --help`` lists them all and a
+    mistyped one gets "did you mean"; but only the command being run gets its arguments, whose
+    defaults and choices come from the modules that run it: ``vebuild check`` imports no renderer
+    (docs/start-up.md). ``command=None``: every command's arguments; ``""``: none.
+    """
     from .console.arguments import SuggestingParser
-    from .render.observed import add_option as add_unobserved_option
-    from .render.video import Timing, VideoRequest
-    from .texture.options import FILLS, MODES, Options
 
     parser = SuggestingParser(
         prog="vebuild",
@@ -395,197 +360,229 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"vebuild {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
-    p = sub.add_parser("demo", help="run the whole pipeline on the bundled example room")
-    p.add_argument("--out", default="vebuild-demo", help="folder to copy the example into (default: %(default)s)")
-    p.add_argument("--quiet", action="store_true", help="no progress bars")
-    p.set_defaults(func=_cmd_demo)
+    def command_parser(name: str, help: str) -> argparse.ArgumentParser | None:
+        """Name the command; its parser, to add its arguments to, if it is the one being run."""
+        p: argparse.ArgumentParser = sub.add_parser(name, help=help)
+        return p if command in (None, name) else None
 
-    p = sub.add_parser("calibrate", help="calibrate every photo and place the cameras (paper §2)")
-    p.add_argument("project", help="the project file (NAME.vebuild.json)")
-    p.add_argument("--quiet", action="store_true", help="no progress bars")
-    p.set_defaults(func=_cmd_calibrate)
+    if p := command_parser("demo", help="run the whole pipeline on the bundled example room"):
+        p.add_argument("--out", default="vebuild-demo", help="folder to copy the example into (default: %(default)s)")
+        p.add_argument("--quiet", action="store_true", help="no progress bars")
+        p.set_defaults(func=_cmd_demo)
 
-    p = sub.add_parser("solve", help="fit the model's primitives to the pins (paper §3.1); --recalibrate: §3.2")
-    p.add_argument("project")
-    p.add_argument("--recalibrate", action="store_true",
-                   help="solve cameras and markers jointly with the model (robust; cameras held by their calibration)")
-    p.add_argument("--fixed-intrinsics", action="store_true",
-                   help="with --recalibrate: keep focal lengths and principal points as calibrated")
-    p.set_defaults(func=_cmd_solve)
+    if p := command_parser("calibrate", help="calibrate every photo and place the cameras (paper §2)"):
+        p.add_argument("project", help="the project file (NAME.vebuild.json)")
+        p.add_argument("--quiet", action="store_true", help="no progress bars")
+        p.set_defaults(func=_cmd_calibrate)
 
-    p = sub.add_parser("render", help="render an evidence view or a photo's camera to a PNG with its provenance")
-    p.add_argument("project")
-    which = p.add_mutually_exclusive_group()
-    which.add_argument("--view", metavar="NAME", help="a named view of the project")
-    which.add_argument("--photo", metavar="ID", help="a photo's calibrated camera (its id, or its number from 1)")
-    which.add_argument("--list", action="store_true", help="list the views, photos and lighting presets")
-    p.add_argument("--out", metavar="FILE.png", help="the image to write")
-    p.add_argument("--size", metavar="WxH", help="image size in pixels (default: the view's or photo's)")
-    p.add_argument("--lighting", metavar="PRESET",
-                   help="a lighting preset of the project (default: as-photographed, the textures unlit)")
-    p.add_argument("--stereo", choices=("sbs", "tb", "anaglyph"),
-                   help="a stereo pair: side by side, top and bottom, or red-cyan anaglyph")
-    p.add_argument("--eye-separation", type=float, default=RenderRequest.eye_separation, metavar="M",
-                   help="distance between the eyes in metres (default: %(default)s)")
-    p.add_argument("--convergence", type=float, metavar="M",
-                   help="distance of the screen plane (zero parallax) in metres (default: the scene's centre)")
-    p.add_argument("--samples", type=int, default=RenderRequest.samples, metavar="N",
-                   help="anti-aliasing samples (default: %(default)s)")
-    p.add_argument("--no-shadows", action="store_true", help="lights cast no shadows")
-    p.add_argument("--hypothesis", metavar="NAME",
-                   help="the objects arranged as in this hypothesis (the image is labelled as one)")
-    add_unobserved_option(p)
-    p.add_argument("--validate", action="store_true",
-                   help="with --photo: also write the photo overlaid on the render and print the RMS colour "
-                        "difference")
-    p.set_defaults(func=_cmd_render)
+    if p := command_parser("solve", help="fit the model's primitives to the pins (paper §3.1); --recalibrate: §3.2"):
+        p.add_argument("project")
+        p.add_argument("--recalibrate", action="store_true",
+                       help="solve cameras and markers jointly with the model (robust; cameras held by their "
+                            "calibration)")
+        p.add_argument("--fixed-intrinsics", action="store_true",
+                       help="with --recalibrate: keep focal lengths and principal points as calibrated")
+        p.set_defaults(func=_cmd_solve)
 
-    p = sub.add_parser("view", help="walk through the scene in a window, move objects as their joints allow")
-    p.add_argument("project")
-    p.add_argument("--size", default="1280x720", metavar="WxH", help="window size (default: %(default)s)")
-    p.add_argument("--view", metavar="NAME", help="start at this named view (default: the first)")
-    p.add_argument("--hypothesis", metavar="NAME", help="start with the objects arranged as in this hypothesis")
-    p.add_argument("--samples", type=int, default=1, metavar="N",
-                   help="anti-aliasing samples (default: %(default)s; more cost frame rate without a GPU)")
-    p.add_argument("--quad-stereo", action="store_true",
-                   help="ask the display for quad-buffered stereo (shutter glasses; B switches to it if given)")
-    p.set_defaults(func=_cmd_view)
+    if p := command_parser("render", help="render an evidence view or a photo's camera to a PNG with its provenance"):
+        from .actions.render import RenderRequest
+        from .render.observed import add_option as add_unobserved_option
 
-    p = sub.add_parser("edit", help="the modelling screen: mark the photos, calibrate, build and solve the model "
-                       "(paper §2-3)")
-    p.add_argument("project", help="the project file (NAME.vebuild.json; `vebuild new` starts one)")
-    p.add_argument("--size", default="1400x860", metavar="WxH", help="window size (default: %(default)s)")
-    rec = p.add_mutually_exclusive_group()
-    rec.add_argument("--recover", action="store_true",
-                     help="take the edits an earlier session left in the side file PROJECT.autosave")
-    rec.add_argument("--discard-autosave", action="store_true", help="discard the autosave side file's edits")
-    p.add_argument("--add-photo", action="append", metavar="FILE",
-                   help="add this image (in the project's folder) to the project first; repeat for more")
-    p.set_defaults(func=_cmd_edit)
+        p.add_argument("project")
+        which = p.add_mutually_exclusive_group()
+        which.add_argument("--view", metavar="NAME", help="a named view of the project")
+        which.add_argument("--photo", metavar="ID", help="a photo's calibrated camera (its id, or its number from 1)")
+        which.add_argument("--list", action="store_true", help="list the views, photos and lighting presets")
+        p.add_argument("--out", metavar="FILE.png", help="the image to write")
+        p.add_argument("--size", metavar="WxH", help="image size in pixels (default: the view's or photo's)")
+        p.add_argument("--lighting", metavar="PRESET",
+                       help="a lighting preset of the project (default: as-photographed, the textures unlit)")
+        p.add_argument("--stereo", choices=("sbs", "tb", "anaglyph"),
+                       help="a stereo pair: side by side, top and bottom, or red-cyan anaglyph")
+        p.add_argument("--eye-separation", type=float, default=RenderRequest.eye_separation, metavar="M",
+                       help="distance between the eyes in metres (default: %(default)s)")
+        p.add_argument("--convergence", type=float, metavar="M",
+                       help="distance of the screen plane (zero parallax) in metres (default: the scene's centre)")
+        p.add_argument("--samples", type=int, default=RenderRequest.samples, metavar="N",
+                       help="anti-aliasing samples (default: %(default)s)")
+        p.add_argument("--no-shadows", action="store_true", help="lights cast no shadows")
+        p.add_argument("--hypothesis", metavar="NAME",
+                       help="the objects arranged as in this hypothesis (the image is labelled as one)")
+        add_unobserved_option(p)
+        p.add_argument("--validate", action="store_true",
+                       help="with --photo: also write the photo overlaid on the render and print the RMS colour "
+                            "difference")
+        p.set_defaults(func=_cmd_render)
 
-    p = sub.add_parser("mark", help="place (or remove) a labelled evidence marker on a surface of the model")
-    p.add_argument("project")
-    p.add_argument("label", help="the marker's label, such as A or \"cartridge case\"")
-    p.add_argument("--at", metavar="WHERE", help="X,Y,Z (a point on a surface, metres), photo:ID@u,v or view:NAME@u,v "
-                   "(the surface seen at that pixel)")
-    p.add_argument("--description", help="what the marker marks")
-    p.add_argument("--remove", action="store_true", help="remove the marker with this label")
-    p.set_defaults(func=_cmd_mark)
+    if p := command_parser("view", help="walk through the scene in a window, move objects as their joints allow"):
+        p.add_argument("project")
+        p.add_argument("--size", default="1280x720", metavar="WxH", help="window size (default: %(default)s)")
+        p.add_argument("--view", metavar="NAME", help="start at this named view (default: the first)")
+        p.add_argument("--hypothesis", metavar="NAME", help="start with the objects arranged as in this hypothesis")
+        p.add_argument("--samples", type=int, default=1, metavar="N",
+                       help="anti-aliasing samples (default: %(default)s; more cost frame rate without a GPU)")
+        p.add_argument("--quad-stereo", action="store_true",
+                       help="ask the display for quad-buffered stereo (shutter glasses; B switches to it if given)")
+        p.set_defaults(func=_cmd_view)
 
-    p = sub.add_parser("report", help="an HTML (and PDF) report another examiner can reproduce from the project")
-    p.add_argument("project")
-    p.add_argument("--out", required=True, metavar="DIR",
-                   help="the folder to write: new, empty, or an earlier report (replaced); never the project's folder")
-    p.add_argument("--no-pdf", action="store_true", help="only the HTML and its images")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.set_defaults(func=_cmd_report)
+    if p := command_parser("edit", help="the modelling screen: mark the photos, calibrate, build and solve the "
+                           "model (paper §2-3)"):
+        p.add_argument("project", help="the project file (NAME.vebuild.json; `vebuild new` starts one)")
+        p.add_argument("--size", default="1400x860", metavar="WxH", help="window size (default: %(default)s)")
+        rec = p.add_mutually_exclusive_group()
+        rec.add_argument("--recover", action="store_true",
+                         help="take the edits an earlier session left in the side file PROJECT.autosave")
+        rec.add_argument("--discard-autosave", action="store_true", help="discard the autosave side file's edits")
+        p.add_argument("--add-photo", action="append", metavar="FILE",
+                       help="add this image (in the project's folder) to the project first; repeat for more")
+        p.set_defaults(func=_cmd_edit)
 
-    p = sub.add_parser("texture", help="extract textures from the photos onto the model (paper §4)")
-    p.add_argument("project")
-    p.add_argument("--density", type=float, default=Options.texels_per_metre, metavar="T",
-                   help="texels per metre on every face (default: %(default)s)")
-    p.add_argument("--max-face-texels", type=int, default=Options.max_face_texels, metavar="N",
-                   help="at most N texels along a face's side (default: %(default)s)")
-    p.add_argument("--mode", choices=MODES, default=Options.mode,
-                   help="'average': one colour per face (paper Figure 9, middle)")
-    p.add_argument("--fill", choices=FILLS, default=Options.fill,
-                   help="how texels no photo saw are filled: smoothly from the seen ones, or with "
-                        "the face's average colour (the paper)")
-    p.add_argument("--erode-px", type=float, default=Options.erode_px, metavar="PX",
-                   help="keep texels this far from occluding edges (default: %(default)s)")
-    p.add_argument("--drop-ratio", type=float, default=Options.drop_ratio, metavar="R",
-                   help="ignore a view where it is R times worse than the texel's best (default: %(default)s)")
-    p.add_argument("--no-erode", action="store_true", help="take texels right up to occluding edges")
-    p.add_argument("--no-drop", action="store_true", help="average every view, however poor")
-    p.add_argument("--no-detail", action="store_true",
-                   help="plain weighted average (the paper) instead of detail from the best view")
-    p.add_argument("--no-exposure", action="store_true", help="do not compensate exposure between photos")
-    p.add_argument("--quiet", action="store_true", help="no progress bars")
-    p.set_defaults(func=_cmd_texture)
+    if p := command_parser("mark", help="place (or remove) a labelled evidence marker on a surface of the model"):
+        p.add_argument("project")
+        p.add_argument("label", help="the marker's label, such as A or \"cartridge case\"")
+        p.add_argument("--at", metavar="WHERE", help="X,Y,Z (a point on a surface, metres), photo:ID@u,v or "
+                       "view:NAME@u,v (the surface seen at that pixel)")
+        p.add_argument("--description", help="what the marker marks")
+        p.add_argument("--remove", action="store_true", help="remove the marker with this label")
+        p.set_defaults(func=_cmd_mark)
 
-    p = sub.add_parser("video", help="render a walk-through through named views to an MP4 (H.264)")
-    p.add_argument("project")
-    p.add_argument("--views", required=True, metavar="A,B,C",
-                   help="the views to walk through, in order, by name (at least two)")
-    p.add_argument("--out", metavar="FILE.mp4", help="the video (default: videos/<views>.mp4 beside the project)")
-    p.add_argument("--size", metavar="WxH", help="image size, even (default: the first view's)")
-    p.add_argument("--fps", type=float, default=Timing.fps, help="frames per second (default: %(default)g)")
-    how = p.add_mutually_exclusive_group()
-    how.add_argument("--speed", type=float, metavar="M_PER_S", help="walking speed (default: 1 m/s)")
-    how.add_argument("--seconds", type=float, metavar="S",
-                     help="seconds for each segment between two views, whatever its length")
-    p.add_argument("--hold", type=float, default=Timing.hold, metavar="S",
-                   help="seconds to stay at each view (default: %(default)g)")
-    p.add_argument("--turn-rate", type=float, default=Timing.turn_rate_deg, metavar="DEG_PER_S",
-                   help="fastest turn (or zoom), which sets the time of segments that turn more than they "
-                        "move (default: %(default)g)")
-    p.add_argument("--lighting", metavar="PRESET", help="a lighting preset (default: as photographed)")
-    p.add_argument("--stereo", choices=("sbs", "tb", "anaglyph"), help="stereo: side by side, top and bottom, "
-                   "or red-cyan anaglyph")
-    p.add_argument("--crf", type=int, default=VideoRequest.crf,
-                   help="x264 quality, 0 (best) to 51 (default: %(default)s)")
-    add_unobserved_option(p)
-    p.add_argument("--quiet", action="store_true", help="no progress bars")
-    p.set_defaults(func=_cmd_video)
+    if p := command_parser("report", help="an HTML (and PDF) report another examiner can reproduce from the project"):
+        p.add_argument("project")
+        p.add_argument("--out", required=True, metavar="DIR",
+                       help="the folder to write: new, empty, or an earlier report (replaced); never the project's "
+                            "folder")
+        p.add_argument("--no-pdf", action="store_true", help="only the HTML and its images")
+        p.add_argument("--quiet", action="store_true", help="no progress bar")
+        p.set_defaults(func=_cmd_report)
 
-    p = sub.add_parser("register", help="place further photos from known points (paper §3.2)")
-    p.add_argument("project")
-    p.add_argument("photos", nargs="*", help="photo ids (default: every photo without a camera)")
-    p.set_defaults(func=_cmd_register)
+    if p := command_parser("texture", help="extract textures from the photos onto the model (paper §4)"):
+        from .texture.options import FILLS, MODES, Options
 
-    p = sub.add_parser("export", help="write the textured model as glTF 2.0 binary (.glb) or OBJ + MTL (.obj)")
-    p.add_argument("project")
-    p.add_argument("--out", metavar="FILE",
-                   help="FILE.glb (model, textures, views and photo cameras) or FILE.obj (model and textures)")
-    p.add_argument("--html", metavar="DIR", help="a folder with a web viewer (index.html, the .glb, the photos, "
-                   "markers, analyses and hypotheses) that opens in a browser with no network (docs/html-viewer.md)")
-    p.set_defaults(func=_cmd_export)
+        p.add_argument("project")
+        p.add_argument("--density", type=float, default=Options.texels_per_metre, metavar="T",
+                       help="texels per metre on every face (default: %(default)s)")
+        p.add_argument("--max-face-texels", type=int, default=Options.max_face_texels, metavar="N",
+                       help="at most N texels along a face's side (default: %(default)s)")
+        p.add_argument("--mode", choices=MODES, default=Options.mode,
+                       help="'average': one colour per face (paper Figure 9, middle)")
+        p.add_argument("--fill", choices=FILLS, default=Options.fill,
+                       help="how texels no photo saw are filled: smoothly from the seen ones, or with "
+                            "the face's average colour (the paper)")
+        p.add_argument("--erode-px", type=float, default=Options.erode_px, metavar="PX",
+                       help="keep texels this far from occluding edges (default: %(default)s)")
+        p.add_argument("--drop-ratio", type=float, default=Options.drop_ratio, metavar="R",
+                       help="ignore a view where it is R times worse than the texel's best (default: %(default)s)")
+        p.add_argument("--no-erode", action="store_true", help="take texels right up to occluding edges")
+        p.add_argument("--no-drop", action="store_true", help="average every view, however poor")
+        p.add_argument("--no-detail", action="store_true",
+                       help="plain weighted average (the paper) instead of detail from the best view")
+        p.add_argument("--no-exposure", action="store_true", help="do not compensate exposure between photos")
+        p.add_argument("--quiet", action="store_true", help="no progress bars")
+        p.set_defaults(func=_cmd_texture)
 
-    p = sub.add_parser("check", help="validate a project file, verify its photos' hashes and audit trail, and say "
-                       "which results are stale (exit status 1 if any is, or if the file was changed outside vebuild)")
-    p.add_argument("project")
-    p.set_defaults(func=_cmd_check)
+    if p := command_parser("video", help="render a walk-through through named views to an MP4 (H.264)"):
+        from .render.observed import add_option as add_unobserved_option
+        from .render.video import Timing, VideoRequest
 
-    p = sub.add_parser("new", help="start a project from photos (records their size, SHA-256 and EXIF)")
-    p.add_argument("project", help="the project file to create (NAME.vebuild.json), next to the photos")
-    p.add_argument("photos", nargs="*", help="image files inside the project's folder (or none: add them in "
-                   "`vebuild edit`)")
-    p.add_argument("--name", help="title of the project (default: from the file name)")
-    p.add_argument("--force", action="store_true", help="replace an existing vebuild project file (never another file)")
-    p.set_defaults(func=_cmd_new)
+        p.add_argument("project")
+        p.add_argument("--views", required=True, metavar="A,B,C",
+                       help="the views to walk through, in order, by name (at least two)")
+        p.add_argument("--out", metavar="FILE.mp4", help="the video (default: videos/<views>.mp4 beside the project)")
+        p.add_argument("--size", metavar="WxH", help="image size, even (default: the first view's)")
+        p.add_argument("--fps", type=float, default=Timing.fps, help="frames per second (default: %(default)g)")
+        how = p.add_mutually_exclusive_group()
+        how.add_argument("--speed", type=float, metavar="M_PER_S", help="walking speed (default: 1 m/s)")
+        how.add_argument("--seconds", type=float, metavar="S",
+                         help="seconds for each segment between two views, whatever its length")
+        p.add_argument("--hold", type=float, default=Timing.hold, metavar="S",
+                       help="seconds to stay at each view (default: %(default)g)")
+        p.add_argument("--turn-rate", type=float, default=Timing.turn_rate_deg, metavar="DEG_PER_S",
+                       help="fastest turn (or zoom), which sets the time of segments that turn more than they "
+                            "move (default: %(default)g)")
+        p.add_argument("--lighting", metavar="PRESET", help="a lighting preset (default: as photographed)")
+        p.add_argument("--stereo", choices=("sbs", "tb", "anaglyph"), help="stereo: side by side, top and bottom, "
+                       "or red-cyan anaglyph")
+        p.add_argument("--crf", type=int, default=VideoRequest.crf,
+                       help="x264 quality, 0 (best) to 51 (default: %(default)s)")
+        add_unobserved_option(p)
+        p.add_argument("--quiet", action="store_true", help="no progress bars")
+        p.set_defaults(func=_cmd_video)
 
-    p = sub.add_parser("bench", help="measure accuracy and speed (prints a table; --json writes the figures)")
-    p.add_argument("name", choices=sorted(BENCHES))
-    p.add_argument("--quick", action="store_true", help="a smaller run, for a quick look")
-    p.add_argument("--json", metavar="OUT", help="write the figures to OUT as JSON")
-    p.add_argument("--quiet", action="store_true", help="no progress bars")
-    p.set_defaults(func=_cmd_bench)
+    if p := command_parser("register", help="place further photos from known points (paper §3.2)"):
+        p.add_argument("project")
+        p.add_argument("photos", nargs="*", help="photo ids (default: every photo without a camera)")
+        p.set_defaults(func=_cmd_register)
 
-    from .analysis.cli import add_analyse_parsers
+    if p := command_parser("export", help="write the textured model as glTF 2.0 binary (.glb) or OBJ + MTL (.obj)"):
+        p.add_argument("project")
+        p.add_argument("--out", metavar="FILE",
+                       help="FILE.glb (model, textures, views and photo cameras) or FILE.obj (model and textures)")
+        p.add_argument("--html", metavar="DIR", help="a folder with a web viewer (index.html, the .glb, the photos, "
+                       "markers, analyses and hypotheses) that opens in a browser with no network "
+                       "(docs/html-viewer.md)")
+        p.set_defaults(func=_cmd_export)
 
-    add_analyse_parsers(sub)
-    from .actions.detect import add_detect_parser
-    from .actions.fspy_compare import add_import_parser
-    from .actions.scan import add_scan_parsers
+    if p := command_parser("check", help="validate a project file, verify its photos' hashes and audit trail, and "
+                           "say which results are stale (exit status 1 if any is, or if the file was changed outside "
+                           "vebuild)"):
+        p.add_argument("project")
+        p.set_defaults(func=_cmd_check)
 
-    for add_parsers in (add_import_parser, add_detect_parser, add_scan_parsers):
-        add_parsers(sub)
-    _add_case_parser(sub)
+    if p := command_parser("new", help="start a project from photos (records their size, SHA-256 and EXIF)"):
+        p.add_argument("project", help="the project file to create (NAME.vebuild.json), next to the photos")
+        p.add_argument("photos", nargs="*", help="image files inside the project's folder (or none: add them in "
+                       "`vebuild edit`)")
+        p.add_argument("--name", help="title of the project (default: from the file name)")
+        p.add_argument("--force", action="store_true",
+                       help="replace an existing vebuild project file (never another file)")
+        p.set_defaults(func=_cmd_new)
+
+    if p := command_parser("bench", help="measure accuracy and speed (prints a table; --json writes the figures)"):
+        from .bench import BENCHES
+
+        p.add_argument("name", choices=sorted(BENCHES))
+        p.add_argument("--quick", action="store_true", help="a smaller run, for a quick look")
+        p.add_argument("--json", metavar="OUT", help="write the figures to OUT as JSON")
+        p.add_argument("--quiet", action="store_true", help="no progress bars")
+        p.set_defaults(func=_cmd_bench)
+
+    for name, help, module, adder in _PARSERS_BESIDE_ACTIONS:
+        if command in (None, name):
+            getattr(importlib.import_module(module, __package__), adder)(sub)
+        else:
+            sub.add_parser(name, help=help)
     return parser
 
 
+#: The commands whose parsers are made beside their actions: name, help (as their parsers say it,
+#: tests/test_cli_start.py), module and function, imported only to run that command.
+_PARSERS_BESIDE_ACTIONS = (
+    ("analyse", "forensic analyses of a solved project: measurements with uncertainty, check distances (…; --json "
+     "OUT writes the figures)", ".analysis.cli", "add_analyse_parsers"),
+    ("import", "import an fSpy project (.fspy) as a new project folder, calibrate it and compare fSpy's camera with "
+     "vebuild's", ".actions.fspy_compare", "add_import_parser"),
+    ("detect", "detect straight edges, group them by vanishing point and add them to the photos as vanishing "
+     "segments (then calibrate)", ".actions.detect", "add_detect_parser"),
+    ("scan", "laser scans (E57, PLY, LAS, LAZ): register one from targets; check the model against them",
+     ".actions.scan", "add_scan_parsers"),
+    ("case", "set (or show) the case details on the report's title page", ".actions.case", "add_case_parser"),
+)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    words = list(sys.argv[1:] if argv is None else argv)
+    # The command is the first word that is not an option (`vebuild --version` has none).
+    args = build_parser(next((w for w in words if not w.startswith("-")), "")).parse_args(words)
     try:
         from .determinism import fixed_threads
-        from .project.provenance import command_context
 
-        words = list(sys.argv[1:] if argv is None else argv)
         arguments = words[words.index(args.command) + 1:] if args.command in words else words
-        # Every save of the project file while the command runs appends its audit entry (project/file.py).
-        with fixed_threads(), command_context(args.command, arguments):
-            return int(args.func(args))
+        with fixed_threads():  # before numpy loads, so that its BLAS starts on one thread
+            from .project.provenance import command_context
+
+            # Every save of the project file while the command runs appends its audit entry (project/file.py).
+            with command_context(args.command, arguments):
+                return int(args.func(args))
     except VebuildError as e:
         from .console.messages import error_in_words
 

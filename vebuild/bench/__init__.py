@@ -11,7 +11,7 @@ import importlib
 from collections.abc import Iterator, Mapping
 from types import ModuleType
 
-_NAMES = ("calibration", "detect", "edit", "render", "rooms", "solver", "texture")
+_NAMES = ("calibration", "cli", "detect", "edit", "house", "render", "rooms", "solver", "texture")
 
 
 class _Benches(Mapping[str, ModuleType]):
