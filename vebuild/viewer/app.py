@@ -35,7 +35,10 @@ from vebuild.project.records import view_record
 from vebuild.render.renderer import Renderer, RenderOptions, Stereo
 from vebuild.render.scene import RenderScene, load_scene
 from vebuild.viewer.keys import TURN_STEP, VIEWER_KEYS
+from vebuild.viewer.measure import ViewerMeasure
+from vebuild.viewer.moves import describe, moved_line
 from vebuild.viewer.panel import ViewerPanel
+from vebuild.viewer.presentation import PresentationCommands
 from vebuild.viewer.walk import Walker
 
 STEREO_CYCLE: list[str | None] = [None, "anaglyph", "sbs", "tb"]
@@ -43,7 +46,7 @@ STEREO_CYCLE: list[str | None] = [None, "anaglyph", "sbs", "tb"]
 CLICK_SLOP_PX = 3.0
 
 
-class Viewer(WindowApp):
+class Viewer(ViewerMeasure, PresentationCommands, WindowApp):
     """The walk-through over one project in one window; :meth:`frame` draws one frame."""
 
     keys = VIEWER_KEYS
@@ -103,9 +106,7 @@ class Viewer(WindowApp):
     # -- GUI is optional so that tests can drive the logic without Dear ImGui ----------------------
 
     def enable_gui(self) -> None:
-        from vebuild.gl.imgui import Gui
-
-        self.gui = Gui(self.ctx, self.window.handle)
+        self.gui = self.panel.make_gui()
 
     # -- state ------------------------------------------------------------------------------------
 
@@ -243,17 +244,7 @@ class Viewer(WindowApp):
             self.say(f"selected '{node}'")
 
     def describe(self, node: str) -> str:
-        n = self.model.node(node)
-        group = n.parent or "the world"
-        j = n.joint
-        values = ", ".join(f"{name} {v:.3f}" if kind != "angle" else f"{name} {math.degrees(v):.1f}°"
-                           for name, kind, v in zip(j.dof_names, j.dof_kinds, j.values(), strict=True))
-        try:
-            moves = self.mover.movable(node)
-            how = "" if moves == node else f" (moves '{moves}')"
-        except CannotMove:
-            how = " (cannot move)"
-        return f"{node} in {group}; joint {j.type}{': ' + values if values else ''}{how}"
+        return describe(self.mover, node)  # in the world frame, metres and degrees (viewer/moves.py)
 
     def turn_selection(self, angle: float) -> None:
         if self.selection is None:
@@ -261,6 +252,7 @@ class Viewer(WindowApp):
         try:
             if self.mover.turn(self.selection, angle):
                 self._model_changed()
+                self.say(moved_line(self.mover, self.mover.movable(self.selection)))
         except CannotMove as e:
             self.say(str(e))
 
@@ -467,6 +459,8 @@ class Viewer(WindowApp):
         if button == glfw.MOUSE_BUTTON_RIGHT:
             self._look_from = self._cursor if action == glfw.PRESS else None
         elif button == glfw.MOUSE_BUTTON_LEFT:
+            if action == glfw.PRESS and self.measure_click():
+                return
             if action == glfw.PRESS:
                 self._press = self._cursor
                 self._press_pick = self.pick()
@@ -476,7 +470,9 @@ class Viewer(WindowApp):
                     self.say(self.describe(node))
             else:
                 if self._dragging:
+                    moved = self.mover.grab.node if self.mover.grab is not None else None
                     self.mover.end()
+                    self.say(moved_line(self.mover, moved) if moved else "")
                     self._dragging = False
                     self._model_changed()
                 elif self._press is not None and self._press_pick[0] is None:

@@ -42,7 +42,20 @@ VIEWER_KEYS = KeyTable([
             (Chord(glfw.KEY_B, "next_stereo"),)),
     Binding("K", "show or hide the registered laser scans (points; shown where the project has any)",
             (Chord(glfw.KEY_K, "toggle_scans"),)),
+    Binding("T", "measure by clicking: distance between two surface points, then (T again) height of a point above "
+            "the floor, then an object's dimensions, then off; each with 1σ and 95 % interval, drawn and saved as an "
+            "analysis of the project", (Chord(glfw.KEY_T, "measure_cycle"),)),
+    Binding("M", "evidence markers: a click on a surface places the next (E1, E2, …), a click on one removes it "
+            "(saved in the project); M again: off", (Chord(glfw.KEY_M, "marker_tool"),)),
+    Binding("J, H", "trajectory: click the entry hole, then the exit hole (its cone from the holes' 1σ in the "
+            "solve), or H: from the entry hole along the view; drawn and saved as an analysis",
+            (Chord(glfw.KEY_J, "trajectory_tool"), Chord(glfw.KEY_H, "trajectory_along_view"))),
+    Binding("N", "clear the clicked measurements from the view (they stay saved)",
+            (Chord(glfw.KEY_N, "clear_measures"),)),
     Binding("F1", "show or hide the panel", (Chord(glfw.KEY_F1, "toggle_panel"),)),
+    Binding("F11, Tab", "present: full screen (F11) or in the window (Tab), the panel hidden and a legend shown "
+            "(hypothesis, unobserved surfaces, scale bar); again: back",
+            (Chord(glfw.KEY_F11, "toggle_fullscreen"), Chord(glfw.KEY_TAB, "toggle_presentation"))),
     Binding("F12", "screenshot with provenance (labelled if a hypothesis is shown)",
             (Chord(glfw.KEY_F12, "screenshot"),)),
 ])
