@@ -37,6 +37,16 @@ EDITOR_KEYS = KeyTable([
             (Chord(glfw.KEY_R, "set_tool", ("relate",)),)),
     Binding("F, A (two faces picked with Relate)", "make them flush (F) or aligned (A); Esc cancels",
             (Chord(glfw.KEY_A, "relate_choose", ("aligned",)),)),
+    Binding("T", "Measure: click two points on the model (distance), T again a point (height above the floor), T "
+            "again an object (its dimensions); each with its 1σ and 95 % interval from the solve, drawn over the photo "
+            "and added to the project's analyses (the report shows them)", (Chord(glfw.KEY_T, "measure_cycle"),)),
+    Binding("X", "Evidence marker: a click on a surface places the next marker (E1, E2, …), a click on a marker "
+            "removes it", (Chord(glfw.KEY_X, "set_tool", ("evidence",)),)),
+    Binding("J", "Trajectory: click the entry hole, then the exit hole: the path and its uncertainty cone (from the "
+            "holes' 1σ in the solve), drawn and added to the analyses",
+            (Chord(glfw.KEY_J, "set_tool", ("trajectory",)),)),
+    Binding("U", "clear the measurements drawn over the photo (the analyses stay in the project)",
+            (Chord(glfw.KEY_U, "clear_measures"),)),
     Binding("Delete", "Delete: click a segment, a middle point, a marker, a known length or a drawn edge to remove it",
             (Chord(glfw.KEY_DELETE, "set_tool", ("delete",)),)),
     Binding("Esc", "Select (also cancels a drag or stroke): press on a vertex and drag, the solver fits the model on "
@@ -46,16 +56,31 @@ EDITOR_KEYS = KeyTable([
             (Chord(glfw.KEY_F, "fix_under_cursor"),)),
     Binding("L", "labels over the photo (residuals, vertex names) on or off; markers' names stay",
             (Chord(glfw.KEY_L, "toggle_labels"),)),
+    Binding("V", "the Layers popup: each layer over the photo (segments, residuals, markers, model, vanishing "
+            "points) shown or hidden, and its labels: none, on hover and on the selection, or all",
+            (Chord(glfw.KEY_V, "toggle_layers"),)),
+    Binding("I", "name every corner and face of the selected primitive on the photo, by where it is seen from the "
+            "photo's camera (front-left-bottom · v0), or stop; a click (Select) on a corner or face, in the photo or "
+            "the 3-D preview, names that one", (Chord(glfw.KEY_I, "toggle_names"),)),
     Binding("Ctrl+L", "laser scans in the 3-D preview on or off (shown where the project has any)",
             (Chord(glfw.KEY_L, "toggle_preview_scans", mods=CTRL),)),
     Binding("Shift", "magnifier (6 window pixels per photo pixel, a crosshair, the stroke being drawn and the "
             "sub-pixel position; always on with the Segment, Marker, Edge and Known length tools)"),
     Binding("Alt (held while placing)", "place a click, a segment, a marker or a segment's end exactly where the "
             "cursor is: without it a mark within 3 px of an image corner or edge snaps to it (a drawn segment to the "
-            "image line it covers, with its σ from the fit), and the status line says how far it moved"),
+            "image line it covers, with its σ from the fit; a dragged vertex, on release, to an image corner), and the "
+            "status line says how far it moved"),
     Binding("D", "detect the photo's straight edges and propose them as vanishing segments, dashed in their axis' "
-            "colour, world x to the right; D again turns x to the left, away, toward (the arrows show it)",
+            "colour, world x as the markers shared with other photos show it (else to the right); D again turns x "
+            "to the next of right, left, away, toward (the arrows show it)",
             (Chord(glfw.KEY_D, "detect_here"),)),
+    Binding("Shift+D", "detect on every photo and propose the segments, each photo's world x chosen so that the "
+            "photos agree through the markers they share (three or more shared between photos: place markers first)",
+            (Chord(glfw.KEY_D, "detect_everywhere", mods=SHIFT),)),
+    Binding("W", "suggest, in every calibrated photo, the markers placed in the other calibrated photos (N on each)",
+            (Chord(glfw.KEY_W, "suggest_markers_everywhere"),)),
+    Binding("Q", "accept every proposal on every photo (one undoable edit)",
+            (Chord(glfw.KEY_Q, "accept_everywhere"),)),
     Binding("N, Shift+N", "suggest markers in this calibrated photo (dashed circles): the markers placed in other "
             "calibrated photos, triangulated or found along their epipolar lines; Shift+N: new markers at feature "
             "points matched with the other calibrated photos and checked against their epipolar geometry",
@@ -68,6 +93,14 @@ EDITOR_KEYS = KeyTable([
              Chord(glfw.KEY_C, "clear_proposals_here"))),
     Binding("PageUp / PageDown", "previous / next photo (or click its thumbnail)",
             (Chord(glfw.KEY_PAGE_UP, "step_photo", (-1,)), Chord(glfw.KEY_PAGE_DOWN, "step_photo", (1,)))),
+    Binding("F1, ? (Shift+/)", "help: this list of every key and mouse input, over the screen (Esc, F1 or ? closes it)",
+            (Chord(glfw.KEY_F1, "toggle_help"), Chord(glfw.KEY_SLASH, "toggle_help", mods=SHIFT))),
+    Binding("Tab", "first steps: the guided sequence (the axes, x, y and up lines, markers, a distance, calibrate, the "
+            "floor, a first object), each step ticked by itself when done; shown or hidden",
+            (Chord(glfw.KEY_TAB, "toggle_guide"),)),
+    Binding("Ctrl+O; files dropped onto the window", "add photos: a file browser in the window (folders, Up, the "
+            "image and RAW files vebuild reads; click files to pick them, then Add); image files (or a folder of "
+            "them) dropped onto the window are added too", (Chord(glfw.KEY_O, "open_browser", mods=CTRL),)),
     Binding("Ctrl+Z, Ctrl+Y (Ctrl+Shift+Z), Ctrl+S", "undo, redo, save",
             (Chord(glfw.KEY_Z, "undo", mods=CTRL), Chord(glfw.KEY_Y, "redo", mods=CTRL),
              Chord(glfw.KEY_Z, "redo", mods=CTRL | SHIFT), Chord(glfw.KEY_S, "save", mods=CTRL))),
@@ -77,4 +110,5 @@ EDITOR_KEYS = KeyTable([
 def tool_key(tool: str) -> str:
     """The key that picks a tool, as written (the Select tool is Esc's)."""
     chord = EDITOR_KEYS.chord_for("escape") if tool == "select" else EDITOR_KEYS.chord_for("set_tool", tool)
+    chord = EDITOR_KEYS.chord_for("measure_cycle") if tool == "measure" else chord
     return chord.label if chord is not None else ""

@@ -36,7 +36,8 @@ PHOTO_CACHE = 3
 PREVIEW_FOV_DEG = 50.0
 
 TOOLS = {"select": "Select", "x": "Segment X", "y": "Segment Y", "z": "Segment Z", "marker": "Marker",
-         "edge": "Edge", "length": "Known length", "relate": "Relate", "delete": "Delete"}
+         "edge": "Edge", "length": "Known length", "relate": "Relate", "delete": "Delete",
+         "measure": "Measure", "evidence": "Evidence marker", "trajectory": "Trajectory"}
 TOOL_HINTS = {"select": "drag a vertex; click an edge to select its primitive",
               "x": "press, drag along an edge toward +x, release", "y": "press, drag along an edge toward +y, release",
               "z": "press, drag along an edge toward +z (up), release", "marker": "click where the marker is",
@@ -45,7 +46,11 @@ TOOL_HINTS = {"select": "drag a vertex; click an edge to select its primitive",
                         "release; then type its metres in the Scale tab",
               "relate": "click a face of one node, then a face of another (Shift+click: an edge), then Flush (F) "
                         "or Aligned (A)",
-              "delete": "click a segment, a middle point, a marker, a known length or a drawn edge to remove it"}
+              "delete": "click a segment, a middle point, a marker, a known length or a drawn edge to remove it",
+              "measure": "click two points (distance), a point (height) or an object (dimensions), with 1σ and 95 %; "
+                         "T again: the next measurement",
+              "evidence": "click a surface to place an evidence marker, click a marker to remove it",
+              "trajectory": "click the entry hole, then the exit hole: the path with its cone"}
 #: Ctrl+click with a Segment tool adds a middle point to the segment of that axis whose path passes
 #: within this many window pixels (more than the picking radius: a lens bends an edge away from the
 #: straight line between the segment's ends).

@@ -180,6 +180,7 @@ class Panels:
         if self.ed.button("add##distance", tip="a measured distance between two markers (or node:vertex)"):
             self.ed.guard(s.add_distance, self.dist_a, self.dist_b, float(self.dist_m),
                         role=["scale", "check"][self.dist_role])
+        self.ed.draw_rename_field(self)
 
     def _scale_tab(self) -> None:
         """A photo's own scale, for a photo placed alone: its known lengths (drawn with the Known

@@ -33,9 +33,14 @@ from vebuild.gl.app import WindowApp
 from vebuild.gl.imgui import Gui
 from vebuild.gl.surface import OffscreenSurface, WindowSurface
 
+from .assist_keys import AssistKeys
 from .bars import Bars
+from .first_steps import FirstSteps
 from .keys import EDITOR_KEYS
+from .layers import OverlayLayers
 from .layout import MAX_ZOOM, PANEL_W, PREVIEW_H, STRIP_H, TOOLBAR_H, Rect
+from .measure_tool import MeasureTool
+from .messages import MessageArea
 from .overlay import Overlay
 from .panels import Panels
 from .photo_view import PhotoView
@@ -44,7 +49,8 @@ from .relate_tool import RelateTool
 from .tools import ScreenTools
 
 
-class Editor(ScreenTools, RelateTool, PhotoView, Bars, Preview, WindowApp):
+class Editor(FirstSteps, AssistKeys, OverlayLayers, MessageArea, ScreenTools, MeasureTool, RelateTool, PhotoView,
+             Bars, Preview, WindowApp):
     """The modelling screen over one :class:`~vebuild.edit.session.EditSession`, drawing into one
     surface (:class:`~vebuild.gl.surface.WindowSurface` or :class:`~vebuild.gl.surface.OffscreenSurface`).
     :meth:`frame` polls, draws and runs what a button asked for; :meth:`draw` only draws."""
@@ -124,6 +130,7 @@ class Editor(ScreenTools, RelateTool, PhotoView, Bars, Preview, WindowApp):
         self.preview_note = ""
         if surface.handle is not None:
             self.install_callbacks(surface.handle)
+        self.first_steps_init(surface.handle)  # the guide for a new project, the help, the browser, drops
         if session.photo_ids:
             self.set_photo(session.photo_ids[0])
 
@@ -307,6 +314,7 @@ class Editor(ScreenTools, RelateTool, PhotoView, Bars, Preview, WindowApp):
             self._apply_pending_drag()
             self._load_next_thumbnail()
             self._update_preview()
+            self._update_visibility()  # the photo's hidden model edges (layers.py)
         fbo = self.surface.fbo
         fw, fh = self.surface.framebuffer_size()
         fbo.use()
@@ -330,17 +338,23 @@ class Editor(ScreenTools, RelateTool, PhotoView, Bars, Preview, WindowApp):
         self._rects = {}
         imgui.begin_disabled(self._busy is not None)
         self._draw_photo_view("moving" if live else "all")
+        if not live:
+            self._draw_measures()  # what was measured by clicking (measure_tool.py)
         self._draw_toolbar()
         if not live:
             self._draw_strip()
             self.panels.draw()
             self._draw_preview()
+        elif self.preview_following():  # the preview follows a drag now and then (preview.py)
+            self._draw_preview_image()
         imgui.end_disabled()
         self._draw_messages()
         self._draw_magnifier()
         if not live:
             self._draw_recovery()
             self._draw_relate_popup()
+            self._draw_layers_popup()
+            self._draw_first_steps()
         self._draw_busy()
         self.gui.render()
         self.widget_rects = {**self.widget_rects, **self._rects} if live else self._rects
@@ -420,6 +434,7 @@ def run_editor(path: str | Path, size: tuple[int, int] = (1400, 860), recover: b
     session = EditSession.open(path, recover=recover)
     with Window(size[0], size[1], f"vebuild edit — {session.project.path.name}") as window:
         editor = Editor(session, WindowSurface(window))
+        editor.open_guide_if_new()  # first steps, for a new or empty project
         for f in add_photos:  # in the window, so that a file that cannot be added says so there
             pid = editor.guard(session.add_photo, f)
             if pid is not None:

@@ -16,6 +16,7 @@ from vebuild.errors import VebuildError
 
 from .layout import CLICK_SLOP_PX, MIDDLE_PICK_PX, PICK_RADIUS_PX, TOOLS, WHEEL_STEP, EditorPart, inside
 from .marks import check_length_ends
+from .measure_tool import MEASURE_TOOLS
 
 
 class ScreenTools(EditorPart):
@@ -205,7 +206,7 @@ class ScreenTools(EditorPart):
                                    f"no {self.tool} segment passes within {MIDDLE_PICK_PX:g} px of the click")
             self._press = {**base, "kind": "insert-point", "axis": self.tool, "index": index}
             return
-        if self.tool in ("x", "y", "z", "edge", "marker", "delete", "length", "relate"):
+        if self.tool in ("x", "y", "z", "edge", "marker", "delete", "length", "relate", *MEASURE_TOOLS):
             self._press = {**base, "kind": self.tool}
             return
         hit = s.handle_at(photo, uv, r, prefer=self.selected)
@@ -241,7 +242,7 @@ class ScreenTools(EditorPart):
         try:
             if kind == "handle":
                 if s.dragging:
-                    self._pending_drag = uv
+                    self._pending_drag = self.snap_release(uv)
                     self._apply_pending_drag()
                     s.end_drag()
                     self.drag_problem = None
@@ -273,6 +274,8 @@ class ScreenTools(EditorPart):
                 self.delete_at(x, y)
             elif kind == "relate":
                 self.relate_click(x, y)
+            elif kind in MEASURE_TOOLS:
+                self.measure_release(x, y)
             elif kind == "segment-end" and p.get("moved"):
                 seg = list(p["segment"])
                 uv, snapped = s.snap(photo, uv, exact=self.alt_held())
