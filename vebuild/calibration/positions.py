@@ -28,6 +28,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -282,11 +283,18 @@ def _metric_scale(X: Mapping[str, Array], known: Mapping[str, Array], refs: Sequ
     return num / den
 
 
+def least_squares(*args: Any, **kwargs: Any) -> Any:
+    """SciPy's ``least_squares``, imported at its first call (docs/start-up.md); a name of this
+    module's own, through which the refinement calls it."""
+    from scipy.optimize import least_squares as solve
+
+    return solve(*args, **kwargs)
+
+
 def _refine(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mapping[str, Array], origin: str,
             known: Mapping[str, Array], distances: Sequence[ReferenceDistance], click_sigma: float,
             heights: Mapping[str, tuple[float, float]] | None = None) -> Placement:
-    from scipy.optimize import least_squares  # imported at first use: docs/start-up.md
-    from scipy.spatial.transform import Rotation
+    from scipy.spatial.transform import Rotation  # imported at first use: docs/start-up.md
 
     ids = list(photos)
     heights = {i: h for i, h in (heights or {}).items() if i in photos}
