@@ -280,3 +280,19 @@ def test_the_preview_follows_a_drag_now_and_then(driver):
     assert (np.abs(during - before).sum(axis=2) > 30).sum() > 20  # the crate moved in the preview too
     d.send("key", "Escape", "mouseup", "1")
     assert not s.dragging
+
+
+def test_clip_polyline_keeps_what_clip_segment_keeps_segment_by_segment():
+    """The vectorised clip of a polyline (the overlay's edge runs) against the photo: the same
+    pieces as clipping each segment on its own, joined where they meet inside the photo."""
+    from vebuild.edit.visibility import clip_polyline, clip_segment
+
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        P = np.cumsum(rng.normal(0, 40, (rng.integers(2, 30), 2)), axis=0) + rng.uniform(-50, 250, 2)
+        parts = clip_polyline(P, 200.0, 150.0)
+        expected = [c for a, b in zip(P[:-1], P[1:], strict=True) if (c := clip_segment((*a, *b), 200.0, 150.0))]
+        got = [(*p[i], *p[i + 1]) for p in parts for i in range(len(p) - 1)]
+        assert np.allclose(np.array(got).reshape(-1, 4), np.array(expected).reshape(-1, 4), atol=1e-9)
+        for p in parts:
+            assert ((p >= -1e-9) & (p <= (200.0 + 1e-9, 150.0 + 1e-9))).all()

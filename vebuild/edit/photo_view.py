@@ -27,7 +27,7 @@ from .layout import (
     u32,
 )
 from .overlay import AXIS_COLOURS, RED, WHITE, Overlay
-from .visibility import clip_segment
+from .visibility import clip_polyline, clip_segment
 
 #: A model edge's hidden parts: dashes and gaps this long (window pixels), this opaque and wide.
 HIDDEN_DASH_PX = 5.0
@@ -332,18 +332,13 @@ class PhotoView(EditorPart):
         solid = u32(ln.colour)
         dim = u32((*ln.colour[:3], HIDDEN_ALPHA))
         for run in runs:
-            pts = []
-            for q0, q1 in zip(run.points[:-1], run.points[1:], strict=True):
-                c = clip_segment((*q0, *q1), w, h)
-                if c is None:
-                    continue
-                a, b = (px + z * c[0], py + z * c[1]), (px + z * c[2], py + z * c[3])
+            for part in clip_polyline(np.asarray(run.points, float), w, h):
+                W = np.column_stack((px + z * part[:, 0], py + z * part[:, 1])).tolist()
                 if run.visible:
-                    dl.add_line(a, b, solid, ln.width)
+                    dl.add_polyline([imgui.ImVec2(a, b) for a, b in W], solid, thickness=ln.width, flags=0)
                 else:
-                    pts.append((a, b))
-            if pts:
-                _dashed_pieces(dl, pts, dim, HIDDEN_WIDTH)
+                    _dashed_pieces(dl, [(tuple(a), tuple(b)) for a, b in zip(W[:-1], W[1:], strict=True)], dim,
+                                   HIDDEN_WIDTH)
 
     def _draw_names(self, dl: Any, ov: Overlay) -> None:
         """The picked corner or face (ringed or outlined, named), and with I every face of the

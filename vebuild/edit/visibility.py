@@ -135,3 +135,36 @@ def clip_segment(p: Sequence[float], width: float, height: float) -> tuple[float
         if t0 > t1:
             return None
     return u1 + t0 * du, v1 + t0 * dv, u1 + t1 * du, v1 + t1 * dv
+
+
+def clip_polyline(P: NDArray[np.float64], width: float, height: float) -> list[NDArray[np.float64]]:
+    """The parts of polyline ``P`` (n, 2) inside the photo [0, width] × [0, height], each a polyline
+    of its own: :func:`clip_segment` over every segment at once (the overlay draws thousands of
+    edge samples a frame)."""
+    P = np.asarray(P, float).reshape(-1, 2)
+    if len(P) < 2:
+        return []
+    A, d = P[:-1], P[1:] - P[:-1]
+    t0, t1 = np.zeros(len(A)), np.ones(len(A))
+    ok = np.ones(len(A), bool)
+    for q, r in ((-d[:, 0], A[:, 0]), (d[:, 0], width - A[:, 0]), (-d[:, 1], A[:, 1]), (d[:, 1], height - A[:, 1])):
+        flat = np.abs(q) < 1e-12
+        ok &= ~flat | (r >= 0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = np.where(flat, 0.0, r / np.where(flat, 1.0, q))
+        t0 = np.where(~flat & (q < 0), np.maximum(t0, t), t0)
+        t1 = np.where(~flat & (q > 0), np.minimum(t1, t), t1)
+    ok &= t0 <= t1
+    Q0, Q1 = A + t0[:, None] * d, A + t1[:, None] * d
+    out: list[NDArray[np.float64]] = []
+    k, n = 0, len(A)
+    while k < n:
+        if not ok[k]:
+            k += 1
+            continue
+        j = k
+        while j + 1 < n and ok[j + 1] and t1[j] == 1.0 and t0[j + 1] == 0.0:
+            j += 1
+        out.append(np.vstack((Q0[k], Q1[k:j + 1])))
+        k = j + 1
+    return out
