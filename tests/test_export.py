@@ -490,8 +490,11 @@ def test_vebuild_export_runs_end_to_end(textured, tmp_path, capsys):
     out = capsys.readouterr().out
     assert f"wrote {glb} (glTF 2.0 binary" in out
     assert "17 node(s), 15 mesh(es)" in out and "170 triangles" in out
-    views = ", ".join(v["name"] for v in load_project(textured).data["views"])
-    assert f"camera(s): {views}, photo p1, photo p2" in out and "12 texture page(s), embedded" in out
+    data = load_project(textured).data
+    names = [v["name"] for v in data["views"]] + [f"photo {c}" for c in data["calibration"]["cameras"]]
+    assert f"  {len(names)} camera(s): {', '.join(names)}\n" in out
+    # 6 pages of 256²: the faces no photo sees have token charts (12 pages with full charts)
+    assert "6 texture page(s), embedded" in out
     assert main(["export", str(textured), "--out", str(obj)]) == 0
     out = capsys.readouterr().out
     assert f"wrote {obj} (Wavefront OBJ + MTL" in out and "room_atlas_2.png" in out
