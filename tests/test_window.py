@@ -68,3 +68,32 @@ def test_without_a_display_the_error_names_the_headless_way(monkeypatch):
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     with pytest.raises(WindowUnavailableError, match="use `vebuild render`"):
         Window(64, 64, visible=False)
+
+
+def test_each_renderer_draws_and_picks_in_its_own_context_whichever_is_current():
+    # GL calls go to the current context, not to the one whose objects they name: off-screen work
+    # between a window's frames (an in-process render, whose headless context is made current on
+    # first use) left the window's picks reading another context's buffers (garbage ids).
+    scene = scene_from_model(box_on_floor_model())
+    cam = _camera([2.3, -1.2, 1.9], [2.1, 1.4, 0.2], w=240, h=180)
+    off = Renderer(headless_context(), scene, OPTIONS)
+    want = off.render(cam)
+    faces, _ = off.id_buffer(cam)
+    rows, cols = np.nonzero(faces > 0)
+    picks = [(float(cols[k]) + 0.5, float(rows[k]) + 0.5) for k in np.linspace(0, len(rows) - 1, 5).astype(int)]
+    wanted = [off.pick(cam, u, v) for u, v in picks]
+    with Window(240, 180, visible=False) as window:
+        r = Renderer(window.ctx, scene, OPTIONS)
+        headless_context().__enter__()  # what off-screen work between frames leaves current
+        for (u, v), (node, X) in zip(picks, wanted, strict=True):
+            got_node, got_X = r.pick(cam, u, v)
+            assert got_node == node and got_X is not None
+            np.testing.assert_allclose(got_X, X, atol=1e-4)
+        headless_context().__enter__()
+        r.draw(window.ctx.screen, cam, flip=True)
+        diff = np.abs(_screen(window, 240, 180).astype(int) - want).max(axis=-1)
+        assert np.mean(diff > 1) < 1e-3
+        window.make_current()  # and the headless renderer while the window's context is current
+        assert np.mean(off.render(cam) != want) < 1e-3
+        r.release()
+    off.release()

@@ -50,6 +50,15 @@ def headless_context() -> moderngl.Context:
         return _context
 
 
+def make_current(ctx: moderngl.Context) -> None:
+    """Make ``ctx`` the thread's current context. GL calls go to whichever context is current, not
+    to the one whose objects they name: making the shared headless context (on first use) makes it
+    current over a window's, and a window's drawing between off-screen work would go astray. A
+    released context (a closed window's) is left alone: its objects went with it."""
+    if not isinstance(ctx.mglo, moderngl.InvalidObject):
+        ctx.__enter__()
+
+
 def max_texture_size(ctx: moderngl.Context) -> int:
     """GL_MAX_TEXTURE_SIZE: the longest side of a texture or render target."""
     return int(ctx.info["GL_MAX_TEXTURE_SIZE"])

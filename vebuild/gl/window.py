@@ -40,7 +40,19 @@ def _on_error(code: int, message: bytes | str) -> None:
 
 
 class _GlfwLoader:
-    """moderngl's loader interface over glfw's proc addresses (the window's context is current)."""
+    """moderngl's loader interface over glfw's proc addresses (the window's context is current);
+    entering it (``ctx.__enter__()``, :func:`vebuild.gl.context.make_current`) makes the window's
+    context current again."""
+
+    def __init__(self) -> None:
+        self.handle: Any = None
+
+    def __enter__(self) -> None:
+        if self.handle is not None:
+            glfw.make_context_current(self.handle)
+
+    def __exit__(self, *exc: object) -> None:
+        pass
 
     def load_opengl_function(self, name: str) -> int:
         return int(glfw.get_proc_address(name) or 0)
@@ -103,7 +115,9 @@ class Window:
         self.handle: Any = win
         glfw.make_context_current(win)
         glfw.swap_interval(1 if vsync else 0)
-        moderngl.init_context(_GlfwLoader())  # GL entry points through glfw (its EGL)
+        self._loader = loader = _GlfwLoader()
+        loader.handle = win
+        moderngl.init_context(loader)  # GL entry points through glfw (its EGL)
         self.ctx = moderngl.get_context()
         if self.ctx.version_code < REQUIRED_VERSION:
             self.close()
@@ -133,6 +147,9 @@ class Window:
         glfw.swap_buffers(self.handle)
 
     def poll(self) -> None:
+        """Handle events, the window's context current (off-screen work between frames, such as
+        an in-process render on the shared headless context, makes that one current)."""
+        self.make_current()
         glfw.poll_events()
 
     def close(self) -> None:
@@ -143,7 +160,7 @@ class Window:
             forget_context(self.ctx)
             self.ctx.release()
             glfw.destroy_window(self.handle)
-            self.handle = None
+            self.handle = self._loader.handle = None
             glfw.terminate()
             if context._context is not None:
                 context._context.__enter__()  # the shared headless context, current again

@@ -54,7 +54,7 @@ from vebuild.camera import (
 )
 from vebuild.errors import VebuildError
 from vebuild.gl import load_program
-from vebuild.gl.context import max_texture_size
+from vebuild.gl.context import make_current, max_texture_size
 from vebuild.gl.shaders import set_uniforms, uniform
 from vebuild.lighting import AS_PHOTOGRAPHED_LIGHTING, MAX_LIGHTS, Lighting
 from vebuild.render.draworder import DrawOrder, near_reach, side_planes
@@ -123,6 +123,7 @@ class Renderer:
 
     def __init__(self, ctx: moderngl.Context, scene: RenderScene, options: RenderOptions | None = None):
         self.ctx = ctx
+        make_current(ctx)  # every entry point draws in its own context, whatever was current before
         self.options = options or RenderOptions()
         # The scene program's variants (vebuild.render.variants), and a vertex array for each used.
         self._vaos: dict[int, moderngl.VertexArray] = {}
@@ -183,6 +184,7 @@ class Renderer:
 
     def set_scene(self, scene: RenderScene) -> None:
         """Draw ``scene`` from now on (objects moved, say); its textures must be the same pages."""
+        make_current(self.ctx)
         for r in [*self._resources, *self._vaos.values()]:
             r.release()
         mesh = scene.mesh
@@ -439,6 +441,7 @@ class Renderer:
         off-screen, framebuffer row 0 is the image's top row so that a read-back is in image order.
         ``select_buffer``: for ``quad`` stereo, selects the window's "left" or "right" back buffer.
         """
+        make_current(self.ctx)
         eyes = self.eyes(cam, stereo)
         w, h = cam.width, cam.height
         x, y = origin
@@ -493,6 +496,7 @@ class Renderer:
 
         With lens distortion, the pixel centres are where the lens put them: each is undistorted
         and looked up (nearest pixel) in the ID buffer of the camera's pinhole cover."""
+        make_current(self.ctx)
         self.check_size(cam)
         if cam.k1 == 0.0:
             return self._pinhole_id_buffer(cam)
@@ -528,7 +532,8 @@ class Renderer:
         target = fbo.color_attachments[0]
         assert isinstance(target, moderngl.Texture)
         data = np.frombuffer(target.read(), "f4").reshape(cam.height, cam.width, 2)
-        return np.rint(data[..., 0]).astype(np.int32), data[..., 1].copy()
+        ids = np.rint(np.nan_to_num(data[..., 0], nan=-1.0, posinf=-1.0, neginf=-1.0))  # no face: nothing
+        return np.where((ids >= 0) & (ids <= len(self.scene.mesh.faces)), ids, 0).astype(np.int32), data[..., 1].copy()
 
     def node_mask(self, cam: ImageCamera, node: str) -> NDArray[np.bool_]:
         """(height, width) pixels of ``cam``'s view where ``node`` (or a part of it) is what is seen."""
@@ -567,6 +572,7 @@ class Renderer:
 
     def release(self) -> None:
         """Free the GPU resources."""
+        make_current(self.ctx)  # released in another context, the names would free that one's objects
         for r in [*self._resources, *self._vaos.values()]:
             r.release()
         self._resources, self._vaos = [], {}
