@@ -144,6 +144,11 @@ def clip_polyline(P: NDArray[np.float64], width: float, height: float) -> list[N
     P = np.asarray(P, float).reshape(-1, 2)
     if len(P) < 2:
         return []
+    lo, hi = P.min(axis=0), P.max(axis=0)
+    if lo[0] >= 0.0 and lo[1] >= 0.0 and hi[0] <= width and hi[1] <= height:  # all on the photo
+        return [P]
+    if hi[0] < 0.0 or hi[1] < 0.0 or lo[0] > width or lo[1] > height:  # all beyond one side
+        return []
     A, d = P[:-1], P[1:] - P[:-1]
     t0, t1 = np.zeros(len(A)), np.ones(len(A))
     ok = np.ones(len(A), bool)
@@ -156,15 +161,9 @@ def clip_polyline(P: NDArray[np.float64], width: float, height: float) -> list[N
         t1 = np.where(~flat & (q > 0), np.minimum(t1, t), t1)
     ok &= t0 <= t1
     Q0, Q1 = A + t0[:, None] * d, A + t1[:, None] * d
-    out: list[NDArray[np.float64]] = []
-    k, n = 0, len(A)
-    while k < n:
-        if not ok[k]:
-            k += 1
-            continue
-        j = k
-        while j + 1 < n and ok[j + 1] and t1[j] == 1.0 and t0[j + 1] == 0.0:
-            j += 1
-        out.append(np.vstack((Q0[k], Q1[k:j + 1])))
-        k = j + 1
-    return out
+    idx = np.flatnonzero(ok)
+    if not len(idx):
+        return []
+    joined = ok[:-1] & ok[1:] & (t1[:-1] == 1.0) & (t0[1:] == 0.0)  # segment k runs on into k + 1
+    runs_on = (np.diff(idx) == 1) & joined[idx[:-1]]
+    return [np.vstack((Q0[g[0]], Q1[g])) for g in np.split(idx, np.flatnonzero(~runs_on) + 1)]
