@@ -14,8 +14,8 @@ Figures (``--json``), each against its goal:
 - ``house_texture_peak_mb``: peak resident memory of the process during the texture extraction of
   every photo (true model and cameras; at 150 texels per metre where the default's atlas is
   refused as too large, ``house_texture_default_refused`` saying so), and
-  ``house_texture_over_decode``: its wall time over the time to decode the same JPEGs alone (as vebuild decodes them), measured in the same run. Goals
-  ≤ 2500 MB and ≤ 4.
+  ``house_texture_over_decode``: its wall time over the time to decode the same JPEGs alone (as
+  vebuild decodes them), measured in the same run. Goals ≤ 2500 MB and ≤ 4.
 - ``house_frame_fps_unlit``: the walk-through's frame loop at 1280×720 on the house with its
   extracted textures, from eye height in the first room looking across the house
   (:func:`vebuild.bench.render.measure_vebuild`; lit and shadowed figures too). Goal ≥ 30 fps.
