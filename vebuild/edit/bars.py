@@ -8,7 +8,7 @@ from imgui_bundle import imgui
 from vebuild.project.provenance import stale_line
 
 from .keys import EDITOR_KEYS, tool_key
-from .layout import MESSAGES_SHOWN, MIDDLE_POINT_HINT, STRIP_H, THUMB_H, TOOL_HINTS, TOOLBAR_H, TOOLS, EditorPart
+from .layout import MIDDLE_POINT_HINT, STRIP_H, THUMB_H, TOOL_HINTS, TOOLBAR_H, TOOLS, EditorPart
 
 #: The toolbar's marker name field's width, window pixels.
 MARKER_FIELD_W = 90.0
@@ -144,34 +144,6 @@ class Bars(EditorPart):
             ids = self.guard(self.session.add_folder_photos)
             if ids:
                 self.guard(self.set_photo, ids[0])
-        imgui.end()
-
-    def _draw_messages(self) -> None:
-        x0, _, x1, y1 = self.view_rect()
-        lines: list[tuple[str, tuple[float, float, float, float]]] = []
-        ov = self._overlay if self._overlay_key and self._overlay_key[1] == self.photo else None
-        for note in (ov.notes if ov is not None else []):
-            lines.append((note, (0.75, 0.75, 0.75, 1.0)))
-        for m in self.messages[-MESSAGES_SHOWN:]:
-            lines.append((m, (1.0, 1.0, 1.0, 1.0)))
-        if self.drag_problem:
-            lines.append((self.drag_problem, (1.0, 0.35, 0.3, 1.0)))
-        if self._placing is not None:
-            lines.append((f"click in the photo where the new {self._placing['kind']} stands (Esc cancels)",
-                          (1.0, 0.8, 0.2, 1.0)))
-        if not lines:
-            return
-        imgui.set_next_window_pos((x0 + 6, y1 - 6), imgui.Cond_.always, (0.0, 1.0))
-        imgui.set_next_window_bg_alpha(0.7)
-        imgui.begin("##messages", None, imgui.WindowFlags_.no_decoration | imgui.WindowFlags_.always_auto_resize
-                    | imgui.WindowFlags_.no_inputs | imgui.WindowFlags_.no_saved_settings
-                    | imgui.WindowFlags_.no_focus_on_appearing | imgui.WindowFlags_.no_nav)
-        imgui.push_text_wrap_pos(max(200.0, x1 - x0 - 40))
-        for text, colour in lines:
-            imgui.text_colored(imgui.ImVec4(*colour), text)
-        imgui.pop_text_wrap_pos()
-        pos, size = imgui.get_window_pos(), imgui.get_window_size()
-        self._rects["messages"] = (pos.x, pos.y, pos.x + size.x, pos.y + size.y)
         imgui.end()
 
     def _draw_recovery(self) -> None:

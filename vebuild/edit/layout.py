@@ -58,9 +58,6 @@ MIDDLE_PICK_PX = 3 * PICK_RADIUS_PX
 #: What the Segment tools' tooltips add: what their middle points are and what they are for.
 MIDDLE_POINT_HINT = ("; Ctrl+click on a segment adds a middle point where the edge runs, Shift+click clicks a polyline "
                      "point by point: a long edge's bend measures the lens distortion")
-#: How many messages the message area shows (the latest last).
-MESSAGES_SHOWN = 3
-
 Rect = tuple[float, float, float, float]
 
 
