@@ -61,6 +61,22 @@ def xdotool():
 
 
 @pytest.fixture(scope="session")
+def solved_room(tmp_path_factory):
+    """The example room calibrated and solved, once per session. Tests that change it work on a copy."""
+    import shutil
+
+    from vebuild.cli import main
+    from vebuild.resources import example_project_dir
+
+    folder = tmp_path_factory.mktemp("solved") / "room"
+    shutil.copytree(example_project_dir(), folder)
+    path = folder / "room.vebuild.json"
+    assert main(["calibrate", str(path), "--quiet"]) == 0
+    assert main(["solve", str(path)]) == 0
+    return path
+
+
+@pytest.fixture(scope="session")
 def textured_room(tmp_path_factory):
     """The example room calibrated, solved and textured (100 texels per metre), once per session.
     Tests that change it work on a copy."""

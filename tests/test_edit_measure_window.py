@@ -31,16 +31,6 @@ TABLE_HEIGHT_M, TABLE_TOL_M = 0.76, 0.01
 TABLE_UV, FLOOR_UV = (800.0, 600.0), (400.0, 900.0)  # photo p1: the table's top, the floor
 
 
-@pytest.fixture(scope="module")
-def solved_room(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("edit-measure") / "room"
-    shutil.copytree(example_project_dir(), folder)
-    path = folder / "room.vebuild.json"
-    assert main(["calibrate", str(path), "--quiet"]) == 0
-    assert main(["solve", str(path)]) == 0
-    return path
-
-
 @pytest.fixture
 def room(solved_room, tmp_path):
     shutil.copytree(solved_room.parent, tmp_path / "room")

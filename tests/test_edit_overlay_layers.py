@@ -12,11 +12,9 @@ import pytest
 from edit_driver import Driver
 
 from vebuild import camera as cam_math
-from vebuild.cli import main
 from vebuild.edit.messages import MESSAGE_SECONDS, new_messages
 from vebuild.edit.names import corner_directions, face_direction
 from vebuild.edit.visibility import clip_segment
-from vebuild.resources import example_project_dir
 
 #: An ID-buffer sample is "clearly hidden" when all 5 × 5 pixels about it show a face nearer by more
 #: than this share of its depth (10 × the screen's own 0.5 % threshold: no doubt at the boundary).
@@ -74,16 +72,6 @@ def test_faces_and_corners_are_named_from_the_camera():
     assert names[0] == "front-left-bottom" and names[7] == "back-right-top" and len(set(names)) == 8
 
 
-
-
-@pytest.fixture(scope="module")
-def solved_room(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("overlay") / "room"
-    shutil.copytree(example_project_dir(), folder)
-    path = folder / "room.vebuild.json"
-    assert main(["calibrate", str(path), "--quiet"]) == 0
-    assert main(["solve", str(path)]) == 0
-    return path
 
 
 @pytest.fixture

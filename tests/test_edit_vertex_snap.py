@@ -10,10 +10,8 @@ import numpy as np
 import pytest
 from edit_driver import Driver
 
-from vebuild.cli import main
 from vebuild.edit.snap import SNAP_RADIUS_PX
 from vebuild.edit.suggest import pin_corner
-from vebuild.resources import example_project_dir
 
 pytestmark = pytest.mark.usefixtures("xvfb_display")
 
@@ -25,20 +23,10 @@ SAME_CORNER_PX = 0.1
 CORNER_SEARCH_PX = 80.0
 
 
-@pytest.fixture(scope="module")
-def solved(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("snap") / "room"
-    shutil.copytree(example_project_dir(), folder)
-    path = folder / "room.vebuild.json"
-    assert main(["calibrate", str(path), "--quiet"]) == 0
-    assert main(["solve", str(path)]) == 0
-    return path
-
-
 @pytest.fixture
-def room(solved, tmp_path):
-    shutil.copytree(solved.parent, tmp_path / "room")
-    return tmp_path / "room" / solved.name
+def room(solved_room, tmp_path):
+    shutil.copytree(solved_room.parent, tmp_path / "room")
+    return tmp_path / "room" / solved_room.name
 
 
 def _crate_and_corner(s, photo):
