@@ -19,10 +19,12 @@ places, or whose edge points do not fit a line, is dropped.
 length f (principal point at the image centre) and three orthogonal directions. Either four
 segments (two meeting at v₁, two at v₂; f² = −(v₁ − c)·(v₂ − c) from orthogonality), or two
 segments (v₁) with a third (v₂ ⟂ v₁ on it) and f drawn from the EXIF prior (or log-uniform over
-0.4–4 × the longer side where EXIF is silent). A hypothesis scores the summed length of the
-segments whose end points lie within :data:`INLIER_PX` of the line through their midpoint and one
-of its vanishing points. The best is refined (f and R by robust least squares on those distances,
-with the EXIF focal prior), inliers re-assigned, refined again.
+:data:`FOCAL_RANGE_REL`, 0.3–6 × the longer side, where EXIF is silent). A hypothesis scores the
+summed length of the segments whose end points lie within :data:`INLIER_PX` of the line through
+their midpoint and one of its vanishing points. The best is refined (f and R by robust least
+squares on those distances, with the EXIF focal prior), inliers re-assigned, refined again. Where
+the edges show one direction only, :func:`single_vanishing_point` finds the one point most of
+them meet at.
 
 **Axes** (:func:`orient_axes`): z is the direction nearest the image's vertical (photos are
 decoded as displayed, EXIF orientation applied), signed so that world z points up (v decreases
@@ -319,6 +321,55 @@ def group_manhattan(segments: Array, width: int, height: int, *, focal_prior: tu
     resid = np.full(len(segments), np.inf)
     resid[order] = np.where(lab >= 0, dist, np.inf)
     return ManhattanFrame(D, f, f_sigma, labels, resid)
+
+
+#: RANSAC hypotheses (pairs of segments) for :func:`single_vanishing_point`.
+SINGLE_ITERATIONS = 400
+
+
+def single_vanishing_point(segments: Array, width: int, height: int, *, seed: int = 0,
+                           iterations: int = SINGLE_ITERATIONS) -> tuple[Array, NDArray[np.bool_]] | None:
+    """The one vanishing point that most of the undistorted segments (n, 4) agree with, for a photo
+    whose edges show one direction only: a RANSAC over pairs of segments (their lines' meeting
+    point), scored as :func:`group_manhattan` scores a frame (summed length within
+    :data:`INLIER_PX`, truncated quadratic), then the best-fit point of the agreeing segments
+    (:func:`vebuild.calibration.vanishing.fit_vanishing_point`, at infinity too), re-assigned and
+    fitted once more. Returns the point (3,), homogeneous pixels, and which segments agree; None
+    where fewer than two agree. No focal length enters: the point is the image's."""
+    from ..errors import VebuildError
+    from .vanishing import fit_vanishing_point
+
+    n = len(segments)
+    if n < 2:
+        return None
+    rng = np.random.default_rng(seed)
+    side = float(max(width, height))
+    thr = INLIER_PX * max(1.0, side / 2000.0)
+    length = np.hypot(segments[:, 2] - segments[:, 0], segments[:, 3] - segments[:, 1])
+    order = np.argsort(-length)[:MAX_SEGMENTS]
+    segs, ln = segments[order], length[order]
+    lines = np.cross(np.c_[segs[:, :2], np.ones(len(segs))], np.c_[segs[:, 2:], np.ones(len(segs))])
+    idx = _distinct(rng.choice(len(segs), (iterations, 2), p=ln / ln.sum()))
+    V = np.cross(lines[idx[:, 0]], lines[idx[:, 1]]).T  # (3, H)
+    V = V[:, np.linalg.norm(V, axis=0) > 0]
+    if V.shape[1] == 0:
+        return None
+    gain = np.clip(1.0 - (_distances(segs, V) / thr) ** 2, 0.0, None)
+    v = V[:, int(np.argmax(ln @ gain))]
+    for _ in range(2):
+        ok = _distances(segs, v[:, None])[:, 0] < thr
+        if ok.sum() < 2:
+            return None
+        try:
+            v = fit_vanishing_point(segs[ok], width, height).point
+        except VebuildError:  # a fit the inliers cannot make (all on one image line): none found
+            return None
+    ok = _distances(segs, v[:, None])[:, 0] < thr
+    if ok.sum() < 2:
+        return None
+    agree = np.zeros(n, bool)
+    agree[order] = ok
+    return np.asarray(v, float), agree
 
 
 def _unit(x: Array) -> Array:
