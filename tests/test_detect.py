@@ -193,13 +193,62 @@ def test_no_straight_lines_one_direction_and_dark_photos() -> None:
     for x in range(100, 1100, 90):
         stripes[:, x:x + 30] = 200
     p = propose(stripes, _photo(stripes))
-    assert "one direction" in p.message or "do not share two vanishing directions" in p.message, p.message
+    assert "one direction only" in p.message and "at infinity (" in p.message, p.message
+    assert "cannot be calibrated" in p.message and "needs a focal length" in p.message, p.message
+    assert p.directions == ()  # no EXIF: no focal length to turn the point into a direction
     assert len({s.axis for s in p.segments}) <= 1
     assert not calibrates(p)  # vebuild detect writes none of them: they would only stop calibrate
 
     dark = (rng.uniform(0, 4, (900, 1200))).astype(np.uint8)
     p = propose(dark, _photo(dark))
     assert not p.segments and "too dark" in p.message
+
+
+#: Where the fan's edges meet (pixels), and its photo's focal length (EXIF's, here exact).
+FAN_POINT, FAN_FOCAL_PX = (800.0, -2500.0), 1500.0
+
+
+def _fan() -> np.ndarray:
+    """A 1200 × 900 photo of wedges that all meet at FAN_POINT: one vanishing direction only."""
+    import cv2
+
+    img = np.full((900, 1200), 70, np.uint8)
+    apex = np.array(FAN_POINT)
+    for k, u in enumerate(np.linspace(-300, 1500, 13)[:-1]):
+        if k % 2 == 0:
+            poly = np.array([apex, (u, 900.0), (u + 150.0, 900.0)]) * 16
+            cv2.fillPoly(img, [np.round(poly).astype(np.int32)], 190, cv2.LINE_AA, shift=4)
+    return cv2.GaussianBlur(img, (0, 0), 0.8)
+
+
+def test_one_direction_photo_names_its_vanishing_point_and_writes_nothing(tmp_path: Path, capsys) -> None:
+    pixels = _fan()
+    exif = exif_record({"width": 1200, "exif_focal_px": FAN_FOCAL_PX})
+    p = propose(pixels, _photo(pixels, exif=exif))
+    assert not p.segments and not calibrates(p) and p.focal_px is None, p.message
+    assert p.message.startswith("one direction only: ") and "cannot be calibrated" in p.message, p.message
+    # The point, as the message names it, within 0.2 % of its distance from the image's centre (its
+    # edges are anti-aliased to some 0.1 px over 300–900 px: the point moves along them most).
+    u, v = (float(x) for x in p.message.split("vanishing point, at (")[1].split(")")[0].split(","))
+    assert np.hypot(u - FAN_POINT[0], v - FAN_POINT[1]) < 0.002 * np.hypot(FAN_POINT[0] - 600, FAN_POINT[1] - 450)
+    # Its direction through EXIF's focal length and the centred principal point, up to sign.
+    true = np.array([FAN_POINT[0] - 600.0, FAN_POINT[1] - 450.0, FAN_FOCAL_PX])
+    assert len(p.directions) == 1
+    cos = abs(float(np.array(p.directions[0]) @ true)) / np.linalg.norm(true)
+    assert np.degrees(np.arccos(min(cos, 1.0))) < 0.1, p.directions
+    # vebuild detect says so for the photo and writes nothing.
+    Image.fromarray(pixels).save(tmp_path / "fan.jpg", quality=95)
+    path = tmp_path / "fan.vebuild.json"
+    assert main(["new", str(path), str(tmp_path / "fan.jpg")]) == 0
+    doc = json.loads(path.read_text())
+    doc["photos"][0]["exif"] = exif
+    path.write_text(json.dumps(doc))
+    before = path.read_bytes()
+    capsys.readouterr()
+    assert main(["detect", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "one direction only" in out and "vanishing point, at (" in out and "segments written" not in out, out
+    assert path.read_bytes() == before
 
 
 def test_45_megapixel_photo_gets_a_result_in_bounded_time(tmp_path: Path) -> None:

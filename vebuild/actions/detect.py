@@ -11,6 +11,7 @@ ordinary ``vanishing_segments``, each with its own measured 1σ in the parallel
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -29,12 +30,13 @@ from ..calibration.lines import (
     group_manhattan,
     orient_axes,
     plumb_line_k1,
+    single_vanishing_point,
     to_grey,
 )
 from ..calibration.photo import SAME_VANISHING_POINT_DEG
-from ..calibration.vanishing import COLLINEAR_TOLERANCE_PX, normalising_transform
+from ..calibration.vanishing import COLLINEAR_TOLERANCE_PX, fit_vanishing_point, normalising_transform
 from ..camera import AXES, distort_pixels, intrinsic_matrix, undistort_pixels
-from ..errors import ProjectError
+from ..errors import ProjectError, VebuildError
 from ..project import Project
 from ..project.images import decode_photo
 
@@ -64,6 +66,10 @@ class PhotoProposals:
     segments: tuple[SegmentProposal, ...]
     focal_px: float | None                      # the grouping's focal estimate, if any
     message: str                                # what was found, or why nothing
+    directions: tuple[tuple[float, float, float], ...] = ()  # the vanishing directions the message
+                                                # names, unit, camera frame (principal point at the
+                                                # centre; the grouping's f, or EXIF's for a photo
+                                                # showing one direction), up to sign; () = none
 
 
 #: ``--x-axis auto``: each photo's choice made from the markers the photos share (the default).
@@ -134,6 +140,7 @@ class Grouped:
     frame: Any                                  # lines.ManhattanFrame, or None
     elapsed: float
     failure: PhotoProposals | None              # nothing to propose, and why
+    f_exif: float | None = None                 # EXIF's focal length, where it gives one
 
     def rotation(self, x_axis: str) -> np.ndarray:
         """World → camera rotation for a choice of x (its columns: world x, y, z in the camera)."""
@@ -157,14 +164,21 @@ def group(pixels: np.ndarray, photo: dict[str, Any], *, seed: int = 0) -> Groupe
     dist = exif_distortion_prior(photo) if prior is not None else None
     k1 = dist.k1 if dist is not None else 0.0
     c = np.array([w / 2.0, h / 2.0])
+    f0 = prior.value if prior else float(max(w, h))
     if len(found.segments) < 4:
         if found.mean_grey < DARK_MEAN_GREY:
             why = f"the photo is too dark (mean grey level {found.mean_grey:.0f} of 255): no edges to detect"
         else:
-            why = f"no straight lines found ({len(found.segments)} straight edges, at least 4 are needed)"
+            segs = found.segments
+            if k1 != 0.0 and len(segs):
+                segs = undistort_pixels(intrinsic_matrix(f0, *c), segs.reshape(-1, 2), k1).reshape(-1, 4)
+            one = _one_direction(pid, segs, w, h, k1, f0 if prior is not None else None, seed, t0)
+            if one.message.startswith("one direction only"):  # 3 edges meeting at one point
+                return Grouped(pid, w, h, found, segs, k1, f0, None, time.perf_counter() - t0, one)
+            why = (f"no straight lines found ({len(found.segments)} straight edges, at least 4 are needed"
+                   + (", or 3 meeting at one vanishing point)" if len(found.segments) >= MIN_PER_AXIS else ")"))
         return Grouped(pid, w, h, found, found.segments, k1, 0.0, None, 0.0, PhotoProposals(pid, (), None, why))
     segs = found.segments
-    f0 = prior.value if prior else float(max(w, h))
     if dist is None:
         # No lens profile: the edges' own bend (plumb lines) undistorts them for the grouping, so
         # that a wide lens's long edges are grouped too (the calibration estimates k1 itself).
@@ -172,12 +186,62 @@ def group(pixels: np.ndarray, photo: dict[str, Any], *, seed: int = 0) -> Groupe
     if k1 != 0.0:
         segs = undistort_pixels(intrinsic_matrix(f0, *c), found.segments.reshape(-1, 2), k1).reshape(-1, 4)
     frame = group_manhattan(segs, w, h, focal_prior=focal_prior, seed=seed, sigma_px=found.sigma_px)
-    elapsed = time.perf_counter() - t0
     if frame is None:
-        return Grouped(pid, w, h, found, segs, k1, f0, None, elapsed, PhotoProposals(
-            pid, (), None, f"{len(segs)} straight edges, but they do not share two vanishing "
-            "directions (one direction only, or no vanishing points): mark the segments by hand"))
-    return Grouped(pid, w, h, found, segs, k1, f0, frame, elapsed, None)
+        failure = _one_direction(pid, segs, w, h, k1, f0 if prior is not None else None, seed, t0)
+        return Grouped(pid, w, h, found, segs, k1, f0, None, time.perf_counter() - t0, failure)
+    elapsed = time.perf_counter() - t0
+    return Grouped(pid, w, h, found, segs, k1, f0, frame, elapsed, None, prior.value if prior is not None else None)
+
+
+#: Why a photo whose edges show one vanishing direction gets nothing written.
+ONE_DIRECTION_WHY = ("one vanishing direction fixes neither the camera's rotation (it may turn about that "
+                     "direction) nor its focal length, so the photo cannot be calibrated from its lines: "
+                     "nothing written, mark the segments of a second direction by hand")
+
+
+def _one_direction(pid: str, segs: np.ndarray, w: int, h: int, k1: float, f_exif: float | None, seed: int,
+                   t0: float) -> PhotoProposals:
+    """The message (and the one vanishing direction, where EXIF gives a focal length) of a photo
+    whose edges the grouping could not split into two directions: the one vanishing point that
+    :data:`MIN_PER_AXIS` edges or more agree with (not all pieces of one image line), if any."""
+    found = single_vanishing_point(segs, w, h, seed=seed)
+    n = int(found[1].sum()) if found is not None else 0
+    if found is None or n < MIN_PER_AXIS or _one_image_line(segs[found[1]], max(w, h)):
+        return PhotoProposals(pid, (), None, f"{len(segs)} straight edges, but they do not share two vanishing "
+                              f"directions, nor one that {MIN_PER_AXIS} edges or more agree on (no vanishing "
+                              "points): mark the segments by hand")
+    v = found[0]
+    elapsed = time.perf_counter() - t0
+    c = np.array([w / 2.0, h / 2.0])
+    directions, how = _exif_direction(v, f_exif, c)
+    where = _point_text(v, intrinsic_matrix(f_exif or float(max(w, h)), *c), k1)
+    return PhotoProposals(pid, (), None, f"one direction only: {n} of {len(segs)} straight edges meet at one "
+                          f"vanishing point, {where} ({how}); {ONE_DIRECTION_WHY}; {1000 * elapsed:.0f} ms",
+                          directions)
+
+
+def _exif_direction(v: np.ndarray, f_exif: float | None, c: np.ndarray
+                    ) -> tuple[tuple[tuple[float, float, float], ...], str]:
+    """The camera-frame direction (unit, up to sign) of a lone vanishing point v (3,) through EXIF's
+    focal length and the principal point c at the centre, and the words for it; none without EXIF."""
+    if f_exif is None:
+        return (), "its direction in the camera needs a focal length, and the photo's EXIF gives none"
+    d = np.linalg.solve(intrinsic_matrix(f_exif, *c), v)
+    d = d / np.linalg.norm(d) * (1.0 if d[2] >= 0 else -1.0)
+    return (((float(d[0]), float(d[1]), float(d[2])),),
+            f"direction ({d[0]:.3f}, {d[1]:.3f}, {d[2]:.3f}) in the camera, up to sign, with EXIF's focal "
+            f"length {f_exif:.0f} px and the principal point at the image centre")
+
+
+def _point_text(v: np.ndarray, K: np.ndarray, k1: float) -> str:
+    """Where a homogeneous vanishing point (3,) lies: pixels as the lens puts it (``K``, ``k1``: the
+    undistortion the grouping used), or at infinity with its direction in the image."""
+    if abs(v[2]) > 1e-9 * np.linalg.norm(v[:2]):
+        p = v[:2] / v[2]
+        if k1 != 0.0:
+            p = distort_pixels(K, p, k1)
+        return f"at ({p[0]:.0f}, {p[1]:.0f})"
+    return f"at infinity ({np.degrees(np.arctan2(v[1], v[0])):.1f}° in the image)"
 
 
 def orient_proposals(g: Grouped, x_axis: str = "right") -> PhotoProposals:
@@ -190,6 +254,7 @@ def orient_proposals(g: Grouped, x_axis: str = "right") -> PhotoProposals:
     f = frame.focal_px
     props: list[SegmentProposal] = []
     counts = {}
+    chosen: dict[str, np.ndarray] = {}
     for k, a in enumerate(AXES):
         idx = np.flatnonzero(frame.labels == cols[k])
         score = 1.0 / (1.0 + frame.residual_px[idx] / np.maximum(found.sigma_px[idx], 1e-6))
@@ -199,6 +264,7 @@ def orient_proposals(g: Grouped, x_axis: str = "right") -> PhotoProposals:
         if len(idx) < MIN_PER_AXIS or _one_image_line(ends, max(w, h)):
             idx = idx[:0]  # pieces of one edge fix no vanishing point: the axis is not proposed
         counts[a] = len(idx)
+        chosen[a] = idx
         for i in idx:
             s_u = direct_segment(segs[i], D[:, k], f, c)
             flipped = not np.allclose(s_u, segs[i])
@@ -214,39 +280,66 @@ def orient_proposals(g: Grouped, x_axis: str = "right") -> PhotoProposals:
     rel = frame.focal_sigma_px / f if np.isfinite(frame.focal_sigma_px) else np.inf
     focal = f if rel <= FOCAL_REPORT_MAX_REL_SIGMA else None
     K = intrinsic_matrix(f, *c)
-    angles = []
-    for k, a in enumerate(AXES):
-        if counts[a]:
-            v = K @ D[:, k]
-            if abs(v[2]) > 1e-9 * np.linalg.norm(v):
-                p = v[:2] / v[2]
-                if k1 != 0.0:
-                    p = distort_pixels(K, p, k1)
-                angles.append(f"{a} at ({p[0]:.0f}, {p[1]:.0f})")
-            else:
-                tilt = np.degrees(np.arctan2(v[1], v[0]))
-                angles.append(f"{a} at infinity ({tilt:.1f}° in the image)")
     axes_seen = [a for a in AXES if counts[a]]
-    parts = [", ".join(f"{counts[a]} {a}" for a in AXES) + " segments",
-             "vanishing points " + "; ".join(angles),
+    counted = ", ".join(f"{counts[a]} {a}" for a in AXES) + " segments"
+    if len(axes_seen) < 2:
+        return _one_axis(g, tuple(props), axes_seen, chosen, counted, K @ D)
+    angles = [f"{a} {_point_text(K @ D[:, k], intrinsic_matrix(g.f0, *c), k1)}" for k, a in enumerate(AXES)
+              if counts[a]]
+    directions = tuple((float(D[0, k]), float(D[1, k]), float(D[2, k])) for k, a in enumerate(AXES) if counts[a])
+    parts = [counted, "vanishing points " + "; ".join(angles),
              (f"focal length {f:.0f} px (1σ {100 * rel:.1f} %)" if focal is not None
               else "focal length not determined by the lines (a frontal or level view)"),
              f"{1000 * elapsed:.0f} ms"]
-    if len(axes_seen) < 2:
-        return PhotoProposals(pid, tuple(props), focal, "one direction only: " + "; ".join(parts))
-    return PhotoProposals(pid, tuple(props), focal, "; ".join(parts))
+    return PhotoProposals(pid, tuple(props), focal, "; ".join(parts), directions)
+
+
+def _one_axis(g: Grouped, props: tuple[SegmentProposal, ...], axes_seen: list[str], chosen: dict[str, np.ndarray],
+              counted: str, V: np.ndarray) -> PhotoProposals:
+    """The proposals of a photo whose grouping kept one axis: no focal length (one direction fixes
+    none), and that axis' vanishing point fitted to its own segments alone (the frame's rests on a
+    focal length the other directions' few edges made), its direction through EXIF's focal length
+    where it gives one. Where it kept none, :func:`_one_direction`'s answer."""
+    c = np.array([g.width / 2.0, g.height / 2.0])
+    ms = f"{1000 * g.elapsed:.0f} ms"
+    if not axes_seen:  # no axis of MIN_PER_AXIS segments: the one point most edges meet at, if any
+        return _one_direction(g.pid, g.segs, g.width, g.height, g.k1, g.f_exif, 0, time.perf_counter() - g.elapsed)
+    a = axes_seen[0]
+    v = V[:, AXES.index(a)]
+    try:
+        v = fit_vanishing_point(g.segs[chosen[a]], g.width, g.height, axis=a, photo=g.pid).point
+    except VebuildError:
+        pass  # the frame's point, then
+    where = _point_text(v, intrinsic_matrix(g.f0, *c), g.k1)
+    directions, how = _exif_direction(v, g.f_exif, c)
+    return PhotoProposals(g.pid, props, None, f"one direction only: {counted}; vanishing point {a} {where} "
+                          f"({how}); {ONE_DIRECTION_WHY}; {ms}", directions)
 
 
 def _drop_same_point(props: list[SegmentProposal], counts: dict[str, int], D: np.ndarray, f: float,
                      c: np.ndarray, w: int, h: int) -> None:
     """Drop the smaller of two axes whose vanishing points coincide in the image (within
     SAME_VANISHING_POINT_DEG on the sphere of normalised points: the calibration's refusal of
-    a mislabelled set; a strong lens bends one direction's edges into two such sets)."""
+    a mislabelled set; a strong lens bends one direction's edges into two such sets). Both the
+    frame's points and the points fitted to each axis' written segments alone (as the
+    calibration fits them, end points as the lens put them) are compared."""
     N = normalising_transform(w, h)
     K = intrinsic_matrix(f, *c)
     unit = {a: (N @ K @ D[:, k]) / np.linalg.norm(N @ K @ D[:, k]) for k, a in enumerate(AXES)}
+    own: dict[str, np.ndarray | None] = {}
+    for a in AXES:
+        ends = np.array([np.r_[q.points[:2], q.points[-2:]] for q in props if q.axis == a]).reshape(-1, 4)
+        try:
+            x = N @ fit_vanishing_point(ends, w, h, axis=a).point if counts[a] else None
+            own[a] = x / np.linalg.norm(x) if x is not None else None
+        except VebuildError:
+            own[a] = None
+
+    def apart(x: np.ndarray | None, y: np.ndarray | None) -> float:
+        return 180.0 if x is None or y is None else float(np.degrees(np.arccos(min(1.0, abs(float(x @ y))))))
+
     for a, b in combinations([a for a in AXES if counts[a]], 2):
-        if counts[a] and counts[b] and np.degrees(np.arccos(min(1.0, abs(float(unit[a] @ unit[b]))))) \
+        if counts[a] and counts[b] and min(apart(unit[a], unit[b]), apart(own[a], own[b])) \
                 < SAME_VANISHING_POINT_DEG:
             weaker = a if counts[a] < counts[b] else b
             props[:] = [p for p in props if p.axis != weaker]
@@ -372,7 +465,7 @@ def choose_x_axes(project: Project, ids: Sequence[str], choices: dict[str, str],
 
 
 def replace_message(props: PhotoProposals, message: str) -> PhotoProposals:
-    return PhotoProposals(props.photo, props.segments, props.focal_px, message)
+    return dataclasses.replace(props, message=message)
 
 
 def marker_rays(project: Project, g: Grouped) -> dict[str, np.ndarray]:
@@ -433,7 +526,7 @@ def auto_x_axes(project: Project, grouped: dict[str, Grouped], given: dict[str, 
     rotations = {pid: g.rotation("right") for pid, g in ok.items()}
     rays = {pid: marker_rays(project, g) for pid, g in ok.items()}
     fixed = {pid: turns[pid][c] for pid, c in given.items() if pid in ok}
-    notes: dict[str, str] = {pid: "its edges show no vanishing directions to orient" for pid in grouped
+    notes: dict[str, str] = {pid: "its edges show no two vanishing directions to orient" for pid in grouped
                              if pid not in ok and pid not in given}
     origin = project.data.get("origin_marker")
     ref = None
