@@ -7,9 +7,18 @@ grouping; the JPEG's decoding is timed apart), then the photo calibrated from ev
 its own 1σ (:func:`vebuild.calibration.photo.calibrate_photo`, as ``vebuild calibrate`` does it,
 with the EXIF focal prior told the photos' real 4 %).
 
-Figures: ``vp_within_{1,3,5}deg_share`` the share of the three true vanishing directions whose
-calibrated direction lies within 1°, 3°, 5° (a direction nothing was detected along counts as
-missed); ``grouping_vp_within_3deg_share`` the same for the grouping's own frame (principal point
+Figures: ``vp_within_{1,3,5}deg_share`` the share of the true vanishing directions a photo
+shows (:func:`_shown`) whose best estimate lies within 1°, 3°, 5° (the York Urban measure: the
+angle between the estimated and the true direction, up to sign, to the nearest estimated one). A
+photo's best estimate is its calibrated rotation where the photo was calibrated, otherwise the
+vanishing directions the detector names in its message (``PhotoProposals.directions``: a photo
+showing one direction, with EXIF's focal length and the principal point at the centre); a
+direction neither gives counts as missed. ``vps_from_the_detector_alone`` counts the shown
+directions within 3° that came from the detector's own directions. ``..._calibrated``: the same
+from the calibrated rotations alone (a photo not calibrated misses all its directions);
+``_all``: over all three directions of every photo, shown or not;
+``_two_directions_visible``: over the photos whose edges show two directions (:func:`_visible`);
+``grouping_vp_within_3deg_share`` the same for the grouping's own frame (principal point
 at the centre, no distortion); ``focal_rel_error_median``/``_p90`` of the calibrated focal length
 over the photos whose calibration is ``3vp`` or ``2vp`` (a frontal or one-point view's f is EXIF's);
 ``focal_coverage_95`` the share of those whose true f lies inside the reported 95 % interval;
@@ -51,7 +60,7 @@ def _axis_errors_deg(R_true: np.ndarray, D: np.ndarray | None, seen: np.ndarray)
     for k in range(3):
         best = 180.0
         if D is not None:
-            for j in range(3):
+            for j in range(D.shape[1]):
                 if seen[j]:
                     c = min(1.0, abs(float(R_true[:, k] @ D[:, j])))
                     best = min(best, float(np.degrees(np.arccos(c))))
@@ -77,6 +86,11 @@ def _one(pixels: np.ndarray, photo: dict[str, Any], truth: dict[str, Any], exif_
     segs = {a: v for a, v in segs.items() if v}
     sig = {a: v for a, v in sig.items() if a in segs}
     row.update(_calibrated(segs, sig, photo, prior, K, R, "detected"))
+    # The detector's own vanishing directions (those its message names): what a photo it could
+    # not calibrate is scored by (one direction only, or a refused calibration).
+    own = np.array(props.directions, float).T if props.directions else None
+    row["detector_axis_err"] = _axis_errors_deg(R, own, np.ones(len(props.directions), bool))
+    row["best_axis_err"] = row["detected_axis_err"] if row["detected_mode"] is not None else row["detector_axis_err"]
     if rng is not None:  # the reference: careful clicks on the same camera
         cam = SyntheticPhoto(photo["id"], truth.get("kind", ""), photo["width"], photo["height"], K, R,
                              np.array(truth["C"]), k1=truth["k1"])
@@ -155,22 +169,29 @@ def _shown(segments: np.ndarray, truth: dict[str, Any]) -> list[bool]:
 
 
 def _summary(rows: list[dict[str, Any]], prefix: str = "") -> dict[str, Any]:
-    axis = np.array([r["detected_axis_err"] for r in rows], float).ravel()
+    axis = np.array([r["best_axis_err"] for r in rows], float).ravel()
+    calibrated = np.array([r["detected_axis_err"] for r in rows], float).ravel()
     vp_rows = [r for r in rows if r["detected_mode"] in ("3vp", "2vp")]
     fe = np.array([r["detected_focal_err"] for r in vp_rows], float)
     cov = [r["detected_covered"] for r in vp_rows]
     ref = np.array([r.get("clicked_focal_err") for r in vp_rows if r.get("clicked_focal_err") is not None], float)
     ms = np.array([r["detect_ms"] for r in rows])
     shown = np.array([r.get("shown", [True] * 3) for r in rows], bool).ravel()
+    from_detector = np.repeat([r["detected_mode"] is None for r in rows], 3)
     out = {
         "photos": len(rows),
         "vps_shown": int(shown.sum()),
         "vp_within_1deg_share": float(np.mean(axis[shown] <= 1.0)) if shown.any() else None,
         "vp_within_3deg_share": float(np.mean(axis[shown] <= 3.0)) if shown.any() else None,
         "vp_within_5deg_share": float(np.mean(axis[shown] <= 5.0)) if shown.any() else None,
+        "vp_within_1deg_share_calibrated": float(np.mean(calibrated[shown] <= 1.0)) if shown.any() else None,
+        "vp_within_3deg_share_calibrated": float(np.mean(calibrated[shown] <= 3.0)) if shown.any() else None,
+        "vp_within_5deg_share_calibrated": float(np.mean(calibrated[shown] <= 5.0)) if shown.any() else None,
         "vp_within_1deg_share_all": float(np.mean(axis <= 1.0)),
         "vp_within_3deg_share_all": float(np.mean(axis <= 3.0)),
         "vp_within_5deg_share_all": float(np.mean(axis <= 5.0)),
+        "vp_within_3deg_share_all_calibrated": float(np.mean(calibrated <= 3.0)),
+        "vps_from_the_detector_alone": int(np.sum(shown & from_detector & (axis <= 3.0))),
         "grouping_vp_within_3deg_share": float(np.mean(np.array([r["grouping_axis_err"] for r in rows]) <= 3.0)),
         "focal_photos": len(fe),
         "focal_rel_error_median": float(np.median(fe)) if len(fe) else None,
@@ -181,7 +202,7 @@ def _summary(rows: list[dict[str, Any]], prefix: str = "") -> dict[str, Any]:
         "no_result": int(sum(r["detected_focal_err"] is None for r in rows)),
     }
     vis = [r for r in rows if r.get("two_directions_visible", True)]
-    ax_vis = np.array([r["detected_axis_err"] for r in vis], float).ravel()
+    ax_vis = np.array([r["best_axis_err"] for r in vis], float).ravel()
     out["photos_two_directions_visible"] = len(vis)
     for t in (1, 3, 5):
         out[f"vp_within_{t}deg_share_two_directions_visible"] = float(np.mean(ax_vis <= t)) if len(vis) else None
@@ -279,7 +300,10 @@ def table(figures: dict[str, Any]) -> str:
 
     lines = ["automatic vanishing segments (vebuild detect)", ""]
     keys = ["photos", "vps_shown", "vp_within_1deg_share", "vp_within_3deg_share", "vp_within_5deg_share",
+            "vp_within_1deg_share_calibrated", "vp_within_3deg_share_calibrated", "vp_within_5deg_share_calibrated",
+            "vps_from_the_detector_alone",
             "vp_within_1deg_share_all", "vp_within_3deg_share_all", "vp_within_5deg_share_all",
+            "vp_within_3deg_share_all_calibrated",
             "grouping_vp_within_3deg_share", "photos_two_directions_visible",
             "vp_within_1deg_share_two_directions_visible", "vp_within_3deg_share_two_directions_visible",
             "vp_within_5deg_share_two_directions_visible", "focal_photos", "focal_rel_error_median",
