@@ -30,6 +30,12 @@ class Bars(EditorPart):
         return float(imgui.calc_text_size(label.split("##")[0]).x + 2 * imgui.get_style().frame_padding.x)
 
     def _draw_toolbar(self) -> None:
+        # The photo was clicked while a field had the keyboard: the field lets it go before it is drawn.
+        # What was typed is in already (each character is taken as typed), and the marker name field's
+        # text is not put back over the offer its click moved on to.
+        ending = bool(self.__dict__.pop("_end_typing", False))
+        if ending:
+            imgui.set_window_focus(None)
         x0, _, x1, _ = self.view_rect()
         self.fixed_window("##toolbar", (x0, 0, x1, TOOLBAR_H), imgui.WindowFlags_.no_decoration)
         for i, (tool, label) in enumerate(TOOLS.items()):  # in rows as the view's width allows
@@ -45,10 +51,17 @@ class Bars(EditorPart):
         style = imgui.get_style()
         self._flow(MARKER_FIELD_W + style.item_inner_spacing.x + imgui.calc_text_size("marker name").x)
         imgui.set_next_item_width(MARKER_FIELD_W)
-        changed, name = imgui.input_text("marker name", self.marker_name)
+        self.refresh_marker_offer()
+        if self.take_marker_field_focus():
+            imgui.set_keyboard_focus_here()
+        changed, name = imgui.input_text("marker name", self.marker_name, imgui.InputTextFlags_.auto_select_all)
         self.rect("marker name")
-        imgui.set_item_tooltip("the name the Marker tool's next click places (a new name makes a new marker)")
-        if changed:
+        imgui.set_item_tooltip(f"the name the Marker tool's next click places (a new name makes a new marker); "
+                               f"{EDITOR_KEYS.key_for('type_marker_name')}: type one; offered: the next marker this "
+                               f"photo lacks ({EDITOR_KEYS.key_for('step_marker_offer', 1)} / "
+                               f"{EDITOR_KEYS.key_for('step_marker_offer', -1)}: the next / previous), "
+                               f"{EDITOR_KEYS.key_for('offer_new_marker')}: a new name")
+        if changed and not ending:
             self.marker_name, self._marker_name_default = name, False
         s = self.session
         self._flow(self._button_w("Undo"))

@@ -115,7 +115,8 @@ STEPS: tuple[Step, ...] = (
          f"{MARKERS_PER_PHOTO} or more markers in this photo", lambda s, p: markers_in(s, p) >= MARKERS_PER_PHOTO),
     Step("distance", "Enter a distance",
          "Calibration tab, reference distances: type the two markers' names and the metres measured between "
-         "them, then add. (A photo placed alone can take a known length or its camera's height, Scale tab.)",
+         "them, then add (or Ctrl+D, Tab between the fields, Ctrl+Enter). (A photo placed alone can take a "
+         "known length or its camera's height, Scale tab.)",
          "a reference distance (or this photo's own scale) is given", has_scale),
     Step("calibrate", "Calibrate",
          "Press Calibrate (Calibration tab): each photo's focal length, orientation and position are found "

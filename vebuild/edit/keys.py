@@ -22,9 +22,21 @@ EDITOR_KEYS = KeyTable([
             "click) with Shift held goes on from there, each Shift+click adds a middle point, a click without Shift "
             "ends it at its last point (Esc cancels)"),
     Binding("M", "Marker: a click places the marker named in the toolbar's field (a new name makes a new marker; "
-            "the first is the origin until another is chosen); after each click the field shows the next free name "
-            "(M1, M2, …), and a marker's name in the Calibration tab picks it for the next click",
+            "the first is the origin until another is chosen). The field offers the first marker placed in other "
+            "photos that this photo lacks, in the order of first placement (highlighted in the Calibration tab's "
+            "list), and after each click the next one after it, then a new name (M1, M2, …); a marker's name in the "
+            "Calibration tab picks it for the next click",
             (Chord(glfw.KEY_M, "set_tool", ("marker",)),)),
+    Binding("], [; Shift+M; F2", "the Marker tool's offer: the next, the previous marker this photo lacks (then a "
+            "new name, round); a new name at once; the cursor in the toolbar's name field to type a name (what it "
+            "held selected; Enter, or the click in the photo that places the marker, ends the typing)",
+            (Chord(glfw.KEY_RIGHT_BRACKET, "step_marker_offer", (1,)),
+             Chord(glfw.KEY_LEFT_BRACKET, "step_marker_offer", (-1,)),
+             Chord(glfw.KEY_M, "offer_new_marker", mods=SHIFT), Chord(glfw.KEY_F2, "type_marker_name"))),
+    Binding("Ctrl+D; Tab (in its fields); Ctrl+Enter (in its fields)", "a reference distance from the keyboard: "
+            "the cursor in the Calibration tab's first marker field; the next field (the second marker, the "
+            "metres); add the distance (the row is emptied and keeps the cursor for the next one)",
+            (Chord(glfw.KEY_D, "type_distance", mods=CTRL),)),
     Binding("E", "Edge: press and drag along an edge of the selected primitive: an edge observation (drawn red) on "
             "the nearest projected edge", (Chord(glfw.KEY_E, "set_tool", ("edge",)),)),
     Binding("K", "Known length: press on one end of an edge along an axis whose length is known (a vertical's foot "

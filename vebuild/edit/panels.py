@@ -45,6 +45,9 @@ class Panels:
         self.new_name = ""
         self.group_name = "group1"
         self.dist_a, self.dist_b, self.dist_m, self.dist_role = "", "", 1.0, 0
+        self.focus_distance = False  # Ctrl+D: the cursor in the distance row's first field at the next frame
+        self.distance_row_active = False  # a field of the distance row has the cursor (Ctrl+Enter adds)
+        self.add_distance_pending = False  # Ctrl+Enter was pressed in the distance row
         self.length_axis, self.length_m, self.length_sigma = 2, "", ""  # z; typed as text: checked on Add
         self.height_m, self.height_sigma = "", ""
         self.equal_param = 0  # the size "Make equal" shares
@@ -106,6 +109,8 @@ class Panels:
                 imgui.pop_text_wrap_pos()
                 self.ed.rect(f"calibrated:{pid}")
         imgui.separator()
+        self._distances()
+        imgui.separator()
         if self.ed.photo is not None:
             imgui.text(f"vanishing points in {self.ed.photo}")
             for axis in ("x", "y", "z"):
@@ -130,9 +135,17 @@ class Panels:
         rows = min(max(len(decode.markers(s.data, "named")), 5), MARKER_ROWS)  # then it scrolls
         imgui.begin_child("markers", (0, rows * imgui.get_frame_height_with_spacing() + 10), imgui.ChildFlags_.borders)
         floor = decode.floor_markers(s.data)
-        # Those not yet placed in this photo first: a click on the name places it with the next click.
+        # Those not yet placed in this photo first, in the order of first placement (the Marker tool's
+        # offer follows it, and the one offered is highlighted): a click on the name places it with the
+        # next click.
+        offered = self.ed.marker_name if self.ed.tool == "marker" else None
         for name in sorted(decode.markers(s.data, "named"), key=lambda n: n in observed):
-            if self.ed.button(f"{name}##pick", tip=f"the Marker tool, placing {name} with the next click"):
+            if name == offered:
+                imgui.push_style_color(imgui.Col_.button, imgui.ImVec4(0.85, 0.55, 0.1, 1.0))
+            picked = self.ed.button(f"{name}##pick", tip=f"the Marker tool, placing {name} with the next click")
+            if name == offered:
+                imgui.pop_style_color()
+            if picked:
                 self.ed.pick_marker(name)
             if name in observed:
                 imgui.same_line(60)
@@ -152,23 +165,40 @@ class Panels:
             elif self.ed.button(f"origin##{name}", tip=f"the world's origin at {name}"):
                 self.ed.guard(s.set_origin, name)
         imgui.end_child()
+        self.ed.draw_rename_field(self)
+
+    def _distances(self) -> None:
+        """The reference distances and the row that adds one (under Calibrate, in view with it).
+        From the keyboard (entry_keys.py): Ctrl+D puts the cursor in its first field, Tab goes on,
+        Ctrl+Enter adds the distance and empties the row for the next."""
+        s = self.ed.session
         imgui.text("reference distances")
         for i, d in enumerate(s.data.get("reference_distances", [])):
             imgui.text(f"{d['a']}–{d['b']} {d['distance']:.4f} m ({d.get('role', 'scale')})")
             imgui.same_line()
             if self.ed.button(f"remove##distance{i}", tip=f"remove the distance {d['a']}–{d['b']}"):
                 self.ed.guard(s.remove_distance, i)
+        select_all = imgui.InputTextFlags_.auto_select_all
+        active = False
         imgui.set_next_item_width(70)
-        _, self.dist_a = imgui.input_text("marker a##distance a", self.dist_a)
+        if self.focus_distance:
+            imgui.set_keyboard_focus_here()
+            self.focus_distance = False
+        _, self.dist_a = imgui.input_text("marker a##distance a", self.dist_a, select_all)
+        active |= imgui.is_item_active()
         self.ed.rect("distance a")
-        imgui.set_item_tooltip("the first marker's name (or node:vertex, e.g. floor:v1)")
+        imgui.set_item_tooltip("the first marker's name (or node:vertex, e.g. floor:v1); "
+                               f"{EDITOR_KEYS.key_for('type_distance')} puts the cursor here, Tab goes on, Ctrl+Enter "
+                               "adds the distance")
         imgui.same_line()
         imgui.set_next_item_width(70)
-        _, self.dist_b = imgui.input_text("marker b##distance b", self.dist_b)
+        _, self.dist_b = imgui.input_text("marker b##distance b", self.dist_b, select_all)
+        active |= imgui.is_item_active()
         self.ed.rect("distance b")
         imgui.set_item_tooltip("the second marker's name (or node:vertex)")
         imgui.set_next_item_width(80)
-        _, self.dist_m = imgui.input_float("m##distance", self.dist_m, 0.0, 0.0, "%.4f")
+        _, self.dist_m = imgui.input_float("m##distance", self.dist_m, 0.0, 0.0, "%.4f", select_all)
+        active |= imgui.is_item_active()
         self.ed.rect("distance m")
         imgui.set_item_tooltip("the distance measured at the scene between the two, in metres")
         imgui.same_line()
@@ -178,9 +208,22 @@ class Panels:
         imgui.set_item_tooltip("scale: it sets the model's size; check: kept aside, its residual reported")
         imgui.same_line()
         if self.ed.button("add##distance", tip="a measured distance between two markers (or node:vertex)"):
-            self.ed.guard(s.add_distance, self.dist_a, self.dist_b, float(self.dist_m),
-                        role=["scale", "check"][self.dist_role])
-        self.ed.draw_rename_field(self)
+            self._add_distance()
+        # Ctrl+Enter in the row: added once its field has taken the Enter (the value typed is in).
+        if self.add_distance_pending and not active:
+            self.add_distance_pending = False
+            if self._add_distance():
+                self.dist_a, self.dist_b = "", ""
+            self.focus_distance = True
+        self.distance_row_active = active
+
+    def _add_distance(self) -> bool:
+        """The row's distance added; whether it was (a mistake is said in the status line)."""
+        s = self.ed.session
+        n = len(s.data.get("reference_distances", []))
+        self.ed.guard(s.add_distance, self.dist_a, self.dist_b, float(self.dist_m),
+                      role=["scale", "check"][self.dist_role])
+        return len(s.data.get("reference_distances", [])) > n
 
     def _scale_tab(self) -> None:
         """A photo's own scale, for a photo placed alone: its known lengths (drawn with the Known

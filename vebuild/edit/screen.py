@@ -35,6 +35,7 @@ from vebuild.gl.surface import OffscreenSurface, WindowSurface
 
 from .assist_keys import AssistKeys
 from .bars import Bars
+from .entry_keys import EntryKeys
 from .first_steps import FirstSteps
 from .keys import EDITOR_KEYS
 from .layers import OverlayLayers
@@ -49,8 +50,8 @@ from .relate_tool import RelateTool
 from .tools import ScreenTools
 
 
-class Editor(FirstSteps, AssistKeys, OverlayLayers, MessageArea, ScreenTools, MeasureTool, RelateTool, PhotoView,
-             Bars, Preview, WindowApp):
+class Editor(FirstSteps, EntryKeys, AssistKeys, OverlayLayers, MessageArea, ScreenTools, MeasureTool, RelateTool,
+             PhotoView, Bars, Preview, WindowApp):
     """The modelling screen over one :class:`~vebuild.edit.session.EditSession`, drawing into one
     surface (:class:`~vebuild.gl.surface.WindowSurface` or :class:`~vebuild.gl.surface.OffscreenSurface`).
     :meth:`frame` polls, draws and runs what a button asked for; :meth:`draw` only draws."""
@@ -213,7 +214,9 @@ class Editor(FirstSteps, AssistKeys, OverlayLayers, MessageArea, ScreenTools, Me
         if self.session.dragging:
             self.session.cancel_drag()
         self._press = None
-        self.photo = photo
+        changed, self.photo = photo != self.photo, photo
+        if changed and self._marker_name_default:
+            self.offer_marker()  # the first marker this photo lacks (entry_keys.py)
         if self._photo_texture(photo) is None:
             self.say(self._photo_errors.get(photo, f"photo '{photo}' cannot be shown"))
         self.fit()

@@ -79,6 +79,8 @@ class ScreenTools(EditorPart):
             raise VebuildError(f"no tool '{tool}'; the tools are {', '.join(TOOLS)}")
         self.escape(keep_tool=True)
         self.tool = tool
+        if tool == "marker" and self._marker_name_default:
+            self.offer_marker()  # the first marker this photo lacks (entry_keys.py), else a new name
 
     def escape(self, keep_tool: bool = False) -> None:
         """Cancel what is under way (a drag, a stroke, a placement); if nothing, the Select tool."""
@@ -174,6 +176,8 @@ class ScreenTools(EditorPart):
         if not self._photo_takes(x, y):
             self.gui.on_button(button, action)
             return
+        if imgui.get_io().want_text_input:  # a click on the photo ends the typing in a field (the next frame)
+            self.__dict__["_end_typing"] = True
         if button == glfw.MOUSE_BUTTON_MIDDLE or (button == glfw.MOUSE_BUTTON_LEFT and glfw.KEY_SPACE in self._held):
             self._pan_from = (x, y)
         elif button == glfw.MOUSE_BUTTON_LEFT:
@@ -266,10 +270,10 @@ class ScreenTools(EditorPart):
                 name = self.marker_name.strip()
                 uv, snapped = s.snap(photo, uv, exact=self.alt_held())
                 s.place_marker(photo, name, uv)
-                self.say(f"marker {name} at ({uv[0]:.2f}, {uv[1]:.2f}) in {photo}" + snap_note(snapped))
-                # The next click makes a new marker (a marker's name in the Calibration tab picks it again).
-                self.marker_name = s.next_marker_name()
-                self._marker_name_default = True
+                # The field offers the next marker after it that this photo lacks, else a new name.
+                self.offer_marker(after=name)
+                self.say(f"marker {name} at ({uv[0]:.2f}, {uv[1]:.2f}) in {photo}" + snap_note(snapped)
+                         + f"; next: {self.marker_name}")
             elif kind == "delete":
                 self.delete_at(x, y)
             elif kind == "relate":
