@@ -323,21 +323,21 @@ def test_vebuild_calibrate_names_the_observation_whose_refined_residual_is_not_f
     """The joint refinement of cameras and markers ending where photo p2's camera sits on marker O
     (the origin): that sighting's residual is 0/0. No valid input was found that leads the robust
     refinement there (the start is checked, and it does not step onto a marker), so
-    ``least_squares`` is wrapped to end there."""
+    its solver (``levenberg_marquardt``) is wrapped to end there."""
     import numpy as np
 
     from vebuild.calibration import positions
 
-    real = positions.least_squares
+    real = positions.levenberg_marquardt
 
-    def onto_the_origin(fun, x0, *args, **kwargs):
-        sol = real(fun, x0, *args, **kwargs)
+    def onto_the_origin(fun, jac, x0, *args, **kwargs):
+        sol = real(fun, jac, x0, *args, **kwargs)
         sol.x = sol.x.copy()
         sol.x[9 * 1 + 6 : 9 * 1 + 9] = 0.0  # photo p2's camera centre (the second camera) on O
         with np.errstate(all="ignore"):
             assert not np.all(np.isfinite(fun(sol.x)))
         return sol
-    monkeypatch.setattr(positions, "least_squares", onto_the_origin)
+    monkeypatch.setattr(positions, "levenberg_marquardt", onto_the_origin)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         err = _failing_calibrate(room, capsys)
@@ -349,14 +349,14 @@ def test_vebuild_calibrate_names_the_observation_whose_refined_residual_is_not_f
 @pytest.mark.parametrize("failure", [__import__("numpy").linalg.LinAlgError("SVD did not converge"),
                                      ValueError("Residuals are not finite in the initial point.")])
 def test_vebuild_calibrate_names_a_numerical_failure_of_the_refinement(room, capsys, monkeypatch, failure):
-    """SciPy giving up inside the refinement (a singular system, a non-finite step): reached by making
-    ``least_squares`` raise what SciPy raises then, since the start is checked for finite residuals
-    before it is called."""
+    """The solver giving up inside the refinement (a singular system, a non-finite step): reached by
+    making ``levenberg_marquardt`` raise what NumPy and SciPy raise then, since the start is checked
+    for finite residuals before it is called."""
     from vebuild.calibration import positions
 
     def fail(*args, **kwargs):
         raise failure
-    monkeypatch.setattr(positions, "least_squares", fail)
+    monkeypatch.setattr(positions, "levenberg_marquardt", fail)
     err = _failing_calibrate(room, capsys)
     assert f"the refinement of camera and marker positions failed numerically ({failure}); a photo's vanishing " \
            "lines or marker clicks make it degenerate: check the photos with the fewest markers first" in err, err
@@ -368,7 +368,7 @@ def test_vebuild_calibrate_passes_other_errors_of_the_refinement_on(room, monkey
 
     def fail(*args, **kwargs):
         raise ValueError("x0 has the wrong shape")
-    monkeypatch.setattr(positions, "least_squares", fail)
+    monkeypatch.setattr(positions, "levenberg_marquardt", fail)
     with pytest.raises(ValueError, match="x0 has the wrong shape"):
         main(["calibrate", str(room), "--quiet"])
 

@@ -707,19 +707,19 @@ def test_placement_projects_markers_through_each_photo_s_k1_and_refines_it() -> 
         else:
             inputs.append(PhotoInput(p.id, cal.K, cal.R, cal.covariance, p.markers))
     checked = []
-    real = positions.least_squares
+    real = positions.levenberg_marquardt
 
-    def checking(fun: Any, x0: Any, jac: Any, **kw: Any) -> Any:
-        checked.append(float(np.abs(jac(x0) - numeric_jacobian(fun, x0, 1e-6)).max()))
-        return real(fun, x0, jac=jac, **kw)
+    def checking(fun: Any, jac: Any, x0: Any, *args: Any, **kw: Any) -> Any:
+        checked.append(float(np.abs(jac(x0).toarray() - numeric_jacobian(fun, x0, 1e-6)).max()))
+        return real(fun, jac, x0, *args, **kw)
 
-    positions.least_squares = checking
+    positions.levenberg_marquardt = checking
     try:
         a, b, d = scale_reference(photos, markers)
         pl = place_cameras(inputs, origin="O", distances=[ReferenceDistance(a, b, d, 0.002)],
                            click_sigma_px=CLICK_NOISE_PX)
     finally:
-        positions.least_squares = real
+        positions.levenberg_marquardt = real
     assert checked and checked[0] < 1e-4  # residuals are whitened: O(1e3) entries
     c = pl.cameras["p1"]
     assert abs(c.k1 + 0.08) < 4 * c.k1_sigma and c.k1_sigma < 0.01

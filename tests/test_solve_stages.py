@@ -19,15 +19,15 @@ from typing import Any
 import numpy as np
 import pytest
 
+from vebuild.calibration.lm import levenberg_marquardt
 from vebuild.cli import main
 from vebuild.constants import Z95
 from vebuild.errors import ProjectError
-from vebuild.model.lm import levenberg_marquardt
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "scenes" / "room"
 
 #: How far two runs of the same solve may end apart, per figure, in units of its 1σ.
-#: Levenberg–Marquardt (vebuild.model.lm, tol = 1e-10, the solver's default) stops once a step
+#: Levenberg–Marquardt (vebuild.calibration.lm, tol = 1e-10, the solver's default) stops once a step
 #: lowers the cost ½‖r‖² by less than tol × cost. Near the minimum the cost is quadratic in the
 #: whitened parameters z, so the end point lies ‖δz‖ ≲ √(2 · tol · cost / (1 − ρ)) from the
 #: minimum, ρ ≤ 0.9 being the linear rate of the damped steps' convergence; any figure f (a

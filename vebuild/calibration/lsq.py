@@ -27,12 +27,34 @@ def numeric_jacobian(fun: Callable[[Array], Array], x: Array, step: Array | floa
     return np.column_stack(cols)
 
 
-def covariance_from_jacobian(J: Array) -> Array:
+#: Above this many unknowns a sparse Jacobian's covariance is taken from its normal matrix where
+#: that is well conditioned (:func:`covariance_from_jacobian`); the SVD of J is then seconds.
+NORMAL_COVARIANCE_ABOVE = 400
+#: The least reciprocal condition number of the column-scaled normal matrix inverted directly; a
+#: worse one (singular values of the scaled J spread over more than 10⁶) goes through the SVD.
+NORMAL_RCOND_MIN = 1e-12
+
+
+def covariance_from_jacobian(J: Any) -> Array:
     """(JᵀJ)⁻¹ for whitened residuals, through the SVD of J for numerical stability.
 
     Directions that the data do not determine (singular values below 1e-10 of the largest) get an
     infinite variance, so that no reported 1σ is silently small or NaN.
+
+    J may be a SciPy sparse matrix. With many unknowns (a house's cameras and markers) the SVD of J
+    costs seconds, so the normal matrix JᵀJ, its columns scaled to a unit diagonal, is inverted by
+    its Cholesky factor instead wherever it is well conditioned (:data:`NORMAL_RCOND_MIN`, LAPACK's
+    estimate): every direction is then determined, and the inverse is the SVD's to rounding. A
+    worse one goes through the SVD and its rule.
     """
+    from scipy import sparse
+
+    if sparse.issparse(J):
+        if J.shape[1] > NORMAL_COVARIANCE_ABOVE:
+            cov = _covariance_from_normal_matrix(J)
+            if cov is not None:
+                return cov
+        J = J.toarray()
     _, s, Vt = np.linalg.svd(J, full_matrices=False)
     ok = s > 1e-10 * s.max()
     cov = (Vt[ok].T / s[ok] ** 2) @ Vt[ok]
@@ -41,6 +63,28 @@ def covariance_from_jacobian(J: Array) -> Array:
         cov[undetermined, :] = np.inf
         cov[:, undetermined] = np.inf
     return cov
+
+
+def _covariance_from_normal_matrix(J: Any) -> Array | None:
+    """(JᵀJ)⁻¹ by a Cholesky factor of the column-scaled normal matrix; None where a column is
+    empty, the factor fails or the matrix is worse conditioned than :data:`NORMAL_RCOND_MIN`."""
+    from scipy.linalg import LinAlgError, cho_factor, cho_solve, lapack
+
+    N = np.asarray((J.T @ J).toarray(), float)
+    d = np.sqrt(np.diag(N))
+    if not np.all(d > 0) or not np.all(np.isfinite(N)):
+        return None
+    Ns = N / d[:, None] / d[None, :]
+    try:
+        c, lower = cho_factor(Ns, lower=False, check_finite=False)
+    except LinAlgError:
+        return None
+    rcond, info = lapack.dpocon(c, float(np.abs(Ns).sum(axis=0).max()))  # c is the upper factor
+    if info != 0 or not rcond >= NORMAL_RCOND_MIN:
+        return None
+    inv = cho_solve((c, lower), np.eye(len(d)), check_finite=False)
+    cov: Array = inv / d[:, None] / d[None, :]
+    return 0.5 * (cov + cov.T)
 
 
 def propagated_variance(g: Array, cov: Array) -> float:

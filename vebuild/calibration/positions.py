@@ -37,6 +37,7 @@ from ..camera import distortion_scale, intrinsic_matrix, project, skew_batch, so
 from ..constants import OUTLIER_SIGMAS, ROBUST_SCALE
 from ..determinism import deterministic
 from ..errors import CalibrationError
+from .lm import levenberg_marquardt
 from .lsq import covariance_from_jacobian, is_numeric_failure, propagated_variance, variance_factor
 from .start import initial_positions
 
@@ -283,12 +284,9 @@ def _metric_scale(X: Mapping[str, Array], known: Mapping[str, Array], refs: Sequ
     return num / den
 
 
-def least_squares(*args: Any, **kwargs: Any) -> Any:
-    """SciPy's ``least_squares``, imported at its first call (docs/start-up.md); a name of this
-    module's own, through which the refinement calls it."""
-    from scipy.optimize import least_squares as solve
-
-    return solve(*args, **kwargs)
+def _unbounded(x: Array) -> Array:
+    """The placement's unknowns have no bounds: :func:`.lm.levenberg_marquardt`'s projection."""
+    return x
 
 
 def _refine(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mapping[str, Array], origin: str,
@@ -376,15 +374,32 @@ def _refine(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mappi
         return np.concatenate([reproj, prior, dist, hres])
 
     rows_obs = np.arange(2 * n_obs).reshape(-1, 2)
-    free_col = {m_index[n]: col[n] for n in free_markers}
+    free_of_mark = np.full(len(all_markers), -1, dtype=int)
+    for n in free_markers:
+        free_of_mark[m_index[n]] = col[n]
+    k1_of_cam = np.full(len(ids), -1, dtype=int)
+    for k, c in k1_col.items():
+        k1_of_cam[k] = c
+    # The priors' entries, the same at every x: each photo's whitening over its (f, cx, cy, ω)
+    # columns, and over its k1 column where k1 is refined.
+    p_rows, p_cols, p_vals = [], [], []
+    for k, i in enumerate(ids):
+        n_k = int(n_prior[k])
+        cols = np.r_[off[k] + np.arange(6), [k1_col[k]] if k in k1_col else []].astype(int)
+        p_rows.append(np.repeat(prior_rows[k] + np.arange(n_k), n_k))
+        p_cols.append(np.tile(cols, n_k))
+        p_vals.append(L_inv[i][:n_k, :n_k].ravel())
 
-    def jacobian(x: Array) -> Array:
-        """Analytic Jacobian of residuals (dense: the problem has tens of parameters)."""
+    def jacobian(x: Array) -> Any:
+        """Analytic Jacobian of residuals, as a sparse matrix: an observation's two rows touch its
+        camera's block and its marker only; dense where the unknowns are few (:mod:`.lm`)."""
+        from scipy import sparse
+
         fc, R, C, k1, X = unpack(x)
         cam = x[idx9]
-        J = np.zeros((n_res, n_par))
         d = X[obs_mark] - C[obs_cam]
-        xc = np.einsum("nij,nj->ni", R[obs_cam], d)
+        Ro = R[obs_cam]
+        xc = np.einsum("nij,nj->ni", Ro, d)
         z = xc[:, 2]
         f = fc[obs_cam, 0]
         xn = xc[:, :2] / z[:, None]
@@ -403,33 +418,43 @@ def _refine(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mappi
         A = f[:, None, None] * np.einsum("nij,njk->nik", D, B) / click_sigma
         Jl = np.array([so3_left_jacobian(w_) for w_ in cam[:, 3:6]])
         dxc_dw = -np.einsum("nij,njk->nik", skew_batch(xc), Jl[obs_cam])
-        for r, k, m, a_, dw, Rk, un, sn, dk in zip(rows_obs, obs_cam, obs_mark, A, dxc_dw, R[obs_cam], xn, s,
-                                                    ds_dk, strict=True):
-            o = int(off[k])
-            J[r, o] = un * sn / click_sigma
-            J[r[0], o + 1] = J[r[1], o + 2] = 1.0 / click_sigma
-            J[r, o + 3 : o + 6] = a_ @ dw
-            J[r, o + 6 : o + 9] = -a_ @ Rk
-            if k in k1_col:
-                J[r, k1_col[k]] = fc[k, 0] * un * dk / click_sigma
-            if m in free_col:
-                J[r, free_col[m] : free_col[m] + 3] = a_ @ Rk
-        for k, i in enumerate(ids):
-            r0 = int(prior_rows[k])
-            n = int(n_prior[k])
-            J[r0 : r0 + n, off[k] : off[k] + 6] = L_inv[i][:, :6]
-            if k in k1_col:
-                J[r0 : r0 + n, k1_col[k]] = L_inv[i][:, 6]
+        AR = np.einsum("nij,njk->nik", A, Ro)
+        o = off[obs_cam]
+        r3 = np.repeat(rows_obs, 3, axis=1)  # (n_obs, 6): each of the two rows for three columns
+        rows = [rows_obs.ravel(), rows_obs[:, 0], rows_obs[:, 1], r3.ravel(), r3.ravel()]
+        three = np.arange(3)[None, None, :]
+        cols = [np.repeat(o, 2), o + 1, o + 2, (o[:, None, None] + 3 + three).repeat(2, 1).ravel(),
+                (o[:, None, None] + 6 + three).repeat(2, 1).ravel()]
+        vals = [(xn * s[:, None] / click_sigma).ravel(), np.full(n_obs, 1.0 / click_sigma),
+                np.full(n_obs, 1.0 / click_sigma), np.einsum("nij,njk->nik", A, dxc_dw).ravel(), (-AR).ravel()]
+        kc = k1_of_cam[obs_cam]
+        with_k1 = kc >= 0
+        if np.any(with_k1):
+            rows.append(rows_obs[with_k1].ravel())
+            cols.append(np.repeat(kc[with_k1], 2))
+            vals.append((fc[obs_cam, 0][:, None] * xn * ds_dk[:, None] / click_sigma)[with_k1].ravel())
+        mc = free_of_mark[obs_mark]
+        free = mc >= 0
+        rows.append(r3[free].ravel())
+        cols.append((mc[free][:, None, None] + three).repeat(2, 1).ravel())
+        vals.append(AR[free].ravel())
+        rows += p_rows
+        cols += p_cols
+        vals += p_vals
         for j, (ia, ib) in enumerate(ref_ab):
             diff = X[ia] - X[ib]
             u = diff / max(np.linalg.norm(diff), 1e-12) / ref_s[j]
-            if ia in free_col:
-                J[r_ref + j, free_col[ia] : free_col[ia] + 3] += u
-            if ib in free_col:
-                J[r_ref + j, free_col[ib] : free_col[ib] + 3] -= u
-        for j, k in enumerate(height_ids):
-            J[r_h + j, off[k] + 8] = 1.0 / h_sig[j]
-        return J
+            for m, sign in ((ia, 1.0), (ib, -1.0)):
+                if free_of_mark[m] >= 0:
+                    rows.append(np.full(3, r_ref + j))
+                    cols.append(free_of_mark[m] + np.arange(3))
+                    vals.append(sign * u)
+        if n_h:
+            rows.append(r_h + np.arange(n_h))
+            cols.append(off[height_ids] + 8)
+            vals.append(1.0 / h_sig)
+        return sparse.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                                 shape=(n_res, n_par))
 
     x0 = np.zeros(n_par)
     for k, i in enumerate(ids):
@@ -457,9 +482,9 @@ def _refine(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mappi
                                "number (a marker in the camera's plane, or a camera on a marker); check that marker's "
                                "clicks and the photo's vanishing lines")
     try:
-        sol = least_squares(residuals, x0, jac=jacobian, loss="soft_l1", f_scale=ROBUST_SCALE,
-                            x_scale="jac", method="trf", xtol=1e-10, ftol=1e-10)
-        x = sol.x
+        # Soft-L1 on every row (markers, priors, distances, heights), as in :mod:`.lm`.
+        x = levenberg_marquardt(residuals, jacobian, x0, _unbounded, robust_rows=n_res,
+                                robust_scale=ROBUST_SCALE, tol=1e-10).x
         with np.errstate(all="ignore"):  # a non-finite residual is reported below, not warned about
             res = residuals(x)
         if not np.all(np.isfinite(res)):

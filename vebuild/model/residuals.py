@@ -33,11 +33,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..calibration.lm import SPARSE_SOLVE_ABOVE
 from ..calibration.positions import ReferenceDistance  # ends: marker names or 'node:handle'
 from ..camera import ImageCamera, exp_so3, project_each, skew_batch, so3_left_jacobian
 from .constraints import HARD_SIGMA_M
 from .layout import ParameterLayout
-from .lm import SPARSE_SOLVE_ABOVE
 from .primitives import Primitive
 from .relations import Relation, is_edge
 from .relations import rows_of as relation_rows
@@ -251,6 +251,53 @@ class Residuals:
             self.moves.append(subtree_cache[key][0])
             self.column_rows.append(subtree_cache[key][1])
             self.column_hard.append(subtree_cache[key][2])
+        self.column_groups = self._column_groups()
+
+    def _column_groups(self) -> list[list[int]]:
+        """The model parameters in groups whose Jacobian columns one finite difference gives at once
+        (Curtis, Powell and Reid's grouping): within a group no two parameters move a common node
+        (so no common handle, pin or edge) or a common distance or hard relation. Each handle moved
+        is then moved by one parameter of the group alone, by exactly what that parameter alone
+        would move it by: the columns are bit for bit those of one difference per parameter. Greedy,
+        in the parameters' order; a house's thousand parameters fall into a few dozen groups."""
+        groups: list[tuple[list[int], set[str], set[int], set[int]]] = []
+        for j in self.layout.model.indices:
+            nodes = set(self.moves[j][0])
+            dists = {int(i) for i in self.column_rows[j][2]}
+            hard = set(self.column_hard[j])
+            for cols, g_nodes, g_dists, g_hard in groups:
+                if nodes.isdisjoint(g_nodes) and dists.isdisjoint(g_dists) and hard.isdisjoint(g_hard):
+                    cols.append(j)
+                    g_nodes |= nodes
+                    g_dists |= dists
+                    g_hard |= hard
+                    break
+            else:
+                groups.append(([j], nodes, dists, hard))
+        return [cols for cols, *_ in groups]
+
+    def _difference_column(self, j: int, h: float, dHg: Array, Hp: Array, H: Array, M: Array,
+                           Tp: Mapping[str, Array], xmp: Array, hard0: list[Array], MR_p: Any, Ks: Array, Rs: Array,
+                           Cs: Array, k1s: Array, put: Any) -> None:
+        """Model parameter j's column from its group's difference (:meth:`_column_groups`): the
+        handles j moves (and no other parameter of the group does) moved by ``dHg`` for a step h."""
+        pin_sel, edge_sel, dist_sel = self.column_rows[j]
+        dH = dHg / h
+        for k in self.column_hard[j]:
+            rel = self.hard[k]
+            put(self.rows_hard[k], j, (relation_rows(rel, self.model, Tp, xmp) - hard0[k]) / h / HARD_SIGMA_M)
+        if len(pin_sel):
+            put(self.rows_pin[pin_sel], j, np.einsum("nij,nj->ni", MR_p[pin_sel], dH[self.pin_row[pin_sel]]))
+        if len(edge_sel):
+            a, b = self.edge_rows[edge_sel, 0], self.edge_rows[edge_sel, 1]
+            r0 = self._edge_residuals(H[a], H[b], Ks, Rs, Cs, k1s, edge_sel)
+            r1 = self._edge_residuals(Hp[a], Hp[b], Ks, Rs, Cs, k1s, edge_sel)
+            put(self.rows_edge[edge_sel], j, (r1 - r0) / h)
+        if len(dist_sel):
+            e = self.dist_ends[dist_sel]
+            d0 = np.linalg.norm(self._ends(e[:, 0], H, M) - self._ends(e[:, 1], H, M), axis=1)
+            d1 = np.linalg.norm(self._ends(e[:, 0], Hp, M) - self._ends(e[:, 1], Hp, M), axis=1)
+            put(self.rows_dist[dist_sel], j, (d1 - d0) / h / self.dist_sigma[dist_sel])
 
     def _entered_priors(self) -> None:
         """Where each free model parameter's prior is centred (``prior_model_at``: its value before
@@ -445,31 +492,18 @@ class Residuals:
         A_m, MR_m, xc_m, pd_m, dk_m = proj_parts(self.mo_cam, M[self.mo_marker]) if len(self.marker_obs) else none
 
         hard0 = [relation_rows(rel, self.model, T, xm) for rel in self.hard]
-        for j in self.layout.model.indices:
-            nodes, hrows = self.moves[j]
-            h = FD_STEP * max(1.0, abs(x[j]))
+        for group in self.column_groups:
+            cols = np.asarray(group, dtype=int)
+            steps = FD_STEP * np.maximum(1.0, np.abs(x[cols]))
             xp = x.copy()
-            xp[j] += h
+            xp[cols] += steps
+            nodes = [n for j in group for n in self.moves[j][0]]
             xmp = self.model_vector(xp)
             Tp = self.model.world_transforms(xmp, only=nodes, cache=T)
             Hp = self.handle_positions(xmp, Tp, nodes, H.copy())
-            dH = (Hp - H) / h
-            pin_sel, edge_sel, dist_sel = self.column_rows[j]
-            for k in self.column_hard[j]:
-                rel = self.hard[k]
-                put(self.rows_hard[k], j, (relation_rows(rel, self.model, Tp, xmp) - hard0[k]) / h / HARD_SIGMA_M)
-            if len(pin_sel):
-                put(self.rows_pin[pin_sel], j, np.einsum("nij,nj->ni", MR_p[pin_sel], dH[self.pin_row[pin_sel]]))
-            if len(edge_sel):
-                a, b = self.edge_rows[edge_sel, 0], self.edge_rows[edge_sel, 1]
-                r0 = self._edge_residuals(H[a], H[b], Ks, Rs, Cs, k1s, edge_sel)
-                r1 = self._edge_residuals(Hp[a], Hp[b], Ks, Rs, Cs, k1s, edge_sel)
-                put(self.rows_edge[edge_sel], j, (r1 - r0) / h)
-            if len(dist_sel):
-                e = self.dist_ends[dist_sel]
-                d0 = np.linalg.norm(self._ends(e[:, 0], H, M) - self._ends(e[:, 1], H, M), axis=1)
-                d1 = np.linalg.norm(self._ends(e[:, 0], Hp, M) - self._ends(e[:, 1], Hp, M), axis=1)
-                put(self.rows_dist[dist_sel], j, (d1 - d0) / h / self.dist_sigma[dist_sel])
+            dHg = Hp - H
+            for j, h in zip(group, steps, strict=True):
+                self._difference_column(j, float(h), dHg, Hp, H, M, Tp, xmp, hard0, MR_p, Ks, Rs, Cs, k1s, put)
 
         if self.layout.cameras or self.layout.markers:
             for k, cid in enumerate(self.cam_ids):

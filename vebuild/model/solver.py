@@ -28,13 +28,13 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from ..calibration.lm import LMResult, levenberg_marquardt
 from ..calibration.lsq import is_numeric_failure
 from ..calibration.positions import ReferenceDistance
 from ..camera import ImageCamera
 from ..determinism import deterministic
 from .constraints import hard_relations, restore, tie_equal
 from .layout import ParameterLayout
-from .lm import LMResult, levenberg_marquardt
 from .residuals import EdgeObservation, MarkerObservation, Pin, Residuals
 from .scene import Model
 from .solution import Solution, solution_at
@@ -249,6 +249,12 @@ class Problem(Residuals):
         return solution_at(self, x, iterations)
 
 
+#: A stage of :func:`staged_start` stops once a step lowers its cost by less than this share: it
+#: only gives the final solve its start. On the generated house a stage's cost is within 0.1 % of
+#: its minimum after a few steps, and a tolerance of 1e-10 spent 30–90 more Jacobians on its tail.
+STAGE_TOL = 1e-6
+
+
 def staged_start(model: Model, cameras: Mapping[str, ImageCamera], pins: Sequence[Pin],
                  edges: Sequence[EdgeObservation], click_sigma_px: float) -> int:
     """Move ``model`` to a start for its final solve, down the scene graph a level at a time: the
@@ -280,7 +286,7 @@ def staged_start(model: Model, cameras: Mapping[str, ImageCamera], pins: Sequenc
                               options=ProblemOptions(click_sigma_px=click_sigma_px, prior_scale=FINAL_PRIOR_SCALE,
                                                      free_nodes=sorted(names)))
             if problem.n_model and problem.n_data:
-                x = problem.model_vector(problem.solve(problem.x0(), robust=True).x)
+                x = problem.model_vector(problem.solve(problem.x0(), robust=True, tol=STAGE_TOL).x)
                 if np.all(np.isfinite(x)):  # else the final solve starts from where this stage did, and says why
                     model.set_vector(x)
         except (ValueError, np.linalg.LinAlgError) as e:

@@ -1,9 +1,13 @@
-"""The bounded Levenberg–Marquardt loop of the model solver (paper §3.1).
+"""The bounded Levenberg–Marquardt loop of the model solver (paper §3.1) and of the joint
+placement of cameras and markers (:mod:`.positions`).
 
-Not scipy's ``least_squares``: a robust fit puts the soft-L1 loss on the observation rows only,
-never on the priors, where scipy's ``loss`` applies to every row; and each step is projected onto
-the bounds (a size stays above its least, a hinge at its stop stays there), where scipy's ``trf``
-works in the interior with reflections. ``vebuild bench solver`` compares the two for speed.
+Not scipy's ``least_squares``: once the unknowns are many (a house's hundred cameras and hundreds
+of markers) the normal equations are solved as a sparse system, where scipy's exact trust-region
+step takes an SVD of the whole Jacobian at every iteration; the soft-L1 loss can be put on the
+observation rows only (the model solver keeps it off its priors), where scipy's ``loss`` applies
+to every row; and each step is projected onto the bounds (a size stays above its least, a hinge
+at its stop stays there), where scipy's ``trf`` works in the interior with reflections.
+``vebuild bench solver`` compares the two for speed.
 """
 
 from __future__ import annotations
