@@ -323,7 +323,7 @@ def _pyrender_scene(pyrender: Any, scene: RenderScene, lighting: Lighting, backg
 
 def _close_pyrender(r: Any) -> None:
     """Free pyrender's renderer and EGL context without its ``delete``'s ``eglTerminate``."""
-    from OpenGL import EGL  # type: ignore[import-not-found]  # PyOpenGL, pyrender's dependency: no stubs
+    from OpenGL import EGL  # type: ignore[import-not-found,import-untyped,unused-ignore]  # PyOpenGL, pyrender's dependency: no stubs
 
     plat = r._platform
     if plat is None:
