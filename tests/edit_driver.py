@@ -7,6 +7,7 @@ import subprocess
 from pathlib import Path
 
 import numpy as np
+from xinput import XInput
 
 from vebuild.edit.screen import Editor
 from vebuild.edit.session import EditSession
@@ -29,6 +30,7 @@ class Driver:
         ids = subprocess.run([xdotool, "search", "--name", TITLE], capture_output=True, text=True).stdout.split()
         self.wid = ids[-1]
         subprocess.run([xdotool, "windowfocus", "--sync", self.wid], check=True)
+        self.input = XInput(xdotool, self.window.handle, self.editor.frame)
         self.frames(len(self.session.photo_ids) + 2)  # the thumbnails, one a frame
 
     def frames(self, n: int) -> None:
@@ -37,10 +39,7 @@ class Driver:
 
     def send(self, *args: str) -> None:
         """Run one xdotool command line while the window keeps drawing frames (it reads the events)."""
-        proc = subprocess.Popen([self.xdotool, *args])
-        while proc.poll() is None:
-            self.editor.frame()
-        assert proc.returncode == 0
+        self.input.send(*args)
         self.frames(4)
 
     def move_to(self, x: float, y: float) -> list[str]:

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from PIL import Image
 from viewer_scene import DOOR_LIMITS_DEG, write_project
+from xinput import XInput
 
 from vebuild.camera import project as project_points
 from vebuild.cli import main
@@ -46,6 +47,7 @@ class Driver:
         ids = subprocess.run([xdotool, "search", "--name", TITLE], capture_output=True, text=True).stdout.split()
         self.wid = ids[-1]
         subprocess.run([xdotool, "windowfocus", "--sync", self.wid], check=True)
+        self.input = XInput(xdotool, self.window.handle, self.viewer.frame)
         if gui and not panel:
             self.send("key", "F1")  # the panel off, so that it covers none of the small window's scene
             assert not self.viewer.show_panel
@@ -56,10 +58,7 @@ class Driver:
 
     def send(self, *args: str) -> None:
         """Run one xdotool command line while the window keeps drawing frames (it reads the events)."""
-        proc = subprocess.Popen([self.xdotool, *args])
-        while proc.poll() is None:
-            self.viewer.frame()
-        assert proc.returncode == 0
+        self.input.send(*args)
         self.frames(4)
 
     def move_to(self, x: float, y: float) -> list[str]:

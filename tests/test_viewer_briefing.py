@@ -13,6 +13,7 @@ import glfw
 import numpy as np
 import pytest
 from viewer_scene import ROOM_X, ROOM_Y, write_project
+from xinput import XInput
 
 from vebuild.camera import fov_to_focal
 from vebuild.camera import project as project_points
@@ -55,16 +56,14 @@ class Driver:
         self.wid = subprocess.run([xdotool, "search", "--name", TITLE], capture_output=True,
                                   text=True).stdout.split()[-1]
         subprocess.run([xdotool, "windowfocus", "--sync", self.wid], check=True)
+        self.input = XInput(xdotool, self.window.handle, self.viewer.frame)
 
     def frames(self, n: int) -> None:
         for _ in range(n):
             self.viewer.frame()
 
     def send(self, *args: str) -> None:
-        proc = subprocess.Popen([self.xdotool, *args])
-        while proc.poll() is None:
-            self.viewer.frame()
-        assert proc.returncode == 0
+        self.input.send(*args)
         self.frames(4)
 
     def move_to(self, x: float, y: float) -> list[str]:

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from PIL import Image
+from xinput import XInput
 
 from vebuild.analysis.markers import MARKER_COLOUR
 from vebuild.analysis.recorded import run_recorded
@@ -61,6 +62,7 @@ class Driver:
         self.wid = subprocess.run([xdotool, "search", "--name", TITLE], capture_output=True,
                                   text=True).stdout.split()[-1]
         subprocess.run([xdotool, "windowfocus", "--sync", self.wid], check=True)
+        self.input = XInput(xdotool, self.window.handle, self.viewer.frame)
         self.send("key", "F1")  # the panel off: it covers none of the scene
 
     def frames(self, n: int) -> None:
@@ -68,10 +70,7 @@ class Driver:
             self.viewer.frame()
 
     def send(self, *args: str) -> None:
-        proc = subprocess.Popen([self.xdotool, *args])
-        while proc.poll() is None:
-            self.viewer.frame()
-        assert proc.returncode == 0
+        self.input.send(*args)
         self.frames(4)
 
     def click_at(self, X) -> None:
