@@ -88,7 +88,7 @@ class History(SessionState):
             # it: only the inputs, and results it changed, are validated again (the covariance
             # matrices make a whole validation most of an edit's time).
             kept = [k for k in RESULT_KEYS if k in self.data and self.data[k] == before.get(k)]
-            validate({k: v for k, v in self.data.items() if k not in kept}, self.project.path)
+            validate({k: v for k, v in self.data.items() if k not in kept}, self.project.path, valid_before=before)
         except VebuildError as e:
             self.project.data = before
             self._cache.clear()

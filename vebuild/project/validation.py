@@ -62,22 +62,103 @@ def _validator() -> jsonschema.Draft202012Validator:
     return jsonschema.Draft202012Validator(schema())
 
 
-def validate(data: Any, file: str | os.PathLike[str]) -> None:
+#: The lists whose items the schema checks one by one, each against the same schema and valid or
+#: not whatever its neighbours are (``"items"`` alone): an edit's validation checks only the items
+#: that were not in the list before it. A house's ten thousand pins made the schema check of every
+#: edit several seconds; a list whose schema says more (a length, unique items) is checked whole.
+ITEM_LISTS = (("photos",), ("model", "nodes"), ("model", "pins"), ("model", "edge_observations"))
+
+
+def validate(data: Any, file: str | os.PathLike[str], valid_before: Any = None) -> None:
     """Check a document against format version 1; ProjectError naming ``file`` if it does not match.
 
     Checked in order: that it is a vebuild project of version 1 (so that a file of another version
     gets that message rather than a list of schema differences), the schema, then what a schema
     cannot say (unique names, names that refer to something, finite numbers, relative paths).
+    ``valid_before``, a document that passed this check (the one before an edit), spares the schema
+    check the items of :data:`ITEM_LISTS` found in its same list; all else is checked as without it.
     """
     try:
         _check_format_version(data, file)
         _check_values(data, file)
-        errors = list(_validator().iter_errors(data))
+        if valid_before is None:
+            errors = list(_validator().iter_errors(data))
+        else:
+            checked, where = _new_items(data, valid_before)
+            errors = list(_validator().iter_errors(checked))
+            for e in errors:  # the paths of the list that was checked, back to the document's indices
+                path = list(e.path)
+                for prefix, index in where.items():
+                    n = len(prefix)
+                    if tuple(path[:n]) == prefix and len(path) > n and isinstance(path[n], int):
+                        path[n] = index[path[n]]
+                e.relative_path.clear()  # the deque its absolute path is read from
+                e.relative_path.extend(path)
         if errors:
             raise _schema_error(errors, file)
         _check_semantics(data, file)
     except ProjectError as e:
         raise e.named(field_words(e.where, data)) from None
+
+
+@cache
+def _item_list_schemas_plain() -> tuple[tuple[str, ...], ...]:
+    """Those of :data:`ITEM_LISTS` whose schema is a list with ``items`` and nothing more."""
+    root = schema()
+
+    def at(sch: dict[str, Any], key: str) -> dict[str, Any]:
+        sch = sch["properties"][key]
+        while "$ref" in sch:
+            sch = root["$defs"][sch["$ref"].removeprefix("#/$defs/")]
+        return sch
+
+    plain = []
+    for path in ITEM_LISTS:
+        sch = root
+        for key in path:
+            sch = at(sch, key)
+        if set(sch) <= {"type", "items", "description"} and sch.get("type") == "array":
+            plain.append(path)
+    return tuple(plain)
+
+
+def _new_items(data: Any, before: Any) -> tuple[Any, dict[tuple[str, ...], list[int]]]:
+    """``data`` with the lists of :data:`ITEM_LISTS` cut to the items not in ``before``'s same
+    list (dicts along the way copied: the document itself is not changed), and for each list cut,
+    the indices in ``data`` of the items kept."""
+    out = dict(data)
+    where: dict[tuple[str, ...], list[int]] = {}
+    for path in _item_list_schemas_plain():
+        new, old = _get(data, path), _get(before, path)
+        if not isinstance(new, list) or not isinstance(old, list):
+            continue
+        seen: set[str] | None = None
+        keep = []
+        for i, item in enumerate(new):
+            if i < len(old) and item == old[i]:
+                continue
+            if len(new) == len(old):  # changed in place (a pin moved, a node's size typed)
+                keep.append(i)
+                continue
+            if seen is None:  # items moved (one removed or added before them) are found by their text
+                seen = {json.dumps(x, sort_keys=True, default=repr) for x in old}
+            if json.dumps(item, sort_keys=True, default=repr) not in seen:
+                keep.append(i)
+        node = out
+        for key in path[:-1]:
+            node[key] = dict(node[key])
+            node = node[key]
+        node[path[-1]] = [new[i] for i in keep]
+        where[path] = keep
+    return out, where
+
+
+def _get(doc: Any, path: tuple[str, ...]) -> Any:
+    for key in path:
+        if not isinstance(doc, dict):
+            return None
+        doc = doc.get(key)
+    return doc
 
 
 def _check_format_version(data: Any, file: Any) -> None:

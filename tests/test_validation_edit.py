@@ -1,0 +1,103 @@
+"""An edit's validation (``validate(..., valid_before=...)``) checks only the list items the edit
+brought, and says exactly what a whole validation says about them: the same field (its index in
+the document, not in the list checked) and the same words."""
+
+from __future__ import annotations
+
+import copy
+import json
+
+import pytest
+
+from vebuild.errors import ProjectError
+from vebuild.project.validation import ITEM_LISTS, _item_list_schemas_plain, _new_items, validate
+from vebuild.resources import example_project_dir
+
+FILE = "room.vebuild.json"
+
+
+@pytest.fixture(scope="module")
+def example() -> dict:
+    return json.loads((example_project_dir() / FILE).read_text("utf-8"))
+
+
+def test_every_item_list_is_checked_item_by_item():
+    """The lists named are all plain item lists in the schema: else an edit of a house would check
+    its ten thousand pins again."""
+    assert _item_list_schemas_plain() == ITEM_LISTS
+
+
+def _message(data, **kw) -> str | None:
+    try:
+        validate(data, FILE, **kw)
+    except ProjectError as e:
+        return str(e)
+    return None
+
+
+def _broken(example, how):
+    data = copy.deepcopy(example)
+    how(data)
+    return data
+
+
+def _set(path, value):
+    def how(data):
+        node = data
+        for k in path[:-1]:
+            node = node[k]
+        node[path[-1]] = value
+    return how
+
+
+def _drop_first_pin_then(how):
+    def both(data):
+        del data["model"]["pins"][0]  # every later pin moves down one place
+        how(data)
+    return both
+
+
+BREAKS = {
+    "a pin's uv a word": _set(("model", "pins", 7, "uv"), "here"),
+    "a pin without its handle": lambda d: d["model"]["pins"][40].pop("handle"),
+    "a new pin with a misspelt key": lambda d: d["model"]["pins"].append(
+        {"photo": "p1", "node": "floor", "handel": "v1", "uv": [10.0, 20.0], "fixed": True}),
+    "a node's width negative": _set(("model", "nodes", 1, "primitive", "params", "width"), -0.4),
+    "a node's joint type unknown": _set(("model", "nodes", 3, "joint", "type"), "glued"),
+    "a photo's width a string": _set(("photos", 2, "width"), "1600"),
+    "an edge observation's points short": _set(("model", "edge_observations", 5, "points"), [[1.0, 2.0]]),
+    "after a removed pin, a later one broken": _drop_first_pin_then(_set(("model", "pins", 90, "fixed"), "yes")),
+    "a marker outside the lists broken": _set(("markers", 0, "name"), 5),
+}
+
+
+@pytest.mark.parametrize("name", list(BREAKS))
+def test_an_edits_check_says_what_the_whole_check_says(example, name):
+    data = _broken(example, BREAKS[name])
+    whole = _message(data)
+    assert whole is not None, "the break is one the validation finds"
+    assert _message(data, valid_before=example) == whole
+
+
+def test_unchanged_and_moved_items_are_not_checked_again_and_the_document_is_untouched(example):
+    data = copy.deepcopy(example)
+    del data["model"]["pins"][0]
+    data["model"]["nodes"][2]["primitive"]["params"]["height"] = 0.9
+    snapshot = copy.deepcopy(data)
+    checked, where = _new_items(data, example)
+    assert where[("model", "pins")] == [] and checked["model"]["pins"] == []
+    assert where[("model", "nodes")] == [2] and checked["model"]["nodes"] == [data["model"]["nodes"][2]]
+    assert where[("photos",)] == [] and where[("model", "edge_observations")] == []
+    assert data == snapshot
+    assert _message(data, valid_before=example) is None
+
+
+def test_a_semantic_mistake_in_unchanged_items_is_still_found(example):
+    """What the schema cannot say (a pin naming a node that is gone) is checked on the whole
+    document, so removing a node its unchanged pins name is refused."""
+    data = copy.deepcopy(example)
+    gone = data["model"]["pins"][0]["node"]
+    data["model"]["nodes"] = [n for n in data["model"]["nodes"] if n["name"] != gone]
+    whole = _message(data)
+    assert whole is not None and gone in whole
+    assert _message(data, valid_before=example) == whole
