@@ -329,7 +329,13 @@ class Modelling(Marks):
         if self._drag is not None:
             return self._drag.model, self._drag.x_good
         m = self.model
-        return m, (m.vector() if m is not None else None)
+        if m is None:
+            return None, None
+        if "vector" not in self._cache:  # as the transforms: kept until the next change (asked per node)
+            v = m.vector()
+            v.setflags(write=False)  # shared by every caller until the next change
+            self._cache["vector"] = v
+        return m, self._cache["vector"]
 
     def handles(self, photo: str,
                 nodes: Sequence[str] | None = None) -> list[tuple[str, str, tuple[float, float], bool]]:
@@ -452,7 +458,9 @@ class Modelling(Marks):
         ds.problem.set_pin_pixel(ds._pin_index, d.uv_good)
         reason = shape or self._why_stuck(d, res.fixed_error_px - d.baseline_fixed if res is not None else None)
         cam = self.cameras[ds.photo]
-        hp = cam_math.project(cam.K, cam.R, cam.C, d.model.handle_world(ds.node, ds.handle, d.x_good), cam.k1)
+        # the transforms as last shown (those of x_good): the whole house's would be recomputed
+        hp = cam_math.project(cam.K, cam.R, cam.C, d.model.handle_world(ds.node, ds.handle, d.x_good,
+                                                                        self._transforms()), cam.k1)
         return DragFeedback(False, reason, (float(hp[0]), float(hp[1])), 1e3 * (time.perf_counter() - t0))
 
     def _why_stuck(self, d: _Drag, fixed_shift: float | None) -> str:
@@ -467,7 +475,8 @@ class Modelling(Marks):
                "slider": "it slides along its runner only" + (" and is at its limit" if _at_limit(j) else ""),
                "marker": f"it is tied to marker '{getattr(j, 'marker', '?')}' (it turns about it only)",
                "fixed": "it is fixed to its parent", "free": "it moves freely"}.get(j.type, f"its {j.type} joint")
-        pins = [p for p in ds.other_pins if p.fixed and p.node in set(ds.moved) and p.photo in self.cameras]
+        moved = set(ds.moved)
+        pins = [p for p in ds.other_pins if p.fixed and p.node in moved and p.photo in self.cameras]
         fixed = sorted({f"{p.node}:{p.handle}" for p in pins if (p.node, p.handle) != (ds.node, ds.handle)})
         itself = sorted({p.photo for p in pins if (p.node, p.handle) == (ds.node, ds.handle)})
         held = f"; its fixed vertices {', '.join(fixed[:4])} hold it" if fixed else ""
