@@ -483,3 +483,19 @@ def test_the_schema_lists_exactly_the_registered_primitive_types() -> None:
     assert found, "the schema has no primitive record"
     for enum in found:
         assert list(enum) == list(PRIMITIVE_TYPES)
+
+
+def test_a_mesh_is_made_once_per_primitive_and_shared_read_only():
+    """Equal primitives share one kept mesh (a house's screens ask again for every unchanged
+    primitive's after each edit); another size, segment count or density is another mesh; the
+    shared arrays cannot be written, so no caller can change another's mesh."""
+    a, b = Cylinder(radius=0.31, height=0.72), Cylinder(radius=0.31, height=0.72)
+    m = a.mesh(segments=16)
+    assert b.mesh(segments=16) is m
+    assert a.mesh(segments=24) is not m and a.mesh(None, 16) is m
+    assert a.mesh(200.0, 16) is not m
+    other = Cylinder(radius=0.32, height=0.72).mesh(segments=16)
+    assert other is not m and not np.allclose(other.vertices.max(axis=0), m.vertices.max(axis=0))
+    for arr in (m.vertices, m.faces, m.face_ids, m.normals, m.uv, m.chart_size_m, m.chart_uv):
+        with pytest.raises(ValueError, match="read-only"):
+            arr[0] = 0

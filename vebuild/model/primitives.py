@@ -49,8 +49,11 @@ Layer 1 (DESIGN.md): numpy only; no GL, no file I/O.
 from __future__ import annotations
 
 import abc
+import dataclasses
 import functools
 import numbers
+import threading
+from collections import OrderedDict
 from collections.abc import Mapping
 from typing import Any, ClassVar, Self
 
@@ -73,6 +76,13 @@ Array = NDArray[np.float64]
 _REGISTRY: dict[str, type[Primitive]] = {}
 #: Sizes never go below this (metres): "sizes stay positive" with a margin the solver can use.
 MIN_SIZE_M = 1e-3
+
+#: Meshes made, the most recently asked for kept, by (primitive, segments, density): a house's
+#: screens ask again for the meshes of its hundreds of unchanged primitives after every edit.
+#: A kept mesh's arrays are read-only, since every caller shares it.
+MESH_CACHE_SIZE = 2048
+_MESHES: OrderedDict[tuple[Any, int, float | None], Mesh] = OrderedDict()
+_MESHES_LOCK = threading.Lock()
 
 
 def _param_value(self: Primitive, index: int) -> float:
@@ -319,7 +329,22 @@ class Primitive(abc.ABC):
             raise ValueError(f"segments must be at least 3, got {segments}")
         if texels_per_metre is not None and not (np.isfinite(texels_per_metre) and texels_per_metre > 0):
             raise ValueError(f"texels_per_metre must be > 0, got {texels_per_metre}")
-        return assemble(self._patches(self._p, int(segments)), texels_per_metre)
+        key = (self, int(segments), None if texels_per_metre is None else float(texels_per_metre))
+        with _MESHES_LOCK:
+            kept = _MESHES.get(key)
+            if kept is not None:
+                _MESHES.move_to_end(key)
+                return kept
+        mesh = assemble(self._patches(self._p, int(segments)), texels_per_metre)
+        for f in dataclasses.fields(mesh):
+            value = getattr(mesh, f.name)
+            if isinstance(value, np.ndarray):
+                value.setflags(write=False)
+        with _MESHES_LOCK:
+            _MESHES[key] = mesh
+            while len(_MESHES) > MESH_CACHE_SIZE:
+                _MESHES.popitem(last=False)
+        return mesh
 
     @abc.abstractmethod
     def _patches(self, p: Array, segments: int) -> list[Patch | None]:
