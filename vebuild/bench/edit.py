@@ -62,7 +62,8 @@ def _frame_ms(editor: Any) -> float:
 
 def _drag(editor: Any, node: str, handle: str, moves: int) -> dict[str, list[float]]:
     """Press on the handle, move ``moves`` times (there and back), release; per move the update's
-    time and the solve's share of it."""
+    time and the solve's share of it, and the release's time (the edit kept: validated and put in
+    the undo history) with the frame after it (``release``, one value)."""
     import glfw
 
     s = editor.session
@@ -84,8 +85,10 @@ def _drag(editor: Any, node: str, handle: str, moves: int) -> dict[str, list[flo
         out["solve"].append(editor.timings.get("drag_solve_ms", 0.0))
         out["overlay"].append(editor.timings.get("overlay_ms", 0.0))
         out["failed"].append(float(editor.last_feedback is not None and not editor.last_feedback.ok))
+    t0 = time.perf_counter()
     editor.on_button(glfw.MOUSE_BUTTON_LEFT, glfw.RELEASE, 0)
     _frame_ms(editor)
+    out["release"] = [1e3 * (time.perf_counter() - t0)]
     return out
 
 
