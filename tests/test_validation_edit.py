@@ -10,7 +10,14 @@ import json
 import pytest
 
 from vebuild.errors import ProjectError
-from vebuild.project.validation import ITEM_LISTS, _item_list_schemas_plain, _new_items, validate
+from vebuild.project.validation import (
+    ITEM_LISTS,
+    _fast_validator,
+    _item_list_schemas_plain,
+    _new_items,
+    _validator,
+    validate,
+)
 from vebuild.resources import example_project_dir
 
 FILE = "room.vebuild.json"
@@ -101,3 +108,11 @@ def test_a_semantic_mistake_in_unchanged_items_is_still_found(example):
     whole = _message(data)
     assert whole is not None and gone in whole
     assert _message(data, valid_before=example) == whole
+
+
+@pytest.mark.parametrize("name", [None, *BREAKS])
+def test_the_compiled_schema_agrees_with_jsonschema(example, name):
+    """jsonschema-rs says whether a document matches and jsonschema is asked only where it does
+    not: both must agree on every document, valid or broken (the loader's fuzz tries many more)."""
+    data = example if name is None else _broken(example, BREAKS[name])
+    assert _fast_validator().is_valid(data) == (not list(_validator().iter_errors(data)))
