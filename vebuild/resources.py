@@ -6,6 +6,7 @@ An installed wheel carries them under ``vebuild/_data`` (see pyproject.toml); a 
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 _PACKAGE = Path(__file__).resolve().parent
@@ -31,3 +32,9 @@ def package_data_file(name: str) -> Path:
     if not path.is_file():
         raise FileNotFoundError(f"vebuild's data file 'data/{name}' is missing from this installation")
     return path
+
+
+def cache_dir() -> Path:
+    """The user's cache of what vebuild can make again (``~/.cache/vebuild``; ``VEBUILD_CACHE``
+    overrides it): generated benchmark scenes, the sizes of photos already decoded whole."""
+    return Path(os.environ.get("VEBUILD_CACHE") or Path.home() / ".cache" / "vebuild")

@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import io
 import json
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -30,6 +29,7 @@ from numpy.typing import NDArray
 from PIL import Image
 
 from ..project.atomic import write_bytes
+from ..resources import cache_dir
 from ..synthetic import ROOM, SyntheticPhoto, realistic_camera
 
 Array = NDArray[np.float64]
@@ -48,8 +48,7 @@ class GeneratedPhoto:
 
 
 def cache_folder() -> Path:
-    base = Path(os.environ.get("VEBUILD_CACHE") or Path.home() / ".cache" / "vebuild")
-    return base / "bench-detect" / f"v{GENERATOR_VERSION}"
+    return cache_dir() / "bench-detect" / f"v{GENERATOR_VERSION}"
 
 
 def _coverage(q: Array, step: float, fp: Array, offset: float = 0.0) -> Array:

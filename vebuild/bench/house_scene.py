@@ -14,7 +14,6 @@ never in the repository; a folder is complete once ``complete.json`` is written 
 from __future__ import annotations
 
 import json
-import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -24,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from ..project.atomic import write_bytes
+from ..resources import cache_dir
 from ..synthetic_house import House, house_scene, write_house_project
 
 #: Bump when the house or its rendering changes: old caches are then not reused.
@@ -45,8 +45,7 @@ class CachedHouse:
 
 
 def cache_folder() -> Path:
-    base = Path(os.environ.get("VEBUILD_CACHE") or Path.home() / ".cache" / "vebuild")
-    return base / "bench-house" / f"v{GENERATOR_VERSION}"
+    return cache_dir() / "bench-house" / f"v{GENERATOR_VERSION}"
 
 
 def truth_record(house: House) -> dict[str, Any]:

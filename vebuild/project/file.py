@@ -22,8 +22,7 @@ from typing import Any
 from ..calibration.priors import PRINCIPAL_POINT_SIGMA_REL
 from ..errors import ProjectError
 from ..lighting import AS_PHOTOGRAPHED
-from .images import MAX_IMAGE_PIXELS, open_image, read_exif, sha256_bytes, sha256_file
-from .images import image_size as _image_size
+from .images import MAX_IMAGE_PIXELS, decoded_size, open_image, read_exif, sha256_bytes, sha256_file
 from .validation import (
     FORMAT,
     VERSION,
@@ -267,7 +266,7 @@ def _verify_photo(project: Project, i: int, photo: dict[str, Any]) -> None:
                            f"expected SHA-256 {photo['sha256'][:_HASH_SHOWN]}..., found "
                            f"{found[:_HASH_SHOWN]}...; vebuild will not use a changed photo, since the marks "
                            "made on it may no longer fit. Restore the original file, or add the photo again")
-    size = _image_size(image, project.path, f"{where}.file")
+    size = decoded_size(image, found, project.path, f"{where}.file")
     if size != (photo["width"], photo["height"]):
         turned = ""
         if size == (photo["height"], photo["width"]):
@@ -370,13 +369,16 @@ def new_photo_entry(project_folder: str | os.PathLike[str], image_path: str | os
     elif not re.fullmatch(r"[A-Za-z0-9_.-]+", photo_id):
         raise ProjectError(image, "", f"expected a photo id made of letters, digits, '_', '.' and '-' only, "
                            f"found {photo_id!r}")
-    width, height = _image_size(image, image, "")
+    if not image.is_file():
+        raise ProjectError(image, "", f"photo file not found: {image}")
+    sha256 = sha256_file(image)
+    width, height = decoded_size(image, sha256, image, "")
     entry: dict[str, Any] = {
         "id": photo_id,
         "file": image.relative_to(folder).as_posix(),
         "width": width,
         "height": height,
-        "sha256": sha256_file(image),
+        "sha256": sha256,
     }
     if exif := read_exif(image):
         entry["exif"] = exif

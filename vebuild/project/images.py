@@ -15,7 +15,9 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
+import importlib.metadata
 import io
+import json
 import math
 import os
 import warnings
@@ -24,10 +26,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import PIL
 from numpy.typing import NDArray
 from PIL import Image, TiffImagePlugin, UnidentifiedImageError
 
 from ..errors import ProjectError
+from ..resources import cache_dir
+from .atomic import write_text
 
 #: The most pixels an image vebuild reads may have: 120 megapixels, more than the largest camera
 #: sensor in use (100 MP) and below Pillow's decompression-bomb guard (179 MP). Larger images are
@@ -142,6 +147,37 @@ def image_size(image: Path, file: Any, where: str) -> tuple[int, int]:
     with open_image(image, file, where, decode=True) as img:
         w, h = img.size
         return (h, w) if photo_orientation(img, file, where, str(image)) in _QUARTER_TURNS else (w, h)
+
+
+#: The folder (in :func:`vebuild.resources.cache_dir`) where the size of each photo decoded whole
+#: is recorded under its SHA-256: the same bytes decoded whole once by the same decoder are known
+#: whole, and a command need not decode them again to say so (a house's hundred 24 MP photos were
+#: most of every command's start).
+DECODED_FOLDER = "photos-decoded"
+
+
+def decoded_size(image: Path, sha256: str, file: Any, where: str) -> tuple[int, int]:
+    """:func:`image_size` of a photo whose bytes the caller has checked to have SHA-256 ``sha256``:
+    the size recorded when those bytes were last decoded whole on this machine by this decoder,
+    else decoded whole now (and recorded; a cache that cannot be written is left alone)."""
+    decoder = _decoder(image)
+    record = cache_dir() / DECODED_FOLDER / f"{sha256}.json"
+    with contextlib.suppress(OSError, ValueError, AttributeError):
+        got = json.loads(record.read_text("utf-8"))
+        w, h = got["width"], got["height"]
+        if got["decoder"] == decoder and type(w) is int and type(h) is int and w > 0 and h > 0:
+            return w, h
+    size = image_size(image, file, where)
+    with contextlib.suppress(OSError):
+        record.parent.mkdir(parents=True, exist_ok=True)
+        write_text(record, json.dumps({"width": size[0], "height": size[1], "decoder": decoder}))
+    return size
+
+
+def _decoder(image: Path) -> str:
+    if is_raw(image):
+        return f"LibRaw (rawpy {importlib.metadata.version('rawpy')})"
+    return f"Pillow {PIL.__version__}"
 
 
 def photo_orientation(img: Image.Image, file: Any, where: str, shown: str) -> int:
