@@ -82,7 +82,7 @@ def plain_html(textured_room, tmp_path_factory):
     return out
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")  # closed with the module: its last page's WebGL loop would take a core
 def browser():
     if CHROMIUM is None:
         pytest.skip("the HTML viewer's tests need a headless Chromium: `apt-get install chromium`")
