@@ -75,6 +75,8 @@ class Gui:
         self._opaque: set[int] = set()
         self._user_ids: dict[tuple[int, bool, bool], int] = {}
         self._time: float | None = None
+        self._moved = False  # the mouse moved since the frame began
+        self._later: list[tuple[str, tuple[Any, ...]]] = []  # mouse events held for the next frame
 
     # -- input ----------------------------------------------------------------------------------
 
@@ -90,14 +92,31 @@ class Gui:
             imgui.get_io().add_input_character(char)
 
     def on_cursor(self, x: float, y: float) -> None:
-        imgui.get_io().add_mouse_pos_event(x, y)
+        self._mouse("pos", x, y)
 
     def on_button(self, button: int, action: int) -> None:
         if button < 3:
-            imgui.get_io().add_mouse_button_event(button, action == glfw.PRESS)
+            self._mouse("button", button, action == glfw.PRESS)
 
     def on_scroll(self, dx: float, dy: float) -> None:
-        imgui.get_io().add_mouse_wheel_event(dx, dy)
+        self._mouse("wheel", dx, dy)
+
+    def _mouse(self, kind: str, *args: Any) -> None:
+        """Give ImGui a mouse event; a press, release or wheel after a move in the same frame (a
+        quick move and click while a slow frame was drawn) waits for the next frame, and every
+        mouse event after it, in order. ImGui takes a move and a press in one frame together, and
+        then does not find the widget under the new position: the click was lost."""
+        if self._later or (kind != "pos" and self._moved):
+            self._later.append((kind, args))
+            return
+        io = imgui.get_io()
+        if kind == "pos":
+            io.add_mouse_pos_event(*args)
+            self._moved = True
+        elif kind == "button":
+            io.add_mouse_button_event(*args)
+        else:
+            io.add_mouse_wheel_event(*args)
 
     def wants_mouse(self) -> bool:
         return bool(imgui.get_io().want_capture_mouse)
@@ -131,6 +150,10 @@ class Gui:
         io.delta_time = max(1e-4, now - self._time) if self._time is not None else 1.0 / 60.0
         self._time = now
         imgui.new_frame()
+        self._moved = False
+        later, self._later = self._later, []
+        for kind, args in later:  # what waited for this frame, in order (some may wait again)
+            self._mouse(kind, *args)
 
     def render(self) -> None:
         """End the frame and draw it over what the window holds."""
