@@ -51,13 +51,14 @@ def test_a_photo_is_decoded_once_then_known_by_its_hash(room, decodes):
     assert len(decodes) == n  # not decoded again
 
 
-@pytest.mark.parametrize("spoil", ["another decoder", "not JSON", "a size of zero"])
+@pytest.mark.parametrize("spoil", ["another decoder", "not JSON", "a size of zero", "a list", "no width"])
 def test_a_record_of_another_decoder_or_unreadable_is_decoded_again(room, decodes, spoil):
     load_project(room)
     first = _records(room)[0]
     got = json.loads(first.read_text())
     text = {"another decoder": json.dumps({**got, "decoder": "Pillow 0.1"}), "not JSON": "{width",
-            "a size of zero": json.dumps({**got, "width": 0})}[spoil]
+            "a size of zero": json.dumps({**got, "width": 0}), "a list": "[1, 2]",
+            "no width": json.dumps({k: v for k, v in got.items() if k != "width"})}[spoil]
     first.write_text(text)
     decodes.clear()
     load_project(room)

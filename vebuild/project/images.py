@@ -162,7 +162,7 @@ def decoded_size(image: Path, sha256: str, file: Any, where: str) -> tuple[int, 
     else decoded whole now (and recorded; a cache that cannot be written is left alone)."""
     decoder = _decoder(image)
     record = cache_dir() / DECODED_FOLDER / f"{sha256}.json"
-    with contextlib.suppress(OSError, ValueError, AttributeError):
+    with contextlib.suppress(OSError, ValueError, KeyError, TypeError):  # no record, or not one of ours
         got = json.loads(record.read_text("utf-8"))
         w, h = got["width"], got["height"]
         if got["decoder"] == decoder and type(w) is int and type(h) is int and w > 0 and h > 0:
