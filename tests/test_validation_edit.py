@@ -10,14 +10,8 @@ import json
 import pytest
 
 from vebuild.errors import ProjectError
-from vebuild.project.validation import (
-    ITEM_LISTS,
-    _fast_validator,
-    _item_list_schemas_plain,
-    _new_items,
-    _validator,
-    validate,
-)
+from vebuild.project.schema_match import ITEM_LISTS, fast_validator, new_items, plain_item_lists, reference_validator
+from vebuild.project.validation import validate
 from vebuild.resources import example_project_dir
 
 FILE = "room.vebuild.json"
@@ -31,7 +25,7 @@ def example() -> dict:
 def test_every_item_list_is_checked_item_by_item():
     """The lists named are all plain item lists in the schema: else an edit of a house would check
     its ten thousand pins again."""
-    assert _item_list_schemas_plain() == ITEM_LISTS
+    assert plain_item_lists() == ITEM_LISTS
 
 
 def _message(data, **kw) -> str | None:
@@ -91,7 +85,7 @@ def test_unchanged_and_moved_items_are_not_checked_again_and_the_document_is_unt
     del data["model"]["pins"][0]
     data["model"]["nodes"][2]["primitive"]["params"]["height"] = 0.9
     snapshot = copy.deepcopy(data)
-    checked, where = _new_items(data, example)
+    checked, where = new_items(data, example)
     assert where[("model", "pins")] == [] and checked["model"]["pins"] == []
     assert where[("model", "nodes")] == [2] and checked["model"]["nodes"] == [data["model"]["nodes"][2]]
     assert where[("photos",)] == [] and where[("model", "edge_observations")] == []
@@ -115,4 +109,4 @@ def test_the_compiled_schema_agrees_with_jsonschema(example, name):
     """jsonschema-rs says whether a document matches and jsonschema is asked only where it does
     not: both must agree on every document, valid or broken (the loader's fuzz tries many more)."""
     data = example if name is None else _broken(example, BREAKS[name])
-    assert _fast_validator().is_valid(data) == (not list(_validator().iter_errors(data)))
+    assert fast_validator().is_valid(data) == (not list(reference_validator().iter_errors(data)))

@@ -7,7 +7,10 @@ Layer 1 (DESIGN.md): numpy only; no GL, no file I/O.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import dataclasses
+import threading
+from collections import OrderedDict
+from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -198,3 +201,30 @@ def assemble(patches: Sequence[Patch | None], texels_per_metre: float | None) ->
         atlas_size_m=float(side),
     )
 
+
+
+#: Meshes made, the most recently asked for kept, by their maker's key (a primitive's: primitive,
+#: segments, density): a house's screens ask again for the meshes of its hundreds of unchanged
+#: primitives after every edit. A kept mesh's arrays are read-only, since every caller shares it.
+MESH_CACHE_SIZE = 2048
+_MESHES: OrderedDict[Hashable, Mesh] = OrderedDict()
+_MESHES_LOCK = threading.Lock()
+
+
+def kept_mesh(key: Hashable, make: Callable[[], Mesh]) -> Mesh:
+    """The mesh kept under ``key``, else ``make()``'s, its arrays made read-only and kept."""
+    with _MESHES_LOCK:
+        kept = _MESHES.get(key)
+        if kept is not None:
+            _MESHES.move_to_end(key)
+            return kept
+    mesh = make()
+    for f in dataclasses.fields(mesh):
+        value = getattr(mesh, f.name)
+        if isinstance(value, np.ndarray):
+            value.setflags(write=False)
+    with _MESHES_LOCK:
+        _MESHES[key] = mesh
+        while len(_MESHES) > MESH_CACHE_SIZE:
+            _MESHES.popitem(last=False)
+    return mesh

@@ -49,18 +49,15 @@ Layer 1 (DESIGN.md): numpy only; no GL, no file I/O.
 from __future__ import annotations
 
 import abc
-import dataclasses
 import functools
 import numbers
-import threading
-from collections import OrderedDict
 from collections.abc import Mapping
 from typing import Any, ClassVar, Self
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .mesh import Mesh, Patch, assemble, circle, polygon_patch, revolution_patch
+from .mesh import Mesh, Patch, assemble, circle, kept_mesh, polygon_patch, revolution_patch
 from .shapes import EX as _EX
 from .shapes import EY as _EY
 from .shapes import EZ as _EZ
@@ -76,13 +73,6 @@ Array = NDArray[np.float64]
 _REGISTRY: dict[str, type[Primitive]] = {}
 #: Sizes never go below this (metres): "sizes stay positive" with a margin the solver can use.
 MIN_SIZE_M = 1e-3
-
-#: Meshes made, the most recently asked for kept, by (primitive, segments, density): a house's
-#: screens ask again for the meshes of its hundreds of unchanged primitives after every edit.
-#: A kept mesh's arrays are read-only, since every caller shares it.
-MESH_CACHE_SIZE = 2048
-_MESHES: OrderedDict[tuple[Any, int, float | None], Mesh] = OrderedDict()
-_MESHES_LOCK = threading.Lock()
 
 
 def _param_value(self: Primitive, index: int) -> float:
@@ -330,21 +320,7 @@ class Primitive(abc.ABC):
         if texels_per_metre is not None and not (np.isfinite(texels_per_metre) and texels_per_metre > 0):
             raise ValueError(f"texels_per_metre must be > 0, got {texels_per_metre}")
         key = (self, int(segments), None if texels_per_metre is None else float(texels_per_metre))
-        with _MESHES_LOCK:
-            kept = _MESHES.get(key)
-            if kept is not None:
-                _MESHES.move_to_end(key)
-                return kept
-        mesh = assemble(self._patches(self._p, int(segments)), texels_per_metre)
-        for f in dataclasses.fields(mesh):
-            value = getattr(mesh, f.name)
-            if isinstance(value, np.ndarray):
-                value.setflags(write=False)
-        with _MESHES_LOCK:
-            _MESHES[key] = mesh
-            while len(_MESHES) > MESH_CACHE_SIZE:
-                _MESHES.popitem(last=False)
-        return mesh
+        return kept_mesh(key, lambda: assemble(self._patches(self._p, int(segments)), texels_per_metre))
 
     @abc.abstractmethod
     def _patches(self, p: Array, segments: int) -> list[Patch | None]:

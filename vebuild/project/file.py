@@ -23,6 +23,7 @@ from ..calibration.priors import PRINCIPAL_POINT_SIGMA_REL
 from ..errors import ProjectError
 from ..lighting import AS_PHOTOGRAPHED
 from .images import MAX_IMAGE_PIXELS, decoded_size, open_image, read_exif, sha256_bytes, sha256_file
+from .schema_match import schema
 from .validation import (
     FORMAT,
     VERSION,
@@ -30,7 +31,6 @@ from .validation import (
     json_path,
     listing,
     parse_document,
-    schema,
     validate,
 )
 
