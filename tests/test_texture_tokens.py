@@ -164,3 +164,65 @@ def test_a_render_marks_the_token_charts_faces_as_unseen(textured_room):
     changed = np.any(out["tint"] != out["off"], axis=-1)
     assert changed[on_token].mean() > 0.99
     assert not changed[fully_seen].any()
+
+
+def _id_buffer_faces(tex) -> set[int]:
+    a = np.frombuffer(tex.read(), "f4").reshape(tex.height, tex.width, 2)
+    return set(np.unique(a[..., 0]).astype(int).tolist()) - {0}
+
+
+def test_each_photos_passes_draw_only_the_faces_its_id_buffer_holds():
+    """The ID pass's occlusion queries name the faces in view that hold a pixel of its ID buffer
+    (a face tied with the nearest at a pixel too), and not a face that is in the photo's frustum
+    but hidden. A back face the buffer holds on a silhouette's pixels is not in view: pass 2
+    discards its texels (they face away)."""
+    from vebuild.texture.gpu import Extractor
+
+    model, ahead, _ = _two_boxes()
+    mesh = _mesh(model)
+    name = {f.id: (f.node, f.name) for f in mesh.faces}
+    ex = Extractor(headless_context(), mesh, Options())
+    try:
+        in_view = ex._visible_faces(ahead)
+        assert any(name[i][0] == "far" for i in in_view)  # in the frustum, facing the camera
+        tex = ex.id_pass(ahead, 0.0)
+        assert ex.id_faces == _id_buffer_faces(tex) & in_view and ex.id_faces
+        assert not any(name[i][0] == "far" for i in ex.id_faces)
+    finally:
+        ex.release()
+    mesh2 = _mesh(true_model())
+    ex2 = Extractor(headless_context(), mesh2, Options())
+    try:
+        fewer = 0
+        for cam in true_cameras():
+            in_view = ex2._visible_faces(cam)
+            tex = ex2.id_pass(cam, 0.0)
+            assert _id_buffer_faces(tex) & in_view <= ex2.id_faces <= in_view, cam.id
+            fewer += len(in_view) - len(ex2.id_faces)
+            tex = ex2.id_pass(cam, Options().erode_px)
+            assert _id_buffer_faces(tex) & in_view <= ex2.id_faces, cam.id
+        assert fewer >= 10  # the example's photos have faces in view that are hidden
+    finally:
+        ex2.release()
+
+
+def test_drawing_only_the_faces_an_id_buffer_holds_changes_no_texel(monkeypatch):
+    """The textures are bit for bit those of pass 2 drawn over every face in the frustum."""
+    from vebuild.texture.gpu import Extractor
+
+    model, cams = true_model(), true_cameras()
+    sources = {c.id: PhotoSource(c.id, photo_path(c.id)) for c in cams}
+    opts = Options(texels_per_metre=30.0, token_charts=False)
+    culled = extract(model, cams, sources, opts)
+    id_pass = Extractor.id_pass
+
+    def whole_frustum(self, cam, erode_px):
+        tex = id_pass(self, cam, erode_px)
+        self.id_faces = self._visible_faces(cam)
+        return tex
+
+    monkeypatch.setattr(Extractor, "id_pass", whole_frustum)
+    every = extract(model, cams, sources, opts)
+    assert len(culled.atlases) == len(every.atlases)
+    for a, b in zip(culled.atlases + culled.coverage, every.atlases + every.coverage, strict=True):
+        assert np.array_equal(a, b)

@@ -25,7 +25,7 @@ from vebuild.texture.gpu_pyramid import PhotoPyramid, fullscreen_vao
 from vebuild.texture.layout import SceneMesh
 from vebuild.texture.lens import lens_uniforms, pinhole_cover
 from vebuild.texture.options import Options
-from vebuild.texture.visibility import face_points, faces_in_view
+from vebuild.texture.visibility import FaceQueries, face_points, faces_in_view
 
 Array = NDArray[np.float64]
 #: Exposure statistics are taken on the atlas reduced this much per side.
@@ -105,6 +105,9 @@ class Extractor:
         self._id_ibo = ctx.buffer(mesh.triangles.astype("i4").tobytes())
         self._id_vao = ctx.vertex_array(self._programs["id"], [(self._id_vbo, "3f 1f", "in_position", "in_face")],
                                         self._id_ibo)
+        self._face_queries = FaceQueries(ctx, self._programs["id"], self._id_vbo, mesh)
+        #: The faces that hold a pixel of the last ID buffer drawn (:meth:`id_pass`).
+        self.id_faces: set[int] = set()
         self._border, self._interior = mesh.boundary_edges()
         self._edge_vbo = ctx.buffer(reserve=max(1, (len(self._border) + len(self._interior)) * 2 * 12))
         self._edge_vao = ctx.vertex_array(self._programs["edges"], [(self._edge_vbo, "3f", "in_position")])
@@ -186,8 +189,15 @@ class Extractor:
     def id_pass(self, cam: ImageCamera, erode_px: float) -> moderngl.Texture:
         """Render the ID buffer (face id, depth) of ``cam``; returns its texture. For a photo with
         lens distortion the buffer is its :func:`~vebuild.texture.lens.pinhole_cover`'s (a pinhole
-        image over the photo's undistorted bounds); for a pinhole, the photo's own frame."""
+        image over the photo's undistorted bounds); for a pinhole, the photo's own frame.
+
+        Sets :attr:`id_faces`: the faces in view that are the nearest surface at some pixel centre
+        (occlusion queries on the depth buffer, before the edges are drawn). Pass 2 sees a texel
+        only where its face holds the texel's pixel in the ID buffer, so no other face has a texel
+        this photo sees, and pass 2 draws only these: in a house, a photo's frustum takes in the
+        rooms behind its walls (on the quick house, 1,345 faces in view, 94 seen)."""
         ctx = self.ctx
+        in_view = self._visible_faces(cam)
         cam, _ = pinhole_cover(cam)
         key = (cam.width, cam.height)
         if self._id_tex is None or self._id_tex.size != key:  # one size at a time: photos rarely differ
@@ -211,6 +221,7 @@ class Extractor:
         fbo.depth_mask = True
         set_uniforms(self._programs["id"], view=V, projection=P)
         self._id_vao.render(moderngl.TRIANGLES)
+        self.id_faces = self._face_queries.nearest(fbo, in_view)
         if erode_px > 0:
             lines = self._edge_lines(cam, near)
             if len(lines):
@@ -320,7 +331,7 @@ class Extractor:
             small = cam.scaled(BEST_WEIGHT_SCALE)
             with self.timings.stage("best_weight", self.ctx if self._profile else None):
                 id_tex = self.id_pass(small, pre_pass_erosion(self.opt.erode_px))
-                faces = self._visible_faces(cam)
+                faces = self.id_faces
                 self.ctx.enable(moderngl.BLEND)
                 self.ctx.blend_func = moderngl.ONE, moderngl.ONE
                 self.ctx.blend_equation = moderngl.MAX, moderngl.MAX
@@ -340,7 +351,7 @@ class Extractor:
         at once. :meth:`add_photo` runs it if it was not."""
         with self.timings.stage("id_pass", self.ctx if self._profile else None):
             self.id_pass(cam, self.opt.erode_px)
-            self._id_for = (cam.id, self._visible_faces(cam))
+            self._id_for = (cam.id, self.id_faces)
 
     def upload_photo(self, cam: ImageCamera, pixels: NDArray[np.uint8]) -> None:
         """Put ``cam``'s photo on the GPU for :meth:`add_photo`, which builds its pyramid; the
@@ -537,5 +548,6 @@ class Extractor:
         self._idle_fbo.release()
         for vao in self._soup_vaos.values():
             vao.release()
+        self._face_queries.release()
         for b in (self._id_vbo, self._id_ibo, self._edge_vbo, self._soup_vbo):
             b.release()

@@ -65,33 +65,72 @@ def faces_in_view(points: FacePoints, cam: ImageCamera) -> set[int]:
     return out
 
 
+class FaceQueries:
+    """The triangles of ``mesh`` sorted by face, drawn one face at a time inside an occlusion query
+    against the depth buffer of the framebuffer in use (drawn with the same program, vertices and
+    matrices): which faces hold a pixel of it."""
+
+    def __init__(self, ctx: moderngl.Context, prog: moderngl.Program, vbo: moderngl.Buffer, mesh: SceneMesh):
+        self.ctx = ctx
+        tri_face = mesh.triangle_faces
+        order = np.argsort(tri_face, kind="stable")
+        by_face = tri_face[order]
+        fids = np.unique(by_face)
+        first = np.searchsorted(by_face, fids, side="left")
+        last = np.searchsorted(by_face, fids, side="right")
+        self.runs = {int(f): (int(a), int(b - a)) for f, a, b in zip(fids, first, last, strict=True)}
+        self._ibo = ctx.buffer(mesh.triangles[order].astype("i4").tobytes())
+        self._vao = ctx.vertex_array(prog, [(vbo, "3f 1f", "in_position", "in_face")], self._ibo)
+        self._queries: list[moderngl.Query] = []
+
+    def nearest(self, fbo: moderngl.Framebuffer, faces: Iterable[int]) -> set[int]:
+        """Of ``faces``, those that pass the depth test ``<=`` somewhere in ``fbo`` (its depth
+        buffer drawn by the caller, depth testing on): the nearest surface, or tied with it, at
+        some pixel centre. Nothing is written: the depth and the colours stay as they were."""
+        todo = sorted(set(faces) & self.runs.keys())
+        if not todo:
+            return set()
+        ctx = self.ctx
+        ctx.depth_func = "<="
+        mask = fbo.color_mask  # () without colour attachments; one 4-tuple for one
+        fbo.depth_mask = False
+        if mask:
+            fbo.color_mask = (False,) * len(mask)
+        while len(self._queries) < len(todo):
+            self._queries.append(ctx.query(samples=True))
+        for fid, q in zip(todo, self._queries, strict=False):
+            start, count = self.runs[fid]
+            with q:
+                self._vao.render(moderngl.TRIANGLES, vertices=3 * count, first=3 * start)
+        if mask:
+            fbo.color_mask = mask
+        fbo.depth_mask = True
+        ctx.depth_func = "<"
+        return {fid for fid, q in zip(todo, self._queries, strict=False) if q.samples > 0}
+
+    def release(self) -> None:
+        # moderngl's queries hold no GL memory worth freeing one by one; they go with the context.
+        self._vao.release()
+        self._ibo.release()
+
+
 def seen_faces(ctx: moderngl.Context, mesh: SceneMesh, cameras: Iterable[ImageCamera],
                points: FacePoints | None = None) -> set[int]:
     """The ids of the faces of ``mesh`` that some camera's ID buffer holds (see the module's
     docstring); every other face has no texel any photo sees."""
     points = face_points(mesh) if points is None else points
     prog = load_program(ctx, "id")
-    tri_face = mesh.triangle_faces
-    order = np.argsort(tri_face, kind="stable")
-    by_face = tri_face[order]
-    fids = np.unique(by_face)
-    first = np.searchsorted(by_face, fids, side="left")
-    last = np.searchsorted(by_face, fids, side="right")
-    runs = {int(f): (int(a), int(b - a)) for f, a, b in zip(fids, first, last, strict=True)}
     vbo = ctx.buffer(np.column_stack([mesh.vertices, mesh.face_of_vertex]).astype("f4").tobytes())
     ibo_all = ctx.buffer(mesh.triangles.astype("i4").tobytes())
-    ibo_sorted = ctx.buffer(mesh.triangles[order].astype("i4").tobytes())
-    layout = [(vbo, "3f 1f", "in_position", "in_face")]
-    vao_all = ctx.vertex_array(prog, layout, ibo_all)
-    vao_face = ctx.vertex_array(prog, layout, ibo_sorted)
+    vao_all = ctx.vertex_array(prog, [(vbo, "3f 1f", "in_position", "in_face")], ibo_all)
+    queries = FaceQueries(ctx, prog, vbo, mesh)
     seen: set[int] = set()
     depth: moderngl.Renderbuffer | None = None
     fbo: moderngl.Framebuffer | None = None
-    queries: list[moderngl.Query] = []
     try:
         for cam in cameras:
-            todo = sorted((faces_in_view(points, cam) - seen) & set(runs))
-            if not todo:
+            todo = faces_in_view(points, cam) - seen
+            if not todo & queries.runs.keys():
                 continue
             cover, _ = pinhole_cover(cam)
             key = (cover.width, cover.height)
@@ -115,23 +154,13 @@ def seen_faces(ctx: moderngl.Context, mesh: SceneMesh, cameras: Iterable[ImageCa
             fbo.depth_mask = True
             set_uniforms(prog, view=V, projection=P)
             vao_all.render(moderngl.TRIANGLES)
-            ctx.depth_func = "<="
-            fbo.depth_mask = False
-            while len(queries) < len(todo):
-                queries.append(ctx.query(samples=True))
-            for fid, q in zip(todo, queries, strict=False):
-                start, count = runs[fid]
-                with q:
-                    vao_face.render(moderngl.TRIANGLES, vertices=3 * count, first=3 * start)
-            seen.update(fid for fid, q in zip(todo, queries, strict=False) if q.samples > 0)
-            fbo.depth_mask = True
-            ctx.depth_func = "<"
+            seen |= queries.nearest(fbo, todo)
             ctx.disable(moderngl.DEPTH_TEST)
     finally:
-        for obj in (vao_all, vao_face, vbo, ibo_all, ibo_sorted, fbo, depth):
+        queries.release()
+        for obj in (vao_all, vbo, ibo_all, fbo, depth):
             if obj is not None:
                 obj.release()
-        # moderngl's queries hold no GL memory worth freeing one by one; they go with the context.
     return seen
 
 
