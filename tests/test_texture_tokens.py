@@ -206,8 +206,10 @@ def test_each_photos_passes_draw_only_the_faces_its_id_buffer_holds():
         ex2.release()
 
 
-def test_drawing_only_the_faces_an_id_buffer_holds_changes_no_texel(monkeypatch):
-    """The textures are bit for bit those of pass 2 drawn over every face in the frustum."""
+def test_drawing_only_the_faces_an_id_buffer_holds_clipped_to_the_frame_changes_no_texel(monkeypatch):
+    """The textures are bit for bit those of pass 2 drawn over every face in the frustum, each
+    chart whole (not clipped to the photo's frame)."""
+    from vebuild.texture import gpu
     from vebuild.texture.gpu import Extractor
 
     model, cams = true_model(), true_cameras()
@@ -222,6 +224,7 @@ def test_drawing_only_the_faces_an_id_buffer_holds_changes_no_texel(monkeypatch)
         return tex
 
     monkeypatch.setattr(Extractor, "id_pass", whole_frustum)
+    monkeypatch.setattr(gpu, "CLIP_PLANES", 0)
     every = extract(model, cams, sources, opts)
     assert len(culled.atlases) == len(every.atlases)
     for a, b in zip(culled.atlases + culled.coverage, every.atlases + every.coverage, strict=True):

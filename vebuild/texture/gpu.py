@@ -79,6 +79,12 @@ def _mat3(M: Array) -> NDArray[np.float32]:
 FREE_NOW_PIXELS = 64 * 2**20
 
 
+#: GL_CLIP_DISTANCE0: pass 2's texel programs clip each chart to the photo's frame (texel.vert).
+GL_CLIP_DISTANCE0 = 0x3000
+#: The clip planes texel.vert writes (four sides of the frame and the camera's plane).
+CLIP_PLANES = 5
+
+
 #: Texture units the passes bind (and :meth:`Extractor._unbind` rebinds to a 1×1 texture).
 IDLE_UNITS = 8
 
@@ -296,6 +302,19 @@ class Extractor:
                 self._programs[mode], [(self._soup_vbo, "3f 3f 2f 1f 3f 3f", "in_position", "in_normal",
                                         "in_atlas", "in_face", "in_eu", "in_ev")], skip_errors=True)
         vao = self._soup_vaos[mode]
+        clip = mode != "geometry"
+        if clip:
+            for k in range(CLIP_PLANES):
+                self.ctx.enable_direct(GL_CLIP_DISTANCE0 + k)
+        try:
+            self._draw_faces(vao, page, faces, queries)
+        finally:
+            if clip:
+                for k in range(CLIP_PLANES):
+                    self.ctx.disable_direct(GL_CLIP_DISTANCE0 + k)
+
+    def _draw_faces(self, vao: moderngl.VertexArray, page: int, faces: set[int] | None,
+                    queries: dict[int, moderngl.Query] | None) -> None:
         for fid in sorted(self._face_range if faces is None else faces):
             if self._face_page[fid] != page or fid not in self._face_range:
                 continue
