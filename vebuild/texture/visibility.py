@@ -20,6 +20,7 @@ drawn.
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
 
 import moderngl
 import numpy as np
@@ -32,37 +33,52 @@ from vebuild.texture.layout import SceneMesh
 from vebuild.texture.lens import pinhole_cover
 
 Array = NDArray[np.float64]
-FacePoints = dict[int, tuple[Array, Array]]
+
+
+@dataclass(frozen=True)
+class FacePoints:
+    """Every face's vertices and normals, grouped by face (for culling the faces a photo cannot
+    see, all faces at once): face ``ids[k]`` has rows ``starts[k]`` up to the next start."""
+
+    ids: NDArray[np.int64]
+    starts: NDArray[np.int64]
+    points: Array
+    normals: Array
 
 
 def face_points(mesh: SceneMesh) -> FacePoints:
-    """For each face id, its vertices and normals (for culling the faces a photo cannot see)."""
+    """Each face's vertices and normals (a face without a vertex is left out)."""
     order = np.argsort(mesh.face_of_vertex, kind="stable")
     ids = mesh.face_of_vertex[order]
-    starts = np.searchsorted(ids, [f.id for f in mesh.faces], side="left")
-    ends = np.searchsorted(ids, [f.id for f in mesh.faces], side="right")
-    return {f.id: (mesh.vertices[order[a:b]], mesh.normals[order[a:b]])
-            for f, a, b in zip(mesh.faces, starts, ends, strict=True)}
+    wanted = np.array([f.id for f in mesh.faces], np.int64)
+    starts = np.searchsorted(ids, wanted, side="left")
+    ends = np.searchsorted(ids, wanted, side="right")
+    has = ends > starts
+    kept = np.concatenate([order[a:b] for a, b in zip(starts[has], ends[has], strict=True)]) if has.any() else order[:0]
+    counts = (ends - starts)[has]
+    return FacePoints(wanted[has], np.r_[0, np.cumsum(counts)[:-1]].astype(np.int64),
+                      np.asarray(mesh.vertices[kept], float), np.asarray(mesh.normals[kept], float))
 
 
 def faces_in_view(points: FacePoints, cam: ImageCamera) -> set[int]:
     """Faces that may show in ``cam``: some vertex faces it and is in front, and their image
     bounds meet the image (for a photo with lens distortion, the pinhole image over its
     undistorted bounds: what the lens shows lies inside it)."""
+    if not len(points.ids):
+        return set()
     cam, _ = pinhole_cover(cam)
-    out = set()
-    for fid, (P, N) in points.items():
-        x = world_to_camera(cam.R, cam.C, P)
-        front = x[:, 2] > 1e-6
-        if not front.any() or not (np.einsum("ij,ij->i", N, cam.C - P) > 0).any():
-            continue
-        if front.all():
-            uv = x[:, :2] / x[:, 2:3] * [cam.K[0, 0], cam.K[1, 1]] + cam.K[:2, 2]
-            if (uv[:, 0].max() < 0 or uv[:, 1].max() < 0 or uv[:, 0].min() > cam.width
-                    or uv[:, 1].min() > cam.height):
-                continue
-        out.add(fid)
-    return out
+    P, N, at = points.points, points.normals, points.starts
+    x = world_to_camera(cam.R, cam.C, P)
+    front = x[:, 2] > 1e-6
+    facing = np.einsum("ij,ij->i", N, cam.C - P) > 0
+    keep = np.logical_or.reduceat(front, at) & np.logical_or.reduceat(facing, at)
+    all_front = np.logical_and.reduceat(front, at)
+    z = np.where(front, x[:, 2], 1.0)[:, None]  # the bounds below are used only where all are in front
+    uv = x[:, :2] / z * [cam.K[0, 0], cam.K[1, 1]] + cam.K[:2, 2]
+    outside = ((np.maximum.reduceat(uv[:, 0], at) < 0) | (np.maximum.reduceat(uv[:, 1], at) < 0)
+               | (np.minimum.reduceat(uv[:, 0], at) > cam.width) | (np.minimum.reduceat(uv[:, 1], at) > cam.height))
+    keep &= ~(all_front & outside)
+    return {int(i) for i in points.ids[keep]}
 
 
 class FaceQueries:
