@@ -135,6 +135,7 @@ class Extractor:
         self._photo = PhotoPyramid(ctx)
         self._fullscreen_vaos: dict[int, moderngl.VertexArray] = {}
         self._id_tex: moderngl.Texture | None = None
+        self._view_fbo: moderngl.Framebuffer | None = None  # MODE 1's targets (view)
         self._id_for: tuple[str, set[int]] | None = None  # the photo whose ID buffer is in _id_tex, its faces
         self._idle_fbo = ctx.framebuffer(color_attachments=[ctx.texture((1, 1), 4)])
         self._uploaded: str | None = None  # the id of the photo on the GPU
@@ -184,6 +185,7 @@ class Extractor:
         pre-pass and after the last photo, before the merge allocates its own targets."""
         self._unbind(free_now=True)
         self._release_id_target()
+        self._release_view_target()
         self._photo.release()
         self._uploaded = None
 
@@ -438,10 +440,11 @@ class Extractor:
             return np.ones(3)
         ratios = []
         for k in range(len(self._pages)):
-            view = self.view(cam, id_tex, k, faces, STATS_SCALE, with_accumulated=True)
+            view = self.view(cam, id_tex, k, faces, STATS_SCALE, with_accumulated=True, crop=True)
             ok = (view["seen"] > 0) & (view["accumulated_seen"] > 0)
-            ok &= (view["low"].min(axis=-1) > DARK) & (view["accumulated"].min(axis=-1) > DARK)
-            ratios.append(np.log(view["low"][ok]) - np.log(view["accumulated"][ok]))
+            low, acc = view["low"][ok], view["accumulated"][ok]
+            ok = (low.min(axis=-1) > DARK) & (acc.min(axis=-1) > DARK)
+            ratios.append(np.log(low[ok]) - np.log(acc[ok]))
         r = np.concatenate(ratios) if ratios else np.zeros((0, 3))
         self.overlap[cam.id] = len(r)
         if len(r) < MIN_OVERLAP:
@@ -451,34 +454,59 @@ class Extractor:
         return np.full(3, np.exp(np.median(r.mean(axis=1))))
 
     def view(self, cam: ImageCamera, id_tex: moderngl.Texture, page: int, faces: set[int] | None = None,
-             atlas_scale: float = 1.0, with_accumulated: bool = False) -> dict[str, NDArray[np.float32]]:
+             atlas_scale: float = 1.0, with_accumulated: bool = False,
+             crop: bool = False) -> dict[str, NDArray[np.float32]]:
         """One photo's texels on one page (MODE 1): colour c, weight w, low band l, and in 'seen'
-        the face id where the texel is seen (0 elsewhere)."""
+        the face id where the texel is seen (0 elsewhere). ``crop``: only the low band, 'seen' and
+        the accumulated ones, over the rectangle that holds the charts of ``faces`` (what the
+        exposure statistics need; a photo's charts are a small part of a house's atlas)."""
         p = self._pages[page]
         size = (max(1, round(p.size[0] * atlas_scale)), max(1, round(p.size[1] * atlas_scale)))
-        targets = [self.ctx.texture(size, 4, dtype="f4") for _ in range(3)]
-        fbo = self.ctx.framebuffer(color_attachments=targets)
-        try:
-            fbo.use()
-            fbo.viewport = (0, 0, *size)
-            fbo.clear(0.0, 0.0, 0.0, 0.0)
-            self.ctx.disable(moderngl.BLEND)
-            prog = self._programs["view"]
-            p.acc[0].use(5)
-            self._texel_uniforms(prog, cam, id_tex, p.size, atlas_scale=atlas_scale)
-            set_uniforms(prog, accumulated=5)
-            # The atlas is drawn at its full page_size extent in NDC; the viewport scales it.
-            self._draw_texels("view", page, faces)
-            out = [np.frombuffer(fbo.read(components=4, dtype="f4", attachment=i), "f4").reshape(size[1], size[0], 4)
-                   for i in range(3 if with_accumulated else 2)]
-        finally:
-            fbo.release()
-            for t in targets:
-                t.release()
-        res = {"colour": out[0][..., :3], "weight": out[0][..., 3], "low": out[1][..., :3], "seen": out[1][..., 3]}
-        if with_accumulated:
+        fbo = self._view_target(size)
+        fbo.use()
+        fbo.viewport = (0, 0, *size)
+        fbo.clear(0.0, 0.0, 0.0, 0.0)
+        self.ctx.disable(moderngl.BLEND)
+        prog = self._programs["view"]
+        p.acc[0].use(5)
+        self._texel_uniforms(prog, cam, id_tex, p.size, atlas_scale=atlas_scale)
+        set_uniforms(prog, accumulated=5)
+        # The atlas is drawn at its full page_size extent in NDC; the viewport scales it.
+        self._draw_texels("view", page, faces)
+        x0, y0, w, h = 0, 0, *size
+        if crop:
+            rects = np.array([f.rect for f in self.mesh.faces if f.page == page and (faces is None or f.id in faces)]
+                             or [(0, 0, 0, 0)], float)
+            x0, y0 = (np.floor(rects[:, :2].min(axis=0) * atlas_scale).astype(int) - 1).clip(0)
+            x1, y1 = np.minimum(np.ceil((rects[:, :2] + rects[:, 2:]).max(axis=0) * atlas_scale).astype(int) + 1,
+                                size)
+            w, h = max(0, int(x1) - int(x0)), max(0, int(y1) - int(y0))
+        out = {i: np.frombuffer(fbo.read(viewport=(int(x0), int(y0), w, h), components=4, dtype="f4", attachment=i),
+                                "f4").reshape(h, w, 4)
+               for i in ((1, 2) if crop else (0, 1, 2) if with_accumulated else (0, 1))}
+        res = {"low": out[1][..., :3], "seen": out[1][..., 3]}
+        if 0 in out:
+            res["colour"], res["weight"] = out[0][..., :3], out[0][..., 3]
+        if 2 in out:
             res["accumulated"], res["accumulated_seen"] = out[2][..., :3], out[2][..., 3]
         return res
+
+    def _view_target(self, size: tuple[int, int]) -> moderngl.Framebuffer:
+        """MODE 1's three targets of ``size``, kept for the next photo (one size at a time)."""
+        if self._view_fbo is not None and self._view_fbo.size != size:
+            self._release_view_target()
+        if self._view_fbo is None:
+            self._view_fbo = self.ctx.framebuffer(color_attachments=[self.ctx.texture(size, 4, dtype="f4")
+                                                                     for _ in range(3)])
+        return self._view_fbo
+
+    def _release_view_target(self) -> None:
+        if self._view_fbo is not None:
+            self._unbind()
+            for t in self._view_fbo.color_attachments:
+                t.release()
+            self._view_fbo.release()
+            self._view_fbo = None
 
     # -- results -------------------------------------------------------------------------------
 
