@@ -73,8 +73,11 @@ def fixed_threads() -> Iterator[None]:
         if _depth == 0:
             _environment.update({v: os.environ.get(v) for v in THREAD_VARIABLES})
             os.environ.update({v: str(THREADS) for v in THREAD_VARIABLES})
-            _limiter = _threadpools().limit(limits=THREADS)
-            _release_openblas()
+            # Before numpy is imported no BLAS is loaded: the variables set its count as it loads
+            # (and threadpoolctl, 20 ms of a command's start-up, is not needed).
+            _limiter = _threadpools().limit(limits=THREADS) if "numpy" in sys.modules else None
+            if _limiter is not None:
+                _release_openblas()
         _depth += 1
     try:
         yield
@@ -82,9 +85,10 @@ def fixed_threads() -> Iterator[None]:
         with _lock:
             _depth -= 1
             if _depth == 0:
-                _limiter.restore_original_limits()
-                _limiter = None
-                _release_openblas()
+                if _limiter is not None:
+                    _limiter.restore_original_limits()
+                    _limiter = None
+                    _release_openblas()
                 for v, value in _environment.items():
                     if value is None:
                         os.environ.pop(v, None)

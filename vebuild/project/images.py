@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
-import importlib.metadata
 import io
 import json
 import math
@@ -176,6 +175,8 @@ def decoded_size(image: Path, sha256: str, file: Any, where: str) -> tuple[int, 
 
 def _decoder(image: Path) -> str:
     if is_raw(image):
+        import importlib.metadata  # only here: it costs a command 20 ms of start-up
+
         return f"LibRaw (rawpy {importlib.metadata.version('rawpy')})"
     return f"Pillow {PIL.__version__}"
 
