@@ -149,6 +149,7 @@ def extract(model: Model, cameras: Sequence[ImageCamera], sources: dict[str, Pho
             atlases, coverage, stats = [], [], {}
             for p in range(len(mesh.pages)):
                 r = ex.resolve(p, scale)
+                ex.release_sums(p)
                 on_page = [f for f in faces if f.page == p]
                 filled, st = fill_page(r["colour"], r["seen"], r["face"], on_page, options.fill,
                                        options.mode == "average")

@@ -510,10 +510,11 @@ class Extractor:
 
     # -- results -------------------------------------------------------------------------------
 
-    def _geometry_targets(self, page: int) -> tuple[moderngl.Framebuffer, list[moderngl.Texture]]:
+    def _geometry_targets(self, page: int, normals: bool = True) -> tuple[moderngl.Framebuffer, list[moderngl.Texture]]:
+        """MODE 3 drawn into new targets: (position, face) and, with ``normals``, (normal, 1)."""
         p = self._pages[page]
         size = p.size
-        targets = [self.ctx.texture(size, 4, dtype="f4") for _ in range(2)]
+        targets = [self.ctx.texture(size, 4, dtype="f4") for _ in range(2 if normals else 1)]
         for t in targets:
             t.filter = (moderngl.NEAREST, moderngl.NEAREST)
         fbo = self.ctx.framebuffer(color_attachments=targets)
@@ -546,7 +547,7 @@ class Extractor:
 
         p = self._pages[page]
         w, h = p.size
-        gfbo, gtex = self._geometry_targets(page)
+        gfbo, gtex = self._geometry_targets(page, normals=False)  # 16 bytes a texel less at the peak
         targets = [self.ctx.texture((w, h), 4) for _ in range(2)]
         fbo = self.ctx.framebuffer(color_attachments=targets)
         try:
@@ -572,6 +573,18 @@ class Extractor:
         return {"colour": colour[..., :3].copy(), "seen": colour[..., 3] > 127, "coverage": coverage,
                 "face": face.astype(np.int32)}
 
+    def release_sums(self, page: int) -> None:
+        """Free ``page``'s sums (60 bytes a texel) once :meth:`resolve` has read them: the merge of
+        the next page then runs without them."""
+        p = self._pages[page]
+        self._unbind(free_now=True)
+        for t in p.acc:
+            t.release()
+        p.fbo.release()
+        p.best.release()
+        p.best_fbo.release()
+        p.acc = []
+
     def sums(self, page: int) -> dict[str, NDArray[np.float32]]:
         """The per-texel sums of ``page`` (MODE 0's four targets), read back."""
         p = self._pages[page]
@@ -584,6 +597,8 @@ class Extractor:
     def release(self) -> None:
         self._unbind()
         for page in self._pages:
+            if not page.acc:  # released by release_sums
+                continue
             for t in page.acc:
                 t.release()
             page.fbo.release()
