@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 import PIL
 from numpy.typing import NDArray
-from PIL import Image, TiffImagePlugin, UnidentifiedImageError
+from PIL import Image, UnidentifiedImageError
 
 from ..errors import ProjectError
 from ..resources import cache_dir
@@ -474,6 +474,8 @@ def _decimal_step(value: Any) -> float | None:
     """The step an EXIF rational was rounded to, as Pillow read it (numerator and denominator as
     written): 1/denominator where that is a power of ten (180/10: 0.1 mm), 0 where it is not (an
     exact fraction, as software writes: 81/40), None for a value without its denominator."""
+    from PIL import TiffImagePlugin  # loaded by Pillow with the EXIF this reads; not at start-up
+
     den = getattr(value, "denominator", None)
     if not isinstance(value, TiffImagePlugin.IFDRational) or not isinstance(den, int) or den <= 0:
         return None
