@@ -110,8 +110,8 @@ class FaceQueries:
         ctx.depth_func = "<="
         mask = fbo.color_mask  # () without colour attachments; one 4-tuple for one
         fbo.depth_mask = False
-        if mask:
-            fbo.color_mask = (False,) * len(mask)
+        if mask:  # the ID buffer's one attachment
+            fbo.color_mask = (False, False, False, False)
         while len(self._queries) < len(todo):
             self._queries.append(ctx.query(samples=True))
         for fid, q in zip(todo, self._queries, strict=False):
