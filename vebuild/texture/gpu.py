@@ -181,8 +181,9 @@ class Extractor:
         self._id_for = None
 
     def release_photo(self) -> None:
-        """Free what is the size of a photo (the photo, its pyramid, the ID buffer): after the
-        pre-pass and after the last photo, before the merge allocates its own targets."""
+        """Free what is the size of a photo (the photo, its pyramid, the ID buffer) and the
+        exposure statistics' targets: after the pre-pass and after the last photo, before the
+        merge allocates its own targets."""
         self._unbind(free_now=True)
         self._release_id_target()
         self._release_view_target()
