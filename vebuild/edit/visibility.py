@@ -30,7 +30,7 @@ Array = NDArray[np.float64]
 #: 24-megapixel photo's own size would cost a software renderer seconds per model change).
 ID_LONG_SIDE_PX = 1600
 #: A face nearer than the sample by more than this share of its depth hides it: 0.5 %, as
-#: texture extraction's edge band (:data:`vebuild.texture.gpu.EDGE_SHRINK`): 1.5 cm at 3 m.
+#: texture extraction's edge band (:data:`vebuild.texture.id_edges.EDGE_SHRINK`): 1.5 cm at 3 m.
 DEPTH_TOLERANCE = 5e-3
 #: Samples along an edge, every this many photo pixels (at least two an edge, at most MAX_SAMPLES).
 SAMPLE_PX = 3.0

@@ -17,11 +17,12 @@ import moderngl
 import numpy as np
 from numpy.typing import NDArray
 
-from vebuild.camera import ImageCamera, depth_range, gl_projection, view_matrix, world_to_camera
+from vebuild.camera import ImageCamera, depth_range, gl_projection, view_matrix
 from vebuild.gl import load_program
 from vebuild.gl.shaders import set_uniforms
 from vebuild.texture import BEST_WEIGHT_SCALE, DEPTH_TOLERANCE, pre_pass_erosion
 from vebuild.texture.gpu_pyramid import PhotoPyramid, fullscreen_vao
+from vebuild.texture.id_edges import EDGE_SHRINK, edge_lines
 from vebuild.texture.layout import SceneMesh
 from vebuild.texture.lens import lens_uniforms, pinhole_cover
 from vebuild.texture.options import Options
@@ -34,13 +35,6 @@ STATS_SCALE = 0.25
 MIN_OVERLAP = 64
 #: Texels darker than this (linear) are left out of exposure statistics.
 DARK = 0.01
-#: Edges are moved this share of their depth toward the camera (the same pixels, nearer) so that
-#: their band, drawn at the edge's own depth, wins the depth test over the faces it borders where
-#: a face recedes: 0.5 % covers a face whose depth changes 0.25 % per pixel across a 2-pixel band;
-#: a face receding faster keeps a thinner band on its own side (seen on the example's table edge
-#: at 0.3 % per pixel). An edge hidden less than 0.5 % behind a nearer surface (1.5 cm at 3 m) is
-#: drawn too: a little more erosion there. 1 % drew the legs' hidden tops through the table top.
-EDGE_SHRINK = 1.0 - 5e-3
 
 
 @dataclass
@@ -232,7 +226,7 @@ class Extractor:
         self._id_vao.render(moderngl.TRIANGLES)
         self.id_faces = self._face_queries.nearest(fbo, in_view)
         if erode_px > 0:
-            lines = self._edge_lines(cam, near)
+            lines = edge_lines(self.mesh, self._border, self._interior, cam, near)
             if len(lines):
                 self._edge_vbo.orphan(max(self._edge_vbo.size, lines.nbytes))
                 self._edge_vbo.write(lines.tobytes())
@@ -248,30 +242,6 @@ class Extractor:
         depth.release()
         self._id_for = None
         return tex
-
-    def _edge_lines(self, cam: ImageCamera, near: float) -> NDArray[np.float32]:
-        """Face borders and the silhouettes of curved faces seen from ``cam``, clipped to z > near."""
-        V = self.mesh.vertices
-        t = self.mesh.triangles
-        if len(self._interior):
-            tri_n = np.cross(V[t[:, 1]] - V[t[:, 0]], V[t[:, 2]] - V[t[:, 0]])
-            facing = np.einsum("ij,ij->i", tri_n, cam.C - V[t[:, 0]]) > 0
-            sil = self._interior[facing[self._interior[:, 2]] != facing[self._interior[:, 3]], :2]
-            edges = np.concatenate([self._border, sil])
-        else:
-            edges = self._border
-        a, b = V[edges[:, 0]], V[edges[:, 1]]
-        za = world_to_camera(cam.R, cam.C, a)[:, 2]
-        zb = world_to_camera(cam.R, cam.C, b)[:, 2]
-        z0 = 1.01 * near / EDGE_SHRINK
-        keep = (za > z0) | (zb > z0)
-        a, b, za, zb = a[keep], b[keep], za[keep], zb[keep]
-        # Move an end behind the near plane onto it.
-        with np.errstate(divide="ignore", invalid="ignore"):  # where() drops the unused quotients
-            t_a = np.where(za < z0, (z0 - za) / (zb - za), 0.0)[:, None]
-            t_b = np.where(zb < z0, (z0 - zb) / (za - zb), 0.0)[:, None]
-        a, b = a + t_a * (b - a), b + t_b * (a - b)
-        return np.stack([a, b], axis=1).reshape(-1, 3).astype("f4")
 
     # -- the photo -----------------------------------------------------------------------------
 
