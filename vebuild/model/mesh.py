@@ -202,7 +202,6 @@ def assemble(patches: Sequence[Patch | None], texels_per_metre: float | None) ->
     )
 
 
-
 #: Meshes made, the most recently asked for kept, by their maker's key (a primitive's: primitive,
 #: segments, density): a house's screens ask again for the meshes of its hundreds of unchanged
 #: primitives after every edit. A kept mesh's arrays are read-only, since every caller shares it.
