@@ -7,6 +7,12 @@ whole project but draws nothing: docs/start-up.md); ``vebuild demo`` runs every 
 solve with re-calibration, texture, the views under each lighting preset and each photo's camera
 against its photo) into a temporary folder.
 
+The commands run from compiled bytecode, as an installed vebuild does (pip compiles a wheel's
+modules as it installs them): the children's environment drops ``PYTHONDONTWRITEBYTECODE``, so
+the warm-up run writes the ``.pyc`` files of whatever the command imports, and ``bytecode_cached``
+says so. A machine that sets the variable would otherwise measure Python compiling vebuild's
+modules from source on every run (about 0.1 s of ``vebuild check``).
+
 Times are wall-clock seconds, the least of ``REPEATS`` runs (other work on the machine slows a
 run, never speeds it up; the median is given too), with the CPU seconds (user + system) the
 commands' processes used. ``--quick`` runs each start-up three times and leaves the demo out.
@@ -14,6 +20,7 @@ commands' processes used. ``--quick`` runs each start-up three times and leaves 
 
 from __future__ import annotations
 
+import os
 import resource
 import subprocess
 import sys
@@ -34,12 +41,17 @@ QUICK_REPEATS = 3
 TIMEOUT_S = 1800
 
 
+def _child_env() -> dict[str, str]:
+    """This process's environment, less what would stop a child writing its bytecode."""
+    return {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+
+
 def _timed(argv: list[str], cwd: Path | None = None) -> tuple[float, float]:
     """Wall and CPU seconds (user + system, of the child) of one run of ``argv``; a failure is an
     error naming the command and what it said."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t = time.perf_counter()
-    r = subprocess.run(argv, capture_output=True, text=True, timeout=TIMEOUT_S, cwd=cwd)
+    r = subprocess.run(argv, capture_output=True, text=True, timeout=TIMEOUT_S, cwd=cwd, env=_child_env())
     wall = time.perf_counter() - t
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if r.returncode not in (0, 1):  # check says 1 for a stale project: still a complete run
@@ -55,6 +67,16 @@ def _repeated(argv: list[str], n: int, cwd: Path | None = None) -> dict[str, flo
     return {"s": min(walls), "median_s": float(np.median(walls)), "cpu_s": min(cpus)}
 
 
+def _bytecode_cached() -> bool:
+    """Whether the modules ``vebuild check`` imports first have their bytecode written (the
+    warm-up run could not write it where vebuild's folder is read-only and was installed without)."""
+    import importlib.util
+
+    from .. import cli as cli_module
+    source = Path(cli_module.__file__)
+    return Path(importlib.util.cache_from_source(str(source))).is_file()
+
+
 def run(quick: bool = False, progress: bool = True) -> dict[str, Any]:
     n = QUICK_REPEATS if quick else REPEATS
     example = example_project_dir()
@@ -63,6 +85,7 @@ def run(quick: bool = False, progress: bool = True) -> dict[str, Any]:
     fig: dict[str, Any] = {"repeats": n, "python": sys.version.split()[0]}
     _timed([sys.executable, "-c", "pass"])  # warm the file cache (and write vebuild's .pyc files)
     _timed([*vebuild, "check", str(project)])
+    fig["bytecode_cached"] = _bytecode_cached()
     steps = (("python_start", [sys.executable, "-c", "pass"]), ("cli_check", [*vebuild, "check", str(project)]),
              ("cli_version", [*vebuild, "--version"]))
     for name, argv in steps:
@@ -87,7 +110,9 @@ def run(quick: bool = False, progress: bool = True) -> dict[str, Any]:
 
 
 def table(fig: dict[str, Any]) -> str:
-    lines = [f"command-line start-up (python {fig['python']}; least of {fig['repeats']} runs, median, CPU seconds)", "",
+    code = "from bytecode" if fig.get("bytecode_cached") else "compiling from source: no bytecode could be written"
+    lines = [f"command-line start-up (python {fig['python']}, {code}; least of {fig['repeats']} runs, median, CPU seconds)",
+             "",
              f"{'':<28}{'wall s':>9}{'median':>9}{'CPU s':>9}"]
     for name, label in (("python_start", "python -c pass"), ("cli_version", "vebuild --version"),
                         ("cli_check", "vebuild check (example)")):
