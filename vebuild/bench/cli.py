@@ -72,8 +72,8 @@ def _bytecode_cached() -> bool:
     warm-up run could not write it where vebuild's folder is read-only and was installed without)."""
     import importlib.util
 
-    from .. import cli as cli_module
-    source = Path(cli_module.__file__)
+    import vebuild
+    source = Path(vebuild.__file__)
     return Path(importlib.util.cache_from_source(str(source))).is_file()
 
 
@@ -111,8 +111,8 @@ def run(quick: bool = False, progress: bool = True) -> dict[str, Any]:
 
 def table(fig: dict[str, Any]) -> str:
     code = "from bytecode" if fig.get("bytecode_cached") else "compiling from source: no bytecode could be written"
-    lines = [f"command-line start-up (python {fig['python']}, {code}; least of {fig['repeats']} runs, median, CPU seconds)",
-             "",
+    lines = [f"command-line start-up (python {fig['python']}, {code}; least of {fig['repeats']} runs, median, "
+             "CPU seconds)", "",
              f"{'':<28}{'wall s':>9}{'median':>9}{'CPU s':>9}"]
     for name, label in (("python_start", "python -c pass"), ("cli_version", "vebuild --version"),
                         ("cli_check", "vebuild check (example)")):
