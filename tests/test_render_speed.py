@@ -183,7 +183,7 @@ def test_blocks_out_of_view_are_not_drawn(ctx, scene):
     seen, ids = _render(ctx, scene, cam)
     r = Renderer(ctx, scene, RenderOptions(samples=1, anisotropy=1.0))
     try:
-        r._order.plan = lambda C, reach, planes=None, plan=r._order.plan: plan(C, reach, None)  # type: ignore
+        r._order.plan = lambda C, reach, planes=None, rooms=True, plan=r._order.plan: plan(C, reach, None)  # type: ignore
         everything, all_ids = r.render(cam), r.id_buffer(cam)[0]
     finally:
         r.release()

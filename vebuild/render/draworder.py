@@ -14,6 +14,8 @@ decides how much is shaded. :class:`DrawOrder` keeps the scene's triangles in bl
   bounding boxes), so that the depth test rejects hidden fragments before they are shaded.
 - Blocks whose bounding boxes lie wholly outside one of the view's four side planes are not
   drawn: they could not give a fragment (on software OpenGL their vertices cost time all the same).
+- From a camera inside a room, blocks wholly behind its walls, floor and ceiling (seen through
+  none of its openings) are not drawn either (:mod:`vebuild.render.portals`).
 
 The ID buffer, the shadow maps and every other pass draw all triangles in the mesh's order.
 """
@@ -25,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from vebuild.render.portals import rooms_of
 from vebuild.render.scene import RenderScene
 
 Array = NDArray[np.float64]
@@ -75,6 +78,7 @@ class DrawOrder:
         first = 3 * starts
         self.lo = np.minimum.reduceat(corners, first, axis=0) if n else np.zeros((0, 3))
         self.hi = np.maximum.reduceat(corners, first, axis=0) if n else np.zeros((0, 3))
+        self.rooms = rooms_of(scene.model)
         self._last: tuple[tuple[int, ...], bool] | None = None
 
     def may_be_inside(self, C: Array, reach: float) -> bool:
@@ -84,12 +88,13 @@ class DrawOrder:
             return False
         return bool(np.all((self.lo[m] - reach <= C) & (C <= self.hi[m] + reach), axis=1).any())
 
-    def plan(self, C: Array, reach: float, planes: Array | None = None) -> tuple[NDArray[np.int32] | None,
-                                                                                 list[Range]]:
+    def plan(self, C: Array, reach: float, planes: Array | None = None,
+             rooms: bool = True) -> tuple[NDArray[np.int32] | None, list[Range]]:
         """For a camera at ``C`` whose near plane reaches ``reach`` from it: the index array to
         draw (None: the same as the last call's) and the draws over it. ``planes`` (k, 3): the
         normals m of the view's side planes, the view being where m · (X − C) ≥ 0 for each
-        (:func:`side_planes`); None: every block is drawn."""
+        (:func:`side_planes`); None: no block is left out for lying outside the view (those behind
+        the walls of the room the camera is in still are); ``rooms``: whether those are."""
         cull_ok = not self.may_be_inside(C, reach)
         dist = np.linalg.norm(np.maximum(np.maximum(self.lo - C, C - self.hi), 0.0), axis=1)
         cull = self.block_cull & cull_ok
@@ -99,6 +104,9 @@ class DrawOrder:
             scale = np.abs(self.hi - C).max(axis=1) + np.abs(self.lo - C).max(axis=1)
             inside = (np.einsum("bkj,kj->bk", far, planes) >= -1e-9 * scale[:, None]).all(axis=1)
             order = order[inside[order]]
+        seen = self.rooms.seen(C, reach, self.lo[order], self.hi[order]) if rooms and len(order) else None
+        if seen is not None:
+            order = order[seen]
         key = (tuple(order.tolist()), cull_ok)
         index = None
         if key != self._last:

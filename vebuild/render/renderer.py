@@ -145,6 +145,8 @@ class Renderer:
         self.highlight: str | None = None
         #: How texels no photo saw are drawn (one of UNOBSERVED_MODES); may change between frames.
         self.unobserved: str = check_mode(self.options.unobserved, "unobserved")
+        #: Leave out what the walls of the camera's room hide (vebuild.render.portals; no pixel changes).
+        self.rooms_occlude = True
         self._pages: list[moderngl.Texture] = []
         self._masks: list[moderngl.Texture] = []
         self._no_mask = ctx.texture((1, 1), 1, bytes([0]))
@@ -345,7 +347,7 @@ class Renderer:
         ctx = self.ctx
         reach = cam.reach if isinstance(cam, _NarrowCamera) else near_reach(cam.K, cam.width, cam.height, near)
         planes = side_planes(cam.K, cam.R, cam.width, cam.height)
-        index, ranges = self._order.plan(np.asarray(cam.C, float), reach, planes)
+        index, ranges = self._order.plan(np.asarray(cam.C, float), reach, planes, self.rooms_occlude)
         if index is not None:
             self._draw_ibo.write(index.tobytes())
         # Outward (counter-clockwise) triangles wind clockwise in image order, counter-clockwise flipped.
@@ -576,10 +578,9 @@ class Renderer:
         for r in [*self._resources, *self._vaos.values()]:
             r.release()
         self._resources, self._vaos = [], {}
-        for t in self._pages + self._masks:
+        for t in [*self._pages, *self._masks, self._no_mask]:
             t.release()
         self._pages, self._masks = [], []
-        self._no_mask.release()
         for draw, resolve, image in self._targets.values():
             if draw is not resolve:
                 draw.release()
@@ -592,8 +593,7 @@ class Renderer:
 
 @dataclass(frozen=True)
 class _NarrowCamera(ImageCamera):
-    """A camera narrowed to part of another's image, keeping that camera's near and far planes (so
-    that depths agree with the whole view's)."""
+    """A camera narrowed to part of another's image, keeping its near and far planes (depths agree)."""
 
     near: float = 0.0
     far: float = 0.0
