@@ -5,7 +5,7 @@ uniform sampler2D low_sum;      // (sum w l/g, sum w) over kept views
 uniform sampler2D detail_sum;   // (sum w^s (c - l)/g, sum w^s) over kept views
 uniform sampler2D dropped_sum;  // (sum w c/g, sum w) over dropped views
 uniform sampler2D counts;       // (kept views, dropped views)
-uniform sampler2D geometry;     // (position, face id)
+uniform sampler2D geometry;     // face id (MODE 3 of texel.frag into one channel)
 uniform float exposure_scale;
 uniform vec4 coverage_unseen;
 uniform vec4 coverage_dropped_only;
@@ -24,7 +24,7 @@ void main() {
     vec4 detail = texelFetch(detail_sum, ij, 0);
     vec4 dropped = texelFetch(dropped_sum, ij, 0);
     float kept = texelFetch(counts, ij, 0).r;
-    bool on_face = texelFetch(geometry, ij, 0).a > 0.0;
+    bool on_face = texelFetch(geometry, ij, 0).r > 0.0;
     vec3 c = vec3(0.0);
     bool seen = true;
     if (low.a > 0.0) {

@@ -13,7 +13,7 @@
 //        over kept views, 2 = (sum w c/g, sum w) over dropped views, 3 = (kept, dropped) counts
 // MODE 1 one view: 0 = (c, w), 1 = (l, face id where seen, else 0), 2 = accumulated low band so far (rgb, seen before)
 // MODE 2 best weight (max blending): 0 = w
-// MODE 3 geometry: 0 = (position, face), 1 = (normal, 1)
+// MODE 3 geometry: 0 = (face, position), 1 = (normal, 1); into a one-channel target, the face alone
 // A texel the photo does not see is discarded: it adds nothing, and occlusion queries count the
 // seen texels of each face.
 #define MAX_LEVELS 16
@@ -81,7 +81,7 @@ bool same_face(vec2 q) {  // q in ID-buffer pixels
 void main() {
     out0 = vec4(0.0); out1 = vec4(0.0); out2 = vec4(0.0); out3 = vec4(0.0);
 #if MODE == 3
-    out0 = vec4(v_position, v_face);
+    out0 = vec4(v_face, v_position);
     out1 = vec4(normalize(v_normal), 1.0);
     return;
 #else

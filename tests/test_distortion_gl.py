@@ -465,6 +465,24 @@ def test_gpu_sums_over_two_lenses_agree_with_the_reference(ctx, photos):
     assert np.median(d) <= COLOUR_ATOL / 2 and (d > MERGED_ATOL).mean() <= MERGED_OUTLIERS
 
 
+def test_the_merge_frees_the_sums_before_reading_back_and_its_face_ids_are_the_geometry_passs(ctx, photos):
+    from vebuild.texture.gpu import Extractor
+
+    ex = Extractor(ctx, lay.scene_mesh(_model(), _faces()), dataclasses.replace(OPTIONS, exposure=False))
+    try:
+        ex.add_photo(_camera(), photos["lens"]["rgb"])
+        kept = ex.resolve(0, 1.0)
+        freed = ex.resolve(0, 1.0, release_sums=True)
+        assert not ex._pages[0].acc and ex._pages[0].best is None
+        geometry = ex.geometry(0)
+    finally:
+        ex.release()
+    assert (kept["face"] > 0).mean() > 0.3
+    np.testing.assert_array_equal(freed["face"], geometry["face"])
+    for key in ("face", "colour", "seen", "coverage"):
+        np.testing.assert_array_equal(freed[key], kept[key])
+
+
 def test_a_lens_next_to_a_pinhole_extracts_as_the_pinhole(extractor, photos):
     pixels = photos["pinhole"]["rgb"]
     flat, _ = _gpu_view(extractor, _camera(0.0), pixels)

@@ -140,6 +140,7 @@ def extract(model: Model, cameras: Sequence[ImageCamera], sources: dict[str, Pho
             del pixels
             ex.add_photo(cam)
         ex.release_photo()  # the photo-sized targets go before the merge makes its own
+        ex.release_best_weights()
         if progress:
             progress(len(order), len(order), "")
         contributions = ex.contributions()
@@ -147,9 +148,11 @@ def extract(model: Model, cameras: Sequence[ImageCamera], sources: dict[str, Pho
             gains = dict(ex.gains)
             scale = float(np.exp(np.mean([np.log(g).mean() for g in gains.values()]))) if gains else 1.0
             atlases, coverage, stats = [], [], {}
-            for p in range(len(mesh.pages)):
-                r = ex.resolve(p, scale)
-                ex.release_sums(p)
+            # Every page resolved (its sums freed) before any is filled: the fill's arrays never
+            # coexist with another page's sums.
+            resolved = [ex.resolve(p, scale, release_sums=True) for p in range(len(mesh.pages))]
+            for p in range(len(resolved)):
+                r, resolved[p] = resolved[p], {}
                 on_page = [f for f in faces if f.page == p]
                 filled, st = fill_page(r["colour"], r["seen"], r["face"], on_page, options.fill,
                                        options.mode == "average")

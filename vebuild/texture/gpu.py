@@ -59,8 +59,8 @@ class Page:
     size: tuple[int, int]
     acc: list[moderngl.Texture]
     fbo: moderngl.Framebuffer
-    best: moderngl.Texture
-    best_fbo: moderngl.Framebuffer
+    best: moderngl.Texture | None  # None once the photos are all in (release_best_weights)
+    best_fbo: moderngl.Framebuffer | None
 
 
 def _mat3(M: Array) -> NDArray[np.float32]:
@@ -328,6 +328,7 @@ class Extractor:
                 self.ctx.blend_func = moderngl.ONE, moderngl.ONE
                 self.ctx.blend_equation = moderngl.MAX, moderngl.MAX
                 for k, page in enumerate(self._pages):
+                    assert page.best_fbo is not None, "the best weights are freed after the last photo"
                     page.best_fbo.use()
                     page.best_fbo.viewport = (0, 0, *page.size)
                     self._texel_uniforms(prog, small, id_tex, page.size, weight_scale=1.0 / BEST_WEIGHT_SCALE)
@@ -382,6 +383,7 @@ class Extractor:
             for k, page in enumerate(self._pages):
                 page.fbo.use()
                 page.fbo.viewport = (0, 0, *page.size)
+                assert page.best is not None, "the best weights are freed after the last photo"
                 page.best.use(4)
                 self._texel_uniforms(prog, cam, id_tex, page.size)
                 set_uniforms(prog, best_weight=4, inverse_gain=(1.0 / gain).astype("f4"))
@@ -482,10 +484,12 @@ class Extractor:
     # -- results -------------------------------------------------------------------------------
 
     def _geometry_targets(self, page: int, normals: bool = True) -> tuple[moderngl.Framebuffer, list[moderngl.Texture]]:
-        """MODE 3 drawn into new targets: (position, face) and, with ``normals``, (normal, 1)."""
+        """MODE 3 drawn into new targets: (face, position) and (normal, 1); without ``normals``
+        the face id alone, into one channel (4 bytes a texel, not 32)."""
         p = self._pages[page]
         size = p.size
-        targets = [self.ctx.texture(size, 4, dtype="f4") for _ in range(2 if normals else 1)]
+        targets = ([self.ctx.texture(size, 4, dtype="f4") for _ in range(2)] if normals
+                   else [self.ctx.texture(size, 1, dtype="f4")])
         for t in targets:
             t.filter = (moderngl.NEAREST, moderngl.NEAREST)
         fbo = self.ctx.framebuffer(color_attachments=targets)
@@ -509,16 +513,17 @@ class Extractor:
             fbo.release()
             for t in targets:
                 t.release()
-        return {"position": out[0][..., :3], "face": out[0][..., 3].astype(np.int32), "normal": out[1][..., :3]}
+        return {"position": out[0][..., 1:], "face": out[0][..., 0].astype(np.int32), "normal": out[1][..., :3]}
 
-    def resolve(self, page: int, exposure_scale: float) -> dict[str, NDArray]:
+    def resolve(self, page: int, exposure_scale: float, release_sums: bool = False) -> dict[str, NDArray]:
         """The merge on the GPU: 'colour' (h, w, 3) uint8 sRGB, 'seen' (h, w) bool, 'coverage'
-        (h, w, 4) uint8 (colours: vebuild.texture.merge.COVERAGE_*) and 'face' (h, w) int32."""
+        (h, w, 4) uint8 (colours: vebuild.texture.merge.COVERAGE_*) and 'face' (h, w) int32.
+        ``release_sums``: the page's sums are freed once drawn, before the results are read back."""
         from vebuild.texture.merge import COVERAGE_DROPPED_ONLY, COVERAGE_UNSEEN, COVERAGE_VIEWS
 
         p = self._pages[page]
         w, h = p.size
-        gfbo, gtex = self._geometry_targets(page, normals=False)  # 16 bytes a texel less at the peak
+        gfbo, gtex = self._geometry_targets(page, normals=False)
         targets = [self.ctx.texture((w, h), 4) for _ in range(2)]
         fbo = self.ctx.framebuffer(color_attachments=targets)
         try:
@@ -533,28 +538,40 @@ class Extractor:
                  coverage_dropped_only=rgba(COVERAGE_DROPPED_ONLY),
                  coverage_views=np.array([rgba(c) for c in COVERAGE_VIEWS], "f4"))
             fullscreen_vao(self.ctx, self._fullscreen_vaos, prog).render(moderngl.TRIANGLES, vertices=3)
+            if release_sums:
+                self.release_sums(page)
+            face = np.frombuffer(gfbo.read(components=1, dtype="f4"), "f4").reshape(h, w).astype(np.int32)
             colour = np.frombuffer(fbo.read(components=4, attachment=0), np.uint8).reshape(h, w, 4)
             coverage = np.frombuffer(fbo.read(components=4, attachment=1), np.uint8).reshape(h, w, 4).copy()
-            face = np.frombuffer(gfbo.read(components=4, dtype="f4", attachment=0), "f4").reshape(h, w, 4)[..., 3]
         finally:
             fbo.release()
             gfbo.release()
             for t in (*targets, *gtex):
                 t.release()
-        return {"colour": colour[..., :3].copy(), "seen": colour[..., 3] > 127, "coverage": coverage,
-                "face": face.astype(np.int32)}
+        return {"colour": colour[..., :3].copy(), "seen": colour[..., 3] > 127, "coverage": coverage, "face": face}
 
     def release_sums(self, page: int) -> None:
-        """Free ``page``'s sums (60 bytes a texel) once :meth:`resolve` has read them: the merge of
-        the next page then runs without them."""
+        """Free ``page``'s sums (60 bytes a texel) once :meth:`resolve` has drawn with them."""
         p = self._pages[page]
         self._unbind(free_now=True)
         for t in p.acc:
             t.release()
         p.fbo.release()
-        p.best.release()
-        p.best_fbo.release()
         p.acc = []
+        self._release_best(p)
+
+    def release_best_weights(self) -> None:
+        """Free every page's best weights (4 bytes a texel) once the last photo is in."""
+        self._unbind(free_now=True)
+        for p in self._pages:
+            self._release_best(p)
+
+    @staticmethod
+    def _release_best(p: Page) -> None:
+        if p.best is not None and p.best_fbo is not None:
+            p.best.release()
+            p.best_fbo.release()
+        p.best = p.best_fbo = None
 
     def sums(self, page: int) -> dict[str, NDArray[np.float32]]:
         """The per-texel sums of ``page`` (MODE 0's four targets), read back."""
@@ -573,8 +590,7 @@ class Extractor:
             for t in page.acc:
                 t.release()
             page.fbo.release()
-            page.best.release()
-            page.best_fbo.release()
+            self._release_best(page)
         self.release_photo()
         for a in self._idle_fbo.color_attachments:
             a.release()

@@ -119,7 +119,10 @@ def fill_page(colour: NDArray[np.uint8], seen: NDArray[np.bool_], face_map: NDAr
         x0, y0, w, h = f.rect
         chart = out[y0:y0 + h, x0:x0 + w]
         out[y0 - pad:y0 + h + pad, x0 - pad:x0 + w + pad] = np.pad(chart, ((pad, pad), (pad, pad), (0, 0)), mode="edge")
-    return np.rint(np.clip(out, 0.0, 1.0) * 255.0).astype(np.uint8), stats
+    np.clip(out, 0.0, 1.0, out=out)  # in place: a page's float copy is 12 bytes a texel
+    out *= 255.0
+    np.rint(out, out=out)
+    return out.astype(np.uint8), stats
 
 
 def _srgb(linear: Array) -> NDArray[np.float32]:
