@@ -148,7 +148,13 @@ def rooms_of(model: Model) -> Rooms:
     nodes = [n for n in model.nodes if isinstance(n.primitive, Room)]
     if not nodes:
         return Rooms([])
-    world = model.world_transforms()
+    needed: set[str] = set()  # the rooms and their ancestors: the furniture's transforms are not needed
+    for n in nodes:
+        name: str | None = n.name
+        while name is not None and name not in needed:
+            needed.add(name)
+            name = model.node(name).parent
+    world = model.world_transforms(only=needed)
     shells = [_shell(n.name, n.primitive, world[n.name]) for n in nodes if isinstance(n.primitive, Room)]
     rooms = Rooms(shells)
     for a, sa in enumerate(shells):
