@@ -406,3 +406,10 @@ def stereo_pair(cam: ImageCamera, separation: float, convergence: float) -> tupl
         C = np.asarray(cam.C, float) + sign * 0.5 * separation * x_axis
         eyes.append(ImageCamera(f"{cam.id}:{side}", K, cam.R, C, cam.width, cam.height))
     return eyes[0], eyes[1]
+
+
+def near_reach(K: ArrayLike, width: int, height: int, near: float) -> float:
+    """How far from the camera centre its near plane's rectangle reaches (metres)."""
+    corners = np.array([[0, 0, 1], [width, 0, 1], [0, height, 1], [width, height, 1]], float)
+    rays = np.linalg.solve(np.asarray(K, float), corners.T).T
+    return float(near * np.linalg.norm(rays, axis=1).max()) * 1.01 + 1e-6

@@ -33,9 +33,9 @@ from vebuild.project.decode import load_model
 from vebuild.project.outputs import begin_stage
 from vebuild.project.provenance import stamp
 from vebuild.texture.extract import PhotoSource, TextureResult, extract
-from vebuild.texture.gpu import Timings
 from vebuild.texture.merge import linear_to_srgb8
 from vebuild.texture.options import Options
+from vebuild.texture.timings import Timings
 
 TEXTURE_DIR = "textures"
 #: The name of a page vebuild writes: kind, page number, the first 12 hex digits of its SHA-256.

@@ -23,7 +23,7 @@ Figures (``--json``), each against its goal:
   extracted textures, from eye height in the first room looking across the house
   (:func:`vebuild.bench.render.measure_vebuild`; lit and shadowed figures too). Goal ≥ 30 fps.
   ``house_frame_fps_unlit_rooms_not_occluding``: the same unlit frame drawing every block in view
-  (the rooms' walls not used to leave out what they hide, :mod:`vebuild.render.portals`), frame by
+  (the rooms' walls not used to leave out what they hide, :mod:`vebuild.model.occlusion`), frame by
   frame beside the frame with them (``house_frame_fps_unlit_rooms_occluding``), and the triangles
   each draws (``house_frame_triangles_drawn``, ``house_frame_triangles_in_view``).
 """

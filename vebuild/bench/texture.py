@@ -56,10 +56,10 @@ from ..model.scene import Model, model_from_dict
 from ..project import sha256_file
 from ..texture import layout as lay
 from ..texture.extract import PhotoSource, extract
-from ..texture.gpu import Timings
 from ..texture.lens import cover_growth
 from ..texture.merge import unseen_texels
 from ..texture.options import Options
+from ..texture.timings import Timings
 
 GOALS = {"total_over_decode": 2.0, "speedup_over_cpu_reference": 10.0, "psnr_db": 30.0}
 SCALE = 2.5  # 1600×1200 → 4000×3000 = 12 megapixels

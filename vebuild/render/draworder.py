@@ -15,7 +15,7 @@ decides how much is shaded. :class:`DrawOrder` keeps the scene's triangles in bl
 - Blocks whose bounding boxes lie wholly outside one of the view's four side planes are not
   drawn: they could not give a fragment (on software OpenGL their vertices cost time all the same).
 - From a camera inside a room, blocks wholly behind its walls, floor and ceiling (seen through
-  none of its openings) are not drawn either (:mod:`vebuild.render.portals`).
+  none of its openings) are not drawn either (:mod:`vebuild.model.occlusion`).
 
 The ID buffer, the shadow maps and every other pass draw all triangles in the mesh's order.
 """
@@ -27,7 +27,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from vebuild.render.portals import rooms_of
+from vebuild.camera import near_reach  # noqa: F401  (re-exported: the renderer's callers use it from here)
+from vebuild.model.occlusion import rooms_of
 from vebuild.render.scene import RenderScene
 
 Array = NDArray[np.float64]
@@ -134,10 +135,3 @@ def side_planes(K: Array, R: Array, width: int, height: int) -> Array:
     K = np.asarray(K, float)
     n = np.array([K[0], width * K[2] - K[0], K[1], height * K[2] - K[1]])
     return n @ np.asarray(R, float)
-
-
-def near_reach(K: Array, width: int, height: int, near: float) -> float:
-    """How far from the camera centre its near plane's rectangle reaches (metres)."""
-    corners = np.array([[0, 0, 1], [width, 0, 1], [0, height, 1], [width, height, 1]], float)
-    rays = np.linalg.solve(np.asarray(K, float), corners.T).T
-    return float(near * np.linalg.norm(rays, axis=1).max()) * 1.01 + 1e-6

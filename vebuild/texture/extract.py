@@ -18,13 +18,15 @@ from numpy.typing import NDArray
 from vebuild.camera import ImageCamera
 from vebuild.errors import ProjectError
 from vebuild.gl import headless_context, max_texture_size
+from vebuild.model.occlusion import rooms_of
 from vebuild.model.scene import Model
 from vebuild.project import sha256_bytes
 from vebuild.project.images import decode_photo
 from vebuild.texture import layout as lay
-from vebuild.texture.gpu import Extractor, Timings
+from vebuild.texture.gpu import Extractor
 from vebuild.texture.merge import FaceStats, fill_page
 from vebuild.texture.options import Options
+from vebuild.texture.timings import Timings
 
 Array = NDArray[np.float64]
 
@@ -124,7 +126,7 @@ def extract(model: Model, cameras: Sequence[ImageCamera], sources: dict[str, Pho
     token = unseen_keys(ctx, model, cameras, options, page_size, timings, profile) if options.token_charts else set()
     faces = lay.layout(model, options.texels_per_metre, options.max_face_texels, page_size, token=token)
     mesh = lay.scene_mesh(model, faces)
-    ex = Extractor(ctx, mesh, options, timings if profile else None)
+    ex = Extractor(ctx, mesh, options, timings if profile else None, rooms_of(model))
     try:
         order = photo_order(ex, cameras)
         if options.drop_ratio > 0:
@@ -178,4 +180,4 @@ def unseen_keys(ctx: Any, model: Model, cameras: Sequence[ImageCamera], options:
     rough = lay.scene_mesh(model, [lay.Face(i + 1, node, name, size, 0, (0, 0, 1, 1))
                                    for i, (node, name, size, _) in enumerate(plan)])
     with timings.stage("visibility", ctx if profile else None):
-        return token_faces(rough, seen_faces(ctx, rough, cameras))
+        return token_faces(rough, seen_faces(ctx, rough, cameras, rooms=rooms_of(model)))

@@ -7,11 +7,7 @@ reads them back once.
 
 from __future__ import annotations
 
-import time
-from collections import defaultdict
-from collections.abc import Iterator
-from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import moderngl
 import numpy as np
@@ -20,13 +16,15 @@ from numpy.typing import NDArray
 from vebuild.camera import ImageCamera, depth_range, gl_projection, view_matrix
 from vebuild.gl import load_program
 from vebuild.gl.shaders import set_uniforms
+from vebuild.model.occlusion import Rooms
 from vebuild.texture import BEST_WEIGHT_SCALE, DEPTH_TOLERANCE, pre_pass_erosion
 from vebuild.texture.gpu_pyramid import PhotoPyramid, fullscreen_vao
 from vebuild.texture.id_edges import EDGE_SHRINK, edge_lines
 from vebuild.texture.layout import SceneMesh
 from vebuild.texture.lens import lens_uniforms, pinhole_cover
 from vebuild.texture.options import Options
-from vebuild.texture.visibility import FaceQueries, face_points, faces_in_view
+from vebuild.texture.timings import Timings
+from vebuild.texture.visibility import FaceQueries, face_points, faces_in_view, faces_not_hidden
 
 Array = NDArray[np.float64]
 #: Exposure statistics are taken on the atlas reduced this much per side.
@@ -35,21 +33,6 @@ STATS_SCALE = 0.25
 MIN_OVERLAP = 64
 #: Texels darker than this (linear) are left out of exposure statistics.
 DARK = 0.01
-
-
-@dataclass
-class Timings:
-    """Seconds spent per stage, summed over photos."""
-
-    seconds: dict[str, float] = field(default_factory=lambda: defaultdict(float))
-
-    @contextmanager
-    def stage(self, name: str, ctx: moderngl.Context | None = None) -> Iterator[None]:
-        t = time.perf_counter()
-        yield
-        if ctx is not None:
-            ctx.finish()
-        self.seconds[name] += time.perf_counter() - t
 
 
 @dataclass
@@ -86,8 +69,9 @@ IDLE_UNITS = 8
 class Extractor:
     """Streams photos through the ID and texel passes into per-page sums on the GPU."""
 
-    def __init__(self, ctx: moderngl.Context, mesh: SceneMesh, options: Options, timings: Timings | None = None):
-        self.ctx, self.mesh, self.opt = ctx, mesh, options
+    def __init__(self, ctx: moderngl.Context, mesh: SceneMesh, options: Options, timings: Timings | None = None,
+                 rooms: Rooms | None = None):
+        self.ctx, self.mesh, self.opt, self.rooms = ctx, mesh, options, rooms
         self.timings = timings or Timings()
         self._profile = timings is not None
         ctx.disable(moderngl.CULL_FACE)
@@ -198,10 +182,16 @@ class Extractor:
         (occlusion queries on the depth buffer, before the edges are drawn). Pass 2 sees a texel
         only where its face holds the texel's pixel in the ID buffer, so no other face has a texel
         this photo sees, and pass 2 draws only these: in a house, a photo's frustum takes in the
-        rooms behind its walls (on the quick house, 1,345 faces in view, 94 seen)."""
+        rooms behind its walls (on the quick house, 1,345 faces in view, 94 seen). From inside a
+        room (:attr:`rooms`), what its walls hide is neither drawn nor queried."""
         ctx = self.ctx
         in_view = self._visible_faces(cam)
         cam, _ = pinhole_cover(cam)
+        near, far = self._near_far(cam)
+        unhidden = (faces_not_hidden(self._face_points, self.rooms, cam, near)
+                    if self._face_queries.in_mesh_order else None)
+        if unhidden is not None:
+            in_view &= unhidden
         key = (cam.width, cam.height)
         if self._id_tex is None or self._id_tex.size != key:  # one size at a time: photos rarely differ
             self._release_id_target()
@@ -212,7 +202,6 @@ class Extractor:
         # (for a 169-megapixel photo, 0.6 GiB less at the peak).
         depth = ctx.depth_renderbuffer(key)
         fbo = ctx.framebuffer(color_attachments=[tex], depth_attachment=depth)
-        near, far = self._near_far(cam)
         V = view_matrix(cam.R, cam.C).astype("f4").T.copy()
         P = gl_projection(cam.K, cam.width, cam.height, near, far).astype("f4").T.copy()
         fbo.use()
@@ -223,7 +212,10 @@ class Extractor:
         ctx.depth_func = "<"
         fbo.depth_mask = True
         set_uniforms(self._programs["id"], view=V, projection=P)
-        self._id_vao.render(moderngl.TRIANGLES)
+        if unhidden is None:
+            self._id_vao.render(moderngl.TRIANGLES)
+        else:
+            self._face_queries.draw(unhidden)
         self.id_faces = self._face_queries.nearest(fbo, in_view)
         if erode_px > 0:
             lines = edge_lines(self.mesh, self._border, self._interior, cam, near)

@@ -15,6 +15,10 @@ occlusion query: it passes wherever it is the nearest surface at a pixel centre 
 nearest), so every face that holds a pixel of an ID buffer is counted, whatever the erosion, and
 a face no query counts has no seen texel. A photo whose faces in view are all known seen is not
 drawn.
+
+From a camera inside a room, the faces wholly behind its walls (:mod:`vebuild.model.occlusion`) are
+neither drawn into the depth buffer nor queried, here and in pass 1 (:func:`faces_not_hidden`):
+they could not be the nearest surface at any pixel, so the buffer and the answers are the same.
 """
 
 from __future__ import annotations
@@ -26,9 +30,10 @@ import moderngl
 import numpy as np
 from numpy.typing import NDArray
 
-from vebuild.camera import ImageCamera, depth_range, gl_projection, view_matrix, world_to_camera
+from vebuild.camera import ImageCamera, depth_range, gl_projection, near_reach, view_matrix, world_to_camera
 from vebuild.gl import load_program
 from vebuild.gl.shaders import set_uniforms
+from vebuild.model.occlusion import Rooms
 from vebuild.texture.layout import SceneMesh
 from vebuild.texture.lens import pinhole_cover
 
@@ -38,12 +43,15 @@ Array = NDArray[np.float64]
 @dataclass(frozen=True)
 class FacePoints:
     """Every face's vertices and normals, grouped by face (for culling the faces a photo cannot
-    see, all faces at once): face ``ids[k]`` has rows ``starts[k]`` up to the next start."""
+    see, all faces at once): face ``ids[k]`` has rows ``starts[k]`` up to the next start, and
+    the bounding box ``lo[k]``, ``hi[k]``."""
 
     ids: NDArray[np.int64]
     starts: NDArray[np.int64]
     points: Array
     normals: Array
+    lo: Array
+    hi: Array
 
 
 def face_points(mesh: SceneMesh) -> FacePoints:
@@ -56,8 +64,22 @@ def face_points(mesh: SceneMesh) -> FacePoints:
     has = ends > starts
     kept = np.concatenate([order[a:b] for a, b in zip(starts[has], ends[has], strict=True)]) if has.any() else order[:0]
     counts = (ends - starts)[has]
-    return FacePoints(wanted[has], np.r_[0, np.cumsum(counts)[:-1]].astype(np.int64),
-                      np.asarray(mesh.vertices[kept], float), np.asarray(mesh.normals[kept], float))
+    at = np.r_[0, np.cumsum(counts)[:-1]].astype(np.int64)
+    P = np.asarray(mesh.vertices[kept], float)
+    lo = np.minimum.reduceat(P, at) if len(at) else np.zeros((0, 3))
+    hi = np.maximum.reduceat(P, at) if len(at) else np.zeros((0, 3))
+    return FacePoints(wanted[has], at, P, np.asarray(mesh.normals[kept], float), lo, hi)
+
+
+def faces_not_hidden(points: FacePoints, rooms: Rooms | None, cam: ImageCamera, near: float) -> set[int] | None:
+    """The faces not wholly behind the walls of the room ``cam`` stands in (its near plane at
+    ``near``; :mod:`vebuild.model.occlusion`); None where it stands in none: any may show."""
+    if rooms is None or not rooms.shells or not len(points.ids):
+        return None
+    cover, _ = pinhole_cover(cam)
+    seen = rooms.seen(np.asarray(cover.C, float), near_reach(cover.K, cover.width, cover.height, near), points.lo,
+                      points.hi)
+    return None if seen is None else {int(i) for i in points.ids[seen]}
 
 
 def faces_in_view(points: FacePoints, cam: ImageCamera) -> set[int]:
@@ -95,9 +117,23 @@ class FaceQueries:
         first = np.searchsorted(by_face, fids, side="left")
         last = np.searchsorted(by_face, fids, side="right")
         self.runs = {int(f): (int(a), int(b - a)) for f, a, b in zip(fids, first, last, strict=True)}
+        #: Whether the mesh lists its triangles face by face: then drawing some faces' runs in turn
+        #: draws them in the mesh's order, and ties in the depth test go as drawing all would.
+        self.in_mesh_order = bool(np.all(np.diff(tri_face) >= 0))
         self._ibo = ctx.buffer(mesh.triangles[order].astype("i4").tobytes())
         self._vao = ctx.vertex_array(prog, [(vbo, "3f 1f", "in_position", "in_face")], self._ibo)
         self._queries: list[moderngl.Query] = []
+
+    def draw(self, faces: Iterable[int]) -> None:
+        """Draw the triangles of ``faces`` (with the program's uniforms as set), in face order."""
+        spans: list[list[int]] = []
+        for start, count in sorted(self.runs[f] for f in set(faces) & self.runs.keys()):
+            if spans and spans[-1][0] + spans[-1][1] == start:
+                spans[-1][1] += count
+            else:
+                spans.append([start, count])
+        for start, count in spans:
+            self._vao.render(moderngl.TRIANGLES, vertices=3 * count, first=3 * start)
 
     def nearest(self, fbo: moderngl.Framebuffer, faces: Iterable[int]) -> set[int]:
         """Of ``faces``, those that pass the depth test ``<=`` somewhere in ``fbo`` (its depth
@@ -131,9 +167,10 @@ class FaceQueries:
 
 
 def seen_faces(ctx: moderngl.Context, mesh: SceneMesh, cameras: Iterable[ImageCamera],
-               points: FacePoints | None = None) -> set[int]:
+               points: FacePoints | None = None, rooms: Rooms | None = None) -> set[int]:
     """The ids of the faces of ``mesh`` that some camera's ID buffer holds (see the module's
-    docstring); every other face has no texel any photo sees."""
+    docstring); every other face has no texel any photo sees. ``rooms``: the model's rooms, whose
+    walls hide what a camera inside one cannot see."""
     points = face_points(mesh) if points is None else points
     prog = load_program(ctx, "id")
     vbo = ctx.buffer(np.column_stack([mesh.vertices, mesh.face_of_vertex]).astype("f4").tobytes())
@@ -159,6 +196,11 @@ def seen_faces(ctx: moderngl.Context, mesh: SceneMesh, cameras: Iterable[ImageCa
                 fbo = ctx.framebuffer(depth_attachment=depth)
             assert fbo is not None
             near, far = depth_range(cover.R, cover.C, mesh.vertices)
+            unhidden = faces_not_hidden(points, rooms, cam, near) if queries.in_mesh_order else None
+            if unhidden is not None:
+                todo &= unhidden
+                if not todo:
+                    continue
             V = view_matrix(cover.R, cover.C).astype("f4").T.copy()
             P = gl_projection(cover.K, cover.width, cover.height, near, far).astype("f4").T.copy()
             fbo.use()
@@ -169,7 +211,10 @@ def seen_faces(ctx: moderngl.Context, mesh: SceneMesh, cameras: Iterable[ImageCa
             ctx.depth_func = "<"
             fbo.depth_mask = True
             set_uniforms(prog, view=V, projection=P)
-            vao_all.render(moderngl.TRIANGLES)
+            if unhidden is None:
+                vao_all.render(moderngl.TRIANGLES)
+            else:
+                queries.draw(unhidden)
             seen |= queries.nearest(fbo, todo)
             ctx.disable(moderngl.DEPTH_TEST)
     finally:

@@ -5,10 +5,11 @@ straight through its walls) is opaque except through its openings, and a room wi
 open above its walls. From a camera inside a room, its near plane too, a point outside the room's
 interior can be seen only along a ray that leaves the room through one of those openings: a ray
 crosses the plane of a wall once, so it leaves the room through that wall's inner face, where it
-is opaque, or through a hole in it. So a block of triangles (:mod:`vebuild.render.draworder`) is
-drawn only where its bounding box meets the room's interior (its bounding box) or the cone from the
-camera through some opening, beyond the opening's wall. Any other block lies wholly behind the
-room's walls, floor and ceiling, and leaving it out changes no pixel.
+is opaque, or through a hole in it. So a bounding box can hold something seen only where it meets
+the room's interior (its bounding box) or the cone from the camera through some opening, beyond
+the opening's wall. Anything else lies wholly behind the room's walls, floor and ceiling: the
+renderer does not draw it (:mod:`vebuild.render.draworder`), and the texture passes neither draw
+nor query it (:mod:`vebuild.texture.visibility`). Leaving it out changes no pixel.
 
 Through a doorway between two rooms the same holds again. Two rooms' walls back to back (their
 outer faces in one plane, the one room's hole inside the other's wall) make a passage: a ray
@@ -22,9 +23,17 @@ their cone.
 
 The cones are widened by :data:`CONE_MARGIN_RAD` and the planes by :data:`PLANE_MARGIN_M`, and
 the camera must be inside the room by its near plane's reach, so that rounding in the rasteriser
-can never show a pixel of a block left out. Nothing is culled when the camera is in no room.
+cannot show a pixel of what is left out. Nothing is culled when the camera is in no room.
 
-Layer 2 (DESIGN.md): numpy only; no GL.
+All of this holds for a watertight shell. Where two of a room's faces meet without sharing their
+vertices (a T-junction: a wall cut by a doorway meeting the next wall at a corner), the rasteriser
+can leave a pixel between them uncovered, and a view drawn whole shows there a sliver of what
+lies behind the wall; with it left out, the pixel shows what lies beyond instead. Measured: no
+pixel changed in 70 views of the generated houses (320×180 and 1280×720); in the 24-megapixel
+photos of the bench's house, 9 of 104 ID buffers differ at such pixels (five faces seen through
+them and nowhere else).
+
+Layer 1 (DESIGN.md): numpy only; no GL.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Rooms as occluders (vebuild.render.portals): from inside a room, blocks behind its walls are not
+"""Rooms as occluders (vebuild.model.occlusion): from inside a room, blocks behind its walls are not
 drawn, and leaving them out changes no pixel of a view or of its ID buffer."""
 
 from __future__ import annotations
@@ -10,9 +10,9 @@ import pytest
 
 from vebuild.camera import ImageCamera, intrinsic_matrix, look_rotation
 from vebuild.gl import headless_context
+from vebuild.model.occlusion import Rooms, rooms_of
 from vebuild.model.scene import model_from_dict
 from vebuild.render import draworder
-from vebuild.render.portals import Rooms, rooms_of
 from vebuild.render.renderer import Renderer, RenderOptions
 from vebuild.render.scene import scene_from_model
 from vebuild.synthetic_house_layout import furnished_house
@@ -185,3 +185,50 @@ def test_bench_house_measures_the_frame_with_and_without_the_rooms_occluding(ctx
     # The box off the line of the doorways (12 triangles) is left out, and the parts of B's and
     # C's walls out of the cones are not (a room's walls are one block).
     assert fig["house_frame_triangles_in_view"] - fig["house_frame_triangles_drawn"] == 12
+
+
+def _cameras_in_rooms(rooms: Rooms, lo: np.ndarray, hi: np.ndarray, n: int, seed: int) -> list[ImageCamera]:
+    rng = np.random.default_rng(seed)
+    cams: list[ImageCamera] = []
+    while len(cams) < n:
+        C = lo + rng.uniform(0, 1, 3) * (hi - lo)
+        C[2] = rng.uniform(0.4, 2.3)
+        if any(s.holds(C, 0.2) for s in rooms.shells):
+            cams.append(_camera(C, lo + rng.uniform(0, 1, 3) * (hi - lo), rng.uniform(150, 600)))
+    return cams
+
+
+def test_the_texture_passes_id_buffers_and_seen_faces_are_the_same_with_the_rooms_occluding(ctx) -> None:
+    """Pass 1 and the token-chart test draw and query only what the walls of the camera's room do
+    not hide: every ID buffer, the faces each holds and the faces any camera sees are the same."""
+    from vebuild.texture import layout as lay
+    from vebuild.texture.gpu import Extractor
+    from vebuild.texture.options import Options
+    from vebuild.texture.visibility import face_points, faces_in_view, faces_not_hidden, seen_faces
+
+    model = furnished_house(np.random.default_rng(11), 2, 2).model()
+    mesh = lay.scene_mesh(model, lay.layout(model, 20.0, 4096, 2048))
+    rooms = rooms_of(model)
+    cams = _cameras_in_rooms(rooms, mesh.vertices.min(axis=0), mesh.vertices.max(axis=0), 12, 8)
+    buffers = {}
+    for occluding in (True, False):
+        ex = Extractor(ctx, mesh, Options(), rooms=rooms if occluding else None)
+        try:
+            got = []
+            for cam in cams:
+                tex = ex.id_pass(cam, 1.5)
+                got.append((np.frombuffer(tex.read(), "f4").copy(), set(ex.id_faces)))
+            buffers[occluding] = got
+        finally:
+            ex.release()
+    for (ids_a, faces_a), (ids_b, faces_b) in zip(buffers[True], buffers[False], strict=True):
+        np.testing.assert_array_equal(ids_a, ids_b)
+        assert faces_a == faces_b
+    assert seen_faces(ctx, mesh, cams, rooms=rooms) == seen_faces(ctx, mesh, cams)
+    points = face_points(mesh)
+    left_out = []
+    for cam in cams:
+        unhidden = faces_not_hidden(points, rooms, cam, 0.05)
+        assert unhidden is not None
+        left_out.append(len(faces_in_view(points, cam) - unhidden) / len(faces_in_view(points, cam)))
+    assert np.mean(left_out) > 0.3  # most of what is in view lies behind the walls
