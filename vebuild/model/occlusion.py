@@ -9,7 +9,8 @@ is opaque, or through a hole in it. So a bounding box can hold something seen on
 the room's interior (its bounding box) or the cone from the camera through some opening, beyond
 the opening's wall. Anything else lies wholly behind the room's walls, floor and ceiling: the
 renderer does not draw it (:mod:`vebuild.render.draworder`), and the texture passes neither draw
-nor query it (:mod:`vebuild.texture.visibility`). Leaving it out changes no pixel.
+nor query it (:mod:`vebuild.texture.visibility`). Leaving it out changes no pixel (but see
+the last paragraph).
 
 Through a doorway between two rooms the same holds again. Two rooms' walls back to back (their
 outer faces in one plane, the one room's hole inside the other's wall) make a passage: a ray

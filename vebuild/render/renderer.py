@@ -145,7 +145,7 @@ class Renderer:
         self.highlight: str | None = None
         #: How texels no photo saw are drawn (one of UNOBSERVED_MODES); may change between frames.
         self.unobserved: str = check_mode(self.options.unobserved, "unobserved")
-        #: Leave out what the walls of the camera's room hide (vebuild.model.occlusion; no pixel changes).
+        #: Leave out what the walls of the camera's room hide (vebuild.model.occlusion: the same pixels but at cracks).
         self.rooms_occlude = True
         self._pages: list[moderngl.Texture] = []
         self._masks: list[moderngl.Texture] = []
