@@ -18,7 +18,8 @@ drawn.
 
 From a camera inside a room, the faces wholly behind its walls (:mod:`vebuild.model.occlusion`) are
 neither drawn into the depth buffer nor queried, here and in pass 1 (:func:`faces_not_hidden`):
-they could not be the nearest surface at any pixel, so the buffer and the answers are the same.
+they could not be the nearest surface at any pixel, so the buffer and the answers are the same
+(but at one-pixel cracks in a room's mesh: see that module).
 """
 
 from __future__ import annotations
