@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from vebuild.camera import ImageCamera, intrinsic_matrix, look_rotation
+from vebuild.camera import ImageCamera, intrinsic_matrix, look_rotation, near_reach
 from vebuild.gl import headless_context
 from vebuild.model.occlusion import Rooms, rooms_of
 from vebuild.model.scene import model_from_dict
@@ -50,7 +50,7 @@ def _drawn_blocks(renderer: Renderer, cam: ImageCamera, rooms: Rooms | None = No
         order.rooms = rooms
     try:
         order._last = None
-        index, _ = order.plan(np.asarray(cam.C, float), draworder.near_reach(cam.K, W, H, 0.05),
+        index, _ = order.plan(np.asarray(cam.C, float), near_reach(cam.K, W, H, 0.05),
                               draworder.side_planes(cam.K, cam.R, W, H))
     finally:
         order.rooms = kept

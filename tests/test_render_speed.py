@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from vebuild.bench.render import primitives_model
-from vebuild.camera import ImageCamera, intrinsic_matrix, look_rotation
+from vebuild.camera import ImageCamera, intrinsic_matrix, look_rotation, near_reach
 from vebuild.gl import headless_context
 from vebuild.project.decode import preset_from_record
 from vebuild.render import draworder, renderer, variants
@@ -168,7 +168,7 @@ def test_a_window_culls_the_back_faces_too(ctx, scene, monkeypatch):
 
 def test_near_reach_is_the_near_rectangles_far_corner():
     K = intrinsic_matrix(100.0, 50.0, 25.0)
-    reach = draworder.near_reach(K, 100, 50, 0.01)
+    reach = near_reach(K, 100, 50, 0.01)
     assert reach == pytest.approx(0.01 * np.sqrt(1 + 0.5 ** 2 + 0.25 ** 2), rel=0.02)
 
 

@@ -250,7 +250,8 @@ def frame_loop(model: Any, result: Any, quick: bool) -> dict[str, Any]:
 def rooms_occluding(ctx: Any, scene: Any, cam: Any, timing: Any) -> dict[str, Any]:
     """The unlit frame with the rooms occluding and without, frame by frame (each frame's index
     buffer is rewritten in both, as the plan changes between them), and the triangles each draws."""
-    from ..render.draworder import near_reach, side_planes
+    from ..camera import near_reach
+    from ..render.draworder import side_planes
     from ..render.renderer import Renderer
     from .render import SETTINGS, _lightings
     from .render_floor import paired_fps

@@ -27,7 +27,6 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from vebuild.camera import near_reach  # noqa: F401  (re-exported: the renderer's callers use it from here)
 from vebuild.model.occlusion import rooms_of
 from vebuild.render.scene import RenderScene
 

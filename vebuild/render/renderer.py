@@ -47,6 +47,7 @@ from vebuild.camera import (
     ImageCamera,
     depth_range,
     gl_projection,
+    near_reach,
     stereo_pair,
     undistort_pixels,
     view_matrix,
@@ -57,7 +58,7 @@ from vebuild.gl import load_program
 from vebuild.gl.context import make_current, max_texture_size
 from vebuild.gl.shaders import set_uniforms, uniform
 from vebuild.lighting import AS_PHOTOGRAPHED_LIGHTING, MAX_LIGHTS, Lighting
-from vebuild.render.draworder import DrawOrder, near_reach, side_planes
+from vebuild.render.draworder import DrawOrder, side_planes
 from vebuild.render.observed import (
     DEFAULT_UNOBSERVED,
     HATCH_DUTY,
@@ -103,8 +104,7 @@ class RenderOptions:
 
     @classmethod
     def interactive(cls) -> RenderOptions:
-        """Settings for a frame loop on software GL (no GPU): no multisampling, no anisotropic
-        filtering, the nearest mipmap level."""
+        """Settings for a frame loop on software GL: no multisampling or anisotropy, the nearest mip."""
         return cls(samples=1, anisotropy=1.0, trilinear=False)
 
 

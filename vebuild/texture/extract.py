@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 from vebuild.camera import ImageCamera
 from vebuild.errors import ProjectError
 from vebuild.gl import headless_context, max_texture_size
-from vebuild.model.occlusion import rooms_of
+from vebuild.model.occlusion import Rooms, rooms_of
 from vebuild.model.scene import Model
 from vebuild.project import sha256_bytes
 from vebuild.project.images import decode_photo
@@ -123,10 +123,12 @@ def extract(model: Model, cameras: Sequence[ImageCamera], sources: dict[str, Pho
     page_size = min(int(options.page_size), max_texture_size(ctx))
     profile = timings is not None
     timings = timings or Timings()
-    token = unseen_keys(ctx, model, cameras, options, page_size, timings, profile) if options.token_charts else set()
+    rooms = rooms_of(model)
+    token = (unseen_keys(ctx, model, cameras, options, page_size, timings, profile, rooms) if options.token_charts
+             else set())
     faces = lay.layout(model, options.texels_per_metre, options.max_face_texels, page_size, token=token)
     mesh = lay.scene_mesh(model, faces)
-    ex = Extractor(ctx, mesh, options, timings if profile else None, rooms_of(model))
+    ex = Extractor(ctx, mesh, options, timings if profile else None, rooms)
     try:
         order = photo_order(ex, cameras)
         if options.drop_ratio > 0:
@@ -170,14 +172,14 @@ def extract(model: Model, cameras: Sequence[ImageCamera], sources: dict[str, Pho
 
 
 def unseen_keys(ctx: Any, model: Model, cameras: Sequence[ImageCamera], options: Options, page_size: int,
-                timings: Timings, profile: bool = False) -> set[tuple[str, str]]:
+                timings: Timings, profile: bool, rooms: Rooms) -> set[tuple[str, str]]:
     """(node, face) of every face that no camera can see (:mod:`vebuild.texture.visibility`): the
     faces that get token charts. Found on the model's mesh before its atlas is laid out (charts
-    of one texel: the atlas does not matter to the test)."""
+    of one texel: the atlas does not matter to the test). ``rooms``: the model's (:func:`rooms_of`)."""
     from vebuild.texture.visibility import seen_faces, token_faces
 
     plan = lay.plan_faces(model, options.texels_per_metre, options.max_face_texels, page_size)
     rough = lay.scene_mesh(model, [lay.Face(i + 1, node, name, size, 0, (0, 0, 1, 1))
                                    for i, (node, name, size, _) in enumerate(plan)])
     with timings.stage("visibility", ctx if profile else None):
-        return token_faces(rough, seen_faces(ctx, rough, cameras, rooms=rooms_of(model)))
+        return token_faces(rough, seen_faces(ctx, rough, cameras, rooms=rooms))
