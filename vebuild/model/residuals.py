@@ -36,6 +36,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..calibration.lm import SPARSE_SOLVE_ABOVE
 from ..calibration.positions import ReferenceDistance  # ends: marker names or 'node:handle'
 from ..camera import ImageCamera, exp_so3, project_each, skew_batch, so3_left_jacobian
+from .column_groups import column_groups
 from .constraints import HARD_SIGMA_M
 from .layout import ParameterLayout
 from .primitives import Primitive
@@ -251,35 +252,12 @@ class Residuals:
             self.moves.append(subtree_cache[key][0])
             self.column_rows.append(subtree_cache[key][1])
             self.column_hard.append(subtree_cache[key][2])
-        self.column_groups = self._column_groups()
-
-    def _column_groups(self) -> list[list[int]]:
-        """The model parameters in groups whose Jacobian columns one finite difference gives at once
-        (Curtis, Powell and Reid's grouping): within a group no two parameters move a common node
-        (so no common handle, pin or edge) or a common distance or hard relation. Each handle moved
-        is then moved by one parameter of the group alone, by exactly what that parameter alone
-        would move it by: the columns are bit for bit those of one difference per parameter. Greedy,
-        in the parameters' order; a house's thousand parameters fall into a few dozen groups."""
-        groups: list[tuple[list[int], set[str], set[int], set[int]]] = []
-        for j in self.layout.model.indices:
-            nodes = set(self.moves[j][0])
-            dists = {int(i) for i in self.column_rows[j][2]}
-            hard = set(self.column_hard[j])
-            for cols, g_nodes, g_dists, g_hard in groups:
-                if nodes.isdisjoint(g_nodes) and dists.isdisjoint(g_dists) and hard.isdisjoint(g_hard):
-                    cols.append(j)
-                    g_nodes |= nodes
-                    g_dists |= dists
-                    g_hard |= hard
-                    break
-            else:
-                groups.append(([j], nodes, dists, hard))
-        return [cols for cols, *_ in groups]
+        self.column_groups = column_groups(self.layout.model.indices, self.moves, self.column_rows, self.column_hard)
 
     def _difference_column(self, j: int, h: float, dHg: Array, Hp: Array, H: Array, M: Array,
                            Tp: Mapping[str, Array], xmp: Array, hard0: list[Array], MR_p: Any, Ks: Array, Rs: Array,
                            Cs: Array, k1s: Array, put: Any) -> None:
-        """Model parameter j's column from its group's difference (:meth:`_column_groups`): the
+        """Model parameter j's column from its group's difference (:func:`.column_groups.column_groups`): the
         handles j moves (and no other parameter of the group does) moved by ``dHg`` for a step h."""
         pin_sel, edge_sel, dist_sel = self.column_rows[j]
         dH = dHg / h
