@@ -151,7 +151,7 @@ def coverage(tmp_path_factory: pytest.TempPathFactory) -> dict[str, np.ndarray]:
 
 
 def test_the_modelling_screen_shows_entered_sizes_and_a_typed_size_is_the_new_entry(tmp_path: Path) -> None:
-    from vebuild.edit.panels import entered_text
+    from vebuild.edit.node_panel import entered_text
     from vebuild.edit.session import EditSession
     from vebuild.project import save_project
 

@@ -1,6 +1,7 @@
 """The modelling screen's panels (vebuild edit): calibration (vanishing points, markers, the
 origin, reference distances, Calibrate) and the model (adding primitives, the scene graph, a
-node's properties and joint, Solve, Re-calibrate, Register, Extract textures, the residuals).
+node's properties and joint, Solve, Re-calibrate, Register, Extract textures, the residuals). The
+node's properties are drawn by :mod:`.node_panel`, relations and rooms by :mod:`.model_panels`.
 
 A component of :class:`vebuild.edit.screen.Editor` (``editor.panels``): it keeps what is typed into
 its fields, draws with Dear ImGui through the editor's widgets and calls the editor's session.
@@ -19,7 +20,8 @@ from vebuild.project import decode
 
 from .keys import EDITOR_KEYS, tool_key
 from .marks import AXES, CAMERA_HEIGHT_SIGMA_M, KNOWN_LENGTH_SIGMA_M
-from .model_panels import equal_section, relations_section, room_section
+from .model_panels import relations_section
+from .node_panel import properties_section
 from .overlay import AXIS_COLOURS
 from .session import placement_text
 
@@ -28,7 +30,6 @@ if TYPE_CHECKING:
 
 #: The primitives the panel offers, from the registry (each type, then its named variants).
 KINDS = list(primitive_kinds())
-JOINT_TYPES = ["rests_on", "flush", "fixed", "hinge", "slider", "free"]
 
 #: The most markers the Calibration tab's list shows without scrolling.
 MARKER_ROWS = 11
@@ -52,12 +53,12 @@ class Panels:
         self.height_m, self.height_sigma = "", ""
         self.equal_param = 0  # the size "Make equal" shares
         self.room_corner, self.room_wall, self.room_kind = 0, 0, 0  # a room's corner, wall, opening kind
-        self._param_edits: dict[str, Any] = {}
+        self.param_edits: dict[str, Any] = {}
         self._select_tab: str | None = None  # a tab to bring forward at the next frame (the first steps')
 
     def forget_edits(self) -> None:
         """Drop the values typed but not committed (another node was selected)."""
-        self._param_edits.clear()
+        self.param_edits.clear()
 
     def show_tab(self, name: str) -> None:
         """Bring a tab forward at the next frame."""
@@ -378,7 +379,7 @@ class Panels:
         imgui.end_child()
         relations_section(self)
         if self.ed.selected is not None and model is not None and self.ed.selected in model.index:
-            self._properties(model, self.ed.selected)
+            properties_section(self, model, self.ed.selected)
         self._residuals()
 
     def _attach_choices(self) -> list[str]:
@@ -441,137 +442,23 @@ class Panels:
                 self._tree_node(model, k)
             imgui.tree_pop()
 
-    def _node_doc(self, name: str) -> dict[str, Any] | None:
+    def node_doc(self, name: str) -> dict[str, Any] | None:
+        """The project document's node ``name`` (None: no such node)."""
         for n in (self.ed.session.data.get("model") or {}).get("nodes", []):
             if n["name"] == name:
                 return n
         return None
 
-    def _float_field(self, label: str, value: float, fmt: str = "%.4f") -> float | None:
+    def float_field(self, label: str, value: float, fmt: str = "%.4f") -> float | None:
         """An input committed by Enter or by leaving it; returns the committed value or None."""
-        shown = self._param_edits.get(label, value)
+        shown = self.param_edits.get(label, value)
         changed, v = imgui.input_float(label, float(shown), 0.0, 0.0, fmt)
         self.ed.rect(label)
         if changed:
-            self._param_edits[label] = float(v)
+            self.param_edits[label] = float(v)
         if imgui.is_item_deactivated_after_edit():
-            return self._param_edits.pop(label, float(v))
+            return self.param_edits.pop(label, float(v))
         return None
-
-    def _properties(self, model: Any, name: str) -> None:
-        s = self.ed.session
-        doc = self._node_doc(name)
-        if doc is None:
-            return
-        imgui.separator()
-        imgui.text(f"{name}" + (f" on {doc['parent']}" if doc.get("parent") else ""))
-        imgui.same_line()
-        if self.ed.button("Remove##node", tip=f"remove {name} (and what rests on it) from the model"):
-            self.ed.guard(s.remove_node, name)
-            if s.model is None or name not in s.model.index:
-                self.ed.select(None)
-                return
-        prim = doc.get("primitive")
-        if prim is not None and prim.get("type") == "room":
-            room_section(self, name, prim)
-        if prim is not None:
-            equal_section(self, name, prim)
-            for k, v in prim["params"].items():
-                imgui.set_next_item_width(110)
-                new = self._float_field(f"{k} (m)##param:{k}", v)
-                if new is not None and new != v:
-                    self.ed.guard(s.set_params, name, {k: new})
-                note = entered_text(doc, k, self.ed.session.data.get("model_solution"))
-                if note:
-                    imgui.same_line()
-                    imgui.text(note)
-        joint = doc.get("joint", {})
-        jtype = joint.get("type", "fixed")
-        types = JOINT_TYPES + ([jtype] if jtype not in JOINT_TYPES else [])
-        imgui.set_next_item_width(110)
-        changed, idx = imgui.combo("joint##type", types.index(jtype), types)
-        self.ed.rect("joint type")
-        imgui.set_item_tooltip("how it is attached: resting on, flush with, fixed to its parent, on a hinge or a "
-                               "slider, or free")
-        if changed and types[idx] != jtype:
-            self.ed.guard(lambda: s.set_joint(name, self._default_joint(model, name, types[idx], joint)))
-        for key, value in joint.items():
-            if key in ("type", "limits", "limits_deg", "solve_axis") or isinstance(value, str | bool | dict):
-                if isinstance(value, str) and key != "type":
-                    imgui.text(f"{key}: {value}")
-                elif isinstance(value, dict):  # a hinge's jamb: the opening and its side
-                    imgui.text(f"{key}: " + ", ".join(f"{k} {v}" for k, v in value.items()))
-                continue
-            if isinstance(value, (int, float)):
-                imgui.set_next_item_width(110)
-                new = self._float_field(f"{key}##joint:{key}", float(value), "%.3f")
-                if new is not None and new != value:
-                    self.ed.guard(s.set_joint, name, {**joint, key: new})
-            elif isinstance(value, list) and len(value) in (2, 3):
-                imgui.set_next_item_width(200)
-                fn = imgui.input_float2 if len(value) == 2 else imgui.input_float3
-                label = f"{key}##joint:{key}"
-                shown = self._param_edits.get(label, [float(c) for c in value])
-                changed, vec = fn(label, list(shown), "%.3f")
-                self.ed.rect(label)
-                if changed:
-                    self._param_edits[label] = list(vec)
-                if imgui.is_item_deactivated_after_edit():
-                    vec = self._param_edits.pop(label, list(vec))
-                    self.ed.guard(s.set_joint, name, {**joint, key: [float(c) for c in vec]})
-        if jtype in ("hinge", "slider"):
-            key = "limits_deg" if jtype == "hinge" else "limits"
-            lo, hi = joint.get(key, [-180.0, 180.0] if jtype == "hinge" else [-1.0, 1.0])
-            label = f"limits ({'°' if jtype == 'hinge' else 'm'})##limits"
-            shown = self._param_edits.get(label, [float(lo), float(hi)])
-            imgui.set_next_item_width(200)
-            changed, vec = imgui.input_float2(label, list(shown), "%.3f")
-            self.ed.rect("limits")
-            if changed:
-                self._param_edits[label] = list(vec)
-            if imgui.is_item_deactivated_after_edit():
-                vec = self._param_edits.pop(label, list(vec))
-                self.ed.guard(s.set_limits, name, float(vec[0]), float(vec[1]))
-            # Whether the photos solve the axis too (a door seen open, a drawer pulled out: FORMAT.md).
-            changed, on = imgui.checkbox("solve axis (from the photos)##solve_axis", bool(joint.get("solve_axis")))
-            self.ed.rect("solve axis")
-            if changed:
-                self.ed.guard(s.set_joint, name, {**joint, "solve_axis": bool(on)})
-        solve = doc.get("solve", True)
-        changed, on = imgui.checkbox("solve (untick: hold as it is)", bool(solve))
-        self.ed.rect("solve")
-        if changed:
-            self.ed.guard(s.set_solve, name, bool(on))
-
-    def _default_joint(self, model: Any, name: str, jtype: str, old: dict[str, Any]) -> dict[str, Any]:
-        """A joint of another type that keeps the node where it is now, as far as the type allows."""
-        from vebuild.model.scene import pose_to_dict
-
-        node = model.node(name)
-        T = model.world_transforms()
-        rel = T[name] if node.parent is None else np.linalg.inv(T[node.parent]) @ T[name]
-        pose = pose_to_dict(rel)
-        if jtype == "rests_on":
-            j = {"type": "rests_on", "position": [float(rel[0, 3]), float(rel[1, 3])],
-                 "yaw_deg": float(pose["rotation_deg"][2])}
-            if node.parent is not None:
-                j["face"] = "top"
-                j["position"] = old.get("position", [0.0, 0.0])
-            return j
-        if jtype == "flush":  # its bottom on its parent's top (a room's floor), or on the floor
-            from .relating import flush_joint_here
-
-            parent = model.node(node.parent).primitive if node.parent is not None else None
-            if parent is None:
-                return {"type": "flush", "own_face": "bottom", "offset": 0.0,
-                        "position": [float(rel[0, 3]), float(rel[1, 3])], "yaw_deg": float(pose["rotation_deg"][2])}
-            return flush_joint_here(model, name, "bottom", "top" if "top" in parent.planes() else "floor")
-        if jtype == "hinge":
-            return {"type": "hinge", "axis_point": [0.0, 0.0, 0.0], "axis": [0.0, 0.0, 1.0], **pose,
-                    "angle_deg": 0.0, "limits_deg": [-180.0, 180.0]}
-        if jtype == "slider":
-            return {"type": "slider", "axis": [1.0, 0.0, 0.0], **pose, "offset": 0.0, "limits": [-1.0, 1.0]}
-        return {"type": jtype, **pose}
 
     def _residuals(self) -> None:
         if self.ed.solve_error:
@@ -596,25 +483,6 @@ class Panels:
                 else:
                     imgui.text(text)
         imgui.end_child()
-
-
-def entered_text(doc: dict[str, Any], param: str, solution: dict[str, Any] | None = None) -> str:
-    """What the properties panel says beside a size that is held or entered (FORMAT.md ``hold``):
-    "entered (exact)", or "entered 0.4000 m ± 2.0 mm" with, once solved, the solved 1σ; "" for a
-    size that is solved from the photos alone."""
-    for e in doc.get("hold", []):
-        if e == param or (isinstance(e, dict) and e.get("name") == param):
-            sigma = 0.0 if isinstance(e, str) else float(e.get("sigma", 0.0))
-            if sigma == 0:
-                return "entered (exact)"
-            value = e.get("value")
-            text = f"entered {value:.4f} m ± {1000 * sigma:.1f} mm" if value is not None \
-                else f"entered ± {1000 * sigma:.1f} mm"
-            solved = ((solution or {}).get("nodes", {}).get(doc["name"], {}).get("params", {}).get(param) or {})
-            if solved.get("sigma") is not None:
-                text += f"; solved ± {1000 * solved['sigma']:.1f} mm"
-            return text
-    return ""
 
 
 def _vanishing_point_text(v: Any, width: float, height: float) -> str:
