@@ -223,10 +223,12 @@ class SolvedModel:
                          where=str(project.path), unit=length_unit(project.data))
 
     # -- evaluation -----------------------------------------------------------------------------
-    def _state(self, x: Array) -> tuple[Array, dict[str, Array]]:
+    def _state(self, x: Array) -> tuple[Array, Mapping[str, Array]]:
+        """The model vector at x and its nodes' world transforms, each computed when first asked
+        for: a measurement's difference quotients ask for a few nodes of hundreds."""
         xm = self.xm0.copy()
         xm[self.model_index] = x[: len(self.model_index)]
-        return xm, self.model.world_transforms(xm)
+        return xm, self.model.lazy_world_transforms(xm)
 
     def marker_position(self, name: str, x: Array | None = None) -> Array:
         x = self.x0 if x is None else x

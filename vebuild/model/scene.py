@@ -13,7 +13,7 @@ a node attached to the world has the world as parent. Lengths in metres, angles 
 
 from __future__ import annotations
 
-from collections.abc import Collection, Mapping, Sequence
+from collections.abc import Collection, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -197,16 +197,26 @@ class Model:
             todo = [self.nodes[self.index[name]] for name in sorted(only, key=self.index.__getitem__)]
             out = dict(cache or {})
         for n in todo:
-            sq, sp = self.slices[n.name]
-            parent = None if n.parent is None else self.node(n.parent)
-            p_params = None
-            if parent is not None and parent.primitive is not None:
-                p_params = x[self.slices[parent.name][1]]
-            node_params = x[sp] if n.primitive is not None else None
-            parent_prim = None if parent is None else parent.primitive
-            T = n.joint.transform(x[sq], parent_prim, p_params, n.primitive, node_params)
-            out[n.name] = T if parent is None else out[parent.name] @ T
+            T = self.local_transform(n, x)
+            out[n.name] = T if n.parent is None else out[n.parent] @ T
         return out
+
+    def local_transform(self, n: Node, x: Array) -> Array:
+        """parent_from_node of node ``n`` for model vector x (its joint, given its parent's
+        primitive and both nodes' parameters)."""
+        sq, sp = self.slices[n.name]
+        parent = None if n.parent is None else self.node(n.parent)
+        p_params = None
+        if parent is not None and parent.primitive is not None:
+            p_params = x[self.slices[parent.name][1]]
+        node_params = x[sp] if n.primitive is not None else None
+        parent_prim = None if parent is None else parent.primitive
+        return n.joint.transform(x[sq], parent_prim, p_params, n.primitive, node_params)
+
+    def lazy_world_transforms(self, x: Array) -> WorldTransforms:
+        """world_from_node for model vector x, each node's computed (with its ancestors') only when
+        asked for: the same values as :meth:`world_transforms`, for a question about a few nodes."""
+        return WorldTransforms(self, x)
 
     def subtree(self, name: str) -> list[str]:
         """The node and all its descendants, parents first."""
@@ -377,3 +387,29 @@ def _check_cycles(nodes: list[Node]) -> None:
             name = parent.get(name)
         done.update(path)
 
+
+
+class WorldTransforms(Mapping[str, Array]):
+    """Every node's world_from_node for one model vector, computed on first use: a node's is its
+    parent's times its own joint's, as :meth:`Model.world_transforms` computes it (bit for bit)."""
+
+    def __init__(self, model: Model, x: Array) -> None:
+        self._model, self._x = model, x
+        self._done: dict[str, Array] = {}
+
+    def __getitem__(self, name: str) -> Array:
+        T = self._done.get(name)
+        if T is None:
+            if name not in self._model.index:
+                raise KeyError(name)
+            n = self._model.node(name)
+            local = self._model.local_transform(n, self._x)
+            T = local if n.parent is None else self[n.parent] @ local
+            self._done[name] = T
+        return T
+
+    def __iter__(self) -> Iterator[str]:
+        return (n.name for n in self._model.nodes)
+
+    def __len__(self) -> int:
+        return len(self._model.nodes)
