@@ -19,7 +19,12 @@ def json_values(x: Any) -> Any:
     a = np.asarray(x, float)
     if a.ndim == 0:
         return float(a) if np.isfinite(a) else None
-    return [json_values(v) for v in a]
+    finite = np.isfinite(a)
+    if finite.all():
+        return a.tolist()  # Python floats, as float() gives them: a covariance of a house is millions
+    out = a.astype(object)
+    out[~finite] = None
+    return out.tolist()
 
 
 def value_sigma(value: Any, sigma: Any) -> dict[str, Any]:
