@@ -39,6 +39,7 @@ from ..camera import ImageCamera, exp_so3, project_each, skew_batch, so3_left_ja
 from .column_groups import column_groups
 from .constraints import HARD_SIGMA_M
 from .layout import ParameterLayout
+from .moved import MovePlan, apply_plan, move_plan
 from .primitives import Primitive
 from .relations import Relation, is_edge
 from .relations import rows_of as relation_rows
@@ -253,6 +254,20 @@ class Residuals:
             self.column_rows.append(subtree_cache[key][1])
             self.column_hard.append(subtree_cache[key][2])
         self.column_groups = column_groups(self.layout.model.indices, self.moves, self.column_rows, self.column_hard)
+        self._plans: dict[tuple[str, ...], MovePlan] = {}
+
+    def move_plan(self, columns: Sequence[int]) -> MovePlan:
+        """How a difference over the model parameters ``columns`` (one group) moves the model's
+        transforms and handles (:mod:`.moved`)."""
+        changed = sorted({n for j in columns for n in (self.owner[j], *self.also.get(j, ()))})
+        key = tuple(changed)
+        if key not in self._plans:
+            def rows(n: str) -> Index:
+                k = len(self.primitive_of(n).handle_names()) if n in self.h_offset else 0
+                return np.arange(self.h_offset.get(n, 0), self.h_offset.get(n, 0) + k)
+            moved = [n for j in columns for n in self.moves[j][0]]
+            self._plans[key] = move_plan(self.model, changed, moved, rows, {n for r in self.hard for n in r.nodes()})
+        return self._plans[key]
 
     def _difference_column(self, j: int, h: float, dHg: Array, Hp: Array, H: Array, M: Array,
                            Tp: Mapping[str, Array], xmp: Array, hard0: list[Array], MR_p: Any, Ks: Array, Rs: Array,
@@ -475,10 +490,8 @@ class Residuals:
             steps = FD_STEP * np.maximum(1.0, np.abs(x[cols]))
             xp = x.copy()
             xp[cols] += steps
-            nodes = [n for j in group for n in self.moves[j][0]]
             xmp = self.model_vector(xp)
-            Tp = self.model.world_transforms(xmp, only=nodes, cache=T)
-            Hp = self.handle_positions(xmp, Tp, nodes, H.copy())
+            Tp, Hp = apply_plan(self.move_plan(group), self.model, xmp, T, H, self.handle_positions)
             dHg = Hp - H
             for j, h in zip(group, steps, strict=True):
                 self._difference_column(j, float(h), dHg, Hp, H, M, Tp, xmp, hard0, MR_p, Ks, Rs, Cs, k1s, put)

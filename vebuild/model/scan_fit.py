@@ -29,6 +29,7 @@ from numpy.typing import NDArray
 from scipy import sparse
 
 from ..constants import ROBUST_SCALE
+from .moved import apply_plan
 from .residuals import FD_STEP
 from .solver import Problem
 
@@ -134,15 +135,12 @@ class ScanProblem(Problem):
         used = np.unique(np.concatenate([rows for _, _, rows, _ in self.surfaces]))
         rows_, cols_, vals_ = [], [], []
         for j in self.layout.model.indices:
-            nodes, hrows = self.moves[j]
-            if not np.isin(used, hrows).any():
+            if not np.isin(used, self.moves[j][1]).any():
                 continue
             h = FD_STEP * max(1.0, abs(x[j]))
             xp = x.copy()
             xp[j] += h
-            xmp = self.model_vector(xp)
-            Tp = self.model.world_transforms(xmp, only=nodes, cache=T)
-            Hp = self.handle_positions(xmp, Tp, nodes, H.copy())
+            _, Hp = apply_plan(self.move_plan([j]), self.model, self.model_vector(xp), T, H, self.handle_positions)
             col = d * (self._scan_raw(Hp) - r0) / h
             nz = np.flatnonzero(col)
             rows_.append(self.rows_scan[nz])

@@ -16,6 +16,7 @@ from ..camera import ImageCamera
 from ..constants import OUTLIER_SIGMAS
 from ..determinism import deterministic
 from .constraints import constraint_rank
+from .moved import apply_plan
 from .residuals import FD_STEP
 
 if TYPE_CHECKING:
@@ -227,14 +228,14 @@ def handle_gradients(problem: Problem, x: Array) -> tuple[Array, Array]:
     H = problem.handle_positions(xm, T)
     G = np.zeros((problem.n_handles, 3, problem.layout.n))
     for j in problem.layout.model.indices:
-        nodes, hrows = problem.moves[j]
+        hrows = problem.moves[j][1]
         if not len(hrows):
             continue
         h = FD_STEP * max(1.0, abs(x[j]))
         xp = x.copy()
         xp[j] += h
-        xmp = problem.model_vector(xp)
-        Hp = problem.handle_positions(xmp, problem.model.world_transforms(xmp, only=nodes, cache=T), nodes, H.copy())
+        _, Hp = apply_plan(problem.move_plan([j]), problem.model, problem.model_vector(xp), T, H,
+                           problem.handle_positions)
         G[hrows, :, j] = (Hp[hrows] - H[hrows]) / h
     return H, G
 
