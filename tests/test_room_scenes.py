@@ -17,8 +17,9 @@ Measured at this commit (seed 1; coverage over seeds 1, 3, 4, 6, 10 and 18, 138 
 rooms that generate and solve in about 10 s each): worst dimension 0.44–0.82 cm per metre per room,
 hinge axis 1.4–6.8 mm off, coverage 95.7 %. The cameras are held by their vanishing-point priors
 (FORMAT.md ``vanishing_point_prior``), not by their calibration, which already counts the marker
-sightings the re-calibration uses again. The solve starts from staged_start (the room alone first,
-then everything): from the raw guess seeds 6 and 8 ended with pinned vertices behind a camera.
+sightings the re-calibration uses again. The solve starts from the raw guess and, where that does
+not plainly find the minimum (seeds 6 and 8 ended with pinned vertices behind a camera), from
+staged_start (the room alone first, then everything).
 The helpers that solve a room and compare it with its truth are `vebuild bench rooms`'s, which
 runs all rooms of seeds 1–20 (15 draw; 92.8 % inside) and redraws the least covered one's clicks;
 see docs/accuracy.md.
@@ -140,6 +141,29 @@ def test_two_first_guesses_give_the_same_figures(generated: GeneratedRoom, solve
                 worst = max(worst, d)
                 assert d < REPEAT_SIGMA, (node, k, v["value"], again["nodes"][node]["params"][k]["value"])
     print("largest difference between the two guesses' solutions (σ):", worst)
+
+
+@pytest.mark.parametrize("seed,direct", [(3, True), (6, False)])
+def test_the_solve_from_the_first_guess_is_kept_only_where_it_found_the_minimum(
+        seed: int, direct: bool, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """`vebuild solve` tries the whole problem from the first guess first (Problem.plausible) and
+    takes the staged start only where that did not plainly find the minimum. Seed 3's room: found
+    (the staged start is not run); seed 6's: not (100 iterations, pinned handles behind a camera),
+    so the staged start runs and the room is solved within the issue's centimetre per metre."""
+    from vebuild.actions import solve as solve_action
+    from vebuild.model.solver import Problem
+
+    verdicts: list[bool] = []
+    stages: list[int] = []
+    plausible, staged = Problem.plausible, solve_action.staged_start
+    monkeypatch.setattr(Problem, "plausible", lambda self, r: verdicts.append(plausible(self, r)) or verdicts[-1])
+    monkeypatch.setattr(solve_action, "staged_start", lambda *a, **k: stages.append(staged(*a, **k)) or stages[-1])
+    g = room_scene(np.random.default_rng(seed))
+    sol = solve_room(g, tmp_path)
+    assert verdicts == [direct]
+    assert stages == ([] if direct else [1])
+    for name, got, true in dimensions(g.scene, sol):
+        assert abs(got - true) <= DIMENSION_TOL_REL * max(true, 1.0), (name, got, true)
 
 
 def test_the_staged_start_places_the_room_before_its_furniture(generated: GeneratedRoom, tmp_path: Path) -> None:

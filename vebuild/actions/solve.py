@@ -82,23 +82,32 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
                 distances.append(d)
         check_recalibration_scale(project, model, markers, distances)
     surveyed = list(decode.markers(data, "surveyed"))
-    # The parents first, from their own marks: a start the final solve can use.
-    staged_start(model, cameras, [p for p in pins if p.fixed], edges, project.settings["click_sigma_px"])
-    # Laser scans marked use_in_solve: their points observe the faces nearest them (FORMAT.md "Laser scans").
-    surfaces = scan_surfaces(project, model) if any(s.get("use_in_solve") for s in data.get("scans") or []) else []
-    problem = (partial(ScanProblem, surfaces=surfaces) if surfaces else Problem)(
-                      model, cameras, [p for p in pins if p.fixed], edges,
-                      options=ProblemOptions(click_sigma_px=project.settings["click_sigma_px"],
-                                             prior_scale=FINAL_PRIOR_SCALE, recalibrate=recalibrate,
-                                             refine_intrinsics=refine_intrinsics,
-                                             k1_sigma=recalibration_k1_sigmas(project, distortion_sigmas(project))
-                                             if recalibrate else {}),
-                      markers=MarkerData(markers, [origin, *surveyed], marker_obs, distances))
-    try:
+    fixed_pins = [p for p in pins if p.fixed]
+    options = ProblemOptions(click_sigma_px=project.settings["click_sigma_px"], prior_scale=FINAL_PRIOR_SCALE,
+                             recalibrate=recalibrate, refine_intrinsics=refine_intrinsics,
+                             k1_sigma=recalibration_k1_sigmas(project, distortion_sigmas(project))
+                             if recalibrate else {})
+    marker_data = MarkerData(markers, [origin, *surveyed], marker_obs, distances)
+    scans = any(s.get("use_in_solve") for s in data.get("scans") or [])
+
+    def final_solve(staged: bool) -> tuple[Problem, Any]:
+        if staged:  # the parents first, from their own marks: a start the final solve can use
+            staged_start(model, cameras, fixed_pins, edges, project.settings["click_sigma_px"])
+        # Laser scans marked use_in_solve: their points observe the faces nearest them (FORMAT.md "Laser scans").
+        surfaces = scan_surfaces(project, model) if scans else []
+        problem = (partial(ScanProblem, surfaces=surfaces) if surfaces else Problem)(
+            model, cameras, fixed_pins, edges, options=options, markers=marker_data)
         x0 = problem.x0()
         problem.check_finite(x0, "at the start of the solve")
         sol = problem.solve(x0, robust=True)
         problem.check_finite(sol.x, "at the end of the solve")
+        return problem, sol
+
+    try:
+        # From the first guess at once, kept where it plainly found the minimum (Problem.plausible);
+        # else (and always with scans, whose faces are matched on the start) from the staged start.
+        direct = None if scans else _attempt(lambda: final_solve(staged=False))
+        problem, sol = direct if direct is not None and direct[0].plausible(direct[1]) else final_solve(staged=True)
         solution = problem.solution(sol.x, sol.iterations)
     except VebuildError as e:
         raise VebuildError(f"{project.path}: $.model: {e}") from None
@@ -135,6 +144,19 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
     result["check_distances"] = final_check_distances(project)
     provenance.stamp(data, "model_solution")  # what it was computed from (vebuild.project.provenance)
     return result
+
+
+def _attempt(solve: Any) -> Any:
+    """``solve()``, or None where it fails as a solve can (a residual not finite, a degenerate
+    system): what the staged start is there to avoid, so that the staged solve has its say."""
+    try:
+        return solve()
+    except VebuildError:
+        return None
+    except (ValueError, np.linalg.LinAlgError) as e:
+        if not is_numeric_failure(e):
+            raise
+        return None
 
 
 #: How closely a re-run on unchanged inputs must give the recorded figures for the recorded
