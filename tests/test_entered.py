@@ -201,3 +201,24 @@ def test_two_entered_members_of_an_equal_group_combine_as_two_measurements(tmp_p
     for k in ("width", "depth"):
         assert floor[k]["value"] == pytest.approx(mean, abs=1e-3 * sigma)
         assert floor[k]["sigma"] == pytest.approx(sigma, rel=1e-3)
+
+
+def test_entered_values_never_widen_what_the_observations_alone_determine() -> None:
+    """The solve asks for the covariance with the entered values only where the observations alone
+    leave something undetermined (model/solution.py): it relies on every variance with them being
+    at most the one without, the regularising ridge (scaled by the largest diagonal) included.
+    Random normal matrices with and without entered rows (one nonzero each, 1σ from 0.1 mm to 1 m),
+    some unknowns observed by no row."""
+    from vebuild.model.solution import _data_covariance
+
+    rng = np.random.default_rng(7)
+    for _ in range(20):
+        n, m = 12, 30
+        J = np.zeros((m + 4, n))
+        J[:m, : n - 2] = rng.normal(size=(m, n - 2))  # the last two unknowns: no observation
+        cols = rng.choice(n, 4, replace=False)
+        J[np.arange(m, m + 4), cols] = 1.0 / 10.0 ** rng.uniform(-4, 0, 4)
+        alone = np.diag(_data_covariance(J, np.arange(m), np.zeros(0, int), n))
+        entered = np.diag(_data_covariance(J, np.arange(m + 4), np.zeros(0, int), n))
+        assert np.all(entered <= alone * (1 + 1e-9)), (alone, entered)
+        assert np.all(entered[cols] < alone[cols])
