@@ -95,3 +95,32 @@ def test_the_grouped_jacobian_columns_are_each_parameters_own_difference() -> No
     assert np.array_equal(dense[0], dense[1])
     numeric = numeric_jacobian(problem.residuals, x, 1e-6)
     assert np.abs(dense[0] - numeric).max() < 1e-4 * np.abs(numeric).max()
+
+
+def test_a_solve_is_plausible_only_where_every_node_fits() -> None:
+    """Problem.plausible, on four boxes seen by three photos at the generator's click noise: the
+    converged solve is plausible; one pin far out (a wrong click) leaves it so; one box whose pins
+    are all tens of σ out (turned the wrong way among boxes that fit: the overall median does not
+    move) is not, nor is a solve that did not converge."""
+    import dataclasses
+
+    rng = np.random.default_rng(12)
+    _, start, pins, photos = model_scene(rng, n_boxes=4, n_photos=3)
+    cams = {p.id: ImageCamera(p.id, p.K, p.R, p.C, p.width, p.height) for p in photos.values()}
+    model = model_from_dict(start["nodes"], MARKERS)
+    problem = Problem(model, cams, [Pin(p["photo"], p["node"], p["handle"], np.asarray(p["uv"])) for p in pins],
+                      options=ProblemOptions(click_sigma_px=CLICK_NOISE_PX, prior_scale=1e5))
+    result = problem.solve(problem.x0(), robust=True)
+    assert result.converged and problem.plausible(result)
+    rows = {n: problem.rows_pin[[i for i, p in enumerate(problem.pins) if p.node == n]]
+            for n in {p.node for p in problem.pins}}
+    fewest, most = sorted(rows, key=lambda n: len(rows[n]))[0], sorted(rows, key=lambda n: len(rows[n]))[-1]
+    assert len(rows[fewest]) >= 3 and len(problem.pins) >= 5 * len(rows[fewest])
+    one = result.residuals.copy()
+    one[rows[most][0]] = 30.0
+    assert problem.plausible(dataclasses.replace(result, residuals=one))
+    turned = result.residuals.copy()
+    turned[rows[fewest].ravel()] = 30.0
+    assert np.median(np.hypot(*turned[problem.rows_pin].T)) < 2.0  # the overall median barely moves
+    assert not problem.plausible(dataclasses.replace(result, residuals=turned))
+    assert not problem.plausible(dataclasses.replace(result, converged=False))

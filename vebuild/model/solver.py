@@ -247,9 +247,11 @@ class Problem(Residuals):
     def plausible(self, result: LMResult) -> bool:
         """Whether a solve from the first guess plainly found the minimum, so that no staged start
         (:func:`staged_start`) is needed: it converged, every pinned handle and sighted marker lies
-        in front of its camera (an edge's ends may lie behind: its line is what is observed), and
-        the median of the observations' whitened residuals (per pin, edge or sighting, the norm of
-        its two rows) is at most PLAUSIBLE_MEDIAN_SIGMAS."""
+        in front of its camera (an edge's ends may lie behind: its line is what is observed), the
+        median of the observations' whitened residuals (per pin, edge or sighting, the norm of its
+        two rows) is at most PLAUSIBLE_MEDIAN_SIGMAS, and no node's pins and edges have a median
+        above PLAUSIBLE_NODE_SIGMAS (a piece of furniture turned the wrong way among hundreds
+        that fit would not move the overall median)."""
         if not result.converged or not np.all(np.isfinite(result.x)):
             return False
         x = result.x
@@ -261,7 +263,14 @@ class Problem(Residuals):
                 return False
         r = result.residuals
         rows = np.concatenate([self.rows_pin, self.rows_edge, self.rows_marker])
-        return bool(len(rows) == 0 or np.median(np.hypot(r[rows[:, 0]], r[rows[:, 1]])) <= PLAUSIBLE_MEDIAN_SIGMAS)
+        norms = np.hypot(r[rows[:, 0]], r[rows[:, 1]])
+        if len(rows) and np.median(norms) > PLAUSIBLE_MEDIAN_SIGMAS:
+            return False
+        nodes = [p.node for p in self.pins] + [e.node for e in self.edges]
+        of_node: dict[str, list[float]] = {}
+        for node, e in zip(nodes, norms[: len(nodes)].tolist(), strict=True):
+            of_node.setdefault(node, []).append(e)
+        return all(float(np.median(v)) <= PLAUSIBLE_NODE_SIGMAS for v in of_node.values())
 
     def solution(self, x: Array, iterations: int = 0) -> Solution:
         """What the solve found at x (:func:`.solution.solution_at`)."""
@@ -274,6 +283,11 @@ class Problem(Residuals):
 #: did not (seed 6: 100 iterations, two pinned handles behind a camera) 3.6. Clicks twice as
 #: scattered as the stated σ take the staged start, as every solve did before.
 PLAUSIBLE_MEDIAN_SIGMAS = 2.0
+#: ... and where no node's pins and edges have a median whitened residual above this: a pin at
+#: the stated click noise lies this far out with a chance of e^(-12.5), 4e-6, so a node of a
+#: right minimum stays below it; a node in a wrong one is off by tens of σ (seed 6: the tenth
+#: of the pins farthest out at 60σ and more).
+PLAUSIBLE_NODE_SIGMAS = 5.0
 
 #: A stage of :func:`staged_start` stops once a step lowers its cost by less than this share: it
 #: only gives the final solve its start. On the generated house a stage's cost is within 0.1 % of
