@@ -73,16 +73,21 @@ def test_levenberg_marquardt_finds_the_same_minimum_with_a_sparse_system() -> No
     assert np.abs(a.x - b_.x).max() < 1e-8 * np.abs(b_.x).max()
 
 
-def test_the_grouped_jacobian_columns_are_each_parameters_own_difference() -> None:
-    """Parameters that move no common node, distance or relation are differenced together; the
-    Jacobian is bit for bit the one of a difference per parameter, and close to a central
-    difference of the residuals (the handles move linearly per step: 1e-4 of the largest entry)."""
+def _four_boxes() -> Problem:
+    """Four boxes on a floor seen by three photos, pinned at the generator's click noise."""
     rng = np.random.default_rng(12)
     _, start, pins, photos = model_scene(rng, n_boxes=4, n_photos=3)
     cams = {p.id: ImageCamera(p.id, p.K, p.R, p.C, p.width, p.height) for p in photos.values()}
     model = model_from_dict(start["nodes"], MARKERS)
-    problem = Problem(model, cams, [Pin(p["photo"], p["node"], p["handle"], np.asarray(p["uv"])) for p in pins],
-                      options=ProblemOptions(click_sigma_px=CLICK_NOISE_PX, prior_scale=1e5))
+    return Problem(model, cams, [Pin(p["photo"], p["node"], p["handle"], np.asarray(p["uv"])) for p in pins],
+                   options=ProblemOptions(click_sigma_px=CLICK_NOISE_PX, prior_scale=1e5))
+
+
+def test_the_grouped_jacobian_columns_are_each_parameters_own_difference() -> None:
+    """Parameters that move no common node, distance or relation are differenced together; the
+    Jacobian is bit for bit the one of a difference per parameter, and close to a central
+    difference of the residuals (the handles move linearly per step: 1e-4 of the largest entry)."""
+    problem = _four_boxes()
     groups = problem.column_groups
     assert sorted(j for g in groups for j in g) == list(problem.layout.model.indices)
     assert len(groups) < len(problem.layout.model.indices)  # four boxes on the floor share groups
@@ -104,12 +109,7 @@ def test_a_solve_is_plausible_only_where_every_node_fits() -> None:
     move) is not, nor is a solve that did not converge."""
     import dataclasses
 
-    rng = np.random.default_rng(12)
-    _, start, pins, photos = model_scene(rng, n_boxes=4, n_photos=3)
-    cams = {p.id: ImageCamera(p.id, p.K, p.R, p.C, p.width, p.height) for p in photos.values()}
-    model = model_from_dict(start["nodes"], MARKERS)
-    problem = Problem(model, cams, [Pin(p["photo"], p["node"], p["handle"], np.asarray(p["uv"])) for p in pins],
-                      options=ProblemOptions(click_sigma_px=CLICK_NOISE_PX, prior_scale=1e5))
+    problem = _four_boxes()
     result = problem.solve(problem.x0(), robust=True)
     assert result.converged and problem.plausible(result)
     rows = {n: problem.rows_pin[[i for i, p in enumerate(problem.pins) if p.node == n]]
