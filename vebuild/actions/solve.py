@@ -47,6 +47,11 @@ from ..project.records import camera_record, distortion_record, json_values, val
 from ..project.units import length_unit
 from .register import recalibration_cameras, recalibration_k1_sigmas
 
+#: The solve from the first guess gives up after this many iterations and the staged start takes
+#: over: where it found the minimum it took 9 (the generated house) to 27 (the generated rooms of
+#: `vebuild bench rooms`); where it did not, it ran to the solver's 100 without converging.
+DIRECT_MAX_ITERATIONS = 50
+
 #: A pinned handle must project in front of its camera and no farther outside the image than this
 #: share of its size; otherwise the pin is on a vertex that camera cannot see.
 VISIBLE_MARGIN = 0.25
@@ -99,7 +104,7 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
             model, cameras, fixed_pins, edges, options=options, markers=marker_data)
         x0 = problem.x0()
         problem.check_finite(x0, "at the start of the solve")
-        sol = problem.solve(x0, robust=True)
+        sol = problem.solve(x0, robust=True, **({} if staged else {"max_iterations": DIRECT_MAX_ITERATIONS}))
         problem.check_finite(sol.x, "at the end of the solve")
         return problem, sol
 
