@@ -388,7 +388,6 @@ def _check_cycles(nodes: list[Node]) -> None:
         done.update(path)
 
 
-
 class WorldTransforms(Mapping[str, Array]):
     """Every node's world_from_node for one model vector, computed on first use: a node's is its
     parent's times its own joint's, as :meth:`Model.world_transforms` computes it (bit for bit)."""

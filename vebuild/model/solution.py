@@ -112,7 +112,7 @@ def solution_at(problem: Problem, x: Array, iterations: int = 0) -> Solution:
 
     # The entered values only add measurements: their normal matrix is the observations' plus a
     # positive one, so no variance is larger with them, and what the observations alone determine
-    # stays determined. Their covariance (one more inverse: 0.7 s for the house) is only needed
+    # stays determined. Their covariance (one more inverse: 0.4–0.6 s for the house) is only needed
     # where the observations leave something undetermined.
     undetermined = undetermined_in(cov_obs)
     prior_only: list[str] = []
@@ -222,8 +222,8 @@ def _inverse(A: Array | sparse.spmatrix) -> Array:
 
     A = cast(Any, A).toarray() if sparse.issparse(A) else np.asarray(A, float)
     # Positive definite, as a normal matrix whose every unknown is observed is: from its Cholesky
-    # factor (LAPACK potrf, potri), 0.86 s against 1.11 s by LU for the house's 2,459 unknowns on
-    # the solves' one thread. Otherwise by LU, as before.
+    # factor (LAPACK potrf, potri), 0.86 s against 1.11 s by LU for a matrix of the house's 2,459
+    # unknowns on the solves' one thread. Otherwise by LU, as before.
     L, info = lapack.dpotrf(A, lower=1, clean=1)  # the upper triangle zeroed, and left so by potri
     if info == 0:
         inv, info = lapack.dpotri(L, lower=1)
