@@ -67,13 +67,10 @@ def test_a_node_whose_transform_does_not_change_keeps_its_handles_bit_for_bit(ho
     xp = x.copy()
     xp[j] += 0.05
     Tp, Hp = apply_plan(p.move_plan([j]), p.model, p.model_vector(xp), T, H, p.handle_positions)
-    room = slice(p.h_offset["room0"], p.h_offset["room0"] + len(p.primitive_of("room0").handle_names()))
-    others = np.ones(len(H), bool)
-    others[room] = False
+    room = p.handle_rows("room0")
     unchanged = [n for n in p.model.children["room0"] if np.array_equal(Tp[n], T[n])]
     assert unchanged  # the floor's furniture and the next rooms do not move with the height
-    rows = np.concatenate([np.arange(p.h_offset[n], p.h_offset[n] + len(p.primitive_of(n).handle_names()))
-                           for n in unchanged if n in p.h_offset])
+    rows = np.concatenate([p.handle_rows(n) for n in unchanged])
     assert np.array_equal(Hp[rows], H[rows])
     assert not np.array_equal(Hp[room], H[room])
 

@@ -316,9 +316,7 @@ def _maybe_unseen(problem: Problem, pins: list[dict[str, Any]], xm: np.ndarray, 
     idx = [i for i, p in enumerate(pins) if p["photo"] in cameras]
     if not idx:
         return []
-    H = problem.handle_positions(xm, T)
-    names = {n: problem.primitive_of(n).handle_names() for n in {pins[i]["node"] for i in idx}}
-    X = H[[problem.h_offset[pins[i]["node"]] + names[pins[i]["node"]].index(pins[i]["handle"]) for i in idx]]
+    X = problem.handle_positions(xm, T)[[problem.handle_row(pins[i]["node"], pins[i]["handle"]) for i in idx]]
     cams = [cameras[pins[i]["photo"]] for i in idx]
     Rs, Cs = np.array([c.R for c in cams]), np.array([c.C for c in cams])
     z = np.einsum("nj,nj->n", Rs[:, 2], X - Cs)

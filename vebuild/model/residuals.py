@@ -38,6 +38,7 @@ from ..calibration.positions import ReferenceDistance  # ends: marker names or '
 from ..camera import ImageCamera, exp_so3, project_each, skew_batch, so3_left_jacobian
 from .column_groups import column_groups
 from .constraints import HARD_SIGMA_M
+from .edge_distance import edge_distances
 from .layout import ParameterLayout
 from .moved import MovePlan, apply_plan, move_plan
 from .primitives import Primitive
@@ -180,17 +181,14 @@ class Residuals:
             k += len(self.primitive_of(name).handle_names())
         self.n_handles = k
 
-        def hrow(node: str, handle: str) -> int:
-            return self.h_offset[node] + self.primitive_of(node).handle_names().index(handle)
-
         cam_index = {c: i for i, c in enumerate(self.cam_ids)}
-        self.pin_row = np.array([hrow(p.node, p.handle) for p in self.pins], dtype=int)
+        self.pin_row = np.array([self.handle_row(p.node, p.handle) for p in self.pins], dtype=int)
         self.pin_cam = np.array([cam_index[p.photo] for p in self.pins], dtype=int)
         self.pin_uv = np.array([p.uv for p in self.pins], float).reshape(-1, 2)
         ends = []
         for e in self.edges:
             names = {n: (a, b) for n, a, b in self.primitive_of(e.node).edges()}
-            ends.append([hrow(e.node, h) for h in names[e.edge]])
+            ends.append([self.handle_row(e.node, h) for h in names[e.edge]])
         self.edge_rows = np.array(ends, dtype=int).reshape(-1, 2)
         self.edge_cam = np.array([cam_index[e.photo] for e in self.edges], dtype=int)
         self.edge_pts = np.array([e.points for e in self.edges], float).reshape(-1, 2, 2)
@@ -200,8 +198,8 @@ class Residuals:
         self.mo_cam = np.array([cam_index[m.photo] for m in self.marker_obs], dtype=int)
         self.mo_uv = np.array([m.uv for m in self.marker_obs], float).reshape(-1, 2)
         # A distance end is a handle row (≥ 0) or a marker, coded −1 − marker index.
-        self.dist_ends = np.array([[hrow(*p.split(":", 1)) if ":" in p else -1 - m_index[p] for p in (d.a, d.b)]
-                                   for d in self.distances], dtype=int).reshape(-1, 2)
+        self.dist_ends = np.array([[self.handle_row(*p.split(":", 1)) if ":" in p else -1 - m_index[p]
+                                    for p in (d.a, d.b)] for d in self.distances], dtype=int).reshape(-1, 2)
         self.dist_value = np.array([d.distance for d in self.distances], float)
         self.dist_sigma = np.array([d.sigma for d in self.distances], float)
 
@@ -240,9 +238,7 @@ class Residuals:
             key = (owner, *self.also.get(j, ()))
             if key not in subtree_cache:
                 nodes = sorted(set().union(*(model.subtree(o) for o in key)), key=model.index.__getitem__)
-                hrows = np.concatenate(
-                    [np.arange(self.h_offset[n], self.h_offset[n] + len(self.primitive_of(n).handle_names()))
-                     for n in nodes if n in self.h_offset] or [np.zeros(0, dtype=int)])
+                hrows = np.concatenate([self.handle_rows(n) for n in nodes] or [np.zeros(0, dtype=int)])
                 subtree_cache[key] = (
                     (nodes, hrows),
                     (np.flatnonzero(np.isin(self.pin_row, hrows)),
@@ -262,12 +258,19 @@ class Residuals:
         changed = sorted({n for j in columns for n in (self.owner[j], *self.also.get(j, ()))})
         key = tuple(changed)
         if key not in self._plans:
-            def rows(n: str) -> Index:
-                k = len(self.primitive_of(n).handle_names()) if n in self.h_offset else 0
-                return np.arange(self.h_offset.get(n, 0), self.h_offset.get(n, 0) + k)
             moved = [n for j in columns for n in self.moves[j][0]]
-            self._plans[key] = move_plan(self.model, changed, moved, rows, {n for r in self.hard for n in r.nodes()})
+            self._plans[key] = move_plan(self.model, changed, moved, self.handle_rows,
+                                         {n for r in self.hard for n in r.nodes()})
         return self._plans[key]
+
+    def handle_row(self, node: str, handle: str) -> int:
+        """The row of ``node``'s handle ``handle`` in the stacked handles (:meth:`handle_positions`)."""
+        return self.h_offset[node] + self.primitive_of(node).handle_names().index(handle)
+
+    def handle_rows(self, node: str) -> Index:
+        """The rows of ``node``'s handles in the stacked handles (none for a group)."""
+        k = len(self.primitive_of(node).handle_names()) if node in self.h_offset else 0
+        return np.arange(self.h_offset.get(node, 0), self.h_offset.get(node, 0) + k)
 
     def _difference_column(self, j: int, h: float, dHg: Array, Hp: Array, H: Array, M: Array,
                            Tp: Mapping[str, Array], xmp: Array, hard0: list[Array], MR_p: Any, Ks: Array, Rs: Array,
@@ -355,30 +358,10 @@ class Residuals:
 
     def _edge_residuals(self, Xa: Array, Xb: Array, Ks: Array, Rs: Array, Cs: Array, k1s: Array,
                         idx: Index) -> Array:
-        """Each clicked point's signed distance (in the photo's pixels, whitened) from the model
-        edge's image: the straight line through the edge's ends in the pinhole image, the clicked
-        points undistorted onto it, the distance scaled back by the undistortion's local stretch
-        across the line (first order: exact where the point lies on the edge's curve)."""
+        """Edge observations ``idx``: each clicked point's distance from the model edge's image
+        (:func:`.edge_distance.edge_distances`), whitened by the click noise."""
         cam = self.edge_cam[idx]
-        ha = np.einsum("nij,nj->ni", Ks[cam], np.einsum("nij,nj->ni", Rs[cam], Xa - Cs[cam]))
-        hb = np.einsum("nij,nj->ni", Ks[cam], np.einsum("nij,nj->ni", Rs[cam], Xb - Cs[cam]))
-        line = np.cross(ha, hb)
-        line /= np.hypot(line[:, 0], line[:, 1])[:, None]
-        k1 = k1s[cam]
-        if not np.any(k1 != 0.0):
-            pts = np.concatenate([self.edge_pts[idx], np.ones((len(idx), 2, 1))], axis=2)
-            return np.einsum("nkj,nj->nk", pts, line) / self.sigma
-        f, c = Ks[cam, 0, 0][:, None, None], Ks[cam, :2, 2][:, None, :]
-        xd = (self.edge_pts[idx] - c) / f  # (n, 2 points, 2): as the lens put them
-        den = 1.0 + k1[:, None] * np.sum(xd**2, axis=-1)  # x_u = x_d / den
-        pu = xd / den[..., None] * f + c
-        normal = line[:, None, :2]
-        # ∂x_u/∂x_d = (I − 2 k1 x_d x_dᵀ / den) / den (symmetric): a step δ across the curve in the
-        # photo moves the undistorted point by nᵀ J δ across the line.
-        Jn = (normal - 2.0 * k1[:, None, None] * xd * np.sum(xd * normal, axis=-1, keepdims=True)
-              / den[..., None]) / den[..., None]
-        dist = np.sum(pu * normal, axis=-1) + line[:, None, 2]
-        return dist / np.linalg.norm(Jn, axis=-1) / self.sigma
+        return edge_distances(Xa, Xb, Ks[cam], Rs[cam], Cs[cam], k1s[cam], self.edge_pts[idx]) / self.sigma
 
     @staticmethod
     def _ends(ends: Index, H: Array, M: Array) -> Array:
