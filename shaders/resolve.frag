@@ -3,7 +3,7 @@
 // a coverage map. Unseen texels come out with alpha 0 and are filled on the CPU.
 uniform sampler2D low_sum;      // (sum w l/g, sum w) over kept views
 uniform sampler2D detail_sum;   // (sum w^s (c - l)/g, sum w^s) over kept views
-uniform sampler2D dropped_sum;  // (sum w c/g, sum w) over dropped views
+uniform sampler2D dropped_sum;  // (sum v c/g, sum v) over dropped views, v = w / best weight
 uniform sampler2D counts;       // (kept views, dropped views)
 uniform sampler2D geometry;     // face id (MODE 3 of texel.frag into one channel)
 uniform float exposure_scale;

@@ -10,7 +10,9 @@
 // With k1 = 0 the ID buffer is the photo's own frame and nothing is distorted.
 //
 // MODE 0 accumulate (additive blending): 0 = (sum w l/g, sum w), 1 = (sum w^s (c-l)/g, sum w^s)
-//        over kept views, 2 = (sum w c/g, sum w) over dropped views, 3 = (kept, dropped) counts
+//        over kept views, 2 = (sum v c/g, sum v) over dropped views with v = w / (the texel's best
+//        weight): each v < drop_ratio < 1, so the sums fit the half floats they are kept in,
+//        3 = (kept, dropped) counts (half floats: exact to 2048)
 // MODE 1 one view: 0 = (c, w), 1 = (l, face id where seen, else 0), 2 = accumulated low band so far (rgb, seen before)
 // MODE 2 best weight (max blending): 0 = w
 // MODE 3 geometry: 0 = (face, position), 1 = (normal, 1); into a one-channel target, the face alone
@@ -136,14 +138,16 @@ void main() {
     vec4 acc = texelFetch(accumulated, ivec2(floor(gl_FragCoord.xy / atlas_scale)), 0);
     out2 = acc.a > 0.0 ? vec4(acc.rgb / acc.a, 1.0) : vec4(0.0);
 #else
-    bool keep = drop_ratio <= 0.0 || w >= drop_ratio * texelFetch(best_weight, ivec2(gl_FragCoord.xy), 0).r;
+    float best = drop_ratio > 0.0 ? texelFetch(best_weight, ivec2(gl_FragCoord.xy), 0).r : 0.0;
+    bool keep = drop_ratio <= 0.0 || w >= drop_ratio * best;  // a dropped view has best > w >= 0
     if (keep) {
         float ws = pow(clamp(w, 1e-4, 1e4), sharpness);
         out0 = vec4(w * l * inverse_gain, w);
         out1 = vec4(ws * (c - l) * inverse_gain, ws);
         out3 = vec4(1.0, 0.0, 0.0, 0.0);
     } else {
-        out2 = vec4(w * c * inverse_gain, w);
+        float v = w / best;
+        out2 = vec4(v * c * inverse_gain, v);
         out3 = vec4(0.0, 1.0, 0.0, 0.0);
     }
 #endif

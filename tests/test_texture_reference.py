@@ -442,5 +442,18 @@ def test_accumulate_agrees_with_the_gpu_sums(gl):
     assert np.median(d) <= COLOUR_ATOL / 2
     outliers = (d > MERGED_ATOL).mean()
     assert outliers <= MERGED_OUTLIERS, f"merged colours differ by > {MERGED_ATOL} on {outliers:.2e}"
+    # The dropped views' sums, kept in half floats with each weight relative to the texel's best:
+    # each below drop_ratio, and their average colour as the CPU's (float64) where the counts agree,
+    # to the merged colours' tolerances. Measured on 353,129 texels: median 7.7e-4, 99th percentile
+    # 1.3e-3, 6e-5 of them beyond MERGED_ATOL (as for the kept views: llvmpipe's sRGB decoding).
+    dropped = (gpu["counts"] == cpu["counts"]).all(axis=-1) & (cpu["counts"][..., 1] > 0)
+    assert dropped.sum() > 100_000
+    assert (gpu["dropped"][..., 3][dropped] < opt.drop_ratio * gpu["counts"][..., 1][dropped]).all()
+
+    def average(s):
+        return s["dropped"][..., :3] / s["dropped"][..., 3:]
+
+    dd = np.abs(average(gpu) - average(cpu))[dropped].max(axis=-1)
+    assert np.median(dd) <= COLOUR_ATOL / 2 and (dd > MERGED_ATOL).mean() <= MERGED_OUTLIERS
     # a texel has views exactly where it has weight
     assert ((cpu["counts"].sum(axis=-1) > 0) == (cpu["low"][..., 3] + cpu["dropped"][..., 3] > 0)).all()

@@ -127,7 +127,9 @@ class Extractor:
 
     def _make_page(self, size: tuple[int, int]) -> Page:
         ctx = self.ctx
-        acc = [ctx.texture(size, 4, dtype="f4") for _ in range(3)] + [ctx.texture(size, 2, dtype="f4")]
+        # The kept views' sums in float32; the dropped views' (weights relative to the best, each
+        # below drop_ratio) and the view counts (whole numbers) in half floats: 44 bytes a texel.
+        acc = [ctx.texture(size, 4, dtype=d) for d in ("f4", "f4", "f2")] + [ctx.texture(size, 2, dtype="f2")]
         for t in acc:
             t.filter = (moderngl.NEAREST, moderngl.NEAREST)
         fbo = ctx.framebuffer(color_attachments=acc)
@@ -543,7 +545,8 @@ class Extractor:
         return {"colour": colour[..., :3].copy(), "seen": colour[..., 3] > 127, "coverage": coverage, "face": face}
 
     def release_sums(self, page: int) -> None:
-        """Free ``page``'s sums (60 bytes a texel) once :meth:`resolve` has drawn with them."""
+        """Free ``page``'s sums (48 bytes a texel, its best weights included) once :meth:`resolve`
+        has drawn with them."""
         p = self._pages[page]
         self._unbind(free_now=True)
         for t in p.acc:

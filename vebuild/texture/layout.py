@@ -33,13 +33,15 @@ GUTTER = 4
 TOKEN_TEXELS = 4
 #: Facets around curved surfaces.
 SEGMENTS = 32
-#: Memory the extraction takes per atlas texel: its per-page sums on the GPU (three RGBA and one
-#: RG float32 targets, 56 bytes, and the best view's weight, 4 bytes).
-BYTES_PER_TEXEL = 60
-#: The most atlas texels (gutters included) one extraction lays out: 2 GiB of the sums above, about
-#: two pages of 4096² texels (840 m² of faces at the default 200 texels per metre). The sums live on
-#: the GPU (main memory on llvmpipe) all at once, and each page is read back for the merge; a
-#: layout of 3.2 GB ended in "framebuffer is not complete" on llvmpipe instead of a message.
+#: Memory the extraction takes per atlas texel: its per-page sums on the GPU (two RGBA float32
+#: targets, one RGBA and one RG half-float target: 44 bytes; vebuild.texture.gpu) and the best
+#: view's weight (4 bytes).
+BYTES_PER_TEXEL = 48
+#: The most atlas texels (gutters included) one extraction lays out: 2 GiB of the sums above, 44.7 M
+#: texels, about 2.7 pages of 4096² (some 1,000 m² of faces at the default 200 texels per metre).
+#: The sums live on the GPU (main memory on llvmpipe) all at once, and each page is read back for
+#: the merge; a layout of 3.2 GB ended in "framebuffer is not complete" on llvmpipe instead of a
+#: message.
 MAX_ATLAS_TEXELS = (2 * 2**30) // BYTES_PER_TEXEL
 
 

@@ -367,9 +367,10 @@ def accumulate(mesh: SceneMesh, cameras: Sequence[ImageCamera], photos: Iterable
     ``Extractor.sums`` (texel.frag MODE 0), float64:
 
     'low' (h, w, 4) = (Σ w l/g, Σ w) and 'detail' (h, w, 4) = (Σ w^s (c − l)/g, Σ w^s) over kept
-    views, 'dropped' (h, w, 4) = (Σ w c/g, Σ w) over dropped views, 'counts' (h, w, 2) = (kept,
-    dropped) views; s = ``options.detail_sharpness`` with w clamped to [1e-4, 1e4] first, g the
-    photo's gain (``gains[id]``, (3,); 1 when ``gains`` is None).
+    views, 'dropped' (h, w, 4) = (Σ v c/g, Σ v) over dropped views with v = w / the texel's best
+    weight (as the GPU keeps them, in half floats), 'counts' (h, w, 2) = (kept, dropped) views;
+    s = ``options.detail_sharpness`` with w clamped to [1e-4, 1e4] first, g the photo's gain
+    (``gains[id]``, (3,); 1 when ``gains`` is None).
 
     With ``options.drop_ratio`` > 0 a view is kept when w ≥ drop_ratio × the texel's best weight
     from :func:`best_weights` (the GPU's half-resolution pre-pass). Photos are consumed one at a
@@ -415,9 +416,10 @@ def accumulate(mesh: SceneMesh, cameras: Sequence[ImageCamera], photos: Iterable
                 acc[rk, 4:7] += ws[:, None] * (c[keep] - low[keep]) * inv_gain
                 acc[rk, 7] += ws
                 acc[rk, 12] += 1.0
-                wd, rd = w[~keep], rows[~keep]
-                acc[rd, 8:11] += wd[:, None] * c[~keep] * inv_gain
-                acc[rd, 11] += wd
+                rd = rows[~keep]
+                vd = w[~keep] / best[k][rd] if best is not None else w[~keep]  # relative to the best
+                acc[rd, 8:11] += vd[:, None] * c[~keep] * inv_gain
+                acc[rd, 11] += vd
                 acc[rd, 13] += 1.0
         del levels, ids, depth
     out = []
