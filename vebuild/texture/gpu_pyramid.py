@@ -112,6 +112,14 @@ class PhotoPyramid:
                 f.release()
         self.stack, self._fbos = None, []
 
+    def free_photo(self) -> None:
+        """Free the photo but keep its levels' targets for the next photo of its size (the caller
+        has unbound them); :meth:`write` makes a new one."""
+        if self.photo is not None:
+            self.photo.release()
+            self.photo = None
+        self.ready = False
+
     def release(self) -> None:
         """Free the photo and its levels (the caller has unbound them)."""
         if self.photo is not None:
