@@ -270,6 +270,28 @@ def test_the_preview_follows_a_drag_now_and_then(driver):
     assert not s.dragging
 
 
+def test_a_preview_slower_than_its_share_does_not_follow_a_drag(driver):
+    """The preview's last frame, drawn before the drag, says it is slow (as on a large house): the
+    drag's moves do not draw it, not even once to find that out."""
+    from vebuild.edit.preview import PREVIEW_DRAG_PERIOD_S, PREVIEW_DRAG_SHARE
+
+    d = driver
+    e, s = d.editor, d.session
+    node = s.add_primitive("box", name="crate", parent="floor", at=("p1", (800.0, 1000.0)))
+    e.select(node)
+    d.frames(3)
+    assert 0.0 < e._preview_frame_s < PREVIEW_DRAG_SHARE * PREVIEW_DRAG_PERIOD_S  # measured, and fast here
+    e._preview_frame_s = 2 * PREVIEW_DRAG_SHARE * PREVIEW_DRAG_PERIOD_S
+    start = e.image_to_window("p1", next(p for n, k, p, _ in s.handles("p1") if (n, k) == (node, "v0")))
+    moves = []
+    for k in range(1, 4):
+        moves += [*d.move_to(start[0] - 25 * k, start[1] + 12 * k), "sleep", "0.6"]
+    d.send(*d.move_to(*start), "sleep", "0.05", "mousedown", "1", "sleep", "0.05", *moves)
+    assert s.dragging and not e.preview_following() and "_preview_follow" not in e.__dict__
+    d.send("key", "Escape", "mouseup", "1")
+    assert not s.dragging
+
+
 def test_clip_polyline_keeps_what_clip_segment_keeps_segment_by_segment():
     """The vectorised clip of a polyline (the overlay's edge runs) against the photo: the same
     pieces as clipping each segment on its own, joined where they meet inside the photo."""
