@@ -20,8 +20,9 @@ from .layout import CLICK_SLOP_PX, PANEL_W, PREVIEW_FOV_DEG, PREVIEW_H, EditorPa
 #: model's centre to its box's side (inside a room).
 INSIDE_SHARE = 0.7
 #: During a drag the preview is drawn again at most this often (seconds), and only when a frame of
-#: it takes under this share of that period (else it waits for the release). The last preview drawn,
-#: in a drag or not, tells: a large model's first drag does not pay for one slow frame to learn it.
+#: it takes under this share of that period (else it waits for the release). Told by the last
+#: preview drawn in a drag and by the last drawn at all: a model whose preview is slow to draw does
+#: not pay for one slow frame in its first drag to learn it.
 PREVIEW_DRAG_PERIOD_S = 0.5
 PREVIEW_DRAG_SHARE = 0.3
 
@@ -144,15 +145,16 @@ class Preview(EditorPart):
 
     def _preview_follow_drag(self) -> None:
         """During a drag, the preview drawn again with the drag's model at most every
-        :data:`PREVIEW_DRAG_PERIOD_S`, and only where its last frame (in a drag or not) took less
-        than :data:`PREVIEW_DRAG_SHARE` of that (a slow renderer leaves it for the release)."""
+        :data:`PREVIEW_DRAG_PERIOD_S`, and only where its last frame in a drag and its last frame
+        at all took less than :data:`PREVIEW_DRAG_SHARE` of that (a slow renderer leaves it for
+        the release)."""
         d, r = self.session._drag, self._renderer
         now = time.perf_counter()
-        follow = self.__dict__.get("_preview_follow")  # (the drag, when last drawn)
+        follow = self.__dict__.get("_preview_follow")  # (the drag, when last drawn, its seconds)
         if follow is not None and follow[0] is d and now - follow[1] < PREVIEW_DRAG_PERIOD_S:
             return
-        slow = self.__dict__.get("_preview_frame_s", 0.0) > PREVIEW_DRAG_SHARE * PREVIEW_DRAG_PERIOD_S
-        if r is None or d is None or slow:
+        took = max(follow[2] if follow is not None else 0.0, self.__dict__.get("_preview_frame_s", 0.0))
+        if r is None or d is None or took > PREVIEW_DRAG_SHARE * PREVIEW_DRAG_PERIOD_S:
             return
         try:
             model = copy.deepcopy(d.model)  # the session's model stays as it was until the drag is kept
@@ -162,8 +164,7 @@ class Preview(EditorPart):
             self._preview_tex = r.frame(cam)
         except (VebuildError, ValueError, KeyError):
             return
-        self._preview_follow = (d, now)
-        self._preview_frame_s = time.perf_counter() - now
+        self._preview_follow = (d, now, time.perf_counter() - now)
         self._preview_key = None  # drawn again from the project's model after the drag
 
     def _draw_preview_image(self) -> None:
