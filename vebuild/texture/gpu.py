@@ -51,8 +51,9 @@ def _mat3(M: Array) -> NDArray[np.float32]:
 
 
 #: A photo of this many pixels or more has its ID pass's depth buffer and the driver's staging copy
-#: of its pixels freed at once (waiting for the GPU), not when the driver next flushes: 24 MP of
-#: depth is 92 MiB, and while it waits to be freed the next photo is decoded beside it.
+#: of its pixels freed at once (waiting for the GPU), not when the driver next flushes (24 MP of
+#: depth is 92 MiB, and while it waits to be freed the next photo is decoded beside it), and is
+#: itself freed before the next photo is decoded.
 FREE_NOW_PIXELS = 16 * 2**20
 
 
@@ -146,7 +147,7 @@ class Extractor:
         it. ``free_now``: and wait for the GPU, so that what is released next is freed now rather
         than when the driver next flushes (Mesa keeps it till then). A texture the last draw
         sampled is freed only at a later draw (a clear does not count): the 1×1 target is drawn
-        over by a program that samples nothing, and :meth:`_free` draws again after releasing."""
+        over by a program that samples nothing, and :meth:`_free_released` draws again after releasing."""
         self._idle_fbo.use()
         if free_now:
             idle = self._idle_fbo.color_attachments[0]
@@ -565,8 +566,7 @@ class Extractor:
         return {"colour": colour[..., :3].copy(), "seen": colour[..., 3] > 127, "coverage": coverage, "face": face}
 
     def release_sums(self, page: int) -> None:
-        """Free ``page``'s sums (48 bytes a texel, its best weights included) once :meth:`resolve`
-        has drawn with them."""
+        """Free ``page``'s sums (44 bytes a texel) once :meth:`resolve` has drawn with them."""
         p = self._pages[page]
         self._unbind(free_now=True)
         for t in p.acc:
