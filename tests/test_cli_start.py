@@ -43,8 +43,13 @@ def _imported(folder: Path, *words: str) -> set[str]:
 
 @pytest.fixture(scope="module")
 def room(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The example, calibrated: `solve` needs calibrated cameras, and with pytest-xdist the
+    calibrate case need not run first, or in the same worker."""
     folder = tmp_path_factory.mktemp("start") / "room"
     shutil.copytree(EXAMPLE, folder)
+    r = subprocess.run([sys.executable, "-m", "vebuild", "calibrate", "room.vebuild.json", "--quiet"],
+                       capture_output=True, text=True, timeout=600, cwd=folder)
+    assert r.returncode == 0, r.stderr
     return folder
 
 
