@@ -40,7 +40,7 @@ from vebuild.render.scene import scene_from_model
 from vebuild.texture import layout as lay
 from vebuild.texture import reference as ref
 from vebuild.texture.extract import PhotoSource, extract
-from vebuild.texture.gpu import MIN_OVERLAP
+from vebuild.texture.gpu_exposure import MIN_OVERLAP
 from vebuild.texture.lens import COVER_MARGIN_PX, MIN_CORNER_DENOMINATOR, border_pixels, pinhole_cover
 from vebuild.texture.merge import COVERAGE_UNSEEN, linear_to_srgb8, srgb8_to_linear
 from vebuild.texture.options import Options
