@@ -63,13 +63,16 @@ def _frame_ms(editor: Any) -> float:
 def _drag(editor: Any, node: str, handle: str, moves: int) -> dict[str, list[float]]:
     """Press on the handle, move ``moves`` times (there and back), release; per move the update's
     time and the solve's share of it, and the release's time (the edit kept: validated and put in
-    the undo history) with the frame after it (``release``, one value)."""
+    the undo history) with the frame after it (``release``, one value); ``start`` (one value): the
+    press and its frame, and the first move and its frame (the drag begins there), as a user waits
+    for the first move to show."""
     import glfw
 
     s = editor.session
     uv = next(p for n, h, p, _ in s.handles(editor.photo) if (n, h) == (node, handle))
     x, y = editor.image_to_window(editor.photo, uv)
     editor.on_cursor(x, y)
+    t_press = time.perf_counter()
     editor.on_button(glfw.MOUSE_BUTTON_LEFT, glfw.PRESS, 0)
     _frame_ms(editor)
     out: dict[str, list[float]] = {"update": [], "solve": [], "overlay": [], "failed": []}
@@ -85,6 +88,8 @@ def _drag(editor: Any, node: str, handle: str, moves: int) -> dict[str, list[flo
         out["solve"].append(editor.timings.get("drag_solve_ms", 0.0))
         out["overlay"].append(editor.timings.get("overlay_ms", 0.0))
         out["failed"].append(float(editor.last_feedback is not None and not editor.last_feedback.ok))
+        if k == 1:
+            out["start"] = [1e3 * (time.perf_counter() - t_press)]
     t0 = time.perf_counter()
     editor.on_button(glfw.MOUSE_BUTTON_LEFT, glfw.RELEASE, 0)
     _frame_ms(editor)
@@ -129,6 +134,7 @@ def run(quick: bool = False, progress: bool = True) -> dict[str, Any]:
                     fig[f"drag_{key}_ms_median_{name}"] = float(np.median(v))
                     fig[f"drag_{key}_ms_p95_{name}"] = float(np.percentile(v, 95))
                 fig[f"drag_moves_not_followed_{name}"] = int(sum(r["failed"]))
+                pooled.setdefault("start", []).append(np.array(r["start"]))
                 bar.update(1)
         finally:
             editor.close()
@@ -137,6 +143,7 @@ def run(quick: bool = False, progress: bool = True) -> dict[str, Any]:
     for key in ("update", "solve", "redraw", "overlay", "draw"):  # over every move of every drag
         fig[f"drag_{key}_ms_p95"] = float(np.percentile(np.concatenate(pooled[key]), 95))
         fig[f"drag_{key}_ms_median"] = float(np.median(np.concatenate(pooled[key])))
+    fig["drag_start_ms_median"] = float(np.median(np.concatenate(pooled["start"])))
     fig["drag_update_ratio_vs_static_redraw"] = float(np.median([fig[f"drag_update_ms_median_{n}"] for n in SCENARIOS])
                                                       / fig["static_redraw_ms_median"])
     fig["drag_redraw_ratio_vs_static_redraw"] = float(np.median([fig[f"drag_redraw_ms_median_{n}"] for n in SCENARIOS])
@@ -162,6 +169,7 @@ def table(fig: dict[str, Any]) -> str:
                                                  for k in ("update", "solve", "redraw", "overlay", "draw")))
     lines += ["", f"{'redraw with no drag (reference)':<34}{fig['static_redraw_ms_median']:>9.2f} ms median, "
               f"{fig['static_redraw_ms_p95']:.2f} ms p95",
+              f"{'press and first move of a drag':<34}{fig['drag_start_ms_median']:>9.2f} ms median",
               f"{'drag update / static redraw':<34}{fig['drag_update_ratio_vs_static_redraw']:>9.2f}",
               f"{'drag redraw / static redraw':<34}{fig['drag_redraw_ratio_vs_static_redraw']:>9.2f}",
               f"{'solve share of an update':<34}{100 * fig['drag_solve_share_of_update']:>8.0f} %",
