@@ -474,3 +474,41 @@ def test_middle_points_let_a_one_photo_calibration_measure_the_lens(tmp_path):
     said = next(m for m in reversed(s.messages) if m.startswith("calibrated p3"))
     assert f"lens k1 {lens['k1']['value']:+.4f} ± {lens['k1']['sigma']:.4f} (segments" in said
     assert f"corners moved {lens['corner_displacement_px']['value']:.1f}" in said
+
+
+def test_a_drags_still_layer_is_the_rest_overlay_less_what_moves(rebuilt, monkeypatch):
+    """The still layer of a drag is taken from the overlay drawn when it began (the moving nodes'
+    edges and handles and the pins' residuals left out), and is what working it out afresh gives."""
+    plan, session, _ = rebuilt
+    if not (session.data.get("model_solution") or {}).get("pins"):
+        session.solve()  # the pins' residuals, which a drag does not draw
+    rest = session.overlay("p3", selected="floor")
+    assert any(ln.kind == "residual" and ln.key[0] == "box" for ln in rest.lines)  # a pin's
+    uv = next(uv for n, h, uv, _ in session.handles("p3") if (n, h) == ("box", "v4"))
+    made = []
+    parts = type(session)._overlay_parts
+    monkeypatch.setattr(type(session), "_overlay_parts", lambda s, *a: made.append(a) or parts(s, *a))
+    session.begin_drag("p3", "box", "v4")
+    try:
+        session.drag_to((uv[0], uv[1] - 2.0))
+        still, moving = session.overlay_layers("p3", selected="floor")
+        assert made == []  # nothing worked out again for what does not move
+        moved = set(session._drag.session.moved)
+        assert "box" in moved and "floor" not in moved
+        afresh = session._overlay("p3", "floor", skip=moved)
+    finally:
+        session.cancel_drag()
+    assert not [ln for ln in still.lines if ln.kind == "edge" and ln.key[0] in moved]
+    assert not [p for p in still.points if p.kind in ("handle", "pin") and p.key[0] in moved]
+    assert {p.key for p in moving.points} == {p.key for p in rest.points if p.kind in ("handle", "pin")
+                                              and p.key[0] in moved}
+    assert [(ln.kind, ln.key, ln.colour, ln.label) for ln in still.lines] == \
+        [(ln.kind, ln.key, ln.colour, ln.label) for ln in afresh.lines]
+    assert [(p.kind, p.key, p.colour, p.label) for p in still.points] == \
+        [(p.kind, p.key, p.colour, p.label) for p in afresh.points]
+    assert still.notes == afresh.notes
+    # The nodes that did not move are where they were: the same pixels to float rounding.
+    for a, b in zip(still.lines, afresh.lines, strict=True):
+        assert np.allclose(a.p, b.p, atol=1e-6)
+    for a, b in zip(still.points, afresh.points, strict=True):
+        assert np.allclose(a.uv, b.uv, atol=1e-6)

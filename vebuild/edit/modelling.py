@@ -50,9 +50,10 @@ class DragFeedback:
 
 
 class _Drag:
-    def __init__(self, session: DragSession, model: Model):
+    def __init__(self, session: DragSession, model: Model, start_revision: int):
         self.session = session
         self.model = model
+        self.start_revision = start_revision  # the session's revision when the drag began
         self.x_good = model.vector()  # the model vector last shown
         self.xp_good = session.x.copy()  # the drag problem's vector that gives it
         self.uv_good = session.pin.uv.copy()
@@ -419,7 +420,7 @@ class Modelling(Marks):
         if ds.x.size == 0:
             raise EditError(f"'{node}' cannot move: its joint ({model.node(free[-1]).joint.type}) has no freedom "
                             "and its sizes are held")
-        self._drag = _Drag(ds, model)
+        self._drag = _Drag(ds, model, self.revision)
         self._drag.baseline_fixed = self._fixed_error(ds)
 
     def _fixed_error(self, ds: DragSession) -> float:
