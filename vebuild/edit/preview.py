@@ -19,12 +19,15 @@ from .layout import CLICK_SLOP_PX, PANEL_W, PREVIEW_FOV_DEG, PREVIEW_H, EditorPa
 #: Without a photo's camera inside the model, the first view is this share of the way from the
 #: model's centre to its box's side (inside a room).
 INSIDE_SHARE = 0.7
-#: During a drag the preview is drawn again at most this often (seconds), and only when a frame of
-#: it takes under this share of that period (else it waits for the release). Told by the last
-#: preview drawn in a drag and by the last drawn at all: a model whose preview is slow to draw does
-#: not pay for one slow frame in its first drag to learn it.
+#: During a drag the preview is drawn again at most this often (seconds), and only when its last
+#: frame at all (drawn at rest, its scene made afresh) took under this share of that period: a
+#: model whose preview is slow to draw does not pay for one slow frame in its first drag to learn it.
 PREVIEW_DRAG_PERIOD_S = 0.5
 PREVIEW_DRAG_SHARE = 0.3
+#: ... and only when its last frame in a drag took under this (seconds): a preview frame is drawn
+#: between two of the drag's moves, and a longer one stalls the drag (on the house of 522
+#: primitives, 110 ms every half second, where a move takes 8 ms), so it waits for the release.
+PREVIEW_DRAG_FRAME_S = 0.05
 
 
 class Preview(EditorPart):
@@ -145,16 +148,18 @@ class Preview(EditorPart):
 
     def _preview_follow_drag(self) -> None:
         """During a drag, the preview drawn again with the drag's model at most every
-        :data:`PREVIEW_DRAG_PERIOD_S`, and only where its last frame in a drag and its last frame
-        at all took less than :data:`PREVIEW_DRAG_SHARE` of that (a slow renderer leaves it for
-        the release)."""
+        :data:`PREVIEW_DRAG_PERIOD_S`, and only where its last frame at all took less than
+        :data:`PREVIEW_DRAG_SHARE` of that and its last frame in a drag less than
+        :data:`PREVIEW_DRAG_FRAME_S` (a slow renderer or a large model leaves it for the release)."""
         d, r = self.session._drag, self._renderer
         now = time.perf_counter()
         follow = self.__dict__.get("_preview_follow")  # (the drag, when last drawn, its seconds)
         if follow is not None and follow[0] is d and now - follow[1] < PREVIEW_DRAG_PERIOD_S:
             return
-        took = max(follow[2] if follow is not None else 0.0, self.__dict__.get("_preview_frame_s", 0.0))
-        if r is None or d is None or took > PREVIEW_DRAG_SHARE * PREVIEW_DRAG_PERIOD_S:
+        if follow is not None and follow[2] > PREVIEW_DRAG_FRAME_S:
+            return
+        at_rest = self.__dict__.get("_preview_frame_s", 0.0)
+        if r is None or d is None or at_rest > PREVIEW_DRAG_SHARE * PREVIEW_DRAG_PERIOD_S:
             return
         try:
             model = copy.deepcopy(d.model)  # the session's model stays as it was until the drag is kept
