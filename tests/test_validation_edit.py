@@ -70,11 +70,22 @@ BREAKS = {
     "after a removed pin, a later one broken": _drop_first_pin_then(_set(("model", "pins", 90, "fixed"), "yes")),
     "a marker outside the lists broken": _set(("markers", 0, "name"), 5),
 }
+#: Breaks that the values' check finds before the schema is asked (no JSON has a NaN or a lone
+#: surrogate: the schema's validators are not asked about them).
+VALUE_BREAKS = {
+    "a pin's uv not finite": _set(("model", "pins", 12, "uv", 1), float("nan")),
+    "after a removed pin, a later one's uv infinite": _drop_first_pin_then(_set(("model", "pins", 30, "uv", 0),
+                                                                                 float("inf"))),
+    "a pin taken out and put back at the end, not finite": lambda d: d["model"]["pins"].append(
+        {**d["model"]["pins"].pop(3), "uv": [float("nan"), 1.0]}),
+    "a new node's name a lone surrogate": lambda d: d["model"]["nodes"].append(
+        {**copy.deepcopy(d["model"]["nodes"][1]), "name": "crate\ud800"}),
+}
 
 
-@pytest.mark.parametrize("name", list(BREAKS))
+@pytest.mark.parametrize("name", [*BREAKS, *VALUE_BREAKS])
 def test_an_edits_check_says_what_the_whole_check_says(example, name):
-    data = _broken(example, BREAKS[name])
+    data = _broken(example, {**BREAKS, **VALUE_BREAKS}[name])
     whole = _message(data)
     assert whole is not None, "the break is one the validation finds"
     assert _message(data, valid_before=example) == whole
@@ -90,6 +101,17 @@ def test_unchanged_and_moved_items_are_not_checked_again_and_the_document_is_unt
     assert where[("model", "nodes")] == [2] and checked["model"]["nodes"] == [data["model"]["nodes"][2]]
     assert where[("photos",)] == [] and where[("model", "edge_observations")] == []
     assert data == snapshot
+    assert _message(data, valid_before=example) is None
+
+
+def test_a_pin_dragged_again_is_the_one_item_checked(example):
+    """The modelling screen keeps a dragged pin by taking it out and putting it back at the end:
+    the pins after it move down one place, the list keeps its length, and only that pin is new."""
+    data = copy.deepcopy(example)
+    pins = data["model"]["pins"]
+    pins.append({**pins.pop(2), "uv": [401.5, 220.25]})
+    checked, where = new_items(data, example)
+    assert where[("model", "pins")] == [len(pins) - 1] and checked["model"]["pins"] == [pins[-1]]
     assert _message(data, valid_before=example) is None
 
 

@@ -54,15 +54,21 @@ def _errors(doc: Any) -> list[jsonschema.ValidationError]:
 #: that were not in the list before it. A house's ten thousand pins made the schema check of every
 #: edit several seconds; a list whose schema says more (a length, unique items) is checked whole.
 ITEM_LISTS = (("photos",), ("model", "nodes"), ("model", "pins"), ("model", "edge_observations"))
+#: A list of the same length as before whose items differ from the old ones at this many places at
+#: most was changed in place (a pin moved, a node's size typed): those items are checked; more, and
+#: each is looked for among the old items by its text (its repr).
+IN_PLACE_ITEMS = 8
 
 
-def schema_errors(data: Any, valid_before: Any = None) -> list[jsonschema.ValidationError]:
+def schema_errors(data: Any, valid_before: Any = None,
+                  cut: tuple[Any, dict[tuple[str, ...], list[int]]] | None = None) -> list[jsonschema.ValidationError]:
     """jsonschema's errors for ``data`` (none where it matches). ``valid_before``, a document that
     matched (the one before an edit), spares the check the items of :data:`ITEM_LISTS` found in
-    its same list; the errors' paths are the document's own."""
+    its same list (``cut``: :func:`new_items` of the two, where already worked out); the errors'
+    paths are the document's own."""
     if valid_before is None:
         return _errors(data)
-    checked, where = new_items(data, valid_before)
+    checked, where = new_items(data, valid_before) if cut is None else cut
     errors = _errors(checked)
     for e in errors:  # the paths of the list that was checked, back to the document's indices
         path = list(e.path)
@@ -106,18 +112,13 @@ def new_items(data: Any, before: Any) -> tuple[Any, dict[tuple[str, ...], list[i
         new, old = _get(data, path), _get(before, path)
         if not isinstance(new, list) or not isinstance(old, list):
             continue
-        seen: set[str] | None = None
-        keep = []
-        for i, item in enumerate(new):
-            if i < len(old) and item == old[i]:
-                continue
-            if len(new) == len(old):  # changed in place (a pin moved, a node's size typed)
-                keep.append(i)
-                continue
-            if seen is None:  # items moved (one removed or added before them) are found by their text
-                seen = {json.dumps(x, sort_keys=True, default=repr) for x in old}
-            if json.dumps(item, sort_keys=True, default=repr) not in seen:
-                keep.append(i)
+        keep = [i for i, item in enumerate(new) if i >= len(old) or item != old[i]]
+        if len(new) != len(old) or len(keep) > IN_PLACE_ITEMS:
+            # Items moved (one removed or added before them, or one taken out and put back at the
+            # end: a pin dragged again) are found by their repr: equal text is equal JSON (an equal
+            # item written with its keys in another order is only checked again).
+            seen = set(map(repr, old))
+            keep = [i for i in keep if repr(new[i]) not in seen]
         node = out
         for key in path[:-1]:
             node[key] = dict(node[key])

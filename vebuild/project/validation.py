@@ -22,7 +22,7 @@ from ..errors import ProjectError
 from ..lighting import AS_PHOTOGRAPHED
 from .images import MAX_IMAGE_PIXELS
 from .json_paths import field_words, json_key, json_path
-from .schema_match import schema_errors
+from .schema_match import new_items, schema_errors
 
 if TYPE_CHECKING:
     import jsonschema
@@ -57,12 +57,17 @@ def validate(data: Any, file: str | os.PathLike[str], valid_before: Any = None) 
     gets that message rather than a list of schema differences), the schema, then what a schema
     cannot say (unique names, names that refer to something, finite numbers, relative paths).
     ``valid_before``, a document that passed this check (the one before an edit), spares the schema
-    check the items of :data:`.schema_match.ITEM_LISTS` found in its same list; all else is checked as without it.
+    check and the values' check the items of :data:`.schema_match.ITEM_LISTS` found in its same
+    list; all else is checked as without it.
     """
     try:
         _check_format_version(data, file)
-        _check_values(data, file)
-        errors = schema_errors(data, valid_before)
+        cut = None if valid_before is None else new_items(data, valid_before)
+        if cut is None:
+            _check_values(data, file)
+        else:
+            _check_values(cut[0], file, cut[1])
+        errors = schema_errors(data, valid_before, cut)
         if errors:
             raise _schema_error(errors, file)
         _check_semantics(data, file)
@@ -343,10 +348,12 @@ def _parse_int(digits: str) -> int | _LongInteger:
     return int(digits)
 
 
-def _check_values(data: Any, file: Any) -> None:
+def _check_values(data: Any, file: Any, where: dict[tuple[str, ...], list[int]] | None = None) -> None:
     """What every value must be, whatever its place: nested at most MAX_DEPTH deep, a number finite
     and of at most MAX_INT_DIGITS digits, text (and keys) writable as UTF-8. Iterative, so that no
-    document can exhaust the stack."""
+    document can exhaust the stack. ``where``: for a list of ``data`` cut to some of a document's
+    items (:func:`.schema_match.new_items`), the document's index of each, named in errors."""
+    where = where or {}
     stack: list[tuple[Any, tuple[Any, ...], int]] = [(data, (), 1)]
     while stack:
         value, parts, depth = stack.pop()
@@ -368,7 +375,8 @@ def _check_values(data: Any, file: Any) -> None:
                         _check_text(k, file, parts, key=True)
                     stack.append((v, (*parts, k), depth + 1))
             else:
-                stack.extend((v, (*parts, i), depth + 1) for i, v in enumerate(value))
+                index = where.get(parts) if where else None
+                stack.extend((v, (*parts, i if index is None else index[i]), depth + 1) for i, v in enumerate(value))
 
 
 def _check_text(text: str, file: Any, parts: tuple[Any, ...], key: bool = False) -> None:
