@@ -512,3 +512,23 @@ def test_a_drags_still_layer_is_the_rest_overlay_less_what_moves(rebuilt, monkey
         assert np.allclose(a.p, b.p, atol=1e-6)
     for a, b in zip(still.points, afresh.points, strict=True):
         assert np.allclose(a.uv, b.uv, atol=1e-6)
+
+
+def test_the_copy_kept_for_undo_is_whole_and_apart_from_the_document():
+    """What an edit may change in the document (its objects, lists, and anything not JSON) is
+    copied; what cannot change (text, numbers, true, false, null) is shared."""
+    import numpy as np
+
+    from vebuild.edit.history import document_copy
+
+    doc = {"a": [1, {"b": [2.5, "s", None, True]}], "arr": np.zeros(3), "pair": (1, [2]), "n": {}}
+    kept = document_copy(doc)
+    assert kept["a"] == doc["a"] and kept["pair"] == doc["pair"] and kept["n"] == {}
+    assert np.array_equal(kept["arr"], doc["arr"])
+    doc["a"][1]["b"].append(5)
+    doc["a"].append("x")
+    doc["arr"][0] = 9.0
+    doc["pair"][1].append(3)
+    doc["n"]["k"] = 1
+    assert kept == {"a": [1, {"b": [2.5, "s", None, True]}], "arr": kept["arr"], "pair": (1, [2]), "n": {}}
+    assert not kept["arr"].any()

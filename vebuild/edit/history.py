@@ -22,6 +22,19 @@ if TYPE_CHECKING:
 #: Undo steps kept; older ones are dropped (the autosave and the project file hold the work).
 UNDO_DEPTH = 200
 
+_IMMUTABLE = (str, int, float, bool, type(None))
+
+
+def document_copy(value: Any) -> Any:
+    """A deep copy of a project document: its objects and lists copied, its text, numbers, true,
+    false and null shared (they cannot change); anything else by :func:`copy.deepcopy`. Half
+    of deepcopy's time on a house's document (measured: 65 → 35 ms), copied before every edit."""
+    if isinstance(value, dict):
+        return {k: v if type(v) in _IMMUTABLE else document_copy(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [v if type(v) in _IMMUTABLE else document_copy(v) for v in value]
+    return value if type(value) in _IMMUTABLE else copy.deepcopy(value)
+
 
 class EditError(VebuildError):
     """A user's edit that cannot be done; the text says why and what to do instead."""
@@ -81,7 +94,7 @@ class History(SessionState):
         """One undoable change: the document is restored if the change fails or leaves it invalid."""
         if self._drag is not None and label != "drag":
             raise EditError("finish the drag first (release the mouse button, or Esc to cancel it)")
-        before = copy.deepcopy(self.data)
+        before = document_copy(self.data)
         try:
             yield
             # Results (calibration, solution, textures) the edit left as they were were valid before
