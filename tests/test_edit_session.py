@@ -532,3 +532,25 @@ def test_the_copy_kept_for_undo_is_whole_and_apart_from_the_document():
     doc["n"]["k"] = 1
     assert kept == {"a": [1, {"b": [2.5, "s", None, True]}], "arr": kept["arr"], "pair": (1, [2]), "n": {}}
     assert not kept["arr"].any()
+
+
+def test_an_edits_model_is_decoded_once_and_is_the_documents(rebuilt, monkeypatch):
+    """The model an edit checks is the model shown after it: not decoded a second time, and the
+    same as decoding the edited document afresh."""
+    from vebuild.project import decode
+
+    plan, session, _ = rebuilt
+    calls = []
+    real = decode.model_nodes
+    monkeypatch.setattr(decode, "model_nodes", lambda *a, **k: calls.append(1) or real(*a, **k))
+    width = session.model.node("box").primitive.params[0]
+    calls.clear()
+    session.set_params("box", {"width": width + 0.01})
+    model = session.model
+    assert len(calls) == 1
+    assert model.node("box").primitive.params[0] == pytest.approx(width + 0.01)
+    afresh = session._decoded_model()
+    assert np.array_equal(model.vector(), afresh.vector())
+    assert [n.name for n in model.nodes] == [n.name for n in afresh.nodes]
+    session.undo()
+    assert session.model.node("box").primitive.params[0] == pytest.approx(width)

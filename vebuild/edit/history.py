@@ -111,7 +111,10 @@ class History(SessionState):
             self._cache.clear()
             raise
         self.history.push(before, label)
+        rebuilt = self._cache.get("rebuilt-model")  # the edited document's model, its last step
         self._changed()
+        if rebuilt is not None:
+            self._cache["model"] = rebuilt
 
     def _changed(self) -> None:
         self.revision += 1

@@ -123,9 +123,11 @@ class Modelling(Marks):
         return self._model_doc().setdefault("edge_observations", [])
 
     def _rebuild_check(self) -> None:
-        """The model as edited must still be a model (EditError, the edit undone)."""
+        """The model as edited must still be a model (EditError, the edit undone). The last step
+        of an edit: the model decoded here is the edited document's, kept as :attr:`model` once the
+        edit is done (:meth:`~vebuild.edit.history.History._edit`) rather than decoded again."""
         self._nodes()  # $.model.nodes there for the decoder to read
-        self._decoded_model()
+        self._cache["rebuilt-model"] = self._decoded_model()
 
     def add_primitive(self, kind: str, *, name: str | None = None, parent: str | None = None,
                       at: tuple[str, Sequence[float]] | None = None,
