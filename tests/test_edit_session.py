@@ -554,3 +554,41 @@ def test_an_edits_model_is_decoded_once_and_is_the_documents(rebuilt, monkeypatc
     assert [n.name for n in model.nodes] == [n.name for n in afresh.nodes]
     session.undo()
     assert session.model.node("box").primitive.params[0] == pytest.approx(width)
+
+
+def test_the_overlay_after_a_kept_drag_takes_what_did_not_move_from_before_it(rebuilt, monkeypatch):
+    """After a drag is kept, only the nodes it moved are projected again; the overlay is what
+    working it all out afresh gives."""
+    from vebuild.edit import photo_overlay
+
+    plan, session, _ = rebuilt
+    session.add_primitive("box", name="crate", parent="floor", at=("p3", (700.0, 900.0)))
+    session.overlay("p3", selected="floor")  # drawn before the drag, as the screen draws it
+    uv = next(uv for n, h, uv, _ in session.handles("p3") if (n, h) == ("crate", "v4"))
+    session.begin_drag("p3", "crate", "v4")
+    fb = session.drag_to((uv[0] - 6.0, uv[1] - 4.0))
+    assert fb.ok, fb.reason
+    moved = set(session._drag.session.moved)
+    assert moved == {"crate"}
+    projected = []
+    real = photo_overlay.project_edge_curves
+    monkeypatch.setattr(photo_overlay, "project_edge_curves",
+                        lambda model, cam, names, *a: projected.append(list(names)) or real(model, cam, names, *a))
+    session.end_drag()
+    after = session.overlay("p3", selected="floor")
+    assert projected == [["crate"]]
+    session._cache.clear()  # the same revision worked out whole
+    whole = session.overlay("p3", selected="floor")
+    assert len(projected) == 2 and "box" in projected[1] and "floor" in projected[1]
+    assert [(ln.kind, ln.key, ln.colour, ln.label) for ln in after.lines] == \
+        [(ln.kind, ln.key, ln.colour, ln.label) for ln in whole.lines]
+    assert [(p.kind, p.key, p.colour, p.label) for p in after.points] == \
+        [(p.kind, p.key, p.colour, p.label) for p in whole.points]
+    assert after.notes == whole.notes
+    for a, b in zip(after.lines, whole.lines, strict=True):
+        assert np.allclose(a.p, b.p, atol=1e-6)
+    for a, b in zip(after.points, whole.points, strict=True):
+        assert np.allclose(a.uv, b.uv, atol=1e-6)
+    assert any(p.kind == "pin" and p.key == ("crate", "v4") for p in after.points)  # the drag fixed it
+    session.undo()
+    session.undo()
