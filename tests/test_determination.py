@@ -175,6 +175,7 @@ def test_too_few_observations_says_what_would_determine_each_parameter(example: 
     assert "too few observations: the pins and edges do not determine box." in msg
     undetermined = msg.split("do not determine ")[1].split(". What would:")[0].split(", ")
     assert undetermined and all(u.startswith("box.") for u in undetermined), msg
+    assert e.value.names == undetermined  # the same names for a caller (UndeterminedError)
     for u in undetermined:
         param = u.split(".", 1)[1]
         unit, sigma = ("°", 1) if param == "yaw" else (" m", 0.005)

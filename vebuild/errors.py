@@ -42,6 +42,15 @@ class ProjectError(VebuildError):
         return e
 
 
+class UndeterminedError(VebuildError):
+    """The observations leave parts of the model undetermined: ``names`` lists them (``node.param``,
+    the solver's order); the message says what would determine each."""
+
+    def __init__(self, message: str, names: list[str]) -> None:
+        self.names = list(names)
+        super().__init__(message)
+
+
 class CalibrationError(VebuildError):
     """The marks cannot determine a camera; the message says which marks to add or fix.
 

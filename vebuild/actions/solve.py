@@ -33,7 +33,7 @@ from ..calibration.lsq import is_numeric_failure
 from ..calibration.positions import ReferenceDistance, check_scale_distances
 from ..camera import ImageCamera
 from ..constants import Z95
-from ..errors import CalibrationError, ProjectError, VebuildError
+from ..errors import CalibrationError, ProjectError, UndeterminedError, VebuildError
 from ..model.constraints import conflict_message, conflicts, relation_records
 from ..model.determination import axis_records, too_few_observations
 from ..model.residuals import MarkerObservation
@@ -125,11 +125,11 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
     if found := conflicts(model, xm):
         raise VebuildError(f"{project.path}: $.model.relations: {conflict_message(found)}")
     if solution.undetermined:
-        raise VebuildError(
+        raise UndeterminedError(
             f"{project.path}: $.model: too few observations: the pins and edges do not determine "
             f"{', '.join(solution.undetermined[:12])}{' …' if len(solution.undetermined) > 12 else ''}. "
             f"What would: {too_few_observations(problem, solution)} (FORMAT.md \"entered value\"; pins in a "
-            "photo, or a second one); or mark those nodes solve: false")
+            "photo, or a second one); or mark those nodes solve: false", solution.undetermined)
     _check_visible(project, problem, xm, solution.cameras)
     model.set_vector(xm)
     data["model"]["nodes"] = model.to_dict()
