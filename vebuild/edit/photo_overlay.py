@@ -101,7 +101,7 @@ class SessionOverlays(Modelling):
         vanishing rays, horizon and axes, known lengths, markers); the primitives' edges and handles
         (each keyed by its node), those of ``skip`` left out; the user's edges; the pins'
         residuals (at rest only). ``carried``: the primitives' part from before a kept drag and the
-        nodes it moved (:meth:`carry_overlays`): only those are worked out again."""
+        nodes it moved (:meth:`end_drag`): only those are worked out again."""
         ov = Overlay(photo)
         p = self.photo(photo)
         sigma = self.settings["click_sigma_px"]
