@@ -312,3 +312,34 @@ def test_clip_polyline_keeps_what_clip_segment_keeps_segment_by_segment():
         assert np.allclose(np.array(got).reshape(-1, 4), np.array(expected).reshape(-1, 4), atol=1e-9)
         for p in parts:
             assert ((p >= -1e-9) & (p <= (200.0 + 1e-9, 150.0 + 1e-9))).all()
+
+
+def test_edge_samples_are_each_edges_linspace_bit_for_bit():
+    """The hidden-line samples, made for all edges at once, are those of ``np.linspace`` along each
+    edge about SAMPLE_PX apart in the photo (at most MAX_SAMPLES, at least both ends); an edge with
+    an end behind the camera has none."""
+    import math
+
+    from vebuild import camera as cm
+    from vebuild.edit.visibility import MAX_SAMPLES, SAMPLE_PX, edge_samples
+
+    rng = np.random.default_rng(11)
+    cam = cm.ImageCamera("c", cm.intrinsic_matrix(1500.0, 800.0, 600.0), cm.look_rotation(np.array([0.0, 1.0, 0.0])),
+                         np.array([0.0, -8.0, 0.5]), 1600, 1200)
+    ends = {("n", i): (rng.normal(0, 3, 3), rng.normal(0, 3, 3)) for i in range(300)}
+    ends["behind"] = (np.array([0.0, -9.0, 0.0]), np.array([0.0, 2.0, 0.0]))
+    ends["short"] = (np.array([0.0, 0.0, 0.0]), np.array([1e-4, 0.0, 0.0]))
+    ends["long"] = (np.array([-400.0, 1.0, 0.0]), np.array([400.0, 1.0, 0.0]))
+    got = edge_samples(ends, cam)
+    expected = {}
+    for key, (a, b) in ends.items():
+        z = cm.world_to_camera(cam.R, cam.C, np.stack([a, b]))[:, 2]
+        if np.any(z <= 0):
+            continue
+        pa, pb = cm.project(cam.K, cam.R, cam.C, np.stack([a, b]))
+        n = int(min(MAX_SAMPLES, max(2, math.ceil(float(np.linalg.norm(pb - pa)) / SAMPLE_PX) + 1)))
+        expected[key] = a + np.linspace(0.0, 1.0, n)[:, None] * (b - a)
+    assert list(got) == list(expected) and "behind" not in got
+    assert len(got["short"]) == 2 and len(got["long"]) == MAX_SAMPLES
+    assert all(np.array_equal(got[k], expected[k]) for k in expected)
+    assert edge_samples({}, cam) == {}
