@@ -476,6 +476,20 @@ def test_middle_points_let_a_one_photo_calibration_measure_the_lens(tmp_path):
     assert f"corners moved {lens['corner_displacement_px']['value']:.1f}" in said
 
 
+def _assert_same_overlay(got, expected) -> None:
+    """The same items in the same order, kinds, keys, colours, labels and notes; the same pixels to
+    float rounding (the nodes taken from an earlier overlay were projected by other code)."""
+    assert [(ln.kind, ln.key, ln.colour, ln.label) for ln in got.lines] == \
+        [(ln.kind, ln.key, ln.colour, ln.label) for ln in expected.lines]
+    assert [(p.kind, p.key, p.colour, p.label) for p in got.points] == \
+        [(p.kind, p.key, p.colour, p.label) for p in expected.points]
+    assert got.notes == expected.notes
+    for a, b in zip(got.lines, expected.lines, strict=True):
+        assert np.allclose(a.p, b.p, atol=1e-6)
+    for a, b in zip(got.points, expected.points, strict=True):
+        assert np.allclose(a.uv, b.uv, atol=1e-6)
+
+
 def test_a_drags_still_layer_is_the_rest_overlay_less_what_moves(rebuilt, monkeypatch):
     """The still layer of a drag is taken from the overlay drawn when it began (the moving nodes'
     edges and handles and the pins' residuals left out), and is what working it out afresh gives."""
@@ -502,16 +516,7 @@ def test_a_drags_still_layer_is_the_rest_overlay_less_what_moves(rebuilt, monkey
     assert not [p for p in still.points if p.kind in ("handle", "pin") and p.key[0] in moved]
     assert {p.key for p in moving.points} == {p.key for p in rest.points if p.kind in ("handle", "pin")
                                               and p.key[0] in moved}
-    assert [(ln.kind, ln.key, ln.colour, ln.label) for ln in still.lines] == \
-        [(ln.kind, ln.key, ln.colour, ln.label) for ln in afresh.lines]
-    assert [(p.kind, p.key, p.colour, p.label) for p in still.points] == \
-        [(p.kind, p.key, p.colour, p.label) for p in afresh.points]
-    assert still.notes == afresh.notes
-    # The nodes that did not move are where they were: the same pixels to float rounding.
-    for a, b in zip(still.lines, afresh.lines, strict=True):
-        assert np.allclose(a.p, b.p, atol=1e-6)
-    for a, b in zip(still.points, afresh.points, strict=True):
-        assert np.allclose(a.uv, b.uv, atol=1e-6)
+    _assert_same_overlay(still, afresh)
 
 
 def test_the_copy_kept_for_undo_is_whole_and_apart_from_the_document():
@@ -580,15 +585,7 @@ def test_the_overlay_after_a_kept_drag_takes_what_did_not_move_from_before_it(re
     session._cache.clear()  # the same revision worked out whole
     whole = session.overlay("p3", selected="floor")
     assert len(projected) == 2 and "box" in projected[1] and "floor" in projected[1]
-    assert [(ln.kind, ln.key, ln.colour, ln.label) for ln in after.lines] == \
-        [(ln.kind, ln.key, ln.colour, ln.label) for ln in whole.lines]
-    assert [(p.kind, p.key, p.colour, p.label) for p in after.points] == \
-        [(p.kind, p.key, p.colour, p.label) for p in whole.points]
-    assert after.notes == whole.notes
-    for a, b in zip(after.lines, whole.lines, strict=True):
-        assert np.allclose(a.p, b.p, atol=1e-6)
-    for a, b in zip(after.points, whole.points, strict=True):
-        assert np.allclose(a.uv, b.uv, atol=1e-6)
+    _assert_same_overlay(after, whole)
     assert any(p.kind == "pin" and p.key == ("crate", "v4") for p in after.points)  # the drag fixed it
     session.undo()
     session.undo()
