@@ -539,6 +539,66 @@ def test_the_copy_kept_for_undo_is_whole_and_apart_from_the_document():
     assert not kept["arr"].any()
 
 
+def test_a_packed_document_unpacks_whole_and_apart_sharing_only_what_it_names():
+    """An undo step's document: unpacked, equal to the one packed, keys in their order, its own
+    objects but for the shared paths' values; packing leaves the document as it was, also when it
+    fails."""
+    import threading
+
+    from vebuild.edit.history import PackedDocument, document_snapshot
+
+    matrix = [[1.0, 0.5], [0.5, 2.0]]
+    doc = {"a": [1, {"b": [2.5, None]}], "model_solution": {"covariance": {"matrix": matrix, "parameters": ["x", "y"]},
+                                                           "rms_px": 0.4}, "z": (1, 2)}
+    packed = PackedDocument(doc)
+    assert doc["model_solution"]["covariance"]["matrix"] is matrix
+    out = packed.unpack()
+    assert out == doc and list(out["model_solution"]["covariance"]) == ["matrix", "parameters"]
+    assert out["model_solution"]["covariance"]["matrix"] is matrix
+    out["a"][1]["b"].append(3)
+    out["model_solution"]["covariance"]["parameters"].append("w")
+    assert doc["a"] == [1, {"b": [2.5, None]}] and doc["model_solution"]["covariance"]["parameters"] == ["x", "y"]
+    assert packed.unpack()["a"] == [1, {"b": [2.5, None]}]
+    assert PackedDocument({"a": 1}).unpack() == {"a": 1}  # no shared path in it
+    snap = document_snapshot(doc)
+    assert snap == doc and snap["model_solution"]["covariance"]["matrix"] is matrix
+    assert snap["model_solution"]["covariance"]["parameters"] is not doc["model_solution"]["covariance"]["parameters"]
+    doc["lock"] = threading.Lock()  # cannot be pickled
+    with pytest.raises(TypeError):
+        PackedDocument(doc)
+    assert doc["model_solution"]["covariance"]["matrix"] is matrix
+
+
+def test_an_undo_step_is_packed_and_shares_the_solutions_covariance(rebuilt):
+    """Each undo step of a solved project is one pickled string without the solution's covariance
+    matrix (on a house most of the document, which no edit changes in place); undo and redo give
+    back the documents as they were, the matrix the same object."""
+    import copy
+    import pickle
+
+    from vebuild.edit.history import PackedDocument
+
+    _, session, _ = rebuilt
+    session.solve()
+    matrix = session.data["model_solution"]["covariance"]["matrix"]
+    before = copy.deepcopy(session.data)
+    width = session.model.node("box").primitive.params[0]
+    session.set_params("box", {"width": width + 0.01})
+    after = copy.deepcopy(session.data)
+    assert session.data["model_solution"]["covariance"]["matrix"] is matrix  # the solution kept (stale)
+    step = session.history._undo[-1][1]
+    assert isinstance(step, PackedDocument)
+    n = len(matrix)
+    # A pickled float takes 9 bytes: the step is the whole document's pickle less at least the
+    # matrix's n² numbers.
+    assert step.nbytes <= len(pickle.dumps(before, protocol=pickle.HIGHEST_PROTOCOL)) - 9 * n * n
+    assert session.undo()
+    assert session.data == before and session.data["model_solution"]["covariance"]["matrix"] is matrix
+    assert session.redo()
+    assert session.data == after and session.data["model_solution"]["covariance"]["matrix"] is matrix
+    assert session.undo()
+
+
 def test_an_edits_model_is_decoded_once_and_is_the_documents(rebuilt, monkeypatch):
     """The model an edit checks is the model shown after it: not decoded a second time, and the
     same as decoding the edited document afresh."""

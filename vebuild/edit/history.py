@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import contextlib
 import copy
+import gc
+import pickle
 from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -36,6 +38,88 @@ def document_copy(value: Any) -> Any:
     return value if type(value) in _IMMUTABLE else copy.deepcopy(value)
 
 
+#: Paths (keys from the document's root) of what no edit changes in place: a solve replaces each
+#: whole. An undo step shares them with the document instead of copying them. The solution's
+#: covariance matrix is most of a solved house's document (1,523² numbers): copying its rows made
+#: an undo step 29 MB rather than 10.6 (with :data:`UNDO_DEPTH` steps, 5.8 GB rather than 2.1).
+SHARED_IN_SNAPSHOTS: tuple[tuple[str, ...], ...] = (("model_solution", "covariance", "matrix"),)
+
+
+def document_snapshot(data: Any, shared: tuple[tuple[str, ...], ...] = SHARED_IN_SNAPSHOTS) -> Any:
+    """:func:`document_copy` of ``data``, but for the values at the ``shared`` paths: those are the
+    document's own (the same objects), so they must only ever be replaced, never changed in place.
+
+    The cyclic garbage collector is held off while it copies: the copy makes no cycles, and on a
+    solved house the collections its hundred thousand new objects set off (each going over the
+    whole document) had doubled its time (measured: 100 → 45 ms)."""
+    was = gc.isenabled()
+    gc.disable()
+    try:
+        return _snapshot(data, shared)
+    finally:
+        if was:
+            gc.enable()
+
+
+def _snapshot(data: Any, shared: tuple[tuple[str, ...], ...]) -> Any:
+    if not shared or not isinstance(data, dict):
+        return document_copy(data)
+    out = {}
+    for k, v in data.items():
+        below = tuple(p[1:] for p in shared if p[0] == k)
+        if () in below:
+            out[k] = v
+        elif below:
+            out[k] = _snapshot(v, below)
+        else:
+            out[k] = v if type(v) in _IMMUTABLE else document_copy(v)
+    return out
+
+
+class PackedDocument:
+    """An undo step's document, kept as one pickled string (the values at the shared paths beside
+    it, by reference): not a hundred thousand objects. On a solved house a step as objects held
+    10.6 MB, and every step's objects were gone over by each of the cyclic garbage collector's full
+    collections (0.1 s after loading, 0.2 s after five edits, growing with the history); packed,
+    2.9 MB and nothing for the collector. Packing takes 15 ms, unpacking (an undo) 0.1 s."""
+
+    __slots__ = ("_blob", "_shared")
+
+    def __init__(self, data: dict[str, Any], shared: tuple[tuple[str, ...], ...] = SHARED_IN_SNAPSHOTS):
+        held: list[tuple[tuple[str, ...], Any]] = []
+        for path in shared:
+            parent = _parent(data, path)
+            if parent is not None:
+                held.append((path, parent[path[-1]]))
+        try:  # the shared values out of the pickle (None in their places, so the keys keep their order)
+            for path, _ in held:
+                _parent(data, path)[path[-1]] = None  # type: ignore[index]
+            self._blob = pickle.dumps(data, protocol=pickle.HIGHEST_PROTOCOL)
+        finally:
+            for path, value in held:
+                _parent(data, path)[path[-1]] = value  # type: ignore[index]
+        self._shared = held
+
+    def unpack(self) -> dict[str, Any]:
+        """A document of its own, equal to the one packed (the shared values the same objects)."""
+        data = pickle.loads(self._blob)
+        for path, value in self._shared:
+            _parent(data, path)[path[-1]] = value  # type: ignore[index]
+        return data
+
+    @property
+    def nbytes(self) -> int:
+        """The packed string's size (the shared values are the document's own)."""
+        return len(self._blob)
+
+
+def _parent(data: Any, path: tuple[str, ...]) -> dict[str, Any] | None:
+    """The object holding ``path``'s last key, where the whole path is there; else None."""
+    for key in path[:-1]:
+        data = data.get(key) if isinstance(data, dict) else None
+    return data if isinstance(data, dict) and path[-1] in data else None
+
+
 class EditError(VebuildError):
     """A user's edit that cannot be done; the text says why and what to do instead."""
 
@@ -53,7 +137,7 @@ class SessionState:
     recovery_available: bool
     _cache: dict[Any, Any]
     _drag: Any
-    history: UndoStack[dict[str, Any]]
+    history: UndoStack[PackedDocument]
 
     @property
     def data(self) -> dict[str, Any]:
@@ -94,7 +178,7 @@ class History(SessionState):
         """One undoable change: the document is restored if the change fails or leaves it invalid."""
         if self._drag is not None and label != "drag":
             raise EditError("finish the drag first (release the mouse button, or Esc to cancel it)")
-        before = document_copy(self.data)
+        before = document_snapshot(self.data)
         try:
             yield
             # Results (calibration, solution, textures) the edit left as they were were valid before
@@ -110,7 +194,7 @@ class History(SessionState):
             self.project.data = before
             self._cache.clear()
             raise
-        self.history.push(before, label)
+        self.history.push(PackedDocument(before), label)
         rebuilt = self._cache.get("rebuilt-model")  # the edited document's model, its last step
         self._changed()
         if rebuilt is not None:
@@ -138,19 +222,19 @@ class History(SessionState):
         return self.history.redo_label
 
     def undo(self) -> bool:
-        step = None if self._drag is not None else self.history.undo(self.data)
+        step = None if self._drag is not None else self.history.undo(PackedDocument(self.data))
         if step is None:
             return False
-        label, self.project.data = step
+        label, self.project.data = step[0], step[1].unpack()
         self._changed()
         self.say(f"undone: {label}")
         return True
 
     def redo(self) -> bool:
-        step = None if self._drag is not None else self.history.redo(self.data)
+        step = None if self._drag is not None else self.history.redo(PackedDocument(self.data))
         if step is None:
             return False
-        label, self.project.data = step
+        label, self.project.data = step[0], step[1].unpack()
         self._changed()
         self.say(f"redone: {label}")
         return True

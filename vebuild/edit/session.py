@@ -31,7 +31,7 @@ from vebuild.project.images import RAW_SUFFIXES
 from vebuild.project.provenance import Stale, stale
 
 from .assist import Assist, Proposal
-from .history import UNDO_DEPTH, EditError
+from .history import UNDO_DEPTH, EditError, PackedDocument
 from .marks import AXES, VanishingState
 from .modelling import ANCHOR_HANDLE, DEFAULT_PARAMS, FOLLOW_TOL_PX, DragFeedback
 from .photo_overlay import SessionOverlays
@@ -58,7 +58,7 @@ class EditSession(Assist, Rooms, SessionOverlays):
         self.messages: list[str] = []
         self.revision = 0
         self.dirty = False
-        self.history: UndoStack[dict[str, Any]] = UndoStack(UNDO_DEPTH)
+        self.history: UndoStack[PackedDocument] = UndoStack(UNDO_DEPTH)
         self._cache: dict[Any, Any] = {}
         self._drag = None  # the drag under way (modelling._Drag)
         self.recovery_available = False
