@@ -481,6 +481,49 @@ def test_l_hides_and_shows_the_labels_over_the_photo(room):
         surface.release()
 
 
+def test_the_edges_runs_are_laid_out_once_per_view_and_drawn_as_laid_out_afresh(room, monkeypatch):
+    """The model edges' seen and hidden runs are placed in the window (clipped, dashed) once per
+    visibility and view: a frame that only moves the cursor reuses them and is the frame drawn
+    with them laid out afresh; a zoom lays them out again."""
+    from vebuild.edit import photo_view
+    from vebuild.edit.screen import Editor
+    from vebuild.edit.session import EditSession
+    from vebuild.gl.context import headless_context
+    from vebuild.gl.surface import OffscreenSurface
+
+    s = EditSession.open(room, recover=False)
+    surface = OffscreenSurface(headless_context(), 1200, 780)
+    e = Editor(s, surface)
+    calls: list[int] = []
+    real = photo_view._run_pieces
+    monkeypatch.setattr(photo_view, "_run_pieces", lambda *a: calls.append(1) or real(*a))
+    try:
+        e.set_photo("p3")
+        for _ in range(len(s.photo_ids) + 3):
+            e.draw()
+        runs = e.edge_visibility()
+        assert runs and any(not r.visible for v in runs.values() for r in v)  # hidden runs among them
+        x0, y0, x1, y1 = (int(v) for v in e.view_rect())
+        e.on_cursor(x0 + 3, y1 - 3)  # over the photo's corner, away from every label
+        calls.clear()
+        e.draw()
+        kept = surface.read()
+        assert calls == []
+        e._runs_drawn = None
+        e.draw()
+        assert len(calls) >= len(runs) // 2 and np.array_equal(surface.read(), kept)
+        calls.clear()
+        e.zoom *= 1.25
+        e.draw()
+        assert calls
+        calls.clear()
+        e.draw()
+        assert calls == []
+    finally:
+        e.close()
+        surface.release()
+
+
 @pytest.fixture
 def one_photo(tmp_path):
     """The example room's photo p3 alone, as an archived photograph: its segments and the origin
