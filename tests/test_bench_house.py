@@ -37,3 +37,29 @@ def test_nothing_is_entered_where_a_name_is_not_a_size():
     assert taped_values(data, TRUTH, ["room6.c2_y", "step1.yaw"], np.random.default_rng(3)) is None
     assert taped_values(data, TRUTH, ["gone.width"], np.random.default_rng(3)) is None
     assert data == DATA
+
+
+def test_the_drag_figures_on_a_solved_room(tmp_path):
+    """The house bench's modelling-screen figures, measured on the example room (the house's own
+    run needs its cached photos): the drags, a frame as the cursor crosses the photo, and an undo
+    step's size: less than the solved document's, whose covariance matrix it leaves out (shared,
+    not packed: tests/test_edit_session.py), though it holds the box the bench added."""
+    import json
+    import pickle
+    import shutil
+
+    from vebuild.bench.house import drag
+    from vebuild.cli import main
+    from vebuild.resources import example_project_dir
+
+    shutil.copytree(example_project_dir(), tmp_path / "room")
+    path = tmp_path / "room" / "room.vebuild.json"
+    assert main(["calibrate", str(path), "--quiet"]) == 0
+    assert main(["solve", str(path)]) == 0
+    data = json.loads(path.read_text())
+    fig = drag(path, moves=4)
+    for key in ("update", "start", "release"):
+        assert 0 < fig[f"house_drag_{key}_ms_median"] <= fig[f"house_drag_{key}_ms_p95"]
+    assert fig["house_hover_frame_ms_median"] > 0
+    whole = len(pickle.dumps(data, protocol=pickle.HIGHEST_PROTOCOL)) / 2**20
+    assert 0 < fig["house_undo_step_mb"] < whole

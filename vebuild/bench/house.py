@@ -17,7 +17,10 @@ Figures (``--json``), each against its goal:
   photo once its thumbnails are loaded, three drags of 60 moves), with the solve's and the
   overlay's shares. Goal ≤ 16.7 ms. ``house_drag_start_ms_median``: each drag's press and first
   move, with their frames (the drag begins there); ``house_drag_release_ms_median``: each drag's
-  release (the edit validated and kept) and the frame after it.
+  release (the edit validated and kept) and the frame after it. ``house_hover_frame_ms_median``:
+  a frame as the cursor crosses the photo, nothing pressed (after the drags);
+  ``house_undo_step_mb``: what the history keeps for one drag (its packed document,
+  :class:`vebuild.edit.history.PackedDocument`).
 - ``house_texture_peak_mb``: peak resident memory of the process during the texture extraction of
   every photo (true model and cameras; at 150 texels per metre where the default's atlas is
   refused as too large, ``house_texture_default_refused`` saying so), and
@@ -214,6 +217,8 @@ def drag(path: Path, moves: int) -> dict[str, Any]:
             r = _drag(editor, node, HANDLES[name], moves)
             for key in ("update", "solve", "overlay", "start", "release"):
                 pooled.setdefault(key, []).append(np.array(r[key]))
+        step = session.history._undo[-1][1]  # the last drag's, as the history keeps it
+        hover = _hover_frames(editor, HOVER_FRAMES)
     finally:
         editor.close()
         surface.release()
@@ -222,7 +227,27 @@ def drag(path: Path, moves: int) -> dict[str, Any]:
         allv = np.concatenate(v)
         fig[f"house_drag_{key}_ms_p95"] = float(np.percentile(allv, 95))
         fig[f"house_drag_{key}_ms_median"] = float(np.median(allv))
+    fig["house_hover_frame_ms_median"] = float(np.median(hover))
+    fig["house_undo_step_mb"] = step.nbytes / 2**20
     return fig
+
+
+#: Frames drawn with the cursor moving over the photo, no button held (``house_hover_frame_ms_median``).
+HOVER_FRAMES = 30
+
+
+def _hover_frames(editor: Any, n: int) -> list[float]:
+    """Each frame's time (ms) as the cursor crosses the photo view, nothing pressed: what a user
+    waits for while pointing at the model's corners and edges."""
+    from .edit import _frame_ms
+
+    x0, y0, x1, y1 = editor.view_rect()
+    out = []
+    for k in range(n):
+        t = (k + 0.5) / n
+        editor.on_cursor(x0 + t * (x1 - x0), y0 + (0.3 + 0.4 * t) * (y1 - y0))
+        out.append(_frame_ms(editor))
+    return out
 
 
 #: The density used where the default's atlas is refused as too large (texels per metre).
@@ -399,7 +424,9 @@ def table(fig: dict[str, Any]) -> str:
                      f"solve {fig['house_drag_solve_ms_p95']:.1f} ms, overlay {fig['house_drag_overlay_ms_p95']:.1f} "
                      f"ms (p95 each); the press and first move with their frames "
                      f"{fig['house_drag_start_ms_median']:.0f} ms median, the release (the edit kept) and its "
-                     f"frame {fig['house_drag_release_ms_median']:.0f} ms median")
+                     f"frame {fig['house_drag_release_ms_median']:.0f} ms median; a frame as the cursor crosses "
+                     f"the photo {fig['house_hover_frame_ms_median']:.0f} ms median; an undo step "
+                     f"{fig['house_undo_step_mb']:.1f} MB")
     else:
         lines.append(f"drag update: {fig['house_drag_note']}")
     lines += [
