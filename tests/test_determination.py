@@ -189,3 +189,84 @@ def test_too_few_observations_says_what_would_determine_each_parameter(example: 
         pins = clause.split("; or pin ")[1].split(" (now in")
         assert pins[0].startswith("box:v") and "photo" in clause
     assert "solve: false" in msg
+
+
+def _normal_matrix(rng: np.random.Generator, n_rest: int, cameras: int, join: bool = False) -> tuple[Any, list[slice]]:
+    """A solve's normal matrix JᵀJ + a ridge: the model's unknowns first, then 9 per camera, then
+    a marker's 3; each row in one photo (its camera's unknowns and a few others), or, with
+    ``join``, one row in two photos."""
+    n = n_rest - 3 + 9 * cameras + 3
+    slices = [slice(n_rest - 3 + 9 * c, n_rest - 3 + 9 * (c + 1)) for c in range(cameras)]
+    rest = np.r_[np.arange(n_rest - 3), np.arange(n - 3, n)]
+    rows = []
+    for c in range(cameras):
+        for _ in range(40):
+            row = np.zeros(n)
+            row[slices[c]] = rng.normal(size=9)
+            row[rng.choice(rest, 4, replace=False)] = rng.normal(size=4)
+            rows.append(row)
+    if join:
+        row = np.zeros(n)
+        row[slices[0]] = row[slices[1]] = 1.0
+        rows.append(row)
+    rows += [np.eye(n)[j] * 0.1 for j in rest]  # every unknown outside the cameras observed
+    J = np.array(rows)
+    return J.T @ J + 1e-12 * np.eye(n), slices
+
+
+def test_the_covariance_outside_the_cameras_is_the_whole_inverses_block() -> None:
+    """The model's and markers' covariance from the Schur complement of the cameras' block is the
+    block of the whole inverse (to 1e-9 of its largest entry), and so is the fallback where two
+    cameras are joined or a camera's block is singular (the whole matrix then too: ∞ where the
+    whole inverse has it)."""
+    from vebuild.model.solution import _inverse, _outside_cameras_inverse
+
+    rng = np.random.default_rng(7)
+    for join, singular in ((False, False), (True, False), (False, True)):
+        A, slices = _normal_matrix(rng, 40, 6, join)
+        if singular:
+            A[slices[2], :] = 0.0
+            A[:, slices[2]] = 0.0
+            A[slices[2], slices[2]] = 1e-12 * np.ones((9, 9))  # rank one: not positive definite
+        rest = np.ones(len(A), bool)
+        for sl in slices:
+            rest[sl] = False
+        whole = _inverse(A)[np.ix_(rest, rest)]
+        got = _outside_cameras_inverse(A, slices)
+        assert got.shape == whole.shape
+        finite = np.isfinite(whole)
+        assert np.array_equal(np.isfinite(got), finite) and finite.sum() > 0.9 * finite.size
+        assert np.max(np.abs(got - whole)[finite]) <= 1e-9 * np.max(np.abs(whole[finite])), (join, singular)
+
+
+def test_a_recalibration_determines_as_with_the_whole_inverse(example: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The re-calibrating solve of the example (its cameras among the unknowns) reports every
+    parameter's determination and the observations' covariance as the whole inverse gives them."""
+    from vebuild.model import solution
+
+    project = load_project(example)
+    calibrate_project(project)
+    got = solve_project(project, recalibrate=True)
+    seen: list[Any] = []
+    real = solution._outside_cameras_inverse
+
+    def whole(A: Any, cameras: Any) -> Any:
+        rest = np.ones(len(A), bool)
+        for sl in cameras:
+            rest[sl] = False
+        seen.append((len(cameras), real(A, cameras), solution._inverse(A)[np.ix_(rest, rest)]))
+        return seen[-1][2]
+
+    project = load_project(example)
+    calibrate_project(project)
+    monkeypatch.setattr(solution, "_outside_cameras_inverse", whole)
+    expected = solve_project(project, recalibrate=True)
+    assert seen and all(k == len(project.data["photos"]) for k, _, _ in seen)  # every camera solved for
+    for _, schur, full in seen:
+        assert np.max(np.abs(schur - full)) <= 1e-9 * np.max(np.abs(full))
+
+    def determination(result: dict[str, Any]) -> dict[str, Any]:
+        return {(n, g, k): v.get("determined_by") for n, rec in result["nodes"].items() for g in ("params", "dofs")
+                for k, v in rec[g].items()}
+
+    assert determination(got) == determination(expected)

@@ -4,6 +4,7 @@ undetermined parameters, the re-calibrated cameras and markers, and the handles'
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, cast
 
@@ -101,7 +102,8 @@ def solution_at(problem: Problem, x: Array, iterations: int = 0) -> Solution:
     # (the cameras' calibration priors are observations too, and the relations' hard rows hold);
     # then again with the entered values' measurements, to tell a parameter only an entered value
     # determines.
-    cov_obs = _data_covariance(J, observed, hard, layout.n)
+    camera_slices = [blk.slice for blk in layout.cameras.values()]
+    cov_obs = _data_covariance(J, observed, hard, layout.n, camera_slices)
     extent = scene_extent(problem, x)
     names, kinds = layout.model.names, layout.model.kinds
     xmodel = x[layout.model.slice]
@@ -112,13 +114,13 @@ def solution_at(problem: Problem, x: Array, iterations: int = 0) -> Solution:
 
     # The entered values only add measurements: their normal matrix is the observations' plus a
     # positive one, so no variance is larger with them, and what the observations alone determine
-    # stays determined. Their covariance (one more inverse: 0.4–0.6 s for the house) is only needed
-    # where the observations leave something undetermined.
+    # stays determined. Their covariance (one more inverse: 0.14 s for the house, outside the
+    # cameras) is only needed where the observations leave something undetermined.
     undetermined = undetermined_in(cov_obs)
     prior_only: list[str] = []
     if len(problem.rows_entered) and undetermined:
         alone = undetermined
-        undetermined = undetermined_in(_data_covariance(J, measured, hard, layout.n))
+        undetermined = undetermined_in(_data_covariance(J, measured, hard, layout.n, camera_slices))
         prior_only = [nm for nm in alone if nm not in undetermined]
     sigma = problem.sigma
     res: dict[str, list[Array]] = {"pins": [], "edges": [], "markers": []}
@@ -200,10 +202,13 @@ def _leverage(J: Array | sparse.spmatrix, unit: Array, rows: NDArray[np.intp]) -
     return float(h)
 
 
-def _data_covariance(J: Array | sparse.spmatrix, rows: Array, hard: Array, n: int) -> Array:
+def _data_covariance(J: Array | sparse.spmatrix, rows: Array, hard: Array, n: int,
+                     cameras: Sequence[slice] = ()) -> Array:
     """(J_rowsᵀ J_rows + J_hardᵀ J_hard + a tiny ridge)⁻¹: the covariance the rows alone give (unit
     weights) with the relations' hard rows holding. The ridge's scale is the rows' own, not the
-    stiff hard rows'."""
+    stiff hard rows'. Only the block of the unknowns outside ``cameras`` (each camera's slice of
+    the unknowns) is returned, in their order: the model's and the markers'
+    (:func:`_outside_cameras_inverse`)."""
     Js = J[rows]
     As = Js.T @ Js
     As = cast(Any, As).toarray() if sparse.issparse(As) else np.asarray(As)
@@ -213,7 +218,46 @@ def _data_covariance(J: Array | sparse.spmatrix, rows: Array, hard: Array, n: in
         Jh = J[hard]
         Ah = Jh.T @ Jh
         A = As + (cast(Any, Ah).toarray() if sparse.issparse(Ah) else np.asarray(Ah))
-    return _inverse(A + ridge * np.eye(n))
+    return _outside_cameras_inverse(A + ridge * np.eye(n), cameras)
+
+
+def _outside_cameras_inverse(A: Array, cameras: Sequence[slice]) -> Array:
+    """The block of A⁻¹ of the unknowns outside ``cameras``, in their order. No row of a solve
+    joins two cameras (a pin, an edge, a marker sighting is in one photo; a camera's prior is its
+    own), so the cameras' block of the normal matrix A is block diagonal, and the block sought is
+    the inverse of the Schur complement S = A_rr − Σ_c A_rc A_cc⁻¹ A_cr (r the other unknowns),
+    each camera's term touching only the unknowns it sees. On the house, 1,523 unknowns of 2,459:
+    0.15 s rather than 0.56 s for the whole inverse. The whole inverse's block is taken where a
+    camera's block is not positive definite or two cameras are joined."""
+    n = A.shape[0]
+    rest = np.ones(n, bool)
+    for sl in cameras:
+        rest[sl] = False
+    r = np.flatnonzero(rest)
+    if not cameras or len(r) == n:
+        return _inverse(A)
+    cam = np.flatnonzero(~rest)
+    S = A[np.ix_(r, r)]
+    where = np.full(n, -1)
+    where[r] = np.arange(len(r))
+    for sl in cameras:
+        block = A[sl]
+        others = block[:, cam]
+        own = np.zeros_like(others, bool)
+        own[:, np.searchsorted(cam, np.arange(sl.start, sl.stop))] = True
+        if np.any(others[~own] != 0.0):
+            return _inverse(A)[np.ix_(r, r)]
+        try:
+            L = np.linalg.cholesky(block[:, sl])
+        except np.linalg.LinAlgError:
+            return _inverse(A)[np.ix_(r, r)]
+        cols = r[np.flatnonzero(np.any(block[:, r] != 0.0, axis=0))]
+        if not len(cols):
+            continue
+        W = np.linalg.solve(L, block[:, cols])  # L⁻¹ A_c,cols: A_cols,c A_cc⁻¹ A_c,cols = Wᵀ W
+        k = where[cols]
+        S[np.ix_(k, k)] -= W.T @ W
+    return _inverse(S)
 
 
 def _inverse(A: Array | sparse.spmatrix) -> Array:
