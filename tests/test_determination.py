@@ -214,12 +214,12 @@ def _normal_matrix(rng: np.random.Generator, n_rest: int, cameras: int, join: bo
     return J.T @ J + 1e-12 * np.eye(n), slices
 
 
-def test_the_covariance_outside_the_cameras_is_the_whole_inverses_block() -> None:
-    """The model's and markers' covariance from the Schur complement of the cameras' block is the
-    block of the whole inverse (to 1e-9 of its largest entry), and so is the fallback where two
-    cameras are joined or a camera's block is singular (the whole matrix then too: ∞ where the
-    whole inverse has it)."""
-    from vebuild.model.solution import _inverse, _outside_cameras_inverse
+def test_the_inverse_by_the_cameras_schur_complement_is_the_whole_inverse() -> None:
+    """A⁻¹ from the Schur complement of the cameras' block, and its block outside the cameras
+    alone, are the whole inverse (to 1e-9 of its largest entry, exactly symmetric), and so are the
+    fallbacks where two cameras are joined or a camera's block is singular (the whole matrix then
+    too: ∞ where the whole inverse has it)."""
+    from vebuild.model.inverse import inverse, inverse_by_cameras, outside_cameras_inverse
 
     rng = np.random.default_rng(7)
     for join, singular in ((False, False), (True, False), (False, True)):
@@ -231,18 +231,22 @@ def test_the_covariance_outside_the_cameras_is_the_whole_inverses_block() -> Non
         rest = np.ones(len(A), bool)
         for sl in slices:
             rest[sl] = False
-        whole = _inverse(A)[np.ix_(rest, rest)]
-        got = _outside_cameras_inverse(A, slices)
-        assert got.shape == whole.shape
-        finite = np.isfinite(whole)
-        assert np.array_equal(np.isfinite(got), finite) and finite.sum() > 0.9 * finite.size
-        assert np.max(np.abs(got - whole)[finite]) <= 1e-9 * np.max(np.abs(whole[finite])), (join, singular)
+        whole = inverse(A)
+        for got, expected in ((outside_cameras_inverse(A, slices), whole[np.ix_(rest, rest)]),
+                              (inverse_by_cameras(A, slices), whole)):
+            assert got.shape == expected.shape
+            finite = np.isfinite(expected)
+            assert np.array_equal(np.isfinite(got), finite) and finite.sum() > 0.9 * finite.size
+            assert np.max(np.abs(got - expected)[finite]) <= 1e-9 * np.max(np.abs(expected[finite])), (join, singular)
+            assert singular or np.array_equal(got, got.T)  # (the pseudo-inverse's need not be)
 
 
 def test_a_recalibration_determines_as_with_the_whole_inverse(example: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """The re-calibrating solve of the example (its cameras among the unknowns) reports every
-    parameter's determination and the observations' covariance as the whole inverse gives them."""
+    parameter's determination, the observations' covariance and the solution's as the whole
+    inverse gives them."""
     from vebuild.model import solution
+    from vebuild.model.inverse import inverse
 
     project = load_project(example)
     calibrate_project(project)
@@ -254,12 +258,13 @@ def test_a_recalibration_determines_as_with_the_whole_inverse(example: Path, mon
         rest = np.ones(len(A), bool)
         for sl in cameras:
             rest[sl] = False
-        seen.append((len(cameras), real(A, cameras), solution._inverse(A)[np.ix_(rest, rest)]))
+        seen.append((len(cameras), real(A, cameras), inverse(A)[np.ix_(rest, rest)]))
         return seen[-1][2]
 
     project = load_project(example)
     calibrate_project(project)
     monkeypatch.setattr(solution, "_outside_cameras_inverse", whole)
+    monkeypatch.setattr(solution, "_inverse_by_cameras", lambda A, cameras: inverse(A))
     expected = solve_project(project, recalibrate=True)
     assert seen and all(k == len(project.data["photos"]) for k, _, _ in seen)  # every camera solved for
     for _, schur, full in seen:
@@ -270,3 +275,8 @@ def test_a_recalibration_determines_as_with_the_whole_inverse(example: Path, mon
                 for k, v in rec[g].items()}
 
     assert determination(got) == determination(expected)
+    cov = np.array(got["covariance"]["matrix"], float)
+    cov_whole = np.array(expected["covariance"]["matrix"], float)
+    assert got["covariance"]["parameters"] == expected["covariance"]["parameters"]
+    assert np.max(np.abs(cov - cov_whole)) <= 1e-9 * np.max(np.abs(cov_whole))
+    assert got["rms_px"] == pytest.approx(expected["rms_px"], rel=1e-9)

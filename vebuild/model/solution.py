@@ -17,6 +17,8 @@ from ..camera import ImageCamera
 from ..constants import OUTLIER_SIGMAS
 from ..determinism import deterministic
 from .constraints import constraint_rank
+from .inverse import inverse_by_cameras as _inverse_by_cameras
+from .inverse import outside_cameras_inverse as _outside_cameras_inverse
 from .moved import apply_plan
 from .residuals import FD_STEP
 
@@ -90,19 +92,19 @@ def solution_at(problem: Problem, x: Array, iterations: int = 0) -> Solution:
                      *[problem.rows_prior_cam[c] for c in problem.rows_prior_cam]].astype(int)
     measured = np.r_[observed, problem.rows_entered].astype(int)  # the entered values are measurements
     clicks = np.arange(problem.n_data)
-    unit = _inverse(J.T @ J)
+    camera_slices = [blk.slice for blk in layout.cameras.values()]
+    unit = _inverse_by_cameras(J.T @ J, camera_slices)
     fitted = _leverage(J, unit, clicks) if np.all(np.isfinite(unit)) else \
         min(len(clicks), layout.n - constraint_rank(J[hard]))  # singular: the unknowns' count
     s2 = variance_factor(r[clicks], fitted)
     cov = unit
     if s2 > 1.0:
         Jw = _scaled_rows(J, clicks, 1.0 / s2)
-        cov = _inverse(Jw.T @ Jw)
+        cov = _inverse_by_cameras(Jw.T @ Jw, camera_slices)
     # What the observations alone determine: without the pull toward the starting values
     # (the cameras' calibration priors are observations too, and the relations' hard rows hold);
     # then again with the entered values' measurements, to tell a parameter only an entered value
     # determines.
-    camera_slices = [blk.slice for blk in layout.cameras.values()]
     cov_obs = _data_covariance(J, observed, hard, layout.n, camera_slices)
     extent = scene_extent(problem, x)
     names, kinds = layout.model.names, layout.model.kinds
@@ -219,68 +221,6 @@ def _data_covariance(J: Array | sparse.spmatrix, rows: Array, hard: Array, n: in
         Ah = Jh.T @ Jh
         A = As + (cast(Any, Ah).toarray() if sparse.issparse(Ah) else np.asarray(Ah))
     return _outside_cameras_inverse(A + ridge * np.eye(n), cameras)
-
-
-def _outside_cameras_inverse(A: Array, cameras: Sequence[slice]) -> Array:
-    """The block of A⁻¹ of the unknowns outside ``cameras``, in their order. No row of a solve
-    joins two cameras (a pin, an edge, a marker sighting is in one photo; a camera's prior is its
-    own), so the cameras' block of the normal matrix A is block diagonal, and the block sought is
-    the inverse of the Schur complement S = A_rr − Σ_c A_rc A_cc⁻¹ A_cr (r the other unknowns),
-    each camera's term touching only the unknowns it sees. On the house, 1,523 unknowns of 2,459:
-    0.15 s rather than 0.56 s for the whole inverse. The whole inverse's block is taken where a
-    camera's block is not positive definite or two cameras are joined."""
-    n = A.shape[0]
-    rest = np.ones(n, bool)
-    for sl in cameras:
-        rest[sl] = False
-    r = np.flatnonzero(rest)
-    if not cameras or len(r) == n:
-        return _inverse(A)
-    cam = np.flatnonzero(~rest)
-    S = A[np.ix_(r, r)]
-    where = np.full(n, -1)
-    where[r] = np.arange(len(r))
-    for sl in cameras:
-        block = A[sl]
-        others = block[:, cam]
-        own = np.zeros_like(others, bool)
-        own[:, np.searchsorted(cam, np.arange(sl.start, sl.stop))] = True
-        if np.any(others[~own] != 0.0):
-            return _inverse(A)[np.ix_(r, r)]
-        try:
-            L = np.linalg.cholesky(block[:, sl])
-        except np.linalg.LinAlgError:
-            return _inverse(A)[np.ix_(r, r)]
-        cols = r[np.flatnonzero(np.any(block[:, r] != 0.0, axis=0))]
-        if not len(cols):
-            continue
-        W = np.linalg.solve(L, block[:, cols])  # L⁻¹ A_c,cols: A_cols,c A_cc⁻¹ A_c,cols = Wᵀ W
-        k = where[cols]
-        S[np.ix_(k, k)] -= W.T @ W
-    return _inverse(S)
-
-
-def _inverse(A: Array | sparse.spmatrix) -> Array:
-    """Inverse of a symmetric positive (semi-)definite normal matrix; ∞ where it is singular."""
-    from scipy.linalg import lapack
-
-    A = cast(Any, A).toarray() if sparse.issparse(A) else np.asarray(A, float)
-    # Positive definite, as a normal matrix whose every unknown is observed is: from its Cholesky
-    # factor (LAPACK potrf, potri), 0.86 s against 1.11 s by LU for a matrix of the house's 2,459
-    # unknowns on the solves' one thread. Otherwise by LU, as before.
-    L, info = lapack.dpotrf(A, lower=1, clean=1)  # the upper triangle zeroed, and left so by potri
-    if info == 0:
-        inv, info = lapack.dpotri(L, lower=1)
-        if info == 0:
-            full = inv + inv.T
-            np.fill_diagonal(full, inv.diagonal())
-            return np.asarray(full)
-    try:
-        return np.linalg.inv(A)
-    except np.linalg.LinAlgError:
-        cov = np.linalg.pinv(A)
-        cov[np.diag_indices_from(cov)] = np.inf
-        return cov
 
 
 def handle_gradients(problem: Problem, x: Array) -> tuple[Array, Array]:
