@@ -59,20 +59,17 @@ class _Schur:
 
     r: NDArray[np.intp]
     S: Array
-    cameras: list[tuple[slice, NDArray[np.intp], Array, Array]]
+    cameras: list[tuple[slice, NDArray[np.intp], NDArray[Any], NDArray[Any]]]
 
 
 def _schur(A: Array, cameras: Sequence[slice]) -> _Schur | None:
     """The cameras' Schur complement of A; None where it does not apply: no cameras, two cameras
     joined, or a camera's block not positive definite."""
     n = A.shape[0]
-    rest = np.ones(n, bool)
-    for sl in cameras:
-        rest[sl] = False
-    r = np.flatnonzero(rest)
+    r = _rest(n, cameras)
     if not cameras or len(r) == n:
         return None
-    cam = np.flatnonzero(~rest)
+    cam = np.setdiff1d(np.arange(n), r)
     S = A[np.ix_(r, r)]
     parts = []
     for sl in cameras:
@@ -125,7 +122,7 @@ def inverse_by_cameras(A: Array | sparse.spmatrix, cameras: Sequence[slice]) -> 
     if not np.all(np.isfinite(Sinv)):
         return inverse(A)
     n, r = A.shape[0], sch.r
-    cam = np.flatnonzero(~np.isin(np.arange(n), r))
+    cam = np.setdiff1d(np.arange(n), r)
     at = np.full(n, -1)
     at[cam] = np.arange(len(cam))
     C = np.zeros((len(cam), len(r)))  # (A⁻¹)_cr = −A_cc⁻¹ A_cr S⁻¹, camera by camera
