@@ -14,43 +14,55 @@ def rng() -> np.random.Generator:
 @pytest.fixture(scope="session")
 def xvfb_display():
     """A virtual X server for window tests (Debian's xvfb; CI's .ci/run installs it), one per
-    pytest-xdist worker. Xvfb picks a free display itself and writes its number to a pipe
-    (``-displayfd``): two workers choosing a number by looking for free ones could both take the
-    same display, one's server failing to start after the other's socket was there, and then one
-    worker's pointer and keys moved the other's window (a zoom about the wrong cursor)."""
+    pytest-xdist worker. A display is taken only once the server started for it holds its lock
+    (the lock file names the server's process): two workers starting servers for the same free
+    number at once had both taken it when the first one's socket appeared, the second's server
+    failing to start, and the second worker then drove windows on the first's display (xdotool
+    found the other worker's window by its title, or one pointer moved under the other's zoom)."""
     import os
-    import select
     import shutil
     import subprocess
+    import time
+    from pathlib import Path
 
     exe = shutil.which("Xvfb")
     if exe is None:
         pytest.fail("window tests need a virtual X server: `sudo apt-get install xvfb` (CI's .ci/run installs it)")
-    read, write = os.pipe()
-    proc = subprocess.Popen([exe, "-displayfd", str(write), "-screen", "0", "1600x1200x24", "-nolisten", "tcp"],
-                            pass_fds=(write,), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    os.close(write)
-    number = b""
-    while not number.endswith(b"\n") and select.select([read], [], [], 30.0)[0]:
-        chunk = os.read(read, 16)
-        if not chunk:
-            break
-        number += chunk
-    os.close(read)
-    if not number.strip().isdigit() or proc.poll() is not None:
-        proc.kill()
-        pytest.fail(f"Xvfb did not start (it said {number!r}, exit status {proc.poll()})")
-    old = os.environ.get("DISPLAY")
-    os.environ["DISPLAY"] = f":{int(number)}"
-    try:
-        yield os.environ["DISPLAY"]
-    finally:
-        proc.terminate()
-        proc.wait(10)
-        if old is None:
-            os.environ.pop("DISPLAY", None)
-        else:
-            os.environ["DISPLAY"] = old
+    for n in range(90, 140):
+        socket, lock = Path(f"/tmp/.X11-unix/X{n}"), Path(f"/tmp/.X{n}-lock")
+        if socket.exists() or lock.exists():
+            continue
+        proc = subprocess.Popen([exe, f":{n}", "-screen", "0", "1600x1200x24", "-nolisten", "tcp"],
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        mine = False
+        for _ in range(200):
+            if proc.poll() is not None:
+                break
+            try:
+                mine = int(lock.read_text().strip()) == proc.pid and socket.exists()
+            except (OSError, ValueError):
+                mine = False
+            if mine:
+                break
+            time.sleep(0.05)
+        if not mine:
+            if proc.poll() is None:
+                proc.kill()
+            proc.wait(10)
+            continue
+        old = os.environ.get("DISPLAY")
+        os.environ["DISPLAY"] = f":{n}"
+        try:
+            yield f":{n}"
+        finally:
+            proc.terminate()
+            proc.wait(10)
+            if old is None:
+                os.environ.pop("DISPLAY", None)
+            else:
+                os.environ["DISPLAY"] = old
+        return
+    pytest.fail("could not start Xvfb on any display from :90 to :139")
 
 
 @pytest.fixture(scope="session")
