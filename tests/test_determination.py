@@ -237,7 +237,8 @@ def test_the_inverse_by_the_cameras_schur_complement_is_the_whole_inverse() -> N
             assert got.shape == expected.shape
             finite = np.isfinite(expected)
             assert np.array_equal(np.isfinite(got), finite) and finite.sum() > 0.9 * finite.size
-            assert np.max(np.abs(got - expected)[finite]) <= 1e-9 * np.max(np.abs(expected[finite])), (join, singular)
+            assert np.max(np.abs(got[finite] - expected[finite])) <= 1e-9 * np.max(np.abs(expected[finite])), \
+                (join, singular)
             assert singular or np.array_equal(got, got.T)  # (the pseudo-inverse's need not be)
 
 
