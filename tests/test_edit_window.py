@@ -524,6 +524,56 @@ def test_the_edges_runs_are_laid_out_once_per_view_and_drawn_as_laid_out_afresh(
         surface.release()
 
 
+def test_the_hovered_line_is_the_nearest_a_loop_over_the_lines_finds(room):
+    """The line under the cursor, found for all lines at once, is as near as the one a loop over
+    the shown lines finds within the picking radius (to 1e-9 px: where two edges overlap, either
+    is the nearest), over a grid of cursor positions on a photo of the solved example."""
+    from vebuild.edit.layout import PICK_RADIUS_PX as radius
+    from vebuild.edit.screen import Editor
+    from vebuild.edit.session import EditSession
+    from vebuild.gl.context import headless_context
+    from vebuild.gl.surface import OffscreenSurface
+
+    def distance(ln, u, v):
+        a, b = np.array(ln.p[:2]), np.array(ln.p[2:])
+        d = b - a
+        t = float(np.clip(np.dot([u, v] - a, d) / max(float(d @ d), 1e-12), 0.0, 1.0))
+        return float(np.hypot(*(a + t * d - [u, v])))
+
+    def loop(e, ov, u, v):
+        best = (radius / e.zoom, None)
+        for ln in ov.lines:
+            if ln.kind != "vp-ray" and e.shows(ln.kind) and distance(ln, u, v) <= best[0]:
+                best = (distance(ln, u, v), ln)
+        return best[1]
+
+    s = EditSession.open(room, recover=False)
+    surface = OffscreenSurface(headless_context(), 1200, 780)
+    e = Editor(s, surface)
+    try:
+        e.set_photo("p3")
+        e.draw()
+        ov = e.overlay()
+        x0, y0, x1, y1 = e.view_rect()
+        found = 0
+        for x in np.linspace(x0 + 2, x1 - 2, 41):
+            for y in np.linspace(y0 + 2, y1 - 2, 31):
+                e._cursor = (float(x), float(y))
+                got = e.hovered(ov)
+                if got is not None and not hasattr(got, "p"):  # a point, found as before
+                    continue
+                u, v = e.window_to_image(x, y)
+                expected = loop(e, ov, u, v)
+                assert (got is None) == (expected is None), (x, y)
+                if got is not None:
+                    assert abs(distance(got, u, v) - distance(expected, u, v)) <= 1e-9, (x, y)
+                    found += 1
+        assert found > 30
+    finally:
+        e.close()
+        surface.release()
+
+
 @pytest.fixture
 def one_photo(tmp_path):
     """The example room's photo p3 alone, as an archived photograph: its segments and the origin

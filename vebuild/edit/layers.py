@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 from imgui_bundle import imgui
+from numpy.typing import NDArray
 
 from .layout import PICK_RADIUS_PX, EditorPart
 from .overlay import Line, Overlay, Point
@@ -141,14 +142,25 @@ class OverlayLayers(EditorPart):
             if d <= best[0] and p.label and self.shows(p.kind):  # a point without a name: its line's
                 best = (d, p)
         if best[1] is None:
-            for ln in ov.lines:
-                if ln.kind in ("vp-ray",) or not self.shows(ln.kind):
-                    continue
-                d = _distance_to_segment(u, v, ln.p)
-                if d <= best[0]:
-                    best = (d, ln)
+            lines, ends = self._hover_lines(ov)
+            if len(lines):
+                dist = distances_to_segments(u, v, ends)
+                i = len(dist) - 1 - int(np.argmin(dist[::-1]))  # the last of the nearest, as a loop keeping d <= best
+                if dist[i] <= best[0]:
+                    best = (float(dist[i]), lines[i])
         self._hover_memo = (key, best[1])
         return best[1]
+
+    def _hover_lines(self, ov: Overlay) -> tuple[list[Line], NDArray[np.float64]]:
+        """The lines the cursor may hover (of the layers shown; not vanishing rays) and their ends
+        (n, 4), kept for the overlay and the layers shown: a house's photo has some 900."""
+        shown = tuple(self.layer_shown.values())
+        memo = self.__dict__.get("_hover_lines_memo")
+        if memo is None or memo[0] is not ov or memo[1] != shown:
+            lines = [ln for ln in ov.lines if ln.kind not in ("vp-ray",) and self.shows(ln.kind)]
+            ends = np.array([ln.p for ln in lines], float).reshape(-1, 4)
+            memo = self._hover_lines_memo = (ov, shown, lines, ends)
+        return memo[2], memo[3]
 
     # -- picks ------------------------------------------------------------------------------------------
 
@@ -243,8 +255,10 @@ class OverlayLayers(EditorPart):
             self._layers_open = False
 
 
-def _distance_to_segment(u: float, v: float, p: tuple[float, float, float, float]) -> float:
-    a, b = np.array(p[:2]), np.array(p[2:])
-    d = b - a
-    t = float(np.clip(np.dot([u, v] - a, d) / max(float(d @ d), 1e-12), 0.0, 1.0))
-    return float(np.hypot(*(a + t * d - [u, v])))
+def distances_to_segments(u: float, v: float, ends: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The distance from (u, v) to each segment (x1, y1, x2, y2) of ``ends`` (n, 4)."""
+    a, d = ends[:, :2], ends[:, 2:] - ends[:, :2]
+    q = np.array([u, v])
+    t = np.clip(np.einsum("ij,ij->i", q - a, d) / np.maximum(np.einsum("ij,ij->i", d, d), 1e-12), 0.0, 1.0)
+    w = a + t[:, None] * d - q
+    return np.hypot(w[:, 0], w[:, 1])
