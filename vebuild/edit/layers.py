@@ -144,7 +144,7 @@ class OverlayLayers(EditorPart):
         if best[1] is None:
             lines, ends = self._hover_lines(ov)
             if len(lines):
-                dist = distances_to_segments(u, v, ends)
+                dist = _distances_to_segments(u, v, ends)
                 i = len(dist) - 1 - int(np.argmin(dist[::-1]))  # the last of the nearest, as a loop keeping d <= best
                 if dist[i] <= best[0]:
                     best = (float(dist[i]), lines[i])
@@ -255,7 +255,7 @@ class OverlayLayers(EditorPart):
             self._layers_open = False
 
 
-def distances_to_segments(u: float, v: float, ends: NDArray[np.float64]) -> NDArray[np.float64]:
+def _distances_to_segments(u: float, v: float, ends: NDArray[np.float64]) -> NDArray[np.float64]:
     """The distance from (u, v) to each segment (x1, y1, x2, y2) of ``ends`` (n, 4)."""
     a, d = ends[:, :2], ends[:, 2:] - ends[:, :2]
     q = np.array([u, v])

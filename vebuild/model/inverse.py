@@ -54,10 +54,11 @@ def inverse(A: Array | sparse.spmatrix) -> Array:
 @dataclass
 class _Schur:
     """The Schur complement ``S`` of the cameras' block of A, over the unknowns ``r`` outside the
-    cameras; per camera its slice, the positions in ``r`` of the unknowns it touches, the Cholesky
-    factor L of its block and W = L⁻¹ A_c,those."""
+    cameras (``cam``: the cameras' unknowns); per camera its slice, the positions in ``r`` of the
+    unknowns it touches, the Cholesky factor L of its block and W = L⁻¹ A_c,those."""
 
     r: NDArray[np.intp]
+    cam: NDArray[np.intp]
     S: Array
     cameras: list[tuple[slice, NDArray[np.intp], NDArray[Any], NDArray[Any]]]
 
@@ -88,7 +89,7 @@ def _schur(A: Array, cameras: Sequence[slice]) -> _Schur | None:
         if len(k):
             S[np.ix_(k, k)] -= W.T @ W
         parts.append((sl, k, L, W))
-    return _Schur(r, S, parts)
+    return _Schur(r, cam, S, parts)
 
 
 def _rest(n: int, cameras: Sequence[slice]) -> NDArray[np.intp]:
@@ -121,20 +122,20 @@ def inverse_by_cameras(A: Array | sparse.spmatrix, cameras: Sequence[slice]) -> 
     Sinv = inverse(sch.S)
     if not np.all(np.isfinite(Sinv)):
         return inverse(A)
-    n, r = A.shape[0], sch.r
-    cam = np.setdiff1d(np.arange(n), r)
+    n, r, cam = A.shape[0], sch.r, sch.cam
     at = np.full(n, -1)
     at[cam] = np.arange(len(cam))
     C = np.zeros((len(cam), len(r)))  # (A⁻¹)_cr = −A_cc⁻¹ A_cr S⁻¹, camera by camera
-    X = []
+    X, rows_of = [], []
     for sl, k, L, W in sch.cameras:
+        rows = slice(at[sl.start], at[sl.start] + (sl.stop - sl.start))  # the camera's rows of C
         Xc = solve_triangular(L.T, W, lower=False)  # A_cc⁻¹ A_c,k
         if len(k):
-            C[at[sl.start]:at[sl.start] + (sl.stop - sl.start)] = -(Xc @ Sinv[k])
+            C[rows] = -(Xc @ Sinv[k])
         X.append(Xc)
+        rows_of.append(rows)
     CC = np.zeros((len(cam), len(cam)))  # (A⁻¹)_cc = A_cc⁻¹ + X S⁻¹ Xᵀ = A_cc⁻¹ − C_·,k Xᵀ
-    for (sl, k, L, _), Xc in zip(sch.cameras, X, strict=True):
-        rows = slice(at[sl.start], at[sl.start] + (sl.stop - sl.start))
+    for (sl, k, L, _), Xc, rows in zip(sch.cameras, X, rows_of, strict=True):
         if len(k):
             CC[:, rows] = -(C[:, k] @ Xc.T)
         CC[rows, rows] += cho_solve((L, True), np.eye(sl.stop - sl.start))
