@@ -28,7 +28,8 @@ The fSpy file is read by :mod:`vebuild.project.fspy`. Its marks become vebuild's
   two handles that distance apart, with its 1σ from the handles' and anchor's clicks and the
   distance's (default 2 mm).
 
-Everything is built in a temporary folder beside ``--out`` and renamed into place last, so a
+Everything is built in a temporary folder beside ``--out`` and put in place last by the atomic
+writer's :func:`~vebuild.project.atomic.place_folder` (one rename, which replaces nothing), so a
 failure leaves nothing behind. The original image bytes are written unchanged (their SHA-256 is
 checked against the embedded bytes'), the project is calibrated, and the comparison with fSpy's
 stored camera (``cameraParameters``, where saved) is returned.
@@ -51,7 +52,7 @@ from .. import __version__
 from ..calibration.intrinsics import orthocentre
 from ..errors import CalibrationError, ProjectError, VebuildError
 from ..project import Project, new_photo_entry, new_project, save_project, sha256_file
-from ..project.atomic import MANIFEST, clean_stale, fsync_folder, remove_tree, temp_path, write_bytes, write_text
+from ..project.atomic import MANIFEST, clean_stale, place_folder, remove_tree, temp_path, write_bytes, write_text
 from ..project.fspy import (
     AXES,
     MODE_1VP,
@@ -368,7 +369,11 @@ def import_fspy(fspy_file: str | os.PathLike[str], out: str | os.PathLike[str], 
     marks = marks_from_fspy(fp, click_sigma_px)
     clean_stale(out.parent)  # a staging folder left by an import that was killed
     staging = temp_path(out)
-    staging.mkdir()
+    try:
+        staging.mkdir()
+    except OSError as e:
+        raise VebuildError(f"{out.parent}: cannot make the folder to build the imported project in "
+                           f"({e.strerror or e}); nothing was written") from None
     try:
         # Marked as vebuild's while it is built, so that clean_stale removes it if this process dies.
         write_text(staging / MANIFEST, json.dumps({"software": f"vebuild {__version__}", "kind": "import",
@@ -376,8 +381,11 @@ def import_fspy(fspy_file: str | os.PathLike[str], out: str | os.PathLike[str], 
         result = _build(fp, src, staging, out, stem, marks, click_sigma_px, name)
         (staging / MANIFEST).unlink()
         check_out_folder(out)  # nothing appeared there meanwhile
-        os.rename(staging, out)  # one rename; over an empty folder too (POSIX)
-        fsync_folder(out.parent)
+        place_folder(staging, out)  # refused, replacing nothing, if anything appears there even now
+    except OSError as e:
+        remove_tree(staging)
+        raise VebuildError(f"{out}: cannot write the imported project ({e.strerror or e}); nothing was "
+                           "written") from None
     except BaseException:
         remove_tree(staging)
         raise

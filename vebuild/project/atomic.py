@@ -13,7 +13,8 @@ A process killed with SIGKILL cannot remove its temporary file; :func:`clean_sta
 leftovers (only names of the pattern above, whose process is gone) and is called at the start of
 every stage that writes. Folders are replaced the same way (:func:`replace_folder`): built under a
 temporary sibling name, the old one renamed aside (``.NAME.<pid>.<hex>.vebuild-old``), the new one
-renamed into place, then the old one deleted.
+renamed into place, then the old one deleted; a new folder is put where there was none (or an
+empty one) by :func:`place_folder`, which never replaces anything.
 
 Layer: file I/O (no GL, no project logic). Errors are raised as :class:`OSError`; callers turn them
 into messages that name what they were writing.
@@ -204,6 +205,15 @@ def replace_folder(new: Path, target: Path) -> None:
     fsync_folder(target.parent)
     if aside is not None:
         remove_tree(aside)
+
+
+def place_folder(new: Path, target: Path) -> None:
+    """Move the finished folder ``new`` to ``target``, a name that is free or an empty folder: one
+    rename, which the system refuses (:class:`OSError`) where ``target`` has meanwhile become a
+    file, a link to a folder or a folder with anything in it, so that nothing is ever replaced
+    (:func:`replace_folder` replaces). ``new`` is left where it was then."""
+    os.rename(new, target)
+    fsync_folder(target.parent)
 
 
 def _process_gone(pid: int) -> bool:
