@@ -39,10 +39,57 @@ def axis_vec(name: str) -> np.ndarray:
 
 def fspy_bytes(state: dict[str, Any] | bytes, image: bytes, version: int = 1, magic: bytes = b"fspy",
                state_size: int | None = None, image_size: int | None = None) -> bytes:
-    raw = state if isinstance(state, bytes) else json.dumps(state).encode("utf-8")
+    """The file as fSpy's ``ProjectFile.save`` (src/gui/io/project-file.ts) writes it: the 16-byte
+    header, ``JSON.stringify(state)`` (no spaces) as UTF-8, the image's bytes."""
+    raw = state if isinstance(state, bytes) else json.dumps(state, separators=(",", ":"),
+                                                            ensure_ascii=False).encode("utf-8")
     header = magic + struct.pack("<III", version, len(raw) if state_size is None else state_size,
                                  len(image) if image_size is None else image_size)
     return header + raw + image
+
+
+#: What each of fSpy's releases saves (github.com/stuffmatic/fSpy at each tag; ``SavedState`` in
+#: src/gui/io/saved-state.ts, ``getStateToSave`` in src/gui/io/project-file.ts, the types in
+#: src/gui/types/*.ts): whether the state holds ``cameraParameters`` and ``resultDisplaySettings``
+#: (saved since v1.0.0-alpha.5), ``cameraData.presetData`` (since v1.0.0), and the reference distance
+#: units of ``ReferenceDistanceUnit`` (No unit / Meters / Yards until v1.0.1; eight from v1.0.2 on).
+RELEASES: dict[str, dict[str, Any]] = {
+    "1.0.0-alpha.1": {"camera": False, "preset_data": False, "units": ("No unit", "Meters", "Yards")},
+    "1.0.0-alpha.5": {"camera": True, "preset_data": False, "units": ("No unit", "Meters", "Yards")},
+    "1.0.0": {"camera": True, "preset_data": True, "units": ("No unit", "Meters", "Yards")},
+    "1.0.2": {"camera": True, "preset_data": True,
+              "units": ("No unit", "Millimeters", "Centimeters", "Meters", "Kilometers", "Inches", "Feet", "Miles")},
+}
+#: Metres per unit of fSpy's ``ReferenceDistanceUnit`` (and the early ``Yards``).
+UNIT_M = {"No unit": 1.0, "Millimeters": 0.001, "Centimeters": 0.01, "Meters": 1.0, "Kilometers": 1000.0,
+          "Inches": 0.0254, "Feet": 0.3048, "Miles": 1609.344, "Yards": 0.9144}
+#: A few of fSpy's camera presets (src/gui/solver/camera-presets.ts): id → (the preset as fSpy
+#: stores it in ``presetData``).
+PRESETS = {"canon_5d": {"displayName": "Canon 5D", "sensorWidth": 36, "sensorHeight": 24},
+           "aps-c": {"displayName": "APS-C DSLR", "sensorWidth": 22.3, "sensorHeight": 14.9},
+           "iphone_6s": {"displayName": "iPhone 6S", "sensorWidth": 4.8, "sensorHeight": 3.6, "focalLength": 4.15}}
+
+
+def as_saved_by(state: dict[str, Any], release: str, horizon_moved: bool = False) -> dict[str, Any]:
+    """``state`` (the newest layout) as fSpy ``release`` saves it.
+
+    ``horizon_moved``: the horizon as fSpy saves it once one of its two control points has been
+    dragged: fSpy's ``ADJUST_HORIZON`` reducer (src/gui/reducers/control-points-1-vp.ts, every
+    release) copies the pair with ``{ ...state.horizon }``, so ``JSON.stringify`` writes an object
+    with the keys "0" and "1" instead of a list.
+    """
+    spec = RELEASES[release]
+    out = json.loads(json.dumps(state))
+    unit = out["calibrationSettingsBase"]["referenceDistanceUnit"]
+    assert unit in spec["units"], f"fSpy {release} has no unit {unit!r}"
+    if not spec["camera"]:
+        del out["cameraParameters"], out["resultDisplaySettings"]
+    if not spec["preset_data"]:
+        del out["calibrationSettingsBase"]["cameraData"]["presetData"]
+    if horizon_moved:
+        h = out["controlPointsState1VP"]["horizon"]
+        out["controlPointsState1VP"]["horizon"] = {"0": h[0], "1": h[1]}
+    return out
 
 
 def make_image(width: int, height: int, fmt: str = "JPEG", seed: int = 0) -> bytes:
@@ -106,8 +153,15 @@ class StateBuilder:
     reference_unit: str = "Meters"
     with_camera: bool = True
     sensor_mm: tuple[float, float] = (36.0, 24.0)
+    preset: str | None = None  # one of PRESETS: its sensor instead of sensor_mm
     shuffle: bool = True
     truth: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def sensor(self) -> tuple[float, float]:
+        if self.preset:
+            return (float(PRESETS[self.preset]["sensorWidth"]), float(PRESETS[self.preset]["sensorHeight"]))
+        return self.sensor_mm
 
     # -- coordinates --------------------------------------------------------------------------------
 
@@ -191,17 +245,17 @@ class StateBuilder:
         m = m - (hline @ np.array([m[0], m[1], 1.0])) / np.linalg.norm(hline[:2]) * n
         horizon = [self.rel(m - 0.3 * W * hd), self.rel(m + 0.3 * W * hd)]
         f_rel_true = self.cam.f / (max(W, H) / 2)
-        sw, sh = self.sensor_mm
+        sw, sh = self.sensor
         focal_mm = f_rel_true * (sw if sw / sh > 1 else sh) / 2
         state: dict[str, Any] = {
             "globalSettings": {"calibrationMode": self.mode, "overlay3DGuide": "XYGridFloor", "imageOpacity": 1},
             "calibrationSettingsBase": {
                 "referenceDistanceUnit": self.reference_unit,
-                "referenceDistance": (z1 - z0) / {"Meters": 1.0, "Centimeters": 0.01, "Feet": 0.3048,
-                                                  "No unit": 1.0}[self.reference_unit],
+                "referenceDistance": (z1 - z0) / UNIT_M[self.reference_unit],
                 "referenceDistanceAxis": self.reference_axis,
-                "cameraData": {"presetId": None, "presetData": None, "customSensorWidth": sw,
-                               "customSensorHeight": sh},
+                "cameraData": {"presetId": self.preset, "presetData": PRESETS[self.preset] if self.preset else None,
+                               "customSensorWidth": 36 if self.preset else sw,
+                               "customSensorHeight": 24 if self.preset else sh},
                 "firstVanishingPointAxis": first,
                 "secondVanishingPointAxis": second,
             },
@@ -239,7 +293,7 @@ class StateBuilder:
         if state["globalSettings"]["calibrationMode"] == "OneVanishingPoint":
             if state["calibrationSettings1VP"]["principalPointMode"] == "Manual":
                 P = self.plane(base["principalPoint"])
-            sw, sh = self.sensor_mm
+            sw, sh = self.sensor
             f = 2 * state["calibrationSettings1VP"]["absoluteFocalLength"] / (sw if sw / sh > 1 else sh)
             h0, h1 = (self.plane(p) for p in state["controlPointsState1VP"]["horizon"])
             hd = (h1 - h0) / np.linalg.norm(h1 - h0)
@@ -272,7 +326,7 @@ class StateBuilder:
         r3 = np.cross(axis_vec(first), axis_vec(second))
         A = np.vstack([axis_vec(first), axis_vec(second), r3])
         Rgl = M @ A
-        unit = {"Meters": 1.0, "Centimeters": 0.01, "Feet": 0.3048, "No unit": 1.0}[self.reference_unit]
+        unit = UNIT_M[self.reference_unit]
         t = -Rgl @ self.cam.C / unit
         view = np.eye(4)
         view[:3, :3] = Rgl

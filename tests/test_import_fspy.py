@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from fspy_writer import KnownCamera, StateBuilder, axis_vec, fspy_bytes, make_image
+from fspy_writer import RELEASES, KnownCamera, StateBuilder, as_saved_by, axis_vec, fspy_bytes, make_image
 
 from vebuild.actions.fspy import import_fspy
 from vebuild.actions.fspy_compare import fspy_camera_in_vebuild, rotation_difference_deg
@@ -198,6 +198,67 @@ def test_photo_is_the_embedded_image_byte_for_byte(tmp_path):
     assert np.allclose(after["position"]["value"], before["position"]["value"])
 
 
+# -- every layout fSpy's releases save (tests/fspy_writer.py's RELEASES) ---------------------------
+
+#: name → (fSpy release, the marks and settings, how it was saved). ``horizon_moved``: the horizon
+#: saved as {"0": ..., "1": ...}, as every release saves it once it has been dragged.
+LAYOUTS = {
+    "alpha1-2vp-yards": ("1.0.0-alpha.1", {"reference_unit": "Yards"}, {}),
+    "alpha1-1vp-preset": ("1.0.0-alpha.1", {"mode": "OneVanishingPoint", "preset": "canon_5d"}, {}),
+    "alpha1-1vp-horizon-moved": ("1.0.0-alpha.1", {"mode": "OneVanishingPoint"}, {"horizon_moved": True}),
+    "alpha5-1vp-preset-horizon-moved": ("1.0.0-alpha.5", {"mode": "OneVanishingPoint", "preset": "aps-c",
+                                                          "reference_unit": "Yards"}, {"horizon_moved": True}),
+    "alpha5-third": ("1.0.0-alpha.5", {"principal_point_mode": "FromThirdVanishingPoint"}, {}),
+    "1.0.0-quad": ("1.0.0", {"quad": True}, {}),
+    "1.0.0-1vp-preset-horizon-moved": ("1.0.0", {"mode": "OneVanishingPoint", "preset": "iphone_6s"},
+                                       {"horizon_moved": True}),
+    "1.0.2-1vp-feet-horizon-moved": ("1.0.2", {"mode": "OneVanishingPoint", "reference_unit": "Feet"},
+                                     {"horizon_moved": True}),
+    "1.0.2-1vp-manual-horizon-moved": ("1.0.2", {"mode": "OneVanishingPoint", "principal_point_mode": "Manual",
+                                                 "reference_unit": "Inches"}, {"horizon_moved": True}),
+    "1.0.2-manual-millimeters": ("1.0.2", {"principal_point_mode": "Manual", "reference_unit": "Millimeters"}, {}),
+}
+
+
+def test_layouts_cover_every_release():
+    assert {release for release, _, _ in LAYOUTS.values()} == set(RELEASES)
+
+
+@pytest.mark.parametrize("case", sorted(LAYOUTS))
+def test_every_release_layout_gives_the_camera(tmp_path, case):
+    """A project saved as each of fSpy's releases saves it (no saved camera before 1.0.0-alpha.5, no
+    preset sensor size before 1.0.0, yards before 1.0.2, the dragged horizon as an object in all)
+    is imported, and its noise-free marks give the true camera; fSpy's saved camera, where there is
+    one, agrees row by row."""
+    release, settings, saved = LAYOUTS[case]
+    cam = KnownCamera.looking_at_corner()
+    b = StateBuilder(cam, np.random.default_rng(3), noise_px=0.0, **settings)
+    state = as_saved_by(b.build(), release, **saved)
+    path, _, _ = write(tmp_path, b, state=state)
+    r = import_fspy(path, tmp_path / "out")
+    assert r.calibrated and r.fspy_camera == RELEASES[release]["camera"]
+    project, rec = camera_of(r)
+    assert abs(rec["K"][0][0] / cam.f - 1) < EXACT_REL
+    assert rotation_difference_deg(np.array(rec["R"]), cam.R) < EXACT_DEG
+    assert np.allclose(rec["position"]["value"], cam.C, atol=EXACT_M)
+    for row in r.rows:
+        assert row.fspy is None or abs(row.difference) < 1e-3, row
+    notes = project.data["photos"][0]["imported_from"]["notes"]
+    if "preset" in settings:
+        assert any(repr(settings["preset"]) in n for n in notes), notes
+
+
+def test_a_preset_fspy_does_not_know_falls_back_to_the_custom_sensor(tmp_path):
+    """fSpy's loader drops a camera preset it does not know (and saved no sensor size for): its
+    solver then uses the custom sensor size, and so does vebuild."""
+    b = StateBuilder(KnownCamera.looking_at_corner(), np.random.default_rng(3), noise_px=0.0,
+                     mode="OneVanishingPoint", sensor_mm=(24.0, 16.0))
+    state = as_saved_by(b.build(), "1.0.0-alpha.5")
+    state["calibrationSettingsBase"]["cameraData"]["presetId"] = "no_such_camera"
+    fp = read_fspy(write(tmp_path, b, state=state)[0])
+    assert fp.sensor_mm == (24.0, 16.0) and "no_such_camera" in fp.sensor_source
+
+
 # -- noisy marks: within vebuild's own 1σ, both sides ----------------------------------------------
 
 
@@ -301,8 +362,55 @@ def test_empty_out_folder_is_used_and_a_full_one_refused(tmp_path, monkeypatch):
     assert temporaries(tmp_path) == []
 
 
-def _state():
-    return StateBuilder(KnownCamera.looking_at_corner(), np.random.default_rng(0), noise_px=0.0).build()
+def test_the_folder_is_put_in_place_by_the_atomic_writer_and_replaces_nothing(tmp_path, monkeypatch, capsys):
+    """Something written into --out after vebuild last looked (another program) is never replaced:
+    the one rename is refused, the import says so (exit 2), and its staging folder is removed."""
+    import vebuild.actions.fspy as action
+
+    b = StateBuilder(KnownCamera.looking_at_corner(), np.random.default_rng(0), noise_px=0.0)
+    path, _, _ = write(tmp_path, b)
+    out = tmp_path / "out"
+    out.mkdir()
+    checks = []
+
+    def check_then_someone_writes(folder):
+        action_check(folder)
+        checks.append(folder)
+        if len(checks) == 2:  # the last look, just before the folder is put in place
+            (folder / "letter.txt").write_text("someone's")
+
+    action_check = action.check_out_folder
+    monkeypatch.setattr(action, "check_out_folder", check_then_someone_writes)
+    assert main(["import", str(path), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and str(out) in err and "nothing was written" in err, err
+    assert sorted(p.name for p in out.iterdir()) == ["letter.txt"] and temporaries(tmp_path) == []
+
+
+def test_only_the_atomic_writer_renames_into_place():
+    """vebuild/project/atomic.py is the one module that puts a file or a folder in place by a rename."""
+    import re
+
+    root = Path(__file__).resolve().parents[1] / "vebuild"
+    rename = re.compile(r"\bos\.(rename|renames|replace)\(|\bshutil\.move\(|\.rename\(")
+    found = [f"{p.relative_to(root)}:{i}" for p in sorted(root.rglob("*.py")) if p.name != "atomic.py"
+             for i, line in enumerate(p.read_text("utf-8").splitlines(), 1) if rename.search(line)]
+    assert found == []
+
+
+def _state(**kw):
+    return StateBuilder(KnownCamera.looking_at_corner(), np.random.default_rng(0), noise_px=0.0, **kw).build()
+
+
+def _state_1vp(**changes):
+    s = _state(mode="OneVanishingPoint")
+    for keys, value in changes.items():
+        node = s
+        *head, last = keys.split(".")
+        for k in head:
+            node = node[k]
+        node[last] = value
+    return s
 
 
 def _without(path_keys):
@@ -367,6 +475,34 @@ BAD = {
                                   [[{"x": 0.1, "y": 0.1}, {"x": 0.5, "y": 0.1}], [{"x": 0.1, "y": 0.3},
                                                                                   {"x": 0.5, "y": 0.3}]]), IMG),
                  "$.controlPointsStateBase.firstVanishingPoint.lineSegments", "parallel"),
+    # Values of the wrong type or size (each a Python exception before): a whole number too large
+    # for a float, a list or an object where a name is expected, a lens no camera has.
+    "huge-integer": (fspy_bytes(json.dumps(_state()).replace('"origin": {"x": ', '"origin": {"x": ' + "9" * 400 +
+                                                             ', "was": ', 1).encode(), IMG),
+                     "$.controlPointsStateBase.origin.x", "relative image coordinate"),
+    "axis-list": (fspy_bytes(_with(["calibrationSettingsBase", "firstVanishingPointAxis"], ["xPositive"]), IMG),
+                  "$.calibrationSettingsBase.firstVanishingPointAxis", "expected one of"),
+    "reference-axis-object": (fspy_bytes(_with(["calibrationSettingsBase", "referenceDistanceAxis"], {"a": 1}), IMG),
+                              "$.calibrationSettingsBase.referenceDistanceAxis", "expected one of"),
+    "unit-object": (fspy_bytes(_with(["calibrationSettingsBase", "referenceDistanceUnit"], {"unit": "Meters"}), IMG),
+                    "$.calibrationSettingsBase.referenceDistanceUnit", "expected one of"),
+    "vp-axes-lists": (fspy_bytes(_with(["cameraParameters", "vanishingPointAxes"], [["x"], ["y"], ["z"]]), IMG),
+                      "$.cameraParameters.vanishingPointAxes", "one each of x, y and z"),
+    "lens-no-camera-has": (fspy_bytes(_state_1vp(**{
+        "calibrationSettings1VP.absoluteFocalLength": 100000,
+        "calibrationSettingsBase.cameraData": {"presetId": None, "presetData": None, "customSensorWidth": 0.001,
+                                               "customSensorHeight": 0.001}}), IMG),
+        "$.calibrationSettings1VP.absoluteFocalLength", "expected 0.6° to 178°"),
+    "quad-mode-number": (fspy_bytes(_with(["calibrationSettings2VP", "quadModeEnabled"], 0), IMG),
+                         "$.calibrationSettings2VP.quadModeEnabled", "expected true or false"),
+    "preset-id-list": (fspy_bytes(_state_1vp(**{"calibrationSettingsBase.cameraData.presetId": ["canon_5d"]}), IMG),
+                       "$.calibrationSettingsBase.cameraData.presetId", "preset's name or null"),
+    "horizon-other-keys": (fspy_bytes(_state_1vp(**{"controlPointsState1VP.horizon": {
+        "0": {"x": 0.2, "y": 0.5}, "2": {"x": 0.8, "y": 0.5}}}), IMG), "$.controlPointsState1VP.horizon",
+        "expected a pair of control points"),
+    "horizon-object-point": (fspy_bytes(_state_1vp(**{"controlPointsState1VP.horizon": {
+        "0": {"x": 0.2, "y": 0.5}, "1": {"x": [0.8], "y": 0.5}}}), IMG), '$.controlPointsState1VP.horizon["1"].x',
+        "relative image coordinate"),
     "horizon-missing": (fspy_bytes(_with(["controlPointsState1VP"], {}) | {"globalSettings": {
         "calibrationMode": "OneVanishingPoint"}}, IMG), "$.controlPointsState1VP.horizon", "horizon"),
 }

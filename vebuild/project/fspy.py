@@ -18,7 +18,10 @@ The state (fSpy's ``SavedState``) holds ``globalSettings`` (``calibrationMode``:
 ``OneVanishingPoint`` or ``TwoVanishingPoints``), ``calibrationSettingsBase``,
 ``calibrationSettings1VP``, ``calibrationSettings2VP``, ``controlPointsStateBase``,
 ``controlPointsState1VP``, ``controlPointsState2VP``, ``cameraParameters`` (the solver's result, or
-null) and ``resultDisplaySettings``. Control points are in fSpy's *relative* image coordinates:
+null; absent, as is ``resultDisplaySettings``, in files of fSpy before 1.0.0-alpha.5) and
+``resultDisplaySettings``; the layouts of fSpy's releases that differ (a pair of control points
+saved as an object, a preset without its sensor size) are read as
+:mod:`vebuild.project.fspy_state` says. Control points are in fSpy's *relative* image coordinates:
 x = 0 and 1 at the left and right edges, y = 0 and 1 at the top and bottom edges (y down), for
 portrait and landscape images alike; :func:`relative_to_pixels` turns them into vebuild's pixels.
 The solver's result uses fSpy's *image plane* coordinates instead: origin at the image centre, y
@@ -35,7 +38,6 @@ from __future__ import annotations
 import io
 import json
 import math
-import re
 import struct
 from dataclasses import dataclass
 from pathlib import Path
@@ -46,6 +48,7 @@ from numpy.typing import NDArray
 from PIL import Image, UnidentifiedImageError
 
 from ..errors import ProjectError
+from .fspy_state import Point, Segment, StateReader, kind
 from .images import MAX_IMAGE_PIXELS, sha256_bytes
 
 Array = NDArray[np.float64]
@@ -74,11 +77,13 @@ UNITS_M: dict[str, float | None] = {
     "Inches": 0.0254, "Feet": 0.3048, "Miles": 1609.344,
     "Yards": 0.9144,  # written by early fSpy versions (fSpy itself converts them to feet on loading)
 }
+#: The field of view across the image's longer side that a one-vanishing-point project's lens and
+#: sensor may give, degrees: from a 3400 mm lens to a fisheye's, on a full-frame sensor.
+FOV_1VP_DEG = (0.6, 178.0)
+#: The same as fSpy's relative focal length (2F / the sensor's longer side = 1 / tan(FOV / 2)).
+REL_FOCAL_1VP = (1.0 / math.tan(math.radians(FOV_1VP_DEG[1] / 2)), 1.0 / math.tan(math.radians(FOV_1VP_DEG[0] / 2)))
 #: Image formats vebuild keeps as photos (FORMAT.md, "Photo object") → the file ending written.
 IMAGE_ENDINGS = {"JPEG": ".jpg", "PNG": ".png", "TIFF": ".tif"}
-
-Point = tuple[float, float]
-Segment = tuple[Point, Point]
 
 
 @dataclass(frozen=True)
@@ -229,7 +234,8 @@ def parse_fspy(data: bytes, path: Path) -> FspyProject:
     expected = HEADER_SIZE + state_size + image_size
     if len(data) < expected:
         raise ProjectError(path, "header.image_size", f"truncated: the header says {state_size} bytes of state and "
-                           f"{image_size} of image ({expected} bytes in all), the file has {len(data)}")
+                           f"{image_size} of image ({expected} bytes in all), the file has only {len(data)}: expected "
+                           "the whole file fSpy wrote")
     if len(data) > expected:
         raise ProjectError(path, "header.image_size", f"the header says {state_size} bytes of state and {image_size} "
                            f"of image ({expected} bytes in all), but the file has {len(data)}: {len(data) - expected} "
@@ -243,7 +249,7 @@ def parse_fspy(data: bytes, path: Path) -> FspyProject:
     except (ValueError, RecursionError) as e:
         raise ProjectError(path, "state", f"the state is not valid JSON ({e})") from None
     if not isinstance(state, dict):
-        raise ProjectError(path, "$", f"expected the state to be a JSON object, found {_kind(state)}")
+        raise ProjectError(path, "$", f"expected the state to be a JSON object, found {kind(state)}")
     fmt, width, height = _image_facts(image, path)
     return _State(path, state).project(version, image, fmt, width, height)
 
@@ -278,94 +284,8 @@ def _image_facts(image: bytes, path: Path) -> tuple[str, int, int]:
     return fmt, width, height
 
 
-def _kind(v: Any) -> str:
-    if v is None:
-        return "null"
-    if isinstance(v, bool):
-        return f"{str(v).lower()} (a boolean)"
-    if isinstance(v, (int, float)):
-        return f"{v!r} (a number)"
-    if isinstance(v, str):
-        return f"{v!r} (text)" if len(v) < 60 else "text"
-    if isinstance(v, list):
-        return f"a list of {len(v)}"
-    return "an object"
-
-
-class _State:
-    """Typed access to the state JSON, every fault named by its JSON path."""
-
-    def __init__(self, path: Path, state: dict[str, Any]):
-        self.path = path
-        self.state = state
-
-    def error(self, where: str, message: str) -> ProjectError:
-        return ProjectError(self.path, where, message)
-
-    def get(self, where: str, optional: bool = False) -> Any:
-        """The value at a JSON path such as ``$.a.b[1]``; a missing one is an error (or None where
-        ``optional``, as is a null)."""
-        node: Any = self.state
-        here = "$"
-        for key, index in re.findall(r"\.(\w+)|\[(\d+)\]", where.removeprefix("$")):
-            if index:
-                if not isinstance(node, list) or int(index) >= len(node):
-                    raise self.error(here, f"expected a list of at least {int(index) + 1}, found {_kind(node)}")
-                node = node[int(index)]
-                here = f"{here}[{index}]"
-                continue
-            if not isinstance(node, dict):
-                raise self.error(here, f"expected an object, found {_kind(node)}")
-            if key not in node or (optional and node[key] is None):
-                if optional:
-                    return None
-                raise self.error(f"{here}.{key}", "missing: the fSpy state has no such field (expected the state "
-                                 "fSpy 1.x saves)")
-            node = node[key]
-            here = f"{here}.{key}"
-        return node
-
-    def obj(self, where: str) -> dict[str, Any]:
-        v = self.get(where)
-        if not isinstance(v, dict):
-            raise self.error(where, f"expected an object, found {_kind(v)}")
-        return v
-
-    def number(self, where: str, lo: float = -math.inf, hi: float = math.inf, what: str = "a number") -> float:
-        v = self.get(where)
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not lo <= v <= hi:
-            raise self.error(where, f"expected {what}, found {_kind(v)}")
-        return float(v)
-
-    def choice(self, where: str, options: tuple[str, ...] | dict[str, Any], optional: bool = False) -> str | None:
-        v = self.get(where, optional)
-        if v is None and optional:
-            return None
-        if v not in options:
-            raise self.error(where, f"expected one of {', '.join(repr(o) for o in options)}, found {_kind(v)}")
-        return str(v)
-
-    def point(self, where: str, relative: bool = True) -> Point:
-        v = self.get(where)
-        if not isinstance(v, dict):
-            raise self.error(where, f"expected a point {{\"x\": ..., \"y\": ...}}, found {_kind(v)}")
-        # Relative coordinates of a control point: 0 to 1 on the image; fSpy lets a point be dragged a
-        # little past the edge, and vebuild's marks may lie within 4 image sizes of it (FORMAT.md).
-        lo, hi, what = (-4.0, 5.0, "a relative image coordinate (0 to 1 across the image)") if relative else \
-            (-1e9, 1e9, "a finite number")
-        return (self.number(f"{where}.x", lo=lo, hi=hi, what=what), self.number(f"{where}.y", lo=lo, hi=hi, what=what))
-
-    def pair(self, where: str) -> Segment:
-        v = self.get(where)
-        if not isinstance(v, list) or len(v) != 2:
-            raise self.error(where, f"expected a pair of control points [{{x, y}}, {{x, y}}], found {_kind(v)}")
-        return (self.point(f"{where}[0]"), self.point(f"{where}[1]"))
-
-    def segments(self, where: str) -> tuple[Segment, Segment]:
-        v = self.get(f"{where}.lineSegments")
-        if not isinstance(v, list) or len(v) != 2:
-            raise self.error(f"{where}.lineSegments", f"expected two line segments, found {_kind(v)}")
-        return (self.pair(f"{where}.lineSegments[0]"), self.pair(f"{where}.lineSegments[1]"))
+class _State(StateReader):
+    """The state as the import uses it (:class:`~vebuild.project.fspy_state.StateReader`)."""
 
     # -- the whole project ----------------------------------------------------------------------
 
@@ -384,10 +304,11 @@ class _State:
         quad = False
         if not one:
             # Absent in files from before fSpy had a quad mode; fSpy then reads it as off.
-            q = self.get("$.calibrationSettings2VP.quadModeEnabled", optional=True) or False
+            q = self.get("$.calibrationSettings2VP.quadModeEnabled", optional=True)
+            q = False if q is None else q
             if not isinstance(q, bool):
                 raise self.error("$.calibrationSettings2VP.quadModeEnabled",
-                                 f"expected true or false, found {_kind(q)}")
+                                 f"expected true or false, found {kind(q)}")
             quad = q
         first_segs = self.segments("$.controlPointsStateBase.firstVanishingPoint")
         second_segs = third_segs = None
@@ -425,7 +346,7 @@ class _State:
             offs = self.get("$.controlPointsStateBase.referenceDistanceHandleOffsets")
             where = "$.controlPointsStateBase.referenceDistanceHandleOffsets"
             if not isinstance(offs, list) or len(offs) != 2:
-                raise self.error(where, f"expected two numbers, found {_kind(offs)}")
+                raise self.error(where, f"expected two numbers, found {kind(offs)}")
             offsets = (self.number(f"{where}[0]", lo=-10, hi=10), self.number(f"{where}[1]", lo=-10, hi=10))
             if abs(offsets[0] - offsets[1]) < 1e-9:
                 raise self.error(where, "expected two different offsets: the two handles of the reference "
@@ -436,7 +357,14 @@ class _State:
         if one:
             focal_mm = self.number("$.calibrationSettings1VP.absoluteFocalLength", lo=1e-3, hi=1e5,
                                    what="a focal length in millimetres above 0")
-            sensor, sensor_source = self._sensor()
+            sensor, sensor_source = self.sensor()
+            rel = 2.0 * focal_mm / (sensor[0] if sensor[0] / sensor[1] > 1 else sensor[1])
+            if not REL_FOCAL_1VP[0] <= rel <= REL_FOCAL_1VP[1]:
+                fov = math.degrees(2.0 * math.atan(1.0 / rel))
+                raise self.error("$.calibrationSettings1VP.absoluteFocalLength", f"a {focal_mm:g} mm lens on "
+                                 f"{sensor_source} ({sensor[0]:g} × {sensor[1]:g} mm) sees {fov:.3g}° across the "
+                                 f"image's longer side; expected {FOV_1VP_DEG[0]:g}° to {FOV_1VP_DEG[1]:g}°: check "
+                                 "the focal length and the sensor size")
         camera = self._camera()
         return FspyProject(
             path=self.path, version=version, state=self.state, image=image, image_sha256=sha256_bytes(image),
@@ -448,29 +376,13 @@ class _State:
             camera=camera,
         )
 
-    def _sensor(self) -> tuple[tuple[float, float], str]:
-        base = "$.calibrationSettingsBase.cameraData"
-        data = self.obj(base)
-        preset = data.get("presetData")
-        if data.get("presetId") and isinstance(preset, dict):
-            w = self.number(f"{base}.presetData.sensorWidth", lo=1e-3, hi=1e4, what="a sensor width in millimetres")
-            h = self.number(f"{base}.presetData.sensorHeight", lo=1e-3, hi=1e4, what="a sensor height in millimetres")
-            return (w, h), f"the camera preset {data['presetId']!r}"
-        if data.get("presetId"):
-            raise self.error(f"{base}.presetData", f"missing: the project names the camera preset "
-                             f"{data['presetId']!r} but does not hold its sensor size (an fSpy older than 1.0.3 "
-                             "saved it so); choose the sensor size in fSpy (or the preset again) and save")
-        w = self.number(f"{base}.customSensorWidth", lo=1e-3, hi=1e4, what="a sensor width in millimetres")
-        h = self.number(f"{base}.customSensorHeight", lo=1e-3, hi=1e4, what="a sensor height in millimetres")
-        return (w, h), "the custom sensor size"
-
     def _camera(self) -> FspyCamera | None:
         base = "$.cameraParameters"
         cam = self.state.get("cameraParameters")
         if cam is None:
             return None
         if not isinstance(cam, dict):
-            raise self.error(base, f"expected an object or null, found {_kind(cam)}")
+            raise self.error(base, f"expected an object or null, found {kind(cam)}")
         pp = self.point(f"{base}.principalPoint", relative=False)
         view = self._matrix(f"{base}.viewTransform")
         inverse = self._matrix(f"{base}.cameraTransform")
@@ -480,13 +392,13 @@ class _State:
                              "upper-left 3×3 is not a rotation")
         vps = self.get(f"{base}.vanishingPoints")
         if not isinstance(vps, list) or len(vps) != 3:
-            raise self.error(f"{base}.vanishingPoints", f"expected three points, found {_kind(vps)}")
+            raise self.error(f"{base}.vanishingPoints", f"expected three points, found {kind(vps)}")
         points = tuple(self.point(f"{base}.vanishingPoints[{i}]", relative=False) for i in range(3))
         axes = self.get(f"{base}.vanishingPointAxes")
-        if not isinstance(axes, list) or len(axes) != 3 or any(a not in AXES for a in axes) or \
+        if not isinstance(axes, list) or len(axes) != 3 or not all(isinstance(a, str) and a in AXES for a in axes) or \
                 sorted(AXES[a][0] for a in axes) != ["x", "y", "z"]:
             raise self.error(f"{base}.vanishingPointAxes", f"expected three axis names, one each of x, y and z "
-                             f"(such as 'xPositive'), found {_kind(axes)}")
+                             f"(such as 'xPositive'), found {kind(axes)}")
         return FspyCamera(
             principal_point=pp, view_transform=view, camera_transform=inverse,
             horizontal_fov_rad=self.number(f"{base}.horizontalFieldOfView", lo=1e-9, hi=math.pi,
