@@ -939,6 +939,76 @@ case("analyse-bad-points", nothing, [["analyse", P, "distance", "1,2", "cabinet:
      [], any_of=["1,2", "nan", "a,b", "--cell", "--standing", "--from", "point"])
 
 
+# -- 9b. vebuild import: fSpy project files (tests/fspy_writer.py writes them as fSpy does) ------------
+
+FSPY = "{D}/scene.fspy"
+FSPY_IMPORT = [["import", FSPY, "--out", "{OUT}/imported"]]
+
+
+def _fspy(change: Callable[[dict[str, Any]], Any], mode: str = "TwoVanishingPoints",
+          raw_: Callable[[bytes], bytes] | None = None) -> Callable[[Ctx], None]:
+    """A mutation that writes scene.fspy beside the project: an fSpy 1.0.2 state changed by ``change``
+    (or its file's bytes by ``raw_``)."""
+    def mutate(ctx: Ctx) -> None:
+        import numpy as np
+        from fspy_writer import KnownCamera, StateBuilder, fspy_bytes, make_image
+
+        state = StateBuilder(KnownCamera.looking_at_corner(), np.random.default_rng(0), noise_px=0.0,
+                             mode=mode).build()
+        change(state)
+        data = fspy_bytes(state, make_image(640, 480))
+        (ctx.folder / "scene.fspy").write_bytes(raw_(data) if raw_ else data)
+    return mutate
+
+
+def _fspy_set(path: str, value: Any, mode: str = "TwoVanishingPoints") -> Callable[[Ctx], None]:
+    def change(state: dict[str, Any]) -> None:
+        *head, last = path.split(".")
+        get(state, tuple(head))[last] = copy.deepcopy(value)
+    return _fspy(change, mode)
+
+
+def _fspy_case(name: str, mutate: Callable[[Ctx], None], where: str) -> None:
+    case(f"fspy-{name}", mutate, FSPY_IMPORT, [FSPY, where], state="raw")
+
+
+_1VP = "OneVanishingPoint"
+_fspy_case("huge-integer-coordinate", _fspy(lambda s: None, raw_=lambda d: d.replace(
+    b'"origin":{"x":', b'"origin":{"x":' + b"9" * 400 + b',"was":', 1).replace(
+    d[8:12], (int.from_bytes(d[8:12], "little") + 407).to_bytes(4, "little"), 1)), "$.controlPointsStateBase.origin.x")
+_fspy_case("axis-list", _fspy_set("calibrationSettingsBase.firstVanishingPointAxis", ["xPositive"]),
+           "$.calibrationSettingsBase.firstVanishingPointAxis")
+_fspy_case("axis-object", _fspy_set("calibrationSettingsBase.secondVanishingPointAxis", {"axis": "y"}),
+           "$.calibrationSettingsBase.secondVanishingPointAxis")
+_fspy_case("reference-axis-list", _fspy_set("calibrationSettingsBase.referenceDistanceAxis", ["z"]),
+           "$.calibrationSettingsBase.referenceDistanceAxis")
+_fspy_case("unit-object", _fspy_set("calibrationSettingsBase.referenceDistanceUnit", {"unit": "Meters"}),
+           "$.calibrationSettingsBase.referenceDistanceUnit")
+_fspy_case("unit-list", _fspy_set("calibrationSettingsBase.referenceDistanceUnit", ["Meters"]),
+           "$.calibrationSettingsBase.referenceDistanceUnit")
+_fspy_case("saved-axes-lists", _fspy_set("cameraParameters.vanishingPointAxes", [["x"], ["y"], ["z"]]),
+           "$.cameraParameters.vanishingPointAxes")
+_fspy_case("lens-no-camera-has", _fspy(lambda s: (
+    s["calibrationSettings1VP"].update(absoluteFocalLength=100000),
+    s["calibrationSettingsBase"]["cameraData"].update(customSensorWidth=0.001, customSensorHeight=0.001)), _1VP),
+    "$.calibrationSettings1VP.absoluteFocalLength")
+_fspy_case("quad-mode-number", _fspy_set("calibrationSettings2VP.quadModeEnabled", 0),
+           "$.calibrationSettings2VP.quadModeEnabled")
+_fspy_case("preset-id-list", _fspy_set("calibrationSettingsBase.cameraData.presetId", ["canon_5d"], _1VP),
+           "$.calibrationSettingsBase.cameraData.presetId")
+_fspy_case("horizon-object-bad-point", _fspy_set("controlPointsState1VP.horizon", {
+    "0": {"x": 0.2, "y": 0.5}, "1": {"x": [0.8], "y": 0.5}}, _1VP), '$.controlPointsState1VP.horizon["1"].x')
+_fspy_case("horizon-object-other-keys", _fspy_set("controlPointsState1VP.horizon", {
+    "0": {"x": 0.2, "y": 0.5}, "2": {"x": 0.8, "y": 0.5}}, _1VP), "$.controlPointsState1VP.horizon")
+_fspy_case("segment-of-three", _fspy(lambda s: s["controlPointsStateBase"]["firstVanishingPoint"]["lineSegments"][0]
+                                     .append({"x": 0.5, "y": 0.5})),
+           "$.controlPointsStateBase.firstVanishingPoint.lineSegments[0]")
+_fspy_case("header-state-size-huge", _fspy(lambda s: None, raw_=lambda d: d[:8] + b"\xff\xff\xff\xff" + d[12:]),
+           "header.state_size")
+_fspy_case("header-image-size-past-end", _fspy(lambda s: None, raw_=lambda d: d[:12] + b"\xff\xff\xff\x00" + d[16:]),
+           "header.image_size")
+
+
 # -- 10. vebuild new ----------------------------------------------------------------------------------
 
 def _outside_photo(ctx: Ctx) -> None:
