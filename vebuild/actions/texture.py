@@ -30,7 +30,7 @@ from vebuild.project import Project, autosave_path, canonical_input_hash, load_p
 from vebuild.project.atomic import write_bytes
 from vebuild.project.decode import cameras as final_cameras
 from vebuild.project.decode import load_model
-from vebuild.project.outputs import begin_stage
+from vebuild.project.outputs import begin_stage, check_no_links
 from vebuild.project.provenance import stamp
 from vebuild.texture.extract import PhotoSource, TextureResult, extract
 from vebuild.texture.merge import linear_to_srgb8
@@ -86,8 +86,8 @@ def texture_project(project: Project, options: Options | None = None,
 
 
 def texture_folder(project: Project, make: bool = False) -> Path:
-    """The project's textures/ folder (``make``: made if missing); refused if it is a link or
-    leads outside the project's folder."""
+    """The project's textures/ folder (``make``: made if missing); refused if it is a link, leads
+    outside the project's folder or holds a link or a file with other names."""
     folder = project.folder / TEXTURE_DIR
     if folder.is_symlink():
         raise VebuildError(f"{folder}: is a symbolic link (to {os.readlink(folder)}); vebuild writes textures only "
@@ -98,6 +98,8 @@ def texture_folder(project: Project, make: bool = False) -> Path:
                            "writes textures only inside it; replace it with a real folder")
     if folder.exists() and not folder.is_dir():
         raise VebuildError(f"{folder}: is a file; vebuild keeps the textures in a folder of that name; move it away")
+    # Pages are written, replaced and deleted there: never through a link, nor one name of a file with others.
+    check_no_links(folder, "keep in textures/ only the pages `vebuild texture` writes")
     if make:
         try:
             folder.mkdir(exist_ok=True)

@@ -23,10 +23,12 @@ into messages that name what they were writing.
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import re
 import secrets
 import shutil
+import stat
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import BinaryIO
@@ -147,39 +149,87 @@ def write_text(target: str | os.PathLike[str], text: str, encoding: str = "utf-8
     return write_bytes(target, text.encode(encoding))
 
 
-def write_many(files: Sequence[tuple[Path, bytes]]) -> None:
+class LinkOnTheWay(OSError):
+    """A folder on the way to a target, below the folder given as ``within``, is a symbolic link."""
+
+
+def _open_folder(folder: Path, within: Path | None) -> int:
+    """A descriptor of ``folder``. Below ``within`` (when given) it is opened one name at a time,
+    none followed if it is a symbolic link: a link put in place of a folder at any moment gives
+    an error, never a write through it."""
+    flags = os.O_RDONLY | getattr(os, "O_DIRECTORY", 0)
+    if within is None:
+        return os.open(folder, flags)
+    fd = os.open(within, flags)
+    where = within
+    try:
+        for name in folder.relative_to(within).parts:
+            where = where / name
+            try:
+                nxt = os.open(name, flags | os.O_NOFOLLOW, dir_fd=fd)
+            except OSError as e:
+                if os.path.islink(where):
+                    raise LinkOnTheWay(errno.ELOOP, "is a symbolic link; vebuild does not write through links",
+                                       str(where)) from e
+                raise
+            os.close(fd)
+            fd = nxt
+    except BaseException:
+        os.close(fd)
+        raise
+    return fd
+
+
+def write_many(files: Sequence[tuple[Path, bytes]], within: Path | None = None) -> None:
     """Write every file to its temporary name first, then rename them in order (the last one,
     by convention the file that names the others, goes in last). On an error before the renames
-    nothing is changed; no temporary file is left in any case."""
-    temps: list[tuple[Path, Path]] = []
+    nothing is changed; no temporary file is left in any case. ``within``: a folder that holds
+    every target; no folder below it is gone through if it is a symbolic link (each is opened
+    without following links, and every write and rename is made relative to it)."""
+    temps: list[tuple[int, str, Path]] = []
     replaced: list[Path] = []
+    folders: dict[Path, int] = {}
     final = files[0][0] if files else Path()
     try:
         for final, data in files:
-            tmp = temp_path(final)
-            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
-            temps.append((tmp, final))
+            if final.parent not in folders:
+                folders[final.parent] = _open_folder(final.parent, within)
+            dfd = folders[final.parent]
+            tmp = temp_path(final).name
+            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o666, dir_fd=dfd)
+            temps.append((dfd, tmp, final))
             with open(fd, "wb") as f:
                 f.write(data)
                 f.flush()
+                mode = _old_mode_at(dfd, final.name)
+                if mode is not None:
+                    os.fchmod(f.fileno(), mode)
                 os.fsync(f.fileno())
-        for tmp, final in temps:
-            mode = _old_mode(final)
-            if mode is not None:
-                os.chmod(tmp, mode)
-            os.replace(tmp, final)
+        for dfd, tmp, final in temps:
+            os.replace(tmp, final.name, src_dir_fd=dfd, dst_dir_fd=dfd)
             replaced.append(final)
+        for dfd in folders.values():
+            with contextlib.suppress(OSError):
+                os.fsync(dfd)
     except OSError as e:
         # Name the target, not its temporary; say which targets were already replaced.
-        err = OSError(e.errno, e.strerror or str(e), str(final))
+        err = OSError(e.errno, e.strerror or str(e), e.filename if isinstance(e, LinkOnTheWay) else str(final))
         err.replaced = replaced  # type: ignore[attr-defined]
         raise err from e
     finally:
-        for tmp, _ in temps:
+        for dfd, tmp, _ in temps:
             with contextlib.suppress(OSError):
-                os.unlink(tmp)
-    for folder in {final.parent for final, _ in files}:
-        fsync_folder(folder)
+                os.unlink(tmp, dir_fd=dfd)
+        for dfd in folders.values():
+            os.close(dfd)
+
+
+def _old_mode_at(dfd: int, name: str) -> int | None:
+    try:
+        st = os.stat(name, dir_fd=dfd, follow_symlinks=False)
+    except OSError:
+        return None
+    return st.st_mode & 0o7777 if stat.S_ISREG(st.st_mode) else None
 
 
 def remove_tree(folder: Path) -> None:

@@ -204,8 +204,30 @@ def _append_audit(path: Path, data: dict[str, Any], before: str | None) -> str |
     return after
 
 
+def _refuse_links(path: Path) -> None:
+    """A project file (or autosave) is saved by writing a new file in its place: refused where
+    that would replace a symbolic link, or part one name from a file that has others."""
+    import stat
+
+    try:
+        st = os.lstat(path)
+    except OSError:
+        return
+    if stat.S_ISLNK(st.st_mode):
+        to = os.readlink(path)
+        raise ProjectError(path, "", f"is a symbolic link (to {to}); saving writes a new file in its place, which "
+                           "would replace the link, not the file it leads to; vebuild does not replace links; open "
+                           "the file it leads to instead")
+    if stat.S_ISREG(st.st_mode) and st.st_nlink > 1:
+        raise ProjectError(path, "", f"is a hard link (the file has {st.st_nlink} names); saving writes a new file "
+                           "in its place, which its other names would not see; vebuild replaces only a file that "
+                           "has no other name; copy it to a file of its own and open the copy")
+
+
 def _write_document(path: Path, data: dict[str, Any]) -> None:
     import io
+
+    _refuse_links(path)
 
     from .atomic import write_with  # beside the target, fsync'ed, renamed over it (vebuild/project/atomic.py)
 

@@ -27,6 +27,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import stat
 import struct
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -180,6 +181,7 @@ def check_file(project: Project | None, path: str | os.PathLike[str], what: str 
     if owner is not None:
         raise VebuildError(f"{path}: is {owner}; vebuild never writes its {what} over the project's own files; "
                            f"choose {example}")
+    _refuse_other_names(path, f"choose {example}")
     if path.exists() and not path.is_dir():  # a folder: each command says so in its own words
         if not path.is_file():
             raise VebuildError(f"{path}: is not a regular file; choose {example}")
@@ -221,6 +223,54 @@ def check_new_project(path: str | os.PathLike[str], force: bool) -> Path:
     if not force:
         raise VebuildError(f"{path}: already exists; choose another name or pass --force to replace it")
     return path
+
+
+# -- links -----------------------------------------------------------------------------------------
+
+
+def _refuse_other_names(path: Path, advice: str) -> None:
+    """Refuse a regular file that has other names (a hard link): replacing it would part one name
+    from a file someone keeps under another."""
+    try:
+        st = os.lstat(path)
+    except OSError:
+        return
+    if stat.S_ISREG(st.st_mode) and st.st_nlink > 1:
+        raise VebuildError(f"{path}: is a hard link (the file has {st.st_nlink} names); vebuild replaces only a "
+                           f"file that has no other name; move it away or {advice}")
+
+
+def check_no_links(folder: str | os.PathLike[str], advice: str) -> None:
+    """Refuse (VebuildError) anything below the output folder ``folder`` that writing there could
+    go through or part: a symbolic link (to a file or a folder, or to nothing), a file with other
+    names (a hard link), anything but a file or a folder. ``folder`` itself is the caller's to
+    check; ``advice``: what to do instead ("choose a new folder such as …")."""
+    folder = Path(folder)
+    if folder.is_symlink() or not folder.is_dir():
+        return
+
+    def unreadable(e: OSError) -> None:
+        raise VebuildError(f"{e.filename or folder}: cannot be read ({e.strerror or e}); vebuild checks every entry "
+                           f"of its output folder before it writes there; {advice}")
+
+    for root, dirs, files in os.walk(folder, onerror=unreadable, followlinks=False):
+        for name in sorted(dirs + files):
+            path = Path(root) / name
+            try:
+                st = os.lstat(path)
+            except OSError as e:
+                unreadable(e)
+                continue
+            if stat.S_ISLNK(st.st_mode):
+                raise VebuildError(f"{path}: is a symbolic link (to {os.readlink(path)}) inside the output folder "
+                                   f"{folder}; vebuild never writes through a link nor replaces one; move the link "
+                                   f"away or {advice}")
+            if stat.S_ISDIR(st.st_mode):
+                continue
+            if not stat.S_ISREG(st.st_mode):
+                raise VebuildError(f"{path}: is not a regular file nor a folder (inside the output folder {folder}); "
+                                   f"move it away or {advice}")
+            _refuse_other_names(path, advice)
 
 
 # -- folders ---------------------------------------------------------------------------------------
@@ -292,6 +342,7 @@ def check_folder(project: Project | None, out: str | os.PathLike[str], what: str
         shown = ", ".join(p.relative_to(out).as_posix() for p in entries[:3]) or "folders"
         raise VebuildError(f"{out}: is not empty (it holds {shown}) and is not a folder vebuild wrote (no "
                            f"{MANIFEST}); choose {example} or empty it yourself")
+    check_no_links(out, f"choose {example}")
     listed = manifest["files"]
     for p in entries:
         rel = p.relative_to(out).as_posix()

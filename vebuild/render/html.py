@@ -35,7 +35,7 @@ import numpy as np
 from vebuild import __version__
 from vebuild.errors import VebuildError
 from vebuild.project import Project
-from vebuild.project.outputs import begin_stage, check_file
+from vebuild.project.outputs import begin_stage, check_file, check_no_links
 from vebuild.render.export import ROOT_NAME, _collect, glb_bytes, gltf_document
 
 #: The folder of the viewer's committed web files (three.js bundle, viewer script, page template).
@@ -152,6 +152,7 @@ def _check_folder(project: Project, folder: Path) -> set[str]:
         if not isinstance(listed, list):
             raise VebuildError(f"{folder}: is not empty and holds no {MANIFEST} (the mark of a folder vebuild's HTML "
                                "export wrote); vebuild replaces only its own outputs; choose a new or empty folder")
+        check_no_links(folder, "choose a new or empty folder")  # nothing is written through a link
         return {str(f) for f in listed} | {MANIFEST}
     return set()
 
@@ -242,6 +243,7 @@ def write_html(project: Project, folder: str | os.PathLike[str], analyses: list[
             check_file(project, path, "HTML export")  # a file the earlier export did not write: vebuild's own only
         elif path.exists() and not path.is_file():
             raise VebuildError(f"{path}: is not a regular file; nothing was written")
+    check_no_links(folder, "choose a new or empty folder")  # again: none was put there meanwhile
     subfolders = sorted({p.parent for p, _ in files})
     for sub in subfolders:
         sub.mkdir(parents=True, exist_ok=True)
@@ -249,7 +251,7 @@ def write_html(project: Project, folder: str | os.PathLike[str], analyses: list[
     from vebuild.project.atomic import write_many
 
     try:
-        write_many(files)
+        write_many(files, within=folder)  # no folder below ``folder`` is gone through if it is a link
     except OSError as e:
         raise VebuildError(f"{folder}: cannot write {e.filename or folder} ({e.strerror or e})") from None
     return HtmlResult(folder, [p for p, _ in files], cameras, len(markers), len(analyses or []),
