@@ -140,3 +140,27 @@ def test_the_autosave_is_not_written_over_a_link(tmp_path):
     with pytest.raises(VebuildError, match=r"p.vebuild.json.autosave: is a symbolic link .* does not replace links"):
         save_project(auto, new_project("p"))
     assert auto.is_symlink() and (elsewhere / "keep.txt").read_text() == "someone else's\n"
+
+
+def test_the_walk_throughs_screenshots_folder_is_not_gone_through_if_a_link(solved, tmp_path, xvfb_display):
+    from vebuild.gl.window import Window
+    from vebuild.project import load_project
+    from vebuild.render.renderer import RenderOptions
+    from vebuild.viewer.app import Viewer
+
+    room = tmp_path / "room"
+    shutil.copytree(solved, room)
+    elsewhere = outside(tmp_path)
+    (room / "screenshots").symlink_to(elsewhere, target_is_directory=True)
+    away = snapshot(elsewhere)
+    window = Window(320, 180, "vebuild links test", visible=False)
+    try:
+        v = Viewer(load_project(room / "room.vebuild.json"), window, RenderOptions.interactive(), view="overview")
+        with pytest.raises(VebuildError, match=r"room/screenshots: is a symbolic link .* never writes through"):
+            v.screenshot()  # F12: the message is shown on screen (WindowApp.guard)
+        (room / "screenshots").unlink()
+        (room / "screenshots").mkdir()
+        assert v.screenshot().parent == room / "screenshots"  # a real folder: written
+    finally:
+        window.close()
+    assert snapshot(elsewhere) == away  # nothing written through the link

@@ -240,12 +240,16 @@ def _refuse_other_names(path: Path, advice: str) -> None:
                            f"file that has no other name; move it away or {advice}")
 
 
-def check_no_links(folder: str | os.PathLike[str], advice: str) -> None:
+def check_no_links(folder: str | os.PathLike[str], advice: str, itself: bool = False) -> None:
     """Refuse (VebuildError) anything below the output folder ``folder`` that writing there could
     go through or part: a symbolic link (to a file or a folder, or to nothing), a file with other
     names (a hard link), anything but a file or a folder. ``folder`` itself is the caller's to
-    check; ``advice``: what to do instead ("choose a new folder such as …")."""
+    check, unless ``itself``: then a link there is refused too. ``advice``: what to do instead
+    ("choose a new folder such as …")."""
     folder = Path(folder)
+    if itself and folder.is_symlink():
+        raise VebuildError(f"{folder}: is a symbolic link (to {os.readlink(folder)}); vebuild never writes through a "
+                           f"link; {advice}")
     if folder.is_symlink() or not folder.is_dir():
         return
 

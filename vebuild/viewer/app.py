@@ -299,9 +299,12 @@ class Viewer(ViewerMeasure, PresentationCommands, WindowApp):
         """The current view rendered off the window's context to a PNG with provenance."""
         from PIL import Image
 
+        from vebuild.project.outputs import check_no_links
         from vebuild.render.observed import finish_image
         from vebuild.render.png import provenance, stamp, write_png
 
+        folder = folder or self.project.folder / "screenshots"
+        check_no_links(folder, "make it a real folder with no link in it", itself=True)  # before anything
         cam = self.camera()
         stereo = Stereo(self.stereo) if self.stereo not in (None, "quad") else None
         img = self.renderer.render(cam if stereo is None else self.eye_camera(), stereo)
@@ -314,7 +317,6 @@ class Viewer(ViewerMeasure, PresentationCommands, WindowApp):
         if banner:
             img = stamp(img, banner)
             text["vebuild:hypothesis"] = self.hypothesis_name or "unsaved arrangement"
-        folder = folder or self.project.folder / "screenshots"
         folder.mkdir(exist_ok=True)
         self.screenshots += 1
         path = folder / f"{self.project.path.name.split('.')[0]}-{self.screenshots:03d}.png"
