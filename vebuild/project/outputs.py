@@ -16,8 +16,10 @@ and never over the project file or its autosave, a photo of the project, anythin
 project's ``textures/`` folder, or a symbolic link. An output *folder* (the report) must be new,
 empty, or carry vebuild's manifest (:data:`MANIFEST`, naming every file vebuild wrote there with
 its SHA-256) and hold nothing else; it is never the project's folder nor a folder that holds the
-project file or a photo. Every refusal is a :class:`VebuildError` that says what is there and what
-to do instead.
+project file or a photo. Nothing below an output folder may be a symbolic link or a file with other
+names (a hard link), nor may an output file have other names (:func:`check_no_links`): vebuild
+never writes through a link nor parts one name from a file kept under another. Every refusal is a
+:class:`VebuildError` that says what is there and what to do instead.
 
 Layer: project I/O (reads the project's data, never GL).
 """

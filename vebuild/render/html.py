@@ -17,7 +17,9 @@ web server with no network:
 - ``vebuild-html.json``: the manifest (vebuild's mark: a folder holding one may be written again;
   any other non-empty folder is refused, so that nothing vebuild did not write is replaced).
 
-Every file goes to a temporary name first and is renamed only when all were written.
+Every file goes to a temporary name first and is renamed only when all were written. A symbolic
+link or a file with other names anywhere in the folder is refused (nothing is written through a
+link), and the folders below it are opened without following links as the files are written.
 """
 
 from __future__ import annotations
