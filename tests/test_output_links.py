@@ -2,8 +2,9 @@
 what it never touches").
 
 The refusals of every command (a symbolic link to a subfolder or a file, a hard link, below its
-output folder) are cases of tests/bad_inputs_corpus.py (section 11); here: the atomic writer's own
-guard against a link put in place of a folder after the checks, the demo folder, the autosave.
+output folder) are cases of tests/bad_inputs_links.py (the bad-input corpus' section 11); here: the
+atomic writer's own guard against a link put in place of a folder after the checks, the demo
+folder, the autosave, the walk-through's screenshots.
 """
 
 from __future__ import annotations
