@@ -74,7 +74,8 @@ def test_the_trail_after_calibrate_solve_texture_verifies(made) -> None:
     doc = read(folder / PROJECT)
     trail = doc["audit"]
     assert [e["command"] for e in trail] == ["calibrate", "solve", "texture"]
-    assert [e["arguments"] for e in trail] == [c[1:] for c in commands]
+    # The project, given by its absolute path, is recorded relative to its folder (FORMAT.md, "Audit trail").
+    assert [e["arguments"] for e in trail] == [[PROJECT, *c[2:]] for c in commands]
     assert {e["vebuild"] for e in trail} == {__version__}
     assert all(TIME.match(e["time"]) and start <= e["time"] <= end for e in trail)
     assert trail[0]["before_sha256"] == examiner_sha256(original)
@@ -143,7 +144,7 @@ def test_the_modelling_screens_save_is_recorded(room: Path) -> None:
     with command_context("edit", [str(room)]):
         s.save()
     doc = read(room)
-    assert doc["audit"][-1]["command"] == "edit" and doc["audit"][-1]["arguments"] == [str(room)]
+    assert doc["audit"][-1]["command"] == "edit" and doc["audit"][-1]["arguments"] == [PROJECT]
     assert verify_audit(doc) == []
 
 
@@ -182,3 +183,41 @@ def test_a_word_that_is_not_utf8_is_kept_as_its_bytes() -> None:
     from vebuild.project.provenance import audit_entry
 
     assert audit_entry("calibrate", ["caf\udce9.json"], None, "0" * 64)["arguments"] == ["caf\\xe9.json"]
+
+
+def test_paths_are_recorded_relative_to_the_project_folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Whatever the working directory and however a path is given, the audit records it relative to
+    the project's folder (POSIX separators); a path outside that folder, as absolute; other words as
+    given, even where one happens to name a file."""
+    from vebuild.project.provenance import audit_entry
+
+    folder = tmp_path / "cases" / "117"
+    (folder / "renders").mkdir(parents=True)
+    (tmp_path / "work").mkdir()
+    (tmp_path / "work" / "doorway").write_text("")  # a word that is also a file's name here
+    project = folder / PROJECT
+    project.write_text("{}")
+    monkeypatch.chdir(tmp_path / "work")
+    words = ["../cases/117/room.vebuild.json", "--view", "doorway", "--out", str(folder / "renders" / "a.png"),
+             "--json=../cases/117/renders/../f.json", "--html", "../site"]
+    paths = {str(folder / "renders" / "a.png"), "../cases/117/renders/../f.json", "../site"}
+    with command_context("render", words, paths):
+        entry = audit_entry("render", words, None, "0" * 64, Path("../cases/117") / PROJECT)
+    assert entry["arguments"] == [PROJECT, "--view", "doorway", "--out", "renders/a.png", "--json=f.json",
+                                  "--html", str((tmp_path / "site").resolve())]
+    monkeypatch.chdir(folder)  # from inside the folder: the words as given are already relative to it
+    with command_context("render", [PROJECT, "--out", "renders/a.png"], {PROJECT, "renders/a.png"}):
+        assert audit_entry("render", [PROJECT, "--out", "renders/a.png"], None, "0" * 64, project)[
+            "arguments"] == [PROJECT, "--out", "renders/a.png"]
+    assert audit_entry("render", words, None, "0" * 64, project)["arguments"] == words  # outside a command
+
+
+def test_the_command_line_records_its_paths_relative(room: Path, tmp_path: Path,
+                                                     monkeypatch: pytest.MonkeyPatch) -> None:
+    """`vebuild mark` run from another folder, the project named by a relative path: the trail has
+    the words that the same command gives from inside the folder."""
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    assert run("mark", "../room/" + PROJECT, "Z", "--at", "2,2,0")[0] == 0
+    assert read(room)["audit"][-1]["arguments"] == [PROJECT, "Z", "--at", "2,2,0"]

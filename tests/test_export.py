@@ -28,8 +28,9 @@ from vebuild.actions.texture import texture_project
 from vebuild.camera import project as project_points
 from vebuild.cli import main
 from vebuild.errors import VebuildError
-from vebuild.project import load_project, save_project, sha256_file
+from vebuild.project import load_project, save_project
 from vebuild.project.decode import photo_camera, view_camera
+from vebuild.project.provenance import inputs_sha256
 from vebuild.render.export import ROOT_NAME, export_model, read_glb
 from vebuild.render.scene import load_scene
 from vebuild.texture.merge import srgb8_to_linear
@@ -248,7 +249,7 @@ def test_glb_embeds_the_atlas_pngs_byte_for_byte_with_unlit_materials(exported, 
         assert mat["extensions"] == {"KHR_materials_unlit": {}}
     asset = doc["asset"]
     assert asset["version"] == "2.0" and asset["generator"] == f"vebuild {__version__}"
-    assert asset["extras"]["project_sha256"] == sha256_file(textured)
+    assert asset["extras"]["inputs_sha256"] == inputs_sha256(json.loads(textured.read_text()))
     assert [p["sha256"] for p in asset["extras"]["texture_pages"]] == [p["atlas_sha256"] for p in pages]
     # The root turns +Z (up in vebuild) into glTF's +Y.
     root = _local(doc["nodes"][0])

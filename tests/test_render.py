@@ -23,8 +23,9 @@ from vebuild.errors import ProjectError, VebuildError
 from vebuild.gl import headless_context
 from vebuild.lighting import AS_PHOTOGRAPHED_LIGHTING
 from vebuild.model.scene import model_from_dict
-from vebuild.project import load_project, sha256_file
+from vebuild.project import load_project
 from vebuild.project.decode import preset_from_record
+from vebuild.project.provenance import inputs_sha256
 from vebuild.render.png import PROVENANCE_KEYS
 from vebuild.render.renderer import Renderer, RenderOptions, Stereo
 from vebuild.render.scene import load_scene, scene_from_model
@@ -312,7 +313,7 @@ def test_render_writes_the_view_with_its_provenance(textured_room, tmp_path, cap
     assert img.size == (1280, 720)
     text = img.text
     assert set(PROVENANCE_KEYS) <= set(text)
-    assert text["vebuild:project_sha256"] == sha256_file(textured_room)
+    assert text["vebuild:inputs_sha256"] == inputs_sha256(json.loads(textured_room.read_text()))
     cam = json.loads(text["vebuild:camera"])
     assert cam["kind"] == "view" and cam["name"] == "doorway" and cam["C"] == [3.7, 0.3, 1.6]
     assert json.loads(text["vebuild:lighting"])["lights"][0]["type"] == "point"

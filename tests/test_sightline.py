@@ -174,7 +174,7 @@ def test_cli_sightline_and_viewshed_with_json(tmp_path, capsys):
     with Image.open(view) as im:
         text = dict(im.text)
         img = np.asarray(im.convert("RGB")).astype(int)
-    assert json.loads(text["vebuild:camera"])["kind"] == "witness" and "vebuild:project_sha256" in text
+    assert json.loads(text["vebuild:camera"])["kind"] == "witness" and "vebuild:inputs_sha256" in text
     assert json.loads(text["vebuild:sightline"])["target"]["object"] == "box"
     # The box is highlighted: pixels mixed half-way toward the highlight colour (255, 190, 0).
     assert ((img[..., 0] - img[..., 2]) > 60).sum() > 200

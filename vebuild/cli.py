@@ -578,10 +578,11 @@ def main(argv: Sequence[str] | None = None) -> int:
 
         arguments = words[words.index(args.command) + 1:] if args.command in words else words
         with fixed_threads():  # before numpy loads, so that its BLAS starts on one thread
+            from .console.arguments import path_words
             from .project.provenance import command_context
 
             # Every save of the project file while the command runs appends its audit entry (project/file.py).
-            with command_context(args.command, arguments):
+            with command_context(args.command, arguments, path_words(args)):
                 return int(args.func(args))
     except VebuildError as e:
         from .console.messages import error_in_words

@@ -89,8 +89,10 @@ def _cmd_check(args: argparse.Namespace) -> int:
         results.append({k: v for k, v in r.items() if k not in ("world", "signed")})
     if args.json:
         from ..project.atomic import write_text
+        from ..project.provenance import inputs_sha256
 
-        doc = {"software": f"vebuild {__version__}", "project": str(project.path), "analysis": "scan check",
+        doc = {"software": f"vebuild {__version__}", "project": project.path.name,
+               "inputs_sha256": inputs_sha256(project.data), "analysis": "scan check",
                "scans": results}
         write_text(Path(args.json), json.dumps(doc, indent=2, allow_nan=False) + "\n")
         print(f"figures written to {args.json}")

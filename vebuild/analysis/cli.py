@@ -171,7 +171,7 @@ def request_from_args(args: argparse.Namespace) -> Request:
 
 def _run(args: argparse.Namespace, to_request: ToRequest) -> int:
     from ..project import load_project
-    from ..project.provenance import stale_warnings
+    from ..project.provenance import inputs_sha256, stale_warnings
 
     project = load_project(args.project)
     for line in stale_warnings(project, "analyse"):  # the stale results it reads (vebuild.project.provenance)
@@ -184,8 +184,9 @@ def _run(args: argparse.Namespace, to_request: ToRequest) -> int:
     result = request.run(project)
     print(result.table)
     if args.json:
-        write_json(Path(args.json), {"software": f"vebuild {__version__}", "project": str(project.path),
-                                     "analysis": request.name, **result.figures})
+        write_json(Path(args.json), {"software": f"vebuild {__version__}", "project": project.path.name,
+                                     "inputs_sha256": inputs_sha256(project.data), "analysis": request.name,
+                                     **result.figures})
         print(f"figures written to {args.json}")
     return 0
 

@@ -247,11 +247,11 @@ def viewshed_image(vs: Viewshed, occ: Occluders, px_per_cell: int | None = None)
 def write_viewshed_png(project: Project, vs: Viewshed, occ: Occluders, out: Path) -> None:
     """The viewshed's map as a PNG carrying its provenance and figures."""
     from vebuild import __version__
-    from vebuild.project import sha256_file
+    from vebuild.project.provenance import inputs_sha256
     from vebuild.render.png import check_output, write_png
 
     out = check_output(Path(out))
     text = {"Software": f"vebuild {__version__}", "vebuild:project": project.path.name,
-            "vebuild:project_sha256": sha256_file(project.path),
+            "vebuild:inputs_sha256": inputs_sha256(project.data),
             "vebuild:viewshed": json.dumps(vs.figures(), sort_keys=True, ensure_ascii=False)}
     write_png(out, viewshed_image(vs, occ), text)

@@ -64,3 +64,22 @@ class SuggestingParser(argparse.ArgumentParser):
             if not isinstance(chosen, SuggestingParser):
                 return parser
             parser = chosen
+
+
+#: The arguments (by ``dest``) whose values name a file or folder, in every command that has them;
+#: and those that do only in one command (``photos`` is a list of photo ids elsewhere).
+PATH_ARGUMENTS = ("project", "out", "json", "html", "add_photo", "targets", "file")
+PATH_ARGUMENTS_OF = {"new": ("photos",), "scan": ("scan",)}
+
+
+def path_words(parsed: argparse.Namespace) -> set[str]:
+    """The words of a parsed command line that name files or folders: what the audit trail records
+    relative to the project's folder (vebuild.project.provenance.audit_entry)."""
+    dests = PATH_ARGUMENTS + PATH_ARGUMENTS_OF.get(getattr(parsed, "command", None) or "", ())
+    out: set[str] = set()
+    for dest in dests:
+        value = getattr(parsed, dest, None)
+        for v in value if isinstance(value, list) else [value]:
+            if isinstance(v, str) and v:  # `scan check --scan N` is a number, not a file
+                out.add(v)
+    return out

@@ -200,7 +200,7 @@ def _append_audit(path: Path, data: dict[str, Any], before: str | None) -> str |
     after = document_sha256(data)
     if after == before and data.get("audit"):
         return None
-    data["audit"] = [*(data.get("audit") or []), audit_entry(running[0], running[1], before, after)]
+    data["audit"] = [*(data.get("audit") or []), audit_entry(running[0], running[1], before, after, path)]
     return after
 
 

@@ -31,10 +31,18 @@ solved model; a later solve reads it as a prior, so a solve does not make it sta
 its marks or its image do).
 
 The audit trail (top-level ``audit``) is a list of entries, one per command that changed the
-project: ``command``, ``arguments``, ``vebuild`` (version), ``time`` (UTC, ISO 8601),
-``before_sha256`` and ``after_sha256``: :func:`document_sha256` of the document before the command
-and as written, that is SHA-256 of the UTF-8 bytes of ``json.dumps(doc_without_audit,
-sort_keys=True, separators=(",", ":"), ensure_ascii=False)``. :func:`verify_audit` checks the chain.
+project: ``command``, ``arguments`` (the words after the command, those that name a file or
+folder written relative to the project's folder: :func:`audit_entry`), ``vebuild`` (version),
+``time`` (UTC, ISO 8601), ``before_sha256`` and ``after_sha256``: :func:`document_sha256` of the
+document before the command and as written, that is SHA-256 of the UTF-8 bytes of
+``json.dumps(doc_without_audit, sort_keys=True, separators=(",", ":"), ensure_ascii=False)``.
+:func:`verify_audit` checks the chain.
+
+Every output (renders, exports, videos, the report, analyses' figures) names the project state it
+was made from by :func:`inputs_sha256`, the same hash: the document's inputs and results without
+the audit trail, whose times and words differ from one examiner's run to another's. Two copies of a
+project taken through the same commands, in any folders, at any time, give the same outputs, byte
+for byte (tests/test_determinism.py).
 """
 
 from __future__ import annotations
@@ -46,13 +54,13 @@ import hashlib
 import json
 import os
 import shlex
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 __all__ = ["READS", "STAGES", "TITLES", "AuditProblem", "Stale", "audit_entry", "command_context", "current_command",
-           "document_sha256", "inputs", "stage_hashes", "stale", "stale_line", "stale_record", "stale_warnings",
-           "stamp", "verify_audit"]
+           "document_sha256", "inputs", "inputs_sha256", "stage_hashes", "stale", "stale_line", "stale_record",
+           "stale_warnings", "stamp", "verify_audit"]
 
 #: The stages, in the order they are run; each reads the results of those before it.
 STAGES = ("calibration", "model_solution", "textures")
@@ -71,6 +79,19 @@ def _sha(value: Any) -> str:
 def document_sha256(data: Mapping[str, Any]) -> str:
     """SHA-256 (hex) of the document without its ``audit``: what an audit entry's hashes are of."""
     return _sha({k: v for k, v in data.items() if k != "audit"})
+
+
+def inputs_sha256(data: Mapping[str, Any]) -> str:
+    """The inputs digest that every output embeds (``vebuild:inputs_sha256``; FORMAT.md, "Inputs
+    digest"): SHA-256 (hex) of the document without its ``audit``, as :func:`document_sha256`.
+
+    It covers every input and result the document holds (the photos by their recorded ``sha256``,
+    which each command checks against the files before it reads them; the texture pages by their
+    ``atlas_sha256``; the calibration, the solution) and nothing of the audit trail, whose times
+    and words are the examiner's, not the evidence's. It is the ``after_sha256`` of the audit
+    entry that wrote the state an output was made from, so the trail says which command that was.
+    """
+    return document_sha256(data)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -273,14 +294,33 @@ def stale(data: Mapping[str, Any], project: str = "PROJECT") -> list[Stale]:
 # The audit trail
 
 
-_COMMAND: contextvars.ContextVar[tuple[str, tuple[str, ...]] | None] = contextvars.ContextVar(
-    "vebuild_command", default=None)
+@dataclass(frozen=True)
+class _Running:
+    command: str
+    arguments: tuple[str, ...]
+    paths: frozenset[str]  # the words the command line reads as files or folders
+    cwd: str | None  # the working directory the words are relative to
+
+
+_COMMAND: contextvars.ContextVar[_Running | None] = contextvars.ContextVar("vebuild_command", default=None)
+
+
+def _cwd() -> str | None:
+    try:
+        return os.getcwd()
+    except OSError:  # the working directory was removed: the words are kept as given
+        return None
 
 
 @contextlib.contextmanager
-def command_context(command: str, arguments: Sequence[str]) -> Iterator[None]:
-    """While this holds, every save of a project file appends an audit entry for this command."""
-    token = _COMMAND.set((command, tuple(arguments)))
+def command_context(command: str, arguments: Sequence[str], paths: Iterable[str] = ()) -> Iterator[None]:
+    """While this holds, every save of a project file appends an audit entry for this command.
+
+    ``paths``: the values of the arguments that name a file or folder (the command line's parser
+    knows which); a word equal to one, and a word that names the project file itself, is recorded
+    relative to the project's folder (:func:`audit_entry`).
+    """
+    token = _COMMAND.set(_Running(command, tuple(arguments), frozenset(paths), _cwd()))
     try:
         yield
     finally:
@@ -289,13 +329,60 @@ def command_context(command: str, arguments: Sequence[str]) -> Iterator[None]:
 
 def current_command() -> tuple[str, tuple[str, ...]] | None:
     """The command being run (name, arguments), if a :func:`command_context` holds."""
-    return _COMMAND.get()
+    running = _COMMAND.get()
+    return None if running is None else (running.command, running.arguments)
 
 
-def audit_entry(command: str, arguments: Sequence[str], before: str | None, after: str) -> dict[str, Any]:
-    """One audit entry (FORMAT.md, "Audit trail"). Its time is now, or, where the environment sets
-    ``SOURCE_DATE_EPOCH`` (the reproducible-builds convention: seconds since 1970 UTC), that time,
-    so that a run can be reproduced byte for byte."""
+def _project_relative(word: str, folder: str, cwd: str) -> str:
+    """``word`` (a path relative to ``cwd``, or absolute) relative to the project's ``folder``, in
+    POSIX form; the absolute path where it lies outside the folder."""
+    full = os.path.realpath(os.path.join(cwd, word))
+    try:
+        rel = os.path.relpath(full, folder)
+    except ValueError:  # another drive (Windows)
+        return full
+    if rel == os.pardir or rel.startswith(os.pardir + os.sep) or os.path.isabs(rel):
+        return full
+    return rel.replace(os.sep, "/")
+
+
+def _recorded_words(arguments: Sequence[str], project: str | os.PathLike[str] | None) -> list[str]:
+    """The words as the audit records them: a path (an argument the parser reads as one, or the
+    project file) relative to the project's folder, or absolute where outside it; the rest as given.
+    An option's value given after ``=`` (``--out=FILE``) counts as a word of its own."""
+    running = _COMMAND.get()
+    cwd = None if running is None else running.cwd
+    if project is None or cwd is None:
+        return list(arguments)
+    me = os.path.realpath(os.path.join(cwd, os.fspath(project)))
+    folder = os.path.dirname(me)
+    paths = running.paths if running is not None else frozenset()
+
+    def one(word: str) -> str:
+        if not word:
+            return word
+        if word in paths or os.path.realpath(os.path.join(cwd, word)) == me:
+            return _project_relative(word, folder, cwd)
+        option, eq, value = word.partition("=")
+        if option.startswith("--") and eq and value in paths:
+            return f"{option}={_project_relative(value, folder, cwd)}"
+        return word
+
+    return [one(w) for w in arguments]
+
+
+def audit_entry(command: str, arguments: Sequence[str], before: str | None, after: str,
+                project: str | os.PathLike[str] | None = None) -> dict[str, Any]:
+    """One audit entry (FORMAT.md, "Audit trail") for a save of the project file ``project``.
+
+    Its time is now, or, where the environment sets ``SOURCE_DATE_EPOCH`` (the reproducible-builds
+    convention: seconds since 1970 UTC), that time. A word that names a file or folder (an argument
+    the command line reads as a path, given to :func:`command_context`, or the project file) is
+    recorded relative to the project's folder, POSIX style (``room.vebuild.json``,
+    ``renders/a.png``), whatever the working directory, so that two examiners' trails agree; one
+    outside the folder is recorded as its absolute path (it starts with ``/`` or a drive, which a
+    path inside never does). Without ``project`` or outside a command the words are kept as given.
+    """
     from .. import __version__
 
     epoch = os.environ.get("SOURCE_DATE_EPOCH", "").strip()
@@ -303,7 +390,7 @@ def audit_entry(command: str, arguments: Sequence[str], before: str | None, afte
             else datetime.datetime.now(datetime.UTC))
     time = when.replace(microsecond=0).isoformat().replace("+00:00", "Z")
     # A word the shell gave as bytes that are not UTF-8 (a file name) is kept with those bytes as \xNN.
-    words = [os.fsencode(a).decode("utf-8", "backslashreplace") for a in arguments]
+    words = [os.fsencode(a).decode("utf-8", "backslashreplace") for a in _recorded_words(arguments, project)]
     return {"command": command, "arguments": words, "vebuild": __version__, "time": time,
             "before_sha256": before, "after_sha256": after}
 

@@ -45,10 +45,10 @@ from scipy.spatial.transform import Rotation
 from vebuild import __version__
 from vebuild.camera import ImageCamera, distortion_displacement_px, focal_to_fov
 from vebuild.errors import VebuildError
-from vebuild.project import Project, sha256_file
+from vebuild.project import Project
 from vebuild.project.decode import TexturePage, camera_records, photo_camera, view_camera
 from vebuild.project.outputs import begin_stage, check_file
-from vebuild.project.provenance import stage_hashes, stale_record
+from vebuild.project.provenance import inputs_sha256, stage_hashes, stale_record
 from vebuild.render.export_observed import (  # COVERAGE_EXTRAS: re-exported, the keys of the format
     COVERAGE_EXTRAS,  # noqa: F401
     SEEN_EXTRAS,
@@ -413,7 +413,7 @@ def _provenance(contents: _Contents) -> dict[str, Any]:
     project = contents.project
     out: dict[str, Any] = {
         "project": project.path.name,
-        "project_sha256": sha256_file(project.path),
+        "inputs_sha256": inputs_sha256(project.data),  # FORMAT.md "Inputs digest"
         "units": _units(project, "metre"),
         "world": "vebuild: right-handed, +Z up; the root node 'vebuild world' rotates it to glTF's +Y up",
         "textured": contents.scene.textured,
@@ -470,7 +470,7 @@ def obj_files(contents: _Contents, path: Path) -> list[tuple[Path, bytes]]:
     stem = path.stem
     mtl = path.with_suffix(".mtl")
     files: list[tuple[Path, bytes]] = []
-    head = [f"# vebuild {__version__}: the model of {project.path.name} (SHA-256 {sha256_file(project.path)})",
+    head = [f"# vebuild {__version__}: the model of {project.path.name} (inputs SHA-256 {inputs_sha256(project.data)})",
             f"# Units: {_units(project)}. Axes: +Y up, right-handed: OBJ (x, y, z) = vebuild world (x, z, -y).",
             "# Blender's default OBJ import (forward -Z, up Y) gives back vebuild's world coordinates (+Z up)."]
     mtl_lines = [head[0], ""]

@@ -21,12 +21,12 @@ from PIL import Image, PngImagePlugin
 from vebuild import __version__
 from vebuild.camera import ImageCamera
 from vebuild.errors import VebuildError
-from vebuild.project import Project, sha256_file
-from vebuild.project.provenance import stage_hashes, stale_record
+from vebuild.project import Project
+from vebuild.project.provenance import inputs_sha256, stage_hashes, stale_record
 from vebuild.project.units import RELATIVE_UNITS, length_unit
 
 #: Text keys written into every rendered PNG.
-PROVENANCE_KEYS = ("Software", "vebuild:project", "vebuild:project_sha256", "vebuild:camera", "vebuild:lighting",
+PROVENANCE_KEYS = ("Software", "vebuild:project", "vebuild:inputs_sha256", "vebuild:camera", "vebuild:lighting",
                    "vebuild:stereo", "vebuild:textures", "vebuild:options", "vebuild:lengths",
                    "vebuild:stages", "vebuild:stale")  # the last two: vebuild.project.provenance
 
@@ -109,7 +109,7 @@ def provenance(project: Project, cam: ImageCamera, kind: str, lighting: str, ste
     return {
         "Software": f"vebuild {__version__}",
         "vebuild:project": project.path.name,
-        "vebuild:project_sha256": sha256_file(project.path),
+        "vebuild:inputs_sha256": inputs_sha256(project.data),  # FORMAT.md "Inputs digest"
         "vebuild:camera": js(_camera_record(cam, kind)),
         "vebuild:lighting": js(_lighting_record(project, lighting)),
         "vebuild:stereo": js(stereo),

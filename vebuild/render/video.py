@@ -510,7 +510,7 @@ def render_video(project: Project, request: VideoRequest,
 def _render(project: Project, request: VideoRequest, path: CameraPath, lighting: Any, out: Path,
             progress: Callable[[int, int, str], None] | None, renderer: Renderer | None) -> VideoResult:
     from vebuild.gl import headless_context
-    from vebuild.project import sha256_file
+    from vebuild.project.provenance import inputs_sha256
     from vebuild.render.observed import draw_legend
     from vebuild.render.renderer import Renderer, Stereo
     from vebuild.render.scene import load_scene
@@ -532,7 +532,7 @@ def _render(project: Project, request: VideoRequest, path: CameraPath, lighting:
         renderer.unobserved = request.unobserved
         marked = renderer.marks_unobserved
         meta = {"title": " → ".join(request.views), "encoder": f"vebuild {__version__}",
-                "comment": json.dumps({"project": project.path.name, "project_sha256": sha256_file(project.path),
+                "comment": json.dumps({"project": project.path.name, "inputs_sha256": inputs_sha256(project.data),
                                        "views": request.views, "keyframes": path.keyframes,
                                        "lighting": lighting.name, "stereo": request.stereo,
                                        "fps": path.fps, "unobserved": request.unobserved,

@@ -11,7 +11,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from vebuild import __version__
-from vebuild.project import Project, sha256_file
+from vebuild.project import Project
+from vebuild.project.provenance import inputs_sha256
 
 from .stale import banner_html
 
@@ -113,14 +114,14 @@ def table(header: list[str], rows: list[list[Any]], numeric: set[int] | None = N
 
 def title_page(project: Project) -> str:
     """The report's first page: the case details (FORMAT.md ``case``), the project, vebuild's
-    version, the project file's SHA-256 and the photos' count."""
+    version, the inputs digest (FORMAT.md, "Inputs digest") and the photos' count."""
     from vebuild.actions.case import case_rows
 
     data = project.data
     rows: list[list[Any]] = [[label, text] for label, text in case_rows(data) if label != "declaration"]
     n_photos = len(data.get("photos", []))
     rows += [["project", data.get("name", project.path.name)], ["project file", project.path.name],
-             ["project file SHA-256", Cell(sha256_file(project.path), "hash")],
+             ["inputs SHA-256", Cell(inputs_sha256(project.data), "hash")],
              ["photographs", f"{n_photos} (each listed with its SHA-256 under Photographs)"],
              ["software", f"vebuild {__version__}"],
              ["reproduce", f"vebuild report {project.path.name} --out DIR (the same project gives "

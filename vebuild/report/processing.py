@@ -33,11 +33,14 @@ def processing(project: Project, rep: Report) -> None:
     else:
         body.append("<p class='small'>Each command that changed the project, with the SHA-256 of the document "
                     "before and after it (of the project file's JSON without <code>audit</code>, keys sorted, "
-                    "compact separators, UTF-8; scenes/FORMAT.md, “Audit trail”).</p>")
-        body.append(table(["#", "time (UTC)", "command", "vebuild", "before SHA-256", "after SHA-256"],
-                          [[i + 1, e["time"], " ".join(["vebuild", e["command"], *e["arguments"]]), e["vebuild"],
+                    "compact separators, UTF-8; scenes/FORMAT.md, “Audit trail”); the paths in a command are "
+                    "relative to the project's folder. When each ran is in the project file (<code>audit[].time"
+                    "</code>), not here: the time is the examiner's, and the same commands run again at another "
+                    "time give this report byte for byte.</p>")
+        body.append(table(["#", "command", "vebuild", "before SHA-256", "after SHA-256"],
+                          [[i + 1, " ".join(["vebuild", e["command"], *e["arguments"]]), e["vebuild"],
                             (e["before_sha256"] or "none")[:_HASH] + ("…" if e["before_sha256"] else ""),
-                            e["after_sha256"][:_HASH] + "…"] for i, e in enumerate(trail)], numeric={0, 1, 4, 5},
+                            e["after_sha256"][:_HASH] + "…"] for i, e in enumerate(trail)], numeric={0, 3, 4},
                           wide=True))
         breaks = verify_audit(data)
         body.append("<p class='warn'>" + "<br>".join(esc(b.message) for b in breaks) + "</p>" if breaks else
