@@ -1,19 +1,27 @@
-"""The same bytes on any machine: the pipeline's outputs do not depend on the number of threads.
+"""The same bytes for two examiners: the pipeline's outputs do not depend on the machine's threads,
+the project's folder, the working directory or the time.
 
 A second examiner re-running a project on another machine must get the same files. A threaded
 BLAS adds its partial sums in an order that depends on its thread count, so each run here is a
 fresh process with its own ``OPENBLAS_NUM_THREADS`` / ``OMP_NUM_THREADS`` (and llvmpipe's
 ``LP_NUM_THREADS``), set before numpy loads, as on a machine with that many cores. The pipeline
 is the example room with a coarse texture and small renders: calibrate, solve --recalibrate,
-texture, render, export (.glb and .obj), analyses and the report (HTML and its images). Both
-runs give the same words from inside their folders and the same ``SOURCE_DATE_EPOCH``, so that
-the project's audit trail, which records the commands and their time, is the same too.
+texture, render, export (.glb and .obj), an analysis's figures and the report (HTML and its images).
+
+The two copies lie in folders of other names and depths; each run works from a folder outside its
+copy and names the project and the outputs by absolute and by relative paths, the two runs mixing
+them the other way round; one run sets ``SOURCE_DATE_EPOCH`` (to another value at each step), the
+other does not, so it records the clock. Every file is the same, byte for byte, but the project
+file's audit times (``audit[].time``), which say when each examiner ran each command and so must
+differ; with them set aside the project file is the same bytes too.
 """
 
 from __future__ import annotations
 
+import datetime
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -26,35 +34,56 @@ ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "scenes" / "room"
 
 PIPELINE = """
+import json
 import os
 import sys
 from pathlib import Path
 from vebuild.cli import main
 
-out = Path(sys.argv[1])
-os.chdir(out)  # the same words in both runs: the audit trail records them
-p = "room.vebuild.json"
-(out / "renders").mkdir()
-(out / "export").mkdir()
+folder, cwd, absolute_first = Path(sys.argv[1]), Path(sys.argv[2]), sys.argv[3] == "1"
+epochs = json.loads(sys.argv[4])  # per step: SOURCE_DATE_EPOCH, or none for the clock
+os.chdir(cwd)
+k = 0
+
+def name(rel):  # absolute and relative paths in turn, starting with the one asked for
+    global k
+    k += 1
+    return str(folder / rel) if (k % 2 == 1) == absolute_first else os.path.relpath(folder / rel, cwd)
+
+(folder / "renders").mkdir()
+(folder / "export").mkdir()
+(folder / "figures").mkdir()
 steps = [
-    ["calibrate", p, "--quiet"],
-    ["solve", p, "--recalibrate"],
-    ["texture", p, "--density", "50", "--quiet"],
-    ["render", p, "--view", "doorway", "--size", "320x180", "--out", "renders/doorway.png"],
-    ["render", p, "--view", "overview", "--lighting", "daylight", "--size", "320x180",
-     "--out", "renders/overview-daylight.png"],
-    ["render", p, "--photo", "p1", "--validate", "--size", "320x240", "--out", "renders/p1.png"],
-    ["export", p, "--out", "export/room.glb"],
-    ["export", p, "--out", "export/room.obj"],
-    ["report", p, "--out", "report", "--no-pdf", "--quiet"],
+    ["calibrate", name("room.vebuild.json"), "--quiet"],
+    ["solve", name("room.vebuild.json"), "--recalibrate"],
+    ["texture", name("room.vebuild.json"), "--density", "50", "--quiet"],
+    ["render", name("room.vebuild.json"), "--view", "doorway", "--size", "320x180", "--out",
+     name("renders/doorway.png")],
+    ["render", name("room.vebuild.json"), "--view", "overview", "--lighting", "daylight", "--size", "320x180",
+     "--out=" + name("renders/overview-daylight.png")],
+    ["render", name("room.vebuild.json"), "--photo", "p1", "--validate", "--size", "320x240", "--out",
+     name("renders/p1.png")],
+    ["export", name("room.vebuild.json"), "--out", name("export/room.glb")],
+    ["export", name("room.vebuild.json"), "--out", name("export/room.obj")],
+    ["analyse", name("room.vebuild.json"), "distance", "cabinet:v4", "table.top:v6", "--json",
+     name("figures/distance.json")],
+    ["report", name("room.vebuild.json"), "--out", name("report"), "--no-pdf", "--quiet"],
 ]
-for argv in steps:
+for argv, epoch in zip(steps, epochs, strict=True):
+    os.environ.pop("SOURCE_DATE_EPOCH", None)
+    if epoch is not None:
+        os.environ["SOURCE_DATE_EPOCH"] = str(epoch)
     if main(argv) != 0:
         sys.exit(f"vebuild {' '.join(argv)} failed")
 """
+STEPS = 10
+#: The first run's SOURCE_DATE_EPOCH at each step: the times its audit trail must record.
+EPOCHS = [1_700_000_000 + 86_400 * i for i in range(STEPS)]
+#: The audit times, set aside where the project files are compared (they are the examiners').
+AUDIT_TIME = re.compile(rb'("time": )"[^"]*"')
 
 
-def _run(folder: Path, threads: int) -> None:
+def _run(folder: Path, cwd: Path, threads: int, absolute_first: bool, epochs: list[int | None]) -> None:
     shutil.copytree(EXAMPLE, folder)
     project = folder / "room.vebuild.json"
     data = json.loads(project.read_text())
@@ -63,29 +92,56 @@ def _run(folder: Path, threads: int) -> None:
         {"name": "check distances", "command": ["checks"]},
     ]
     project.write_text(json.dumps(data, indent=1))
+    cwd.mkdir(parents=True, exist_ok=True)
     env = dict(os.environ, OPENBLAS_NUM_THREADS=str(threads), OMP_NUM_THREADS=str(threads),
-               LP_NUM_THREADS=str(threads), SOURCE_DATE_EPOCH="1700000000",  # the audit trail's time
-               PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))
-    proc = subprocess.run([sys.executable, "-c", PIPELINE, str(folder)], env=env, capture_output=True, text=True,
-                          timeout=600)
+               LP_NUM_THREADS=str(threads), PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))
+    env.pop("SOURCE_DATE_EPOCH", None)
+    proc = subprocess.run([sys.executable, "-c", PIPELINE, str(folder), str(cwd), "1" if absolute_first else "0",
+                           json.dumps(epochs)], env=env, capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr[-3000:]
 
 
 def _files(folder: Path) -> dict[str, bytes]:
-    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+    return {p.relative_to(folder).as_posix(): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
 
 
-def test_the_pipeline_gives_the_same_bytes_with_one_or_two_threads(tmp_path: Path) -> None:
-    _run(tmp_path / "one", 1)
-    _run(tmp_path / "two", 2)
-    one, two = _files(tmp_path / "one"), _files(tmp_path / "two")
-    assert one.keys() == two.keys()
-    made = [k for k in one if not (EXAMPLE / k).is_file()] + ["room.vebuild.json"]
-    for kind in ("textures/", "renders/", "export/room.glb", "export/room.obj", "report/report.html",
-                 "report/images/"):
+def _utc(epoch: float) -> str:
+    return datetime.datetime.fromtimestamp(epoch, datetime.UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
+
+
+def test_two_examiners_get_the_same_bytes(tmp_path: Path) -> None:
+    one = tmp_path / "examiner one" / "cases" / "2024-117" / "room"
+    two = tmp_path / "b" / "copy"
+    _run(one, tmp_path, 1, True, list(EPOCHS))  # from above the copy, absolute paths first
+    start = _utc(datetime.datetime.now(datetime.UTC).timestamp())
+    _run(two, tmp_path / "elsewhere" / "work", 2, False, [None] * STEPS)  # beside it, relative first; the clock
+    end = _utc(datetime.datetime.now(datetime.UTC).timestamp())
+    a, b = _files(one), _files(two)
+    assert a.keys() == b.keys()
+    made = [k for k in a if not (EXAMPLE / k).is_file()] + ["room.vebuild.json"]
+    for kind in ("textures/", "renders/", "export/room.glb", "export/room.obj", "figures/distance.json",
+                 "report/report.html", "report/images/"):
         assert any(k.startswith(kind) for k in made), f"the pipeline wrote no {kind}"
-    differ = sorted(k for k in one if one[k] != two[k])
-    assert not differ, f"{len(differ)} of {len(one)} files differ between 1 and 2 threads: {differ}"
+    differ = sorted(k for k in a if a[k] != b[k] and k != "room.vebuild.json")
+    assert not differ, f"{len(differ)} of {len(a)} files differ between the two examiners: {differ}"
+
+    # The project file: the same bytes but the audit's times, which are each examiner's own.
+    assert AUDIT_TIME.sub(rb"\1", a["room.vebuild.json"]) == AUDIT_TIME.sub(rb"\1", b["room.vebuild.json"])
+    trail_a, trail_b = json.loads(a["room.vebuild.json"])["audit"], json.loads(b["room.vebuild.json"])["audit"]
+    assert [e["command"] for e in trail_a] == ["calibrate", "solve", "texture"]
+    assert [e["arguments"] for e in trail_a] == [["room.vebuild.json", "--quiet"],
+                                                 ["room.vebuild.json", "--recalibrate"],
+                                                 ["room.vebuild.json", "--density", "50", "--quiet"]]
+    # SOURCE_DATE_EPOCH is the time recorded, step by step; without it, the clock.
+    assert [e["time"] for e in trail_a] == [_utc(t) for t in EPOCHS[:3]]
+    assert all(start <= e["time"] <= end for e in trail_b), [e["time"] for e in trail_b]
+
+    # Every output names the state it was made from by the same digest: the last audit entry's after_sha256.
+    digest = trail_a[-1]["after_sha256"]
+    assert trail_b[-1]["after_sha256"] == digest
+    assert json.loads(a["figures/distance.json"])["inputs_sha256"] == digest
+    assert digest.encode() in a["renders/doorway.png"] and digest.encode() in a["export/room.glb"]
+    assert digest.encode() in a["export/room.obj"] and digest.encode() in a["report/report.html"]
 
 
 def _blas_threads() -> list[int]:
