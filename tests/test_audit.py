@@ -87,6 +87,7 @@ def test_the_trail_after_calibrate_solve_texture_verifies(made) -> None:
     code, out, _ = run("check", str(folder / PROJECT))
     assert code == 0
     assert "audit trail: 3 command(s), the chain verified; the file is as `vebuild texture` wrote it" in out
+    assert f"inputs SHA-256: {trail[-1]['after_sha256']} (what outputs made from it now record)" in out
 
 
 def test_a_command_that_changes_nothing_adds_no_entry(room: Path) -> None:
@@ -221,3 +222,31 @@ def test_the_command_line_records_its_paths_relative(room: Path, tmp_path: Path,
     monkeypatch.chdir(elsewhere)
     assert run("mark", "../room/" + PROJECT, "Z", "--at", "2,2,0")[0] == 0
     assert read(room)["audit"][-1]["arguments"] == [PROJECT, "Z", "--at", "2,2,0"]
+
+
+def test_the_inputs_digest_moves_with_the_inputs_not_with_the_trail(room: Path) -> None:
+    """The digest every output embeds (FORMAT.md, "Inputs digest") is the documented recipe over
+    the document without its audit trail: the last entry's after_sha256. Another examiner's times
+    and words leave it as it is; a changed photo, mark, result or case detail moves it."""
+    from vebuild.project.provenance import inputs_sha256
+
+    doc = read(room)
+    digest = inputs_sha256(doc)
+    assert digest == examiner_sha256(doc) == doc["audit"][-1]["after_sha256"]
+    other = copy.deepcopy(doc)
+    for e in other["audit"]:
+        e["time"], e["arguments"] = "2001-01-01T00:00:00Z", ["/somewhere/else/" + PROJECT]
+    assert inputs_sha256(other) == digest
+
+    def changed(edit) -> str:
+        d = copy.deepcopy(doc)
+        edit(d)
+        return inputs_sha256(d)
+
+    def moved(d: dict) -> None:
+        d["photos"][1]["marker_observations"]["T1"][0] += 0.5
+
+    assert changed(lambda d: d["photos"][0].update(sha256="0" * 64)) != digest  # another photo's bytes
+    assert changed(moved) != digest
+    assert changed(lambda d: d["textures"]["pages"][0].update(atlas_sha256="0" * 64)) != digest
+    assert changed(lambda d: d.update(case={"examiner": "B. Other"})) != digest

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 from ..errors import ProjectError, VebuildError
 from ..project import Project
 from ..project import decode as dec
-from ..project.provenance import AuditProblem, Stale, stale, verify_audit
+from ..project.provenance import AuditProblem, Stale, inputs_sha256, stale, verify_audit
 
 if TYPE_CHECKING:
     from ..model.scene import Model
@@ -167,4 +167,6 @@ def project_status(project: Project) -> Status:
         lines.append(f"audit trail: {len(trail)} command(s), the chain verified; the file is as `vebuild "
                      f"{last['command']}` wrote it ({last['time']})")
     lines += [f"audit trail: {b.message}" for b in breaks]
+    # What every output made from the project as it is now names it by (FORMAT.md, "Inputs digest").
+    lines.append(f"inputs SHA-256: {inputs_sha256(data)} (what outputs made from it now record)")
     return Status(found, breaks, lines)

@@ -234,7 +234,10 @@ def write_html(project: Project, folder: str | os.PathLike[str], analyses: list[
     page = page.replace("{{CSP}}", CSP).replace("{{TITLE}}", _html_escape(title))
     page = page.replace("{{VERSION}}", _html_escape(__version__))
     files.append((folder / "index.html", page.encode("utf-8")))
+    from vebuild.project.provenance import inputs_sha256
+
     manifest = {"software": f"vebuild {__version__}", "project": project.path.name,
+                "inputs_sha256": inputs_sha256(project.data),  # FORMAT.md "Inputs digest"
                 "files": sorted(str(p.relative_to(folder).as_posix()) for p, _ in files)}
     files.append((folder / MANIFEST, (json.dumps(manifest, indent=2) + "\n").encode("utf-8")))
 
