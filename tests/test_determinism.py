@@ -6,7 +6,8 @@ BLAS adds its partial sums in an order that depends on its thread count, so each
 fresh process with its own ``OPENBLAS_NUM_THREADS`` / ``OMP_NUM_THREADS`` (and llvmpipe's
 ``LP_NUM_THREADS``), set before numpy loads, as on a machine with that many cores. The pipeline
 is the example room with a coarse texture and small renders: calibrate, solve --recalibrate,
-texture, render, export (.glb and .obj), an analysis's figures and the report (HTML and its images).
+texture, render, export (.glb, .obj and the HTML viewer), an analysis's figures and the report
+(HTML and its images).
 
 The two copies lie in folders of other names and depths; each run works from a folder outside its
 copy and names the project and the outputs by absolute and by relative paths, the two runs mixing
@@ -65,6 +66,7 @@ steps = [
      name("renders/p1.png")],
     ["export", name("room.vebuild.json"), "--out", name("export/room.glb")],
     ["export", name("room.vebuild.json"), "--out", name("export/room.obj")],
+    ["export", name("room.vebuild.json"), "--html", name("viewer")],
     ["analyse", name("room.vebuild.json"), "distance", "cabinet:v4", "table.top:v6", "--json",
      name("figures/distance.json")],
     ["report", name("room.vebuild.json"), "--out", name("report"), "--no-pdf", "--quiet"],
@@ -76,7 +78,7 @@ for argv, epoch in zip(steps, epochs, strict=True):
     if main(argv) != 0:
         sys.exit(f"vebuild {' '.join(argv)} failed")
 """
-STEPS = 10
+STEPS = 11
 #: The first run's SOURCE_DATE_EPOCH at each step: the times its audit trail must record.
 EPOCHS = [1_700_000_000 + 86_400 * i for i in range(STEPS)]
 #: The audit times, set aside where the project files are compared (they are the examiners').
@@ -119,8 +121,8 @@ def test_two_examiners_get_the_same_bytes(tmp_path: Path) -> None:
     a, b = _files(one), _files(two)
     assert a.keys() == b.keys()
     made = [k for k in a if not (EXAMPLE / k).is_file()] + ["room.vebuild.json"]
-    for kind in ("textures/", "renders/", "export/room.glb", "export/room.obj", "figures/distance.json",
-                 "report/report.html", "report/images/"):
+    for kind in ("textures/", "renders/", "export/room.glb", "export/room.obj", "viewer/index.html",
+                 "figures/distance.json", "report/report.html", "report/images/"):
         assert any(k.startswith(kind) for k in made), f"the pipeline wrote no {kind}"
     differ = sorted(k for k in a if a[k] != b[k] and k != "room.vebuild.json")
     assert not differ, f"{len(differ)} of {len(a)} files differ between the two examiners: {differ}"
@@ -140,6 +142,7 @@ def test_two_examiners_get_the_same_bytes(tmp_path: Path) -> None:
     digest = trail_a[-1]["after_sha256"]
     assert trail_b[-1]["after_sha256"] == digest
     assert json.loads(a["figures/distance.json"])["inputs_sha256"] == digest
+    assert json.loads(a["viewer/vebuild-html.json"])["inputs_sha256"] == digest
     assert digest.encode() in a["renders/doorway.png"] and digest.encode() in a["export/room.glb"]
     assert digest.encode() in a["export/room.obj"] and digest.encode() in a["report/report.html"]
 
