@@ -250,3 +250,17 @@ def test_the_inputs_digest_moves_with_the_inputs_not_with_the_trail(room: Path) 
     assert changed(moved) != digest
     assert changed(lambda d: d["textures"]["pages"][0].update(atlas_sha256="0" * 64)) != digest
     assert changed(lambda d: d.update(case={"examiner": "B. Other"})) != digest
+
+
+def test_the_parsers_path_arguments_are_recorded_relative(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """`vebuild new` from above the folder: the project and the photos (paths to the parser) are
+    recorded relative to the project's folder."""
+    case = tmp_path / "case 7"
+    case.mkdir()
+    photo = sorted((ROOM / "photos").iterdir())[0]
+    shutil.copy(photo, case / photo.name)
+    monkeypatch.chdir(tmp_path)
+    code, _, err = run("new", f"case 7/{PROJECT}", str(case / photo.name))
+    assert code == 0, err
+    (entry,) = read(case / PROJECT)["audit"]
+    assert entry["command"] == "new" and entry["arguments"] == [PROJECT, photo.name]
