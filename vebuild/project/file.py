@@ -23,6 +23,7 @@ from ..calibration.priors import PRINCIPAL_POINT_SIGMA_REL
 from ..errors import ProjectError
 from ..lighting import AS_PHOTOGRAPHED
 from .images import MAX_IMAGE_PIXELS, decoded_size, open_image, read_exif, sha256_bytes, sha256_file
+from .pixels import rgb_image
 from .schema_match import schema
 from .validation import (
     FORMAT,
@@ -359,7 +360,8 @@ def decode_texture_page(project: Project, k: int, data: bytes) -> Any:
                                f"to be {page['width']}×{page['height']} texels as recorded, found "
                                f"{im.size[0]}×{im.size[1]}")
         try:
-            return np.asarray(im.convert("RGB"))
+            im.load()
+            return np.asarray(rgb_image(im, project.path, where, repr(page["atlas"]), noun="atlas page"))
         except (OSError, ValueError, SyntaxError) as e:
             raise ProjectError(project.path, where, f"the atlas page {page['atlas']!r} cannot be decoded: it is "
                                f"damaged or truncated ({e})") from None

@@ -7,8 +7,9 @@ and the field, before its pixels are decoded where it is too large.
 A photo's pixels are decoded for every consumer (texture extraction, the modelling screen, the
 viewer, photo-camera renders) by one function, :func:`decode_photo`: turned as the camera meant
 (EXIF orientation 1–8, so that the photo's ``width``, ``height`` and every mark are in the displayed
-orientation), and a camera RAW file (DNG, NEF, CR2, ARW, ...) developed by LibRaw (rawpy). The
-photo's SHA-256 is always its file's bytes: vebuild never alters a photo.
+orientation), its pixel format turned into 8-bit RGB or refused by name (:mod:`.pixels`), and a
+camera RAW file (DNG, NEF, CR2, ARW, ...) developed by LibRaw (rawpy). The photo's SHA-256 is always
+its file's bytes: vebuild never alters a photo.
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ from PIL import Image, UnidentifiedImageError
 from ..errors import ProjectError
 from ..resources import cache_dir
 from .atomic import write_text
+from .pixels import check_pixel_format, rgb_image
 
 #: The most pixels an image vebuild reads may have: 120 megapixels, more than the largest camera
 #: sensor in use (100 MP) and below Pillow's decompression-bomb guard (179 MP). Larger images are
@@ -137,13 +139,15 @@ def is_raw(path: str | os.PathLike[str]) -> bool:
 def image_size(image: Path, file: Any, where: str) -> tuple[int, int]:
     """A photo's size as displayed: (width, height) with its EXIF orientation applied, a RAW file's
     as LibRaw develops it. The image is decoded whole (a RAW file is unpacked), so that a damaged
-    or truncated file is refused now rather than when a later stage reads its pixels."""
+    or truncated file, or one whose pixel format vebuild refuses (:mod:`.pixels`), is refused now
+    rather than when a later stage reads its pixels."""
     if not image.is_file():
         raise ProjectError(file, where, f"photo file not found: {image}")
     if is_raw(image):
         with _open_raw(image, file, where, str(image)) as raw:
             return _raw_size(raw)
     with open_image(image, file, where, decode=True) as img:
+        check_pixel_format(img, file, where, str(image))
         w, h = img.size
         return (h, w) if photo_orientation(img, file, where, str(image)) in _QUARTER_TURNS else (w, h)
 
@@ -153,6 +157,9 @@ def image_size(image: Path, file: Any, where: str) -> tuple[int, int]:
 #: whole, and a command need not decode them again to say so (a house's hundred 24 MP photos were
 #: most of every command's start).
 DECODED_FOLDER = "photos-decoded"
+#: The edition of the rules by which a decoded photo is checked (:mod:`.pixels`), part of the
+#: decoder a record names: a photo recorded whole under older rules is decoded and checked again.
+PIXEL_RULES = 2
 
 
 def decoded_size(image: Path, sha256: str, file: Any, where: str) -> tuple[int, int]:
@@ -178,7 +185,7 @@ def _decoder(image: Path) -> str:
         import importlib.metadata  # only here: it costs a command 20 ms of start-up
 
         return f"LibRaw (rawpy {importlib.metadata.version('rawpy')})"
-    return f"Pillow {PIL.__version__}"
+    return f"Pillow {PIL.__version__}, pixel formats {PIXEL_RULES}"
 
 
 def photo_orientation(img: Image.Image, file: Any, where: str, shown: str) -> int:
@@ -212,13 +219,16 @@ def decode_photo(data: bytes, name: str | os.PathLike[str], file: Any, where: st
     file, where : the project file and JSON path named by errors.
     label : how the photo is named in messages (default ``name``).
 
-    A JPEG, PNG or TIFF is decoded by Pillow and turned by its EXIF orientation while it is copied,
+    A JPEG, PNG or TIFF is decoded by Pillow, its pixel format turned into 8-bit RGB
+    (:func:`.pixels.rgb_image`: 16-bit grey scaled, alpha dropped where every pixel is opaque,
+    CMYK, YCbCr, L*a*b* and HSV converted) and turned by its EXIF orientation while it is copied,
     band of rows by band, into the one array returned (no second copy of the whole photo); a RAW
     file is developed by LibRaw (camera white balance, 8 bits, turned by its orientation).
 
     Raises
     ------
-    ProjectError naming ``file`` and ``where``: not an image, damaged, truncated, too large, an
+    ProjectError naming ``file`` and ``where``: not an image, damaged, truncated, too large, a
+    pixel format vebuild refuses (floating point, 32-bit integers, any pixel not opaque), an
     orientation outside 1–8, or a RAW file LibRaw cannot develop.
     """
     shown = label or str(name)
@@ -229,9 +239,8 @@ def decode_photo(data: bytes, name: str | os.PathLike[str], file: Any, where: st
     with open_image(io.BytesIO(data), file, where, decode=False, max_pixels=limit, label=shown) as img:
         orientation = photo_orientation(img, file, where, shown)
         try:
-            if img.mode != "RGB":
-                img = img.convert("RGB")
             img.load()
+            img = rgb_image(img, file, where, shown)
             w, h = img.size
             shape = (w, h, 3) if orientation in _QUARTER_TURNS else (h, w, 3)
             out = np.empty(shape, np.uint8)

@@ -1,0 +1,80 @@
+"""Every pixel format Pillow hands back is decoded to the right values or refused by name.
+
+Each image is built with known values (tests/pixel_formats.py); the decoded RGB is compared with
+the value computed from the published formula for its format, within the rounding its decoding
+allows (the tolerances are named there). A refused image is refused by the one decoder of photos
+and by the check that `vebuild check` and `vebuild new` run, with the same message: the file, the
+field, the photo and its Pillow mode.
+"""
+
+from __future__ import annotations
+
+import io
+
+import numpy as np
+import pytest
+from PIL import Image
+from pixel_formats import ACCEPTED, REFUSED, Maker, png16
+
+from vebuild.errors import ProjectError
+from vebuild.project.images import decode_photo, image_size
+from vebuild.project.pixels import check_pixel_format, rgb_image
+
+FILE, WHERE = "room.vebuild.json", "$.photos[0].file"
+H, W = 6, 9
+
+
+def _name(make: Maker) -> str:
+    return make(np.random.default_rng(0), 2, 2).name
+
+
+def _decoded(sample, tmp_path) -> np.ndarray:
+    if sample.data is None:
+        return np.asarray(rgb_image(sample.image, FILE, WHERE, "photo.x"))
+    assert Image.open(io.BytesIO(sample.data)).mode == sample.mode  # the format this case is about
+    path = tmp_path / "photo.img"
+    path.write_bytes(sample.data)
+    assert image_size(path, FILE, WHERE) == (W, H)  # what `vebuild check` decodes accepts it too
+    return decode_photo(sample.data, path.name, FILE, WHERE)
+
+
+@pytest.mark.parametrize("make", ACCEPTED, ids=_name)
+def test_each_accepted_pixel_format_decodes_to_its_values(make: Maker, tmp_path) -> None:
+    sample = make(np.random.default_rng(7), H, W)
+    got = _decoded(sample, tmp_path)
+    assert got.dtype == np.uint8 and got.shape == (H, W, 3)
+    err = np.abs(got.astype(np.float64) - sample.expected).max()
+    assert err <= sample.tolerance, (sample.name, err)
+
+
+@pytest.mark.parametrize("make", REFUSED, ids=_name)
+def test_each_refused_pixel_format_is_refused_by_name(make: Maker, tmp_path) -> None:
+    sample = make(np.random.default_rng(7), H, W)
+    assert sample.data is not None and Image.open(io.BytesIO(sample.data)).mode == sample.mode
+    path = tmp_path / "photo.img"
+    path.write_bytes(sample.data)
+    with pytest.raises(ProjectError) as decoding:
+        decode_photo(sample.data, path.name, FILE, WHERE, label=str(path))
+    with pytest.raises(ProjectError) as checking:
+        image_size(path, FILE, WHERE)
+    for message in (str(decoding.value), str(checking.value)):
+        assert message.startswith(f"{FILE}: {WHERE}: "), message
+        for word in (str(path), f"Pillow mode {sample.mode!r}", sample.refusal, "expected"):
+            assert word.lower() in message.lower(), (word, message)
+    assert str(decoding.value) == str(checking.value)
+
+
+def test_a_16_bit_grey_photo_keeps_its_brightness() -> None:
+    """The case that was decoded all white: a 16-bit grey PNG whose mean is 137 of 255."""
+    ramp = np.linspace(0.0, 2 * 137 / 255, 64 * 48).clip(0, 1).reshape(48, 64)
+    levels = np.round(ramp * 65535).astype(np.uint16)
+    got = decode_photo(png16(levels, 0), "grey16.png", FILE, WHERE)
+    assert abs(got.mean() - (levels / 257.0).mean()) < 0.01  # rounding to levels averages out
+    assert got.min() == 0 and got.max() == 255
+
+
+def test_a_mode_vebuild_does_not_know_is_refused_by_name() -> None:
+    img = Image.new("L", (4, 3))
+    img._mode = "BGR;24"  # a mode Pillow once had, as a later Pillow might add another
+    with pytest.raises(ProjectError, match=r"photo\.x has pixels of Pillow mode 'BGR;24'.*expected"):
+        check_pixel_format(img, FILE, WHERE, "photo.x")
