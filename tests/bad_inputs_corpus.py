@@ -22,6 +22,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+from pixel_formats import REFUSED as REFUSED_PIXELS
+
 # -- the commands --------------------------------------------------------------------------------
 
 CMDS: dict[str, list[str]] = {
@@ -104,6 +107,7 @@ class Case:
 
 
 CASES: list[Case] = []
+_RNG = np.random.default_rng(0)
 
 
 def case(name: str, mutate: Callable[[Ctx], None], commands: list[Any], expect: list[str], **kw: Any) -> None:
@@ -660,6 +664,23 @@ case("photo-is-a-folder", _photo_is_folder, ["check", "calibrate"], [P, "$.photo
 case("photo-decompression-bomb", _photo_png_bomb, ["check", "texture", "render-validate"], [P, "$.photos[0]"],
      sub=True)
 
+
+# A photo whose pixel format vebuild refuses (tests/pixel_formats.py: floating point, 32-bit or signed
+# integers, pixels not opaque), at the photo's own size, so that the pixels are the only fault.
+def _photo_pixels(make: Callable[..., Any]) -> Callable[[Ctx], None]:
+    def mutate(ctx: Ctx) -> None:
+        entry = ctx.doc["photos"][0]
+        sample = make(np.random.default_rng(0), entry["height"], entry["width"])
+        ctx.photo(0).write_bytes(sample.data)
+        ctx.rehash(0)
+    return mutate
+
+
+for _make in REFUSED_PIXELS:
+    case(f"photo-pixels-{_make.__name__.replace('_', '-')}", _photo_pixels(_make),
+         ["check", "calibrate", "texture", "render-validate"],
+         [P, "$.photos[0].file", "p1.jpg", f"Pillow mode {_make(_RNG, 1, 1).mode!r}"])
+
 # -- 7. the file itself ---------------------------------------------------------------------------------
 
 case("duplicate-keys", raw(replace_once('"origin_marker": "O"', '"origin_marker": "O",\n  "origin_marker": "X5"')),
@@ -1015,6 +1036,11 @@ def _outside_photo(ctx: Ctx) -> None:
     shutil.copy(ctx.folder / "photos" / "p1.jpg", ctx.out / "elsewhere.jpg")
 
 
+def _float_photo(ctx: Ctx) -> None:
+    from pixel_formats import float_tiff
+    (ctx.folder / "photos" / "float.tif").write_bytes(float_tiff(_RNG, 48, 64).data or b"")
+
+
 def _notes(ctx: Ctx) -> None:
     (ctx.folder / "notes.txt").write_text("not an image\n")
 
@@ -1022,6 +1048,8 @@ def _notes(ctx: Ctx) -> None:
 case("new-photo-outside-folder", _outside_photo, [["new", "{D}/n.vebuild.json", "{OUT}/elsewhere.jpg"]],
      ["elsewhere.jpg"], any_of=["outside", "inside"])
 case("new-photo-not-image", _notes, [["new", "{D}/n.vebuild.json", "{D}/notes.txt"]], ["notes.txt"])
+case("new-photo-float-pixels", _float_photo, [["new", "{D}/n.vebuild.json", "{D}/photos/float.tif"]],
+     ["float.tif", "Pillow mode 'F'"])
 case("new-photo-missing", nothing, [["new", "{D}/n.vebuild.json", "{D}/photos/p9.jpg"]], ["p9.jpg"])
 case("new-photo-is-folder", nothing, [["new", "{D}/n.vebuild.json", "{D}/photos"]], ["photos"])
 case("new-over-existing-project", nothing, [["new", P, "{D}/photos/p1.jpg"]], [P, "--force"])

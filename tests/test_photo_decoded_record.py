@@ -87,3 +87,29 @@ def test_a_damaged_photo_is_refused_though_its_hash_was_updated(room):
     room.write_text(json.dumps(data))
     with pytest.raises(ProjectError, match=photo.name):
         load_project(room)
+
+
+def test_a_photo_recorded_under_older_pixel_rules_is_checked_again(room):
+    """A record names the edition of the pixel-format rules it was made under: a float photo that
+    an earlier vebuild decoded whole (and recorded so, as Pillow's alone) is refused now."""
+    import io
+
+    import numpy as np
+    import PIL
+    import tifffile
+
+    data = json.loads(room.read_text())
+    entry = data["photos"][0]
+    photo = room.parent / entry["file"]
+    buf = io.BytesIO()
+    tifffile.imwrite(buf, np.full((entry["height"], entry["width"]), 0.5, np.float32))
+    photo.write_bytes(buf.getvalue())
+    entry["sha256"] = images.sha256_file(photo)
+    room.write_text(json.dumps(data))
+    old = {"width": entry["width"], "height": entry["height"], "decoder": f"Pillow {PIL.__version__}"}
+    record = room.parent.parent / "cache" / images.DECODED_FOLDER / f"{entry['sha256']}.json"
+    record.parent.mkdir(parents=True)
+    record.write_text(json.dumps(old))
+    with pytest.raises(ProjectError, match=rf"\$\.photos\[0\]\.file: the photo .*{photo.name} has pixels of .*'F'"):
+        load_project(room)
+    assert json.loads(record.read_text()) == old  # a refused photo is not recorded
