@@ -2,6 +2,9 @@
 the model, cameras, presets, analyses and texture pages from it, as the commands do) either works
 or raises a VebuildError with a message, never any other exception.
 
+Photos too: an image of any pixel format Pillow hands back (tests/pixel_formats.py, and random bytes
+of every mode saved in every format that writes it) decodes to its values or is refused by name.
+
 Documents are the example project (scenes/room) mutated in a few random places — a sub-value
 replaced by random JSON (huge whole numbers, deep nesting, 1e308, -0.0, 5e-324, lone surrogates,
 wrong types), a key removed, a name swapped for another name of the project — and wholly random
@@ -11,6 +14,7 @@ JSON. The documents are written as text, so that what JSON's own parser meets is
 from __future__ import annotations
 
 import copy
+import io
 import json
 import os
 import tempfile
@@ -22,11 +26,15 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from PIL import Image
+from pixel_formats import ACCEPTED, REFUSED
 
 from vebuild.actions.check import check_project
 from vebuild.errors import ProjectError, VebuildError
 from vebuild.project import load_project
 from vebuild.project.decode import cameras_from_calibration, load_model
+from vebuild.project.images import decode_photo, image_size
+from vebuild.project.pixels import rgb_image
 from vebuild.project.records import camera_record
 
 ROOM = Path(__file__).resolve().parents[1] / "scenes" / "room" / "room.vebuild.json"
@@ -236,3 +244,64 @@ def test_the_unmutated_bases_load() -> None:
         FILE.write_text(dumps(doc), encoding="utf-8")
         check_project(load_project(FILE, verify_photos=False))
     assert _load_and_decode(dumps(BASES[1])) == "loaded"
+
+
+# -- photos of every pixel format ---------------------------------------------------------------------
+
+PHOTO = FOLDER / "photo.img"
+WHERE = "$.photos[0].file"
+#: Formats Pillow writes, tried for every mode (those that cannot write a mode are skipped).
+WRITERS = ["PNG", "TIFF", "GIF", "BMP", "PPM", "WEBP", "JPEG", "TGA"]
+
+
+def _decode_or_refuse(data: bytes | None, img: Image.Image | None) -> np.ndarray | None:
+    """The decoded RGB, or None where refused by a ProjectError naming the file, the field and the mode;
+    a file's check (`vebuild check`'s decoding) refuses exactly what its decoding refuses."""
+    mode = (Image.open(io.BytesIO(data)) if data is not None else img).mode  # type: ignore[union-attr]
+    try:
+        if data is None:
+            got = np.asarray(rgb_image(img, FILE, WHERE, "photo.img"))  # type: ignore[arg-type]
+        else:
+            PHOTO.write_bytes(data)
+            got = decode_photo(data, PHOTO.name, FILE, WHERE)
+    except ProjectError as e:
+        assert str(e).startswith(f"{FILE}: {WHERE}: ") and f"Pillow mode {mode!r}" in str(e), e
+        if data is not None:
+            with pytest.raises(ProjectError):
+                image_size(PHOTO, FILE, WHERE)
+        _count(f"photo refused ({mode})")
+        return None
+    if data is not None:
+        assert image_size(PHOTO, FILE, WHERE) == (got.shape[1], got.shape[0])
+    assert got.dtype == np.uint8 and got.ndim == 3 and got.shape[2] == 3
+    _count(f"photo decoded ({mode})")
+    return got
+
+
+@settings(FUZZ, max_examples=EXAMPLES // 4)
+@given(st.sampled_from(ACCEPTED + REFUSED), st.integers(0, 2**32 - 1), st.integers(1, 24), st.integers(1, 24))
+def test_every_pixel_format_decodes_to_its_values_or_is_refused(make: Any, seed: int, h: int, w: int) -> None:
+    sample = make(np.random.default_rng(seed), h, w)
+    got = _decode_or_refuse(sample.data, sample.image)
+    if sample.expected is None:
+        assert got is None, f"{sample.name} decoded, expected refused"
+    else:
+        assert got is not None, f"{sample.name} refused, expected decoded"
+        assert np.abs(got - sample.expected).max() <= sample.tolerance, sample.name
+
+
+@settings(FUZZ, max_examples=EXAMPLES // 4)
+@given(st.sampled_from(sorted(Image.MODES)), st.sampled_from(WRITERS + [None]), st.integers(1, 16),
+       st.integers(1, 16), st.binary(min_size=16 * 16 * 4, max_size=16 * 16 * 4))
+def test_random_pixels_of_any_mode_decode_or_are_refused(mode: str, fmt: str | None, h: int, w: int,
+                                                         noise: bytes) -> None:
+    img = Image.frombytes(mode, (w, h), noise)  # F: NaN and infinities too, as a damaged file may hold
+    if fmt is None:
+        _decode_or_refuse(None, img)
+        return
+    buf = io.BytesIO()
+    try:
+        img.save(buf, fmt)
+    except (OSError, ValueError, KeyError, TypeError):
+        return  # Pillow does not write this mode in this format
+    _decode_or_refuse(buf.getvalue(), None)
