@@ -67,8 +67,9 @@ def _grey(v: NDArray) -> NDArray[np.float64]:
     return np.repeat(v.astype(np.float64)[..., None], 3, axis=2)
 
 
-def png16(a: NDArray[np.uint16], colour_type: int) -> bytes:
-    """A 16-bit PNG written here (Pillow writes 16-bit grey but not 16-bit RGB): grey (0) or RGB (2)."""
+def png16(a: NDArray[np.uint16], colour_type: int, key: tuple[int, ...] | None = None) -> bytes:
+    """A 16-bit PNG written here (Pillow writes 16-bit grey but not 16-bit RGB): grey (0) or RGB (2),
+    with the transparent colour ``key`` (a tRNS chunk) where given."""
     h, w = a.shape[:2]
     rows = b"".join(b"\x00" + a[y].astype(">u2").tobytes() for y in range(h))
 
@@ -76,6 +77,7 @@ def png16(a: NDArray[np.uint16], colour_type: int) -> bytes:
         return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body) & 0xFFFFFFFF)
 
     return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 16, colour_type, 0, 0, 0))
+            + (chunk(b"tRNS", struct.pack(f">{len(key)}H", *key)) if key else b"")
             + chunk(b"IDAT", zlib.compress(rows)) + chunk(b"IEND", b""))
 
 
@@ -168,6 +170,14 @@ def rgb16_tiff(rng: np.random.Generator, h: int, w: int) -> Sample:
     return Sample("16-bit RGB (TIFF)", "RGB", _tiff(a, photometric="rgb"), a * 255.0 / 65535, HIGH_BYTE)
 
 
+def rgb16_png_key_unused(rng: np.random.Generator, h: int, w: int) -> Sample:
+    """A 16-bit RGB PNG with a transparent colour that no pixel has, not even in its high bytes."""
+    a = _u16(rng, h, w, 3)
+    a[..., 0] |= 0x8000  # every red high byte ≥ 128; the key's red is 0x12xx
+    return Sample("16-bit RGB with an unused transparent colour (PNG)", "RGB", png16(a, 2, (0x1234, 7, 9)),
+                  a * 255.0 / 65535, HIGH_BYTE)
+
+
 def rgba_opaque(rng: np.random.Generator, h: int, w: int) -> Sample:
     a = _u8(rng, h, w, 3)
     rgba = np.concatenate([a, np.full((h, w, 1), 255, np.uint8)], -1)
@@ -178,6 +188,15 @@ def cmyk_tiff(rng: np.random.Generator, h: int, w: int) -> Sample:
     a = _u8(rng, h, w, 4).astype(np.float64)
     rgb = (255 - a[..., :3]) * (255 - a[..., 3:]) / 255
     return Sample("CMYK (TIFF)", "CMYK", saved(Image.fromarray(a.astype(np.uint8), "CMYK"), "TIFF"), rgb, ROUNDED)
+
+
+def cmyk_jpeg(rng: np.random.Generator, h: int, w: int) -> Sample:
+    """A CMYK JPEG (stored inverted, with Adobe's marker, as Photoshop writes it) of one colour, which
+    JPEG at quality 100 keeps exactly."""
+    c = _u8(rng, 4).astype(np.float64)
+    rgb = np.broadcast_to((255 - c[:3]) * (255 - c[3]) / 255, (h, w, 3))
+    data = saved(Image.new("CMYK", (w, h), tuple(int(v) for v in c)), "JPEG", quality=100)
+    return Sample("CMYK (JPEG, Adobe)", "CMYK", data, rgb, ROUNDED)
 
 
 def ycbcr_tiff(rng: np.random.Generator, h: int, w: int) -> Sample:
@@ -301,9 +320,36 @@ def palette_transparent_index(rng: np.random.Generator, h: int, w: int) -> Sampl
     return Sample("P with a transparent colour (PNG)", "P", data, None, refusal="1 of its")
 
 
-ACCEPTED: list[Maker] = [one_bit, grey_l, grey_la_opaque, palette_p, palette_pa_opaque, grey16_png,
-                         grey16_tiff_big_endian, grey16_pgm, grey12_pgm, rgb8, rgb16_png, rgb16_tiff, rgba_opaque,
-                         cmyk_tiff, ycbcr_tiff, lab_tiff, hsv_in_memory, rgbx_in_memory, la_premultiplied_opaque,
-                         rgba_premultiplied_opaque, animated_gif, animated_png]
-REFUSED: list[Maker] = [float_tiff, int32_tiff, int16_signed_tiff, rgba_transparent, la_translucent, pa_translucent,
-                        palette_transparent_index]
+def grey16_key_used(rng: np.random.Generator, h: int, w: int) -> Sample:
+    a = _u16(rng, h, w) | 1  # odd values only; the key is even, and used once
+    a[-1, -1] = 1000
+    return Sample("16-bit grey with a transparent colour (PNG)", "I;16", png16(a, 0, (1000,)), None,
+                  refusal="1 of its")
+
+
+def rgb16_key_maybe_used(rng: np.random.Generator, h: int, w: int) -> Sample:
+    """A 16-bit RGB PNG with a transparent colour: Pillow keeps only the high bytes, so a pixel whose
+    high bytes are the key's may be transparent (here one is) and the photo is refused."""
+    a = _u16(rng, h, w, 3)
+    a[..., 0] |= 0x8000
+    a[-1, -1] = (0x1234, 7, 9)
+    return Sample("16-bit RGB with a transparent colour (PNG)", "RGB", png16(a, 2, (0x1234, 7, 9)), None,
+                  refusal="1 of its")
+
+
+def rgb_key_used(rng: np.random.Generator, h: int, w: int) -> Sample:
+    a = _u8(rng, h, w, 3)
+    a[..., 0] |= 0x80
+    a[0, -1] = (1, 2, 3)
+    return Sample("RGB with a transparent colour (PNG)", "RGB",
+                  saved(Image.fromarray(a, "RGB"), "PNG", transparency=(1, 2, 3)), None, refusal="1 of its")
+
+
+ACCEPTED: list[Maker] = [
+    one_bit, grey_l, grey_la_opaque, palette_p, palette_pa_opaque, grey16_png, grey16_tiff_big_endian, grey16_pgm,
+    grey12_pgm, rgb8, rgb16_png, rgb16_tiff, rgb16_png_key_unused, rgba_opaque, cmyk_tiff, cmyk_jpeg, ycbcr_tiff,
+    lab_tiff, hsv_in_memory, rgbx_in_memory, la_premultiplied_opaque, rgba_premultiplied_opaque, animated_gif,
+    animated_png]
+REFUSED: list[Maker] = [
+    float_tiff, int32_tiff, int16_signed_tiff, rgba_transparent, la_translucent, pa_translucent,
+    palette_transparent_index, grey16_key_used, rgb16_key_maybe_used, rgb_key_used]

@@ -361,7 +361,8 @@ def decode_texture_page(project: Project, k: int, data: bytes) -> Any:
                                f"{im.size[0]}×{im.size[1]}")
         try:
             im.load()
-            return np.asarray(rgb_image(im, project.path, where, repr(page["atlas"]), noun="atlas page"))
+            pixels = rgb_image(im, project.path, where, repr(page["atlas"]), noun="atlas page", head=data[:32])
+            return np.asarray(pixels)
         except (OSError, ValueError, SyntaxError) as e:
             raise ProjectError(project.path, where, f"the atlas page {page['atlas']!r} cannot be decoded: it is "
                                f"damaged or truncated ({e})") from None

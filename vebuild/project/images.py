@@ -40,6 +40,8 @@ from .pixels import check_pixel_format, rgb_image
 #: refused before they are decoded.
 MAX_IMAGE_PIXELS = 120_000_000
 _CHUNK = 1 << 20
+#: The bytes of a file's start that tell what Pillow's decoded image no longer does (a PNG's depth).
+_HEAD = 32
 
 
 @contextlib.contextmanager
@@ -147,7 +149,9 @@ def image_size(image: Path, file: Any, where: str) -> tuple[int, int]:
         with _open_raw(image, file, where, str(image)) as raw:
             return _raw_size(raw)
     with open_image(image, file, where, decode=True) as img:
-        check_pixel_format(img, file, where, str(image))
+        with open(image, "rb") as f:
+            head = f.read(_HEAD)
+        check_pixel_format(img, file, where, str(image), head=head)
         w, h = img.size
         return (h, w) if photo_orientation(img, file, where, str(image)) in _QUARTER_TURNS else (w, h)
 
@@ -240,7 +244,7 @@ def decode_photo(data: bytes, name: str | os.PathLike[str], file: Any, where: st
         orientation = photo_orientation(img, file, where, shown)
         try:
             img.load()
-            img = rgb_image(img, file, where, shown)
+            img = rgb_image(img, file, where, shown, head=data[:_HEAD])
             w, h = img.size
             shape = (w, h, 3) if orientation in _QUARTER_TURNS else (h, w, 3)
             out = np.empty(shape, np.uint8)

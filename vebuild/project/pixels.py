@@ -14,10 +14,12 @@ every stage decodes. The rules, by Pillow mode (scenes/FORMAT.md, "Photo pixel f
 - ``I`` (32-bit integers): as 16-bit grey where Pillow read a 16-bit PGM or PPM (it scales the
   file's maximum value to 65535); from any other file refused, as ``F`` (32-bit floats) always is:
   such pixels have no defined black and white, and vebuild does not guess them.
-- ``LA``, ``La``, ``PA``, ``RGBA``, ``RGBa`` and a ``P``, ``L`` or ``RGB`` image with a transparent
-  colour: the alpha is dropped where every pixel is opaque; an image with any pixel not fully
-  opaque is refused, since the colour there is not the scene's and vebuild does not guess what
-  lies behind it.
+- ``LA``, ``La``, ``PA``, ``RGBA``, ``RGBa``, and ``P``, ``1``, ``L``, ``RGB`` or 16-bit grey with a
+  transparent colour: the alpha is dropped where every pixel is opaque; an image with any pixel not
+  fully opaque is refused, since the colour there is not the scene's and vebuild does not guess what
+  lies behind it. A transparent colour is compared with the stored values (16-bit grey's own, not
+  Pillow's 8-bit ones); a 16-bit RGB PNG's by its high bytes, all that Pillow keeps, so that a
+  pixel that may be that colour refuses the image.
 - ``CMYK``: device CMYK, r = (255 − c)(255 − k) / 255 and so on (an embedded ICC profile is not
   applied, as for every photo: vebuild uses the values as stored; Pillow undoes Adobe's inverted
   CMYK JPEGs when it reads them).
@@ -72,9 +74,11 @@ def pixel_format(img: Image.Image) -> str:
     return f"{described} (Pillow mode {img.mode!r})" if described else f"Pillow mode {img.mode!r}"
 
 
-def check_pixel_format(img: Image.Image, file: Any, where: str, shown: str, noun: str = "photo") -> None:
+def check_pixel_format(img: Image.Image, file: Any, where: str, shown: str, noun: str = "photo",
+                       head: bytes = b"") -> None:
     """Refuse an image (opened, decoded) whose pixels vebuild cannot turn into 8-bit RGB as
-    :func:`rgb_image` does.
+    :func:`rgb_image` does. ``head``: the file's first bytes (at least 25), by which a 16-bit PNG
+    is told (Pillow's image no longer says so).
 
     Raises
     ------
@@ -98,24 +102,47 @@ def check_pixel_format(img: Image.Image, file: Any, where: str, shown: str, noun
         raise ProjectError(file, where, f"the {noun} {shown} has pixels of {pixel_format(img)}, which vebuild cannot "
                            "turn into RGB; expected grey, RGB, palette, CMYK, YCbCr, L*a*b* or HSV of 8 or 16 "
                            "bits per sample: save a copy as an 8-bit RGB JPEG, PNG or TIFF and add that copy")
-    if mode in ALPHA or "transparency" in img.info:
-        with_alpha = img if mode in ALPHA else img.convert("RGBA")
-        alpha = with_alpha.getchannel(len(with_alpha.getbands()) - 1)  # "A", or "a" where premultiplied
-        seen = alpha.histogram()[:255]
-        if unseen := sum(seen):
-            total = img.size[0] * img.size[1]
-            raise ProjectError(file, where, f"the {noun} {shown} has {unseen} of its {total} pixels not fully opaque "
-                               f"(pixel format {pixel_format(img)}, with transparency): the colour stored there is "
-                               "not what the camera saw through them, and vebuild will not guess what lies behind. "
-                               "Expected an opaque image: flatten a copy onto a background in an image editor "
-                               "(e.g. `magick photo.png -background white -alpha remove -alpha off copy.png`) if "
-                               "that is right for the evidence, and add that copy")
+    unseen, maybe = _not_opaque(img, head)
+    if unseen:
+        total = img.size[0] * img.size[1]
+        raise ProjectError(file, where, f"the {noun} {shown} has {unseen} of its {total} pixels {maybe}not fully "
+                           f"opaque (pixel format {pixel_format(img)}, with transparency): the colour stored there "
+                           "is not what the camera saw through them, and vebuild will not guess what lies behind. "
+                           "Expected an opaque image: flatten a copy onto a background in an image editor (e.g. "
+                           "`magick photo.png -background white -alpha remove -alpha off copy.png`) if that is "
+                           "right for the evidence, and add that copy")
 
 
-def rgb_image(img: Image.Image, file: Any, where: str, shown: str, noun: str = "photo") -> Image.Image:
+def _not_opaque(img: Image.Image, head: bytes) -> tuple[int, str]:
+    """How many pixels are not fully opaque (by an alpha channel, or a transparent colour key), and
+    "" or, where that can only be bounded, "perhaps "."""
+    if img.mode in ALPHA:
+        alpha = img.getchannel(len(img.getbands()) - 1)  # "A", or "a" where premultiplied
+        return sum(alpha.histogram()[:255]), ""
+    key = img.info.get("transparency")
+    if key is None:
+        return 0, ""
+    if img.mode in SIXTEEN_BIT_GREY or img.mode == "I":  # Pillow's own conversion would compare 8-bit values
+        return int(np.count_nonzero(np.asarray(img) == key)), ""
+    if img.mode == "RGB" and isinstance(key, tuple) and _png_bit_depth(head) == 16:
+        # Pillow keeps a 16-bit sample's high byte: a pixel is the key colour only if its high bytes are.
+        high = np.array([int(k) >> 8 for k in key], np.uint8)
+        return int(np.count_nonzero((np.asarray(img) == high).all(axis=-1))), "perhaps "
+    return sum(img.convert("RGBA").getchannel("A").histogram()[:255]), ""
+
+
+def _png_bit_depth(head: bytes) -> int | None:
+    """A PNG's bits per sample, from its IHDR chunk (the file's first 25 bytes), else None."""
+    if len(head) >= 25 and head[:8] == b"\x89PNG\r\n\x1a\n" and head[12:16] == b"IHDR":
+        return head[24]
+    return None
+
+
+def rgb_image(img: Image.Image, file: Any, where: str, shown: str, noun: str = "photo",
+              head: bytes = b"") -> Image.Image:
     """An opened image's pixels as an 8-bit RGB image, by the rules of this module (the image
     itself where it is RGB already). Raises as :func:`check_pixel_format`."""
-    check_pixel_format(img, file, where, shown, noun)
+    check_pixel_format(img, file, where, shown, noun, head)
     if img.mode in SIXTEEN_BIT_GREY or img.mode == "I":
         w, h = img.size
         grey = np.empty((h, w), np.uint8)
