@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from fspy_writer import RELEASES, KnownCamera, StateBuilder, as_saved_by, axis_vec, fspy_bytes, make_image
+from pixel_formats import float_tiff
 
 from vebuild.actions.fspy import import_fspy
 from vebuild.actions.fspy_compare import fspy_camera_in_vebuild, rotation_difference_deg
@@ -447,6 +448,8 @@ BAD = {
     "list-state": (fspy_bytes(b"[]", IMG), "$", "JSON object"),
     "bad-image": (fspy_bytes(_state(), b"\x89PNG not really"), "image", "cannot be decoded"),
     "gif": (fspy_bytes(_state(), make_image(64, 48, "GIF")), "image", "GIF"),
+    "float-image": (fspy_bytes(_state(), float_tiff(np.random.default_rng(0), 480, 640).data or b""), "image",
+                    "embedded image has pixels of 32-bit floating point (Pillow mode 'F')"),
     "axis-missing": (fspy_bytes(_without(["calibrationSettingsBase", "firstVanishingPointAxis"]), IMG),
                      "$.calibrationSettingsBase.firstVanishingPointAxis", "missing"),
     "axis-bad": (fspy_bytes(_with(["calibrationSettingsBase", "secondVanishingPointAxis"], "up"), IMG),

@@ -274,6 +274,9 @@ def _image_facts(image: bytes, path: Path) -> tuple[str, int, int]:
 
             orientation = photo_orientation(img, path, where, "the embedded image")
             img.load()
+            from .pixels import check_pixel_format
+
+            check_pixel_format(img, path, where, "image", noun="embedded", head=image[:32])
     except ProjectError:
         raise
     except (UnidentifiedImageError, OSError, ValueError, SyntaxError, Image.DecompressionBombError) as e:
