@@ -78,3 +78,25 @@ def test_a_mode_vebuild_does_not_know_is_refused_by_name() -> None:
     img._mode = "BGR;24"  # a mode Pillow once had, as a later Pillow might add another
     with pytest.raises(ProjectError, match=r"photo\.x has pixels of Pillow mode 'BGR;24'.*expected"):
         check_pixel_format(img, FILE, WHERE, "photo.x")
+
+
+def test_a_monochrome_raw_file_decodes_as_grey(tmp_path) -> None:
+    """A camera RAW file of a monochrome sensor (a DNG whose colour filter is one colour): LibRaw
+    develops one channel, which becomes grey, r = g = b, the size `vebuild check` records."""
+    import rawpy
+    import tifffile
+
+    y, x = np.mgrid[0:H * 8, 0:W * 8]
+    tags = [(50706, "B", 4, (1, 4, 0, 0), True), (50707, "B", 4, (1, 1, 0, 0), True),
+            (50708, "s", 0, "vebuild test monochrome camera", True), (50717, "I", 1, 4095, True),
+            (33421, "H", 2, (1, 1), True), (33422, "B", 1, (1,), True)]  # a 1×1 pattern of one colour
+    path = tmp_path / "mono.dng"
+    tifffile.imwrite(path, (200 + 20 * x + y).astype(np.uint16), photometric=32803, extratags=tags,
+                     subfiletype=0, metadata=None)
+    with rawpy.imread(str(path)) as raw:
+        developed = raw.postprocess(output_bps=8, use_camera_wb=True)
+    assert developed.shape == (H * 8, W * 8, 1)  # what LibRaw hands back
+    got = decode_photo(path.read_bytes(), path.name, FILE, WHERE)
+    assert got.shape == (H * 8, W * 8, 3) and got.dtype == np.uint8
+    assert (got == developed).all()  # each of r, g, b is LibRaw's grey
+    assert image_size(path, FILE, WHERE) == (W * 8, H * 8)

@@ -354,6 +354,13 @@ def _develop(raw: Any, file: Any, where: str, shown: str) -> NDArray[np.uint8]:
         raise ProjectError(file, where, f"cannot develop the RAW file {shown}: LibRaw says {_libraw_text(e)}"
                            f"{out.said()} (the file may be damaged or truncated)") from None
     out.pass_on()
+    if pixels.ndim == 3 and pixels.shape[2] == 1 and pixels.dtype == np.uint8:
+        # A monochrome sensor's file (no colour filter): LibRaw develops one channel; grey, r = g = b.
+        return np.repeat(pixels, 3, axis=2)
+    if pixels.ndim != 3 or pixels.shape[2] != 3 or pixels.dtype != np.uint8:
+        raise ProjectError(file, where, f"the RAW file {shown} develops to {pixels.dtype} pixels of shape "
+                           f"{pixels.shape}; expected 8-bit grey or RGB (h, w, 1 or 3): convert it to DNG or TIFF "
+                           "with the camera maker's software and add that copy")
     return pixels
 
 
