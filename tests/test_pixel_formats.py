@@ -100,3 +100,34 @@ def test_a_monochrome_raw_file_decodes_as_grey(tmp_path) -> None:
     assert got.shape == (H * 8, W * 8, 3) and got.dtype == np.uint8
     assert (got == developed).all()  # each of r, g, b is LibRaw's grey
     assert image_size(path, FILE, WHERE) == (W * 8, H * 8)
+
+
+def test_a_16_bit_grey_photo_in_a_project_is_checked_and_read_as_its_grey(tmp_path, monkeypatch) -> None:
+    """The example room with its first photo saved as 16-bit grey: `vebuild check` accepts it, and
+    the texture stage and the modelling screens read the photo's own grey, not white."""
+    import contextlib
+    import hashlib
+    import json
+    import shutil
+
+    from vebuild.actions.detect import photo_pixels
+    from vebuild.cli import main
+    from vebuild.project import load_project
+    from vebuild.resources import example_project_dir
+    from vebuild.texture.extract import decode
+
+    monkeypatch.setenv("VEBUILD_CACHE", str(tmp_path / "cache"))
+    folder = tmp_path / "room"
+    shutil.copytree(example_project_dir(), folder)
+    project_file = folder / "room.vebuild.json"
+    doc = json.loads(project_file.read_text())
+    photo = folder / doc["photos"][0]["file"]
+    grey = np.asarray(Image.open(photo).convert("L"))
+    photo.write_bytes(png16(grey.astype(np.uint16) * 257, 0))  # 8-bit grey v as 16-bit v · 257, exactly
+    doc["photos"][0]["sha256"] = hashlib.sha256(photo.read_bytes()).hexdigest()
+    project_file.write_text(json.dumps(doc))
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert main(["check", str(project_file)]) == 0
+    project = load_project(project_file)
+    for pixels in (photo_pixels(project, doc["photos"][0]["id"]), decode(photo.read_bytes())):
+        assert (pixels == grey[..., None]).all()
