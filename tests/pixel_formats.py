@@ -291,6 +291,12 @@ def int16_signed_tiff(rng: np.random.Generator, h: int, w: int) -> Sample:
     return Sample("I (signed 16-bit TIFF)", "I", _tiff(a), None, refusal="black and white")
 
 
+def int8_signed_tiff(rng: np.random.Generator, h: int, w: int) -> Sample:
+    """Signed 8-bit samples, which Pillow hands back as L (-1 as 255)."""
+    a = rng.integers(-128, 128, (h, w), dtype=np.int8)
+    return Sample("L (signed 8-bit TIFF)", "L", _tiff(a), None, refusal="signed integer samples")
+
+
 def rgba_transparent(rng: np.random.Generator, h: int, w: int) -> Sample:
     rgba = _u8(rng, h, w, 4)
     rgba[..., 3] = 255
@@ -351,5 +357,5 @@ ACCEPTED: list[Maker] = [
     lab_tiff, hsv_in_memory, rgbx_in_memory, la_premultiplied_opaque, rgba_premultiplied_opaque, animated_gif,
     animated_png]
 REFUSED: list[Maker] = [
-    float_tiff, int32_tiff, int16_signed_tiff, rgba_transparent, la_translucent, pa_translucent,
+    float_tiff, int32_tiff, int16_signed_tiff, int8_signed_tiff, rgba_transparent, la_translucent, pa_translucent,
     palette_transparent_index, grey16_key_used, rgb16_key_maybe_used, rgb_key_used]

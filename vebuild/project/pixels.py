@@ -13,7 +13,9 @@ every stage decodes. The rules, by Pillow mode (scenes/FORMAT.md, "Photo pixel f
   level (0 → 0, 65535 → 255), the same for r, g and b.
 - ``I`` (32-bit integers): as 16-bit grey where Pillow read a 16-bit PGM or PPM (it scales the
   file's maximum value to 65535); from any other file refused, as ``F`` (32-bit floats) always is:
-  such pixels have no defined black and white, and vebuild does not guess them.
+  such pixels have no defined black and white, and vebuild does not guess them. So is a TIFF
+  whose samples are not unsigned integers (SampleFormat), whatever mode Pillow reads it as (a
+  signed 8-bit TIFF comes back as ``L``, -1 as 255).
 - ``LA``, ``La``, ``PA``, ``RGBA``, ``RGBa``, and ``P``, ``1``, ``L``, ``RGB`` or 16-bit grey with a
   transparent colour: the alpha is dropped where every pixel is opaque; an image with any pixel not
   fully opaque is refused, since the colour there is not the scene's and vebuild does not guess what
@@ -64,6 +66,9 @@ _SIXTEEN_TO_EIGHT = ((2 * np.arange(65536, dtype=np.uint32) + 257) // 514).astyp
 _BAND_PIXELS = 1 << 20
 #: Formats whose ``I`` images Pillow scales to 0–65535 (a PGM or PPM of more than 8 bits).
 _SIXTEEN_BIT_AS_I = frozenset({"PPM"})
+#: TIFF's SampleFormat values (tag 339) other than unsigned integers, as messages name them.
+_SAMPLE_FORMATS = {2: "signed integer", 3: "floating-point", 4: "undefined", 5: "complex integer",
+                   6: "complex floating-point"}
 _WHAT_TO_DO = ("save a copy with 8 or 16 bits per sample in an image editor, choosing there which values are "
                "black and white, and add that copy")
 
@@ -92,6 +97,12 @@ def check_pixel_format(img: Image.Image, file: Any, where: str, shown: str, noun
                            f"defined black and white: vebuild cannot tell which values are dark and which light, "
                            f"and will not guess. Expected 8 or 16 bits per sample (grey, RGB, palette, CMYK, "
                            f"YCbCr, L*a*b*): {_WHAT_TO_DO}")
+    signed = sorted({int(v) for v in _tiff_sample_formats(img)} - {1})
+    if signed:  # Pillow reads a signed 8-bit TIFF as L, -1 as 255
+        kinds = ", ".join(_SAMPLE_FORMATS.get(v, f"undefined ({v})") for v in signed)
+        raise ProjectError(file, where, f"the {noun} {shown} is a TIFF of {kinds} samples (its SampleFormat, tag "
+                           f"339), which Pillow hands back as {pixel_format(img)} with the wrong values; expected "
+                           f"unsigned integer samples: {_WHAT_TO_DO}")
     if mode == "I":
         extrema: Any = img.getextrema()  # one band: (lowest, highest)
         low, high = extrema
@@ -111,6 +122,13 @@ def check_pixel_format(img: Image.Image, file: Any, where: str, shown: str, noun
                            "Expected an opaque image: flatten a copy onto a background in an image editor (e.g. "
                            "`magick photo.png -background white -alpha remove -alpha off copy.png`) if that is "
                            "right for the evidence, and add that copy")
+
+
+def _tiff_sample_formats(img: Image.Image) -> tuple[Any, ...]:
+    """A TIFF's SampleFormat values (1 unsigned, 2 signed, 3 floating point; absent: unsigned)."""
+    tags = getattr(img, "tag_v2", None) if img.format == "TIFF" else None
+    value = tags.get(339, ()) if tags is not None else ()
+    return value if isinstance(value, tuple) else (value,)
 
 
 def _not_opaque(img: Image.Image, head: bytes) -> tuple[int, str]:
