@@ -143,6 +143,18 @@ def grey16_tiff_big_endian(rng: np.random.Generator, h: int, w: int) -> Sample:
                   _grey(a * 255.0 / 65535), ROUNDED)
 
 
+def grey16_tiff_min_is_white(rng: np.random.Generator, h: int, w: int) -> Sample:
+    """16-bit grey whose 0 is white (PhotometricInterpretation 0), as some scanners write."""
+    a = _u16(rng, h, w)
+    return Sample("I;16 (16-bit grey TIFF, 0 is white)", "I;16", _tiff(a, photometric="miniswhite"),
+                  _grey((65535 - a) * 255.0 / 65535), ROUNDED)
+
+
+def grey_tiff_min_is_white(rng: np.random.Generator, h: int, w: int) -> Sample:
+    a = _u8(rng, h, w)
+    return Sample("L (8-bit grey TIFF, 0 is white)", "L", _tiff(a, photometric="miniswhite"), _grey(255 - a))
+
+
 def grey16_pgm(rng: np.random.Generator, h: int, w: int) -> Sample:
     a = _u16(rng, h, w)
     data = f"P5 {w} {h} 65535\n".encode() + a.astype(">u2").tobytes()
@@ -352,7 +364,8 @@ def rgb_key_used(rng: np.random.Generator, h: int, w: int) -> Sample:
 
 
 ACCEPTED: list[Maker] = [
-    one_bit, grey_l, grey_la_opaque, palette_p, palette_pa_opaque, grey16_png, grey16_tiff_big_endian, grey16_pgm,
+    one_bit, grey_l, grey_la_opaque, palette_p, palette_pa_opaque, grey16_png, grey16_tiff_big_endian,
+    grey16_tiff_min_is_white, grey_tiff_min_is_white, grey16_pgm,
     grey12_pgm, rgb8, rgb16_png, rgb16_tiff, rgb16_png_key_unused, rgba_opaque, cmyk_tiff, cmyk_jpeg, ycbcr_tiff,
     lab_tiff, hsv_in_memory, rgbx_in_memory, la_premultiplied_opaque, rgba_premultiplied_opaque, animated_gif,
     animated_png]

@@ -10,7 +10,8 @@ every stage decodes. The rules, by Pillow mode (scenes/FORMAT.md, "Photo pixel f
 - ``RGB``, ``RGBX``: as stored. A 16-bit RGB PNG or TIFF reaches vebuild as ``RGB``, Pillow keeping
   each sample's high byte (v >> 8, within one level of v · 255 / 65535).
 - ``I;16``, ``I;16L``, ``I;16B``, ``I;16N`` (16-bit grey): v · 255 / 65535, rounded to the nearest
-  level (0 → 0, 65535 → 255), the same for r, g and b.
+  level (0 → 0, 65535 → 255), the same for r, g and b; (65535 − v) · 255 / 65535 where a TIFF says
+  0 is white (PhotometricInterpretation 0, which Pillow undoes for 8 bits but not for 16).
 - ``I`` (32-bit integers): as 16-bit grey where Pillow read a 16-bit PGM or PPM (it scales the
   file's maximum value to 65535); from any other file refused, as ``F`` (32-bit floats) always is:
   such pixels have no defined black and white, and vebuild does not guess them. So is a TIFF
@@ -97,7 +98,7 @@ def check_pixel_format(img: Image.Image, file: Any, where: str, shown: str, noun
                            f"defined black and white: vebuild cannot tell which values are dark and which light, "
                            f"and will not guess. Expected 8 or 16 bits per sample (grey, RGB, palette, CMYK, "
                            f"YCbCr, L*a*b*): {_WHAT_TO_DO}")
-    signed = sorted({int(v) for v in _tiff_sample_formats(img)} - {1})
+    signed = sorted({int(v) for v in _tiff_tag(img, 339)} - {1})
     if signed:  # Pillow reads a signed 8-bit TIFF as L, -1 as 255
         kinds = ", ".join(_SAMPLE_FORMATS.get(v, f"undefined ({v})") for v in signed)
         raise ProjectError(file, where, f"the {noun} {shown} is a TIFF of {kinds} samples (its SampleFormat, tag "
@@ -124,10 +125,11 @@ def check_pixel_format(img: Image.Image, file: Any, where: str, shown: str, noun
                            "right for the evidence, and add that copy")
 
 
-def _tiff_sample_formats(img: Image.Image) -> tuple[Any, ...]:
-    """A TIFF's SampleFormat values (1 unsigned, 2 signed, 3 floating point; absent: unsigned)."""
+def _tiff_tag(img: Image.Image, tag: int) -> tuple[Any, ...]:
+    """A TIFF tag's values (() where the image is no TIFF or has no such tag): 339 SampleFormat (1
+    unsigned, 2 signed, 3 floating point; absent: unsigned), 262 PhotometricInterpretation."""
     tags = getattr(img, "tag_v2", None) if img.format == "TIFF" else None
-    value = tags.get(339, ()) if tags is not None else ()
+    value = tags.get(tag, ()) if tags is not None else ()
     return value if isinstance(value, tuple) else (value,)
 
 
@@ -165,8 +167,10 @@ def rgb_image(img: Image.Image, file: Any, where: str, shown: str, noun: str = "
         w, h = img.size
         grey = np.empty((h, w), np.uint8)
         band = max(1, _BAND_PIXELS // max(1, w))
+        # A TIFF whose 0 is white (PhotometricInterpretation 0): Pillow inverts 8-bit grey, not 16-bit.
+        table = _SIXTEEN_TO_EIGHT[::-1] if _tiff_tag(img, 262) == (0,) else _SIXTEEN_TO_EIGHT
         for y0 in range(0, h, band):
-            grey[y0:y0 + band] = _SIXTEEN_TO_EIGHT[np.asarray(img.crop((0, y0, w, min(h, y0 + band))))]
+            grey[y0:y0 + band] = table[np.asarray(img.crop((0, y0, w, min(h, y0 + band))))]
         return Image.fromarray(grey, "L").convert("RGB")
     if img.mode == "LAB":
         return _lab_to_srgb(img, file, where, shown, noun)
