@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from . import __version__
+from .console.terminal import escaped_output, shown
 from .errors import VebuildError
 
 if TYPE_CHECKING:
@@ -31,17 +32,16 @@ def _warn_stale(project: Project, command: str) -> None:
 
 
 def _cmd_calibrate(args: argparse.Namespace) -> int:
-    from tqdm import tqdm
-
     from .actions.calibrate import calibrate_project
+    from .console.bars import Bar
     from .console.tables import calibration_table
     from .project import load_project, save_project
     from .project.outputs import begin_stage
 
     project = load_project(args.project)
     begin_stage(project)
-    result = calibrate_project(project, progress=lambda it: tqdm(it, desc="calibrating", unit="photo",
-                                                                 disable=not _progress_wanted(args)))
+    result = calibrate_project(project, progress=lambda it: Bar(it, desc="calibrating", unit="photo",
+                                                                disable=not _progress_wanted(args)))
     save_project(project)
     print(calibration_table(result))
     print(f"\ncameras written to {project.path}")
@@ -115,17 +115,16 @@ def _cmd_mark(args: argparse.Namespace) -> int:
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
-    from tqdm import tqdm
-
+    from .console.bars import Bar
     from .project import load_project
     from .report.write import write_report
 
     project = load_project(args.project)
     _warn_stale(project, "report")
-    bar = tqdm(total=14 - int(args.no_pdf), desc="report", unit="section", disable=not _progress_wanted(args))
+    bar = Bar(total=14 - int(args.no_pdf), desc="report", unit="section", disable=not _progress_wanted(args))
 
     def step(what: str) -> None:
-        bar.set_postfix_str(what)
+        bar.set_postfix_str(shown(what))
         bar.update(1)
     try:
         page = write_report(project, Path(args.out), pdf=not args.no_pdf, progress=step)
@@ -353,10 +352,8 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     """
     from .console.arguments import SuggestingParser
 
-    parser = SuggestingParser(
-        prog="vebuild",
-        description="Rebuild a real place as a measurable virtual environment from a few photographs.",
-    )
+    parser = SuggestingParser(prog="vebuild", description="Rebuild a real place as a measurable virtual environment "
+                              "from a few photographs.")
     parser.add_argument("--version", action="version", version=f"vebuild {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
@@ -569,6 +566,7 @@ _PARSERS_BESIDE_ACTIONS = (
 )
 
 
+@escaped_output()  # every text printed shows its control characters rather than sends them (console/terminal.py)
 def main(argv: Sequence[str] | None = None) -> int:
     words = list(sys.argv[1:] if argv is None else argv)
     # The command is the first word that is not an option (`vebuild --version` has none).

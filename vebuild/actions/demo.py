@@ -18,9 +18,9 @@ import shutil
 from pathlib import Path
 
 import numpy as np
-from tqdm import tqdm
 
 from ..camera import log_so3
+from ..console.bars import Bar
 from ..console.progress import progress_bar
 from ..console.tables import calibration_table, model_table, texture_table
 from ..errors import VebuildError
@@ -147,8 +147,8 @@ def run_demo(out: Path, progress: bool = True) -> int:
     project_file = copy_example(out)
     print(f"example project copied to {out}/")
     project = load_project(project_file)
-    result = calibrate_project(project, progress=lambda it: tqdm(it, desc="calibrating", unit="photo",
-                                                                 disable=not progress))
+    result = calibrate_project(project, progress=lambda it: Bar(it, desc="calibrating", unit="photo",
+                                                                disable=not progress))
     save_project(project)
     print(calibration_table(result))
     truth_file = out / "ground_truth.json"

@@ -28,11 +28,11 @@ import time
 from typing import Any
 
 import numpy as np
-from tqdm import tqdm
 
 from ..calibration.photo import FocalPrior, calibrate_photo, closed_form_calibration
 from ..calibration.positions import PhotoInput, ReferenceDistance, place_cameras
 from ..camera import distortion_displacement_px, log_so3
+from ..console.bars import Bar
 from ..errors import CalibrationError
 from ..synthetic import (
     EXIF_FOCAL_ERROR_REL,
@@ -78,7 +78,7 @@ def run(quick: bool = False, progress: bool = True, n_cameras: int | None = None
     t_ours = t_ref = t_place = 0.0
     failures: list[str] = []
     diag = float(np.linalg.norm(ROOM))
-    for s in tqdm(range(n_scenes), desc="bench calibration", unit="scene", disable=not progress):
+    for s in Bar(range(n_scenes), desc="bench calibration", unit="scene", disable=not progress):
         photos, markers = random_scene(rng, KINDS, noise_px=NOISE_PX)
         inputs, cals = [], {}
         try:

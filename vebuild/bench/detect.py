@@ -226,9 +226,9 @@ def run(quick: bool = False, progress: bool = True, seed: int = 2107, *, n: int 
     rng = np.random.default_rng(seed)
     items: Any = photos
     if progress:
-        from tqdm import tqdm
+        from ..console.bars import Bar
 
-        items = tqdm(photos, desc="detecting", unit="photo")
+        items = Bar(photos, desc="detecting", unit="photo")
     for g in items:
         T = g.truth
         data = g.path.read_bytes()

@@ -146,9 +146,9 @@ def generated_photos(n: int, *, width: int = 4000, height: int = 3000, seed: int
     out = []
     items = range(n)
     if progress:
-        from tqdm import tqdm
+        from ..console.bars import Bar
 
-        items = tqdm(items, desc="generating photos", unit="photo")
+        items = Bar(items, desc="generating photos", unit="photo")
     for i in items:
         path, meta = folder / f"g{i:03d}.jpg", folder / f"g{i:03d}.json"
         if path.exists() and meta.exists():

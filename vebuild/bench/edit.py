@@ -28,8 +28,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from tqdm import tqdm
 
+from ..console.bars import Bar
 from ..resources import example_project_dir
 
 GOALS = {"drag_update_ms_p95": 1000.0 / 60.0}
@@ -107,7 +107,7 @@ def run(quick: bool = False, progress: bool = True) -> dict[str, Any]:
     fig: dict[str, Any] = {"renderer": renderer_name(ctx), "window_px": f"{SIZE[0]}x{SIZE[1]}", "moves": moves}
     pooled: dict[str, list[Any]] = {}
     with tempfile.TemporaryDirectory(prefix="vebuild-bench-edit-") as tmp:
-        bar = tqdm(total=2 + len(SCENARIOS), desc="bench edit", unit="step", disable=not progress)
+        bar = Bar(total=2 + len(SCENARIOS), desc="bench edit", unit="step", disable=not progress)
         session = _session(Path(tmp))
         bar.update(1)
         surface = OffscreenSurface(ctx, *SIZE)

@@ -46,8 +46,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from tqdm import tqdm
 
+from ..console.bars import Bar
 from .house_scene import CachedHouse, cached_house
 
 GOALS = {"house_recalibration_s": 10.0, "house_drag_update_ms_p95": 1000.0 / 60.0, "house_texture_peak_mb": 2500.0,
@@ -316,7 +316,7 @@ def frame_loop(model: Any, result: Any, quick: bool) -> dict[str, Any]:
     cam = ImageCamera("walk", intrinsic_matrix(700.0, WIDTH / 2, HEIGHT / 2), look_rotation(target - C), C, WIDTH,
                       HEIGHT)
     timing = Timing(0.0, 1, 1) if quick else Timing(1.0, 3, 100)
-    bar = tqdm(total=3, disable=True)
+    bar = Bar(total=3, disable=True)
     values, _, _ = measure_vebuild(ctx, scene, cam, "frame_loop", timing, ("mono",), bar, "house")
     fig: dict[str, Any] = {"house_triangles": len(scene.mesh.triangles)}
     for lname in ("unlit", "lit", "shadows"):
@@ -359,8 +359,8 @@ def rooms_occluding(ctx: Any, scene: Any, cam: Any, timing: Any) -> dict[str, An
 
 
 def run(quick: bool = False, progress: bool = True) -> dict[str, Any]:
-    bar = tqdm(total=5, desc="bench house", unit="step", disable=not progress)
-    gen = tqdm(desc="bench house: generating (once, then cached)", unit="photo", disable=not progress)
+    bar = Bar(total=5, desc="bench house", unit="step", disable=not progress)
+    gen = Bar(desc="bench house: generating (once, then cached)", unit="photo", disable=not progress)
 
     def tick(what: str, k: int, n: int) -> None:
         gen.total = n

@@ -54,9 +54,9 @@ from typing import Any
 import moderngl
 import numpy as np
 from numpy.typing import NDArray
-from tqdm import tqdm
 
 from ..camera import ImageCamera, depth_range, intrinsic_matrix, look_rotation
+from ..console.bars import Bar
 from ..gl.context import headless_context, renderer_name
 from ..lighting import AS_PHOTOGRAPHED_LIGHTING, Lighting
 from ..model.scene import Model, model_from_dict
@@ -197,7 +197,7 @@ def _lightings() -> dict[str, Lighting]:
 
 
 def measure_vebuild(ctx: moderngl.Context, scene: RenderScene, cam: ImageCamera, settings: str, timing: Timing,
-                    views: tuple[str, ...], bar: tqdm,
+                    views: tuple[str, ...], bar: Bar,
                     prefix: str) -> tuple[dict[str, float], dict[str, np.ndarray], list[ImageCamera]]:
     """fps of one settings row for every lighting and view; the mono images (``render`` row);
     the stereo pair's eyes."""
@@ -336,7 +336,7 @@ def _close_pyrender(r: Any) -> None:
 
 
 def _pyrender_reference(pyrender: Any, ctx: moderngl.Context, scene: RenderScene, cam: ImageCamera,
-                        eyes: list[ImageCamera], timing: Timing, views: tuple[str, ...], bar: tqdm,
+                        eyes: list[ImageCamera], timing: Timing, views: tuple[str, ...], bar: Bar,
                         prefix: str) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """pyrender's fps for every lighting and view (stereo: both eyes rendered), and its mono images."""
     from pyrender import RenderFlags
@@ -417,7 +417,7 @@ def run(quick: bool = False, progress: bool = True) -> dict[str, Any]:
     if not pyrender:
         fig["pyrender_unavailable"] = why
     steps = len(SCENES) * len(LIGHTINGS) * len(views) * (len(settings) + 1)
-    bar = tqdm(total=steps, desc="bench render", unit="case", disable=not progress)
+    bar = Bar(total=steps, desc="bench render", unit="case", disable=not progress)
     builds = {"example": example_scene, "primitives200": lambda: primitives_scene(density)}
     for prefix, build in builds.items():
         t = time.perf_counter()

@@ -31,10 +31,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from tqdm import tqdm
 
 from ..actions.calibrate import calibrate_project
 from ..actions.solve import solve_project
+from ..console.bars import Bar
 from ..constants import Z95
 from ..errors import VebuildError
 from ..model.scene import model_from_dict
@@ -136,7 +136,7 @@ def redraws(seed: int, count: int, progress: bool = True) -> dict[str, Any]:
     exact = room_scene(np.random.default_rng(seed), noise_px=0.0)
     rng = np.random.default_rng(seed + 10_000)
     zs, failures = [], []
-    for _ in tqdm(range(count), desc=f"bench rooms: room {seed} redrawn", unit="solve", disable=not progress):
+    for _ in Bar(range(count), desc=f"bench rooms: room {seed} redrawn", unit="solve", disable=not progress):
         g = exact.with_fresh_noise(rng, CLICK_NOISE_PX)
         with tempfile.TemporaryDirectory() as d:
             try:
@@ -162,7 +162,7 @@ def run(quick: bool = False, progress: bool = True, seeds: tuple[int, ...] | Non
     not_drawn: list[int] = []
     failures: list[str] = []
     z_all: list[float] = []
-    for seed in tqdm(seeds, desc="bench rooms", unit="room", disable=not progress):
+    for seed in Bar(seeds, desc="bench rooms", unit="room", disable=not progress):
         t0 = time.perf_counter()
         try:
             g = room_scene(np.random.default_rng(seed))

@@ -21,9 +21,9 @@ from typing import Any
 
 import numpy as np
 from scipy.optimize import least_squares
-from tqdm import tqdm
 
 from ..camera import ImageCamera, distortion_displacement_px, exp_so3, project
+from ..console.bars import Bar
 from ..model.drag import DragSession
 from ..model.residuals import Pin
 from ..model.scene import model_from_dict
@@ -119,7 +119,7 @@ def _recalibration_problem(n_boxes: int, seed: int) -> Problem:
 
 def recalibration(sizes: tuple[int, ...], reference_sizes: tuple[int, ...], progress: bool) -> dict[str, Any]:
     out: dict[str, Any] = {"recalibration_photos": 8}
-    for n in tqdm(sizes, desc="bench solver: re-calibration", unit="size", disable=not progress):
+    for n in Bar(sizes, desc="bench solver: re-calibration", unit="size", disable=not progress):
         problem = _recalibration_problem(n, seed=n)
         t0 = time.perf_counter()
         res = problem.solve(robust=True)

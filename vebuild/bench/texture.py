@@ -47,10 +47,10 @@ from typing import Any
 
 import numpy as np
 from PIL import Image
-from tqdm import tqdm
 
 from ..actions import example_truth as truth
 from ..camera import ImageCamera, distortion_displacement_px
+from ..console.bars import Bar
 from ..gl.context import headless_context, renderer_name
 from ..model.scene import Model, model_from_dict
 from ..project import sha256_file
@@ -136,7 +136,7 @@ def speed(n_photos: int, progress: bool) -> dict[str, Any]:
         opts = Options()
         # Warm up: compile the shaders, make the context.
         extract(model, cams[:1], sources, opts)
-        bar = tqdm(total=2 * n_photos, desc="bench texture: GPU", unit="photo", disable=not progress)
+        bar = Bar(total=2 * n_photos, desc="bench texture: GPU", unit="photo", disable=not progress)
         # The split: every stage waits for the GPU before its clock stops.
         timings = Timings()
         res = extract(model, cams, sources, opts, progress=lambda k, n, _: bar.update(1 if k else 0),
@@ -222,7 +222,7 @@ def memory(progress: bool, quick: bool) -> dict[str, Any]:
         scale = 1.0 if quick else SCALE
         cams, sources = make_photos(Path(tmp), scale, 20)
         runs = (("5_photos", 5, 200.0), ("20_photos", 20, 200.0), ("20_photos_4x_texels", 20, 400.0))
-        for label, n, density in tqdm(runs, desc="bench texture: memory", unit="run", disable=not progress):
+        for label, n, density in Bar(runs, desc="bench texture: memory", unit="run", disable=not progress):
             _reset_peak()
             before = _peak_mb()
             extract(model, cams[:n], sources, Options(texels_per_metre=density))
@@ -242,7 +242,7 @@ def quality(progress: bool, quick: bool) -> dict[str, Any]:
     if quick:
         variants = {k: variants[k] for k in ("all", "paper")}
     fig: dict[str, Any] = {}
-    for name, kw in tqdm(variants.items(), desc="bench texture: quality", unit="variant", disable=not progress):
+    for name, kw in Bar(variants.items(), desc="bench texture: quality", unit="variant", disable=not progress):
         got, res = _psnr(model, cams, sources, Options(**kw), exposures)
         fig.update({f"{k}_{name}": v for k, v in got.items()})
         if name == "all":
