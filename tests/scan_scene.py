@@ -84,3 +84,57 @@ def write_e57(path: Path, P: np.ndarray, colours: np.ndarray | None = None) -> N
 
 
 WRITERS = {"ply": write_ply, "las": write_las, "laz": write_las, "e57": write_e57}
+
+
+# ----------------------------------------------------------------------------------------------
+# Files whose header lies: the E57 XML section rewritten, its pages' CRC-32C checksums made again
+
+
+def _crc32c_table() -> list[int]:
+    table = []
+    for i in range(256):
+        c = i
+        for _ in range(8):
+            c = (c >> 1) ^ 0x82F63B78 if c & 1 else c >> 1
+        table.append(c)
+    return table
+
+
+_CRC32C = _crc32c_table()
+
+
+def crc32c(data: bytes) -> int:
+    """CRC-32C (Castagnoli), the checksum of each page of an E57 file."""
+    c = 0xFFFFFFFF
+    for b in data:
+        c = _CRC32C[(c ^ b) & 0xFF] ^ (c >> 8)
+    return c ^ 0xFFFFFFFF
+
+
+def rewrite_e57_xml(raw: bytes, edit) -> bytes:
+    """An E57 file (as pye57 writes it: the XML section last) with its XML replaced by
+    ``edit(xml_bytes)``, the header's lengths and every page's checksum made to match, so that
+    libE57Format reads it as a well-formed file: a header that lies, not a damaged page."""
+    import struct
+
+    pages = [raw[i : i + 1024] for i in range(0, len(raw), 1024)]
+    logical = bytearray(b"".join(p[:1020] for p in pages))
+    sig, major, minor, _, xml_at, xml_length, page = struct.unpack("<8sIIQQQQ", logical[:48])
+    start = xml_at - (xml_at // 1024) * 4
+    xml = edit(bytes(logical[start : start + xml_length]))
+    logical = logical[:start] + xml
+    n = -(-len(logical) // 1020)
+    logical += b"\0" * (n * 1020 - len(logical))
+    logical[:48] = struct.pack("<8sIIQQQQ", sig, major, minor, n * 1024, xml_at, len(xml), page)
+    out = bytearray()
+    for i in range(n):
+        data = bytes(logical[i * 1020 : (i + 1) * 1020])
+        out += data + struct.pack(">I", crc32c(data))
+    return bytes(out)
+
+
+def write_ply_text(path: Path, P: np.ndarray) -> None:
+    """An ASCII PLY of the points (as trimesh writes it)."""
+    import trimesh
+
+    Path(path).write_bytes(trimesh.PointCloud(P).export(file_type="ply", encoding="ascii"))

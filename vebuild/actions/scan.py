@@ -21,6 +21,7 @@ from ..errors import VebuildError
 from ..project import Project, load_project, save_project
 from ..project.scans import (
     Target,
+    dropped_words,
     new_scan_entry,
     parse_target,
     read_point_cloud,
@@ -39,7 +40,7 @@ def add_scan(project: Project, scan_file: str | Path, targets: list[Target], use
     rel = relative_file(project, scan_file)
     if point_sigma_m is not None and not 1e-6 <= point_sigma_m <= 1e4:
         raise VebuildError(f"--point-sigma: expected a 1σ in metres from 1e-6 to 1e4, got {point_sigma_m!r}")
-    cloud = read_point_cloud(scan_file, fmt)
+    cloud = read_point_cloud(scan_file, fmt, "SCANFILE")
     registration = register_scan(project, targets)
     entry = new_scan_entry(project, scan_file, cloud, registration, use_in_solve, point_sigma_m)
     scans = project.data.setdefault("scans", [])
@@ -64,6 +65,7 @@ def _cmd_add(args: argparse.Namespace) -> int:
           f"{reg['similarity']['scale']:.6f}, rms {reg['rms_m'] * 1000:.1f} mm")
     for r in reg["residuals"]:
         print(f"  {r['name']:<16} residual {r['distance_m'] * 1000:7.1f} mm")
+    print(f"  {dropped_words(entry) or 'points dropped: none (every point of the file is finite and valid)'}")
     print(f"written to {project.path}")
     return 0
 

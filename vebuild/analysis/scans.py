@@ -35,7 +35,14 @@ from ..model.scan_fit import SurfaceObservation, face_handles
 from ..model.scene import Model
 from ..project import decode
 from ..project.records import json_values
-from ..project.scans import DEFAULT_POINT_SIGMA_M, PointCloud, Target, check_target_names, load_point_cloud
+from ..project.scans import (
+    DEFAULT_POINT_SIGMA_M,
+    PointCloud,
+    Target,
+    check_target_names,
+    dropped_words,
+    load_point_cloud,
+)
 from .solved import SolvedModel
 
 Array = NDArray[np.float64]
@@ -328,7 +335,8 @@ def face_deviations(project: Any, scan_index: int, max_distance: float = MAX_DIS
         rows.append(row)
     entry = project.data["scans"][scan_index]
     return {"scan": scan_index, "file": entry["file"], "points": int(len(cloud.points)),
-            "scan_points": int(entry["point_count"]), "warnings": registration_drift(project, scan_index),
+            "scan_points": int(entry["point_count"]), "dropped": dropped_words(entry),
+            "warnings": registration_drift(project, scan_index),
             "unassigned": int(np.sum(idx < 0)), "max_distance_m": float(max_distance), "faces": rows,
             "world": cloud.points, "signed": d}
 
@@ -359,6 +367,7 @@ def deviation_table(result: dict[str, Any]) -> str:
         f"{result['points']} of its {result['scan_points']} points (a regular subsample)"
     lines = [f"scan {result['scan']} ({result['file']}): {used}, {result['unassigned']} farther "
              f"than {result['max_distance_m'] * 1000:.0f} mm from every face",
+             *([f"{result['dropped']} (not counted above)"] if result.get("dropped") else []),
              f"{'face':<32} {'points':>8} {'median mm':>10} {'p95 mm':>8} {'rms mm':>8}"]
     for r in result["faces"]:
         lines.append(f"{r['node'] + ':' + r['face']:<32} {r['count']:>8} {r['median_m'] * 1000:>10.1f} "

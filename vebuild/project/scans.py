@@ -10,6 +10,10 @@ added and checks the hash each time it reads it again; it never writes to it. Re
 - LAS and LAZ through laspy (LAZ decompressed by its lazrs backend): the scaled coordinates, and
   the 16-bit colours of point formats that have them.
 
+Each file's header is checked against its body first (:mod:`.scan_headers`): one that disagrees
+is refused. Points with a non-finite coordinate are dropped and counted, up to
+:data:`MAX_NON_FINITE_SHARE` of the scan's; E57 returns flagged invalid are dropped and counted.
+
 Targets given on the command line (``NAME=X,Y,Z:POINT``) or in a CSV file (columns ``name, x, y,
 z, point``) are parsed here; the project point they name is resolved against the model in
 :mod:`vebuild.analysis.scans`.
@@ -31,6 +35,7 @@ from numpy.typing import NDArray
 
 from ..errors import ProjectError, VebuildError
 from .images import sha256_file
+from .scan_headers import declared_points
 from .validation import check_relative_path
 
 Array = NDArray[np.float64]
@@ -39,6 +44,12 @@ Array = NDArray[np.float64]
 FORMATS = {".e57": "e57", ".ply": "ply", ".las": "las", ".laz": "laz"}
 #: Largest number of points read from one file (about 2.4 GB of float64 coordinates).
 MAX_POINTS = 100_000_000
+#: The largest share of a scan's points that may have a non-finite coordinate (NaN, ±inf): they
+#: are dropped and counted. A scanner marks a return it could not measure with a flag (E57's
+#: ``cartesianInvalidState``, dropped and counted apart), not with NaN; a few non-finite points are
+#: a converter's way of writing the same (an organised cloud's empty cells); more than 1 % says the
+#: values are damaged or read as the wrong type, and then the finite ones cannot be trusted either.
+MAX_NON_FINITE_SHARE = 0.01
 #: Default 1σ of one scan point along the surface normal, metres (a phase-based scanner at a few
 #: metres: a few millimetres), when the scan entry gives no ``point_sigma_m``.
 DEFAULT_POINT_SIGMA_M = 0.005
@@ -51,6 +62,10 @@ class PointCloud:
     points: Array
     colours: NDArray[np.uint8] | None
     format: str
+    #: Points of the file dropped for a non-finite coordinate (NaN, ±inf).
+    non_finite: int = 0
+    #: E57 returns the scanner flagged invalid (``cartesianInvalidState`` not 0), dropped.
+    invalid: int = 0
 
 
 @dataclass(frozen=True)
@@ -72,37 +87,45 @@ def scan_format(path: str | os.PathLike[str], where: str = "") -> str:
 
 
 def read_point_cloud(path: str | os.PathLike[str], fmt: str | None = None, where: str = "") -> PointCloud:
-    """The points of a scan file (module docstring). Any failure is a ProjectError naming the file."""
+    """The points of a scan file (module docstring), once its header is found to agree with its body
+    (:mod:`.scan_headers`). Points with a non-finite coordinate are dropped and counted, up to
+    :data:`MAX_NON_FINITE_SHARE` of the file's; E57 returns flagged invalid are dropped and counted.
+    Any failure is a ProjectError naming the file."""
     path = Path(path)
     fmt = fmt or scan_format(path, where)
+    if fmt not in ("e57", "ply", "las", "laz"):
+        raise ProjectError(path, where, f"unknown scan format {fmt!r}; expected e57, ply, las or laz")
     if not path.is_file():
         raise ProjectError(path, where, "the scan file is missing (expected a file at this path)")
+    declared = None
     try:
-        if fmt == "e57":
-            cloud = _read_e57(path)
-        elif fmt == "ply":
-            cloud = _read_ply(path)
-        elif fmt in ("las", "laz"):
-            cloud = _read_las(path)
-        else:
-            raise ProjectError(path, where, f"unknown scan format {fmt!r}; expected e57, ply, las or laz")
+        declared = declared_points(path, fmt, where)
+        if declared > MAX_POINTS:
+            raise ProjectError(path, where, f"its header declares {declared} points; vebuild reads at most "
+                               f"{MAX_POINTS}")
+        cloud = {"e57": _read_e57, "ply": _read_ply, "las": _read_las, "laz": _read_las}[fmt](path)
     except VebuildError:
         raise
     except MemoryError:
         raise ProjectError(path, where, "the scan is too large to read into memory") from None
     except Exception as e:  # each library has its own exceptions for a damaged file
-        raise ProjectError(path, where, f"cannot read it as {fmt.upper()}: {type(e).__name__}: {e}") from None
+        said = "" if declared is None else f" (its header declares {declared} points)"
+        raise ProjectError(path, where, f"cannot read it as {fmt.upper()}{said}: {type(e).__name__}: {e}") from None
     P = cloud.points
-    if P.ndim != 2 or P.shape[1] != 3 or len(P) == 0:
+    if P.ndim != 2 or P.shape[1] != 3 or len(P) + cloud.invalid != declared:
+        raise ProjectError(path, where, f"its header declares {declared} points; {len(P) + cloud.invalid} were read")
+    if len(P) == 0:
         raise ProjectError(path, where, f"the {fmt.upper()} file holds no points")
-    if len(P) > MAX_POINTS:
-        raise ProjectError(path, where, f"{len(P)} points; vebuild reads at most {MAX_POINTS}")
     finite = np.all(np.isfinite(P), axis=1)
-    if not finite.all():  # E57 marks invalid returns; drop them rather than refuse the scan
-        P = P[finite]
-        cloud = PointCloud(P, None if cloud.colours is None else cloud.colours[finite], fmt)
-        if len(P) == 0:
-            raise ProjectError(path, where, f"the {fmt.upper()} file holds no finite points")
+    dropped = int(len(P) - np.count_nonzero(finite))
+    if dropped > MAX_NON_FINITE_SHARE * len(P):
+        raise ProjectError(path, where, f"{dropped} of its {len(P)} points ({100 * dropped / len(P):.2f} %) have a "
+                           f"non-finite coordinate (NaN or infinite); vebuild drops such points up to "
+                           f"{100 * MAX_NON_FINITE_SHARE:g} % of a scan's and refuses a scan with more (its values "
+                           "are likely misread or damaged); remove them from the scan and add it again")
+    if dropped:
+        cloud = PointCloud(P[finite], None if cloud.colours is None else cloud.colours[finite], fmt,
+                           non_finite=dropped, invalid=cloud.invalid)
     return cloud
 
 
@@ -111,21 +134,21 @@ def _read_e57(path: Path) -> PointCloud:
 
     e57 = pye57.E57(str(path), mode="r")
     try:
-        pts, cols = [], []
+        pts, cols, invalid = [], [], 0
         for i in range(e57.scan_count):
             header = e57.get_header(i)
             fields = set(header.point_fields)
             data = e57.read_scan(i, ignore_missing_fields=True, intensity=False,
                                  colors={"colorRed", "colorGreen", "colorBlue"} <= fields,
                                  row_column=False, transform=True)
+            # pye57 drops the returns flagged invalid (cartesianInvalidState or sphericalInvalidState not 0)
             xyz = np.column_stack([data["cartesianX"], data["cartesianY"], data["cartesianZ"]]).astype(float)
-            keep = np.asarray(data["cartesianInvalidState"]) == 0 if "cartesianInvalidState" in data else \
-                np.ones(len(xyz), bool)
-            pts.append(xyz[keep])
+            pts.append(xyz)
+            invalid += int(header.point_count) - len(xyz)
             if "colorRed" in data:
-                cols.append(np.column_stack([data[k] for k in ("colorRed", "colorGreen", "colorBlue")])[keep])
+                cols.append(np.column_stack([data[k] for k in ("colorRed", "colorGreen", "colorBlue")]))
         colours = np.clip(np.concatenate(cols), 0, 255).astype(np.uint8) if cols and len(cols) == len(pts) else None
-        return PointCloud(np.concatenate(pts) if pts else np.zeros((0, 3)), colours, "e57")
+        return PointCloud(np.concatenate(pts) if pts else np.zeros((0, 3)), colours, "e57", invalid=invalid)
     finally:
         e57.close()
 
@@ -200,7 +223,20 @@ def load_point_cloud(project: Any, index: int) -> PointCloud:
     if len(cloud.points) != entry["point_count"]:
         raise ProjectError(path, f"$.scans[{index}].point_count", f"the file holds {len(cloud.points)} points, the "
                            f"project records {entry['point_count']}")
+    for key, n, what in (("non_finite_dropped", cloud.non_finite, "with a non-finite coordinate"),
+                         ("invalid_dropped", cloud.invalid, "flagged invalid")):
+        if entry.get(key, n) != n:
+            raise ProjectError(path, f"$.scans[{index}].{key}", f"the file has {n} points {what}, the project "
+                               f"records {entry[key]}")
     return cloud
+
+
+def dropped_words(entry: Mapping[str, Any]) -> str:
+    """What was dropped from a scan's file as it was read (its entry's counts), or ''."""
+    parts = [f"{entry[k]} {what}" for k, what in (("non_finite_dropped", "with a non-finite coordinate"),
+                                                  ("invalid_dropped", "flagged invalid by the scanner"))
+             if entry.get(k)]
+    return f"points dropped: {' and '.join(parts)}" if parts else ""
 
 
 def relative_file(project: Any, scan_file: str | os.PathLike[str]) -> str:
@@ -274,6 +310,7 @@ def new_scan_entry(project: Any, scan_file: str | os.PathLike[str], cloud: Point
     """The ``$.scans[]`` entry of a scan file (its hash, format and point count, the registration)."""
     entry: dict[str, Any] = {"file": relative_file(project, scan_file), "sha256": sha256_file(scan_file),
                              "format": cloud.format, "point_count": int(len(cloud.points)),
+                             "non_finite_dropped": cloud.non_finite, "invalid_dropped": cloud.invalid,
                              "registration": dict(registration), "use_in_solve": bool(use_in_solve)}
     if point_sigma_m is not None:
         entry["point_sigma_m"] = float(point_sigma_m)

@@ -12,6 +12,7 @@ from numpy.typing import NDArray
 from vebuild.analysis.scans import face_deviations
 from vebuild.errors import VebuildError
 from vebuild.project import Project
+from vebuild.project.scans import dropped_words
 
 from .page import Cell, Report, esc, fmt, table
 
@@ -88,7 +89,9 @@ def scans(project: Project, rep: Report) -> None:
         sd_scale = np.sqrt(cov["matrix"][0][0]) if cov else None
         scale = reg["similarity"]["scale"]
         ppm = f", 1σ {sd_scale / scale * 1e6:.0f} ppm" if sd_scale is not None else ""
-        parts.append(f"<h3>Scan {i}: {esc(e['file'])}</h3><p>{esc(e['format'].upper())}, {e['point_count']} points, "
+        dropped = dropped_words(e)
+        parts.append(f"<h3>Scan {i}: {esc(e['file'])}</h3><p>{esc(e['format'].upper())}, {e['point_count']} points"
+                     f"{' (' + esc(dropped) + ')' if dropped else ''}, "
                      f"SHA-256 <span class='hash'>{esc(e['sha256'])}</span>; "
                      f"{'used as observations in the solve' if e['use_in_solve'] else 'a check only'}"
                      f". Scale {scale:.9g} (project metres per scan unit{ppm}), rms of the targets "
