@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from bad_inputs_scans import SCAN_CASES
 from pixel_formats import REFUSED as REFUSED_PIXELS
 
 # -- the commands --------------------------------------------------------------------------------
@@ -1067,6 +1068,12 @@ case("new-lone-surrogate-name", nothing, [["new", "{D}/n.vebuild.json", "--name"
 
 # -- 11. links below an output folder: tests/bad_inputs_links.py registers its cases here ----------------
 import bad_inputs_links  # noqa: E402, F401
+
+# -- 12. laser scans whose header disagrees with their body (tests/bad_inputs_scans.py) -----------
+
+for _name, _mutate, _commands, _expect in SCAN_CASES:
+    case(_name, _mutate, _commands, _expect)
+
 
 # -- cases that still fail with the fixes in flight merged (h-a, h-b, h-c): real findings, kept strict ----
 # Test id (case|command) → what happens and which area it belongs to. Strict: a fix makes the test XPASS,

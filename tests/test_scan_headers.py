@@ -241,6 +241,14 @@ def test_scan_add_says_what_it_dropped_and_the_record_keeps_it(room, tmp_path, p
     assert (entry["point_count"], entry["non_finite_dropped"], entry["invalid_dropped"]) == (N - 5, 5, 0)
     assert main(["scan", "check", str(proj)]) == 0
     assert "points dropped: 5 with a non-finite coordinate (not counted above)" in capsys.readouterr().out
+    from vebuild.project import load_project
+    from vebuild.report.deviation import scans
+    from vebuild.report.page import Report
+
+    (tmp_path / "rep" / "images").mkdir(parents=True)
+    report = Report(tmp_path / "rep")
+    scans(load_project(proj), report)
+    assert "1195 points (points dropped: 5 with a non-finite coordinate)" in report.sections[0]
     # A record that says otherwise is refused on reading, naming the field.
     doc = json.loads(proj.read_text("utf-8"))
     doc["scans"][0]["non_finite_dropped"] = 0

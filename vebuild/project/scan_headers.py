@@ -133,9 +133,8 @@ def _ply_ascii_body(f: IO[bytes], elements: list[tuple[str, int, list[Any]]], de
         block = carry + block
         cut = block.rfind(b"\n") + 1
         whole, carry = block[:cut], block[cut:]
-        words = whole.split()
-        values += len(words)
-        lines += len(whole.split(b"\n")) - 1 - sum(1 for line in whole.split(b"\n")[:-1] if not line.strip())
+        values += len(whole.split())
+        lines += sum(1 for line in whole.split(b"\n")[:-1] if line.strip())
     if carry.strip():
         lines += 1
         values += len(carry.split())
@@ -247,6 +246,8 @@ def _bits(node: Any) -> tuple[int, int]:
     if kind in ("Integer", "ScaledInteger"):
         lo, hi = int(node.get("minimum", -(2**63))), int(node.get("maximum", 2**63 - 1))
         bits = max(hi - lo, 0).bit_length()
+        if bits > 64:
+            raise _Lie(f"prototype field {node.tag}", f"minimum {lo} and maximum {hi}: more than 64 bits", True)
         return bits, 0 if bits == 0 else next(r for r in (8, 16, 32, 64) if bits <= r) // bits
     raise _Lie(f"prototype field {node.tag}", f"expected Float, Integer or ScaledInteger, got {kind!r}", True)
 
