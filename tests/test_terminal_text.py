@@ -1,9 +1,10 @@
 """Text from a project printed on the terminal: its control characters are shown as escapes, never
 sent (vebuild.console.terminal). A project whose case details, names, descriptions, labels and
 paths hold terminal escape sequences (ESC]0;…BEL retitles a terminal, ESC[2J clears it), a carriage
-return, a right-to-left override and a lone surrogate is run through the commands that print them
-(case, render --list, analyse, and the errors of check and analyse that quote them): stdout
-and stderr carry none of those characters raw, and show each as its escape."""
+return, a right-to-left override and C1 and DEL characters is run through the commands that print
+them (case, render --list, scan add and scan check, analyse, and the errors of check and analyse
+that quote them): stdout and stderr carry none of those characters raw, and show each as its
+escape."""
 
 from __future__ import annotations
 
@@ -112,3 +113,25 @@ def test_an_error_quoting_a_files_text_shows_its_controls(hostile_room, tmp_path
     assert not raw_controls(out + err), err
     assert "photos/p\\x1b]0;owned\\x07\\x1b[2J\\x1b[H.jpg" in err and "$.photos[0]" in err, err
     assert proj.read_bytes() == before
+
+
+def test_scan_add_and_check_show_a_scan_files_name_escaped(hostile_room, tmp_path):
+    """A scan whose file name holds ESC[2J: `scan add` and `scan check` print the name as the project
+    records it, escaped."""
+    from scan_scene import write_ply
+
+    from vebuild.analysis.scans import resolve_points
+    from vebuild.project import load_project
+
+    proj = _copy(hostile_room, tmp_path)
+    names = ("floor:v0", "floor:v1", "floor:v2", "cabinet:v6")
+    W = resolve_points(load_project(proj), list(names), list(names))
+    path = proj.parent / f"scan{CLEAR}.ply"
+    write_ply(path, W.repeat(10, axis=0))
+    targets = [f"--target=T{k}{TITLE}={float(w[0])!r},{float(w[1])!r},{float(w[2])!r}:{n}"
+               for k, (w, n) in enumerate(zip(W, names, strict=True))]
+    for words in (["scan", "add", str(proj), str(path), *targets], ["scan", "check", str(proj)]):
+        code, out, err = run(words)
+        assert code == 0, err
+        assert not raw_controls(out + err), (raw_controls(out + err), out)
+        assert "scan\\x1b[2J\\x1b[H.ply" in out, out
