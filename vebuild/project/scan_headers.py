@@ -161,26 +161,34 @@ def _las(path: Path) -> int:
         count, start, record = int(h.point_count), int(h.offset_to_point_data), int(h.point_format.size)
         evlrs = int(getattr(h, "number_of_evlrs", 0) or 0)
         first_evlr = int(getattr(h, "start_of_first_evlr", 0) or 0)
+        waveforms = int(getattr(h, "start_of_waveform_data_packet_record", 0) or 0)
         laz = next((v for v in h.vlrs if getattr(v, "record_id", None) == 22204), None)
     field = f"point count {count}"
     if start > size:
         raise _Lie(f"offset to point data {start}", f"lies beyond the end of the file ({size} bytes)")
-    end = first_evlr if evlrs and first_evlr else size
+    # The points end where what follows them begins: waveform packets (LAS 1.3), the extended VLRs
+    # (LAS 1.4), or the end of the file.
+    ends = {"the waveform data packets": waveforms, "the first extended VLR": first_evlr if evlrs else 0,
+            "the end of the file": size}
+    what, end = min(((w, e) for w, e in ends.items() if start < e <= size), key=lambda we: we[1],
+                    default=("the end of the file", size))
     if laz is None:
         if start + count * record != end:
-            what = "the first extended VLR" if evlrs and first_evlr else "the end of the file"
             raise _Lie(field, f"declares {count} points of {record} bytes: {count * record} bytes from byte "
                        f"{start}; {what} is {end - start} bytes from it (room for {(end - start) / record:.6g} "
                        "points)")
         return count
     with open(path, "rb") as f:
-        _laz_chunks(f, laz.record_data, count, start, end, field)
+        _laz_chunks(f, laz.record_data, count, (start, end, what), field)
     return count
 
 
-def _laz_chunks(f: IO[bytes], vlr_data: bytes, count: int, start: int, end: int, field: str) -> None:
+def _laz_chunks(f: IO[bytes], vlr_data: bytes, count: int, span: tuple[int, int, str], field: str) -> None:
+    """The chunk table against the header's count, and its chunks and itself from the points' start
+    (``span``: start, end, what is at the end) to their end."""
     import lazrs  # type: ignore[import-untyped]
 
+    start, end, what = span
     f.seek(start)
     table_at = struct.unpack("<q", f.read(8).ljust(8, b"\0"))[0]
     if table_at == -1:  # written as a stream: no chunk table to check against
@@ -200,7 +208,6 @@ def _laz_chunks(f: IO[bytes], vlr_data: bytes, count: int, start: int, end: int,
     table = io.BytesIO()
     lazrs.write_chunk_table(table, chunks, vlr)  # its length: the table's own coding is deterministic
     if table_at + len(table.getvalue()) != end:
-        what = "the first extended VLR" if end != f.seek(0, io.SEEK_END) else "the end of the file"
         raise _Lie(f"chunk table ({len(chunks)} chunks)", f"it ends at byte {table_at + len(table.getvalue())}, "
                    f"{what} is at byte {end}")
     if vlr.uses_variable_size_chunks():
@@ -238,8 +245,8 @@ class _Pages:
 
 
 def _bits(node: Any) -> tuple[int, int]:
-    """(bits per record, how many records the padding of the last register libE57Format packs
-    them in may seem to hold) of a prototype field; 0 bits for an integer of one value."""
+    """(bits per record, how many records the padding after the last may seem to hold) of a
+    prototype field; 0 bits for an integer of one value."""
     kind = node.get("type")
     if kind == "Float":
         return (32, 0) if node.get("precision") == "single" else (64, 0)
@@ -248,7 +255,9 @@ def _bits(node: Any) -> tuple[int, int]:
         bits = max(hi - lo, 0).bit_length()
         if bits > 64:
             raise _Lie(f"prototype field {node.tag}", f"minimum {lo} and maximum {hi}: more than 64 bits", True)
-        return bits, 0 if bits == 0 else next(r for r in (8, 16, 32, 64) if bits <= r) // bits
+        # libE57Format packs them in a register of 8 to 64 bits and writes the last one whole; other
+        # writers may use another register: allow the padding of the widest.
+        return bits, 0 if bits == 0 else 64 // bits
     raise _Lie(f"prototype field {node.tag}", f"expected Float, Integer or ScaledInteger, got {kind!r}", True)
 
 
