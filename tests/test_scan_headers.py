@@ -93,13 +93,16 @@ def _las_count(raw: bytes, n: int) -> bytes:
     return raw[:107] + struct.pack("<I", min(n, 2**32 - 1)) + raw[111:]
 
 
-@pytest.mark.parametrize("lie", sorted(LIES))
-@pytest.mark.parametrize("fmt", ["las", "laz"])
+#: A LAZ count short of its last chunk's is not detectable (docs/scans.md): the format does not record
+#: where a chunk's points end. Such lies are left out here; the next test covers a count short by a chunk.
+LAZ_UNDETECTABLE = ("claims fewer", "claims one fewer")
+
+
+@pytest.mark.parametrize(("fmt", "lie"), [("las", lie) for lie in sorted(LIES)]
+                         + [("laz", lie) for lie in sorted(LIES) if lie not in LAZ_UNDETECTABLE])
 def test_a_las_or_laz_header_that_disagrees_with_its_body_is_refused(tmp_path, points, fmt, lie):
     """On main a LAS header claiming 1300 points was read as the 1200 there are, one claiming 1000
     lost the rest, and bytes after the last point (or the LAZ chunk table) went unseen."""
-    if fmt == "laz" and lie in ("claims fewer", "claims one fewer"):
-        pytest.skip("a LAZ count short of its last chunk's is not detectable (docs/scans.md): see the next test")
     path = tmp_path / f"scan.{fmt}"
     write_las(path, points, (np.abs(points) * 50).astype(np.uint8))
     raw = path.read_bytes()
