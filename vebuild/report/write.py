@@ -74,7 +74,25 @@ def _pdf(folder: Path) -> None:
     except ImportError as e:  # weasyprint needs Pango from the system
         raise VebuildError(f"cannot make the PDF ({e}); install Pango (`sudo apt-get install libpango-1.0-0 "
                            "libpangoft2-1.0-0`) or pass --no-pdf") from None
-    doc = weasyprint.HTML(filename=str(folder / "report.html"), base_url=str(folder))
+    from weasyprint.urls import URLFetcher
+
+    class _InsideTheReport(URLFetcher):
+        """Reads the page's images from the report's own folder, by their relative names."""
+
+        def fetch(self, url: str, headers: dict[str, str] | None = None) -> object:
+            if url.startswith("data:"):
+                return super().fetch(url, headers)
+            path = (folder / url).resolve()
+            if folder.resolve() not in path.parents:
+                raise ValueError(f"{url}: not a file of the report")
+            return super().fetch(path.as_uri(), headers)
+
+    # The page's relative names are kept as they are: a base URL of no hierarchical scheme joins
+    # nothing, so links stay relative to the PDF (figures/analysis-1.json beside it) and images are
+    # named by their relative names. The folder the report is built in (a temporary one beside the
+    # output) appears nowhere in the PDF, and two examiners' PDFs are the same bytes.
+    html = (folder / "report.html").read_text(encoding="utf-8")
+    doc = weasyprint.HTML(string=html, base_url="report:", url_fetcher=_InsideTheReport())
     doc.write_pdf(folder / "report.pdf", metadata=None, uncompressed_pdf=False)
 
 
