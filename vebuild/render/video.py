@@ -33,6 +33,7 @@ the MP4's comment metadata records the setting (``"unobserved"``).
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import re
@@ -50,6 +51,7 @@ from scipy.spatial.transform import Rotation, RotationSpline
 
 from vebuild import __version__
 from vebuild.camera import ImageCamera, focal_to_fov, intrinsic_matrix
+from vebuild.determinism import filled_allocations
 from vebuild.errors import ProjectError, VebuildError
 from vebuild.project.atomic import commit, temp_path
 from vebuild.project.provenance import stage_hashes, stale_record
@@ -318,6 +320,7 @@ class Mp4Writer:
         self.frames = 0
         self._container: Any = None
         self._stream: Any = None
+        self._filled = contextlib.ExitStack()  # holds filled_allocations() while the encoder is open
 
     def __enter__(self) -> Mp4Writer:
         try:
@@ -330,17 +333,22 @@ class Mp4Writer:
         except Exception:
             raise VebuildError(f"this PyAV's FFmpeg has no H.264 encoder ({self.CODEC}); install PyAV's "
                                "wheel from PyPI (`pip install --force-reinstall av`), which includes it") from None
+        self._filled.enter_context(filled_allocations())  # its bytes must not depend on the heap's past
         try:
             self._container = av.open(str(self.tmp), "w", format="mp4", options={"movflags": "+faststart"})
         except (OSError, av.error.FFmpegError) as e:
             self.tmp.unlink(missing_ok=True)
+            self._filled.close()
             raise VebuildError(f"{self.out}: cannot write the video ({getattr(e, 'strerror', None) or e})") from None
         try:
             self._container.metadata.update(self.metadata)
             s = self._container.add_stream(self.CODEC, rate=self.rate)
             s.width, s.height, s.pix_fmt = self.width, self.height, "yuv420p"
             s.codec_context.time_base = 1 / self.rate
-            s.options = {"crf": str(self.crf), "preset": self.preset}
+            # One encoder thread: x264's output depends on its thread count (which it takes from the
+            # machine's cores) and, with frame threads, may change from run to run; a second examiner
+            # must get the same bytes on another machine (scenes/FORMAT.md, "The same bytes").
+            s.options = {"crf": str(self.crf), "preset": self.preset, "threads": "1"}
             # BT.709 (sRGB's primaries), limited range: what players assume for HD and are told here.
             cc = s.codec_context
             cc.colorspace, cc.color_primaries, cc.color_trc, cc.color_range = 1, 1, 1, 1
@@ -357,8 +365,10 @@ class Mp4Writer:
         if rgb.shape != (self.height, self.width, 3) or rgb.dtype != np.uint8:
             raise ValueError(f"expected a ({self.height}, {self.width}, 3) uint8 frame, got {rgb.shape} {rgb.dtype}")
         frame = av.VideoFrame.from_ndarray(np.ascontiguousarray(rgb), format="rgb24")
+        # Bit-exact, accurately rounded conversion: the same YUV from the same RGB on any processor
+        # (swscale's SIMD paths otherwise round differently from one CPU to another).
         frame = frame.reformat(format="yuv420p", dst_colorspace="itu709", dst_color_range="MPEG",
-                               interpolation="BICUBIC")
+                               interpolation=_same_on_any_cpu())
         frame.pts, frame.time_base = self.frames, 1 / self.rate
         self._mux(self._stream.encode(frame))
         self.frames += 1
@@ -377,6 +387,7 @@ class Mp4Writer:
             pass
         self._container = None
         self.tmp.unlink(missing_ok=True)
+        self._filled.close()
 
     def __exit__(self, exc_type: object, exc: object, tb: object) -> None:
         if exc_type is not None:
@@ -386,6 +397,7 @@ class Mp4Writer:
             self._mux(self._stream.encode(None))  # flush the encoder's delayed frames
             self._container.close()
             self._container = None
+            self._filled.close()
             commit(self.tmp, self.out)
         except BaseException as e:
             self._abort()
@@ -560,3 +572,10 @@ def _label(path: CameraPath, names: Sequence[str], frame: int) -> str:
     """What a frame shows, for the progress bar: a view's name, or 'A → B' between two."""
     i = int(np.searchsorted(path.keyframes, frame, side="right")) - 1
     return names[i] if frame - path.keyframes[i] <= path.hold_frames else f"{names[i]} → {names[i + 1]}"
+
+
+def _same_on_any_cpu() -> Any:
+    """swscale's flags for a conversion that gives the same bytes on every processor."""
+    from av.video.reformatter import Interpolation
+
+    return Interpolation.BICUBIC | Interpolation.BITEXACT | Interpolation.ACCURATE_RND
