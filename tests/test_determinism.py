@@ -69,7 +69,9 @@ steps = [
     ["export", name("room.vebuild.json"), "--html", name("viewer")],
     ["analyse", name("room.vebuild.json"), "distance", "cabinet:v4", "table.top:v6", "--json",
      name("figures/distance.json")],
-    ["report", name("room.vebuild.json"), "--out", name("report"), "--no-pdf", "--quiet"],
+    ["video", name("room.vebuild.json"), "--views", "doorway,overview", "--size", "96x64", "--fps", "4",
+     "--speed", "4", "--out", name("renders/walk.mp4"), "--quiet"],
+    ["report", name("room.vebuild.json"), "--out", name("report"), "--quiet"],
 ]
 for argv, epoch in zip(steps, epochs, strict=True):
     os.environ.pop("SOURCE_DATE_EPOCH", None)
@@ -78,7 +80,7 @@ for argv, epoch in zip(steps, epochs, strict=True):
     if main(argv) != 0:
         sys.exit(f"vebuild {' '.join(argv)} failed")
 """
-STEPS = 11
+STEPS = 12
 #: The first run's SOURCE_DATE_EPOCH at each step: the times its audit trail must record.
 EPOCHS = [1_700_000_000 + 86_400 * i for i in range(STEPS)]
 #: The audit times, set aside where the project files are compared (they are the examiners').
@@ -121,8 +123,9 @@ def test_two_examiners_get_the_same_bytes(tmp_path: Path) -> None:
     a, b = _files(one), _files(two)
     assert a.keys() == b.keys()
     made = [k for k in a if not (EXAMPLE / k).is_file()] + ["room.vebuild.json"]
-    for kind in ("textures/", "renders/", "export/room.glb", "export/room.obj", "viewer/index.html",
-                 "figures/distance.json", "report/report.html", "report/images/"):
+    for kind in ("textures/", "renders/", "renders/walk.mp4", "export/room.glb", "export/room.obj",
+                 "viewer/index.html", "figures/distance.json", "report/report.html", "report/report.pdf",
+                 "report/images/"):
         assert any(k.startswith(kind) for k in made), f"the pipeline wrote no {kind}"
     differ = sorted(k for k in a if a[k] != b[k] and k != "room.vebuild.json")
     assert not differ, f"{len(differ)} of {len(a)} files differ between the two examiners: {differ}"
