@@ -33,12 +33,13 @@ def _warn_stale(project: Project, command: str) -> None:
 
 def _cmd_calibrate(args: argparse.Namespace) -> int:
     from .actions.calibrate import calibrate_project
+    from .analysis.project_check import load_checked
     from .console.bars import Bar
     from .console.tables import calibration_table
-    from .project import load_project, save_project
+    from .project import save_project
     from .project.outputs import begin_stage
 
-    project = load_project(args.project)
+    project = load_checked(args.project, "calibrate")
     begin_stage(project)
     result = calibrate_project(project, progress=lambda it: Bar(it, desc="calibrating", unit="photo",
                                                                 disable=not _progress_wanted(args)))
@@ -50,11 +51,12 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
 
 def _cmd_solve(args: argparse.Namespace) -> int:
     from .actions.solve import solve_project
+    from .analysis.project_check import load_checked
     from .console.tables import model_table
-    from .project import load_project, save_project
+    from .project import save_project
     from .project.outputs import begin_stage
 
-    project = load_project(args.project)
+    project = load_checked(args.project, "solve")
     _warn_stale(project, "solve")
     begin_stage(project)
     result = solve_project(project, recalibrate=args.recalibrate, refine_intrinsics=not args.fixed_intrinsics)
@@ -65,11 +67,11 @@ def _cmd_solve(args: argparse.Namespace) -> int:
 
 
 def _cmd_view(args: argparse.Namespace) -> int:
-    from .project import load_project
+    from .analysis.project_check import load_checked
     from .render.sizes import parse_size
     from .viewer.app import run_viewer
 
-    project = load_project(args.project)
+    project = load_checked(args.project, "view")
     _warn_stale(project, "view")
     run_viewer(project, parse_size(args.size), hypothesis=args.hypothesis, view=args.view, samples=args.samples,
                quad_stereo=args.quad_stereo)
@@ -90,9 +92,10 @@ def _cmd_edit(args: argparse.Namespace) -> int:
 
 def _cmd_mark(args: argparse.Namespace) -> int:
     from .analysis.markers import add_marker, place_marker
-    from .project import load_project, save_project
+    from .analysis.project_check import load_checked
+    from .project import save_project
 
-    project = load_project(args.project)
+    project = load_checked(args.project, "mark")
     markers = project.data.get("evidence_markers", [])
     if args.remove:
         if args.label not in [m["label"] for m in markers]:
@@ -115,11 +118,11 @@ def _cmd_mark(args: argparse.Namespace) -> int:
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
+    from .analysis.project_check import load_checked
     from .console.bars import Bar
-    from .project import load_project
     from .report.write import write_report
 
-    project = load_project(args.project)
+    project = load_checked(args.project, "report")
     _warn_stale(project, "report")
     bar = Bar(total=14 - int(args.no_pdf), desc="report", unit="section", disable=not _progress_wanted(args))
 
@@ -136,11 +139,11 @@ def _cmd_report(args: argparse.Namespace) -> int:
 
 def _cmd_render(args: argparse.Namespace) -> int:
     from .actions.render import RenderRequest, render_evidence
-    from .project import load_project
+    from .analysis.project_check import load_checked
     from .project.decode import preset_names
     from .render.sizes import parse_size
 
-    project = load_project(args.project)
+    project = load_checked(args.project, "render")
     if args.list:
         views = project.data.get("views", [])
         print("views:" + ("" if views else " none (add them under \"views\" in the project file)"))
@@ -172,12 +175,12 @@ def _cmd_render(args: argparse.Namespace) -> int:
 
 def _cmd_texture(args: argparse.Namespace) -> int:
     from .actions.texture import texture_project
+    from .analysis.project_check import load_checked
     from .console.progress import progress_bar
     from .console.tables import texture_table
-    from .project import load_project
     from .texture.options import Options
 
-    project = load_project(args.project)
+    project = load_checked(args.project, "texture")
     try:
         options = Options(texels_per_metre=args.density, max_face_texels=args.max_face_texels, mode=args.mode,
                           fill=args.fill, erode_px=0.0 if args.no_erode else args.erode_px,
@@ -197,13 +200,13 @@ def _cmd_texture(args: argparse.Namespace) -> int:
 
 
 def _cmd_video(args: argparse.Namespace) -> int:
+    from .analysis.project_check import load_checked
     from .console.progress import progress_bar
-    from .project import load_project
     from .project.units import length_unit
     from .render.sizes import parse_size
     from .render.video import DEFAULT_SPEED, Timing, VideoRequest, parse_views, render_video
 
-    project = load_project(args.project)
+    project = load_checked(args.project, "video")
     _warn_stale(project, "video")
     unit = length_unit(project.data)
     if args.seconds is None:
@@ -228,10 +231,11 @@ def _cmd_video(args: argparse.Namespace) -> int:
 
 def _cmd_register(args: argparse.Namespace) -> int:
     from .actions.register import register_photos
+    from .analysis.project_check import load_checked
     from .console.tables import calibration_table
-    from .project import load_project, save_project
+    from .project import save_project
 
-    project = load_project(args.project)
+    project = load_checked(args.project, "register")
     _warn_stale(project, "register")
     done = register_photos(project, args.photos or None)
     save_project(project)
@@ -243,10 +247,10 @@ def _cmd_register(args: argparse.Namespace) -> int:
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
-    from .project import load_project
+    from .analysis.project_check import load_checked
     from .render.export import export_model
 
-    project = load_project(args.project)
+    project = load_checked(args.project, "export")
     _warn_stale(project, "export")
     if args.html is not None:
         from .actions.export_html import export_html

@@ -11,8 +11,9 @@ import argparse
 from collections.abc import Mapping
 from typing import Any
 
+from ..analysis.project_check import load_checked
 from ..errors import VebuildError
-from ..project import Project, load_project, save_project
+from ..project import Project, save_project
 
 #: Each field of ``case``: its key, its label on the report's title page, and its ``vebuild case``
 #: option, in the order the title page shows them.
@@ -54,7 +55,7 @@ def set_case(project: Project, values: Mapping[str, str | None]) -> dict[str, st
 
 
 def _cmd_case(args: argparse.Namespace) -> int:
-    project = load_project(args.project)
+    project = load_checked(args.project, "case")
     values = {key: getattr(args, key) for key, _, _ in CASE_FIELDS}
     if any(v is not None for v in values.values()):
         set_case(project, values)

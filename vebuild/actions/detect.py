@@ -566,9 +566,10 @@ def auto_x_axes(project: Project, grouped: dict[str, Grouped], given: dict[str, 
 
 
 def _cmd_detect(args: argparse.Namespace) -> int:
-    from ..project import load_project, save_project
+    from ..analysis.project_check import load_checked
+    from ..project import save_project
 
-    project = load_project(args.project)
+    project = load_checked(args.project, "detect")
     results = detect_project(project, args.photos, replace=args.replace, x_axis=args.x_axis)
     for props, written in results:
         print(f"{props.photo}: {props.message}" + (f"; {written} segments written" if written else ""))

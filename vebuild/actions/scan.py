@@ -16,9 +16,10 @@ from pathlib import Path
 from typing import Any
 
 from .. import __version__
+from ..analysis.project_check import load_checked
 from ..analysis.scans import CHECK_POINTS, MAX_DISTANCE_M, deviation_table, face_deviations, register_scan
 from ..errors import VebuildError
-from ..project import Project, load_project, save_project
+from ..project import Project, save_project
 from ..project.scans import (
     Target,
     dropped_words,
@@ -53,7 +54,7 @@ def add_scan(project: Project, scan_file: str | Path, targets: list[Target], use
 
 
 def _cmd_add(args: argparse.Namespace) -> int:
-    project = load_project(args.project)
+    project = load_checked(args.project, "scan add")
     targets = [parse_target(t) for t in args.target or ()]
     if args.targets:
         targets += read_targets_csv(args.targets)
@@ -71,7 +72,7 @@ def _cmd_add(args: argparse.Namespace) -> int:
 
 
 def _cmd_check(args: argparse.Namespace) -> int:
-    project = load_project(args.project)
+    project = load_checked(args.project, "scan check")
     scans = project.data.get("scans") or []
     if not scans:
         raise VebuildError(f"{project.path}: $.scans: the project has no laser scans; add one with `vebuild scan add`")

@@ -170,10 +170,10 @@ def request_from_args(args: argparse.Namespace) -> Request:
 
 
 def _run(args: argparse.Namespace, to_request: ToRequest) -> int:
-    from ..project import load_project
     from ..project.provenance import inputs_sha256, stale_warnings
+    from .project_check import load_checked
 
-    project = load_project(args.project)
+    project = load_checked(args.project, "analyse")
     for line in stale_warnings(project, "analyse"):  # the stale results it reads (vebuild.project.provenance)
         print(line, file=sys.stderr)
     if args.json:

@@ -66,7 +66,10 @@ def open_image(image: Path | Any, file: Any, where: str, decode: bool = True,
     except Image.DecompressionBombError:
         raise ProjectError(file, where, f"the image {shown} has more than {max_pixels / 1e6:g} megapixels, more "
                            "than vebuild reads (a larger one is refused before it is decoded)") from None
-    except (UnidentifiedImageError, OSError, ValueError, SyntaxError) as e:
+    except UnidentifiedImageError:  # its message names the in-memory file (an address): a message of its own
+        raise ProjectError(file, where, f"cannot open {shown} as an image: expected an image file (PNG, JPEG, "
+                           "TIFF, ...); its contents are of no image format vebuild reads") from None
+    except (OSError, ValueError, SyntaxError) as e:
         raise ProjectError(file, where, f"cannot open {shown} as an image: {e}") from None
     with img:
         w, h = img.size
