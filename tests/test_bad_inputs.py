@@ -6,6 +6,12 @@ For every case × command: exit status 2; no traceback; the message names the fi
 folder with its photos and textures, the output folder, the working folder) is byte for byte as it
 was before the command, with no file added (temporary files included) and none removed.
 
+One decoder, one answer: beside each refusal by a command that reads the project, ``vebuild check``
+(run once per case) must refuse the same project with the very same message, unless the case's fault
+is not the project's (bad_inputs_corpus.NOT_THE_PROJECTS says why for each); and every case ``check``
+refuses, two cheap readers (render --list, analyse dimensions) refuse with its message too,
+whether or not the case lists them.
+
 Cases that still fail are listed, with what happens, in bad_inputs_corpus.KNOWN_FAILURES and marked
 strict xfail: a fix turns one into an XPASS, which fails the suite until its entry is removed.
 Runs in-process through vebuild.cli.main (an exception escaping it counts as a traceback); cases
@@ -30,7 +36,16 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from bad_inputs_corpus import CASES, CMDS, KNOWN_FAILURES, PROJECT, Case, Ctx
+from bad_inputs_corpus import (
+    CASES,
+    CMDS,
+    KNOWN_FAILURES,
+    NOT_THE_PROJECTS,
+    PROJECT,
+    READ_NO_PROJECT,
+    Case,
+    Ctx,
+)
 
 REPO = Path(__file__).resolve().parents[1]
 ROOM = REPO / "scenes" / "room"
@@ -176,8 +191,33 @@ def fill(word: str, subs: dict[str, str]) -> str:
     return word
 
 
+def refusal(command: str, stderr: str, folder: Path) -> str:
+    """The error message a command printed (after ``vebuild COMMAND: error:``), the project folder
+    written {D}."""
+    head = f"vebuild {command}: error: "
+    at = stderr.rfind(head)
+    return "" if at < 0 else stderr[at + len(head):].strip().replace(str(folder), "{D}")
+
+
+_CHECKED: dict[str, str | None] = {}
+
+
+def check_answer(case: Case, states: dict[str, Path], factory: pytest.TempPathFactory) -> str | None:
+    """``vebuild check``'s refusal of the case's project (None where it accepts it), run once per
+    case in a folder of its own."""
+    if case.name not in _CHECKED:
+        tmp = factory.mktemp("check_answer")
+        folder, project, _, _ = prepare(case, tmp, states)
+        words = [fill(w, {"{P}": str(project), "{D}": str(folder)}) for w in CMDS["check"]]
+        code, _, stderr = (run_subprocess if case.sub else run_in_process)(words, folder if case.cwd == "project"
+                                                                            else tmp / "work")
+        _CHECKED[case.name] = refusal("check", stderr, folder) if code == 2 else None
+    return _CHECKED[case.name]
+
+
 @pytest.mark.parametrize(("case", "k"), PARAMS)
-def test_bad_input(case: Case, k: int, tmp_path: Path, states: dict[str, Path]) -> None:
+def test_bad_input(case: Case, k: int, tmp_path: Path, states: dict[str, Path],
+                   tmp_path_factory: pytest.TempPathFactory) -> None:
     folder, project, out, atlas = prepare(case, tmp_path, states)
     subs = {"{P}": str(project), "{D}": str(folder), "{OUT}": str(out), "{ATLAS}": atlas}
     words = [fill(w, subs) for w in _words(case.commands[k])]
@@ -203,7 +243,39 @@ def test_bad_input(case: Case, k: int, tmp_path: Path, states: dict[str, Path]) 
     changed = differences(before, after)
     if changed:
         problems.append("the folder changed: " + ", ".join(changed[:12]))
+    if code == 2 and words[0] not in ("check", *READ_NO_PROJECT) and case.name not in NOT_THE_PROJECTS:
+        checked = check_answer(case, states, tmp_path_factory)
+        said = refusal(words[0], stderr, folder)
+        if checked is None:
+            problems.append(f"`vebuild check` accepts the project that {words[0]} refuses")
+        elif said != checked:
+            problems.append(f"the message is not check's:\n  {words[0]}: {said}\n  check: {checked}")
     assert not problems, "; ".join(problems) + "\n" + shown
+
+
+#: Commands that read the project and do little more (cheap, in-process), run on every case that
+#: ``check`` refuses: each must refuse it with check's message, whether or not the case lists it.
+READERS = {"render-list": ["render", "{P}", "--list"], "analyse-dims": CMDS["analyse-dims"]}
+REFUSED = [c for c in CASES if "check" in c.commands and not c.sub]
+
+
+@pytest.mark.parametrize("case", REFUSED, ids=[c.name for c in REFUSED])
+def test_every_command_refuses_what_check_refuses(case: Case, tmp_path: Path, states: dict[str, Path],
+                                                  tmp_path_factory: pytest.TempPathFactory) -> None:
+    checked = check_answer(case, states, tmp_path_factory)
+    assert checked is not None, f"`vebuild check` accepts the case {case.name}"
+    folder, project, out, _ = prepare(case, tmp_path, states)
+    cwd = folder if case.cwd == "project" else tmp_path / "work"
+    before = snapshot(tmp_path)
+    problems = []
+    for name, command in READERS.items():
+        words = [fill(w, {"{P}": str(project), "{D}": str(folder), "{OUT}": str(out)}) for w in command]
+        code, _, stderr = run_in_process(words, cwd)
+        said = refusal(words[0], stderr, folder)
+        if code != 2 or said != checked:
+            problems.append(f"{name}: exit {code}, {said or stderr[-800:]!r}")
+    changed = differences(before, snapshot(tmp_path))
+    assert not problems and not changed, "\n".join([f"check: {checked}", *problems, *changed])
 
 
 def test_corpus_size() -> None:
@@ -212,3 +284,4 @@ def test_corpus_size() -> None:
     assert len(CASES) >= 120, len(CASES)
     ids = {p.id for p in PARAMS}
     assert not set(KNOWN_FAILURES) - ids, "known failures of cases that no longer exist"
+    assert not set(NOT_THE_PROJECTS) - set(names), "exemptions of cases that no longer exist"
