@@ -496,6 +496,19 @@ case("unknown-recorded-analysis", _analysis(["frobnicate", "cabinet"]), V + ["re
 case("recorded-analysis-help", _analysis(["distance", "--help"]), V + ["report"], [P, "$.analyses[0].command"])
 case("recorded-analysis-h", _analysis(["-h"]), V + ["report"], [P, "$.analyses[0].command"])
 case("recorded-analysis-empty", _analysis([]), V + ["report"], [P, "$.analyses[0].command"])
+case("recorded-sightline-unknown-object", _analysis(["sightline", "--standing", "3.7,0.4", "--object", "sofa"]),
+     V + ["report"], [P, "$.analyses[0]", "sofa"])
+case("recorded-lighting-unknown-target", _analysis(["lighting", "--view", "doorway", "--preset", "daylight",
+                                                    "--target", "sofa", "--size", "64x36"]),
+     V + ["report"], [P, "$.analyses[0]", "sofa"])
+case("recorded-lighting-unknown-preset", _analysis(["lighting", "--view", "doorway", "--preset", "dusk",
+                                                    "--target", "table.top", "--size", "64x36"]),
+     V + ["report"], [P, "$.analyses[0]", "dusk"])
+case("recorded-trajectory-unknown-view", _analysis(["trajectory", "--from", "1,1,1", "--to", "2,2,1", "--view",
+                                                    "hall"]), V + ["report"], [P, "$.analyses[0]", "hall"])
+case("recorded-sightline-unknown-hypothesis", _analysis(["sightline", "--standing", "3.7,0.4", "--object", "cabinet",
+                                                         "--hypothesis", "h9"]), V + ["report"],
+     [P, "$.analyses[0]", "h9"])
 case("recorded-analysis-unknown-node", _analysis(["distance", "sofa:v1", "cabinet:v4"]), V + ["report", "render-view"],
      [P, "$.analyses[0]", "sofa"])
 

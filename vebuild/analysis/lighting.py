@@ -25,6 +25,8 @@ from vebuild.render.renderer import Renderer
 from vebuild.render.scene import RenderScene
 from vebuild.texture.merge import srgb8_to_linear
 
+from .sightline import lighting_target
+
 #: Rec. 709 / sRGB luminance weights of linear R, G, B.
 LUMINANCE_WEIGHTS = np.array([0.2126, 0.7152, 0.0722])
 
@@ -48,9 +50,7 @@ def compare_lighting(project, scene: RenderScene, renderer: Renderer, cam: Image
     """Render ``cam``'s view under each preset and measure the target's luminance in each. The
     luminance is measured on a render without the marks of unobserved surfaces; each result's
     image shows them as the renderer's ``unobserved`` says."""
-    if target not in scene.model.index:
-        known = ", ".join(repr(n.name) for n in scene.model.nodes)
-        raise VebuildError(f"the target {target!r} is no node of the model; the nodes are: {known}")
+    lighting_target(scene.model, target)
     if not presets:
         raise VebuildError("a lighting comparison needs at least one preset")
     mask = renderer.node_mask(cam, target)

@@ -113,6 +113,7 @@ def _check_analyses(project: Project, run: bool) -> None:
     data = project.data
     solved = bool(data.get("model_solution")) and bool((data.get("model") or {}).get("nodes"))
     calibrated = bool((data.get("calibration") or {}).get("cameras"))
+    modelled = bool((data.get("model") or {}).get("nodes"))
     for i, rec in enumerate(data.get("analyses") or []):
         where = f"$.analyses[{i}].command"
         try:
@@ -129,12 +130,33 @@ def _check_analyses(project: Project, run: bool) -> None:
             hypothesis = getattr(request, "hypothesis", None)
             if hypothesis is not None:
                 find_hypothesis(project, hypothesis)
+            if modelled:
+                _check_targets(project, request)
         except ProjectError as e:
             if e.where == where:
                 raise
             raise ProjectError(project.path, where, str(e)) from None
         except VebuildError as e:
             raise ProjectError(project.path, where, str(e)) from None
+
+
+def _check_targets(project: Project, request: Any) -> None:
+    """The node a sight line or viewshed looks for (``--object``) and a lighting comparison's
+    ``--target``, found in the model as the analyses find them (with no texture read, no ray cast)."""
+    obj = getattr(request, "object", None)
+    target = getattr(request, "target", None) if request.name == "lighting" else None
+    if obj is None and target is None:
+        return
+    from ..project.units import length_unit
+    from ..render.scene import scene_from_model
+    from .rays import Occluders
+    from .sightline import lighting_target, target_object
+
+    model = dec.model(project)
+    if target is not None:
+        lighting_target(model, target)
+    if obj is not None:
+        target_object(Occluders(scene_from_model(model), length_unit(project.data)), obj)
 
 
 def check_render_sizes(project: Project, replaced: Collection[str] = ()) -> None:

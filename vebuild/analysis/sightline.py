@@ -37,6 +37,7 @@ from vebuild.errors import VebuildError
 from vebuild.render.scene import RenderScene
 
 if TYPE_CHECKING:
+    from vebuild.model.scene import Model
     from vebuild.project import Project
 
 
@@ -160,6 +161,13 @@ def target_point(occ: Occluders, point: Sequence[float]) -> Target:
                            f"'{inside}' and cannot be seen; choose a point on its surface, or the object "
                            f"itself (--object {inside})")
     return Target(point=p)
+
+
+def lighting_target(model: Model, target: str) -> None:
+    """A lighting comparison's ``--target``: a node of ``model`` (a VebuildError listing them if not)."""
+    if target not in model.index:
+        known = ", ".join(repr(n.name) for n in model.nodes)
+        raise VebuildError(f"the target {target!r} is no node of the model; the nodes are: {known}")
 
 
 def target_object(occ: Occluders, node: str) -> Target:
