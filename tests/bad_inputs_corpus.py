@@ -509,6 +509,12 @@ case("recorded-trajectory-unknown-view", _analysis(["trajectory", "--from", "1,1
 case("recorded-sightline-unknown-hypothesis", _analysis(["sightline", "--standing", "3.7,0.4", "--object", "cabinet",
                                                          "--hypothesis", "h9"]), V + ["report"],
      [P, "$.analyses[0]", "h9"])
+case("recorded-trajectory-unknown-node", _analysis(["trajectory", "--from", "sofa:v1", "--to", "2,2,1"]),
+     V + ["report", "export-html"], [P, "$.analyses[0]", "sofa"])
+case("recorded-sightline-one-number-spot", _analysis(["sightline", "--standing", "3.7", "--object", "cabinet"]),
+     V + ["report"], [P, "$.analyses[0]", "--standing"])
+case("recorded-viewshed-unknown-object", _analysis(["viewshed", "--object", "sofa", "--out", "x.png"]),
+     V + ["report"], [P, "$.analyses[0]", "sofa"])
 case("recorded-analysis-unknown-node", _analysis(["distance", "sofa:v1", "cabinet:v4"]), V + ["report", "render-view"],
      [P, "$.analyses[0]", "sofa"])
 

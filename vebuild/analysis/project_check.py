@@ -141,22 +141,29 @@ def _check_analyses(project: Project, run: bool) -> None:
 
 
 def _check_targets(project: Project, request: Any) -> None:
-    """The node a sight line or viewshed looks for (``--object``) and a lighting comparison's
-    ``--target``, found in the model as the analyses find them (with no texture read, no ray cast)."""
-    obj = getattr(request, "object", None)
-    target = getattr(request, "target", None) if request.name == "lighting" else None
-    if obj is None and target is None:
+    """What a recorded sight line or viewshed looks from and for (:meth:`aim`), a trajectory (run
+    whole: a few rays) and a lighting comparison's ``--target``, read against the model as the
+    analyses read them, in the hypothesis they name, on the untextured scene (no atlas read)."""
+    aim = getattr(request, "aim", None)
+    if request.name == "lighting":
+        from .sightline import lighting_target
+
+        lighting_target(dec.model(project), request.target)
+    if aim is None and request.name != "trajectory":
         return
+    from ..project.hypotheses import hypothesis_model
     from ..project.units import length_unit
     from ..render.scene import scene_from_model
     from .rays import Occluders
-    from .sightline import lighting_target, target_object
 
     model = dec.model(project)
-    if target is not None:
-        lighting_target(model, target)
-    if obj is not None:
-        target_object(Occluders(scene_from_model(model), length_unit(project.data)), obj)
+    if request.hypothesis is not None:
+        model = hypothesis_model(project, model, request.hypothesis)
+    occ = Occluders(scene_from_model(model), length_unit(project.data))
+    if aim is not None:
+        aim(occ)
+    else:
+        request.trajectory(occ)
 
 
 def check_render_sizes(project: Project, replaced: Collection[str] = ()) -> None:

@@ -78,6 +78,23 @@ class SightlineRequest:
     def with_image(self, path: str) -> Request | None:
         return replace(self, out=path)
 
+    def aim(self, occ: Any) -> tuple[Any, Any]:
+        """The eye and the target, read against the occluders ``occ`` (their unit, their model):
+        what the run looks from and for (also what ``vebuild check`` reads of a recorded one)."""
+        from .sightline import Eye, parse_floats
+
+        if not self.eye:
+            occ.unit.refuse(f"sightline --{'standing' if self.standing else 'sitting'}: a person's eye height")
+            posture = "standing" if self.standing else "sitting"
+            spot = self.standing or self.sitting
+            if spot is None:
+                raise VebuildError("sightline: expected an eye: --eye X,Y,Z, --standing X,Y or --sitting X,Y")
+            x, y = parse_floats(spot, 2, f"--{posture}")
+            eye = Eye.person(x, y, posture)
+        else:
+            eye = Eye(parse_floats(self.eye, 3, "--eye"))
+        return eye, _target(occ, self.target, self.object)
+
     def run(self, project: Project) -> AnalysisResult:
         from vebuild.render.observed import check_mode
         from vebuild.render.png import check_output
@@ -86,26 +103,16 @@ class SightlineRequest:
         check_mode(self.unobserved)
 
         from .rays import Occluders
-        from .sightline import Eye, parse_floats, render_witness_view, sight_line
+        from .sightline import render_witness_view, sight_line
 
         if self.out:
             check_output(Path(self.out), project=project)
         size = parse_size(self.size)
         unit = length_unit(project.data)
-        if not self.eye:
-            unit.refuse(f"sightline --{'standing' if self.standing else 'sitting'}: a person's eye height")
         scene = _scene(project, self.hypothesis)
         occ = Occluders(scene, unit)
-        if self.eye:
-            eye = Eye(parse_floats(self.eye, 3, "--eye"))
-        else:
-            posture = "standing" if self.standing else "sitting"
-            spot = self.standing or self.sitting
-            if spot is None:
-                raise VebuildError("sightline: expected an eye: --eye X,Y,Z, --standing X,Y or --sitting X,Y")
-            x, y = parse_floats(spot, 2, f"--{posture}")
-            eye = Eye.person(x, y, posture)
-        res = sight_line(occ, eye, _target(occ, self.target, self.object), samples=_samples(self.samples))
+        eye, target = self.aim(occ)
+        res = sight_line(occ, eye, target, samples=_samples(self.samples))
         e = eye.position
         u = unit.symbol
         lines = [f"{'eye':<16} " + (f"{eye.kind} at ({eye.spot[0]:.3f}, {eye.spot[1]:.3f}), eyes {eye.height:g} m "
@@ -173,6 +180,10 @@ class ViewshedRequest:
     def with_image(self, path: str) -> Request | None:
         return replace(self, out=path)
 
+    def aim(self, occ: Any) -> Any:
+        """The target, read against the occluders ``occ`` (also what ``vebuild check`` reads)."""
+        return _target(occ, self.target, self.object)
+
     def run(self, project: Project) -> AnalysisResult:
         import numpy as np
 
@@ -186,8 +197,7 @@ class ViewshedRequest:
         check_output(Path(self.out), project=project)
         scene = _scene(project, self.hypothesis)
         occ = Occluders(scene)
-        vs = viewshed(occ, _target(occ, self.target, self.object), self.height, self.cell,
-                      samples=_samples(self.samples))
+        vs = viewshed(occ, self.aim(occ), self.height, self.cell, samples=_samples(self.samples))
         write_viewshed_png(project, vs, occ, Path(self.out))
         f = vs.figures()
         g = f["grid"]
