@@ -322,9 +322,11 @@ def test_the_exif_cross_check_weighs_exif_by_its_honest_sigma(tmp_path, exif_err
     save_project(project)
     result = calibrate_project(load_project(path))
     check = result["cameras"]["p1"]["exif_focal_check"]
-    assert check["difference_rel"] == pytest.approx(1 / (1 + exif_error) - 1, abs=0.01)
+    # EXIF relative to the vanishing points' estimate (the one sign convention): + where EXIF is longer.
+    assert check["difference_rel"] == pytest.approx(exif_error, abs=0.01)
     assert 0.03 < check["sigma_rel"] < 0.06 and "35 mm" in check["source"]
-    named = [w for w in result["warnings"] if w.startswith("photo 'p1': the focal length from the vanishing points")]
+    named = [w for w in result["warnings"] if w.startswith("photo 'p1': EXIF's focal length")]
     assert bool(named) == warned
     if warned:
-        assert "σ of the two together, more than 3σ): check the segments, or the photo was cropped" in named[0]
+        assert f"is {100 * check['difference_rel']:+.1f} % from the vanishing points'" in named[0]
+        assert "beyond the 3σ limit" in named[0] and "check the segments, or the photo was cropped" in named[0]

@@ -124,12 +124,21 @@ def test_frontal_and_corridor_views_take_f_from_exif_and_say_so(realistic_batch)
 
 def test_exif_is_a_cross_check_only_where_the_segments_are_surer(realistic_batch) -> None:
     """No silent blending: where EXIF is not combined the reason says so and how far it differs;
-    where it is, the reason says both 1σ."""
+    where it is, the reason says both 1σ. EXIF the segments contradict beyond EXIF_DISAGREEMENT_SIGMAS
+    is not combined either; with EXIF drawn from its stated 1σ that is a chance event (0.27 % of
+    honest photos beyond 3σ; measured 1 of 600 here)."""
+    from vebuild.calibration.photo import EXIF_DISAGREEMENT_SIGMAS
+
     batch, _, _ = realistic_batch
-    combined = not_combined = 0
+    combined = not_combined = contradicted = 0
     for _, cal in batch:
         r = cal.mode_reason
-        if "not combined" in r:
+        if "the vanishing points contradicting it" in r:
+            contradicted += 1
+            assert cal.focal_source == "vanishing points" and cal.exif_check is not None
+            assert not cal.exif_check.combined and cal.exif_check.sigmas > EXIF_DISAGREEMENT_SIGMAS
+            assert "probably not this photo's focal length" in r
+        elif "not combined" in r:
             not_combined += 1
             assert cal.focal_source == "vanishing points"
             assert "only a cross-check: EXIF's f = " in r and "differs from the vanishing points' by" in r
@@ -137,6 +146,7 @@ def test_exif_is_a_cross_check_only_where_the_segments_are_surer(realistic_batch
             combined += 1
             assert "combined with EXIF (1σ 4.0 %)" in r or r.startswith("f from EXIF (1σ 4.0 %) combined with")
     assert combined and not_combined
+    assert contradicted <= 0.01 * len(batch)
 
 
 def test_lens_distortion_recovered_from_polylines(rng: np.random.Generator) -> None:

@@ -14,8 +14,9 @@ import numpy as np
 
 from .. import __version__
 from ..calibration.exif import exif_distortion_prior, exif_focal_prior
-from ..calibration.photo import PhotoCalibration, calibrate_photo
+from ..calibration.photo import EXIF_DISAGREEMENT_SIGMAS, PhotoCalibration, calibrate_photo
 from ..calibration.positions import PhotoInput, PlacedCamera, Placement, ReferenceDistance, place_cameras
+from ..calibration.priors import ExifCheck
 from ..calibration.single_photo import (
     FloorDistance,
     Origin,
@@ -25,6 +26,7 @@ from ..calibration.single_photo import (
     floor_point,
     place_single_photo,
 )
+from ..console.tables import exif_check_words
 from ..errors import CalibrationError
 from ..project import Project, canonical_input_hash, decode, provenance
 from ..project.decode import check_reference_handles
@@ -40,22 +42,26 @@ def calibrate_photos(project: Project, progress: Callable[[Iterable], Iterable] 
         marks = decode.photo_marks(photo)
         if not marks.segments:
             continue
-        out[photo["id"]] = calibrate_photo(
-            marks.segments,
-            photo["width"],
-            photo["height"],
-            photo=photo["id"],
-            click_sigma_px=settings["click_sigma_px"],
-            segment_sigma_px=decode.vanishing_segment_sigmas(photo, settings["click_sigma_px"]),
-            principal_point=marks.principal_point,
-            principal_point_sigma_rel=settings["principal_point_sigma_rel"],
-            focal=marks.focal,
-            exif_focal=exif_focal_prior(photo, settings["exif_focal_sigma_rel"]),
-            # A lens profile where EXIF names a lens lensfun knows: the prior of the lens distortion,
-            # refined by segments with middle points (the segments' straightness) where there are some.
-            distortion=exif_distortion_prior(photo),
-        )
+        out[photo["id"]] = _calibrate_one(photo, marks, settings)
     return out
+
+
+def _calibrate_one(photo: dict[str, Any], marks: decode.PhotoMarks, settings: dict[str, Any]) -> PhotoCalibration:
+    return calibrate_photo(
+        marks.segments,
+        photo["width"],
+        photo["height"],
+        photo=photo["id"],
+        click_sigma_px=settings["click_sigma_px"],
+        segment_sigma_px=decode.vanishing_segment_sigmas(photo, settings["click_sigma_px"]),
+        principal_point=marks.principal_point,
+        principal_point_sigma_rel=settings["principal_point_sigma_rel"],
+        focal=marks.focal,
+        exif_focal=exif_focal_prior(photo, settings["exif_focal_sigma_rel"]),
+        # A lens profile where EXIF names a lens lensfun knows: the prior of the lens distortion,
+        # refined by segments with middle points (the segments' straightness) where there are some.
+        distortion=exif_distortion_prior(photo),
+    )
 
 
 def calibrate_project(project: Project, progress: Callable[[Iterable], Iterable] = iter) -> dict[str, Any]:
@@ -160,8 +166,7 @@ def _calibrate(project: Project, progress: Callable[[Iterable], Iterable]) -> di
         warnings.append("photos " + ", ".join(f"'{p}'" for p in alone) + " are each placed alone, in frames with "
                         "origins of their own: their positions cannot be compared; mark the same origin marker on "
                         "the floor in each")
-    result = _results(data, photos, placement, alone, unplaced, warnings, floor, project.settings["click_sigma_px"],
-                      project.settings["exif_focal_sigma_rel"])
+    result = _results(data, photos, placement, alone, unplaced, warnings, floor, project.settings["click_sigma_px"])
     for pid in missing:
         result["warnings"].append(f"photo '{pid}' has no vanishing segments and is not calibrated: mark segments, "
                                   "or register it to the solved model (`vebuild register`, from 4 known points)")
@@ -369,7 +374,7 @@ def _floor_markers_seen_once(data: dict[str, Any], placement: Placement | None,
 
 def _results(data: dict[str, Any], photos: dict[str, PhotoCalibration], placement: Placement | None,
              alone: dict[str, SinglePhotoPlacement], unplaced: dict[str, str], warnings: list[str],
-             floor: set[str], click: float, exif_sigma_rel: float) -> dict[str, Any]:
+             floor: set[str], click: float) -> dict[str, Any]:
     cameras = {}
     ids = [p["id"] for p in data["photos"]]
     placed: dict[str, PlacedCamera | SinglePhotoPlacement] = dict(placement.cameras) if placement else {}
@@ -421,18 +426,8 @@ def _results(data: dict[str, Any], photos: dict[str, PhotoCalibration], placemen
                                          "lengths": "metres"}
             cameras[pid]["vanishing_point_prior"] = vanishing_point_prior(
                 cal, placement.camera_heights.get(pid) if placement else None)
-        # The cross-check against the EXIF focal prior (its value and honest 1σ, as calibration saw it):
-        # beyond 3σ of the two together the photo was cropped or the segments are wrong.
-        exif = exif_focal_prior(_photo(data, pid), exif_sigma_rel)
-        if exif is not None and "exif" not in cal.focal_source:
-            diff = (cam.K[0, 0] - exif.value) / exif.value
-            sigma_rel = float(np.hypot(sig[0] / cam.K[0, 0], exif.sigma / exif.value))
-            cameras[pid]["exif_focal_check"] = {"exif_focal_px": float(exif.value), "difference_rel": float(diff),
-                                                "sigma_rel": sigma_rel, "source": exif.source}
-            if abs(diff) > 3 * sigma_rel:
-                warnings.append(f"photo '{pid}': the focal length from the vanishing points differs from EXIF's by "
-                                f"{100 * diff:+.1f} % ({abs(diff) / sigma_rel:.1f}σ of the two together, more than "
-                                "3σ): check the segments, or the photo was cropped or zoomed digitally")
+        if cal.exif_check is not None:
+            cameras[pid]["exif_focal_check"] = exif_check_record(cal.exif_check)
         for n in getattr(cam, "outliers", []):
             warnings.append(f"photo '{pid}': marker '{n}' lies {np.linalg.norm(cam.marker_residuals_px[n]):.1f} px "
                             "from where the other photos put it: check its placement")
@@ -492,8 +487,17 @@ def _results(data: dict[str, Any], photos: dict[str, PhotoCalibration], placemen
                                  "focal_px": value_sigma(cal.f, sig[0]),
                                  "principal_point": value_sigma(cal.principal_point, sig[1:3]),
                                  "ypr_deg": value_sigma(np.degrees(ypr), np.degrees(ypr_sig))}
+        if cal.exif_check is not None:
+            unplaced_records[pid]["exif_focal_check"] = exif_check_record(cal.exif_check)
         warnings.append(f"photo '{pid}' is calibrated (its focal length, principal point and rotation are kept under "
                         f"calibration.unplaced) but not placed: {unplaced[pid]}")
+    for pid in [i for i in ids if i in photos]:
+        check = photos[pid].exif_check
+        if check is not None and check.sigmas > EXIF_DISAGREEMENT_SIGMAS:
+            warnings.append(f"photo '{pid}': {exif_check_words(exif_check_record(check))}; "
+                            + ("check the segments, or the photo was cropped or zoomed digitally" if check.combined
+                               else "EXIF is not combined, the focal length is from the vanishing points alone: "
+                               "check the segments, or the photo was cropped or zoomed digitally"))
     relative = any(a.relative for a in alone.values())
     origin = placement.origin if placement else next((a.origin.marker for a in alone.values()), None)
     return {
@@ -510,6 +514,16 @@ def _results(data: dict[str, Any], photos: dict[str, PhotoCalibration], placemen
         "unplaced": unplaced_records,
         "warnings": warnings,
     }
+
+
+def exif_check_record(check: ExifCheck) -> dict[str, Any]:
+    """The record of EXIF's focal length against the vanishing points' alone (FORMAT.md
+    ``exif_focal_check``): EXIF relative to the vanishing points' estimate, one sign everywhere."""
+    return {"exif_focal_px": float(check.exif.value), "exif_sigma_px": float(check.exif.sigma),
+            "lines_focal_px": value_sigma(check.lines_px, check.lines_sigma_px),
+            "difference_rel": float(check.difference_rel), "sigma_rel": float(check.sigma_rel),
+            "sigmas": float(check.sigmas), "limit_sigmas": EXIF_DISAGREEMENT_SIGMAS, "combined": check.combined,
+            "source": check.exif.source}
 
 
 def _origin_text(placement: Placement | None, alone: dict[str, SinglePhotoPlacement]) -> str:

@@ -44,6 +44,7 @@ from .lsq import numeric_jacobian, photo_numeric_failures
 from .priors import (
     PRINCIPAL_POINT_SIGMA_REL,
     DistortionPrior,
+    ExifCheck,
     FocalPrior,
     check_focal_prior,
     check_principal_point,
@@ -72,8 +73,14 @@ FOCAL_UNDETERMINED_REL_SIGMA = 1.0 / 1.96
 #: Gaussian σ describes (a fixed-lens camera reporting one focal length at every zoom step, a
 #: crop, digital zoom): it is then a cross-check only, reported in the mode reason.
 EXIF_COMBINE_MIN_SIGMA_RATIO = 0.5
-#: EXIF and the segments disagreeing by more than this many σ (of their difference) is said in
-#: the mode reason: EXIF is then probably not this photo's focal length.
+#: The limit of EXIF as evidence: where EXIF's focal length and the segments' alone differ by more
+#: than this many σ of their difference (√(σ_EXIF² + σ_segments²), each estimate's 1σ, the
+#: segments' widened by the marks' variance factor), EXIF is not combined and the photo is
+#: calibrated from its segments alone, the disagreement said in the mode reason and as a warning.
+#: Two honest estimates of one focal length differ by more than 3σ in 0.27 % of photos; EXIF's 1σ
+#: already holds its nominal errors (vebuild/calibration/exif.py), so beyond that it describes
+#: another focal length (a crop, a digital zoom, a fixed-lens camera writing one value at every
+#: zoom step), and their weighted mean would be neither, with a 1σ narrower than either's.
 EXIF_DISAGREEMENT_SIGMAS = 3.0
 #: Two axes whose vanishing points are closer than this (degrees, seen from a nominal camera with
 #: f = the image's longer side) are the same direction: the user has mislabelled a set.
@@ -102,6 +109,8 @@ class PhotoCalibration:
     k1, k1_sigma, k1_source : the division model's coefficient (vebuild/camera.py), its 1σ (0 when
         fixed at 0) and what gave it: ``"segments"``, ``"segments + <prior>"``, ``"<prior>"`` (a
         lens profile or the user), ``"none"``.
+    exif_check : EXIF's focal length against the vanishing points' alone (one sign convention:
+        :class:`.priors.ExifCheck`), where EXIF gives one and the vanishing points alone fix f.
     vanishing_points, segment_residuals_px : those of the undistorted marks; one residual per
         segment, the RMS of its points' distances to its line through the vanishing point, signed
         as its first point's (for a two-point segment, the paper's residual).
@@ -122,6 +131,7 @@ class PhotoCalibration:
     k1_sigma: float = 0.0
     k1_source: str = "none"
     covariance_k1: Array = field(default_factory=lambda: np.zeros((7, 7)))
+    exif_check: ExifCheck | None = None
 
     def __post_init__(self) -> None:
         if not np.any(self.covariance_k1):  # built with the (6, 6) only: k1 fixed at 0
@@ -233,8 +243,9 @@ def calibrate_photo(
         with 1σ = principal_point_sigma_rel × the longer side.
     focal : a focal length the user gives (always combined).
     exif_focal : the focal length EXIF records, with a realistic 1σ: combined where the segments
-        determine f weakly (EXIF_COMBINE_MIN_SIGMA_RATIO), needed where they determine nothing,
-        and always reported in the mode reason as a cross-check.
+        determine f weakly (EXIF_COMBINE_MIN_SIGMA_RATIO) unless they contradict it by more than
+        EXIF_DISAGREEMENT_SIGMAS, needed where they determine nothing, and always compared with
+        the segments' own estimate (``exif_check``, the mode reason).
     distortion : a lens distortion known beforehand (a lens profile, the user): a prior on k1. k1
         is estimated where segments have middle points; with neither, it is fixed at 0.
 
@@ -317,14 +328,25 @@ def calibrate_photo(
         vf = problem.variance_factor(J, problem.residuals(problem.at_rotation(y), R, prior_f))
         if vf > MISLABEL_FIT_FACTOR or not rel_seg <= FOCAL_UNDETERMINED_REL_SIGMA:
             raise not_orthogonal
-    exif_combined = False
-    if focal is None and exif_focal is not None:
-        exif_combined = sigma_f_seg >= EXIF_COMBINE_MIN_SIGMA_RATIO * exif_focal.sigma
-        if not exif_combined:
+    exif_combined = exif_rejected = False
+    exif_check = None
+    if exif_focal is not None:
+        # What the lines alone say about f, to compare EXIF with (ExifCheck): this solution where
+        # no focal prior was combined, else a solve without it from here.
+        exif_combined = focal is None and sigma_f_seg >= EXIF_COMBINE_MIN_SIGMA_RATIO * exif_focal.sigma
+        # Lines that fix f to no better than FOCAL_UNDETERMINED_REL_SIGMA here, with the prior, cannot
+        # cross-check it: no solve without it is needed (frontal and corridor views, mostly).
+        alone = None if exif_combined and not rel_seg <= FOCAL_UNDETERMINED_REL_SIGMA else _lines_alone(problem, y, R)
+        if alone is not None and alone.rel_sigma_f_seg <= FOCAL_UNDETERMINED_REL_SIGMA:
+            exif_check = ExifCheck(exif_focal, alone.f, alone.sigma_f, exif_combined)
+            if exif_combined and exif_check.sigmas > EXIF_DISAGREEMENT_SIGMAS:
+                # Evidence, not truth: EXIF that the lines contradict is not this photo's focal length.
+                exif_combined, exif_rejected = False, True
+                exif_check = ExifCheck(exif_focal, alone.f, alone.sigma_f, False)
+        if focal is None and not exif_combined and alone is not None:
             prior_f = None
-            y, R = problem.solve(y, R, None)
-            sigma_f_seg, sigma_c_seg = problem.segment_information(y, R)
-            rel_seg = sigma_f_seg / (y[0] * scale)
+            y, R, sigma_f_seg, sigma_c_seg, rel_seg = alone.y, alone.R, alone.sigma_f_seg, alone.sigma_c_seg, \
+                alone.rel_sigma_f_seg
     if prior_f is None and not rel_seg <= FOCAL_UNDETERMINED_REL_SIGMA:
         raise CalibrationError(
             photo,
@@ -360,7 +382,7 @@ def calibrate_photo(
     else:
         mode = "2vp"
     reason = "; ".join([
-        _focal_reason(f, rel_seg, sigma_f_seg, focal, exif_focal, exif_combined, prior_dominates),
+        _focal_reason(rel_seg, focal, exif_focal, exif_check, exif_combined, exif_rejected, prior_dominates),
         _principal_point_reason(mode, sigma_c_seg, sigma_c, c_where, vf),
         _distortion_reason(k1, k1_sigma, straightness, distortion, K, width, height),
     ])
@@ -383,7 +405,45 @@ def calibrate_photo(
         k1_source=(("segments + " + distortion.source if distortion else "segments") if straightness
                    else distortion.source if distortion else "none"),
         covariance_k1=cov7,
+        exif_check=exif_check,
     )
+
+
+@dataclass(frozen=True)
+class _LinesAlone:
+    """A photo's solution with no focal prior: what its lines alone say about f.
+
+    sigma_f_seg, sigma_c_seg : JointProblem.segment_information there (pixels); vf : the marks'
+    variance factor there; sigma_f : sigma_f_seg widened by √vf where the marks fit worse than
+    the stated click noise (the 1σ an EXIF value is compared with)."""
+
+    y: Array
+    R: Array
+    sigma_f_seg: float
+    sigma_c_seg: float
+    vf: float
+    scale: float
+
+    @property
+    def f(self) -> float:
+        return float(self.y[0] * self.scale)
+
+    @property
+    def rel_sigma_f_seg(self) -> float:
+        return self.sigma_f_seg / self.f
+
+    @property
+    def sigma_f(self) -> float:
+        return float(self.sigma_f_seg * np.sqrt(max(self.vf, 1.0)))
+
+
+def _lines_alone(problem: JointProblem, y: Array, R: Array) -> _LinesAlone:
+    """The solution without a focal prior, solved from (y, R)."""
+    y, R = problem.solve(y, R, None)
+    sigma_f_seg, sigma_c_seg = problem.segment_information(y, R)
+    J = problem.jacobian(y, R, None)
+    vf = problem.variance_factor(J, problem.residuals(problem.at_rotation(y), R, None))
+    return _LinesAlone(y, R, sigma_f_seg, sigma_c_seg, vf, problem.scale)
 
 
 def _segment_sigmas(polys: Mapping[str, list], axes: list[str], click_sigma_px: float,
@@ -409,24 +469,16 @@ def _flat(s: ArrayLike) -> list:
     return [v for row in s for v in np.asarray(row, float).reshape(-1)]  # type: ignore[union-attr]
 
 
-def _focal_reason(f: float, rel_seg: float, sigma_f_seg: float, focal: FocalPrior | None,
-                  exif: FocalPrior | None, exif_combined: bool, prior_dominates: bool) -> str:
+def _focal_reason(rel_seg: float, focal: FocalPrior | None, exif: FocalPrior | None, check: ExifCheck | None,
+                  exif_combined: bool, exif_rejected: bool, prior_dominates: bool) -> str:
     seg = (f"the vanishing points (1σ {_pct(rel_seg)})" if rel_seg <= FOCAL_UNDETERMINED_REL_SIGMA
            else f"the vanishing points, which barely determine it (1σ {_pct(rel_seg)})")
     cross = ""
-    if exif is not None:
-        # What the segments alone would give, from the combined value (Gaussian combination).
-        combined_with = focal if focal is not None else (exif if exif_combined else None)
-        f_seg = f
-        if combined_with is not None and np.isfinite(sigma_f_seg):
-            f_seg = f + (f - combined_with.value) * sigma_f_seg**2 / combined_with.sigma**2
-        if rel_seg <= FOCAL_UNDETERMINED_REL_SIGMA:
-            d = (exif.value - f_seg) / f_seg
-            z = abs(exif.value - f_seg) / np.hypot(sigma_f_seg, exif.sigma)
-            cross = (f"EXIF's f = {exif.value:.1f} px differs from the vanishing points' by {100 * d:+.1f} % "
-                     f"({z:.1f}σ)")
-            if z > EXIF_DISAGREEMENT_SIGMAS:
-                cross += ": probably not this photo's focal length (cropped, or a zoom EXIF does not record)"
+    if check is not None:
+        cross = (f"EXIF's f = {check.exif.value:.1f} px differs from the vanishing points' by "
+                 f"{100 * check.difference_rel:+.1f} % ({check.sigmas:.1f}σ)")
+        if check.sigmas > EXIF_DISAGREEMENT_SIGMAS:
+            cross += ": probably not this photo's focal length (cropped, or a zoom EXIF does not record)"
     if focal is not None:
         what = (f"f from the user's focal length (1σ {_pct(focal.sigma / focal.value)}) combined with {seg}"
                 if prior_dominates else
@@ -440,8 +492,10 @@ def _focal_reason(f: float, rel_seg: float, sigma_f_seg: float, focal: FocalPrio
     if exif_combined:
         what = f"f from {e} combined with {seg}" if prior_dominates else f"f from {seg} combined with {e}"
         return what + (f"; {cross}" if cross else "; the vanishing points cannot cross-check EXIF")
-    return (f"f from {seg}; EXIF (1σ {_pct(exif.sigma / exif.value)}) not combined, the vanishing points being "
-            f"surer, only a cross-check: {cross}")
+    if exif_rejected:
+        return (f"f from {seg} alone; {e} not combined, the vanishing points contradicting it by more than "
+                f"{EXIF_DISAGREEMENT_SIGMAS:g}σ: {cross}")
+    return f"f from {seg}; {e} not combined, the vanishing points being surer, only a cross-check: {cross}"
 
 
 def _principal_point_reason(mode: str, sigma_c_seg: float, sigma_c: float, where: str, vf: float) -> str:

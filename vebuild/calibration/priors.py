@@ -58,3 +58,32 @@ def check_principal_point(photo: str, principal_point: tuple[ArrayLike, float] |
                                             and np.isfinite(principal_point[1]) and principal_point[1] > 0):
         raise CalibrationError(photo, f"principal_point: expected a finite (u, v) with a σ > 0 px, got "
                                f"{principal_point[0]!r} ± {principal_point[1]!r}")
+
+
+@dataclass(frozen=True)
+class ExifCheck:
+    """A photo's EXIF focal length compared with what its vanishing points alone give.
+
+    The sign convention, the same in every record, table and message: EXIF relative to the
+    vanishing points' estimate, ``difference_rel = (f_EXIF − f_lines) / f_lines`` (positive where
+    EXIF says longer). Its 1σ is that of the difference of two independent estimates, EXIF's and
+    the lines', √(σ_EXIF² + σ_lines²), over f_lines, so that ``sigmas`` = |difference_rel| /
+    ``sigma_rel``. ``combined``: whether the calibration combined EXIF with the lines.
+    """
+
+    exif: FocalPrior
+    lines_px: float
+    lines_sigma_px: float
+    combined: bool
+
+    @property
+    def difference_rel(self) -> float:
+        return (self.exif.value - self.lines_px) / self.lines_px
+
+    @property
+    def sigma_rel(self) -> float:
+        return float(np.hypot(self.exif.sigma, self.lines_sigma_px)) / self.lines_px
+
+    @property
+    def sigmas(self) -> float:
+        return abs(self.difference_rel) / self.sigma_rel

@@ -41,6 +41,22 @@ def _sigma(s: float | None) -> str:
     return "?" if s is None else f"{s:.3f}"
 
 
+def exif_check_words(check: dict[str, Any]) -> str:
+    """A calibration record's ``exif_focal_check`` in words, with the one sign convention of the
+    calibration (vebuild.calibration.priors.ExifCheck): EXIF relative to the vanishing points'
+    estimate, positive where EXIF says longer. A record written by an earlier vebuild, which held
+    the estimate relative to EXIF, is turned round to it."""
+    exif = check["exif_focal_px"]
+    if "lines_focal_px" not in check:  # (f − f_EXIF) / f_EXIF, the estimate after placement
+        old, sigma_rel = check["difference_rel"], check["sigma_rel"]
+        return (f"EXIF's focal length {exif:.1f} px is {100 * (1.0 / (1.0 + old) - 1.0):+.1f} % from the estimate "
+                f"({abs(old) / sigma_rel:.1f}σ of their difference)")
+    lines, z, limit = check["lines_focal_px"], check["sigmas"], check["limit_sigmas"]
+    return (f"EXIF's focal length {exif:.1f} px is {100 * check['difference_rel']:+.1f} % from the vanishing points' "
+            f"{lines['value']:.1f} ± {lines['sigma']:.1f} px ({z:.1f}σ of their difference"
+            + (f", beyond the {limit:g}σ limit)" if z > limit else ")"))
+
+
 def calibration_table(result: dict[str, Any]) -> str:
     """Per photo: mode, f, principal point, yaw/pitch/roll, position, their 1σ, and residuals."""
     origin = result.get("origin") or f"marker '{result['origin_marker']}'"
@@ -69,8 +85,8 @@ def calibration_table(result: dict[str, Any]) -> str:
                          f"{cam['rms_px']:.2f} px")
         if "exif_focal_check" in cam:
             c = cam["exif_focal_check"]
-            lines.append(f"  EXIF check       EXIF says f = {c['exif_focal_px']:.1f} px "
-                         f"({100 * c['difference_rel']:+.2f} % from the estimate)")
+            used = "" if "combined" not in c else "; combined" if c["combined"] else "; not combined"
+            lines.append(f"  EXIF check       {exif_check_words(c)}{used}")
         lines.append("")
     lines.append("markers (relative units: the camera height is 1):" if unit.relative else "markers (m):")
     for n, m in result["markers"].items():

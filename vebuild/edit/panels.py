@@ -23,7 +23,7 @@ from .marks import AXES, CAMERA_HEIGHT_SIGMA_M, KNOWN_LENGTH_SIGMA_M
 from .model_panels import relations_section
 from .node_panel import properties_section
 from .overlay import AXIS_COLOURS
-from .session import placement_text
+from .session import exif_text, placement_text
 
 if TYPE_CHECKING:
     from .screen import Editor
@@ -106,7 +106,8 @@ class Panels:
             for pid, c in self.ed.calibration_result.get("cameras", {}).items():
                 imgui.push_text_wrap_pos(0.0)
                 imgui.text(f"{pid}: {c.get('mode', '?')}, f {c['focal_px']['value']:.1f} ± "
-                           f"{c['focal_px']['sigma']:.1f} px, rms {c['rms_px']:.2f} px{placement_text(c)}")
+                           f"{c['focal_px']['sigma']:.1f} px, rms {c['rms_px']:.2f} px{placement_text(c)}"
+                           + exif_text(c))
                 imgui.pop_text_wrap_pos()
                 self.ed.rect(f"calibrated:{pid}")
         imgui.separator()

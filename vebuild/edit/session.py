@@ -24,6 +24,7 @@ from numpy.typing import NDArray
 
 from vebuild import camera as cam_math
 from vebuild.camera import ImageCamera
+from vebuild.console.tables import exif_check_words
 from vebuild.errors import VebuildError
 from vebuild.model.undo import UndoStack
 from vebuild.project import Project, load_project, new_photo_entry
@@ -181,7 +182,7 @@ class EditSession(Assist, Rooms, SessionOverlays):
         with self._edit("calibrate"):
             result = calibrate_project(self.project, progress=_iterating(progress, "calibrating photos"))
         lines = [f"{pid}: {c['mode']}, f {c['focal_px']['value']:.1f} ± {c['focal_px']['sigma']:.1f} px, "
-                 f"rms {c['rms_px']:.2f} px{placement_text(c)}" for pid, c in result["cameras"].items()]
+                 f"rms {c['rms_px']:.2f} px{placement_text(c)}{exif_text(c)}" for pid, c in result["cameras"].items()]
         self.say("calibrated " + "; ".join(lines))
         for w in result.get("warnings", []):
             self.say(w)
@@ -252,6 +253,17 @@ class EditSession(Assist, Rooms, SessionOverlays):
             record, _ = texture_project(self.project, opts, progress=step, save=False)
         self.say(f"textures extracted: {len(record['pages'])} page(s)")
         return record
+
+
+def exif_text(camera: dict[str, Any]) -> str:
+    """What the screen adds to a calibrated photo's line about its EXIF focal length: EXIF relative
+    to the vanishing points' estimate, as the console and the report say it, and whether it was
+    combined (none where EXIF gives no focal length or the vanishing points alone fix none)."""
+    check = camera.get("exif_focal_check")
+    if not isinstance(check, dict):
+        return ""
+    used = "" if "combined" not in check else ", combined" if check["combined"] else ", not combined"
+    return f"; {exif_check_words(check)}{used}"
 
 
 def placement_text(camera: dict[str, Any]) -> str:

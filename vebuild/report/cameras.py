@@ -8,6 +8,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
+from vebuild.console.tables import exif_check_words
 from vebuild.project import Project
 from vebuild.project.units import length_unit
 
@@ -86,12 +87,26 @@ def calibration(project: Project, rep: Report) -> None:
     body += "<h3>Calibration mode of each photo</h3><ul class='lim'>" + "".join(
         f"<li>{esc(pid)}: {esc(c.get('mode', '?'))}: {esc(c.get('mode_reason', 'no reason recorded'))}</li>"
         for pid, c in cams.items()) + "</ul>"
+    checks = {pid: c["exif_focal_check"] for pid, c in cams.items() if isinstance(c.get("exif_focal_check"), Mapping)}
+    if checks:
+        body += ("<h3>EXIF focal lengths against the vanishing points</h3><p>Each as EXIF relative to the "
+                 "vanishing points' own estimate (positive: EXIF says longer); beyond the limit EXIF is not "
+                 "combined.</p><ul class='lim'>" + "".join(_exif_item(pid, c) for pid, c in checks.items()) + "</ul>")
     unplaced = cal.get("unplaced") or {}
     if unplaced:
         body += "<p class='warn'>Calibrated but not placed: " + "; ".join(
             f"{esc(pid)} ({esc(u.get('reason', '') if isinstance(u, Mapping) else u)})"
             for pid, u in unplaced.items()) + ".</p>"
     rep.add("Calibration (vanishing points)", body)
+
+
+def _exif_item(pid: str, check: Mapping[str, Any]) -> str:
+    """One photo's ``exif_focal_check`` as a list item, marked where it is beyond the limit."""
+    words = esc(f"{pid}: {exif_check_words(dict(check))}")
+    if "combined" not in check:  # a record of an earlier vebuild
+        return f"<li>{words}</li>"
+    cls = " class='warn'" if check["sigmas"] > check["limit_sigmas"] else ""
+    return f"<li{cls}>{words}; {'combined' if check['combined'] else 'not combined'}</li>"
 
 
 def final_cameras(project: Project, rep: Report) -> None:
