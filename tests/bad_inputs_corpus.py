@@ -305,6 +305,17 @@ case("calibration-rotation-not-orthonormal", setter(("calibration", "cameras", "
 case("calibration-K-zero-focal", setter(("calibration", "cameras", "p1", "K"),
                                         [[0.0, 0, 800], [0, 0.0, 600], [0, 0, 1]]),
      V + ["render-photo", "texture", "export"], [P, "$.calibration.cameras.p1.K"])
+
+
+def _left_out_p1(ctx: Ctx) -> None:
+    """p1 as `vebuild calibrate` leaves out a photo whose marks determine no camera."""
+    cal = ctx.doc["calibration"]
+    cal["cameras"].pop("p1")
+    cal["left_out"] = {"p1": {"reason": "the focal length is not determined: give its focal length"}}
+
+
+case("calibration-photo-left-out", _left_out_p1, ["render-photo", "mark-photo"],
+     [P, "$.calibration.left_out.p1", "the calibration left it out (the focal length is not determined"])
 case("box-zero-height", setter(CAB + ("primitive", "params", "height"), 0.0),
      V + ["solve", "render-view", "texture"], [P, *nd(1, "height")])
 case("box-negative-width", setter(CAB + ("primitive", "params", "width"), -0.5),

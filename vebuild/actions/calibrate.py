@@ -34,15 +34,25 @@ from ..project.records import camera_record, distortion_record, json_values, val
 from ..project.units import METRES, RELATIVE
 
 
-def calibrate_photos(project: Project, progress: Callable[[Iterable], Iterable] = iter) -> dict[str, PhotoCalibration]:
-    """Intrinsics and rotation of every photo that has vanishing segments."""
+def calibrate_photos(project: Project, progress: Callable[[Iterable], Iterable] = iter,
+                     left_out: dict[str, CalibrationError] | None = None) -> dict[str, PhotoCalibration]:
+    """Intrinsics and rotation of every photo that has vanishing segments.
+
+    A photo whose marks cannot determine its camera raises its CalibrationError, or, given
+    ``left_out``, is left out: its error is put there under its id and the others are calibrated.
+    """
     settings = project.settings
     out = {}
     for photo in progress(project.data["photos"]):
         marks = decode.photo_marks(photo)
         if not marks.segments:
             continue
-        out[photo["id"]] = _calibrate_one(photo, marks, settings)
+        try:
+            out[photo["id"]] = _calibrate_one(photo, marks, settings)
+        except CalibrationError as e:
+            if left_out is None:
+                raise
+            left_out[photo["id"]] = e
     return out
 
 
@@ -87,8 +97,13 @@ def _located(project: Project, e: CalibrationError) -> CalibrationError:
 def _calibrate(project: Project, progress: Callable[[Iterable], Iterable]) -> dict[str, Any]:
     data = project.data
     check_reference_handles(project)
-    photos = calibrate_photos(project, progress)
-    missing = [p["id"] for p in data["photos"] if p["id"] not in photos]
+    # A photo whose marks cannot determine its camera is left out, with its reason; the others are
+    # calibrated and placed. Only where none can be is the project refused (with the first's error).
+    left_out: dict[str, CalibrationError] = {}
+    photos = calibrate_photos(project, progress, left_out)
+    missing = [p["id"] for p in data["photos"] if p["id"] not in photos and p["id"] not in left_out]
+    if not photos and left_out:
+        raise next(iter(left_out.values()))
     if not photos:
         raise CalibrationError(None, "no photo has vanishing segments; mark segments along two world axes at least")
     known = decode.markers(data, "surveyed")
@@ -167,6 +182,11 @@ def _calibrate(project: Project, progress: Callable[[Iterable], Iterable]) -> di
                         "origins of their own: their positions cannot be compared; mark the same origin marker on "
                         "the floor in each")
     result = _results(data, photos, placement, alone, unplaced, warnings, floor, project.settings["click_sigma_px"])
+    ids = [p["id"] for p in data["photos"]]
+    for pid, err in left_out.items():
+        result.setdefault("left_out", {})[pid] = {"reason": err.detail}
+        result["warnings"].append(f"photo '{pid}' is left out of the calibration ($.photos[{ids.index(pid)}]), the "
+                                  f"other photos calibrated without it: {err.detail}")
     for pid in missing:
         result["warnings"].append(f"photo '{pid}' has no vanishing segments and is not calibrated: mark segments, "
                                   "or register it to the solved model (`vebuild register`, from 4 known points)")

@@ -226,11 +226,15 @@ def uncalibrated_pin_warnings(data: dict[str, Any], cameras: dict[str, ImageCame
                 left.setdefault(obs["photo"], [0, 0])[k] += 1
     out = []
     unplaced = (data.get("calibration") or {}).get("unplaced") or {}
+    left_out = (data.get("calibration") or {}).get("left_out") or {}
     for pid, (pins, edges) in sorted(left.items()):
         what = " and ".join(f"{n} {word}{'s' if n != 1 else ''}" for n, word in
                             ((pins, "pin"), (edges, "edge observation")) if n)
         seg = any(p["id"] == pid and p.get("vanishing_segments") for p in data["photos"])
-        if pid in unplaced:
+        if pid in left_out:
+            fix = (f"`vebuild calibrate` once what the calibration left it out for is fixed "
+                   f"({json_path(['calibration', 'left_out', pid, 'reason'])}), or `vebuild register PROJECT {pid}`")
+        elif pid in unplaced:
             fix = (f"`vebuild register PROJECT {pid}` (the calibration could not place it: "
                    f"{json_path(['calibration', 'unplaced', pid, 'reason'])})")
         elif seg:

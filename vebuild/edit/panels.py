@@ -110,6 +110,12 @@ class Panels:
                            + exif_text(c))
                 imgui.pop_text_wrap_pos()
                 self.ed.rect(f"calibrated:{pid}")
+            for pid, u in (self.ed.calibration_result.get("left_out") or {}).items():
+                imgui.push_text_wrap_pos(0.0)
+                imgui.text_colored(imgui.ImVec4(1.0, 0.4, 0.35, 1.0),
+                                   f"{pid}: left out of the calibration: {u['reason']}")
+                imgui.pop_text_wrap_pos()
+                self.ed.rect(f"left-out:{pid}")
         imgui.separator()
         self._distances()
         imgui.separator()

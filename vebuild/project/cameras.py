@@ -151,7 +151,13 @@ def photo_camera(project: Project, photo: str) -> ImageCamera:
     if photo not in ids:
         raise ProjectError(project.path, "$.photos", f"no photo has the id {photo!r}; the photos are: "
                            + (", ".join(repr(i) for i in ids) or "none"))
-    if photo not in ((project.data.get("calibration") or {}).get("cameras") or {}):
+    calibration = project.data.get("calibration") or {}
+    left_out = (calibration.get("left_out") or {}).get(photo)
+    if photo not in (calibration.get("cameras") or {}) and isinstance(left_out, Mapping):
+        raise ProjectError(project.path, json_path(["calibration", "left_out", photo]),
+                           f"photo {photo!r} has no camera: the calibration left it out ({left_out.get('reason')}); "
+                           "do what that says and run `vebuild calibrate` again, or place it with `vebuild register`")
+    if photo not in (calibration.get("cameras") or {}):
         raise ProjectError(project.path, "$.calibration.cameras",
                            f"photo {photo!r} has no calibrated camera; run `vebuild calibrate` (or `vebuild register`)")
     i = ids.index(photo)

@@ -92,6 +92,11 @@ def calibration(project: Project, rep: Report) -> None:
         body += ("<h3>EXIF focal lengths against the vanishing points</h3><p>Each as EXIF relative to the "
                  "vanishing points' own estimate (positive: EXIF says longer); beyond the limit EXIF is not "
                  "combined.</p><ul class='lim'>" + "".join(_exif_item(pid, c) for pid, c in checks.items()) + "</ul>")
+    left_out = cal.get("left_out") or {}
+    if left_out:
+        why = "; ".join(f"{esc(pid)} ({esc(u.get('reason', '') if isinstance(u, Mapping) else u)})"
+                        for pid, u in left_out.items())
+        body += f"<p class='warn'>Left out of the calibration (no camera; nothing in the model rests on it): {why}.</p>"
     unplaced = cal.get("unplaced") or {}
     if unplaced:
         body += "<p class='warn'>Calibrated but not placed: " + "; ".join(

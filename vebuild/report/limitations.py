@@ -15,6 +15,8 @@ what it is and lists the things it concerns:
 - ``failed-checks``: check distances whose known value lies outside the final model's 95 %
   interval;
 - ``calibration-modes``: each photo's calibration mode and its reason;
+- ``left-out``: photos the calibration left out, their marks determining no camera
+  (``calibration.left_out``);
 - ``unplaced``: photos calibrated but not placed (``calibration.unplaced``);
 - ``relative-units``: no scale, lengths in relative units.
 
@@ -190,6 +192,13 @@ def limitations(project: Project, checks: Sequence[CheckResult] = (), stale: Seq
                               tuple(f"{pid}: {c.get('mode', '?')}: "
                                     + str(c.get("mode_reason", "no reason recorded")).split(";")[0]
                                     for pid, c in cams.items())))
+    left_out = cal.get("left_out") or {}
+    if left_out:
+        out.append(Limitation("left-out", "Photos left out of the calibration",
+                              "These photos have no camera: their marks could not determine one. Nothing in the "
+                              "model rests on them.",
+                              tuple(f"{pid}: {u.get('reason', '') if isinstance(u, Mapping) else u}"
+                                    for pid, u in left_out.items())))
     unplaced = cal.get("unplaced") or {}
     if unplaced:
         out.append(Limitation("unplaced", "Photos not placed",
