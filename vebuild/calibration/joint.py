@@ -217,6 +217,11 @@ class JointProblem:
             parts.append(np.array([(f - prior_f.value) / prior_f.sigma]))
         return np.concatenate(parts)
 
+    def cost(self, y: Array, R: Array, prior_f: FocalPrior | None) -> float:
+        """The sum of the squared residuals (each over its 1σ) at a solution (y, R)."""
+        r = self.residuals(self.at_rotation(y), R, prior_f)
+        return float(r @ r)
+
     def solve(self, y0: Array, R0: Array, prior_f: FocalPrior | None) -> tuple[Array, Array]:
         from scipy.optimize import least_squares  # imported at first use: docs/start-up.md
 

@@ -73,14 +73,17 @@ FOCAL_UNDETERMINED_REL_SIGMA = 1.0 / 1.96
 #: Gaussian σ describes (a fixed-lens camera reporting one focal length at every zoom step, a
 #: crop, digital zoom): it is then a cross-check only, reported in the mode reason.
 EXIF_COMBINE_MIN_SIGMA_RATIO = 0.5
-#: The limit of EXIF as evidence: where EXIF's focal length and the segments' alone differ by more
-#: than this many σ of their difference (√(σ_EXIF² + σ_segments²), each estimate's 1σ, the
-#: segments' widened by the marks' variance factor), EXIF is not combined and the photo is
-#: calibrated from its segments alone, the disagreement said in the mode reason and as a warning.
-#: Two honest estimates of one focal length differ by more than 3σ in 0.27 % of photos; EXIF's 1σ
+#: The limit of EXIF as evidence: where EXIF's focal length and the segments' alone are more than
+#: this many σ apart, EXIF is not combined and the photo is calibrated from its segments alone, the
+#: disagreement said in the mode reason and as a warning. The σ count (.priors.ExifCheck) is the
+#: smaller of the likelihood ratio's and |f_EXIF − f_segments| / √(σ_EXIF² + σ_segments²), with
+#: σ_segments the wider of the segments' linearised 1σ at their own estimate and at EXIF's: the two
+#: agree for Gaussian estimates, and where weak segments' likelihood is skewed (a frontal view's f
+#: grows far more readily than it shrinks) neither alone is to be trusted to call EXIF wrong. Two
+#: honest estimates of one focal length are more than 3σ apart in 0.27 % of photos; EXIF's 1σ
 #: already holds its nominal errors (vebuild/calibration/exif.py), so beyond that it describes
-#: another focal length (a crop, a digital zoom, a fixed-lens camera writing one value at every
-#: zoom step), and their weighted mean would be neither, with a 1σ narrower than either's.
+#: another focal length (a crop, a digital zoom, a fixed-lens camera writing one value at every zoom
+#: step), and their weighted mean would be neither, with a 1σ narrower than either's.
 EXIF_DISAGREEMENT_SIGMAS = 3.0
 #: Two axes whose vanishing points are closer than this (degrees, seen from a nominal camera with
 #: f = the image's longer side) are the same direction: the user has mislabelled a set.
@@ -338,11 +341,19 @@ def calibrate_photo(
         # cross-check it: no solve without it is needed (frontal and corridor views, mostly).
         alone = None if exif_combined and not rel_seg <= FOCAL_UNDETERMINED_REL_SIGMA else _lines_alone(problem, y, R)
         if alone is not None and alone.rel_sigma_f_seg <= FOCAL_UNDETERMINED_REL_SIGMA:
-            exif_check = ExifCheck(exif_focal, alone.f, alone.sigma_f, exif_combined)
-            if exif_combined and exif_check.sigmas > EXIF_DISAGREEMENT_SIGMAS:
+            # How far apart (ExifCheck): the solution with EXIF's prior is this one, unless the user's
+            # prior was used; the lines' 1σ the wider of theirs alone and theirs where EXIF puts f.
+            y_e, R_e = (y, R) if focal is None else problem.solve(alone.y, alone.R, exif_focal)
+            sigma_e = (sigma_f_seg if focal is None else problem.segment_information(y_e, R_e)[0]) \
+                * np.sqrt(max(alone.vf, 1.0))
+            sigma_lines = max(alone.sigma_f, float(sigma_e))
+            t = (problem.cost(y_e, R_e, exif_focal) - alone.cost) / max(alone.vf, 1.0)
+            z = min(float(np.sqrt(max(t, 0.0))), abs(exif_focal.value - alone.f) / float(np.hypot(exif_focal.sigma,
+                                                                                                   sigma_lines)))
+            if exif_combined and z > EXIF_DISAGREEMENT_SIGMAS:
                 # Evidence, not truth: EXIF that the lines contradict is not this photo's focal length.
                 exif_combined, exif_rejected = False, True
-                exif_check = ExifCheck(exif_focal, alone.f, alone.sigma_f, False)
+            exif_check = ExifCheck(exif_focal, alone.f, sigma_lines, z, exif_combined)
         if focal is None and not exif_combined and alone is not None:
             prior_f = None
             y, R, sigma_f_seg, sigma_c_seg, rel_seg = alone.y, alone.R, alone.sigma_f_seg, alone.sigma_c_seg, \
@@ -414,14 +425,15 @@ class _LinesAlone:
     """A photo's solution with no focal prior: what its lines alone say about f.
 
     sigma_f_seg, sigma_c_seg : JointProblem.segment_information there (pixels); vf : the marks'
-    variance factor there; sigma_f : sigma_f_seg widened by √vf where the marks fit worse than
-    the stated click noise (the 1σ an EXIF value is compared with)."""
+    variance factor there; cost : the sum of the squared (whitened) residuals there; sigma_f :
+    sigma_f_seg widened by √vf where the marks fit worse than the stated click noise."""
 
     y: Array
     R: Array
     sigma_f_seg: float
     sigma_c_seg: float
     vf: float
+    cost: float
     scale: float
 
     @property
@@ -442,8 +454,8 @@ def _lines_alone(problem: JointProblem, y: Array, R: Array) -> _LinesAlone:
     y, R = problem.solve(y, R, None)
     sigma_f_seg, sigma_c_seg = problem.segment_information(y, R)
     J = problem.jacobian(y, R, None)
-    vf = problem.variance_factor(J, problem.residuals(problem.at_rotation(y), R, None))
-    return _LinesAlone(y, R, sigma_f_seg, sigma_c_seg, vf, problem.scale)
+    r = problem.residuals(problem.at_rotation(y), R, None)
+    return _LinesAlone(y, R, sigma_f_seg, sigma_c_seg, problem.variance_factor(J, r), float(r @ r), problem.scale)
 
 
 def _segment_sigmas(polys: Mapping[str, list], axes: list[str], click_sigma_px: float,

@@ -66,14 +66,23 @@ class ExifCheck:
 
     The sign convention, the same in every record, table and message: EXIF relative to the
     vanishing points' estimate, ``difference_rel = (f_EXIF − f_lines) / f_lines`` (positive where
-    EXIF says longer). Its 1σ is that of the difference of two independent estimates, EXIF's and
-    the lines', √(σ_EXIF² + σ_lines²), over f_lines, so that ``sigmas`` = |difference_rel| /
-    ``sigma_rel``. ``combined``: whether the calibration combined EXIF with the lines.
+    EXIF says longer).
+
+    ``sigmas`` is how many σ apart the two are, the smaller of two measures that agree for Gaussian
+    estimates: √T, with T the likelihood-ratio statistic (the least-squares cost of the photo with
+    EXIF's prior less its cost without it, over the marks' variance factor where they fit worse
+    than the click noise), and |f_EXIF − f_lines| / √(σ_EXIF² + σ_lines²). Where the lines fix f
+    weakly their likelihood is skewed (a frontal view's f grows far more readily than it shrinks),
+    and either alone can call an honest EXIF contradicted. ``lines_sigma_px`` is the wider of the
+    lines' linearised 1σ at their own estimate and at EXIF's. ``sigma_rel``, the 1σ of
+    ``difference_rel``, is |difference_rel| / ``sigmas``. ``combined``: whether the calibration
+    combined EXIF with the lines.
     """
 
     exif: FocalPrior
     lines_px: float
     lines_sigma_px: float
+    sigmas: float
     combined: bool
 
     @property
@@ -82,8 +91,6 @@ class ExifCheck:
 
     @property
     def sigma_rel(self) -> float:
+        if self.sigmas > 0:
+            return abs(self.difference_rel) / self.sigmas
         return float(np.hypot(self.exif.sigma, self.lines_sigma_px)) / self.lines_px
-
-    @property
-    def sigmas(self) -> float:
-        return abs(self.difference_rel) / self.sigma_rel
