@@ -69,6 +69,10 @@ def decode_project(project: Project, replaced: Collection[str] = ()) -> list[str
             dec.cameras(project)  # the re-calibrated ones decoded and checked as the calibration's
             lines.append(f"re-calibration: {len(sol['cameras'])} camera(s) and {len(sol.get('markers') or {})} "
                          "marker(s) in $.model_solution")
+    for pid, why in ((data.get("calibration") or {}).get("left_out") or {}).items():
+        # A photo the calibration left out has no camera, as every later command will say.
+        reason = why.get("reason") if isinstance(why, dict) else why
+        lines.append(f"calibration: photo '{pid}' left out, no camera ($.calibration.left_out.{pid}): {reason}")
     if (data.get("model") or {}).get("nodes"):
         model, pins, edges = dec.load_model(project, dec.markers(data, "joints"))
         lines.append(f"model: {len(model.nodes)} node(s), {len(pins)} pin(s), {len(edges)} edge observation(s)")
