@@ -514,10 +514,11 @@ def _results(data: dict[str, Any], photos: dict[str, PhotoCalibration], placemen
     for pid in [i for i in ids if i in photos]:
         check = photos[pid].exif_check
         if check is not None and check.sigmas > EXIF_DISAGREEMENT_SIGMAS:
-            warnings.append(f"photo '{pid}': {exif_check_words(exif_check_record(check))}; "
-                            + ("check the segments, or the photo was cropped or zoomed digitally" if check.combined
-                               else "EXIF is not combined, the focal length is from the vanishing points alone: "
-                               "check the segments, or the photo was cropped or zoomed digitally"))
+            # Beyond the limit EXIF is never combined; the user's focal length, where given, still is.
+            used = ("EXIF is not combined, the focal length is from the vanishing points alone"
+                    if photos[pid].focal_source == "vanishing points" else "EXIF is not used")
+            warnings.append(f"photo '{pid}': {exif_check_words(exif_check_record(check))}; {used}: check the "
+                            "segments, or the photo was cropped or zoomed digitally")
     relative = any(a.relative for a in alone.values())
     origin = placement.origin if placement else next((a.origin.marker for a in alone.values()), None)
     return {

@@ -233,7 +233,7 @@ def uncalibrated_pin_warnings(data: dict[str, Any], cameras: dict[str, ImageCame
         seg = any(p["id"] == pid and p.get("vanishing_segments") for p in data["photos"])
         if pid in left_out:
             fix = (f"`vebuild calibrate` once what the calibration left it out for is fixed "
-                   f"({json_path(['calibration', 'left_out', pid, 'reason'])}), or `vebuild register PROJECT {pid}`")
+                   f"({json_path(['calibration', 'left_out', pid, 'reason'])})")
         elif pid in unplaced:
             fix = (f"`vebuild register PROJECT {pid}` (the calibration could not place it: "
                    f"{json_path(['calibration', 'unplaced', pid, 'reason'])})")

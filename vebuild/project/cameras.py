@@ -156,7 +156,7 @@ def photo_camera(project: Project, photo: str) -> ImageCamera:
     if photo not in (calibration.get("cameras") or {}) and isinstance(left_out, Mapping):
         raise ProjectError(project.path, json_path(["calibration", "left_out", photo]),
                            f"photo {photo!r} has no camera: the calibration left it out ({left_out.get('reason')}); "
-                           "do what that says and run `vebuild calibrate` again, or place it with `vebuild register`")
+                           "do what that says and run `vebuild calibrate` again")
     if photo not in (calibration.get("cameras") or {}):
         raise ProjectError(project.path, "$.calibration.cameras",
                            f"photo {photo!r} has no calibrated camera; run `vebuild calibrate` (or `vebuild register`)")
