@@ -67,6 +67,10 @@ def test_a_photo_whose_focal_length_cannot_be_fixed_is_left_out(tmp_path: Path) 
     project.data["model"] = {"pins": [{"photo": "p4", "node": "box", "handle": "v0", "uv": [800.0, 600.0]}]}
     said = uncalibrated_pin_warnings(project.data, {})
     assert len(said) == 1 and "($.calibration.left_out.p4.reason)" in said[0], said
+    from vebuild.report.limitations import limitations
+
+    left = [lim for lim in limitations(load_project(path)) if lim.kind == "left-out"]
+    assert len(left) == 1 and left[0].items == (f"p4: {reason}",)
     rep = Report(tmp_path / "report")
     calibration(load_project(path), rep)
     assert "Left out of the calibration" in rep.sections[0] and "p4 (the focal length is not determined" in \
