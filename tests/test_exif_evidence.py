@@ -113,10 +113,16 @@ def test_the_disagreement_is_one_figure_with_one_sign_everywhere(tmp_path: Path)
     assert opposite not in r.stdout
     assert "not combined" in exif_line and "beyond the 3σ limit" in warning
     assert "EXIF is not combined, the focal length is from the vanishing points alone" in warning
-    from vebuild.edit.session import exif_text
+    from vebuild.edit.session import EditSession, exif_text
 
     screen = exif_text(cam)
     assert signed in screen and z in screen and "not combined" in screen
+    # The modelling screen's Calibrate says the same, in its line for the photo and its warning.
+    session = EditSession.open(path, autosave=False)
+    session.calibrate()
+    said = [m for m in session.messages if "p3" in m and signed in m]
+    assert any(m.startswith("calibrated ") for m in said) and any("beyond the 3σ limit" in m for m in said)
+    assert not any(opposite in m for m in session.messages)
     rep = Report(tmp_path / "report")
     calibration(load_project(path), rep)
     page = "".join(rep.sections)
