@@ -334,8 +334,8 @@ def calibrate_photo(
     exif_combined = exif_rejected = False
     exif_check = None
     if exif_focal is not None:
-        # What the lines alone say about f, to compare EXIF with (ExifCheck): this solution where
-        # no focal prior was combined, else a solve without it from here.
+        # What the lines alone say about f, to compare EXIF with (ExifCheck): solved from here
+        # without any focal prior.
         exif_combined = focal is None and sigma_f_seg >= EXIF_COMBINE_MIN_SIGMA_RATIO * exif_focal.sigma
         # Lines that fix f to no better than FOCAL_UNDETERMINED_REL_SIGMA here, with the prior, cannot
         # cross-check it: no solve without it is needed (frontal and corridor views, mostly).
