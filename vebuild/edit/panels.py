@@ -106,8 +106,8 @@ class Panels:
             for pid, c in self.ed.calibration_result.get("cameras", {}).items():
                 imgui.push_text_wrap_pos(0.0)
                 imgui.text(f"{pid}: {c.get('mode', '?')}, f {c['focal_px']['value']:.1f} ± "
-                           f"{c['focal_px']['sigma']:.1f} px, rms {c['rms_px']:.2f} px{placement_text(c)}"
-                           + exif_text(c))
+                           f"{c['focal_px']['sigma']:.1f} px, rms {c['rms_px']:.2f} px{exif_text(c)}"
+                           + placement_text(c))
                 imgui.pop_text_wrap_pos()
                 self.ed.rect(f"calibrated:{pid}")
             for pid, u in (self.ed.calibration_result.get("left_out") or {}).items():

@@ -182,7 +182,7 @@ class EditSession(Assist, Rooms, SessionOverlays):
         with self._edit("calibrate"):
             result = calibrate_project(self.project, progress=_iterating(progress, "calibrating photos"))
         lines = [f"{pid}: {c['mode']}, f {c['focal_px']['value']:.1f} ± {c['focal_px']['sigma']:.1f} px, "
-                 f"rms {c['rms_px']:.2f} px{placement_text(c)}{exif_text(c)}" for pid, c in result["cameras"].items()]
+                 f"rms {c['rms_px']:.2f} px{exif_text(c)}{placement_text(c)}" for pid, c in result["cameras"].items()]
         self.say("calibrated " + "; ".join(lines))
         for w in result.get("warnings", []):
             self.say(w)
