@@ -134,7 +134,7 @@ def _check_analyses(project: Project, run: bool) -> None:
             hypothesis = getattr(request, "hypothesis", None)
             if hypothesis is not None:
                 find_hypothesis(project, hypothesis)
-            if modelled:
+            if modelled and calibrated:  # the model stands where the calibration's markers put it
                 _check_targets(project, request)
         except ProjectError as e:
             if e.where == where:
