@@ -1125,6 +1125,8 @@ NOT_THE_PROJECTS: dict[str, str] = {
     "textures-folder-symlink": "texture writes its pages anew: it refuses the folder it would write to",
     "render-out-over-photo-png": "the output would overwrite a photo",
     "report-out-folder-with-unrelated-file": "the output folder holds a file vebuild did not write",
+    "calibration-photo-left-out": "the command names a photo the calibration left out (check lists it: the "
+                                  "project is valid)",
     **{c.name: "what it would write: a link below its output folder, or the file it replaces has other names"
        for c in CASES if c.name.startswith("output-")},  # section 11 (tests/bad_inputs_links.py)
     **{name: "the scan file is the command line's (`scan add`), not yet the project's"
