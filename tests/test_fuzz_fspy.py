@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import copy
 import hashlib
-import json
 import os
 import struct
 import tempfile
@@ -24,6 +23,7 @@ from typing import Any
 
 import numpy as np
 from fspy_writer import KnownCamera, StateBuilder, as_saved_by, fspy_bytes, make_image
+from fuzz_json import Raw, dumps, paths
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -54,32 +54,9 @@ def _bases() -> list[dict[str, Any]]:
 BASES = _bases()
 
 
-class Raw(str):
-    """JSON text put into the state as it is (what json.dumps cannot write: 1e400)."""
 
 
-def dumps(value: Any) -> str:
-    if isinstance(value, Raw):
-        return str(value)
-    if isinstance(value, dict):
-        return "{" + ",".join(f"{json.dumps(k)}:{dumps(v)}" for k, v in value.items()) + "}"
-    if isinstance(value, list):
-        return "[" + ",".join(dumps(v) for v in value) + "]"
-    return json.dumps(value)
-
-
-def _paths(value: Any, prefix: tuple[Any, ...] = ()) -> list[tuple[Any, ...]]:
-    out = [prefix]
-    if isinstance(value, dict):
-        for k, v in value.items():
-            out += _paths(v, (*prefix, k))
-    elif isinstance(value, list):
-        for i, v in enumerate(value):
-            out += _paths(v, (*prefix, i))
-    return out
-
-
-PATHS = [_paths(b)[1:] for b in BASES]
+PATHS = [paths(b)[1:] for b in BASES]
 NAMES = sorted(AXES) + sorted(UNITS_M) + ["OneVanishingPoint", "TwoVanishingPoints", "Default", "Manual",
                                           "FromThirdVanishingPoint", "canon_5d", "no_such_camera", "0", "1", "x", "y"]
 point = st.fixed_dictionaries({"x": st.floats(-0.5, 1.5), "y": st.floats(-0.5, 1.5)})
@@ -125,7 +102,7 @@ def mutated_state(draw: Any, numbers_only: bool = False) -> str:
             parent[path[-1]] = {str(i): v for i, v in enumerate(target)}  # as fSpy's { ...list } saves it
         else:
             parent[path[-1]] = draw(values)
-    return dumps(doc)
+    return dumps(doc, compact=True)
 
 
 FOLDER = Path(tempfile.mkdtemp(prefix="vebuild-fuzz-fspy-"))
@@ -169,7 +146,7 @@ def test_mutated_numbers_are_imported_or_refused_leaving_nothing(text: str) -> N
     assert hashlib.sha256(src.read_bytes()).digest() == hashlib.sha256(data).digest()
 
 
-STATE = dumps(BASES[0]).encode()
+STATE = dumps(BASES[0], compact=True).encode()
 
 
 

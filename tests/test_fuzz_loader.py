@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from fuzz_json import Raw, dumps, paths
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from PIL import Image
@@ -44,19 +45,6 @@ EXAMPLES = int(os.environ.get("VEBUILD_FUZZ_EXAMPLES", 2000))  # per test; 2000 
 #: to reproduce a failure it finds.
 DERANDOMIZE = os.environ.get("VEBUILD_FUZZ_RANDOM", "") != "1"
 
-
-class Raw(str):
-    """JSON text put into a document as it is (what json.dumps cannot write: 5000 digits, 1e400)."""
-
-
-def dumps(value: Any) -> str:
-    if isinstance(value, Raw):
-        return str(value)
-    if isinstance(value, dict):
-        return "{" + ", ".join(f"{json.dumps(k)}: {dumps(v)}" for k, v in value.items()) + "}"
-    if isinstance(value, list):
-        return "[" + ", ".join(dumps(v) for v in value) + "]"
-    return json.dumps(value)
 
 
 def _base_documents() -> list[dict[str, Any]]:
@@ -100,16 +88,6 @@ def _base_documents() -> list[dict[str, Any]]:
 BASES = _base_documents()
 
 
-def _paths(value: Any, prefix: tuple = ()) -> list[tuple]:
-    out = [prefix]
-    if isinstance(value, dict):
-        for k, v in value.items():
-            out += _paths(v, (*prefix, k))
-    elif isinstance(value, list):
-        for i, v in enumerate(value):
-            out += _paths(v, (*prefix, i))
-    return out
-
 
 def _names(value: Any) -> set[str]:
     out: set[str] = set()
@@ -125,7 +103,7 @@ def _names(value: Any) -> set[str]:
     return out
 
 
-PATHS = [_paths(b)[1:] for b in BASES]  # not the whole document: test_random_json_loads_or_is_refused
+PATHS = [paths(b)[1:] for b in BASES]  # not the whole document: test_random_json_loads_or_is_refused
 NAMES = sorted(set().union(*(_names(b) for b in BASES)) | {"v0", "v9", "e1", "e12", "top", "side", "bottom",
                                                            "hinge", "slider", "--help", "-h", "..", "/etc/passwd"})
 
