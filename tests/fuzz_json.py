@@ -34,3 +34,19 @@ def paths(value: Any, prefix: tuple[Any, ...] = ()) -> list[tuple[Any, ...]]:
         for i, v in enumerate(value):
             out += paths(v, (*prefix, i))
     return out
+
+
+def at(doc: Any, path: tuple[Any, ...]) -> tuple[Any, Any] | None:
+    """The container holding the value at ``path`` in ``doc``, and that value; None where an
+    earlier mutation removed it or made a container on the way text or a number (text can be
+    indexed, so it is refused here rather than walked into)."""
+    parent: Any = None
+    target: Any = doc
+    try:
+        for part in path:
+            if not isinstance(target, dict | list):
+                return None
+            parent, target = target, target[part]
+    except (KeyError, IndexError, TypeError):
+        return None
+    return parent, target

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 from fspy_writer import KnownCamera, StateBuilder, as_saved_by, fspy_bytes, make_image
-from fuzz_json import Raw, dumps, paths
+from fuzz_json import Raw, at, dumps, paths
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -80,15 +80,10 @@ def mutated_state(draw: Any, numbers_only: bool = False) -> str:
     doc = copy.deepcopy(BASES[k])
     for _ in range(draw(st.sampled_from([1, 1, 2, 3]))):
         path = draw(st.sampled_from(PATHS[k]))
-        parent: Any = None
-        target: Any = doc
-        try:
-            for part in path:
-                if not isinstance(target, dict | list):
-                    raise TypeError
-                parent, target = target, target[part]
-        except (KeyError, IndexError, TypeError):
+        found = at(doc, path)
+        if found is None:
             continue  # an earlier mutation changed it
+        parent, target = found
         if numbers_only:
             if isinstance(target, bool) or not isinstance(target, int | float):
                 continue

@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from fuzz_json import Raw, dumps, paths
+from fuzz_json import Raw, at, dumps, paths
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from PIL import Image
@@ -135,15 +135,10 @@ def mutated(draw: Any) -> str:
     doc = copy.deepcopy(BASES[k])
     for _ in range(draw(st.sampled_from([1, 1, 1, 2, 2, 3, 4]))):
         path = draw(st.sampled_from(PATHS[k]))
-        parent: Any = None
-        target: Any = doc
-        try:
-            for part in path:
-                if not isinstance(target, dict | list):
-                    raise TypeError  # an earlier mutation made it text or a number (text can be indexed)
-                parent, target = target, target[part]
-        except (KeyError, IndexError, TypeError):
+        found = at(doc, path)
+        if found is None:
             continue  # an earlier mutation removed it
+        parent, target = found
         how = draw(st.sampled_from(["replace", "replace", "remove", "grow", "same type", "same type", "same type"]))
         if how == "remove":
             del parent[path[-1]]
