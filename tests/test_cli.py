@@ -150,7 +150,7 @@ def test_edit_names_a_missing_project_and_how_to_start_one(tmp_path: Path, capsy
 
 def test_recorded_words_and_the_command_line_make_the_same_typed_requests() -> None:
     """One mapping: the words a project records and `vebuild analyse` give the same request."""
-    from vebuild.analysis.cli import request_from_args
+    from vebuild.analysis.parsers import request_from_args
     from vebuild.analysis.recorded import parse_recorded, parse_recorded_trajectory
     from vebuild.analysis.requests import DimensionsRequest, DistanceRequest, HeightRequest
     from vebuild.analysis.requests_geometry import SightlineRequest, TrajectoryRequest, ViewshedRequest

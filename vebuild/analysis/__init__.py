@@ -16,8 +16,10 @@ Modules:
 - :mod:`vebuild.analysis.requests` and :mod:`vebuild.analysis.requests_geometry` — each analysis
   as a typed request whose ``run(project)`` gives its table, figures and image: what the command
   line, the report and the viewer run.
-- :mod:`vebuild.analysis.cli` — the ``vebuild analyse PROJECT …`` command group (readable tables
-  and ``--json OUT``): the subcommands and the one mapping from their words to the requests.
+- :mod:`vebuild.analysis.parsers` — the subcommands' words and the one mapping from them to the
+  requests (the command line's and the recorded analyses').
+- :mod:`vebuild.analysis.cli` — the ``vebuild analyse PROJECT …`` command group: each request run
+  on the checked project, a readable table and ``--json OUT``.
 - :mod:`vebuild.analysis.recorded` — the analyses a project records, parsed into requests.
 
 Layer 6 of DESIGN.md: thin over the model and solver; numpy only (no GL) unless a module says so.

@@ -4,13 +4,10 @@ Every subcommand prints a readable table and, with ``--json OUT``, writes its fi
 (atomically): every number's unit is in its key (``value_m``, ``sigma_m``, ``ci95_m``). The JSON
 document is ``{"software", "project", "analysis", ...the analysis' own keys}``.
 
-The words of a subcommand are mapped to a typed request (:mod:`vebuild.analysis.requests`) by
-one function per subcommand, given to :func:`_subcommand`; the same mapping makes the requests
-of the analyses a project records (:mod:`vebuild.analysis.recorded`). Adding a subcommand: write
-its request, then here ``q = _subcommand(asub, "name", "help", lambda a: MyRequest(a.x, …))``
-and its arguments with ``q.add_argument`` (defaults read from the request's fields). ``--json``
-and the project argument come with it; errors are raised as :class:`~vebuild.errors.VebuildError`
-and printed by ``vebuild``'s main.
+The words of each subcommand and the request they make are in :mod:`vebuild.analysis.parsers`
+(shared with the analyses a project records, :mod:`vebuild.analysis.recorded`); here each is run
+on the project, loaded and checked as every command loads it. Errors are raised as
+:class:`~vebuild.errors.VebuildError` and printed by ``vebuild``'s main.
 """
 
 from __future__ import annotations
@@ -18,158 +15,21 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from .. import __version__
-from ..render.observed import add_option as add_unobserved_option
-from .requests import (
-    ChecksRequest,
-    DimensionsRequest,
-    DistanceRequest,
-    FloorDistanceRequest,
-    HeightRequest,
-    LightingRequest,
-    PhotoHeightRequest,
-    Request,
-)
-from .requests_geometry import SightlineRequest, TrajectoryRequest, ViewshedRequest
-from .sightline import SITTING_EYE_M, STANDING_EYE_M
-
-ToRequest = Callable[[argparse.Namespace], Request]
+from . import parsers
 
 
 def add_analyse_parsers(sub: Any) -> None:
-    """Add the ``analyse`` command group to the top-level subparsers ``sub``."""
-    from .points import POINT_SYNTAX
-
-    p = sub.add_parser("analyse", help="forensic analyses of a solved project: measurements with uncertainty, "
-                       "check distances (…; --json OUT writes the figures)",
-                       description="Forensic analyses of a solved project (paper §5.1). A point is written "
-                       f"{POINT_SYNTAX}.")
-    p.add_argument("project", help="the project file (NAME.vebuild.json), calibrated and solved")
-    asub = p.add_subparsers(dest="analysis", required=True, metavar="ANALYSIS")
-
-    q = _subcommand(asub, "distance", "distance between two points, with 1σ and 95 %% interval",
-                    lambda a: DistanceRequest(a.a, a.b))
-    q.add_argument("a", help="the first point")
-    q.add_argument("b", help="the second point")
-    q = _subcommand(asub, "height", "height of a point above the floor (z = 0) or above a flat face",
-                    lambda a: HeightRequest(a.point, a.above))
-    q.add_argument("point", help="the point")
-    q.add_argument("--above", metavar="NODE@FACE", help="a flat face, e.g. table.top@top (default: the floor)")
-    q = _subcommand(asub, "dimensions", "an object's dimensions (its primitive's parameters)",
-                    lambda a: DimensionsRequest(tuple(a.nodes)))
-    q.add_argument("nodes", nargs="+", metavar="NODE", help="one or more nodes of the model")
-    _subcommand(asub, "checks", "check distances (role 'check'): measured vs known, the independent accuracy check",
-                lambda a: ChecksRequest())
-    for word, what, to_request in (
-            ("photo-height", "heights above the floor measured on one calibrated photo: for each, the foot on the "
-             "floor then the top (U1 V1 U2 V2)", _photo_height),
-            ("floor-distance", "distances between two floor points measured on one calibrated photo (U1 V1 U2 V2 "
-             "each)", _floor_distance)):
-        q = _subcommand(asub, word, what + "; no model needed", to_request)
-        q.add_argument("--photo", required=True, metavar="ID", help="the calibrated photo")
-        q.add_argument("pixels", nargs="+", type=float, metavar="U1 V1 U2 V2",
-                       help="pixel coordinates, four per measurement")
-    _add_geometry(asub)
-    q = _subcommand(asub, "lighting", "one view under several lighting presets side by side, with the target's "
-                    "luminance under each",
-                    lambda a: LightingRequest(a.view, tuple(a.presets), a.target, a.size, a.out, a.unobserved))
-    q.add_argument("--view", required=True, metavar="NAME", help="a named view")
-    q.add_argument("--preset", dest="presets", action="append", required=True, metavar="NAME",
-                   help="a lighting preset, once per preset (as-photographed is the photos' own light)")
-    q.add_argument("--target", required=True, metavar="NODE", help="the object whose luminance is compared")
-    q.add_argument("--size", metavar="WxH", help="size of each view (default: the view's)")
-    q.add_argument("--out", metavar="STRIP.png", help="write the views side by side, the target outlined")
-    add_unobserved_option(q)
+    """Add the ``analyse`` command group to the top-level subparsers ``sub``, each analysis run by
+    :func:`_run`."""
+    for q in parsers.add_analyse_parsers(sub).choices.values():
+        q.set_defaults(func=_run)
 
 
-def _photo_height(a: argparse.Namespace) -> Request:
-    return PhotoHeightRequest(a.photo, tuple(a.pixels))
-
-
-def _floor_distance(a: argparse.Namespace) -> Request:
-    return FloorDistanceRequest(a.photo, tuple(a.pixels))
-
-
-def _add_geometry(asub: Any) -> None:
-    """sightline, viewshed, trajectory (:mod:`vebuild.analysis.requests_geometry`)."""
-    S, V = SightlineRequest, ViewshedRequest
-    q = _subcommand(asub, "sightline", "could a witness see a point or an object? visible share, what blocks it, "
-                    "and the witness's view (--out)",
-                    lambda a: S(a.eye, a.standing, a.sitting, a.target, a.object, a.out, a.fov, a.size, a.lighting,
-                                a.samples, a.hypothesis, a.unobserved))
-    eye = q.add_mutually_exclusive_group(required=True)
-    eye.add_argument("--eye", metavar="X,Y,Z", help="the eye point (metres)")
-    eye.add_argument("--standing", metavar="X,Y",
-                     help=f"a person standing at this floor spot (eyes at {STANDING_EYE_M:g} m)")
-    eye.add_argument("--sitting", metavar="X,Y",
-                     help=f"a person sitting at this floor spot (eyes at {SITTING_EYE_M:g} m)")
-    _target_args(q)
-    q.add_argument("--out", metavar="VIEW.png", help="render the witness's view, the target highlighted")
-    q.add_argument("--fov", type=float, default=S.fov, metavar="DEG",
-                   help="horizontal field of view of the rendered view (default: %(default)g)")
-    q.add_argument("--size", default=S.size, metavar="WxH", help="size of the rendered view (default: %(default)s)")
-    q.add_argument("--lighting", metavar="PRESET", help="lighting of the rendered view (default: as photographed)")
-    add_unobserved_option(q)
-    _common(q, S.samples)
-
-    q = _subcommand(asub, "viewshed", "a floor map of the places from which a point or an object can be seen",
-                    lambda a: V(a.out, a.target, a.object, a.height, a.cell, a.samples, a.hypothesis))
-    _target_args(q)
-    q.add_argument("--height", type=float, default=V.height, metavar="M",
-                   help=f"eye height above the floor (default: %(default)g; sitting: {SITTING_EYE_M:g})")
-    q.add_argument("--cell", type=float, default=V.cell, metavar="M", help="grid cell size (default: %(default)g)")
-    q.add_argument("--out", required=True, metavar="MAP.png", help="the map to write (a top view)")
-    _common(q, V.samples)
-
-    q = _subcommand(asub, "trajectory", "a bullet's path: the surfaces it passes and hits, with an uncertainty cone",
-                    lambda a: TrajectoryRequest(a.start, a.to, a.azimuth, a.elevation, a.sigma, a.cone, a.view,
-                                                a.out, a.lighting, a.hypothesis, a.unobserved))
-    q.add_argument("--from", dest="start", required=True, metavar="POINT",
-                   help="the entry hole: X,Y,Z (metres) or node:handle")
-    q.add_argument("--to", metavar="POINT", help="the exit hole: X,Y,Z or node:handle")
-    q.add_argument("--azimuth", type=float, metavar="DEG", help="instead of --to: direction, counter-clockwise "
-                   "from +X about +Z")
-    q.add_argument("--elevation", type=float, metavar="DEG", help="with --azimuth: degrees above the horizontal")
-    cone = q.add_mutually_exclusive_group()
-    cone.add_argument("--sigma", metavar="M[,M]", help="1σ position error of the holes (one for both, or entry,exit)")
-    cone.add_argument("--cone", type=float, metavar="DEG", help="the uncertainty cone's half-angle")
-    q.add_argument("--view", metavar="NAME", help="with --out: the named view to draw the trajectory in")
-    q.add_argument("--out", metavar="FILE.png", help="with --view: the image to write")
-    q.add_argument("--lighting", metavar="PRESET", help="lighting of the view (default: as photographed)")
-    q.add_argument("--hypothesis", metavar="NAME", help="the objects arranged as in this hypothesis")
-    add_unobserved_option(q)
-
-
-def _target_args(q: argparse.ArgumentParser) -> None:
-    t = q.add_mutually_exclusive_group(required=True)
-    t.add_argument("--target", metavar="X,Y,Z", help="the target point (metres)")
-    t.add_argument("--object", metavar="NODE", help="the target object: a node of the model (and its parts)")
-
-
-def _common(q: argparse.ArgumentParser, samples: int) -> None:
-    q.add_argument("--samples", type=int, default=samples, metavar="N",
-                   help="points sampled on an object's surface (default: %(default)s)")
-    q.add_argument("--hypothesis", metavar="NAME", help="the objects arranged as in this hypothesis")
-
-
-def _subcommand(asub: Any, name: str, help: str, to_request: ToRequest) -> argparse.ArgumentParser:
-    q = asub.add_parser(name, help=help, description=help)
-    q.add_argument("--json", metavar="OUT", help="write the figures to OUT as JSON")
-    q.set_defaults(func=lambda args: _run(args, to_request), to_request=to_request, analysis_name=name)
-    return q
-
-
-def request_from_args(args: argparse.Namespace) -> Request:
-    """The typed request that parsed ``vebuild analyse`` arguments describe."""
-    request: Request = args.to_request(args)
-    return request
-
-
-def _run(args: argparse.Namespace, to_request: ToRequest) -> int:
+def _run(args: argparse.Namespace) -> int:
     from ..project.provenance import inputs_sha256, stale_warnings
     from .project_check import load_checked
 
@@ -180,7 +40,7 @@ def _run(args: argparse.Namespace, to_request: ToRequest) -> int:
         from ..project.outputs import check_file
 
         check_file(project, Path(args.json), "figures")
-    request = to_request(args)
+    request = parsers.request_from_args(args)
     result = request.run(project)
     print(result.table)
     if args.json:

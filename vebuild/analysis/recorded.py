@@ -48,7 +48,7 @@ class _Parser(argparse.ArgumentParser):
 def parse_recorded(words: Any, where: str | None = None) -> Request:
     """The request of one recorded command (``where``: its place in the project, ``$.analyses[i]``,
     which then begins each message)."""
-    from .cli import add_analyse_parsers, request_from_args
+    from .parsers import add_analyse_parsers, request_from_args
 
     at = f"{where}: " if where else ""
     if not isinstance(words, list) or not all(isinstance(w, str) for w in words):

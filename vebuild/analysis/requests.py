@@ -5,11 +5,11 @@ written, if any).
 Measurements (distance, height, dimensions, checks) and the lighting comparison are here; sight
 lines, viewsheds and trajectories in :mod:`vebuild.analysis.requests_geometry`. A request is made
 from the command line or from the words a project records (``analyses``), both through the one
-mapping in :mod:`vebuild.analysis.cli`; :mod:`vebuild.analysis.recorded` parses recorded words.
+mapping in :mod:`vebuild.analysis.parsers`; :mod:`vebuild.analysis.recorded` parses recorded words.
 
 Adding an analysis: write its request here (or in a module beside it) with ``name`` (the
 subcommand), ``run`` and ``with_image``; then its subcommand and mapping in
-:func:`vebuild.analysis.cli.add_analyse_parsers`.
+:func:`vebuild.analysis.parsers.add_analyse_parsers`.
 """
 
 from __future__ import annotations
