@@ -323,15 +323,14 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
-    from .bench import BENCHES
+    from .bench import run_bench
     from .project.atomic import write_text
     from .project.outputs import check_file
 
-    bench = BENCHES[args.name]
     if args.json:
         check_file(None, Path(args.json), "figures")
-    figures = bench.run(quick=args.quick, progress=_progress_wanted(args))
-    print(bench.table(figures))
+    figures, text = run_bench(args.name, quick=args.quick, progress=_progress_wanted(args), data=args.data)
+    print(text)
     if args.json:
         out = Path(args.json)
         try:  # "software" marks the file as vebuild's (vebuild/project/outputs.py)
@@ -544,6 +543,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
         p.add_argument("name", choices=sorted(BENCHES))
         p.add_argument("--quick", action="store_true", help="a smaller run, for a quick look")
         p.add_argument("--json", metavar="OUT", help="write the figures to OUT as JSON")
+        p.add_argument("--data", metavar="DIR", help="bench real: the photo sets with surveyed cameras")
         p.add_argument("--quiet", action="store_true", help="no progress bars")
         p.set_defaults(func=_cmd_bench)
 

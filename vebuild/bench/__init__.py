@@ -9,9 +9,15 @@ from __future__ import annotations
 
 import importlib
 from collections.abc import Iterator, Mapping
+from pathlib import Path
 from types import ModuleType
+from typing import Any
 
-_NAMES = ("calibration", "cli", "detect", "edit", "house", "render", "rooms", "solver", "texture")
+from ..errors import VebuildError
+
+_NAMES = ("calibration", "cli", "detect", "edit", "house", "real", "render", "rooms", "solver", "texture")
+#: The benchmarks that measure data the user gives (``--data DIR``), not data of their own.
+_WITH_DATA = ("real",)
 
 
 class _Benches(Mapping[str, ModuleType]):
@@ -30,3 +36,17 @@ class _Benches(Mapping[str, ModuleType]):
 
 
 BENCHES: Mapping[str, ModuleType] = _Benches()
+
+
+def run_bench(name: str, *, quick: bool, progress: bool, data: str | None = None) -> tuple[dict[str, Any], str]:
+    """Run the benchmark ``name``; its figures and their table. ``data``: ``--data DIR``, which
+    only the benchmarks of :data:`_WITH_DATA` take (and require)."""
+    bench = BENCHES[name]
+    if name in _WITH_DATA:
+        figures = bench.run(quick=quick, progress=progress, data=None if data is None else Path(data))
+    elif data is not None:
+        raise VebuildError(f"bench {name}: --data is for {', '.join(_WITH_DATA)} only; {name} measures data of "
+                           "its own")
+    else:
+        figures = bench.run(quick=quick, progress=progress)
+    return figures, bench.table(figures)
