@@ -178,6 +178,10 @@ def test_scoring_aligns_the_frames_and_counts_a_photo_placed_with_wrong_axes() -
         {"a": "m1", "b": "m2", "role": "check", "distance": 10.0, "sigma": 0.01, "measured": 10.2,
          "measured_sigma": 0.02},
         {"a": "m1", "b": "m3", "role": "check", "distance": 5.0, "sigma": 0.01, "measured": 5.01,
+         "measured_sigma": 0.01},
+        {"a": "m2", "b": "m3", "role": "check", "distance": 4.0, "sigma": 0.01, "measured": 4.0,
+         "measured_sigma": None},
+        {"a": "m1", "b": "m2", "role": "scale", "distance": 10.0, "sigma": 0.01, "measured": 10.0,
          "measured_sigma": 0.01}]}
     rows, checks, align = score_group(photos, result, origin)
     by = {r["photo"]: r for r in rows}
@@ -190,12 +194,24 @@ def test_scoring_aligns_the_frames_and_counts_a_photo_placed_with_wrong_axes() -
         assert by[pid]["rotation_covered"] and by[pid]["position_covered"] and by[pid]["principal_point_covered"]
     assert "rotation_covered" not in by["p3"]  # wrong axes: not scored as a rotation error
     assert not by["p1"]["focal_covered"] and by["p0"]["focal_covered"]  # 3σ off is outside 1.96σ
-    assert [c["failed"] for c in checks] == [True, False]  # 8.9σ and 0.7σ against the limit of 5σ
+    # 8.9σ and 0.7σ against the limit of 5σ; a distance measured with no σ is no check passed.
+    assert [c["failed"] for c in checks] == [True, False, True] and checks[2]["z"] is None
     assert CHECK_LIMIT_SIGMAS == 5.0
     fig = summary(rows, checks)
-    assert fig["unoriented_accepted"] == 1 and fig["wrong_axes"] == 1 and fig["check_distance_failures"] == 1
+    assert fig["unoriented_accepted"] == 1 and fig["wrong_axes"] == 1 and fig["check_distance_failures"] == 2
     assert fig["focal_coverage_95"] == pytest.approx(0.8) and fig["rotation_coverage_95"] == 1.0
     assert fig["k1_within_2sigma_share"] == 1.0 and fig["placed"] == 5 and fig["calibrated"] == 5
+
+    # A camera whose calibration could give no σ (null in the file) is scored, its intervals holding
+    # nothing: an interval not reported cannot be claimed.
+    cams["p4"]["focal_px"]["sigma"] = None
+    cams["p4"]["covariance"] = [[None] * 9 for _ in range(9)]
+    rows, checks, _ = score_group(photos, result, origin)
+    p4 = next(r for r in rows if r["photo"] == "p4")
+    assert p4["interval_missing"] and p4["f_sigma"] is None
+    assert not (p4["focal_covered"] or p4["principal_point_covered"] or p4["rotation_covered"])
+    assert summary(rows, checks)["intervals_missing"] == 1
+    cams["p4"] = _placed(photos[4], Wr, origin)
 
     # Left for a photo that could not be placed: its wrong axes are not accepted.
     result["unplaced"] = {"p3": {k: cams["p3"][k] for k in ("mode", "K", "R", "focal_px", "principal_point")}}

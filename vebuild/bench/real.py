@@ -28,7 +28,7 @@ reported ω covariance, χ²₃ 7.81) and ``position_coverage_95`` (χ²₃ 7.81
 over the placed photos whose axes are right; ``unoriented_accepted``: placed photos whose rotation
 is more than :data:`WRONG_AXES_DEG` off (axes turned a quarter about z, or worse) yet not left
 out; ``check_distance_failures``: check distances measured more than :data:`CHECK_LIMIT_SIGMAS` σ
-off; ``k1_within_2sigma_share``: photos whose estimated k1 lies within 2σ of zero (the photos are
+off (or with no σ); ``k1_within_2sigma_share``: photos whose estimated k1 lies within 2σ of zero (the photos are
 undistorted). ``position_similarity_rms_m``: the centres' RMS after a free similarity (Umeyama)
 over the placed photos with right axes, and its scale. The reference run in the same process: the
 paper's closed form (:func:`vebuild.calibration.photo.closed_form_calibration`) on the same
@@ -106,7 +106,8 @@ def make_project(folder: Path, name: str, photos: tuple[SurveyedPhoto, ...], mar
          "role": "check"}]
     path = folder / f"{name}.vebuild.json"
     save_project(path, data)
-    return path, {"origin": X[origin]}
+    seen = {p["id"]: len(p.get("marker_observations") or {}) for p in data["photos"]}
+    return path, {"origin": X[origin], "markers_seen": seen}
 
 
 def work_group(path: Path) -> tuple[dict[str, Any] | None, str | None, dict[str, str], dict[str, float | None]]:
@@ -155,6 +156,27 @@ def frame_rotation(pairs: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarr
     return W, near
 
 
+def _number(v: Any) -> float:
+    """A JSON number, NaN for null (a σ the calibration could not give)."""
+    return float("nan") if v is None else float(v)
+
+
+def _matrix(rows: Any) -> np.ndarray:
+    return np.array([[_number(v) for v in row] for row in rows] if np.ndim(rows) == 2
+                    else [_number(v) for v in rows], float)
+
+
+def _inside(e: np.ndarray, cov: np.ndarray, limit: float) -> bool:
+    """Whether e lies inside the region eᵀ Σ⁻¹ e ≤ limit; a region not given (a σ null, Σ
+    singular) holds nothing."""
+    if not np.all(np.isfinite(cov)):
+        return False
+    try:
+        return bool(e @ np.linalg.solve(cov, e) <= limit)
+    except np.linalg.LinAlgError:
+        return False
+
+
 def score_group(photos: tuple[SurveyedPhoto, ...], result: dict[str, Any] | None, origin_X: np.ndarray,
                 ) -> tuple[list[dict[str, Any]], list[dict[str, Any]], dict[str, Any]]:
     """Per photo rows, the check distances, and the group's alignment (see the module's docstring)."""
@@ -178,16 +200,21 @@ def score_group(photos: tuple[SurveyedPhoto, ...], result: dict[str, Any] | None
             row["status"] = "left out" if ph.id in left_out else "not calibrated"
             row["reason"] = (left_out.get(ph.id) or {}).get("reason", "no vanishing segments")
         if rec is not None:
-            f, f_sig = rec["focal_px"]["value"], rec["focal_px"]["sigma"]
-            row.update(mode=rec["mode"], mode_reason=rec.get("mode_reason"), f=f, f_sigma=f_sig,
-                       focal_rel_error=abs(f / ph.focal_px - 1.0), focal_z=(f - ph.focal_px) / max(f_sig, 1e-12),
-                       R=np.array(rec["R"], float))
+            f, f_sig = rec["focal_px"]["value"], _number(rec["focal_px"]["sigma"])
+            row.update(mode=rec["mode"], mode_reason=rec.get("mode_reason"), f=f,
+                       f_sigma=f_sig if np.isfinite(f_sig) else None,
+                       focal_rel_error=abs(f / ph.focal_px - 1.0), R=np.array(rec["R"], float))
             d = np.array(rec["principal_point"]["value"], float) - ph.principal_point
-            cov_pp = (np.array(rec["covariance"], float)[1:3, 1:3] if "covariance" in rec
-                      else np.diag(np.square(rec["principal_point"]["sigma"])))
+            cov_pp = (_matrix(rec["covariance"])[1:3, 1:3] if "covariance" in rec
+                      else np.diag(np.square(_matrix(rec["principal_point"]["sigma"]))))
             row["focal_covered"] = bool(abs(f - ph.focal_px) <= 1.959964 * f_sig)
             row["principal_point_error_px"] = float(np.linalg.norm(d))
-            row["principal_point_covered"] = bool(d @ np.linalg.solve(cov_pp, d) <= CHI2_2_95)
+            row["principal_point_covered"] = _inside(d, cov_pp, CHI2_2_95)
+            row["interval_missing"] = not (np.isfinite(f_sig) and np.all(np.isfinite(cov_pp)))
+            prior = rec.get("vanishing_point_prior") or {}
+            if prior.get("K") is not None:  # before the markers: the vanishing points' own
+                row["f_vanishing_points"] = float(prior["K"][0][0])
+                row["k1_vanishing_points"] = (prior.get("k1") or {}).get("value")
             dist = rec.get("distortion")
             if dist is not None:
                 row["k1"], row["k1_sigma"] = dist["k1"]["value"], dist["k1"]["sigma"]
@@ -204,11 +231,12 @@ def score_group(photos: tuple[SurveyedPhoto, ...], result: dict[str, Any] | None
         r["axes_right"] = ok
         r["unoriented_accepted"] = bool(not ok and r["status"] == "placed")
         if r["status"] == "placed" and ok:
-            cov = np.array(cams[r["photo"]]["covariance"], float)
-            r["rotation_covered"] = bool(w @ np.linalg.solve(cov[3:6, 3:6], w) <= CHI2_3_95)
+            cov = _matrix(cams[r["photo"]]["covariance"])
+            r["rotation_covered"] = _inside(w, cov[3:6, 3:6], CHI2_3_95)
             e = np.array(cams[r["photo"]]["position"]["value"], float) - W @ (ph.C - origin_X)
             r["position_error_m"] = float(np.linalg.norm(e))
-            r["position_covered"] = bool(e @ np.linalg.solve(cov[6:9, 6:9], e) <= CHI2_3_95)
+            r["position_covered"] = _inside(e, cov[6:9, 6:9], CHI2_3_95)
+            r["interval_missing"] = r["interval_missing"] or not np.all(np.isfinite(cov))
     align: dict[str, Any] = {"frame_photos": int(sum(near))}
     good = [r for r in rows if r.get("position_error_m") is not None]
     if len(good) >= 3:
@@ -223,9 +251,10 @@ def score_group(photos: tuple[SurveyedPhoto, ...], result: dict[str, Any] | None
     checks = []
     for d in (result or {}).get("reference_distances", []):
         if d["role"] == "check":
-            z = (d["measured"] - d["distance"]) / float(np.hypot(d["measured_sigma"], d["sigma"]))
+            z = (d["measured"] - d["distance"]) / float(np.hypot(_number(d["measured_sigma"]), d["sigma"]))
             checks.append({"a": d["a"], "b": d["b"], "known_m": d["distance"], "measured_m": d["measured"],
-                           "z": float(z), "failed": bool(abs(z) > CHECK_LIMIT_SIGMAS)})
+                           "z": float(z) if np.isfinite(z) else None,
+                           "failed": not bool(abs(z) <= CHECK_LIMIT_SIGMAS)})  # no σ measured: failed
     return rows, checks, align
 
 
@@ -239,7 +268,7 @@ def summary(rows: list[dict[str, Any]], checks: list[dict[str, Any]], groups_ref
         v = [r[key] for r in rows if r.get(key) is not None]
         return float(np.median(v)) if v else None
 
-    k1 = [abs(r["k1"]) <= 2.0 * r["k1_sigma"] for r in rows if r.get("k1_sigma")]
+    k1 = [abs(r["k1"]) <= 2.0 * r["k1_sigma"] for r in rows if r.get("k1_sigma") and r.get("k1") is not None]
     sims = [r for r in rows if "similarity_rms_m" in r]
     return {
         "photos": len(rows),
@@ -265,6 +294,7 @@ def summary(rows: list[dict[str, Any]], checks: list[dict[str, Any]], groups_ref
         "wrong_axes": sum(r.get("axes_right") is False for r in rows),
         "check_distances": len(checks),
         "check_distance_failures": sum(c["failed"] for c in checks),
+        "intervals_missing": sum(bool(r.get("interval_missing")) for r in rows),
         "k1_estimated": len(k1),
         "k1_within_2sigma_share": float(np.mean(k1)) if k1 else None,
         "mode_counts": {m: sum(r.get("mode") == m for r in rows) for m in sorted({r["mode"] for r in rows
@@ -318,7 +348,8 @@ def _run_set(s: SurveyedSet, quick: bool, progress: bool, seed: int
         g_rows, g_checks, align = score_group(group, result, truth["origin"])
         refused += result is None
         for r in g_rows:
-            r.update(set=s.name, group=k, detect=messages.get(r["photo"]), markers=len(markers), **align)
+            r.update(set=s.name, group=k, detect=messages.get(r["photo"]), markers=len(markers),
+                     markers_seen=truth["markers_seen"][r["photo"]], **align)
             ref = reference.get(r["photo"])
             r["reference_focal_rel_error"] = None if ref is None else abs(ref / r["f_true"] - 1.0)
             if refusal is not None:
@@ -378,7 +409,8 @@ def table(fig: dict[str, Any]) -> str:
                                                               "unoriented_accepted", 1, 0),
             ("check distances", "check_distances", 1, 0),
             (f"  off by > {CHECK_LIMIT_SIGMAS:g}σ (check_distance_failures)", "check_distance_failures", 1, 0),
-            ("k1 estimated", "k1_estimated", 1, 0), ("k1 within 2σ of 0, share", "k1_within_2sigma_share", 1, 3)]
+            ("intervals not given (σ null)", "intervals_missing", 1, 0), ("k1 estimated", "k1_estimated", 1, 0),
+            ("k1 within 2σ of 0, share", "k1_within_2sigma_share", 1, 3)]
     goal_text = {"focal_rel_error_median": "≤ 2 %", "focal_coverage_95": "≥ 0.90",
                  "principal_point_coverage_95": "≥ 0.90", "rotation_coverage_95": "≥ 0.90",
                  "unoriented_accepted": "0", "k1_within_2sigma_share": "≥ 0.95"}
