@@ -419,7 +419,21 @@ def table(fig: dict[str, Any]) -> str:
                      + f"   {goal_text.get(key, '')}")
     modes = ", ".join(f"{m} {n}" for m, n in fig["mode_counts"].items())
     lines += ["", f"modes: {modes or 'none'}", f"goals: {'met' if fig['goals_met'] else 'NOT met'}"]
+    lines += ["", "per photo (f error / its 1σ; * outside the 95 % interval or region; k1 ± 1σ):",
+              f"  {'set':<16}{'photo':<7}{'status':<17}{'mode':<6}{'f err %':>9}{'z':>7}{'pp px':>8}{'rot °':>8}"
+              f"{'pos m':>8}  k1"]
     for r in fig["per_photo"]:
-        if r.get("unoriented_accepted"):
-            lines.append(f"  wrong axes, placed: {r['set']} photo {r['photo']} ({r['rotation_error_deg']:.1f}° off)")
+        def flag(key: str, r: dict[str, Any] = r) -> str:
+            return "*" if r.get(key) is False else " "
+
+        status = r["status"] + (" (axes)" if r.get("axes_right") is False else "")
+        f_err = (f"{100 * (r['f'] / r['f_true'] - 1):+.1f}{flag('focal_covered')}" if "f" in r else "–")
+        z = f"{(r['f'] - r['f_true']) / r['f_sigma']:+.1f}" if r.get("f_sigma") else "–"
+        pp = f"{r['principal_point_error_px']:.0f}{flag('principal_point_covered')}" if "f" in r else "–"
+        rot = f"{r['rotation_error_deg']:.2f}{flag('rotation_covered')}" if "rotation_error_deg" in r else "–"
+        pos = f"{r['position_error_m']:.2f}{flag('position_covered')}" if "position_error_m" in r else "–"
+        k1 = (f"{r['k1']:+.4f} ± {r['k1_sigma']:.4f}" if r.get("k1_sigma") else
+              "–" if r.get("k1") is None else f"{r['k1']:+.4f} (σ null)")
+        lines.append(f"  {r['set'][:15]:<16}{r['photo'][:6]:<7}{status:<17}{r.get('mode') or '–':<6}{f_err:>9}{z:>7}"
+                     f"{pp:>8}{rot:>8}{pos:>8}  {k1}")
     return "\n".join(lines)
