@@ -25,9 +25,10 @@ def _camera_text(K: np.ndarray, R: np.ndarray, C: np.ndarray, w: int, h: int) ->
     return "\n".join(" ".join(f"{v:.10g}" for v in row) for row in rows) + f"\n{w} {h}\n"
 
 
-def write_set(folder: Path, n: int = 3, seed: int = 5) -> list[SurveyedPhoto]:
+def write_set(folder: Path, n: int = 3, seed: int = 5, apart: bool = False) -> list[SurveyedPhoto]:
     """n photos of the generated room (vebuild/bench/detect_photos.py's ray-caster) from nearby
-    places, looking into one corner, with their cameras as .camera files."""
+    places, looking into one corner (``apart``: each at another wall), with their cameras as .camera
+    files."""
     from vebuild.bench.detect_photos import render
     from vebuild.synthetic import ROOM, SyntheticPhoto
 
@@ -37,7 +38,7 @@ def write_set(folder: Path, n: int = 3, seed: int = 5) -> list[SurveyedPhoto]:
     out = []
     for i in range(n):
         C = np.array([0.8 + 0.5 * i, 0.7 + 0.2 * i, 1.5])
-        R = look_rotation(target - C)
+        R = look_rotation(target - C if not apart else [np.cos(2.1 * i), np.sin(2.1 * i), -0.1])
         K = intrinsic_matrix(0.8 * W, W / 2 + 7.0, H / 2 - 5.0)
         img = render(SyntheticPhoto(f"{i:04d}", "3vp", W, H, K, R, C), np.random.default_rng([seed, 1]))
         image = folder / "images" / f"{i:04d}.jpg"
@@ -249,3 +250,17 @@ def test_a_whole_run_on_a_generated_set(tiny: tuple[Path, list[SurveyedPhoto]], 
                 "k1_within_2sigma_share"):
         assert 0.0 <= fig[key] <= 1.0, key
     assert all(r["markers"] >= 8 for r in fig["per_photo"])
+
+
+def test_photos_that_share_too_few_points_are_counted_not_scored(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                                  capsys: pytest.CaptureFixture[str]) -> None:
+    """Three photos of three different walls: no user could tie them with markers, so the group is
+    not worked (no calibration to score), and the bench goes on."""
+    monkeypatch.setenv("VEBUILD_CACHE", str(tmp_path / "cache"))
+    write_set(tmp_path / "sets" / "apart", apart=True)
+    out = tmp_path / "real.json"
+    assert main(["bench", "real", "--data", str(tmp_path / "sets"), "--json", str(out), "--quiet"]) == 0
+    fig = json.loads(out.read_text())
+    assert fig["not_worked"] == 3 and fig["calibrated"] == 0 and fig["focal_coverage_95"] is None
+    assert all("fewer than the 8 markers a user would click" in r["reason"] for r in fig["per_photo"])
+    assert "not worked (< 8 markers)" in capsys.readouterr().out

@@ -12,7 +12,8 @@ stand-in for a user's clicks), the origin at the marker seen in the most photos,
 from it to the marker farthest from it and a check distance between the two farthest apart of the
 others (both known to :data:`DISTANCE_SIGMA_M`, their lengths from the triangulated points), then
 ``vebuild detect`` with every proposal accepted (as "accept all"; x axes chosen from the markers,
-the default) and ``vebuild calibrate``. No EXIF: the photos have none.
+the default) and ``vebuild calibrate``. No EXIF: the photos have none. A group whose photos share
+fewer than :data:`MIN_MARKERS` such points is not worked (``not_worked``: no user could tie them).
 
 Scoring, per photo, against the surveyed camera. vebuild's world frame is its own (z up, x and y
 along the building, origin at the origin marker), so it is aligned to the survey's: the rotation
@@ -277,6 +278,7 @@ def summary(rows: list[dict[str, Any]], checks: list[dict[str, Any]], groups_ref
         "unplaced": sum(r["status"] == "unplaced" for r in rows),
         "left_out": sum(r["status"] in ("left out", "not calibrated") for r in rows),
         "refused": sum(r["status"] == "refused" for r in rows),
+        "not_worked": sum(r["status"] == "not worked" for r in rows),
         "groups_refused": groups_refused,
         "focal_rel_error_median": median("focal_rel_error"),
         "focal_rel_error_p90": (float(np.percentile([r["focal_rel_error"] for r in rows if "focal_rel_error" in r],
@@ -336,10 +338,12 @@ def _run_set(s: SurveyedSet, quick: bool, progress: bool, seed: int
             print(f"bench real: {s.name}, photos {group[0].id}–{group[-1].id}", file=sys.stderr)
         tracks = cached_tracks(group)
         markers = choose_markers(tracks, group)
-        if len(markers) < MIN_MARKERS:
-            raise VebuildError(f"bench real: {s.folder}: photos {group[0].id}–{group[-1].id} share {len(markers)} "
-                               f"points, fewer than the {MIN_MARKERS} markers a user would click; expected photos "
-                               "of one place taken from nearby")
+        if len(markers) < MIN_MARKERS:  # not the calibration's failure: counted apart, not scored
+            why = (f"the photos share {len(markers)} points seen in 3 photos or more, fewer than the {MIN_MARKERS} "
+                   "markers a user would click")
+            rows += [{"photo": ph.id, "f_true": ph.focal_px, "status": "not worked", "reason": why, "set": s.name,
+                      "group": k, "markers": len(markers)} for ph in group]
+            continue
         rng = np.random.default_rng([seed, k, len(s.name)])
         with tempfile.TemporaryDirectory(prefix="vebuild-bench-real-") as tmp:
             name = f"{s.name}-{k}"
@@ -394,6 +398,7 @@ def table(fig: dict[str, Any]) -> str:
     rows = [("photos", "photos", 1, 0), ("calibrated", "calibrated", 1, 0), ("placed", "placed", 1, 0),
             ("unplaced (calibrated, not placed)", "unplaced", 1, 0), ("left out", "left_out", 1, 0),
             ("refused (whole group refused)", "refused", 1, 0),
+            (f"not worked (< {MIN_MARKERS} markers)", "not_worked", 1, 0),
             ("focal error median %", "focal_rel_error_median", 100, 2),
             ("focal error p90 %", "focal_rel_error_p90", 100, 2),
             ("  paper §2 closed form, median %", "reference_focal_rel_error_median", 100, 2),
