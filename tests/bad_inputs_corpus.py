@@ -395,8 +395,38 @@ case("vanishing-segment-zero-length", setter(("photos", 0, "vanishing_segments",
      V + ["calibrate"], [P, ("$.photos[0].vanishing_segments.x[0]", "$.photos[0] photo 'p1': axis x, segment 0")])
 case("vanishing-segments-unknown-axis", setter(("photos", 0, "vanishing_segments", "w"), [[1, 2, 3, 4]]),
      V + ["calibrate"], [P, "$.photos[0].vanishing_segments", "w"])
+
+
+# -- camera groups: photos of one camera, named, one size, in one group, not released -------------------
+def _groups(*groups: list[str]) -> Callable[[Ctx], None]:
+    return setter(("camera_groups",), [{"id": f"g{k}", "photos": g} for k, g in enumerate(groups)])
+
+
+def _group_of_two_sizes(d: dict[str, Any]) -> None:
+    d["camera_groups"] = [{"id": "body", "photos": ["p1", "p2"]}]
+    d["photos"][1]["width"] = 1601
+
+
+def _group_with_released(d: dict[str, Any]) -> None:
+    d["camera_groups"] = [{"id": "body", "photos": ["p1", "p2"]}]
+    d["photos"][1]["own_camera"] = True
+
+
+case("camera-group-unknown-photo", _groups(["p1", "p9"]), V + ["calibrate"],
+     [P, "$.camera_groups[0].photos[1]", "'p9'"])
+case("camera-group-photo-in-two-groups", _groups(["p1", "p2"], ["p2", "p3"]), V + ["calibrate"],
+     [P, "$.camera_groups[1].photos[0]", "already in $.camera_groups[0]"])
+case("camera-group-of-one-photo", _groups(["p1"]), V + ["calibrate"], [P, "$.camera_groups[0].photos"])
+case("camera-group-sizes-differ", doc_fn(_group_of_two_sizes), V + ["calibrate"],
+     [P, "$.camera_groups[0].photos[1]", "1601×1200"])
+case("camera-group-released-photo", doc_fn(_group_with_released), V + ["calibrate"],
+     [P, "$.camera_groups[0].photos[1]", "own_camera"])
+case("calibrate-group-unknown-photo", nothing, [["calibrate", P, "--group", "body=p1,p9"]], [P, "--group", "'p9'"])
+case("calibrate-release-unknown-photo", nothing, [["calibrate", P, "--release", "p9"]], [P, "--release", "'p9'"])
 # A photo's own scale (a photo placed alone): bad values are refused at load, naming the field.
 _KNOWN = {"photo": "p1", "axis": "z", "ends": [[800.0, 900.0], [800.0, 300.0]], "length": 2.0, "sigma": 0.002}
+
+
 case("known-length-unknown-photo", setter(("known_lengths",), [{**_KNOWN, "photo": "p9"}]),
      V + ["calibrate"], [P, "$.known_lengths[0].photo", "p9"])
 case("known-length-ends-coincide", setter(("known_lengths",), [{**_KNOWN, "ends": [[800.0, 900.0], [800.5, 900.0]]}]),

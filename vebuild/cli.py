@@ -40,6 +40,10 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
     from .project.outputs import begin_stage
 
     project = load_checked(args.project, "calibrate")
+    if args.group or args.release:
+        from .actions.camera_group_records import apply_group_options
+
+        apply_group_options(project.data, project.path, args.group or [], args.release or [])
     begin_stage(project)
     result = calibrate_project(project, progress=lambda it: Bar(it, desc="calibrating", unit="photo",
                                                                 disable=not _progress_wanted(args)))
@@ -373,6 +377,12 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     if p := command_parser("calibrate", help="calibrate every photo and place the cameras (paper §2)"):
         p.add_argument("project", help="the project file (NAME.vebuild.json)")
         p.add_argument("--quiet", action="store_true", help="no progress bars")
+        p.add_argument("--group", action="append", metavar="ID=PHOTO,PHOTO",
+                       help="photos taken with one camera, which share its focal length, principal point and lens "
+                            "distortion (saved in the project's camera_groups; repeatable)")
+        p.add_argument("--release", action="append", metavar="PHOTO",
+                       help="release a photo from its camera group: its intrinsics are its own (saved as its "
+                            "own_camera; repeatable)")
         p.set_defaults(func=_cmd_calibrate)
 
     if p := command_parser("solve", help="fit the model's primitives to the pins (paper §3.1); --recalibrate: §3.2"):

@@ -13,10 +13,12 @@ from typing import Any
 import numpy as np
 
 from .. import __version__
+from ..calibration.camera_groups import CameraGroup, camera_groups
 from ..calibration.exif import exif_distortion_prior, exif_focal_prior
 from ..calibration.photo import EXIF_DISAGREEMENT_SIGMAS, PhotoCalibration, calibrate_photo
 from ..calibration.positions import PhotoInput, PlacedCamera, Placement, ReferenceDistance, place_cameras
 from ..calibration.priors import ExifCheck
+from ..calibration.shared_camera import GroupMember, calibrate_shared
 from ..calibration.single_photo import (
     FloorDistance,
     Origin,
@@ -32,35 +34,60 @@ from ..project import Project, canonical_input_hash, decode, provenance
 from ..project.decode import check_reference_handles
 from ..project.records import camera_record, distortion_record, json_values, value_sigma
 from ..project.units import METRES, RELATIVE
+from .camera_group_records import GroupResult, add_group_records
 
 
 def calibrate_photos(project: Project, progress: Callable[[Iterable], Iterable] = iter,
-                     left_out: dict[str, CalibrationError] | None = None) -> dict[str, PhotoCalibration]:
+                     left_out: dict[str, CalibrationError] | None = None,
+                     groups: dict[str, GroupResult] | None = None) -> dict[str, PhotoCalibration]:
     """Intrinsics and rotation of every photo that has vanishing segments.
 
-    A photo whose marks cannot determine its camera raises its CalibrationError, or, given
-    ``left_out``, is left out: its error is put there under its id and the others are calibrated.
+    Photos of one camera (:mod:`vebuild.calibration.camera_groups`) are calibrated together,
+    sharing f, c and k1 (:mod:`vebuild.calibration.shared_camera`); given ``groups``, each group's
+    result is put there under its id. A photo whose marks cannot determine its camera raises its
+    CalibrationError, or, given ``left_out``, is left out: its error is put there under its id and
+    the others are calibrated.
     """
     settings = project.settings
+    data = project.data
+    marks_of = {p["id"]: decode.photo_marks(p) for p in data["photos"]}
+    found = camera_groups(data["photos"], data.get("camera_groups") or [],
+                          only={pid for pid, m in marks_of.items() if m.segments})
+    group_of = {pid: g for g in found for pid in g.photos}
+    done: dict[str, GroupResult] = {}
     out = {}
-    for photo in progress(project.data["photos"]):
-        marks = decode.photo_marks(photo)
+    for photo in progress(data["photos"]):
+        pid = photo["id"]
+        marks = marks_of[pid]
         if not marks.segments:
             continue
         try:
-            out[photo["id"]] = _calibrate_one(photo, marks, settings)
+            g = group_of.get(pid)
+            if g is not None:
+                if g.id not in done:
+                    done[g.id] = _calibrate_group(data, g, marks_of, settings)
+                shared = done[g.id].shared
+                if shared is not None and pid in shared.photos:
+                    out[pid] = shared.photos[pid]
+                    continue
+                if shared is not None and pid in shared.failed:
+                    raise shared.failed[pid]
+            out[pid] = calibrate_photo(**_kwargs(photo, marks, settings))
         except CalibrationError as e:
             if left_out is None:
                 raise
-            left_out[photo["id"]] = e
+            left_out[pid] = e
+    if groups is not None:
+        groups.update(done)
     return out
 
 
-def _calibrate_one(photo: dict[str, Any], marks: decode.PhotoMarks, settings: dict[str, Any]) -> PhotoCalibration:
-    return calibrate_photo(
-        marks.segments,
-        photo["width"],
-        photo["height"],
+def _kwargs(photo: dict[str, Any], marks: decode.PhotoMarks, settings: dict[str, Any]) -> dict[str, Any]:
+    """What calibrate_photo is called with for a photo."""
+    return dict(
+        segments=marks.segments,
+        width=photo["width"],
+        height=photo["height"],
         photo=photo["id"],
         click_sigma_px=settings["click_sigma_px"],
         segment_sigma_px=decode.vanishing_segment_sigmas(photo, settings["click_sigma_px"]),
@@ -72,6 +99,17 @@ def _calibrate_one(photo: dict[str, Any], marks: decode.PhotoMarks, settings: di
         # refined by segments with middle points (the segments' straightness) where there are some.
         distortion=exif_distortion_prior(photo),
     )
+
+
+def _calibrate_group(data: dict[str, Any], g: CameraGroup, marks_of: dict[str, decode.PhotoMarks],
+                     settings: dict[str, Any]) -> GroupResult:
+    """One camera group calibrated together, its EXIF focal length once (where the user grouped
+    photos whose EXIF differs, none)."""
+    photos = {p["id"]: p for p in data["photos"]}
+    members = [GroupMember(pid, _kwargs(photos[pid], marks_of[pid], settings)) for pid in g.photos]
+    priors = [m.kwargs["exif_focal"] for m in members]
+    exif = priors[0] if all(p is not None and p == priors[0] for p in priors) else None
+    return GroupResult(g, calibrate_shared(g.id, members, exif_focal=exif))
 
 
 def calibrate_project(project: Project, progress: Callable[[Iterable], Iterable] = iter) -> dict[str, Any]:
@@ -100,7 +138,8 @@ def _calibrate(project: Project, progress: Callable[[Iterable], Iterable]) -> di
     # A photo whose marks cannot determine its camera is left out, with its reason; the others are
     # calibrated and placed. Only where none can be is the project refused (with the first's error).
     left_out: dict[str, CalibrationError] = {}
-    photos = calibrate_photos(project, progress, left_out)
+    groups: dict[str, GroupResult] = {}
+    photos = calibrate_photos(project, progress, left_out, groups)
     missing = [p["id"] for p in data["photos"] if p["id"] not in photos and p["id"] not in left_out]
     if not photos and left_out:
         raise next(iter(left_out.values()))
@@ -187,6 +226,7 @@ def _calibrate(project: Project, progress: Callable[[Iterable], Iterable]) -> di
         result.setdefault("left_out", {})[pid] = {"reason": err.detail}
         result["warnings"].append(f"photo '{pid}' is left out of the calibration ($.photos[{ids.index(pid)}]), the "
                                   f"other photos calibrated without it: {err.detail}")
+    add_group_records(result, groups, exif_check_record)
     for pid in missing:
         result["warnings"].append(f"photo '{pid}' has no vanishing segments and is not calibrated: mark segments, "
                                   "or register it to the solved model (`vebuild register`, from 4 known points)")

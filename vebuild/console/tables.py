@@ -88,6 +88,7 @@ def calibration_table(result: dict[str, Any]) -> str:
             used = "" if "combined" not in c else "; combined" if c["combined"] else "; not combined"
             lines.append(f"  EXIF check       {exif_check_words(c)}{used}")
         lines.append("")
+    lines += camera_group_lines(result.get("camera_groups") or [])
     lines.append("markers (relative units: the camera height is 1):" if unit.relative else "markers (m):")
     for n, m in result["markers"].items():
         sig = ", ".join("?" if s is None else f"{s:.3f}" for s in m["sigma"])
@@ -196,3 +197,24 @@ def texture_table(record: dict[str, Any], unit: LengthUnit = METRES) -> str:
     if unit.relative:
         lines.append(f"texels per relative unit (t/rel.): {unit.note}")
     return "\n".join(lines)
+
+
+def camera_group_lines(groups: list[dict[str, Any]]) -> list[str]:
+    """Per camera group (calibration.camera_groups): its camera, photos, f, c and k1 ± 1σ."""
+    if not groups:
+        return []
+    lines = ["camera groups (photos of one camera share f, c and k1; values ± 1σ):"]
+    for g in groups:
+        lines.append(f"  {g['id']} ({g['source']}): photos {', '.join(g['photos'])}")
+        if not g.get("shared"):
+            lines.append("    not shared: fewer than two of its photos could share intrinsics")
+            continue
+        d = g["distortion"]
+        lines += [f"    focal length     {_pm(g['focal_px'], '.1f')} px   (from {g['focal_source']})",
+                  f"    principal point  {_pm(g['principal_point'], '.1f')} px",
+                  f"    lens k1          {d['k1']:+.4f} ± {d['sigma']:.4f} ({d['source']})"]
+        for pid, why in (g.get("released") or {}).items():
+            lines.append(f"    released         {pid}: {why}")
+        if g.get("note"):
+            lines.append(f"    note             {g['note']}")
+    return [*lines, ""]

@@ -66,8 +66,9 @@ __all__ = ["READS", "STAGES", "TITLES", "AuditProblem", "Stale", "audit_entry", 
 STAGES = ("calibration", "model_solution", "textures")
 _VERB = {"calibration": "calibrating", "model_solution": "solving", "textures": "texturing"}
 _PHOTO_PARTS = {"image": ("file", "width", "height", "sha256"),
-                "camera": ("exif", "focal_px", "principal_point", "camera_height"),
+                "camera": ("exif", "own_camera", "focal_px", "principal_point", "camera_height"),
                 "marks": ("vanishing_segments", "vanishing_segment_sigmas", "marker_observations")}
+_LATER = ("vanishing_segment_sigmas", "own_camera")
 _SHOWN = 3  # differences named in one reason; the rest are counted
 
 
@@ -105,8 +106,9 @@ def _photo_hashes(data: Mapping[str, Any], registered: set[str]) -> dict[str, st
     for p in data.get("photos") or []:
         pid = p["id"]
         for part, keys in _PHOTO_PARTS.items():
-            # vanishing_segment_sigmas (later than the others) counts where present: older hashes stand.
-            value: dict[str, Any] = {k: p.get(k) for k in keys if k != "vanishing_segment_sigmas" or k in p}
+            # vanishing_segment_sigmas and own_camera (later than the others) count where present: older
+            # hashes stand.
+            value: dict[str, Any] = {k: p.get(k) for k in keys if k not in _LATER or k in p}
             if part == "marks":
                 value["known_lengths"] = [k for k in lengths if k.get("photo") == pid]
             out[f"photos/{pid}/{part}"] = _sha(value)
@@ -133,6 +135,8 @@ def inputs(data: Mapping[str, Any], stage: str) -> dict[str, str]:
         out = _photo_hashes(data, registered)
         for key in ("markers", "origin_marker", "reference_distances", "settings"):
             out[key] = _sha(data.get(key))
+        if "camera_groups" in data:  # the user's camera groups, where there are any
+            out["camera_groups"] = _sha(data["camera_groups"])
         return out
     if stage == "model_solution":
         model = data.get("model") or {}

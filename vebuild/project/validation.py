@@ -192,6 +192,9 @@ def _check_semantics(data: dict[str, Any], file: Any) -> None:
     for i, hyp in enumerate(data.get("hypotheses", [])):
         for name, joint in hyp["joints"].items():
             _check_joint(joint, file, f"$.hypotheses[{i}].joints{json_key(name)}")
+    from .camera_groups import check_camera_groups  # beside validation, which it lists with
+
+    check_camera_groups(data, file)
     cameras = (data.get("calibration") or {}).get("cameras") or {}
     for pid in cameras:
         if pid not in sizes:
