@@ -77,6 +77,23 @@ def test_photos_of_one_camera_are_grouped_by_exif_make_model_serial_and_focal_le
                                                            "exif")]
 
 
+def test_read_exif_records_the_body_serial(tmp_path: Path) -> None:
+    """EXIF BodySerialNumber (0xA431): what tells two bodies of one model apart."""
+    from PIL import Image
+
+    from vebuild.project import read_exif
+
+    exif = Image.Exif()
+    exif[0x010F], exif[0x0110] = "NIKON CORPORATION", "NIKON D7000"
+    sub = exif.get_ifd(0x8769)
+    sub[0xA431], sub[37386] = "6012345", 18.0
+    path = tmp_path / "a.jpg"
+    Image.new("RGB", (64, 48), (128, 128, 128)).save(path, format="JPEG", exif=exif)
+    got = read_exif(path)
+    assert got["body_serial"] == "6012345"
+    assert list(got)[:3] == ["make", "model", "body_serial"]
+
+
 def test_a_frontal_photo_borrows_the_focal_length_of_its_camera_group() -> None:
     """The frontal photo's lines leave f undetermined: alone it is refused; in its group its f is
     the group's, inside its interval, with a 1σ no wider than the oblique photos' own."""
@@ -157,6 +174,17 @@ def test_calibrate_groups_the_photos_of_one_camera_by_exif(tmp_path: Path) -> No
     # The frontal photo (no marker shared with the others: not placed) has the group's camera.
     assert records["p4"]["focal_px"]["value"] == pytest.approx(group["focal_px"]["value"], rel=1e-12)
     assert f"{group['id']} (exif): photos p1, p2, p3, p4" in r.stdout
+    # The report's calibration section has a row per group, with its shared values.
+    from vebuild.project import load_project
+    from vebuild.report.cameras import calibration
+    from vebuild.report.page import Report
+
+    rep = Report(tmp_path / "report")
+    calibration(load_project(path), rep)
+    section = rep.sections[0]
+    assert "<h3>Camera groups</h3>" in section
+    f = group["focal_px"]
+    assert f"{f['value']:.1f} ± {f['sigma']:.1f}" in section.split("<h3>Camera groups</h3>")[1]
 
 
 def test_the_user_groups_photos_and_releases_one(tmp_path: Path) -> None:

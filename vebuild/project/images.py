@@ -384,7 +384,7 @@ def read_exif(path: str | os.PathLike[str]) -> dict[str, Any]:
     Returns
     -------
     dict with the keys of FORMAT.md's ``exif`` object that the file gives (``{}`` for none):
-    make, model, lens_make, lens_model, orientation (1–8), focal_length_mm and the step it was
+    make, model, body_serial, lens_make, lens_model, orientation (1–8), focal_length_mm and the step it was
     written to (focal_length_mm_step, from the rational's denominator), focal_length_35mm,
     focal_plane_x_resolution_per_mm (along the sensor's x axis, whatever the orientation),
     pixel_x_dimension and pixel_y_dimension (the image's size as the camera wrote it), and the
@@ -407,6 +407,7 @@ def read_exif(path: str | os.PathLike[str]) -> dict[str, Any]:
 _MAKE, _MODEL, _EXIF_IFD = 0x010F, 0x0110, 0x8769
 _FOCAL_LENGTH, _FOCAL_35MM, _FOCAL_PLANE_XRES, _FOCAL_PLANE_UNIT = 37386, 41989, 41486, 41488
 _LENS_MAKE, _LENS_MODEL = 0xA433, 0xA434
+_BODY_SERIAL = 0xA431
 _PIXEL_X_DIMENSION, _PIXEL_Y_DIMENSION = 0xA002, 0xA003
 #: The largest focal length in pixels the format holds (FORMAT.md, "Bounds").
 _MAX_FOCAL_PX = 1e7
@@ -424,6 +425,7 @@ def _pillow_exif(path: Path) -> tuple[dict[str, Any], tuple[int, int] | None]:
             return {}, None
     values = {"make": exif.get(_MAKE), "model": exif.get(_MODEL), "orientation": exif.get(_ORIENTATION),
               "lens_make": sub.get(_LENS_MAKE), "lens_model": sub.get(_LENS_MODEL),
+              "body_serial": sub.get(_BODY_SERIAL),
               "focal_length_mm": sub.get(_FOCAL_LENGTH), "focal_length_35mm": sub.get(_FOCAL_35MM),
               "resolution": sub.get(_FOCAL_PLANE_XRES), "unit": sub.get(_FOCAL_PLANE_UNIT, 2),
               "pixel_x_dimension": sub.get(_PIXEL_X_DIMENSION), "pixel_y_dimension": sub.get(_PIXEL_Y_DIMENSION)}
@@ -453,7 +455,7 @@ def _raw_exif(path: Path) -> tuple[dict[str, Any], tuple[int, int] | None]:
         return None
 
     values = {"make": tag("Make"), "model": tag("Model"), "orientation": tag("Orientation"),
-              "lens_make": tag("LensMake"), "lens_model": tag("LensModel"),
+              "lens_make": tag("LensMake"), "lens_model": tag("LensModel"), "body_serial": tag("BodySerialNumber"),
               "focal_length_mm": tag("FocalLength"), "focal_length_35mm": tag("FocalLengthIn35mmFilm"),
               "resolution": tag("FocalPlaneXResolution"), "unit": tag("FocalPlaneResolutionUnit") or 2,
               "pixel_x_dimension": tag("ExifImageWidth"), "pixel_y_dimension": tag("ExifImageLength")}
@@ -469,7 +471,7 @@ def _raw_exif(path: Path) -> tuple[dict[str, Any], tuple[int, int] | None]:
 def _record(values: dict[str, Any]) -> dict[str, Any]:
     """The ``exif`` record (FORMAT.md) of the raw tag values, in its key order."""
     out: dict[str, Any] = {}
-    for key in ("make", "model", "lens_make", "lens_model"):
+    for key in ("make", "model", "body_serial", "lens_make", "lens_model"):
         if text := _text(values[key]):
             out[key] = text
     if isinstance(values["orientation"], int) and values["orientation"] in ORIENTATIONS:

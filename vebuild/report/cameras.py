@@ -87,6 +87,7 @@ def calibration(project: Project, rep: Report) -> None:
     body += "<h3>Calibration mode of each photo</h3><ul class='lim'>" + "".join(
         f"<li>{esc(pid)}: {esc(c.get('mode', '?'))}: {esc(c.get('mode_reason', 'no reason recorded'))}</li>"
         for pid, c in cams.items()) + "</ul>"
+    body += _groups(cal.get("camera_groups") or [])
     checks = {pid: c["exif_focal_check"] for pid, c in cams.items() if isinstance(c.get("exif_focal_check"), Mapping)}
     if checks:
         body += ("<h3>EXIF focal lengths against the vanishing points</h3><p>Each as EXIF relative to the "
@@ -103,6 +104,30 @@ def calibration(project: Project, rep: Report) -> None:
             f"{esc(pid)} ({esc(u.get('reason', '') if isinstance(u, Mapping) else u)})"
             for pid, u in unplaced.items()) + ".</p>"
     rep.add("Calibration (vanishing points)", body)
+
+
+def _groups(groups: list[Mapping[str, Any]]) -> str:
+    """The calibration's camera groups (``calibration.camera_groups``): one row per group, its
+    shared f, principal point and k1 ± 1σ, then the photos released from it and why."""
+    if not groups:
+        return ""
+    rows, notes = [], []
+    for g in groups:
+        if g.get("shared"):
+            f, c, d = g["focal_px"], g["principal_point"], g["distortion"]
+            rows.append([g["id"], g["source"], ", ".join(g.get("calibrated", g["photos"])),
+                         f"{f['value']:.1f} ± {f['sigma'] or 0:.1f}", _pm(c["value"], c["sigma"], 1),
+                         f"{d['k1']:+.4f} ± {d['sigma'] or 0:.4f}"])
+        else:
+            rows.append([g["id"], g["source"], ", ".join(g["photos"]), "not shared", "", ""])
+        notes += [f"{pid} left camera group {g['id']}: {why}" for pid, why in (g.get("released") or {}).items()]
+        if g.get("note"):
+            notes.append(f"camera group {g['id']}: {g['note']}")
+    return ("<h3>Camera groups</h3><p>Photos of one camera share its focal length, principal point and lens "
+            "distortion, solved together from all their vanishing lines. Values ± 1σ.</p>"
+            + table(["camera group", "from", "photos", "focal px", "principal point px", "lens k1"], rows, {3, 4, 5})
+            + ("<ul class='lim'>" + "".join(f"<li class='warn'>{esc(n)}</li>" for n in notes) + "</ul>"
+               if notes else ""))
 
 
 def _exif_item(pid: str, check: Mapping[str, Any]) -> str:
