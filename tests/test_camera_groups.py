@@ -30,6 +30,9 @@ UNCERTAINTY_BOUND = 4.5
 #: The generated set whose frontal photo p4 cannot fix f alone (its lines leave f undetermined)
 #: and whose oblique photos p1–p3 share markers, so that they are placed.
 SCENE_SEED = 0
+#: How far apart the placed photos of one group may put f and c: the placement's tie (positions.TIE_SIGMA_PX) and
+#: the solver's tolerance; a thousandth of a pixel is below any figure printed.
+TIE_PX = 1e-3
 #: Sets over which the shared intrinsics' intervals are checked (each against UNCERTAINTY_BOUND).
 COVERAGE_SETS = 30
 
@@ -171,6 +174,13 @@ def test_calibrate_groups_the_photos_of_one_camera_by_exif(tmp_path: Path) -> No
     assert abs(group["focal_px"]["value"] - f_true) < UNCERTAINTY_BOUND * group["focal_px"]["sigma"]
     records = {**cal["cameras"], **cal["unplaced"]}
     assert {pid: rec["camera_group"] for pid, rec in records.items()} == {p: group["id"] for p in group["photos"]}
+    # Placement keeps one set of intrinsics for the group's placed photos (held by the group's one
+    # prior, not by each photo's: the shared f would otherwise count once per photo).
+    placed = [cal["cameras"][p] for p in ("p1", "p2", "p3")]
+    for key in ("focal_px", "principal_point"):
+        assert np.allclose([c[key]["value"] for c in placed], placed[0][key]["value"], rtol=0, atol=TIE_PX)
+        assert np.allclose([c[key]["sigma"] for c in placed], placed[0][key]["sigma"], rtol=1e-3)
+    assert abs(placed[0]["focal_px"]["value"] - f_true) < UNCERTAINTY_BOUND * placed[0]["focal_px"]["sigma"]
     # The frontal photo (no marker shared with the others: not placed) has the group's camera.
     assert records["p4"]["focal_px"]["value"] == pytest.approx(group["focal_px"]["value"], rel=1e-12)
     assert f"{group['id']} (exif): photos p1, p2, p3, p4" in r.stdout
@@ -214,3 +224,4 @@ def test_the_user_groups_photos_and_releases_one(tmp_path: Path) -> None:
     assert r.returncode == 2 and "Traceback" not in r.stderr
     assert "--group 'x=p1,p9': names the photo 'p9'" in r.stderr and "expected one of" in r.stderr
     assert path.read_bytes() == before
+

@@ -830,10 +830,10 @@ def test_calibrate_writes_the_distortion_a_photo_s_calibration_estimated(tmp_pat
     save_project(project)
     real = action.calibrate_photos
 
-    def with_k1(project: Any, progress: Any = iter, left_out: Any = None) -> dict[str, Any]:
+    def with_k1(project: Any, progress: Any = iter, left_out: Any = None, groups: Any = None) -> dict[str, Any]:
         from scipy.linalg import block_diag
 
-        out = real(project, progress, left_out)
+        out = real(project, progress, left_out, groups)
         cal = out["p1"]
         out["p1"] = dataclasses.replace(cal, k1=truth_k1 + 0.004, k1_sigma=0.01, k1_source="plumb lines",
                                         covariance_k1=block_diag(cal.covariance, [[0.01**2]]))

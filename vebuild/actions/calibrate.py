@@ -13,12 +13,13 @@ from typing import Any
 import numpy as np
 
 from .. import __version__
-from ..calibration.camera_groups import CameraGroup, camera_groups
+from ..calibration import positions
+from ..calibration.camera_groups import camera_groups
 from ..calibration.exif import exif_distortion_prior, exif_focal_prior
 from ..calibration.photo import EXIF_DISAGREEMENT_SIGMAS, PhotoCalibration, calibrate_photo
 from ..calibration.positions import PhotoInput, PlacedCamera, Placement, ReferenceDistance, place_cameras
 from ..calibration.priors import ExifCheck
-from ..calibration.shared_camera import GroupMember, calibrate_shared
+from ..calibration.shared_camera import GroupMember
 from ..calibration.single_photo import (
     FloorDistance,
     Origin,
@@ -34,7 +35,7 @@ from ..project import Project, canonical_input_hash, decode, provenance
 from ..project.decode import check_reference_handles
 from ..project.records import camera_record, distortion_record, json_values, value_sigma
 from ..project.units import METRES, RELATIVE
-from .camera_group_records import GroupResult, add_group_records
+from .camera_group_records import GroupResult, add_group_records, calibrate_group, group_priors
 
 
 def calibrate_photos(project: Project, progress: Callable[[Iterable], Iterable] = iter,
@@ -65,7 +66,9 @@ def calibrate_photos(project: Project, progress: Callable[[Iterable], Iterable] 
             g = group_of.get(pid)
             if g is not None:
                 if g.id not in done:
-                    done[g.id] = _calibrate_group(data, g, marks_of, settings)
+                    by_id = {p["id"]: p for p in data["photos"]}
+                    done[g.id] = calibrate_group(g, [GroupMember(m, _kwargs(by_id[m], marks_of[m], settings))
+                                                     for m in g.photos])
                 shared = done[g.id].shared
                 if shared is not None and pid in shared.photos:
                     out[pid] = shared.photos[pid]
@@ -99,17 +102,6 @@ def _kwargs(photo: dict[str, Any], marks: decode.PhotoMarks, settings: dict[str,
         # refined by segments with middle points (the segments' straightness) where there are some.
         distortion=exif_distortion_prior(photo),
     )
-
-
-def _calibrate_group(data: dict[str, Any], g: CameraGroup, marks_of: dict[str, decode.PhotoMarks],
-                     settings: dict[str, Any]) -> GroupResult:
-    """One camera group calibrated together, its EXIF focal length once (where the user grouped
-    photos whose EXIF differs, none)."""
-    photos = {p["id"]: p for p in data["photos"]}
-    members = [GroupMember(pid, _kwargs(photos[pid], marks_of[pid], settings)) for pid in g.photos]
-    priors = [m.kwargs["exif_focal"] for m in members]
-    exif = priors[0] if all(p is not None and p == priors[0] for p in priors) else None
-    return GroupResult(g, calibrate_shared(g.id, members, exif_focal=exif))
 
 
 def calibrate_project(project: Project, progress: Callable[[Iterable], Iterable] = iter) -> dict[str, Any]:
@@ -172,7 +164,8 @@ def _calibrate(project: Project, progress: Callable[[Iterable], Iterable]) -> di
     placement, joint_error = None, None
     while len(joint) >= 2:
         try:
-            placement = _place_jointly(project, photos, joint, obs_of, joint_names, known, refs, floor, warnings)
+            placement = _place_jointly(project, photos, joint, obs_of, joint_names, known, refs, floor, warnings,
+                                       group_priors(groups))
             break
         except CalibrationError as e:
             if e.photo in joint and len(joint) > 2:
@@ -256,7 +249,8 @@ def checked_after_solve(d: ReferenceDistance) -> bool:
 
 def _place_jointly(project: Project, photos: dict[str, PhotoCalibration], joint: list[str],
                    obs_of: dict[str, dict[str, np.ndarray]], joint_names: set[str], known: dict[str, np.ndarray],
-                   refs: list[ReferenceDistance], floor: set[str], warnings: list[str]) -> Placement:
+                   refs: list[ReferenceDistance], floor: set[str], warnings: list[str],
+                   groups: list[positions.CameraGroupPrior]) -> Placement:
     """The photos ``joint`` placed together (paper §2.1), each one's own scale (camera height, known
     lengths) a residual on its camera's height. A marker seen by one of them only is left out (it
     is a floor marker its photo places alone, or a warning)."""
@@ -301,6 +295,7 @@ def _place_jointly(project: Project, photos: dict[str, PhotoCalibration], joint:
         distances=usable,
         click_sigma_px=click,
         camera_heights=heights,
+        groups=groups,
     )
 
 

@@ -10,7 +10,8 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..calibration.camera_groups import CameraGroup
-from ..calibration.shared_camera import SharedCalibration
+from ..calibration.positions import CameraGroupPrior
+from ..calibration.shared_camera import GroupMember, SharedCalibration, calibrate_shared
 from ..project.records import json_values, value_sigma
 
 
@@ -21,6 +22,20 @@ class GroupResult:
 
     group: CameraGroup
     shared: SharedCalibration | None
+
+
+def calibrate_group(g: CameraGroup, members: list[GroupMember]) -> GroupResult:
+    """One camera group calibrated together, its EXIF focal length once (where the user grouped
+    photos whose EXIF differs, none)."""
+    priors = [m.kwargs["exif_focal"] for m in members]
+    exif = priors[0] if all(p is not None and p == priors[0] for p in priors) else None
+    return GroupResult(g, calibrate_shared(g.id, members, exif_focal=exif))
+
+
+def group_priors(groups: dict[str, GroupResult]) -> list[CameraGroupPrior]:
+    """What placement holds each shared group's photos by: one set of intrinsics, their joint prior."""
+    return [CameraGroupPrior(tuple(r.shared.photos), r.shared.joint_covariance) for r in groups.values()
+            if r.shared is not None]
 
 
 def no_serial_note(g: CameraGroup) -> str | None:

@@ -64,6 +64,23 @@ class PhotoInput:
 
 
 @dataclass(frozen=True)
+class CameraGroupPrior:
+    """Photos of one camera (.shared_camera) placed with one set of intrinsics: their ids and the
+    joint covariance of the shared (f, cx, cy[, k1]) and each photo's ω, in that order. It replaces
+    their own priors (the shared intrinsics held once, not once per photo); each photo's are tied to
+    the first's within :data:`TIE_SIGMA_PX`."""
+
+    photos: tuple[str, ...]
+    covariance: Array
+
+
+#: How closely a camera group's photos keep one f and principal point in placement, pixels (k1:
+#: TIE_SIGMA_K1): equal well below what any figure is printed to.
+TIE_SIGMA_PX = 1e-3
+TIE_SIGMA_K1 = 1e-8
+
+
+@dataclass(frozen=True)
 class ReferenceDistance:
     a: str
     b: str
@@ -115,6 +132,7 @@ def place_cameras(
     distances: Sequence[ReferenceDistance] = (),
     click_sigma_px: float = 1.0,
     camera_heights: Mapping[str, tuple[float, float]] | None = None,
+    groups: Sequence[CameraGroupPrior] = (),
 ) -> Placement:
     """Camera and marker positions in metres, with covariances (paper §2.1, then refined).
 
@@ -122,6 +140,7 @@ def place_cameras(
         scale (its camera height, a known length in it) says; each is a residual of the
         refinement and fixes the scale as a reference distance does (the origin marker, at z = 0,
         lies on the floor).
+    groups : photos of one camera, placed with one set of intrinsics (CameraGroupPrior).
 
     Raises CalibrationError when a marker is seen once only, when a photo cannot be placed, or
     when nothing fixes the metric scale.
@@ -183,7 +202,7 @@ def place_cameras(
                                "number: check the distances' values and the markers' clicks")
     C = {k: v * s for k, v in C.items()}
     X = {k: (known[k] if k in known else v * s) for k, v in X.items()}
-    return _refine(by_id, C, X, origin, known, distances, click_sigma_px, heights)
+    return _refine(by_id, C, X, origin, known, distances, click_sigma_px, heights, groups)
 
 
 #: Two scale distances whose implied scales differ by more than this factor contradict each other.
@@ -291,7 +310,8 @@ def _unbounded(x: Array) -> Array:
 
 def _refine(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mapping[str, Array], origin: str,
             known: Mapping[str, Array], distances: Sequence[ReferenceDistance], click_sigma: float,
-            heights: Mapping[str, tuple[float, float]] | None = None) -> Placement:
+            heights: Mapping[str, tuple[float, float]] | None = None,
+            groups: Sequence[CameraGroupPrior] = ()) -> Placement:
     from scipy.spatial.transform import Rotation  # imported at first use: docs/start-up.md
 
     ids = list(photos)
@@ -309,13 +329,38 @@ def _refine(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mappi
     idx9 = off[:, None] + np.arange(9)[None, :]
     k1_col = {k: int(off[k] + 9) for k in range(len(ids)) if refine_k1[k]}
 
-    # Priors from each photo's vanishing-point calibration: whiten (q − q̂) with Σ^(−1/2).
+    # Priors from each photo's vanishing-point calibration: whiten (q − q̂) with Σ^(−1/2); a camera
+    # group's one prior, over its first photo's (f, c[, k1]) and every photo's ω, is its first's.
     q0 = {i: np.r_[photos[i].K[0, 0], photos[i].K[:2, 2]] for i in ids}
+    grouped: list[tuple[str, ...]] = []
+    prior_cols: dict[int, Array] = {}
+    prior_cov = {k: photos[i].covariance for k, i in enumerate(ids)}
+    for gp in groups:  # each group's photos placed here, its covariance marginal to them
+        n_s = gp.covariance.shape[0] - 3 * len(gp.photos)
+        here = [j for j, p in enumerate(gp.photos) if p in photos]
+        if len(here) < 2:
+            continue
+        members = tuple(gp.photos[j] for j in here)
+        lead, ks = ids.index(members[0]), [ids.index(m) for m in members]
+        with_k1 = n_s == 4 and lead in k1_col  # else k1 is held: its row is marginalised out
+        sel = [0, 1, 2, *([3] if with_k1 else []), *[n_s + 3 * j + d for j in here for d in range(3)]]
+        grouped.append(members)
+        prior_cov[lead] = np.asarray(gp.covariance, float)[np.ix_(sel, sel)]
+        prior_cols[lead] = np.r_[off[lead] + np.arange(3), [k1_col[lead]] if with_k1 else [],
+                                 *[off[k] + 3 + np.arange(3) for k in ks]].astype(int)
+        n_prior[ks] = 0
+        n_prior[lead] = len(prior_cols[lead])
+    for k in range(len(ids)):
+        if k not in prior_cols and n_prior[k]:
+            prior_cols[k] = np.r_[off[k] + np.arange(6), [k1_col[k]] if k in k1_col else []].astype(int)
     L_inv = {}
-    for i in ids:
-        cov = photos[i].covariance
-        w, V = np.linalg.eigh(0.5 * (cov + cov.T))
-        L_inv[i] = (V / np.sqrt(np.maximum(w, 1e-18))).T
+    for k, i in enumerate(ids):
+        if n_prior[k]:
+            w, V = np.linalg.eigh(0.5 * (prior_cov[k] + prior_cov[k].T))
+            L_inv[i] = (V / np.sqrt(np.maximum(w, 1e-18))).T
+    # The tie of each group's photos to its first: (f, cx, cy[, k1]) equal.
+    ties = [(ids.index(m[0]), ids.index(o)) for m in grouped for o in m[1:]]
+    tie_k1 = [(a, b) for a, b in ties if a in k1_col and b in k1_col]
     obs = [(i, n, np.asarray(uv, float)) for i in ids for n, uv in sorted(photos[i].markers.items()) if n in X0]
     scale_refs = [d for d in distances if d.role == "scale" and d.a in X0 and d.b in X0]
     height_ids = [k for k, i in enumerate(ids) if i in heights]
@@ -343,7 +388,8 @@ def _refine(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mappi
     prior_rows = r_prior + np.r_[0, np.cumsum(n_prior)[:-1]].astype(int)
     r_ref = r_prior + int(n_prior.sum())
     r_h = r_ref + n_ref
-    n_res = r_h + n_h
+    r_tie = r_h + n_h
+    n_res = r_tie + 3 * len(ties) + len(tie_k1)
 
     def unpack(x: Array) -> tuple[Array, Array, Array, Array, Array]:
         """Per-camera (f, cx, cy), rotations, centres, k1; all marker positions."""
@@ -358,8 +404,17 @@ def _refine(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mappi
         return fc, R, cam[:, 6:9], k1, X
 
     def prior_delta(x: Array, k: int) -> Array:
-        d = x[off[k] : off[k] + 6]
-        return np.r_[d, x[k1_col[k]]] if k in k1_col else d
+        return x[prior_cols[k]]
+
+    def tie_res(fc: Array, k1: Array) -> Array:
+        if not ties:
+            return np.zeros(0)
+        a, b = np.array(ties).T
+        out = [((fc[b] - fc[a]) / TIE_SIGMA_PX).ravel()]
+        if tie_k1:
+            ka, kb = np.array(tie_k1).T
+            out.append((k1[kb] - k1[ka]) / TIE_SIGMA_K1)
+        return np.concatenate(out)
 
     def residuals(x: Array) -> Array:
         fc, R, C, k1, X = unpack(x)
@@ -368,10 +423,10 @@ def _refine(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mappi
         s = distortion_scale(np.sum(xn**2, axis=1), k1[obs_cam]) if np.any(k1 != 0.0) else 1.0
         uv = fc[obs_cam, 0:1] * xn * np.reshape(s, (-1, 1)) + fc[obs_cam, 1:3]
         reproj = ((uv - obs_uv) / click_sigma).ravel()
-        prior = np.concatenate([L_inv[i] @ prior_delta(x, k) for k, i in enumerate(ids)])
+        prior = np.concatenate([L_inv[i] @ prior_delta(x, k) for k, i in enumerate(ids) if n_prior[k]] or [np.zeros(0)])
         dist = (np.linalg.norm(X[ref_ab[:, 0]] - X[ref_ab[:, 1]], axis=1) - ref_d) / ref_s
         hres = (C[height_ids, 2] - h_val) / h_sig if n_h else np.zeros(0)
-        return np.concatenate([reproj, prior, dist, hres])
+        return np.concatenate([reproj, prior, dist, hres, tie_res(fc, k1)])
 
     rows_obs = np.arange(2 * n_obs).reshape(-1, 2)
     free_of_mark = np.full(len(all_markers), -1, dtype=int)
@@ -385,7 +440,9 @@ def _refine(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mappi
     p_rows, p_cols, p_vals = [], [], []
     for k, i in enumerate(ids):
         n_k = int(n_prior[k])
-        cols = np.r_[off[k] + np.arange(6), [k1_col[k]] if k in k1_col else []].astype(int)
+        if not n_k:
+            continue
+        cols = prior_cols[k]
         p_rows.append(np.repeat(prior_rows[k] + np.arange(n_k), n_k))
         p_cols.append(np.tile(cols, n_k))
         p_vals.append(L_inv[i][:n_k, :n_k].ravel())
@@ -453,6 +510,15 @@ def _refine(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mappi
             rows.append(r_h + np.arange(n_h))
             cols.append(off[height_ids] + 8)
             vals.append(1.0 / h_sig)
+        for t, (a, b) in enumerate(ties):  # fc[b] − fc[a], three rows each
+            for d in range(3):
+                rows.append(np.full(2, r_tie + 3 * t + d))
+                cols.append(np.array([off[b] + d, off[a] + d]))
+                vals.append(np.array([1.0, -1.0]) / TIE_SIGMA_PX)
+        for t, (a, b) in enumerate(tie_k1):
+            rows.append(np.full(2, r_tie + 3 * len(ties) + t))
+            cols.append(np.array([k1_col[b], k1_col[a]]))
+            vals.append(np.array([1.0, -1.0]) / TIE_SIGMA_K1)
         return sparse.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
                                  shape=(n_res, n_par))
 
@@ -473,7 +539,9 @@ def _refine(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mappi
         if k < r_h:
             d = scale_refs[k - r_ref]
             return f"reference distance {d.a}–{d.b} ({d.distance:g} m)"
-        return f"photo '{ids[height_ids[k - r_h]]}' (its camera height)"
+        if k < r_tie:
+            return f"photo '{ids[height_ids[k - r_h]]}' (its camera height)"
+        return "a camera group (its photos' one set of intrinsics)"
 
     with np.errstate(all="ignore"):
         r0 = residuals(x0)

@@ -99,6 +99,8 @@ class SharedCalibration:
     exif_check: ExifCheck | None = None
     released: dict[str, str] = field(default_factory=dict)
     failed: dict[str, CalibrationError] = field(default_factory=dict)
+    #: covariance of (f, cx, cy[, k1], ω of each photo of ``photos`` in its order): pixels, radians
+    joint_covariance: Array = field(default_factory=lambda: np.zeros((0, 0)))
 
     @property
     def f_sigma(self) -> float:
@@ -447,8 +449,9 @@ def _result(group: str, s: _Solved, active: Sequence[GroupMember], failed: dict[
             vanishing_points=vps, segment_residuals_px={a: p.reported_residuals(U, a, vps[a]) for a in p.axes},
             k1=k1, k1_sigma=float(np.sqrt(max(cov7[6, 6], 0.0))), k1_source=k1_source, covariance_k1=cov7,
             exif_check=s.exif_check)
+    S_all = np.r_[scale, scale, scale, np.ones(problem.n_params - 3)]
     return SharedCalibration(group, photos, float(f), np.array([cx, cy]), k1, cov4, mode, text, focal_source,
-                             k1_source, vf, s.exif_check, released, failed)
+                             k1_source, vf, s.exif_check, released, failed, cov * np.outer(S_all, S_all))
 
 
 def with_group(cal: PhotoCalibration, note: str) -> PhotoCalibration:
