@@ -225,3 +225,23 @@ def test_the_user_groups_photos_and_releases_one(tmp_path: Path) -> None:
     assert "--group 'x=p1,p9': names the photo 'p9'" in r.stderr and "expected one of" in r.stderr
     assert path.read_bytes() == before
 
+
+def test_the_modelling_screen_groups_releases_and_shows_camera_groups(tmp_path: Path) -> None:
+    """The screen's session: the user groups the photos (one undoable edit), calibrates (the group
+    shown with its shared values), releases a photo; undo takes the release back."""
+    from vebuild.edit.session import EditSession
+
+    photos, markers = _set()
+    path = write_one_camera_project(tmp_path, photos, markers, exif=False)
+    s = EditSession.open(path)
+    s.group_cameras("body", ["p1", "p2", "p3", "p4"])
+    assert s.data["camera_groups"] == [{"id": "body", "photos": ["p1", "p2", "p3", "p4"]}]
+    result = s.calibrate()
+    [group] = result["camera_groups"]
+    f = group["focal_px"]
+    assert "body (user): photos p1, p2, p3, p4" in s.messages
+    assert f"focal length     {f['value']:.1f} ± {f['sigma']:.1f} px   (from {group['focal_source']})" in s.messages
+    s.release_camera("p4")
+    assert s.data["photos"][3]["own_camera"] is True
+    assert s.data["camera_groups"] == [{"id": "body", "photos": ["p1", "p2", "p3"]}]
+    assert s.undo() and "own_camera" not in s.data["photos"][3]

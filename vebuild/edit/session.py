@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 
 from vebuild import camera as cam_math
 from vebuild.camera import ImageCamera
-from vebuild.console.tables import exif_check_words
+from vebuild.console.tables import camera_group_lines, exif_check_words
 from vebuild.errors import VebuildError
 from vebuild.model.undo import UndoStack
 from vebuild.project import Project, load_project, new_photo_entry
@@ -184,9 +184,28 @@ class EditSession(Assist, Rooms, SessionOverlays):
         lines = [f"{pid}: {c['mode']}, f {c['focal_px']['value']:.1f} ± {c['focal_px']['sigma']:.1f} px, "
                  f"rms {c['rms_px']:.2f} px{exif_text(c)}{placement_text(c)}" for pid, c in result["cameras"].items()]
         self.say("calibrated " + "; ".join(lines))
+        for line in camera_group_lines(result.get("camera_groups") or [])[:-1]:
+            self.say(line.strip())
         for w in result.get("warnings", []):
             self.say(w)
         return result
+
+    def group_cameras(self, group: str, photos: list[str]) -> None:
+        """Say that these photos were taken with one camera (FORMAT.md "Camera groups"): the next
+        calibration gives them one focal length, principal point and lens distortion."""
+        from vebuild.actions.camera_group_records import apply_group_options
+
+        with self._edit(f"group {', '.join(photos)} as camera '{group}'"):
+            apply_group_options(self.data, self.project.path, [f"{group}={','.join(photos)}"], [])
+        self.say(f"photos {', '.join(photos)} share camera '{group}': calibrate to solve them together")
+
+    def release_camera(self, photo: str) -> None:
+        """Release a photo from its camera group (EXIF's or the user's): its intrinsics become its own."""
+        from vebuild.actions.camera_group_records import apply_group_options
+
+        with self._edit(f"release {photo} from its camera group"):
+            apply_group_options(self.data, self.project.path, [], [photo])
+        self.say(f"photo '{photo}' released from camera groups: calibrate to give it intrinsics of its own")
 
     @property
     def cameras(self) -> dict[str, ImageCamera]:
