@@ -224,6 +224,11 @@ def test_the_user_groups_photos_and_releases_one(tmp_path: Path) -> None:
     assert r.returncode == 2 and "Traceback" not in r.stderr
     assert "--group 'x=p1,p9': names the photo 'p9'" in r.stderr and "expected one of" in r.stderr
     assert path.read_bytes() == before
+    # The groups are an input of the calibration: changed, the calibration is stale.
+    doc["camera_groups"] = [{"id": "body", "photos": ["p1", "p2"]}]
+    path.write_text(json.dumps(doc), encoding="utf-8")
+    r = _cli("check", path)
+    assert "the calibration is stale: camera_groups changed after calibrating" in r.stdout + r.stderr
 
 
 def test_the_modelling_screen_groups_releases_and_shows_camera_groups(tmp_path: Path) -> None:
