@@ -15,12 +15,12 @@ import dataclasses
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
-from itertools import combinations
 from typing import Any
 
 import numpy as np
 
 from ..calibration.axes_choice import choose_turns, direction_turn, turn_between
+from ..calibration.clutter import curved, short, textured
 from ..calibration.exif import exif_distortion_prior, exif_focal_prior
 from ..calibration.lines import (
     DARK_MEAN_GREY,
@@ -33,12 +33,12 @@ from ..calibration.lines import (
     single_vanishing_point,
     to_grey,
 )
-from ..calibration.photo import SAME_VANISHING_POINT_DEG
-from ..calibration.vanishing import COLLINEAR_TOLERANCE_PX, fit_vanishing_point, normalising_transform
+from ..calibration.vanishing import fit_vanishing_point
 from ..camera import AXES, distort_pixels, intrinsic_matrix, undistort_pixels
 from ..errors import ProjectError, VebuildError
 from ..project import Project
 from ..project.images import decode_photo
+from .detect_checks import drop_same_point, one_image_line, weak_axes
 
 #: At most this many proposals per axis are kept (the best-scored): more add little to a
 #: calibration and slow it.
@@ -141,6 +141,7 @@ class Grouped:
     elapsed: float
     failure: PhotoProposals | None              # nothing to propose, and why
     f_exif: float | None = None                 # EXIF's focal length, where it gives one
+    left_out: tuple[int, int, int] = (0, 0, 0)  # edges not grouped: short, in texture, curved
 
     def rotation(self, x_axis: str) -> np.ndarray:
         """World → camera rotation for a choice of x (its columns: world x, y, z in the camera)."""
@@ -185,12 +186,22 @@ def group(pixels: np.ndarray, photo: dict[str, Any], *, seed: int = 0) -> Groupe
         k1 = plumb_line_k1(found.polylines, found.polyline_sigma_px, f0, c, w, h)
     if k1 != 0.0:
         segs = undistort_pixels(intrinsic_matrix(f0, *c), found.segments.reshape(-1, 2), k1).reshape(-1, 4)
-    frame = group_manhattan(segs, w, h, focal_prior=focal_prior, seed=seed, sigma_px=found.sigma_px)
+    # Texture (cobbles, leaves) and curves (wires, branches) are not grouped (calibration.clutter).
+    small = short(segs, w, h)
+    tex = textured(segs, w, h) & ~small
+    bent = curved(found.polylines, found.polyline_sigma_px, intrinsic_matrix(f0, *c), k1) & ~tex & ~small
+    keep = np.flatnonzero(~small & ~tex & ~bent)
+    frame = group_manhattan(segs[keep], w, h, focal_prior=focal_prior, seed=seed, sigma_px=found.sigma_px[keep])
+    if frame is not None:
+        labels, resid = np.full(len(segs), -1, np.int64), np.full(len(segs), np.inf)
+        labels[keep], resid[keep] = frame.labels, frame.residual_px
+        frame = dataclasses.replace(frame, labels=labels, residual_px=resid)
     if frame is None:
         failure = _one_direction(pid, segs, w, h, k1, f0 if prior is not None else None, seed, t0)
         return Grouped(pid, w, h, found, segs, k1, f0, None, time.perf_counter() - t0, failure)
     elapsed = time.perf_counter() - t0
-    return Grouped(pid, w, h, found, segs, k1, f0, frame, elapsed, None, prior.value if prior is not None else None)
+    return Grouped(pid, w, h, found, segs, k1, f0, frame, elapsed, None, prior.value if prior is not None else None,
+                   (int(small.sum()), int(tex.sum()), int(bent.sum())))
 
 
 #: Why a photo whose edges show one vanishing direction gets nothing written.
@@ -206,7 +217,7 @@ def _one_direction(pid: str, segs: np.ndarray, w: int, h: int, k1: float, f_exif
     :data:`MIN_PER_AXIS` edges or more agree with (not all pieces of one image line), if any."""
     found = single_vanishing_point(segs, w, h, seed=seed)
     n = int(found[1].sum()) if found is not None else 0
-    if found is None or n < MIN_PER_AXIS or _one_image_line(segs[found[1]], max(w, h)):
+    if found is None or n < MIN_PER_AXIS or one_image_line(segs[found[1]], max(w, h)):
         return PhotoProposals(pid, (), None, f"{len(segs)} straight edges, but they do not share two vanishing "
                               f"directions, nor one that {MIN_PER_AXIS} edges or more agree on (no vanishing "
                               "points): mark the segments by hand")
@@ -261,10 +272,13 @@ def orient_proposals(g: Grouped, x_axis: str = "right") -> PhotoProposals:
         length = np.hypot(*(segs[idx, 2:] - segs[idx, :2]).T)
         idx = idx[np.argsort(-(score * length))][:MAX_PER_AXIS]
         ends = np.c_[found.polylines[idx, :2], found.polylines[idx, -2:]]  # what is written
-        if len(idx) < MIN_PER_AXIS or _one_image_line(ends, max(w, h)):
+        if len(idx) < MIN_PER_AXIS or one_image_line(ends, max(w, h)):
             idx = idx[:0]  # pieces of one edge fix no vanishing point: the axis is not proposed
-        counts[a] = len(idx)
         chosen[a] = idx
+    weak = weak_axes(segs, found.sigma_px, chosen, D, f, c, max(w, h))
+    for k, a in enumerate(AXES):
+        idx = chosen[a] = chosen[a][:0] if a in weak else chosen[a]
+        counts[a] = len(idx)
         for i in idx:
             s_u = direct_segment(segs[i], D[:, k], f, c)
             flipped = not np.allclose(s_u, segs[i])
@@ -276,9 +290,9 @@ def orient_proposals(g: Grouped, x_axis: str = "right") -> PhotoProposals:
             props.append(SegmentProposal(a, (float(s[0]), float(s[1]), float(s[2]), float(s[3])),
                                          float(found.polyline_sigma_px[i]), sc,
                                          tuple(float(v) for v in poly.ravel())))
-    _drop_same_point(props, counts, D, f, c, w, h)
+    drop_same_point(props, counts, D, f, c, w, h)
     rel = frame.focal_sigma_px / f if np.isfinite(frame.focal_sigma_px) else np.inf
-    focal = f if rel <= FOCAL_REPORT_MAX_REL_SIGMA else None
+    focal = f if rel <= FOCAL_REPORT_MAX_REL_SIGMA and not weak else None  # a weak axis' f is not told
     K = intrinsic_matrix(f, *c)
     axes_seen = [a for a in AXES if counts[a]]
     counted = ", ".join(f"{counts[a]} {a}" for a in AXES) + " segments"
@@ -291,7 +305,18 @@ def orient_proposals(g: Grouped, x_axis: str = "right") -> PhotoProposals:
              (f"focal length {f:.0f} px (1σ {100 * rel:.1f} %)" if focal is not None
               else "focal length not determined by the lines (a frontal or level view)"),
              f"{1000 * elapsed:.0f} ms"]
-    return PhotoProposals(pid, tuple(props), focal, "; ".join(parts), directions)
+    return PhotoProposals(pid, tuple(props), focal, "; ".join(parts[:-1] + _left_out(g, weak) + parts[-1:]),
+                          directions)
+
+
+def _left_out(g: Grouped, weak: dict[str, str]) -> list[str]:
+    """The message's words on what was not proposed: weak axes, and edges in texture or curved."""
+    out = [f"axis {a} not proposed: {why}" for a, why in weak.items()]
+    small, tex, bent = g.left_out
+    if small or tex or bent:
+        out.append(f"not grouped: {small} short edges, {tex} in texture (edges turned every way: cobbles, "
+                   f"leaves), {bent} curved (wires, branches)")
+    return out
 
 
 def _one_axis(g: Grouped, props: tuple[SegmentProposal, ...], axes_seen: list[str], chosen: dict[str, np.ndarray],
@@ -314,47 +339,6 @@ def _one_axis(g: Grouped, props: tuple[SegmentProposal, ...], axes_seen: list[st
     directions, how = _exif_direction(v, g.f_exif, c)
     return PhotoProposals(g.pid, props, None, f"one direction only: {counted}; vanishing point {a} {where} "
                           f"({how}); {ONE_DIRECTION_WHY}; {ms}", directions)
-
-
-def _drop_same_point(props: list[SegmentProposal], counts: dict[str, int], D: np.ndarray, f: float,
-                     c: np.ndarray, w: int, h: int) -> None:
-    """Drop the smaller of two axes whose vanishing points coincide in the image (within
-    SAME_VANISHING_POINT_DEG on the sphere of normalised points: the calibration's refusal of
-    a mislabelled set; a strong lens bends one direction's edges into two such sets). Both the
-    frame's points and the points fitted to each axis' written segments alone (as the
-    calibration fits them, end points as the lens put them) are compared."""
-    N = normalising_transform(w, h)
-    K = intrinsic_matrix(f, *c)
-    unit = {a: (N @ K @ D[:, k]) / np.linalg.norm(N @ K @ D[:, k]) for k, a in enumerate(AXES)}
-    own: dict[str, np.ndarray | None] = {}
-    for a in AXES:
-        ends = np.array([np.r_[q.points[:2], q.points[-2:]] for q in props if q.axis == a]).reshape(-1, 4)
-        try:
-            x = N @ fit_vanishing_point(ends, w, h, axis=a).point if counts[a] else None
-            own[a] = x / np.linalg.norm(x) if x is not None else None
-        except VebuildError:
-            own[a] = None
-
-    def apart(x: np.ndarray | None, y: np.ndarray | None) -> float:
-        return 180.0 if x is None or y is None else float(np.degrees(np.arccos(min(1.0, abs(float(x @ y))))))
-
-    for a, b in combinations([a for a in AXES if counts[a]], 2):
-        if counts[a] and counts[b] and min(apart(unit[a], unit[b]), apart(own[a], own[b])) \
-                < SAME_VANISHING_POINT_DEG:
-            weaker = a if counts[a] < counts[b] else b
-            props[:] = [p for p in props if p.axis != weaker]
-            counts[weaker] = 0
-
-
-def _one_image_line(segs: np.ndarray, side: int) -> bool:
-    """Whether all segments lie on one image line: what the calibration refuses for an axis
-    (within COLLINEAR_TOLERANCE_PX; ``side`` is unused, kept for the call's shape)."""
-    if len(segs) == 0:
-        return False
-    a, b = segs[0, :2], segs[0, 2:]
-    n = np.array([a[1] - b[1], b[0] - a[0]]) / max(float(np.linalg.norm(b - a)), 1e-9)
-    d = np.abs(np.r_[(segs[:, :2] - a) @ n, (segs[:, 2:] - a) @ n])
-    return bool(np.all(d < COLLINEAR_TOLERANCE_PX))
 
 
 def accept_proposals(project: Project, proposals: PhotoProposals, indices: Sequence[int] | None = None) -> int:
