@@ -145,3 +145,16 @@ def test_short_curved_and_weak_rules() -> None:
     assert weak_direction(rows, np.full(4, 0.3), 1600.0, c, 1600.0, None) is None
     why = weak_direction(rows, np.full(4, 0.3), 1600.0, c, 1600.0, np.array([0.0, 0.0, 1.0]))
     assert why is not None and "square" in why
+
+
+def test_bench_detect_reports_the_street_photos() -> None:
+    """`vebuild bench detect` scores the street photos too, and its table shows them."""
+    from vebuild.bench import detect as bench
+    from vebuild.bench.detect_clutter import clutter_figures
+
+    fig, rows = clutter_figures(2)
+    assert fig["clutter_photos"] == 2 and len(rows) == 2
+    assert 0.0 <= fig["clutter_focal_coverage_95"] <= 1.0
+    assert fig["clutter_not_calibrated"] + sum(r["covered"] is not None for r in rows) == 2
+    text = bench.table(fig)
+    assert "street photos with clutter" in text and "clutter_principal_point_coverage_95" in text

@@ -213,13 +213,17 @@ def _summary(rows: list[dict[str, Any]], prefix: str = "") -> dict[str, Any]:
 
 
 def run(quick: bool = False, progress: bool = True, seed: int = 2107, *, n: int | None = None,
-        width: int = 4000, height: int = 3000, room: bool = True) -> dict[str, Any]:
+        width: int = 4000, height: int = 3000, room: bool = True, clutter: int | None = None) -> dict[str, Any]:
     """The figures over ``n`` generated photos (default 100, 12 with ``quick``) of ``width`` ×
-    ``height`` pixels, and (``room``) over the example's six photos."""
+    ``height`` pixels, (``room``) over the example's six photos, and over ``clutter`` street photos
+    (:mod:`.detect_clutter`; default 40, 10 with ``quick``, none where ``n`` is given)."""
     import cv2
 
     from ..calibration.lines import detect_lines, group_manhattan, to_grey
+    from .detect_clutter import N_CLUTTER, N_CLUTTER_QUICK, clutter_figures
 
+    if clutter is None:
+        clutter = 0 if n is not None else (N_CLUTTER_QUICK if quick else N_CLUTTER)
     n = n if n is not None else (N_QUICK if quick else N_PHOTOS)
     photos = generated_photos(n, width=width, height=height, seed=seed, progress=progress)
     rows, decode_ms = [], []
@@ -260,6 +264,8 @@ def run(quick: bool = False, progress: bool = True, seed: int = 2107, *, n: int 
                                                          / figures["lsd_full_resolution_ms"])
     if room:
         figures.update(_summary(_room_rows(), "room_"))
+    if clutter:
+        figures.update(clutter_figures(clutter)[0])
     figures["goals"] = GOALS
     figures["per_photo"] = [{k: v for k, v in r.items() if not k.startswith("clicked_") or k == "clicked_focal_err"}
                             for r in rows]
@@ -318,4 +324,7 @@ def table(figures: dict[str, Any]) -> str:
     lines.append(f"  {'decode_ms_per_photo':<46} {fmt(figures.get('decode_ms_per_photo')):>16}")
     lines.append(f"  {'lsd_full_resolution_ms':<46} {fmt(figures.get('lsd_full_resolution_ms')):>16}   "
                  "(reference: LSD alone on the full image)")
+    if figures.get("clutter_photos"):
+        lines += ["", "street photos with clutter (1600 × 1200: cobbles, trees, wires, railings, roofs)"]
+        lines += [f"  {k:<46} {fmt(v):>16}" for k, v in figures.items() if k.startswith("clutter_")]
     return "\n".join(lines)
