@@ -186,7 +186,8 @@ def group(pixels: np.ndarray, photo: dict[str, Any], *, seed: int = 0) -> Groupe
         k1 = plumb_line_k1(found.polylines, found.polyline_sigma_px, f0, c, w, h)
     if k1 != 0.0:
         segs = undistort_pixels(intrinsic_matrix(f0, *c), found.segments.reshape(-1, 2), k1).reshape(-1, 4)
-    # Texture (cobbles, leaves) and curves (wires, branches) are not grouped (calibration.clutter).
+    # Short edges, texture (cobbles, leaves) and curves (wires, branches) are not grouped
+    # (calibration.clutter): they agree with any vanishing point within a wide angle.
     small = short(segs, w, h)
     tex = textured(segs, w, h) & ~small
     bent = curved(found.polylines, found.polyline_sigma_px, intrinsic_matrix(f0, *c), k1) & ~tex & ~small
