@@ -25,21 +25,16 @@ def weak_axes(segs: np.ndarray, sigma_px: np.ndarray, chosen: dict[str, np.ndarr
               c: np.ndarray, side: float) -> dict[str, str]:
     """The third direction that is not proposed, and why: where three axes were grouped (columns
     of D: world x, y, z in the camera; ``chosen``: each one's segments, indices into ``segs``,
-    undistorted), the one whose segments fix its vanishing direction least, where they do not fix
-    it (vebuild.calibration.clutter.weak_direction). Two axes are always kept: they fix the
+    undistorted), the one whose segments fix its vanishing direction least (the largest 1σ),
+    where they do not fix it (vebuild.calibration.clutter.weak_direction). Two axes are always kept: they fix the
     rotation, and the calibration then takes f from EXIF, with EXIF's σ."""
     if not all(len(chosen[a]) for a in AXES):
         return {}
-    why: dict[str, tuple[float, str]] = {}
-    for k, a in enumerate(AXES):
-        idx = chosen[a]
-        reason = weak_direction(segs[idx], sigma_px[idx], f, c, side, D[:, k])
-        if reason is not None:
-            why[a] = (direction_sigma_deg(segs[idx], sigma_px[idx], f, c)[1], reason)
-    if not why:
-        return {}
-    worst = max(why, key=lambda a: why[a][0])
-    return {worst: why[worst][1]}
+    sig = {a: direction_sigma_deg(segs[chosen[a]], sigma_px[chosen[a]], f, c)[1] for a in AXES}
+    a = max(AXES, key=lambda b: sig[b])  # the third direction: the one its segments fix least
+    idx = chosen[a]
+    why = weak_direction(segs[idx], sigma_px[idx], f, c, side, D[:, AXES.index(a)])
+    return {} if why is None else {a: why}
 
 
 def drop_same_point(props: list[SegmentProposal], counts: dict[str, int], D: np.ndarray, f: float,

@@ -27,7 +27,8 @@ weakest of three grouped axes only). A grouped axis is proposed only if its segm
 fitted alone, fix its vanishing direction: the direction's 1σ on the sphere (through the
 grouping's focal length, each segment weighted by its measured 1σ) is at most
 :data:`WEAK_DIRECTION_MAX_SIGMA_DEG`, :data:`WEAK_MIN_LONG` of them at least are
-:data:`WEAK_LONG_REL` of the longer side long or more, and the direction lies within
+:data:`WEAK_LONG_REL` of the longer side long or more, they meet their own best-fit point within
+their 1σ (χ², n − 2 degrees of freedom, :data:`WEAK_CHI2_P`), and the direction lies within
 :data:`WEAK_ORTHOGONAL_SIGMAS` of its σ (and :data:`WEAK_ORTHOGONAL_MIN_DEG` at least) of the
 direction orthogonal to the two other axes' (the frame's, for the grouping's f; the σ includes
 the turn a principal point 3 % off the centre gives, :data:`.priors.PRINCIPAL_POINT_SIGMA_REL`,
@@ -68,6 +69,10 @@ WEAK_DIRECTION_MAX_SIGMA_DEG = 1.5
 #: leaves) fixes little, and any clutter in it weighs as much as its true edges.
 WEAK_MIN_LONG = 2
 WEAK_LONG_REL = 0.05
+#: A direction whose segments miss their own best-fit vanishing point by more than their 1σ allows
+#: (χ² of their ends' distances, n − 2 degrees of freedom, beyond this p) is not one direction:
+#: long clutter edges (a trunk, a railing, a kerb) that happen to meet near one point.
+WEAK_CHI2_P = 0.001
 #: A third direction further than this many σ from the two others' orthogonal one is not theirs ...
 WEAK_ORTHOGONAL_SIGMAS = 4.0
 #: ... and further than this many degrees at least.
@@ -169,6 +174,18 @@ def weak_direction(segs: Array, sigma_px: Array, f: float, c: Array, side: float
         return (f"{n_long} of its {len(segs)} segments are {WEAK_LONG_REL:.0%} of the photo's longer side long "
                 f"({WEAK_LONG_REL * side:.0f} px) or more, under {WEAK_MIN_LONG}: short edges only")
     d, s = direction_sigma_deg(segs, sigma_px, f, c)
+    if len(segs) > 2:
+        from scipy.stats import chi2
+
+        from .lines import _distances
+
+        K = np.array([[f, 0.0, c[0]], [0.0, f, c[1]], [0.0, 0.0, 1.0]])
+        x2 = float(np.sum((_distances(segs, (K @ d)[:, None])[:, 0] / np.maximum(sigma_px, 1e-6)) ** 2))
+        limit = float(chi2.ppf(1.0 - WEAK_CHI2_P, len(segs) - 2))
+        if x2 > limit:
+            return (f"its {len(segs)} segments miss the point they best meet at by more than their 1σ allows "
+                    f"(χ² {x2:.0f} > {limit:.0f}, {len(segs) - 2} degrees of freedom, p = {WEAK_CHI2_P}): "
+                    "edges of clutter meeting near one point")
     if s > WEAK_DIRECTION_MAX_SIGMA_DEG:
         return (f"its {len(segs)} segments fix its vanishing direction to {s:.1f}° (1σ; nearly parallel in the "
                 f"image, or short), more than {WEAK_DIRECTION_MAX_SIGMA_DEG}°")
