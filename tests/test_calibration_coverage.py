@@ -194,7 +194,14 @@ def test_without_middle_points_k1_is_a_prior_or_zero(rng: np.random.Generator) -
 def test_polylines_with_the_profile_say_both(rng: np.random.Generator) -> None:
     ph = realistic_camera(rng, "3vp")
     add_segments(ph, rng, CLICK_NOISE_PX, middle_points=3)
+    # A profile the lines agree with holds k1 there (vebuild/calibration/bending.py) ...
     prior = DistortionPrior(ph.k1, 0.2 * abs(ph.k1), "lens profile: Test 18mm")
+    held = _calibrate(ph, distortion=prior)
+    assert held.k1_source.startswith(f"k1 held at lens profile: Test 18mm's k1 {ph.k1:+.4f}: the lines bend no "
+                                      "differently (LR test")
+    assert held.k1 == ph.k1 and held.k1_sigma == 0.0
+    # ... one they contradict (a pincushion where the lens is barrel) is combined with them.
+    prior = DistortionPrior(-ph.k1, 0.2 * abs(ph.k1), "lens profile: Test 18mm")
     cal = _calibrate(ph, distortion=prior)
     assert cal.k1_source == "segments + lens profile: Test 18mm"
     assert "from the segments' straightness combined with lens profile: Test 18mm" in cal.mode_reason

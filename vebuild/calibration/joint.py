@@ -123,6 +123,8 @@ class JointProblem:
         """sigma_px: 1σ of every point, or axis → one 1σ per polyline (a detected segment's own)."""
         self.axes, self.scale, self.c0, self.sigma_c = axes, scale, c0, sigma_c
         self.k1_prior, self.estimate_k1 = k1_prior, estimate_k1
+        #: k1 where it is not estimated: 0, or the value it is held at (.bending).
+        self.k1_fixed = 0.0
         pts: list[Array] = []
         pid: list[Array] = []
         axis_of: list[int] = []
@@ -150,11 +152,11 @@ class JointProblem:
             self.weight = np.full(self.n_data, 1.0 / float(sigma_px))
 
     def start(self, f0: float, c: Array) -> Array:
-        k1 = self.k1_prior.k1 if self.k1_prior is not None else 0.0
+        k1 = self.k1_prior.k1 if self.k1_prior is not None else self.k1_fixed
         return np.r_[f0 / self.scale, np.asarray(c) / self.scale, 0.0, 0.0, 0.0, [k1] if self.estimate_k1 else []]
 
     def k1_of(self, y: Array) -> float:
-        return float(y[6]) if self.estimate_k1 else 0.0
+        return float(y[6]) if self.estimate_k1 else self.k1_fixed
 
     def at_rotation(self, y: Array) -> Array:
         """y with ω = 0: the rotation is then the R it was solved to."""

@@ -38,6 +38,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..camera import AXES, distortion_displacement_px, exp_so3, intrinsic_matrix, ypr_from_rotation
 from ..determinism import deterministic
 from ..errors import CalibrationError
+from .bending import DistortionTest, bending_test, consider_covariance, distortion_clause, k1_source
 from .intrinsics import focal_squared, orthocentre, rotation_from_vanishing_points
 from .joint import JointProblem, check_orthogonal_pairs
 from .lsq import numeric_jacobian, photo_numeric_failures
@@ -108,10 +109,13 @@ class PhotoCalibration:
     covariance : (6, 6) over (f, cx, cy, ωx, ωy, ωz), pixels and radians, where ω is a small
         rotation on the camera side: R_true = exp([ω]×) R; the marginal of ``covariance_k1``.
     covariance_k1 : (7, 7) over (f, cx, cy, ωx, ωy, ωz, k1); k1's row and column are 0 where k1
-        is fixed (``k1_source == "none"``).
+        is fixed (``k1_source`` ``"none"`` or ``"k1 held at …"``).
     k1, k1_sigma, k1_source : the division model's coefficient (vebuild/camera.py), its 1σ (0 when
-        fixed at 0) and what gave it: ``"segments"``, ``"segments + <prior>"``, ``"<prior>"`` (a
-        lens profile or the user), ``"none"``.
+        held) and what gave it: ``"segments"``, ``"segments + <prior>"``, ``"<prior>"`` (a lens
+        profile or the user), ``"k1 held at 0: …"`` / ``"k1 held at <profile>'s k1 …"`` (the lines
+        do not bend, :mod:`.bending`), ``"none"``.
+    distortion_test : the test of whether the lines bend (:class:`.bending.DistortionTest`), where
+        segments have middle points.
     exif_check : EXIF's focal length against the vanishing points' alone (one sign convention:
         :class:`.priors.ExifCheck`), where EXIF gives one and the vanishing points alone fix f.
     vanishing_points, segment_residuals_px : those of the undistorted marks; one residual per
@@ -135,6 +139,7 @@ class PhotoCalibration:
     k1_source: str = "none"
     covariance_k1: Array = field(default_factory=lambda: np.zeros((7, 7)))
     exif_check: ExifCheck | None = None
+    distortion_test: DistortionTest | None = None
 
     def __post_init__(self) -> None:
         if not np.any(self.covariance_k1):  # built with the (6, 6) only: k1 fixed at 0
@@ -250,7 +255,8 @@ def calibrate_photo(
         EXIF_DISAGREEMENT_SIGMAS, needed where they determine nothing, and always compared with
         the segments' own estimate (``exif_check``, the mode reason).
     distortion : a lens distortion known beforehand (a lens profile, the user): a prior on k1. k1
-        is estimated where segments have middle points; with neither, it is fixed at 0.
+        is estimated where segments have middle points and bend (:mod:`.bending`), else held at 0
+        or at this prior's k1; with neither middle points nor a prior, it is fixed at 0.
 
     Raises
     ------
@@ -322,6 +328,12 @@ def calibrate_photo(
     # judge what the segments alone say about f there, and drop EXIF where it is not wanted.
     prior_f = focal if focal is not None else exif_focal
     y, R = problem.solve(problem.start(f0, c_init), R0, prior_f)
+    bend = None
+    if straightness:  # k1 estimated only where the lines bend (.bending)
+        bend, held, y_h, R_h, free = bending_test(problem, y, R, prior_f, polys, axes, sigmas, scale, c0, sigma_c,
+                                            distortion)
+        if not bend.bends:
+            problem, y, R, estimate_k1 = held, y_h, R_h, False
     sigma_f_seg, sigma_c_seg = problem.segment_information(y, R)
     rel_seg = sigma_f_seg / (y[0] * scale)
     if not_orthogonal is not None:
@@ -371,6 +383,8 @@ def calibrate_photo(
     r = problem.residuals(problem.at_rotation(y), R, prior_f)
     vf = problem.variance_factor(J, r)
     cov_y = problem.covariance(J, vf)
+    if bend is not None and not bend.bends:  # k1 held, as uncertain as the lines leave it
+        cov_y = consider_covariance(free, y, R, prior_f, problem.k1_fixed, cov_y, bend)
     S = np.diag([scale, scale, scale, 1.0, 1.0, 1.0, 1.0])
     cov7 = S @ cov_y @ S
     f, cx, cy = y[:3] * scale
@@ -395,7 +409,7 @@ def calibrate_photo(
     reason = "; ".join([
         _focal_reason(rel_seg, focal, exif_focal, exif_check, exif_combined, exif_rejected, prior_dominates),
         _principal_point_reason(mode, sigma_c_seg, sigma_c, c_where, vf),
-        _distortion_reason(k1, k1_sigma, straightness, distortion, K, width, height),
+        distortion_clause(k1, k1_sigma, straightness, distortion, bend, K, width, height),
     ])
     U = problem.undistorted(y)
     vps = {a: K @ R[:, "xyz".index(a)] for a in axes}
@@ -413,10 +427,10 @@ def calibrate_photo(
         segment_residuals_px={a: problem.reported_residuals(U, a, vps[a]) for a in axes},
         k1=float(k1),
         k1_sigma=k1_sigma,
-        k1_source=(("segments + " + distortion.source if distortion else "segments") if straightness
-                   else distortion.source if distortion else "none"),
+        k1_source=k1_source(straightness, distortion, bend),
         covariance_k1=cov7,
         exif_check=exif_check,
+        distortion_test=bend,
     )
 
 
@@ -521,17 +535,6 @@ def _principal_point_reason(mode: str, sigma_c_seg: float, sigma_c: float, where
     if vf > 1.0:
         text += f"; the marks fit {np.sqrt(vf):.2f}× worse than the stated click noise, so every 1σ is widened as much"
     return text
-
-
-def _distortion_reason(k1: float, k1_sigma: float, straightness: bool, prior: DistortionPrior | None,
-                       K: Array, width: int, height: int) -> str:
-    if not straightness and prior is None:
-        return "no lens distortion modelled (no segment has middle points, no lens profile)"
-    corner = distortion_displacement_px(K, width, height, k1)
-    src = "the segments' straightness" if straightness else prior.source  # type: ignore[union-attr]
-    if straightness and prior is not None:
-        src += f" combined with {prior.source} (k1 {prior.k1:+.4f} ± {prior.sigma:.4f})"
-    return f"lens distortion k1 = {k1:+.4f} ± {k1_sigma:.4f} from {src}, moving the corners by {corner:.1f} px"
 
 
 @deterministic
