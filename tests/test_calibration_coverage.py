@@ -11,8 +11,6 @@ the band 93–97 % is ±2.2 of it.
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 import pytest
 from scipy.stats import chi2
@@ -53,34 +51,30 @@ def _calibrate(ph: SyntheticPhoto, **kw):
 @pytest.fixture(scope="module")
 def realistic_batch():
     """N_COVERAGE realistic photos, a quarter of each kind, with long edges marked as polylines
-    of two middle points, and their calibrations; with the seconds per photo the calibration took."""
+    of two middle points, and their calibrations."""
     rng = np.random.default_rng(20261122)
-    out, refused, seconds = [], [], 0.0
+    out, refused = [], []
     for i in range(N_COVERAGE):
         ph = realistic_camera(rng, KINDS[i % len(KINDS)], photo_id=f"r{i}")
         add_segments(ph, rng, CLICK_NOISE_PX, middle_points=2)
-        t = time.perf_counter()
         try:
             cal = _calibrate(ph)
         except CalibrationError as e:
             refused.append(str(e))
             continue
-        seconds += time.perf_counter() - t
         out.append((ph, cal))
-    return out, refused, seconds / N_COVERAGE
+    return out, refused
 
 
-def test_realistic_photos_are_never_refused_and_fast(realistic_batch) -> None:
-    batch, refused, per_photo = realistic_batch
-    # Every such photo has EXIF, so its segments, however weak, always give something.
+def test_realistic_photos_are_never_refused(realistic_batch) -> None:
+    batch, refused = realistic_batch
+    # Every such photo has EXIF, so its segments, however weak, always give something. (What the
+    # calibration costs per photo is `vebuild bench calibration`'s to say, not a test's.)
     assert refused == []
-    # Measured 17–21 ms per photo on one core; a tenth of a second is the bound that keeps the
-    # test under a minute on a loaded machine.
-    assert per_photo < 0.1
 
 
 def test_focal_lengths_inside_their_95_percent_intervals(realistic_batch) -> None:
-    batch, _, _ = realistic_batch
+    batch, _ = realistic_batch
     z = np.array([(cal.f - ph.K[0, 0]) / cal.f_sigma for ph, cal in batch])
     share = float(np.mean(np.abs(z) < 1.959964))
     assert COVERAGE_BAND[0] <= share <= COVERAGE_BAND[1], share
@@ -91,7 +85,7 @@ def test_focal_lengths_inside_their_95_percent_intervals(realistic_batch) -> Non
 
 
 def test_principal_points_inside_their_95_percent_ellipses(realistic_batch) -> None:
-    batch, _, _ = realistic_batch
+    batch, _ = realistic_batch
     m2 = []
     for ph, cal in batch:
         d = cal.principal_point - ph.K[:2, 2]
@@ -104,14 +98,14 @@ def test_principal_points_inside_their_95_percent_ellipses(realistic_batch) -> N
 def test_three_vanishing_points_give_f_within_one_percent(realistic_batch) -> None:
     """Tilted views: f from the segments within 1 % (median; measured 0.3–0.4 %), despite the
     distortion, the principal point off centre and EXIF 4 % off."""
-    batch, _, _ = realistic_batch
+    batch, _ = realistic_batch
     err = np.array([abs(cal.f - ph.K[0, 0]) / ph.K[0, 0] for ph, cal in batch if ph.kind == "3vp"])
     assert np.median(err) < 0.01
     assert np.percentile(err, 75) < 0.01
 
 
 def test_frontal_and_corridor_views_take_f_from_exif_and_say_so(realistic_batch) -> None:
-    batch, _, _ = realistic_batch
+    batch, _ = realistic_batch
     pct = f"{100 * REAL_EXIF_FOCAL_ERROR_REL:.1f} %"
     for ph, cal in batch:
         if ph.kind in ("frontal", "corridor") and cal.mode == "1vp":
@@ -129,7 +123,7 @@ def test_exif_is_a_cross_check_only_where_the_segments_are_surer(realistic_batch
     honest photos beyond 3σ; measured 1 of 600 here)."""
     from vebuild.calibration.photo import EXIF_DISAGREEMENT_SIGMAS
 
-    batch, _, _ = realistic_batch
+    batch, _ = realistic_batch
     combined = not_combined = contradicted = 0
     for _, cal in batch:
         r = cal.mode_reason

