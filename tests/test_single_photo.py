@@ -218,16 +218,19 @@ def test_no_scale_calibrates_in_relative_units_and_says_so(tmp_path: Path) -> No
                                      "make it a scale distance (role \"scale\") to give the photo its scale")
 
 
-def test_with_no_marker_the_first_x_and_y_segments_fix_the_origin(tmp_path: Path) -> None:
+@pytest.mark.parametrize("middle_points", [0, 2])
+def test_with_no_marker_the_first_x_and_y_segments_fix_the_origin(tmp_path: Path, middle_points: int) -> None:
     """The origin is where the lines of the first x and first y segments meet; they are marked
-    along floor edges that meet at a corner, as a user would."""
+    along floor edges that meet at a corner, as a user would, or detected as polylines (their
+    middle points along the edge)."""
     rng = np.random.default_rng(15)
     ph = one_photo(rng)
     corner = ph.points["O"]
-    x_seg = np.r_[_pixels(ph.cam, corner + [0.3, 0, 0]), _pixels(ph.cam, corner + [1.3, 0, 0])]
-    y_seg = np.r_[_pixels(ph.cam, corner + [0, 0.3, 0]), _pixels(ph.cam, corner + [0, 1.4, 0])]
-    ph.cam.segments["x"] = np.vstack([x_seg + rng.normal(0, CLICK_NOISE_PX, 4), ph.cam.segments["x"]])
-    ph.cam.segments["y"] = np.vstack([y_seg + rng.normal(0, CLICK_NOISE_PX, 4), ph.cam.segments["y"]])
+    for axis, (a, b) in (("x", (0.3, 1.3)), ("y", (0.3, 1.4))):
+        e = np.eye(3)["xy".index(axis)]
+        seg = np.concatenate([_pixels(ph.cam, corner + t * e) for t in np.linspace(a, b, 2 + middle_points)])
+        seg = seg + rng.normal(0, CLICK_NOISE_PX, len(seg))
+        ph.cam.segments[axis] = [list(seg)] + [list(s) for s in ph.cam.segments[axis]]
     project = load_project(write_one_photo(tmp_path, ph, origin=False))
     result = calibrate_project(project)
     cam = result["cameras"]["p"]

@@ -364,7 +364,9 @@ def _single_origin(data: dict[str, Any], pid: str, obs: dict[str, np.ndarray], o
             return Origin(on_floor[0], obs[on_floor[0]])
     segs = decode.photo_marks(_photo(data, pid)).segments
     if len(segs.get("x", [])) and len(segs.get("y", [])):
-        return Origin(None, np.array([segs["x"][0], segs["y"][0]]))
+        # A segment may be a polyline (its middle points say how straight the edge is): its line is
+        # that of its end points.
+        return Origin(None, np.array([np.asarray(segs[a][0], float).reshape(-1, 2)[[0, -1]].ravel() for a in "xy"]))
     what = f"the origin marker '{origin_name}'" if origin_name else "a marker on the floor"
     raise CalibrationError(pid, f"nothing in it fixes the world's origin: it shows no origin marker and no x and y "
                            f"vanishing segments; mark {what} in it (the origin lies on the floor)")
