@@ -104,6 +104,38 @@ def propagated_variance(g: Array, cov: Array) -> float:
     return max(float(g[idx] @ sub @ g[idx]), 0.0)
 
 
+#: Below this redundancy (the least eigenvalue of I − H over one observation's rows) an observation
+#: is not tested: the others barely say where it should be, so no offset from them is measured.
+MIN_REDUNDANCY = 0.01
+
+
+def offsets_from_the_others(J_rows: Any, cov_unscaled: Array, whitened: Array) -> tuple[Array, Array]:
+    """Per observation of ``whitened`` (n, 2) residuals (rows 2j, 2j+1 of ``J_rows``, the whitened
+    Jacobian; ``cov_unscaled`` = (JᵀJ)⁻¹ over all rows): its offset from where the other
+    observations put it, (I − H)⁻¹ r with H = J_o C J_oᵀ its 2 × 2 hat block (the deleted
+    residual, in units of the stated noise), and the test statistic rᵀ (I − H)⁻¹ r, χ² with 2
+    degrees of freedom for an honest observation (NaN where its redundancy is below MIN_REDUNDANCY)."""
+    from scipy import sparse
+
+    n = len(whitened)
+    Js = sparse.csr_matrix(J_rows)
+    A = np.asarray(Js @ cov_unscaled)  # (2n, p), dense; J stays sparse
+    J0, J1 = Js[0::2], Js[1::2]
+    h00 = np.asarray(J0.multiply(A[0::2]).sum(axis=1)).ravel()
+    h11 = np.asarray(J1.multiply(A[1::2]).sum(axis=1)).ravel()
+    h01 = np.asarray(J1.multiply(A[0::2]).sum(axis=1)).ravel()
+    M = np.empty((n, 2, 2))
+    M[:, 0, 0], M[:, 1, 1] = 1.0 - h00, 1.0 - h11
+    M[:, 0, 1] = M[:, 1, 0] = -h01
+    offsets = np.full((n, 2), np.nan)
+    stat = np.full(n, np.nan)
+    for j in range(n):
+        if np.min(np.linalg.eigvalsh(M[j])) >= MIN_REDUNDANCY:
+            offsets[j] = np.linalg.solve(M[j], whitened[j])
+            stat[j] = float(whitened[j] @ offsets[j])
+    return offsets, stat
+
+
 def variance_factor(whitened_residuals: Array, n_params: float) -> float:
     """A-posteriori variance factor σ0² = χ² / dof, floored at 1.
 

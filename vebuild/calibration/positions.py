@@ -38,7 +38,13 @@ from ..constants import OUTLIER_SIGMAS, ROBUST_SCALE
 from ..determinism import deterministic
 from ..errors import CalibrationError
 from .lm import levenberg_marquardt
-from .lsq import covariance_from_jacobian, is_numeric_failure, propagated_variance, variance_factor
+from .lsq import (
+    covariance_from_jacobian,
+    is_numeric_failure,
+    offsets_from_the_others,
+    propagated_variance,
+    variance_factor,
+)
 from .start import initial_positions
 
 Array = NDArray[np.float64]
@@ -103,6 +109,8 @@ class PlacedCamera:
     outliers: list[str] = field(default_factory=list)
     k1: float = 0.0
     k1_sigma: float = 0.0
+    #: each outlier's offset (px) from where the other observations put it (its deleted residual)
+    outlier_offsets_px: dict[str, float] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -559,7 +567,9 @@ def _refine(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mappi
             raise CalibrationError(None, f"{culprit(res)}: the refinement of cameras and markers went to a "
                                    "non-finite value there; check that marker's clicks in that photo")
         s2 = variance_factor(res, n_par)
-        cov = covariance_from_jacobian(jacobian(x)) * s2
+        J = jacobian(x)
+        cov_unscaled = covariance_from_jacobian(J)
+        cov = cov_unscaled * s2
     except (ValueError, np.linalg.LinAlgError) as e:
         if not is_numeric_failure(e):
             raise
@@ -569,15 +579,23 @@ def _refine(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mappi
 
     fc, R, C, k1, Xa = unpack(x)
     X = {n: Xa[m_index[n]] for n in all_markers}
+    # A click is an outlier where it lies from where the other observations put it (its deleted
+    # residual) by more than OUTLIER_SIGMAS of the stated click noise, with the placement's own
+    # uncertainty there: rᵀ (I − H)⁻¹ r > OUTLIER_SIGMAS², χ²(2) tail e⁻⁸ for an honest click.
+    r_obs = np.array([project(intrinsic_matrix(*fc[ids.index(j)]), R[ids.index(j)], C[ids.index(j)], X[n],
+                              float(k1[ids.index(j)])) - uv for j, n, uv in obs]).reshape(-1, 2)
+    offsets, stat = offsets_from_the_others(J[: 2 * n_obs], cov_unscaled, r_obs / click_sigma)
     cameras = {}
     for k, i in enumerate(ids):
         K = intrinsic_matrix(*fc[k])
-        resid = {n: project(K, R[k], C[k], X[n], float(k1[k])) - uv for j, n, uv in obs if j == i}
-        outl = [n for n, d in resid.items() if np.linalg.norm(d) / click_sigma > OUTLIER_SIGMAS]
+        resid = {n: r_obs[o] for o, (j, n, _) in enumerate(obs) if j == i}
+        outl = [n for o, (j, n, _) in enumerate(obs) if j == i and stat[o] > OUTLIER_SIGMAS**2]
+        away = {n: float(np.linalg.norm(offsets[o]) * click_sigma) for o, (j, n, _) in enumerate(obs)
+                if j == i and n in outl}
         sl = idx9[k]
         k1_sigma = float(np.sqrt(max(cov[k1_col[k], k1_col[k]], 0.0))) if k in k1_col else photos[i].k1_sigma
         cameras[i] = PlacedCamera(i, K, R[k].copy(), C[k].copy(), cov[np.ix_(sl, sl)].copy(), resid, outl,
-                                  float(k1[k]), k1_sigma)
+                                  float(k1[k]), k1_sigma, away)
     markers = {}
     for n in sorted(X):
         c3 = cov[col[n] : col[n] + 3, col[n] : col[n] + 3].copy() if n in col else np.zeros((3, 3))
