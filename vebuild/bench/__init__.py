@@ -15,7 +15,7 @@ from typing import Any
 
 from ..errors import VebuildError
 
-_NAMES = ("calibration", "cli", "detect", "edit", "house", "real", "render", "rooms", "solver", "texture")
+_NAMES = ("calibration", "cli", "detect", "edit", "house", "orient", "real", "render", "rooms", "solver", "texture")
 #: The benchmarks that measure data the user gives (``--data DIR``), not data of their own.
 _WITH_DATA = ("real",)
 
