@@ -243,6 +243,10 @@ case("marker-at-1e6", setter(("markers", 1, "position"), [1e6, 0.0, 0.0]),
      V + ["calibrate", "solve-recal"], [P, "$.markers[1].position"])
 case("principal-point-1e9", _ph("principal_point", {"value": [1e9, 600.0], "sigma": 5.0}),
      V + ["calibrate"], [P, "$.photos[0].principal_point"])
+case("x-axis-unresolved-number", _ph("x_axis_unresolved", 5),
+     V + ["calibrate"], [P, "$.photos[0].x_axis_unresolved"])
+case("x-axis-unresolved-empty", _ph("x_axis_unresolved", ""),
+     V + ["calibrate"], [P, "$.photos[0].x_axis_unresolved"])
 case("marker-observation-1e308", setter(("photos", 0, "marker_observations", "O"), [1e308, 592.6]),
      V + ["calibrate", "solve-recal"], [P, "$.photos[0].marker_observations.O"])
 case("vanishing-segment-1e308", setter(("photos", 0, "vanishing_segments", "x", 0), [1e308, 610.2, 82.1, 937.4]),

@@ -35,7 +35,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
     from .actions.calibrate import calibrate_project
     from .analysis.project_check import load_checked
     from .console.bars import Bar
-    from .console.tables import calibration_table
+    from .console.tables import calibration_table, failed_check_words
     from .project import save_project
     from .project.outputs import begin_stage
 
@@ -50,6 +50,11 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
     save_project(project)
     print(calibration_table(result))
     print(f"\ncameras written to {project.path}")
+    if result.get("failed_checks"):  # exit status 1: written, but the calibration fails its checks
+        for c in result["failed_checks"]:
+            print(f"vebuild calibrate: check failed: {failed_check_words(c)}: the cameras disagree with the tape; "
+                  "the calibration is written, marked as failing (calibration.failed_checks)", file=sys.stderr)
+        return 1
     return 0
 
 

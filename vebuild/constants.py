@@ -21,4 +21,11 @@ OUTLIER_SIGMAS = 4.0
 #: only linearly so that one wrong click cannot drag the solution.
 ROBUST_SCALE = 3.0
 
-__all__ = ["Z95", "OUTLIER_SIGMAS", "ROBUST_SCALE"]
+#: A check distance whose measurement differs from the tape by more than this many σ (σ² the
+#: measurement's variance from the placement's covariance plus the tape's) fails the calibration:
+#: for honest Gaussian errors |z| > 5 has probability 5.7 × 10⁻⁷, so a failure means the cameras
+#: or the tape are wrong (a photo placed with its axes turned was −24σ), not noise. Between 3σ
+#: and this limit the calibration warns.
+CHECK_FAIL_SIGMAS = 5.0
+
+__all__ = ["Z95", "OUTLIER_SIGMAS", "ROBUST_SCALE", "CHECK_FAIL_SIGMAS"]

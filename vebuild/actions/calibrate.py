@@ -30,12 +30,14 @@ from ..calibration.single_photo import (
     place_single_photo,
 )
 from ..console.tables import exif_check_words
+from ..constants import CHECK_FAIL_SIGMAS, OUTLIER_SIGMAS
 from ..errors import CalibrationError
 from ..project import Project, canonical_input_hash, decode, provenance
 from ..project.decode import check_reference_handles
 from ..project.records import camera_record, distortion_record, json_values, value_sigma
 from ..project.units import METRES, RELATIVE
 from .camera_group_records import GroupResult, add_group_records, calibrate_group, group_priors
+from .orientation import leave_out_unoriented, misfit
 
 
 def calibrate_photos(project: Project, progress: Callable[[Iterable], Iterable] = iter,
@@ -132,6 +134,7 @@ def _calibrate(project: Project, progress: Callable[[Iterable], Iterable]) -> di
     left_out: dict[str, CalibrationError] = {}
     groups: dict[str, GroupResult] = {}
     photos = calibrate_photos(project, progress, left_out, groups)
+    leave_out_unoriented(project, photos, left_out)
     missing = [p["id"] for p in data["photos"] if p["id"] not in photos and p["id"] not in left_out]
     if not photos and left_out:
         raise next(iter(left_out.values()))
@@ -164,8 +167,16 @@ def _calibrate(project: Project, progress: Callable[[Iterable], Iterable]) -> di
     placement, joint_error = None, None
     while len(joint) >= 2:
         try:
+            said = len(warnings)
             placement = _place_jointly(project, photos, joint, obs_of, joint_names, known, refs, floor, warnings,
                                        group_priors(groups))
+            turned = misfit(placement, obs_of) if len(joint) > 2 else None
+            if turned is not None:  # placed turned: left out, and the others placed again without it
+                left_out[turned[0]] = CalibrationError(turned[0], turned[1])
+                del photos[turned[0]], warnings[said:]
+                joint.remove(turned[0])
+                placement = None
+                continue
             break
         except CalibrationError as e:
             if e.photo in joint and len(joint) > 2:
@@ -486,8 +497,10 @@ def _results(data: dict[str, Any], photos: dict[str, PhotoCalibration], placemen
         if cal.exif_check is not None:
             cameras[pid]["exif_focal_check"] = exif_check_record(cal.exif_check)
         for n in getattr(cam, "outliers", []):
-            warnings.append(f"photo '{pid}': marker '{n}' lies {np.linalg.norm(cam.marker_residuals_px[n]):.1f} px "
-                            "from where the other photos put it: check its placement")
+            away = getattr(cam, "outlier_offsets_px", {}).get(n, np.linalg.norm(cam.marker_residuals_px[n]))
+            warnings.append(f"photo '{pid}': marker '{n}' lies {away:.1f} px from where the other photos put it "
+                            f"(beyond {OUTLIER_SIGMAS:g}σ of the click noise and the placement's uncertainty "
+                            "there): check its placement")
     all_markers: dict[str, tuple[np.ndarray, np.ndarray]] = dict(placement.markers) if placement else {}
     for n, (pid, uv) in sorted(_floor_markers_seen_once(data, placement, floor).items()):
         pc = placement.cameras[pid] if placement else None
@@ -508,6 +521,7 @@ def _results(data: dict[str, Any], photos: dict[str, PhotoCalibration], placemen
     markers = {n: {"position": json_values(x), "sigma": json_values(np.sqrt(np.maximum(np.diag(c), 0.0)))}
                for n, (x, c) in sorted(all_markers.items()) if ":" not in n}
     distances = []
+    failed: list[dict[str, Any]] = []
     measured = {(m.reference.a, m.reference.b): (m.measured, m.measured_sigma)
                 for m in (placement.distances if placement else [])}
     after_solve = []
@@ -531,7 +545,11 @@ def _results(data: dict[str, Any], photos: dict[str, PhotoCalibration], placemen
                             "distance (role \"scale\") to give the photo its scale")
         elif d.role == "check":
             z = (dist - d.distance) / np.hypot(dist_sigma, d.sigma)
-            if abs(z) > 3:
+            if abs(z) > CHECK_FAIL_SIGMAS:
+                failed.append({"a": d.a, "b": d.b, "distance": d.distance, "measured": dist,
+                               "measured_sigma": float(dist_sigma), "sigmas": float(z),
+                               "limit_sigmas": CHECK_FAIL_SIGMAS})
+            elif abs(z) > 3:
                 warnings.append(f"check distance {d.a}–{d.b}: measured {dist:.3f} m against {d.distance:.3f} m "
                                 f"known ({z:+.1f}σ): the reconstruction disagrees with the tape")
     unplaced_records = {}
@@ -569,6 +587,7 @@ def _results(data: dict[str, Any], photos: dict[str, PhotoCalibration], placemen
         "markers": markers,
         "reference_distances": distances,
         "checked_after_solve": after_solve,
+        **({"failed_checks": failed} if failed else {}),
         "unplaced": unplaced_records,
         "warnings": warnings,
     }

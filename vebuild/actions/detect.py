@@ -19,7 +19,6 @@ from typing import Any
 
 import numpy as np
 
-from ..calibration.axes_choice import choose_turns, direction_turn, turn_between
 from ..calibration.clutter import curved, short, textured
 from ..calibration.exif import exif_distortion_prior, exif_focal_prior
 from ..calibration.lines import (
@@ -39,6 +38,9 @@ from ..errors import ProjectError, VebuildError
 from ..project import Project
 from ..project.images import decode_photo
 from .detect_checks import drop_same_point, one_image_line, weak_axes
+from .x_axis import auto_x_axes, choice_from_segments
+from .x_axis import choice_turns as choice_turns  # the x-axis choice, named here too
+from .x_axis import marker_rays as marker_rays
 
 #: At most this many proposals per axis are kept (the best-scored): more add little to a
 #: calibration and slow it.
@@ -72,6 +74,8 @@ class PhotoProposals:
                                                 # showing one direction), up to sign; () = none
 
 
+#: The photo field saying that its segments' x axis was not chosen (scenes/FORMAT.md), and why.
+UNRESOLVED = "x_axis_unresolved"
 #: ``--x-axis auto``: each photo's choice made from the markers the photos share (the default).
 AUTO = "auto"
 
@@ -372,10 +376,12 @@ def accept_proposals(project: Project, proposals: PhotoProposals, indices: Seque
 
 
 def clear_segments(project: Project, photo_id: str) -> None:
-    """Remove a photo's vanishing segments and their 1σ (``vebuild detect --replace``)."""
+    """Remove a photo's vanishing segments, their 1σ and whether their x axis was chosen
+    (``vebuild detect --replace``)."""
     photo = project.photo(photo_id)
     photo.pop("vanishing_segments", None)
     photo.pop("vanishing_segment_sigmas", None)
+    photo.pop(UNRESOLVED, None)
 
 
 def calibrates(props: PhotoProposals) -> bool:
@@ -397,7 +403,8 @@ def detect_project(project: Project, photos: Sequence[str] | None = None, *, rep
     for pid in ids:
         project.photo(pid)  # an unknown id is refused before any photo is read
     choices = x_axis_choices(project, ids, x_axis)
-    grouped, notes = choose_x_axes(project, ids, choices, replace=replace)
+    unresolved: dict[str, str] = {}
+    grouped, notes = choose_x_axes(project, ids, choices, replace=replace, unresolved=unresolved)
     out = []
     for pid in ids:
         g = grouped.get(pid)
@@ -409,19 +416,30 @@ def detect_project(project: Project, photos: Sequence[str] | None = None, *, rep
         if not calibrates(props):  # one direction only: written, it would only stop `calibrate`
             out.append((props, 0))
             continue
+        photo = project.photo(pid)
+        fresh = replace or not photo.get("vanishing_segments")
         if replace:
             clear_segments(project, pid)
         out.append((props, accept_proposals(project, props)))
+        # FORMAT.md `x_axis_unresolved`: segments directed by an x axis not chosen; `calibrate`
+        # orients the photo from its markers, or leaves it out.
+        if pid in unresolved:
+            photo[UNRESOLVED] = unresolved[pid]
+        elif fresh:
+            photo.pop(UNRESOLVED, None)
     return out
 
 
 def choose_x_axes(project: Project, ids: Sequence[str], choices: dict[str, str], *, replace: bool = False,
-                  grouped: dict[str, Grouped] | None = None) -> tuple[dict[str, Grouped], dict[str, str]]:
+                  grouped: dict[str, Grouped] | None = None, unresolved: dict[str, str] | None = None
+                  ) -> tuple[dict[str, Grouped], dict[str, str]]:
     """Settle every ``auto`` entry of ``choices`` (photo id → x-axis choice, changed in place) from
     the markers the photos share (:func:`auto_x_axes`); returns the photos grouped on the way
     (``grouped``: those already grouped, reused and added to) and a note per photo on its choice.
     Photos not among ``ids``, and photos keeping their marked segments, are held to the choice
-    their segments show (``replace``: the segments of ``ids`` are about to go)."""
+    their segments show (``replace``: the segments of ``ids`` are about to go), unless their x axis
+    was never chosen (``x_axis_unresolved``). ``unresolved`` gets each ``auto`` photo not chosen,
+    with why."""
     grouped = {} if grouped is None else grouped
     notes: dict[str, str] = {}
     if not any(c == AUTO for c in choices.values()):
@@ -433,7 +451,7 @@ def choose_x_axes(project: Project, ids: Sequence[str], choices: dict[str, str],
     given = {pid: c for pid, c in choices.items() if c != AUTO}
     for p in project.data["photos"]:
         pid = p["id"]
-        if pid in given or not p.get("vanishing_segments") or (replace and pid in ids):
+        if pid in given or not p.get("vanishing_segments") or (replace and pid in ids) or p.get(UNRESOLVED):
             continue
         if pid not in grouped:
             try:
@@ -446,108 +464,14 @@ def choose_x_axes(project: Project, ids: Sequence[str], choices: dict[str, str],
     found, notes = auto_x_axes(project, grouped, given)
     for pid in auto:
         choices[pid] = found.get(pid, "right")
+        if pid not in found and unresolved is not None:
+            why = notes.get(pid, "").removeprefix("not chosen, kept 'right': ").split("; give --x-axis")[0]
+            unresolved[pid] = f"`vebuild detect` could not choose its x axis and kept 'right': {why}"
     return grouped, notes
 
 
 def replace_message(props: PhotoProposals, message: str) -> PhotoProposals:
     return dataclasses.replace(props, message=message)
-
-
-def marker_rays(project: Project, g: Grouped) -> dict[str, np.ndarray]:
-    """The photo's markers as camera-frame rays (3,), through the grouping's f and lens."""
-    obs = project.photo(g.pid).get("marker_observations") or {}
-    if not obs or g.frame is None:
-        return {}
-    c = np.array([g.width / 2.0, g.height / 2.0])
-    names = sorted(obs)
-    uv = np.array([obs[m][:2] for m in names], float)
-    if g.k1 != 0.0:
-        uv = undistort_pixels(intrinsic_matrix(g.f0, *c), uv, g.k1)
-    f = float(g.frame.focal_px)
-    return {m: np.array([(u - c[0]) / f, (v - c[1]) / f, 1.0]) for m, (u, v) in zip(names, uv, strict=True)}
-
-
-def choice_turns(g: Grouped) -> dict[str, int]:
-    """Each x-axis choice as a turn k about z of the photo's ``right`` axes."""
-    R0 = g.rotation("right")
-    return {c: turn_between(R0, g.rotation(c)) for c in X_AXIS_CHOICES}
-
-
-def choice_from_segments(g: Grouped, segments: dict[str, Any]) -> str | None:
-    """The x-axis choice a photo's marked segments show (their horizontal ones directed along the
-    choice's axes), or None where they show none clearly (within 25° on average)."""
-    if g.frame is None:
-        return None
-    c = np.array([g.width / 2.0, g.height / 2.0])
-    f = float(g.frame.focal_px)
-    best: tuple[float, str] | None = None
-    for choice in X_AXIS_CHOICES:
-        D = g.rotation(choice)
-        cos = []
-        for k, a in enumerate("xy"):
-            for row in segments.get(a) or []:
-                p = np.asarray(row, float).reshape(-1, 2)
-                step = p[-1] - p[0]
-                motion = D[:2, k] - ((p.mean(axis=0) - c) / f) * D[2, k]
-                n = np.linalg.norm(step) * np.linalg.norm(motion)
-                if n > 0:
-                    cos.append(float(step @ motion / n))
-        if cos and (best is None or np.mean(cos) > best[0]):
-            best = (float(np.mean(cos)), choice)
-    return best[1] if best is not None and best[0] >= np.cos(np.radians(25.0)) else None
-
-
-def auto_x_axes(project: Project, grouped: dict[str, Grouped], given: dict[str, str]
-                ) -> tuple[dict[str, str], dict[str, str]]:
-    """Each grouped photo's x-axis choice such that the world axes mean the same directions in
-    every photo, from the markers they share, and a note per photo saying how it was chosen.
-
-    The photos with a ``given`` choice keep it. Where none is given, the reference is the photo
-    that sees the origin marker and the most markers, and every choice is then turned together
-    so that the first reference distance from the origin marker runs along +x (where it runs
-    along a horizontal axis within 20°); otherwise the reference keeps ``right``."""
-    ok = {pid: g for pid, g in grouped.items() if g.frame is not None}
-    turns = {pid: choice_turns(g) for pid, g in ok.items()}
-    rotations = {pid: g.rotation("right") for pid, g in ok.items()}
-    rays = {pid: marker_rays(project, g) for pid, g in ok.items()}
-    fixed = {pid: turns[pid][c] for pid, c in given.items() if pid in ok}
-    notes: dict[str, str] = {pid: "its edges show no two vanishing directions to orient" for pid in grouped
-                             if pid not in ok and pid not in given}
-    origin = project.data.get("origin_marker")
-    ref = None
-    if not fixed and ok:
-        ref = max(ok, key=lambda p: (origin in rays[p], len(rays[p])))
-        fixed = {ref: 0}
-    if not ok:
-        return {}, notes
-    decided = choose_turns(rotations, rays, fixed)
-    k = {pid: d.turn for pid, d in decided.items() if d.turn is not None}
-    g_all = 0  # the turn applied to every photo after the choice
-    if ref is not None:
-        sees = ", the origin marker among them)" if origin in rays[ref] else ")"
-        notes[ref] = "the reference photo (it sees the most markers" + sees
-        far = next((r["b"] if r["a"] == origin else r["a"] for r in project.data.get("reference_distances") or []
-                    if origin in (r.get("a"), r.get("b"))), None)
-        g = direction_turn(rotations, rays, k, origin, far) if origin and far else None
-        if g is not None:
-            g_all = g
-            k = {pid: (t + g) % 4 for pid, t in k.items()}
-            notes[ref] += f"; turned so that the reference distance {origin}→{far} runs along +x"
-    out: dict[str, str] = {}
-    for pid, d in decided.items():
-        if d.turn is None:
-            notes[pid] = f"not chosen, kept 'right': {d.message}; give --x-axis {pid}=CHOICE for it"
-            continue
-        choice = next(c for c, t in turns[pid].items() if t == k[pid])
-        out[pid] = choice
-        if pid in given:
-            notes[pid] = f"{choice} (given, or shown by its marked segments)"
-        elif pid == ref:
-            notes[pid] = f"{choice}, {notes[pid]}"
-        else:
-            per = ", ".join(f"{c} {d.residual_deg[(t - g_all) % 4]:.1f}°" for c, t in turns[pid].items())
-            notes[pid] = f"{choice}: {d.message} (RMS miss per choice: {per})"
-    return out, notes
 
 
 def _cmd_detect(args: argparse.Namespace) -> int:

@@ -41,6 +41,13 @@ def _sigma(s: float | None) -> str:
     return "?" if s is None else f"{s:.3f}"
 
 
+def failed_check_words(c: dict[str, Any]) -> str:
+    """A calibration record's ``failed_checks`` entry in words: measured against the tape, how
+    many σ, and the limit it is beyond."""
+    return (f"check distance {c['a']}–{c['b']}: measured {c['measured']:.3f} ± {c['measured_sigma']:.3f} m against "
+            f"{c['distance']:.3f} m known ({c['sigmas']:+.1f}σ, beyond the ±{c['limit_sigmas']:g}σ limit)")
+
+
 def exif_check_words(check: dict[str, Any]) -> str:
     """A calibration record's ``exif_focal_check`` in words, with the one sign convention of the
     calibration (vebuild.calibration.priors.ExifCheck): EXIF relative to the vanishing points'
@@ -110,6 +117,9 @@ def calibration_table(result: dict[str, Any]) -> str:
     for d in result.get("checked_after_solve") or []:
         lines.append(f"  {d['a']}–{d['b']}  check  known {d['distance']:.3f} ± {d['sigma']:.3f}   ends on a model "
                      "vertex: checked on the solved model by `vebuild solve`")
+    if result.get("failed_checks"):
+        lines += ["", "FAILED checks (the calibration fails them):"] + [f"  - {failed_check_words(c)}"
+                                                                     for c in result["failed_checks"]]
     if result["warnings"]:
         lines += ["", "warnings:"] + [f"  - {w}" for w in result["warnings"]]
     return "\n".join(lines)

@@ -67,8 +67,9 @@ STAGES = ("calibration", "model_solution", "textures")
 _VERB = {"calibration": "calibrating", "model_solution": "solving", "textures": "texturing"}
 _PHOTO_PARTS = {"image": ("file", "width", "height", "sha256"),
                 "camera": ("exif", "own_camera", "focal_px", "principal_point", "camera_height"),
-                "marks": ("vanishing_segments", "vanishing_segment_sigmas", "marker_observations")}
-_LATER = ("vanishing_segment_sigmas", "own_camera")
+                "marks": ("vanishing_segments", "vanishing_segment_sigmas", "marker_observations",
+                          "x_axis_unresolved")}
+_LATER = ("vanishing_segment_sigmas", "own_camera", "x_axis_unresolved")
 _SHOWN = 3  # differences named in one reason; the rest are counted
 
 
@@ -106,8 +107,8 @@ def _photo_hashes(data: Mapping[str, Any], registered: set[str]) -> dict[str, st
     for p in data.get("photos") or []:
         pid = p["id"]
         for part, keys in _PHOTO_PARTS.items():
-            # vanishing_segment_sigmas and own_camera (later than the others) count where present: older
-            # hashes stand.
+            # vanishing_segment_sigmas, own_camera and x_axis_unresolved (later than the others) count
+            # where present: older hashes stand.
             value: dict[str, Any] = {k: p.get(k) for k in keys if k not in _LATER or k in p}
             if part == "marks":
                 value["known_lengths"] = [k for k in lengths if k.get("photo") == pid]

@@ -8,7 +8,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from vebuild.console.tables import exif_check_words
+from vebuild.console.tables import exif_check_words, failed_check_words
 from vebuild.project import Project
 from vebuild.project.units import length_unit
 
@@ -93,6 +93,10 @@ def calibration(project: Project, rep: Report) -> None:
         body += ("<h3>EXIF focal lengths against the vanishing points</h3><p>Each as EXIF relative to the "
                  "vanishing points' own estimate (positive: EXIF says longer); beyond the limit EXIF is not "
                  "combined.</p><ul class='lim'>" + "".join(_exif_item(pid, c) for pid, c in checks.items()) + "</ul>")
+    failed = [c for c in cal.get("failed_checks") or [] if isinstance(c, Mapping)]
+    if failed:
+        body += ("<p class='bad'>FAILED: the calibration fails its check distances (each beyond its limit in σ): "
+                 + "; ".join(esc(failed_check_words(dict(c))) for c in failed) + ".</p>")
     left_out = cal.get("left_out") or {}
     if left_out:
         why = "; ".join(f"{esc(pid)} ({esc(u.get('reason', '') if isinstance(u, Mapping) else u)})"

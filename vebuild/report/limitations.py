@@ -15,6 +15,7 @@ what it is and lists the things it concerns:
 - ``failed-checks``: check distances whose known value lies outside the final model's 95 %
   interval;
 - ``calibration-modes``: each photo's calibration mode and its reason;
+- ``calibration-failed-checks``: check distances the calibration failed (``calibration.failed_checks``);
 - ``left-out``: photos the calibration left out, their marks determining no camera
   (``calibration.left_out``);
 - ``unplaced``: photos calibrated but not placed (``calibration.unplaced``);
@@ -192,6 +193,15 @@ def limitations(project: Project, checks: Sequence[CheckResult] = (), stale: Seq
                               tuple(f"{pid}: {c.get('mode', '?')}: "
                                     + str(c.get("mode_reason", "no reason recorded")).split(";")[0]
                                     for pid, c in cams.items())))
+    cal_failed = [c for c in cal.get("failed_checks") or [] if isinstance(c, Mapping)]
+    if cal_failed:
+        from vebuild.console.tables import failed_check_words
+
+        out.append(Limitation("calibration-failed-checks", "The calibration FAILED its check distances",
+                              "These check distances, measured on the calibrated cameras' markers, differ from the "
+                              "tape by more than their limit in σ: the cameras or the tape are wrong. Figures resting "
+                              "on this calibration are not to be relied on until it is fixed.",
+                              tuple(failed_check_words(dict(c)) for c in cal_failed)))
     left_out = cal.get("left_out") or {}
     if left_out:
         out.append(Limitation("left-out", "Photos left out of the calibration",

@@ -31,6 +31,7 @@ th { background: #eee; } td.n { text-align: right; font-variant-numeric: tabular
 .nw { white-space: nowrap; } td.hash { font-family: DejaVu Sans Mono, monospace; font-size: 6pt; white-space: nowrap; }
 table.wide { font-size: 8pt; } table.wide td, table.wide th { padding: 1px 4px; }
 td.bad { color: #fff; background: #aa1414; font-weight: bold; white-space: nowrap; }
+p.bad { color: #fff; background: #aa1414; font-weight: bold; padding: 2px 6px; }
 td.good { white-space: nowrap; } td.entered { font-style: italic; white-space: nowrap; }
 ul.lim { font-size: 9pt; margin-top: 0.2em; } ul.lim li { margin-bottom: 0.15em; }
 .title { page-break-after: always; } .title h1 { font-size: 22pt; margin-top: 3em; }
