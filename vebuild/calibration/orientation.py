@@ -24,6 +24,10 @@ from .lines import X_AXIS_CHOICES, orient_axes
 
 Array = NDArray[np.float64]
 
+#: The references tried (those seeing the origin marker and the most markers first): the one that
+#: the most photos agree with is kept, so one turned photo cannot turn all the others.
+MAX_REFERENCES = 6
+
 
 @dataclass(frozen=True)
 class Unoriented:
@@ -52,7 +56,8 @@ def check_orientation(rotations: Mapping[str, Array], rays: Mapping[str, Mapping
     if len(ids) < 2:
         return {p: _unoriented(p, None, rotations, rays, set(), why)
                 for p, why in unresolved.items() if p in rotations and len(rotations) >= 2}
-    candidates = [p for p in ids if p not in unresolved] or ids
+    candidates = sorted([p for p in ids if p not in unresolved] or ids,
+                        key=lambda p: (origin in rays[p], len(rays[p])), reverse=True)[:MAX_REFERENCES]
     best: tuple[tuple[int, bool, int], dict[str, TurnDecision]] | None = None
     for ref in candidates:
         decided = choose_turns({p: rotations[p] for p in ids}, rays, {ref: 0})
@@ -60,6 +65,8 @@ def check_orientation(rotations: Mapping[str, Array], rays: Mapping[str, Mapping
         key = (agree, origin in rays[ref], len(rays[ref]))
         if best is None or key > best[0]:
             best = (key, decided)
+        if agree == len(ids):  # every photo agrees with it: no other reference can do better
+            break
     assert best is not None
     decided = best[1]
     oriented = {p for p, d in decided.items() if d.turn == 0}
