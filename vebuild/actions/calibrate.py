@@ -29,7 +29,7 @@ from ..calibration.single_photo import (
     floor_point,
     place_single_photo,
 )
-from ..console.tables import exif_check_words
+from ..console.tables import exif_check_words, failed_check_words
 from ..constants import CHECK_FAIL_SIGMAS, OUTLIER_SIGMAS
 from ..errors import CalibrationError
 from ..project import Project, canonical_input_hash, decode, provenance
@@ -549,6 +549,8 @@ def _results(data: dict[str, Any], photos: dict[str, PhotoCalibration], placemen
                 failed.append({"a": d.a, "b": d.b, "distance": d.distance, "measured": dist,
                                "measured_sigma": float(dist_sigma), "sigmas": float(z),
                                "limit_sigmas": CHECK_FAIL_SIGMAS})
+                warnings.append(f"FAILED {failed_check_words(failed[-1])}: the calibration fails this check "
+                                "(calibration.failed_checks); look for a photo placed wrongly, or a wrong tape")
             elif abs(z) > 3:
                 warnings.append(f"check distance {d.a}–{d.b}: measured {dist:.3f} m against {d.distance:.3f} m "
                                 f"known ({z:+.1f}σ): the reconstruction disagrees with the tape")
