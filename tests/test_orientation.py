@@ -200,3 +200,24 @@ def test_a_check_distance_far_off_fails_the_calibration(tmp_path: Path) -> None:
     run = _cli("calibrate", path)
     assert run.returncode == 0, run.stderr
     assert not json.loads(path.read_text())["calibration"].get("failed_checks")
+
+
+def test_an_outlier_is_measured_from_where_the_others_put_it() -> None:
+    """The offset of a click from where the other observations put it is its deleted residual:
+    on a linear least-squares problem, (I − H)⁻¹ r equals the refit without that click exactly."""
+    from vebuild.calibration.lsq import offsets_from_the_others
+
+    rng = np.random.default_rng(4)
+    n, p = 12, 5
+    J = rng.normal(size=(2 * n, p))
+    y = J @ rng.normal(size=p) + rng.normal(size=2 * n)
+    y[6:8] += [8.0, -5.0]  # observation 3 moved
+    beta = np.linalg.lstsq(J, y, rcond=None)[0]
+    r = (J @ beta - y).reshape(n, 2)
+    offsets, stat = offsets_from_the_others(J, np.linalg.inv(J.T @ J), r)
+    for j in range(n):
+        keep = np.r_[0:2 * j, 2 * j + 2:2 * n]
+        b = np.linalg.lstsq(J[keep], y[keep], rcond=None)[0]
+        assert np.allclose(offsets[j], J[2 * j:2 * j + 2] @ b - y[2 * j:2 * j + 2], atol=1e-9)
+        assert np.isclose(stat[j], r[j] @ offsets[j])
+    assert int(np.argmax(stat)) == 3
