@@ -31,33 +31,6 @@ def _warn_stale(project: Project, command: str) -> None:
         print(line, file=sys.stderr)
 
 
-def _cmd_calibrate(args: argparse.Namespace) -> int:
-    from .actions.calibrate import calibrate_project
-    from .analysis.project_check import load_checked
-    from .console.bars import Bar
-    from .console.tables import calibration_table, failed_check_words
-    from .project import save_project
-    from .project.outputs import begin_stage
-
-    project = load_checked(args.project, "calibrate")
-    if args.group or args.release:
-        from .actions.camera_group_records import apply_group_options
-
-        apply_group_options(project.data, project.path, args.group or [], args.release or [])
-    begin_stage(project)
-    result = calibrate_project(project, progress=lambda it: Bar(it, desc="calibrating", unit="photo",
-                                                                disable=not _progress_wanted(args)))
-    save_project(project)
-    print(calibration_table(result))
-    print(f"\ncameras written to {project.path}")
-    if result.get("failed_checks"):  # exit status 1: written, but the calibration fails its checks
-        for c in result["failed_checks"]:
-            print(f"vebuild calibrate: check failed: {failed_check_words(c)}: the cameras disagree with the tape; "
-                  "the calibration is written, marked as failing (calibration.failed_checks)", file=sys.stderr)
-        return 1
-    return 0
-
-
 def _cmd_solve(args: argparse.Namespace) -> int:
     from .actions.solve import solve_project
     from .analysis.project_check import load_checked
@@ -379,17 +352,6 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
         p.add_argument("--quiet", action="store_true", help="no progress bars")
         p.set_defaults(func=_cmd_demo)
 
-    if p := command_parser("calibrate", help="calibrate every photo and place the cameras (paper §2)"):
-        p.add_argument("project", help="the project file (NAME.vebuild.json)")
-        p.add_argument("--quiet", action="store_true", help="no progress bars")
-        p.add_argument("--group", action="append", metavar="ID=PHOTO,PHOTO",
-                       help="photos taken with one camera, which share its focal length, principal point and lens "
-                            "distortion (saved in the project's camera_groups; repeatable)")
-        p.add_argument("--release", action="append", metavar="PHOTO",
-                       help="release a photo from its camera group: its intrinsics are its own (saved as its "
-                            "own_camera; repeatable)")
-        p.set_defaults(func=_cmd_calibrate)
-
     if p := command_parser("solve", help="fit the model's primitives to the pins (paper §3.1); --recalibrate: §3.2"):
         p.add_argument("project")
         p.add_argument("--recalibrate", action="store_true",
@@ -573,6 +535,8 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
 #: The commands whose parsers are made beside their actions: name, help (as their parsers say it,
 #: tests/test_cli_start.py), module and function, imported only to run that command.
 _PARSERS_BESIDE_ACTIONS = (
+    ("calibrate", "calibrate every photo and place the cameras (paper §2)", ".actions.calibrate_command",
+     "add_calibrate_parser"),
     ("analyse", "forensic analyses of a solved project: measurements with uncertainty, check distances (…; --json "
      "OUT writes the figures)", ".analysis.cli", "add_analyse_parsers"),
     ("import", "import an fSpy project (.fspy) as a new project folder, calibrate it and compare fSpy's camera with "
