@@ -250,3 +250,21 @@ def test_the_modelling_screen_groups_releases_and_shows_camera_groups(tmp_path: 
     assert s.data["photos"][3]["own_camera"] is True
     assert s.data["camera_groups"] == [{"id": "body", "photos": ["p1", "p2", "p3"]}]
     assert s.undo() and "own_camera" not in s.data["photos"][3]
+
+
+def test_exif_contradicted_in_a_group_is_warned_once(tmp_path: Path) -> None:
+    """The group's EXIF focal length 30 % longer than its photos' lines say (far beyond the 3σ
+    limit): EXIF is not combined, and the warning names the group's photos once, not once per photo."""
+    photos, markers = _set()
+    for p in photos:
+        p.exif_focal_px = 1.3 * p.K[0, 0]
+    path = write_one_camera_project(tmp_path, photos, markers)
+    r = _cli("calibrate", path, "--quiet")
+    assert r.returncode == 0, r.stderr
+    cal = json.loads(path.read_text(encoding="utf-8"))["calibration"]
+    [group] = cal["camera_groups"]
+    assert not group["exif_focal_check"]["combined"]
+    said = [w for w in cal["warnings"] if "EXIF's focal length" in w]
+    assert len(said) == 1, said
+    assert said[0].startswith("photos 'p1', 'p2', 'p3', 'p4' (one camera group): ")
+    assert "EXIF is not combined" in said[0]

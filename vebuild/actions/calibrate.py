@@ -568,14 +568,22 @@ def _results(data: dict[str, Any], photos: dict[str, PhotoCalibration], placemen
             unplaced_records[pid]["exif_focal_check"] = exif_check_record(cal.exif_check)
         warnings.append(f"photo '{pid}' is calibrated (its focal length, principal point and rotation are kept under "
                         f"calibration.unplaced) but not placed: {unplaced[pid]}")
+    # One check per camera: a camera group's photos share their group's check (one object), so it
+    # is said once, naming them all.
+    contradicted: dict[int, tuple[ExifCheck, list[str]]] = {}
     for pid in [i for i in ids if i in photos]:
         check = photos[pid].exif_check
         if check is not None and check.sigmas > EXIF_DISAGREEMENT_SIGMAS:
-            # Beyond the limit EXIF is never combined; the user's focal length, where given, still is.
-            used = ("EXIF is not combined, the focal length is from the vanishing points alone"
-                    if photos[pid].focal_source == "vanishing points" else "EXIF is not used")
-            warnings.append(f"photo '{pid}': {exif_check_words(exif_check_record(check))}; {used}: check the "
-                            "segments, or the photo was cropped or zoomed digitally")
+            contradicted.setdefault(id(check), (check, []))[1].append(pid)
+    for check, pids in contradicted.values():
+        cal = photos[pids[0]]
+        # Beyond the limit EXIF is never combined; the user's focal length, where given, still is.
+        used = ("EXIF is not combined, the focal length is from the vanishing points alone"
+                if cal.focal_source == "vanishing points" else "EXIF is not used")
+        who = f"photo '{pids[0]}'" if len(pids) == 1 else \
+            "photos " + ", ".join(f"'{p}'" for p in pids) + " (one camera group)"
+        warnings.append(f"{who}: {exif_check_words(exif_check_record(check))}; {used}: check the "
+                        "segments, or the photo was cropped or zoomed digitally")
     relative = any(a.relative for a in alone.values())
     origin = placement.origin if placement else next((a.origin.marker for a in alone.values()), None)
     return {
