@@ -268,3 +268,71 @@ def test_exif_contradicted_in_a_group_is_warned_once(tmp_path: Path) -> None:
     assert len(said) == 1, said
     assert said[0].startswith("photos 'p1', 'p2', 'p3', 'p4' (one camera group): ")
     assert "EXIF is not combined" in said[0]
+
+
+#: The box the re-calibration tests solve (a model is needed to solve): its size in metres, standing
+#: at the calibrated markers' centroid, pinned where the calibrated cameras see its corners.
+BOX = {"width": 0.8, "depth": 0.6, "height": 0.9}
+
+
+def _with_box(path: Path) -> None:
+    """Add a box pinned in every placed photo (exactly where its calibrated camera sees each
+    corner: the box adds no pull on the cameras of its own) to a calibrated project."""
+    from vebuild.camera import project as project_point
+    from vebuild.model.scene import model_from_dict
+    from vebuild.project import load_project, save_project
+    from vebuild.project.decode import cameras
+
+    project = load_project(path)
+    data = project.data
+    centre = np.mean([m["position"] for m in data["calibration"]["markers"].values()], axis=0)
+    node = {"name": "box", "primitive": {"type": "box", "params": BOX},
+            "joint": {"type": "rests_on", "position": [float(centre[0]), float(centre[1])], "yaw_deg": 0.0}}
+    model = model_from_dict([node])
+    pins = []
+    for pid, cam in cameras(project).items():
+        for h in model.node("box").primitive.handle_names():
+            X = model.handle_world("box", h)
+            if (cam.R @ (X - cam.C))[2] > 0:
+                uv = project_point(cam.K, cam.R, cam.C, X, cam.k1)
+                pins.append({"photo": pid, "node": "box", "handle": h, "uv": [float(v) for v in uv], "fixed": True})
+    data["model"] = {"nodes": [node], "edge_observations": [], "pins": pins}
+    save_project(project)
+
+
+def test_solve_recalibrate_shares_one_camera_per_group(tmp_path: Path) -> None:
+    """Calibrated as one camera, re-calibrated by `solve --recalibrate`: the group's placed photos
+    keep one K and k1 (to TIE_PX: one unknown, not tied ones), their 1σ no wider than the
+    calibration's and the truth inside UNCERTAINTY_BOUND σ; the group's record in model_solution
+    gives them once. A photo released from the group keeps its own f."""
+    photos, markers = _set()
+    f_true, c_true = photos[0].K[0, 0], photos[0].K[:2, 2]
+    path = write_one_camera_project(tmp_path, photos, markers)
+    assert _cli("calibrate", path, "--quiet").returncode == 0
+    _with_box(path)
+    r = _cli("solve", path, "--recalibrate")
+    assert r.returncode == 0, r.stderr
+    doc = json.loads(path.read_text(encoding="utf-8"))
+    [cal_group] = doc["calibration"]["camera_groups"]
+    [group] = doc["model_solution"]["camera_groups"]
+    solved = doc["model_solution"]["cameras"]
+    assert group["id"] == cal_group["id"] and group["photos"] == [p for p in ("p1", "p2", "p3") if p in solved]
+    assert len(group["photos"]) >= 2
+    recs = [solved[p] for p in group["photos"]]
+    for key in ("focal_px", "principal_point"):
+        assert np.allclose([c[key]["value"] for c in recs], group[key]["value"], rtol=0, atol=TIE_PX)
+    assert group["focal_px"]["sigma"] <= cal_group["focal_px"]["sigma"]
+    assert np.all(np.array(group["principal_point"]["sigma"]) <= np.array(cal_group["principal_point"]["sigma"]))
+    assert abs(group["focal_px"]["value"] - f_true) < UNCERTAINTY_BOUND * group["focal_px"]["sigma"]
+    assert np.all(np.abs(np.array(group["principal_point"]["value"]) - c_true)
+                  < UNCERTAINTY_BOUND * np.array(group["principal_point"]["sigma"]))
+    # Released: p3 is calibrated and re-calibrated with its own camera, no longer the group's.
+    assert _cli("calibrate", path, "--quiet", "--release", "p3").returncode == 0
+    _with_box(path)
+    r = _cli("solve", path, "--recalibrate")
+    assert r.returncode == 0, r.stderr
+    doc = json.loads(path.read_text(encoding="utf-8"))
+    [group] = doc["model_solution"]["camera_groups"]
+    solved = doc["model_solution"]["cameras"]
+    assert "p3" not in group["photos"] and "p3" in solved
+    assert abs(solved["p3"]["focal_px"]["value"] - group["focal_px"]["value"]) > TIE_PX

@@ -45,6 +45,7 @@ from ..project import Project, decode, json_path, provenance
 from ..project.decode import cameras_from_calibration, load_model
 from ..project.records import camera_record, distortion_record, json_values, value_sigma
 from ..project.units import length_unit
+from .camera_group_records import recalibration_groups, solved_group_records
 from .register import recalibration_cameras, recalibration_k1_sigmas
 
 #: The solve from the first guess gives up after this many iterations and the staged start takes
@@ -91,7 +92,8 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
     options = ProblemOptions(click_sigma_px=project.settings["click_sigma_px"], prior_scale=FINAL_PRIOR_SCALE,
                              recalibrate=recalibrate, refine_intrinsics=refine_intrinsics,
                              k1_sigma=recalibration_k1_sigmas(project, distortion_sigmas(project))
-                             if recalibrate else {})
+                             if recalibrate else {},
+                             camera_groups=recalibration_groups(data, cameras) if recalibrate else {})
     marker_data = MarkerData(markers, [origin, *surveyed], marker_obs, distances)
     scans = any(s.get("use_in_solve") for s in data.get("scans") or [])
 
@@ -138,6 +140,8 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
         result["relations"] = relation_records(model)
     if recalibrate:
         result["cameras"], result["markers"] = recalibrated_records(data, solution, problem)
+        if problem.layout.groups:  # one focal length, principal point and k1 per camera group
+            result["camera_groups"] = solved_group_records(problem, solution)
     result["warnings"] = uncalibrated_pin_warnings(data, cameras)
     result["refined_intrinsics"] = bool(recalibrate and refine_intrinsics)
     if before is not None and reproduces(before[1], result):

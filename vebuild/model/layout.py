@@ -11,11 +11,15 @@ multiplied: R' = exp([ω]×) R) and the centre C (metres), in the order of the c
 (9, 9) covariance over (f, cx, cy, ω, C); last, where the photo's lens distortion is refined, its
 k1 (the division model of vebuild/camera.py, dimensionless), held by its own prior (the k1 and 1σ
 of the calibration's ``distortion`` record). Marker block: the position (metres).
+
+Camera group block (photos of one camera, scenes/FORMAT.md "Camera groups"): where intrinsics are
+refined, a group's photos share one (δf, δcx, δcy[, k1]), held once by the group's joint prior; each
+of its photos' camera blocks then holds only its pose (ω, C) and points at the group's block.
 """
 
 from __future__ import annotations
 
-from collections.abc import Collection, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -51,6 +55,9 @@ class Block:
     calibration_index: tuple[int, ...] = ()
     #: A camera block whose last parameter is the lens distortion k1.
     distortion: bool = False
+    #: A camera block of a camera group's photo: where the group's (δf, δcx, δcy) are, and its k1.
+    shared_at: int | None = None
+    shared_k1: int | None = None
 
     def __len__(self) -> int:
         return len(self.names)
@@ -72,19 +79,44 @@ class Block:
         return tuple(UNITS[k] for k in self.kinds)
 
     @property
-    def intrinsics(self) -> bool:
-        """A camera block with (δf, δcx, δcy) ahead of its pose."""
+    def own_intrinsics(self) -> bool:
+        """A camera block with its own (δf, δcx, δcy) ahead of its pose."""
         return self.what == "camera" and len(self.calibration_index) == 9
+
+    @property
+    def intrinsics(self) -> bool:
+        """A camera block whose (δf, δcx, δcy) are refined: its own, or its camera group's."""
+        return self.own_intrinsics or self.shared_at is not None
+
+    @property
+    def intrinsics_start(self) -> int:
+        """Where a camera block's (δf, δcx, δcy) are: in it, or in its camera group's block."""
+        return self.start if self.shared_at is None else self.shared_at
 
     @property
     def pose_start(self) -> int:
         """Where a camera block's turn ω begins (its centre follows at + 3)."""
-        return self.start + (3 if self.intrinsics else 0)
+        return self.start + (3 if self.own_intrinsics else 0)
 
     @property
     def k1_index(self) -> int | None:
         """Where a camera block's lens distortion k1 is (None where it is not refined)."""
-        return self.stop - 1 if self.distortion else None
+        return self.stop - 1 if self.distortion else self.shared_k1
+
+    @property
+    def columns(self) -> NDArray[np.intp]:
+        """Every unknown that moves this camera: its own and its camera group's."""
+        if self.shared_at is None:
+            return self.indices
+        shared = [*range(self.shared_at, self.shared_at + 3), *([self.shared_k1] if self.shared_k1 is not None else [])]
+        return np.r_[np.array(shared, dtype=np.intp), self.indices].astype(np.intp)
+
+    def camera_columns(self) -> tuple[list[int], NDArray[np.intp]]:
+        """The camera's refined (f, cx, cy, ω, C) as places in CAMERA_PARAMS and their columns."""
+        if self.shared_at is None:
+            return list(self.calibration_index), self.start + np.arange(len(self.calibration_index))
+        return [0, 1, 2, *self.calibration_index], np.r_[np.arange(self.shared_at, self.shared_at + 3),
+                                                          np.arange(self.start, self.start + 6)].astype(np.intp)
 
     def file_names(self) -> list[str]:
         """The names in the project file's units: an angle's name gains ``_deg``."""
@@ -101,20 +133,37 @@ class ParameterLayout:
     refined too."""
 
     def __init__(self, model_names: Sequence[str], model_kinds: Sequence[str], cameras: Sequence[str] = (),
-                 intrinsics: bool = False, markers: Sequence[str] = (), distortion: Collection[str] = ()) -> None:
+                 intrinsics: bool = False, markers: Sequence[str] = (), distortion: Collection[str] = (),
+                 groups: Mapping[str, tuple[Sequence[str], bool]] | None = None) -> None:
+        """groups : with ``intrinsics``, camera group id → (its photos, whether its k1 is refined):
+        one block of intrinsics per group, after the cameras' (module docstring)."""
         if len(model_names) != len(model_kinds):
             raise ValueError(f"{len(model_names)} model parameter names for {len(model_kinds)} kinds")
         self.model = Block("model", "", 0, tuple(model_names), tuple(model_kinds), "pull")
         k = self.model.stop
         params = CAMERA_PARAMS if intrinsics else CAMERA_PARAMS[3:]
         index = tuple(CAMERA_PARAMS.index(p) for p in params)
+        group_of = {c: g for g, (members, _) in (groups or {}).items() for c in members} if intrinsics else {}
         self.cameras: dict[str, Block] = {}
-        for cid in cameras:
+        for cid in [c for c in cameras if c not in group_of]:
             lens = cid in distortion
             names = tuple(f"camera:{cid}.{p}" for p in params) + ((f"camera:{cid}.{DISTORTION_PARAM}",) if lens else ())
             kinds = tuple(CAMERA_KINDS[i] for i in index) + ((DISTORTION_KIND,) if lens else ())
             self.cameras[cid] = Block("camera", cid, k, names, kinds, "calibration", index, lens)
             k += len(names)
+        self.groups: dict[str, Block] = {}
+        for gid, (members, lens) in (groups or {}).items() if intrinsics else ():
+            names = tuple(f"camera_group:{gid}.{p}" for p in CAMERA_PARAMS[:3]) + \
+                ((f"camera_group:{gid}.{DISTORTION_PARAM}",) if lens else ())
+            kinds = CAMERA_KINDS[:3] + ((DISTORTION_KIND,) if lens else ())
+            self.groups[gid] = blk = Block("camera_group", gid, k, names, kinds, "calibration", (0, 1, 2), lens)
+            k += len(names)
+            for cid in members:
+                self.cameras[cid] = Block("camera", cid, k, tuple(f"camera:{cid}.{p}" for p in CAMERA_PARAMS[3:]),
+                                          CAMERA_KINDS[3:], "calibration", tuple(range(3, 9)),
+                                          shared_at=blk.start, shared_k1=blk.k1_index)
+                k += 6
+        self.cameras = {c: self.cameras[c] for c in cameras}  # in the photos' order
         self.markers: dict[str, Block] = {}
         for m in markers:
             self.markers[m] = Block("marker", m, k, tuple(f"marker:{m}.{c}" for c in "xyz"), ("position",) * 3, "none")
@@ -123,7 +172,8 @@ class ParameterLayout:
 
     @property
     def blocks(self) -> list[Block]:
-        return [self.model, *self.cameras.values(), *self.markers.values()]
+        return sorted([self.model, *self.cameras.values(), *self.groups.values(), *self.markers.values()],
+                      key=lambda b: b.start)
 
     @property
     def names(self) -> list[str]:

@@ -6,7 +6,8 @@ when re-calibrating, marker sightings and reference distances. Residuals are in 
 by the click noise, then the priors: each free model parameter pulled toward its value before
 the solve (a dimension entered from a measurement, FORMAT.md ``hold`` ``{"name", "sigma"}``: held
 at its entered value by that measurement's 1σ instead, an observation like a pin), each
-re-calibrated camera held by its calibration covariance, and last the hard rows of the flush and
+re-calibrated camera held by its calibration covariance (a camera group's shared intrinsics once, by
+the group's prior: :mod:`.camera_blocks`), and last the hard rows of the flush and
 aligned relations (:mod:`.constraints`: metres whitened by a micrometre, constraints rather than
 observations). An ``equal`` relation is no row: its members share one unknown (``model_vector``).
 
@@ -35,7 +36,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..calibration.lm import SPARSE_SOLVE_ABOVE
 from ..calibration.positions import ReferenceDistance  # ends: marker names or 'node:handle'
-from ..camera import ImageCamera, exp_so3, project_each, skew_batch, so3_left_jacobian
+from ..camera import ImageCamera, project_each, skew_batch, so3_left_jacobian
+from .camera_blocks import CameraBlocks
 from .column_groups import column_groups
 from .constraints import HARD_SIGMA_M
 from .edge_distance import edge_distances
@@ -80,7 +82,7 @@ class MarkerObservation:
     uv: Array
 
 
-class Residuals:
+class Residuals(CameraBlocks):
     """The residual vector and Jacobian of a :class:`~vebuild.model.solver.Problem`: its rows
     (pins, edges, marker sightings, distances, then the priors) and what each unknown moves.
 
@@ -103,8 +105,6 @@ class Residuals:
     free_idx: NDArray[np.intp]
     owner: list[str]
     prior_sigma: Array
-    _prior_L: dict[str, Array]
-    _prior_at: dict[str, Array]  # per re-calibrated camera: the block's values where its prior is 0
     _moving: list[str] | None  # the nodes a free parameter moves; None: all of them
     _T0: dict[str, Array]
     _H0: Array
@@ -131,34 +131,6 @@ class Residuals:
         xm[self.free_idx] = x[self.layout.model.slice]
         xm[self.tie_dst] = xm[self.tie_src]  # equal relations: the members copy the shared unknown
         return xm
-
-    def camera_matrices(self, x: Array) -> dict[str, tuple[Array, Array, Array]]:
-        """K, R, C of every photo at x (as calibrated where the camera is not being solved)."""
-        out = {}
-        for cid in self.cam_ids:
-            cam = self.cameras[cid]
-            blk = self.layout.cameras.get(cid)
-            if blk is None:
-                out[cid] = (cam.K, cam.R, cam.C)
-                continue
-            K = cam.K.copy()
-            if blk.intrinsics:
-                df, dcx, dcy = x[blk.start : blk.start + 3]
-                K[0, 0] = K[1, 1] = cam.K[0, 0] + df
-                K[0, 2] = cam.K[0, 2] + dcx
-                K[1, 2] = cam.K[1, 2] + dcy
-            o = blk.pose_start
-            out[cid] = (K, exp_so3(x[o : o + 3]) @ cam.R, x[o + 3 : o + 6])
-        return out
-
-    def camera_k1(self, x: Array) -> dict[str, float]:
-        """The lens distortion k1 of every photo at x (as calibrated where it is not refined)."""
-        out = {}
-        for cid in self.cam_ids:
-            blk = self.layout.cameras.get(cid)
-            k = None if blk is None else blk.k1_index
-            out[cid] = float(self.cameras[cid].k1) if k is None else float(x[k])
-        return out
 
     def marker_positions(self, x: Array) -> dict[str, Array]:
         """Every marker's position at x (the fixed ones as calibrated)."""
@@ -216,10 +188,7 @@ class Residuals:
         n_model = len(self.layout.model)
         self.rows_prior_model = np.arange(rows, rows + n_model)
         rows += n_model
-        self.rows_prior_cam: dict[str, Index] = {}
-        for cid, blk in self.layout.cameras.items():
-            self.rows_prior_cam[cid] = np.arange(rows, rows + len(blk))
-            rows += len(blk)
+        rows = self._prior_rows(rows)
         # Hard rows (flush, aligned) last: constraints, outside the robust loss and the observations.
         self.rows_hard: list[Index] = []
         for r in self.hard:
@@ -407,8 +376,7 @@ class Residuals:
         for rows, rel in zip(self.rows_hard, self.hard, strict=True):
             r[rows] = relation_rows(rel, self.model, T, xm) / HARD_SIGMA_M
         r[self.rows_prior_model] = (x[self.layout.model.slice] - self.prior_model_at) / self.prior_sigma
-        for cid, blk in self.layout.cameras.items():
-            r[self.rows_prior_cam[cid]] = self._prior_L[cid] @ (x[blk.slice] - self._prior_at[cid])
+        self._camera_prior_residuals(x, r)
         return r
 
     def residuals(self, x: Array) -> Array:
@@ -484,7 +452,7 @@ class Residuals:
                 blk = self.layout.cameras.get(cid)
                 if blk is None:
                     continue
-                o, oc = blk.start, blk.pose_start
+                o, oc = blk.intrinsics_start, blk.pose_start
                 w = x[oc : oc + 3]
                 Jl = so3_left_jacobian(w)
                 for rows_of, cam_of, A, MR, xc, pd, dk in (
@@ -511,7 +479,7 @@ class Residuals:
                     Xa, Xb = H[self.edge_rows[sel, 0]], H[self.edge_rows[sel, 1]]
                     x1 = x.copy()
                     r0 = self._edge_residuals(Xa, Xb, Ks, Rs, Cs, k1s, sel)
-                    for c in blk.indices:
+                    for c in blk.columns:
                         x1[c] += FD_STEP
                         K1, R1, C1, k11 = self._camera_arrays(x1)
                         put(self.rows_edge[sel], c,
@@ -535,9 +503,7 @@ class Residuals:
                                 put(self.rows_dist[dsel], mblk.start + c, sign * u[:, c])
         # Prior rows are linear: exact derivatives.
         put(self.rows_prior_model, self.layout.model.indices, 1.0 / self.prior_sigma)
-        for cid, blk in self.layout.cameras.items():
-            rr, cc = np.meshgrid(self.rows_prior_cam[cid], blk.indices, indexing="ij")
-            put(rr, cc, self._prior_L[cid])
+        self._camera_prior_jacobian(put)
         J = dense if dense is not None else \
             sparse.coo_matrix((np.concatenate(V_), (np.concatenate(R_), np.concatenate(C_))), shape=(self.m, n)).tocsr()
         if self.hard:  # the hard rows' linearisation, for the steps' return onto the relations (Problem.clip)
@@ -560,9 +526,9 @@ class Residuals:
             return f"reference distance {d.a}–{d.b} ({d.distance:g} m)"
         if len(self.rows_prior_model) and self.rows_prior_model[0] <= row <= self.rows_prior_model[-1]:
             return f"the model parameter {self.layout.model.names[row - int(self.rows_prior_model[0])]}"
-        for cid, prior_rows in self.rows_prior_cam.items():
-            if prior_rows[0] <= row <= prior_rows[-1]:
-                return f"the calibration of photo '{cid}'"
+        prior = self.describe_prior_row(row)
+        if prior is not None:
+            return prior
         for hard_rows, rel in zip(self.rows_hard, self.hard, strict=True):
             if hard_rows[0] <= row <= hard_rows[-1]:
                 return f"the relation {rel.label()}"

@@ -89,7 +89,8 @@ def solution_at(problem: Problem, x: Array, iterations: int = 0) -> Solution:
     # calibration priors, entered values) keep theirs.
     hard = np.concatenate(problem.rows_hard).astype(int) if problem.rows_hard else np.zeros(0, int)
     observed = np.r_[np.arange(problem.n_data + len(problem.distances)),
-                     *[problem.rows_prior_cam[c] for c in problem.rows_prior_cam]].astype(int)
+                     *[problem.rows_prior_cam[c] for c in problem.rows_prior_cam],
+                     *[problem.rows_prior_group[g] for g in problem.rows_prior_group]].astype(int)
     measured = np.r_[observed, problem.rows_entered].astype(int)  # the entered values are measurements
     clicks = np.arange(problem.n_data)
     camera_slices = [blk.slice for blk in layout.cameras.values()]
@@ -150,8 +151,8 @@ def solution_at(problem: Problem, x: Array, iterations: int = 0) -> Solution:
         blk = layout.cameras.get(cid)
         if blk is not None:
             cov_c = np.zeros((9, 9)) if old.covariance is None else np.asarray(old.covariance, float).copy()
-            cal = slice(blk.start, blk.start + len(blk.calibration_index))
-            cov_c[np.ix_(blk.calibration_index, blk.calibration_index)] = cov[cal, cal]
+            idx, cols = blk.camera_columns()  # a group's photo: its group's intrinsics and its own pose
+            cov_c[np.ix_(idx, idx)] = cov[np.ix_(cols, cols)]
             if blk.k1_index is not None:
                 k1_sigma[cid] = float(np.sqrt(max(cov[blk.k1_index, blk.k1_index], 0.0)))
         cams[cid] = ImageCamera(cid, K, R, np.asarray(C, float).copy(), old.width, old.height, covariance=cov_c,

@@ -33,6 +33,7 @@ from ..calibration.lsq import is_numeric_failure
 from ..calibration.positions import ReferenceDistance
 from ..camera import ImageCamera
 from ..determinism import deterministic
+from .camera_blocks import SharedIntrinsics, group_prior, shared_cameras, whitening
 from .constraints import hard_relations, restore, tie_equal
 from .layout import ParameterLayout
 from .residuals import EdgeObservation, MarkerObservation, Pin, Residuals
@@ -65,6 +66,9 @@ class ProblemOptions:
         distortion's prior (the calibration record's ``distortion.k1.sigma``): that photo's k1 is
         refined, held by a Gaussian prior at its calibrated value with this 1σ. A photo absent, or
         with a 1σ of 0 or not finite, keeps its k1 as calibrated.
+    camera_groups : with ``recalibrate`` and ``refine_intrinsics``, camera group id → its photos'
+        shared intrinsics (:class:`~vebuild.model.camera_blocks.SharedIntrinsics`): one (f, cx, cy[,
+        k1]) for all of them, held once by the group's prior (a group's photos' own k1_sigma unused).
     """
 
     click_sigma_px: float = 1.0
@@ -74,6 +78,7 @@ class ProblemOptions:
     recalibrate: bool = False
     refine_intrinsics: bool = False
     k1_sigma: Mapping[str, float] = field(default_factory=dict)
+    camera_groups: Mapping[str, SharedIntrinsics] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         for name in ("click_sigma_px", "prior_scale"):
@@ -116,7 +121,9 @@ class Problem(Residuals):
         self.options = options
         self.model = model
         self.cam_ids = list(cameras)
-        self.cameras = dict(cameras)
+        shared = options.camera_groups if options.recalibrate and options.refine_intrinsics else {}
+        shared = {g: s for g, s in shared.items() if all(c in cameras for c in s.photos)}
+        self.cameras = shared_cameras(cameras, shared)
         self.sigma = options.click_sigma_px
         self.pins = [p for p in pins if p.photo in self.cameras]
         for p in self.pins:
@@ -161,7 +168,8 @@ class Problem(Residuals):
         self.layout = ParameterLayout([names[i] for i in self.free_idx], [kinds[i] for i in self.free_idx],
                                       self.cam_ids if self.recalibrate else (),
                                       self.recalibrate and self.refine_intrinsics, self.free_markers,
-                                      [c for c in self.cam_ids if options.refines_k1(c)])
+                                      [c for c in self.cam_ids if options.refines_k1(c)],
+                                      {g: (s.photos, s.refine_k1) for g, s in shared.items()})
         self.names = list(self.layout.model.names)
         self.n_model = len(self.layout.model)
         self.n = self.layout.n
@@ -172,17 +180,19 @@ class Problem(Residuals):
             keep = list(blk.calibration_index)
             # Block-diagonal: the calibration's covariance over (f, cx, cy, ω, C), then k1's 1σ.
             L = np.zeros((len(blk), len(blk)))
-            if cam.covariance is not None:
-                c = np.asarray(cam.covariance, float)[np.ix_(keep, keep)]
-                w, V = np.linalg.eigh(0.5 * (c + c.T))
-                L[: len(keep), : len(keep)] = (V / np.sqrt(np.maximum(w, 1e-18))).T
+            if cam.covariance is not None:  # a group's photo: its pose's marginal (the group holds K)
+                L[: len(keep), : len(keep)] = whitening(np.asarray(cam.covariance, float)[np.ix_(keep, keep)])
             at = np.zeros(len(blk))  # the prior is 0 at the calibration: no turn, no change of K
             o = blk.pose_start + 3 - blk.start  # the centre C follows the turn ω
             at[o : o + 3] = cam.C
-            if blk.k1_index is not None:
+            if blk.distortion:  # its own k1 (a group's photo's is the group's)
                 L[-1, -1] = 1.0 / options.k1_sigma[cid]
                 at[-1] = cam.k1
             self._prior_L[cid], self._prior_at[cid] = L, at
+        self._group_L, self._group_at = {}, {}
+        for gid, blk in self.layout.groups.items():
+            self._group_L[gid] = group_prior(len(blk), shared[gid].covariance)
+            self._group_at[gid] = np.r_[0.0, 0.0, 0.0, [shared[gid].k1] if blk.k1_index is not None else []]
         # Only the subtrees of nodes with a free parameter move (during a drag, one object of the
         # scene): every other node's transform and handles are computed once, here.
         moving: set[str] = set()
@@ -201,6 +211,8 @@ class Problem(Residuals):
         x[self.layout.model.slice] = self.x_model0[self.free_idx]
         for cid, blk in self.layout.cameras.items():
             x[blk.slice] = self._prior_at[cid]  # as calibrated: no turn, no change of K
+        for gid, blk in self.layout.groups.items():
+            x[blk.slice] = self._group_at[gid]
         for k, blk in self.layout.markers.items():
             x[blk.slice] = self.markers0[k]
         return x
