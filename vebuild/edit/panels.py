@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from imgui_bundle import imgui
 
+from vebuild.console.tables import camera_group_lines
 from vebuild.model.primitives import primitive_kinds
 from vebuild.project import decode
 
@@ -23,7 +24,7 @@ from .marks import AXES, CAMERA_HEIGHT_SIGMA_M, KNOWN_LENGTH_SIGMA_M
 from .model_panels import relations_section
 from .node_panel import properties_section
 from .overlay import AXIS_COLOURS
-from .session import exif_text, placement_text
+from .session import exif_text, photo_cameras, placement_text
 
 if TYPE_CHECKING:
     from .screen import Editor
@@ -55,6 +56,7 @@ class Panels:
         self.room_corner, self.room_wall, self.room_kind = 0, 0, 0  # a room's corner, wall, opening kind
         self.param_edits: dict[str, Any] = {}
         self._select_tab: str | None = None  # a tab to bring forward at the next frame (the first steps')
+        self.camera_ticks: set[str] = set()  # the photos ticked to share one camera
 
     def forget_edits(self) -> None:
         """Drop the values typed but not committed (another node was selected)."""
@@ -76,7 +78,7 @@ class Panels:
         if imgui.begin_tab_bar("panels"):
             select, self._select_tab = self._select_tab, None
             for name, fn in (("Calibration", self._calibration_tab), ("Scale", self._scale_tab),
-                             ("Model", self._model_tab), ("Keys", self._keys_tab)):
+                             ("Cameras", self._cameras_tab), ("Model", self._model_tab), ("Keys", self._keys_tab)):
                 flags = imgui.TabItemFlags_.set_selected if name == select else 0
                 shown, _ = imgui.begin_tab_item(name, None, flags)
                 self.ed.rect(f"tab:{name}")
@@ -174,6 +176,40 @@ class Panels:
                 self.ed.guard(s.set_origin, name)
         imgui.end_child()
         self.ed.draw_rename_field(self)
+
+    def _cameras_tab(self) -> None:
+        """Each photo's camera (FORMAT.md "Camera groups"): tick photos and say they share one camera,
+        or release the photo shown from its group; both undoable, both take effect at Calibrate.
+        After a calibration, each group's shared values."""
+        s = self.ed.session
+        imgui.text("photos of one camera share f, principal point and lens")
+        for pid, text in photo_cameras(s.data).items():
+            changed, ticked = imgui.checkbox(f"{pid}: {text}##camera", pid in self.camera_ticks)
+            self.ed.rect(f"camera:{pid}")
+            if changed:
+                self.camera_ticks = self.camera_ticks | {pid} if ticked else self.camera_ticks - {pid}
+        if self.ed.button("These photos share one camera", tip="the ticked photos were taken with one camera (one "
+                          "body, lens and zoom): calibrated with one focal length, principal point and lens"):
+            chosen = [p for p in s.photo_ids if p in self.camera_ticks]
+            if len(chosen) < 2:
+                self.ed.say("tick two photos or more (in the list above) to say they share one camera")
+            else:
+                taken = {g["id"] for g in s.data.get("camera_groups") or []}
+                name = next(f"camera {i}" for i in range(1, len(taken) + 2) if f"camera {i}" not in taken)
+                self.ed.guard(s.group_cameras, name, chosen)
+                self.camera_ticks = set()
+        if self.ed.photo is not None and self.ed.button(
+                "Release this photo from its camera", tip=f"{self.ed.photo} gets a focal length, principal point "
+                "and lens of its own (a zoom moved, a crop, another body)"):
+            self.ed.guard(s.release_camera, self.ed.photo)
+        groups = (self.ed.calibration_result or {}).get("camera_groups") or []
+        if groups:
+            imgui.separator()
+            imgui.push_text_wrap_pos(0.0)
+            for line in camera_group_lines(groups):
+                if line.strip():
+                    imgui.text(line.strip())
+            imgui.pop_text_wrap_pos()
 
     def _distances(self) -> None:
         """The reference distances and the row that adds one (under Calibrate, in view with it).

@@ -274,6 +274,20 @@ class EditSession(Assist, Rooms, SessionOverlays):
         return record
 
 
+def photo_cameras(data: dict[str, Any]) -> dict[str, str]:
+    """Each photo's camera, in words, for the screen's photo list (FORMAT.md "Camera groups"): the
+    camera group it shares intrinsics with (the user's or EXIF's), or that it has a camera of its own
+    (released from groups where ``own_camera``)."""
+    from vebuild.calibration.camera_groups import camera_groups
+
+    out = {p["id"]: "own camera, released from its group" if p.get("own_camera") else "own camera"
+           for p in data["photos"]}
+    for g in camera_groups(data["photos"], data.get("camera_groups") or []):
+        for pid in g.photos:
+            out[pid] = f"camera '{g.id}' ({'grouped by you' if g.source == 'user' else 'same EXIF camera'})"
+    return out
+
+
 def exif_text(camera: dict[str, Any]) -> str:
     """What the screen adds to a calibrated photo's line about its EXIF focal length: EXIF relative
     to the vanishing points' estimate, as the console and the report say it, and whether it was
