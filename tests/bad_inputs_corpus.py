@@ -425,6 +425,9 @@ case("camera-group-sizes-differ", doc_fn(_group_of_two_sizes), V + ["calibrate"]
      [P, "$.camera_groups[0].photos[1]", "1601×1200"])
 case("camera-group-released-photo", doc_fn(_group_with_released), V + ["calibrate"],
      [P, "$.camera_groups[0].photos[1]", "own_camera"])
+case("calibration-camera-group-without-covariance",
+     setter(("calibration", "camera_groups"), [{"id": "body", "shared": True, "calibrated": ["p1", "p2"]}]),
+     ["solve-recal"], [P, "$.calibration.camera_groups[0]", "covariance"])
 case("calibrate-group-unknown-photo", nothing, [["calibrate", P, "--group", "body=p1,p9"]], [P, "--group", "'p9'"])
 case("calibrate-release-unknown-photo", nothing, [["calibrate", P, "--release", "p9"]], [P, "--release", "'p9'"])
 # A photo's own scale (a photo placed alone): bad values are refused at load, naming the field.

@@ -6,7 +6,6 @@ names its group (``camera_group``) and carries the same K as every other photo o
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -15,7 +14,6 @@ import numpy as np
 from ..calibration.camera_groups import CameraGroup
 from ..calibration.positions import CameraGroupPrior
 from ..calibration.shared_camera import GroupMember, SharedCalibration, calibrate_shared
-from ..model.camera_blocks import SharedIntrinsics
 from ..project.records import json_values, value_sigma
 
 
@@ -143,31 +141,6 @@ def apply_group_options(data: dict[str, Any], file: Any, group: list[str], relea
     else:
         data.pop("camera_groups", None)
     validate(data, file)
-
-
-def recalibration_groups(data: dict[str, Any], cameras: Mapping[str, Any]) -> dict[str, SharedIntrinsics]:
-    """The camera groups of a re-calibration (``vebuild solve --recalibrate``): each shared group
-    of ``calibration.camera_groups`` with two or more of its calibrated photos among ``cameras``
-    (a registered photo keeps its own), its shared K and k1 and its joint prior over (f, cx, cy,
-    k1) from the vanishing points (the record's ``covariance``); k1 refined where its 1σ is > 0.
-    A released photo is in no group: it keeps its own intrinsics."""
-    cal = data.get("calibration") or {}
-    out = {}
-    for rec in cal.get("camera_groups") or []:
-        if not rec.get("shared"):
-            continue
-        photos = tuple(p for p in rec.get("calibrated", []) if p in cameras
-                       and (cal["cameras"].get(p) or {}).get("mode") != "registered")
-        cov = np.array([[np.nan if v is None else v for v in row] for row in rec["covariance"]], float)
-        if len(photos) < 2 or cov.shape != (4, 4) or not np.all(np.isfinite(cov[:3, :3])):
-            continue
-        f, (cx, cy) = rec["focal_px"]["value"], rec["principal_point"]["value"]
-        k1, k1_sigma = rec["distortion"]["k1"], rec["distortion"]["sigma"]
-        refine_k1 = bool(k1_sigma is not None and np.isfinite(k1_sigma) and k1_sigma > 0 and np.isfinite(cov[3, 3])
-                         and cov[3, 3] > 0)
-        K = np.array([[f, 0.0, cx], [0.0, f, cy], [0.0, 0.0, 1.0]])
-        out[str(rec["id"])] = SharedIntrinsics(photos, K, float(k1), np.nan_to_num(cov), refine_k1)
-    return out
 
 
 def solved_group_records(problem: Any, solution: Any) -> list[dict[str, Any]]:

@@ -42,10 +42,11 @@ from ..model.scene import Model
 from ..model.solution import handle_covariances
 from ..model.solver import FINAL_PRIOR_SCALE, MarkerData, Problem, ProblemOptions, staged_start
 from ..project import Project, decode, json_path, provenance
+from ..project.camera_groups import recalibration_groups
 from ..project.decode import cameras_from_calibration, load_model
 from ..project.records import camera_record, distortion_record, json_values, value_sigma
 from ..project.units import length_unit
-from .camera_group_records import recalibration_groups, solved_group_records
+from .camera_group_records import solved_group_records
 from .register import recalibration_cameras, recalibration_k1_sigmas
 
 #: The solve from the first guess gives up after this many iterations and the staged start takes
@@ -93,7 +94,8 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
                              recalibrate=recalibrate, refine_intrinsics=refine_intrinsics,
                              k1_sigma=recalibration_k1_sigmas(project, distortion_sigmas(project))
                              if recalibrate else {},
-                             camera_groups=recalibration_groups(data, cameras) if recalibrate else {})
+                             camera_groups=recalibration_groups(data, cameras, project.path)
+                             if recalibrate else {})
     marker_data = MarkerData(markers, [origin, *surveyed], marker_obs, distances)
     scans = any(s.get("use_in_solve") for s in data.get("scans") or [])
 

@@ -64,6 +64,9 @@ def decode_project(project: Project, replaced: Collection[str] = ()) -> list[str
     if (data.get("calibration") or {}).get("cameras") and "calibration" not in replaced:
         cameras = dec.cameras_from_calibration(project)
         lines.append(f"calibration: {len(cameras)} camera(s), each a pinhole camera with a rotation")
+        from ..project.camera_groups import recalibration_groups
+
+        recalibration_groups(data, cameras, project.path)  # what `solve --recalibrate` shares
         sol = data.get("model_solution") or {}
         if sol.get("cameras") and "model_solution" not in replaced:
             dec.cameras(project)  # the re-calibrated ones decoded and checked as the calibration's
