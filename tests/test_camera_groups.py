@@ -324,6 +324,9 @@ def test_solve_recalibrate_shares_one_camera_per_group(tmp_path: Path) -> None:
     assert group["focal_px"]["sigma"] <= cal_group["focal_px"]["sigma"]
     assert np.all(np.array(group["principal_point"]["sigma"]) <= np.array(cal_group["principal_point"]["sigma"]))
     assert abs(group["focal_px"]["value"] - f_true) < UNCERTAINTY_BOUND * group["focal_px"]["sigma"]
+    f = group["focal_px"]
+    assert f"  {group['id']}: photos {', '.join(group['photos'])}" in r.stdout
+    assert f"focal length {f['value']:.1f} ± {f['sigma']:.1f} px" in r.stdout
     assert np.all(np.abs(np.array(group["principal_point"]["value"]) - c_true)
                   < UNCERTAINTY_BOUND * np.array(group["principal_point"]["sigma"]))
     # Released: p3 is calibrated and re-calibrated with its own camera, no longer the group's.

@@ -147,11 +147,27 @@ def model_table(result: dict[str, Any]) -> str:
     if result["outliers"]:
         lines += ["", "outliers (more than 4σ from the solved model; check these marks):"]
         lines += [f"  - {o}" for o in result["outliers"]]
+    lines += recalibrated_group_lines(result.get("camera_groups") or [])
     lines += relation_lines(result.get("relations") or [])
     lines += check_distance_lines(result.get("check_distances") or [], unit)
     if result.get("warnings"):
         lines += ["", "warnings:"] + [f"  - {w}" for w in result["warnings"]]
     return "\n".join(lines)
+
+
+def recalibrated_group_lines(groups: list[dict[str, Any]]) -> list[str]:
+    """Per camera group re-calibrated as one camera (``model_solution.camera_groups``): its photos,
+    its one f, principal point and k1, ± 1σ."""
+    if not groups:
+        return []
+    lines = ["", "camera groups, re-calibrated as one camera each (values ± 1σ):"]
+    for g in groups:
+        d = g["distortion"]
+        k1 = f"{d['k1']:+.4f} ± {d['sigma']:.4f}" if d.get("sigma") is not None else f"{d['k1']:+.4f} (held)"
+        lines += [f"  {g['id']}: photos {', '.join(g['photos'])}",
+                  f"    focal length {_pm(g['focal_px'], '.1f')} px, principal point "
+                  f"{_pm(g['principal_point'], '.1f')} px, lens k1 {k1}"]
+    return lines
 
 
 def relation_lines(relations: list[dict[str, Any]]) -> list[str]:
