@@ -329,6 +329,12 @@ def test_solve_recalibrate_shares_one_camera_per_group(tmp_path: Path) -> None:
     assert f"focal length {f['value']:.1f} ± {f['sigma']:.1f} px" in r.stdout
     assert np.all(np.abs(np.array(group["principal_point"]["value"]) - c_true)
                   < UNCERTAINTY_BOUND * np.array(group["principal_point"]["sigma"]))
+    # --fixed-intrinsics: every K as calibrated, as for any photo; no group re-calibrated.
+    assert _cli("solve", path, "--recalibrate", "--fixed-intrinsics").returncode == 0
+    doc = json.loads(path.read_text(encoding="utf-8"))
+    assert "camera_groups" not in doc["model_solution"]
+    for pid, rec in doc["model_solution"]["cameras"].items():
+        assert rec["K"] == doc["calibration"]["cameras"][pid]["K"]
     # Released: p3 is calibrated and re-calibrated with its own camera, no longer the group's.
     assert _cli("calibrate", path, "--quiet", "--release", "p3").returncode == 0
     _with_box(path)
