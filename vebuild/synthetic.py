@@ -72,6 +72,8 @@ class SyntheticPhoto:
     k1: float = 0.0
     #: The 1σ (relative) of the error drawn for exif_focal_px.
     exif_focal_sigma_rel: float = EXIF_FOCAL_ERROR_REL
+    #: axis → indices into segments[axis] of segments that are not along it (vebuild/synthetic_clutter.py).
+    clutter: dict[str, list[int]] = field(default_factory=dict)
 
 
 def projection_matrix(K: Array, R: Array, C: Array) -> Array:
