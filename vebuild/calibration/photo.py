@@ -38,7 +38,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..camera import AXES, distortion_displacement_px, exp_so3, intrinsic_matrix, ypr_from_rotation
 from ..determinism import deterministic
 from ..errors import CalibrationError
-from .bending import DistortionTest, bending_test, consider_covariance, distortion_clause, k1_source
+from .bending import DistortionTest, bending_test, consider_covariance, distortion_clause, held_problem, k1_source
 from .intrinsics import focal_squared, orthocentre, rotation_from_vanishing_points
 from .joint import JointProblem, check_orthogonal_pairs
 from .lsq import numeric_jacobian, photo_numeric_failures
@@ -50,6 +50,7 @@ from .priors import (
     check_focal_prior,
     check_principal_point,
 )
+from .robust import RejectedSegment, cleanest_two, consensus, screened_solve, segment_sigmas
 from .vanishing import (
     VanishingPointFit,
     as_polylines,
@@ -119,8 +120,11 @@ class PhotoCalibration:
     exif_check : EXIF's focal length against the vanishing points' alone (one sign convention:
         :class:`.priors.ExifCheck`), where EXIF gives one and the vanishing points alone fix f.
     vanishing_points, segment_residuals_px : those of the undistorted marks; one residual per
-        segment, the RMS of its points' distances to its line through the vanishing point, signed
-        as its first point's (for a two-point segment, the paper's residual).
+        segment (rejected ones too, index for index with the marks), the RMS of its points'
+        distances to its line through the vanishing point, signed as its first point's (for a
+        two-point segment, the paper's residual).
+    rejected_segments : axis → the segments left out as not meeting at its vanishing point, or
+        the whole axis (:mod:`.robust`); absent axes lost none.
     """
 
     photo: str
@@ -140,6 +144,7 @@ class PhotoCalibration:
     covariance_k1: Array = field(default_factory=lambda: np.zeros((7, 7)))
     exif_check: ExifCheck | None = None
     distortion_test: DistortionTest | None = None
+    rejected_segments: dict[str, tuple[RejectedSegment, ...]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if not np.any(self.covariance_k1):  # built with the (6, 6) only: k1 fixed at 0
@@ -172,9 +177,15 @@ class PhotoCalibration:
         """(yaw, pitch, roll) in radians and their 1σ."""
         return ypr_with_sigma(self.R, self.covariance[3:6, 3:6])
 
+    def kept_residuals_px(self, axis: str) -> Array:
+        """The residuals of the axis' segments that were not rejected."""
+        out = {r.index for r in self.rejected_segments.get(axis, ())}
+        return np.array([v for k, v in enumerate(self.segment_residuals_px[axis]) if k not in out])
+
     @property
     def rms_px(self) -> float:
-        r = np.concatenate(list(self.segment_residuals_px.values()))
+        """RMS residual of the segments kept (``rejected_segments`` left out)."""
+        r = np.concatenate([self.kept_residuals_px(a) for a in self.segment_residuals_px])
         return float(np.sqrt(np.mean(r**2)))
 
     @property
@@ -279,7 +290,10 @@ def calibrate_photo(
             "axes at least: mark a second direction, such as the horizon (x or y) or verticals (z)",
         )
     axes = [a for a in AXES if a in polys]
-    segs = {a: end_segments(polys[a]) for a in axes}
+    sigmas = segment_sigmas(polys, axes, click_sigma_px, segment_sigma_px, photo)
+    # The start from each axis' consensus (.robust): clutter grouped into an axis does not move it.
+    start = {a: consensus(end_segments(polys[a]), sigmas[a], width, height) for a in axes}
+    segs = {a: end_segments(polys[a])[start[a]] for a in axes}
     fits = {a: fit_vanishing_point(segs[a], width, height, axis=a, photo=photo) for a in axes}
     N = normalising_transform(width, height)
     unit = {}
@@ -312,6 +326,8 @@ def calibrate_photo(
     f0, c_init = _closed_form_start(fits, finite, c0, start_prior.value if start_prior else NOMINAL_FOCAL_REL * scale)
     K0 = intrinsic_matrix(f0, *c_init)
     R0, handedness = rotation_from_vanishing_points(K0, {a: fits[a].point for a in axes}, segs)
+    if handedness < 0 and (two := cleanest_two(start)) is not None:  # clutter, not a set drawn backwards
+        R0, handedness = rotation_from_vanishing_points(K0, {a: fits[a].point for a in two}, segs)
     if handedness < 0:
         raise CalibrationError(
             photo,
@@ -321,17 +337,30 @@ def calibrate_photo(
 
     straightness = any(len(p) > 2 for a in axes for p in polys[a])
     estimate_k1 = straightness or distortion is not None
-    sigmas = _segment_sigmas(polys, axes, click_sigma_px, segment_sigma_px, photo)
-    problem = JointProblem(polys, axes, sigmas, scale, c0, sigma_c, distortion if estimate_k1 else None,
-                       estimate_k1)
+    def make(p: Mapping[str, list], ax: list[str], s: Mapping[str, Array]) -> JointProblem:
+        return JointProblem(p, ax, s, scale, c0, sigma_c, distortion if estimate_k1 else None, estimate_k1)
+
     # Solve with every prior first (a focal prior keeps a weakly determined f from wandering), then
-    # judge what the segments alone say about f there, and drop EXIF where it is not wanted.
+    # judge what the segments alone say about f there, and drop EXIF where it is not wanted; the
+    # segments off their vanishing points are left out there (.robust).
     prior_f = focal if focal is not None else exif_focal
-    y, R = problem.solve(problem.start(f0, c_init), R0, prior_f)
+    f_fallback = start_prior.value if start_prior else NOMINAL_FOCAL_REL * scale
+
+    def restart(ax: list[str]) -> tuple[Array, Array]:  # a start from these axes alone
+        f, c = _closed_form_start(fits, [a for a in finite if a in ax], c0, f_fallback)
+        R, _ = rotation_from_vanishing_points(intrinsic_matrix(f, *c), {a: fits[a].point for a in ax}, segs)
+        return make(polys, axes, sigmas).start(f, c), R
+
+    screened = screened_solve(polys, sigmas, start, make, restart, prior_f, make(polys, axes, sigmas).start(f0, c_init),
+                              R0, photo)
+    problem, y, R = screened.problem, screened.y, screened.R
     bend = None
-    if straightness:  # k1 estimated only where the lines bend (.bending)
-        bend, held, y_h, R_h, free = bending_test(problem, y, R, prior_f, polys, axes, sigmas, scale, c0, sigma_c,
-                                            distortion)
+    if straightness:  # k1 estimated only where the kept segments bend (.bending)
+        live = [a for a in axes if a not in screened.dropped]
+        kept = {a: [p for p, k in zip(polys[a], screened.keep[a], strict=True) if k] for a in live}
+        kept_sigmas = {a: np.asarray(sigmas[a])[screened.keep[a]] for a in live}
+        bend, held, y_h, R_h, free = bending_test(problem, y, R, prior_f, kept, live, kept_sigmas, scale, c0,
+                                                  sigma_c, distortion)
         if not bend.bends:
             problem, y, R, estimate_k1 = held, y_h, R_h, False
     sigma_f_seg, sigma_c_seg = problem.segment_information(y, R)
@@ -382,7 +411,7 @@ def calibrate_photo(
     J = problem.jacobian(y, R, prior_f)
     r = problem.residuals(problem.at_rotation(y), R, prior_f)
     vf = problem.variance_factor(J, r)
-    cov_y = problem.covariance(J, vf)
+    cov_y = problem.covariance(J, problem.variance_factor(J, r, intervals=True))
     if bend is not None and not bend.bends:  # k1 held, as uncertain as the lines leave it
         cov_y = consider_covariance(free, y, R, prior_f, problem.k1_fixed, cov_y, bend)
     S = np.diag([scale, scale, scale, 1.0, 1.0, 1.0, 1.0])
@@ -410,8 +439,11 @@ def calibrate_photo(
         _focal_reason(rel_seg, focal, exif_focal, exif_check, exif_combined, exif_rejected, prior_dominates),
         _principal_point_reason(mode, sigma_c_seg, sigma_c, c_where, vf),
         distortion_clause(k1, k1_sigma, straightness, distortion, bend, K, width, height),
-    ])
-    U = problem.undistorted(y)
+    ] + ([screened.describe()] if screened.rejected else []))
+    # residuals of every segment, index for index with the marks (k1 as solved, or as held)
+    every = (held_problem(polys, axes, sigmas, scale, c0, sigma_c, distortion) if bend is not None and not bend.bends
+             else make(polys, axes, sigmas))
+    U = every.undistorted(y)
     vps = {a: K @ R[:, "xyz".index(a)] for a in axes}
     return PhotoCalibration(
         photo=photo,
@@ -424,13 +456,14 @@ def calibrate_photo(
         R=R,
         covariance=cov7[:6, :6].copy(),
         vanishing_points=vps,
-        segment_residuals_px={a: problem.reported_residuals(U, a, vps[a]) for a in axes},
+        segment_residuals_px={a: every.reported_residuals(U, a, vps[a]) for a in axes},
         k1=float(k1),
         k1_sigma=k1_sigma,
         k1_source=k1_source(straightness, distortion, bend),
         covariance_k1=cov7,
         exif_check=exif_check,
         distortion_test=bend,
+        rejected_segments={a: tuple(r) for a, r in screened.rejected.items()},
     )
 
 
@@ -470,22 +503,6 @@ def _lines_alone(problem: JointProblem, y: Array, R: Array) -> _LinesAlone:
     J = problem.jacobian(y, R, None)
     r = problem.residuals(problem.at_rotation(y), R, None)
     return _LinesAlone(y, R, sigma_f_seg, sigma_c_seg, problem.variance_factor(J, r), float(r @ r), problem.scale)
-
-
-def _segment_sigmas(polys: Mapping[str, list], axes: list[str], click_sigma_px: float,
-                    given: Mapping[str, ArrayLike] | None, photo: str) -> dict[str, Array]:
-    """Each segment's 1σ by axis: the given one, else the click's."""
-    out = {}
-    for a in axes:
-        sig = np.full(len(polys[a]), float(click_sigma_px))
-        if given is not None and a in given:
-            g = np.asarray(given[a], float).ravel()
-            if len(g) != len(sig) or not np.all(np.isfinite(g) & (g > 0)):
-                raise CalibrationError(photo, f"the 1σ of the {a} segments: expected {len(sig)} finite values > 0 "
-                                       f"(one per segment), got {len(g)}")
-            sig = g
-        out[a] = sig
-    return out
 
 
 def _flat(s: ArrayLike) -> list:
