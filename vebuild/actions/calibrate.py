@@ -452,16 +452,20 @@ def _results(data: dict[str, Any], photos: dict[str, PhotoCalibration], placemen
         cov = cam.covariance
         sig = np.sqrt(np.maximum(np.diag(cov), 0.0))
         marker_res = {n: json_values(d) for n, d in cam.marker_residuals_px.items() if ":" not in n}
-        seg_res = np.concatenate(list(cal.segment_residuals_px.values()))
+        seg_res = np.concatenate([cal.kept_residuals_px(a) for a in cal.segment_residuals_px])
         mark = np.concatenate([np.asarray(d).ravel() for d in cam.marker_residuals_px.values()] or [np.zeros(0)])
         all_res = np.concatenate([seg_res, mark])
         vps = {}
         for a in cal.vanishing_points:
             # Report the vanishing point where the refined camera puts it.
             vp = cam.K @ cam.R[:, "xyz".index(a)]
-            res = cal.segment_residuals_px[a]
+            res, kept = cal.segment_residuals_px[a], cal.kept_residuals_px(a)
+            kept = kept if len(kept) else res  # an axis left out whole: all its segments'
             vps[a] = {"point": json_values(vp / np.linalg.norm(vp)), "residuals_px": json_values(res),
-                      "rms_px": float(np.sqrt(np.mean(res**2)))}
+                      "rms_px": float(np.sqrt(np.mean(kept**2)))}
+            if a in cal.rejected_segments:  # left out as not meeting at the point (calibration/robust.py)
+                vps[a]["rejected"] = [{"segment": r.index, "misfit_sigmas": r.misfit_sigmas, "reason": r.reason}
+                                      for r in cal.rejected_segments[a]]
         # A photo whose lens was neither estimated nor given is a pinhole: no record (FORMAT.md).
         distortion = None
         if cal.k1_source != "none" or cam.k1 != 0.0:

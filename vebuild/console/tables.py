@@ -81,7 +81,8 @@ def calibration_table(result: dict[str, Any]) -> str:
         ]
         if cam.get("placement", {}).get("how") == "alone":
             lines.append(f"  placed alone     scale from {cam['placement']['scale']}")
-        vp = "  ".join(f"{a}: {v['rms_px']:.2f} px ({len(v['residuals_px'])} segments)"
+        vp = "  ".join(f"{a}: {v['rms_px']:.2f} px ({len(v['residuals_px'])} segments"
+                       + (f", {len(v['rejected'])} rejected" if v.get("rejected") else "") + ")"
                        for a, v in cam["vanishing_points"].items())
         if vp:
             lines.append(f"  residuals        segments {vp}")
