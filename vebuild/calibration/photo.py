@@ -351,8 +351,13 @@ def calibrate_photo(
         R, _ = rotation_from_vanishing_points(intrinsic_matrix(f, *c), {a: fits[a].point for a in ax}, segs)
         return make(polys, axes, sigmas).start(f, c), R
 
-    screened = screened_solve(polys, sigmas, start, make, restart, prior_f, make(polys, axes, sigmas).start(f0, c_init),
-                              R0, photo)
+    try:
+        screened = screened_solve(polys, sigmas, start, make, restart, prior_f,
+                                  make(polys, axes, sigmas).start(f0, c_init), R0, photo)
+    except CalibrationError:
+        if not_orthogonal is not None:  # the sharper reason: no real f makes two of them orthogonal
+            raise not_orthogonal from None
+        raise
     problem, y, R = screened.problem, screened.y, screened.R
     bend = None
     if straightness:  # k1 estimated only where the kept segments bend (.bending)
