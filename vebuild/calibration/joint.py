@@ -255,14 +255,16 @@ class JointProblem:
             sigma_c = float(np.sqrt(max(np.linalg.eigvalsh(cov[1:3, 1:3]).max(), 0.0))) * self.scale
         return sigma_f, sigma_c
 
-    def variance_factor(self, J: Array, r: Array, intervals: bool = False) -> float:
+    def variance_factor(self, J: Array, r: Array, intervals: bool = False, tested: bool = True) -> float:
         """σ0²: 1 unless the marks reject the stated click noise (VARIANCE_TEST_QUANTILE), else χ²/dof.
 
         dof counts the independent residuals less the parameters the marks determine (the trace of
         the hat matrix of the data rows: a parameter fixed by its prior uses none of them). With
         ``intervals``, a σ0² estimated from the marks is widened by (t₀.₉₇₅,dof / z₀.₉₇₅)²: an
         interval whose variance is estimated from dof residuals is Student's t, not normal, so that
-        ± 1.96σ then holds 95 % (1.29× the variance at dof = 10, 1.03× at 100)."""
+        ± 1.96σ then holds 95 % (1.29× the variance at dof = 10, 1.03× at 100). Not ``tested``
+        (where segments were rejected as clutter: the rest may hold clutter too small to reject
+        one by one), any excess over the stated noise is taken as measured, without the test."""
         from scipy.stats import chi2, norm, t  # imported at first use: docs/start-up.md
 
         n = self.n_data
@@ -274,7 +276,7 @@ class JointProblem:
         if dof <= 0.5:
             return 1.0
         x2 = float(r[:n] @ r[:n])
-        if x2 <= chi2.ppf(VARIANCE_TEST_QUANTILE, dof):
+        if x2 <= (chi2.ppf(VARIANCE_TEST_QUANTILE, dof) if tested else dof):
             return 1.0
         return x2 / dof * (float(t.ppf(0.975, dof) / norm.ppf(0.975)) ** 2 if intervals else 1.0)
 

@@ -33,8 +33,9 @@ with its reason (the photo then rests on its other axes, and says so in its mode
 left with fewer than two axes is refused, never calibrated from clutter.
 
 What remains is tested against the stated noise as a whole (:meth:`.joint.JointProblem.variance_factor`):
-where the χ² test rejects it, every 1σ is widened by the measured excess, with Student's t for
-its degrees of freedom (docs/accuracy.md).
+where the χ² test rejects it (where segments were rejected: wherever χ² exceeds its degrees of
+freedom), every 1σ is widened by the measured excess, with Student's t for its degrees of freedom
+(docs/accuracy.md).
 """
 
 from __future__ import annotations
