@@ -9,6 +9,7 @@ two vanishing points that no real focal length makes orthogonal.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import dataclass
 from itertools import combinations
 
 import numpy as np
@@ -302,6 +303,44 @@ class JointProblem:
             rk = r[self.pid == k]
             out.append(np.sign(r[self.first[k]]) * np.sqrt(np.mean(rk**2)))
         return np.array(out)
+
+
+@dataclass(frozen=True)
+class LinesAlone:
+    """A photo's solution with no focal prior: what its lines alone say about f.
+
+    sigma_f_seg, sigma_c_seg : JointProblem.segment_information there (pixels); vf : the marks'
+    variance factor there; cost : the sum of the squared (whitened) residuals there; sigma_f :
+    sigma_f_seg widened by √vf where the marks fit worse than the stated click noise."""
+
+    y: Array
+    R: Array
+    sigma_f_seg: float
+    sigma_c_seg: float
+    vf: float
+    cost: float
+    scale: float
+
+    @property
+    def f(self) -> float:
+        return float(self.y[0] * self.scale)
+
+    @property
+    def rel_sigma_f_seg(self) -> float:
+        return self.sigma_f_seg / self.f
+
+    @property
+    def sigma_f(self) -> float:
+        return float(self.sigma_f_seg * np.sqrt(max(self.vf, 1.0)))
+
+
+def lines_alone(problem: JointProblem, y: Array, R: Array) -> LinesAlone:
+    """The solution without a focal prior, solved from (y, R)."""
+    y, R = problem.solve(y, R, None)
+    sigma_f_seg, sigma_c_seg = problem.segment_information(y, R)
+    J = problem.jacobian(y, R, None)
+    r = problem.residuals(problem.at_rotation(y), R, None)
+    return LinesAlone(y, R, sigma_f_seg, sigma_c_seg, problem.variance_factor(J, r), float(r @ r), problem.scale)
 
 
 def _safe_inverse(info: Array) -> Array | None:

@@ -40,7 +40,7 @@ from ..determinism import deterministic
 from ..errors import CalibrationError
 from .bending import DistortionTest, bending_test, consider_covariance, distortion_clause, held_problem, k1_source
 from .intrinsics import focal_squared, orthocentre, rotation_from_vanishing_points
-from .joint import JointProblem, check_orthogonal_pairs
+from .joint import JointProblem, check_orthogonal_pairs, lines_alone
 from .lsq import numeric_jacobian, photo_numeric_failures
 from .priors import (
     PRINCIPAL_POINT_SIGMA_REL,
@@ -385,7 +385,7 @@ def calibrate_photo(
         exif_combined = focal is None and sigma_f_seg >= EXIF_COMBINE_MIN_SIGMA_RATIO * exif_focal.sigma
         # Lines that fix f to no better than FOCAL_UNDETERMINED_REL_SIGMA here, with the prior, cannot
         # cross-check it: no solve without it is needed (frontal and corridor views, mostly).
-        alone = None if exif_combined and not rel_seg <= FOCAL_UNDETERMINED_REL_SIGMA else _lines_alone(problem, y, R)
+        alone = None if exif_combined and not rel_seg <= FOCAL_UNDETERMINED_REL_SIGMA else lines_alone(problem, y, R)
         if alone is not None and alone.rel_sigma_f_seg <= FOCAL_UNDETERMINED_REL_SIGMA:
             # How far apart (ExifCheck): the solution with EXIF's prior is this one, unless the user's
             # prior was used; the lines' 1σ the wider of theirs alone and theirs where EXIF puts f.
@@ -470,44 +470,6 @@ def calibrate_photo(
         distortion_test=bend,
         rejected_segments={a: tuple(r) for a, r in screened.rejected.items()},
     )
-
-
-@dataclass(frozen=True)
-class _LinesAlone:
-    """A photo's solution with no focal prior: what its lines alone say about f.
-
-    sigma_f_seg, sigma_c_seg : JointProblem.segment_information there (pixels); vf : the marks'
-    variance factor there; cost : the sum of the squared (whitened) residuals there; sigma_f :
-    sigma_f_seg widened by √vf where the marks fit worse than the stated click noise."""
-
-    y: Array
-    R: Array
-    sigma_f_seg: float
-    sigma_c_seg: float
-    vf: float
-    cost: float
-    scale: float
-
-    @property
-    def f(self) -> float:
-        return float(self.y[0] * self.scale)
-
-    @property
-    def rel_sigma_f_seg(self) -> float:
-        return self.sigma_f_seg / self.f
-
-    @property
-    def sigma_f(self) -> float:
-        return float(self.sigma_f_seg * np.sqrt(max(self.vf, 1.0)))
-
-
-def _lines_alone(problem: JointProblem, y: Array, R: Array) -> _LinesAlone:
-    """The solution without a focal prior, solved from (y, R)."""
-    y, R = problem.solve(y, R, None)
-    sigma_f_seg, sigma_c_seg = problem.segment_information(y, R)
-    J = problem.jacobian(y, R, None)
-    r = problem.residuals(problem.at_rotation(y), R, None)
-    return _LinesAlone(y, R, sigma_f_seg, sigma_c_seg, problem.variance_factor(J, r), float(r @ r), problem.scale)
 
 
 def _flat(s: ArrayLike) -> list:

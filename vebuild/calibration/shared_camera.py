@@ -45,10 +45,10 @@ from .photo import (
     PhotoCalibration,
     _flat,
     _pct,
-    _segment_sigmas,
     calibrate_photo,
 )
 from .priors import PRINCIPAL_POINT_SIGMA_REL, DistortionPrior, ExifCheck, FocalPrior
+from .robust import segment_sigmas
 from .vanishing import as_polylines
 
 Array = NDArray[np.float64]
@@ -336,13 +336,33 @@ def _straightness(m: GroupMember) -> bool:
     return any(len(q) > 2 for ps in _polys(m).values() for q in ps)
 
 
-def _problem_of(m: GroupMember, estimate_k1: bool, scale: float, c0: Array, sigma_c: float) -> JointProblem:
+def _problem_of(m: GroupMember, own: PhotoCalibration | None, estimate_k1: bool, scale: float, c0: Array,
+                sigma_c: float) -> JointProblem:
+    """The photo's rows of the group's problem: its segments less those its own calibration rejected
+    (.robust: clutter, slopes; an axis left out whole goes)."""
     kw = m.kwargs
     polys = _polys(m)
     axes = [a for a in "xyz" if a in polys]
-    sigmas = _segment_sigmas(polys, axes, float(kw.get("click_sigma_px", 1.0)), kw.get("segment_sigma_px"),
-                             m.photo)
-    return JointProblem(polys, axes, sigmas, scale, c0, sigma_c, None, estimate_k1)
+    sigmas = segment_sigmas(polys, axes, float(kw.get("click_sigma_px", 1.0)), kw.get("segment_sigma_px"), m.photo)
+    rejected = own.rejected_segments if own is not None else {}
+    for a in list(axes):
+        out = {r.index for r in rejected.get(a, ())}
+        kept = [k for k in range(len(polys[a])) if k not in out]
+        if len(kept) < 2:
+            axes.remove(a)
+            continue
+        polys[a] = [polys[a][k] for k in kept]
+        sigmas[a] = np.asarray(sigmas[a])[kept]
+    return JointProblem({a: polys[a] for a in axes}, axes, {a: sigmas[a] for a in axes}, scale, c0, sigma_c, None,
+                        estimate_k1)
+
+
+def _bends(m: GroupMember, own: PhotoCalibration | None) -> bool:
+    """Whether the photo's lines ask for k1: polylines, and its own calibration's test (.bending)
+    did not hold k1 (a photo that could not be calibrated alone counts by its polylines)."""
+    if not _straightness(m):
+        return False
+    return own is None or own.distortion_test is None or own.distortion_test.bends
 
 
 def _solve(active: Sequence[GroupMember], starts: Mapping[str, PhotoCalibration], f_start: float,
@@ -355,8 +375,8 @@ def _solve(active: Sequence[GroupMember], starts: Mapping[str, PhotoCalibration]
         c0 = np.array([width / 2.0, height / 2.0])
         sigma_c = float(kw0.get("principal_point_sigma_rel", PRINCIPAL_POINT_SIGMA_REL)) * scale
     distortion = next((m.kwargs.get("distortion") for m in active if m.kwargs.get("distortion") is not None), None)
-    estimate_k1 = distortion is not None or any(_straightness(m) for m in active)
-    problems = [_problem_of(m, estimate_k1, scale, c0, sigma_c) for m in active]
+    estimate_k1 = distortion is not None or any(_bends(m, starts.get(m.photo)) for m in active)
+    problems = [_problem_of(m, starts.get(m.photo), estimate_k1, scale, c0, sigma_c) for m in active]
     problem = SharedProblem(problems, scale, c0, sigma_c, distortion, estimate_k1)
     R0 = [starts[m.photo].R for m in active]
     k1_0 = distortion.k1 if distortion is not None else 0.0
