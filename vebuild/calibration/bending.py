@@ -123,7 +123,7 @@ def bending_test(problem: JointProblem, y: Array, R: Array, prior_f: FocalPrior 
 
 
 def consider_covariance(free: JointProblem, y: Array, R: Array, prior_f: FocalPrior | None, k1: float,
-                        held_cov: Array, test: DistortionTest) -> Array:
+                        held_cov: Array, test: DistortionTest, vf: float) -> Array:
     """(7, 7) covariance of the held solution (y, R), k1's own row and column 0 since it is held.
 
     k1 is a *consider* parameter: held, not estimated, but as uncertain as the lines (and the lens
@@ -133,11 +133,11 @@ def consider_covariance(free: JointProblem, y: Array, R: Array, prior_f: FocalPr
     held value, σ² + k̂², is σ² (1 + T) with T the test's statistic (Wald's form of it), so the
     covariance is P + (1 + T)(M − P). Holding k1 at 0 where a lens bends less than the test detects
     moves c and f (:data:`DISTORTION_TEST_LEVEL`: with P alone, too few principal points lie inside
-    their ellipses).
+    their ellipses). ``vf`` is the variance factor P was widened by (the marks' excess noise), M's
+    too: with another, M − P would mix two noise levels and could narrow P.
     """
     z = np.r_[y[:6], k1]
     J = free.jacobian(z, R, prior_f)
-    vf = free.variance_factor(J, free.residuals(free.at_rotation(z), R, prior_f))
     M = free.covariance(J, vf)
     M[6, :] = M[:, 6] = 0.0
     return held_cov + (1.0 + test.statistic) * (M - held_cov)

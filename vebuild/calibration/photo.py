@@ -416,9 +416,10 @@ def calibrate_photo(
     J = problem.jacobian(y, R, prior_f)
     r = problem.residuals(problem.at_rotation(y), R, prior_f)
     vf = problem.variance_factor(J, r)
-    cov_y = problem.covariance(J, problem.variance_factor(J, r, intervals=True, tested=not screened.rejected))
+    vf_intervals = problem.variance_factor(J, r, intervals=True, tested=not screened.rejected)
+    cov_y = problem.covariance(J, vf_intervals)
     if bend is not None and not bend.bends:  # k1 held, as uncertain as the lines leave it
-        cov_y = consider_covariance(free, y, R, prior_f, problem.k1_fixed, cov_y, bend)
+        cov_y = consider_covariance(free, y, R, prior_f, problem.k1_fixed, cov_y, bend, vf_intervals)
     S = np.diag([scale, scale, scale, 1.0, 1.0, 1.0, 1.0])
     cov7 = S @ cov_y @ S
     f, cx, cy = y[:3] * scale
