@@ -282,7 +282,8 @@ def _place_jointly(project: Project, photos: dict[str, PhotoCalibration], joint:
                 warnings.append(f"photo '{pid}': marker '{n}' is marked in this photo only, so it is not placed; "
                                 "mark it in a second photo (or mark it on_floor if it lies on the floor)")
         cov, k1, k1_sigma = _distortion_prior(cal)
-        inputs.append(PhotoInput(pid, cal.K, cal.R, cov, marks, k1, k1_sigma))
+        inputs.append(PhotoInput(pid, cal.K, cal.R, cov, marks, k1, k1_sigma,
+                                 corner_px=0.5 * float(np.hypot(cal.width, cal.height))))
         sources = _scale_sources(data, pid, obs_of[pid], refs, floor, with_floor_distances=False)
         if sources:
             h, sigma, _ = camera_height_estimate(pid, cal.K, cal.R, cov, sources, k1=k1, click_sigma_px=click)
@@ -299,7 +300,7 @@ def _place_jointly(project: Project, photos: dict[str, PhotoCalibration], joint:
                                + ", ".join(f"{d.a}–{d.b}" for d in scales) + " join markers that the joint "
                                f"placement cannot place ({where}); mark them in two or more of the photos that see "
                                "the origin, or tie the photos that show them to those with shared markers")
-    return place_cameras(
+    placement = place_cameras(
         inputs,
         origin=data.get("origin_marker"),
         known_markers=known,
@@ -308,6 +309,8 @@ def _place_jointly(project: Project, photos: dict[str, PhotoCalibration], joint:
         camera_heights=heights,
         groups=groups,
     )
+    warnings += placement.warnings
+    return placement
 
 
 def _distortion_prior(cal: PhotoCalibration) -> tuple[np.ndarray, float, float]:

@@ -27,7 +27,7 @@ A photo placed alone, from the floor plane, is :mod:`vebuild.calibration.single_
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -45,6 +45,7 @@ from .lsq import (
     propagated_variance,
     variance_factor,
 )
+from .placement_checks import K1_CORNER_RANGE, check_camera_covariances, contradictions, k1_in_range
 from .start import initial_positions
 
 Array = NDArray[np.float64]
@@ -67,6 +68,8 @@ class PhotoInput:
     markers: Mapping[str, Array]
     k1: float = 0.0
     k1_sigma: float = 0.0
+    #: the half diagonal of the photo in pixels (0: not known), for the range of real lenses' k1
+    corner_px: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -129,6 +132,12 @@ class Placement:
     variance_factor: float
     #: photo id → (camera height above the floor, 1σ) each photo's own scale gave (``camera_heights``)
     camera_heights: dict[str, tuple[float, float]] = field(default_factory=dict)
+    #: what the placement's own checks found (:mod:`.placement_checks`), one sentence each
+    warnings: list[str] = field(default_factory=list)
+    #: photo id → the factor its σ were widened by, where its markers contradicted its prior
+    widened: dict[str, float] = field(default_factory=dict)
+    #: photo id → its vanishing-point prior's variance factor, where its markers contradicted it
+    prior_factors: dict[str, float] = field(default_factory=dict)
 
 
 @deterministic
@@ -210,7 +219,47 @@ def place_cameras(
                                "number: check the distances' values and the markers' clicks")
     C = {k: v * s for k, v in C.items()}
     X = {k: (known[k] if k in known else v * s) for k, v in X.items()}
-    return _refine(by_id, C, X, origin, known, distances, click_sigma_px, heights, groups)
+    placement = _refine_honest(by_id, C, X, origin, known, distances, click_sigma_px, heights, groups)
+    # A k1 beyond what real lenses have is a misfit absorbed: solved again with it held (placement_checks).
+    wild = [p for p in photos if p.covariance.shape == (7, 7) and not k1_in_range(
+        placement.cameras[p.id].k1, p.corner_px, float(placement.cameras[p.id].K[0, 0]))]
+    if not wild:
+        return placement
+    held = {p.id: replace(p, covariance=p.covariance[:6, :6], k1_sigma=float(np.sqrt(p.covariance[6, 6])))
+            for p in wild}
+    again = _refine_honest({i: held.get(i, p) for i, p in by_id.items()}, C, X, origin, known, distances,
+                           click_sigma_px, heights, groups)
+    notes = [f"photo '{p.id}': the joint placement moved its lens distortion k1 from {p.k1:+.3g} to "
+             f"{placement.cameras[p.id].k1:+.3g}, beyond what real lenses have (a corner displaced by "
+             f"{K1_CORNER_RANGE[0]:+.0%}…{K1_CORNER_RANGE[1]:+.0%}): a misfit of its vanishing lines and markers, not "
+             "its lens; k1 is held at its calibration's value. Check its vanishing lines and markers" for p in wild]
+    return replace(again, warnings=notes + again.warnings)
+
+
+#: How often a contradicted photo's prior is widened by its variance factor and the solve run again.
+PRIOR_REWEIGHTINGS = 4
+
+
+def _refine_honest(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mapping[str, Array],
+                   origin: str, known: Mapping[str, Array], distances: Sequence[ReferenceDistance],
+                   click_sigma: float, heights: Mapping[str, tuple[float, float]],
+                   groups: Sequence[CameraGroupPrior] = ()) -> Placement:
+    """:func:`_refine`, then, while a photo's markers contradict its vanishing-point prior
+    (:mod:`.placement_checks`), that prior's covariance widened by the photo's variance factor and
+    the solve run again (variance component estimation): a wrong prior held at its stated σ drags
+    f, c and k1 with it; widened, the markers place the camera. The first warning per photo is kept."""
+    by = dict(photos)
+    notes: dict[str, str] = {}
+    for _ in range(PRIOR_REWEIGHTINGS):
+        placement = _refine(by, C0, X0, origin, known, distances, click_sigma, heights, groups)
+        for w in placement.warnings:
+            notes.setdefault(w.split("'")[1], w)
+        if not placement.prior_factors:
+            break
+        g = placement.prior_factors
+        by = {i: replace(p, covariance=p.covariance * g.get(i, 1.0), k1_sigma=p.k1_sigma * np.sqrt(g.get(i, 1.0)))
+              for i, p in by.items()}
+    return replace(placement, warnings=list(notes.values()))
 
 
 #: Two scale distances whose implied scales differ by more than this factor contradict each other.
@@ -558,8 +607,10 @@ def _refine(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mappi
                                "number (a marker in the camera's plane, or a camera on a marker); check that marker's "
                                "clicks and the photo's vanishing lines")
     try:
-        # Soft-L1 on every row (markers, priors, distances, heights), as in :mod:`.lm`.
-        x = levenberg_marquardt(residuals, jacobian, x0, _unbounded, robust_rows=n_res,
+        # Soft-L1 on the markers' rows only: the priors, distances and heights are Gaussian, as the
+        # covariance below takes them (a prior down-weighted in the solve but not in the covariance
+        # let k1, f and c run far from it with a σ as if it had held).
+        x = levenberg_marquardt(residuals, jacobian, x0, _unbounded, robust_rows=r_prior,
                                 robust_scale=ROBUST_SCALE, tol=1e-10).x
         with np.errstate(all="ignore"):  # a non-finite residual is reported below, not warned about
             res = residuals(x)
@@ -577,6 +628,12 @@ def _refine(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mappi
                                "a photo's vanishing lines or marker clicks make it degenerate: check the photos "
                                "with the fewest markers first") from None
 
+    cam_cols = [np.r_[idx9[k], [k1_col[k]] if k in k1_col else []].astype(int) for k in range(len(ids))]
+    check_camera_covariances(ids, cov, cam_cols, [int(np.sum(obs_cam == k)) for k in range(len(ids))])
+    # Each photo's share of χ² and of the redundancy (its markers' rows, its prior's): contradictions.
+    mark_rows = [rows_obs[obs_cam == k].ravel() for k in range(len(ids))]
+    notes, widen, prior_factor = contradictions(ids, res, J, cov_unscaled, s2, mark_rows,
+                                  [prior_rows[k] + np.arange(n_prior[k]) for k in range(len(ids))], click_sigma)
     fc, R, C, k1, Xa = unpack(x)
     X = {n: Xa[m_index[n]] for n in all_markers}
     # A click is an outlier where it lies from where the other observations put it (its deleted
@@ -593,8 +650,9 @@ def _refine(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mappi
         away = {n: float(np.linalg.norm(offsets[o]) * click_sigma) for o, (j, n, _) in enumerate(obs)
                 if j == i and n in outl}
         sl = idx9[k]
-        k1_sigma = float(np.sqrt(max(cov[k1_col[k], k1_col[k]], 0.0))) if k in k1_col else photos[i].k1_sigma
-        cameras[i] = PlacedCamera(i, K, R[k].copy(), C[k].copy(), cov[np.ix_(sl, sl)].copy(), resid, outl,
+        k1_sigma = (float(np.sqrt(max(cov[k1_col[k], k1_col[k]] * widen[k], 0.0))) if k in k1_col
+                    else photos[i].k1_sigma)
+        cameras[i] = PlacedCamera(i, K, R[k].copy(), C[k].copy(), cov[np.ix_(sl, sl)] * widen[k], resid, outl,
                                   float(k1[k]), k1_sigma, away)
     markers = {}
     for n in sorted(X):
@@ -613,4 +671,6 @@ def _refine(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mappi
         if d.b in col:
             g[col[d.b] : col[d.b] + 3] -= u
         measured.append(MeasuredDistance(d, dist, float(np.sqrt(propagated_variance(g, cov)))))
-    return Placement(cameras, markers, measured, origin, s2, dict(heights))
+    return Placement(cameras, markers, measured, origin, s2, dict(heights), notes,
+                     {i: float(np.sqrt(widen[k])) for k, i in enumerate(ids) if widen[k] > 1.0},
+                     {i: float(prior_factor[k]) for k, i in enumerate(ids) if prior_factor[k] > 1.0})
