@@ -41,6 +41,9 @@ PHOTO_CHI2_P = 0.001
 #: are not the division model's one-parameter business.
 K1_CORNER_RANGE = (-0.8, 0.4)
 
+#: Rows of the Jacobian made dense at a time for the leverages (a house's placement has thousands).
+LEVERAGE_ROWS = 1024
+
 
 def k1_in_range(k1: float, corner_px: float, f: float) -> bool:
     """Whether k1 displaces the corner (``corner_px`` from the principal point, focal length ``f``
@@ -56,11 +59,15 @@ def leverages(J: Any, cov: Array) -> Array:
     touching an undetermined (infinite) column counts as fully used (h = 1)."""
     from scipy import sparse
 
-    Jd = J.toarray() if sparse.issparse(J) else np.asarray(J, float)
+    Js = sparse.csr_matrix(J)
     finite = np.all(np.isfinite(cov), axis=0)
     c = np.where(np.isfinite(cov), cov, 0.0)
-    h = np.einsum("ij,ij->i", Jd @ c, Jd)
-    h[np.any(Jd[:, ~finite] != 0.0, axis=1)] = 1.0
+    h = np.empty(Js.shape[0])
+    for a in range(0, Js.shape[0], LEVERAGE_ROWS):  # a block of rows at a time: J dense would not fit
+        Jd = Js[a : a + LEVERAGE_ROWS].toarray()
+        hb = np.einsum("ij,ij->i", Jd @ c, Jd)
+        hb[np.any(Jd[:, ~finite] != 0.0, axis=1)] = 1.0
+        h[a : a + LEVERAGE_ROWS] = hb
     return np.clip(h, 0.0, 1.0)
 
 
