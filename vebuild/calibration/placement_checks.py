@@ -103,8 +103,9 @@ def check_camera_covariances(ids: Sequence[str], cov: Array, blocks: Sequence[Ar
             raise CalibrationError(
                 pid, f"the joint placement cannot determine this camera (its covariance is not finite: its {n} "
                 "markers, its vanishing lines and the other photos do not fix its focal length, rotation and "
-                "position together); mark more markers it shares with the other photos, spread over the photo "
-                "(6 or more), and check its vanishing lines")
+                "position together: too few markers, or markers that cannot tell its focal length from its distance, "
+                "as where its vanishing lines give a focal length far too long); check its vanishing lines, and mark "
+                "more markers it shares with the other photos, spread over it and at different depths (6 or more)")
 
 
 def contradictions(ids: Sequence[str], res: Array, J: Any, cov0: Array, s2: float, mark_rows: Sequence[Array],
