@@ -61,7 +61,7 @@ def misfit(placement: Placement, obs_of: dict[str, dict[str, np.ndarray]]) -> tu
     turned, which the orientation test could not tell (too few shared markers); with its reason and
     the one action that lets the test tell it. None where no photo misses so."""
     worst: tuple[float, str, list[float]] | None = None
-    for pid, cam in placement.cameras.items():
+    for pid, cam in (placement.unwidened or placement).cameras.items():
         n = len([m for m in cam.marker_residuals_px if ":" not in m])
         away = [cam.outlier_offsets_px.get(m, 0.0) for m in cam.outliers if ":" not in m]
         if len(away) >= 2 and 2 * len(away) >= n and (worst is None or len(away) / n > worst[0]):

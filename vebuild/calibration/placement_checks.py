@@ -18,13 +18,14 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import CalibrationError
+from .placement_types import PhotoInput, ReferenceDistance
 
 Array = NDArray[np.float64]
 
@@ -129,3 +130,39 @@ def contradictions(ids: Sequence[str], res: Array, J: Any, cov0: Array, s2: floa
             notes.append(contradiction_warning(ids[k], chi2, dof, rms, click_sigma, float(np.sqrt(pr @ pr)),
                                                float(np.sqrt(widen[k]))))
     return notes, widen, prior_factor
+
+
+def check_finite_inputs(photos: Sequence[PhotoInput], known: Mapping[str, Array],
+                         distances: Sequence[ReferenceDistance]) -> None:
+    """Every number going into the placement is finite, else a CalibrationError naming its owner."""
+    for p in photos:
+        for what, v in (("focal length and principal point (K)", p.K), ("rotation (R)", p.R),
+                        ("calibration covariance", p.covariance)):
+            if not np.all(np.isfinite(np.asarray(v, float))):
+                raise CalibrationError(p.id, f"its {what} from the vanishing points is not a finite number; check its "
+                                       "vanishing lines (a near-degenerate set gives an infinite focal length)")
+        for name, uv in p.markers.items():
+            if np.shape(uv) != (2,) or not np.all(np.isfinite(np.asarray(uv, float))):
+                raise CalibrationError(p.id, f"marker '{name}': expected a finite pixel (u, v), got {uv!r}")
+    for name, pos in known.items():
+        if np.shape(pos) != (3,) or not np.all(np.isfinite(pos)):
+            raise CalibrationError(None, f"marker '{name}': its surveyed position is not three finite numbers")
+    for d in distances:
+        if not (np.isfinite(d.distance) and d.distance > 0 and np.isfinite(d.sigma) and d.sigma > 0):
+            raise CalibrationError(None, f"reference distance {d.a}–{d.b}: expected a length > 0 m and a σ > 0 m, "
+                                   f"got {d.distance!r} ± {d.sigma!r}")
+
+
+def check_finite_start(C: Mapping[str, Array], X: Mapping[str, Array]) -> None:
+    """The construction's camera and marker positions must be finite numbers (a photo's
+    vanishing points or clicks can make a ray parallel to a baseline)."""
+    for pid, c in C.items():
+        if not np.all(np.isfinite(c)):
+            raise CalibrationError(pid, "the camera's position from the construction is not a finite number: its "
+                                   "rays to the markers it shares with other photos are parallel to the baseline; "
+                                   "check its vanishing lines and marker clicks, or mark another shared marker")
+    for name, x in X.items():
+        if not np.all(np.isfinite(x)):
+            raise CalibrationError(None, f"marker '{name}': its position from the photos is not a finite number "
+                                   "(its rays from two photos are parallel); check its clicks, or mark it in a "
+                                   "photo taken from elsewhere")

@@ -103,3 +103,6 @@ class Placement:
     widened: dict[str, float] = field(default_factory=dict)
     #: photo id → its vanishing-point prior's variance factor, where its markers contradicted it
     prior_factors: dict[str, float] = field(default_factory=dict)
+    #: the placement before any prior was widened (where one was): the turned-photo test
+    #: (vebuild.actions.orientation) looks there, since a widened prior lets markers turn a camera
+    unwidened: Placement | None = None

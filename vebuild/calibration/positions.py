@@ -45,7 +45,14 @@ from .lsq import (
     propagated_variance,
     variance_factor,
 )
-from .placement_checks import K1_CORNER_RANGE, check_camera_covariances, contradictions, k1_in_range
+from .placement_checks import (
+    K1_CORNER_RANGE,
+    check_camera_covariances,
+    check_finite_inputs,
+    check_finite_start,
+    contradictions,
+    k1_in_range,
+)
 from .placement_types import (  # noqa: F401  (re-exported: the placement's words)
     TIE_SIGMA_K1,
     TIE_SIGMA_PX,
@@ -86,7 +93,7 @@ def place_cameras(
     known = {k: np.asarray(v, float) for k, v in (known_markers or {}).items()}
     heights = {i: (float(h), float(s)) for i, (h, s) in (camera_heights or {}).items()
                if i in {p.id for p in photos}}
-    _check_finite_inputs(photos, known, distances)
+    check_finite_inputs(photos, known, distances)
     for pid, (h, s) in heights.items():
         if not (np.isfinite(h) and h > 0 and np.isfinite(s) and s > 0):
             raise CalibrationError(pid, f"its camera height above the floor: expected a height > 0 m with a σ > 0 m, "
@@ -132,7 +139,7 @@ def place_cameras(
 
     by_id = {p.id: p for p in photos}
     C, X = initial_positions(photos, origin, known)
-    _check_finite_start(C, X)
+    check_finite_start(C, X)
     check_scale_distances(X, scale_refs)
     s = _metric_scale(X, known, scale_refs, origin, C, heights)
     if not (np.isfinite(s) and s > 0):
@@ -171,8 +178,19 @@ def _refine_honest(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0
     f, c and k1 with it; widened, the markers place the camera. The first warning per photo is kept."""
     by = dict(photos)
     notes: dict[str, str] = {}
+    placement: Placement | None = None
+    first: Placement | None = None
     for _ in range(PRIOR_REWEIGHTINGS):
-        placement = _refine(by, C0, X0, origin, known, distances, click_sigma, heights, groups)
+        try:
+            placement = _refine(by, C0, X0, origin, known, distances, click_sigma, heights, groups)
+            first = placement if first is None else first
+        except CalibrationError:
+            # Widened, the priors no longer fix every camera (a photo whose markers contradict its
+            # lines by a turn of its axes drags the others): the last placement that did stands,
+            # its contradiction said, for the caller's tests of turned photos (.orientation).
+            if placement is None:
+                raise
+            break
         for w in placement.warnings:
             notes.setdefault(w.split("'")[1], w)
         if not placement.prior_factors:
@@ -180,7 +198,8 @@ def _refine_honest(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0
         g = placement.prior_factors
         by = {i: replace(p, covariance=p.covariance * g.get(i, 1.0), k1_sigma=p.k1_sigma * np.sqrt(g.get(i, 1.0)))
               for i, p in by.items()}
-    return replace(placement, warnings=list(notes.values()))
+    assert placement is not None  # PRIOR_REWEIGHTINGS ≥ 1, and the first failure is raised
+    return replace(placement, warnings=list(notes.values()), unwidened=first if first is not placement else None)
 
 
 #: Two scale distances whose implied scales differ by more than this factor contradict each other.
@@ -216,42 +235,6 @@ def check_scale_distances(X: Mapping[str, Array], refs: Sequence[ReferenceDistan
             f"other by a factor of {factor:.3g}: where the photos place the markers, {a.a}–{a.b} is "
             f"{cur_a / cur_b:.3g}× as long as {b.a}–{b.b}, but the distances say {a.distance / b.distance:.3g}×. "
             "Check both values and their units (m), and that each joins the markers it names")
-
-
-def _check_finite_inputs(photos: Sequence[PhotoInput], known: Mapping[str, Array],
-                         distances: Sequence[ReferenceDistance]) -> None:
-    """Every number going into the placement is finite, else a CalibrationError naming its owner."""
-    for p in photos:
-        for what, v in (("focal length and principal point (K)", p.K), ("rotation (R)", p.R),
-                        ("calibration covariance", p.covariance)):
-            if not np.all(np.isfinite(np.asarray(v, float))):
-                raise CalibrationError(p.id, f"its {what} from the vanishing points is not a finite number; check its "
-                                       "vanishing lines (a near-degenerate set gives an infinite focal length)")
-        for name, uv in p.markers.items():
-            if np.shape(uv) != (2,) or not np.all(np.isfinite(np.asarray(uv, float))):
-                raise CalibrationError(p.id, f"marker '{name}': expected a finite pixel (u, v), got {uv!r}")
-    for name, pos in known.items():
-        if np.shape(pos) != (3,) or not np.all(np.isfinite(pos)):
-            raise CalibrationError(None, f"marker '{name}': its surveyed position is not three finite numbers")
-    for d in distances:
-        if not (np.isfinite(d.distance) and d.distance > 0 and np.isfinite(d.sigma) and d.sigma > 0):
-            raise CalibrationError(None, f"reference distance {d.a}–{d.b}: expected a length > 0 m and a σ > 0 m, "
-                                   f"got {d.distance!r} ± {d.sigma!r}")
-
-
-def _check_finite_start(C: Mapping[str, Array], X: Mapping[str, Array]) -> None:
-    """The construction's camera and marker positions must be finite numbers (a photo's
-    vanishing points or clicks can make a ray parallel to a baseline)."""
-    for pid, c in C.items():
-        if not np.all(np.isfinite(c)):
-            raise CalibrationError(pid, "the camera's position from the construction is not a finite number: its "
-                                   "rays to the markers it shares with other photos are parallel to the baseline; "
-                                   "check its vanishing lines and marker clicks, or mark another shared marker")
-    for name, x in X.items():
-        if not np.all(np.isfinite(x)):
-            raise CalibrationError(None, f"marker '{name}': its position from the photos is not a finite number "
-                                   "(its rays from two photos are parallel); check its clicks, or mark it in a "
-                                   "photo taken from elsewhere")
 
 
 def _metric_scale(X: Mapping[str, Array], known: Mapping[str, Array], refs: Sequence[ReferenceDistance],
