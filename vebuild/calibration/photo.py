@@ -372,10 +372,12 @@ def calibrate_photo(
     rel_seg = sigma_f_seg / (y[0] * scale)
     if not_orthogonal is not None:
         # Refused only where orthogonal directions cannot fit the marks, or fit them only with an
-        # undetermined f (a camera at infinite f makes any two directions "orthogonal").
+        # undetermined f (a camera at infinite f makes any two directions "orthogonal"), or, at a
+        # principal point the user gave, only by rejecting segments (the point is what is wrong).
         J = problem.jacobian(y, R, prior_f)
         vf = problem.variance_factor(J, problem.residuals(problem.at_rotation(y), R, prior_f))
-        if vf > MISLABEL_FIT_FACTOR or not rel_seg <= FOCAL_UNDETERMINED_REL_SIGMA:
+        if vf > MISLABEL_FIT_FACTOR or not rel_seg <= FOCAL_UNDETERMINED_REL_SIGMA or (
+                principal_point is not None and screened.rejected):
             raise not_orthogonal
     exif_combined = exif_rejected = False
     exif_check = None
