@@ -18,7 +18,7 @@ import pytest
 
 from vebuild.actions.calibrate import calibrate_project
 from vebuild.actions.detect import choice_from_segments, choice_turns, detect_project, group, photo_pixels
-from vebuild.calibration.axes_choice import MIN_SHARED_MARKERS, choose_turns, rz, two_view
+from vebuild.calibration.axes_choice import MIN_SHARED_MARKERS_TO_PROPOSE, choose_turns, rz, two_view
 from vebuild.cli import main
 from vebuild.errors import ProjectError
 from vebuild.project import load_project
@@ -79,7 +79,7 @@ def test_a_photo_sharing_too_few_markers_is_told_to_be_given_its_choice(tmp_path
     results = detect_project(project, x_axis="auto")
     msg = next(p.message for p, _ in results if p.photo == "p4")
     assert "not chosen, kept 'right'" in msg and "give --x-axis p4=CHOICE" in msg, msg
-    assert f"shares at most {kept} markers" in msg and f"{MIN_SHARED_MARKERS} are needed" in msg
+    assert f"shares at most {kept} markers" in msg and f"{MIN_SHARED_MARKERS_TO_PROPOSE} are needed" in msg
     chosen = _chosen(results)
     assert chosen["p4"] == "?"  # not chosen: its segments are directed as 'right' (below)
     assert {p: c for p, c in chosen.items() if p != "p4"} == {p: c for p, c in X_AXIS.items() if p != "p4"}

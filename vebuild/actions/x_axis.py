@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..calibration.axes_choice import choose_turns, direction_turn, turn_between
+from ..calibration.axes_choice import MIN_SHARED_MARKERS_TO_PROPOSE, choose_turns, direction_turn, turn_between
 from ..calibration.lines import X_AXIS_CHOICES
 from ..camera import intrinsic_matrix, undistort_pixels
 from ..project import Project
@@ -85,7 +85,7 @@ def auto_x_axes(project: Project, grouped: dict[str, Grouped], given: dict[str, 
         fixed = {ref: 0}
     if not ok:
         return {}, notes
-    decided = choose_turns(rotations, rays, fixed)
+    decided = choose_turns(rotations, rays, fixed, min_shared=MIN_SHARED_MARKERS_TO_PROPOSE)
     k = {pid: d.turn for pid, d in decided.items() if d.turn is not None}
     g_all = 0  # the turn applied to every photo after the choice
     if ref is not None:

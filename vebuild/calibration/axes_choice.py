@@ -31,6 +31,12 @@ Array = NDArray[np.float64]
 #: 12 000, all with the views 5–20° apart. Four decide 68–75 % of pairs, five 78–83 %, eight 90–95 %
 #: (0.3°); docs/detect.md.
 MIN_SHARED_MARKERS = 4
+#: The markers `vebuild detect` (and the screen's Shift+D) choose a photo's x from, proposing it:
+#: three, where a wrong turn passes the margins for 1 pair in 3000 with 0.3° rotation errors and 6
+#: with 1° (vebuild bench orient). A proposal, not a placement: `vebuild calibrate` tests every
+#: photo's turn again, before placing from MIN_SHARED_MARKERS and after placing from its markers'
+#: misses (vebuild.actions.orientation), and leaves a turned photo out; it is never placed.
+MIN_SHARED_MARKERS_TO_PROPOSE = 3
 #: The chosen candidate's rays agree with the others' within this RMS angle (degrees): a wider
 #: miss means the rotations or markers are wrong, not the choice (detected vanishing points are
 #: good to a fraction of a degree, markers to a few pixels, an uncorrected lens to ~1.5°).
