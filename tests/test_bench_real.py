@@ -246,9 +246,12 @@ def test_a_whole_run_on_a_generated_set(tiny: tuple[Path, list[SurveyedPhoto]], 
     # misaligned) would be off by tens of degrees or per cent.
     assert fig["focal_rel_error_median"] < 0.02 and fig["rotation_error_deg_median"] < 0.5
     assert fig["position_error_m_median"] < 0.3  # the room is 6 m across
-    for key in ("focal_coverage_95", "principal_point_coverage_95", "rotation_coverage_95", "position_coverage_95",
-                "k1_within_2sigma_share"):
+    for key in ("focal_coverage_95", "principal_point_coverage_95", "rotation_coverage_95", "position_coverage_95"):
         assert 0.0 <= fig[key] <= 1.0, key
+    # k1 is scored where a photo estimated it; the rendered room's lines are straight, so it may be
+    # held at 0 in every photo (calibration/bending.py), and then there is no share to give.
+    assert (fig["k1_within_2sigma_share"] is None) == (fig["k1_estimated"] == 0)
+    assert fig["k1_within_2sigma_share"] is None or 0.0 <= fig["k1_within_2sigma_share"] <= 1.0
     assert all(r["markers"] >= 8 for r in fig["per_photo"])
 
 

@@ -85,7 +85,8 @@ def test_snapping_proposals_accept_reject_and_undo(bare, xdotool):
         assert rows[-1] == pytest.approx(list(first.points or first.segment), abs=1e-3)
         sig = s.photo(pid)["vanishing_segment_sigmas"][first.axis][-1]
         assert sig == pytest.approx(first.sigma_px, abs=1e-3)
-        second = s.proposals[pid][0]
+        # One whose middle no other proposal passes near (the Delete tool takes the one under the cursor).
+        second = next(p for p in s.proposals[pid] if _alone(p, s.proposals[pid]))
         mid = 0.5 * (np.asarray(second.segment[:2]) + np.asarray(second.segment[2:]))
         d.send("key", "Delete", *d.move_to(*e.image_to_window(None, mid)), "click", "1", "key", "Escape")
         assert second not in s.proposals[pid] and len(s.proposals[pid]) == len(props) - 2
@@ -100,3 +101,17 @@ def test_snapping_proposals_accept_reject_and_undo(bare, xdotool):
         assert json.dumps(s.data, sort_keys=True) == before
     finally:
         d.close()
+
+
+def _alone(p, proposals, margin_px: float = 25.0) -> bool:
+    """No other proposal passes within margin_px (image pixels) of p's middle."""
+    mid = 0.5 * (np.asarray(p.segment[:2]) + np.asarray(p.segment[2:]))
+    for q in proposals:
+        if q is p:
+            continue
+        a, b = np.asarray(q.segment[:2]), np.asarray(q.segment[2:])
+        t = float(np.clip((mid - a) @ (b - a) / max(float((b - a) @ (b - a)), 1e-12), 0.0, 1.0))
+        if np.linalg.norm(a + t * (b - a) - mid) < margin_px:
+            return False
+    return True
+

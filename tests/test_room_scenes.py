@@ -143,13 +143,14 @@ def test_two_first_guesses_give_the_same_figures(generated: GeneratedRoom, solve
     print("largest difference between the two guesses' solutions (σ):", worst)
 
 
-@pytest.mark.parametrize("seed,direct", [(3, True), (6, False)])
+@pytest.mark.parametrize("seed,direct", [(3, True), (8, False)])
 def test_the_solve_from_the_first_guess_is_kept_only_where_it_found_the_minimum(
         seed: int, direct: bool, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """`vebuild solve` tries the whole problem from the first guess first (Problem.plausible) and
     takes the staged start only where that did not plainly find the minimum. Seed 3's room: found
-    (the staged start is not run); seed 6's: not (100 iterations, pinned handles behind a camera),
-    so the staged start runs and the room is solved within the issue's centimetre per metre."""
+    (the staged start is not run); seed 8's: not (which seed's room is which depends on its
+    calibrated cameras: seed 6 was the second until vanishing points were fitted robustly), so the
+    staged start runs and the room is solved within the issue's centimetre per metre."""
     from vebuild.actions import solve as solve_action
     from vebuild.model.solver import Problem
 
