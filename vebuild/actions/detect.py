@@ -14,7 +14,6 @@ import argparse
 import dataclasses
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -38,6 +37,7 @@ from ..errors import ProjectError, VebuildError
 from ..project import Project
 from ..project.images import decode_photo
 from .detect_checks import drop_same_point, one_image_line, weak_axes
+from .detect_types import Grouped, PhotoProposals, SegmentProposal
 from .x_axis import auto_x_axes, choice_from_segments
 from .x_axis import choice_turns as choice_turns  # the x-axis choice, named here too
 from .x_axis import marker_rays as marker_rays
@@ -50,28 +50,6 @@ MAX_PER_AXIS = 40
 MIN_PER_AXIS = 3
 #: A focal estimate whose relative 1σ exceeds this is not reported (a frontal or level view).
 FOCAL_REPORT_MAX_REL_SIGMA = 0.1
-
-
-@dataclass(frozen=True)
-class SegmentProposal:
-    axis: str                                   # 'x', 'y' or 'z'
-    segment: tuple[float, float, float, float]  # u1, v1, u2, v2 in photo pixels, directed (DESIGN.md)
-    sigma_px: float                             # its end points' measured 1σ
-    score: float                                # agreement with its vanishing point (higher is better)
-    points: tuple[float, ...] = ()              # what is written: a polyline u1, v1, ..., un, vn along the
-                                                # edge (directed; sigma_px is each point's 1σ); () = segment
-
-
-@dataclass(frozen=True)
-class PhotoProposals:
-    photo: str                                  # the photo's id
-    segments: tuple[SegmentProposal, ...]
-    focal_px: float | None                      # the grouping's focal estimate, if any
-    message: str                                # what was found, or why nothing
-    directions: tuple[tuple[float, float, float], ...] = ()  # the vanishing directions the message
-                                                # names, unit, camera frame (principal point at the
-                                                # centre; the grouping's f, or EXIF's for a photo
-                                                # showing one direction), up to sign; () = none
 
 
 #: The photo field saying that its segments' x axis was not chosen (scenes/FORMAT.md), and why.
@@ -129,27 +107,6 @@ def detect_photo(project: Project, photo_id: str, *, x_axis: str | None = None) 
     photo = project.photo(photo_id)
     pixels = photo_pixels(project, photo_id)
     return propose(pixels, photo, x_axis=choice)
-
-
-@dataclass(frozen=True)
-class Grouped:
-    """A photo's edges grouped into vanishing directions, before any choice of x."""
-    pid: str
-    width: int
-    height: int
-    found: Any                                  # lines.DetectedLines
-    segs: np.ndarray                            # the segments as grouped (undistorted by k1)
-    k1: float
-    f0: float                                   # the focal length the undistortion used
-    frame: Any                                  # lines.ManhattanFrame, or None
-    elapsed: float
-    failure: PhotoProposals | None              # nothing to propose, and why
-    f_exif: float | None = None                 # EXIF's focal length, where it gives one
-    left_out: tuple[int, int, int] = (0, 0, 0)  # edges not grouped: short, in texture, curved
-
-    def rotation(self, x_axis: str) -> np.ndarray:
-        """World → camera rotation for a choice of x (its columns: world x, y, z in the camera)."""
-        return orient_axes(self.frame.directions, x_axis)[0]
 
 
 def propose(pixels: np.ndarray, photo: dict[str, Any], *, x_axis: str = "right", seed: int = 0) -> PhotoProposals:

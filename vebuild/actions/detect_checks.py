@@ -18,7 +18,7 @@ from ..camera import AXES, intrinsic_matrix
 from ..errors import VebuildError
 
 if TYPE_CHECKING:
-    from .detect import SegmentProposal
+    from .detect_types import SegmentProposal
 
 
 def weak_axes(segs: np.ndarray, sigma_px: np.ndarray, chosen: dict[str, np.ndarray], D: np.ndarray, f: float,

@@ -16,7 +16,7 @@ from ..camera import intrinsic_matrix, undistort_pixels
 from ..project import Project
 
 if TYPE_CHECKING:
-    from .detect import Grouped
+    from .detect_types import Grouped
 
 def marker_rays(project: Project, g: Grouped) -> dict[str, np.ndarray]:
     """The photo's markers as camera-frame rays (3,), through the grouping's f and lens."""

@@ -16,7 +16,7 @@ from ..camera import pixel_rays_world
 from ..errors import CalibrationError
 
 if TYPE_CHECKING:
-    from .positions import PhotoInput
+    from .placement_types import PhotoInput
 
 Array = NDArray[np.float64]
 
