@@ -303,13 +303,19 @@ def random_scene(rng: np.random.Generator, kinds: tuple[str, ...] = ("3vp", "3vp
         add_segments(cam, rng, noise_px)
         photos.append(cam)
     # A user marks a marker only where it helps: in two photos or more.
+    return photos, markers_in_two_photos(photos, markers)
+
+
+def markers_in_two_photos(photos: list[SyntheticPhoto], markers: dict[str, Array]) -> dict[str, Array]:
+    """Keep each photo's marks of the markers seen in two photos or more (a user marks a marker only
+    where it helps), and return those markers."""
     counts: dict[str, int] = {}
     for p in photos:
         for n in p.markers:
             counts[n] = counts.get(n, 0) + 1
     for p in photos:
         p.markers = {n: uv for n, uv in p.markers.items() if counts[n] >= 2}
-    return photos, {n: X for n, X in markers.items() if counts.get(n, 0) >= 2}
+    return {n: X for n, X in markers.items() if counts.get(n, 0) >= 2}
 
 
 def scale_reference(photos: list[SyntheticPhoto], markers: dict[str, Array]) -> tuple[str, str, float]:

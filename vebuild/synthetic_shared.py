@@ -20,6 +20,7 @@ from .synthetic import (
     SyntheticPhoto,
     add_segments,
     k1_for_corner_shift,
+    markers_in_two_photos,
     observe_markers,
     random_camera,
     random_scene,
@@ -65,13 +66,7 @@ def one_camera_set(rng: np.random.Generator, kinds: tuple[str, ...] = ONE_CAMERA
         observe_markers(p, markers, rng, noise_px)
         p.segments = {}
         add_segments(p, rng, noise_px, middle_points=middle_points)
-    counts: dict[str, int] = {}
-    for p in photos:
-        for n in p.markers:
-            counts[n] = counts.get(n, 0) + 1
-    for p in photos:
-        p.markers = {n: uv for n, uv in p.markers.items() if counts[n] >= 2}
-    return photos, {n: X for n, X in markers.items() if counts.get(n, 0) >= 2}
+    return photos, markers_in_two_photos(photos, markers)
 
 
 def exif_record(photo: SyntheticPhoto, serial: str | None = SERIAL) -> dict[str, Any]:
