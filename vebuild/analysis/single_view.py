@@ -43,6 +43,40 @@ class SingleViewError(VebuildError):
     """A click that cannot be measured on the photo (above the horizon, outside the photo)."""
 
 
+#: The single-view measurements, each a `vebuild analyse KIND --photo ID U1 V1 U2 V2 …` command:
+#: the points a user clicks for one measurement, in order, one pixel (U V) each. The modelling
+#: screen prompts with these words and saves the command (:func:`single_view_command`), so the
+#: command line reproduces what was clicked to the last digit.
+SINGLE_VIEW_CLICKS: dict[str, tuple[str, ...]] = {
+    "photo-height": ("its foot on the floor", "its top"),
+    "floor-distance": ("the first point on the floor", "the second point on the floor"),
+    "wall-length": ("a point where the wall meets the floor", "another point where the wall meets the floor",
+                    "the length's first end, on the wall", "its second end, on the wall"),
+    "raised-height": ("a point on the raised surface's edge: the floor below it", "that point on the raised surface",
+                      "the foot, on the raised surface", "the top"),
+    "plane-length": ("the plane's first point: the floor below it (the point itself if on the floor)",
+                     "the plane's first point", "its second point: the floor below it", "its second point",
+                     "its third point: the floor below it", "its third point",
+                     "the length's first end, on the plane", "its second end, on the plane"),
+}
+#: Decimal places of a clicked pixel in a saved command (1/100 px: far below any click's σ).
+PIXEL_DECIMALS = 2
+
+
+def single_view_command(kind: str, photo: str, clicks: Sequence[Sequence[float]]) -> list[str]:
+    """The `vebuild analyse` words of one single-view measurement clicked at ``clicks`` (pixels, in
+    :data:`SINGLE_VIEW_CLICKS` order), rounded as saved: measure from these words, not the clicks."""
+    if kind not in SINGLE_VIEW_CLICKS:
+        raise SingleViewError(f"no single-view measurement '{kind}'; they are {', '.join(SINGLE_VIEW_CLICKS)}")
+    want = len(SINGLE_VIEW_CLICKS[kind])
+    if len(clicks) != want:
+        raise SingleViewError(f"a {kind} takes {want} clicked points, got {len(clicks)}")
+    words = [kind, "--photo", photo]
+    for u, v in clicks:
+        words += [f"{float(u):.{PIXEL_DECIMALS}f}", f"{float(v):.{PIXEL_DECIMALS}f}"]
+    return words
+
+
 @dataclass(frozen=True)
 class _Cam:
     K: Array
