@@ -18,6 +18,7 @@ from vebuild.calibration.positions import PhotoInput, ReferenceDistance, place_c
 from vebuild.calibration.start import MIN_INTERSECTION_ANGLE_DEG
 from vebuild.calibration.vanishing import fit_vanishing_point
 from vebuild.camera import log_so3
+from vebuild.errors import CalibrationError
 from vebuild.synthetic import (
     CLICK_NOISE_PX,
     EXIF_FOCAL_ERROR_REL,
@@ -183,14 +184,19 @@ def test_segment_direction_fixes_the_rotation_signs(rng: np.random.Generator) ->
     add_segments(cam, rng, CLICK_NOISE_PX)
     segs = {a: cam.segments[a] for a in ("x", "y")}
     R1 = calibrate_photo(segs, cam.width, cam.height, click_sigma_px=CLICK_NOISE_PX).R
-    flipped = {"x": segs["x"][:, [2, 3, 0, 1]], "y": segs["y"]}
+    flipped = {"x": segs["x"][:, [2, 3, 0, 1]], "y": segs["y"][:, [2, 3, 0, 1]]}
     R2 = calibrate_photo(flipped, cam.width, cam.height, click_sigma_px=CLICK_NOISE_PX).R
     # A wrong sign puts the camera 180° off; with two axes and the principal point a few tens of
     # pixels from the centre, the right answer is within a couple of degrees (Δc / f).
     assert np.degrees(np.linalg.norm(log_so3(cam.R @ R1.T))) < 5.0
-    # Drawing x backwards means +x is the other way: the x column flips, and z with it.
-    assert R2[:, 0] == pytest.approx(-R1[:, 0], abs=1e-6)
+    # Drawing x and y backwards means +x and +y are the other way: their columns flip, z = x × y not.
+    assert R2[:, :2] == pytest.approx(-R1[:, :2], abs=1e-6)
+    assert R2[:, 2] == pytest.approx(R1[:, 2], abs=1e-6)
     assert np.linalg.det(R2) == pytest.approx(1.0)
+    # x alone backwards turns z = x × y down the photo: the floor would be overhead, and it is refused.
+    with pytest.raises(CalibrationError, match=r"^photo 'photo': its world would be upside down, the floor overhead: "
+                       r"z, which is x × y, points down the photo: reverse the direction of the x or the y segments$"):
+        calibrate_photo({"x": flipped["x"], "y": segs["y"]}, cam.width, cam.height, click_sigma_px=CLICK_NOISE_PX)
 
 
 def _place_scene(rng: np.random.Generator, kinds=("3vp", "3vp", "2vp", "1vp")):

@@ -14,7 +14,13 @@ import pytest
 
 from vebuild.actions.calibrate import calibrate_project
 from vebuild.calibration.photo import calibrate_photo
-from vebuild.calibration.single_photo import FloorDistance, KnownLength, Origin, place_single_photo
+from vebuild.calibration.single_photo import (
+    BELOW_THE_CAMERA,
+    FloorDistance,
+    KnownLength,
+    Origin,
+    place_single_photo,
+)
 from vebuild.camera import rotation_from_ypr
 from vebuild.console.tables import calibration_table
 from vebuild.errors import CalibrationError, ProjectError
@@ -203,7 +209,8 @@ def test_no_scale_calibrates_in_relative_units_and_says_so(tmp_path: Path) -> No
     assert np.allclose(cam["position"]["value"], ph.C / ph.C[2], atol=0.05)
     (w,) = result["warnings"]
     assert w.startswith("photo 'p': nothing gives the scale, so lengths are relative: the camera's height above "
-                        "the floor is taken as 1") and "$.photos[0].camera_height" in w and "$.known_lengths" in w
+                        "the floor is taken as 1") and "press K, drag along an edge whose length you know" in w
+    assert "$.photos[0].camera_height" in w and "$.known_lengths" in w
     text = calibration_table(result)
     assert "lengths are RELATIVE (no scale given: the camera's height is 1)" in text
     assert "(relative units)" in text
@@ -218,27 +225,20 @@ def test_no_scale_calibrates_in_relative_units_and_says_so(tmp_path: Path) -> No
                                      "make it a scale distance (role \"scale\") to give the photo its scale")
 
 
-@pytest.mark.parametrize("middle_points", [0, 2])
-def test_with_no_marker_the_first_x_and_y_segments_fix_the_origin(tmp_path: Path, middle_points: int) -> None:
-    """The origin is where the lines of the first x and first y segments meet; they are marked
-    along floor edges that meet at a corner, as a user would, or detected as polylines (their
-    middle points along the edge)."""
-    rng = np.random.default_rng(15)
-    ph = one_photo(rng)
-    corner = ph.points["O"]
-    for axis, (a, b) in (("x", (0.3, 1.3)), ("y", (0.3, 1.4))):
-        e = np.eye(3)["xy".index(axis)]
-        seg = np.concatenate([_pixels(ph.cam, corner + t * e) for t in np.linspace(a, b, 2 + middle_points)])
-        seg = seg + rng.normal(0, CLICK_NOISE_PX, len(seg))
-        ph.cam.segments[axis] = [list(seg)] + [list(s) for s in ph.cam.segments[axis]]
+def test_with_no_marker_the_origin_is_the_floor_below_the_camera(tmp_path: Path) -> None:
+    """No marker at all: the origin is the floor point straight below the camera, which stands at
+    (0, 0, h) with h from the door's height; its x and y are exact (nothing uncertain fixes them),
+    its height within 4σ of the truth."""
+    ph = one_photo(np.random.default_rng(15))
     project = load_project(write_one_photo(tmp_path, ph, origin=False))
     result = calibrate_project(project)
     cam = result["cameras"]["p"]
-    assert result["origin_marker"] is None
-    assert cam["placement"]["origin"] == ("the floor point where the lines of the first x and first y vanishing "
-                                          "segments meet")
-    assert "origin the floor point where the lines" in calibration_table(result)
-    assert np.all(np.abs(_z(cam["position"]["value"], ph.C, cam["position"]["sigma"])) < 4)
+    assert result["origin_marker"] is None and result["lengths"] == "metres"
+    assert cam["placement"]["origin"] == BELOW_THE_CAMERA
+    assert f"origin {BELOW_THE_CAMERA}" in calibration_table(result)
+    assert cam["position"]["value"][:2] == [0.0, 0.0] and cam["position"]["sigma"][:2] == [0.0, 0.0]
+    z = _z(cam["position"]["value"][2], ph.cam.C[2], cam["position"]["sigma"][2])
+    assert abs(z) < 4 and cam["position"]["sigma"][2] > 0
 
 
 # -- single-view metrology -------------------------------------------------------------------------
@@ -492,11 +492,6 @@ def test_refusals_of_a_known_length_name_the_photo_and_its_path() -> None:
                        r"height of inf m above the floor; expected a positive number: check its clicks and which end "
                        r"is on the floor"):
         place_single_photo("p", cal.K, cal.R, cal.covariance, o, [same])
-    par = Origin(None, np.array([[100.0, 100.0, 500.0, 100.0], [100.0, 300.0, 500.0, 301.0]]))
-    with pytest.raises(CalibrationError, match=r"^photo 'p': the first x and first y vanishing segments run "
-                       r"parallel in the photo, so their lines do not fix the origin; mark the origin marker on "
-                       r"the floor instead"):
-        place_single_photo("p", cal.K, cal.R, cal.covariance, par, [])
 
 
 def test_a_vertical_top_ray_is_refused() -> None:
@@ -513,21 +508,35 @@ def test_a_vertical_top_ray_is_refused() -> None:
         place_single_photo("p", down.K, down.R, np.eye(6) * 1e-6, Origin("O", np.array([500.0, 500.0])), [behind])
 
 
-def test_a_photo_with_nothing_to_fix_its_origin_is_refused(tmp_path: Path) -> None:
+def test_an_origin_marker_the_photo_does_not_show_is_named(tmp_path: Path) -> None:
+    """The origin marker chosen but not marked in the one photo: the photo is placed with the floor
+    below its camera as its origin, and the user is told which marker to mark to measure from it."""
     ph = one_photo(np.random.default_rng(54))
     project = load_project(write_one_photo(tmp_path, ph, origin=False))
-    project.data["photos"][0]["vanishing_segments"].pop("x")
-    with pytest.raises(CalibrationError, match=r"\$\.photos\[0\] photo 'p': nothing in it fixes the world's "
-                       r"origin: it shows no origin marker and no x and y vanishing segments; mark a marker on the "
-                       r"floor in it \(the origin lies on the floor\)"):
-        calibrate_project(project)
-    assert "calibration" not in load_project(project.path).data
-    # The origin marker chosen but not marked in the photo: the message names it.
     project.data["markers"] = [{"name": "O", "on_floor": True}]
     project.data["origin_marker"] = "O"
-    with pytest.raises(CalibrationError, match=r"photo 'p': nothing in it fixes the world's origin: it shows no "
-                       r"origin marker and no x and y vanishing segments; mark the origin marker 'O' in it"):
-        calibrate_project(project)
+    result = calibrate_project(project)
+    assert result["cameras"]["p"]["placement"]["origin"] == BELOW_THE_CAMERA
+    assert (f"photo 'p' does not show the origin marker 'O', so its origin is {BELOW_THE_CAMERA}; mark 'O' in it to "
+            "measure from that point") in result["warnings"]
+
+
+def test_a_photo_that_cannot_be_placed_alone_keeps_its_calibration(tmp_path: Path) -> None:
+    """One photo whose only scale cannot be used (the door's foot clicked above the horizon): its
+    focal length, principal point and rotation are written, and the reason with its fix is said."""
+    ph = one_photo(np.random.default_rng(56))
+    project = load_project(write_one_photo(tmp_path, ph, origin=False))
+    project.data["known_lengths"][0]["ends"][0] = [800.0, 5.0]
+    result = calibrate_project(project)
+    assert result["cameras"] == {}
+    kept = result["unplaced"]["p"]
+    f = kept["focal_px"]
+    assert abs(f["value"] - ph.cam.K[0, 0]) < 4 * f["sigma"]
+    assert kept["reason"].startswith("$.known_lengths[0]: its end on the floor: pixel (800.0, 5.0) lies on or above "
+                                     "the horizon")
+    assert result["origin"] == "none: no photo is placed"
+    assert any(w.startswith("photo 'p' is calibrated (its focal length, principal point and rotation are kept")
+               for w in result["warnings"])
 
 
 def test_a_marker_off_the_floor_in_one_photo_is_named_not_placed(tmp_path: Path) -> None:
@@ -662,7 +671,7 @@ def test_two_photos_each_with_its_own_scale_are_each_placed_alone(tmp_path: Path
     assert {c["placement"]["how"] for c in result["cameras"].values()} == {"alone"}
     for pid, ph in (("p", a), ("q", b)):
         assert abs(result["cameras"][pid]["position"]["value"][2] - ph.C[2]) < 4 * 0.01
-    # Each took its own first x and y segments' meeting: two frames, and the user is told.
+    # Each took the floor below its own camera as its origin: two frames, and the user is told.
     assert result["warnings"] == ["photos 'p', 'q' are each placed alone, in frames with origins of their own: "
                                   "their positions cannot be compared; mark the same origin marker on the floor in "
                                   "each"]

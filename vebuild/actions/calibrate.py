@@ -201,7 +201,10 @@ def _calibrate(project: Project, progress: Callable[[Iterable], Iterable]) -> di
                                 "scale: its camera_height, or a known length in it)")
             continue
         try:
-            origin = _single_origin(data, pid, obs_of[pid], origin_name, floor, placement is not None)
+            origin = _single_origin(pid, obs_of[pid], origin_name, placement is not None)
+            if origin.marker is None and origin_name is not None and single:
+                warnings.append(f"photo '{pid}' does not show the origin marker '{origin_name}', so its origin is "
+                                f"{origin.describe()}; mark '{origin_name}' in it to measure from that point")
             alone[pid] = _place_alone(project, photos[pid], pid, origin, sources, obs_of[pid], floor)
             unplaced.pop(pid, None)  # the joint placement could not take it; alone, it is placed
             placed_jointly = set(placement.markers) if placement is not None else set()
@@ -211,10 +214,8 @@ def _calibrate(project: Project, progress: Callable[[Iterable], Iterable]) -> di
                                     "the floor; mark it on_floor if it lies on the floor, or mark it in a second "
                                     "photo")
         except CalibrationError as e:
-            if single:
-                raise
-            unplaced[pid] = e.detail
-    if not jointly and not alone:
+            unplaced[pid] = e.detail  # calibrated, not placed: what it determines is kept, and the fix said
+    if not jointly and not alone and not single:
         if joint_error is not None:
             raise joint_error
         pid = next(iter(unplaced))
@@ -323,30 +324,17 @@ def _scale_sources(data: dict[str, Any], pid: str, obs: dict[str, np.ndarray], r
     return out
 
 
-def _single_origin(data: dict[str, Any], pid: str, obs: dict[str, np.ndarray], origin_name: str | None,
-                   floor: set[str], joint_exists: bool) -> Origin:
-    """The floor point a photo placed alone puts at the origin: the origin marker where it shows it;
-    with no origin marker chosen, its first floor marker; else the meeting of its first x and first y
-    vanishing segments' lines. Beside a joint placement only the joint's origin marker will do
-    (another origin would be another frame)."""
+def _single_origin(pid: str, obs: dict[str, np.ndarray], origin_name: str | None, joint_exists: bool) -> Origin:
+    """The floor point a photo placed alone puts at the origin: the origin marker where it shows it,
+    else the floor point below its camera. Beside a joint placement only the joint's origin marker
+    will do (another origin would be another frame)."""
     if origin_name is not None and origin_name in obs:
         return Origin(origin_name, obs[origin_name])
     if joint_exists:
         raise CalibrationError(pid, f"it does not show the origin marker '{origin_name}' and shares no two markers "
                                f"with the placed photos, so it cannot be placed in their frame: mark '{origin_name}' "
                                "in it (or two markers that placed photos also show)")
-    if origin_name is None:
-        on_floor = sorted(n for n in obs if n in floor)
-        if on_floor:
-            return Origin(on_floor[0], obs[on_floor[0]])
-    segs = decode.photo_marks(photo_of(data, pid)).segments
-    if len(segs.get("x", [])) and len(segs.get("y", [])):
-        # A segment may be a polyline (its middle points say how straight the edge is): its line is
-        # that of its end points.
-        return Origin(None, np.array([np.asarray(segs[a][0], float).reshape(-1, 2)[[0, -1]].ravel() for a in "xy"]))
-    what = f"the origin marker '{origin_name}'" if origin_name else "a marker on the floor"
-    raise CalibrationError(pid, f"nothing in it fixes the world's origin: it shows no origin marker and no x and y "
-                           f"vanishing segments; mark {what} in it (the origin lies on the floor)")
+    return Origin()
 
 
 def _place_alone(project: Project, cal: PhotoCalibration, pid: str, origin: Origin, sources: list[ScaleSource],

@@ -129,9 +129,11 @@ def results_record(data: dict[str, Any], photos: dict[str, PhotoCalibration], pl
             warnings += cam.warnings
             if cam.relative:
                 warnings.append(f"photo '{pid}': nothing gives the scale, so lengths are relative: the camera's "
-                                "height above the floor is taken as 1 and every position is in that unit; give its "
-                                f"camera_height ($.photos[{ids.index(pid)}].camera_height), a known length in it "
-                                "($.known_lengths) or a reference distance between two markers on the floor")
+                                "height above the floor is taken as 1 and every position is in that unit; to measure "
+                                "in metres give one length known at the scene: in the modelling screen press K, "
+                                "drag along an edge whose length you know (a door's height, foot first) and type "
+                                "it in the Scale tab, or enter the camera's height there (in the file: "
+                                f"$.known_lengths, or $.photos[{ids.index(pid)}].camera_height)")
         else:
             cameras[pid]["placement"] = {"how": "joint", "origin": f"marker '{placement.origin}'" if placement else "",
                                          "lengths": "metres"}
@@ -261,6 +263,8 @@ def origin_text(placement: Placement | None, alone: dict[str, SinglePhotoPlaceme
     origin (once, where they all share it)."""
     if placement is not None:
         return f"marker '{placement.origin}'"
+    if not alone:
+        return "none: no photo is placed"
     texts = {a.origin.describe() for a in alone.values()}
     if len(texts) == 1:
         return texts.pop()

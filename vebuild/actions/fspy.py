@@ -473,6 +473,8 @@ def _build(fp: FspyProject, src: Path, folder: Path, out: Path, stem: str, marks
         calibrated = False
         project.data.pop("calibration", None)
         said = str(e).replace(str(folder), str(out))  # name the folder the project will be in
+        if str(out) not in said:
+            said = f"{out / project_path.name}: {said}"
         warnings.append(f"vebuild could not calibrate the photo: {said}. The marks are imported as fSpy had them; "
                         "vebuild's world has +Z up and the origin on the floor: check fSpy's axes (a vanishing "
                         "point's axis points toward it, so a camera looking down sees zNegative's)")

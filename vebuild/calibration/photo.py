@@ -28,7 +28,7 @@ combined with what, each with its 1σ.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from itertools import combinations
 
@@ -229,6 +229,13 @@ def _pct(rel: float) -> str:
     return f"{v:.0f} %" if v >= 10 else f"{v:.1f} %" if v >= 1 else f"{v:.2f} %"
 
 
+#: World +z may point down the photo by this much (the sine of its angle below the image plane's
+#: horizontal at the centre) before the world is called upside down: a camera held level or tilted
+#: sees +z pointing up the photo; one looking straight down sees it along the view (about 0); only a
+#: reversed axis (or a photo turned upside down) gives more. 0.17: 10°.
+UPSIDE_DOWN_SINE = 0.17
+
+
 @deterministic
 @photo_numeric_failures("its calibration from the vanishing lines", "check its vanishing segments (each along "
                         "its axis and in its direction, not all parallel, of some length)")
@@ -415,6 +422,7 @@ def calibrate_photo(
             "focal length: give its focal length (the photo's focal_px, in pixels, with a 1σ)",
         )
 
+    _refuse_upside_down(R, axes, photo)
     J = problem.jacobian(y, R, prior_f)
     r = problem.residuals(problem.at_rotation(y), R, prior_f)
     vf = problem.variance_factor(J, r)
@@ -473,6 +481,17 @@ def calibrate_photo(
         distortion_test=bend,
         rejected_segments={a: tuple(r) for a, r in screened.rejected.items()},
     )
+
+
+def _refuse_upside_down(R: Array, axes: Sequence[str], photo: str) -> None:
+    """Refuse a world whose +z points toward the bottom of the photo (R maps world to camera, whose
+    y runs down the image): its floor would be overhead, and every placement on it wrong."""
+    if R[1, 2] <= UPSIDE_DOWN_SINE:
+        return
+    why = ("its z segments point down the photo (each is drawn toward the positive end of z, which is up): "
+           "draw them from the floor upward" if "z" in axes else
+           "z, which is x × y, points down the photo: reverse the direction of the x or the y segments")
+    raise CalibrationError(photo, f"its world would be upside down, the floor overhead: {why}")
 
 
 def _flat(s: ArrayLike) -> list:

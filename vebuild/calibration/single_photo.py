@@ -9,8 +9,10 @@ through its foot. Every such length is h times what it is at unit height, so one
 gives h, and h gives every other length.
 
 - The **origin** is a floor point the user chooses: a marker clicked in the photo (the origin
-  marker lies at (0, 0, 0), on the floor by definition), or, with none, the point where the lines
-  of the first x and the first y vanishing segments meet (marked along the floor, they meet on it).
+  marker lies at (0, 0, 0), on the floor by definition), or, with none, the foot of the camera's
+  plumb line: the floor point straight below the camera, which stands at (0, 0, h). That origin
+  needs no click and always exists, so a photo is placed whatever its marks (only its scale may be
+  missing, and then lengths are relative).
 - The **scale** (h) comes from any of: the camera's height above the floor; a known length on an
   axis-aligned segment (a vertical one standing on the floor, such as a door's height; or one along
   x or y on the floor, such as a tile's edge); a reference distance between two markers on the
@@ -43,8 +45,6 @@ Array = NDArray[np.float64]
 #: A ray whose downward slope (|d_z| of its unit direction) is below this meets the floor farther
 #: than 1000 camera heights away, or not at all: the pixel lies at (or above) the horizon.
 MIN_FLOOR_SLOPE = 1e-3
-#: Two segments' image lines meeting at a smaller angle than this (degrees) do not fix a point.
-MIN_LINE_ANGLE_DEG = 2.0
 #: A scale source whose own camera height differs from the combined one by more than this many of
 #: its σ is named in a warning: the user's lengths contradict each other.
 SCALE_DISAGREEMENT_SIGMAS = 3.0
@@ -52,6 +52,8 @@ SCALE_DISAGREEMENT_SIGMAS = 3.0
 #: axis is named in a warning: with the ends ≥ 50 px apart and 1 px clicks the direction is good to
 #: a degree or two, so 10° is a wrong axis (or an end off the floor), not noise.
 KNOWN_LENGTH_AXIS_DEG = 10.0
+#: The origin of a photo placed alone with no origin marker, in words.
+BELOW_THE_CAMERA = "the floor point straight below the camera (the camera stands at x = y = 0)"
 #: Finite-difference steps of the placement's Jacobian: pixels, radians, k1, metres.
 STEP_PX, STEP_RAD, STEP_K1, STEP_M = 1e-3, 1e-7, 1e-7, 1e-6
 
@@ -100,16 +102,16 @@ ScaleSource = CameraHeight | KnownLength | FloorDistance
 
 @dataclass(frozen=True)
 class Origin:
-    """The floor point at the world origin: a marker's click (``pixels`` (1, 2)), or the meeting
-    of the first x and first y vanishing segments' lines (``pixels`` (4, 2): their end points)."""
+    """The floor point at the world origin: a marker and its click (``pixels`` (2,)), or, with no
+    marker (``marker`` None, ``pixels`` empty), the floor point below the camera."""
 
-    marker: str | None
-    pixels: Array
+    marker: str | None = None
+    pixels: Array = field(default_factory=lambda: np.zeros(0))
 
     def describe(self) -> str:
         if self.marker is not None:
             return f"marker '{self.marker}'"
-        return "the floor point where the lines of the first x and first y vanishing segments meet"
+        return BELOW_THE_CAMERA
 
 
 @dataclass(frozen=True)
@@ -217,26 +219,6 @@ class _Camera:
         if t <= 0:
             raise CalibrationError(self.photo, f"{what}: its top lies behind the camera; check its clicks")
         return float(s)
-
-
-def line_meeting(segments: Array, photo: str) -> Array:
-    """The image point where the lines of two segments (rows u1, v1, u2, v2) meet."""
-    a, b = np.asarray(segments, float).reshape(2, 4)
-    la = np.cross(np.r_[a[:2], 1.0], np.r_[a[2:], 1.0])
-    lb = np.cross(np.r_[b[:2], 1.0], np.r_[b[2:], 1.0])
-    da, db = a[2:] - a[:2], b[2:] - b[:2]
-    cos = abs(da @ db) / (np.linalg.norm(da) * np.linalg.norm(db))
-    if np.degrees(np.arccos(min(1.0, cos))) < MIN_LINE_ANGLE_DEG:
-        raise CalibrationError(photo, "the first x and first y vanishing segments run parallel in the photo, so "
-                               "their lines do not fix the origin; mark the origin marker on the floor instead")
-    p = np.cross(la, lb)
-    return p[:2] / p[2]
-
-
-def _origin_pixel(origin: Origin, photo: str) -> Array:
-    if origin.marker is not None:
-        return np.asarray(origin.pixels, float).reshape(2)
-    return line_meeting(np.asarray(origin.pixels, float).reshape(2, 4), photo)
 
 
 def unit_length(cam: _Camera, s: ScaleSource) -> float:
@@ -419,7 +401,8 @@ def place_single_photo(
     def solve(z: Array) -> Array:
         cam = _Camera(z[: inp.n_q], R0, k1, photo)
         h = float(w @ inp.heights(z, cam, scales) / w.sum()) if len(w) else 1.0
-        O1 = cam.floor(_origin_pixel(Origin(origin.marker, z[inp.origin]), photo), f"the origin ({origin.describe()})")
+        O1 = (cam.floor(z[inp.origin], f"the origin ({origin.describe()})") if origin.marker is not None
+              else np.zeros(3))
         C = h * (np.array([0.0, 0.0, 1.0]) - O1)
         zm = z[inp.markers]
         X = [h * (cam.floor(zm[2 * m : 2 * m + 2], f"marker '{n}' (on the floor)") - O1)
