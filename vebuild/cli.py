@@ -102,11 +102,11 @@ def _cmd_mark(args: argparse.Namespace) -> int:
 def _cmd_report(args: argparse.Namespace) -> int:
     from .analysis.project_check import load_checked
     from .console.bars import Bar
-    from .report.write import write_report
+    from .report.write import SECTIONS, write_report
 
     project = load_checked(args.project, "report")
     _warn_stale(project, "report")
-    bar = Bar(total=14 - int(args.no_pdf), desc="report", unit="section", disable=not _progress_wanted(args))
+    bar = Bar(total=SECTIONS + int(not args.no_pdf), desc="report", unit="section", disable=not _progress_wanted(args))
 
     def step(what: str) -> None:
         bar.set_postfix_str(shown(what))

@@ -2,7 +2,8 @@
 work, as an HTML page with its images (and a PDF of it).
 
 The report is made from the project file alone: the photos with their SHA-256, the calibration
-and its residuals, the model and its solve, the check distances, the evidence views (with the
+and its residuals (a project of calibrated photos with no model has a report too), the model and
+its solve, the check distances, the evidence views (with the
 evidence markers), each photo's camera against its photo, the analyses the project records
 (``analyses``: measurements, sight lines, viewsheds, trajectories, lighting comparisons, each
 re-computed), and the hypotheses, each clearly labelled as one. It carries no time stamp: running
@@ -13,6 +14,10 @@ Modules (imports point one way: write → sections → analyses → page):
 - :mod:`vebuild.report.page` — the HTML pieces, the report being built, the page.
 - :mod:`vebuild.report.sections` — the sections, in the order the page shows them.
 - :mod:`vebuild.report.analyses` — the recorded analyses, each re-run as its typed request.
+- :mod:`vebuild.report.single_view` — the measurements made on single photos, drawn on their photo
+  and tabled with their intervals.
+- :mod:`vebuild.report.without_model` — the report of calibrated photos with no model: the sections
+  that need one left out with a line saying why, and what a project lacks before any report.
 - :mod:`vebuild.report.write` — :func:`~vebuild.report.write.write_report`, whole or not at all, and
   the digest that shows two runs gave the same report.
 - :mod:`vebuild.console.tables` — the plain-text tables the command line prints.

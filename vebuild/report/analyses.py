@@ -23,6 +23,7 @@ if TYPE_CHECKING:
 
 def analyses_html(project: Project, rep: Report, records: list[dict[str, Any]]) -> str:
     from vebuild.analysis.recorded import run_recorded
+    from vebuild.analysis.single_view import SINGLE_VIEW_CLICKS
     from vebuild.project.units import RELATIVE_UNITS, length_unit
 
     lengths = f"in {RELATIVE_UNITS} (no scale was given)" if length_unit(project.data).relative else "in metres"
@@ -32,7 +33,7 @@ def analyses_html(project: Project, rep: Report, records: list[dict[str, Any]]) 
     for i, rec in enumerate(records):
         words = list(rec["command"])
         image = f"images/analysis-{i + 1}.png"
-        request, result = run_recorded(project, i, rec, str(rep.folder / image))
+        request, result = rep.recorded.get(i) or run_recorded(project, i, rec, str(rep.folder / image))
         figures = {k: v for k, v in result.figures.items() if not str(k).endswith("_png")}  # paths of this run
         fig_name = f"figures/analysis-{i + 1}.json"
         write_text(rep.folder / fig_name, json.dumps({"analysis": request.name, "command": words, **figures},
@@ -44,6 +45,8 @@ def analyses_html(project: Project, rep: Report, records: list[dict[str, Any]]) 
         command = "vebuild analyse " + shlex.quote(project.path.name) + " " + " ".join(shlex.quote(w) for w in words)
         parts.append(f"<p class='small'>{esc(command)} &nbsp; (figures: <a href='{fig_name}'>{fig_name}</a>)</p>")
         parts.append(f"<pre class='small'>{esc(text)}</pre>")
+        if words and words[0] in SINGLE_VIEW_CLICKS:  # drawn by vebuild.report.single_view
+            parts.append("<p class='small'>Drawn on its photo under “Measurements on the photos”.</p>")
         if result.image is not None and result.image.is_file():
             rep.images.append(result.image)
             parts.append(f"<figure><img src='{image}'></figure>")

@@ -87,6 +87,7 @@ def calibration(project: Project, rep: Report) -> None:
     body += "<h3>Calibration mode of each photo</h3><ul class='lim'>" + "".join(
         f"<li>{esc(pid)}: {esc(c.get('mode', '?'))}: {esc(c.get('mode_reason', 'no reason recorded'))}</li>"
         for pid, c in cams.items()) + "</ul>"
+    body += _placement(cams) + _lines(project, cams)
     body += _groups(cal.get("camera_groups") or [])
     checks = {pid: c["exif_focal_check"] for pid, c in cams.items() if isinstance(c.get("exif_focal_check"), Mapping)}
     if checks:
@@ -108,6 +109,53 @@ def calibration(project: Project, rep: Report) -> None:
             f"{esc(pid)} ({esc(u.get('reason', '') if isinstance(u, Mapping) else u)})"
             for pid, u in unplaced.items()) + ".</p>"
     rep.add("Calibration (vanishing points)", body)
+
+
+def _placement(cams: Mapping[str, Mapping[str, Any]]) -> str:
+    """Each photo placed alone (``placement``): its origin, where its scale came from and its camera's
+    height above the floor ± 1σ, in metres or said to be relative."""
+    rows = []
+    for pid, c in cams.items():
+        pl = c.get("placement") or {}
+        if pl.get("how") != "alone":
+            continue
+        if pl.get("lengths") == "relative":
+            height, scale = "1 (the unit of length)", "none: lengths are relative, the camera's height is 1"
+        else:
+            h = pl.get("camera_height_m") or {}
+            height = f"{h['value']:.3f} ± {h.get('sigma') or 0:.3f} m" if h.get("value") is not None else "—"
+            scale = str(pl.get("scale") or "—")
+        rows.append([pid, str(pl.get("origin") or "—"), scale, height])
+    if not rows:
+        return ""
+    return ("<h3>Photos placed alone: origin, scale and camera height</h3><p>A photo placed alone stands on the "
+            "floor (z = 0) by itself: its origin, where its scale comes from, and its camera's height above the "
+            "floor ± 1σ, which carries the scale's uncertainty into every length measured on it.</p>"
+            + table(["photo", "origin", "scale from", "camera height"], rows, {3}))
+
+
+def _lines(project: Project, cams: Mapping[str, Mapping[str, Any]]) -> str:
+    """The vanishing lines of each photo, axis by axis: how many were marked, used and left out (each
+    left-out one by its number in the photo's marks, and why), and the RMS residual of those used."""
+    photos = {p["id"]: p for p in project.data["photos"]}
+    rows = []
+    for pid, c in cams.items():
+        marks = (photos.get(pid) or {}).get("vanishing_segments") or {}
+        for axis, vp in sorted((c.get("vanishing_points") or {}).items()):
+            if not isinstance(vp, Mapping):
+                continue
+            rejected = [r for r in vp.get("rejected") or [] if isinstance(r, Mapping)]
+            n = len(marks.get(axis) or vp.get("residuals_px") or [])
+            why = "; ".join(f"#{int(r['segment']) + 1}: {r.get('reason', '')} ({r.get('misfit_sigmas', 0):.1f}σ)"
+                            for r in rejected)
+            rows.append([pid, axis, n, n - len(rejected), why or "none", fmt(vp.get("rms_px"), 2)])
+    if not rows:
+        return ""
+    return ("<h3>Vanishing lines used and left out</h3><p>Each photo's lines by world axis: those used fix its "
+            "vanishing point; a line that does not meet the others' point (clutter, a slope, another building) is "
+            "left out by a robust fit and named by its number among the photo's lines of that axis. RMS: the "
+            "residual of the lines used.</p>"
+            + table(["photo", "axis", "marked", "used", "left out (why)", "RMS px"], rows, {2, 3, 5}))
 
 
 def _groups(groups: list[Mapping[str, Any]]) -> str:

@@ -19,7 +19,9 @@ what it is and lists the things it concerns:
 - ``left-out``: photos the calibration left out, their marks determining no camera
   (``calibration.left_out``);
 - ``unplaced``: photos calibrated but not placed (``calibration.unplaced``);
-- ``relative-units``: no scale, lengths in relative units.
+- ``relative-units``: no scale, lengths in relative units;
+- ``single-view``: what a single photo cannot tell (the flat, level floor; feet and hidden corners;
+  verticals; the scale; the lens), where photos are placed alone or measured on by themselves.
 
 - ``stale``: results whose inputs changed since they were computed, each with the command that
   brings it up to date (given by the caller: objects with a ``message``, such as
@@ -193,6 +195,7 @@ def limitations(project: Project, checks: Sequence[CheckResult] = (), stale: Seq
                               tuple(f"{pid}: {c.get('mode', '?')}: "
                                     + str(c.get("mode_reason", "no reason recorded")).split(";")[0]
                                     for pid, c in cams.items())))
+    out += _single_view(project)
     cal_failed = [c for c in cal.get("failed_checks") or [] if isinstance(c, Mapping)]
     if cal_failed:
         from vebuild.console.tables import failed_check_words
@@ -216,6 +219,51 @@ def limitations(project: Project, checks: Sequence[CheckResult] = (), stale: Seq
                               tuple(f"{pid}: {u.get('reason', '') if isinstance(u, Mapping) else u}"
                                     for pid, u in unplaced.items())))
     return out
+
+
+def _single_view(project: Project) -> list[Limitation]:
+    """What a single photo cannot tell, where the project measures on photos placed alone or records
+    single-view measurements: the assumptions those measurements rest on, in plain words."""
+    from vebuild.analysis.single_view import SINGLE_VIEW_CLICKS
+
+    data = project.data
+    cams = (data.get("calibration") or {}).get("cameras") or {}
+    alone = [pid for pid, c in cams.items() if (c.get("placement") or {}).get("how") == "alone"]
+    measured = [a for a in data.get("analyses") or [] if isinstance(a.get("command"), list) and a["command"]
+                and a["command"][0] in SINGLE_VIEW_CLICKS]
+    if not alone and not measured:
+        return []
+    click = project.settings["click_sigma_px"]
+    items = [
+        "The floor is taken as one flat, level surface (z = 0) everywhere in the photo. A slope, a step, a "
+        "threshold or a sagging floor moves every point measured on it, and no 1σ shows it.",
+        "A point off the floor is measured from its foot: the point on the floor straight below it, as clicked. "
+        "A foot clicked in the wrong place (hidden, guessed, not straight below) gives a wrong height or length "
+        "without any warning.",
+        "A corner or foot that something hides, or that lies outside the photo, cannot be clicked: the examiner "
+        "has to estimate where it is, and that estimate is not in the 1σ.",
+        "Lines marked as vertical (door frames, wall corners) are taken as truly vertical; a leaning one tilts "
+        "the camera's calibration and every measurement with it.",
+        "One photo cannot tell how far away a point is except through the floor: a point with no visible foot, "
+        "on no marked surface, cannot be measured at all.",
+        f"The 1σ and 95 % intervals count the calibration's uncertainty and each click's (1σ {click:g} px), "
+        "not a click on the wrong point.",
+    ]
+    for pid in alone:
+        pl = cams[pid].get("placement") or {}
+        if pl.get("lengths") == "relative":
+            items.append(f"{pid}: no scale was given, so the photo gives only proportions: every length is in units "
+                         "of the camera's height above the floor, not metres.")
+        else:
+            items.append(f"{pid}: the scale comes from {pl.get('scale') or 'the scale given'}; an error in it "
+                         "(a wrong length, a wrong camera height) makes every length on this photo wrong in the "
+                         "same proportion.")
+        if not cams[pid].get("distortion"):
+            items.append(f"{pid}: no lens distortion was estimated (no marked line had middle points): a lens that "
+                         "bends straight lines shifts points near the photo's edges.")
+    return [Limitation("single-view", "What a single photo cannot tell",
+                       "Measurements on a single photo rest on assumptions that the photo itself cannot check:",
+                       tuple(items))]
 
 
 def limitations_html(items: Sequence[Limitation]) -> str:

@@ -39,7 +39,7 @@ ul.lim { font-size: 9pt; margin-top: 0.2em; } ul.lim li { margin-bottom: 0.15em;
 .declaration { white-space: pre-wrap; border: 1px solid #999; padding: 0.6em; margin-top: 1em; }
 img { max-width: 100%; border: 1px solid #888; } img.plan { max-width: none; border: none; }
 .hyp { color: #fff; background: #aa1414; padding: 2px 6px; font-weight: bold; }
-.small { font-size: 9pt; color: #444; } .warn { color: #a05000; }
+.small { font-size: 9pt; color: #444; } pre.small { white-space: pre-wrap; font-size: 7.5pt; } .warn { color: #a05000; }
 figure { margin: 0.5em 0 1.2em 0; page-break-inside: avoid; }
 @page { size: A4; margin: 15mm; }
 """
@@ -53,6 +53,8 @@ class Report:
     warnings: list[str] = field(default_factory=list)
     #: The reference and check distances measured on the final model (the checks and limitations show them).
     checks: list[CheckResult] = field(default_factory=list)
+    #: Recorded analyses already run for this report (``$.analyses`` index → request and result), run once.
+    recorded: dict[int, tuple[Any, Any]] = field(default_factory=dict)
 
     def add(self, title: str, body: str) -> None:
         self.sections.append(f"<h2>{esc(title)}</h2>\n{body}")

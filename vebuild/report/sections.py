@@ -184,10 +184,13 @@ def marked_photos(project: Project, rep: Report) -> None:
         pixels, n = marked_photo(project, i, IMAGE_WIDTH)
         src = rep.image(f"marks-{i + 1}.png", pixels, {"Software": "vebuild", "Source": p["file"],
                                                        "Source SHA-256": p["sha256"]})
+        extra = "".join(f", {k} {what}{'s' if k > 1 else ''}{how}" for k, what, how in (
+            (n["rejected"], "vanishing segment", " left out by the calibration (grey, crossed)"),
+            (n["known_lengths"], "known length", " (white)")) if k)
         figs.append(f"<figure><img src='{src}'><figcaption>photo {esc(p['id'])} ({esc(p['file'])}) as marked: "
-                    f"{n['segments']} vanishing segments (x red, y green, z blue, arrow at the positive end), "
-                    f"{n['markers']} marker observations (orange rings), {n['pins']} pins (yellow crosses), "
-                    f"{n['edges']} edge observations (magenta)</figcaption></figure>")
+                    f"{n['segments']} vanishing segments (x red, y green, z blue, arrow at the positive end)"
+                    f"{esc(extra)}, {n['markers']} marker observations (orange rings), {n['pins']} pins (yellow "
+                    f"crosses), {n['edges']} edge observations (magenta)</figcaption></figure>")
     rep.add("The photos as marked", "<p>Each original photo, reduced to this page, with every mark the operator "
             "made on it: what the calibration and the solve were given.</p>" + "".join(figs))
 

@@ -11,9 +11,13 @@ from pathlib import Path
 from vebuild.errors import VebuildError
 from vebuild.project import Project
 
-from . import deviation, sections
+from . import deviation, sections, single_view, without_model
 from .page import Report, page
 from .processing import processing
+from .without_model import has_model, not_calibrated
+
+#: The steps :func:`write_report` reports to its ``progress`` (the PDF one more).
+SECTIONS = 15
 
 
 def write_report(project: Project, out: Path, pdf: bool = True,
@@ -27,8 +31,7 @@ def write_report(project: Project, out: Path, pdf: bool = True,
         raise VebuildError(f"{given}: the folder {given.parent} does not exist; create it first")
     check_folder(project, given, "report")
     if not (project.data.get("calibration") or {}).get("cameras"):
-        raise VebuildError(f"{project.path}: the project has no calibrated cameras yet; run `vebuild calibrate` "
-                           "(and `vebuild solve`) before making a report")
+        raise VebuildError(not_calibrated(project))
     out = Path(os.path.abspath(given))
     begin_stage(project, out.parent)
     # Build under a fresh sibling name, then swap it in (vebuild.project.atomic.replace_folder): never a
@@ -42,12 +45,19 @@ def write_report(project: Project, out: Path, pdf: bool = True,
         rep = Report(tmp)
         step = progress or (lambda what: None)
         rep.checks = sections.final_checks(project)
+        modelled = has_model(project)
         steps = [("photos", sections.photos), ("calibration", sections.calibration),
-                 ("final cameras", sections.final_cameras), ("model", sections.model), ("checks", sections.checks),
-                 ("limitations", sections.limitations), ("plan", sections.plan), ("views", sections.views),
-                 ("marked photos", sections.marked_photos), ("validation", sections.validation),
-                 ("laser scans", deviation.scans),
-                 ("analyses", sections.analyses), ("hypotheses", sections.hypotheses), ("processing", processing)]
+                 ("final cameras", sections.final_cameras if modelled else without_model.final_cameras),
+                 ("model", sections.model if modelled else without_model.model),
+                 ("checks", sections.checks if modelled else without_model.checks),
+                 ("limitations", sections.limitations), ("plan", sections.plan if modelled else without_model.plan),
+                 ("views", sections.views if modelled else without_model.views),
+                 ("marked photos", sections.marked_photos), ("measurements on the photos", single_view.section),
+                 ("validation", sections.validation if modelled else without_model.validation),
+                 ("laser scans", deviation.scans if modelled else without_model.scans),
+                 ("analyses", sections.analyses),
+                 ("hypotheses", sections.hypotheses if modelled else without_model.hypotheses),
+                 ("processing", processing)]
         for name, fn in steps:
             step(name)
             fn(project, rep)
