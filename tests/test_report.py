@@ -90,5 +90,5 @@ def test_report_errors(analysed_room, tmp_path, textured_room):
     assert not (tmp_path / "r").exists() and not list(tmp_path.glob(".r.*"))  # nothing half-written
     bare = load_project(textured_room)
     bare.data.pop("calibration")
-    with pytest.raises(VebuildError, match="has no calibrated cameras yet"):
+    with pytest.raises(VebuildError, match=r"no report yet: the photos are not calibrated yet; run `vebuild calibrate"):
         write_report(bare, tmp_path / "r", pdf=False)

@@ -146,15 +146,16 @@ def _lines(project: Project, cams: Mapping[str, Mapping[str, Any]]) -> str:
                 continue
             rejected = [r for r in vp.get("rejected") or [] if isinstance(r, Mapping)]
             n = len(marks.get(axis) or vp.get("residuals_px") or [])
-            why = "; ".join(f"#{int(r['segment']) + 1}: {r.get('reason', '')} ({r.get('misfit_sigmas', 0):.1f}σ)"
+            why = "; ".join(f"{int(r['segment'])}: {r.get('reason', '')} (misfit {r.get('misfit_sigmas', 0):.1f}σ)"
                             for r in rejected)
             rows.append([pid, axis, n, n - len(rejected), why or "none", fmt(vp.get("rms_px"), 2)])
     if not rows:
         return ""
     return ("<h3>Vanishing lines used and left out</h3><p>Each photo's lines by world axis: those used fix its "
             "vanishing point; a line that does not meet the others' point (clutter, a slope, another building) is "
-            "left out by a robust fit and named by its number among the photo's lines of that axis. RMS: the "
-            "residual of the lines used.</p>"
+            "left out by a robust fit and named by its index among the photo's lines of that axis (from 0, as "
+            "`vebuild calibrate` names it; grey and crossed on the photo as marked). RMS: the residual of the "
+            "lines used.</p>"
             + table(["photo", "axis", "marked", "used", "left out (why)", "RMS px"], rows, {2, 3, 5}))
 
 

@@ -7,8 +7,9 @@ Each photo with measurements is shown once, reduced to the report's width
 (:data:`vebuild.render.sizes.IMAGE_WIDTH`), with each measurement drawn where it was clicked: the
 measured length as a cyan line between its last two clicks (the foot and the top of a height, the
 two ends of a distance or length), with a bar across each end, numbered and labelled with its value
-and 95 % interval; the clicks that only set the reference (the wall's foot line, the raised surface,
-the plane's points) as white rings joined in their pairs. The same project gives the same PNG bytes.
+and 95 % interval beside one of its ends (where the label covers no measured line and no other
+label); the clicks that only set the reference (the wall's foot line, the raised surface, the
+plane's points) as white rings joined in their pairs. The same project gives the same PNG bytes.
 """
 
 from __future__ import annotations
@@ -126,23 +127,47 @@ def drawn_photo(project: Project, index: int, drawn: Sequence[Drawn], width: int
     font = ImageFont.load_default(size=max(14, width // 48))
     lw = max(2, round(width / 320))
     r = 3 * lw
+    lines = []
     for d in drawn:
         pts = [on_image(u, v, s) for u, v in d.clicks]
         ref, (a, b) = pts[:-2], pts[-2:]
+        lines.append((a, b))
         for j in range(0, len(ref) - 1, 2):
             draw.line([ref[j], ref[j + 1]], fill=REFERENCE_RGB, width=1)
         for x, y in ref:
             draw.ellipse([(x - r, y - r), (x + r, y + r)], outline=REFERENCE_RGB, width=1)
         draw.line([a, b], fill=MEASURED_RGB, width=lw)
         along = np.subtract(b, a)
-        n = float(np.hypot(*along))
+        n = float(np.hypot(along[0], along[1]))
         side = (np.array([-along[1], along[0]]) / n if n > 1e-9 else np.array([1.0, 0.0])) * 2 * r
         for end in (a, b):
             draw.line([tuple(np.asarray(end) - side), tuple(np.asarray(end) + side)], fill=MEASURED_RGB, width=lw)
-        # Beside the line's second end (the top of a height), off the line itself.
-        at = (b[0] + 2 * r + 4, b[1] - 2 * r)
-        label(draw, at, d.label(), MEASURED_RGB, font, img.width, img.height)
+    taken: list[tuple[float, float, float, float]] = []
+    for d, (a, b) in zip(drawn, lines, strict=True):
+        text = d.label()
+        box = draw.textbbox((0, 0), text, font=font)
+        w, h = box[2] - box[0] + 4, box[3] - box[1] + 4
+        # Beside an end (the top of a height first), where it covers no measured line and no other label.
+        gap = 2 * r + 4
+        spots = [(e[0] + gap, e[1] - h / 2) for e in (b, a)] + [(e[0] - gap - w, e[1] - h / 2) for e in (b, a)] \
+            + [(e[0] - w / 2, e[1] - gap - h) for e in (b, a)] + [(e[0] - w / 2, e[1] + gap) for e in (b, a)]
+        spots = [(min(max(x, 2.0), img.width - 2 - w), min(max(y, 2.0), img.height - 2 - h)) for x, y in spots]
+        at = next((xy for xy in spots if _free((xy[0], xy[1], xy[0] + w, xy[1] + h), lines, taken, lw)), spots[0])
+        taken.append((at[0], at[1], at[0] + w, at[1] + h))
+        label(draw, (at[0] + 2, at[1] + 2), text, MEASURED_RGB, font, img.width, img.height)
     return np.asarray(img)
+
+
+def _free(rect: tuple[float, float, float, float], lines: Sequence[tuple[Any, Any]],
+          taken: Sequence[tuple[float, float, float, float]], margin: float) -> bool:
+    """Whether a label's rectangle stays clear of every drawn line (by ``margin``) and every label."""
+    x0, y0, x1, y1 = rect[0] - margin, rect[1] - margin, rect[2] + margin, rect[3] + margin
+    for a, b in lines:
+        t = np.linspace(0.0, 1.0, 200)[:, None]
+        p = (1 - t) * np.asarray(a, float) + t * np.asarray(b, float)
+        if np.any((p[:, 0] >= x0) & (p[:, 0] <= x1) & (p[:, 1] >= y0) & (p[:, 1] <= y1)):
+            return False
+    return not any(x0 < q[2] and q[0] < x1 and y0 < q[3] and q[1] < y1 for q in taken)
 
 
 def section(project: Project, rep: Report) -> None:
