@@ -228,3 +228,48 @@ def test_a_project_not_calibrated_is_refused_naming_what_to_do(tmp_path, capsys)
     code, _, err = _cli(capsys, "report", str(path), "--out", str(tmp_path / "r"), "--quiet")
     assert code == 2 and f"Mark the lines of each photo (`vebuild detect {path.name}`" in err
     assert not (tmp_path / "r").exists()
+
+
+def test_several_photos_each_placed_alone_are_each_drawn_with_their_measurements(tmp_path):
+    from vebuild.synthetic import write_project
+
+    a, b = one_photo(np.random.default_rng(65)), one_photo(np.random.default_rng(66))
+    b.cam.id = "q"
+    path = write_project(tmp_path, [a.cam, b.cam], {n: a.points[n] for n in ("O", "F1")})
+    project = load_project(path)
+    project.data["reference_distances"] = []
+    project.data["markers"] = [{"name": "O"}]
+    for p, ph in zip(project.data["photos"], (a, b), strict=True):
+        p["marker_observations"] = {}
+        p["camera_height"] = {"value": float(ph.C[2]), "sigma": 0.01}
+    project.data["analyses"] = [{"name": f"box in {pid}", "command": single_view_command(
+        "photo-height", pid, [ph.clicks["box_foot"], ph.clicks["box_top"]])} for pid, ph in (("p", a), ("q", b))]
+    save_project(project)
+    assert main(["calibrate", str(path), "--quiet"]) == 0
+    write_report(load_project(path), tmp_path / "r", pdf=False)
+    page = (tmp_path / "r" / "report.html").read_text()
+    table = _section(page, "Measurements on the photos")
+    from PIL import Image
+
+    for k, (pid, ph) in enumerate((("p", a), ("q", b)), start=1):
+        assert f"<td>box in {pid}</td><td>{pid}</td>" in table
+        img = np.asarray(Image.open(tmp_path / "r" / "images" / f"measured-{k}.png").convert("RGB"))
+        u, v = 0.5 * (ph.clicks["box_foot"] + ph.clicks["box_top"])
+        assert tuple(img[round(v * SCALE - 0.5), round(u * SCALE - 0.5)]) == MEASURED_RGB
+    rows = re.findall(r"<tr><td>([pq])</td><td>[^<]*</td><td>[^<]*</td><td class='n'>([0-9.]+) ± ([0-9.]+) m</td>",
+                      _section(page, "Calibration (vanishing points)"))
+    assert [r[0] for r in rows] == ["p", "q"]
+    for (_, h, s), ph in zip(rows, (a, b), strict=True):
+        assert abs(float(h) - ph.C[2]) <= 4 * 0.01 and float(s) > 0  # each camera height, its own scale
+
+
+def test_a_measurement_that_no_longer_fits_its_photo_is_named(one_photo_report, tmp_path):
+    from vebuild.errors import ProjectError
+
+    project = load_project(one_photo_report["path"])
+    project.data["analyses"][1]["command"] = single_view_command("floor-distance", "p", [(400.0, 5.0),
+                                                                                         (500.0, 900.0)])
+    with pytest.raises(ProjectError, match=r"\$\.analyses\[1\]\.command: photo 'p': the first point: pixel "
+                       r"\(400\.0, 5\.0\) lies on or above the horizon"):
+        write_report(project, tmp_path / "r", pdf=False)
+    assert not (tmp_path / "r").exists()
