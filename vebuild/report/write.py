@@ -22,7 +22,9 @@ SECTIONS = 15
 
 def write_report(project: Project, out: Path, pdf: bool = True,
                  progress: Callable[[str], None] | None = None) -> Path:
-    """Write ``out/report.html`` (and ``out/report.pdf``) with its images in ``out/images``."""
+    """Write ``out/report.html`` (and ``out/report.pdf``) with its images in ``out/images``: of a
+    project with calibrated photos, modelled or not (without a model, the sections that need one
+    are left out, each with a line saying why: :mod:`vebuild.report.without_model`)."""
     from vebuild.project.atomic import MANIFEST, remove_tree, replace_folder, temp_path, write_text
     from vebuild.project.outputs import SOFTWARE, begin_stage, check_folder, write_manifest
 
