@@ -222,6 +222,7 @@ class MeasureTool(EditorPart):
         from vebuild.analysis.markers import MARKER_COLOUR
 
         x0, y0, x1, y1 = self.view_rect()
+        st["labels"] = []  # the labels placed in this frame
         dl.push_clip_rect((x0, y0), (x1, y1), True)
         colour, white = u32(MEASURE_COLOUR), u32((1, 1, 1, 1))
         pin = u32((*(c / 255 for c in MARKER_COLOUR), 1.0))
@@ -259,10 +260,18 @@ class MeasureTool(EditorPart):
         dl.pop_clip_rect()
 
     def _draw_label(self, dl: Any, label: str, near: tuple[float, float]) -> None:
-        """A measurement's label beside window point ``near``, on a dark band, kept inside the view."""
+        """A measurement's label beside window point ``near``, on a dark band, kept inside the view
+        and clear of the labels drawn before it in this frame (moved down a line until clear)."""
         x0, _, x1, _ = self.view_rect()
         size = imgui.calc_text_size(label)
         at = (max(x0 + 2, min(near[0] + 8, x1 - size.x - 4)), near[1])
+        placed: list[tuple[float, float, float, float]] = self._measure_state().setdefault("labels", [])
+        for _ in range(len(placed) + 1):
+            box = (at[0] - 2, at[1] - 1, at[0] + size.x + 2, at[1] + size.y + 1)
+            if not any(box[0] < b[2] and b[0] < box[2] and box[1] < b[3] and b[1] < box[3] for b in placed):
+                break
+            at = (at[0], at[1] + size.y + 3)
+        placed.append((at[0] - 2, at[1] - 1, at[0] + size.x + 2, at[1] + size.y + 1))
         dl.add_rect_filled((at[0] - 2, at[1] - 1), (at[0] + size.x + 2, at[1] + size.y + 1), u32((0, 0, 0, 0.75)))
         dl.add_text(at, u32((1, 1, 1, 1)), label)
 
