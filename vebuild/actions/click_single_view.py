@@ -31,6 +31,17 @@ WHAT = {"photo-height": "height", "floor-distance": "floor distance", "wall-leng
         "raised-height": "height above the raised surface", "plane-length": "length on the plane"}
 
 
+#: How a relative length is said on the photo: no scale was given.
+RELATIVE_WORDS = "in relative units (no length was given: the camera's height above the floor is 1)"
+
+
+def check_click(width: int, height: int, uv: Any) -> None:
+    """A click of a single-view measurement must lie on the photo (``width`` × ``height`` pixels)."""
+    u, v = float(uv[0]), float(uv[1])
+    if not (0 <= u <= width and 0 <= v <= height):
+        raise ClickError(f"({u:.1f}, {v:.1f}) lies outside the {width}×{height} photo: click on the photo")
+
+
 @cache
 def kinds() -> tuple[str, ...]:
     """The single-view measurements the command line accepts, in
@@ -67,14 +78,11 @@ def prompt(kind: str, done: int) -> str:
 def figure_words(row: dict[str, Any], unit: str) -> str:
     """One measurement's figure in plain words: the value, its 1σ and its 95 % interval, in metres
     or, where no length was given, relative units (the camera's height above the floor is 1)."""
-    from vebuild.project.units import RELATIVE_UNITS
-
     if unit == "relative":
         v, s, ci = row["value_relative"], row["sigma_relative"], row["ci95_relative"]
         if s is None:
-            return f"{v:.4f} in relative units ({RELATIVE_UNITS}), its uncertainty undetermined"
-        return (f"{v:.4f} ± {s:.4f} (1σ), 95 % between {ci[0]:.4f} and {ci[1]:.4f}, in relative units "
-                f"({RELATIVE_UNITS})")
+            return f"{v:.4f} {RELATIVE_WORDS}, its uncertainty undetermined"
+        return f"{v:.4f} ± {s:.4f} (1σ), 95 % between {ci[0]:.4f} and {ci[1]:.4f}, {RELATIVE_WORDS}"
     v, s, ci = row["value_m"], row["sigma_m"], row["ci95_m"]
     if s is None:
         return f"{v:.4f} m, its uncertainty undetermined"

@@ -121,15 +121,21 @@ class MeasureTool(EditorPart):
     def _single_view_click(self, uv: tuple[float, float]) -> None:
         """A click of a single-view measurement: the next point, or the last and the measurement."""
         st, kind = self._measure_state(), self.single_view_kind
+        assert self.photo is not None
         if st.get("for") != ("single", kind, self.photo):  # clicks of another measurement or photo
             st["pixels"], st["for"] = [], ("single", kind, self.photo)
+        shown = self.session.photo(self.photo)
+        sv.check_click(int(shown["width"]), int(shown["height"]), uv)
         st["pixels"].append((float(uv[0]), float(uv[1])))
         if len(st["pixels"]) < len(sv.prompts(kind)):
             self.say(f"({uv[0]:.1f}, {uv[1]:.1f}); {sv.prompt(kind, len(st['pixels']))}")
             return
         pixels, st["pixels"] = st["pixels"], []
-        assert self.photo is not None
-        self._measured(sv.measure_on_photo(self.session.project, kind, self.photo, pixels))
+        try:
+            measured = sv.measure_on_photo(self.session.project, kind, self.photo, pixels)
+        except cm.ClickError as e:  # the clicks cannot be measured: said, and begun again
+            raise cm.ClickError(f"{e}; begin again: {sv.prompt(kind, 0)}") from None
+        self._measured(measured)
         self.say(f"next: {sv.prompt(kind, 0)} (T: the next measurement)")
 
     def measure_release(self, x: float, y: float) -> None:

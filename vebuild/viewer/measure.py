@@ -148,7 +148,11 @@ class ViewerMeasure:
             v.say(f"({uv[0] / scale:.1f}, {uv[1] / scale:.1f}); {sv.prompt(kind, len(st['pixels']))}")
             return
         pixels, st["pixels"] = st["pixels"], []
-        self._finish(sv.measure_on_photo(v.project, kind, v.photo, pixels))
+        try:
+            measured = sv.measure_on_photo(v.project, kind, v.photo, pixels)
+        except cm.ClickError as e:  # the clicks cannot be measured: said, and begun again
+            raise cm.ClickError(f"{e}; begin again: {sv.prompt(kind, 0)}") from None
+        self._finish(measured)
 
     def _click(self) -> None:
         v: Any = self
