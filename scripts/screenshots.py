@@ -57,13 +57,16 @@ DOOR_TURN_DEG = 30.0
 XVFB_SCREEN = "1600x1200x24"
 
 
-def save(img: np.ndarray | Image.Image, path: Path, width: int) -> Path:
-    """Downscale to ``width`` (keeping the shape) and write a palette PNG, atomically."""
+def save(img: np.ndarray | Image.Image, path: Path, width: int,
+         method: Image.Quantize = Image.Quantize.MEDIANCUT) -> Path:
+    """Downscale to ``width`` (keeping the shape) and write a palette PNG, atomically (``method``:
+    how the 256 colours are chosen; the octree keeps a few thin lines' colour that median cut merges
+    into larger areas of a near one)."""
     im = img if isinstance(img, Image.Image) else Image.fromarray(np.ascontiguousarray(img))
     im = im.convert("RGB")
     if im.width != width:
         im = im.resize((width, round(im.height * width / im.width)), Image.Resampling.LANCZOS)
-    im = im.quantize(colors=256, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.FLOYDSTEINBERG)
+    im = im.quantize(colors=256, method=method, dither=Image.Dither.FLOYDSTEINBERG)
     tmp = path.with_name(path.name + ".part")
     im.save(tmp, format="PNG", optimize=True)
     os.replace(tmp, path)
@@ -262,6 +265,7 @@ def shoot_one_photo(folder: Path, out: Path) -> list[Path]:
             editor.layer_shown["vanishing points"] = False  # the measurements, not the calibration's rays
             for _ in range(4):
                 editor.frame()
+            editor.set_view(0.7, (840.0, 830.0))  # the lower part of the room, where the box and the door stand
             editor.measure_cycle()  # T: a height on the photo alone
             for X in (foot, foot + [0.0, 0.0, sz]):
                 editor.measure_release(*editor.image_to_window(None, pixel(X)))
@@ -272,7 +276,7 @@ def shoot_one_photo(folder: Path, out: Path) -> list[Path]:
             for _ in range(3):
                 editor.frame()
             editor.draw()
-            return [save(editor.surface.read(), out / "one-photo-measure.png", width)]
+            return [save(editor.surface.read(), out / "one-photo-measure.png", width, Image.Quantize.FASTOCTREE)]
         finally:
             editor.close()
 

@@ -287,7 +287,7 @@ class MeasureTool(EditorPart):
         pairs = sv.drawn_pairs(m.kind, m.pixels)
         for k, (a, b) in enumerate(pairs):
             pa, pb = self.image_to_window(None, a), self.image_to_window(None, b)
-            dl.add_line(pa, pb, colour, 2.0 if k == 0 else 1.0)
+            dl.add_line(pa, pb, colour, 3.0 if k == 0 else 1.5)
         for uv in m.pixels:
             dl.add_circle_filled(self.image_to_window(None, uv), 4.0, colour)
         if pairs:
