@@ -180,3 +180,17 @@ def test_t_cycles_the_single_view_measurements_and_a_floor_distance_is_the_comma
     (f,) = json.loads(out.read_text())["measurements"]
     true_d = float(np.linalg.norm(box_foot - DOOR_FOOT))
     assert f["ci95_m"][0] <= true_d <= f["ci95_m"][1], (f, true_d)
+    # Two points on the ceiling, above the horizon: said in words, nothing measured, begun again.
+    for uv in ((800.0, 40.0), (900.0, 60.0)):
+        x, y = (int(round(c)) for c in e.image_to_window(None, uv))
+        d.send(*d.move_to(x, y), "click", "1")
+    assert "lies on or above the horizon" in e.messages[-1]
+    assert e.messages[-1].endswith("begin again: floor distance: click the first point on the floor (point 1 of 2)")
+    assert len(e.measured) == 1 and e.single_view_clicks == []
+    # A click beside the photo (the view zoomed out by the wheel) is not counted.
+    x0, y0, x1, y1 = e.view_rect()
+    d.send(*d.move_to(0.5 * (x0 + x1), 0.5 * (y0 + y1)), "click", "5", "click", "5")
+    left, _ = e.image_to_window(None, (0.0, 600.0))
+    assert left - x0 > 10, "the photo fills the view's width: no margin to click"
+    d.send(*d.move_to(int(x0 + 0.5 * (left - x0)), int(0.5 * (y0 + y1))), "click", "1")
+    assert "lies outside the 1600×1200 photo: click on the photo" in e.messages[-1] and e.single_view_clicks == []
