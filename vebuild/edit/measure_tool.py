@@ -77,9 +77,10 @@ class MeasureTool(EditorPart):
         except cm.ClickError as e:
             if self.photo is not None and self.photo in self.session.cameras:
                 return True
+            why = str(e).removeprefix("measuring needs a solved model: ")
             raise cm.ClickError(f"measuring needs this photo calibrated (Calibrate, in the Calibration tab), to "
-                                f"measure on the photo alone, or a solved model, to measure on the model: "
-                                f"{e}") from None
+                                f"measure on the photo alone, or a solved model, to measure on the model ({why})"
+                                ) from None
 
     def measure_cycle(self) -> None:
         """T: the Measure tool; pressed again, the next measurement (distance, height, dimension;
