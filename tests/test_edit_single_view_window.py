@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import shutil
+import time
 from pathlib import Path
 
 import numpy as np
@@ -105,12 +106,16 @@ def test_a_height_measured_on_one_photo_by_clicks_and_keys_alone(one_photo, driv
     d.send("key", "t")
     assert e.tool == "measure" and e.single_view_kind == "photo-height"
     assert "click its foot on the floor" in e.messages[-1]
+    assert [t for t, _ in e.shown_messages()][0] == ("measure on the photo alone: height: click its foot on the floor "
+                                                     "(point 1 of 2); T: the next measurement, Esc: stop")
     box_foot, box_top = _box_edge()
     d.send(*d.move_to(*_at(d, box_foot, rng)), "click", "1")
     assert len(e.single_view_clicks) == 1 and "click its top" in e.messages[-1]
+    assert "height: click its top (point 2 of 2)" in e.shown_messages()[0][0]
     d.send(*d.move_to(*_at(d, box_top, rng)), "click", "1")
     (m,) = e.measured
     assert m.label.startswith("height ") and "95 % between" in m.label and f"'{m.name}'" in e.messages[-2]
+    assert "height: click its foot on the floor (point 1 of 2)" in e.shown_messages()[0][0]  # the next one
     assert "analyses" not in json.loads(one_photo.read_text())
     d.send("key", "ctrl+s")
     (rec,) = json.loads(one_photo.read_text())["analyses"]
@@ -129,10 +134,20 @@ def test_a_height_measured_on_one_photo_by_clicks_and_keys_alone(one_photo, driv
     lo, hi = h["ci95_m"]
     assert lo <= true_h <= hi, (h, true_h)
     assert 0 < h["sigma_m"] < 0.05 * true_h
-    # Drawn on the photo: the line from foot to top in the measurement's colour.
+    # A while later the messages are gone; the next point to click stays said.
+    later = time.monotonic() + 60
+    e.message_clock = lambda: later
+    d.frames(2)
+    assert [t for t, _ in e.shown_messages()] == [("measure on the photo alone: height: click its foot on the floor "
+                                                   "(point 1 of 2); T: the next measurement, Esc: stop")]
+    # Drawn on the photo: the line from foot to top in the measurement's colour (where no message is).
     img = d.screen().astype(int)
     a, b = (np.asarray(e.image_to_window(None, p)) for p in m.pixels)
-    x, y = (int(c) for c in b + 0.1 * (a - b))  # near its top, above the messages
+    mx0, my0, mx1, my1 = e._rects["messages"]
+    clear = [p for p in (b + t * (a - b) for t in np.linspace(0.05, 0.95, 19))
+             if not (mx0 - 4 <= p[0] <= mx1 + 4 and my0 - 4 <= p[1] <= my1 + 4)]
+    assert clear, "the whole line lies under the messages"
+    x, y = (int(c) for c in clear[0])
     patch = img[y - 3:y + 4, x - 3:x + 4].reshape(-1, 3)
     assert any(p[2] > 200 and p[1] > 170 and p[0] < 120 for p in patch)
     # One undoable edit: Ctrl+Z takes it out of the analyses and off the photo.

@@ -68,6 +68,25 @@ class MeasureTool(EditorPart):
         names = {r.get("name") for r in self.session.data.get("analyses") or []}
         return [m for m in self._measure_state()["drawn"] if m.name in names]
 
+    def measure_prompt(self) -> str | None:
+        """While the Measure tool measures the photo shown on its own, the point to click next, in
+        words (the message area holds it above the messages); None otherwise."""
+        if self.tool != "measure" or self.photo is None:
+            return None
+        st = self._measure_state()
+        key = (self.session.revision, self.photo)
+        if st.get("alone_for") != key:  # whether it measures the photo alone, once per edit and photo
+            try:
+                st["alone"] = self.single_view()
+            except cm.ClickError:
+                st["alone"] = False
+            st["alone_for"] = key
+        if not st["alone"]:
+            return None
+        kind = self.single_view_kind
+        done = len(st["pixels"]) if st.get("for") == ("single", kind, self.photo) else 0
+        return f"measure on the photo alone: {sv.prompt(kind, done)}; T: the next measurement, Esc: stop"
+
     def single_view(self) -> bool:
         """Whether the Measure tool measures the photo shown on its own: the project has no solved
         model and the photo is calibrated. Neither: a :class:`ClickError` saying what each needs."""
