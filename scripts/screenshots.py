@@ -11,7 +11,13 @@ demo` does); then each screen is opened in a real window and its frame saved:
 - ``view-present.png``: the same in presentation mode (Tab; F11 is the same full screen): the panel
   hidden, the legend (hypothesis, unobserved surfaces, scale bar) in its place;
 - ``report-pages.png``: the report's first two pages side by side (needs pypdfium2; left out, and
-  said, without it).
+  said, without it);
+- ``one-photo-measure.png``: the modelling screen on a project of one generated photo (the example's
+  p3 alone, as `vebuild new` makes it): its detected lines accepted, the door's height as the known
+  length, calibrated, and two measurements made on the photo alone (the Measure tool, T): the box's
+  height and a distance on the floor.
+
+``--only NAME`` (repeatable) makes only those images, e.g. ``--only one-photo-measure.png``.
 
 Windows need a display: without one the script runs itself again under ``xvfb-run`` (Debian's
 xvfb). Each image is downscaled to :data:`SHOTS`' width and saved with a 256-colour palette, so
@@ -41,6 +47,7 @@ SHOTS = {
     "view-panel.png": ((1280, 720), 960),
     "view-present.png": ((1280, 720), 960),
     "report-pages.png": (None, 960),
+    "one-photo-measure.png": ((1280, 800), 960),
 }
 #: The photo shown in the modelling screen, and the view and door opening in the walk-through.
 PHOTO = "p3"
@@ -50,13 +57,16 @@ DOOR_TURN_DEG = 30.0
 XVFB_SCREEN = "1600x1200x24"
 
 
-def save(img: np.ndarray | Image.Image, path: Path, width: int) -> Path:
-    """Downscale to ``width`` (keeping the shape) and write a palette PNG, atomically."""
+def save(img: np.ndarray | Image.Image, path: Path, width: int,
+         method: Image.Quantize = Image.Quantize.MEDIANCUT) -> Path:
+    """Downscale to ``width`` (keeping the shape) and write a palette PNG, atomically (``method``:
+    how the 256 colours are chosen; the octree keeps a few thin lines' colour that median cut merges
+    into larger areas of a near one)."""
     im = img if isinstance(img, Image.Image) else Image.fromarray(np.ascontiguousarray(img))
     im = im.convert("RGB")
     if im.width != width:
         im = im.resize((width, round(im.height * width / im.width)), Image.Resampling.LANCZOS)
-    im = im.quantize(colors=256, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.FLOYDSTEINBERG)
+    im = im.quantize(colors=256, method=method, dither=Image.Dither.FLOYDSTEINBERG)
     tmp = path.with_name(path.name + ".part")
     im.save(tmp, format="PNG", optimize=True)
     os.replace(tmp, path)
@@ -193,10 +203,90 @@ def shoot_report(project: Path, out: Path) -> list[Path]:
     return [save(sheet, out / "report-pages.png", width)]
 
 
+def _one_photo_project(folder: Path) -> tuple[Path, dict]:
+    """A project of the example's photo PHOTO alone, its lines detected and accepted, the door's
+    height (2.045 m, the hinge edge from the floor to its top) as its known length, calibrated;
+    its project file and the example's ground truth."""
+    import json
+
+    from vebuild.camera import project as project_points
+    from vebuild.cli import main
+    from vebuild.edit.session import EditSession
+
+    (folder / "photos").mkdir(parents=True)
+    shutil.copy(EXAMPLE / "photos" / f"{PHOTO}.jpg", folder / "photos")
+    path = folder / "one-photo.vebuild.json"
+    with open(os.devnull, "w") as null:
+        old, sys.stdout = sys.stdout, null
+        try:
+            rc = main(["new", str(path), str(folder / "photos" / f"{PHOTO}.jpg")])
+        finally:
+            sys.stdout = old
+    if rc != 0:
+        raise SystemExit(f"screenshots: `vebuild new` failed on the example's photo {PHOTO} ({rc})")
+    truth = json.loads((EXAMPLE / "ground_truth.json").read_text())
+    t = truth["photos"][PHOTO]
+    K, R, C = (np.asarray(t[k], float) for k in ("K", "R", "C"))
+    session = EditSession.open(path, recover=False)
+    session.detect_lines(PHOTO)
+    session.accept_all(PHOTO)
+    hinge = np.array([4.2, 0.0, 0.0])
+    session.add_known_length(PHOTO, "z", [project_points(K, R, C, hinge + [0, 0, z]) for z in (0.0, 2.045)], 2.045,
+                             description="the door's top above the floor")
+    session.calibrate()
+    session.save()
+    return path, {"K": K, "R": R, "C": C, "truth": truth}
+
+
+def shoot_one_photo(folder: Path, out: Path) -> list[Path]:
+    """The modelling screen on one calibrated photo with two single-view measurements drawn."""
+    from vebuild.camera import project as project_points
+    from vebuild.edit.screen import Editor
+    from vebuild.edit.session import EditSession
+    from vebuild.gl.surface import WindowSurface
+    from vebuild.gl.window import Window
+
+    path, t = _one_photo_project(folder)
+    box = next(o for o in t["truth"]["objects"] if o["name"] == "box")
+    c, (sx, sy, sz), a = np.asarray(box["centre"], float), box["size"], math.radians(box["yaw_deg"])
+    turn = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
+    feet = [np.r_[c[:2] + turn @ [i * sx / 2, j * sy / 2], 0.0] for i in (-1, 1) for j in (-1, 1)]
+    foot = min(feet, key=lambda X: float(np.linalg.norm(X - t["C"])))  # the box's edge nearest the camera
+
+    def pixel(X: np.ndarray) -> np.ndarray:
+        return project_points(t["K"], t["R"], t["C"], np.asarray(X, float))
+
+    (w, h), width = SHOTS["one-photo-measure.png"]
+    with Window(w, h, "vebuild edit — one photo", visible=True) as window:
+        session = EditSession.open(path, recover=False)
+        editor = Editor(session, WindowSurface(window))
+        try:
+            editor.set_photo(PHOTO)
+            editor.layer_shown["vanishing points"] = False  # the measurements, not the calibration's rays
+            for _ in range(4):
+                editor.frame()
+            editor.set_view(0.7, (840.0, 830.0))  # the lower part of the room, where the box and the door stand
+            editor.measure_cycle()  # T: a height on the photo alone
+            for X in (foot, foot + [0.0, 0.0, sz]):
+                editor.measure_release(*editor.image_to_window(None, pixel(X)))
+            editor.measure_cycle()  # T again: a distance on the floor
+            for X in (foot, np.array([4.2, 0.0, 0.0])):  # to the door's hinge on the floor
+                editor.measure_release(*editor.image_to_window(None, pixel(X)))
+            editor.message_clock = lambda: math.inf  # the messages gone, as a few seconds later
+            for _ in range(3):
+                editor.frame()
+            editor.draw()
+            return [save(editor.surface.read(), out / "one-photo-measure.png", width, Image.Quantize.FASTOCTREE)]
+        finally:
+            editor.close()
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "images", help="where the PNGs go")
     parser.add_argument("--no-report", action="store_true", help="leave out the report's first page")
+    parser.add_argument("--only", action="append", choices=sorted(SHOTS), metavar="NAME",
+                        help=f"make only this image (repeatable): {', '.join(SHOTS)}")
     args = parser.parse_args(argv)
     if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
         xvfb = shutil.which("xvfb-run")
@@ -207,11 +297,16 @@ def main(argv: list[str] | None = None) -> int:
         return subprocess.call([xvfb, "-a", "-s", f"-screen 0 {XVFB_SCREEN}", sys.executable, __file__,
                                 *(argv if argv is not None else sys.argv[1:])])
     args.out.mkdir(parents=True, exist_ok=True)
+    want = set(args.only or SHOTS) - ({"report-pages.png"} if args.no_report else set())
     with tempfile.TemporaryDirectory(prefix="vebuild-screenshots-") as tmp:
-        project = prepare(Path(tmp))
-        written = shoot_editor(project, args.out) + shoot_viewer(project, args.out)
-        if not args.no_report:
-            written += shoot_report(project, args.out)
+        written = []
+        if want & {"edit-photo.png", "edit-proposals.png", "view-panel.png", "view-present.png", "report-pages.png"}:
+            project = prepare(Path(tmp))
+            written += shoot_editor(project, args.out) + shoot_viewer(project, args.out)
+            if "report-pages.png" in want:
+                written += shoot_report(project, args.out)
+        if "one-photo-measure.png" in want:
+            written += shoot_one_photo(Path(tmp) / "one-photo", args.out)
     for p in written:
         print(f"{p}  {Image.open(p).size[0]}×{Image.open(p).size[1]}  {p.stat().st_size // 1024} KiB")
     return 0

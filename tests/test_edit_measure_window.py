@@ -159,4 +159,7 @@ def test_measuring_an_unsolved_project_says_so(tmp_path, drive):
     d = drive(folder / "room.vebuild.json")
     d.send("key", "t")
     _click(d, TABLE_UV)
-    assert d.editor.measured == [] and any("measuring needs a solved model" in m for m in d.editor.messages)
+    # Neither calibrated (to measure on the photo alone) nor solved: it says what each needs.
+    assert d.editor.measured == [] and any("measuring needs this photo calibrated (Calibrate, in the Calibration "
+                                           "tab), to measure on the photo alone, or a solved model" in m
+                                           for m in d.editor.messages)

@@ -59,3 +59,18 @@ def test_without_a_display_or_xvfb_run_it_says_what_to_install(monkeypatch, caps
     assert shots.main(["--out", "unused"]) == 2
     assert "apt-get install xvfb" in capsys.readouterr().err
     assert not Path("unused").exists()
+
+
+def test_only_makes_the_one_photo_picture_with_its_two_measurements(tmp_path, capsys):
+    shots = _script()
+    out = tmp_path / "images"
+    assert shots.main(["--out", str(out), "--only", "one-photo-measure.png"]) == 0
+    assert sorted(p.name for p in out.iterdir()) == ["one-photo-measure.png"]
+    assert "one-photo-measure.png" in capsys.readouterr().out
+    im = Image.open(out / "one-photo-measure.png")
+    (window, width) = shots.SHOTS["one-photo-measure.png"]
+    assert im.mode == "P" and im.size == (width, round(window[1] * width / window[0]))
+    # The two measurements' lines and dots in the Measure tool's cyan (MEASURE_COLOUR), on the photo.
+    rgb = np.asarray(im.convert("RGB")).astype(int)
+    cyan = (rgb[..., 2] > 200) & (rgb[..., 1] > 170) & (rgb[..., 0] < 120)
+    assert cyan.sum() > 100

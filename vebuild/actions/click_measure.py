@@ -70,7 +70,9 @@ class Clicked:
 class Measured:
     """One measurement made by clicks: the request run, its result (the command line's own table
     and figures), the saved record's words, the short ``label`` drawn in the view, and the world
-    points to draw: a line from ``points[0]`` to ``points[1]`` (one point: a label there)."""
+    points to draw: a line from ``points[0]`` to ``points[1]`` (one point: a label there). A
+    measurement on one photo alone (:mod:`.click_single_view`) has ``photo`` and the ``pixels``
+    clicked on it instead of world points."""
 
     kind: str
     request: Request
@@ -79,6 +81,8 @@ class Measured:
     label: str
     points: list[Array] = field(default_factory=list)
     name: str = ""
+    photo: str | None = None
+    pixels: list[Array] = field(default_factory=list)
 
 
 def solved_model(project: Project) -> SolvedModel:

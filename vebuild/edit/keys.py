@@ -51,7 +51,9 @@ EDITOR_KEYS = KeyTable([
             (Chord(glfw.KEY_A, "relate_choose", ("aligned",)),)),
     Binding("T", "Measure: click two points on the model (distance), T again a point (height above the floor), T "
             "again an object (its dimensions); each with its 1σ and 95 % interval from the solve, drawn over the photo "
-            "and added to the project's analyses (the report shows them)", (Chord(glfw.KEY_T, "measure_cycle"),)),
+            "and added to the project's analyses (the report shows them). With no solved model, on a calibrated photo "
+            "alone: a height (its foot on the floor, then its top), T again a distance on the floor (two points), and "
+            "so on; the message line names each point to click", (Chord(glfw.KEY_T, "measure_cycle"),)),
     Binding("X", "Evidence marker: a click on a surface places the next marker (E1, E2, …), a click on a marker "
             "removes it", (Chord(glfw.KEY_X, "set_tool", ("evidence",)),)),
     Binding("J", "Trajectory: click the entry hole, then the exit hole: the path and its uncertainty cone (from the "

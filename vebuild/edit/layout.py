@@ -48,6 +48,7 @@ TOOL_HINTS = {"select": "drag a vertex; click an edge to select its primitive",
                         "or Aligned (A)",
               "delete": "click a segment, a middle point, a marker, a known length or a drawn edge to remove it",
               "measure": "click two points (distance), a point (height) or an object (dimensions), with 1σ and 95 %; "
+                         "with no solved model, on a calibrated photo alone: the points the message line names; "
                          "T again: the next measurement",
               "evidence": "click a surface to place an evidence marker, click a marker to remove it",
               "trajectory": "click the entry hole, then the exit hole: the path with its cone"}

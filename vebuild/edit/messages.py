@@ -1,8 +1,9 @@
 """The modelling screen's messages, in one place (the bottom left of the photo view), the newest on
 top: each message the session says (:meth:`~vebuild.edit.history.SessionState.say`) shows for
 :data:`MESSAGE_SECONDS` and goes; at most :data:`MESSAGES_SHOWN` at a time. Above them what holds
-now (a refused drag's reason while the drag lasts, the click a placement waits for); under them the
-photo's notes (why it has no vanishing point or model yet), dimmer, for as long as they hold."""
+now (a refused drag's reason while the drag lasts, the click a placement or a measurement on the
+photo alone waits for); under them the photo's notes (why it has no vanishing point or model yet),
+dimmer, for as long as they hold."""
 
 from __future__ import annotations
 
@@ -53,6 +54,9 @@ class MessageArea(EditorPart):
         if self._placing is not None:
             lines.append((f"click in the photo where the new {self._placing['kind']} stands (Esc cancels)",
                           (1.0, 0.8, 0.2, 1.0)))
+        prompt = self.measure_prompt()  # the next point of a measurement on the photo alone
+        if prompt:
+            lines.append((prompt, (1.0, 0.8, 0.2, 1.0)))
         lines += [(m, (1.0, 1.0, 1.0, 1.0)) for m, _ in reversed(timed) if m != self.drag_problem]
         ov = self._overlay if self._overlay_key and self._overlay_key[1] == self.photo else None
         lines += [(note, (0.75, 0.75, 0.75, 1.0)) for note in (ov.notes if ov is not None else [])]

@@ -44,7 +44,9 @@ VIEWER_KEYS = KeyTable([
             (Chord(glfw.KEY_K, "toggle_scans"),)),
     Binding("T", "measure by clicking: distance between two surface points, then (T again) height of a point above "
             "the floor, then an object's dimensions, then off; each with 1σ and 95 % interval, drawn and saved as an "
-            "analysis of the project", (Chord(glfw.KEY_T, "measure_cycle"),)),
+            "analysis of the project. With no solved model, on a photo shown at its camera (P): a height (its foot on "
+            "the floor, then its top), T again a distance on the floor, and so on, measured on the photo alone",
+            (Chord(glfw.KEY_T, "measure_cycle"),)),
     Binding("M", "evidence markers: a click on a surface places the next (E1, E2, …), a click on one removes it "
             "(saved in the project); M again: off", (Chord(glfw.KEY_M, "marker_tool"),)),
     Binding("J, H", "trajectory: click the entry hole, then the exit hole (its cone from the holes' 1σ in the "

@@ -8,6 +8,11 @@ there) and handed to :mod:`vebuild.actions.click_measure`, which makes the comma
 reference and runs its request; each result is drawn over the view (a line with its label) and
 saved in the project's ``analyses`` (the markers in ``evidence_markers``), as the walk-through
 saves views and hypotheses.
+
+With no solved model, a photo shown at its calibrated camera (P) is measured on its own
+(single-view metrology, :mod:`vebuild.actions.click_single_view`): T cycles the single-view
+measurements, the message line names each point to click on the photo, and the result is the
+command line's ``vebuild analyse PROJECT photo-height --photo ID U V …`` on the saved words.
 """
 
 from __future__ import annotations
@@ -18,6 +23,7 @@ import glfw
 import numpy as np
 
 from vebuild.actions import click_measure as cm
+from vebuild.actions import click_single_view as sv
 from vebuild.camera import project as project_points
 from vebuild.camera import world_to_camera
 from vebuild.errors import VebuildError
@@ -40,8 +46,26 @@ class ViewerMeasure:
     def _measure_state(self) -> dict[str, Any]:
         st = self.__dict__.get("_measure")
         if st is None:
-            st = self.__dict__["_measure"] = {"clicks": [], "drawn": [], "solved": None}
+            st = self.__dict__["_measure"] = {"clicks": [], "drawn": [], "solved": None, "pixels": []}
         return st
+
+    @property
+    def single_view_clicks(self) -> list[tuple[float, float]]:
+        """The photo pixels clicked so far for the single-view measurement under way."""
+        return list(self._measure_state()["pixels"])
+
+    def single_view(self) -> bool:
+        """Whether T measures the photo shown on its own: no solved model, a photo shown at its
+        camera (P). Neither: a :class:`VebuildError` saying what each needs."""
+        v: Any = self
+        try:
+            self._solved()
+            return False
+        except cm.ClickError as e:
+            if v.photo is not None:
+                return True
+            raise cm.ClickError(f"{e}; or show a calibrated photo at its camera (P) to measure on the photo "
+                                "alone") from None
 
     @property
     def measure_clicks(self) -> list[cm.Clicked]:
@@ -55,7 +79,10 @@ class ViewerMeasure:
     def _set_mode(self, mode: str | None) -> None:
         v: Any = self
         self.measure_mode = mode
-        self._measure_state()["clicks"] = []
+        self._measure_state().update(clicks=[], pixels=[])
+        if mode in sv.kinds():
+            v.say(f"measure on photo {v.photo} alone: {sv.prompt(str(mode), 0)} (T: the next measurement)")
+            return
         hints = {"distance": "click two surface points", "height": "click a surface point (its height above the floor)",
                  "dimension": "click an object (its dimensions)",
                  "marker": "click a surface to place an evidence marker, click a marker to remove it",
@@ -63,10 +90,16 @@ class ViewerMeasure:
         v.say(f"measure: {mode}: {hints[mode]}" if mode else "measure tool off")
 
     def measure_cycle(self) -> None:
-        """T: the measure tool, distance → height → dimension → off."""
+        """T: the measure tool, distance → height → dimension → off; on a photo shown at its camera
+        with no solved model, the single-view measurements → off."""
         m = self.measure_mode
-        order = [*cm.MEASURES, None]
-        self._set_mode(order[order.index(m) + 1] if m in cm.MEASURES else order[0])
+        try:
+            order: list[str | None] = [*(sv.kinds() if self.single_view() else cm.MEASURES), None]
+        except cm.ClickError as e:
+            v: Any = self
+            v.say(str(e))
+            return
+        self._set_mode(order[order.index(m) + 1] if m in order[:-1] else order[0])
 
     def marker_tool(self) -> None:
         """M: the evidence marker tool on or off."""
@@ -99,9 +132,37 @@ class ViewerMeasure:
         v.guard(self._click)
         return True
 
+    def _single_view_click(self, kind: str) -> None:
+        """A click of a single-view measurement on the photo shown: the next point, or the last and
+        the measurement (the view's pixel taken back to the photo's)."""
+        v: Any = self
+        uv = v.cursor_image()
+        if uv is None or v.photo is None:
+            raise VebuildError("click on the photo (P shows one at its camera)")
+        scale = v.viewport()[2] / v.project.photo(v.photo)["width"]
+        st = self._measure_state()
+        if st.get("for") != (kind, v.photo):  # clicks of another measurement or photo
+            st["pixels"], st["for"] = [], (kind, v.photo)
+        st["pixels"].append((uv[0] / scale, uv[1] / scale))
+        if len(st["pixels"]) < len(sv.prompts(kind)):
+            v.say(f"({uv[0] / scale:.1f}, {uv[1] / scale:.1f}); {sv.prompt(kind, len(st['pixels']))}")
+            return
+        pixels, st["pixels"] = st["pixels"], []
+        try:
+            measured = sv.measure_on_photo(v.project, kind, v.photo, pixels)
+        except cm.ClickError as e:  # the clicks cannot be measured: said, and begun again
+            raise cm.ClickError(f"{e}; begin again: {sv.prompt(kind, 0)}") from None
+        self._finish(measured)
+
     def _click(self) -> None:
         v: Any = self
         mode = self.measure_mode
+        if mode in sv.kinds():
+            if not self.single_view():  # solved since T was pressed: measure on the model
+                self._set_mode(cm.MEASURES[0])
+                return
+            self._single_view_click(str(mode))
+            return
         if mode == "marker" and self._remove_marker_at_cursor():
             return
         node, X = v.pick()
@@ -166,6 +227,18 @@ class ViewerMeasure:
 
     # -- drawing ---------------------------------------------------------------------------------
 
+    def _photo_to_window(self, uv: Any) -> Any:
+        """The window point (ImGui's) of a pixel of the photo shown."""
+        from imgui_bundle import imgui
+
+        v: Any = self
+        W, H = v.window.framebuffer_size()
+        ww, wh = glfw.get_window_size(v.window.handle)
+        sx, sy = W / max(ww, 1), H / max(wh, 1)
+        vx, vy, vw, vh = v.viewport()
+        s = vw / v.project.photo(v.photo)["width"]
+        return imgui.ImVec2((vx + s * float(uv[0])) / sx, (H - vy - vh + s * float(uv[1])) / sy)
+
     def _to_window(self, X: Any) -> Any:
         """Window points (ImGui's) of world points in front of the camera; None for one behind it."""
         from imgui_bundle import imgui
@@ -191,7 +264,7 @@ class ViewerMeasure:
         called by the panel between its frame's start and end)."""
         v: Any = self
         st = self._measure_state()
-        if (not st["drawn"] and not st["clicks"]) or v.stereo is not None:
+        if (not st["drawn"] and not st["clicks"] and not st["pixels"]) or v.stereo is not None:
             return
         dl = imgui.get_foreground_draw_list()
         colour = imgui.get_color_u32(imgui.ImVec4(*MEASURE_COLOUR))
@@ -201,10 +274,25 @@ class ViewerMeasure:
             (p,) = self._to_window(c.world)
             if p is not None:
                 dl.add_circle(p, 5.0, colour, 0, 2.0)
+        if v.photo is not None and st.get("for", (None, None))[1] == v.photo:
+            for k, uv in enumerate(st["pixels"]):  # a single-view measurement's clicks so far, numbered
+                p = self._photo_to_window(uv)
+                dl.add_circle(p, 5.0, colour, 0, 2.0)
+                dl.add_text(imgui.ImVec2(p.x + 7, p.y - 16), white, str(k + 1))
         for m in st["drawn"]:
             if m.kind == "trajectory":
                 continue  # drawn with its cone from the project's analyses
-            pts = self._to_window(np.array(m.points))
+            if m.photo is not None:  # measured on a photo alone: drawn on that photo only
+                if m.photo != v.photo:
+                    continue
+                pairs = sv.drawn_pairs(m.kind, m.pixels)
+                for k, (a, b) in enumerate(pairs):
+                    dl.add_line(self._photo_to_window(a), self._photo_to_window(b), colour, 2.0 if k == 0 else 1.0)
+                pts = [self._photo_to_window(p) for p in (pairs[0] if pairs else [])]
+                for uv in m.pixels:
+                    dl.add_circle_filled(self._photo_to_window(uv), 4.0, colour)
+            else:
+                pts = self._to_window(np.array(m.points))
             for a, b in zip(pts[:-1], pts[1:], strict=True):
                 if a is not None and b is not None:
                     dl.add_line(a, b, colour, 2.0)
