@@ -74,7 +74,7 @@ def exported(request, tmp_path_factory):
 def test_camera_glb_passes_the_khronos_validator(exported):
     _, out, doc, _ = exported
     report = _validate(out)
-    assert report["info"]["hasTextures"]
+    assert report["info"]["hasTextures"] and report["issues"]["numWarnings"] == 0
     assert doc["nodes"][0]["name"] == ROOT_NAME and doc["nodes"][0]["rotation"] == ROOT_QUATERNION
 
 
