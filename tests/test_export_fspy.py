@@ -203,3 +203,29 @@ def test_written_file_opens_as_fspy_writes_it(exported):
         for p in seg:
             assert 0 <= p["x"] <= 1 and 0 <= p["y"] <= 1  # on the photo, where a user can drag them
     assert Path(exported[1]).suffix == ".fspy"
+
+
+def test_an_origin_below_the_camera_is_handed_on_with_a_warning(tmp_path, capsys):
+    """A photo placed with no origin marker has its origin on the floor below the camera: fSpy's
+    reference distance, which starts at the origin, cannot scale such a camera (the camera lies in
+    each reference plane through it), which the command says; the camera Blender reads is exact,
+    and vebuild's import of the file gives the same lens and turn, in relative units."""
+    h = make_project(tmp_path / "p")
+    project = load_project(h.path)
+    pos = project.data["calibration"]["cameras"]["p"]["position"]["value"]
+    project.data["calibration"]["cameras"]["p"]["position"]["value"] = [0.0, 0.0, pos[2]]
+    project.data["analyses"] = []
+    save_project(project)
+    cam = photo_camera(load_project(h.path), "p")
+    out = tmp_path / "p" / "below.fspy"
+    assert main(["export", str(h.path), "--camera", "p", "--out", str(out)]) == 0
+    assert "warning: the world's origin lies below the camera" in capsys.readouterr().out
+    read = addon_reads(out.read_bytes())
+    assert read["reference_distance_unit"] == "Meters" and read["state"]["calibrationSettingsBase"][
+        "referenceDistanceAxis"] is None
+    X = _points(cam)
+    assert np.max(np.linalg.norm(blender_pixels(read, X) - project_points(cam.K, cam.R, cam.C, X), axis=1)) < EXACT_PX
+    result = import_fspy(out, tmp_path / "imported")
+    again = photo_camera(load_project(result.project), "below")
+    assert again.K[0][0] == pytest.approx(cam.K[0][0], rel=1e-7) and np.allclose(again.R, cam.R, atol=1e-7)
+    assert np.allclose(np.asarray(again.C) / again.C[2], np.asarray(cam.C) / cam.C[2], atol=1e-6)

@@ -30,8 +30,11 @@ written are those that give this same camera: two segments through each of the t
 points best seen in the photo (``TwoVanishingPoints``), the principal point placed by hand
 (``Manual``) where vebuild has it, the origin where the world's origin projects, and the
 reference distance (metric photos) along the axis whose unit length the photo shows longest,
-from the origin, ``REFERENCE_LENGTH`` long. fSpy and Blender have no lens distortion: a photo with
-k1 ≠ 0 is handed on as its pinhole camera, with a warning of how far the lens moves its corners.
+from the origin, 1 m long (shorter where the origin lies far off the photo). fSpy and Blender have
+no lens distortion: a photo with k1 ≠ 0 is handed on as its pinhole camera, with a warning of how
+far the lens moves its corners. Where the world's origin lies behind the camera, or below it (the
+camera then lies in every reference plane through the origin), fSpy's own re-solve cannot place or
+scale the camera: the command warns, and the stored camera (what Blender reads) stays exact.
 """
 
 from __future__ import annotations
@@ -52,8 +55,14 @@ Array = NDArray[np.float64]
 
 #: fSpy's camera (OpenGL) from vebuild's (computer vision): y and z flipped.
 GL_FROM_CV = np.diag([1.0, -1.0, -1.0])
-#: The reference distance written for a metric photo: the handles this far apart (metres).
-REFERENCE_LENGTH = 1.0
+#: The reference distance written for a metric photo: the handles this far apart (metres), the
+#: longest of these whose second handle lies within MAX_HANDLE_OFFSET photo sides of the first.
+REFERENCE_LENGTHS = (1.0, 0.5, 0.2, 0.1, 0.05, 0.02, 0.01)
+MAX_HANDLE_OFFSET = 2.0
+#: A reference axis needs the camera this far (a share of its distance from the origin) off the
+#: plane through the origin normal to it, and its two handles this many pixels apart.
+MIN_OFF_PLANE = 0.05
+MIN_HANDLE_PX = 5.0
 #: fSpy's defaults for what vebuild does not use (src/gui/defaults/*.ts).
 CAMERA_DATA = {"presetId": None, "presetData": None, "customSensorWidth": 36, "customSensorHeight": 24}
 RESULT_DISPLAY = {"orientationFormat": "AxisAngleDegrees", "principalPointFormat": "Absolute",
@@ -163,32 +172,41 @@ def fspy_state(cam: ImageCamera, relative_units: bool) -> tuple[dict[str, Any], 
         warnings.append("the world's origin lies behind the camera, where fSpy cannot put it: fSpy, re-solving the "
                         "control points when it opens the file, places the camera elsewhere; the Blender add-on "
                         "reads the camera as written")
-    ref_axis, offsets = None, [0.0, REFERENCE_LENGTH]
+    ref_axis, offsets, reference = None, [0.0, REFERENCE_LENGTHS[0]], REFERENCE_LENGTHS[0]
     if not relative_units and origin_ok:
         best = 0.0
         for i, a in enumerate("xyz"):
-            h = K @ R @ (REFERENCE_LENGTH * np.eye(3)[i] - C)
-            if h[2] <= 1e-6:
-                continue
+            h = K @ R @ (REFERENCE_LENGTHS[0] * np.eye(3)[i] - C)
+            if h[2] <= 1e-6 or abs(C[i]) < MIN_OFF_PLANE * np.linalg.norm(C):
+                continue  # behind the camera, or the camera in the plane the anchor's ray must cross
             span = float(np.linalg.norm(h[:2] / h[2] - origin_px))
-            if span > best:
+            if span > max(best, MIN_HANDLE_PX):
                 best, ref_axis = span, a
+        if ref_axis is None:
+            warnings.append("the world's origin lies below the camera (or in line with it along every axis), so "
+                            "fSpy's reference distance, which starts at the origin, cannot give the scale: fSpy, "
+                            "re-solving the control points when it opens the file, shows lengths in its own units; "
+                            "the Blender add-on reads the camera as written, in metres")
         if ref_axis is not None:
             v = vph[next(i for i, n in enumerate(axes) if n[0] == ref_axis)]
             w = v[2] if abs(v[2]) > 1e-12 else math.copysign(1e-12, v[2] or 1.0)
             vp_rel = np.array([v[0] / w / W, v[1] / w / H])
             anchor = np.array([origin_px[0] / W, origin_px[1] / H])
             d = (vp_rel - anchor) / np.linalg.norm(vp_rel - anchor)
-            h = K @ R @ (REFERENCE_LENGTH * np.eye(3)["xyz".index(ref_axis)] - C)
-            h_rel = np.array([h[0] / h[2] / W, h[1] / h[2] / H])
-            offsets = [0.0, float((h_rel - anchor) @ d)]
-            notes.append(f"reference distance: {REFERENCE_LENGTH:g} m along +{ref_axis} from the origin")
+            for length in REFERENCE_LENGTHS:  # the longest whose handle lies within fSpy's reach of the anchor
+                h = K @ R @ (length * np.eye(3)["xyz".index(ref_axis)] - C)
+                h_rel = np.array([h[0] / h[2] / W, h[1] / h[2] / H])
+                offsets = [0.0, float((h_rel - anchor) @ d)]
+                if h[2] > 0 and abs(offsets[1]) <= MAX_HANDLE_OFFSET:
+                    break
+            reference = length
+            notes.append(f"reference distance: {reference:g} m along +{ref_axis} from the origin")
     state: dict[str, Any] = {
         "globalSettings": {"calibrationMode": "TwoVanishingPoints", "overlay3DGuide": "XYGridFloor",
                            "imageOpacity": 1.0},
         "calibrationSettingsBase": {
-            "referenceDistanceUnit": "No unit" if relative_units or ref_axis is None else "Meters",
-            "referenceDistance": REFERENCE_LENGTH,
+            "referenceDistanceUnit": "No unit" if relative_units else "Meters",
+            "referenceDistance": reference,
             "referenceDistanceAxis": None if ref_axis is None else f"{ref_axis}Positive",
             "cameraData": dict(CAMERA_DATA),
             "firstVanishingPointAxis": axes[0],
