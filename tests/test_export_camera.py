@@ -230,3 +230,32 @@ def test_a_measurement_of_another_photo_is_not_drawn(tmp_path):
         from vebuild.actions.handoff import calibrated_photo
         calibrated_photo(project, "other")
     json.dumps(measurement_items(project, "p"))  # plain data, for data.js
+
+
+def test_a_photo_turned_by_its_exif_orientation_is_handed_on_upright(tmp_path):
+    """glTF textures and Blender ignore EXIF orientation: a photo stored on its side (orientation 6)
+    is embedded as an upright copy of the pixels vebuild shows, and the note says so."""
+    import io
+
+    from PIL import Image
+
+    from vebuild.project.handoff_image import handoff_image
+    from vebuild.project.images import sha256_bytes
+
+    h = make_project(tmp_path / "p")
+    shown = np.zeros((1200, 1600, 3), np.uint8)
+    shown[:, :800] = (200, 30, 30)  # left half red as shown
+    stored = Image.fromarray(shown).transpose(Image.Transpose.ROTATE_90)  # 1200 × 1600 on its side
+    exif = Image.Exif()
+    exif[274] = 6  # display turned 90° clockwise
+    buf = io.BytesIO()
+    stored.save(buf, "JPEG", quality=95, exif=exif)
+    project = load_project(h.path)
+    (h.path.parent / "photos" / "p.jpg").write_bytes(buf.getvalue())
+    project.data["photos"][0]["sha256"] = sha256_bytes(buf.getvalue())
+    save_project(project)
+    image = handoff_image(load_project(h.path), "p", 4096)
+    assert not image.original and image.size == (1600, 1200) and "turned upright by its EXIF orientation" in image.note
+    pixels = np.asarray(Image.open(io.BytesIO(image.data)).convert("RGB")).astype(float)
+    assert pixels[:, :700, 0].mean() > 150 and pixels[:, 900:, 0].mean() < 40  # red on the left, as shown
+    assert handoff_image(load_project(h.path), "p", 800).size == (800, 600)
