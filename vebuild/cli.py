@@ -234,8 +234,8 @@ def _export_camera(project: Project, photo: str | None, out: str) -> int:
 
     r = export_camera(project, photo, out)
     what = {"glb": "glTF 2.0 binary, the calibrated camera with no model", "fspy": "fSpy project"}[r.format]
-    print(f"wrote {r.path} ({what}, {r.path.stat().st_size / 1e6:.2f} MB): photo {r.photo}, "
-          f"{r.measurements} measurement(s)")
+    drawn = f", {r.measurements} measurement(s)" if r.format == "glb" else ""
+    print(f"wrote {r.path} ({what}, {r.path.stat().st_size / 1e6:.2f} MB): photo {r.photo}{drawn}")
     for line in r.details:
         print(f"  {line}")
     for w in r.warnings:

@@ -165,9 +165,12 @@ def export_camera(project: Project, photo: str | None, path: str | os.PathLike[s
     from ..project.decode import photo_camera
 
     cam = photo_camera(project, pid)
-    items = measurement_items(project, pid)
+    items = measurement_items(project, pid) if fmt == ".glb" else []
     warnings: list[str] = []
     if fmt == ".glb":
+        from ..project.units import length_unit
+
+        unit = "rel." if length_unit(project.data).relative else "m"
         doc, binary, info, image = camera_scene(project, cam, items)
         from ..render.export import glb_bytes
 
@@ -175,8 +178,8 @@ def export_camera(project: Project, photo: str | None, path: str | os.PathLike[s
         details = [f"camera 'photo {pid}' (yfov {math.degrees(doc['cameras'][0]['perspective']['yfov']):.2f}°, "
                    f"aspect {cam.width}:{cam.height}, principal point offset "
                    f"({cam.K[0][2] - cam.width / 2:+.1f}, {cam.K[1][2] - cam.height / 2:+.1f}) px)",
-                   f"photo plane {info.plane_distance:.3g} in front of the camera, "
-                   f"{info.plane_grid[0]}×{info.plane_grid[1]} cells"
+                   f"photo plane {info.plane_distance:.3g} {unit} in front of the camera, "
+                   + (f"{info.plane_grid[0]}×{info.plane_grid[1]} cells" if cam.k1 != 0 else "one quad")
                    + (f", lens undistorted (k1 {cam.k1:+.4g}) to within {info.plane_error_px:.3f} px"
                       if cam.k1 != 0 else ""),
                    f"floor grid every {info.grid_spacing:g} over x {info.grid_bounds[0]:g}…{info.grid_bounds[1]:g}, "
@@ -185,7 +188,7 @@ def export_camera(project: Project, photo: str | None, path: str | os.PathLike[s
     else:
         from ..project.fspy_write import fspy_project
 
-        data, details, warnings = fspy_project(project, pid, cam, path.name)
+        data, details, warnings = fspy_project(project, pid, cam)
     begin_stage(project, path.parent)
     try:
         write_many([(path, data)])

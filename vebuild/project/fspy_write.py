@@ -245,7 +245,7 @@ def fspy_bytes(state: dict[str, Any], image: bytes) -> bytes:
     return MAGIC + struct.pack("<III", VERSION, len(raw), len(image)) + raw + image
 
 
-def fspy_project(project: Project, photo: str, cam: ImageCamera, name: str) -> tuple[bytes, list[str], list[str]]:
+def fspy_project(project: Project, photo: str, cam: ImageCamera) -> tuple[bytes, list[str], list[str]]:
     """The ``.fspy`` file of ``photo`` (module docstring), with what it holds and warnings, in words."""
     from .handoff_image import handoff_image
     from .units import length_unit
@@ -260,5 +260,5 @@ def fspy_project(project: Project, photo: str, cam: ImageCamera, name: str) -> t
                f"longer side), principal point ({c['principalPoint']['x']:+.5f}, {c['principalPoint']['y']:+.5f}) "
                f"in fSpy's image plane, units "
                f"{state['calibrationSettingsBase']['referenceDistanceUnit']}", *notes, f"photo: {image.note}",
-               f"open it in Blender with the fSpy add-on (File > Import > fSpy), or in fSpy; {name}"]
+               "open it in Blender with the fSpy add-on (File > Import > fSpy), or in fSpy"]
     return fspy_bytes(state, image.data), details, warnings
