@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..camera import ImageCamera, pixel_rays_world
-from .single_view import SINGLE_VIEW_CLICKS, SingleViewError
+from .single_view import MIN_FLOOR_SLOPE, SINGLE_VIEW_CLICKS, SingleViewError
 
 Array = NDArray[np.float64]
 
@@ -108,6 +108,9 @@ class _Geometry:
         return self.C + t * d
 
     def floor(self, uv: Array, what: str) -> Array:
+        if not self.ray(uv)[2] < -MIN_FLOOR_SLOPE:
+            raise SingleViewError(f"photo '{self.id}': {what}: pixel ({uv[0]:.1f}, {uv[1]:.1f}) lies on or above the "
+                                  "horizon, so it cannot show a point of the floor; click where it touches the floor")
         return self.on_plane(uv, np.zeros(3), np.array([0.0, 0.0, 1.0]), what)
 
     def above(self, foot: Array, uv: Array) -> Array:
