@@ -259,3 +259,25 @@ def test_a_photo_turned_by_its_exif_orientation_is_handed_on_upright(tmp_path):
     pixels = np.asarray(Image.open(io.BytesIO(image.data)).convert("RGB")).astype(float)
     assert pixels[:, :700, 0].mean() > 150 and pixels[:, 900:, 0].mean() < 40  # red on the left, as shown
     assert handoff_image(load_project(h.path), "p", 800).size == (800, 600)
+
+
+def test_which_photo_the_viewer_shows_is_asked_where_several_are_calibrated(tmp_path, capsys):
+    import copy
+
+    h = make_project(tmp_path / "p")
+    project = load_project(h.path)
+    second = copy.deepcopy(project.data["photos"][0])
+    second["id"] = "q"
+    project.data["photos"].append(second)
+    project.data["calibration"]["cameras"]["q"] = copy.deepcopy(project.data["calibration"]["cameras"]["p"])
+    save_project(project)
+    assert main(["export", str(h.path), "--html", str(tmp_path / "viewer")]) != 0
+    assert "2 photos are calibrated (p, q); say which with --camera PHOTO" in capsys.readouterr().err
+    assert main(["export", str(h.path), "--html", str(tmp_path / "viewer"), "--camera", "q"]) == 0
+    assert '"cameras":["photo-q"]' in (tmp_path / "viewer" / "data.js").read_text()
+
+
+def test_camera_with_html_on_a_project_with_a_model_is_refused(textured_room, capsys):
+    assert main(["export", str(textured_room), "--html", str(textured_room.parent / "v"), "--camera", "p1"]) != 0
+    err = capsys.readouterr().err
+    assert "--camera p1: the project has a model, and its viewer shows every photo; leave out --camera" in err
