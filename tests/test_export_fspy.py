@@ -205,11 +205,15 @@ def test_written_file_opens_as_fspy_writes_it(exported):
     assert Path(exported[1]).suffix == ".fspy"
 
 
-def test_an_origin_below_the_camera_is_handed_on_with_a_warning(tmp_path, capsys):
+def test_an_origin_below_the_camera_is_stood_in_for_by_a_floor_point_in_view(tmp_path, capsys):
     """A photo placed with no origin marker has its origin on the floor below the camera: fSpy's
     reference distance, which starts at the origin, cannot scale such a camera (the camera lies in
-    each reference plane through it), which the command says; the camera Blender reads is exact,
-    and vebuild's import of the file gives the same lens and turn, in relative units."""
+    each reference plane through it). The control points put fSpy's origin on a floor point in view
+    instead, which the command says: the camera Blender reads is exact in vebuild's world, and
+    vebuild's import of the file (re-solving the control points) gives the same camera, in metres,
+    moved by that floor point."""
+    from vebuild.project.fspy_write import _floor_in_view
+
     h = make_project(tmp_path / "p")
     project = load_project(h.path)
     pos = project.data["calibration"]["cameras"]["p"]["position"]["value"]
@@ -219,13 +223,18 @@ def test_an_origin_below_the_camera_is_handed_on_with_a_warning(tmp_path, capsys
     cam = photo_camera(load_project(h.path), "p")
     out = tmp_path / "p" / "below.fspy"
     assert main(["export", str(h.path), "--camera", "p", "--out", str(out)]) == 0
-    assert "warning: the world's origin lies below the camera" in capsys.readouterr().out
+    stand_in = _floor_in_view(np.asarray(cam.K), np.asarray(cam.R), np.asarray(cam.C), cam.width, cam.height)
+    assert stand_in is not None
+    said = capsys.readouterr().out
+    assert "warning: the world's origin (the floor below the camera, or behind it) cannot anchor" in said
+    assert f"the floor point ({stand_in[0]:.3f}, {stand_in[1]:.3f}, 0) in view" in said
     read = addon_reads(out.read_bytes())
-    assert read["reference_distance_unit"] == "Meters" and read["state"]["calibrationSettingsBase"][
-        "referenceDistanceAxis"] is None
+    assert read["reference_distance_unit"] == "Meters"
+    assert read["state"]["calibrationSettingsBase"]["referenceDistanceAxis"] is not None
     X = _points(cam)
     assert np.max(np.linalg.norm(blender_pixels(read, X) - project_points(cam.K, cam.R, cam.C, X), axis=1)) < EXACT_PX
     result = import_fspy(out, tmp_path / "imported")
+    assert result.calibrated and result.warnings == []
     again = photo_camera(load_project(result.project), "below")
     assert again.K[0][0] == pytest.approx(cam.K[0][0], rel=1e-7) and np.allclose(again.R, cam.R, atol=1e-7)
-    assert np.allclose(np.asarray(again.C) / again.C[2], np.asarray(cam.C) / cam.C[2], atol=1e-6)
+    assert np.allclose(np.asarray(again.C), np.asarray(cam.C) - stand_in, atol=1e-6)

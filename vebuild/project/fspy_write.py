@@ -33,8 +33,9 @@ reference distance (metric photos) along the axis whose unit length the photo sh
 from the origin, 1 m long (shorter where the origin lies far off the photo). fSpy and Blender have
 no lens distortion: a photo with k1 ≠ 0 is handed on as its pinhole camera, with a warning of how
 far the lens moves its corners. Where the world's origin lies behind the camera, or below it (the
-camera then lies in every reference plane through the origin), fSpy's own re-solve cannot place or
-scale the camera: the command warns, and the stored camera (what Blender reads) stays exact.
+camera then lies in every reference plane through the origin, so fSpy's reference distance cannot
+scale it), the control points put fSpy's origin on a floor point in view, which the command names:
+fSpy shows the same camera moved by it; the stored camera (what Blender reads) stays exact.
 """
 
 from __future__ import annotations
@@ -164,43 +165,27 @@ def fspy_state(cam: ImageCamera, relative_units: bool) -> tuple[dict[str, Any], 
         "imageWidth": W,
         "imageHeight": H,
     }
-    # Control points that make fSpy's solver give this camera.
-    o = K @ R @ (np.zeros(3) - C)
-    origin_ok = o[2] > 1e-6 * max(1.0, float(np.linalg.norm(C)))
-    origin_px = o[:2] / o[2] if origin_ok else pp
-    if not origin_ok:
-        warnings.append("the world's origin lies behind the camera, where fSpy cannot put it: fSpy, re-solving the "
-                        "control points when it opens the file, places the camera elsewhere; the Blender add-on "
-                        "reads the camera as written")
-    ref_axis, offsets, reference = None, [0.0, REFERENCE_LENGTHS[0]], REFERENCE_LENGTHS[0]
-    if not relative_units and origin_ok:
-        best = 0.0
-        for i, a in enumerate("xyz"):
-            h = K @ R @ (REFERENCE_LENGTHS[0] * np.eye(3)[i] - C)
-            if h[2] <= 1e-6 or abs(C[i]) < MIN_OFF_PLANE * np.linalg.norm(C):
-                continue  # behind the camera, or the camera in the plane the anchor's ray must cross
-            span = float(np.linalg.norm(h[:2] / h[2] - origin_px))
-            if span > max(best, MIN_HANDLE_PX):
-                best, ref_axis = span, a
-        if ref_axis is None:
-            warnings.append("the world's origin lies below the camera (or in line with it along every axis), so "
-                            "fSpy's reference distance, which starts at the origin, cannot give the scale: fSpy, "
-                            "re-solving the control points when it opens the file, shows lengths in its own units; "
-                            "the Blender add-on reads the camera as written, in metres")
-        if ref_axis is not None:
-            v = vph[next(i for i, n in enumerate(axes) if n[0] == ref_axis)]
-            w = v[2] if abs(v[2]) > 1e-12 else math.copysign(1e-12, v[2] or 1.0)
-            vp_rel = np.array([v[0] / w / W, v[1] / w / H])
-            anchor = np.array([origin_px[0] / W, origin_px[1] / H])
-            d = (vp_rel - anchor) / np.linalg.norm(vp_rel - anchor)
-            for length in REFERENCE_LENGTHS:  # the longest whose handle lies within fSpy's reach of the anchor
-                h = K @ R @ (length * np.eye(3)["xyz".index(ref_axis)] - C)
-                h_rel = np.array([h[0] / h[2] / W, h[1] / h[2] / H])
-                offsets = [0.0, float((h_rel - anchor) @ d)]
-                if h[2] > 0 and abs(offsets[1]) <= MAX_HANDLE_OFFSET:
-                    break
-            reference = length
-            notes.append(f"reference distance: {reference:g} m along +{ref_axis} from the origin")
+    # Control points that make fSpy's solver give this camera: its origin where the world's shows.
+    ref = _reference(K, R, C, np.zeros(3), vph, axes, W, H, relative_units)
+    if ref is None:  # fSpy cannot anchor this world's origin: a floor point in view stands for it
+        stand_in = _floor_in_view(K, R, C, W, H)
+        ref = None if stand_in is None else _reference(K, R, C, stand_in, vph, axes, W, H, relative_units)
+        if ref is None or stand_in is None:
+            warnings.append("the world's origin cannot be placed in fSpy (it lies behind the camera, or below it where "
+                            "fSpy's reference distance cannot give the scale) and no floor shows in the photo to "
+                            "stand for it: fSpy, re-solving the control points when it opens the file, places the "
+                            "camera elsewhere; the Blender add-on reads the camera as written, in vebuild's world")
+            ref = (pp, None, [0.0, REFERENCE_LENGTHS[0]], REFERENCE_LENGTHS[0])
+        else:
+            x, y = float(stand_in[0]), float(stand_in[1])
+            warnings.append(f"the world's origin (the floor below the camera, or behind it) cannot anchor fSpy's "
+                            f"reference distance: the file's origin control point is the floor point ({x:.3f}, "
+                            f"{y:.3f}, 0) in view, so fSpy, re-solving the control points when it opens the file, "
+                            f"shows the same camera moved by ({-x:.3f}, {-y:.3f}, 0); the Blender add-on reads the "
+                            "camera as written, in vebuild's world")
+    origin_px, ref_axis, offsets, reference = ref
+    if ref_axis is not None:
+        notes.append(f"reference distance: {reference:g} m along +{ref_axis} from fSpy's origin")
     state: dict[str, Any] = {
         "globalSettings": {"calibrationMode": "TwoVanishingPoints", "overlay3DGuide": "XYGridFloor",
                            "imageOpacity": 1.0},
@@ -237,6 +222,55 @@ def fspy_state(cam: ImageCamera, relative_units: bool) -> tuple[dict[str, Any], 
                         "camera written is its pinhole part, so lines drift from the photo toward its corners by up "
                         "to that much")
     return state, notes, warnings
+
+
+def _floor_in_view(K: Array, R: Array, C: Array, W: int, H: int) -> Array | None:
+    """A floor point (z = 0) the photo shows, below its principal point three quarters of the way
+    down (or at its foot), or None where the camera sees no floor there."""
+    if C[2] <= 0:
+        return None
+    for v in (0.75 * H, 0.95 * H):
+        d = R.T @ np.linalg.solve(K, np.array([K[0, 2], v, 1.0]))
+        if d[2] < -1e-3:
+            return np.asarray(C + d * (-C[2] / d[2]), float)
+    return None
+
+
+def _reference(K: Array, R: Array, C: Array, at: Array, vph: list[Array], axes: list[str], W: int, H: int,
+               relative_units: bool) -> tuple[Array, str | None, list[float], float] | None:
+    """fSpy's origin control point (pixels) at the world point ``at``, and its reference distance from
+    there: the axis, the handles' offsets and the length; None where it cannot serve (behind the
+    camera, or, for a photo in metres, no axis whose reference plane through it the camera is off)."""
+    o = K @ R @ (at - C)
+    rel = C - at
+    if not o[2] > 1e-6 * max(1.0, float(np.linalg.norm(rel))):
+        return None
+    origin_px = o[:2] / o[2]
+    if relative_units:
+        return origin_px, None, [0.0, REFERENCE_LENGTHS[0]], REFERENCE_LENGTHS[0]
+    best, ref_axis = 0.0, None
+    for i, a in enumerate("xyz"):
+        h = K @ R @ (at + REFERENCE_LENGTHS[0] * np.eye(3)[i] - C)
+        if h[2] <= 1e-6 or abs(rel[i]) < MIN_OFF_PLANE * np.linalg.norm(rel):
+            continue  # behind the camera, or the camera in the plane the anchor's ray must cross
+        span = float(np.linalg.norm(h[:2] / h[2] - origin_px))
+        if span > max(best, MIN_HANDLE_PX):
+            best, ref_axis = span, a
+    if ref_axis is None:
+        return None
+    v = vph[next(i for i, n in enumerate(axes) if n[0] == ref_axis)]
+    w = v[2] if abs(v[2]) > 1e-12 else math.copysign(1e-12, v[2] or 1.0)
+    vp_rel = np.array([v[0] / w / W, v[1] / w / H])
+    anchor = np.array([origin_px[0] / W, origin_px[1] / H])
+    d = (vp_rel - anchor) / np.linalg.norm(vp_rel - anchor)
+    offsets = [0.0, 0.0]
+    for length in REFERENCE_LENGTHS:  # the longest whose handle lies within fSpy's reach of the anchor
+        h = K @ R @ (at + length * np.eye(3)["xyz".index(ref_axis)] - C)
+        h_rel = np.array([h[0] / h[2] / W, h[1] / h[2] / H])
+        offsets = [0.0, float((h_rel - anchor) @ d)]
+        if h[2] > 0 and abs(offsets[1]) <= MAX_HANDLE_OFFSET:
+            break
+    return origin_px, ref_axis, offsets, length
 
 
 def fspy_bytes(state: dict[str, Any], image: bytes) -> bytes:
