@@ -228,6 +228,21 @@ def _cmd_register(args: argparse.Namespace) -> int:
     return 0
 
 
+def _export_camera(project: Project, photo: str | None, out: str) -> int:
+    """``export --camera PHOTO --out FILE.glb|FILE.fspy`` (and ``--out`` on a project with no model)."""
+    from .actions.handoff import export_camera
+
+    r = export_camera(project, photo, out)
+    what = {"glb": "glTF 2.0 binary, the calibrated camera with no model", "fspy": "fSpy project"}[r.format]
+    drawn = f", {r.measurements} measurement(s)" if r.format == "glb" else ""
+    print(f"wrote {r.path} ({what}, {r.path.stat().st_size / 1e6:.2f} MB): photo {r.photo}{drawn}")
+    for line in r.details:
+        print(f"  {line}")
+    for w in r.warnings:
+        print(f"warning: {w}")
+    return 0
+
+
 def _cmd_export(args: argparse.Namespace) -> int:
     from .analysis.project_check import load_checked
     from .render.export import export_model
@@ -237,7 +252,7 @@ def _cmd_export(args: argparse.Namespace) -> int:
     if args.html is not None:
         from .actions.export_html import export_html
 
-        h = export_html(project, args.html)
+        h = export_html(project, args.html, photo=args.camera)
         print(f"wrote the viewer {h.folder}/index.html ({len(h.files)} files; open it in a browser, no network needed)")
         print(f"  {len(h.cameras)} camera(s), {h.photos} photo(s), {h.markers} evidence marker(s), "
               f"{h.analyses} analysis item(s), {h.hypotheses} hypothesis(es)")
@@ -247,6 +262,8 @@ def _cmd_export(args: argparse.Namespace) -> int:
             return 0
     if args.out is None:
         raise VebuildError("export: give --out FILE.glb|FILE.obj, --html DIR, or both")
+    if args.camera is not None or not (project.data.get("model") or {}).get("nodes"):
+        return _export_camera(project, args.camera, args.out)
     r = export_model(project, args.out)
     what = {"glb": "glTF 2.0 binary", "obj": "Wavefront OBJ + MTL"}[r.format]
     size = sum(f.stat().st_size for f in r.files)
@@ -497,6 +514,11 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
         p.add_argument("--html", metavar="DIR", help="a folder with a web viewer (index.html, the .glb, the photos, "
                        "markers, analyses and hypotheses) that opens in a browser with no network "
                        "(docs/html-viewer.md)")
+        p.add_argument("--camera", metavar="PHOTO", help="hand on one calibrated photo with no model: --out FILE.glb "
+                       "(its camera, the photo as a plane at the camera's frustum, the floor grid, the axes and its "
+                       "measurements), --out FILE.fspy (an fSpy project for fSpy and its Blender add-on), --html DIR "
+                       "(the viewer of that photo); the only calibrated photo where the project has one "
+                       "(docs/export.md)")
         p.set_defaults(func=_cmd_export)
 
     if p := command_parser("check", help="validate a project file, verify its photos' hashes and audit trail, and "

@@ -123,7 +123,30 @@ def _analyses(project: Project, records: list[dict[str, Any]],
     return out, images
 
 
-def export_html(project: Project, folder: str | os.PathLike[str]) -> HtmlResult:
-    """Write the viewer folder ``folder`` for ``project``, its analyses run again."""
+def export_html(project: Project, folder: str | os.PathLike[str], photo: str | None = None) -> HtmlResult:
+    """Write the viewer folder ``folder`` for ``project``, its analyses run again. A project with no
+    model is shown as its one calibrated photo (``photo``, or the only one): the photo at its
+    camera, the floor grid, the axes and its single-view measurements (:mod:`vebuild.actions.handoff`)."""
+    if not (project.data.get("model") or {}).get("nodes"):
+        return _single_photo_html(project, Path(folder), photo)
+    if photo is not None:
+        raise VebuildError(f"--camera {photo}: the project has a model, and its viewer shows every photo; leave "
+                           "out --camera (it is for a project with no model)")
     analyses, images = analyses_for_page(project)
     return write_html(project, Path(folder), analyses, extra_files=images)
+
+
+def _single_photo_html(project: Project, folder: Path, photo: str | None) -> HtmlResult:
+    from vebuild.project.decode import photo_camera
+
+    from .handoff import calibrated_photo, camera_scene, measurement_items
+
+    pid = calibrated_photo(project, photo)
+    cam = photo_camera(project, pid)
+    items = measurement_items(project, pid)
+    doc, binary, _, _ = camera_scene(project, cam, items)
+    analyses = [{"name": it["name"], "description": it["description"], "command": it["command"],
+                 "analysis": it["analysis"], "table": it["table"], "image": None, "kind": it["kind"],
+                 "label": it["label"], "anchor": [sum(p[k] for p in it["ends"]) / 2 for k in range(3)],
+                 "paths": [it["ends"]], "cone": []} for it in items]
+    return write_html(project, folder, analyses, camera_only=(doc, binary, cam))

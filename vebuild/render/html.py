@@ -161,7 +161,8 @@ def _check_folder(project: Project, folder: Path) -> set[str]:
 
 def write_html(project: Project, folder: str | os.PathLike[str], analyses: list[dict[str, Any]] | None = None,
                photo_max_px: int = PHOTO_MAX_PX, warnings: list[str] | None = None,
-               extra_files: list[tuple[str, bytes]] | None = None) -> HtmlResult:
+               extra_files: list[tuple[str, bytes]] | None = None,
+               camera_only: tuple[dict[str, Any], bytes, Any] | None = None) -> HtmlResult:
     """Write the viewer folder for ``project`` (see the module's docstring).
 
     ``analyses``: the recorded analyses as the page draws them, each a dict with ``name``,
@@ -169,7 +170,9 @@ def write_html(project: Project, folder: str | os.PathLike[str], analyses: list[
     ``command``, ``anchor`` (a world point for the label, or None), ``paths`` and ``cone``
     (world polylines: the measured segment or trajectory, and its uncertainty region), and
     ``image`` (a path in the folder, or None). ``extra_files``: (path in the folder, bytes) written
-    with the rest, such as the analyses' images.
+    with the rest, such as the analyses' images. ``camera_only``: a project with no model, shown as
+    one calibrated photo: the glTF document and binary chunk of
+    :func:`vebuild.render.export_camera.camera_document` and the photo's camera.
     """
     folder = Path(folder)
     ours = _check_folder(project, folder)
@@ -177,18 +180,23 @@ def write_html(project: Project, folder: str | os.PathLike[str], analyses: list[
         if not (WEB / name).is_file():
             raise VebuildError(f"{WEB / name}: the HTML viewer's file is missing from the installation; reinstall "
                                "vebuild (or rebuild the bundle with vebuild/render/web/build.sh)")
-    contents = _collect(project)
-    doc, binary = gltf_document(contents)
+    if camera_only is None:
+        contents = _collect(project)
+        doc, binary = gltf_document(contents)
+        index = {n.name: i + 1 for i, n in enumerate(contents.nodes)}  # as gltf_document numbers them
+        hypotheses, hw = _hypotheses(contents, index)
+        out_warnings = list(contents.warnings) + list(warnings or []) + hw
+        scene_cameras, textured = contents.cameras, contents.scene.textured
+    else:
+        doc, binary, only = camera_only
+        hypotheses, out_warnings = [], list(warnings or [])
+        scene_cameras, textured = [(f"photo {only.id}", "photo", only)], True
     glb = glb_bytes(doc, binary)
-    out_warnings = list(contents.warnings) + list(warnings or [])
-    index = {n.name: i + 1 for i, n in enumerate(contents.nodes)}  # as gltf_document numbers them
-    hypotheses, hw = _hypotheses(contents, index)
-    out_warnings += hw
 
     files: list[tuple[Path, bytes]] = []
     photos: dict[str, Any] = {}
     cameras = []
-    for name, kind, cam in contents.cameras:
+    for name, kind, cam in scene_cameras:
         cid = camera_id(name, kind)
         cameras.append(cid)
         if kind == "photo":
@@ -214,7 +222,8 @@ def write_html(project: Project, folder: str | os.PathLike[str], analyses: list[
         "units": "relative" if unit.relative else "metres",
         "units_note": unit.note if unit.relative else "",
         "root": ROOT_NAME,
-        "textured": contents.scene.textured,
+        "textured": textured,
+        "single_photo": camera_only is not None,
         "markers": markers,
         "analyses": analyses or [],
         "hypotheses": hypotheses,
@@ -260,7 +269,7 @@ def write_html(project: Project, folder: str | os.PathLike[str], analyses: list[
     except OSError as e:
         raise VebuildError(f"{folder}: cannot write {e.filename or folder} ({e.strerror or e})") from None
     return HtmlResult(folder, [p for p, _ in files], cameras, len(markers), len(analyses or []),
-                      len(hypotheses), len(photos), contents.scene.textured, out_warnings)
+                      len(hypotheses), len(photos), textured, out_warnings)
 
 
 def _unobserved() -> dict[str, Any]:

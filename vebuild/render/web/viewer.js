@@ -41,6 +41,7 @@
 
   var T, THREE, data, renderer, scene, camera, dolly, orbit, walk, raycaster, root, gltf;
   var modelMeshes = [], unseenMaterials = [], labels = [], cameraGlyphs = [], cameraDefs = {}, nodeObjects = {};
+  var photoPlanes = {};  // camera id -> the photo plane of a camera-only scene (docs/export.md)
   var originalMatrices = {}, current = null, keys = {}, lastTime = 0, hashOptions = {}, labelsDirty = true;
   var photoEl, labelsEl, bannerEl, overlays = [];
 
@@ -195,7 +196,10 @@
     applyProjection();
     var photo = data.photos[id];
     var opacity = hashOptions.photo !== undefined ? parseFloat(hashOptions.photo) : parseFloat(document.getElementById("opacity").value);
-    if (photo && opacity > 0) {
+    if (photoPlanes[id]) {  // the scene holds the photo at the camera's frustum: no overlay needed
+      photoPlanes[id].visible = hashOptions.photo === undefined || parseFloat(hashOptions.photo) > 0;
+      photoEl.style.display = "none";
+    } else if (photo && opacity > 0) {
       photoEl.src = photo.file;
       photoEl.style.opacity = String(opacity);
       photoEl.style.display = "block";
@@ -595,6 +599,21 @@
         o.updateMatrix();
         originalMatrices[i] = o.matrix.toArray();
         var def = json.nodes[i];
+        var role = def.extras && def.extras.vebuild_role;
+        if (role === "photo plane") {
+          // Drawn first and behind everything (it stands at the far end of the frustum), the photo's
+          // pixels as they are (no colour conversion), never hiding a label.
+          photoPlanes["photo-" + def.extras.photo] = o;
+          o.traverse(function (c) {
+            c.userData.vebuildPlane = true;
+            c.renderOrder = -1;
+            if (c.material) {
+              c.material.depthWrite = false;
+              if (c.material.map) { c.material.map.colorSpace = THREE.NoColorSpace; c.material.map.needsUpdate = true; }
+            }
+          });
+        }
+        if (role === "measurement") o.visible = false;  // drawn with its label from data.js instead
         if (def.camera !== undefined) {
           var cdef = json.cameras[def.camera];
           var id = cdef.extras.source === "photo" ? "photo-" + cdef.name.slice(6) : "view-" + cdef.name;
@@ -606,7 +625,7 @@
       return prepareMaterials(parser);
     }).then(function (replacement) {
       gltf.scene.traverse(function (o) {
-        if (!o.isMesh) return;
+        if (!o.isMesh || o.userData.vebuildPlane) return;
         modelMeshes.push(o);
         var a = parser.associations.get(o.material);
         if (a && replacement[a.materials] !== undefined) o.material = replacement[a.materials];
@@ -637,6 +656,7 @@
       home();
       applyProjection();
       applyHash();
+      if (data.single_photo && !hashOptions.camera && data.cameras.length) lookThrough(data.cameras[0]);
       setupXR();
       state.stage = "running";
       writeState();
