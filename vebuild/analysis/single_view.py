@@ -48,7 +48,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..calibration.lsq import numeric_jacobian
-from ..camera import ImageCamera, exp_so3, intrinsic_matrix, pixel_rays_world
+from ..camera import ImageCamera, intrinsic_matrix, pixel_rays_world, skew
 from ..errors import VebuildError
 from .measure import Measurement
 
@@ -283,8 +283,18 @@ _KINDS: dict[str, _Kind] = {
 }
 
 
+def _exp_so3(w: Array) -> Array:
+    """exp([w]×), Rodrigues' formula (the same rotation as :func:`vebuild.camera.exp_so3`, without
+    the import of scipy's rotations: half a second of a command that measures in milliseconds)."""
+    t = float(np.linalg.norm(w))
+    W = skew(w)
+    if t < 1e-4:  # the series to t²: the terms dropped are below 1e-17
+        return np.eye(3) + (1.0 - t * t / 6.0) * W + (0.5 - t * t / 24.0) * (W @ W)
+    return np.eye(3) + np.sin(t) / t * W + (1.0 - np.cos(t)) / t**2 * (W @ W)
+
+
 def _camera(cam: ImageCamera, p: Array) -> _Cam:
-    return _Cam(intrinsic_matrix(p[0], p[1], p[2]), exp_so3(p[3:6]) @ np.asarray(cam.R, float),
+    return _Cam(intrinsic_matrix(p[0], p[1], p[2]), _exp_so3(p[3:6]) @ np.asarray(cam.R, float),
                 np.asarray(p[6:9], float), float(p[9]), cam.id)
 
 
