@@ -153,6 +153,10 @@ class _Cam:
 
     def height_above(self, foot: Array, uv: Array, what: str) -> float:
         d = self.ray(uv)
+        if np.hypot(d[0], d[1]) < MIN_FLOOR_SLOPE:
+            raise SingleViewError(f"photo '{self.photo}': {what}: the line of sight through {self._at(uv)} runs "
+                                  "straight up or down, along the vertical it should cross, so it fixes no height; "
+                                  "measure from a photo that sees the vertical from the side")
         A = np.column_stack([[0.0, 0.0, 1.0], -d])
         (s, t), *_ = np.linalg.lstsq(A, self.C - foot, rcond=None)
         if t <= 0:
@@ -171,9 +175,9 @@ class _Cam:
         gap = plane.offset - float(plane.normal @ self.C)
         cos = float(plane.normal @ d)
         if abs(gap) < MIN_PLANE_SPAN * float(self.C[2]):  # the camera's height: the scale of the scene
-            raise SingleViewError(f"photo '{self.photo}': the camera stands in the plane of {plane.name}, so the "
-                                  f"photo sees it edge on and no point of it can be measured; mark {plane.name} "
-                                  "by points that put it to one side of the camera")
+            raise SingleViewError(f"photo '{self.photo}': {plane.name} passes through the camera, so the photo "
+                                  f"sees it edge on and no point of it can be measured; mark {plane.name} by points "
+                                  "that put it to one side of the camera")
         if abs(cos) < MIN_FLOOR_SLOPE:
             raise SingleViewError(f"photo '{self.photo}': {what}: the line of sight through {self._at(uv)} runs "
                                   f"parallel to {plane.name}, so it shows no point of it; click a point on "
