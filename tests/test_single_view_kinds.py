@@ -256,3 +256,23 @@ def test_the_command_line_names_the_numbers_each_kind_takes(tmp_path: Path, caps
     code, text, err = _cli(capsys, "analyse", path, "raised-height", "--photo", "p", *words)
     assert code == 0, err
     assert text.count("\nheight ") == 2
+
+
+def test_a_single_view_measurement_imports_no_scipy(tmp_path: Path) -> None:
+    """Measuring on a photo is a few hundred ray intersections: `vebuild analyse` runs it without
+    scipy (whose rotations alone took half the command's time) and without GL or PDF libraries
+    (docs/start-up.md); the runner's list of modules is real (numpy is in it)."""
+    import subprocess
+    import sys
+
+    sc = scene(np.random.default_rng(4604))
+    path = calibrated(tmp_path, sc).path
+    words = single_view_command("plane-length", "p", sc.clicks["plane-length"])
+    runner = ("import sys\nfrom vebuild.cli import main\nrc = main(sys.argv[1:])\n"
+              "print('MODULES ' + ' '.join(sorted({m.split('.')[0] for m in sys.modules})))\nsys.exit(rc)\n")
+    r = subprocess.run([sys.executable, "-c", runner, "analyse", str(path), *words], capture_output=True, text=True,
+                       timeout=600)
+    assert r.returncode == 0, r.stderr
+    mods = set(next(w for w in r.stdout.splitlines() if w.startswith("MODULES ")).split()[1:])
+    assert "numpy" in mods and "vebuild" in mods
+    assert not mods & {"scipy", "moderngl", "glfw", "imgui_bundle", "weasyprint"}, sorted(mods)
