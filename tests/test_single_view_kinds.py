@@ -210,6 +210,14 @@ def test_clicks_that_fix_no_wall_or_plane_or_show_none_of_it_are_refused_in_word
     _refused("raised-height", [[1000.0, 600.0], [900.0, 600.0], [950.0, 650.0], [960.0, 650.0]],
              "photo 'p': the raised surface's edge point lies 1.5 below the floor, not above it; click first the "
              "floor just below a point of the surface's edge, then that point")
+    # A level camera 1.5 m up (f 1000 px): a shelf's edge 3.75 m ahead (row 600 + 1000 × 1.5 / 3.75)
+    # and 1.65 m up (row 600 − 1000 × 0.15 / 3.75) hides the shelf's top from it.
+    level = _level()
+    shelf = [[1000.0, 1000.0], [1000.0, 560.0]]
+    _refused("raised-height", [*shelf, [1000.0, 580.0], [1000.0, 500.0]],
+             "photo 'p': the raised surface's edge point lies at or above the camera (1.65 against the camera's "
+             "1.5), so the photo cannot show the top of that surface; measure what stands above it with "
+             "photo-height", level)
     on_a_line = [[700.0, 700.0], [700.0, 700.0], [800.0, 700.0], [800.0, 700.0], [900.0, 700.0], [900.0, 700.0]]
     message = ("photo 'p': the plane's three points lie on one line (or two of them are the same point), so they do "
                "not fix a plane; mark three points of the plane that are not in a line")

@@ -246,6 +246,10 @@ def _raised_height(c: _Cam, uv: Array) -> float:
         raise SingleViewError(f"photo '{c.photo}': the raised surface's edge point lies {-edge[2]:.3g} below the "
                               "floor, not above it; click first the floor just below a point of the surface's edge, "
                               "then that point")
+    if not edge[2] < c.C[2]:
+        raise SingleViewError(f"photo '{c.photo}': the raised surface's edge point lies at or above the camera "
+                              f"({edge[2]:.3g} against the camera's {c.C[2]:.3g}), so the photo cannot show the top "
+                              "of that surface; measure what stands above it with photo-height")
     raised = _Plane(np.array([0.0, 0.0, 1.0]), float(edge[2]), "the raised surface")
     return c.height_above(c.on_plane(uv[2], raised, "the foot on the raised surface"), uv[3], "the top")
 
