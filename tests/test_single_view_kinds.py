@@ -20,6 +20,7 @@ from vebuild.analysis.single_view import (
     SingleViewError,
     measure_clicked,
     measure_on_photo,
+    measured_line,
     single_view_command,
 )
 from vebuild.camera import ImageCamera, intrinsic_matrix
@@ -54,9 +55,12 @@ def _true_camera(sc: Any) -> ImageCamera:
 def test_exact_clicks_on_the_true_camera_give_the_truth() -> None:
     """With the camera known exactly and every click on its true pixel, each new kind gives the
     generated length to the arithmetic's precision (1 µm: the clicks are exact to 1e-12 px), on
-    every kind of marked plane (ramps, table tops, walls); and the 1σ of exact inputs is zero."""
+    every kind of marked plane (ramps, table tops, walls); the 1σ of exact inputs is zero; and the
+    line it measures (:func:`measured_line`, for drawing) joins the generated points."""
     rng = np.random.default_rng(46)
     planes = set()
+    ends = {"wall-length": ("wall_p", "wall_q"), "raised-height": ("stand_foot", "stand_top"),
+            "plane-length": ("plane_p", "plane_q")}
     for _ in range(30):
         sc = scene(rng)
         cam = _true_camera(sc)
@@ -65,6 +69,11 @@ def test_exact_clicks_on_the_true_camera_give_the_truth() -> None:
             m = measure_on_photo(cam, kind, exact, click_sigma_px=0.0)
             assert m.value == pytest.approx(sc.truth[kind], abs=1e-6), (kind, sc.plane)
             assert m.sigma < 1e-9
+            line = measured_line(cam, kind, exact)
+            assert np.allclose(line, [sc.points[n] for n in ends[kind]], atol=1e-6), kind
+        for kind, names in (("photo-height", ("edge_foot", "edge")), ("floor-distance", ("wall_a", "wall_b"))):
+            line = measured_line(cam, kind, [pixel(sc.cam, sc.points[n]) for n in names])
+            assert np.allclose(line, [sc.points[n] for n in names], atol=1e-6), kind
         planes.add(sc.plane)
     assert planes == {"ramp", "table", "wall"}
 

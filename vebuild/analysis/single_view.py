@@ -224,23 +224,36 @@ def _plane_through(c: _Cam, X: Array) -> _Plane:
     return _Plane(n, float(n @ X[0]), "the marked plane")
 
 
-# -- the measurements, each a function of the camera and the clicks (n, 2) --------------------------
+# -- the measurements: each a function of the camera and the clicks (n, 2) giving its value and the
+# -- two world points of the line it measures (a height: its foot, then the point above it) ----------
 
-def _photo_height(c: _Cam, uv: Array) -> float:
-    return c.height_above(c.floor(uv[0], "the foot"), uv[1], "the top")
-
-
-def _floor_distance(c: _Cam, uv: Array) -> float:
-    return float(np.linalg.norm(c.floor(uv[0], "the first point") - c.floor(uv[1], "the second point")))
+_Line = tuple[float, Array]
 
 
-def _wall_length(c: _Cam, uv: Array) -> float:
+def _up(foot: Array, h: float) -> _Line:
+    return h, np.array([foot, foot + [0.0, 0.0, h]])
+
+
+def _between(a: Array, b: Array) -> _Line:
+    return float(np.linalg.norm(a - b)), np.array([a, b])
+
+
+def _photo_height(c: _Cam, uv: Array) -> _Line:
+    foot = c.floor(uv[0], "the foot")
+    return _up(foot, c.height_above(foot, uv[1], "the top"))
+
+
+def _floor_distance(c: _Cam, uv: Array) -> _Line:
+    return _between(c.floor(uv[0], "the first point"), c.floor(uv[1], "the second point"))
+
+
+def _wall_length(c: _Cam, uv: Array) -> _Line:
     wall = _wall(c, c.floor(uv[0], "the wall's first floor point"), c.floor(uv[1], "the wall's second floor point"))
-    return float(np.linalg.norm(c.on_plane(uv[2], wall, "the length's first end")
-                                - c.on_plane(uv[3], wall, "the length's second end")))
+    return _between(c.on_plane(uv[2], wall, "the length's first end"),
+                    c.on_plane(uv[3], wall, "the length's second end"))
 
 
-def _raised_height(c: _Cam, uv: Array) -> float:
+def _raised_height(c: _Cam, uv: Array) -> _Line:
     edge = c.above_floor(uv[:2], ("the floor below the raised surface's edge", "the raised surface's edge"))
     if not edge[2] > 0:
         raise SingleViewError(f"photo '{c.photo}': the raised surface's edge point lies {-edge[2]:.3g} below the "
@@ -251,22 +264,23 @@ def _raised_height(c: _Cam, uv: Array) -> float:
                               f"({edge[2]:.3g} against the camera's {c.C[2]:.3g}), so the photo cannot show the top "
                               "of that surface; measure what stands above it with photo-height")
     raised = _Plane(np.array([0.0, 0.0, 1.0]), float(edge[2]), "the raised surface")
-    return c.height_above(c.on_plane(uv[2], raised, "the foot on the raised surface"), uv[3], "the top")
+    foot = c.on_plane(uv[2], raised, "the foot on the raised surface")
+    return _up(foot, c.height_above(foot, uv[3], "the top"))
 
 
-def _plane_length(c: _Cam, uv: Array) -> float:
+def _plane_length(c: _Cam, uv: Array) -> _Line:
     X = np.array([c.above_floor(uv[2 * k : 2 * k + 2], (f"the floor below the plane's {n} point",
                                                          f"the plane's {n} point"))
                   for k, n in enumerate(("first", "second", "third"))])
     plane = _plane_through(c, X)
-    return float(np.linalg.norm(c.on_plane(uv[6], plane, "the length's first end")
-                                - c.on_plane(uv[7], plane, "the length's second end")))
+    return _between(c.on_plane(uv[6], plane, "the length's first end"),
+                    c.on_plane(uv[7], plane, "the length's second end"))
 
 
 @dataclass(frozen=True)
 class _Kind:
     quantity: str  # the Measurement's quantity
-    fn: Callable[[_Cam, Array], float]
+    line: Callable[[_Cam, Array], _Line]
     clicks: tuple[str, ...]  # each click's name in messages and in the measurement's points
     what: str  # the description after "photo ID: ", formatted with the clicks' pixels p0, p1, …
 
@@ -336,10 +350,7 @@ def _measure(cam: ImageCamera, clicks: Array, fn: Callable[[_Cam, Array], float]
     return value, float(np.sqrt(max(float((J @ cov @ J.T)[0, 0]), 0.0))) if determined else np.inf
 
 
-def measure_on_photo(cam: ImageCamera, kind: str, clicks: Sequence[Sequence[float]], *, click_sigma_px: float = 1.0,
-                     k1_sigma: float = 0.0) -> Measurement:
-    """The single-view measurement ``kind`` (:data:`SINGLE_VIEW_CLICKS`) clicked at ``clicks``
-    (pixels, in that order) on the photo of ``cam``, with its first-order 1σ (module docstring)."""
+def _checked(cam: ImageCamera, kind: str, clicks: Sequence[Sequence[float]]) -> tuple[_Kind, Array]:
     if kind not in _KINDS:
         raise SingleViewError(f"no single-view measurement '{kind}'; they are {', '.join(_KINDS)}")
     k = _KINDS[kind]
@@ -348,7 +359,26 @@ def measure_on_photo(cam: ImageCamera, kind: str, clicks: Sequence[Sequence[floa
         raise SingleViewError(f"a {kind} takes {len(k.clicks)} clicked points, got {len(uv)}")
     for p, name in zip(uv, k.clicks, strict=True):
         _check_on_photo(cam, p, name)
-    v, s = _measure(cam, uv, k.fn, click_sigma_px, k1_sigma)
+    return k, uv
+
+
+def measured_line(cam: ImageCamera, kind: str, clicks: Sequence[Sequence[float]]) -> Array:
+    """The two world points (2, 3) of the line the single-view measurement ``kind`` clicked at
+    ``clicks`` measures, by the very geometry that measures it: a height's foot then the point
+    above it, a distance's or a length's two ends. For drawing a measurement in a 3-D hand-off;
+    refusals as :func:`measure_on_photo`'s."""
+    k, uv = _checked(cam, kind, clicks)
+    K = np.asarray(cam.K, float)
+    p = np.r_[K[0, 0], K[0, 2], K[1, 2], 0.0, 0.0, 0.0, np.asarray(cam.C, float), cam.k1]
+    return k.line(_camera(cam, p), uv)[1]
+
+
+def measure_on_photo(cam: ImageCamera, kind: str, clicks: Sequence[Sequence[float]], *, click_sigma_px: float = 1.0,
+                     k1_sigma: float = 0.0) -> Measurement:
+    """The single-view measurement ``kind`` (:data:`SINGLE_VIEW_CLICKS`) clicked at ``clicks``
+    (pixels, in that order) on the photo of ``cam``, with its first-order 1σ (module docstring)."""
+    k, uv = _checked(cam, kind, clicks)
+    v, s = _measure(cam, uv, lambda c, p: k.line(c, p)[0], click_sigma_px, k1_sigma)
     pts = [{"point": f"photo {cam.id} pixel ({p[0]:g}, {p[1]:g})", "kind": name}
            for p, name in zip(uv, SINGLE_VIEW_CLICKS[kind], strict=True)]
     what = k.what.format(**{f"p{i}": f"({p[0]:g}, {p[1]:g})" for i, p in enumerate(uv)})
