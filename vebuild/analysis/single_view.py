@@ -282,7 +282,7 @@ class _Kind:
     quantity: str  # the Measurement's quantity
     line: Callable[[_Cam, Array], _Line]
     clicks: tuple[str, ...]  # each click's name in messages and in the measurement's points
-    what: str  # the description after "photo ID: ", formatted with the clicks' pixels p0, p1, …
+    what: str  # after "photo ID: ", with the pixels p0, p1, … of the clicks measured (the others: in points)
 
 
 _KINDS: dict[str, _Kind] = {
@@ -291,17 +291,17 @@ _KINDS: dict[str, _Kind] = {
                             "{p0} to {p1} on the floor"),
     "wall-length": _Kind("length", _wall_length, ("the wall's first floor point", "the wall's second floor point",
                                                   "the length's first end", "the length's second end"),
-                         "{p2} to {p3} on the wall over {p0}–{p1}"),
+                         "{p2} to {p3} on the wall"),
     "raised-height": _Kind("height", _raised_height, ("the floor below the raised surface's edge",
                                                       "the raised surface's edge", "the foot on the raised surface",
                                                       "the top"),
-                           "{p3} above its foot {p2} on the raised surface at {p1} (over {p0})"),
+                           "{p3} above its foot {p2} on the raised surface"),
     "plane-length": _Kind("length", _plane_length, ("the floor below the plane's first point",
                                                     "the plane's first point", "the floor below its second point",
                                                     "the plane's second point", "the floor below its third point",
                                                     "the plane's third point", "the length's first end",
                                                     "the length's second end"),
-                          "{p6} to {p7} on the plane through {p1}, {p3}, {p5}"),
+                          "{p6} to {p7} on the marked plane"),
 }
 
 
