@@ -11,8 +11,10 @@ Modules:
 - :mod:`vebuild.analysis.sightline` — sight lines and viewsheds (witness statement evaluation).
 - :mod:`vebuild.analysis.trajectory` — trajectories with uncertainty cones, and what they hit.
 - :mod:`vebuild.analysis.lighting` — one view under several lighting presets.
-- :mod:`vebuild.analysis.single_view` — heights above the floor and distances on it measured on
-  one calibrated photo (single-view metrology), no model needed.
+- :mod:`vebuild.analysis.single_view` — heights above the floor and distances on it, lengths on a
+  wall or on a plane marked by three points, heights above a raised surface, measured on one
+  calibrated photo (single-view metrology), no model needed; ``measure_clicked`` runs a clicked
+  one as the command line runs its saved words.
 - :mod:`vebuild.analysis.requests` and :mod:`vebuild.analysis.requests_geometry` — each analysis
   as a typed request whose ``run(project)`` gives its table, figures and image: what the command
   line, the report and the viewer run.

@@ -25,7 +25,10 @@ from .requests import (
     HeightRequest,
     LightingRequest,
     PhotoHeightRequest,
+    PlaneLengthRequest,
+    RaisedHeightRequest,
     Request,
+    WallLengthRequest,
 )
 from .requests_geometry import SightlineRequest, TrajectoryRequest, ViewshedRequest
 from .sightline import SITTING_EYE_M, STANDING_EYE_M
@@ -57,15 +60,24 @@ def add_analyse_parsers(sub: Any) -> Any:
     q.add_argument("nodes", nargs="+", metavar="NODE", help="one or more nodes of the model")
     _subcommand(asub, "checks", "check distances (role 'check'): measured vs known, the independent accuracy check",
                 lambda a: ChecksRequest())
-    for word, what, to_request in (
+    for word, what, request, pixels in (
             ("photo-height", "heights above the floor measured on one calibrated photo: for each, the foot on the "
-             "floor then the top (U1 V1 U2 V2)", _photo_height),
+             "floor then the top (U1 V1 U2 V2)", PhotoHeightRequest, "four"),
             ("floor-distance", "distances between two floor points measured on one calibrated photo (U1 V1 U2 V2 "
-             "each)", _floor_distance)):
-        q = _subcommand(asub, word, what + "; no model needed", to_request)
+             "each)", FloorDistanceRequest, "four"),
+            ("wall-length", "lengths on a wall measured on one calibrated photo: for each, two points where the wall "
+             "meets the floor, then the length's two ends on the wall (U1 V1 … U4 V4)", WallLengthRequest, "eight"),
+            ("raised-height", "heights above a raised surface (a table top, a kerb) measured on one calibrated "
+             "photo: for each, the floor just below a point of the surface's edge, that point, the foot on the "
+             "surface, the top (U1 V1 … U4 V4)", RaisedHeightRequest, "eight"),
+            ("plane-length", "lengths on a plane marked by three points, measured on one calibrated photo: for each, "
+             "the floor below the plane's first point and the point (the same pixel twice for a point on the "
+             "floor), the same for its second and third points, then the length's two ends on the plane "
+             "(U1 V1 … U8 V8)", PlaneLengthRequest, "sixteen")):
+        q = _subcommand(asub, word, what + "; no model needed", _single_view(request))
         q.add_argument("--photo", required=True, metavar="ID", help="the calibrated photo")
-        q.add_argument("pixels", nargs="+", type=float, metavar="U1 V1 U2 V2",
-                       help="pixel coordinates, four per measurement")
+        q.add_argument("pixels", nargs="+", type=float, metavar="U V",
+                       help=f"pixel coordinates, {pixels} per measurement")
     _add_geometry(asub)
     q = _subcommand(asub, "lighting", "one view under several lighting presets side by side, with the target's "
                     "luminance under each",
@@ -80,12 +92,11 @@ def add_analyse_parsers(sub: Any) -> Any:
     return asub
 
 
-def _photo_height(a: argparse.Namespace) -> Request:
-    return PhotoHeightRequest(a.photo, tuple(a.pixels))
+def _single_view(request: type[PhotoHeightRequest]) -> ToRequest:
+    def to_request(a: argparse.Namespace) -> Request:
+        return request(a.photo, tuple(a.pixels))
 
-
-def _floor_distance(a: argparse.Namespace) -> Request:
-    return FloorDistanceRequest(a.photo, tuple(a.pixels))
+    return to_request
 
 
 def _add_geometry(asub: Any) -> None:

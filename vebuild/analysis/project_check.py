@@ -39,8 +39,9 @@ REPLACES: dict[str, frozenset[str]] = {
 
 #: The recorded analyses that make no image and need no GL: run by the check as the report runs
 #: them (those of :data:`ON_A_PHOTO` rest on the calibration, the others on the solved model).
-MEASUREMENTS = ("distance", "height", "dimensions", "checks", "photo-height", "floor-distance")
-ON_A_PHOTO = ("photo-height", "floor-distance")
+#: The single-view measurements (:data:`vebuild.analysis.single_view.SINGLE_VIEW_CLICKS`' kinds).
+ON_A_PHOTO = ("photo-height", "floor-distance", "wall-length", "raised-height", "plane-length")
+MEASUREMENTS = ("distance", "height", "dimensions", "checks", *ON_A_PHOTO)
 
 
 def load_checked(path: str | os.PathLike[str], command: str) -> Project:
@@ -110,7 +111,7 @@ def decode_project(project: Project, replaced: Collection[str] = ()) -> list[str
 
 def _check_analyses(project: Project, run: bool) -> None:
     """Each recorded analysis parsed; each measurement among them (no image, no GL: distance,
-    height, dimensions, checks, photo-height, floor-distance) run as the report runs it, where the
+    height, dimensions, checks and the single-view measurements) run as the report runs it, where the
     results it rests on are there; and the views and presets the others name found."""
     if not project.data.get("analyses"):
         return  # the analyses' parsers (and the geometry they import) are not needed

@@ -199,10 +199,11 @@ class ChecksRequest(_NoImage):
 @dataclass(frozen=True)
 class PhotoHeightRequest(_NoImage):
     """Heights above the floor measured on one calibrated photo (:mod:`vebuild.analysis.single_view`);
-    ``pixels``: U1 V1 U2 V2 for each, its foot on the floor then its top."""
+    ``pixels``: U1 V1 U2 V2 for each, its foot on the floor then its top. The other single-view
+    measurements are this request with another ``name`` (the measurement's kind) and as many
+    pixels for each as its clicks (:data:`~vebuild.analysis.single_view.SINGLE_VIEW_CLICKS`)."""
 
     name: ClassVar[str] = "photo-height"
-    kind: ClassVar[str] = "height"
     photo: str
     pixels: tuple[float, ...]
 
@@ -210,23 +211,30 @@ class PhotoHeightRequest(_NoImage):
         from vebuild.errors import VebuildError
         from vebuild.project.decode import camera_records, photo_camera
 
-        from .single_view import floor_distance_on_photo, height_on_photo
+        from .single_view import SINGLE_VIEW_CLICKS, measure_on_photo
 
         word = self.name
-        if not self.pixels or len(self.pixels) % 4:
-            raise VebuildError(f"{word}: expected pixels in fours, U1 V1 U2 V2 for each measurement "
-                               f"({'foot, then top' if self.kind == 'height' else 'the two floor points'}), got "
-                               f"{len(self.pixels)} number{'s' if len(self.pixels) != 1 else ''}")
+        prompts = SINGLE_VIEW_CLICKS[word]
+        each = 2 * len(prompts)
+        if not self.pixels or len(self.pixels) % each:
+            got = f"got {len(self.pixels)} number{'s' if len(self.pixels) != 1 else ''}"
+            if each == 4:
+                raise VebuildError(f"{word}: expected pixels in fours, U1 V1 U2 V2 for each measurement "
+                                   f"({'foot, then top' if word == 'photo-height' else 'the two floor points'}), "
+                                   f"{got}")
+            raise VebuildError(f"{word}: expected {each} numbers for each measurement, the pixel U V of each of its "
+                               f"{len(prompts)} points in turn ({'; '.join(prompts)}), {got}")
         cam = photo_camera(project, self.photo)
         cal = camera_records(project.data)[cam.id]  # the final record, as photo_camera's
         k1_sigma = float(((cal.get("distortion") or {}).get("k1") or {}).get("sigma") or 0.0)
         click = project.settings["click_sigma_px"]
-        measure = height_on_photo if self.kind == "height" else floor_distance_on_photo
-        rows = [measure(cam, self.pixels[k : k + 2], self.pixels[k + 2 : k + 4], click_sigma_px=click,
-                        k1_sigma=k1_sigma) for k in range(0, len(self.pixels), 4)]
+        rows = [measure_on_photo(cam, word, [self.pixels[i : i + 2] for i in range(k, k + each, 2)],
+                                 click_sigma_px=click, k1_sigma=k1_sigma) for k in range(0, len(self.pixels), each)]
         unit = RELATIVE if (cal.get("placement") or {}).get("lengths") == "relative" else length_unit(project.data)
         text = _table(rows, unit)
-        text += f"\nmeasured on photo '{cam.id}' alone, against the floor (z = 0); 1σ from its calibration and " \
+        against = "the floor (z = 0)" if word in ("photo-height", "floor-distance") else \
+            "the floor (z = 0) and the plane its clicks mark"
+        text += f"\nmeasured on photo '{cam.id}' alone, against {against}; 1σ from its calibration and " \
                 f"the clicks (1σ {click:g} px)"
         return AnalysisResult(text, {"photo": cam.id, "lengths": unit.word, "click_sigma_px": click,
                                      "measurements": [m.to_json(unit) for m in rows]})
@@ -238,7 +246,30 @@ class FloorDistanceRequest(PhotoHeightRequest):
     for each."""
 
     name: ClassVar[str] = "floor-distance"
-    kind: ClassVar[str] = "floor-distance"
+
+
+@dataclass(frozen=True)
+class WallLengthRequest(PhotoHeightRequest):
+    """Lengths on a wall measured on one calibrated photo; ``pixels``: for each, two points where
+    the wall meets the floor, then the length's two ends on the wall (8 numbers)."""
+
+    name: ClassVar[str] = "wall-length"
+
+
+@dataclass(frozen=True)
+class RaisedHeightRequest(PhotoHeightRequest):
+    """Heights above a raised surface measured on one calibrated photo; ``pixels``: for each, the
+    floor below a point of the surface's edge, that point, the foot on the surface, the top (8)."""
+
+    name: ClassVar[str] = "raised-height"
+
+
+@dataclass(frozen=True)
+class PlaneLengthRequest(PhotoHeightRequest):
+    """Lengths on a plane marked by three points, measured on one calibrated photo; ``pixels``: for
+    each, the floor below each of the three points and the point, then the length's ends (16)."""
+
+    name: ClassVar[str] = "plane-length"
 
 
 # -- lighting --------------------------------------------------------------------------------------
