@@ -53,6 +53,9 @@ WIDE_BELOW_MM, LONG_ABOVE_MM = 28.0, 50.0
 HAND_HELD_M, CCTV_M, CCTV_SHARE = (1.2, 2.0), (3.0, 5.0), 0.2
 #: How far the principal point lies off the photo's centre: a share of the width, uniform.
 PRINCIPAL_POINT_OFF_REL = (0.0, 0.04)
+#: Where the figures split the photos: a principal point nearer the centre than this (a share of
+#: the width), or farther.
+PRINCIPAL_POINT_NEAR_REL = 0.02
 #: The share of photos through a barrel lens, and how far it moves the corners (a share of the
 #: half-diagonal; vebuild.synthetic.REAL_DISTORTION_CORNER_REL).
 DISTORTED_SHARE, DISTORTION_CORNER_REL = 1.0 / 3.0, (0.01, 0.03)
@@ -100,6 +103,12 @@ class Scene:
         return distort(self.photo, (h[:2] / h[2])[None])[0]
 
     @property
+    def principal_point_off_rel(self) -> float:
+        """How far the principal point lies off the photo's centre, a share of the width."""
+        p = self.photo
+        return float(np.hypot(*(p.K[:2, 2] - [p.width / 2, p.height / 2])) / p.width)
+
+    @property
     def lens(self) -> str:
         return "wide" if self.lens_mm < WIDE_BELOW_MM else "long" if self.lens_mm > LONG_ABOVE_MM else "normal"
 
@@ -107,7 +116,9 @@ class Scene:
         """The conditions a figure is split by: each a name → this scene's value."""
         return {"setting": self.setting, "exif": "exif_present" if self.exif else "exif_absent",
                 "lens": f"lens_{self.lens}", "view": self.view, "mount": self.mount.replace("-", "_"),
-                "lens_distortion": "distorted" if self.photo.k1 else "undistorted"}
+                "lens_distortion": "distorted" if self.photo.k1 else "undistorted",
+                "principal_point": ("principal_point_near" if self.principal_point_off_rel < PRINCIPAL_POINT_NEAR_REL
+                                    else "principal_point_off")}
 
 
 def _sees(photo: SyntheticPhoto, X: Array, margin: float = MARGIN_PX) -> bool:
@@ -124,7 +135,9 @@ def _floor_at(photo: SyntheticPhoto, uv: Array) -> Array | None:
     d = photo.R.T @ np.linalg.solve(photo.K, np.r_[uv, 1.0])
     if d[2] > -1e-3:
         return None
-    return photo.C + d * (-photo.C[2] / d[2])
+    X = photo.C + d * (-photo.C[2] / d[2])
+    X[2] = 0.0  # on the floor exactly, not to rounding
+    return X
 
 
 def _camera(rng: np.random.Generator, setting: str) -> tuple[SyntheticPhoto, float, str, str, float]:
@@ -262,7 +275,7 @@ def _mark_segments(rng: np.random.Generator, s: Scene, D: float) -> bool:
     photo = s.photo
     longer = max(photo.width, photo.height)
     for i, axis in enumerate("xyz"):
-        want, out = int(rng.integers(4, 7)), []
+        want, out = int(rng.integers(4, 7)), list[Array]()
         for _ in range(4000):
             if len(out) == want:
                 break
@@ -289,24 +302,28 @@ def _mark_segments(rng: np.random.Generator, s: Scene, D: float) -> bool:
     return True
 
 
-def scene(rng: np.random.Generator, setting: str, tries: int = 200) -> Scene:
+def scene(rng: np.random.Generator, setting: str, tries: int = 200, contents: int = 10) -> Scene:
     """One photo of a room or a street (module docstring) that shows its scale, its origin marker
-    and at least one height and one floor distance."""
+    and at least one height and one floor distance. Each camera drawn is given ``contents`` tries
+    at what it shows before another is drawn, so that the lenses, views and mounts keep near the
+    shares they are drawn in (a long lens in a room sees a door only from far enough)."""
     for _ in range(tries):
         photo, lens_mm, view, mount, D = _camera(rng, setting)
         exif = _exif(rng, lens_mm) if rng.random() < EXIF_SHARE else None
-        origin = _floor_point(rng, photo, D)
-        if origin is None:
-            continue
-        s = Scene(setting, photo, lens_mm, view, mount, exif, origin, {})
-        scale = _scale(rng, s, D)
-        if scale is None:
-            continue
-        s.scale = scale
-        s.items = _items(rng, s, D)
-        kinds = {it.kind for it in s.items}
-        if {"photo-height", "floor-distance"} <= kinds and _mark_segments(rng, s, D):
-            return s
+        for _c in range(contents):
+            photo.segments = {}
+            origin = _floor_point(rng, photo, D)
+            if origin is None:
+                continue
+            s = Scene(setting, photo, lens_mm, view, mount, exif, origin, {})
+            scale = _scale(rng, s, D)
+            if scale is None:
+                continue
+            s.scale = scale
+            s.items = _items(rng, s, D)
+            kinds = {it.kind for it in s.items}
+            if {"photo-height", "floor-distance"} <= kinds and _mark_segments(rng, s, D):
+                return s
     raise RuntimeError(f"no {setting} photo shows its scale and measurements in {tries} tries")
 
 
