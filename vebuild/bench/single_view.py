@@ -205,6 +205,15 @@ def run(quick: bool = False, progress: bool = True) -> dict[str, Any]:
     return summarise(results)
 
 
+def _label(name: str) -> str:
+    """A kind's figures' name as a column's heading: "wall_length" → "wall lengths"."""
+    return name.replace("_", " ") + "s"
+
+
+def _width(name: str) -> int:
+    return max(11, len(_label(name)) + 2)
+
+
 def _pct(x: float | None) -> str:
     return "—" if x is None else f"{100 * x:.1f} %"
 
@@ -216,18 +225,18 @@ def table(fig: dict[str, Any]) -> str:
              f"{'':<24}{'n':>6}{'in 95 %':>10}{'median err':>12}{'95th pct':>10}{'RMS err/σ':>11}"
              f"{'median σ':>10}"]
     for name in KINDS.values():
-        lines.append(f"{name + 's':<24}{fig[f'{name}s_measured']:>6}{_pct(fig[f'{name}_coverage_95']):>10}"
+        lines.append(f"{_label(name):<24}{fig[f'{name}s_measured']:>6}{_pct(fig[f'{name}_coverage_95']):>10}"
                      f"{_pct(fig[f'{name}_rel_error_median']):>12}{_pct(fig[f'{name}_rel_error_p95']):>10}"
                      + ("" if fig[f"{name}_z_rms"] is None else f"{fig[f'{name}_z_rms']:>11.2f}")
                      + f"{_pct(fig[f'{name}_rel_sigma_median']):>10}")
     lines += ["", "by condition (share inside the 95 % intervals; median height error)",
               f"{'':<24}{'photos':>7}{'refused':>8}{'n':>6}{'all':>9}"
-              + "".join(f"{name + 's':>11}" for name in KINDS.values()) + f"{'height err':>12}"]
+              + "".join(f"{_label(name):>{_width(name)}}" for name in KINDS.values()) + f"{'height err':>12}"]
     for values in CONDITIONS.values():
         for v in values:
             lines.append(f"{v.replace('_', ' '):<24}{fig[f'{v}_photos']:>7}{fig[f'{v}_photos_refused']:>8}"
                          f"{fig[f'{v}_measurements']:>6}{_pct(fig[f'{v}_coverage_95']):>9}"
-                         + "".join(f"{_pct(fig[f'{v}_{name}_coverage_95']):>11}" for name in KINDS.values())
+                         + "".join(f"{_pct(fig[f'{v}_{name}_coverage_95']):>{_width(name)}}" for name in KINDS.values())
                          + f"{_pct(fig[f'{v}_height_rel_error_median']):>12}")
     for what in ("photos_refused_reasons", "measurements_refused_reasons"):
         if fig[what]:
