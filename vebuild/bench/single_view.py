@@ -43,6 +43,9 @@ Z95 = 1.959963984540054
 #: median relative error of a height with a known length in view.
 GOALS = {"coverage_95_low": 0.93, "coverage_95_high": 0.97, "measurements_at_least": 300,
          "height_rel_error_median_at_most": 0.01}
+#: Whether every other pair of photos goes without the origin marker (calibration then puts the
+#: world's origin on the floor below the camera); False: every photo has one.
+WITHOUT_ORIGIN_MARKER = False
 PHOTOS, QUICK_PHOTOS = 400, 60
 SEED = 20261207
 SETTINGS = ("room", "street")
@@ -50,7 +53,8 @@ SETTINGS = ("room", "street")
 CONDITIONS = {"exif": ("exif_present", "exif_absent"), "lens": ("lens_wide", "lens_normal", "lens_long"),
               "view": ("frontal", "oblique"), "mount": ("hand_held", "cctv"), "setting": ("room", "street"),
               "lens_distortion": ("undistorted", "distorted"),
-              "principal_point": ("principal_point_near", "principal_point_off")}
+              "principal_point": ("principal_point_near", "principal_point_off"),
+              **({"origin": ("origin_marker", "origin_below_camera")} if WITHOUT_ORIGIN_MARKER else {})}
 
 
 def _reason(message: str) -> str:
@@ -62,7 +66,8 @@ def _reason(message: str) -> str:
 
 def write_scene(folder: Path, s: Scene, rng: np.random.Generator) -> Path:
     """The one-photo project a user makes of scene ``s``: its segments, the origin marker O on the
-    floor, its EXIF and the known length (the tape's reading off the truth by its 1σ)."""
+    floor (where ``s.origin_marker``), its EXIF and the known length (the tape's reading off the
+    truth by its 1σ)."""
     from ..project import load_project, save_project
     from ..synthetic import write_project
 
@@ -71,11 +76,14 @@ def write_scene(folder: Path, s: Scene, rng: np.random.Generator) -> Path:
     d = project.data
     d["settings"]["click_sigma_px"] = CLICK_SIGMA_PX
     photo = d["photos"][0]
-    photo["marker_observations"] = {"O": click(s, s.origin, rng)}
+    photo["marker_observations"] = {"O": click(s, s.origin, rng)} if s.origin_marker else {}
     if s.exif:
         photo["exif"] = dict(s.exif)
-    d["markers"] = [{"name": "O", "on_floor": True}]
-    d["origin_marker"] = "O"
+    d["markers"] = [{"name": "O", "on_floor": True}] if s.origin_marker else []
+    if s.origin_marker:
+        d["origin_marker"] = "O"
+    else:
+        d.pop("origin_marker", None)
     d["reference_distances"] = []
     sc = s.scale
     length = round(sc["length"] + rng.normal(0.0, sc["sigma"]), 4)
@@ -200,6 +208,7 @@ def run(quick: bool = False, progress: bool = True) -> dict[str, Any]:
     with tempfile.TemporaryDirectory(prefix="vebuild-bench-single-view-") as tmp:
         for i in Bar(range(n), desc="bench single-view", unit="photo", disable=not progress):
             s = scene(np.random.default_rng([SEED, i]), SETTINGS[i % len(SETTINGS)])
+            s.origin_marker = not (WITHOUT_ORIGIN_MARKER and (i // 2) % 2)
             folder = Path(tmp) / f"photo{i}"
             results.append((s, measure_scene(folder, s, i)))
     return summarise(results)

@@ -96,6 +96,9 @@ class Scene:
     origin: Array  # the origin marker's floor point
     scale: dict[str, Any]  # axis, ends (world), length, sigma, what
     items: list[Item] = field(default_factory=list)
+    #: Whether the user marks the origin marker (else calibration puts the origin on the floor
+    #: below the camera).
+    origin_marker: bool = True
 
     def pixel(self, X: Array) -> Array:
         """Where the lens puts world point X in the photo (no click noise)."""
@@ -118,7 +121,8 @@ class Scene:
                 "lens": f"lens_{self.lens}", "view": self.view, "mount": self.mount.replace("-", "_"),
                 "lens_distortion": "distorted" if self.photo.k1 else "undistorted",
                 "principal_point": ("principal_point_near" if self.principal_point_off_rel < PRINCIPAL_POINT_NEAR_REL
-                                    else "principal_point_off")}
+                                    else "principal_point_off"),
+                "origin": "origin_marker" if self.origin_marker else "origin_below_camera"}
 
 
 def _sees(photo: SyntheticPhoto, X: Array, margin: float = MARGIN_PX) -> bool:
