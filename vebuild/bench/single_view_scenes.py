@@ -5,7 +5,7 @@ A scene is one photo of a floor (z = 0) before a wall or a building's front: the
 3–7 m ahead in a **room**, 8–25 m in a **street**. The camera stands at (0, 0, h), h 1.2–2 m
 (hand-held) or 3–5 m (a CCTV camera on a wall or a pole, on a fifth of the photos), and faces
 the wall **near-frontally** (its heading within 8° of the wall's normal) or **obliquely** (20–55°
-off it), looking down 2–20° (hand-held) or 15–40° (CCTV), rolled 0–2°. The lens is 16–85 mm in
+off it), looking down 2–20° (hand-held) or 15–40° (CCTV), rolled by 1° (1σ). The lens is 16–85 mm in
 35 mm terms (drawn evenly in its logarithm), on a 1600 × 1200 photo; the principal point lies
 0–4 % of the width off centre in a random direction; on a third of the photos a barrel lens moves
 the corners by 1–3 % of the half-diagonal (the division model's k1, :mod:`vebuild.camera`). Half
@@ -23,9 +23,9 @@ world points of its clicks in :data:`vebuild.analysis.single_view.SINGLE_VIEW_CL
 its true value: the heights above the floor of a person (1.6–1.9 m), a box or a car's roof
 corner (0.4–1 m, 1.4–1.6 m) and a window sill (0.8–1.1 m, 0.9–1.2 m) over its foot where the wall
 meets the floor; the distances between pairs of floor points (0.5–4 m, 1–10 m); and, for the
-kinds the measuring code may not take yet, a length on the wall (``wall-length``), an object's
-height on a table or a low wall (``raised-height``) and a length on the wall as a plane marked by
-three points (``plane-length``).
+other single-view kinds (measured where :data:`vebuild.bench.single_view.KINDS` names them), a
+length on the wall (``wall-length``), an object's height on a table or a low wall
+(``raised-height``) and a length on the wall as a plane marked by three points (``plane-length``).
 """
 
 from __future__ import annotations
@@ -234,7 +234,7 @@ def _items(rng: np.random.Generator, s: Scene, D: float) -> list[Item]:
             if a is not None and b is not None and lo <= np.linalg.norm(a - b) <= hi:
                 out.append(Item("floor-distance", "two floor points", (a, b), float(np.linalg.norm(a - b))))
                 break
-    # The kinds measured where the measuring code takes them (vebuild.bench.single_view.KINDS).
+    # The other kinds, measured where vebuild.bench.single_view.KINDS names them.
     w1, w2 = _on_wall(rng, photo, D, (0.5, 2.0)), _on_wall(rng, photo, D, (0.5, 2.0))
     if w1 and w2 and abs(w1[0][0] - w2[0][0]) > 0.3:
         e1, e2 = _on_wall(rng, photo, D, (0.2, 2.5)), _on_wall(rng, photo, D, (0.2, 2.5))
