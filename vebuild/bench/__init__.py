@@ -15,7 +15,8 @@ from typing import Any
 
 from ..errors import VebuildError
 
-_NAMES = ("calibration", "cli", "detect", "edit", "house", "orient", "real", "render", "rooms", "solver", "texture")
+_NAMES = ("calibration", "cli", "detect", "edit", "house", "orient", "real", "render", "rooms", "single-view", "solver",
+          "texture")
 #: The benchmarks that measure data the user gives (``--data DIR``), not data of their own.
 _WITH_DATA = ("real",)
 
@@ -26,7 +27,7 @@ class _Benches(Mapping[str, ModuleType]):
     def __getitem__(self, name: str) -> ModuleType:
         if name not in _NAMES:
             raise KeyError(name)
-        return importlib.import_module(f"{__name__}.{name}")
+        return importlib.import_module(f"{__name__}.{name.replace('-', '_')}")  # single-view: single_view.py
 
     def __iter__(self) -> Iterator[str]:
         return iter(_NAMES)
