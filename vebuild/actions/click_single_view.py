@@ -94,14 +94,13 @@ def measure_on_photo(project: Project, kind: str, photo: str, clicks: list[Any])
     :func:`prompts` names them): the request its saved words parse to, run on the project. The
     result's ``pixels`` are the saved (rounded) pixels, to draw on ``photo``."""
     from vebuild.analysis.recorded import parse_recorded
-    from vebuild.analysis.single_view import single_view_command
+    from vebuild.analysis.single_view import measure_clicked
 
     if kind not in kinds():
         raise ClickError(f"no single-view measurement '{kind}'; they are {', '.join(kinds())}")
     try:
-        words = single_view_command(kind, photo, [(float(u), float(v)) for u, v in clicks])
+        words, result = measure_clicked(project, kind, photo, [(float(u), float(v)) for u, v in clicks])
         request = parse_recorded(words)
-        result = request.run(project)
     except VebuildError as e:
         raise ClickError(str(e)) from None
     rows = result.figures["measurements"]

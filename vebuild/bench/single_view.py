@@ -36,7 +36,8 @@ from .single_view_scenes import CLICK_SIGMA_PX, Scene, click, scene
 #: :data:`vebuild.analysis.single_view.SINGLE_VIEW_CLICKS` not here are generated but not measured:
 #: add ``"wall-length": "wall_length"``, ``"raised-height": "raised_height"``, ``"plane-length":
 #: "plane_length"`` where `vebuild analyse` takes them.
-KINDS: dict[str, str] = {"photo-height": "height", "floor-distance": "distance"}
+KINDS: dict[str, str] = {"photo-height": "height", "floor-distance": "distance", "wall-length": "wall_length",
+                         "raised-height": "raised_height", "plane-length": "plane_length"}
 #: The 95 % interval's half-width in σ (two-sided).
 Z95 = 1.959963984540054
 #: The goals: the intervals' coverage (two-sided), over at least this many measurements; the
@@ -45,7 +46,7 @@ GOALS = {"coverage_95_low": 0.93, "coverage_95_high": 0.97, "measurements_at_lea
          "height_rel_error_median_at_most": 0.01}
 #: Whether every other pair of photos goes without the origin marker (calibration then puts the
 #: world's origin on the floor below the camera); False: every photo has one.
-WITHOUT_ORIGIN_MARKER = False
+WITHOUT_ORIGIN_MARKER = True
 PHOTOS, QUICK_PHOTOS = 400, 60
 SEED = 20261207
 SETTINGS = ("room", "street")
