@@ -72,21 +72,23 @@ def _solution_figures(project: Project, solved: Any) -> dict[str, Any]:
 
 
 def _table(rows: list[Any], unit: LengthUnit) -> str:
-    """The measurements, in metres (1σ in mm), or in relative units with a line saying so."""
+    """The measurements, in metres (1σ in mm), or in relative units with a line saying so; the
+    "what" column as wide as its longest entry (44 at least), so the figures line up."""
+    w = max([44, *(len(m.what) for m in rows)])
     if unit.relative:
-        lines = [f"{'quantity':<10} {'what':<44} {'value rel.':>10} {'1σ rel.':>8}  {'95 % interval rel.':<21}"]
+        lines = [f"{'quantity':<10} {'what':<{w}} {'value rel.':>10} {'1σ rel.':>8}  {'95 % interval rel.':<21}"]
         for m in rows:
             lo, hi = m.ci95
-            lines.append(f"{m.quantity:<10} {m.what:<44} {m.value:>10.4f} {m.sigma:>8.4f}  [{lo:.4f}, {hi:.4f}]")
+            lines.append(f"{m.quantity:<10} {m.what:<{w}} {m.value:>10.4f} {m.sigma:>8.4f}  [{lo:.4f}, {hi:.4f}]")
         return "\n".join([*lines, unit.note])
-    lines = [f"{'quantity':<10} {'what':<44} {'value m':>10} {'1σ mm':>8}  {'95 % interval m':<21}"]
+    lines = [f"{'quantity':<10} {'what':<{w}} {'value m':>10} {'1σ mm':>8}  {'95 % interval m':<21}"]
     for m in rows:
         lo, hi = m.ci95
         if getattr(m, "entered_sigma", None) == 0:  # held exactly: entered, not measured
-            lines.append(f"{m.quantity:<10} {m.what:<44} {m.value:>10.4f} {'entered':>8}  (held as entered, no 1σ)")
+            lines.append(f"{m.quantity:<10} {m.what:<{w}} {m.value:>10.4f} {'entered':>8}  (held as entered, no 1σ)")
             continue
         mark = "  (entered)" if getattr(m, "entered_sigma", None) is not None else ""
-        lines.append(f"{m.quantity:<10} {m.what:<44} {m.value:>10.4f} {1000 * m.sigma:>8.2f}  [{lo:.4f}, {hi:.4f}]"
+        lines.append(f"{m.quantity:<10} {m.what:<{w}} {m.value:>10.4f} {1000 * m.sigma:>8.2f}  [{lo:.4f}, {hi:.4f}]"
                      f"{mark}")
     return "\n".join(lines)
 
