@@ -228,21 +228,6 @@ def _cmd_register(args: argparse.Namespace) -> int:
     return 0
 
 
-def _export_camera(project: Project, photo: str | None, out: str) -> int:
-    """``export --camera PHOTO --out FILE.glb|FILE.fspy`` (and ``--out`` on a project with no model)."""
-    from .actions.handoff import export_camera
-
-    r = export_camera(project, photo, out)
-    what = {"glb": "glTF 2.0 binary, the calibrated camera with no model", "fspy": "fSpy project"}[r.format]
-    drawn = f", {r.measurements} measurement(s)" if r.format == "glb" else ""
-    print(f"wrote {r.path} ({what}, {r.path.stat().st_size / 1e6:.2f} MB): photo {r.photo}{drawn}")
-    for line in r.details:
-        print(f"  {line}")
-    for w in r.warnings:
-        print(f"warning: {w}")
-    return 0
-
-
 def _cmd_export(args: argparse.Namespace) -> int:
     from .analysis.project_check import load_checked
     from .render.export import export_model
@@ -263,7 +248,9 @@ def _cmd_export(args: argparse.Namespace) -> int:
     if args.out is None:
         raise VebuildError("export: give --out FILE.glb|FILE.obj, --html DIR, or both")
     if args.camera is not None or not (project.data.get("model") or {}).get("nodes"):
-        return _export_camera(project, args.camera, args.out)
+        from .actions.handoff import export_camera_command
+
+        return export_camera_command(project, args.camera, args.out)
     r = export_model(project, args.out)
     what = {"glb": "glTF 2.0 binary", "obj": "Wavefront OBJ + MTL"}[r.format]
     size = sum(f.stat().st_size for f in r.files)

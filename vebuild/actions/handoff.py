@@ -195,3 +195,17 @@ def export_camera(project: Project, photo: str | None, path: str | os.PathLike[s
     except OSError as e:
         raise VebuildError(f"{path}: cannot write it ({e.strerror or e}); nothing was written") from None
     return HandoffResult(path, fmt[1:], pid, len(items), details, warnings)
+
+
+def export_camera_command(project: Project, photo: str | None, out: str) -> int:
+    """``vebuild export --camera PHOTO --out FILE.glb|FILE.fspy`` (and ``--out`` on a project with no
+    model): the hand-off written, and what it holds printed; the exit status."""
+    r = export_camera(project, photo, out)
+    what = {"glb": "glTF 2.0 binary, the calibrated camera with no model", "fspy": "fSpy project"}[r.format]
+    drawn = f", {r.measurements} measurement(s)" if r.format == "glb" else ""
+    print(f"wrote {r.path} ({what}, {r.path.stat().st_size / 1e6:.2f} MB): photo {r.photo}{drawn}")
+    for line in r.details:
+        print(f"  {line}")
+    for w in r.warnings:
+        print(f"warning: {w}")
+    return 0

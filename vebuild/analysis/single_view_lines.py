@@ -90,7 +90,7 @@ def measured_lines(cam: ImageCamera, kind: str, pixels: Sequence[float]) -> list
     out = []
     for k in range(0, len(pixels), 2 * n):
         c = np.asarray(pixels[k:k + 2 * n], float).reshape(n, 2)
-        out.append(MeasuredLine(kind, quantity, np.asarray(measured_line(cam, kind, c), float), c))
+        out.append(MeasuredLine(kind, quantity, np.asarray(measured_line(cam, kind, c.tolist()), dtype=np.float64), c))
     return out
 
 
