@@ -102,10 +102,10 @@ class Viewer(ViewerMeasure, FloorOverlay, ViewerScans, PresentationCommands, Win
         views = project.data.get("views", [])
         if view is not None:
             self.jump_to_view(view)
-        elif views:
-            self.jump_to_view(views[0]["name"])
         elif scene is None:
             self.step_photo(1)  # the first calibrated photo, at its camera
+        elif views:
+            self.jump_to_view(views[0]["name"])
         else:
             lo, hi = scene.bounds()
             self.walker.place(0.5 * (lo + hi))
@@ -113,8 +113,9 @@ class Viewer(ViewerMeasure, FloorOverlay, ViewerScans, PresentationCommands, Win
             self.load_hypothesis(hypothesis)
         if scene is None:
             self.show_saved_single_view()
-            self.say("no model yet: the photo at its camera with the floor grid and the axes (G); T measures on "
-                     "the photo alone, P steps between the photos")
+            where = "the photo at its camera" if self.photo is not None else "the view"
+            self.say(f"no model yet: {where} with the floor grid and the axes (G); T measures on a photo shown at its "
+                     "camera alone, P steps between the photos")
 
     # -- GUI is optional so that tests can drive the logic without Dear ImGui ----------------------
 
@@ -269,7 +270,8 @@ class Viewer(ViewerMeasure, FloorOverlay, ViewerScans, PresentationCommands, Win
 
     def select(self, node: str | None) -> None:
         self.selection = node
-        self.renderer.highlight = node
+        if self._renderer is not None:
+            self._renderer.highlight = node
         if node is not None:
             self.say(f"selected '{node}'")
 

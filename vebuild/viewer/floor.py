@@ -34,13 +34,19 @@ GRID_SPACING = 1.0
 #: GRID_MIN_HALF_SIZE units from the origin).
 GRID_REACH_HEIGHTS = 10.0
 GRID_MIN_HALF_SIZE = 5
+#: The grid fades from this many camera heights from the foot of the view's camera.
+GRID_FADE_HEIGHTS = 3.0
 #: At most this many lines each way (a camera far from the origin: the grid stays drawable).
 GRID_MAX_HALF_SIZE = 100
 #: Pieces each grid line is cut into, so that a lens's distortion bends it as it bends the floor.
 GRID_PIECES = 96
+#: Through a distorting lens, a piece is cut again into pieces at most this long in the image
+#: (pixels), at most MAX_CUTS of them: a 16 px chord of a bent line strays well under a pixel.
+MAX_PIECE_PX = 16.0
+MAX_CUTS = 64
 #: Nothing nearer the eye than this (m) is drawn: a line is cut where it passes behind the camera.
 NEAR_M = 0.02
-GRID_RGBA = (1.0, 0.88, 0.3, 0.65)
+GRID_RGBA = (1.0, 1.0, 1.0, 0.75)
 AXIS_RGBA = {"x": (1.0, 0.2, 0.2, 1.0), "y": (0.25, 0.95, 0.3, 1.0), "z": (0.3, 0.55, 1.0, 1.0)}
 FRUSTUM_RGBA = (1.0, 0.55, 0.1, 1.0)
 #: A frustum's depth, as a share of its camera's height above the floor.
@@ -85,16 +91,37 @@ def clip_to_front(cam: ImageCamera, a: Array, b: Array, near: float = NEAR_M) ->
 def polyline(cam: ImageCamera, a: Array, b: Array, pieces: int = 1) -> Array | None:
     """The pixels (n, 2) of the world segment a–b seen by ``cam`` (through its lens), cut into
     ``pieces`` so that a distorting lens bends it; None where it lies wholly behind the camera."""
+    both = polyline_points(cam, a, b, pieces)
+    return None if both is None else both[1]
+
+
+def polyline_points(cam: ImageCamera, a: Array, b: Array, pieces: int = 1) -> tuple[Array, Array] | None:
+    """:func:`polyline`'s world points (n, 3) and their pixels (n, 2): ``pieces`` even steps along
+    the segment, each cut again, through a distorting lens, into pieces of at most MAX_PIECE_PX."""
     front = clip_to_front(cam, np.asarray(a, float), np.asarray(b, float))
     if front is None:
         return None
     a, b = front
-    za, zb = (float(world_to_camera(cam.R, cam.C, p[None, :])[0, 2]) for p in (a, b))
-    # Even steps in the image, not on the floor: t at even steps of 1/depth.
-    s = np.linspace(0.0, 1.0, pieces + 1)
-    t = s * za / (zb + s * (za - zb))
+    t = np.linspace(0.0, 1.0, pieces + 1)
+    uv: Array = project(cam.K, cam.R, cam.C, a[None, :] + t[:, None] * (b - a)[None, :], cam.k1)
+    if cam.k1 != 0.0:
+        with np.errstate(invalid="ignore"):
+            cuts = np.clip(np.ceil(np.linalg.norm(np.diff(uv, axis=0), axis=1) / MAX_PIECE_PX), 1, MAX_CUTS)
+        cuts = np.where(np.isfinite(cuts), cuts, 1).astype(int)
+        t = np.concatenate([np.linspace(t[k], t[k + 1], n, endpoint=False) for k, n in enumerate(cuts)] + [t[-1:]])
+        uv = project(cam.K, cam.R, cam.C, a[None, :] + t[:, None] * (b - a)[None, :], cam.k1)
     pts = a[None, :] + t[:, None] * (b - a)[None, :]
-    out: Array = project(cam.K, cam.R, cam.C, pts, cam.k1)
+    return pts, uv
+
+
+def grid_fade(cam: ImageCamera, P: Array) -> Array:
+    """How much of the grid's colour floor points keep (1 near, 0 far): full to GRID_FADE_HEIGHTS
+    camera heights from the foot of the view's camera, none at GRID_REACH_HEIGHTS, so that the
+    lines crowding at the horizon (the floor goes on behind the walls) fade away."""
+    h = max(abs(float(cam.C[2])), 0.1)
+    d = np.hypot(P[:, 0] - float(cam.C[0]), P[:, 1] - float(cam.C[1]))
+    near, far = GRID_FADE_HEIGHTS * h, GRID_REACH_HEIGHTS * h
+    out: Array = np.clip((far - d) / (far - near), 0.0, 1.0)
     return out
 
 
@@ -183,34 +210,38 @@ class FloorOverlay:
         vx, vy, _, vh = v.viewport()
         return [((vx + float(u)) / sx, (H - vy - vh + float(w)) / sy) for u, w in uv]
 
-    def _line(self, imgui: Any, dl: Any, cam: ImageCamera, a: Array, b: Array, colour: int, width: float,
-              pieces: int) -> None:
-        uv = polyline(cam, a, b, pieces)
-        if uv is None or not np.isfinite(uv).all():
+    def _line(self, imgui: Any, dl: Any, cam: ImageCamera, a: Array, b: Array, rgba: tuple[float, ...],
+              width: float, pieces: int, fade: bool = False) -> None:
+        """A world segment drawn in ``rgba``, faded with distance where ``fade`` (the grid)."""
+        both = polyline_points(cam, a, b, pieces)
+        if both is None or not np.isfinite(both[1]).all():
             return
+        P, uv = both
+        alpha = grid_fade(cam, 0.5 * (P[:-1] + P[1:])) if fade else np.ones(len(P) - 1)
         pts = [imgui.ImVec2(x, y) for x, y in self._window(uv)]
-        for p, q in zip(pts[:-1], pts[1:], strict=True):
-            dl.add_line(p, q, colour, width)
+        for p, q, f in zip(pts[:-1], pts[1:], alpha, strict=True):
+            if f > 0.02:
+                dl.add_line(p, q, imgui.get_color_u32(imgui.ImVec4(rgba[0], rgba[1], rgba[2], rgba[3] * float(f))),
+                            width)
 
     def draw_floor(self, imgui: Any) -> None:
         """The grid, the axes and (off a photo's camera) the photos' frustums, clipped to the view;
-        called by the panel between its frame's start and end."""
+        called by the panel between its frame's start and end (under its windows)."""
         v: Any = self
         if not self.show_floor or v.stereo is not None:
             return
         cam = v.camera()
-        dl = imgui.get_foreground_draw_list()
+        dl = imgui.get_background_draw_list()  # over the photo, under the panel
         x0, y0 = self._window(np.array([[0.0, 0.0]]))[0]
         x1, y1 = self._window(np.array([[float(cam.width), float(cam.height)]]))[0]
         dl.push_clip_rect(imgui.ImVec2(x0, y0), imgui.ImVec2(x1, y1), True)
-        grid = imgui.get_color_u32(imgui.ImVec4(*GRID_RGBA))
         for a, b in grid_segments(grid_half_size(self.photo_cameras())):
-            self._line(imgui, dl, cam, a, b, grid, 1.0, GRID_PIECES)
+            self._line(imgui, dl, cam, a, b, GRID_RGBA, 1.5, GRID_PIECES, fade=True)
         if v.photo is None:
             orange = imgui.get_color_u32(imgui.ImVec4(*FRUSTUM_RGBA))
             for pc in self.photo_cameras():
                 for a, b in frustum_segments(pc):
-                    self._line(imgui, dl, cam, a, b, orange, 1.5, 8)
+                    self._line(imgui, dl, cam, a, b, FRUSTUM_RGBA, 1.5, 8)
                 if world_to_camera(cam.R, cam.C, pc.C[None, :])[0, 2] > NEAR_M:
                     (p,) = self._window(project(cam.K, cam.R, cam.C, pc.C[None, :], cam.k1))
                     dl.add_text(imgui.ImVec2(p[0] + 6, p[1] - 16), orange, f"photo {pc.id}")
@@ -218,7 +249,7 @@ class FloorOverlay:
             colour = imgui.get_color_u32(imgui.ImVec4(*AXIS_RGBA[axis]))
             end = np.zeros(3)
             end[k] = GRID_SPACING
-            self._line(imgui, dl, cam, np.zeros(3), end, colour, 2.5, 16)
+            self._line(imgui, dl, cam, np.zeros(3), end, AXIS_RGBA[axis], 2.5, 16)
             tip = polyline(cam, end, end + 0.15 * GRID_SPACING * np.eye(3)[k])
             if tip is not None:
                 (p,) = self._window(tip[-1:])

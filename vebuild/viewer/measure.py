@@ -58,6 +58,10 @@ class ViewerMeasure:
         """Whether T measures the photo shown on its own: no solved model, a photo shown at its
         camera (P). Neither: a :class:`VebuildError` saying what each needs."""
         v: Any = self
+        if not v.has_model:
+            if v.photo is None:
+                raise cm.ClickError("the project has no model: T measures on a photo shown at its camera; P shows one")
+            return True
         try:
             self._solved()
             return False
@@ -218,6 +222,7 @@ class ViewerMeasure:
     def trajectory_along_view(self) -> None:
         """H: the trajectory from the clicked entry hole along the view's direction."""
         v: Any = self
+        v.needs_model("A trajectory (a sight line through the model)")
         st = self._measure_state()
         if self.measure_mode != "trajectory" or len(st["clicks"]) != 1:
             raise VebuildError("H: turn the trajectory tool on (J) and click the entry hole first")
