@@ -90,4 +90,4 @@ def test_only_makes_the_one_photo_walk_through_with_its_grid_and_height(tmp_path
     # The floor grid over the photo's floor (its lower third, left of the panel): near-white lines
     # on the tiles, which have none of their own.
     floor = rgb[2 * rgb.shape[0] // 3:, : rgb.shape[1] // 2]
-    assert ((floor.min(axis=2) > 215)).sum() > 200
+    assert (floor.min(axis=2) > 215).sum() > 200
