@@ -16,6 +16,9 @@ demo` does); then each screen is opened in a real window and its frame saved:
   p3 alone, as `vebuild new` makes it): its detected lines accepted, the door's height as the known
   length, calibrated, and two measurements made on the photo alone (the Measure tool, T): the box's
   height and a distance on the floor.
+- ``one-photo-view.png``: the walk-through (`vebuild view`) on that project, which has no model: the
+  photo at its camera with the floor grid and the axes over it, and the box's height measured on the
+  photo alone (T, two clicks).
 
 ``--only NAME`` (repeatable) makes only those images, e.g. ``--only one-photo-measure.png``.
 
@@ -48,6 +51,7 @@ SHOTS = {
     "view-present.png": ((1280, 720), 960),
     "report-pages.png": (None, 960),
     "one-photo-measure.png": ((1280, 800), 960),
+    "one-photo-view.png": ((1280, 960), 960),
 }
 #: The photo shown in the modelling screen, and the view and door opening in the walk-through.
 PHOTO = "p3"
@@ -281,6 +285,47 @@ def shoot_one_photo(folder: Path, out: Path) -> list[Path]:
             editor.close()
 
 
+def shoot_one_photo_view(folder: Path, out: Path) -> list[Path]:
+    """The walk-through on the one-photo project (no model): the photo, the floor grid, the axes,
+    and the box's height measured on the photo alone."""
+    import glfw
+
+    from vebuild.camera import project as project_points
+    from vebuild.gl.window import Window
+    from vebuild.project import load_project
+    from vebuild.render.renderer import RenderOptions
+    from vebuild.viewer.app import Viewer
+
+    path, t = _one_photo_project(folder)
+    box = next(o for o in t["truth"]["objects"] if o["name"] == "box")
+    c, (sx, sy, sz), a = np.asarray(box["centre"], float), box["size"], math.radians(box["yaw_deg"])
+    turn = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
+    feet = [np.r_[c[:2] + turn @ [i * sx / 2, j * sy / 2], 0.0] for i in (-1, 1) for j in (-1, 1)]
+    foot = min(feet, key=lambda X: float(np.linalg.norm(X - t["C"])))
+    (w, h), width = SHOTS["one-photo-view.png"]
+    with Window(w, h, "vebuild view — one photo", visible=True) as window:
+        viewer = Viewer(load_project(path), window, RenderOptions.interactive())
+        viewer.enable_gui()
+        try:
+            viewer.measure_cycle()  # T: a height on the photo alone
+            for X in (foot, foot + [0.0, 0.0, sz]):
+                vx, vy, vw, vh = viewer.viewport()
+                u, v = project_points(t["K"], t["R"], t["C"], X) * vw / viewer.project.photo(PHOTO)["width"]
+                fw, fh = window.framebuffer_size()
+                ww, wh = glfw.get_window_size(window.handle)
+                viewer._cursor = ((vx + u) * ww / fw, (fh - vy - vh + v) * wh / fh)
+                viewer.measure_click()
+            for _ in range(3):
+                viewer.frame()
+            viewer.draw()
+            fw, fh = window.framebuffer_size()
+            data = window.ctx.screen.read(viewport=(0, 0, fw, fh), components=3, alignment=1)
+            return [save(np.frombuffer(data, np.uint8).reshape(fh, fw, 3)[::-1], out / "one-photo-view.png", width,
+                         Image.Quantize.FASTOCTREE)]
+        finally:
+            viewer.close()
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "images", help="where the PNGs go")
@@ -307,6 +352,8 @@ def main(argv: list[str] | None = None) -> int:
                 written += shoot_report(project, args.out)
         if "one-photo-measure.png" in want:
             written += shoot_one_photo(Path(tmp) / "one-photo", args.out)
+        if "one-photo-view.png" in want:
+            written += shoot_one_photo_view(Path(tmp) / "one-photo-view", args.out)
     for p in written:
         print(f"{p}  {Image.open(p).size[0]}×{Image.open(p).size[1]}  {p.stat().st_size // 1024} KiB")
     return 0

@@ -74,3 +74,20 @@ def test_only_makes_the_one_photo_picture_with_its_two_measurements(tmp_path, ca
     rgb = np.asarray(im.convert("RGB")).astype(int)
     cyan = (rgb[..., 2] > 200) & (rgb[..., 1] > 170) & (rgb[..., 0] < 120)
     assert cyan.sum() > 100
+
+
+def test_only_makes_the_one_photo_walk_through_with_its_grid_and_height(tmp_path, capsys):
+    shots = _script()
+    out = tmp_path / "images"
+    assert shots.main(["--out", str(out), "--only", "one-photo-view.png"]) == 0
+    assert sorted(p.name for p in out.iterdir()) == ["one-photo-view.png"]
+    im = Image.open(out / "one-photo-view.png")
+    (window, width) = shots.SHOTS["one-photo-view.png"]
+    assert im.mode == "P" and im.size == (width, round(window[1] * width / window[0]))
+    rgb = np.asarray(im.convert("RGB")).astype(int)
+    cyan = (rgb[..., 2] > 200) & (rgb[..., 1] > 170) & (rgb[..., 0] < 120)  # the height measured
+    assert cyan.sum() > 50
+    # The floor grid over the photo's floor (its lower third, left of the panel): near-white lines
+    # on the tiles, which have none of their own.
+    floor = rgb[2 * rgb.shape[0] // 3:, : rgb.shape[1] // 2]
+    assert (floor.min(axis=2) > 215).sum() > 200

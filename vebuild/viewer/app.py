@@ -28,17 +28,20 @@ from vebuild.gl.app import WindowApp
 from vebuild.gl.window import Window
 from vebuild.model.arrange import CannotMove, ObjectMover
 from vebuild.model.collide import Footprint, footprints, local_vertices
+from vebuild.model.scene import Model
 from vebuild.project import Project, save_project
 from vebuild.project.decode import camera_records, find_preset, photo_camera, preset_names, view_camera
 from vebuild.project.hypotheses import find_hypothesis, label, save_hypothesis
 from vebuild.project.records import view_record
 from vebuild.render.renderer import Renderer, RenderOptions, Stereo
 from vebuild.render.scene import RenderScene, load_scene
+from vebuild.viewer.floor import FloorOverlay, check_viewable, needs_model_error, project_has_model
 from vebuild.viewer.keys import TURN_STEP, VIEWER_KEYS
 from vebuild.viewer.measure import ViewerMeasure
 from vebuild.viewer.moves import describe, moved_line
 from vebuild.viewer.panel import ViewerPanel
 from vebuild.viewer.presentation import PresentationCommands
+from vebuild.viewer.scans import ViewerScans
 from vebuild.viewer.walk import Walker
 
 STEREO_CYCLE: list[str | None] = [None, "anaglyph", "sbs", "tb"]
@@ -46,8 +49,9 @@ STEREO_CYCLE: list[str | None] = [None, "anaglyph", "sbs", "tb"]
 CLICK_SLOP_PX = 3.0
 
 
-class Viewer(ViewerMeasure, PresentationCommands, WindowApp):
-    """The walk-through over one project in one window; :meth:`frame` draws one frame."""
+class Viewer(ViewerMeasure, FloorOverlay, ViewerScans, PresentationCommands, WindowApp):
+    """The walk-through over one project in one window; :meth:`frame` draws one frame. A project
+    with no model opens at its first calibrated photo (:mod:`vebuild.viewer.floor`)."""
 
     keys = VIEWER_KEYS
     keys_held_while_typing = False
@@ -58,13 +62,15 @@ class Viewer(ViewerMeasure, PresentationCommands, WindowApp):
         self.project = project
         self.window = window
         self.ctx = window.ctx
-        scene = load_scene(project)
-        self.scene: RenderScene = scene
-        self.messages: list[str] = list(scene.warnings)
-        self.mover = ObjectMover(scene.model)
-        self.renderer = Renderer(self.ctx, scene, options or RenderOptions.interactive())
-        self._local = local_vertices(scene.model)
-        self._obstacles: list[Footprint] = footprints(scene.model, local=self._local)
+        scene = load_scene(project) if project_has_model(project) else None  # None: the photos alone
+        self.scene: RenderScene | None = scene
+        self.messages: list[str] = list(scene.warnings) if scene is not None else []
+        model = scene.model if scene is not None else Model([])
+        self.mover = ObjectMover(model)
+        self._renderer = (Renderer(self.ctx, scene, options or RenderOptions.interactive()) if scene is not None
+                          else None)
+        self._local = local_vertices(model)
+        self._obstacles: list[Footprint] = footprints(model, local=self._local)
         self.walker = Walker()
         self.lightings = preset_names(project)
         self.lighting_index = 0
@@ -73,7 +79,8 @@ class Viewer(ViewerMeasure, PresentationCommands, WindowApp):
         self.selection: str | None = None
         self.hypothesis_name: str | None = None
         self.photo: str | None = None
-        self.photo_opacity = 0.5
+        self.photo_opacity = 0.5 if scene is not None else 1.0  # nothing under the photo: all of it
+        self.show_floor = scene is None
         self._photo_tex: moderngl.Texture | None = None
         self._overlay = load_program(self.ctx, "overlay", vertex="fullscreen")
         self._overlay_vao = self.ctx.vertex_array(self._overlay, [])
@@ -89,12 +96,14 @@ class Viewer(ViewerMeasure, PresentationCommands, WindowApp):
         self.panel = ViewerPanel(self)
         self.screenshots = 0
         # Registered laser scans as points (K): shown where the project has any, read on first draw.
-        self.show_scans = bool(project.data.get("scans"))
+        self.show_scans = bool(project.data.get("scans")) and scene is not None
         self._scan_layer: Any = None
         self.install_callbacks(window.handle)
         views = project.data.get("views", [])
         if view is not None:
             self.jump_to_view(view)
+        elif scene is None:
+            self.step_photo(1)  # the first calibrated photo, at its camera
         elif views:
             self.jump_to_view(views[0]["name"])
         else:
@@ -102,6 +111,11 @@ class Viewer(ViewerMeasure, PresentationCommands, WindowApp):
             self.walker.place(0.5 * (lo + hi))
         if hypothesis is not None:
             self.load_hypothesis(hypothesis)
+        if scene is None:
+            self.show_saved_single_view()
+            where = "the photo at its camera" if self.photo is not None else "the view"
+            self.say(f"no model yet: {where} with the floor grid and the axes (G); T measures on a photo shown at its "
+                     "camera alone, P steps between the photos")
 
     # -- GUI is optional so that tests can drive the logic without Dear ImGui ----------------------
 
@@ -109,6 +123,18 @@ class Viewer(ViewerMeasure, PresentationCommands, WindowApp):
         self.gui = self.panel.make_gui()
 
     # -- state ------------------------------------------------------------------------------------
+
+    @property
+    def has_model(self) -> bool:
+        """Whether the project has a model to draw (else: its calibrated photos alone)."""
+        return self.scene is not None
+
+    @property
+    def renderer(self) -> Renderer:
+        """The model's renderer; a project with no model has none (a :class:`VebuildError` in words)."""
+        if self._renderer is None:
+            raise needs_model_error("Drawing the scene")
+        return self._renderer
 
     @property
     def lighting(self) -> str:
@@ -136,6 +162,8 @@ class Viewer(ViewerMeasure, PresentationCommands, WindowApp):
         self.messages = (self.messages + [text])[-4:]
 
     def _model_changed(self) -> None:
+        if self.scene is None:
+            return
         self.renderer.set_scene(self.scene.with_model(self.model))
         self._obstacles = footprints(self.model, local=self._local)
 
@@ -217,6 +245,9 @@ class Viewer(ViewerMeasure, PresentationCommands, WindowApp):
 
     def leave_photo(self) -> None:
         if self.photo is not None:
+            if not self.has_model:
+                self.say(f"off photo {self.photo}'s camera: the floor grid, the axes and each photo's camera (its "
+                         "frustum); P: back to the photo")
             self.photo = None
             self.walker.set_fly(False)
 
@@ -224,7 +255,7 @@ class Viewer(ViewerMeasure, PresentationCommands, WindowApp):
 
     def pick(self) -> tuple[str | None, NDArray[np.float64] | None]:
         uv = self.cursor_image()
-        if uv is None:
+        if uv is None or not self.has_model:
             return None, None
         cam = self.camera()  # a photo's camera has its lens: ask the renderer for the cursor's ray
         pin = undistort_pixels(cam.K, np.array(uv, float), cam.k1)
@@ -239,7 +270,8 @@ class Viewer(ViewerMeasure, PresentationCommands, WindowApp):
 
     def select(self, node: str | None) -> None:
         self.selection = node
-        self.renderer.highlight = node
+        if self._renderer is not None:
+            self._renderer.highlight = node
         if node is not None:
             self.say(f"selected '{node}'")
 
@@ -303,6 +335,8 @@ class Viewer(ViewerMeasure, PresentationCommands, WindowApp):
         from vebuild.render.observed import finish_image
         from vebuild.render.png import provenance, stamp, write_png
 
+        self.needs_model("A screenshot with provenance (a render of the model)")
+        assert self.scene is not None
         folder = folder or self.project.folder / "screenshots"
         check_no_links(folder, "make it a real folder with no link in it", itself=True)  # before anything
         cam = self.camera()
@@ -364,6 +398,7 @@ class Viewer(ViewerMeasure, PresentationCommands, WindowApp):
 
     def next_unobserved(self) -> None:
         """Show surfaces no photo saw hatched, tinted or as extracted (the next of the three)."""
+        self.needs_model("Marking the surfaces no photo saw (the model's textures)")
         from vebuild.render.observed import LEGEND_TEXT, UNOBSERVED_MODES
 
         mode = UNOBSERVED_MODES[(UNOBSERVED_MODES.index(self.renderer.unobserved) + 1) % len(UNOBSERVED_MODES)]
@@ -372,55 +407,15 @@ class Viewer(ViewerMeasure, PresentationCommands, WindowApp):
                                                    " (filled-in texture shown unmarked)"))
 
     def next_stereo(self) -> None:
+        self.needs_model("Stereo")
         self.stereo_index = (self.stereo_index + 1) % len(self.stereo_modes)
         self.say(f"stereo: {self.stereo or 'off'}")
 
     def toggle_panel(self) -> None:
         self.show_panel = not self.show_panel
 
-    def toggle_scans(self) -> None:
-        """Show or hide the project's registered laser scans (K)."""
-        if not self.project.data.get("scans"):
-            self.show_scans = False
-            self.say("the project has no laser scans (vebuild scan add)")
-            return
-        self.show_scans = not self.show_scans
-        self.say(f"laser scans {'shown' if self.show_scans else 'hidden'}")
-
-    def scan_layer(self) -> Any:
-        """The scans' points on the GPU (:class:`vebuild.gl.points.PointLayer`), read once; None
-        where a scan cannot be read (the message says why, and the scans are hidden)."""
-        if self._scan_layer is None:
-            from vebuild.analysis.scans import DRAW_POINTS, scan_points_world
-            from vebuild.gl.points import PointLayer
-
-            scans = self.project.data.get("scans") or []
-            pts, cols = [], []
-            try:
-                for i in range(len(scans)):
-                    P, C = scan_points_world(self.project, i, max(1, DRAW_POINTS // len(scans)))
-                    pts.append(P)
-                    cols.append(C)
-            except VebuildError as e:
-                self.say(f"laser scans not shown: {e}")
-                self.show_scans = False
-                return None
-            self._scan_layer = PointLayer(self.ctx)
-            self._scan_layer.set_points(np.concatenate(pts), np.concatenate(cols))
-        return self._scan_layer
-
-    def _draw_scans(self) -> None:
-        layer = self.scan_layer()
-        if layer is None:
-            return
-        cam = self.eye_camera()
-        x, y, w, h = self.viewport()
-        self.ctx.screen.viewport = (x, y, cam.width, cam.height)
-        near, far = self.renderer._near_far(cam)
-        # The scene's depth is on the screen only for a mono pinhole view drawn straight into it.
-        layer.draw(cam, near, far, flip=True, depth_test=self.stereo is None and cam.k1 == 0.0)
-
     def set_lighting(self, index: int) -> None:
+        self.needs_model("Lighting presets")
         self.lighting_index = index
         self.renderer.set_lighting(find_preset(self.project, self.lighting))
         self.say(f"lighting: {self.lighting}")
@@ -462,6 +457,9 @@ class Viewer(ViewerMeasure, PresentationCommands, WindowApp):
             self._look_from = self._cursor if action == glfw.PRESS else None
         elif button == glfw.MOUSE_BUTTON_LEFT:
             if action == glfw.PRESS and self.measure_click():
+                return
+            if action == glfw.PRESS and not self.has_model:
+                self.say("nothing to select: the project has no model; T measures on the photo alone")
                 return
             if action == glfw.PRESS:
                 self._press = self._cursor
@@ -522,8 +520,9 @@ class Viewer(ViewerMeasure, PresentationCommands, WindowApp):
         screen.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
         x, y, _, _ = self.viewport()
         stereo = Stereo(self.stereo) if self.stereo else None
-        self.renderer.draw(screen, self.eye_camera(), stereo, flip=True, origin=(x, y),
-                           select_buffer=self.window.select_buffer if self.stereo == "quad" else None)
+        if self._renderer is not None:  # with no model: the photo, and the floor drawn over it (the panel)
+            self._renderer.draw(screen, self.eye_camera(), stereo, flip=True, origin=(x, y),
+                                select_buffer=self.window.select_buffer if self.stereo == "quad" else None)
         if self.show_scans and self.stereo is None:
             self._draw_scans()
         if self.photo is not None and self._photo_tex is not None and self.photo_opacity > 0:
@@ -553,7 +552,7 @@ class Viewer(ViewerMeasure, PresentationCommands, WindowApp):
         from vebuild.analysis.recorded import parse_recorded_trajectory
 
         records = [r for r in self.project.data.get("analyses") or [] if r["command"][:1] == ["trajectory"]]
-        if not records:
+        if not records or not self.has_model:
             return []
         key = (id(self.renderer.scene), len(records))
         if getattr(self, "_trajectory_key", None) != key:
@@ -578,13 +577,15 @@ class Viewer(ViewerMeasure, PresentationCommands, WindowApp):
             self._photo_tex.release()
         if self._scan_layer is not None:
             self._scan_layer.release()
-        self.renderer.release()
+        if self._renderer is not None:
+            self._renderer.release()
 
 
 def run_viewer(project: Project, size: tuple[int, int] = (1280, 720), hypothesis: str | None = None,
                view: str | None = None, samples: int = 1, quad_stereo: bool = False,
                frames: int | None = None) -> None:
     """Open the window and run until it is closed (or for ``frames`` frames)."""
+    check_viewable(project)  # before a window opens
     with Window(size[0], size[1], f"vebuild — {project.path.name}", stereo=quad_stereo) as window:
         options = RenderOptions.interactive() if samples <= 1 else RenderOptions(samples=samples)
         viewer = Viewer(project, window, options, hypothesis=hypothesis, view=view)

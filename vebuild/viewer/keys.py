@@ -31,6 +31,10 @@ VIEWER_KEYS = KeyTable([
             "to its shape, the photo over the view)",
             (Chord(glfw.KEY_V, "step_view", (1,)), Chord(glfw.KEY_V, "step_view", (-1,), SHIFT),
              Chord(glfw.KEY_P, "step_photo", (1,)), Chord(glfw.KEY_P, "step_photo", (-1,), SHIFT))),
+    Binding("G", "the floor (z = 0) as a grid 1 m apart and the axes at the origin (x red, y green, z blue), drawn "
+            "through the camera's lens; off a photo's camera also each calibrated photo's camera as its frustum. On "
+            "at first for a project with no model, which opens at its first calibrated photo",
+            (Chord(glfw.KEY_G, "toggle_floor"),)),
     Binding("[ and ]", "photo overlay opacity",
             (Chord(glfw.KEY_LEFT_BRACKET, "change_opacity", (-0.1,)),
              Chord(glfw.KEY_RIGHT_BRACKET, "change_opacity", (0.1,)))),

@@ -58,6 +58,10 @@ class ViewerMeasure:
         """Whether T measures the photo shown on its own: no solved model, a photo shown at its
         camera (P). Neither: a :class:`VebuildError` saying what each needs."""
         v: Any = self
+        if not v.has_model:
+            if v.photo is None:
+                raise cm.ClickError("the project has no model: T measures on a photo shown at its camera; P shows one")
+            return True
         try:
             self._solved()
             return False
@@ -101,12 +105,35 @@ class ViewerMeasure:
             return
         self._set_mode(order[order.index(m) + 1] if m in order[:-1] else order[0])
 
+    def show_saved_single_view(self) -> None:
+        """Draw the single-view measurements the project has saved, each on its photo: its saved
+        words run again (the command line's figure); one that cannot be run is said and left out."""
+        v: Any = self
+        for rec in v.project.data.get("analyses") or []:
+            words = rec.get("command") or []
+            if not words or words[0] not in sv.kinds() or len(words) < 3 or words[1] != "--photo":
+                continue
+            try:
+                nums = [float(w) for w in words[3:]]
+                measured = sv.measure_on_photo(v.project, words[0], words[2], list(zip(nums[::2], nums[1::2],
+                                                                                        strict=True)))
+            except (ValueError, VebuildError) as e:
+                reason = str(e) if isinstance(e, VebuildError) else "its pixels are not pairs of numbers"
+                v.say(f"saved measurement {rec.get('name')!r} not drawn: {reason}")
+                continue
+            measured.name = str(rec.get("name", ""))
+            self._measure_state()["drawn"].append(measured)
+
     def marker_tool(self) -> None:
         """M: the evidence marker tool on or off."""
+        v: Any = self
+        v.needs_model("Placing evidence markers on the model's surfaces")
         self._set_mode(None if self.measure_mode == "marker" else "marker")
 
     def trajectory_tool(self) -> None:
         """J: the trajectory tool on or off."""
+        v: Any = self
+        v.needs_model("A trajectory (a sight line through the model)")
         self._set_mode(None if self.measure_mode == "trajectory" else "trajectory")
 
     def clear_measures(self) -> None:
@@ -195,6 +222,7 @@ class ViewerMeasure:
     def trajectory_along_view(self) -> None:
         """H: the trajectory from the clicked entry hole along the view's direction."""
         v: Any = self
+        v.needs_model("A trajectory (a sight line through the model)")
         st = self._measure_state()
         if self.measure_mode != "trajectory" or len(st["clicks"]) != 1:
             raise VebuildError("H: turn the trajectory tool on (J) and click the entry hole first")

@@ -85,6 +85,7 @@ class ViewerPanel:
         self._scale_style(imgui, lay.scale)
         imgui.push_font(None, lay.text_px)
         self.rects = {}
+        self.v.draw_floor(imgui)  # the floor grid, the axes, the photos' frustums (vebuild.viewer.floor)
         self._draw_markers(imgui)
         self._draw_trajectories(imgui)
         self.v.draw_measures(imgui)  # what was measured by clicking (vebuild.viewer.measure)
@@ -136,9 +137,14 @@ class ViewerPanel:
         p = self.v.walker.position
         imgui.text_wrapped(f"{'flying' if self.v.walker.fly else 'walking'}: x {p[0]:.2f}, y {p[1]:.2f}, "
                            f"z {p[2]:.2f} m   {self.v.fps:.0f} fps")
-        imgui.text(f"lighting: {self.v.lighting}   ({keys.key_for('next_lighting')})")
-        imgui.text(f"stereo: {self.v.stereo or 'off'}   ({keys.key_for('next_stereo')})")
-        self._draw_unobserved(imgui)
+        if self.v.has_model:
+            imgui.text(f"lighting: {self.v.lighting}   ({keys.key_for('next_lighting')})")
+            imgui.text(f"stereo: {self.v.stereo or 'off'}   ({keys.key_for('next_stereo')})")
+            self._draw_unobserved(imgui)
+        else:
+            imgui.text_wrapped(f"no model yet: the calibrated photos ({keys.key_for('step_photo', 1)}), the floor grid "
+                               f"1 {self.v.grid_unit()} apart and the axes ({keys.key_for('toggle_floor')}); "
+                               f"{keys.key_for('measure_cycle')} measures on the photo alone")
         if self.v.photo is not None:
             opacity = f"{keys.key_for('change_opacity', -0.1)} {keys.key_for('change_opacity', 0.1)}"
             imgui.text_wrapped(f"photo {self.v.photo}, overlay {100 * self.v.photo_opacity:.0f} %  ({opacity})")
@@ -168,7 +174,7 @@ class ViewerPanel:
             _, self._new_view_name = imgui.input_text("name##view", self._new_view_name)
             if imgui.button("save the current view"):
                 self.v.guard(self.v.save_view, self._new_view_name)
-        if imgui.collapsing_header("Hypotheses"):
+        if self.v.has_model and imgui.collapsing_header("Hypotheses"):
             if imgui.button("measured scene"):
                 self.v.reset(everything=True)
             for h in self.v.project.data.get("hypotheses", []):
@@ -253,7 +259,7 @@ class ViewerPanel:
         from vebuild.analysis.markers import MARKER_COLOUR, visible_markers
 
         markers = self.v.project.data.get("evidence_markers", [])
-        if not markers or self.v.stereo is not None:
+        if not markers or self.v.stereo is not None or not self.v.has_model:
             return
         W, H = self.v.window.framebuffer_size()
         ww, wh = glfw.get_window_size(self.v.window.handle)

@@ -59,6 +59,16 @@ def scale_bar(cam: ImageCamera, point: Any, max_pixels: float) -> ScaleBar | Non
     return ScaleBar(L, f * L / z, z)
 
 
+def floor_point(cam: ImageCamera, u: float, v: float) -> Any:
+    """Where the ray through pixel (u, v) meets the floor (z = 0), or None if it does not ahead."""
+    from vebuild.camera import pixel_rays_world
+
+    d = pixel_rays_world(cam.K, cam.R, np.array([u, v]), cam.k1)
+    if d[2] >= -1e-6:
+        return None
+    return np.asarray(cam.C, float) - float(cam.C[2]) / float(d[2]) * d
+
+
 class Presentation:
     """Presentation mode of a :class:`~vebuild.viewer.app.Viewer` (``viewer.presentation``)."""
 
@@ -115,6 +125,8 @@ class Presentation:
     def centre_point(self) -> Any:
         """The world point at the centre of the view (the renderer's ID buffer), cached per view."""
         cam = self.v.camera()
+        if not self.v.has_model:  # the floor where the view's centre meets it (None above the horizon)
+            return floor_point(cam, float(cam.K[0, 2]), float(cam.K[1, 2]))
         key = (cam.C.tobytes(), cam.R.tobytes(), cam.width, cam.height, id(self.v.renderer.scene))
         if key != self._centre_key:
             self._centre_key = key
@@ -134,8 +146,8 @@ class Presentation:
         banner = self.v.banner()
         if banner:
             rows.append(("hypothesis", banner, HYPOTHESIS_RGB, 0.0))
-        r = self.v.renderer
-        if r.marks_unobserved:
+        r = self.v._renderer
+        if r is not None and r.marks_unobserved:
             rows.append(("unobserved", LEGEND_TEXT[r.unobserved], (1.0, 1.0, 1.0), 1.6 * f))
         bar = None
         if self.v.stereo is None:
@@ -159,7 +171,7 @@ class Presentation:
         y = y0 + pad
         for (kind, text, colour, lead), s in zip(rows, sizes, strict=True):
             x = x0 + pad
-            if kind == "unobserved":
+            if kind == "unobserved" and r is not None:
                 c = [v / 255.0 for v in UNOBSERVED_SRGB]
                 box = (x, y + 0.1 * s.y, x + lead - 0.4 * f, y + 0.9 * s.y)
                 self._swatch(imgui, dl, box, imgui.get_color_u32(imgui.ImVec4(c[0], c[1], c[2], 1.0)),
