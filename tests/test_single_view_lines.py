@@ -86,7 +86,8 @@ def test_a_command_s_words_give_its_photo_pixels_and_groups():
 
 
 @pytest.mark.parametrize("kind, points, said", [
-    ("wall-length", [A, A, A + Z, A + 0.5 * Z], "the wall's two floor points are the same point, so they do not fix a wall"),
+    ("wall-length", [A, A, A + Z, A + 0.5 * Z],
+     "the wall's two floor points are the same point, so they do not fix a wall"),
     ("plane-length", [RAMP[0] * [1, 1, 0], RAMP[0]] * 3 + [RAMP[0], RAMP[0] + 0.01 * Z],
      "the plane's three points lie on one line"),
 ])
