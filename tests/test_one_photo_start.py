@@ -36,3 +36,15 @@ def test_detect_then_calibrate_one_photo_with_no_marker(tmp_path: Path, capsys: 
     # Relative units: the camera stands one unit above the floor point below it, the origin.
     assert cam["position"]["value"] == pytest.approx([0.0, 0.0, 1.0], abs=1e-12)
     assert cam["placement"]["lengths"] == "relative"
+
+
+def test_calibrate_before_any_line_names_detect(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    """The first try without lines: a refusal (status 2) that names the command proposing them."""
+    shutil.copy(EXAMPLE / "photos" / "p1.jpg", tmp_path / "p1.jpg")
+    project = tmp_path / "one.vebuild.json"
+    assert main(["new", str(project), str(tmp_path / "p1.jpg")]) == 0
+    before = project.read_bytes()
+    assert main(["calibrate", "--quiet", str(project)]) == 2
+    err = capsys.readouterr().err
+    assert "no photo has vanishing segments" in err and "`vebuild detect one.vebuild.json` proposes them" in err
+    assert "Traceback" not in err and project.read_bytes() == before

@@ -139,7 +139,10 @@ def _calibrate(project: Project, progress: Callable[[Iterable], Iterable]) -> di
     if not photos and left_out:
         raise next(iter(left_out.values()))
     if not photos:
-        raise CalibrationError(None, "no photo has vanishing segments; mark segments along two world axes at least")
+        name = project.path.name
+        raise CalibrationError(None, "no photo has vanishing segments; mark segments along two world axes at least: "
+                               f"`vebuild detect {name}` proposes them from the photos' straight edges (D in "
+                               f"`vebuild edit {name}`), or draw them there by hand")
     known = decode.markers(data, "surveyed")
     refs = [d for d in decode.reference_distances(data) if not checked_after_solve(d)]
     floor = decode.floor_markers(data)
