@@ -168,6 +168,12 @@ def test_demo_runs_end_to_end(tmp_path: Path, capsys: pytest.CaptureFixture) -> 
     exif = text.split("EXIF focal lengths against the ground truth")[1].split("\n")
     assert any(line.strip().startswith("p4") and "-2.50 % off the true 1000.0 px" in line for line in exif)
     assert "calibration" in load_project(out / "room.vebuild.json").data
+    # It ends with its summary; a check outside its interval is said why, in one line.
+    tail = text.split("\nsummary:\n")[1].splitlines()
+    assert [line.split(":")[0].strip() for line in tail[:5]] == ["rebuilt", "against the truth", "check distances",
+                                                                  "outputs", "next"]
+    outside = [line for line in text.splitlines() if "OUTSIDE its 95 % interval" in line]
+    assert len([line for line in text.splitlines() if line.startswith("  why ")]) == len(outside)
     # The shipped example itself is never modified by the demo.
     assert "calibration" not in json.loads((EXAMPLE / "room.vebuild.json").read_text())
 

@@ -28,6 +28,7 @@ from ..project import load_project, save_project
 from ..project.decode import camera_records
 from ..resources import example_project_dir
 from .calibrate import calibrate_project
+from .demo_summary import check_explanations, summary
 from .solve import solve_project
 from .texture import texture_project
 
@@ -164,6 +165,8 @@ def run_demo(out: Path, progress: bool = True) -> int:
     model = solve_project(project, recalibrate=True)
     save_project(project)
     print(model_table(model))
+    if truth:
+        print("\n".join(check_explanations(project, model.get("check_distances") or [], truth)))
     if truth and "model" in truth:
         print()
         print(model_comparison(model, truth))
@@ -185,6 +188,8 @@ def run_demo(out: Path, progress: bool = True) -> int:
     print("\n" + "-" * 80 + "\nrendering: the named views, and each photo's camera against its photo\n")
     print(render_views(project, out / "renders"))
     print(f"\nresults written to {project_file}; textures in {out / 'textures'}; renders in {out / 'renders'}")
+    seen = sum(1 for f in record["faces"] if f["seen_fraction"] > 0)
+    print("\n" + summary(project, model, truth, out, seen))
     from ..project.outputs import write_manifest
 
     write_manifest(out, "demo")  # so that a later demo may replace this folder, unless someone changes it
