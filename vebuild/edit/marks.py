@@ -244,6 +244,8 @@ class Marks(History):
         return best[1] if best else None
 
     def delete_segment(self, photo: str, axis: str, index: int) -> None:
+        from vebuild.actions.detect import UNRESOLVED, has_segments
+
         with self._edit(f"delete {axis} segment {index} in {photo}"):
             segs = self._segments(photo, axis)
             del segs[index]
@@ -256,6 +258,8 @@ class Marks(History):
                     del self.photo(photo)["vanishing_segment_sigmas"]
             if not segs:
                 del self.photo(photo)["vanishing_segments"][axis]
+            if not has_segments(self.photo(photo)):  # as `vebuild detect --replace` clears it
+                self.photo(photo).pop(UNRESOLVED, None)
 
     def segment_at(self, photo: str, uv: Sequence[float], radius_px: float) -> tuple[str, int, int | None] | None:
         """The segment near uv: (axis, index, 0/1 for an end point or None for its body)."""
