@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from vebuild.actions.detect import UNRESOLVED, has_segments
 from vebuild.calibration.vanishing import MIN_SEGMENT_LENGTH_PX
 from vebuild.errors import CalibrationError
 from vebuild.model.drag import project_edges
@@ -244,8 +245,6 @@ class Marks(History):
         return best[1] if best else None
 
     def delete_segment(self, photo: str, axis: str, index: int) -> None:
-        from vebuild.actions.detect import UNRESOLVED, has_segments
-
         with self._edit(f"delete {axis} segment {index} in {photo}"):
             segs = self._segments(photo, axis)
             del segs[index]
