@@ -374,29 +374,42 @@ def detect_project(project: Project, photos: Sequence[str] | None = None, *, rep
             out.append((props, 0))
             continue
         photo = project.photo(pid)
-        fresh = replace or not photo.get("vanishing_segments")
+        fresh = replace or not has_segments(photo)
         if replace:
             clear_segments(project, pid)
         out.append((props, accept_proposals(project, props)))
-        # FORMAT.md `x_axis_unresolved`: segments directed by an x axis not chosen; `calibrate`
-        # orients the photo from its markers, or leaves it out.
-        if pid in unresolved:
-            photo[UNRESOLVED] = unresolved[pid]
-        elif fresh:
-            photo.pop(UNRESOLVED, None)
+        record_x_axis(photo, unresolved.get(pid), fresh=fresh)
     return out
 
 
+def has_segments(photo: dict[str, Any]) -> bool:
+    """Whether the photo has a vanishing segment on any axis."""
+    return any((photo.get("vanishing_segments") or {}).values())
+
+
+def record_x_axis(photo: dict[str, Any], unresolved: str | None, *, fresh: bool) -> None:
+    """Record on ``photo`` whether the x axis that directed the segments just written to it was
+    chosen (FORMAT.md `x_axis_unresolved`; ``vebuild detect`` and the modelling screen's line
+    proposals alike): ``unresolved``, why it was not, is written, and ``calibrate`` then orients
+    the photo from its markers or leaves it out. A chosen x removes the record only where the
+    photo's segments are all new (``fresh``: it had none before, or they were replaced): segments
+    kept from before are still directed by the x that was not chosen."""
+    if unresolved:
+        photo[UNRESOLVED] = unresolved
+    elif fresh:
+        photo.pop(UNRESOLVED, None)
+
+
 def choose_x_axes(project: Project, ids: Sequence[str], choices: dict[str, str], *, replace: bool = False,
-                  grouped: dict[str, Grouped] | None = None, unresolved: dict[str, str] | None = None
-                  ) -> tuple[dict[str, Grouped], dict[str, str]]:
+                  grouped: dict[str, Grouped] | None = None, unresolved: dict[str, str] | None = None,
+                  by: str = "`vebuild detect`") -> tuple[dict[str, Grouped], dict[str, str]]:
     """Settle every ``auto`` entry of ``choices`` (photo id → x-axis choice, changed in place) from
     the markers the photos share (:func:`auto_x_axes`); returns the photos grouped on the way
     (``grouped``: those already grouped, reused and added to) and a note per photo on its choice.
     Photos not among ``ids``, and photos keeping their marked segments, are held to the choice
     their segments show (``replace``: the segments of ``ids`` are about to go), unless their x axis
     was never chosen (``x_axis_unresolved``). ``unresolved`` gets each ``auto`` photo not chosen,
-    with why."""
+    with why (the record :func:`record_x_axis` writes; ``by``: what chose, in words)."""
     grouped = {} if grouped is None else grouped
     notes: dict[str, str] = {}
     if not any(c == AUTO for c in choices.values()):
@@ -423,7 +436,7 @@ def choose_x_axes(project: Project, ids: Sequence[str], choices: dict[str, str],
         choices[pid] = found.get(pid, "right")
         if pid not in found and unresolved is not None:
             why = notes.get(pid, "").removeprefix("not chosen, kept 'right': ").split("; give --x-axis")[0]
-            unresolved[pid] = f"`vebuild detect` could not choose its x axis and kept 'right': {why}"
+            unresolved[pid] = f"{by} could not choose its x axis and kept 'right': {why}"
     return grouped, notes
 
 

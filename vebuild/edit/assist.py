@@ -26,6 +26,16 @@ if TYPE_CHECKING:
 
 #: The most markers suggested from matched feature points per photo at once.
 MAX_SUGGESTED_MARKERS = 12
+#: What chose a photo's x axis, in its ``x_axis_unresolved`` record (scenes/FORMAT.md).
+SCREEN_DETECTION = "the modelling screen's line detection (D)"
+
+
+def _not_chosen(why: str) -> str:
+    """The screen's words for a photo whose x axis the line detection could not choose."""
+    reason = why.split(": ", 1)[-1]
+    return (f"x not chosen: the markers do not tell which way x runs ({reason}), so it runs right as a guess; if "
+            "the red arrows do not run along your world x, press D on this photo until they do; accepted as they "
+            "are, the photo is recorded as not oriented, and calibration leaves it out unless its markers orient it")
 
 
 @dataclass(frozen=True)
@@ -33,7 +43,9 @@ class Proposal:
     """Something the screen proposes on a photo. ``kind``: ``segment`` (``axis``, ``segment``,
     ``sigma_px`` its end points' 1σ), ``marker`` (``name`` at ``uv``; ``also``: the same marker's
     position in other photos, placed with it) or ``pin`` (``node``:``handle`` fixed at ``uv``);
-    ``score`` how well it agrees (higher is better), ``why`` a short line for the screen."""
+    ``score`` how well it agrees (higher is better), ``why`` a short line for the screen;
+    ``x_unresolved``: for a detected segment whose photo's x axis could not be chosen, why (the
+    photo's ``x_axis_unresolved`` once it is accepted)."""
 
     kind: str
     photo: str
@@ -48,6 +60,7 @@ class Proposal:
     points: tuple[float, ...] = ()  # a detected segment's polyline along its edge (written), or () for the segment
     score: float = 0.0
     why: str = ""
+    x_unresolved: str = ""  # a detected segment's: why its photo's x axis was not chosen ("" where it was)
 
 
 class Assist(MarkerRename):
@@ -175,21 +188,25 @@ class Assist(MarkerRename):
         for pid, g in grouped.items():
             store[pid] = (self.photo(pid).get("file"), g)
 
-    def _detect(self, photos: Sequence[str], x_axis: dict[str, str | None]) -> dict[str, Any]:
+    def _detect(self, photos: Sequence[str], x_axis: dict[str, str | None]
+                ) -> tuple[dict[str, Any], dict[str, str]]:
         """The proposals of each photo (PhotoProposals), x chosen as given or (None) from the
-        markers the photos share (:func:`vebuild.actions.detect.choose_x_axes`)."""
+        markers the photos share (:func:`vebuild.actions.detect.choose_x_axes`, as ``vebuild
+        detect`` chooses it), and for each photo whose x could not be chosen, why."""
         from vebuild.actions.detect import AUTO, choose_x_axes, group, orient_proposals, photo_pixels, replace_message
         from vebuild.errors import VebuildError
 
         choices = {pid: c or AUTO for pid, c in x_axis.items()}
+        unresolved: dict[str, str] = {}
         try:
-            grouped, notes = choose_x_axes(self.project, list(photos), choices, grouped=self._grouped())
+            grouped, notes = choose_x_axes(self.project, list(photos), choices, grouped=self._grouped(),
+                                           unresolved=unresolved, by=SCREEN_DETECTION)
             out = {}
             for pid in photos:
                 if pid not in grouped:
                     grouped[pid] = group(photo_pixels(self.project, pid), self.photo(pid))
                 props = orient_proposals(grouped[pid], choices[pid])
-                if pid in notes and x_axis.get(pid) is None:
+                if pid in notes and x_axis.get(pid) is None and pid not in unresolved:
                     props = replace_message(props, f"{props.message}; x {choices[pid]}: {notes[pid]}")
                 out[pid] = props
         except VebuildError as e:
@@ -197,12 +214,12 @@ class Assist(MarkerRename):
         self._keep_grouped(grouped)
         last: dict[str, str] = self.__dict__.setdefault("_x_axis", {})
         last.update(choices)
-        return out
+        return out, unresolved
 
-    def _show_detected(self, photo: str, found: Any) -> list[Proposal]:
+    def _show_detected(self, photo: str, found: Any, unresolved: str = "") -> list[Proposal]:
         items = [Proposal("segment", photo, axis=s.axis, segment=tuple(float(v) for v in s.segment),  # type: ignore[arg-type]
                           sigma_px=float(s.sigma_px), score=float(s.score),
-                          points=tuple(float(v) for v in getattr(s, "points", ()) or ()))
+                          points=tuple(float(v) for v in getattr(s, "points", ()) or ()), x_unresolved=unresolved)
                  for s in found.segments]
         self._set_proposals(photo, "segment", items)
         return items
@@ -220,12 +237,14 @@ class Assist(MarkerRename):
         last: dict[str, str] = self.__dict__.setdefault("_x_axis", {})
         if x_axis is None and photo in last:
             x_axis = X_AXIS_CHOICES[(X_AXIS_CHOICES.index(last[photo]) + 1) % len(X_AXIS_CHOICES)]
-        found = self._detect([photo], {photo: x_axis})[photo]
-        items = self._show_detected(photo, found)
+        got, unresolved = self._detect([photo], {photo: x_axis})
+        found, why = got[photo], unresolved.get(photo, "")
+        items = self._show_detected(photo, found, why)
         per_axis = {a: sum(p.axis == a for p in items) for a in ("x", "y", "z")}
         self.say(f"detected in {photo} with x {last[photo]}: " + ", ".join(f"{n} {a}" for a, n in per_axis.items())
-                 + f" segment proposals ({found.message}); Enter accepts all, a click on one accepts it, "
-                 "the Delete tool rejects it; D again turns x to the next horizontal direction")
+                 + f" segment proposals ({found.message})" + (f"; {_not_chosen(why)}" if why and items else "")
+                 + "; Enter accepts all, a click on one accepts it, the Delete tool rejects it; D again turns x to "
+                 "the next horizontal direction")
         return len(items)
 
     def detect_everywhere(self) -> int:
@@ -235,13 +254,15 @@ class Assist(MarkerRename):
         ids = self.photo_ids
         if not ids:
             raise EditError("no photos to detect lines on: add photos first")
-        found = self._detect(ids, {pid: None for pid in ids})
+        found, unresolved = self._detect(ids, {pid: None for pid in ids})
         total = 0
         lines = []
         for pid in ids:
-            n = len(self._show_detected(pid, found[pid]))
+            n = len(self._show_detected(pid, found[pid], unresolved.get(pid, "")))
             total += n
             note = found[pid].message.split("; x ")[-1] if "; x " in found[pid].message else found[pid].message
+            if pid in unresolved:
+                note = _not_chosen(unresolved[pid])
             lines.append(f"{pid}: {n} ({note})" if n else f"{pid}: none ({found[pid].message})")
         self.say(f"detected {total} segment proposals over {len(ids)} photos; Q accepts every photo's, D on a "
                  "photo turns its x: " + "; ".join(lines))
@@ -405,11 +426,15 @@ class Assist(MarkerRename):
     def _apply(self, p: Proposal) -> None:
         """Make proposal p an ordinary mark (inside an edit)."""
         if p.kind == "segment":
+            from vebuild.actions.detect import has_segments, record_x_axis
+
             row = [round(v, 3) for v in (p.points or p.segment)]
             self._check_segment(row, p.axis)
+            fresh = not has_segments(self.photo(p.photo))
             segs = self._segments(p.photo, p.axis)
             segs.append(row)
             self._set_segment_sigma(p.photo, p.axis, len(segs) - 1, p.sigma_px)
+            record_x_axis(self.photo(p.photo), p.x_unresolved or None, fresh=fresh)
         elif p.kind == "marker":
             if p.name not in self.project.marker_names():
                 self.data["markers"].append({"name": p.name})

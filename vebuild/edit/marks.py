@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from vebuild.actions.detect import UNRESOLVED, has_segments
 from vebuild.calibration.vanishing import MIN_SEGMENT_LENGTH_PX
 from vebuild.errors import CalibrationError
 from vebuild.model.drag import project_edges
@@ -256,6 +257,8 @@ class Marks(History):
                     del self.photo(photo)["vanishing_segment_sigmas"]
             if not segs:
                 del self.photo(photo)["vanishing_segments"][axis]
+            if not has_segments(self.photo(photo)):  # as `vebuild detect --replace` clears it
+                self.photo(photo).pop(UNRESOLVED, None)
 
     def segment_at(self, photo: str, uv: Sequence[float], radius_px: float) -> tuple[str, int, int | None] | None:
         """The segment near uv: (axis, index, 0/1 for an end point or None for its body)."""

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from vebuild import camera as cam_math
+from vebuild.actions.detect import UNRESOLVED
 from vebuild.camera import ImageCamera
 from vebuild.constants import OUTLIER_SIGMAS
 from vebuild.model.drag import project_edge_curves
@@ -128,6 +129,10 @@ class SessionOverlays(Modelling):
                 vanishing_rays(ov, vs, p["width"], p["height"])
             elif vs.problem and len(vs.segments):
                 ov.notes.append(vs.problem)
+        if p.get(UNRESOLVED):  # its segments were detected with an x axis not chosen (FORMAT.md)
+            ov.notes.append("x axis not chosen when this photo's segments were detected (the markers did not tell "
+                            "it): if the red arrows do not run along your world x, delete its segments and press D "
+                            "until they do; as it is, calibration leaves this photo out unless its markers orient it")
         cam = self.cameras.get(photo)
         if cam is not None:
             horizon_and_axes(ov, cam, p["width"], p["height"])

@@ -183,6 +183,40 @@ def _groups(groups: list[Mapping[str, Any]]) -> str:
                if notes else ""))
 
 
+def _k1(d: Mapping[str, Any]) -> str:
+    """A camera group's k1 ± 1σ, or held where it was not solved for (its σ 0 in the calibration's
+    record, none and ``refined`` false in the solve's)."""
+    if not d.get("sigma") or d.get("refined") is False:
+        return f"{d['k1']:+.4f} (held)"
+    return f"{d['k1']:+.4f} ± {d['sigma']:.4f}"
+
+
+def _solved_groups(solved: list[Mapping[str, Any]], calibrated: list[Mapping[str, Any]]) -> str:
+    """The re-calibrated camera groups (``model_solution.camera_groups``): each group's one focal
+    length, principal point and k1 ± 1σ from the solve, beside the calibration's (its record in
+    ``calibration.camera_groups``; "—" where it has none shared)."""
+    if not solved:
+        return ""
+    cal = {g.get("id"): g for g in calibrated if g.get("shared")}
+    rows = []
+    for g in solved:
+        c = cal.get(g["id"])
+        f, pp = g["focal_px"], g["principal_point"]
+        rows.append([g["id"], ", ".join(g["photos"]),
+                     f"{c['focal_px']['value']:.1f} ± {c['focal_px']['sigma'] or 0:.1f}" if c else "—",
+                     f"{f['value']:.1f} ± {f['sigma'] or 0:.1f}",
+                     _pm(c["principal_point"]["value"], c["principal_point"]["sigma"], 1) if c else "—",
+                     _pm(pp["value"], pp["sigma"], 1),
+                     _k1(c["distortion"]) if c else "—", _k1(g["distortion"])])
+    return ("<h3>Camera groups re-calibrated</h3><p>The photos of one camera share one focal length, principal "
+            "point and lens k1 in the re-calibrating solve too: each group's values ± 1σ (the solve's covariance "
+            "over the group's shared intrinsics), beside the calibration's (the camera groups table of the "
+            "calibration above). Its photos' rows in the table above repeat them; held: k1 was not solved for.</p>"
+            + table(["camera group", "photos", "focal px (calibration)", "focal px (final)",
+                     "principal point px (calibration)", "principal point px (final)", "lens k1 (calibration)",
+                     "lens k1 (final)"], rows, {2, 3, 4, 5, 6, 7}, wide=True))
+
+
 def _exif_item(pid: str, check: Mapping[str, Any]) -> str:
     """One photo's ``exif_focal_check`` as a list item, marked where it is beyond the limit."""
     words = esc(f"{pid}: {exif_check_words(dict(check))}")
@@ -209,7 +243,9 @@ def final_cameras(project: Project, rep: Report) -> None:
                         {1, 2, 3, 4, 6}, wide=True)
                 + "<p>RMS px (solve): the residuals of the photo's pins, edges and marker sightings in the "
                   "re-calibrating solve; in the table above, those of its vanishing segments and markers in the "
-                  "calibration.</p>")
+                  "calibration.</p>"
+                + _solved_groups(sol.get("camera_groups") or [],
+                                 project.data["calibration"].get("camera_groups") or []))
     elif sol.get("recalibrated"):
         body = ("<p class='warn'>The solve re-calibrated the cameras, but the project keeps no re-calibrated "
                 "cameras apart from the calibration (a project solved by an earlier vebuild); the final cameras "
