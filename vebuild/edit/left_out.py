@@ -11,17 +11,17 @@ an axis' segments have changed in number since (the indices would name other seg
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from typing import Any
 
-from vebuild.project import decode
+from .history import EditError
+from .marks import AXES, Marks
 
-from .history import EditError, History
-from .marks import AXES
-
-#: What the grey lines are, after "N grey x segments": one sentence, with what such lines often are.
-WHAT_THEY_ARE = ("left out by the calibration: they do not meet the other {axis} lines' vanishing point "
-                 "(often a roof's slope, cobbles or another building)")
+#: What the grey lines are, after "N grey crossed x segments: ".
+WHAT_THEY_ARE = "left out by the calibration: they do not meet the other {axis} lines' vanishing point"
+#: What to do with them, under the legend's lines.
+WHAT_TO_DO = ("Such lines are often a roof's slope, cobbles or another building. Point at a grey line to read "
+              "why it was left out. Kept, they do no harm: each calibration leaves them out again. Or delete "
+              "them from this photo (Ctrl+Z brings them back):")
 
 
 def rejected_by_calibration(record: Any, n_segments: int) -> dict[int, str]:
@@ -49,17 +49,16 @@ def legend_line(axis: str, count: int) -> str:
     return f"{count} grey crossed {axis} {lines}: " + WHAT_THEY_ARE.format(axis=axis)
 
 
-class LeftOut(History):
+class LeftOut(Marks):
     """The segments a calibration left out, and deleting them (mixed into the session)."""
 
     def left_out_segments(self, photo: str) -> dict[str, dict[int, str]]:
         """Axis → {index of a segment of ``photo`` → why its calibration left it out}; only the
         axes with any (see the module doc)."""
-        vps: Mapping[str, Any] = (decode.camera_records(self.data).get(photo) or {}).get("vanishing_points") or {}
         segments = self.photo(photo).get("vanishing_segments") or {}
         out = {}
         for axis in AXES:
-            found = rejected_by_calibration(vps.get(axis), len(segments.get(axis, [])))
+            found = self._left_out_of(photo, axis, len(segments.get(axis, [])))
             if found:
                 out[axis] = found
         return out

@@ -126,7 +126,7 @@ def vanishing_rays(ov: Overlay, vs: Any, width: float, height: float, skip: set[
         q = v[:2] / v[2]
         if np.all(np.abs(q - [width / 2, height / 2]) < reach):
             ov.points.append(Point((float(q[0]), float(q[1])), colour, 6.0, False, "vp",
-                                   vs.axis, f"VP {vs.axis}  rms {np.sqrt(np.mean(vs.residuals_px ** 2)):.2f} px"))
+                                   vs.axis, f"VP {vs.axis}  rms {vs.rms_px:.2f} px"))
 
 
 def curve_lines(ov: Overlay, K: Any, k1: float, a: Any, b: Any, colour: RGBA, width: float, kind: str,

@@ -20,7 +20,7 @@ from vebuild.model.primitives import primitive_kinds
 from vebuild.project import decode
 
 from .keys import EDITOR_KEYS, tool_key
-from .left_out import legend_line
+from .left_out import WHAT_TO_DO, legend_line
 from .marks import AXES, CAMERA_HEIGHT_SIGMA_M, KNOWN_LENGTH_SIGMA_M
 from .model_panels import relations_section
 from .node_panel import properties_section
@@ -133,8 +133,8 @@ class Panels:
                 if vs.point is not None:
                     v = vs.point
                     where = _vanishing_point_text(v, *self.ed.photo_size())
-                    rms = float(np.sqrt(np.mean(np.asarray(vs.residuals_px) ** 2)))
-                    text = f"{axis}: {len(vs.segments)} segments, VP {where}, rms {rms:.2f} px"
+                    out = f" ({len(vs.left_out)} left out, grey)" if vs.left_out else ""
+                    text = f"{axis}: {len(vs.segments)} segments{out}, VP {where}, rms {vs.rms_px:.2f} px"
                 else:
                     text = vs.problem or f"{axis}: {len(vs.segments)} segments"
                 imgui.push_text_wrap_pos(0.0)
@@ -195,11 +195,9 @@ class Panels:
             imgui.text_colored(imgui.ImVec4(*GREY), line)
             self.ed.rect(f"left out:{axis}")
             self.left_out_text.append(line)
-        hint = ("Point at a grey line to read why it was left out. Kept, they do no harm: each calibration "
-                "leaves them out again. Or delete them from this photo:")
-        imgui.text_disabled(hint)
+        imgui.text_disabled(WHAT_TO_DO)
         imgui.pop_text_wrap_pos()
-        self.left_out_text.append(hint)
+        self.left_out_text.append(WHAT_TO_DO)
         n = sum(len(f) for f in left.values())
         label = f"Delete the {n} left out"
         if self.ed.button(label, tip=f"delete the {n} grey crossed segments of {photo} (Ctrl+Z brings them back); "

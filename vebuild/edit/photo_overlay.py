@@ -19,7 +19,7 @@ from vebuild.constants import OUTLIER_SIGMAS
 from vebuild.model.drag import project_edge_curves
 from vebuild.project import decode
 
-from .left_out import LeftOut, legend_line, rejected_by_calibration
+from .left_out import LeftOut, legend_line
 from .marks import AXES, KNOWN_LENGTH_SIGMA_M
 from .modelling import Modelling
 from .names import corner_directions, face_places, facing, shown
@@ -106,11 +106,10 @@ class SessionOverlays(Modelling, LeftOut):
         ov = Overlay(photo)
         p = self.photo(photo)
         sigma = self.settings["click_sigma_px"]
-        vp_records = (decode.camera_records(self.data).get(photo) or {}).get("vanishing_points") or {}
         for axis in AXES:
             vs = self.vanishing(photo, axis)
             colour = AXIS_COLOURS[axis]
-            rejected = rejected_by_calibration(vp_records.get(axis), len(vs.segments))
+            rejected = self._left_out_of(photo, axis, len(vs.segments))
             for i, s in enumerate(vs.segments):
                 r = None if vs.residuals_px is None else float(vs.residuals_px[i])
                 outlier = r is not None and abs(r) > OUTLIER_SIGMAS * sigma
@@ -126,7 +125,7 @@ class SessionOverlays(Modelling, LeftOut):
                 ov.notes.append(legend_line(axis, len(rejected)))
             polyline_points(ov, vs)  # with or without a vanishing point yet
             if vs.point is not None:  # no ray from a segment left out: it does not run to the point
-                vanishing_rays(ov, vs, p["width"], p["height"], skip=set(rejected))
+                vanishing_rays(ov, vs, p["width"], p["height"], skip=set(vs.left_out))
             elif vs.problem and len(vs.segments):
                 ov.notes.append(vs.problem)
         cam = self.cameras.get(photo)
