@@ -251,7 +251,9 @@ def test_the_modelling_screen_draws_the_rejected_segments_grey(tmp_path) -> None
     for k in range(len(photos[0].segments["x"])):
         ln = lines[("x", k)]
         if k in clutter:
-            assert ln.colour == GREY and "rejected by the calibration" in (ln.label or "")
+            assert ln.colour == GREY and ln.cross == AXIS_COLOURS["x"]
+            assert f"x{k}: left out by the calibration: " in (ln.label or "") and "σ off the vanishing" in ln.label
         else:
             assert ln.colour in (AXIS_COLOURS["x"], ) or "outlier" in (ln.label or "")
-    assert any(n.startswith("grey x segments: left out of the calibration") for n in ov.notes)
+    assert (f"{len(clutter)} grey crossed x segments: left out by the calibration: they do not meet the other x "
+            "lines' vanishing point") in " ".join(ov.notes)

@@ -16,6 +16,7 @@ from vebuild.actions.detect import UNRESOLVED, has_segments
 from vebuild.calibration.vanishing import MIN_SEGMENT_LENGTH_PX
 from vebuild.errors import CalibrationError
 from vebuild.model.drag import project_edges
+from vebuild.project import decode
 
 from .history import EditError, History
 
@@ -86,6 +87,9 @@ class VanishingState:
     residuals_px : (n,) each segment's residual, or None.
     problem : why there is no vanishing point yet, or None.
     polylines : each segment's points, (m, 2) (m = 2 for a plain segment, more for a polyline).
+    left_out : the segments the photo's calibration left out as not meeting at the point
+        (:mod:`vebuild.edit.left_out`): the point is fitted to the others (to all where fewer than
+        two remain), and their residuals are to it.
     """
 
     axis: str
@@ -94,6 +98,16 @@ class VanishingState:
     residuals_px: Array | None = None
     problem: str | None = None
     polylines: list[Array] = field(default_factory=list)
+    left_out: frozenset[int] = frozenset()
+
+    @property
+    def rms_px(self) -> float | None:
+        """The RMS residual of the segments the point is fitted to (None without a point)."""
+        if self.residuals_px is None:
+            return None
+        kept = [i for i in range(len(self.residuals_px)) if i not in self.left_out]
+        r = np.asarray(self.residuals_px, float)[kept if len(kept) >= 2 else slice(None)]
+        return float(np.sqrt(np.mean(r**2)))
 
 
 class Marks(History):
@@ -281,7 +295,7 @@ class Marks(History):
         """The segments of one axis and their best-fit vanishing point (or why there is none yet)."""
         key = ("vp", photo, axis)
         if key not in self._cache:
-            from vebuild.calibration.vanishing import fit_vanishing_point
+            from vebuild.calibration.vanishing import fit_vanishing_point, segment_residuals
 
             p = self.photo(photo)
             polys = [np.asarray(r, float).reshape(-1, 2) for r in (p.get("vanishing_segments") or {}).get(axis, [])]
@@ -291,13 +305,26 @@ class Marks(History):
                 state.problem = (f"{axis}: {len(segs)} segment{'s' if len(segs) != 1 else ''}; a vanishing point needs "
                                  "two or more, along different parallel edges")
             else:
+                left_out = set(self._left_out_of(photo, axis, len(segs)))
+                kept = [i for i in range(len(segs)) if i not in left_out]
                 try:
-                    fit = fit_vanishing_point(segs, p["width"], p["height"], axis=axis, photo=photo)
-                    state.point, state.residuals_px = fit.point, fit.residuals_px
+                    if left_out and len(kept) >= 2:  # the point the calibration found, not the clutter's pull
+                        fit = fit_vanishing_point(segs[kept], p["width"], p["height"], axis=axis, photo=photo)
+                        state.residuals_px = segment_residuals(fit.point, segs)
+                    else:
+                        fit = fit_vanishing_point(segs, p["width"], p["height"], axis=axis, photo=photo)
+                        state.residuals_px = fit.residuals_px
+                    state.point, state.left_out = fit.point, frozenset(left_out)
                 except CalibrationError as e:
                     state.problem = f"{axis}: cannot fit a vanishing point yet: {e.detail}"
             self._cache[key] = state
         return self._cache[key]
+
+    def _left_out_of(self, photo: str, axis: str, n_segments: int) -> dict[int, str]:
+        """The indices of the axis' segments the photo's calibration left out, and why."""
+        from .left_out import rejected_by_calibration
+        vps = (decode.camera_records(self.data).get(photo) or {}).get("vanishing_points") or {}
+        return rejected_by_calibration(vps.get(axis), n_segments)
 
     # -- markers and reference distances ----------------------------------------------------------
 

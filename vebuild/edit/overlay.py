@@ -52,6 +52,7 @@ class Line:
     key: object = None
     label: str | None = None
     arrow: bool = False  # draw an arrow head at the second end (directed vanishing segments)
+    cross: RGBA | None = None  # a cross of this colour at the middle (a segment left out, its axis' colour)
 
 
 @dataclass
@@ -101,14 +102,17 @@ def _clip_line(line: np.ndarray, width: float, height: float) -> tuple[float, fl
     return (*pts[0], *pts[-1])
 
 
-def vanishing_rays(ov: Overlay, vs: Any, width: float, height: float) -> None:
+def vanishing_rays(ov: Overlay, vs: Any, width: float, height: float, skip: set[int] | None = None) -> None:
     """Thin lines from each segment's midpoint toward the vanishing point (paper Figure 2), and the
-    point itself where it is not too far outside the image. ``vs``: a session VanishingState."""
+    point itself where it is not too far outside the image. ``vs``: a session VanishingState;
+    ``skip``: the indices of segments given no ray (those the calibration left out)."""
     v = vs.point
     colour = AXIS_COLOURS[vs.axis]
     faint = (*colour[:3], 0.45)
     reach = 3.0 * math.hypot(width, height)
-    for s in vs.segments:
+    for i, s in enumerate(vs.segments):
+        if skip and i in skip:
+            continue
         m = 0.5 * (s[:2] + s[2:])
         if abs(v[2]) > 1e-12 and np.linalg.norm(v[:2] / v[2] - m) < reach:
             end = v[:2] / v[2]
@@ -122,7 +126,7 @@ def vanishing_rays(ov: Overlay, vs: Any, width: float, height: float) -> None:
         q = v[:2] / v[2]
         if np.all(np.abs(q - [width / 2, height / 2]) < reach):
             ov.points.append(Point((float(q[0]), float(q[1])), colour, 6.0, False, "vp",
-                                   vs.axis, f"VP {vs.axis}  rms {np.sqrt(np.mean(vs.residuals_px ** 2)):.2f} px"))
+                                   vs.axis, f"VP {vs.axis}  rms {vs.rms_px:.2f} px"))
 
 
 def curve_lines(ov: Overlay, K: Any, k1: float, a: Any, b: Any, colour: RGBA, width: float, kind: str,

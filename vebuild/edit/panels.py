@@ -20,10 +20,11 @@ from vebuild.model.primitives import primitive_kinds
 from vebuild.project import decode
 
 from .keys import EDITOR_KEYS, tool_key
+from .left_out import WHAT_TO_DO, legend_line
 from .marks import AXES, CAMERA_HEIGHT_SIGMA_M, KNOWN_LENGTH_SIGMA_M
 from .model_panels import relations_section
 from .node_panel import properties_section
-from .overlay import AXIS_COLOURS
+from .overlay import AXIS_COLOURS, GREY
 from .session import exif_text, photo_cameras, placement_text
 
 if TYPE_CHECKING:
@@ -57,6 +58,7 @@ class Panels:
         self.param_edits: dict[str, Any] = {}
         self._select_tab: str | None = None  # a tab to bring forward at the next frame (the first steps')
         self.camera_ticks: set[str] = set()  # the photos ticked to share one camera
+        self.left_out_text: list[str] = []  # the shown photo's legend of its left-out segments, as drawn
 
     def forget_edits(self) -> None:
         """Drop the values typed but not committed (another node was selected)."""
@@ -131,13 +133,14 @@ class Panels:
                 if vs.point is not None:
                     v = vs.point
                     where = _vanishing_point_text(v, *self.ed.photo_size())
-                    rms = float(np.sqrt(np.mean(np.asarray(vs.residuals_px) ** 2)))
-                    text = f"{axis}: {len(vs.segments)} segments, VP {where}, rms {rms:.2f} px"
+                    out = f" ({len(vs.left_out)} left out, grey)" if vs.left_out else ""
+                    text = f"{axis}: {len(vs.segments)} segments{out}, VP {where}, rms {vs.rms_px:.2f} px"
                 else:
                     text = vs.problem or f"{axis}: {len(vs.segments)} segments"
                 imgui.push_text_wrap_pos(0.0)
                 imgui.text_colored(colour, text)
                 imgui.pop_text_wrap_pos()
+            self._left_out_legend(self.ed.photo)
         imgui.separator()
         origin = s.data.get("origin_marker")
         imgui.text(f"markers (origin: {origin or 'none'})")
@@ -176,6 +179,32 @@ class Panels:
                 self.ed.guard(s.set_origin, name)
         imgui.end_child()
         self.ed.draw_rename_field(self)
+
+    def _left_out_legend(self, photo: str) -> None:
+        """What the photo's grey crossed segments are, how many of each axis, and what to do with
+        them: point at one to read why it was left out; keep them (each calibration leaves them out
+        again) or delete them all from this photo in one undoable edit. The lines shown are kept in
+        :attr:`left_out_text` (for tests and the Help)."""
+        left = self.ed.guard(self.ed.session.left_out_segments, photo) or {}
+        self.left_out_text = []
+        if not left:
+            return
+        imgui.push_text_wrap_pos(0.0)
+        for axis, found in left.items():
+            line = legend_line(axis, len(found))
+            imgui.text_colored(imgui.ImVec4(*GREY), line)
+            self.ed.rect(f"left out:{axis}")
+            self.left_out_text.append(line)
+        imgui.text_disabled(WHAT_TO_DO)
+        imgui.pop_text_wrap_pos()
+        self.left_out_text.append(WHAT_TO_DO)
+        n = sum(len(f) for f in left.values())
+        label = f"Delete the {n} left out"
+        if self.ed.button(label, tip=f"delete the {n} grey crossed segments of {photo} (Ctrl+Z brings them back); "
+                          "calibrate again afterwards"):
+            self.ed.guard(self.ed.session.delete_left_out, photo)
+        self.ed.rect("delete left out")
+        self.left_out_text.append(label)
 
     def _cameras_tab(self) -> None:
         """Each photo's camera (FORMAT.md "Camera groups"): tick photos and say they share one camera,

@@ -20,6 +20,7 @@ from vebuild.constants import OUTLIER_SIGMAS
 from vebuild.model.drag import project_edge_curves
 from vebuild.project import decode
 
+from .left_out import LeftOut, legend_line
 from .marks import AXES, KNOWN_LENGTH_SIGMA_M
 from .modelling import Modelling
 from .names import corner_directions, face_places, facing, shown
@@ -41,7 +42,7 @@ from .overlay import (
 )
 
 
-class SessionOverlays(Modelling):
+class SessionOverlays(Modelling, LeftOut):
     """The overlay of a photo (mixed into the session)."""
 
     def overlay(self, photo: str, selected: str | None = None) -> Overlay:
@@ -106,27 +107,26 @@ class SessionOverlays(Modelling):
         ov = Overlay(photo)
         p = self.photo(photo)
         sigma = self.settings["click_sigma_px"]
-        vp_records = (decode.camera_records(self.data).get(photo) or {}).get("vanishing_points") or {}
         for axis in AXES:
             vs = self.vanishing(photo, axis)
             colour = AXIS_COLOURS[axis]
-            rejected = _rejected_by_calibration(vp_records.get(axis), len(vs.segments))
+            rejected = self._left_out_of(photo, axis, len(vs.segments))
             for i, s in enumerate(vs.segments):
                 r = None if vs.residuals_px is None else float(vs.residuals_px[i])
                 outlier = r is not None and abs(r) > OUTLIER_SIGMAS * sigma
-                if i in rejected:  # left out by the calibration: grey, whatever this fit says
+                if i in rejected:  # left out by the calibration: grey, crossed, whatever this fit says
                     ov.lines.append(Line(_ends(s), GREY, 2.0, "segment", (axis, i),
-                                         f"{axis}{i}: rejected by the calibration ({rejected[i]})", arrow=True))
+                                         f"{axis}{i}: left out by the calibration: {rejected[i]}", arrow=True,
+                                         cross=colour))
                     continue
                 ov.lines.append(Line(_ends(s), YELLOW if outlier else colour, 3.0 if outlier else 2.0,
                                      "segment", (axis, i), None if r is None else
                                      (f"{axis}{i}: {r:+.2f} px" + (" outlier" if outlier else "")), arrow=True))
             if rejected:
-                ov.notes.append(f"grey {axis} segments: left out of the calibration, not meeting at the vanishing "
-                                "point (clutter, a slope, another building)")
+                ov.notes.append(legend_line(axis, len(rejected)))
             polyline_points(ov, vs)  # with or without a vanishing point yet
-            if vs.point is not None:
-                vanishing_rays(ov, vs, p["width"], p["height"])
+            if vs.point is not None:  # no ray from a segment left out: it does not run to the point
+                vanishing_rays(ov, vs, p["width"], p["height"], skip=set(vs.left_out))
             elif vs.problem and len(vs.segments):
                 ov.notes.append(vs.problem)
         if p.get(UNRESOLVED):  # its segments were detected with an x axis not chosen (FORMAT.md)
@@ -328,19 +328,3 @@ def _in_node_order(photo: str, names: Sequence[str], before: Overlay, fresh: Ove
     lines = [ln for n in names for ln in (new_l if n in moved else old_l).get(n, [])]
     points = [pt for n in names for pt in (new_p if n in moved else old_p).get(n, [])]
     return Overlay(photo, lines, points, list(fresh.notes))
-
-
-def _rejected_by_calibration(record: Any, n_segments: int) -> dict[int, str]:
-    """Segment index → why the calibration left it out, from the photo's vanishing-point record of
-    one axis (FORMAT.md ``rejected``); nothing where the marks have changed in number since."""
-    if not isinstance(record, dict) or not isinstance(record.get("rejected"), list):
-        return {}
-    if len(record.get("residuals_px") or []) != n_segments:
-        return {}
-    out = {}
-    for r in record["rejected"]:
-        if isinstance(r, dict) and isinstance(r.get("segment"), int):
-            m = r.get("misfit_sigmas")
-            out[r["segment"]] = f"{m:.1f}σ off its vanishing point" if isinstance(m, (int, float)) and \
-                r.get("reason") != "axis left out" else "its axis left out"
-    return out

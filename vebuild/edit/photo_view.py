@@ -33,6 +33,8 @@ from .visibility import clip_polyline, clip_segment
 HIDDEN_DASH_PX = 5.0
 HIDDEN_ALPHA = 0.5
 HIDDEN_WIDTH = 1.0
+#: A vanishing segment the calibration left out: half the arms of the cross at its middle, window pixels.
+CROSS_HALF_PX = 6.0
 
 
 class PhotoView(EditorPart):
@@ -306,6 +308,11 @@ class PhotoView(EditorPart):
                 dl.add_line(a, b, col, ln.width)
                 if ln.arrow and clipped[2:] == tuple(float(t) for t in ln.p[2:]):
                     self._arrow_head(dl, a, b, col, 6.0 + 2.0 * ln.width)
+                if ln.cross is not None:  # a segment left out: crossed at its middle, as in the report
+                    mx, my = px + z * 0.5 * (ln.p[0] + ln.p[2]), py + z * 0.5 * (ln.p[1] + ln.p[3])
+                    r, cc = CROSS_HALF_PX, u32(ln.cross)
+                    dl.add_line((mx - r, my - r), (mx + r, my + r), cc, ln.width + 1.0)
+                    dl.add_line((mx - r, my + r), (mx + r, my - r), cc, ln.width + 1.0)
             label = ln.label if ln.label else (f"{key[0]}:{key[1]}" if ln.kind == "edge" else None)
             if clipped is not None and label and self.labelled(ln, ln is hover):
                 u1, v1, u2, v2 = clipped
