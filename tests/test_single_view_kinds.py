@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 from single_view_scenes import H, W, calibrated, pixel, scene
 
+from vebuild.analysis.recorded import measure_clicked
 from vebuild.analysis.single_view import (
     SINGLE_VIEW_CLICKS,
     SingleViewError,
-    measure_clicked,
     measure_on_photo,
     measured_line,
     single_view_command,

@@ -93,8 +93,7 @@ def measure_on_photo(project: Project, kind: str, photo: str, clicks: list[Any])
     """The single-view measurement ``kind`` clicked at ``clicks`` (photo pixels, in the order
     :func:`prompts` names them): the request its saved words parse to, run on the project. The
     result's ``pixels`` are the saved (rounded) pixels, to draw on ``photo``."""
-    from vebuild.analysis.recorded import parse_recorded
-    from vebuild.analysis.single_view import measure_clicked
+    from vebuild.analysis.recorded import measure_clicked, parse_recorded
 
     if kind not in kinds():
         raise ClickError(f"no single-view measurement '{kind}'; they are {', '.join(kinds())}")

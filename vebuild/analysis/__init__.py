@@ -13,7 +13,7 @@ Modules:
 - :mod:`vebuild.analysis.lighting` — one view under several lighting presets.
 - :mod:`vebuild.analysis.single_view` — heights above the floor and distances on it, lengths on a
   wall or on a plane marked by three points, heights above a raised surface, measured on one
-  calibrated photo (single-view metrology), no model needed; ``measure_clicked`` runs a clicked
+  calibrated photo (single-view metrology), no model needed; ``recorded.measure_clicked`` runs a clicked
   one as the command line runs its saved words.
 - :mod:`vebuild.analysis.requests` and :mod:`vebuild.analysis.requests_geometry` — each analysis
   as a typed request whose ``run(project)`` gives its table, figures and image: what the command

@@ -10,12 +10,17 @@ from __future__ import annotations
 import argparse
 import contextlib
 import io
-from typing import Any, NoReturn
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any, NoReturn
 
 from vebuild.errors import VebuildError
 
+if TYPE_CHECKING:
+    from vebuild.project import Project
+
 from .requests import AnalysisResult, Request
 from .requests_geometry import TrajectoryRequest
+from .single_view import single_view_command
 
 #: Words that ask for help rather than an analysis.
 _HELP_WORDS = ("-h", "--help")
@@ -97,3 +102,15 @@ def run_recorded(project: Any, index: int, record: dict[str, Any],
     except VebuildError as e:
         raise ProjectError(project.path, f"$.analyses[{index}].command", str(e)) from None
 
+
+def measure_clicked(project: Project, kind: str, photo: str,
+                    clicks: Sequence[Sequence[float]]) -> tuple[list[str], AnalysisResult]:
+    """One single-view measurement clicked on ``photo``: the words saved for it
+    (:func:`~.single_view.single_view_command`; record them as ``{"name", "description", "command": words}``)
+    and the result of the request parsed from those words, as ``vebuild analyse PROJECT *words``
+    runs it: its ``table`` is the text the command line prints, its ``figures["measurements"][0]``
+    the value, 1σ and 95 % interval. A click that cannot be measured is a :class:`VebuildError`
+    (a :class:`~.single_view.SingleViewError` naming the photo and the click) whose text is a sentence for the
+    screen."""
+    words = single_view_command(kind, photo, clicks)
+    return words, parse_recorded(words).run(project)

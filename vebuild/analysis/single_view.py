@@ -34,15 +34,14 @@ independent of the rest) and each click's 1σ per coordinate (``settings.click_s
 clicks that fix a plane count as fully as the ends measured on it. Several measurements on one
 photo are correlated through the camera; each is reported with its own 1σ.
 
-A measurement made by clicking is the command line's: :func:`measure_clicked` makes the saved words
-(:func:`single_view_command`) and runs the request parsed from them.
+A measurement made by clicking is the command line's: :func:`vebuild.analysis.recorded.measure_clicked`
+makes the saved words (:func:`single_view_command`) and runs the request parsed from them.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -51,11 +50,6 @@ from ..calibration.lsq import numeric_jacobian
 from ..camera import ImageCamera, intrinsic_matrix, pixel_rays_world, skew
 from ..errors import VebuildError
 from .measure import Measurement
-
-if TYPE_CHECKING:
-    from vebuild.project import Project
-
-    from .requests import AnalysisResult
 
 Array = NDArray[np.float64]
 
@@ -106,21 +100,6 @@ def single_view_command(kind: str, photo: str, clicks: Sequence[Sequence[float]]
     for u, v in clicks:
         words += [f"{float(u):.{PIXEL_DECIMALS}f}", f"{float(v):.{PIXEL_DECIMALS}f}"]
     return words
-
-
-def measure_clicked(project: Project, kind: str, photo: str,
-                    clicks: Sequence[Sequence[float]]) -> tuple[list[str], AnalysisResult]:
-    """One single-view measurement clicked on ``photo``: the words saved for it
-    (:func:`single_view_command`; record them as ``{"name", "description", "command": words}``)
-    and the result of the request parsed from those words, as ``vebuild analyse PROJECT *words``
-    runs it: its ``table`` is the text the command line prints, its ``figures["measurements"][0]``
-    the value, 1σ and 95 % interval. A click that cannot be measured is a :class:`VebuildError`
-    (a :class:`SingleViewError` naming the photo and the click) whose text is a sentence for the
-    screen."""
-    from .recorded import parse_recorded
-
-    words = single_view_command(kind, photo, clicks)
-    return words, parse_recorded(words).run(project)
 
 
 # -- the geometry ----------------------------------------------------------------------------------

@@ -5,13 +5,10 @@ with why; a legend in the Calibration panel saying what they are and how many of
 one undoable edit that deletes them from a photo. Kept, they do no harm: each calibration leaves
 them out again.
 
-What was left out is read from the photo's calibration record (FORMAT.md ``rejected``, per axis):
-indices into the photo's segments as they were calibrated, so nothing is shown as left out once
-an axis' segments have changed in number since (the indices would name other segments)."""
+What was left out is read from the photo's calibration record
+(:func:`vebuild.project.left_out.rejected_by_calibration`)."""
 
 from __future__ import annotations
-
-from typing import Any
 
 from .history import EditError
 from .marks import AXES, Marks
@@ -22,25 +19,6 @@ WHAT_THEY_ARE = "left out by the calibration: they do not meet the other {axis} 
 WHAT_TO_DO = ("Such lines are often a roof's slope, cobbles or another building. Point at a grey line to read "
               "why it was left out. Kept, they do no harm: each calibration leaves them out again. Or delete "
               "them from this photo (Ctrl+Z brings them back):")
-
-
-def rejected_by_calibration(record: Any, n_segments: int) -> dict[int, str]:
-    """Segment index → why the calibration left it out, in plain words, from the photo's
-    vanishing-point record of one axis (FORMAT.md ``rejected``); nothing where the axis' segments
-    have changed in number since."""
-    if not isinstance(record, dict) or not isinstance(record.get("rejected"), list):
-        return {}
-    if len(record.get("residuals_px") or []) != n_segments:
-        return {}
-    out = {}
-    for r in record["rejected"]:
-        if isinstance(r, dict) and isinstance(r.get("segment"), int) and 0 <= r["segment"] < n_segments:
-            m = r.get("misfit_sigmas")
-            if r.get("reason") == "axis left out" or not isinstance(m, (int, float)):
-                out[r["segment"]] = "its axis was left out: most of its segments do not meet at one point"
-            else:
-                out[r["segment"]] = f"{m:.1f}σ off the vanishing point of the other lines"
-    return out
 
 
 def legend_line(axis: str, count: int) -> str:

@@ -17,6 +17,7 @@ from vebuild.calibration.vanishing import MIN_SEGMENT_LENGTH_PX
 from vebuild.errors import CalibrationError
 from vebuild.model.drag import project_edges
 from vebuild.project import decode
+from vebuild.project.left_out import rejected_by_calibration
 
 from .history import EditError, History
 
@@ -322,7 +323,6 @@ class Marks(History):
 
     def _left_out_of(self, photo: str, axis: str, n_segments: int) -> dict[int, str]:
         """The indices of the axis' segments the photo's calibration left out, and why."""
-        from .left_out import rejected_by_calibration
         vps = (decode.camera_records(self.data).get(photo) or {}).get("vanishing_points") or {}
         return rejected_by_calibration(vps.get(axis), n_segments)
 
