@@ -104,6 +104,7 @@ class _Rep:
     def __init__(self, folder: Path) -> None:
         self.folder = folder
         self.images: list[Path] = []
+        self.recorded: dict = {}  # the analyses run once already (none here): the report's Report has it
 
 
 @pytest.mark.parametrize(("command", "message"), [
