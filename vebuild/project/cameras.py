@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 from ..camera import ImageCamera, fov_to_focal, intrinsic_matrix, look_rotation
 from ..errors import ProjectError, VebuildError
 from .file import Project
-from .validation import json_path
+from .json_paths import json_path
 
 Array = NDArray[np.float64]
 

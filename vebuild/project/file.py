@@ -23,17 +23,10 @@ from ..calibration.priors import PRINCIPAL_POINT_SIGMA_REL
 from ..errors import ProjectError
 from ..lighting import AS_PHOTOGRAPHED
 from .images import MAX_IMAGE_PIXELS, decoded_size, open_image, read_exif, sha256_bytes, sha256_file
+from .json_paths import json_path, listing
 from .pixels import rgb_image
 from .schema_match import schema
-from .validation import (
-    FORMAT,
-    VERSION,
-    check_relative_path,
-    json_path,
-    listing,
-    parse_document,
-    validate,
-)
+from .validation import FORMAT, VERSION, check_relative_path, parse_document, validate
 
 __all__ = [  # what other modules take from here; validation and image files have modules of their own
     "AS_PHOTOGRAPHED", "DEFAULT_SETTINGS", "FORMAT", "MAX_IMAGE_PIXELS", "RESULT_KEYS", "VERSION", "Project",
