@@ -28,8 +28,6 @@ OPEN_CIRCLES: dict[frozenset[str], str] = {
         "the panels draw the Editor's sections and the Editor holds the Panels: not yet split",
     frozenset({"model.entered", "model.joints", "model.relations", "model.room_joints", "model.scene"}):
         "the scene graph's Model and its joints, relations and entered values name each other",
-    frozenset({"model.room", "model.room_checks", "model.room_mesh"}):
-        "the room's checks and mesh read the Room they are part of",
     frozenset({"project.cameras", "project.decode", "project.file", "project.provenance"}):
         "the project file, its decoding and its provenance read each other",
     frozenset({"viewer.app", "viewer.panel", "viewer.presentation"}):
