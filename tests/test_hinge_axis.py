@@ -23,7 +23,8 @@ from vebuild.actions.solve import _results
 from vebuild.camera import ImageCamera, exp_so3
 from vebuild.constants import Z95
 from vebuild.model.determination import axis_records
-from vebuild.model.joints import ModelError, axis_basis, joint_from_dict
+from vebuild.model.joint_file import joint_from_dict
+from vebuild.model.joints import ModelError, axis_basis
 from vebuild.model.residuals import Pin
 from vebuild.model.scene import model_from_dict
 from vebuild.model.solution import solution_at

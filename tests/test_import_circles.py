@@ -26,8 +26,6 @@ PACKAGE = ROOT / "vebuild"
 OPEN_CIRCLES: dict[frozenset[str], str] = {
     frozenset({"edit.model_panels", "edit.node_panel", "edit.panels", "edit.screen"}):
         "the panels draw the Editor's sections and the Editor holds the Panels: not yet split",
-    frozenset({"model.entered", "model.joints", "model.relations", "model.room_joints", "model.scene"}):
-        "the scene graph's Model and its joints, relations and entered values name each other",
     frozenset({"project.cameras", "project.decode", "project.file", "project.provenance"}):
         "the project file, its decoding and its provenance read each other",
     frozenset({"viewer.app", "viewer.panel", "viewer.presentation"}):

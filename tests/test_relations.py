@@ -19,8 +19,9 @@ from vebuild.console.tables import model_table
 from vebuild.errors import ProjectError
 from vebuild.model.constraints import HARD_SIGMA_M, conflicts, constraint_rank
 from vebuild.model.drag import DragSession
+from vebuild.model.graph import Relation
 from vebuild.model.joints import FlushJoint, RestsOnJoint
-from vebuild.model.relations import Relation, relation_residual, rows_of, world_plane
+from vebuild.model.relations import relation_residual, rows_of, world_plane
 from vebuild.model.residuals import Pin
 from vebuild.model.scene import ModelError, model_from_dict
 from vebuild.model.solution import solution_at
