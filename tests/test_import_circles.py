@@ -26,8 +26,6 @@ PACKAGE = ROOT / "vebuild"
 OPEN_CIRCLES: dict[frozenset[str], str] = {
     frozenset({"edit.model_panels", "edit.node_panel", "edit.panels", "edit.screen"}):
         "the panels draw the Editor's sections and the Editor holds the Panels: not yet split",
-    frozenset({"project.cameras", "project.decode", "project.file", "project.provenance"}):
-        "the project file, its decoding and its provenance read each other",
     frozenset({"viewer.app", "viewer.panel", "viewer.presentation"}):
         "the viewer's panel and presentation are parts of the app that holds them",
     frozenset({"synthetic_house", "synthetic_house_layout"}):
