@@ -24,10 +24,6 @@ PACKAGE = ROOT / "vebuild"
 
 #: The circles still open, each as its modules (without the ``vebuild.`` in front) and why.
 OPEN_CIRCLES: dict[frozenset[str], str] = {
-    frozenset({"edit.model_panels", "edit.node_panel", "edit.panels", "edit.screen"}):
-        "the panels draw the Editor's sections and the Editor holds the Panels: not yet split",
-    frozenset({"viewer.app", "viewer.panel", "viewer.presentation"}):
-        "the viewer's panel and presentation are parts of the app that holds them",
     frozenset({"synthetic_house", "synthetic_house_layout"}):
         "the synthetic house and its layout; these generators are being moved into a package",
     frozenset({"synthetic_room_model", "synthetic_room_photos", "synthetic_rooms"}):
