@@ -5,10 +5,11 @@ floor has three degrees of freedom (a position in the floor's plane and a turn a
 a door on its hinge has one. The solver moves only these degrees of freedom and the primitives'
 own parameters, so every joint holds exactly, whatever the observations say.
 
-The joints themselves are in :mod:`vebuild.model.joints` (re-exported here). Transforms are 4×4
-matrices mapping a node's local frame into its parent's (``parent_from_node``);
-a node attached to the world has the world as parent. Lengths in metres, angles in radians here
-(degrees in the project file).
+This module reads the graph from the project file (:func:`model_from_dict`). The nodes and the
+:class:`Model` that holds them are in :mod:`vebuild.model.graph`, the joints in
+:mod:`vebuild.model.joints` (both re-exported here). Transforms are 4×4 matrices mapping a
+node's local frame into its parent's (``parent_from_node``); a node attached to the world has the
+world as parent. Lengths in metres, angles in radians here (degrees in the project file).
 """
 
 from __future__ import annotations
