@@ -25,6 +25,7 @@ from vebuild.model.solution import (
     UNDETERMINED_SHARE_OF_SCENE,
     UNDETERMINED_SHARE_OF_VALUE,
     determined,
+    solution_at,
 )
 from vebuild.model.solver import FINAL_PRIOR_SCALE, Problem, ProblemOptions
 from vebuild.project import load_project
@@ -71,7 +72,7 @@ def wall_solve(out_m: float, far: tuple[str, ...]) -> tuple[Problem, Any]:
     problem = Problem(start, {**near, **side}, pins,
                       options=ProblemOptions(click_sigma_px=CLICK_NOISE_PX, prior_scale=FINAL_PRIOR_SCALE))
     r = problem.solve()
-    return problem, problem.solution(r.x, r.iterations)
+    return problem, solution_at(problem, r.x, r.iterations)
 
 
 def test_the_issues_wall_is_undetermined() -> None:

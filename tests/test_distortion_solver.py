@@ -17,6 +17,7 @@ from vebuild.calibration.positions import ReferenceDistance
 from vebuild.camera import ImageCamera, distort_pixels, distortion_displacement_px, project
 from vebuild.model.residuals import EdgeObservation, MarkerObservation, Pin
 from vebuild.model.scene import model_from_dict
+from vebuild.model.solution import solution_at
 from vebuild.model.solver import FINAL_PRIOR_SCALE, MarkerData, Problem, ProblemOptions
 from vebuild.synthetic import CLICK_NOISE_PX, ROOM, model_scene
 
@@ -101,7 +102,7 @@ def _solve(model, cams, pins, **options):
     problem = Problem(model, cams, pins, options=ProblemOptions(click_sigma_px=CLICK_NOISE_PX,
                                                                 prior_scale=FINAL_PRIOR_SCALE, **options))
     fit = problem.solve()
-    return problem, fit, problem.solution(fit.x)
+    return problem, fit, solution_at(problem, fit.x)
 
 
 #: A size the pins determine: its 1σ from the click noise is below this (the rest, a floor corner

@@ -23,9 +23,11 @@ from vebuild.actions.solve import _results
 from vebuild.camera import ImageCamera, exp_so3
 from vebuild.constants import Z95
 from vebuild.model.determination import axis_records
-from vebuild.model.joints import ModelError, axis_basis, joint_from_dict
+from vebuild.model.joint_file import joint_from_dict
+from vebuild.model.joints import ModelError, axis_basis
 from vebuild.model.residuals import Pin
 from vebuild.model.scene import model_from_dict
+from vebuild.model.solution import solution_at
 from vebuild.model.solver import FINAL_PRIOR_SCALE, Problem, ProblemOptions
 from vebuild.synthetic import CLICK_NOISE_PX, _rotation, random_camera
 
@@ -105,7 +107,7 @@ def _problem(node: dict[str, Any], cams: dict[str, ImageCamera], pins: list[Pin]
 
 def _solve(problem: Problem) -> tuple[Any, dict[str, Any]]:
     r = problem.solve()
-    sol = problem.solution(r.x, r.iterations)
+    sol = solution_at(problem, r.x, r.iterations)
     assert not sol.undetermined
     return sol, axis_records(problem, sol)["door"]
 
@@ -170,7 +172,7 @@ def test_a_door_seen_shut_leaves_its_axis_undetermined() -> None:
     cams = _cameras(rng, HINGE + [0.3, 0.3, 1.0], 3)
     problem = _problem(_door(HINGE + [0.1, 0.05, 0.0], 0.0, DOOR), cams, _pins(truth, cams, "door", rng))
     r = problem.solve()
-    sol = problem.solution(r.x, r.iterations)
+    sol = solution_at(problem, r.x, r.iterations)
     assert {"door.axis_u", "door.axis_v"} <= set(sol.undetermined)
 
 
@@ -205,7 +207,7 @@ def test_a_drawers_runner_is_found_from_the_drawer_pulled_out(seed: int) -> None
                       cams, _pins(truth, cams, "drawer", rng),
                       options=ProblemOptions(click_sigma_px=CLICK_NOISE_PX, prior_scale=FINAL_PRIOR_SCALE))
     r = problem.solve()
-    sol = problem.solution(r.x, r.iterations)
+    sol = solution_at(problem, r.x, r.iterations)
     assert not sol.undetermined
     rec = axis_records(problem, sol)["drawer"]
     d, s = np.array(rec["direction"]["value"]), np.array(rec["direction"]["sigma"])

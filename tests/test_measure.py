@@ -21,6 +21,7 @@ from vebuild.constants import Z95
 from vebuild.errors import ProjectError
 from vebuild.model.residuals import Pin
 from vebuild.model.scene import model_from_dict
+from vebuild.model.solution import solution_at
 from vebuild.model.solver import FINAL_PRIOR_SCALE, Problem, ProblemOptions
 from vebuild.synthetic import model_scene
 
@@ -38,7 +39,7 @@ def solved_scene(seed: int):
                       [Pin(p["photo"], p["node"], p["handle"], np.asarray(p["uv"])) for p in pins],
                       options=ProblemOptions(click_sigma_px=0.7, prior_scale=FINAL_PRIOR_SCALE))
     r = problem.solve(robust=True)
-    solution = problem.solution(r.x, r.iterations)
+    solution = solution_at(problem, r.x, r.iterations)
     if solution.undetermined:  # `vebuild solve` refuses such a scene (a box too few photos see)
         return None
     solved = S.SolvedModel.from_problem(problem, solution)

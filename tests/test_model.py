@@ -22,6 +22,7 @@ from vebuild.model.drag import DragSession
 from vebuild.model.layout import ParameterLayout
 from vebuild.model.residuals import FD_STEP, EdgeObservation, MarkerObservation, Pin
 from vebuild.model.scene import ModelError, model_from_dict
+from vebuild.model.solution import solution_at
 from vebuild.model.solver import MarkerData, Problem, ProblemOptions
 from vebuild.project import load_project
 from vebuild.synthetic import CLICK_NOISE_PX, ROOM, model_scene
@@ -195,7 +196,7 @@ def test_joints_hold_exactly_and_limits_are_kept() -> None:
     for seed in range(12, 30):
         truth, problem = _with_lid(seed, (0.0, 60.0))
         r = problem.solve()
-        sol = problem.solution(r.x, r.iterations)
+        sol = solution_at(problem, r.x, r.iterations)
         if sol.undetermined:  # a box too few photos see: `vebuild solve` refuses such a scene
             continue
         scenes += 1
@@ -411,7 +412,7 @@ def test_the_variance_factor_counts_the_observations_redundancy_not_the_pulls() 
         problem = Problem(problem.model, problem.cameras, problem.pins,
                           options=ProblemOptions(click_sigma_px=CLICK_NOISE_PX / 2, prior_scale=1e5))
         r = problem.solve()
-        sol = problem.solution(r.x, r.iterations)
+        sol = solution_at(problem, r.x, r.iterations)
         if sol.undetermined:
             continue
         res = problem.evaluate(r.x)[: problem.n_data]

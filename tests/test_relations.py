@@ -19,10 +19,12 @@ from vebuild.console.tables import model_table
 from vebuild.errors import ProjectError
 from vebuild.model.constraints import HARD_SIGMA_M, conflicts, constraint_rank
 from vebuild.model.drag import DragSession
+from vebuild.model.graph import Relation
 from vebuild.model.joints import FlushJoint, RestsOnJoint
-from vebuild.model.relations import Relation, relation_residual, rows_of, world_plane
+from vebuild.model.relations import relation_residual, rows_of, world_plane
 from vebuild.model.residuals import Pin
 from vebuild.model.scene import ModelError, model_from_dict
+from vebuild.model.solution import solution_at
 from vebuild.model.solver import FINAL_PRIOR_SCALE, Problem, ProblemOptions
 from vebuild.project import decode, load_project
 from vebuild.synthetic import CLICK_NOISE_PX, _inside, _project, _rotation, projection_matrix, random_camera
@@ -411,7 +413,7 @@ def solve(start: list[dict[str, Any]], cams: dict[str, ImageCamera], pins: list[
                                                             prior_scale=FINAL_PRIOR_SCALE))
     fit = problem.solve()
     assert fit.converged
-    return m, problem, fit, problem.solution(fit.x, fit.iterations)
+    return m, problem, fit, solution_at(problem, fit.x, fit.iterations)
 
 
 #: A relation holds after a solve to this (metres): a micrometre; the stiff rows' slack is (the

@@ -12,6 +12,7 @@ from scipy.stats import chi2
 from vebuild.camera import ImageCamera
 from vebuild.model.residuals import EdgeObservation, Pin
 from vebuild.model.scene import ModelError, model_from_dict
+from vebuild.model.solution import solution_at
 from vebuild.model.solver import Problem, ProblemOptions
 from vebuild.synthetic import CLICK_NOISE_PX
 
@@ -226,7 +227,7 @@ def solve_room(seed: int, start_off: float):
     model = model_from_dict([node], MARKERS)
     problem = Problem(model, cams, [], edges, options=ProblemOptions(click_sigma_px=CLICK_NOISE_PX, prior_scale=1e5))
     r = problem.solve()
-    sol = problem.solution(r.x, r.iterations)
+    sol = solution_at(problem, r.x, r.iterations)
     sigma = np.sqrt(np.diag(sol.covariance))[problem.layout.model.slice]
     return problem, r.x[problem.layout.model.slice], sigma, sol, len(edges)
 
@@ -281,7 +282,7 @@ def test_a_room_pinned_at_its_corners_moves_its_jamb_hinged_door_with_it() -> No
     model = model_from_dict([start_room, start_leaf], MARKERS)
     problem = Problem(model, cams, pins, [], options=ProblemOptions(click_sigma_px=CLICK_NOISE_PX, prior_scale=1e5))
     r = problem.solve()
-    sol = problem.solution(r.x, r.iterations)
+    sol = solution_at(problem, r.x, r.iterations)
     sigma = dict(zip(problem.names, np.sqrt(np.diag(sol.covariance)), strict=True))
     model.set_vector(problem.model_vector(r.x))
     got = dict(zip(problem.names, r.x, strict=True))

@@ -549,7 +549,7 @@ _PARSERS_BESIDE_ACTIONS = (
     ("analyse", "forensic analyses of a solved project: measurements with uncertainty, check distances (…; --json "
      "OUT writes the figures)", ".analysis.cli", "add_analyse_parsers"),
     ("import", "import an fSpy project (.fspy) as a new project folder, calibrate it and compare fSpy's camera with "
-     "vebuild's", ".actions.fspy_compare", "add_import_parser"),
+     "vebuild's", ".actions.fspy_command", "add_import_parser"),
     ("detect", "detect straight edges, group them by vanishing point and add them to the photos as vanishing "
      "segments (then calibrate)", ".actions.detect", "add_detect_parser"),
     ("scan", "laser scans (E57, PLY, LAS, LAZ): register one from targets; check the model against them",

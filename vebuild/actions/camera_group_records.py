@@ -111,7 +111,8 @@ def apply_group_options(data: dict[str, Any], file: Any, group: list[str], relea
     leaves the user's groups (a group left with one photo is dropped) and gets ``own_camera``.
     """
     from ..errors import VebuildError
-    from ..project.validation import listing, validate
+    from ..project.json_paths import listing
+    from ..project.validation import validate
 
     ids = [p["id"] for p in data["photos"]]
     groups = [dict(g) for g in data.get("camera_groups") or []]

@@ -39,7 +39,7 @@ from ..model.determination import axis_records, too_few_observations
 from ..model.residuals import MarkerObservation
 from ..model.scan_fit import ScanProblem
 from ..model.scene import Model
-from ..model.solution import handle_covariances
+from ..model.solution import handle_covariances, solution_at
 from ..model.solver import FINAL_PRIOR_SCALE, MarkerData, Problem, ProblemOptions, staged_start
 from ..project import Project, decode, json_path, provenance
 from ..project.camera_groups import recalibration_groups
@@ -117,7 +117,7 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
         # else (and always with scans, whose faces are matched on the start) from the staged start.
         direct = None if scans else _attempt(lambda: final_solve(staged=False))
         problem, sol = direct if direct is not None and direct[0].plausible(direct[1]) else final_solve(staged=True)
-        solution = problem.solution(sol.x, sol.iterations)
+        solution = solution_at(problem, sol.x, sol.iterations)
     except VebuildError as e:
         raise VebuildError(f"{project.path}: $.model: {e}") from None
     except (ValueError, np.linalg.LinAlgError) as e:

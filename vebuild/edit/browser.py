@@ -6,8 +6,9 @@ and the image files vebuild reads (:data:`~vebuild.edit.session.PHOTO_SUFFIXES`:
 and camera RAW; hidden ones left out), the files picked, a typed folder to go to. :func:`add_files`
 adds chosen files through the session's :meth:`~vebuild.edit.session.EditSession.add_photo` (the
 same code as the strip's Add photo: the size, SHA-256 and EXIF recorded, the file itself never
-changed), and names each that cannot be added, and why. :func:`draw_browser` draws the browser as
-a modal window of the editor.
+changed), and names each that cannot be added, and why. :class:`PhotoBrowser`, a part of the
+:class:`~vebuild.edit.screen.Editor`, opens the browser, adds what is picked or dropped onto the
+window, and draws the browser as a modal window of the editor.
 """
 
 from __future__ import annotations
@@ -16,16 +17,14 @@ import os
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from imgui_bundle import imgui
 
 from vebuild.errors import VebuildError
 
+from .layout import EditorPart
 from .session import PHOTO_SUFFIXES
-
-if TYPE_CHECKING:
-    from .first_steps import FirstSteps
 
 #: The browser window's title (ImGui's popup id).
 BROWSER_TITLE = "Add photos"
@@ -156,79 +155,120 @@ def add_files(session: Any, paths: Iterable[str | os.PathLike[str]]) -> tuple[li
     return added, problems
 
 
-def draw_browser(ed: FirstSteps) -> None:
-    """The browser as a modal window over the editor (while ``ed.browser`` is set)."""
-    b = ed.browser
-    if b is None:
-        return
-    if not imgui.is_popup_open(BROWSER_TITLE):
-        imgui.open_popup(BROWSER_TITLE)
-    W, H = ed.size()
-    size = (min(BROWSER_SIZE[0], W - 40.0), min(BROWSER_SIZE[1], H - 40.0))
-    imgui.set_next_window_pos((W / 2, H / 2), imgui.Cond_.always, (0.5, 0.5))
-    imgui.set_next_window_size(size, imgui.Cond_.always)
-    opened, keep = imgui.begin_popup_modal(BROWSER_TITLE, True, imgui.WindowFlags_.no_saved_settings
-                                           | imgui.WindowFlags_.no_resize | imgui.WindowFlags_.no_move)
-    if not opened:
-        ed.browser = None
-        return
-    if not keep or ed.browser is None:
-        ed.browser = None
-        imgui.close_current_popup()
-        imgui.end_popup()
-        return
-    pos = imgui.get_window_pos()
-    ed._rects["browser"] = (pos.x, pos.y, pos.x + size[0], pos.y + size[1])
-    if ed.button("Up", tip="the folder that holds this one"):
-        b.up()
-    imgui.same_line()
-    imgui.set_next_item_width(size[0] - 160)
-    entered, b.typed = imgui.input_text("folder##browser", b.typed, imgui.InputTextFlags_.enter_returns_true)
-    ed.rect("browser folder")
-    imgui.set_item_tooltip("type a folder and press Enter to show it")
-    if entered:
-        b.go(b.typed)
-    imgui.push_text_wrap_pos(0.0)
-    imgui.text_disabled(f"photos lie in the project's folder ({ed.session.project.folder}) or a folder inside it; "
-                        f"shown: folders and {endings_text()}. Click files to pick them, then Add.")
-    imgui.pop_text_wrap_pos()
-    dirs, files = b.listing()
-    list_h = max(80.0, size[1] - imgui.get_cursor_pos_y() - 110)
-    imgui.begin_child("browser list", (0, list_h), imgui.ChildFlags_.borders)
-    for d in dirs:
-        if imgui.selectable(f"[folder] {d}/##dir:{d}", False)[0]:
-            b.enter(d)
-            break
-        ed.rect(f"browser:{d}/")
-    else:
-        for f in files:
-            there = b.in_project(f)
-            imgui.begin_disabled(there)
-            if imgui.selectable(f"{f}{'   (in the project)' if there else ''}##file:{f}", f in b.picked)[0]:
-                b.toggle(f)
-            imgui.end_disabled()
-            ed.rect(f"browser:{f}")
-        if not dirs and not files and not b.error:
-            imgui.text_disabled("no folders or photos here")
-    imgui.end_child()
-    if b.error:
+class PhotoBrowser(EditorPart):
+    """The file browser and files dropped onto the window (a part of the Editor)."""
+
+    browser: FileBrowser | None = None
+
+    def open_browser(self) -> None:
+        """The file browser, in the folder of the photo shown (else the project's folder)."""
+        folder = Path(self.session.project.folder)
+        if self.photo is not None:
+            shown = Path(self.session.project.photo_path(self.session.photo(self.photo))).parent
+            if shown.is_dir():
+                folder = shown
+        have = {Path(os.path.abspath(self.session.project.photo_path(p))) for p in self.session.data["photos"]}
+        self.browser = FileBrowser(folder, have)
+        self.help_open = False
+
+    def on_drop(self, paths: list[str]) -> None:
+        """Files dropped onto the window: each added as a photo (a folder: the images in it)."""
+        if self._busy:
+            return
+        self.add_dropped_or_picked(paths)
+
+    def add_dropped_or_picked(self, paths: list[Any], from_browser: bool = False) -> list[str]:
+        """Add files as photos (the session's add_photo); the first added is shown; each file that
+        cannot be added is named, with why, in the messages (and in the browser)."""
+        added, problems = add_files(self.session, paths)
+        for p in problems:
+            self.say(p)
+        if added:
+            self.guard(self.set_photo, added[0])
+        self.browser_problems = problems
+        if self.browser is not None:
+            if from_browser and not problems:
+                self.browser = None
+            else:
+                self.browser.have |= {Path(os.path.abspath(self.session.project.photo_path(self.session.photo(a))))
+                                      for a in added}
+                self.browser.picked.clear()
+                self.browser.error = "; ".join(problems)
+        return added
+
+    def _draw_browser(self) -> None:
+        """The browser as a modal window over the editor (while ``browser`` is set)."""
+        b = self.browser
+        if b is None:
+            return
+        if not imgui.is_popup_open(BROWSER_TITLE):
+            imgui.open_popup(BROWSER_TITLE)
+        W, H = self.size()
+        size = (min(BROWSER_SIZE[0], W - 40.0), min(BROWSER_SIZE[1], H - 40.0))
+        imgui.set_next_window_pos((W / 2, H / 2), imgui.Cond_.always, (0.5, 0.5))
+        imgui.set_next_window_size(size, imgui.Cond_.always)
+        opened, keep = imgui.begin_popup_modal(BROWSER_TITLE, True, imgui.WindowFlags_.no_saved_settings
+                                               | imgui.WindowFlags_.no_resize | imgui.WindowFlags_.no_move)
+        if not opened:
+            self.browser = None
+            return
+        if not keep or self.browser is None:
+            self.browser = None
+            imgui.close_current_popup()
+            imgui.end_popup()
+            return
+        pos = imgui.get_window_pos()
+        self._rects["browser"] = (pos.x, pos.y, pos.x + size[0], pos.y + size[1])
+        if self.button("Up", tip="the folder that holds this one"):
+            b.up()
+        imgui.same_line()
+        imgui.set_next_item_width(size[0] - 160)
+        entered, b.typed = imgui.input_text("folder##browser", b.typed, imgui.InputTextFlags_.enter_returns_true)
+        self.rect("browser folder")
+        imgui.set_item_tooltip("type a folder and press Enter to show it")
+        if entered:
+            b.go(b.typed)
         imgui.push_text_wrap_pos(0.0)
-        imgui.text_colored(imgui.ImVec4(*ERROR_COLOUR), b.error)
+        imgui.text_disabled(f"photos lie in the project's folder ({self.session.project.folder}) or a folder inside "
+                            f"it; shown: folders and {endings_text()}. Click files to pick them, then Add.")
         imgui.pop_text_wrap_pos()
-    n = len(b.picked)
-    imgui.begin_disabled(n == 0)
-    if ed.button(f"Add {n} photo{'s' if n != 1 else ''}###browser add",
-                 tip="add the picked files to the project (their size, SHA-256 and EXIF recorded; the files are not "
-                     "changed)"):
-        ed.add_dropped_or_picked(b.chosen(), from_browser=True)
-    ed.rect("browser add")
-    imgui.end_disabled()
-    imgui.same_line()
-    if ed.button("Pick all##browser", tip="pick every photo shown that the project lacks"):
-        b.pick_all()
-    imgui.same_line()
-    if ed.button("Cancel##browser", tip="close the browser (Esc)"):
-        ed.browser = None
-    if ed.browser is None:
-        imgui.close_current_popup()
-    imgui.end_popup()
+        dirs, files = b.listing()
+        list_h = max(80.0, size[1] - imgui.get_cursor_pos_y() - 110)
+        imgui.begin_child("browser list", (0, list_h), imgui.ChildFlags_.borders)
+        for d in dirs:
+            if imgui.selectable(f"[folder] {d}/##dir:{d}", False)[0]:
+                b.enter(d)
+                break
+            self.rect(f"browser:{d}/")
+        else:
+            for f in files:
+                there = b.in_project(f)
+                imgui.begin_disabled(there)
+                if imgui.selectable(f"{f}{'   (in the project)' if there else ''}##file:{f}", f in b.picked)[0]:
+                    b.toggle(f)
+                imgui.end_disabled()
+                self.rect(f"browser:{f}")
+            if not dirs and not files and not b.error:
+                imgui.text_disabled("no folders or photos here")
+        imgui.end_child()
+        if b.error:
+            imgui.push_text_wrap_pos(0.0)
+            imgui.text_colored(imgui.ImVec4(*ERROR_COLOUR), b.error)
+            imgui.pop_text_wrap_pos()
+        n = len(b.picked)
+        imgui.begin_disabled(n == 0)
+        if self.button(f"Add {n} photo{'s' if n != 1 else ''}###browser add",
+                       tip="add the picked files to the project (their size, SHA-256 and EXIF recorded; the files are "
+                           "not changed)"):
+            self.add_dropped_or_picked(b.chosen(), from_browser=True)
+        self.rect("browser add")
+        imgui.end_disabled()
+        imgui.same_line()
+        if self.button("Pick all##browser", tip="pick every photo shown that the project lacks"):
+            b.pick_all()
+        imgui.same_line()
+        if self.button("Cancel##browser", tip="close the browser (Esc)"):
+            self.browser = None
+        if self.browser is None:
+            imgui.close_current_popup()
+        imgui.end_popup()

@@ -7,17 +7,15 @@ card takes the clicks that land on it."""
 from __future__ import annotations
 
 import math
-import os
-from pathlib import Path
 from typing import Any
 
 import glfw
 from imgui_bundle import imgui
 
-from .browser import FileBrowser, add_files, draw_browser
+from .browser import PhotoBrowser
 from .guide import STEPS, Guide, Step, floor_node, is_new
-from .help import draw_help
-from .layout import EditorPart, inside, u32
+from .help import HelpOverlay
+from .layout import inside, u32
 from .overlay import AXIS_COLOURS
 
 #: The card's width and its gap from the photo view's top-right corner, window pixels.
@@ -36,12 +34,9 @@ STEP_TABS = {"markers": "Calibration", "distance": "Calibration", "calibrate": "
              "floor": "Model", "object": "Model"}
 
 
-class FirstSteps(EditorPart):
+class FirstSteps(HelpOverlay, PhotoBrowser):
     """The guide, the help overlay and the photo browser (a part of the Editor)."""
 
-    help_open = False
-    help_listed: list[str] = []  # noqa: RUF012 (set per window by first_steps_init)
-    browser: FileBrowser | None = None
     guide: Guide | None = None
 
     def first_steps_init(self, handle: Any) -> None:
@@ -66,9 +61,6 @@ class FirstSteps(EditorPart):
 
     # -- commands (the key table's) ---------------------------------------------------------------
 
-    def toggle_help(self) -> None:
-        self.help_open = not self.help_open
-
     def toggle_guide(self) -> None:
         if self.guide is not None:
             self.guide.shown = not self.guide.shown
@@ -76,42 +68,6 @@ class FirstSteps(EditorPart):
     def show_guide(self) -> None:
         if self.guide is not None:
             self.guide.shown = True
-
-    def open_browser(self) -> None:
-        """The file browser, in the folder of the photo shown (else the project's folder)."""
-        folder = Path(self.session.project.folder)
-        if self.photo is not None:
-            shown = Path(self.session.project.photo_path(self.session.photo(self.photo))).parent
-            if shown.is_dir():
-                folder = shown
-        have = {Path(os.path.abspath(self.session.project.photo_path(p))) for p in self.session.data["photos"]}
-        self.browser = FileBrowser(folder, have)
-        self.help_open = False
-
-    def on_drop(self, paths: list[str]) -> None:
-        """Files dropped onto the window: each added as a photo (a folder: the images in it)."""
-        if self._busy:
-            return
-        self.add_dropped_or_picked(paths)
-
-    def add_dropped_or_picked(self, paths: list[Any], from_browser: bool = False) -> list[str]:
-        """Add files as photos (the session's add_photo); the first added is shown; each file that
-        cannot be added is named, with why, in the messages (and in the browser)."""
-        added, problems = add_files(self.session, paths)
-        for p in problems:
-            self.say(p)
-        if added:
-            self.guard(self.set_photo, added[0])
-        self.browser_problems = problems
-        if self.browser is not None:
-            if from_browser and not problems:
-                self.browser = None
-            else:
-                self.browser.have |= {Path(os.path.abspath(self.session.project.photo_path(self.session.photo(a))))
-                                      for a in added}
-                self.browser.picked.clear()
-                self.browser.error = "; ".join(problems)
-        return added
 
     # -- input --------------------------------------------------------------------------------------
 
@@ -145,8 +101,8 @@ class FirstSteps(EditorPart):
 
     def _draw_first_steps(self) -> None:
         self._draw_guide()
-        draw_help(self)
-        draw_browser(self)
+        self._draw_help()
+        self._draw_browser()
 
     def _draw_guide(self) -> None:
         g = self.guide

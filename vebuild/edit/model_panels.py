@@ -1,26 +1,24 @@
 """Parts of the modelling screen's Model tab for relations and rooms: the scene graph's Relations
 section (each relation with its residual now, and a button that removes it), "make equal" over a
 size of the selected primitives, and a room's corners, ceiling, openings, door leaves, window panes
-and joined rooms. Functions of :class:`~vebuild.edit.panels.Panels` (``panels``), which holds what is
-typed into them."""
+and joined rooms. Functions of :class:`~vebuild.edit.panels.Panels` (``p``: its fields,
+:class:`~vebuild.edit.panel_fields.PanelFields`), which holds what is typed into them."""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from imgui_bundle import imgui
 
+from .panel_fields import PanelFields
 from .rooms import OPENING_DEFAULTS
-
-if TYPE_CHECKING:
-    from .panels import Panels
 
 #: The Relations section's height (window pixels): four relations shown, the rest scrolled.
 RELATIONS_H = 96
 OPENING_KINDS = list(OPENING_DEFAULTS)
 
 
-def relations_section(p: Panels) -> None:
+def relations_section(p: PanelFields) -> None:
     """The relations of the model, each with its residual in the model as shown (after the last
     solve, or live during a drag) and a remove button."""
     s = p.ed.session
@@ -49,7 +47,7 @@ def relations_section(p: Panels) -> None:
     imgui.end_child()
 
 
-def equal_section(p: Panels, name: str, prim: dict[str, Any]) -> None:
+def equal_section(p: PanelFields, name: str, prim: dict[str, Any]) -> None:
     """Make equal: the chosen size of this node and of every other selected node that has it share
     one value (six identical chairs)."""
     params = list(prim.get("params", {}))
@@ -71,7 +69,7 @@ def equal_section(p: Panels, name: str, prim: dict[str, Any]) -> None:
         p.ed.guard(p.ed.session.add_equal, [f"{n}.{param}" for n in [name, *others]])
 
 
-def room_section(p: Panels, name: str, prim: dict[str, Any]) -> None:
+def room_section(p: PanelFields, name: str, prim: dict[str, Any]) -> None:
     """A room's corners (a corner, or a step in a rectilinear room, after the chosen corner; one
     removed), its ceiling, and its openings with what each can hold."""
     s = p.ed.session

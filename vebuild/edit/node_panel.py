@@ -1,25 +1,24 @@
 """The modelling screen's properties of the selected node (the Model tab, below the scene graph):
 its sizes, with what is entered of each (FORMAT.md ``hold``), its joint and the joint's values, a
 hinge's or slider's limits, and whether it is solved. Functions of
-:class:`~vebuild.edit.panels.Panels` (``p``), which holds what is typed into them."""
+:class:`~vebuild.edit.panels.Panels` (``p``: its fields,
+:class:`~vebuild.edit.panel_fields.PanelFields`), which holds what is typed into them."""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from imgui_bundle import imgui
 
 from .model_panels import equal_section, room_section
-
-if TYPE_CHECKING:
-    from .panels import Panels
+from .panel_fields import PanelFields
 
 #: The joint types the properties offer (a node's own other type is added to the list).
 JOINT_TYPES = ["rests_on", "flush", "fixed", "hinge", "slider", "free"]
 
 
-def properties_section(p: Panels, model: Any, name: str) -> None:
+def properties_section(p: PanelFields, model: Any, name: str) -> None:
     """The selected node's properties: its sizes (typed, with what is entered of each), its joint
     and the joint's values, a hinge's or slider's limits, and whether it is solved."""
     s = p.ed.session

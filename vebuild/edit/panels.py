@@ -10,7 +10,7 @@ A Keys tab lists the screen's keys from :data:`vebuild.edit.keys.EDITOR_KEYS`.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from imgui_bundle import imgui
@@ -25,10 +25,8 @@ from .marks import AXES, CAMERA_HEIGHT_SIGMA_M, KNOWN_LENGTH_SIGMA_M
 from .model_panels import relations_section
 from .node_panel import properties_section
 from .overlay import AXIS_COLOURS, GREY
+from .panel_fields import PanelFields
 from .session import exif_text, photo_cameras, placement_text
-
-if TYPE_CHECKING:
-    from .screen import Editor
 
 #: The primitives the panel offers, from the registry (each type, then its named variants).
 KINDS = list(primitive_kinds())
@@ -37,36 +35,9 @@ KINDS = list(primitive_kinds())
 MARKER_ROWS = 11
 
 
-class Panels:
+class Panels(PanelFields):
     """The right-hand panels of an :class:`~vebuild.edit.screen.Editor` (``editor.panels``): they
     hold what is being typed into them and draw with the editor's widgets, calling its session."""
-
-    def __init__(self, editor: Editor):
-        self.ed = editor
-        self.new_kind = 1  # box
-        self.new_parent = 0  # (none)
-        self.new_name = ""
-        self.group_name = "group1"
-        self.dist_a, self.dist_b, self.dist_m, self.dist_role = "", "", 1.0, 0
-        self.focus_distance = False  # Ctrl+D: the cursor in the distance row's first field at the next frame
-        self.distance_row_active = False  # a field of the distance row has the cursor (Ctrl+Enter adds)
-        self.add_distance_pending = False  # Ctrl+Enter was pressed in the distance row
-        self.length_axis, self.length_m, self.length_sigma = 2, "", ""  # z; typed as text: checked on Add
-        self.height_m, self.height_sigma = "", ""
-        self.equal_param = 0  # the size "Make equal" shares
-        self.room_corner, self.room_wall, self.room_kind = 0, 0, 0  # a room's corner, wall, opening kind
-        self.param_edits: dict[str, Any] = {}
-        self._select_tab: str | None = None  # a tab to bring forward at the next frame (the first steps')
-        self.camera_ticks: set[str] = set()  # the photos ticked to share one camera
-        self.left_out_text: list[str] = []  # the shown photo's legend of its left-out segments, as drawn
-
-    def forget_edits(self) -> None:
-        """Drop the values typed but not committed (another node was selected)."""
-        self.param_edits.clear()
-
-    def show_tab(self, name: str) -> None:
-        """Bring a tab forward at the next frame."""
-        self._select_tab = name
 
     def prepare_add(self, kind: str, name: str, parent: str | None) -> None:
         """Set the Model tab's kind, name and parent fields (what its Add then adds)."""
@@ -513,24 +484,6 @@ class Panels:
             for k in kids:
                 self._tree_node(model, k)
             imgui.tree_pop()
-
-    def node_doc(self, name: str) -> dict[str, Any] | None:
-        """The project document's node ``name`` (None: no such node)."""
-        for n in (self.ed.session.data.get("model") or {}).get("nodes", []):
-            if n["name"] == name:
-                return n
-        return None
-
-    def float_field(self, label: str, value: float, fmt: str = "%.4f") -> float | None:
-        """An input committed by Enter or by leaving it; returns the committed value or None."""
-        shown = self.param_edits.get(label, value)
-        changed, v = imgui.input_float(label, float(shown), 0.0, 0.0, fmt)
-        self.ed.rect(label)
-        if changed:
-            self.param_edits[label] = float(v)
-        if imgui.is_item_deactivated_after_edit():
-            return self.param_edits.pop(label, float(v))
-        return None
 
     def _residuals(self) -> None:
         if self.ed.solve_error:

@@ -33,6 +33,7 @@ from numpy.typing import NDArray
 
 from vebuild.errors import VebuildError
 from vebuild.model.collide import Footprint, footprints, local_vertices, overlap_depth
+from vebuild.model.joint_file import joint_from_dict
 from vebuild.model.scene import (
     FlushJoint,
     FreeJoint,
@@ -41,7 +42,6 @@ from vebuild.model.scene import (
     Model,
     RestsOnJoint,
     SliderJoint,
-    joint_from_dict,
 )
 from vebuild.model.undo import UndoStack
 

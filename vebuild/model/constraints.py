@@ -20,7 +20,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .relations import Relation, equal_groups, relation_residual, rows_of
+from .graph import Relation
+from .relations import equal_groups, relation_residual, rows_of
 from .scene import Model
 
 Array = NDArray[np.float64]

@@ -5,12 +5,9 @@ which the solve holds by a Gaussian prior (:mod:`.residuals`)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
-
-if TYPE_CHECKING:
-    from .scene import Model
 
 
 class HoldError(ValueError):
@@ -89,32 +86,3 @@ def hold_list(items: Any, known: tuple[str, ...]) -> tuple[tuple[str, ...], tupl
         if isinstance(h, str) or entered[-1].sigma == 0:
             hold.append(name)
     return tuple(hold), tuple(entered)
-
-
-def fill_entered_values(model: Model) -> None:
-    """Each entered value given without ``value`` takes the parameter's value (file units)."""
-    x = model.vector()
-    names, kinds = model.parameter_names(), model.parameter_kinds()
-    index = {nm: j for j, nm in enumerate(names)}
-    for n in model.nodes:
-        if not any(e.value is None for e in n.entered):
-            continue  # (every entry has its value)
-        filled = []
-        for e in n.entered:
-            if e.value is None:
-                j = index[f"{n.name}.{e.name}"]
-                v = float(np.degrees(x[j])) if kinds[j] == "angle" else float(x[j])
-                e = Entered(e.name, e.sigma, v)
-            filled.append(e)
-        n.entered = tuple(filled)
-    # An exact entry (σ 0) given with a value holds the parameter at it.
-    changed = False
-    for n in model.nodes:
-        for e in n.entered:
-            j = index[f"{n.name}.{e.name}"]
-            if e.sigma == 0 and e.value is not None:
-                v = np.radians(e.value) if kinds[j] == "angle" else e.value
-                changed = changed or x[j] != v
-                x[j] = v
-    if changed:
-        model.set_vector(x)

@@ -16,16 +16,13 @@ is ``"node.param"`` (split at the last dot) as the solution's covariance names i
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from .graph import Model, Relation
 from .joints import FlushJoint, ModelError, RestsOnJoint, error_at
-
-if TYPE_CHECKING:
-    from .scene import Model
 
 Array = NDArray[np.float64]
 
@@ -40,45 +37,6 @@ LEVER_M = 1.0
 #: that fail by more than this (metres; radians for angles) do not hold: far above rounding
 #: (1e-12 m on a room), far below anything a photo could show (a pixel is millimetres).
 HOLDS_TOL = 1e-6
-
-
-@dataclass(frozen=True)
-class Relation:
-    """One relation of ``$.model.relations``: ``a``, ``b`` the two faces or edges (``flush``,
-    ``aligned``), ``offset`` metres along b's normal (``flush``), ``params`` (``equal``)."""
-
-    type: str
-    a: str | None
-    b: str | None
-    offset: float = 0.0
-    params: tuple[str, ...] = ()
-    name: str | None = None
-
-    def to_dict(self) -> dict[str, Any]:
-        d: dict[str, Any] = {"type": self.type}
-        if self.type == "equal":
-            d["params"] = list(self.params)
-        else:
-            d["a"], d["b"] = self.a, self.b
-            if self.type == "flush":
-                d["offset"] = self.offset
-        if self.name is not None:
-            d["name"] = self.name
-        return d
-
-    def label(self) -> str:
-        """How messages name it: its ``name``, else its type and what it relates."""
-        if self.name is not None:
-            return self.name
-        if self.type == "equal":
-            return f"equal {', '.join(self.params)}"
-        return f"{self.type} {self.a} – {self.b}"
-
-    def nodes(self) -> tuple[str, ...]:
-        """The nodes it relates, each once."""
-        refs = self.params if self.type == "equal" else (self.a or "", self.b or "")
-        sep = "." if self.type == "equal" else ":"
-        return tuple(dict.fromkeys(r.rsplit(sep, 1)[0] for r in refs))
 
 
 def split_ref(ref: str) -> tuple[str, str]:

@@ -41,10 +41,11 @@ from .camera_blocks import CameraBlocks
 from .column_groups import column_groups
 from .constraints import HARD_SIGMA_M
 from .edge_distance import edge_distances
+from .graph import Relation
 from .layout import ParameterLayout
 from .moved import MovePlan, apply_plan, move_plan
 from .primitives import Primitive
-from .relations import Relation, is_edge
+from .relations import is_edge
 from .relations import rows_of as relation_rows
 from .scene import Model
 

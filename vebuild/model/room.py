@@ -29,6 +29,7 @@ from numpy.typing import ArrayLike, NDArray
 from .mesh import Patch
 from .primitives import MIN_SIZE_M, Frame, Primitive
 from .room_checks import OPENING_KINDS, Opening, RoomError, check_room, structure
+from .room_mesh import room_patches
 
 __all__ = ["OPENING_KINDS", "Opening", "Room", "RoomError", "corner_param_names"]
 
@@ -469,8 +470,6 @@ class Room(Primitive):
     # -- mesh ----------------------------------------------------------------------------------
 
     def _patches(self, p: Array, segments: int) -> list[Patch | None]:
-        from .room_mesh import room_patches
-
         return room_patches(self, p)
 
     # -- file form and value semantics ---------------------------------------------------------

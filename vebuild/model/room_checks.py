@@ -11,15 +11,12 @@ from __future__ import annotations
 import re
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
 from .primitives import MIN_SIZE_M
-
-if TYPE_CHECKING:
-    from .room import Room
 
 Array = NDArray[np.float64]
 
@@ -55,6 +52,23 @@ class RoomError(ValueError):
     def __init__(self, message: str, at: str = "params") -> None:
         super().__init__(message)
         self.at = at
+
+
+class RoomShape(Protocol):
+    """What the checks here and the mesh (:mod:`.room_mesh`) read of a room: its structure, its
+    params and its geometry. :class:`vebuild.model.room.Room` is one."""
+
+    @property
+    def PARAMS(self) -> tuple[str, ...]: ...  # noqa: N802 (the primitives' name for it)
+    @property
+    def n_corners(self) -> int: ...
+    @property
+    def ceiling(self) -> bool: ...
+    @property
+    def openings(self) -> tuple[Opening, ...]: ...
+    def param(self, name: str) -> float: ...
+    def corners(self, params: Any = None) -> Array: ...
+    def walls(self, params: Any = None) -> dict[str, Array]: ...
 
 
 def _segments_cross(a: Array, b: Array, c: Array, d: Array) -> bool:
@@ -94,10 +108,9 @@ def _self_intersection(c: Array) -> tuple[int, int] | None:
     return None
 
 
-def check_room(room: Room) -> None:
+def check_room(room: RoomShape) -> None:
     """RoomError (its field named) where the room as built cannot stand: walls too short, a
     self-intersecting or clockwise floor, walls too thick, openings outside their walls or overlapping."""
-    p = room._p
     n = room.n_corners
     c = room.corners()
     corner_at = "params"
@@ -125,7 +138,7 @@ def check_room(room: Room) -> None:
     h = room.param("height")
     spans: dict[int, list[tuple[float, float, str]]] = {}
     for o in room.openings:
-        off, width, oh, sill = (float(v) for v in room._opening_geometry(p, o.name)[1:])
+        off, width, oh, sill = (room.param(f"{o.name}_{s}") for s in ("offset", "width", "height", "sill"))
         lo = max(0.0, float(w["outer_u"][o.wall, 0]))
         hi = min(float(w["length"][o.wall]), float(w["outer_u"][o.wall, 1]))
         if width > hi - lo:

@@ -9,34 +9,20 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from .joints import HingeJoint, Joint, ModelError, error_at, pose_to_dict, translation
+from .graph import Model
+from .joints import HingeJoint, Joint, ModelError, error_at, pose_to_dict, room_of, translation
 from .primitives import Primitive
 from .room import Room
-
-if TYPE_CHECKING:
-    from .scene import Model
 
 Array = NDArray[np.float64]
 
 JAMB_SIDES = ("start", "end")
 _HALF_TURN = np.diag([-1.0, -1.0, 1.0, 1.0])  # a half turn about z: x and y reversed, z kept
-
-
-def _room(parent: Primitive | None, what: str) -> Room:
-    if not isinstance(parent, Room):
-        kind = "the world" if parent is None else f"a {parent.TYPE}"
-        raise ModelError(f"{what} needs a room as its parent, not {kind}")
-    return parent
-
-
-def jamb_frame_of(parent: Primitive | None, parent_params: Array | None, opening: str, side: str) -> Array:
-    """room_from_jamb of the parent room at its current params."""
-    return _room(parent, "a hinge on a jamb").jamb_frame(opening, side, parent_params)
 
 
 def _outer_opening_frame(room: Room, opening: str, params: Array | None) -> Array:
@@ -54,7 +40,7 @@ class OpeningJoint(Joint):
     opening: str = ""
 
     def transform(self, q, parent, parent_params, node, node_params):
-        return _room(parent, "an opening joint").opening_frame(self.opening, parent_params) @ self.base
+        return room_of(parent, "an opening joint").opening_frame(self.opening, parent_params) @ self.base
 
     def to_dict(self):
         return {"type": "opening", "opening": self.opening, **pose_to_dict(self.base)}
@@ -70,8 +56,8 @@ class ThroughJoint(Joint):
     own_opening: str = ""
 
     def transform(self, q, parent, parent_params, node, node_params):
-        mine = _room(node, "a through joint's node")
-        theirs = _outer_opening_frame(_room(parent, "a through joint"), self.opening, parent_params)
+        mine = room_of(node, "a through joint's node")
+        theirs = _outer_opening_frame(room_of(parent, "a through joint"), self.opening, parent_params)
         return theirs @ _HALF_TURN @ np.linalg.inv(_outer_opening_frame(mine, self.own_opening, node_params))
 
     def to_dict(self):

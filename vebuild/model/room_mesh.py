@@ -12,15 +12,11 @@ Layer 1 (DESIGN.md): numpy only; no GL, no file I/O.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 from numpy.typing import NDArray
 
 from .mesh import Patch, polygon_patch
-
-if TYPE_CHECKING:
-    from .room import Room
+from .room_checks import RoomShape
 
 Array = NDArray[np.float64]
 
@@ -140,7 +136,7 @@ def _reveal(name: str, a3: Array, d: Array, n: Array, t: float, width: float, z0
                  np.array([2 * (width + oh), t]), np.array(tris, dtype=np.intp))
 
 
-def room_patches(room: Room, p: Array) -> list[Patch | None]:
+def room_patches(room: RoomShape, p: Array) -> list[Patch | None]:
     """Every logical face of ``room`` at params p, in the order floor, ceiling, wall{i}, outer{i},
     wtop{i}, then each opening's reveal."""
     w = room.walls(p)

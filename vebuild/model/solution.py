@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, cast
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -21,9 +21,7 @@ from .inverse import inverse_by_cameras as _inverse_by_cameras
 from .inverse import outside_cameras_inverse as _outside_cameras_inverse
 from .moved import apply_plan
 from .residuals import FD_STEP
-
-if TYPE_CHECKING:
-    from .solver import Problem
+from .solver import Problem
 
 Array = NDArray[np.float64]
 

@@ -38,7 +38,6 @@ from .constraints import hard_relations, restore, tie_equal
 from .layout import ParameterLayout
 from .residuals import EdgeObservation, MarkerObservation, Pin, Residuals
 from .scene import Model
-from .solution import Solution, solution_at
 
 Array = NDArray[np.float64]
 
@@ -283,10 +282,6 @@ class Problem(Residuals):
         for node, e in zip(nodes, norms[: len(nodes)].tolist(), strict=True):
             of_node.setdefault(node, []).append(e)
         return all(float(np.median(v)) <= PLAUSIBLE_NODE_SIGMAS for v in of_node.values())
-
-    def solution(self, x: Array, iterations: int = 0) -> Solution:
-        """What the solve found at x (:func:`.solution.solution_at`)."""
-        return solution_at(self, x, iterations)
 
 
 #: A solve from the first guess is kept (:meth:`Problem.plausible`) where the median of its

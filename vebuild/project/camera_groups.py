@@ -14,7 +14,7 @@ import numpy as np
 
 from ..errors import ProjectError
 from ..model.camera_blocks import SharedIntrinsics
-from .validation import listing
+from .json_paths import listing
 
 
 def check_camera_groups(data: dict[str, Any], file: Any) -> None:

@@ -1,7 +1,8 @@
 """The cameras of the project document (layer 3; re-exported by :mod:`vebuild.project.decode`,
 the one decoder of the document, whose errors these share): the calibration stage's
 (:func:`cameras_from_calibration`, a re-calibration's priors), the final ones later stages use
-(:func:`cameras`, :func:`camera_records`: re-calibrated where the solution has them), one photo's
+(:func:`cameras`: re-calibrated where the solution has them, as
+:func:`~vebuild.project.camera_records.camera_records` says), one photo's
 (:func:`photo_camera`) and the named evidence views' (:func:`view_camera`, :func:`find_view`).
 Each is checked as it is decoded: K a pinhole matrix, R a rotation, k1 within the division
 model's bounds; errors name the file and the JSON path."""
@@ -17,8 +18,9 @@ from numpy.typing import NDArray
 
 from ..camera import ImageCamera, fov_to_focal, intrinsic_matrix, look_rotation
 from ..errors import ProjectError, VebuildError
+from .camera_records import recalibrated_cameras
 from .file import Project
-from .validation import json_path
+from .json_paths import json_path
 
 Array = NDArray[np.float64]
 
@@ -62,29 +64,12 @@ def check_calibration_stage(project: Project) -> None:
                                "calibrate` again (then `vebuild solve --recalibrate`)")
 
 
-def camera_records(data: Mapping[str, Any]) -> dict[str, Mapping[str, Any]]:
-    """The camera records later stages use, by photo id: the calibration's
-    (``calibration.cameras``), each replaced by the re-calibrated one of the solution
-    (``model_solution.cameras``, written by ``vebuild solve --recalibrate``) where it has one (a
-    re-calibrated camera of a photo whose calibrated camera was deleted is not used)."""
-    out = dict((data.get("calibration") or {}).get("cameras") or {})
-    out.update(_recalibrated_cameras(data, out))
-    return out
-
-
-def _recalibrated_cameras(data: Mapping[str, Any], calibrated: Mapping[str, Any]) -> dict[str, Any]:
-    """``model_solution.cameras`` of the photos the calibration still has a camera for: a photo
-    whose calibrated camera was deleted has no camera (its re-calibration was made from it)."""
-    recal = (data.get("model_solution") or {}).get("cameras") or {}
-    return {pid: rec for pid, rec in recal.items() if pid in calibrated}
-
-
 def cameras(project: Project) -> dict[str, ImageCamera]:
     """The cameras texturing, rendering, analyses and exports use (the final stage's): each photo's
     re-calibrated camera where the solution has one (``model_solution.cameras``), else its
     calibrated one; checked as :func:`cameras_from_calibration` checks them."""
     out = cameras_from_calibration(project)
-    recal = _recalibrated_cameras(project.data, project.data["calibration"]["cameras"])
+    recal = recalibrated_cameras(project.data, project.data["calibration"]["cameras"])
     out.update(_cameras_from_records(project, recal, "model_solution"))
     return out
 

@@ -52,12 +52,12 @@ from ..lighting import (
 )
 from ..model.residuals import EdgeObservation, Pin
 from ..model.scene import Model, ModelError, model_from_dict
+from .camera_records import camera_records  # noqa: F401  (re-exported, as the cameras are)
 from .cameras import (  # noqa: F401  (re-exported: decode is where every part of the document is decoded)
     DEFAULT_FOV_DEG,
     FRAME_35MM_WIDTH_MM,
     MAX_ABS_K1,
     ROTATION_TOLERANCE,
-    camera_records,
     cameras,
     cameras_from_calibration,
     check_calibration_stage,

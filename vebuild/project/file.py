@@ -23,17 +23,11 @@ from ..calibration.priors import PRINCIPAL_POINT_SIGMA_REL
 from ..errors import ProjectError
 from ..lighting import AS_PHOTOGRAPHED
 from .images import MAX_IMAGE_PIXELS, decoded_size, open_image, read_exif, sha256_bytes, sha256_file
+from .json_paths import json_path, listing
 from .pixels import rgb_image
+from .provenance import audit_entry, current_command, document_sha256
 from .schema_match import schema
-from .validation import (
-    FORMAT,
-    VERSION,
-    check_relative_path,
-    json_path,
-    listing,
-    parse_document,
-    validate,
-)
+from .validation import FORMAT, VERSION, check_relative_path, parse_document, validate
 
 __all__ = [  # what other modules take from here; validation and image files have modules of their own
     "AS_PHOTOGRAPHED", "DEFAULT_SETTINGS", "FORMAT", "MAX_IMAGE_PIXELS", "RESULT_KEYS", "VERSION", "Project",
@@ -133,8 +127,6 @@ def load_project(path: str | os.PathLike[str], *, verify_photos: bool = True) ->
         raise ProjectError(path, "", f"cannot read the project file: {e.strerror}") from None
     data = parse_document(text, path)
     validate(data, path)
-    from .provenance import document_sha256
-
     project = Project(path, data, document_sha256(data))
     if verify_photos:
         for i, photo in enumerate(data["photos"]):
@@ -193,8 +185,6 @@ def _append_audit(path: Path, data: dict[str, Any], before: str | None) -> str |
     """Append the running command's audit entry (vebuild.project.provenance) to ``data`` when a
     command is running (``vebuild.cli``) and this is the project file itself, not its autosave
     side file, and the document changed; the document's hash after, or None."""
-    from .provenance import audit_entry, current_command, document_sha256
-
     running = current_command()
     if running is None or path.name.endswith(".autosave"):
         return None

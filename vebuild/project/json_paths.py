@@ -98,3 +98,12 @@ def json_key(name: str) -> str:
     if re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name):
         return f".{name}"
     return f"[{json.dumps(name, ensure_ascii=False)}]"
+
+
+def listing(names: Any, limit: int = 10) -> str:
+    """Names quoted for an error message: ``'a', 'b' and 3 more`` (``none`` where there are none)."""
+    names = list(names)
+    if not names:
+        return "none"
+    shown = ", ".join(repr(n) for n in names[:limit])
+    return shown + (f" and {len(names) - limit} more" if len(names) > limit else "")

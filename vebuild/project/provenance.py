@@ -58,6 +58,8 @@ from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from .camera_records import camera_records
+
 __all__ = ["READS", "STAGES", "TITLES", "AuditProblem", "Stale", "audit_entry", "command_context", "current_command",
            "document_sha256", "inputs", "inputs_sha256", "stage_hashes", "stale", "stale_line", "stale_record",
            "stale_warnings", "stamp", "verify_audit"]
@@ -157,8 +159,6 @@ def inputs(data: Mapping[str, Any], stage: str) -> dict[str, str]:
             out["scans/use_in_solve"] = _sha(used)
         return out
     if stage == "textures":
-        from .decode import camera_records
-
         out = _model_hashes(data)
         out["model_solution"] = _sha(_without(data.get("model_solution"), "computed_from"))
         for pid, rec in camera_records(data).items():

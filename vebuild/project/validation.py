@@ -20,8 +20,9 @@ from typing import TYPE_CHECKING, Any
 from .. import __version__
 from ..errors import ProjectError
 from ..lighting import AS_PHOTOGRAPHED
+from .camera_groups import check_camera_groups
 from .images import MAX_IMAGE_PIXELS
-from .json_paths import field_words, json_key, json_path
+from .json_paths import field_words, json_key, json_path, listing
 from .schema_match import new_items, schema_errors
 
 if TYPE_CHECKING:
@@ -192,8 +193,6 @@ def _check_semantics(data: dict[str, Any], file: Any) -> None:
     for i, hyp in enumerate(data.get("hypotheses", [])):
         for name, joint in hyp["joints"].items():
             _check_joint(joint, file, f"$.hypotheses[{i}].joints{json_key(name)}")
-    from .camera_groups import check_camera_groups  # beside validation, which it lists with
-
     check_camera_groups(data, file)
     cameras = (data.get("calibration") or {}).get("cameras") or {}
     for pid in cameras:
@@ -490,14 +489,6 @@ def _describe(value: Any) -> str:
     if isinstance(value, dict):
         return "an object {...}"
     return f"a {type(value).__name__}"
-
-
-def listing(names: Any, limit: int = 10) -> str:
-    names = list(names)
-    if not names:
-        return "none"
-    shown = ", ".join(repr(n) for n in names[:limit])
-    return shown + (f" and {len(names) - limit} more" if len(names) > limit else "")
 
 
 class _JsonFault(Exception):

@@ -8,8 +8,6 @@ view of a photo's texels is :mod:`vebuild.texture.gpu_exposure`.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import moderngl
 import numpy as np
 from numpy.typing import NDArray
@@ -20,6 +18,7 @@ from vebuild.gl.shaders import set_uniforms
 from vebuild.model.occlusion import Rooms
 from vebuild.texture import BEST_WEIGHT_SCALE, DEPTH_TOLERANCE, pre_pass_erosion
 from vebuild.texture.gpu_exposure import ExposureView
+from vebuild.texture.gpu_page import Page
 from vebuild.texture.gpu_pyramid import PhotoPyramid, fullscreen_vao
 from vebuild.texture.id_edges import EDGE_SHRINK, edge_lines
 from vebuild.texture.layout import SceneMesh
@@ -29,17 +28,6 @@ from vebuild.texture.timings import Timings
 from vebuild.texture.visibility import FaceQueries, face_points, faces_in_view, faces_not_hidden
 
 Array = NDArray[np.float64]
-
-
-@dataclass
-class Page:
-    """One atlas page's targets: the sums (MODE 0's four) and the best weight (MODE 2)."""
-
-    size: tuple[int, int]
-    acc: list[moderngl.Texture]
-    fbo: moderngl.Framebuffer
-    best: moderngl.Texture | None  # None once the photos are all in (release_best_weights)
-    best_fbo: moderngl.Framebuffer | None
 
 
 def _mat3(M: Array) -> NDArray[np.float32]:

@@ -11,10 +11,8 @@ from numpy.typing import NDArray
 
 from vebuild.camera import ImageCamera
 from vebuild.gl.shaders import set_uniforms
+from vebuild.texture.gpu_page import Page
 from vebuild.texture.layout import SceneMesh
-
-if TYPE_CHECKING:
-    from vebuild.texture.gpu import Page
 
 #: Exposure statistics are taken on the atlas reduced this much per side.
 STATS_SCALE = 0.25

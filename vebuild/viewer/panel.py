@@ -5,20 +5,22 @@ HYPOTHESIS banner, and the evidence markers and recorded trajectories drawn over
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import glfw
+import moderngl
 import numpy as np
 
 from vebuild.camera import project, world_to_camera
+from vebuild.gl.app import KeyTable
 from vebuild.project import Project
 from vebuild.project.hypotheses import LABEL
 from vebuild.project.provenance import stale, stale_line
 from vebuild.viewer.layout import PanelLayout, fit_text, panel_layout, screen_px_per_mm
-
-if TYPE_CHECKING:
-    from vebuild.viewer.app import Viewer
+from vebuild.viewer.presentation import Presentation, PresentedViewer
+from vebuild.viewer.walk import Walker
 
 #: The key sheet's text is made no smaller than this (window coordinates) to fit.
 MIN_KEYS_TEXT_PX = 8.0
@@ -31,11 +33,45 @@ def stale_lines(project: Project) -> list[str]:
     return [line, *(s.message for s in found)] if line else []
 
 
+class PanelViewer(PresentedViewer, Protocol):
+    """What the panel reads and calls of the walk-through it belongs to
+    (:class:`vebuild.viewer.app.Viewer` is one)."""
+
+    project: Project
+    ctx: moderngl.Context
+    keys: KeyTable
+    gui: Any
+    walker: Walker
+    messages: list[str]
+    selection: str | None
+    photo: str | None
+    photo_opacity: float
+    fps: float
+    _trajectory_cache: list[tuple[Any, Any]]
+
+    @property
+    def lighting(self) -> str: ...
+    @property
+    def presentation(self) -> Presentation: ...
+    def viewport(self) -> tuple[int, int, int, int]: ...
+    def trajectories(self) -> list[Any]: ...
+    def grid_unit(self) -> str: ...
+    def describe(self, node: str) -> str: ...
+    def draw_floor(self, imgui: Any) -> None: ...
+    def draw_measures(self, imgui: Any) -> None: ...
+    def jump_to_view(self, name: str) -> None: ...
+    def save_view(self, name: str) -> None: ...
+    def load_hypothesis(self, name: str) -> None: ...
+    def save_hypothesis(self, name: str) -> None: ...
+    def reset(self, everything: bool = False) -> None: ...
+    def guard(self, fn: Callable[..., Any], *args: Any, **kw: Any) -> Any: ...
+
+
 class ViewerPanel:
     """The panel of a :class:`~vebuild.viewer.app.Viewer` (``viewer.panel``): it holds the names
     being typed into it and draws with the viewer's state, calling its commands."""
 
-    def __init__(self, viewer: Viewer):
+    def __init__(self, viewer: PanelViewer):
         self.v = viewer
         self._new_view_name = ""
         self._new_hypothesis_name = ""

@@ -16,14 +16,13 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 
 from vebuild.camera import ImageCamera, world_to_camera
-
-if TYPE_CHECKING:
-    from vebuild.viewer.app import Viewer
+from vebuild.gl.window import Window
+from vebuild.render.renderer import Renderer
 
 #: The lengths a scale bar may have (metres: 1, 2, 2.5 and 5 cm to 50 m): the longest that fits in
 #: SCALE_BAR_MAX_EM text heights is drawn.
@@ -69,10 +68,29 @@ def floor_point(cam: ImageCamera, u: float, v: float) -> Any:
     return np.asarray(cam.C, float) - float(cam.C[2]) / float(d[2]) * d
 
 
+class PresentedViewer(Protocol):
+    """What presentation mode reads and sets of the walk-through it shows
+    (:class:`vebuild.viewer.app.Viewer` is one)."""
+
+    window: Window
+    show_panel: bool
+    _renderer: Renderer | None
+
+    @property
+    def has_model(self) -> bool: ...
+    @property
+    def renderer(self) -> Renderer: ...
+    @property
+    def stereo(self) -> str | None: ...
+    def camera(self) -> ImageCamera: ...
+    def banner(self) -> str | None: ...
+    def say(self, text: str) -> None: ...
+
+
 class Presentation:
     """Presentation mode of a :class:`~vebuild.viewer.app.Viewer` (``viewer.presentation``)."""
 
-    def __init__(self, viewer: Viewer):
+    def __init__(self, viewer: PresentedViewer):
         self.v = viewer
         self.on = False
         self.fullscreen = False
