@@ -27,6 +27,11 @@ Z_RMS_RANGE = (0.25, 2.5)
 Z_MAX = 4.5
 
 
+#: Every test here shares `built`: they run in one pytest-xdist worker (`--dist loadgroup`,
+#: pyproject's addopts), so that it is computed once, not once per worker.
+pytestmark = pytest.mark.xdist_group("house.built")
+
+
 @pytest.fixture(scope="module")
 def built(tmp_path_factory: pytest.TempPathFactory) -> tuple[House, Path]:
     from vebuild.bench import house_scene
