@@ -25,6 +25,11 @@ MAX_FOCAL_MISSES = 1
 FOCAL_MEDIAN_MAX = 0.0018 * (4000 / WIDTH) * 3
 
 
+#: The tests that share `figures` run in one pytest-xdist worker (`--dist loadgroup`, pyproject's
+#: addopts), so that it is computed once, not once per worker.
+SHARES_FIGURES = pytest.mark.xdist_group("bench_detect.figures")
+
+
 @pytest.fixture(scope="module")
 def figures(tmp_path_factory):
     mp = pytest.MonkeyPatch()
@@ -35,6 +40,7 @@ def figures(tmp_path_factory):
         mp.undo()
 
 
+@SHARES_FIGURES
 def test_the_figures_have_their_structure(figures):
     f = figures
     assert (f["photos"], f["width"], f["height"]) == (N, WIDTH, HEIGHT)
@@ -58,6 +64,7 @@ def test_the_figures_have_their_structure(figures):
     assert "vp_within_3deg_share_all" in text and "vps_shown" in text and "vp_within_3deg_share_calibrated" in text
 
 
+@SHARES_FIGURES
 def test_every_shown_direction_within_the_bound_and_the_focal_intervals_honest(figures):
     f = figures
     rows = f["per_photo"]

@@ -15,6 +15,10 @@ from vebuild.bench import BENCHES
 from vebuild.bench import render as bench
 from vebuild.gl import headless_context
 
+#: The tests that share `figures` run in one pytest-xdist worker (`--dist loadgroup`, pyproject's
+#: addopts), so that it is computed once, not once per worker.
+SHARES_FIGURES = pytest.mark.xdist_group("bench_render.figures")
+
 
 @pytest.fixture(scope="module")
 def figures() -> dict[str, Any]:
@@ -31,6 +35,7 @@ def test_registered() -> None:
     assert BENCHES["render"] is bench
 
 
+@SHARES_FIGURES
 def test_quick_figures(figures: dict[str, Any]) -> None:
     json.dumps(figures)  # what --json writes
     assert (figures["width"], figures["height"]) == (1280, 720)
@@ -57,6 +62,7 @@ def test_quick_figures(figures: dict[str, Any]) -> None:
         assert isinstance(figures["goal_speedup_met"], bool)
 
 
+@SHARES_FIGURES
 def test_same_image_as_the_reference(figures: dict[str, Any]) -> None:
     """Where pyrender ran, it drew the same picture (same camera, triangles and textures)."""
     for scene in bench.SCENES:
@@ -68,6 +74,7 @@ def test_same_image_as_the_reference(figures: dict[str, Any]) -> None:
                    - figures[f"{scene}_unlit_mono_pyrender_foreground_share"]) < 0.01
 
 
+@SHARES_FIGURES
 def test_table(figures: dict[str, Any]) -> None:
     text = bench.table(figures)
     assert "frame loop" in text and "200 primitives" in text and "goal" in text
@@ -81,6 +88,7 @@ def test_table(figures: dict[str, Any]) -> None:
     assert bench.PYRENDER_MISSING in text and "not measured" in text
 
 
+@SHARES_FIGURES
 def test_vebuild_context_works_afterwards(figures: dict[str, Any]) -> None:
     """The bench leaves vebuild's own context current (pyrender's is gone), so GL work after it runs."""
     ctx = headless_context()
@@ -92,6 +100,7 @@ def test_vebuild_context_works_afterwards(figures: dict[str, Any]) -> None:
     fbo.release()
 
 
+@SHARES_FIGURES
 def test_frame_loop_beside_the_floor(figures: dict[str, Any]) -> None:
     """Each frame-loop setting's fps and its share of the floor program's, with the goals judged."""
     for name in bench.FRAME_SETTINGS.values():

@@ -41,6 +41,11 @@ def _binomial_bounds(n: int, p: float, tail: float) -> tuple[float, float]:
 TAIL = 0.001
 
 
+#: The tests that share `quick` run in one pytest-xdist worker (`--dist loadgroup`, pyproject's
+#: addopts), so that it is computed once, not once per worker.
+SHARES_QUICK = pytest.mark.xdist_group("bench_single_view.quick")
+
+
 @pytest.fixture(scope="module")
 def quick(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
     """The quick bench, run as a user runs it: `vebuild bench single-view --quick --json OUT`."""
@@ -53,6 +58,7 @@ def quick(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
     return doc
 
 
+@SHARES_QUICK
 def test_the_quick_bench_gives_its_figures_with_their_units(quick: dict[str, Any]) -> None:
     # Counts: 60 photos, some 6 measurements each, at least the 300 the goal is stated over.
     assert quick["photos"] == sv.QUICK_PHOTOS
@@ -75,6 +81,7 @@ def test_the_quick_bench_gives_its_figures_with_their_units(quick: dict[str, Any
     assert quick["goals"] == sv.GOALS and isinstance(quick["goals_met"], bool)
 
 
+@SHARES_QUICK
 def test_the_intervals_hold_the_truth_as_often_as_they_claim(quick: dict[str, Any]) -> None:
     """Inside the 95 % intervals (two-sided) within the binomial's 0.1 % tails for each count: for
     the quick run's ~180 heights and ~180 distances 89.4–99.4 %, for ~55 of each of the wall, raised

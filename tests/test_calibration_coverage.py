@@ -48,6 +48,11 @@ def _calibrate(ph: SyntheticPhoto, **kw):
                            exif_focal=_exif(ph), **kw)
 
 
+#: The tests that share `realistic_batch` run in one pytest-xdist worker (`--dist loadgroup`, pyproject's
+#: addopts), so that it is computed once, not once per worker.
+SHARES_REALISTIC_BATCH = pytest.mark.xdist_group("calibration_coverage.realistic_batch")
+
+
 @pytest.fixture(scope="module")
 def realistic_batch():
     """N_COVERAGE realistic photos, a quarter of each kind, with long edges marked as polylines
@@ -66,6 +71,7 @@ def realistic_batch():
     return out, refused
 
 
+@SHARES_REALISTIC_BATCH
 def test_realistic_photos_are_never_refused(realistic_batch) -> None:
     batch, refused = realistic_batch
     # Every such photo has EXIF, so its segments, however weak, always give something. (What the
@@ -73,6 +79,7 @@ def test_realistic_photos_are_never_refused(realistic_batch) -> None:
     assert refused == []
 
 
+@SHARES_REALISTIC_BATCH
 def test_focal_lengths_inside_their_95_percent_intervals(realistic_batch) -> None:
     batch, _ = realistic_batch
     z = np.array([(cal.f - ph.K[0, 0]) / cal.f_sigma for ph, cal in batch])
@@ -84,6 +91,7 @@ def test_focal_lengths_inside_their_95_percent_intervals(realistic_batch) -> Non
         assert 0.89 <= np.mean(np.abs(zk) < 1.959964) <= 1.0, kind
 
 
+@SHARES_REALISTIC_BATCH
 def test_principal_points_inside_their_95_percent_ellipses(realistic_batch) -> None:
     batch, _ = realistic_batch
     m2 = []
@@ -95,6 +103,7 @@ def test_principal_points_inside_their_95_percent_ellipses(realistic_batch) -> N
     assert np.max(m2) < UNCERTAINTY_BOUND**2
 
 
+@SHARES_REALISTIC_BATCH
 def test_three_vanishing_points_give_f_within_one_percent(realistic_batch) -> None:
     """Tilted views: f from the segments within 1 % (median; measured 0.3–0.4 %), despite the
     distortion, the principal point off centre and EXIF 4 % off."""
@@ -104,6 +113,7 @@ def test_three_vanishing_points_give_f_within_one_percent(realistic_batch) -> No
     assert np.percentile(err, 75) < 0.01
 
 
+@SHARES_REALISTIC_BATCH
 def test_frontal_and_corridor_views_take_f_from_exif_and_say_so(realistic_batch) -> None:
     batch, _ = realistic_batch
     pct = f"{100 * REAL_EXIF_FOCAL_ERROR_REL:.1f} %"
@@ -116,6 +126,7 @@ def test_frontal_and_corridor_views_take_f_from_exif_and_say_so(realistic_batch)
     assert modes.count("1vp") >= 0.6 * len(modes)
 
 
+@SHARES_REALISTIC_BATCH
 def test_exif_is_a_cross_check_only_where_the_segments_are_surer(realistic_batch) -> None:
     """No silent blending: where EXIF is not combined the reason says so and how far it differs;
     where it is, the reason says both 1σ. EXIF the segments contradict beyond EXIF_DISAGREEMENT_SIGMAS

@@ -120,7 +120,13 @@ SEEDS = range(240)
 Z_BINOMIAL = 2.5
 
 
+#: The tests that share `coverage` run in one pytest-xdist worker (`--dist loadgroup`, pyproject's
+#: addopts), so that it is computed once, not once per worker.
+SHARES_COVERAGE = pytest.mark.xdist_group("entered.coverage")
+
+
 @pytest.mark.parametrize("what", ["width", "diagonal"])
+@SHARES_COVERAGE
 def test_entered_values_cover_the_truth(what: str, coverage: dict[str, np.ndarray]) -> None:
     """Measured at this commit (175 usable scenes of the 240 seeds; bounds 90.9–99.1 %): the width
     97.1 %, the diagonal 94.9 %."""

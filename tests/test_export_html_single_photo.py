@@ -38,6 +38,11 @@ READY = f"(function(){{var s={STATE};return s.errors.length>0||(s.stage==='runni
 BARE = "document.getElementById('panel').style.display='none';document.getElementById('labels').style.display='none';1"
 
 
+#: Every test here shares `page`: they run in one pytest-xdist worker (`--dist loadgroup`,
+#: pyproject's addopts), so that it is computed once, not once per worker.
+pytestmark = pytest.mark.xdist_group("export_html_single_photo.page")
+
+
 @pytest.fixture(scope="module")
 def page(tmp_path_factory):
     if CHROMIUM is None:

@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import shutil
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -27,16 +28,34 @@ Z_RMS_RANGE = (0.25, 2.5)
 Z_MAX = 4.5
 
 
+#: Every test here shares `built`: they run in one pytest-xdist worker (`--dist loadgroup`,
+#: pyproject's addopts), so that it is computed once, not once per worker.
+pytestmark = pytest.mark.xdist_group("house.built")
+
+
 @pytest.fixture(scope="module")
 def built(tmp_path_factory: pytest.TempPathFactory) -> tuple[House, Path]:
+    """The house as `vebuild bench house` builds it, and the very house its photos were rendered
+    from: the builder's own draw is kept (drawing it a second time with the same seed took as long
+    as rendering and writing it all), with the arguments it was drawn with checked to be SPEC's."""
     from vebuild.bench import house_scene
-    from vebuild.synthetic_house import house_scene as draw
+
+    draw, drawn = house_scene.house_scene, []
+
+    def kept(rng: np.random.Generator, *args: Any, **kwargs: Any) -> House:
+        assert rng.bit_generator.state == np.random.default_rng(SEED).bit_generator.state
+        assert args == (SPEC["rows"], SPEC["cols"], SPEC["per_room"], SPEC["width"], SPEC["height"])
+        assert kwargs == {"furniture": "few"}
+        drawn.append(draw(rng, *args, **kwargs))
+        return drawn[-1]
 
     folder = tmp_path_factory.mktemp("house")
-    built = house_scene.build(folder, SPEC, SEED, furniture="few")
-    house = draw(np.random.default_rng(SEED), SPEC["rows"], SPEC["cols"], SPEC["per_room"], SPEC["width"],
-                 SPEC["height"], furniture="few")
-    assert json.loads((folder / "truth.json").read_text())["pins"] == len(house.pins)  # the same draw
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(house_scene, "house_scene", kept)
+        built = house_scene.build(folder, SPEC, SEED, furniture="few")
+    assert len(drawn) == 1
+    house = drawn[0]
+    assert json.loads((folder / "truth.json").read_text())["pins"] == len(house.pins)
     return house, built.project
 
 

@@ -73,6 +73,11 @@ def spawn(folder: Path, argv: list[str]) -> subprocess.Popen[bytes]:
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
 
 
+#: Every test here shares `bases`: they run in one pytest-xdist worker (`--dist loadgroup`,
+#: pyproject's addopts), so that it is computed once, not once per worker.
+pytestmark = pytest.mark.xdist_group("kill.bases")
+
+
 @pytest.fixture(scope="module")
 def bases(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple[Path, dict[str, object], float]]:
     """For each stage: the folder it starts from, the state it makes (from an unkilled run, in a

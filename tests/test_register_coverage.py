@@ -84,6 +84,11 @@ def _scene(seed: int, folder: Path) -> tuple[np.ndarray, float, np.ndarray] | No
     return z_camera, chi2, err[sigma > 0] / sigma[sigma > 0]
 
 
+#: Every test here shares `trials`: they run in one pytest-xdist worker (`--dist loadgroup`,
+#: pyproject's addopts), so that it is computed once, not once per worker.
+pytestmark = pytest.mark.xdist_group("register_coverage.trials")
+
+
 @pytest.fixture(scope="module")
 def trials(tmp_path_factory: pytest.TempPathFactory) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     folder = tmp_path_factory.mktemp("register-coverage")

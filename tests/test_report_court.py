@@ -32,6 +32,11 @@ CASE = {"number": "2026/0417-B", "examiner": "A. N. Examiner", "organisation": "
         "photo_dates": "2026-11-20, 14:05-14:40", "declaration": "I declare that this report is true."}
 
 
+#: The tests that share `court` run in one pytest-xdist worker (`--dist loadgroup`, pyproject's
+#: addopts), so that it is computed once, not once per worker.
+SHARES_COURT = pytest.mark.xdist_group("report_court.court")
+
+
 @pytest.fixture(scope="module")
 def court(tmp_path_factory):
     """(project file, report folder, report.html text) of the example calibrated, solved with
@@ -68,6 +73,7 @@ def _row(page: str, first: str) -> str:
     return m.group(0)
 
 
+@SHARES_COURT
 def test_check_distances_are_the_final_models_with_a_verdict(court):
     proj, _, page = court
     project = load_project(proj)
@@ -97,6 +103,7 @@ def test_check_distances_are_the_final_models_with_a_verdict(court):
     assert all(f"{c.measured.value:.4f}" in _row(page, f"{c.a} – {c.b}") for c in scale)
 
 
+@SHARES_COURT
 def test_each_stage_labelled_and_entered_values_marked(court):
     proj, _, page = court
     data = load_project(proj).data
@@ -146,6 +153,7 @@ def test_stale_results_head_the_limitations():
     assert [lim.kind for lim in limitations(Project(Path("x.vebuild.json"), data))] == []
 
 
+@SHARES_COURT
 def test_limitations_come_from_the_project(court):
     proj, _, page = court
     project = load_project(proj)
@@ -171,6 +179,7 @@ def test_limitations_come_from_the_project(court):
         assert f"<h3>{lim.title}</h3>" in page
 
 
+@SHARES_COURT
 def test_title_page_plan_view_and_marked_photos(court):
     proj, out, page = court
     project = load_project(proj)

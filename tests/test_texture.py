@@ -65,6 +65,11 @@ def _psnr_of(res, model) -> float:
                         PSNR_SAMPLE_EVERY)
 
 
+#: The tests that share `truth_result` run in one pytest-xdist worker (`--dist loadgroup`, pyproject's
+#: addopts), so that it is computed once, not once per worker.
+SHARES_TRUTH_RESULT = pytest.mark.xdist_group("texture.truth_result")
+
+
 @pytest.fixture(scope="module")
 def truth_result():
     model, cams = true_model(), true_cameras()
@@ -96,6 +101,7 @@ def test_gl_projection_lands_on_the_cameras_pixels(rng, flip):
 # -- accuracy on the example room ------------------------------------------------------------------
 
 
+@SHARES_TRUTH_RESULT
 def test_textures_match_the_true_textures(truth_result):
     model, res = truth_result
     assert _psnr_of(res, model) >= PSNR_GOAL_DB
@@ -110,6 +116,7 @@ def test_textures_match_the_true_textures(truth_result):
         assert np.allclose(g, exposures[pid]["exposure"] / first, rtol=0.027), (pid, g)
 
 
+@SHARES_TRUTH_RESULT
 def test_faces_no_photo_sees_are_reported_and_filled(truth_result):
     model, res = truth_result
     unseen = res.unseen_faces
@@ -126,6 +133,7 @@ def test_faces_no_photo_sees_are_reported_and_filled(truth_result):
             np.testing.assert_allclose(srgb8_to_linear(chart[0]), mean, atol=0.01)
 
 
+@SHARES_TRUTH_RESULT
 def test_each_improvement_can_be_switched_off(truth_result):
     model, res = truth_result
     cams = true_cameras()
@@ -139,6 +147,7 @@ def test_each_improvement_can_be_switched_off(truth_result):
     assert _psnr_of(plain, model) < _psnr_of(res, model) - 0.5
 
 
+@SHARES_TRUTH_RESULT
 def test_average_colour_mode_paints_each_face_once(truth_result):
     model, res = truth_result
     cams = true_cameras()

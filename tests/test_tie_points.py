@@ -36,6 +36,11 @@ def camera(pid: str) -> ImageCamera:
     return ImageCamera(pid, np.asarray(t["K"]), np.asarray(t["R"]), np.asarray(t["C"]), t["width"], t["height"])
 
 
+#: The tests that share `candidates` run in one pytest-xdist worker (`--dist loadgroup`, pyproject's
+#: addopts), so that it is computed once, not once per worker.
+SHARES_CANDIDATES = pytest.mark.xdist_group("tie_points.candidates")
+
+
 @pytest.fixture(scope="module")
 def candidates():
     feats = {p: _features(grey(np.asarray(Image.open(ROOM / "photos" / f"{p}.jpg").convert("RGB")))) for p in PHOTOS}
@@ -49,6 +54,7 @@ def candidates():
     return out
 
 
+@SHARES_CANDIDATES
 def test_p4_has_no_right_feature_match_and_only_p1_p3_overlap_well(candidates):
     right = {pair: int(r.sum()) for pair, (_, _, r) in candidates.items()}
     assert all(n == 0 for pair, n in right.items() if "p4" in pair), right
@@ -59,6 +65,7 @@ def test_p4_has_no_right_feature_match_and_only_p1_p3_overlap_well(candidates):
     assert sum(right.values()) < 0.25 * total
 
 
+@SHARES_CANDIDATES
 def test_a_robust_fundamental_matrix_fits_wrong_matches_where_no_right_one_exists(candidates):
     for (a, b), (ua, ub, right) in candidates.items():
         if right.any() or len(ua) < 8:
