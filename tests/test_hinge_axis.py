@@ -27,7 +27,7 @@ from vebuild.model.joints import ModelError, axis_basis, joint_from_dict
 from vebuild.model.residuals import Pin
 from vebuild.model.scene import model_from_dict
 from vebuild.model.solver import FINAL_PRIOR_SCALE, Problem, ProblemOptions
-from vebuild.synthetic import CLICK_NOISE_PX, _rotation, random_camera
+from vebuild.synthetic import CLICK_NOISE_PX, random_camera, rotation
 
 #: Where the true hinge is (world, metres): a door 0.9 × 0.04 × 2.0 m hangs on it, shut along +x.
 HINGE = np.array([1.0, 2.0, 0.0])
@@ -52,7 +52,7 @@ def _cameras(rng: np.random.Generator, target: np.ndarray, n: int) -> dict[str, 
         r = rng.uniform(3.0, 5.0)
         C = np.array([target[0] + r * np.cos(ang), target[1] + r * np.sin(ang), rng.uniform(1.3, 1.8)])
         d = target - C
-        R = _rotation(np.arctan2(d[1], d[0]), np.arctan2(d[2], np.hypot(d[0], d[1])), np.radians(rng.normal(0, 2)))
+        R = rotation(np.arctan2(d[1], d[0]), np.arctan2(d[2], np.hypot(d[0], d[1])), np.radians(rng.normal(0, 2)))
         cams[photo.id] = ImageCamera(photo.id, photo.K, R, C, photo.width, photo.height)
     return cams
 

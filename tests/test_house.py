@@ -1,4 +1,4 @@
-"""A tiny generated house (vebuild.synthetic_house, rendered by vebuild.bench.house_scene, the
+"""A tiny generated house (vebuild.synthetic.house, rendered by vebuild.bench.house_scene, the
 builder of ``vebuild bench house``): its structure, that its photos show what its marks claim,
 and that calibrate + solve --recalibrate recovers its cameras within their stated uncertainty."""
 
@@ -13,7 +13,7 @@ import pytest
 from PIL import Image
 
 from vebuild.synthetic import CLICK_NOISE_PX
-from vebuild.synthetic_house import MIN_SEGMENTS, House
+from vebuild.synthetic.house import MIN_SEGMENTS, House
 
 SPEC = {"rows": 1, "cols": 2, "per_room": 9, "width": 640, "height": 480}
 SEED = 4
@@ -30,7 +30,7 @@ Z_MAX = 4.5
 @pytest.fixture(scope="module")
 def built(tmp_path_factory: pytest.TempPathFactory) -> tuple[House, Path]:
     from vebuild.bench import house_scene
-    from vebuild.synthetic_house import house_scene as draw
+    from vebuild.synthetic.house import house_scene as draw
 
     folder = tmp_path_factory.mktemp("house")
     built = house_scene.build(folder, SPEC, SEED, furniture="few")

@@ -1,4 +1,4 @@
-"""A generated room (vebuild.synthetic_rooms) as a project file's model: the truth and a user's
+"""A generated room (vebuild.synthetic.rooms) as a project file's model: the truth and a user's
 first guess as FORMAT.md nodes and relations, and the user's marks on the model (pins on the handles
 each photo shows, edge observations on the stretches of the room's edges whose ends it does not).
 
@@ -16,8 +16,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .synthetic import CLICK_NOISE_PX
-from .synthetic_rooms import Box, RoomScene
+from . import CLICK_NOISE_PX
+from .rooms import Box, RoomScene
 
 Array = NDArray[np.float64]
 
@@ -100,8 +100,8 @@ GUESS_ATTEMPTS = 200
 
 def guessed_nodes(rng: np.random.Generator, scene: RoomScene, guess_rel: tuple[float, float]) -> list[dict[str, Any]]:
     """:func:`guessed_node_draw` until the room it guesses is valid (GUESS_ATTEMPTS)."""
-    from .model.joints import ModelError
-    from .model.scene import model_from_dict
+    from ..model.joints import ModelError
+    from ..model.scene import model_from_dict
 
     for _ in range(GUESS_ATTEMPTS):
         nodes = guessed_node_draw(rng, scene, guess_rel)
@@ -178,8 +178,8 @@ def marks(rng: np.random.Generator, scene: RoomScene, noise_px: float = CLICK_NO
 def write_room_project(folder: Path, scene: RoomScene, nodes: list[dict[str, Any]], pins: list, edges: list) -> Path:
     """The generated room's project (vebuild.synthetic.write_project: photos, markers, the taped
     scale) with the model ``nodes``, the scene's relations and the marks. Returns its path."""
-    from .project import load_project, save_project
-    from .synthetic import write_project
+    from ..project import load_project, save_project
+    from . import write_project
 
     path = write_project(folder, scene.photos, scene.markers)
     project = load_project(path)

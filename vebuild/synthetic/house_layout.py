@@ -1,4 +1,4 @@
-"""The generated house's rooms, doorways, furniture and markers (vebuild.synthetic_house marks
+"""The generated house's rooms, doorways, furniture and markers (vebuild.synthetic.house marks
 them): FORMAT.md nodes in a scene graph, every primitive placed in its room's own frame.
 
 Rooms (r, c) of a grid, room ``room{r * cols + c}``: inner widths 4.4–5.6 m per column, depths
@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from .synthetic_house import DOOR_HEIGHT_M, DOOR_WIDTH_M, HEIGHT_M, THICKNESS_M, Door, House, Room
+from .house import DOOR_HEIGHT_M, DOOR_WIDTH_M, HEIGHT_M, THICKNESS_M, Door, House, Room
 
 #: Floor clear in front of a doorway (along the wall, into the room), metres.
 DOOR_CLEAR_M = (1.3, 0.8)

@@ -8,7 +8,7 @@ comparing the two (tests/test_room_scenes.py): the true world points, the visibi
 clicks all come from this module. The cameras, lenses, vanishing segments, click noise and the
 project writer are vebuild.synthetic's. The project-file side (the true and the guessed model as
 FORMAT.md nodes and relations, the pins and edge observations) is
-:mod:`vebuild.synthetic_room_model`.
+:mod:`vebuild.synthetic.room_model`.
 
 Room frame (as FORMAT.md's room primitive): the floor at z = 0, inner floor corner 0 at the origin,
 corner 1 on +x, corners counter-clockwise seen from above; wall i runs from corner i to corner i + 1
@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from .synthetic import SyntheticPhoto, _project, distort, projection_matrix
+from . import SyntheticPhoto, distort, project_points, projection_matrix
 
 Array = NDArray[np.float64]
 Mask = NDArray[np.bool_]
@@ -266,7 +266,7 @@ class RoomScene:
         """(seen mask, pixels on the distorted photo) of world points X (n, 3): in front, inside the
         image, and no wall or box cutting the sight line."""
         P = projection_matrix(photo.K, photo.R, photo.C)
-        uv, z = _project(P, X)
+        uv, z = project_points(P, X)
         uv = distort(photo, uv)
         ok = (z > MIN_DEPTH_M) & (uv[:, 0] >= IMAGE_MARGIN_PX) & (uv[:, 0] <= photo.width - IMAGE_MARGIN_PX)
         ok &= (uv[:, 1] >= IMAGE_MARGIN_PX) & (uv[:, 1] <= photo.height - IMAGE_MARGIN_PX)
@@ -376,7 +376,7 @@ def room_geometry(rng: np.random.Generator) -> RoomScene:
     dummy = Box("x", np.ones(3), np.zeros(3), 0.0)
     scene = RoomScene(corners, height, thickness, [door, win], origin, dummy, 0, [], 0, dummy, hinge)
     scene.leaf = _leaf(scene, leaf_size)
-    from .synthetic_room_model import LEAF_TAPE_SIGMA_M, THICKNESS_TAPE_SIGMA_M
+    from .room_model import LEAF_TAPE_SIGMA_M, THICKNESS_TAPE_SIGMA_M
 
     scene.tapes = {"thickness": float(thickness + rng.normal(0.0, THICKNESS_TAPE_SIGMA_M)),
                    "leaf_depth": float(leaf_size[1] + rng.normal(0.0, LEAF_TAPE_SIGMA_M))}
@@ -427,7 +427,7 @@ def _leaf(scene: RoomScene, size: Array) -> Box:
 
 
 #: Rooms drawn before giving up: a drawn room whose photos cannot show everything without a floor
-#: corner (synthetic_room_photos.photograph) is drawn again from the same stream.
+#: corner (room_photos.photograph) is drawn again from the same stream.
 ROOM_ATTEMPTS = 8
 
 
@@ -444,7 +444,7 @@ class GeneratedRoom:
 
     def write(self, folder, guess: bool = True):
         """The project file (the guessed model, or with ``guess`` false the true one); its path."""
-        from .synthetic_room_model import write_room_project
+        from .room_model import write_room_project
 
         return write_room_project(folder, self.scene, self.guess if guess else self.truth["nodes"], self.pins,
                                   self.edges)
@@ -457,7 +457,7 @@ class GeneratedRoom:
         draws on one room measure its intervals' coverage over the noise alone."""
         import copy
 
-        from .synthetic_room_model import LEAF_TAPE_SIGMA_M, THICKNESS_TAPE_SIGMA_M
+        from .room_model import LEAF_TAPE_SIGMA_M, THICKNESS_TAPE_SIGMA_M
 
         g = copy.deepcopy(self)
         for cam in g.scene.photos:
@@ -490,9 +490,9 @@ def room_scene(rng: np.random.Generator, guess_rel: tuple[float, float] = (0.10,
     floor corner, marked as a careful user would (clicks with noise_px 1σ, vebuild.synthetic's
     CLICK_NOISE_PX unless given), with a first guess guess_rel off. The stream of ``rng`` does not
     depend on noise_px: ``noise_px=0`` gives the same room, photos and guess with exact clicks."""
-    from .synthetic import CLICK_NOISE_PX
-    from .synthetic_room_model import guessed_nodes, marks, relations, true_nodes
-    from .synthetic_room_photos import photograph
+    from . import CLICK_NOISE_PX
+    from .room_model import guessed_nodes, marks, relations, true_nodes
+    from .room_photos import photograph
 
     noise = CLICK_NOISE_PX if noise_px is None else noise_px
     for _ in range(ROOM_ATTEMPTS):

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from .synthetic import (
+from . import (
     CLICK_NOISE_PX,
     REAL_DISTORTION_CORNER_REL,
     SyntheticPhoto,
@@ -92,7 +92,7 @@ def write_one_camera_project(folder: Path, photos: list[SyntheticPhoto], markers
         entry.pop("focal_px", None)
         if exif:
             entry["exif"] = exif_record(p, serial)
-    from .project import save_project
+    from ..project import save_project
 
     save_project(path, data)
     return path
