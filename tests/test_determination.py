@@ -33,7 +33,7 @@ from vebuild.report.sections import model as report_model
 from vebuild.synthetic import CLICK_NOISE_PX, rotation
 
 sys.path.insert(0, str(Path(__file__).parent))
-from test_entered import project_points as entered_project  # noqa: E402
+from test_entered import _project as entered_project  # noqa: E402
 from test_hinge_axis import _pins  # noqa: E402
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "scenes" / "room"

@@ -8,7 +8,7 @@ so the hinge's axis point is solved with the angle and the door's size, from a f
 off. The drawer slides from its shut pose along a runner 3–8° off the one guessed; its direction
 is solved from the drawer seen pulled out.
 
-Cameras are known (vebuild/synthetic.py's generator), clicks carry its 0.7 px noise.
+Cameras are known (vebuild.synthetic's generator), clicks carry its 0.7 px noise.
 """
 
 from __future__ import annotations

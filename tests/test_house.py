@@ -30,7 +30,7 @@ Z_MAX = 4.5
 @pytest.fixture(scope="module")
 def built(tmp_path_factory: pytest.TempPathFactory) -> tuple[House, Path]:
     from vebuild.bench import house_scene
-    from vebuild.synthetic.house import house_scene as draw
+    from vebuild.synthetic.house_layout import house_scene as draw
 
     folder = tmp_path_factory.mktemp("house")
     built = house_scene.build(folder, SPEC, SEED, furniture="few")

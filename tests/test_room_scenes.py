@@ -41,9 +41,9 @@ from vebuild.model.solver import staged_start
 from vebuild.project import load_project, save_project
 from vebuild.project.decode import cameras_from_calibration, load_model
 from vebuild.synthetic import CLICK_NOISE_PX
-from vebuild.synthetic.room_model import THICKNESS_TAPE_SIGMA_M, guessed_nodes, room_params, write_room_project
+from vebuild.synthetic.room_model import GeneratedRoom, guessed_nodes, room_params, room_scene, write_room_project
 from vebuild.synthetic.room_photos import coverage, shortfall
-from vebuild.synthetic.rooms import GeneratedRoom, room_scene
+from vebuild.synthetic.rooms import THICKNESS_TAPE_SIGMA_M
 
 #: The room whose figures are checked one by one (and whose solve is repeated from another guess).
 SEED = 1

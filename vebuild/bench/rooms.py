@@ -40,8 +40,8 @@ from ..errors import VebuildError
 from ..model.scene import model_from_dict
 from ..project import load_project, save_project
 from ..synthetic import CLICK_NOISE_PX
-from ..synthetic.room_model import room_params, write_room_project
-from ..synthetic.rooms import GeneratedRoom, RoomScene, room_scene
+from ..synthetic.room_model import GeneratedRoom, room_params, room_scene, write_room_project
+from ..synthetic.rooms import RoomScene
 
 #: The rooms of a full run (seeds 1–20) and of a quick one.
 SEEDS = tuple(range(1, 21))

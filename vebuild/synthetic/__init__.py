@@ -30,6 +30,10 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from PIL import Image
+
+from ..model.scene import model_from_dict
+from ..project import new_photo_entry, new_project, save_project
 
 Array = NDArray[np.float64]
 
@@ -339,10 +343,6 @@ def write_project(folder: Path, photos: list[SyntheticPhoto], markers: dict[str,
     The photos carry no picture (calibration reads only the marks) but are real JPEG files whose
     hashes the project records. Returns the project file's path.
     """
-    from PIL import Image
-
-    from ..project import new_photo_entry, new_project, save_project
-
     folder = Path(folder)
     (folder / "photos").mkdir(parents=True, exist_ok=True)
     data = new_project("synthetic scene")
@@ -377,8 +377,6 @@ def model_scene(rng: np.random.Generator, n_boxes: int = 3, n_photos: int = 8, n
     yaws by ~8°, as a user's first placement), the fixed pins (every box corner visible in a photo,
     with noise) and the photos. Room-sized: boxes within a 6 × 5 m floor.
     """
-    from ..model.scene import model_from_dict
-
     floor = {"width": float(ROOM[0]), "depth": float(ROOM[1])}
     truth: list[Mapping[str, Any]] = [{"name": "floor", "primitive": {"type": "quad", "params": floor},
                                     "joint": {"type": "marker", "marker": "O", "handle": "v0", "yaw_deg": 0.0}}]

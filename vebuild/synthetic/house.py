@@ -30,6 +30,7 @@ The true world positions of the handles come from vebuild's own kinematics (as
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -38,6 +39,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..model.joints import ModelError
+from ..model.scene import model_from_dict
+from ..project import new_photo_entry, new_project, save_project
 from . import CLICK_NOISE_PX, SyntheticPhoto, project_points, projection_matrix, realistic_camera, rotation
 from .room_photos import placeable
 
@@ -116,8 +120,6 @@ class House:
         return sum(1 for n in self.nodes if "primitive" in n)
 
     def model(self) -> Any:
-        from ..model.scene import model_from_dict
-
         if "model" not in self._geometry:
             nodes: list[Mapping[str, Any]] = list(self.nodes)
             self._geometry["model"] = model_from_dict(nodes, {"O": np.zeros(3)})
@@ -427,30 +429,6 @@ def photograph(rng: np.random.Generator, house: House, per_room: int, width: int
     house.markers = {m: X for m, X in house.markers.items() if counts[m] >= 2}
 
 
-#: Houses drawn (from the same stream) before giving up: a drawn house whose photos calibration
-#: could not place one after another is drawn again.
-HOUSE_ATTEMPTS = 5
-
-
-def house_scene(rng: np.random.Generator, rows: int = 2, cols: int = 4, per_room: int = 13, width: int = 6000,
-                height: int = 4000, furniture: str = "full", stairwell: bool = True,
-                noise_px: float = CLICK_NOISE_PX) -> House:
-    """A generated house (module docstring): the rooms, their furniture, photos and marks, and a
-    first guess. RuntimeError where the draw cannot be photographed."""
-    from .house_layout import furnished_house
-
-    for _ in range(HOUSE_ATTEMPTS):
-        house = furnished_house(rng, rows, cols, furniture, stairwell)
-        try:
-            photograph(rng, house, per_room, width, height, noise_px)
-        except RuntimeError:
-            continue
-        house.guess = guessed_nodes(rng, house)
-        return house
-    raise RuntimeError(f"no house drawn in {HOUSE_ATTEMPTS} tries could be photographed so that calibration "
-                       "places every photo")
-
-
 def _off(rng: np.random.Generator, v: float, rel: float) -> float:
     return float(v * (1.0 + rng.uniform(-rel, rel)))
 
@@ -484,11 +462,6 @@ def guessed_nodes(rng: np.random.Generator, house: House) -> list[dict[str, Any]
     GUESS_POSITION_M, turns GUESS_YAW_DEG; the walls' thickness entered from a tape (its σ), the
     doorways' sills held at 0; a primitive its pins do not determine (_well_pinned) held at its
     true place and size (``solve: false``, as a user measures it)."""
-    import copy
-
-    from ..model.joints import ModelError
-    from ..model.scene import model_from_dict
-
     shown = _well_pinned(house)
     for _ in range(50):
         nodes = copy.deepcopy(house.nodes)
@@ -540,8 +513,6 @@ def scale_references(house: House) -> list[dict[str, Any]]:
 def write_house_project(folder: Path, house: House, photo_files: dict[str, Path], guess: bool = True) -> Path:
     """The house's project file in ``folder`` (its photos already there): segments, markers, the
     taped distances, the model (the first guess, or the truth) and the pins. Returns its path."""
-    from ..project import new_photo_entry, new_project, save_project
-
     data = new_project("generated house")
     data["settings"]["click_sigma_px"] = CLICK_NOISE_PX
     for p in house.photos:
