@@ -25,7 +25,9 @@ calibrate's start could place it after those before it (room_photos.placeable).
 
 The true world positions of the handles come from vebuild's own kinematics (as
 :func:`vebuild.synthetic.model_scene`); the photos themselves are rendered above this layer
-(vebuild.bench.house_scene).
+(vebuild.bench.house_scene). The rooms, doorways, furniture and markers are drawn in
+:mod:`vebuild.synthetic.house_layout`, whose :func:`~vebuild.synthetic.house_layout.house_scene`
+draws a whole house and has it photographed and marked here.
 """
 
 from __future__ import annotations
