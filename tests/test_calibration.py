@@ -23,12 +23,12 @@ from vebuild.synthetic import (
     CLICK_NOISE_PX,
     EXIF_FOCAL_ERROR_REL,
     ROOM,
-    _project,
-    _rotation,
     add_segments,
+    project_points,
     projection_matrix,
     random_camera,
     random_scene,
+    rotation,
     scale_reference,
 )
 
@@ -249,7 +249,7 @@ def test_photo_without_origin_is_placed_from_markers(rng: np.random.Generator) -
 
 def _look(C: np.ndarray, target: np.ndarray) -> np.ndarray:
     d = target - C
-    return _rotation(float(np.arctan2(d[1], d[0])), float(np.arctan2(d[2], np.hypot(d[0], d[1]))), 0.0)
+    return rotation(float(np.arctan2(d[1], d[0])), float(np.arctan2(d[2], np.hypot(d[0], d[1]))), 0.0)
 
 
 def test_origin_seen_by_two_photos_in_line_with_it_is_placed_from_another_start() -> None:
@@ -272,7 +272,7 @@ def test_origin_seen_by_two_photos_in_line_with_it_is_placed_from_another_start(
     inputs, truth = [], {}
     for pid, C in centres.items():
         R = _look(C, target)
-        uv, z = _project(projection_matrix(K, R, C), np.array(list(markers.values())))
+        uv, z = project_points(projection_matrix(K, R, C), np.array(list(markers.values())))
         seen = {n: p + rng.normal(0.0, 0.3, 2) for n, p, d in zip(markers, uv, z, strict=True)
                 if d > 0 and 0 <= p[0] <= 1600 and 0 <= p[1] <= 1200 and (n != "O" or pid in "AB")}
         assert len(seen) >= 5 and ("O" in seen) == (pid in "AB"), (pid, sorted(seen))

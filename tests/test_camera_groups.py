@@ -1,6 +1,6 @@
 """Photos from one camera share its focal length, principal point and lens distortion.
 
-Generated sets (vebuild.synthetic_shared) reproduce the failure: every photo taken with one camera
+Generated sets (vebuild.synthetic.shared) reproduce the failure: every photo taken with one camera
 (one K, EXIF make, model, serial and focal length equal), a near-frontal photo among oblique ones
 whose lines alone cannot fix f. Calibrated apart, it is left out (no EXIF) or gets EXIF's f; in its
 group it borrows the oblique photos' f, with their σ.
@@ -23,7 +23,7 @@ from vebuild.calibration.shared_camera import GroupMember, calibrate_shared
 from vebuild.camera import log_so3
 from vebuild.errors import CalibrationError
 from vebuild.synthetic import CLICK_NOISE_PX, SyntheticPhoto, add_segments
-from vebuild.synthetic_shared import one_camera_set, write_one_camera_project
+from vebuild.synthetic.shared import one_camera_set, write_one_camera_project
 
 #: |error| / reported 1σ that no estimate may exceed (as in test_calibration: a 1-in-10⁵ draw).
 UNCERTAINTY_BOUND = 4.5

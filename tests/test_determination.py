@@ -31,7 +31,7 @@ from vebuild.model.solver import FINAL_PRIOR_SCALE, Problem, ProblemOptions
 from vebuild.project import load_project
 from vebuild.report.page import Report
 from vebuild.report.sections import model as report_model
-from vebuild.synthetic import CLICK_NOISE_PX, _rotation
+from vebuild.synthetic import CLICK_NOISE_PX, rotation
 
 sys.path.insert(0, str(Path(__file__).parent))
 from test_entered import _project as entered_project  # noqa: E402
@@ -54,7 +54,7 @@ def _wall(params: dict[str, float], pos: tuple[float, float] = (3.0, 0.0), yaw: 
 
 def _camera(cid: str, C: list[float], target: list[float]) -> ImageCamera:
     d = np.asarray(target) - C
-    R = _rotation(np.arctan2(d[1], d[0]), np.arctan2(d[2], np.hypot(d[0], d[1])), 0.0)
+    R = rotation(np.arctan2(d[1], d[0]), np.arctan2(d[2], np.hypot(d[0], d[1])), 0.0)
     return ImageCamera(cid, K, R, np.asarray(C, float), 1600, 1200)
 
 

@@ -8,7 +8,7 @@ so the hinge's axis point is solved with the angle and the door's size, from a f
 off. The drawer slides from its shut pose along a runner 3–8° off the one guessed; its direction
 is solved from the drawer seen pulled out.
 
-Cameras are known (vebuild/synthetic.py's generator), clicks carry its 0.7 px noise.
+Cameras are known (vebuild.synthetic's generator), clicks carry its 0.7 px noise.
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ from vebuild.model.residuals import Pin
 from vebuild.model.scene import model_from_dict
 from vebuild.model.solution import solution_at
 from vebuild.model.solver import FINAL_PRIOR_SCALE, Problem, ProblemOptions
-from vebuild.synthetic import CLICK_NOISE_PX, _rotation, random_camera
+from vebuild.synthetic import CLICK_NOISE_PX, random_camera, rotation
 
 #: Where the true hinge is (world, metres): a door 0.9 × 0.04 × 2.0 m hangs on it, shut along +x.
 HINGE = np.array([1.0, 2.0, 0.0])
@@ -54,7 +54,7 @@ def _cameras(rng: np.random.Generator, target: np.ndarray, n: int) -> dict[str, 
         r = rng.uniform(3.0, 5.0)
         C = np.array([target[0] + r * np.cos(ang), target[1] + r * np.sin(ang), rng.uniform(1.3, 1.8)])
         d = target - C
-        R = _rotation(np.arctan2(d[1], d[0]), np.arctan2(d[2], np.hypot(d[0], d[1])), np.radians(rng.normal(0, 2)))
+        R = rotation(np.arctan2(d[1], d[0]), np.arctan2(d[2], np.hypot(d[0], d[1])), np.radians(rng.normal(0, 2)))
         cams[photo.id] = ImageCamera(photo.id, photo.K, R, C, photo.width, photo.height)
     return cams
 

@@ -1,4 +1,4 @@
-"""A tiny generated house (vebuild.synthetic_house, rendered by vebuild.bench.house_scene, the
+"""A tiny generated house (vebuild.synthetic.house, rendered by vebuild.bench.house_scene, the
 builder of ``vebuild bench house``): its structure, that its photos show what its marks claim,
 and that calibrate + solve --recalibrate recovers its cameras within their stated uncertainty."""
 
@@ -14,7 +14,7 @@ import pytest
 from PIL import Image
 
 from vebuild.synthetic import CLICK_NOISE_PX
-from vebuild.synthetic_house import MIN_SEGMENTS, House
+from vebuild.synthetic.house import MIN_SEGMENTS, House
 
 SPEC = {"rows": 1, "cols": 2, "per_room": 9, "width": 640, "height": 480}
 SEED = 4

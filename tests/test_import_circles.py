@@ -23,12 +23,7 @@ ROOT = Path(__file__).resolve().parent.parent
 PACKAGE = ROOT / "vebuild"
 
 #: The circles still open, each as its modules (without the ``vebuild.`` in front) and why.
-OPEN_CIRCLES: dict[frozenset[str], str] = {
-    frozenset({"synthetic_house", "synthetic_house_layout"}):
-        "the synthetic house and its layout; these generators are being moved into a package",
-    frozenset({"synthetic_room_model", "synthetic_room_photos", "synthetic_rooms"}):
-        "the synthetic rooms and their model and photos; these generators are being moved into a package",
-}
+OPEN_CIRCLES: dict[frozenset[str], str] = {}
 
 
 def module_name(path: Path) -> str:

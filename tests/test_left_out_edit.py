@@ -17,7 +17,7 @@ from vebuild.edit.history import EditError
 from vebuild.edit.overlay import GREY
 from vebuild.edit.session import EditSession
 from vebuild.synthetic import CLICK_NOISE_PX, random_scene, write_project
-from vebuild.synthetic_clutter import add_clutter
+from vebuild.synthetic.clutter import add_clutter
 
 
 @pytest.fixture

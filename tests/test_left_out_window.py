@@ -1,5 +1,5 @@
 """Vanishing segments the calibration leaves out, on the modelling screen driven for real (Xvfb,
-xdotool): a generated photo with clutter (vebuild.synthetic_clutter: roof slopes grouped with the
+xdotool): a generated photo with clutter (vebuild.synthetic.clutter: roof slopes grouped with the
 x and z edges), Calibrate pressed in the window, the framebuffer read. The left-out segments are
 drawn grey and crossed in their axis' colour where they are, the kept ones in their axis' colour;
 the Calibration tab's legend says what the grey lines are and how many of each axis; pointing at
@@ -20,7 +20,7 @@ from vebuild.edit.left_out import WHAT_TO_DO, legend_line
 from vebuild.edit.overlay import AXIS_COLOURS, GREY, YELLOW
 from vebuild.edit.photo_view import CROSS_HALF_PX
 from vebuild.synthetic import random_scene, write_project
-from vebuild.synthetic_clutter import add_clutter
+from vebuild.synthetic.clutter import add_clutter
 
 pytestmark = pytest.mark.usefixtures("xvfb_display")
 

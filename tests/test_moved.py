@@ -9,7 +9,7 @@ import pytest
 
 from vebuild.model.moved import apply_plan
 from vebuild.model.solver import Problem
-from vebuild.synthetic_house_layout import furnished_house
+from vebuild.synthetic.house_layout import furnished_house
 
 #: Handles and transforms agree within this (metres; the house is about 10 m across, so a few
 #: hundred ulps of its coordinates): the rigid move is the same product in another order.

@@ -15,7 +15,7 @@ from vebuild.model.scene import model_from_dict
 from vebuild.render import draworder
 from vebuild.render.renderer import Renderer, RenderOptions
 from vebuild.render.scene import scene_from_model
-from vebuild.synthetic_house_layout import furnished_house
+from vebuild.synthetic.house_layout import furnished_house
 
 W, H = 320, 180
 #: Views of the generated house compared with and without the rooms occluding.

@@ -27,7 +27,7 @@ from vebuild.model.scene import ModelError, model_from_dict
 from vebuild.model.solution import solution_at
 from vebuild.model.solver import FINAL_PRIOR_SCALE, Problem, ProblemOptions
 from vebuild.project import decode, load_project
-from vebuild.synthetic import CLICK_NOISE_PX, _inside, _project, _rotation, projection_matrix, random_camera
+from vebuild.synthetic import CLICK_NOISE_PX, inside_image, project_points, projection_matrix, random_camera, rotation
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "scenes" / "room"
 MARKERS = {"O": np.zeros(3)}
@@ -382,7 +382,7 @@ def wall_scene(seed: int, guess_off: float = 0.15) -> tuple[Any, list[dict[str, 
         a = np.pi + 0.35 + (np.pi - 0.7) * i / 5
         cam.C = np.array([3.0 + 3.2 * np.cos(a), 2.5 + 3.0 * np.sin(a), rng.uniform(1.4, 1.9)])
         d = np.array([3.0, 4.2, 1.1]) - cam.C
-        cam.R = _rotation(np.arctan2(d[1], d[0]), np.arctan2(d[2], np.hypot(d[0], d[1])), 0.0)
+        cam.R = rotation(np.arctan2(d[1], d[0]), np.arctan2(d[2], np.hypot(d[0], d[1])), 0.0)
         cams[cam.id] = ImageCamera(cam.id, cam.K, cam.R, cam.C, cam.width, cam.height)
     T = truth.world_transforms()
     pins = []
@@ -392,10 +392,10 @@ def wall_scene(seed: int, guess_off: float = 0.15) -> tuple[Any, list[dict[str, 
             prim = truth.node(node).primitive
             names = prim.handle_names()
             hs = prim.handles() @ T[node][:3, :3].T + T[node][:3, 3]
-            uv, z = _project(P, hs)
+            uv, z = project_points(P, hs)
             for h in seen:
                 k = names.index(h)
-                if z[k] > 0.3 and _inside(uv[k][None], cam.width, cam.height, 5.0):
+                if z[k] > 0.3 and inside_image(uv[k][None], cam.width, cam.height, 5.0):
                     pins.append(Pin(cam.id, node, h, uv[k] + rng.normal(0, CLICK_NOISE_PX, 2)))
     start = copy.deepcopy(SCENE_TRUTH)
     for n in start[1:]:  # the floor is placed (not solved): the boxes on it are guessed

@@ -17,7 +17,7 @@ from test_camera_groups import _cli, _set, _with_box
 from vebuild.project import load_project
 from vebuild.report.cameras import final_cameras
 from vebuild.report.page import Report
-from vebuild.synthetic_shared import write_one_camera_project
+from vebuild.synthetic.shared import write_one_camera_project
 
 
 def _tables(section: str) -> list[list[list[str]]]:

@@ -4,7 +4,7 @@ square) are rejected and reported, not averaged in; an axis whose segments are m
 left out (the weaker mode, said in the mode reason), and a photo left with one axis is refused.
 
 The photos are vebuild.synthetic's realistic ones (barrel distortion, principal point and EXIF
-off) with vebuild.synthetic_clutter's clutter, which records which segments are clutter.
+off) with vebuild.synthetic.clutter's clutter, which records which segments are clutter.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from vebuild.calibration.photo import FocalPrior, calibrate_photo
 from vebuild.calibration.robust import breakdown_tolerance
 from vebuild.errors import CalibrationError
 from vebuild.synthetic import CLICK_NOISE_PX, SyntheticPhoto, add_segments, realistic_camera
-from vebuild.synthetic_clutter import add_clutter
+from vebuild.synthetic.clutter import add_clutter
 
 #: |error| / reported 1σ that no photo may exceed (as in test_calibration: a 1-in-10⁵ draw).
 UNCERTAINTY_BOUND = 4.5

@@ -1,4 +1,4 @@
-"""Generated rooms (vebuild.synthetic_rooms), calibrated and solved as a user would: `vebuild
+"""Generated rooms (vebuild.synthetic.rooms), calibrated and solved as a user would: `vebuild
 calibrate`, then `vebuild solve --recalibrate`, on a written project.
 
 Each room is L-shaped (six corners) with a doorway and a window, a door leaf open 20–70° on a hinge
@@ -41,9 +41,9 @@ from vebuild.model.solver import staged_start
 from vebuild.project import load_project, save_project
 from vebuild.project.decode import cameras_from_calibration, load_model
 from vebuild.synthetic import CLICK_NOISE_PX
-from vebuild.synthetic_room_model import THICKNESS_TAPE_SIGMA_M, guessed_nodes, room_params, write_room_project
-from vebuild.synthetic_room_photos import shortfall
-from vebuild.synthetic_rooms import GeneratedRoom, room_scene
+from vebuild.synthetic.room_model import GeneratedRoom, guessed_nodes, room_params, room_scene, write_room_project
+from vebuild.synthetic.room_photos import coverage, shortfall
+from vebuild.synthetic.rooms import THICKNESS_TAPE_SIGMA_M
 
 #: The room whose figures are checked one by one (and whose solve is repeated from another guess).
 SEED = 1
@@ -84,9 +84,8 @@ def test_the_generated_geometry_is_vebuilds_room(generated: GeneratedRoom) -> No
     for p in g.scene.photos:
         assert g.scene.seen_floor_corners(p) == [], p.id
     assert not any(pin["handle"].startswith("f") and pin["node"] == "room" for pin in g.pins)
-    from vebuild.synthetic_room_photos import _coverage
 
-    assert shortfall(g.scene, [_coverage(g.scene, p, g.scene.markers) for p in g.scene.photos]) == {}
+    assert shortfall(g.scene, [coverage(g.scene, p, g.scene.markers) for p in g.scene.photos]) == {}
 
 
 def test_dimensions_within_a_centimetre_per_metre(generated: GeneratedRoom, solved: dict) -> None:

@@ -43,9 +43,9 @@ from ..synthetic import (
     REAL_DISTORTION_CORNER_REL,
     REAL_EXIF_FOCAL_ERROR_REL,
     REAL_PRINCIPAL_POINT_SIGMA_REL,
-    _rotation,
     exif_focal_px,
     k1_for_corner_shift,
+    rotation,
 )
 from .detect_photos import GeneratedPhoto
 
@@ -254,7 +254,7 @@ def camera(rng: np.random.Generator, kind: str, width: int, height: int) -> tupl
     yaw = np.pi / 2 - turn
     pitch = np.radians(rng.uniform(2, 10))
     K = np.array([[f, 0.0, c[0]], [0.0, f, c[1]], [0.0, 0.0, 1.0]])
-    return K, _rotation(yaw, pitch, np.radians(rng.normal(0.0, 1.5))), C
+    return K, rotation(yaw, pitch, np.radians(rng.normal(0.0, 1.5))), C
 
 
 def photograph(rng: np.random.Generator, kind: str, clutter: tuple[str, ...], width: int, height: int,

@@ -1,4 +1,4 @@
-"""``vebuild bench house``: a whole house (vebuild.synthetic_house, rendered and cached by
+"""``vebuild bench house``: a whole house (vebuild.synthetic.house, rendered and cached by
 :mod:`.house_scene`): 8 rooms joined by doorways, a stairwell, 500+ primitives, 104 photos of
 24 MP (quick: the same house with 1.5 MP photos).
 

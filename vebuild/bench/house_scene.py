@@ -1,6 +1,6 @@
 """The generated house's photos, rendered and cached for ``vebuild bench house``.
 
-The house and its marks are :func:`vebuild.synthetic_house.house_scene`'s; each photo is a render
+The house and its marks are :func:`vebuild.synthetic.house_layout.house_scene`'s; each photo is a render
 of the true model by vebuild's renderer (lit by a sun and the sky, no shadows, one sample per
 pixel), from the photo's true camera at its full size, over a procedural atlas (each face its own
 colour under a checker of 8 cm squares and fine grain), then blurred (Gaussian, σ 0.7 px), given
@@ -24,7 +24,8 @@ import numpy as np
 
 from ..project.atomic import write_bytes
 from ..resources import cache_dir
-from ..synthetic_house import House, house_scene, write_house_project
+from ..synthetic.house import House, write_house_project
+from ..synthetic.house_layout import house_scene
 
 #: Bump when the house or its rendering changes: old caches are then not reused.
 GENERATOR_VERSION = 1

@@ -1,4 +1,4 @@
-"""``vebuild bench rooms``: generated rooms (vebuild.synthetic_rooms) calibrated and solved as a
+"""``vebuild bench rooms``: generated rooms (vebuild.synthetic.rooms) calibrated and solved as a
 user would (``vebuild calibrate``, then ``vebuild solve --recalibrate``), against their truth.
 
 Each room is L-shaped with a doorway, a window, a door leaf open on a hinge at a jamb (its axis
@@ -40,8 +40,8 @@ from ..errors import VebuildError
 from ..model.scene import model_from_dict
 from ..project import load_project, save_project
 from ..synthetic import CLICK_NOISE_PX
-from ..synthetic_room_model import room_params, write_room_project
-from ..synthetic_rooms import GeneratedRoom, RoomScene, room_scene
+from ..synthetic.room_model import GeneratedRoom, room_params, room_scene, write_room_project
+from ..synthetic.rooms import RoomScene
 
 #: The rooms of a full run (seeds 1–20) and of a quick one.
 SEEDS = tuple(range(1, 21))

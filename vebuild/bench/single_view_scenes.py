@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..synthetic import SyntheticPhoto, _rotation, distort, k1_for_corner_shift, projection_matrix
+from ..synthetic import SyntheticPhoto, distort, k1_for_corner_shift, projection_matrix, rotation
 
 Array = NDArray[np.float64]
 
@@ -158,7 +158,7 @@ def _camera(rng: np.random.Generator, setting: str) -> tuple[SyntheticPhoto, flo
     a, r = rng.uniform(0.0, 2.0 * np.pi), rng.uniform(*PRINCIPAL_POINT_OFF_REL) * WIDTH
     c = np.array([WIDTH / 2.0, HEIGHT / 2.0]) + r * np.array([np.cos(a), np.sin(a)])
     K = np.array([[f, 0.0, c[0]], [0.0, f, c[1]], [0.0, 0.0, 1.0]])
-    photo = SyntheticPhoto("p", "single-view", WIDTH, HEIGHT, K, _rotation(yaw, pitch, roll), np.array([0.0, 0.0, h]))
+    photo = SyntheticPhoto("p", "single-view", WIDTH, HEIGHT, K, rotation(yaw, pitch, roll), np.array([0.0, 0.0, h]))
     if rng.random() < DISTORTED_SHARE:
         photo.k1 = k1_for_corner_shift(rng.uniform(*DISTORTION_CORNER_REL), K, WIDTH, HEIGHT)
     return photo, lens_mm, view, mount, float(rng.uniform(*WALL_M[setting]))

@@ -30,6 +30,10 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from PIL import Image
+
+from ..model.scene import model_from_dict
+from ..project import new_photo_entry, new_project, save_project
 
 Array = NDArray[np.float64]
 
@@ -72,7 +76,7 @@ class SyntheticPhoto:
     k1: float = 0.0
     #: The 1σ (relative) of the error drawn for exif_focal_px.
     exif_focal_sigma_rel: float = EXIF_FOCAL_ERROR_REL
-    #: axis → indices into segments[axis] of segments that are not along it (vebuild/synthetic_clutter.py).
+    #: axis → indices into segments[axis] of segments that are not along it (vebuild/synthetic/clutter.py).
     clutter: dict[str, list[int]] = field(default_factory=dict)
 
 
@@ -81,13 +85,13 @@ def projection_matrix(K: Array, R: Array, C: Array) -> Array:
     return K @ np.hstack([R, -(R @ C)[:, None]])
 
 
-def _project(P: Array, X: Array) -> tuple[Array, Array]:
+def project_points(P: Array, X: Array) -> tuple[Array, Array]:
     """Pixels and depths of world points X (n, 3) under the 3×4 P."""
     h = np.hstack([X, np.ones((len(X), 1))]) @ P.T
     return h[:, :2] / h[:, 2:3], h[:, 2]
 
 
-def _rotation(yaw: float, pitch: float, roll: float) -> Array:
+def rotation(yaw: float, pitch: float, roll: float) -> Array:
     """World→camera rotation built from the camera's axes in the world (written out directly).
 
     The optical axis points at heading `yaw` with elevation `pitch`; image right is horizontal
@@ -134,7 +138,7 @@ def random_camera(rng: np.random.Generator, kind: str, width: int = 1600, height
     if kind == "corridor":
         C[0] = ROOM[0] - 0.4 if np.cos(yaw) < 0 else 0.4
     K = np.array([[f, 0.0, c[0]], [0.0, f, c[1]], [0.0, 0.0, 1.0]])
-    photo = SyntheticPhoto(photo_id, kind, width, height, K, _rotation(yaw, pitch, roll), C)
+    photo = SyntheticPhoto(photo_id, kind, width, height, K, rotation(yaw, pitch, roll), C)
     photo.exif_focal_px = exif_focal_px(f, rng)
     return photo
 
@@ -223,23 +227,24 @@ def add_segments(photo: SyntheticPhoto, rng: np.random.Generator, noise_px: floa
             half = rng.uniform(0.3, 2.5)
             e = np.eye(3)[i]
             ends = np.array([mid - half * e, mid + half * e])
-            uv, z = _project(P, ends)
-            if np.any(z < 0.5) or not _inside(uv, photo.width, photo.height, 5.0):
+            uv, z = project_points(P, ends)
+            if np.any(z < 0.5) or not inside_image(uv, photo.width, photo.height, 5.0):
                 continue
             if np.linalg.norm(uv[1] - uv[0]) < min_length_px:
                 continue
             if middle_points and np.linalg.norm(uv[1] - uv[0]) >= polyline_min_length_rel * max(photo.width,
                                                                                                photo.height):
                 t = np.linspace(0.0, 1.0, middle_points + 2)[:, None]
-                uv, _ = _project(P, ends[0] + t * (ends[1] - ends[0]))
+                uv, _ = project_points(P, ends[0] + t * (ends[1] - ends[0]))
             uv = distort(photo, uv)
-            if photo.k1 != 0.0 and not _inside(uv, photo.width, photo.height, 5.0):
+            if photo.k1 != 0.0 and not inside_image(uv, photo.width, photo.height, 5.0):
                 continue
             out.append((uv + rng.normal(0.0, noise_px, uv.shape)).reshape(-1))
         photo.segments[axis] = np.array(out) if len({len(s) for s in out}) <= 1 else out
 
 
-def _inside(uv: Array, w: float, h: float, margin: float) -> bool:
+def inside_image(uv: Array, w: float, h: float, margin: float) -> bool:
+    """Whether every pixel of uv (n, 2) lies at least ``margin`` inside a w × h image."""
     u, v = uv[:, 0], uv[:, 1]
     return bool(np.all((u >= margin) & (u <= w - margin) & (v >= margin) & (v <= h - margin)))
 
@@ -249,9 +254,9 @@ def observe_markers(photo: SyntheticPhoto, markers: dict[str, Array], rng: np.ra
     """Record every marker in front of the camera and inside the image (no occluders here)."""
     P = projection_matrix(photo.K, photo.R, photo.C)
     names = list(markers)
-    uv, z = _project(P, np.array([markers[n] for n in names]))
+    uv, z = project_points(P, np.array([markers[n] for n in names]))
     for n, p, d in zip(names, uv, z, strict=True):
-        if d > 0.3 and _inside(p[None], photo.width, photo.height, 5.0):
+        if d > 0.3 and inside_image(p[None], photo.width, photo.height, 5.0):
             photo.markers[n] = p + rng.normal(0.0, noise_px, 2)
 
 
@@ -278,7 +283,7 @@ def random_scene(rng: np.random.Generator, kinds: tuple[str, ...] = ("3vp", "3vp
             cam = random_camera(rng, kind, width, height, f"p{k + 1}")
             if kind == "1vp":
                 # Face a wall squarely, back toward the origin corner, where the markers are.
-                cam.R = _rotation(np.radians(rng.choice([180.0, 270.0]) + rng.uniform(-1.0, 1.0)),
+                cam.R = rotation(np.radians(rng.choice([180.0, 270.0]) + rng.uniform(-1.0, 1.0)),
                                   np.radians(rng.uniform(-1.0, 1.0)), np.radians(rng.normal(0.0, 1.0)))
             if kind in ("3vp", "2vp"):
                 # Aim at a point near the origin corner so the cameras share markers.
@@ -291,7 +296,7 @@ def random_scene(rng: np.random.Generator, kinds: tuple[str, ...] = ("3vp", "3vp
                     pitch = np.clip(pitch, -np.radians(40), -np.radians(14))
                 else:
                     pitch = np.radians(rng.uniform(-1.5, 1.5))
-                cam.R = _rotation(yaw, pitch, np.radians(rng.normal(0.0, 2.0)))
+                cam.R = rotation(yaw, pitch, np.radians(rng.normal(0.0, 2.0)))
             observe_markers(cam, markers, rng, noise_px)
             shared = set(cam.markers) & {n for p in photos for n in p.markers}
             if kind == "1vp" and len(shared) >= 3 and photos:
@@ -338,10 +343,6 @@ def write_project(folder: Path, photos: list[SyntheticPhoto], markers: dict[str,
     The photos carry no picture (calibration reads only the marks) but are real JPEG files whose
     hashes the project records. Returns the project file's path.
     """
-    from PIL import Image
-
-    from .project import new_photo_entry, new_project, save_project
-
     folder = Path(folder)
     (folder / "photos").mkdir(parents=True, exist_ok=True)
     data = new_project("synthetic scene")
@@ -376,8 +377,6 @@ def model_scene(rng: np.random.Generator, n_boxes: int = 3, n_photos: int = 8, n
     yaws by ~8°, as a user's first placement), the fixed pins (every box corner visible in a photo,
     with noise) and the photos. Room-sized: boxes within a 6 × 5 m floor.
     """
-    from .model.scene import model_from_dict
-
     floor = {"width": float(ROOM[0]), "depth": float(ROOM[1])}
     truth: list[Mapping[str, Any]] = [{"name": "floor", "primitive": {"type": "quad", "params": floor},
                                     "joint": {"type": "marker", "marker": "O", "handle": "v0", "yaw_deg": 0.0}}]
@@ -403,7 +402,7 @@ def model_scene(rng: np.random.Generator, n_boxes: int = 3, n_photos: int = 8, n
         ang = 2 * np.pi * i / n_photos + rng.uniform(-0.2, 0.2)
         cam.C = np.array([ROOM[0] / 2 + 2.6 * np.cos(ang), ROOM[1] / 2 + 2.1 * np.sin(ang), rng.uniform(1.4, 1.9)])
         d = np.array([ROOM[0] / 2, ROOM[1] / 2, 0.4]) - cam.C
-        cam.R = _rotation(np.arctan2(d[1], d[0]), np.arctan2(d[2], np.hypot(d[0], d[1])), np.radians(rng.normal(0, 2)))
+        cam.R = rotation(np.arctan2(d[1], d[0]), np.arctan2(d[2], np.hypot(d[0], d[1])), np.radians(rng.normal(0, 2)))
         photos[cam.id] = cam
     model = model_from_dict(truth, {"O": np.zeros(3)})
     T = model.world_transforms()
@@ -414,9 +413,9 @@ def model_scene(rng: np.random.Generator, n_boxes: int = 3, n_photos: int = 8, n
             if mnode.primitive is None:
                 continue
             hs = mnode.primitive.handles() @ T[mnode.name][:3, :3].T + T[mnode.name][:3, 3]
-            uv, z = _project(P, hs)
+            uv, z = project_points(P, hs)
             for h, p, d in zip(mnode.primitive.handle_names(), uv, z, strict=True):
-                if d > 0.3 and _inside(p[None], cam.width, cam.height, 5.0):
+                if d > 0.3 and inside_image(p[None], cam.width, cam.height, 5.0):
                     pins.append({"photo": cam.id, "node": mnode.name, "handle": h,
                                  "uv": [float(v) for v in p + rng.normal(0, noise_px, 2)], "fixed": True})
     return {"nodes": truth}, {"nodes": start}, pins, photos

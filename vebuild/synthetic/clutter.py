@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from .synthetic import SyntheticPhoto, _inside, _project, distort, projection_matrix
+from . import SyntheticPhoto, distort, inside_image, project_points, projection_matrix
 
 Array = NDArray[np.float64]
 
@@ -72,11 +72,11 @@ def add_clutter(photo: SyntheticPhoto, rng: np.random.Generator, kind: str, axis
             ray = np.linalg.solve(photo.K, np.r_[rng.uniform(0, photo.width), rng.uniform(0, photo.height), 1.0])
             X = photo.C + depth * (photo.R.T @ (ray / ray[2]))
             half_m = rng.uniform(0.3, 2.5)
-            uv, z = _project(P, np.array([X - half_m * direction, X + half_m * direction]))
+            uv, z = project_points(P, np.array([X - half_m * direction, X + half_m * direction]))
             if np.any(z < 0.5) or np.linalg.norm(uv[1] - uv[0]) < min_length_rel * longer:
                 continue
             uv = distort(photo, uv)
-        if not _inside(uv, photo.width, photo.height, 5.0):
+        if not inside_image(uv, photo.width, photo.height, 5.0):
             continue
         # Directed as the axis' own segments run there: toward its vanishing point's side.
         m = 0.5 * (uv[0] + uv[1])

@@ -21,15 +21,18 @@ doorway's hole. The marks: vanishing segments along the longest seen stretches o
 along the world axes (the walls' corners and floor lines, the doorways' jambs and heads, the
 furniture's edges), marker sightings, and a fixed pin on every seen handle of the room's own
 primitives, each click the truth plus noise_px (1σ). A photo is kept only where vebuild
-calibrate's start could place it after those before it (synthetic_room_photos._placeable).
+calibrate's start could place it after those before it (room_photos.placeable).
 
 The true world positions of the handles come from vebuild's own kinematics (as
 :func:`vebuild.synthetic.model_scene`); the photos themselves are rendered above this layer
-(vebuild.bench.house_scene).
+(vebuild.bench.house_scene). The rooms, doorways, furniture and markers are drawn in
+:mod:`vebuild.synthetic.house_layout`, whose :func:`~vebuild.synthetic.house_layout.house_scene`
+draws a whole house and has it photographed and marked here.
 """
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -38,8 +41,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .synthetic import CLICK_NOISE_PX, SyntheticPhoto, _project, _rotation, projection_matrix, realistic_camera
-from .synthetic_room_photos import _placeable
+from ..model.joints import ModelError
+from ..model.scene import model_from_dict
+from ..project import new_photo_entry, new_project, save_project
+from . import CLICK_NOISE_PX, SyntheticPhoto, project_points, projection_matrix, realistic_camera, rotation
+from .room_photos import placeable
 
 Array = NDArray[np.float64]
 
@@ -116,8 +122,6 @@ class House:
         return sum(1 for n in self.nodes if "primitive" in n)
 
     def model(self) -> Any:
-        from .model.scene import model_from_dict
-
         if "model" not in self._geometry:
             nodes: list[Mapping[str, Any]] = list(self.nodes)
             self._geometry["model"] = model_from_dict(nodes, {"O": np.zeros(3)})
@@ -212,7 +216,7 @@ class House:
 
     def visible(self, photo: SyntheticPhoto, X: Array) -> tuple[NDArray[np.bool_], Array]:
         """(seen, pixels) of world points X (n, 3) in a photo taken in its room."""
-        uv, z = _project(projection_matrix(photo.K, photo.R, photo.C), X)
+        uv, z = project_points(projection_matrix(photo.K, photo.R, photo.C), X)
         ok = (z > MIN_DEPTH_M) & (uv[:, 0] >= IMAGE_MARGIN_PX) & (uv[:, 0] <= photo.width - IMAGE_MARGIN_PX)
         ok &= (uv[:, 1] >= IMAGE_MARGIN_PX) & (uv[:, 1] <= photo.height - IMAGE_MARGIN_PX)
         if ok.any():
@@ -298,7 +302,7 @@ def _segments(house: House, photo: SyntheticPhoto, rng: np.random.Generator, noi
         segs = []
         for a, b, _ in stretches:
             ends = np.array([a + 0.05 * (b - a), a + 0.95 * (b - a)])  # a user clicks inside the ends
-            uv, _ = _project(P, ends)
+            uv, _ = project_points(P, ends)
             segs.append((uv + rng.normal(0.0, noise_px, uv.shape)).reshape(-1))
         photo.segments[axis] = np.array(segs)
     return True
@@ -306,7 +310,7 @@ def _segments(house: House, photo: SyntheticPhoto, rng: np.random.Generator, noi
 
 def _coverage(house: House, photo: SyntheticPhoto) -> dict[str, Any]:
     """What a photo shows of its room: the markers and pinnable points it sees, its ties (as
-    synthetic_room_photos: markers and node:handle names) and the unit sight line to each."""
+    room_photos: markers and node:handle names) and the unit sight line to each."""
     room = house.photo_room[photo.id]
     pts = house.room_points(room)
     keys = [k for k in pts if k != ("room0", "f0")]
@@ -343,7 +347,7 @@ def _camera(rng: np.random.Generator, house: House, room: str, target: Array, pi
     if not OBLIQUE_DEG[0] <= np.degrees(yaw) % 90.0 <= OBLIQUE_DEG[1]:
         return None
     pitch = float(np.clip(np.arctan2(d[2], np.hypot(d[0], d[1])), np.radians(-32.0), np.radians(-14.0)))
-    cam.R = _rotation(yaw, pitch, float(np.radians(rng.normal(0.0, 2.0))))
+    cam.R = rotation(yaw, pitch, float(np.radians(rng.normal(0.0, 2.0))))
     return cam
 
 
@@ -382,7 +386,7 @@ def _photo(rng: np.random.Generator, house: House, room: str, target: Array, pid
         cov = _coverage(house, cam)
         if not covs and "O" not in cov["markers"]:
             continue
-        if covs and not _placeable([*covs, cov], list(range(len(covs))), len(covs)):
+        if covs and not placeable([*covs, cov], list(range(len(covs))), len(covs)):
             continue
         if not _segments(house, cam, rng, noise_px):
             continue
@@ -427,30 +431,6 @@ def photograph(rng: np.random.Generator, house: House, per_room: int, width: int
     house.markers = {m: X for m, X in house.markers.items() if counts[m] >= 2}
 
 
-#: Houses drawn (from the same stream) before giving up: a drawn house whose photos calibration
-#: could not place one after another is drawn again.
-HOUSE_ATTEMPTS = 5
-
-
-def house_scene(rng: np.random.Generator, rows: int = 2, cols: int = 4, per_room: int = 13, width: int = 6000,
-                height: int = 4000, furniture: str = "full", stairwell: bool = True,
-                noise_px: float = CLICK_NOISE_PX) -> House:
-    """A generated house (module docstring): the rooms, their furniture, photos and marks, and a
-    first guess. RuntimeError where the draw cannot be photographed."""
-    from .synthetic_house_layout import furnished_house
-
-    for _ in range(HOUSE_ATTEMPTS):
-        house = furnished_house(rng, rows, cols, furniture, stairwell)
-        try:
-            photograph(rng, house, per_room, width, height, noise_px)
-        except RuntimeError:
-            continue
-        house.guess = guessed_nodes(rng, house)
-        return house
-    raise RuntimeError(f"no house drawn in {HOUSE_ATTEMPTS} tries could be photographed so that calibration "
-                       "places every photo")
-
-
 def _off(rng: np.random.Generator, v: float, rel: float) -> float:
     return float(v * (1.0 + rng.uniform(-rel, rel)))
 
@@ -484,11 +464,6 @@ def guessed_nodes(rng: np.random.Generator, house: House) -> list[dict[str, Any]
     GUESS_POSITION_M, turns GUESS_YAW_DEG; the walls' thickness entered from a tape (its σ), the
     doorways' sills held at 0; a primitive its pins do not determine (_well_pinned) held at its
     true place and size (``solve: false``, as a user measures it)."""
-    import copy
-
-    from .model.joints import ModelError
-    from .model.scene import model_from_dict
-
     shown = _well_pinned(house)
     for _ in range(50):
         nodes = copy.deepcopy(house.nodes)
@@ -540,8 +515,6 @@ def scale_references(house: House) -> list[dict[str, Any]]:
 def write_house_project(folder: Path, house: House, photo_files: dict[str, Path], guess: bool = True) -> Path:
     """The house's project file in ``folder`` (its photos already there): segments, markers, the
     taped distances, the model (the first guess, or the truth) and the pins. Returns its path."""
-    from .project import new_photo_entry, new_project, save_project
-
     data = new_project("generated house")
     data["settings"]["click_sigma_px"] = CLICK_NOISE_PX
     for p in house.photos:

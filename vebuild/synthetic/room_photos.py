@@ -1,4 +1,4 @@
-"""The photos of a generated room (vebuild.synthetic_rooms): random candidate cameras standing in
+"""The photos of a generated room (vebuild.synthetic.rooms): random candidate cameras standing in
 the room, aimed as a photographer would (at the doorway, the window, the furniture, a wall's upper
 stretch), each refused if it sees any corner of the floor; then a set of 4–10 of them chosen that
 together show every wall, box and opening twice, and their marks (vanishing segments, markers).
@@ -12,12 +12,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .calibration.start import MIN_INTERSECTION_ANGLE_DEG
-from .synthetic import CLICK_NOISE_PX, SyntheticPhoto, _rotation, add_segments, realistic_camera
-from .synthetic_rooms import RoomScene
+from ..calibration.start import MIN_INTERSECTION_ANGLE_DEG
+from . import CLICK_NOISE_PX, SyntheticPhoto, add_segments, realistic_camera, rotation
+from .rooms import RoomScene
 
 Array = NDArray[np.float64]
-#: What one photo shows (_coverage): walls, points, markers, ties (sets) and rays (tie → unit sight line).
+#: What one photo shows (coverage): walls, points, markers, ties (sets) and rays (tie → unit sight line).
 Coverage = dict[str, Any]
 
 
@@ -109,13 +109,13 @@ def _candidate(rng: np.random.Generator, scene: RoomScene, pid: str, width: int,
     off_axis = np.degrees(yaw) % 90.0
     if not OBLIQUE_DEG[0] <= off_axis <= OBLIQUE_DEG[1]:
         return None  # facing a wall squarely: one vanishing point near infinity, f undetermined
-    cam.R = _rotation(yaw, pitch, float(np.radians(rng.normal(0.0, 2.0))))
+    cam.R = rotation(yaw, pitch, float(np.radians(rng.normal(0.0, 2.0))))
     if scene.seen_floor_corners(cam):
         return None
     return cam
 
 
-def _coverage(scene: RoomScene, cam: SyntheticPhoto, markers: dict[str, Array]) -> Coverage:
+def coverage(scene: RoomScene, cam: SyntheticPhoto, markers: dict[str, Array]) -> Coverage:
     """What one photo shows: the room's walls (a stretch of a line of each), the pinnable points
     ((node, handle)), the markers."""
     pts = scene.seen_points()
@@ -160,7 +160,7 @@ def _needs(scene: RoomScene, covs: list[Coverage]) -> int:
 
 
 def shortfall(scene: RoomScene, covs: list[Coverage]) -> dict[str, int]:
-    """What a set of photos (their _coverage) shows too seldom: thing → photos missing."""
+    """What a set of photos (their coverage) shows too seldom: thing → photos missing."""
     short = {}
     for i in range(len(scene.corners)):
         short[f"wall{i}"] = max(0, MIN_PHOTOS_PER_THING - sum(i in c["walls"] for c in covs))
@@ -193,7 +193,7 @@ def _known(covs: list[Coverage], order: list[int]) -> set[str]:
     return out
 
 
-def _placeable(covs: list[Coverage], order: list[int], i: int, known: set[str] | None = None) -> bool:
+def placeable(covs: list[Coverage], order: list[int], i: int, known: set[str] | None = None) -> bool:
     """Whether vebuild calibrate's start can place photo i after the photos ``order``: it shares two
     ties with one of them and sees a tie they have placed (_known)."""
     known = _known(covs, order) if known is None else known
@@ -203,7 +203,7 @@ def _placeable(covs: list[Coverage], order: list[int], i: int, known: set[str] |
 def _greedy(rng: np.random.Generator, scene: RoomScene, covs: list[Coverage], n_photos: tuple[int, int],
             first: int) -> list[int]:
     """Photos chosen one by one from ``first``, each one the calibration can place after those
-    before it (_placeable), the one that leaves the least short."""
+    before it (placeable), the one that leaves the least short."""
     chosen = [first]
     while len(chosen) < n_photos[1]:
         now = _needs(scene, [covs[i] for i in chosen])
@@ -211,7 +211,7 @@ def _greedy(rng: np.random.Generator, scene: RoomScene, covs: list[Coverage], n_
             break
         known = _known(covs, chosen)
         gains = [(now - _needs(scene, [covs[i] for i in chosen] + [c]), len(c["points"]), rng.random(), i)
-                 for i, c in enumerate(covs) if i not in chosen and _placeable(covs, chosen, i, known)]
+                 for i, c in enumerate(covs) if i not in chosen and placeable(covs, chosen, i, known)]
         if not gains:
             break
         chosen.append(max(gains)[3])
@@ -241,7 +241,7 @@ def _placed(covs: list[Coverage], chosen: list[int]) -> list[int]:
     left = [i for i in chosen if i != order[0]]
     while left:
         known = _known(covs, order)
-        nxt = next((i for i in left if _placeable(covs, order, i, known)), None)
+        nxt = next((i for i in left if placeable(covs, order, i, known)), None)
         if nxt is None:
             break
         order.append(nxt)
@@ -270,7 +270,7 @@ def photograph(rng: np.random.Generator, scene: RoomScene, n_photos: tuple[int, 
         cam = _candidate(rng, scene, f"c{k}", width, height)
         if cam is None:
             continue
-        cov = _coverage(scene, cam, markers)
+        cov = coverage(scene, cam, markers)
         if len(cov["ties"]) >= MIN_MARKERS_PER_PHOTO:
             cands.append((cam, cov))
     covs = [c for _, c in cands]

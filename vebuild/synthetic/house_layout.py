@@ -1,5 +1,6 @@
-"""The generated house's rooms, doorways, furniture and markers (vebuild.synthetic_house marks
-them): FORMAT.md nodes in a scene graph, every primitive placed in its room's own frame.
+"""The generated house's rooms, doorways, furniture and markers (vebuild.synthetic.house marks
+them): FORMAT.md nodes in a scene graph, every primitive placed in its room's own frame; and
+:func:`house_scene`, the whole house: drawn here, then photographed and marked there.
 
 Rooms (r, c) of a grid, room ``room{r * cols + c}``: inner widths 4.4–5.6 m per column, depths
 4.2–5.2 m per row, HEIGHT_M high, walls THICKNESS_M (a party wall is two walls back to back). The
@@ -15,7 +16,8 @@ from typing import Any
 
 import numpy as np
 
-from .synthetic_house import DOOR_HEIGHT_M, DOOR_WIDTH_M, HEIGHT_M, THICKNESS_M, Door, House, Room
+from . import CLICK_NOISE_PX
+from .house import DOOR_HEIGHT_M, DOOR_WIDTH_M, HEIGHT_M, THICKNESS_M, Door, House, Room, guessed_nodes, photograph
 
 #: Floor clear in front of a doorway (along the wall, into the room), metres.
 DOOR_CLEAR_M = (1.3, 0.8)
@@ -371,3 +373,26 @@ def _markers(rng: np.random.Generator, house: House, furnishers: dict[str, _Furn
             k += 1
             house.markers[f"M{i}_{k}"] = np.r_[room.origin[:2] + spot, 0.0]
             house.marker_rooms[f"M{i}_{k}"] = {name}
+
+
+#: Houses drawn (from the same stream) before giving up: a drawn house whose photos calibration
+#: could not place one after another is drawn again.
+HOUSE_ATTEMPTS = 5
+
+
+def house_scene(rng: np.random.Generator, rows: int = 2, cols: int = 4, per_room: int = 13, width: int = 6000,
+                height: int = 4000, furniture: str = "full", stairwell: bool = True,
+                noise_px: float = CLICK_NOISE_PX) -> House:
+    """A generated house (vebuild.synthetic.house's docstring): the rooms, their furniture and
+    markers drawn here, photographed and marked there, and a first guess. RuntimeError where the
+    draw cannot be photographed."""
+    for _ in range(HOUSE_ATTEMPTS):
+        house = furnished_house(rng, rows, cols, furniture, stairwell)
+        try:
+            photograph(rng, house, per_room, width, height, noise_px)
+        except RuntimeError:
+            continue
+        house.guess = guessed_nodes(rng, house)
+        return house
+    raise RuntimeError(f"no house drawn in {HOUSE_ATTEMPTS} tries could be photographed so that calibration "
+                       "places every photo")

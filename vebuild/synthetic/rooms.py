@@ -6,9 +6,10 @@ The geometry here is the room's own (corners, walls, openings, boxes as plain nu
 apart from vebuild's room primitive and joints, so that a convention slip in those is caught by
 comparing the two (tests/test_room_scenes.py): the true world points, the visibility tests and the
 clicks all come from this module. The cameras, lenses, vanishing segments, click noise and the
-project writer are vebuild.synthetic's. The project-file side (the true and the guessed model as
-FORMAT.md nodes and relations, the pins and edge observations) is
-:mod:`vebuild.synthetic_room_model`.
+project writer are vebuild.synthetic's. The photos are chosen in :mod:`vebuild.synthetic.room_photos`;
+the project-file side (the true and the guessed model as FORMAT.md nodes and relations, the pins and
+edge observations) and the whole generated room (:func:`vebuild.synthetic.room_model.room_scene`:
+geometry, photos, model and marks) are :mod:`vebuild.synthetic.room_model`.
 
 Room frame (as FORMAT.md's room primitive): the floor at z = 0, inner floor corner 0 at the origin,
 corner 1 on +x, corners counter-clockwise seen from above; wall i runs from corner i to corner i + 1
@@ -25,7 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from .synthetic import SyntheticPhoto, _project, distort, projection_matrix
+from . import SyntheticPhoto, distort, project_points, projection_matrix
 
 Array = NDArray[np.float64]
 Mask = NDArray[np.bool_]
@@ -42,6 +43,11 @@ OCCLUDER_SHRINK_M = 1e-3
 EDGE_SAMPLES = 41
 #: The least length (px, on the photo) of an edge's seen stretch for a user to mark it.
 MIN_STRETCH_PX = 150.0
+#: 1σ of a wall's thickness taped at the doorway's reveal, metres: a tape read to the millimetre
+#: across a reveal whose edges are not sharp.
+THICKNESS_TAPE_SIGMA_M = 0.003
+#: 1σ of a door leaf's thickness taped at its free edge, metres.
+LEAF_TAPE_SIGMA_M = 0.001
 
 
 @dataclass
@@ -266,7 +272,7 @@ class RoomScene:
         """(seen mask, pixels on the distorted photo) of world points X (n, 3): in front, inside the
         image, and no wall or box cutting the sight line."""
         P = projection_matrix(photo.K, photo.R, photo.C)
-        uv, z = _project(P, X)
+        uv, z = project_points(P, X)
         uv = distort(photo, uv)
         ok = (z > MIN_DEPTH_M) & (uv[:, 0] >= IMAGE_MARGIN_PX) & (uv[:, 0] <= photo.width - IMAGE_MARGIN_PX)
         ok &= (uv[:, 1] >= IMAGE_MARGIN_PX) & (uv[:, 1] <= photo.height - IMAGE_MARGIN_PX)
@@ -376,8 +382,6 @@ def room_geometry(rng: np.random.Generator) -> RoomScene:
     dummy = Box("x", np.ones(3), np.zeros(3), 0.0)
     scene = RoomScene(corners, height, thickness, [door, win], origin, dummy, 0, [], 0, dummy, hinge)
     scene.leaf = _leaf(scene, leaf_size)
-    from .synthetic_room_model import LEAF_TAPE_SIGMA_M, THICKNESS_TAPE_SIGMA_M
-
     scene.tapes = {"thickness": float(thickness + rng.normal(0.0, THICKNESS_TAPE_SIGMA_M)),
                    "leaf_depth": float(leaf_size[1] + rng.normal(0.0, LEAF_TAPE_SIGMA_M))}
     # The cabinet stands with its back flush against a wall with no opening; a row of two or three
@@ -422,86 +426,3 @@ def _leaf(scene: RoomScene, size: Array) -> Box:
     centre = J[:3, :3] @ q + J[:3, 3]
     x = J[:3, :3] @ Rz[:, 0]
     return Box("door", size, centre, float(np.arctan2(x[1], x[0])))
-
-
-
-
-#: Rooms drawn before giving up: a drawn room whose photos cannot show everything without a floor
-#: corner (synthetic_room_photos.photograph) is drawn again from the same stream.
-ROOM_ATTEMPTS = 8
-
-
-@dataclass
-class GeneratedRoom:
-    """A generated room (:func:`room_scene`): the scene, the true model (FORMAT.md nodes and
-    relations), the user's first guess, and the marks on the model (pins, edge observations)."""
-
-    scene: RoomScene
-    truth: dict
-    guess: list
-    pins: list
-    edges: list
-
-    def write(self, folder, guess: bool = True):
-        """The project file (the guessed model, or with ``guess`` false the true one); its path."""
-        from .synthetic_room_model import write_room_project
-
-        return write_room_project(folder, self.scene, self.guess if guess else self.truth["nodes"], self.pins,
-                                  self.edges)
-
-    def with_fresh_noise(self, rng: np.random.Generator, noise_px: float) -> GeneratedRoom:
-        """The same room, photos and first guess with every click drawn again: noise_px (1σ) added
-        to each vanishing-segment point, marker sighting, pin and edge click, and both tapes drawn
-        again from the true thicknesses. Only meaningful on a room drawn with exact clicks
-        (room_scene's ``noise_px=0``): the noise is added to the clicks as they are. Repeated
-        draws on one room measure its intervals' coverage over the noise alone."""
-        import copy
-
-        from .synthetic_room_model import LEAF_TAPE_SIGMA_M, THICKNESS_TAPE_SIGMA_M
-
-        g = copy.deepcopy(self)
-        for cam in g.scene.photos:
-            cam.markers = {m: uv + rng.normal(0.0, noise_px, 2) for m, uv in cam.markers.items()}
-            for axis, segs in cam.segments.items():
-                cam.segments[axis] = (segs + rng.normal(0.0, noise_px, segs.shape) if isinstance(segs, np.ndarray)
-                                      else [s + rng.normal(0.0, noise_px, s.shape) for s in segs])
-        for pin in g.pins:
-            pin["uv"] = [float(v) for v in np.asarray(pin["uv"]) + rng.normal(0.0, noise_px, 2)]
-        for e in g.edges:
-            e["points"] = [[float(v) for v in np.asarray(q) + rng.normal(0.0, noise_px, 2)] for q in e["points"]]
-        tapes = {"thickness": g.scene.thickness + rng.normal(0.0, THICKNESS_TAPE_SIGMA_M),
-                 "leaf_depth": float(g.scene.leaf.size[1]) + rng.normal(0.0, LEAF_TAPE_SIGMA_M)}
-        g.scene.tapes = {k: float(v) for k, v in tapes.items()}
-        for node in g.guess:
-            key, param = {"room": ("thickness", "thickness"), "door": ("leaf_depth", "depth")}.get(node["name"],
-                                                                                                (None, None))
-            if key is None:
-                continue
-            node["primitive"]["params"][param] = g.scene.tapes[key]
-            for h in node["hold"]:
-                if isinstance(h, dict) and h["name"] == param:
-                    h["value"] = g.scene.tapes[key]
-        return g
-
-
-def room_scene(rng: np.random.Generator, guess_rel: tuple[float, float] = (0.10, 0.25),
-               noise_px: float | None = None) -> GeneratedRoom:
-    """A generated L-shaped room (room_geometry), photographed from inside with no photo seeing a
-    floor corner, marked as a careful user would (clicks with noise_px 1σ, vebuild.synthetic's
-    CLICK_NOISE_PX unless given), with a first guess guess_rel off. The stream of ``rng`` does not
-    depend on noise_px: ``noise_px=0`` gives the same room, photos and guess with exact clicks."""
-    from .synthetic import CLICK_NOISE_PX
-    from .synthetic_room_model import guessed_nodes, marks, relations, true_nodes
-    from .synthetic_room_photos import photograph
-
-    noise = CLICK_NOISE_PX if noise_px is None else noise_px
-    for _ in range(ROOM_ATTEMPTS):
-        scene = room_geometry(rng)
-        try:
-            photograph(rng, scene, noise_px=noise)
-        except RuntimeError:
-            continue
-        pins, edges = marks(rng, scene, noise)
-        return GeneratedRoom(scene, {"nodes": true_nodes(scene), "relations": relations(scene)},
-                             guessed_nodes(rng, scene, guess_rel), pins, edges)
-    raise RuntimeError(f"no room drawn in {ROOM_ATTEMPTS} tries could be photographed without a floor corner")

@@ -1,4 +1,4 @@
-"""A generated room (vebuild.synthetic_rooms) as a project file's model: the truth and a user's
+"""A generated room (vebuild.synthetic.rooms) as a project file's model: the truth and a user's
 first guess as FORMAT.md nodes and relations, and the user's marks on the model (pins on the handles
 each photo shows, edge observations on the stretches of the room's edges whose ends it does not).
 
@@ -6,26 +6,30 @@ The nodes: the room (a rectilinear six-corner room with its doorway and window) 
 marker by the foot of the doorway's jamb away from the hinge; the door leaf on a hinge at its jamb, its axis solved
 (``solve_axis``); the cabinet and the row's units resting on the room's floor, each with a ``flush``
 relation putting its back against its wall, and ``equal`` relations making the units one size.
+
+:func:`room_scene` draws a whole room: its geometry (vebuild.synthetic.rooms), its photos
+(vebuild.synthetic.room_photos), the true model, the first guess and the marks.
 """
 
 from __future__ import annotations
 
+import copy
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from .synthetic import CLICK_NOISE_PX
-from .synthetic_rooms import Box, RoomScene
+from ..model.joints import ModelError
+from ..model.scene import model_from_dict
+from ..project import load_project, save_project
+from . import CLICK_NOISE_PX, write_project
+from .room_photos import photograph
+from .rooms import LEAF_TAPE_SIGMA_M, THICKNESS_TAPE_SIGMA_M, Box, RoomScene, room_geometry
 
 Array = NDArray[np.float64]
 
-#: 1σ of a wall's thickness taped at the doorway's reveal, metres: a tape read to the millimetre
-#: across a reveal whose edges are not sharp.
-THICKNESS_TAPE_SIGMA_M = 0.003
-#: 1σ of a door leaf's thickness taped at its free edge, metres.
-LEAF_TAPE_SIGMA_M = 0.001
 #: How far a user's first guess of a turn is off (degrees, either sign, uniform): a room or a
 #: cabinet is set square to the vanishing lines' axes by eye.
 GUESS_YAW_DEG = (2.0, 5.0)
@@ -100,9 +104,6 @@ GUESS_ATTEMPTS = 200
 
 def guessed_nodes(rng: np.random.Generator, scene: RoomScene, guess_rel: tuple[float, float]) -> list[dict[str, Any]]:
     """:func:`guessed_node_draw` until the room it guesses is valid (GUESS_ATTEMPTS)."""
-    from .model.joints import ModelError
-    from .model.scene import model_from_dict
-
     for _ in range(GUESS_ATTEMPTS):
         nodes = guessed_node_draw(rng, scene, guess_rel)
         try:
@@ -178,11 +179,79 @@ def marks(rng: np.random.Generator, scene: RoomScene, noise_px: float = CLICK_NO
 def write_room_project(folder: Path, scene: RoomScene, nodes: list[dict[str, Any]], pins: list, edges: list) -> Path:
     """The generated room's project (vebuild.synthetic.write_project: photos, markers, the taped
     scale) with the model ``nodes``, the scene's relations and the marks. Returns its path."""
-    from .project import load_project, save_project
-    from .synthetic import write_project
-
     path = write_project(folder, scene.photos, scene.markers)
     project = load_project(path)
     project.data["model"] = {"nodes": nodes, "relations": relations(scene), "pins": pins, "edge_observations": edges}
     save_project(path, project.data)
     return path
+
+
+#: Rooms drawn before giving up: a drawn room whose photos cannot show everything without a floor
+#: corner (room_photos.photograph) is drawn again from the same stream.
+ROOM_ATTEMPTS = 8
+
+
+@dataclass
+class GeneratedRoom:
+    """A generated room (:func:`room_scene`): the scene, the true model (FORMAT.md nodes and
+    relations), the user's first guess, and the marks on the model (pins, edge observations)."""
+
+    scene: RoomScene
+    truth: dict
+    guess: list
+    pins: list
+    edges: list
+
+    def write(self, folder, guess: bool = True):
+        """The project file (the guessed model, or with ``guess`` false the true one); its path."""
+        return write_room_project(folder, self.scene, self.guess if guess else self.truth["nodes"], self.pins,
+                                  self.edges)
+
+    def with_fresh_noise(self, rng: np.random.Generator, noise_px: float) -> GeneratedRoom:
+        """The same room, photos and first guess with every click drawn again: noise_px (1σ) added
+        to each vanishing-segment point, marker sighting, pin and edge click, and both tapes drawn
+        again from the true thicknesses. Only meaningful on a room drawn with exact clicks
+        (room_scene's ``noise_px=0``): the noise is added to the clicks as they are. Repeated
+        draws on one room measure its intervals' coverage over the noise alone."""
+        g = copy.deepcopy(self)
+        for cam in g.scene.photos:
+            cam.markers = {m: uv + rng.normal(0.0, noise_px, 2) for m, uv in cam.markers.items()}
+            for axis, segs in cam.segments.items():
+                cam.segments[axis] = (segs + rng.normal(0.0, noise_px, segs.shape) if isinstance(segs, np.ndarray)
+                                      else [s + rng.normal(0.0, noise_px, s.shape) for s in segs])
+        for pin in g.pins:
+            pin["uv"] = [float(v) for v in np.asarray(pin["uv"]) + rng.normal(0.0, noise_px, 2)]
+        for e in g.edges:
+            e["points"] = [[float(v) for v in np.asarray(q) + rng.normal(0.0, noise_px, 2)] for q in e["points"]]
+        tapes = {"thickness": g.scene.thickness + rng.normal(0.0, THICKNESS_TAPE_SIGMA_M),
+                 "leaf_depth": float(g.scene.leaf.size[1]) + rng.normal(0.0, LEAF_TAPE_SIGMA_M)}
+        g.scene.tapes = {k: float(v) for k, v in tapes.items()}
+        for node in g.guess:
+            key, param = {"room": ("thickness", "thickness"), "door": ("leaf_depth", "depth")}.get(node["name"],
+                                                                                                (None, None))
+            if key is None:
+                continue
+            node["primitive"]["params"][param] = g.scene.tapes[key]
+            for h in node["hold"]:
+                if isinstance(h, dict) and h["name"] == param:
+                    h["value"] = g.scene.tapes[key]
+        return g
+
+
+def room_scene(rng: np.random.Generator, guess_rel: tuple[float, float] = (0.10, 0.25),
+               noise_px: float | None = None) -> GeneratedRoom:
+    """A generated L-shaped room (room_geometry), photographed from inside with no photo seeing a
+    floor corner, marked as a careful user would (clicks with noise_px 1σ, vebuild.synthetic's
+    CLICK_NOISE_PX unless given), with a first guess guess_rel off. The stream of ``rng`` does not
+    depend on noise_px: ``noise_px=0`` gives the same room, photos and guess with exact clicks."""
+    noise = CLICK_NOISE_PX if noise_px is None else noise_px
+    for _ in range(ROOM_ATTEMPTS):
+        scene = room_geometry(rng)
+        try:
+            photograph(rng, scene, noise_px=noise)
+        except RuntimeError:
+            continue
+        pins, edges = marks(rng, scene, noise)
+        return GeneratedRoom(scene, {"nodes": true_nodes(scene), "relations": relations(scene)},
+                             guessed_nodes(rng, scene, guess_rel), pins, edges)
+    raise RuntimeError(f"no room drawn in {ROOM_ATTEMPTS} tries could be photographed without a floor corner")

@@ -9,12 +9,14 @@ within 2°) whose lines alone barely fix f: the photo that must borrow the camer
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from .synthetic import (
+from ..project import save_project
+from . import (
     CLICK_NOISE_PX,
     REAL_DISTORTION_CORNER_REL,
     SyntheticPhoto,
@@ -84,15 +86,11 @@ def exif_record(photo: SyntheticPhoto, serial: str | None = SERIAL) -> dict[str,
 def write_one_camera_project(folder: Path, photos: list[SyntheticPhoto], markers: dict[str, np.ndarray],
                              exif: bool = True, serial: str | None = SERIAL) -> Path:
     """:func:`vebuild.synthetic.write_project` with each photo's EXIF record (``exif``)."""
-    import json
-
     path = write_project(folder, photos, markers)
     data = json.loads(path.read_text(encoding="utf-8"))
     for entry, p in zip(data["photos"], photos, strict=True):
         entry.pop("focal_px", None)
         if exif:
             entry["exif"] = exif_record(p, serial)
-    from .project import save_project
-
     save_project(path, data)
     return path
