@@ -12,13 +12,13 @@ from typing import Any
 
 import numpy as np
 
-from ..calibration import positions
-from ..calibration.camera_groups import camera_groups
-from ..calibration.exif import exif_distortion_prior, exif_focal_prior
-from ..calibration.photo import PhotoCalibration, calibrate_photo
-from ..calibration.positions import PhotoInput, Placement, ReferenceDistance, place_cameras
-from ..calibration.shared_camera import GroupMember
-from ..calibration.single_photo import (
+from vebuild.calibration import positions
+from vebuild.calibration.camera_groups import camera_groups
+from vebuild.calibration.exif import exif_distortion_prior, exif_focal_prior
+from vebuild.calibration.photo import PhotoCalibration, calibrate_photo
+from vebuild.calibration.positions import PhotoInput, Placement, ReferenceDistance, place_cameras
+from vebuild.calibration.shared_camera import GroupMember
+from vebuild.calibration.single_photo import (
     FloorDistance,
     Origin,
     ScaleSource,
@@ -26,9 +26,10 @@ from ..calibration.single_photo import (
     camera_height_estimate,
     place_single_photo,
 )
-from ..errors import CalibrationError
-from ..project import Project, decode, provenance
-from ..project.decode import check_reference_handles
+from vebuild.errors import CalibrationError
+from vebuild.project import Project, decode, provenance
+from vebuild.project.decode import check_reference_handles
+
 from .calibration_results import (
     checked_after_solve,
     distortion_prior,

@@ -14,11 +14,12 @@ from typing import Any
 
 
 def _cmd_calibrate(args: argparse.Namespace) -> int:
-    from ..analysis.project_check import load_checked
-    from ..console.bars import Bar
-    from ..console.tables import calibration_table, failed_check_words
-    from ..project import save_project
-    from ..project.outputs import begin_stage
+    from vebuild.analysis.project_check import load_checked
+    from vebuild.console.bars import Bar
+    from vebuild.console.tables import calibration_table, failed_check_words
+    from vebuild.project import save_project
+    from vebuild.project.outputs import begin_stage
+
     from .calibrate import calibrate_project
 
     project = load_checked(args.project, "calibrate")

@@ -7,20 +7,17 @@ from typing import Any
 
 import numpy as np
 
-from .. import __version__
-from ..calibration.photo import EXIF_DISAGREEMENT_SIGMAS, PhotoCalibration
-from ..calibration.positions import PlacedCamera, Placement, ReferenceDistance
-from ..calibration.priors import ExifCheck
-from ..calibration.single_photo import (
-    SinglePhotoPlacement,
-    floor_point,
-)
-from ..console.tables import exif_check_words, failed_check_words
-from ..constants import CHECK_FAIL_SIGMAS, OUTLIER_SIGMAS
-from ..errors import CalibrationError
-from ..project import canonical_input_hash, decode
-from ..project.records import camera_record, distortion_record, json_values, value_sigma
-from ..project.units import METRES, RELATIVE
+from vebuild import __version__
+from vebuild.calibration.photo import EXIF_DISAGREEMENT_SIGMAS, PhotoCalibration
+from vebuild.calibration.positions import PlacedCamera, Placement, ReferenceDistance
+from vebuild.calibration.priors import ExifCheck
+from vebuild.calibration.single_photo import SinglePhotoPlacement, floor_point
+from vebuild.console.tables import exif_check_words, failed_check_words
+from vebuild.constants import CHECK_FAIL_SIGMAS, OUTLIER_SIGMAS
+from vebuild.errors import CalibrationError
+from vebuild.project import canonical_input_hash, decode
+from vebuild.project.records import camera_record, distortion_record, json_values, value_sigma
+from vebuild.project.units import METRES, RELATIVE
 
 
 def distortion_prior(cal: PhotoCalibration) -> tuple[np.ndarray, float, float]:

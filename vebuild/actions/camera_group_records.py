@@ -11,10 +11,10 @@ from typing import Any
 
 import numpy as np
 
-from ..calibration.camera_groups import CameraGroup
-from ..calibration.positions import CameraGroupPrior
-from ..calibration.shared_camera import GroupMember, SharedCalibration, calibrate_shared
-from ..project.records import json_values, value_sigma
+from vebuild.calibration.camera_groups import CameraGroup
+from vebuild.calibration.positions import CameraGroupPrior
+from vebuild.calibration.shared_camera import GroupMember, SharedCalibration, calibrate_shared
+from vebuild.project.records import json_values, value_sigma
 
 
 @dataclass(frozen=True)
@@ -110,9 +110,9 @@ def apply_group_options(data: dict[str, Any], file: Any, group: list[str], relea
     A photo put in a group leaves any other group and is no longer released; a released photo
     leaves the user's groups (a group left with one photo is dropped) and gets ``own_camera``.
     """
-    from ..errors import VebuildError
-    from ..project.json_paths import listing
-    from ..project.validation import validate
+    from vebuild.errors import VebuildError
+    from vebuild.project.json_paths import listing
+    from vebuild.project.validation import validate
 
     ids = [p["id"] for p in data["photos"]]
     groups = [dict(g) for g in data.get("camera_groups") or []]

@@ -11,9 +11,9 @@ import argparse
 from collections.abc import Mapping
 from typing import Any
 
-from ..analysis.project_check import load_checked
-from ..errors import VebuildError
-from ..project import Project, save_project
+from vebuild.analysis.project_check import load_checked
+from vebuild.errors import VebuildError
+from vebuild.project import Project, save_project
 
 #: Each field of ``case``: its key, its label on the report's title page, and its ``vebuild case``
 #: option, in the order the title page shows them.

@@ -10,9 +10,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..analysis.project_check import decode_project
-from ..project import Project
-from ..project.provenance import AuditProblem, Stale, inputs_sha256, stale, verify_audit
+from vebuild.analysis.project_check import decode_project
+from vebuild.project import Project
+from vebuild.project.provenance import AuditProblem, Stale, inputs_sha256, stale, verify_audit
 
 __all__ = ["Status", "check_project", "project_status"]
 

@@ -19,14 +19,15 @@ from pathlib import Path
 
 import numpy as np
 
-from ..camera import log_so3
-from ..console.bars import Bar
-from ..console.progress import progress_bar
-from ..console.tables import calibration_table, model_table, texture_table
-from ..errors import VebuildError
-from ..project import load_project, save_project
-from ..project.decode import camera_records
-from ..resources import example_project_dir
+from vebuild.camera import log_so3
+from vebuild.console.bars import Bar
+from vebuild.console.progress import progress_bar
+from vebuild.console.tables import calibration_table, model_table, texture_table
+from vebuild.errors import VebuildError
+from vebuild.project import load_project, save_project
+from vebuild.project.decode import camera_records
+from vebuild.resources import example_project_dir
+
 from .calibrate import calibrate_project
 from .demo_summary import check_explanations, summary
 from .solve import solve_project
@@ -46,8 +47,8 @@ def copy_example(out: Path) -> Path:
     the user went on to edit there, or any other file, is never overwritten. The copy is made
     beside ``out`` and renamed into place whole.
     """
-    from ..project.atomic import clean_stale, remove_tree, replace_folder, temp_path
-    from ..project.outputs import check_folder, write_manifest
+    from vebuild.project.atomic import clean_stale, remove_tree, replace_folder, temp_path
+    from vebuild.project.outputs import check_folder, write_manifest
 
     out = Path(out)
     if out.parent.is_dir():
@@ -190,7 +191,7 @@ def run_demo(out: Path, progress: bool = True) -> int:
     print(f"\nresults written to {project_file}; textures in {out / 'textures'}; renders in {out / 'renders'}")
     seen = sum(1 for f in record["faces"] if f["seen_fraction"] > 0)
     print("\n" + summary(project, model, truth, out, seen))
-    from ..project.outputs import write_manifest
+    from vebuild.project.outputs import write_manifest
 
     write_manifest(out, "demo")  # so that a later demo may replace this folder, unless someone changes it
     return 0
@@ -199,7 +200,8 @@ def run_demo(out: Path, progress: bool = True) -> int:
 def render_views(project, folder: Path) -> str:
     """Every named view (as photographed and under each lighting preset) to PNG, and each photo's
     camera overlaid on its photo with the RMS colour difference."""
-    from ..render.scene import load_scene
+    from vebuild.render.scene import load_scene
+
     from .render import RenderRequest, render_evidence
 
     folder.mkdir(exist_ok=True)
@@ -236,7 +238,7 @@ def texture_comparison(project, textures, truth: dict) -> str:
                  f"{pid} {g[0]:.3f} (true {truth['photos'][pid]['exposure'] / first:.3f})"
                  for pid, g in textures.gains.items())]
     try:
-        from ..project.decode import load_model
+        from vebuild.project.decode import load_model
 
         model, _, _ = load_model(project)
         value = texture_psnr(model, textures, {p: v["exposure"] for p, v in truth["photos"].items()},

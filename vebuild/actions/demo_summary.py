@@ -16,8 +16,8 @@ from typing import Any
 
 import numpy as np
 
-from ..camera import log_so3
-from ..camera import project as project_points
+from vebuild.camera import log_so3
+from vebuild.camera import project as project_points
 
 #: A click at least this many σ from its true place (its 2-D distance over σ; a χ₂ draw beyond it
 #: happens about once in 7 clicks) can explain a check outside its interval; where every end's click

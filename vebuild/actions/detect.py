@@ -18,9 +18,9 @@ from typing import Any
 
 import numpy as np
 
-from ..calibration.clutter import curved, short, textured
-from ..calibration.exif import exif_distortion_prior, exif_focal_prior
-from ..calibration.lines import (
+from vebuild.calibration.clutter import curved, short, textured
+from vebuild.calibration.exif import exif_distortion_prior, exif_focal_prior
+from vebuild.calibration.lines import (
     DARK_MEAN_GREY,
     X_AXIS_CHOICES,
     detect_lines,
@@ -31,11 +31,12 @@ from ..calibration.lines import (
     single_vanishing_point,
     to_grey,
 )
-from ..calibration.vanishing import fit_vanishing_point
-from ..camera import AXES, distort_pixels, intrinsic_matrix, undistort_pixels
-from ..errors import ProjectError, VebuildError
-from ..project import Project
-from ..project.images import decode_photo
+from vebuild.calibration.vanishing import fit_vanishing_point
+from vebuild.camera import AXES, distort_pixels, intrinsic_matrix, undistort_pixels
+from vebuild.errors import ProjectError, VebuildError
+from vebuild.project import Project
+from vebuild.project.images import decode_photo
+
 from .detect_checks import drop_same_point, one_image_line, weak_axes
 from .detect_types import Grouped, PhotoProposals, SegmentProposal
 from .x_axis import auto_x_axes, choice_from_segments
@@ -445,8 +446,8 @@ def replace_message(props: PhotoProposals, message: str) -> PhotoProposals:
 
 
 def _cmd_detect(args: argparse.Namespace) -> int:
-    from ..analysis.project_check import load_checked
-    from ..project import save_project
+    from vebuild.analysis.project_check import load_checked
+    from vebuild.project import save_project
 
     project = load_checked(args.project, "detect")
     results = detect_project(project, args.photos, replace=args.replace, x_axis=args.x_axis)

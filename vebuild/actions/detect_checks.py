@@ -11,11 +11,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..calibration.clutter import direction_sigma_deg, weak_direction
-from ..calibration.photo import SAME_VANISHING_POINT_DEG
-from ..calibration.vanishing import COLLINEAR_TOLERANCE_PX, fit_vanishing_point, normalising_transform
-from ..camera import AXES, intrinsic_matrix
-from ..errors import VebuildError
+from vebuild.calibration.clutter import direction_sigma_deg, weak_direction
+from vebuild.calibration.photo import SAME_VANISHING_POINT_DEG
+from vebuild.calibration.vanishing import COLLINEAR_TOLERANCE_PX, fit_vanishing_point, normalising_transform
+from vebuild.camera import AXES, intrinsic_matrix
+from vebuild.errors import VebuildError
 
 if TYPE_CHECKING:
     from .detect_types import SegmentProposal

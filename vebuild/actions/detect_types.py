@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from ..calibration.lines import orient_axes
+from vebuild.calibration.lines import orient_axes
 
 
 @dataclass(frozen=True)

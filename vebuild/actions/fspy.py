@@ -48,12 +48,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .. import __version__
-from ..calibration.intrinsics import orthocentre
-from ..errors import CalibrationError, ProjectError, VebuildError
-from ..project import Project, new_photo_entry, new_project, save_project, sha256_file
-from ..project.atomic import MANIFEST, clean_stale, place_folder, remove_tree, temp_path, write_bytes, write_text
-from ..project.fspy import (
+from vebuild import __version__
+from vebuild.calibration.intrinsics import orthocentre
+from vebuild.errors import CalibrationError, ProjectError, VebuildError
+from vebuild.project import Project, new_photo_entry, new_project, save_project, sha256_file
+from vebuild.project.atomic import MANIFEST, clean_stale, place_folder, remove_tree, temp_path, write_bytes, write_text
+from vebuild.project.fspy import (
     AXES,
     MODE_1VP,
     UNITS_M,
@@ -64,6 +64,7 @@ from ..project.fspy import (
     read_fspy,
     relative_to_pixels,
 )
+
 from .fspy_compare import ComparisonRow, comparison_rows
 
 Array = NDArray[np.float64]

@@ -11,8 +11,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..camera import ypr_from_rotation
-from ..project.fspy import UNITS_M, FspyProject, image_plane_to_pixels
+from vebuild.camera import ypr_from_rotation
+from vebuild.project.fspy import UNITS_M, FspyProject, image_plane_to_pixels
 
 Array = NDArray[np.float64]
 

@@ -20,11 +20,11 @@ from typing import Any
 
 import numpy as np
 
-from ..camera import ImageCamera
-from ..errors import ProjectError, VebuildError
-from ..project import Project
-from ..project.handoff_image import HandoffImage
-from ..render.export_camera import CameraScene
+from vebuild.camera import ImageCamera
+from vebuild.errors import ProjectError, VebuildError
+from vebuild.project import Project
+from vebuild.project.handoff_image import HandoffImage
+from vebuild.render.export_camera import CameraScene
 
 #: What ``--out`` may end in with ``--camera``.
 CAMERA_FORMATS = {".glb": "glTF 2.0 binary (camera, photo plane, floor grid, axes, measurements)",
@@ -43,7 +43,7 @@ class HandoffResult:
 
 def calibrated_photo(project: Project, photo: str | None) -> str:
     """The id of the calibrated photo to hand on: ``photo``, or the only calibrated one."""
-    from ..project.decode import camera_records
+    from vebuild.project.decode import camera_records
 
     calibrated = [p["id"] for p in project.data.get("photos", []) if p["id"] in camera_records(project.data)]
     ids = [p["id"] for p in project.data.get("photos", [])]
@@ -77,14 +77,14 @@ def _sigma(s: float | None, relative: bool) -> str:
 def measurement_items(project: Project, photo: str) -> list[dict[str, Any]]:
     """The photo's saved single-view measurements, run again: for each measured line its label
     (value, 1σ, 95 % interval), world ends, figures and the record's name and words."""
-    from ..analysis.recorded import run_recorded
-    from ..analysis.single_view_lines import (
+    from vebuild.analysis.recorded import run_recorded
+    from vebuild.analysis.single_view_lines import (
         command_photo_and_pixels,
         line_length_agrees,
         measured_lines,
         single_view_kind,
     )
-    from ..project.decode import photo_camera
+    from vebuild.project.decode import photo_camera
 
     cam = None
     out: list[dict[str, Any]] = []
@@ -135,8 +135,8 @@ def camera_scene(project: Project, cam: ImageCamera,
                  items: list[dict[str, Any]]) -> tuple[dict[str, Any], bytes, CameraScene, HandoffImage]:
     """The camera-only glTF document of ``cam`` with the measurement ``items``
     (:func:`measurement_items`), its binary chunk, what it holds and the photo's image."""
-    from ..project.handoff_image import handoff_image
-    from ..render.export_camera import MAX_TEXTURE_PX, SceneLine, camera_document
+    from vebuild.project.handoff_image import handoff_image
+    from vebuild.render.export_camera import MAX_TEXTURE_PX, SceneLine, camera_document
 
     image = handoff_image(project, cam.id, MAX_TEXTURE_PX)
     lines = [SceneLine(it["label"], np.asarray(it["ends"], float),
@@ -148,8 +148,8 @@ def camera_scene(project: Project, cam: ImageCamera,
 
 def export_camera(project: Project, photo: str | None, path: str | os.PathLike[str]) -> HandoffResult:
     """Write photo ``photo``'s camera (and its measurements) to ``path``: .glb or .fspy."""
-    from ..project.atomic import write_many
-    from ..project.outputs import begin_stage, check_file
+    from vebuild.project.atomic import write_many
+    from vebuild.project.outputs import begin_stage, check_file
 
     path = Path(path)
     fmt = path.suffix.lower()
@@ -162,17 +162,17 @@ def export_camera(project: Project, photo: str | None, path: str | os.PathLike[s
         raise VebuildError(f"{path}: the output folder {path.parent} does not exist; create it first")
     pid = calibrated_photo(project, photo)
     check_file(project, path, "export")
-    from ..project.decode import photo_camera
+    from vebuild.project.decode import photo_camera
 
     cam = photo_camera(project, pid)
     items = measurement_items(project, pid) if fmt == ".glb" else []
     warnings: list[str] = []
     if fmt == ".glb":
-        from ..project.units import length_unit
+        from vebuild.project.units import length_unit
 
         unit = "rel." if length_unit(project.data).relative else "m"
         doc, binary, info, image = camera_scene(project, cam, items)
-        from ..render.export import glb_bytes
+        from vebuild.render.export import glb_bytes
 
         data = glb_bytes(doc, binary)
         details = [f"camera 'photo {pid}' (yfov {math.degrees(doc['cameras'][0]['perspective']['yfov']):.2f}°, "
@@ -186,7 +186,7 @@ def export_camera(project: Project, photo: str | None, path: str | os.PathLike[s
                    f"y {info.grid_bounds[2]:g}…{info.grid_bounds[3]:g}; axes; {info.lines} measurement line(s)",
                    f"photo: {image.note}"]
     else:
-        from ..project.fspy_write import fspy_project
+        from vebuild.project.fspy_write import fspy_project
 
         data, details, warnings = fspy_project(project, pid, cam)
     begin_stage(project, path.parent)

@@ -13,14 +13,14 @@ from typing import Any
 
 import numpy as np
 
-from ..calibration.axes_choice import MIN_SHARED_MARKERS
-from ..calibration.orientation import check_orientation, fix_words
-from ..calibration.photo import PhotoCalibration
-from ..calibration.positions import Placement
-from ..camera import undistort_pixels
-from ..constants import OUTLIER_SIGMAS
-from ..errors import CalibrationError
-from ..project import Project, decode
+from vebuild.calibration.axes_choice import MIN_SHARED_MARKERS
+from vebuild.calibration.orientation import check_orientation, fix_words
+from vebuild.calibration.photo import PhotoCalibration
+from vebuild.calibration.positions import Placement
+from vebuild.camera import undistort_pixels
+from vebuild.constants import OUTLIER_SIGMAS
+from vebuild.errors import CalibrationError
+from vebuild.project import Project, decode
 
 
 def _photo(data: dict[str, Any], pid: str) -> dict[str, Any]:

@@ -30,16 +30,17 @@ from typing import Any
 
 import numpy as np
 
-from ..analysis.measure import propagate
-from ..analysis.solved import Point, SolvedModel
-from ..calibration.photo import calibrate_photo
-from ..calibration.priors import DistortionPrior
-from ..calibration.register import Registered, register_from_points, register_with_vanishing_points
-from ..camera import ImageCamera
-from ..errors import CalibrationError, VebuildError
-from ..project import Project, decode, provenance
-from ..project.decode import known_points
-from ..project.records import camera_record, distortion_record, json_values
+from vebuild.analysis.measure import propagate
+from vebuild.analysis.solved import Point, SolvedModel
+from vebuild.calibration.photo import calibrate_photo
+from vebuild.calibration.priors import DistortionPrior
+from vebuild.calibration.register import Registered, register_from_points, register_with_vanishing_points
+from vebuild.camera import ImageCamera
+from vebuild.errors import CalibrationError, VebuildError
+from vebuild.project import Project, decode, provenance
+from vebuild.project.decode import known_points
+from vebuild.project.records import camera_record, distortion_record, json_values
+
 from .calibrate import exif_focal_prior
 
 #: A marker whose calibration 1σ (any axis, metres) is not below this is not a known point: its

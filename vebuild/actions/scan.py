@@ -15,12 +15,12 @@ import json
 from pathlib import Path
 from typing import Any
 
-from .. import __version__
-from ..analysis.project_check import load_checked
-from ..analysis.scans import CHECK_POINTS, MAX_DISTANCE_M, deviation_table, face_deviations, register_scan
-from ..errors import VebuildError
-from ..project import Project, save_project
-from ..project.scans import (
+from vebuild import __version__
+from vebuild.analysis.project_check import load_checked
+from vebuild.analysis.scans import CHECK_POINTS, MAX_DISTANCE_M, deviation_table, face_deviations, register_scan
+from vebuild.errors import VebuildError
+from vebuild.project import Project, save_project
+from vebuild.project.scans import (
     Target,
     dropped_words,
     new_scan_entry,
@@ -80,7 +80,7 @@ def _cmd_check(args: argparse.Namespace) -> int:
     if args.max_points < 1:
         raise VebuildError(f"--max-points: expected a whole number of points ≥ 1, got {args.max_points}")
     if args.json:
-        from ..project.outputs import check_file
+        from vebuild.project.outputs import check_file
 
         check_file(project, Path(args.json), "figures")
     results = []
@@ -91,8 +91,8 @@ def _cmd_check(args: argparse.Namespace) -> int:
         print(deviation_table(r))
         results.append({k: v for k, v in r.items() if k not in ("world", "signed")})
     if args.json:
-        from ..project.atomic import write_text
-        from ..project.provenance import inputs_sha256
+        from vebuild.project.atomic import write_text
+        from vebuild.project.provenance import inputs_sha256
 
         doc = {"software": f"vebuild {__version__}", "project": project.path.name,
                "inputs_sha256": inputs_sha256(project.data), "analysis": "scan check",

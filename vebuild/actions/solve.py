@@ -27,25 +27,26 @@ from typing import Any
 
 import numpy as np
 
-from .. import __version__, camera
-from ..analysis.scans import surface_observations as scan_surfaces
-from ..calibration.lsq import is_numeric_failure
-from ..calibration.positions import ReferenceDistance, check_scale_distances
-from ..camera import ImageCamera
-from ..constants import Z95
-from ..errors import CalibrationError, ProjectError, UndeterminedError, VebuildError
-from ..model.constraints import conflict_message, conflicts, relation_records
-from ..model.determination import axis_records, too_few_observations
-from ..model.residuals import MarkerObservation
-from ..model.scan_fit import ScanProblem
-from ..model.scene import Model
-from ..model.solution import handle_covariances, solution_at
-from ..model.solver import FINAL_PRIOR_SCALE, MarkerData, Problem, ProblemOptions, staged_start
-from ..project import Project, decode, json_path, provenance
-from ..project.camera_groups import recalibration_groups
-from ..project.decode import cameras_from_calibration, load_model
-from ..project.records import camera_record, distortion_record, json_values, value_sigma
-from ..project.units import length_unit
+from vebuild import __version__, camera
+from vebuild.analysis.scans import surface_observations as scan_surfaces
+from vebuild.calibration.lsq import is_numeric_failure
+from vebuild.calibration.positions import ReferenceDistance, check_scale_distances
+from vebuild.camera import ImageCamera
+from vebuild.constants import Z95
+from vebuild.errors import CalibrationError, ProjectError, UndeterminedError, VebuildError
+from vebuild.model.constraints import conflict_message, conflicts, relation_records
+from vebuild.model.determination import axis_records, too_few_observations
+from vebuild.model.residuals import MarkerObservation
+from vebuild.model.scan_fit import ScanProblem
+from vebuild.model.scene import Model
+from vebuild.model.solution import handle_covariances, solution_at
+from vebuild.model.solver import FINAL_PRIOR_SCALE, MarkerData, Problem, ProblemOptions, staged_start
+from vebuild.project import Project, decode, json_path, provenance
+from vebuild.project.camera_groups import recalibration_groups
+from vebuild.project.decode import cameras_from_calibration, load_model
+from vebuild.project.records import camera_record, distortion_record, json_values, value_sigma
+from vebuild.project.units import length_unit
+
 from .camera_group_records import solved_group_records
 from .register import recalibration_cameras, recalibration_k1_sigmas
 
@@ -258,8 +259,8 @@ def final_check_distances(project: Project) -> list[dict[str, Any]]:
     interval, and whether the difference lies within it. Where the lengths are relative (no scale
     given) a measurement cannot be compared with a tape: ``within_ci95`` is then null and
     ``lengths`` says ``"relative"``."""
-    from ..analysis.measure import check_distances
-    from ..analysis.solved import SolvedModel
+    from vebuild.analysis.measure import check_distances
+    from vebuild.analysis.solved import SolvedModel
 
     if not any(d.role == "check" for d in decode.reference_distances(project.data)):
         return []

@@ -10,10 +10,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..calibration.axes_choice import MIN_SHARED_MARKERS_TO_PROPOSE, choose_turns, direction_turn, turn_between
-from ..calibration.lines import X_AXIS_CHOICES
-from ..camera import intrinsic_matrix, undistort_pixels
-from ..project import Project
+from vebuild.calibration.axes_choice import MIN_SHARED_MARKERS_TO_PROPOSE, choose_turns, direction_turn, turn_between
+from vebuild.calibration.lines import X_AXIS_CHOICES
+from vebuild.camera import intrinsic_matrix, undistort_pixels
+from vebuild.project import Project
 
 if TYPE_CHECKING:
     from .detect_types import Grouped

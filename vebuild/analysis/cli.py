@@ -18,7 +18,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from .. import __version__
+from vebuild import __version__
+
 from . import parsers
 
 
@@ -30,14 +31,15 @@ def add_analyse_parsers(sub: Any) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from ..project.provenance import inputs_sha256, stale_warnings
+    from vebuild.project.provenance import inputs_sha256, stale_warnings
+
     from .project_check import load_checked
 
     project = load_checked(args.project, "analyse")
     for line in stale_warnings(project, "analyse"):  # the stale results it reads (vebuild.project.provenance)
         print(line, file=sys.stderr)
     if args.json:
-        from ..project.outputs import check_file
+        from vebuild.project.outputs import check_file
 
         check_file(project, Path(args.json), "figures")
     request = parsers.request_from_args(args)
@@ -53,8 +55,8 @@ def _run(args: argparse.Namespace) -> int:
 
 def write_json(path: Path, doc: dict[str, Any]) -> None:
     """Write ``doc`` to ``path`` atomically (:mod:`vebuild.project.atomic`)."""
-    from ..errors import VebuildError
-    from ..project.atomic import write_text
+    from vebuild.errors import VebuildError
+    from vebuild.project.atomic import write_text
 
     try:
         write_text(path, json.dumps(doc, indent=2, allow_nan=False) + "\n")

@@ -28,9 +28,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..constants import Z95
-from ..errors import ProjectError
-from ..project.units import METRES, LengthUnit
+from vebuild.constants import Z95
+from vebuild.errors import ProjectError
+from vebuild.project.units import METRES, LengthUnit
+
 from .points import face_plane_points, find_node, parse_point
 from .solved import MeasureError, Point, SolvedModel
 

@@ -16,7 +16,8 @@ import argparse
 from collections.abc import Callable
 from typing import Any
 
-from ..render.observed import add_option as add_unobserved_option
+from vebuild.render.observed import add_option as add_unobserved_option
+
 from .requests import (
     ChecksRequest,
     DimensionsRequest,

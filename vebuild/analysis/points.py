@@ -22,10 +22,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..camera import pixel_rays_world
-from ..errors import VebuildError
-from ..model.primitives import Primitive, Sphere, _Round
-from ..model.scene import ModelError
+from vebuild.camera import pixel_rays_world
+from vebuild.errors import VebuildError
+from vebuild.model.primitives import Primitive, Sphere, _Round
+from vebuild.model.scene import ModelError
+
 from .solved import MeasureError, Point, SolvedModel, to_coords
 
 Array = NDArray[np.float64]

@@ -19,14 +19,14 @@ from __future__ import annotations
 import os
 from typing import TYPE_CHECKING, Any
 
-from ..errors import ProjectError, VebuildError
-from ..project import Project, load_project
-from ..project import decode as dec
+from vebuild.errors import ProjectError, VebuildError
+from vebuild.project import Project, load_project
+from vebuild.project import decode as dec
 
 if TYPE_CHECKING:
     from collections.abc import Collection
 
-    from ..model.scene import Model
+    from vebuild.model.scene import Model
 
 #: The parts of the document each stage writes anew, and so need not decode as they were (the
 #: recorded analyses rest on the calibration and the solution: they are not run by those stages).
@@ -65,7 +65,7 @@ def decode_project(project: Project, replaced: Collection[str] = ()) -> list[str
     if (data.get("calibration") or {}).get("cameras") and "calibration" not in replaced:
         cameras = dec.cameras_from_calibration(project)
         lines.append(f"calibration: {len(cameras)} camera(s), each a pinhole camera with a rotation")
-        from ..project.camera_groups import recalibration_groups
+        from vebuild.project.camera_groups import recalibration_groups
 
         recalibration_groups(data, cameras, project.path)  # what `solve --recalibrate` shares
         sol = data.get("model_solution") or {}
@@ -92,7 +92,8 @@ def decode_project(project: Project, replaced: Collection[str] = ()) -> list[str
     if data.get("analyses"):
         lines.append(f"analyses: {len(data['analyses'])} recorded command(s), each a `vebuild analyse` command")
     if data.get("scans") and "scans" not in replaced:  # each scan read, its hash checked, its registration decoded
-        from ..project.scans import load_point_cloud
+        from vebuild.project.scans import load_point_cloud
+
         from .scans import similarity_of
 
         for i in range(len(data["scans"])):
@@ -115,7 +116,8 @@ def _check_analyses(project: Project, run: bool) -> None:
     results it rests on are there; and the views and presets the others name found."""
     if not project.data.get("analyses"):
         return  # the analyses' parsers (and the geometry they import) are not needed
-    from ..project.hypotheses import find_hypothesis
+    from vebuild.project.hypotheses import find_hypothesis
+
     from .recorded import parse_recorded, run_recorded
 
     data = project.data
@@ -159,9 +161,10 @@ def _check_targets(project: Project, request: Any) -> None:
         lighting_target(dec.model(project), request.target)
     if aim is None and request.name != "trajectory":
         return
-    from ..project.hypotheses import hypothesis_model
-    from ..project.units import length_unit
-    from ..render.scene import scene_from_model
+    from vebuild.project.hypotheses import hypothesis_model
+    from vebuild.project.units import length_unit
+    from vebuild.render.scene import scene_from_model
+
     from .rays import Occluders
 
     model = dec.model(project)
@@ -180,7 +183,7 @@ def check_render_sizes(project: Project, replaced: Collection[str] = ()) -> None
     (``render --view``, ``video``), the report's image of each view and of each calibrated photo,
     and the ``--size`` of each recorded analysis (the report runs it). A photo's own size is not
     a render's: only its report image is checked."""
-    from ..render.sizes import IMAGE_WIDTH, check_render_size, image_size, parse_size
+    from vebuild.render.sizes import IMAGE_WIDTH, check_render_size, image_size, parse_size
 
     def located(width: Any, height: Any, source: str) -> None:  # source: the JSON path and what it is
         try:
@@ -213,7 +216,7 @@ def check_render_sizes(project: Project, replaced: Collection[str] = ()) -> None
 
 def _check_hypotheses(project: Project, model: Model) -> None:
     # Each hypothesis applied to the model as render --hypothesis applies it (joint limits and all).
-    from ..project.hypotheses import applied_hypothesis
+    from vebuild.project.hypotheses import applied_hypothesis
 
     for i in range(len(project.data.get("hypotheses") or [])):
         applied_hypothesis(project, model, i)

@@ -28,14 +28,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..calibration.similarity import PARAMETERS, DegenerateTargets, Similarity, fit_similarity
-from ..calibration.similarity import jacobian as similarity_jacobian
-from ..errors import ProjectError, VebuildError
-from ..model.scan_fit import SurfaceObservation, face_handles
-from ..model.scene import Model
-from ..project import decode
-from ..project.records import json_values
-from ..project.scans import (
+from vebuild.calibration.similarity import PARAMETERS, DegenerateTargets, Similarity, fit_similarity
+from vebuild.calibration.similarity import jacobian as similarity_jacobian
+from vebuild.errors import ProjectError, VebuildError
+from vebuild.model.scan_fit import SurfaceObservation, face_handles
+from vebuild.model.scene import Model
+from vebuild.project import decode
+from vebuild.project.records import json_values
+from vebuild.project.scans import (
     DEFAULT_POINT_SIGMA_M,
     PointCloud,
     Target,
@@ -43,6 +43,7 @@ from ..project.scans import (
     dropped_words,
     load_point_cloud,
 )
+
 from .solved import SolvedModel
 
 Array = NDArray[np.float64]

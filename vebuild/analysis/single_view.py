@@ -46,9 +46,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ..calibration.lsq import numeric_jacobian
-from ..camera import ImageCamera, intrinsic_matrix, pixel_rays_world, skew
-from ..errors import VebuildError
+from vebuild.calibration.lsq import numeric_jacobian
+from vebuild.camera import ImageCamera, intrinsic_matrix, pixel_rays_world, skew
+from vebuild.errors import VebuildError
+
 from .measure import Measurement
 
 Array = NDArray[np.float64]

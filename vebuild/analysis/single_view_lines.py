@@ -21,7 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ..camera import ImageCamera
+from vebuild.camera import ImageCamera
+
 from .single_view import SINGLE_VIEW_CLICKS, SingleViewError, measured_line
 
 Array = NDArray[np.float64]

@@ -26,11 +26,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import ProjectError, VebuildError
-from ..model.primitives import Primitive, Sphere, _Round
-from ..model.room import Room
-from ..model.scene import Model
-from ..project.units import METRES, LengthUnit, length_unit
+from vebuild.errors import ProjectError, VebuildError
+from vebuild.model.primitives import Primitive, Sphere, _Round
+from vebuild.model.room import Room
+from vebuild.model.scene import Model
+from vebuild.project.units import METRES, LengthUnit, length_unit
 
 if TYPE_CHECKING:
     from vebuild.project import Project
@@ -54,7 +54,7 @@ def check_model_solution(project: Project) -> None:
     Raises ProjectError naming the file and the JSON path (nothing to check if the project has not
     been solved).
     """
-    from ..project import json_path
+    from vebuild.project import json_path
 
     sol = project.data.get("model_solution")
     if not sol:
@@ -212,7 +212,7 @@ class SolvedModel:
     def from_project(cls, project: Project) -> SolvedModel:
         """From a solved project: ``model.nodes`` (the solved values) and ``model_solution.covariance``,
         decoded by :func:`vebuild.project.decode.solution`."""
-        from ..project import decode
+        from vebuild.project import decode
 
         decode.require_solution(project)
         check_model_solution(project)

@@ -13,7 +13,7 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any
 
-from ..errors import VebuildError
+from vebuild.errors import VebuildError
 
 _NAMES = ("calibration", "cli", "detect", "edit", "house", "orient", "real", "render", "rooms", "single-view", "solver",
           "texture")

@@ -93,12 +93,11 @@ def write_dng(path: Path, w: int, h: int) -> None:
 def child(photo: str, width: int, height: int, what: str) -> dict[str, float]:
     """Run in the fresh process: decode the photo (``what`` "decode") or extract the example
     room's textures from it alone ("extract"); its figures."""
+    from vebuild.actions import example_truth as truth
     from vebuild.project import sha256_file
     from vebuild.project.images import decode_photo
     from vebuild.texture.extract import PhotoSource, extract
     from vebuild.texture.options import Options
-
-    from ..actions import example_truth as truth
 
     base = _peak_mb()
     t = time.perf_counter()

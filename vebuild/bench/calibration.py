@@ -29,12 +29,12 @@ from typing import Any
 
 import numpy as np
 
-from ..calibration.photo import FocalPrior, calibrate_photo, closed_form_calibration
-from ..calibration.positions import PhotoInput, ReferenceDistance, place_cameras
-from ..camera import distortion_displacement_px, log_so3
-from ..console.bars import Bar
-from ..errors import CalibrationError
-from ..synthetic import (
+from vebuild.calibration.photo import FocalPrior, calibrate_photo, closed_form_calibration
+from vebuild.calibration.positions import PhotoInput, ReferenceDistance, place_cameras
+from vebuild.camera import distortion_displacement_px, log_so3
+from vebuild.console.bars import Bar
+from vebuild.errors import CalibrationError
+from vebuild.synthetic import (
     EXIF_FOCAL_ERROR_REL,
     REAL_PRINCIPAL_POINT_SIGMA_REL,
     ROOM,

@@ -31,8 +31,8 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import VebuildError
-from ..resources import example_project_dir
+from vebuild.errors import VebuildError
+from vebuild.resources import example_project_dir
 
 GOALS = {"cli_check_s": 0.4, "demo_s": 35.0}
 REPEATS = 7

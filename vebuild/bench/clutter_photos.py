@@ -37,9 +37,9 @@ import numpy as np
 from numpy.typing import NDArray
 from PIL import Image
 
-from ..project.atomic import write_bytes
-from ..resources import cache_dir
-from ..synthetic import (
+from vebuild.project.atomic import write_bytes
+from vebuild.resources import cache_dir
+from vebuild.synthetic import (
     REAL_DISTORTION_CORNER_REL,
     REAL_EXIF_FOCAL_ERROR_REL,
     REAL_PRINCIPAL_POINT_SIGMA_REL,
@@ -47,6 +47,7 @@ from ..synthetic import (
     k1_for_corner_shift,
     rotation,
 )
+
 from .detect_photos import GeneratedPhoto
 
 Array = NDArray[np.float64]
@@ -262,7 +263,7 @@ def photograph(rng: np.random.Generator, kind: str, clutter: tuple[str, ...], wi
     """The JPEG bytes of one photo and its truth."""
     import cv2
 
-    from ..camera import undistort_pixels
+    from vebuild.camera import undistort_pixels
 
     K, R, C = camera(rng, kind, width, height)
     polys = _facade(rng, C)

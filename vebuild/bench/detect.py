@@ -41,13 +41,14 @@ from typing import Any
 
 import numpy as np
 
-from ..actions.detect import propose
-from ..calibration.photo import calibrate_photo
-from ..calibration.priors import FocalPrior
-from ..errors import VebuildError
-from ..project.images import decode_photo
-from ..resources import example_project_dir
-from ..synthetic import SyntheticPhoto, add_segments
+from vebuild.actions.detect import propose
+from vebuild.calibration.photo import calibrate_photo
+from vebuild.calibration.priors import FocalPrior
+from vebuild.errors import VebuildError
+from vebuild.project.images import decode_photo
+from vebuild.resources import example_project_dir
+from vebuild.synthetic import SyntheticPhoto, add_segments
+
 from .detect_photos import exif_record, generated_photos
 
 GOALS = {"vp_within_3deg_share": 0.95, "focal_rel_error_median": 0.015, "detect_ms_per_photo": 1000.0}
@@ -128,8 +129,8 @@ def _visible(segments: np.ndarray, truth: dict[str, Any]) -> bool:
     """Whether the detected edges (before grouping) include two world directions with at least
     two edges each, by the true camera: end points within 3 px of the true vanishing line (an
     oracle that tells a photo with too little in it from a grouping that failed)."""
-    from ..calibration.lines import _distances
-    from ..camera import undistort_pixels
+    from vebuild.calibration.lines import _distances
+    from vebuild.camera import undistort_pixels
 
     if len(segments) == 0:
         return False
@@ -152,8 +153,8 @@ SHOWN_MIN_LENGTH_DIAG = 0.02
 def _shown(segments: np.ndarray, truth: dict[str, Any]) -> list[bool]:
     """Which of the three true vanishing directions the photo shows (:data:`SHOWN_MIN_EDGES`,
     :data:`SHOWN_MIN_LENGTH_DIAG`): the same oracle as :func:`_visible`, per direction."""
-    from ..calibration.lines import _distances
-    from ..camera import undistort_pixels
+    from vebuild.calibration.lines import _distances
+    from vebuild.camera import undistort_pixels
 
     if len(segments) == 0:
         return [False] * 3
@@ -219,7 +220,8 @@ def run(quick: bool = False, progress: bool = True, seed: int = 2107, *, n: int 
     (:mod:`.detect_clutter`; default 40, 10 with ``quick``, none where ``n`` is given)."""
     import cv2
 
-    from ..calibration.lines import detect_lines, group_manhattan, to_grey
+    from vebuild.calibration.lines import detect_lines, group_manhattan, to_grey
+
     from .detect_clutter import N_CLUTTER, N_CLUTTER_QUICK, clutter_figures
 
     if clutter is None:
@@ -230,7 +232,7 @@ def run(quick: bool = False, progress: bool = True, seed: int = 2107, *, n: int 
     rng = np.random.default_rng(seed)
     items: Any = photos
     if progress:
-        from ..console.bars import Bar
+        from vebuild.console.bars import Bar
 
         items = Bar(photos, desc="detecting", unit="photo")
     for g in items:
@@ -273,7 +275,7 @@ def run(quick: bool = False, progress: bool = True, seed: int = 2107, *, n: int 
 
 
 def _room_rows() -> list[dict[str, Any]]:
-    from ..calibration.lines import detect_lines, group_manhattan, to_grey
+    from vebuild.calibration.lines import detect_lines, group_manhattan, to_grey
 
     folder = example_project_dir()
     doc = json.loads((folder / "room.vebuild.json").read_text())

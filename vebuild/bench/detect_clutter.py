@@ -16,12 +16,13 @@ from typing import Any
 
 import numpy as np
 
-from ..actions.detect import propose
-from ..calibration.lines import _distances
-from ..calibration.photo import calibrate_photo
-from ..calibration.priors import FocalPrior
-from ..camera import undistort_pixels
-from ..errors import VebuildError
+from vebuild.actions.detect import propose
+from vebuild.calibration.lines import _distances
+from vebuild.calibration.photo import calibrate_photo
+from vebuild.calibration.priors import FocalPrior
+from vebuild.camera import undistort_pixels
+from vebuild.errors import VebuildError
+
 from .clutter_photos import clutter_photo, load, photo_record
 
 #: Photos of the set, and with ``--quick``.

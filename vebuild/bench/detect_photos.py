@@ -28,9 +28,9 @@ import numpy as np
 from numpy.typing import NDArray
 from PIL import Image
 
-from ..project.atomic import write_bytes
-from ..resources import cache_dir
-from ..synthetic import ROOM, SyntheticPhoto, realistic_camera
+from vebuild.project.atomic import write_bytes
+from vebuild.resources import cache_dir
+from vebuild.synthetic import ROOM, SyntheticPhoto, realistic_camera
 
 Array = NDArray[np.float64]
 
@@ -146,7 +146,7 @@ def generated_photos(n: int, *, width: int = 4000, height: int = 3000, seed: int
     out = []
     items = range(n)
     if progress:
-        from ..console.bars import Bar
+        from vebuild.console.bars import Bar
 
         items = Bar(items, desc="generating photos", unit="photo")
     for i in items:

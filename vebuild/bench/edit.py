@@ -29,8 +29,8 @@ from typing import Any
 
 import numpy as np
 
-from ..console.bars import Bar
-from ..resources import example_project_dir
+from vebuild.console.bars import Bar
+from vebuild.resources import example_project_dir
 
 GOALS = {"drag_update_ms_p95": 1000.0 / 60.0}
 SIZE = (1280, 800)
@@ -41,10 +41,10 @@ HANDLES = {"0_fixed": "v0", "1_fixed": "v6", "2_fixed": "v1"}
 
 
 def _session(folder: Path) -> Any:
-    from ..actions.calibrate import calibrate_project
-    from ..actions.solve import solve_project
-    from ..edit.session import EditSession
-    from ..project import load_project
+    from vebuild.actions.calibrate import calibrate_project
+    from vebuild.actions.solve import solve_project
+    from vebuild.edit.session import EditSession
+    from vebuild.project import load_project
 
     shutil.copytree(example_project_dir(), folder / "room")
     project = load_project(folder / "room" / "room.vebuild.json")
@@ -98,9 +98,9 @@ def _drag(editor: Any, node: str, handle: str, moves: int) -> dict[str, list[flo
 
 
 def run(quick: bool = False, progress: bool = True) -> dict[str, Any]:
-    from ..edit.screen import Editor
-    from ..gl.context import headless_context, renderer_name
-    from ..gl.surface import OffscreenSurface
+    from vebuild.edit.screen import Editor
+    from vebuild.gl.context import headless_context, renderer_name
+    from vebuild.gl.surface import OffscreenSurface
 
     moves = MOVES // 2 if quick else MOVES
     ctx = headless_context()

@@ -47,7 +47,8 @@ from typing import Any
 
 import numpy as np
 
-from ..console.bars import Bar
+from vebuild.console.bars import Bar
+
 from .house_scene import CachedHouse, cached_house
 
 GOALS = {"house_recalibration_s": 10.0, "house_drag_update_ms_p95": 1000.0 / 60.0, "house_texture_peak_mb": 2500.0,
@@ -103,10 +104,10 @@ def _recalibrate(path: Path, queue: Any, truth_nodes: list[dict[str, Any]]) -> N
     the solve refuses the model as undetermined, the sizes it names are measured and entered
     (:func:`taped_values`), as its message tells a user to, and the solve is run again: its time
     is the figure, the refused one's is reported beside it."""
-    from ..actions.calibrate import calibrate_project
-    from ..actions.solve import solve_project
-    from ..errors import UndeterminedError, VebuildError
-    from ..project import load_project, save_project
+    from vebuild.actions.calibrate import calibrate_project
+    from vebuild.actions.solve import solve_project
+    from vebuild.errors import UndeterminedError, VebuildError
+    from vebuild.project import load_project, save_project
 
     project = load_project(path)
     model = project.data.pop("model")
@@ -142,7 +143,7 @@ def _recalibrate(path: Path, queue: Any, truth_nodes: list[dict[str, Any]]) -> N
 def recalibration(house: CachedHouse, tmp: Path, limit_s: float) -> tuple[dict[str, Any], Path | None]:
     import multiprocessing
 
-    from ..project import load_project
+    from vebuild.project import load_project
 
     path = _working_copy(house, tmp)
     ctx = multiprocessing.get_context("fork")
@@ -192,11 +193,12 @@ def recalibration(house: CachedHouse, tmp: Path, limit_s: float) -> tuple[dict[s
 
 
 def drag(path: Path, moves: int) -> dict[str, Any]:
-    from ..edit.screen import Editor
-    from ..edit.session import EditSession
-    from ..gl.context import headless_context
-    from ..gl.surface import OffscreenSurface
-    from ..project import load_project
+    from vebuild.edit.screen import Editor
+    from vebuild.edit.session import EditSession
+    from vebuild.gl.context import headless_context
+    from vebuild.gl.surface import OffscreenSurface
+    from vebuild.project import load_project
+
     from .edit import HANDLES, SCENARIOS, SIZE, _drag, _frame_ms
 
     session = EditSession(load_project(path), autosave=False)
@@ -257,11 +259,12 @@ FALLBACK_TEXELS_PER_METRE = 150.0
 def texture(house: CachedHouse) -> tuple[dict[str, Any], Any]:
     from PIL import Image
 
-    from ..camera import ImageCamera
-    from ..errors import VebuildError
-    from ..model.scene import model_from_dict
-    from ..texture.extract import PhotoSource, extract
-    from ..texture.options import Options
+    from vebuild.camera import ImageCamera
+    from vebuild.errors import VebuildError
+    from vebuild.model.scene import model_from_dict
+    from vebuild.texture.extract import PhotoSource, extract
+    from vebuild.texture.options import Options
+
     from .texture import _peak_mb, _reset_peak
 
     truth = house.truth
@@ -303,9 +306,10 @@ def texture(house: CachedHouse) -> tuple[dict[str, Any], Any]:
 
 
 def frame_loop(model: Any, result: Any, quick: bool) -> dict[str, Any]:
-    from ..camera import ImageCamera, intrinsic_matrix, look_rotation
-    from ..gl.context import headless_context
-    from ..render.scene import scene_from_model
+    from vebuild.camera import ImageCamera, intrinsic_matrix, look_rotation
+    from vebuild.gl.context import headless_context
+    from vebuild.render.scene import scene_from_model
+
     from .render import HEIGHT, WIDTH, Timing, _record, measure_vebuild
 
     ctx = headless_context()
@@ -328,9 +332,10 @@ def frame_loop(model: Any, result: Any, quick: bool) -> dict[str, Any]:
 def rooms_occluding(ctx: Any, scene: Any, cam: Any, timing: Any) -> dict[str, Any]:
     """The unlit frame with the rooms occluding and without, frame by frame (each frame's index
     buffer is rewritten in both, as the plan changes between them), and the triangles each draws."""
-    from ..camera import near_reach
-    from ..render.draworder import side_planes
-    from ..render.renderer import Renderer
+    from vebuild.camera import near_reach
+    from vebuild.render.draworder import side_planes
+    from vebuild.render.renderer import Renderer
+
     from .render import SETTINGS, _lightings
     from .render_floor import paired_fps
 

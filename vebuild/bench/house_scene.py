@@ -22,10 +22,10 @@ from typing import Any
 
 import numpy as np
 
-from ..project.atomic import write_bytes
-from ..resources import cache_dir
-from ..synthetic.house import House, write_house_project
-from ..synthetic.house_layout import house_scene
+from vebuild.project.atomic import write_bytes
+from vebuild.resources import cache_dir
+from vebuild.synthetic.house import House, write_house_project
+from vebuild.synthetic.house_layout import house_scene
 
 #: Bump when the house or its rendering changes: old caches are then not reused.
 GENERATOR_VERSION = 1
@@ -60,7 +60,7 @@ def truth_record(house: House) -> dict[str, Any]:
 def procedural_pages(model: Any, density: float, seed: int = 5) -> tuple[list[Any], list[np.ndarray]]:
     """The model's faces laid out at ``density`` texels per metre and pages painted with a colour
     per face under a checker and grain."""
-    from ..texture import layout as lay
+    from vebuild.texture import layout as lay
 
     faces = lay.layout(model, density, 2048, 4096)
     rng = np.random.default_rng(seed)
@@ -77,7 +77,7 @@ def procedural_pages(model: Any, density: float, seed: int = 5) -> tuple[list[An
 
 
 def _lighting() -> Any:
-    from ..project.decode import preset_from_record
+    from vebuild.project.decode import preset_from_record
 
     return preset_from_record({"name": "sun", "ambient": [0.45, 0.45, 0.45],
                                "lights": [{"type": "directional", "direction": [0.4, 0.25, -1.0], "intensity": 0.7,
@@ -88,10 +88,10 @@ def render_photos(house: House, folder: Path, progress: Callable[[int, int], Non
     """Render every photo of the house into ``folder`` (JPEG); their paths by id."""
     import cv2
 
-    from ..camera import ImageCamera
-    from ..gl.context import headless_context
-    from ..render.renderer import Renderer, RenderOptions
-    from ..render.scene import scene_from_model
+    from vebuild.camera import ImageCamera
+    from vebuild.gl.context import headless_context
+    from vebuild.render.renderer import Renderer, RenderOptions
+    from vebuild.render.scene import scene_from_model
 
     folder.mkdir(parents=True, exist_ok=True)
     model = house.model()

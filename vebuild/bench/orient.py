@@ -17,8 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..calibration.axes_choice import MIN_SHARED_MARKERS, choose_turns, rz
-from ..console.bars import Bar
+from vebuild.calibration.axes_choice import MIN_SHARED_MARKERS, choose_turns, rz
+from vebuild.console.bars import Bar
 
 Array = np.ndarray
 

@@ -48,7 +48,8 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import VebuildError
+from vebuild.errors import VebuildError
+
 from .real_layout import SurveyedPhoto, SurveyedSet, find_sets
 from .real_markers import CLICK_NOISE_PX, MIN_MARKERS, Track, cached_tracks, choose_markers, true_projection
 
@@ -75,7 +76,7 @@ def make_project(folder: Path, name: str, photos: tuple[SurveyedPhoto, ...], mar
                  rng: np.random.Generator) -> tuple[Path, dict[str, Any]]:
     """The group's project file in ``folder`` (photos linked into it) with its markers' clicks and
     the two distances; returns the file and the truth of what was put in it."""
-    from ..project import new_photo_entry, new_project, save_project
+    from vebuild.project import new_photo_entry, new_project, save_project
 
     data = new_project(name)
     (folder / "images").mkdir(parents=True)
@@ -115,10 +116,10 @@ def work_group(path: Path) -> tuple[dict[str, Any] | None, str | None, dict[str,
     """``vebuild detect`` (accept all) then ``vebuild calibrate`` on the project: the calibration
     (None where refused), the refusal, each photo's detection message, and each photo's focal
     length by the paper's closed form on the same segments (the reference)."""
-    from ..actions.calibrate import calibrate_project
-    from ..actions.detect import detect_project
-    from ..calibration.photo import closed_form_calibration
-    from ..project import decode, load_project, save_project
+    from vebuild.actions.calibrate import calibrate_project
+    from vebuild.actions.detect import detect_project
+    from vebuild.calibration.photo import closed_form_calibration
+    from vebuild.project import decode, load_project, save_project
 
     project = load_project(path)
     messages = {props.photo: f"{props.message}; {written} segments written"
@@ -145,7 +146,7 @@ def frame_rotation(pairs: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarr
     """W (survey → vebuild world) from (R̂, R_true) pairs, and which pairs agree with it within
     :data:`WRONG_AXES_DEG`: each pair's Wᵢ = R̂ᵢᵀ R_trueᵢ; the one most others agree with within
     :data:`CONSENSUS_DEG` (ties: the least summed angle), then the chordal mean of those near it."""
-    from ..camera import log_so3, nearest_rotation
+    from vebuild.camera import log_so3, nearest_rotation
 
     if not pairs:
         return None, []
@@ -181,8 +182,8 @@ def _inside(e: np.ndarray, cov: np.ndarray, limit: float) -> bool:
 def score_group(photos: tuple[SurveyedPhoto, ...], result: dict[str, Any] | None, origin_X: np.ndarray,
                 ) -> tuple[list[dict[str, Any]], list[dict[str, Any]], dict[str, Any]]:
     """Per photo rows, the check distances, and the group's alignment (see the module's docstring)."""
-    from ..calibration.similarity import DegenerateTargets, umeyama
-    from ..camera import log_so3
+    from vebuild.calibration.similarity import DegenerateTargets, umeyama
+    from vebuild.camera import log_so3
 
     cams = (result or {}).get("cameras", {})
     unplaced = (result or {}).get("unplaced", {})

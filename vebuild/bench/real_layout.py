@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import ProjectError, VebuildError
+from vebuild.errors import ProjectError, VebuildError
 
 Array = NDArray[np.float64]
 

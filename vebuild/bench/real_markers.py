@@ -26,8 +26,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ..project.atomic import write_bytes
-from ..resources import cache_dir
+from vebuild.project.atomic import write_bytes
+from vebuild.resources import cache_dir
+
 from .real_layout import SurveyedPhoto
 
 Array = NDArray[np.float64]
@@ -69,7 +70,7 @@ def _fundamental(a: SurveyedPhoto, b: SurveyedPhoto) -> Array:
 def _features(ph: SurveyedPhoto) -> tuple[Array, np.ndarray]:
     import cv2
 
-    from ..project.images import decode_photo
+    from vebuild.project.images import decode_photo
 
     pixels = decode_photo(ph.image.read_bytes(), ph.image.name, ph.image, "")
     grey = cv2.cvtColor(pixels, cv2.COLOR_RGB2GRAY) if pixels.ndim == 3 else pixels

@@ -55,15 +55,16 @@ import moderngl
 import numpy as np
 from numpy.typing import NDArray
 
-from ..camera import ImageCamera, depth_range, intrinsic_matrix, look_rotation
-from ..console.bars import Bar
-from ..gl.context import headless_context, renderer_name
-from ..lighting import AS_PHOTOGRAPHED_LIGHTING, Lighting
-from ..model.scene import Model, model_from_dict
-from ..project.decode import preset_from_record
-from ..render.renderer import Renderer, RenderOptions, Stereo
-from ..render.scene import RenderScene, scene_from_model
-from ..texture import layout as lay
+from vebuild.camera import ImageCamera, depth_range, intrinsic_matrix, look_rotation
+from vebuild.console.bars import Bar
+from vebuild.gl.context import headless_context, renderer_name
+from vebuild.lighting import AS_PHOTOGRAPHED_LIGHTING, Lighting
+from vebuild.model.scene import Model, model_from_dict
+from vebuild.project.decode import preset_from_record
+from vebuild.render.renderer import Renderer, RenderOptions, Stereo
+from vebuild.render.scene import RenderScene, scene_from_model
+from vebuild.texture import layout as lay
+
 from .render_floor import Floor, paired_fps
 
 GOALS = {"frame_loop_mono_fps": 60.0, "speedup_over_pyrender": 10.0, "share_of_floor": 0.6}
@@ -115,9 +116,9 @@ def _fps(draw: Callable[[], object], timing: Timing) -> float:
 def example_scene() -> tuple[RenderScene, ImageCamera]:
     """The example room's true model with textures extracted from its photos, and its first
     photo's camera at 1280×720 (the same horizontal field of view)."""
-    from ..actions import example_truth as truth
-    from ..texture.extract import PhotoSource, extract
-    from ..texture.options import Options
+    from vebuild.actions import example_truth as truth
+    from vebuild.texture.extract import PhotoSource, extract
+    from vebuild.texture.options import Options
 
     model, cams = truth.true_model(), truth.true_cameras()
     result = extract(model, cams, {c.id: PhotoSource(c.id, truth.photo_path(c.id)) for c in cams}, Options())

@@ -17,8 +17,8 @@ from collections.abc import Callable
 import moderngl
 import numpy as np
 
-from ..camera import ImageCamera, depth_range, gl_projection, view_matrix
-from ..render.scene import RenderScene
+from vebuild.camera import ImageCamera, depth_range, gl_projection, view_matrix
+from vebuild.render.scene import RenderScene
 
 VERTEX = """#version 330 core
 uniform mat4 mvp;

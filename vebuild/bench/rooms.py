@@ -32,16 +32,16 @@ from typing import Any
 
 import numpy as np
 
-from ..actions.calibrate import calibrate_project
-from ..actions.solve import solve_project
-from ..console.bars import Bar
-from ..constants import Z95
-from ..errors import VebuildError
-from ..model.scene import model_from_dict
-from ..project import load_project, save_project
-from ..synthetic import CLICK_NOISE_PX
-from ..synthetic.room_model import GeneratedRoom, room_params, room_scene, write_room_project
-from ..synthetic.rooms import RoomScene
+from vebuild.actions.calibrate import calibrate_project
+from vebuild.actions.solve import solve_project
+from vebuild.console.bars import Bar
+from vebuild.constants import Z95
+from vebuild.errors import VebuildError
+from vebuild.model.scene import model_from_dict
+from vebuild.project import load_project, save_project
+from vebuild.synthetic import CLICK_NOISE_PX
+from vebuild.synthetic.room_model import GeneratedRoom, room_params, room_scene, write_room_project
+from vebuild.synthetic.rooms import RoomScene
 
 #: The rooms of a full run (seeds 1–20) and of a quick one.
 SEEDS = tuple(range(1, 21))

@@ -28,8 +28,9 @@ from typing import Any
 
 import numpy as np
 
-from ..console.bars import Bar
-from ..errors import VebuildError
+from vebuild.console.bars import Bar
+from vebuild.errors import VebuildError
+
 from .single_view_scenes import CLICK_SIGMA_PX, Scene, click, scene
 
 #: The measurements made, each a `vebuild analyse` kind → the figures' name for it. The kinds of
@@ -69,8 +70,8 @@ def write_scene(folder: Path, s: Scene, rng: np.random.Generator) -> Path:
     """The one-photo project a user makes of scene ``s``: its segments, the origin marker O on the
     floor (where ``s.origin_marker``), its EXIF and the known length (the tape's reading off the
     truth by its 1σ)."""
-    from ..project import load_project, save_project
-    from ..synthetic import write_project
+    from vebuild.project import load_project, save_project
+    from vebuild.synthetic import write_project
 
     path = write_project(folder, [s.photo], {"O": s.origin, "O2": s.origin + [1.0, 0.0, 0.0]})
     project = load_project(path)
@@ -101,10 +102,10 @@ def measure_scene(folder: Path, s: Scene, index: int) -> dict[str, Any]:
     """Calibrate scene ``s``'s project and make its measurements: ``{"refused": reason}`` where
     calibration refused the photo, else ``{"rows": [...]}``, one row per measurement (its kind,
     truth, value and σ in metres, or its refusal)."""
-    from ..actions.calibrate import calibrate_project
-    from ..analysis.recorded import parse_recorded
-    from ..analysis.single_view import single_view_command
-    from ..project import load_project, save_project
+    from vebuild.actions.calibrate import calibrate_project
+    from vebuild.analysis.recorded import parse_recorded
+    from vebuild.analysis.single_view import single_view_command
+    from vebuild.project import load_project, save_project
 
     path = write_scene(folder, s, np.random.default_rng([SEED, index, 0]))
     try:

@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..synthetic import SyntheticPhoto, distort, k1_for_corner_shift, projection_matrix, rotation
+from vebuild.synthetic import SyntheticPhoto, distort, k1_for_corner_shift, projection_matrix, rotation
 
 Array = NDArray[np.float64]
 

@@ -22,13 +22,13 @@ from typing import Any
 import numpy as np
 from scipy.optimize import least_squares
 
-from ..camera import ImageCamera, distortion_displacement_px, exp_so3, project
-from ..console.bars import Bar
-from ..model.drag import DragSession
-from ..model.residuals import Pin
-from ..model.scene import model_from_dict
-from ..model.solver import FINAL_PRIOR_SCALE, MarkerData, Problem, ProblemOptions
-from ..synthetic import model_scene
+from vebuild.camera import ImageCamera, distortion_displacement_px, exp_so3, project
+from vebuild.console.bars import Bar
+from vebuild.model.drag import DragSession
+from vebuild.model.residuals import Pin
+from vebuild.model.scene import model_from_dict
+from vebuild.model.solver import FINAL_PRIOR_SCALE, MarkerData, Problem, ProblemOptions
+from vebuild.synthetic import model_scene
 
 GOALS = {"drag_update_ms_p95": 5.0, "recalibration_s_50": 1.0}
 MOVES = 60

@@ -48,18 +48,18 @@ from typing import Any
 import numpy as np
 from PIL import Image
 
-from ..actions import example_truth as truth
-from ..camera import ImageCamera, distortion_displacement_px
-from ..console.bars import Bar
-from ..gl.context import headless_context, renderer_name
-from ..model.scene import Model, model_from_dict
-from ..project import sha256_file
-from ..texture import layout as lay
-from ..texture.extract import PhotoSource, extract
-from ..texture.lens import cover_growth
-from ..texture.merge import unseen_texels
-from ..texture.options import Options
-from ..texture.timings import Timings
+from vebuild.actions import example_truth as truth
+from vebuild.camera import ImageCamera, distortion_displacement_px
+from vebuild.console.bars import Bar
+from vebuild.gl.context import headless_context, renderer_name
+from vebuild.model.scene import Model, model_from_dict
+from vebuild.project import sha256_file
+from vebuild.texture import layout as lay
+from vebuild.texture.extract import PhotoSource, extract
+from vebuild.texture.lens import cover_growth
+from vebuild.texture.merge import unseen_texels
+from vebuild.texture.options import Options
+from vebuild.texture.timings import Timings
 
 GOALS = {"total_over_decode": 2.0, "speedup_over_cpu_reference": 10.0, "psnr_db": 30.0}
 SCALE = 2.5  # 1600×1200 → 4000×3000 = 12 megapixels
@@ -188,7 +188,7 @@ def speed(n_photos: int, progress: bool) -> dict[str, Any]:
         fig["jpeg_decode_alone_ms"] = 1e3 * float(np.median(dec))
         fig["total_over_decode"] = fig["total_ms_per_photo"] / fig["jpeg_decode_alone_ms"]
         # The CPU reference on the first photos (it is slow: a few suffice for a per-photo time).
-        from ..texture import reference
+        from vebuild.texture import reference
 
         n_ref = 1 if n_photos <= 5 else 2
         faces = res.faces
@@ -264,10 +264,10 @@ def _psnr(model, cams, sources, opts, exposures) -> tuple[dict[str, float], Any]
 
 
 def _solved_example() -> tuple[Model | None, list[ImageCamera], dict[str, PhotoSource]]:
-    from ..actions.calibrate import calibrate_project
-    from ..actions.solve import solve_project
-    from ..project import load_project
-    from ..project.decode import cameras, load_model
+    from vebuild.actions.calibrate import calibrate_project
+    from vebuild.actions.solve import solve_project
+    from vebuild.project import load_project
+    from vebuild.project.decode import cameras, load_model
 
     tmp = Path(tempfile.mkdtemp(prefix="vebuild-bench-texture-"))
     try:

@@ -36,7 +36,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ..camera import distortion_displacement_px
+from vebuild.camera import distortion_displacement_px
+
 from .joint import JointProblem
 from .priors import DistortionPrior, FocalPrior
 

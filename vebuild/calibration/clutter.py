@@ -124,7 +124,7 @@ def textured(segments: Array, width: int, height: int) -> NDArray[np.bool_]:
 def curved(polylines: Array, sigma_px: Array, K: Array, k1: float) -> NDArray[np.bool_]:
     """Which polylines (n, 8), four points each, bend beyond their 1σ (n,) once undistorted by
     K and k1 (module docstring)."""
-    from ..camera import undistort_pixels
+    from vebuild.camera import undistort_pixels
 
     n = len(polylines)
     if n == 0:

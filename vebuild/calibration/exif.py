@@ -45,7 +45,8 @@ from typing import Any
 
 import numpy as np
 
-from ..resources import package_data_file
+from vebuild.resources import package_data_file
+
 from .priors import DistortionPrior, FocalPrior
 
 #: The diagonal of a 36 × 24 mm frame, that a 35 mm-equivalent focal length refers to.

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..camera import nearest_rotation
+from vebuild.camera import nearest_rotation
 
 Array = NDArray[np.float64]
 

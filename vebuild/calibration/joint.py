@@ -15,8 +15,9 @@ from itertools import combinations
 import numpy as np
 from numpy.typing import NDArray
 
-from ..camera import exp_so3, intrinsic_matrix, undistort_pixels
-from ..errors import CalibrationError
+from vebuild.camera import exp_so3, intrinsic_matrix, undistort_pixels
+from vebuild.errors import CalibrationError
+
 from .intrinsics import focal_squared
 from .lsq import covariance_from_jacobian, numeric_jacobian
 from .priors import DistortionPrior, FocalPrior

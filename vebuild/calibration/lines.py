@@ -336,7 +336,8 @@ def single_vanishing_point(segments: Array, width: int, height: int, *, seed: in
     (:func:`vebuild.calibration.vanishing.fit_vanishing_point`, at infinity too), re-assigned and
     fitted once more. Returns the point (3,), homogeneous pixels, and which segments agree; None
     where fewer than two agree. No focal length enters: the point is the image's."""
-    from ..errors import VebuildError
+    from vebuild.errors import VebuildError
+
     from .vanishing import fit_vanishing_point
 
     n = len(segments)

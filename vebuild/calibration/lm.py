@@ -19,8 +19,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..constants import ROBUST_SCALE
-from ..determinism import deterministic
+from vebuild.constants import ROBUST_SCALE
+from vebuild.determinism import deterministic
 
 Array = NDArray[np.float64]
 

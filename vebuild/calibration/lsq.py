@@ -163,7 +163,7 @@ def is_numeric_failure(e: BaseException) -> bool:
 def numeric_failures(photo: str | None, what: str, advice: str) -> Iterator[None]:
     """Turn a numeric failure inside the block into a CalibrationError naming ``photo`` (or None)
     and ``what`` failed, with ``advice``; other errors pass unchanged."""
-    from ..errors import CalibrationError, VebuildError
+    from vebuild.errors import CalibrationError, VebuildError
 
     try:
         yield

@@ -35,9 +35,10 @@ from itertools import combinations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..camera import AXES, distortion_displacement_px, exp_so3, intrinsic_matrix, ypr_from_rotation
-from ..determinism import deterministic
-from ..errors import CalibrationError
+from vebuild.camera import AXES, distortion_displacement_px, exp_so3, intrinsic_matrix, ypr_from_rotation
+from vebuild.determinism import deterministic
+from vebuild.errors import CalibrationError
+
 from .bending import DistortionTest, bending_test, consider_covariance, distortion_clause, held_problem, k1_source
 from .intrinsics import focal_squared, orthocentre, rotation_from_vanishing_points
 from .joint import JointProblem, check_orthogonal_pairs, lines_alone

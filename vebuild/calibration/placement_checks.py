@@ -24,7 +24,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import CalibrationError
+from vebuild.errors import CalibrationError
+
 from .placement_types import PhotoInput, ReferenceDistance
 
 Array = NDArray[np.float64]

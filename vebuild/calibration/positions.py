@@ -33,10 +33,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..camera import distortion_scale, intrinsic_matrix, project, skew_batch, so3_left_jacobian
-from ..constants import OUTLIER_SIGMAS, ROBUST_SCALE
-from ..determinism import deterministic
-from ..errors import CalibrationError
+from vebuild.camera import distortion_scale, intrinsic_matrix, project, skew_batch, so3_left_jacobian
+from vebuild.constants import OUTLIER_SIGMAS, ROBUST_SCALE
+from vebuild.determinism import deterministic
+from vebuild.errors import CalibrationError
+
 from .lm import levenberg_marquardt
 from .lsq import (
     covariance_from_jacobian,

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..errors import CalibrationError
+from vebuild.errors import CalibrationError
 
 #: Default 1σ of the prior that pulls the principal point toward the image centre, as a fraction
 #: of the image's longer side (per coordinate). Real cameras do not put it at the centre: the

@@ -37,9 +37,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 
-from ..camera import exp_so3, intrinsic_matrix, pixel_rays_world, project, rotation_from_ypr, world_to_camera
-from ..determinism import deterministic
-from ..errors import CalibrationError
+from vebuild.camera import exp_so3, intrinsic_matrix, pixel_rays_world, project, rotation_from_ypr, world_to_camera
+from vebuild.determinism import deterministic
+from vebuild.errors import CalibrationError
+
 from .lsq import (
     covariance_from_jacobian,
     numeric_failures,

@@ -47,7 +47,8 @@ from itertools import combinations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import CalibrationError
+from vebuild.errors import CalibrationError
+
 from .joint import SEGMENT_RESIDUAL_VARIANCE_FACTOR, JointProblem
 from .priors import FocalPrior
 from .vanishing import homogeneous, normalising_transform

@@ -34,8 +34,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..camera import exp_so3, intrinsic_matrix
-from ..errors import CalibrationError
+from vebuild.camera import exp_so3, intrinsic_matrix
+from vebuild.errors import CalibrationError
+
 from .joint import VARIANCE_TEST_QUANTILE, JointProblem
 from .lsq import covariance_from_jacobian, numeric_jacobian
 from .photo import (

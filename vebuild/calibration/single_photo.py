@@ -36,8 +36,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..camera import exp_so3, intrinsic_matrix, pixel_rays_world
-from ..errors import CalibrationError
+from vebuild.camera import exp_so3, intrinsic_matrix, pixel_rays_world
+from vebuild.errors import CalibrationError
+
 from .lsq import numeric_jacobian
 
 Array = NDArray[np.float64]

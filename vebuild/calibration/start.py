@@ -12,8 +12,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from ..camera import pixel_rays_world
-from ..errors import CalibrationError
+from vebuild.camera import pixel_rays_world
+from vebuild.errors import CalibrationError
 
 if TYPE_CHECKING:
     from .placement_types import PhotoInput

@@ -23,8 +23,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..determinism import deterministic
-from ..errors import CalibrationError
+from vebuild.determinism import deterministic
+from vebuild.errors import CalibrationError
+
 from .lsq import photo_numeric_failures
 
 Array = NDArray[np.float64]

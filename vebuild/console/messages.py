@@ -6,8 +6,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from ..errors import ProjectError, VebuildError
-from ..project.json_paths import field_words
+from vebuild.errors import ProjectError, VebuildError
+from vebuild.project.json_paths import field_words
 
 
 def error_in_words(e: VebuildError) -> str:

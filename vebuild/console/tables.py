@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..project.units import METRES, LengthUnit, record_unit
+from vebuild.project.units import METRES, LengthUnit, record_unit
 
 
 def _pm(vs: dict[str, Any], fmt: str, scale: float = 1.0) -> str:

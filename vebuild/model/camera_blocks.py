@@ -17,7 +17,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..camera import ImageCamera, exp_so3
+from vebuild.camera import ImageCamera, exp_so3
+
 from .layout import ParameterLayout
 
 Array = NDArray[np.float64]

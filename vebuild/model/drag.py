@@ -19,7 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..camera import ImageCamera, distort_pixels, project, world_to_camera
+from vebuild.camera import ImageCamera, distort_pixels, project, world_to_camera
+
 from .residuals import EdgeObservation, Pin
 from .scene import Model
 from .solver import Problem, ProblemOptions

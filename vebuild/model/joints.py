@@ -16,7 +16,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..camera import exp_so3
+from vebuild.camera import exp_so3
+
 from .primitives import Primitive
 from .room import Room
 

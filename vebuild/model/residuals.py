@@ -34,9 +34,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..calibration.lm import SPARSE_SOLVE_ABOVE
-from ..calibration.positions import ReferenceDistance  # ends: marker names or 'node:handle'
-from ..camera import ImageCamera, project_each, skew_batch, so3_left_jacobian
+from vebuild.calibration.lm import SPARSE_SOLVE_ABOVE
+from vebuild.calibration.positions import ReferenceDistance  # ends: marker names or 'node:handle'
+from vebuild.camera import ImageCamera, project_each, skew_batch, so3_left_jacobian
+
 from .camera_blocks import CameraBlocks
 from .column_groups import column_groups
 from .constraints import HARD_SIGMA_M

@@ -28,7 +28,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import sparse
 
-from ..constants import ROBUST_SCALE
+from vebuild.constants import ROBUST_SCALE
+
 from .moved import apply_plan
 from .residuals import FD_STEP
 from .solver import Problem

@@ -12,10 +12,11 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import sparse
 
-from ..calibration.lsq import variance_factor
-from ..camera import ImageCamera
-from ..constants import OUTLIER_SIGMAS
-from ..determinism import deterministic
+from vebuild.calibration.lsq import variance_factor
+from vebuild.camera import ImageCamera
+from vebuild.constants import OUTLIER_SIGMAS
+from vebuild.determinism import deterministic
+
 from .constraints import constraint_rank
 from .inverse import inverse_by_cameras as _inverse_by_cameras
 from .inverse import outside_cameras_inverse as _outside_cameras_inverse

@@ -28,11 +28,12 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from ..calibration.lm import LMResult, levenberg_marquardt
-from ..calibration.lsq import is_numeric_failure
-from ..calibration.positions import ReferenceDistance
-from ..camera import ImageCamera
-from ..determinism import deterministic
+from vebuild.calibration.lm import LMResult, levenberg_marquardt
+from vebuild.calibration.lsq import is_numeric_failure
+from vebuild.calibration.positions import ReferenceDistance
+from vebuild.camera import ImageCamera
+from vebuild.determinism import deterministic
+
 from .camera_blocks import SharedIntrinsics, group_prior, shared_cameras, whitening
 from .constraints import hard_relations, restore, tie_equal
 from .layout import ParameterLayout

@@ -12,8 +12,9 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ProjectError
-from ..model.camera_blocks import SharedIntrinsics
+from vebuild.errors import ProjectError
+from vebuild.model.camera_blocks import SharedIntrinsics
+
 from .json_paths import listing
 
 

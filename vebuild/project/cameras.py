@@ -16,8 +16,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..camera import ImageCamera, fov_to_focal, intrinsic_matrix, look_rotation
-from ..errors import ProjectError, VebuildError
+from vebuild.camera import ImageCamera, fov_to_focal, intrinsic_matrix, look_rotation
+from vebuild.errors import ProjectError, VebuildError
+
 from .camera_records import recalibrated_cameras
 from .file import Project
 from .json_paths import json_path

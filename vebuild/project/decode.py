@@ -37,11 +37,11 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from ..calibration.photo import FocalPrior
-from ..calibration.positions import ReferenceDistance
-from ..calibration.single_photo import CameraHeight, KnownLength
-from ..errors import ProjectError, VebuildError
-from ..lighting import (
+from vebuild.calibration.photo import FocalPrior
+from vebuild.calibration.positions import ReferenceDistance
+from vebuild.calibration.single_photo import CameraHeight, KnownLength
+from vebuild.errors import ProjectError, VebuildError
+from vebuild.lighting import (
     AS_PHOTOGRAPHED,
     AS_PHOTOGRAPHED_LIGHTING,
     DEFAULT_AMBIENT,
@@ -50,8 +50,9 @@ from ..lighting import (
     Light,
     Lighting,
 )
-from ..model.residuals import EdgeObservation, Pin
-from ..model.scene import Model, ModelError, model_from_dict
+from vebuild.model.residuals import EdgeObservation, Pin
+from vebuild.model.scene import Model, ModelError, model_from_dict
+
 from .camera_records import camera_records  # noqa: F401  (re-exported, as the cameras are)
 from .cameras import (  # noqa: F401  (re-exported: decode is where every part of the document is decoded)
     DEFAULT_FOV_DEG,

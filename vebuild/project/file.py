@@ -19,9 +19,10 @@ from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 from typing import Any
 
-from ..calibration.priors import PRINCIPAL_POINT_SIGMA_REL
-from ..errors import ProjectError
-from ..lighting import AS_PHOTOGRAPHED
+from vebuild.calibration.priors import PRINCIPAL_POINT_SIGMA_REL
+from vebuild.errors import ProjectError
+from vebuild.lighting import AS_PHOTOGRAPHED
+
 from .images import MAX_IMAGE_PIXELS, decoded_size, open_image, read_exif, sha256_bytes, sha256_file
 from .json_paths import json_path, listing
 from .pixels import rgb_image

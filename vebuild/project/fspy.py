@@ -47,7 +47,8 @@ import numpy as np
 from numpy.typing import NDArray
 from PIL import Image, UnidentifiedImageError
 
-from ..errors import ProjectError
+from vebuild.errors import ProjectError
+
 from .fspy_state import Point, Segment, StateReader, kind
 from .images import MAX_IMAGE_PIXELS, sha256_bytes
 

@@ -23,7 +23,8 @@ import math
 from pathlib import Path
 from typing import Any
 
-from ..errors import ProjectError
+from vebuild.errors import ProjectError
+
 from .json_paths import json_path, parse_json_path
 
 Point = tuple[float, float]

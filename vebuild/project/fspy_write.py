@@ -48,7 +48,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..camera import ImageCamera, distortion_displacement_px
+from vebuild.camera import ImageCamera, distortion_displacement_px
+
 from .file import Project
 from .fspy import MAGIC, VERSION
 

@@ -16,7 +16,8 @@ from dataclasses import dataclass
 
 from PIL import Image
 
-from ..errors import VebuildError
+from vebuild.errors import VebuildError
+
 from .file import Project
 from .images import decode_photo, photo_orientation, sha256_bytes
 

@@ -30,8 +30,9 @@ import PIL
 from numpy.typing import NDArray
 from PIL import Image, UnidentifiedImageError
 
-from ..errors import ProjectError
-from ..resources import cache_dir
+from vebuild.errors import ProjectError
+from vebuild.resources import cache_dir
+
 from .atomic import write_text
 from .pixels import check_pixel_format, rgb_image
 
@@ -392,7 +393,7 @@ def read_exif(path: str | os.PathLike[str]) -> dict[str, Any]:
     focal-plane resolution, else the sensor database, else the 35 mm equivalent), in pixels of the
     photo as displayed. EXIF is advisory: a damaged block gives what could be read.
     """
-    from ..calibration.exif import focal_prior
+    from vebuild.calibration.exif import focal_prior
 
     if is_raw(path):
         out, size = _raw_exif(Path(path))

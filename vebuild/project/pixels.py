@@ -44,7 +44,7 @@ from typing import Any
 import numpy as np
 from PIL import Image
 
-from ..errors import ProjectError
+from vebuild.errors import ProjectError
 
 #: Pillow modes of 16-bit grey, decoded v · 255 / 65535.
 SIXTEEN_BIT_GREY = frozenset({"I;16", "I;16L", "I;16B", "I;16N"})

@@ -388,7 +388,7 @@ def audit_entry(command: str, arguments: Sequence[str], before: str | None, afte
     outside the folder is recorded as its absolute path (it starts with ``/`` or a drive, which a
     path inside never does). Without ``project`` or outside a command the words are kept as given.
     """
-    from .. import __version__
+    from vebuild import __version__
 
     epoch = os.environ.get("SOURCE_DATE_EPOCH", "").strip()
     when = (datetime.datetime.fromtimestamp(int(epoch), datetime.UTC) if epoch.isdigit()

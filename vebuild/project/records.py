@@ -10,8 +10,8 @@ from typing import Any
 
 import numpy as np
 
-from ..calibration.photo import ypr_with_sigma
-from ..camera import ImageCamera, distortion_displacement_px, focal_to_fov, ypr_from_rotation
+from vebuild.calibration.photo import ypr_with_sigma
+from vebuild.camera import ImageCamera, distortion_displacement_px, focal_to_fov, ypr_from_rotation
 
 
 def json_values(x: Any) -> Any:

@@ -32,7 +32,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import IO, Any
 
-from ..errors import ProjectError
+from vebuild.errors import ProjectError
 
 #: The longest PLY header read (its lines of elements, properties and comments).
 PLY_HEADER_BYTES = 1 << 20

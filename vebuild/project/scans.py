@@ -33,7 +33,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import ProjectError, VebuildError
+from vebuild.errors import ProjectError, VebuildError
+
 from .images import sha256_file
 from .scan_headers import declared_points
 from .validation import check_relative_path

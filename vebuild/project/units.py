@@ -14,7 +14,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from ..errors import VebuildError
+from vebuild.errors import VebuildError
 
 #: How a relative length is labelled wherever it is shown.
 RELATIVE_UNITS = "relative units: the camera height is 1"

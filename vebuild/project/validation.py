@@ -17,9 +17,10 @@ import re
 from pathlib import Path, PurePosixPath
 from typing import TYPE_CHECKING, Any
 
-from .. import __version__
-from ..errors import ProjectError
-from ..lighting import AS_PHOTOGRAPHED
+from vebuild import __version__
+from vebuild.errors import ProjectError
+from vebuild.lighting import AS_PHOTOGRAPHED
+
 from .camera_groups import check_camera_groups
 from .images import MAX_IMAGE_PIXELS
 from .json_paths import field_words, json_key, json_path, listing
@@ -170,7 +171,7 @@ def _check_semantics(data: dict[str, Any], file: Any) -> None:
                                f"that id (the photos are: {listing(list(sizes))})")
         for k, uv in enumerate(kl["ends"]):
             _check_on_photo(uv, sizes[kl["photo"]], file, f"{where}.ends[{k}]")
-        from ..calibration.vanishing import MIN_SEGMENT_LENGTH_PX
+        from vebuild.calibration.vanishing import MIN_SEGMENT_LENGTH_PX
         (u1, v1), (u2, v2) = kl["ends"]
         if math.hypot(u2 - u1, v2 - v1) < MIN_SEGMENT_LENGTH_PX:
             raise ProjectError(file, f"{where}.ends", f"photo {kl['photo']!r}: the known length's two ends are "
@@ -273,7 +274,7 @@ def _check_joint(joint: dict[str, Any], file: Any, where: str) -> None:
 
 def _check_segment_length(seg: list[float], file: Any, where: str, photo: str, axis: str, k: int) -> None:
     # The same refusal as calibrate's (vanishing.check_segments), at load, so that check reports it.
-    from ..calibration.vanishing import MIN_SEGMENT_LENGTH_PX
+    from vebuild.calibration.vanishing import MIN_SEGMENT_LENGTH_PX
     length = math.hypot(seg[2] - seg[0], seg[3] - seg[1])
     if length < MIN_SEGMENT_LENGTH_PX:
         raise ProjectError(file, where, f"photo {photo!r}: axis {axis}, segment {k}: its end points are "

@@ -32,8 +32,8 @@ import numpy as np
 from numpy.typing import NDArray
 from PIL import Image
 
-from ..model.scene import model_from_dict
-from ..project import new_photo_entry, new_project, save_project
+from vebuild.model.scene import model_from_dict
+from vebuild.project import new_photo_entry, new_project, save_project
 
 Array = NDArray[np.float64]
 

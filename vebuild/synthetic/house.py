@@ -41,9 +41,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..model.joints import ModelError
-from ..model.scene import model_from_dict
-from ..project import new_photo_entry, new_project, save_project
+from vebuild.model.joints import ModelError
+from vebuild.model.scene import model_from_dict
+from vebuild.project import new_photo_entry, new_project, save_project
+
 from . import CLICK_NOISE_PX, SyntheticPhoto, project_points, projection_matrix, realistic_camera, rotation
 from .room_photos import placeable
 

@@ -21,9 +21,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..model.joints import ModelError
-from ..model.scene import model_from_dict
-from ..project import load_project, save_project
+from vebuild.model.joints import ModelError
+from vebuild.model.scene import model_from_dict
+from vebuild.project import load_project, save_project
+
 from . import CLICK_NOISE_PX, write_project
 from .room_photos import photograph
 from .rooms import LEAF_TAPE_SIGMA_M, THICKNESS_TAPE_SIGMA_M, Box, RoomScene, room_geometry

@@ -12,7 +12,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..calibration.start import MIN_INTERSECTION_ANGLE_DEG
+from vebuild.calibration.start import MIN_INTERSECTION_ANGLE_DEG
+
 from . import CLICK_NOISE_PX, SyntheticPhoto, add_segments, realistic_camera, rotation
 from .rooms import RoomScene
 

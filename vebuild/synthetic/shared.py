@@ -15,7 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from ..project import save_project
+from vebuild.project import save_project
+
 from . import (
     CLICK_NOISE_PX,
     REAL_DISTORTION_CORNER_REL,
