@@ -111,3 +111,44 @@ def textured_room(tmp_path_factory):
     # Through the command line, as the stages before it, so that the audit trail records it too.
     assert main(["texture", str(proj), "--density", "100", "--quiet"]) == 0
     return proj
+
+
+# -- markers: window, gl, slow (pyproject's [tool.pytest.ini_options] markers) ---------------------
+
+#: Words in a test module's source that mean its tests draw with OpenGL (llvmpipe here and in CI).
+GL_WORDS = ("vebuild.gl", "vebuild.render", "vebuild.texture", "vebuild.viewer", "vebuild.edit.screen",
+            "headless_context", "screenshots", '["demo"', '["texture"', '["video"', '["render"')
+#: Modules whose tests are slow for another cause: batches of hundreds of generated photos, whole
+#: pipeline runs, subprocesses killed at random, benchmarks run through their command.
+SLOW_MODULES = frozenset({
+    "test_calibration_coverage", "test_robust_vanishing", "test_bending", "test_register_coverage",
+    "test_house", "test_room_scenes", "test_determinism", "test_fuzz_loader", "test_kill",
+    "test_example_room", "test_example_remodel", "test_single_view_kinds", "test_bench_single_view",
+    "test_bench_real", "test_bench_detect", "test_bench_render", "test_bench_house", "test_bench_cli",
+    "test_detect_clutter", "test_camera_groups", "test_placement_honest", "test_orientation", "test_outputs",
+    "test_report", "test_report_court", "test_report_single", "test_measure", "test_relations",
+})
+_gl_modules: dict[str, bool] = {}
+
+
+def _draws_with_gl(item: pytest.Item) -> bool:
+    path = str(item.path)
+    if path not in _gl_modules:
+        text = item.path.read_text(encoding="utf-8")
+        _gl_modules[path] = any(w in text for w in GL_WORDS)
+    return _gl_modules[path]
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """Mark each test `window` (it drives a window on the virtual X server), `gl` (its module
+    draws with OpenGL) and `slow` (either of those, or a module of SLOW_MODULES), so that
+    `pytest -m "not slow"` is a developer's quick loop."""
+    for item in items:
+        window = "xvfb_display" in getattr(item, "fixturenames", ())
+        gl = window or _draws_with_gl(item)
+        if window:
+            item.add_marker(pytest.mark.window)
+        if gl:
+            item.add_marker(pytest.mark.gl)
+        if gl or item.path.stem in SLOW_MODULES:
+            item.add_marker(pytest.mark.slow)
