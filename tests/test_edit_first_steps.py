@@ -26,7 +26,7 @@ from imgui_bundle import imgui
 
 from vebuild.edit import guide as guide_mod
 from vebuild.edit.browser import FileBrowser, add_files
-from vebuild.edit.guide import STEPS, Guide, is_new
+from vebuild.edit.guide import STEP_KEYS, STEPS, Guide, is_new
 from vebuild.edit.keys import EDITOR_KEYS
 from vebuild.edit.session import EditSession
 from vebuild.resources import example_project_dir
@@ -58,9 +58,10 @@ def test_each_step_is_done_by_the_sessions_state_alone(tmp_path):
         for n, seg in enumerate(plan.segments["p1"][axis][:guide_mod.SEGMENTS_PER_AXIS]):
             assert g.current(s, "p1").key == axis, (axis, n)  # one segment is not enough
             s.add_segment("p1", axis, seg[:2], seg[2:])
-    assert g.current(s, "p1").key == "markers"
+    # A project of one photo needs no marker (its origin is the floor below the camera): the scale
+    # comes next; the markers placed here serve the distance.
+    assert g.current(s, "p1").key == "distance"
     s.place_marker("p1", "O", plan.markers["p1"]["O"])
-    assert g.current(s, "p1").key == "markers"
     s.place_marker("p1", "Y4", plan.markers["p1"]["Y4"])
     assert g.current(s, "p1").key == "distance"
     s.add_distance(*DISTANCE)
@@ -76,6 +77,9 @@ def test_each_step_is_done_by_the_sessions_state_alone(tmp_path):
     assert g.current(s, "p1").key == "object"
     s.add_photo(photo_file(plan, "p3"))
     assert g.current(s, "p3").key == "x"
+    # With two photos, markers tie them: the step is p3's to do, and p1's (it has its two) done.
+    markers_done = dict(zip(STEP_KEYS, g.done(s, "p3"), strict=True))["markers"]
+    assert not markers_done and dict(zip(STEP_KEYS, g.done(s, "p1"), strict=True))["markers"]
     # A project with marks or a model is not new: the guide is not shown by itself.
     assert not is_new(s)
     assert [st.key for st in STEPS] == ["photo", "axes", "x", "y", "z", "markers", "distance", "calibrate",
@@ -211,7 +215,7 @@ def test_the_guided_steps_advance_as_the_user_completes_them(tmp_path, driver_fa
     d.send(*d.move_to(x0 + 2, ym), "mousedown", "1", *d.move_to(x0 + 60, ym), "mouseup", "1")
     assert not (s.photo("p1").get("vanishing_segments") or {}).get("x")
     # The lines: each step is done at its second segment, and the next one begins.
-    for key, axis, after in (("1", "x", "y"), ("2", "y", "z"), ("3", "z", "markers")):
+    for key, axis, after in (("1", "x", "y"), ("2", "y", "z"), ("3", "z", "distance")):  # one photo: no marker
         d.send("key", key)
         first, second, *rest = plan.segments["p1"][axis]
         _strokes(d, [first])

@@ -111,8 +111,10 @@ STEPS: tuple[Step, ...] = (
          f"{SEGMENTS_PER_AXIS} or more z segments in this photo", lambda s, p: _marked(s, p, "z")),
     Step("markers", "Place markers",
          "Key M (Marker): click a point on the floor (the first marker is the world's origin), then the other "
-         "end of a distance you measured at the scene; the toolbar's field names the next marker.",
-         f"{MARKERS_PER_PHOTO} or more markers in this photo", lambda s, p: markers_in(s, p) >= MARKERS_PER_PHOTO),
+         "end of a distance you measured at the scene; the toolbar's field names the next marker. A project of "
+         "one photo needs none: its origin is then the floor below the camera.",
+         f"{MARKERS_PER_PHOTO} or more markers in this photo (none in a project of one photo)",
+         lambda s, p: markers_in(s, p) >= MARKERS_PER_PHOTO or len(s.photo_ids) == 1),
     Step("distance", "Enter a distance",
          "Calibration tab, reference distances: type the two markers' names and the metres measured between "
          "them, then add (or Ctrl+D, Tab between the fields, Ctrl+Enter). (A photo placed alone can take a "
@@ -120,7 +122,8 @@ STEPS: tuple[Step, ...] = (
          "a reference distance (or this photo's own scale) is given", has_scale),
     Step("calibrate", "Calibrate",
          "Press Calibrate (Calibration tab): each photo's focal length, orientation and position are found "
-         "from its lines and markers.",
+         "from its lines and markers. Then T measures on the photo alone: a height (its foot on the floor, then "
+         "its top), a distance on the floor, a length on a wall.",
          "this photo is calibrated", is_calibrated),
     Step("floor", "Add the floor",
          "Model tab: kind quad, name floor, Add, then click in the photo; drag its far corners onto the floor's "
