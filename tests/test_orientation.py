@@ -27,7 +27,6 @@ from vebuild.calibration.lines import X_AXIS_CHOICES, orient_axes
 from vebuild.project import load_project, save_project
 from vebuild.synthetic import SyntheticPhoto, random_scene, write_project
 
-ROOM = Path(__file__).resolve().parents[1] / "scenes" / "room"
 #: Seeds of generated four-photo scenes (3vp, 3vp, 2vp, 3vp) sharing 4–7 markers with the last
 #: (at least MIN_SHARED_MARKERS, so that the markers tell its turn).
 SEEDS = (1, 6, 8)
