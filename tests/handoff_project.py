@@ -1,5 +1,5 @@
 """A calibrated one-photo project for the hand-off tests (camera-only glTF, fSpy, web viewer): a
-generated photo of a room (tests/test_single_photo.py ``one_photo``, principal point off centre),
+generated photo of a room (tests/one_photo_scene.py ``one_photo``, principal point off centre),
 calibrated with no model, two single-view measurements saved as analyses, optionally a lens
 distortion k1, and optionally a photo whose pixels show red dots at known floor points (for reading
 a screenshot against the camera's projection)."""
@@ -11,8 +11,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from one_photo_scene import OnePhoto, one_photo, write_one_photo
 from PIL import Image, ImageDraw
-from test_single_photo import OnePhoto, one_photo, write_one_photo
 
 from vebuild.actions.calibrate import calibrate_project
 from vebuild.analysis.single_view import single_view_command

@@ -9,12 +9,11 @@ group it borrows the oblique photos' f, with their σ.
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from camera_group_scene import camera_set, run_vebuild, with_box
 
 from vebuild.calibration.camera_groups import camera_groups
 from vebuild.calibration.photo import calibrate_photo
@@ -27,9 +26,6 @@ from vebuild.synthetic.shared import one_camera_set, write_one_camera_project
 
 #: |error| / reported 1σ that no estimate may exceed (as in test_calibration: a 1-in-10⁵ draw).
 UNCERTAINTY_BOUND = 4.5
-#: The generated set whose frontal photo p4 cannot fix f alone (its lines leave f undetermined)
-#: and whose oblique photos p1–p3 share markers, so that they are placed.
-SCENE_SEED = 0
 #: How far apart the placed photos of one group may put f and c: the placement's tie (positions.TIE_SIGMA_PX) and
 #: the solver's tolerance; a thousandth of a pixel is below any figure printed.
 TIE_PX = 1e-3
@@ -37,18 +33,9 @@ TIE_PX = 1e-3
 COVERAGE_SETS = 30
 
 
-def _set() -> tuple[list[SyntheticPhoto], dict[str, np.ndarray]]:
-    return one_camera_set(np.random.default_rng(SCENE_SEED))
-
-
 def _members(photos: list[SyntheticPhoto]) -> list[GroupMember]:
     return [GroupMember(p.id, dict(segments=p.segments, width=p.width, height=p.height, photo=p.id,
                                    click_sigma_px=CLICK_NOISE_PX)) for p in photos]
-
-
-def _cli(*args: str | Path) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "vebuild", *map(str, args)], capture_output=True, text=True,
-                          timeout=300)
 
 
 def _photo(pid: str, exif: dict | None = None, size: tuple[int, int] = (1600, 1200), **kw: object) -> dict:
@@ -100,7 +87,7 @@ def test_read_exif_records_the_body_serial(tmp_path: Path) -> None:
 def test_a_frontal_photo_borrows_the_focal_length_of_its_camera_group() -> None:
     """The frontal photo's lines leave f undetermined: alone it is refused; in its group its f is
     the group's, inside its interval, with a 1σ no wider than the oblique photos' own."""
-    photos, _ = _set()
+    photos, _ = camera_set()
     frontal = photos[3]
     assert frontal.kind == "frontal"
     with pytest.raises(CalibrationError, match="the focal length is not determined"):
@@ -124,7 +111,7 @@ def test_a_frontal_photo_borrows_the_focal_length_of_its_camera_group() -> None:
 def test_a_photo_whose_lines_contradict_its_group_is_released() -> None:
     """p2 taken at another zoom (f 20 % longer) but with the same EXIF: its own lines contradict
     the group's f by far more than 3σ, so it leaves the group, saying so; the others share theirs."""
-    photos, _ = _set()
+    photos, _ = camera_set()
     zoomed = photos[1]
     zoomed.K = zoomed.K.copy()
     zoomed.K[0, 0] = zoomed.K[1, 1] = 1.2 * photos[0].K[0, 0]
@@ -162,9 +149,9 @@ def test_the_shared_intrinsics_intervals_hold_the_truth() -> None:
 
 
 def test_calibrate_groups_the_photos_of_one_camera_by_exif(tmp_path: Path) -> None:
-    photos, markers = _set()
+    photos, markers = camera_set()
     path = write_one_camera_project(tmp_path, photos, markers)
-    r = _cli("calibrate", path, "--quiet")
+    r = run_vebuild("calibrate", path, "--quiet")
     assert r.returncode == 0, r.stderr
     cal = json.loads(path.read_text(encoding="utf-8"))["calibration"]
     [group] = cal["camera_groups"]
@@ -201,12 +188,12 @@ def test_the_user_groups_photos_and_releases_one(tmp_path: Path) -> None:
     """No EXIF: alone, the frontal photo is left out (its f undetermined); grouped by the user on the
     command line it is calibrated with the others' f; released again, it is left out again. The
     groups and the release are saved in the project (camera_groups, own_camera)."""
-    photos, markers = _set()
+    photos, markers = camera_set()
     path = write_one_camera_project(tmp_path, photos, markers, exif=False)
-    r = _cli("calibrate", path, "--quiet")
+    r = run_vebuild("calibrate", path, "--quiet")
     assert r.returncode == 0, r.stderr
     assert "p4" in json.loads(path.read_text(encoding="utf-8"))["calibration"]["left_out"]
-    r = _cli("calibrate", path, "--quiet", "--group", "body=p1,p2,p3,p4")
+    r = run_vebuild("calibrate", path, "--quiet", "--group", "body=p1,p2,p3,p4")
     assert r.returncode == 0, r.stderr
     doc = json.loads(path.read_text(encoding="utf-8"))
     assert doc["camera_groups"] == [{"id": "body", "photos": ["p1", "p2", "p3", "p4"]}]
@@ -214,20 +201,20 @@ def test_the_user_groups_photos_and_releases_one(tmp_path: Path) -> None:
     assert "left_out" not in cal and cal["unplaced"]["p4"]["camera_group"] == "body"
     f = cal["unplaced"]["p4"]["focal_px"]
     assert abs(f["value"] - photos[0].K[0, 0]) < UNCERTAINTY_BOUND * f["sigma"]
-    r = _cli("calibrate", path, "--quiet", "--release", "p4")
+    r = run_vebuild("calibrate", path, "--quiet", "--release", "p4")
     assert r.returncode == 0, r.stderr
     doc = json.loads(path.read_text(encoding="utf-8"))
     assert doc["camera_groups"] == [{"id": "body", "photos": ["p1", "p2", "p3"]}]
     assert doc["photos"][3]["own_camera"] is True and "p4" in doc["calibration"]["left_out"]
     before = path.read_bytes()
-    r = _cli("calibrate", path, "--quiet", "--group", "x=p1,p9")
+    r = run_vebuild("calibrate", path, "--quiet", "--group", "x=p1,p9")
     assert r.returncode == 2 and "Traceback" not in r.stderr
     assert "--group 'x=p1,p9': names the photo 'p9'" in r.stderr and "expected one of" in r.stderr
     assert path.read_bytes() == before
     # The groups are an input of the calibration: changed, the calibration is stale.
     doc["camera_groups"] = [{"id": "body", "photos": ["p1", "p2"]}]
     path.write_text(json.dumps(doc), encoding="utf-8")
-    r = _cli("check", path)
+    r = run_vebuild("check", path)
     assert "the calibration is stale: camera_groups changed after calibrating" in r.stdout + r.stderr
 
 
@@ -236,7 +223,7 @@ def test_the_modelling_screen_groups_releases_and_shows_camera_groups(tmp_path: 
     shown with its shared values), releases a photo; undo takes the release back."""
     from vebuild.edit.session import EditSession
 
-    photos, markers = _set()
+    photos, markers = camera_set()
     path = write_one_camera_project(tmp_path, photos, markers, exif=False)
     s = EditSession.open(path)
     s.group_cameras("body", ["p1", "p2", "p3", "p4"])
@@ -255,11 +242,11 @@ def test_the_modelling_screen_groups_releases_and_shows_camera_groups(tmp_path: 
 def test_exif_contradicted_in_a_group_is_warned_once(tmp_path: Path) -> None:
     """The group's EXIF focal length 30 % longer than its photos' lines say (far beyond the 3σ
     limit): EXIF is not combined, and the warning names the group's photos once, not once per photo."""
-    photos, markers = _set()
+    photos, markers = camera_set()
     for p in photos:
         p.exif_focal_px = 1.3 * p.K[0, 0]
     path = write_one_camera_project(tmp_path, photos, markers)
-    r = _cli("calibrate", path, "--quiet")
+    r = run_vebuild("calibrate", path, "--quiet")
     assert r.returncode == 0, r.stderr
     cal = json.loads(path.read_text(encoding="utf-8"))["calibration"]
     [group] = cal["camera_groups"]
@@ -270,47 +257,17 @@ def test_exif_contradicted_in_a_group_is_warned_once(tmp_path: Path) -> None:
     assert "EXIF is not combined" in said[0]
 
 
-#: The box the re-calibration tests solve (a model is needed to solve): its size in metres, standing
-#: at the calibrated markers' centroid, pinned where the calibrated cameras see its corners.
-BOX = {"width": 0.8, "depth": 0.6, "height": 0.9}
-
-
-def _with_box(path: Path) -> None:
-    """Add a box pinned in every placed photo (exactly where its calibrated camera sees each
-    corner: the box adds no pull on the cameras of its own) to a calibrated project."""
-    from vebuild.camera import project as project_point
-    from vebuild.model.scene import model_from_dict
-    from vebuild.project import load_project, save_project
-    from vebuild.project.decode import cameras
-
-    project = load_project(path)
-    data = project.data
-    centre = np.mean([m["position"] for m in data["calibration"]["markers"].values()], axis=0)
-    node = {"name": "box", "primitive": {"type": "box", "params": BOX},
-            "joint": {"type": "rests_on", "position": [float(centre[0]), float(centre[1])], "yaw_deg": 0.0}}
-    model = model_from_dict([node])
-    pins = []
-    for pid, cam in cameras(project).items():
-        for h in model.node("box").primitive.handle_names():
-            X = model.handle_world("box", h)
-            if (cam.R @ (X - cam.C))[2] > 0:
-                uv = project_point(cam.K, cam.R, cam.C, X, cam.k1)
-                pins.append({"photo": pid, "node": "box", "handle": h, "uv": [float(v) for v in uv], "fixed": True})
-    data["model"] = {"nodes": [node], "edge_observations": [], "pins": pins}
-    save_project(project)
-
-
 def test_solve_recalibrate_shares_one_camera_per_group(tmp_path: Path) -> None:
     """Calibrated as one camera, re-calibrated by `solve --recalibrate`: the group's placed photos
     keep one K and k1 (to TIE_PX: one unknown, not tied ones), their 1σ no wider than the
     calibration's and the truth inside UNCERTAINTY_BOUND σ; the group's record in model_solution
     gives them once. A photo released from the group keeps its own f."""
-    photos, markers = _set()
+    photos, markers = camera_set()
     f_true, c_true = photos[0].K[0, 0], photos[0].K[:2, 2]
     path = write_one_camera_project(tmp_path, photos, markers)
-    assert _cli("calibrate", path, "--quiet").returncode == 0
-    _with_box(path)
-    r = _cli("solve", path, "--recalibrate")
+    assert run_vebuild("calibrate", path, "--quiet").returncode == 0
+    with_box(path)
+    r = run_vebuild("solve", path, "--recalibrate")
     assert r.returncode == 0, r.stderr
     doc = json.loads(path.read_text(encoding="utf-8"))
     [cal_group] = doc["calibration"]["camera_groups"]
@@ -330,15 +287,15 @@ def test_solve_recalibrate_shares_one_camera_per_group(tmp_path: Path) -> None:
     assert np.all(np.abs(np.array(group["principal_point"]["value"]) - c_true)
                   < UNCERTAINTY_BOUND * np.array(group["principal_point"]["sigma"]))
     # --fixed-intrinsics: every K as calibrated, as for any photo; no group re-calibrated.
-    assert _cli("solve", path, "--recalibrate", "--fixed-intrinsics").returncode == 0
+    assert run_vebuild("solve", path, "--recalibrate", "--fixed-intrinsics").returncode == 0
     doc = json.loads(path.read_text(encoding="utf-8"))
     assert "camera_groups" not in doc["model_solution"]
     for pid, rec in doc["model_solution"]["cameras"].items():
         assert rec["K"] == doc["calibration"]["cameras"][pid]["K"]
     # Released: p3 is calibrated and re-calibrated with its own camera, no longer the group's.
-    assert _cli("calibrate", path, "--quiet", "--release", "p3").returncode == 0
-    _with_box(path)
-    r = _cli("solve", path, "--recalibrate")
+    assert run_vebuild("calibrate", path, "--quiet", "--release", "p3").returncode == 0
+    with_box(path)
+    r = run_vebuild("solve", path, "--recalibrate")
     assert r.returncode == 0, r.stderr
     doc = json.loads(path.read_text(encoding="utf-8"))
     [group] = doc["model_solution"]["camera_groups"]

@@ -34,8 +34,8 @@ from vebuild.report.sections import model as report_model
 from vebuild.synthetic import CLICK_NOISE_PX, rotation
 
 sys.path.insert(0, str(Path(__file__).parent))
-from test_entered import _project as entered_project  # noqa: E402
-from test_hinge_axis import _pins  # noqa: E402
+from corner_pins import corner_pins  # noqa: E402
+from entered_scene import entered_project  # noqa: E402
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "scenes" / "room"
 #: The issue's wall: 6.04 m long, its far end seen by one photo only, at one top corner, from a
@@ -66,8 +66,8 @@ def wall_solve(out_m: float, far: tuple[str, ...]) -> tuple[Problem, Any]:
     near = {c.id: c for c in (_camera("p1", [-1.5, -3.0, 1.6], [0.3, 0, 1.2]),
                               _camera("p2", [1.5, -3.5, 1.5], [0.2, 0, 1.2]))}
     side = {"p3": _camera("p3", [-2.0, -0.06 - out_m, 2.5 - 0.2 * out_m], [6.04, 0, 2.4])}
-    pins = [p for p in _pins(truth, near, "wall", rng) if p.handle in ("v0", "v3", "v4", "v7")]
-    pins += [p for p in _pins(truth, side, "wall", rng) if p.handle in far]
+    pins = [p for p in corner_pins(truth, near, "wall", rng) if p.handle in ("v0", "v3", "v4", "v7")]
+    pins += [p for p in corner_pins(truth, side, "wall", rng) if p.handle in far]
     start = model_from_dict([_wall({"width": 5.5, "depth": 0.1, "height": 2.4}, (2.8, 0.05), 1.0)])
     problem = Problem(start, {**near, **side}, pins,
                       options=ProblemOptions(click_sigma_px=CLICK_NOISE_PX, prior_scale=FINAL_PRIOR_SCALE))

@@ -19,9 +19,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 from PIL import Image
+from render_scenes import box_on_floor_model
 from scipy import ndimage
-from test_render import box_on_floor_model
-from test_texture_reference import (
+from texture_tolerances import (
     COLOUR_ATOL,
     COUNT_MISMATCH,
     ID_DEPTH_RTOL,

@@ -10,8 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from jacobian_check import assert_jacobian_matches_differences
+from lens_distortion import barrel_k1
 from scipy.stats import chi2
-from test_model import assert_jacobian_matches_differences
 
 from vebuild.calibration.positions import ReferenceDistance
 from vebuild.camera import ImageCamera, distort_pixels, distortion_displacement_px, project
@@ -22,19 +23,6 @@ from vebuild.model.solver import FINAL_PRIOR_SCALE, MarkerData, Problem, Problem
 from vebuild.synthetic import CLICK_NOISE_PX, ROOM, model_scene
 
 MARKERS = {"O": np.zeros(3)}
-#: The lens of the tests: barrel distortion moving the photo's corners by this share of their
-#: distance from the principal point (1–3 % on a wide-angle lens).
-CORNER_SHARE = 0.03
-
-
-def barrel_k1(K: np.ndarray, width: int, height: int, share: float = CORNER_SHARE) -> float:
-    """The division model's k1 (< 0) that moves the farthest corner of the photo inward by
-    ``share`` of its distance from the principal point: x_u = x_d / (1 + k1 r²) = (1 + share) x_d."""
-    c = K[:2, 2]
-    r = max(np.hypot(*(np.array(corner) - c)) for corner in ((0, 0), (width, 0), (0, height), (width, height)))
-    return float((1.0 / (1.0 + share) - 1.0) / (r / K[0, 0]) ** 2)
-
-
 def distorted_scene(seed: int, n_boxes: int = 2, n_photos: int = 3, noise_px: float = CLICK_NOISE_PX):
     """Truth, a perturbed start, the photos' cameras (each with its barrel k1) and pins: pinhole
     pixels of the true corners, distorted by each lens, then the click noise added."""
@@ -92,7 +80,7 @@ def test_the_jacobian_through_the_lens_agrees_with_central_differences() -> None
         x[b.k1_index] *= 1.3
     for b in layout.markers.values():
         x[b.slice] += rng.normal(0.0, 0.01, 3)
-    J, F = assert_jacobian_matches_differences(problem, layout, x)  # the bounds of tests/test_model.py
+    J, F = assert_jacobian_matches_differences(problem, layout, x)  # the bounds of tests/jacobian_check.py
     k1_cols = [b.k1_index for b in layout.cameras.values()]
     assert np.count_nonzero(J[: problem.n_data, k1_cols]) > 0.9 * np.count_nonzero(F[: problem.n_data, k1_cols])
     assert np.count_nonzero(F[: problem.n_data, k1_cols]) > 0  # k1 moves the pins: a real comparison

@@ -28,7 +28,7 @@ from edit_scene import (
     make_plan,
     photo_file,
 )
-from test_edit_rebuild import User, _window_noise
+from edit_user import User, window_noise, x_choice
 
 from vebuild.edit.layout import PANEL_W, STRIP_H, TOOLBAR_H
 
@@ -57,15 +57,6 @@ class Count:
                 self.keys += len(args[-1])
 
 
-def x_choice(R) -> str:
-    """Which horizontal direction of the photo world x runs (what a user sees from the arrows)."""
-    D = np.asarray(R) @ np.eye(3)
-    side = max((0, 1), key=lambda i: abs(D[0, i]) / max(np.hypot(D[0, i], D[2, i]), 1e-12))
-    if side == 0:
-        return "right" if D[0, 0] >= 0 else "left"
-    return "away" if D[2, 0] >= 0 else "toward"
-
-
 def original_counts(plan, shows: int) -> Count:
     """The clicks and key presses of tests/test_edit_rebuild.py's plan, by the same rules (``shows``:
     the thumbnails clicked to show each photo, as the assisted run clicked them)."""
@@ -88,7 +79,7 @@ def original_counts(plan, shows: int) -> Count:
 def test_the_example_rebuilt_with_assistance(tmp_path, xdotool):
     x0, y0, x1, y1 = 0, TOOLBAR_H, W - PANEL_W, H - STRIP_H
     zoom = min((x1 - x0) / 1600, (y1 - y0) / 1200)
-    plan = make_plan(tmp_path / "room", noise_px=_window_noise(zoom))
+    plan = make_plan(tmp_path / "room", noise_px=window_noise(zoom))
     d = Driver(plan.project, xdotool)
     count = Count()
     send = d.send

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import pytest
 from edit_scene import DISTANCES, PHOTOS, make_plan, photo_file
-from test_edit_assisted_rebuild import x_choice
+from edit_user import x_choice
 
 from vebuild.edit.history import EditError
 from vebuild.edit.session import EditSession

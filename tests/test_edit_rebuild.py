@@ -13,14 +13,11 @@ tolerances were stated for.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 from edit_driver import Driver, H, W
 from edit_scene import (
     BOX_DRAGS,
-    CLICK_NOISE_PX,
     DISTANCES,
     FLOOR_DRAGS,
     PHOTOS,
@@ -29,73 +26,18 @@ from edit_scene import (
     make_plan,
     photo_file,
 )
+from edit_user import User, window_noise
 
-from vebuild.edit.layout import CLICK_SLOP_PX, PANEL_W, STRIP_H, TOOLBAR_H
+from vebuild.edit.layout import PANEL_W, STRIP_H, TOOLBAR_H
 
 pytestmark = pytest.mark.usefixtures("xvfb_display")
-
-
-class User:
-    """What a user does on the screen, as xdotool input events."""
-
-    def __init__(self, d: Driver):
-        self.d, self.e, self.s = d, d.editor, d.session
-
-    def xy(self, uv) -> list[str]:
-        x, y = self.e.image_to_window(None, uv)
-        return self.d.move_to(x, y)
-
-    def type_into(self, label: str, text: str) -> None:
-        self.d.send(*self.d.at(label), "click", "1", "key", "ctrl+a", "type", "--delay", "20", text)
-        self.d.send("key", "Return")
-
-    def choose(self, combo: str, item: str) -> None:
-        self.d.click(combo)
-        self.d.frames(2)
-        self.d.click(f"{combo}:{item}")
-
-    def show(self, photo: str) -> None:
-        if self.e.photo != photo:
-            self.d.click(f"photo:{photo}")
-        assert self.e.photo == photo
-
-    def strokes(self, tool_key: str, segments) -> None:
-        """Press, drag and release along each segment with the tool of that key."""
-        self.d.send("key", tool_key)
-        events: list[str] = []
-        for u1, v1, u2, v2 in segments:
-            a, b = np.array([u1, v1]), np.array([u2, v2])
-            events += [*self.xy(a), "mousedown", "1"]
-            for t in (0.5, 1.0):
-                events += self.xy(a + t * (b - a))
-            events += ["mouseup", "1"]
-        self.d.send(*events)
-
-    def drag(self, node: str, handle: str, goal) -> None:
-        """Drag the vertex onto ``goal``; one already within a few pixels of it (twice a click's slop:
-        a shorter drag would be taken for a click) is fixed where it is, with F, as a user would."""
-        start = next(uv for n, h, uv, _ in self.s.handles(self.e.photo) if (n, h) == (node, handle))
-        a, b = np.asarray(start, float), np.asarray(goal, float)
-        if np.linalg.norm(b - a) * self.e.zoom <= 2 * CLICK_SLOP_PX:
-            self.d.send(*self.xy(a), "key", "f")
-            return
-        events = [*self.xy(a), "mousedown", "1"]
-        for t in np.linspace(0.125, 1.0, 8):
-            events += [*self.xy(a + t * (b - a)), "sleep", "0.03"]
-        self.d.send(*events, "mouseup", "1")
-
-
-def _window_noise(zoom: float) -> float:
-    """1σ of the noise to add so that a click rounded to the window's pixels has 0.7 px in all."""
-    grid = 0.5 / zoom / math.sqrt(3.0)  # a uniform error of ±0.5 window pixel, in photo pixels
-    return math.sqrt(max(CLICK_NOISE_PX**2 - grid**2, 0.0))
 
 
 def test_the_example_rebuilt_from_nothing_by_clicking(tmp_path, xdotool):
     # The screen shows each photo whole; the plan adds what the window's pixel grid does not.
     x0, y0, x1, y1 = 0, TOOLBAR_H, W - PANEL_W, H - STRIP_H
     zoom = min((x1 - x0) / 1600, (y1 - y0) / 1200)
-    plan = make_plan(tmp_path / "room", noise_px=_window_noise(zoom))
+    plan = make_plan(tmp_path / "room", noise_px=window_noise(zoom))
     d = Driver(plan.project, xdotool)
     try:
         u = User(d)

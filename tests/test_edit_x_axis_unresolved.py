@@ -13,7 +13,7 @@ import re
 from pathlib import Path
 
 import pytest
-from test_orientation import _stripped_room
+from stripped_room import stripped_room
 
 from vebuild.actions.detect import UNRESOLVED
 from vebuild.edit.assist import SCREEN_DETECTION
@@ -28,7 +28,7 @@ def _records(s: EditSession) -> dict[str, str]:
 
 
 def test_the_screens_proposals_record_an_x_axis_not_chosen_and_calibration_leaves_the_photo_out(tmp_path: Path):
-    s = EditSession.open(_stripped_room(tmp_path / "room", "p3", 2), autosave=False)
+    s = EditSession.open(stripped_room(tmp_path / "room", "p3", 2), autosave=False)
     s.detect_everywhere()
     said = s.messages[-1]
     p3 = said[said.index("; p3: "):said.index("; p4: ")]
@@ -73,7 +73,7 @@ def test_d_on_one_photo_records_it_too_and_a_chosen_x_keeps_the_record_while_old
     """D on p3 alone, the other photos' segments accepted (their x shown by them): p3's x is not
     chosen, said and recorded. As `vebuild detect` without --replace: segments kept from a detection
     whose x was not chosen are still directed by it, so a chosen x added beside them leaves the record."""
-    s = EditSession.open(_stripped_room(tmp_path / "room", "p3", 2), autosave=False)
+    s = EditSession.open(stripped_room(tmp_path / "room", "p3", 2), autosave=False)
     s.detect_everywhere()
     for pid in s.photo_ids:
         if pid != "p3":
@@ -94,7 +94,7 @@ def test_d_on_one_photo_records_it_too_and_a_chosen_x_keeps_the_record_while_old
 def test_in_the_window_shift_d_says_x_was_not_chosen_and_enter_records_it(tmp_path: Path, xdotool):
     from edit_driver import Driver
 
-    d = Driver(_stripped_room(tmp_path / "room", "p3", 2), xdotool)
+    d = Driver(stripped_room(tmp_path / "room", "p3", 2), xdotool)
     try:
         e, s = d.editor, d.session
         if e.photo != "p3":

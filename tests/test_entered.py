@@ -9,13 +9,13 @@ the 1σ of a tape.
 
 from __future__ import annotations
 
-import copy
 import json
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
+from entered_scene import entered_project
 
 from vebuild.actions.solve import solve_project
 from vebuild.analysis import measure
@@ -24,42 +24,12 @@ from vebuild.analysis.solved import SolvedModel
 from vebuild.console.tables import model_table
 from vebuild.constants import Z95
 from vebuild.errors import VebuildError
-from vebuild.model.scene import model_from_dict
-from vebuild.project import load_project
-from vebuild.project.records import camera_record
-from vebuild.synthetic import model_scene, write_project
 
 #: The tape's 1σ (metres): the entered width's, and the error drawn for it in the coverage trials.
 TAPE_SIGMA_M = 0.002
-N_PHOTOS, N_BOXES = 5, 2
 #: The distance measured on the entered box: a diagonal of its bottom face (v0 and v2, opposite
 #: corners: (∓ width / 2, ∓ depth / 2, 0)), which its width lengthens.
 DIAGONAL = ("box0:v0", "box0:v2")
-
-
-def _project(folder: Path, seed: int, entered: Any, tape_error: float = 0.0) -> tuple[Any, Any]:
-    """A solved project of seed ``seed`` whose box0 ``hold`` is ``entered`` (its width set to the
-    truth + ``tape_error``), and the true model. The photos' files are written once per folder
-    (plain grey, the same size for every seed)."""
-    rng = np.random.default_rng(seed)
-    truth, start, pins, photos = model_scene(rng, n_boxes=N_BOXES, n_photos=N_PHOTOS)
-    path = folder / "synthetic.vebuild.json"
-    if not path.exists():
-        write_project(folder, list(photos.values()), {"O": np.zeros(3), "M1": np.array([1.0, 0.0, 0.0])})
-    project = load_project(path)
-    data = project.data
-    data["reference_distances"], data["markers"] = [], [{"name": "O"}]
-    start["nodes"][0]["hold"] = ["width", "depth"]
-    box = start["nodes"][1]
-    box["primitive"]["params"]["width"] = truth["nodes"][1]["primitive"]["params"]["width"] + tape_error
-    box["hold"] = copy.deepcopy(entered)
-    data["model"] = {"nodes": start["nodes"], "pins": pins}
-    data["calibration"] = {
-        "cameras": {p.id: {"mode": "3vp", **camera_record(p.K, p.R, p.C, np.zeros((9, 9)))} for p in photos.values()},
-        "lengths": "metres", "origin_marker": "O",
-        "markers": {"O": {"position": [0.0, 0.0, 0.0], "sigma": [0.0, 0.0, 0.0]}}}
-    solve_project(project)
-    return project, model_from_dict(truth["nodes"], {"O": np.zeros(3)})
 
 
 def _diagonal(project: Any) -> measure.Measurement:
@@ -68,7 +38,7 @@ def _diagonal(project: Any) -> measure.Measurement:
 
 
 def test_an_entered_width_is_solved_within_its_sigma_and_marked(tmp_path: Path) -> None:
-    project, _ = _project(tmp_path / "a", 3, [{"name": "width", "sigma": TAPE_SIGMA_M}])
+    project, _ = entered_project(tmp_path / "a", 3, [{"name": "width", "sigma": TAPE_SIGMA_M}])
     sol = project.data["model_solution"]["nodes"]
     width = sol["box0"]["params"]["width"]
     assert width["entered"] is True and width["entered_sigma"] == TAPE_SIGMA_M
@@ -85,7 +55,7 @@ def test_an_entered_width_is_solved_within_its_sigma_and_marked(tmp_path: Path) 
     # A distance resting on it: its σ is at least the width's share, which holding the width
     # exactly loses; it says it rests on the entered width.
     d = _diagonal(project)
-    exact, _ = _project(tmp_path / "b", 3, ["width"])
+    exact, _ = entered_project(tmp_path / "b", 3, ["width"])
     d_exact = _diagonal(exact)
     assert exact.data["model_solution"]["nodes"]["box0"]["params"]["width"]["sigma"] == 0.0
     solved = SolvedModel.from_project(project)
@@ -105,7 +75,7 @@ def test_an_entered_width_is_solved_within_its_sigma_and_marked(tmp_path: Path) 
 
 def test_an_entered_value_given_in_the_file_is_where_the_prior_holds(tmp_path: Path) -> None:
     """`value` given: the prior is centred there, whatever the parameter's start; σ 0 holds it there exactly."""
-    project, _ = _project(tmp_path / "a", 3, [{"name": "width", "sigma": 0.0, "value": 0.5}])
+    project, _ = entered_project(tmp_path / "a", 3, [{"name": "width", "sigma": 0.0, "value": 0.5}])
     assert project.data["model_solution"]["nodes"]["box0"]["params"]["width"]["value"] == 0.5
     saved = json.loads(json.dumps(project.data["model"]["nodes"][1]))
     assert saved["hold"] == [{"name": "width", "sigma": 0.0, "value": 0.5}]
@@ -143,7 +113,7 @@ def coverage(tmp_path_factory: pytest.TempPathFactory) -> dict[str, np.ndarray]:
     for seed in SEEDS:
         tape = float(np.random.default_rng(10_000 + seed).normal(0.0, TAPE_SIGMA_M))
         try:
-            project, truth = _project(folder, seed, [{"name": "width", "sigma": TAPE_SIGMA_M}], tape)
+            project, truth = entered_project(folder, seed, [{"name": "width", "sigma": TAPE_SIGMA_M}], tape)
         except VebuildError as e:  # a scene the solve refuses (a dimension no photo determines)
             assert "too few observations" in str(e)
             continue
@@ -161,7 +131,7 @@ def test_the_modelling_screen_shows_entered_sizes_and_a_typed_size_is_the_new_en
     from vebuild.edit.session import EditSession
     from vebuild.project import save_project
 
-    project, _ = _project(tmp_path / "a", 3, [{"name": "width", "sigma": TAPE_SIGMA_M}])
+    project, _ = entered_project(tmp_path / "a", 3, [{"name": "width", "sigma": TAPE_SIGMA_M}])
     save_project(project.path, project.data)
     doc = project.data["model"]["nodes"][1]
     solved = project.data["model_solution"]["nodes"]["box0"]["params"]["width"]["sigma"]
@@ -179,7 +149,7 @@ def test_an_entered_value_determines_a_dimension_no_photo_shows(tmp_path: Path) 
     """With the floor's pins removed (its turn held) no photo shows its size: entered with a 1σ, it is an
     observation (the solve does not call it undetermined) and comes back with that 1σ (the boxes'
     positions on it are free, so they say nothing of it)."""
-    project, _ = _project(tmp_path / "a", 3, [{"name": "width", "sigma": TAPE_SIGMA_M}])
+    project, _ = entered_project(tmp_path / "a", 3, [{"name": "width", "sigma": TAPE_SIGMA_M}])
     data = project.data
     data["model"]["pins"] = [p for p in data["model"]["pins"] if p["node"] != "floor"]
     data["model"]["nodes"][0]["hold"] = ["yaw", {"name": "width", "sigma": 0.01}, {"name": "depth", "sigma": 0.01}]
@@ -193,7 +163,7 @@ def test_two_entered_members_of_an_equal_group_combine_as_two_measurements(tmp_p
     """The floor's width and depth made equal, no photo showing either, each entered from its own
     tape: the one unknown is held by both, at their inverse-variance mean with 1σ (1/σ₁² + 1/σ₂²)^-½,
     not by whichever entry came last."""
-    project, _ = _project(tmp_path / "a", 3, [{"name": "width", "sigma": TAPE_SIGMA_M}])
+    project, _ = entered_project(tmp_path / "a", 3, [{"name": "width", "sigma": TAPE_SIGMA_M}])
     data = project.data
     data["model"]["pins"] = [p for p in data["model"]["pins"] if p["node"] != "floor"]
     (w, s_w), (d, s_d) = (4.00, 0.01), (4.03, 0.02)

@@ -10,9 +10,9 @@ import struct
 
 import numpy as np
 import pytest
+from gltf_validation import validate
 from handoff_project import make_project
 from scipy.spatial.transform import Rotation
-from test_export import _validate
 
 from vebuild.analysis.recorded import run_recorded
 from vebuild.camera import project as project_points
@@ -73,7 +73,7 @@ def exported(request, tmp_path_factory):
 
 def test_camera_glb_passes_the_khronos_validator(exported):
     _, out, doc, _ = exported
-    report = _validate(out)
+    report = validate(out)
     assert report["info"]["hasTextures"] and report["issues"]["numWarnings"] == 0
     assert doc["nodes"][0]["name"] == ROOT_NAME and doc["nodes"][0]["rotation"] == ROOT_QUATERNION
 

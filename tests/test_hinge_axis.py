@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from corner_pins import corner_pins
 from scipy.stats import chi2
 
 from vebuild.actions.solve import _results
@@ -59,20 +60,6 @@ def _cameras(rng: np.random.Generator, target: np.ndarray, n: int) -> dict[str, 
     return cams
 
 
-def _pins(model: Any, cams: dict[str, ImageCamera], node: str, rng: np.random.Generator) -> list[Pin]:
-    """Every corner of ``node`` each camera sees, at its true pixel plus the click noise."""
-    T = model.world_transforms()[node]
-    prim = model.node(node).primitive
-    pins = []
-    for cam in cams.values():
-        for h, X in zip(prim.handle_names(), prim.handles() @ T[:3, :3].T + T[:3, 3], strict=True):
-            xc = cam.R @ (X - cam.C)
-            uv = (cam.K @ xc)[:2] / xc[2]
-            if xc[2] > 0.3 and 0 <= uv[0] <= cam.width and 0 <= uv[1] <= cam.height:
-                pins.append(Pin(cam.id, node, h, uv + rng.normal(0.0, CLICK_NOISE_PX, 2)))
-    return pins
-
-
 def _door(point: np.ndarray, angle_deg: float, params: dict[str, float]) -> dict[str, Any]:
     """The door node: shut, its bottom centre half its true width along +x from the true hinge."""
     return {"name": "door", "primitive": {"type": "box", "params": params},
@@ -96,7 +83,7 @@ def door_scene(seed: int, n_photos: int = 3) -> tuple[Any, Problem, np.random.Ge
     angle = float(rng.uniform(20.0, 60.0))
     truth = model_from_dict([_door(HINGE, angle, DOOR)])
     cams = _cameras(rng, HINGE + [0.3, 0.3, 1.0], n_photos)
-    pins = _pins(truth, cams, "door", rng)
+    pins = corner_pins(truth, cams, "door", rng)
     return truth, _problem(_guess(rng, angle), cams, pins), rng, angle
 
 
@@ -170,7 +157,7 @@ def test_a_door_seen_shut_leaves_its_axis_undetermined() -> None:
     rng = np.random.default_rng(5)
     truth = model_from_dict([_door(HINGE, 0.0, DOOR)])
     cams = _cameras(rng, HINGE + [0.3, 0.3, 1.0], 3)
-    problem = _problem(_door(HINGE + [0.1, 0.05, 0.0], 0.0, DOOR), cams, _pins(truth, cams, "door", rng))
+    problem = _problem(_door(HINGE + [0.1, 0.05, 0.0], 0.0, DOOR), cams, corner_pins(truth, cams, "door", rng))
     r = problem.solve()
     sol = solution_at(problem, r.x, r.iterations)
     assert {"door.axis_u", "door.axis_v"} <= set(sol.undetermined)
@@ -204,7 +191,7 @@ def test_a_drawers_runner_is_found_from_the_drawer_pulled_out(seed: int) -> None
     truth = model_from_dict([_drawer(true_axis, PULLED_M, DRAWER)])
     cams = _cameras(rng, DRAWER_AT + [0.0, 0.3, 0.0], 3)
     problem = Problem(model_from_dict([_drawer(guessed, 0.8 * PULLED_M, {k: 1.15 * x for k, x in DRAWER.items()})]),
-                      cams, _pins(truth, cams, "drawer", rng),
+                      cams, corner_pins(truth, cams, "drawer", rng),
                       options=ProblemOptions(click_sigma_px=CLICK_NOISE_PX, prior_scale=FINAL_PRIOR_SCALE))
     r = problem.solve()
     sol = solution_at(problem, r.x, r.iterations)

@@ -6,11 +6,11 @@ from __future__ import annotations
 import json
 import shutil
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import pytest
 from claims import dimension_tolerance
+from jacobian_check import assert_jacobian_matches_differences
 from scipy.stats import chi2
 
 from vebuild.actions.calibrate import calibrate_project
@@ -20,12 +20,12 @@ from vebuild.camera import ImageCamera
 from vebuild.errors import ProjectError, VebuildError
 from vebuild.model.drag import DragSession
 from vebuild.model.layout import ParameterLayout
-from vebuild.model.residuals import FD_STEP, EdgeObservation, MarkerObservation, Pin
+from vebuild.model.residuals import EdgeObservation, MarkerObservation, Pin
 from vebuild.model.scene import ModelError, model_from_dict
 from vebuild.model.solution import solution_at
 from vebuild.model.solver import MarkerData, Problem, ProblemOptions
 from vebuild.project import load_project
-from vebuild.synthetic import CLICK_NOISE_PX, ROOM, model_scene
+from vebuild.synthetic import CLICK_NOISE_PX, model_scene
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "scenes" / "room"
 #: The paper's vertex fixing: a fixed vertex stays within this of its pin while others are dragged.
@@ -239,36 +239,6 @@ def test_the_parameter_layout_names_every_block_in_file_units() -> None:
     assert model.parameter_kinds() == ["angle", "size", "size", "angle", "size", "size", "size"]
 
 
-
-def assert_jacobian_matches_differences(problem: Any, layout: Any, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Assert the solver's Jacobian at x equals central differences of its residuals within the
-    bounds below; return both (J, F)."""
-    J = problem.jacobian(x)
-    J = J.toarray() if hasattr(J, "toarray") else np.asarray(J)
-    h = 1e-5  # the reference's step: its own error, h²·|r‴|/6 + ε·|r|/h, stays below 1e-7 here
-    F = np.empty_like(J)
-    for j in range(layout.n):
-        e = np.zeros(layout.n)
-        e[j] = h
-        F[:, j] = (problem.residuals(x + e) - problem.residuals(x - e)) / (2 * h)
-    # The reference errs by h²·|r‴|/6 + ε·|r|/h: with |r‴| ≲ |r'|·(L/d)², L the longest lever (the
-    # room's diagonal: the floor turns about the origin marker at its corner), d ≥ 1 m the nearest
-    # depth. The analytic columns must agree within ten times that.
-    lever = float(np.linalg.norm(ROOM))
-    r = np.abs(problem.residuals(x))[:, None]
-    tol = 10 * (h**2 * lever**2 * (1.0 + np.abs(F)) + np.finfo(float).eps * (1.0 + r) / h)
-    # The solver differences the model's parameters, and the cameras' effect on edges, forward
-    # over step = FD_STEP·max(1, |x|): an error of about ½·step·|r''|, |r''| ≲ |∇r|·L/d per unit of
-    # the parameter, |∇r| the row's largest derivative: tolerance step·(1 + |∇r|)·L/(1 m).
-    differenced = np.zeros(J.shape, bool)
-    differenced[:, layout.model.slice] = True
-    for b in layout.cameras.values():
-        differenced[np.ix_(problem.rows_edge.ravel(), b.indices)] = True
-    step = FD_STEP * np.maximum(1.0, np.abs(x))
-    tol = np.where(differenced, step[None, :] * (1.0 + np.abs(F).max(axis=1, keepdims=True)) * lever, tol)
-    worst = np.unravel_index(np.argmax(np.abs(J - F) / tol), J.shape)
-    assert np.all(np.abs(J - F) <= tol), f"{problem.describe_row(int(worst[0]))}, {layout.names[worst[1]]}"
-    return J, F
 
 def test_the_whole_jacobian_agrees_with_central_differences() -> None:
     """The solver's Jacobian (analytic for cameras, intrinsics and markers, differenced and chained

@@ -238,7 +238,7 @@ def test_a_changed_or_missing_coverage_map_is_said(room, tmp_path):
 
 
 def test_the_glb_carries_the_coverage_maps_and_the_seen_shares(room, tmp_path):
-    from test_export import _validate
+    from gltf_validation import validate
 
     from vebuild.render.export import COVERAGE_EXTRAS, SEEN_EXTRAS, export_model, read_glb
 
@@ -265,7 +265,7 @@ def test_the_glb_carries_the_coverage_maps_and_the_seen_shares(room, tmp_path):
             assert all(f["seen_fraction"] == faces[f["id"]]["seen_fraction"] for f in seen["faces"])
             n += len(seen["faces"])
     assert n == len(faces)
-    report = _validate(res.path)
+    report = validate(res.path)
     assert report["issues"]["numErrors"] == 0
 
 

@@ -13,13 +13,13 @@ from __future__ import annotations
 
 import json
 import re
-import shutil
 import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from stripped_room import stripped_room
 
 from vebuild.actions.calibrate import calibrate_project
 from vebuild.calibration.axes_choice import MIN_SHARED_MARKERS
@@ -27,7 +27,6 @@ from vebuild.calibration.lines import X_AXIS_CHOICES, orient_axes
 from vebuild.project import load_project, save_project
 from vebuild.synthetic import SyntheticPhoto, random_scene, write_project
 
-ROOM = Path(__file__).resolve().parents[1] / "scenes" / "room"
 #: Seeds of generated four-photo scenes (3vp, 3vp, 2vp, 3vp) sharing 4–7 markers with the last
 #: (at least MIN_SHARED_MARKERS, so that the markers tell its turn).
 SEEDS = (1, 6, 8)
@@ -133,24 +132,11 @@ def test_a_photo_turned_back_is_kept() -> None:
     assert check_orientation({p.id: p.R for p in photos}, rays, unresolved) == {}  # the markers orient it
 
 
-def _stripped_room(folder: Path, photo: str, kept: int) -> Path:
-    shutil.copytree(ROOM, folder)
-    path = folder / "room.vebuild.json"
-    doc = json.loads(path.read_text())
-    for p in doc["photos"]:
-        p.pop("vanishing_segments", None)
-        p.pop("vanishing_segment_sigmas", None)
-        if p["id"] == photo:
-            p["marker_observations"] = dict(sorted(p["marker_observations"].items())[:kept])
-    path.write_text(json.dumps(doc))
-    return path
-
-
 def test_detect_records_an_x_axis_it_could_not_choose_and_calibrate_leaves_the_photo_out(tmp_path: Path) -> None:
     """The example room, p3 keeping two markers: detect cannot choose its x (its 'right' is the
     truth's −x), says so on the photo, and calibrate leaves p3 out, asking for two more shared
     markers, instead of placing it turned; once its x is given, the field goes."""
-    path = _stripped_room(tmp_path / "room", "p3", 2)
+    path = stripped_room(tmp_path / "room", "p3", 2)
     run = _cli("detect", path)
     assert run.returncode == 0, run.stderr
     doc = json.loads(path.read_text())

@@ -81,7 +81,7 @@ PINHOLE_F_BIAS_SIGMAS = 5.0
 def test_register_from_points_through_a_known_lens_and_a_pinhole_is_biased() -> None:
     """Clicks as a barrel lens puts them (k1 known from a lens profile): the camera within its
     reported uncertainty; the same clicks registered as a pinhole miss the focal length."""
-    from test_distortion_solver import barrel_k1
+    from lens_distortion import barrel_k1
 
     from vebuild.calibration.priors import DistortionPrior
     from vebuild.calibration.register import register_from_points

@@ -11,7 +11,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_single_photo import BOX_M, _cli, box_on_the_floor, one_photo, write_one_photo
+from cli_capture import run_cli
+from one_photo_scene import BOX_M, box_on_the_floor, one_photo, write_one_photo
 
 from vebuild.project import load_project, save_project
 from vebuild.project.units import METRES, RELATIVE, RELATIVE_UNITS, length_unit, record_unit
@@ -107,7 +108,7 @@ def test_calibration_table_and_record_say_relative(built: dict[str, Built]) -> N
 def test_solve_output_and_its_solution_record_say_relative(built: dict[str, Built],
                                                            capsys: pytest.CaptureFixture) -> None:
     for kind, b in built.items():
-        r = _cli(capsys, "solve", str(b.path))
+        r = run_cli(capsys, "solve", str(b.path))
         assert r.returncode == 0, r.stderr
         sol = load_project(b.path).data["model_solution"]
         assert sol["lengths"] == kind
@@ -131,7 +132,7 @@ def test_measurements_are_in_relative_units(built: dict[str, Built], capsys: pyt
                                             tmp_path: Path, words: list[str]) -> None:
     for kind, b in built.items():
         out = tmp_path / f"{kind}.json"
-        r = _cli(capsys, "analyse", str(b.path), *words, "--json", str(out))
+        r = run_cli(capsys, "analyse", str(b.path), *words, "--json", str(out))
         assert r.returncode == 0, r.stderr
         doc = json.loads(out.read_text())
         assert doc["lengths"] == kind
@@ -148,19 +149,19 @@ def test_measurements_are_in_relative_units(built: dict[str, Built], capsys: pyt
 def test_check_distances_are_not_compared_in_relative_units(built: dict[str, Built], capsys: pytest.CaptureFixture,
                                                             tmp_path: Path) -> None:
     out = tmp_path / "c.json"
-    r = _cli(capsys, "analyse", str(built["relative"].path), "checks", "--json", str(out))
+    r = run_cli(capsys, "analyse", str(built["relative"].path), "checks", "--json", str(out))
     assert r.returncode == 0, r.stderr
     assert r.stdout.startswith("the 1 check distance is not compared: " + NOTE)
     doc = json.loads(out.read_text())
     assert doc["checks"] == [] and doc["not_compared"][0]["a"] == "F1" and doc["lengths"] == "relative"
-    r = _cli(capsys, "analyse", str(built["metres"].path), "checks")
+    r = run_cli(capsys, "analyse", str(built["metres"].path), "checks")
     assert r.returncode == 0, r.stderr and "known m" in r.stdout
 
 
 def test_single_view_heights_are_in_relative_units(built: dict[str, Built], capsys: pytest.CaptureFixture,
                                                    tmp_path: Path) -> None:
     out = tmp_path / "h.json"
-    r = _cli(capsys, "analyse", str(built["relative"].path), "photo-height", "--photo", "p", "700", "700", "700",
+    r = run_cli(capsys, "analyse", str(built["relative"].path), "photo-height", "--photo", "p", "700", "700", "700",
              "600", "--json", str(out))
     assert r.returncode == 0, r.stderr
     doc = json.loads(out.read_text())
@@ -181,7 +182,7 @@ def test_sightline_and_trajectory_in_relative_units_and_what_needs_metres_is_ref
         built: dict[str, Built], capsys: pytest.CaptureFixture, tmp_path: Path) -> None:
     path = str(built["relative"].path)
     out = tmp_path / "s.json"
-    r = _cli(capsys, "analyse", path, "sightline", "--eye=" + _eye(built["relative"]), "--object", "box", "--json",
+    r = run_cli(capsys, "analyse", path, "sightline", "--eye=" + _eye(built["relative"]), "--object", "box", "--json",
              str(out))
     assert r.returncode == 0, r.stderr
     doc = json.loads(out.read_text())
@@ -197,7 +198,7 @@ def test_sightline_and_trajectory_in_relative_units_and_what_needs_metres_is_ref
                         (["trajectory", "--from", "box:v6", "--to", "box:v0", "--sigma", "0.005"],
                          "trajectory --sigma 0.005: the holes' position error (give the cone's half-angle, --cone "
                          "DEG, instead)")):
-        r = _cli(capsys, "analyse", path, *words)
+        r = run_cli(capsys, "analyse", path, *words)
         assert r.returncode == 2, words
         assert r.stderr.strip().endswith(f"{what} is in metres, but this project's lengths are relative "
                                          f"({RELATIVE_UNITS}: no scale was given), so it has no meaning here; give "
@@ -205,14 +206,14 @@ def test_sightline_and_trajectory_in_relative_units_and_what_needs_metres_is_ref
                                          "distance between two floor markers) and run `vebuild calibrate` again for "
                                          "metres"), r.stderr
     out = tmp_path / "t.json"
-    r = _cli(capsys, "analyse", path, "trajectory", "--from", "box:v6", "--to", "box:v0", "--cone", "1",
+    r = run_cli(capsys, "analyse", path, "trajectory", "--from", "box:v6", "--to", "box:v0", "--cone", "1",
              "--json", str(out))
     assert r.returncode == 0, r.stderr
     doc = json.loads(out.read_text())
     assert doc["lengths"] == "relative" and not [k for k in json.dumps(doc).split('"') if k.endswith("_m")]
     assert " rel. apart" in r.stdout and "distance rel." in r.stdout and NOTE in r.stdout
     # The same sight line in metres keeps its metres.
-    r = _cli(capsys, "analyse", str(built["metres"].path), "sightline", "--eye=" + _eye(built["metres"]), "--object",
+    r = run_cli(capsys, "analyse", str(built["metres"].path), "sightline", "--eye=" + _eye(built["metres"]), "--object",
              "box")
     assert r.returncode == 0, r.stderr
     assert " m (to the centre of its surface)" in r.stdout and "RELATIVE" not in r.stdout
@@ -288,7 +289,7 @@ def test_a_walk_through_at_a_walking_speed_is_refused_in_relative_units(built: d
     project = load_project(built["relative"].path)
     project.data["views"].append({**project.data["views"][0], "name": "back"})
     save_project(project)
-    r = _cli(capsys, "video", str(built["relative"].path), "--views", "front,back")
+    r = run_cli(capsys, "video", str(built["relative"].path), "--views", "front,back")
     assert r.returncode == 2
     assert r.stderr.strip().endswith("video: the walking speed (1 m/s; give --seconds per segment instead) is in "
                                      "metres, but this project's lengths are relative (relative units: the camera "
@@ -304,7 +305,7 @@ def test_an_evidence_marker_is_placed_in_relative_units(built: dict[str, Built],
         handles = np.array([h["value"] for h in top.values()])
         X = handles.mean(axis=0)
         X[2] = handles[:, 2].max()  # the centre of its top face
-        r = _cli(capsys, "mark", str(b.path), "A", "--at=" + ",".join(f"{v:.6f}" for v in X))
+        r = run_cli(capsys, "mark", str(b.path), "A", "--at=" + ",".join(f"{v:.6f}" for v in X))
         assert r.returncode == 0, r.stderr
         at = f"({X[0]:.3f}, {X[1]:.3f}, {X[2]:.3f})"
         assert f"on 'box' at {at} {'(' + RELATIVE_UNITS + ')' if kind == 'relative' else 'm'}, written to" in r.stdout
@@ -314,12 +315,12 @@ def test_refusals_of_points_off_the_scene_or_off_a_face_speak_the_project_s_unit
         built: dict[str, Built], capsys: pytest.CaptureFixture) -> None:
     for kind, b in built.items():
         u = "rel." if kind == "relative" else "m"
-        r = _cli(capsys, "analyse", str(b.path), "sightline", "--eye=50,50,1", "--object", "box")
+        r = run_cli(capsys, "analyse", str(b.path), "sightline", "--eye=50,50,1", "--object", "box")
         assert r.returncode == 2
         assert "the eye point (50, 50, 1) is off the scene: the model spans x " in r.stderr
         assert f" {u} (points up to " in r.stderr and f" {u} outside it are accepted" in r.stderr
         assert (NOTE in r.stderr) == (kind == "relative")
-        r = _cli(capsys, "analyse", str(b.path), "distance", "box:v0", "box@top:5,5")
+        r = run_cli(capsys, "analyse", str(b.path), "distance", "box:v0", "box@top:5,5")
         assert r.returncode == 2
         assert f"point 'box@top:5,5': (5, 5) {u} from the centre of face 'top' of 'box' lies off that face (" \
             in r.stderr

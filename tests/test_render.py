@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 import trimesh
 from PIL import Image
+from render_scenes import box_on_floor_model, off_centre_camera
 
 from vebuild.actions.render import RenderRequest, render_evidence
 from vebuild.camera import ImageCamera, look_rotation, project, stereo_pair
@@ -42,17 +43,6 @@ EXACT = RenderOptions(samples=1, anisotropy=1.0)
 TEXEL_TOL_LEVELS = 3
 
 
-def box_on_floor_model():
-    """A 4 × 3 m floor and a box resting on it, turned 25°: the scene of the render tests."""
-    return model_from_dict([
-        {"name": "floor", "primitive": {"type": "quad", "params": {"width": 4.0, "depth": 3.0}},
-         "joint": {"type": "fixed", "translation": [2.0, 1.5, 0.0], "rotation_deg": [0, 0, 0]}},
-        {"name": "box", "parent": "floor", "primitive": {"type": "box", "params": {"width": 0.8, "depth": 0.6,
-                                                                                   "height": 0.7}},
-         "joint": {"type": "rests_on", "face": "top", "position": [0.3, -0.1], "yaw_deg": 25.0}},
-    ])
-
-
 def _textured_scene(rng, texels_per_metre=40.0):
     model = box_on_floor_model()
     faces = lay.layout(model, texels_per_metre, 512, 1024)
@@ -61,12 +51,6 @@ def _textured_scene(rng, texels_per_metre=40.0):
     record = {"faces": [{"id": f.id, "node": f.node, "face": f.name, "size_m": list(f.size_m), "page": f.page,
                          "rect": list(f.rect), "average_colour_srgb": [128, 128, 128]} for f in faces]}
     return scene_from_model(model, record, [page]), page
-
-
-def _camera(position, target, f=300.0, w=320, h=240, name="test"):
-    R = look_rotation(np.subtract(target, position))
-    return ImageCamera(name, np.array([[f, 0, w / 2 + 3.3], [0, f, h / 2 - 2.1], [0, 0, 1]]), R,
-                       np.asarray(position, float), w, h)
 
 
 def _trace(scene, cam):
@@ -107,7 +91,7 @@ def ctx():
 
 def test_each_texel_lands_on_the_pixel_an_independent_projection_gives(ctx, rng):
     scene, page = _textured_scene(rng)
-    cam = _camera([2.3, -1.2, 1.9], [2.1, 1.4, 0.2])
+    cam = off_centre_camera([2.3, -1.2, 1.9], [2.1, 1.4, 0.2])
     r = Renderer(ctx, scene, EXACT)
     img = r.render(cam).astype(int)
     r.release()
@@ -146,7 +130,7 @@ def test_each_texel_lands_on_the_pixel_an_independent_projection_gives(ctx, rng)
 def test_untextured_faces_show_their_colour_and_alpha_is_coverage(ctx):
     scene = scene_from_model(box_on_floor_model())
     assert not scene.textured
-    cam = _camera([2.3, -1.2, 1.9], [2.1, 1.4, 0.2])
+    cam = off_centre_camera([2.3, -1.2, 1.9], [2.1, 1.4, 0.2])
     r = Renderer(ctx, scene, RenderOptions(samples=4))
     rgba = r.render_rgba(cam)
     r.release()
@@ -175,7 +159,7 @@ def test_a_shadow_falls_where_geometry_says(ctx):
     ambient = 0.2
     lighting = preset_from_record({"name": "sun", "ambient": [ambient] * 3,
                                    "lights": [{"type": "directional", "direction": sun.tolist(), "intensity": 0.8}]})
-    cam = _camera([0.2, -0.8, 2.6], [2.6, 1.6, 0.0], f=260.0)
+    cam = off_centre_camera([0.2, -0.8, 2.6], [2.6, 1.6, 0.0], f=260.0)
     r = Renderer(ctx, scene, RenderOptions(samples=1, shadow_size=2048))
     r.set_lighting(lighting)
     img = srgb8_to_linear(r.render(cam))[..., 0]
@@ -214,7 +198,7 @@ def test_a_shadow_falls_where_geometry_says(ctx):
 ])
 def test_point_and_spot_light_shadows_fall_where_geometry_says(ctx, light):
     scene = scene_from_model(box_on_floor_model())
-    cam = _camera([0.2, -0.8, 2.6], [2.6, 1.6, 0.0], f=260.0)
+    cam = off_centre_camera([0.2, -0.8, 2.6], [2.6, 1.6, 0.0], f=260.0)
     r = Renderer(ctx, scene, RenderOptions(samples=1))
     r.set_lighting(preset_from_record({"name": "lamp", "ambient": [0.1] * 3, "lights": [light]}))
     img = srgb8_to_linear(r.render(cam))[..., 0]
@@ -253,7 +237,7 @@ def test_point_and_spot_light_shadows_fall_where_geometry_says(ctx, light):
 
 
 def test_stereo_eyes_are_parallel_and_off_axis():
-    cam = _camera([0, 0, 1.6], [3, 1, 1.2], f=800.0, w=1280, h=720)
+    cam = off_centre_camera([0, 0, 1.6], [3, 1, 1.2], f=800.0, w=1280, h=720)
     left, right = stereo_pair(cam, 0.063, 2.5)
     np.testing.assert_array_equal(left.R, cam.R)  # parallel, not toe-in
     np.testing.assert_allclose(np.linalg.norm(right.C - left.C), 0.063)
@@ -459,7 +443,7 @@ def test_parse_size():
 
 def test_a_renderer_can_draw_its_scene_moved(ctx):
     scene = scene_from_model(box_on_floor_model())
-    cam = _camera([2.3, -1.2, 1.9], [2.1, 1.4, 0.2])
+    cam = off_centre_camera([2.3, -1.2, 1.9], [2.1, 1.4, 0.2])
     r = Renderer(ctx, scene)
     before = r.render_rgba(cam)[..., 3]
     model = box_on_floor_model()
@@ -478,7 +462,7 @@ def test_load_scene_of_the_example_reads_its_textures(textured_room):
 
 def test_the_id_buffer_and_picking_agree_with_ray_queries(ctx):
     scene = scene_from_model(box_on_floor_model())
-    cam = _camera([2.3, -1.2, 1.9], [2.1, 1.4, 0.2])
+    cam = off_centre_camera([2.3, -1.2, 1.9], [2.1, 1.4, 0.2])
     r = Renderer(ctx, scene, EXACT)
     faces, depth = r.id_buffer(cam)
     mask = r.node_mask(cam, "box")

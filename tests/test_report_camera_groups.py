@@ -1,6 +1,6 @@
 """The report's "Final cameras" shows each re-calibrated camera group's shared intrinsics
 (``model_solution.camera_groups``) with 1σ beside the calibration's (``calibration.camera_groups``):
-a generated set of one camera (tests/test_camera_groups.py), calibrated as one group, a box pinned,
+a generated set of one camera (tests/camera_group_scene.py), calibrated as one group, a box pinned,
 then `vebuild solve --recalibrate`."""
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import shutil
 from pathlib import Path
 
 import pytest
-from test_camera_groups import _cli, _set, _with_box
+from camera_group_scene import camera_set, run_vebuild, with_box
 
 from vebuild.project import load_project
 from vebuild.report.cameras import final_cameras
@@ -33,11 +33,11 @@ def _tables(section: str) -> list[list[list[str]]]:
 
 @pytest.fixture(scope="module")
 def recalibrated(tmp_path_factory) -> Path:
-    photos, markers = _set()
+    photos, markers = camera_set()
     path = write_one_camera_project(tmp_path_factory.mktemp("groups"), photos, markers)
-    assert _cli("calibrate", path, "--quiet").returncode == 0
-    _with_box(path)
-    r = _cli("solve", path, "--recalibrate")
+    assert run_vebuild("calibrate", path, "--quiet").returncode == 0
+    with_box(path)
+    r = run_vebuild("solve", path, "--recalibrate")
     assert r.returncode == 0, r.stderr
     return path
 
@@ -83,7 +83,7 @@ def test_final_cameras_show_each_groups_recalibrated_intrinsics_beside_the_calib
 def test_without_a_recalibrated_group_no_group_table(recalibrated, tmp_path):
     path = tmp_path / "copy" / recalibrated.name
     shutil.copytree(recalibrated.parent, path.parent)
-    assert _cli("solve", path, "--recalibrate", "--fixed-intrinsics").returncode == 0
+    assert run_vebuild("solve", path, "--recalibrate", "--fixed-intrinsics").returncode == 0
     assert "camera_groups" not in json.loads(path.read_text(encoding="utf-8"))["model_solution"]
     rep = Report(tmp_path)
     final_cameras(load_project(path), rep)

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from test_single_photo import W, one_photo, write_one_photo
+from one_photo_scene import W, one_photo, write_one_photo
 
 from vebuild.analysis.single_view import single_view_command
 from vebuild.cli import main

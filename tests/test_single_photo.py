@@ -5,12 +5,13 @@ user can get from it. Truth from generated photos (vebuild.synthetic: its own pr
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
+from cli_capture import run_cli
+from one_photo_scene import BOX_M, DOOR_M, H, OnePhoto, W, box_on_the_floor, one_photo, pixels, write_one_photo
 
 from vebuild.actions.calibrate import calibrate_project
 from vebuild.calibration.photo import calibrate_photo
@@ -21,125 +22,10 @@ from vebuild.calibration.single_photo import (
     Origin,
     place_single_photo,
 )
-from vebuild.camera import rotation_from_ypr
 from vebuild.console.tables import calibration_table
 from vebuild.errors import CalibrationError, ProjectError
 from vebuild.project import load_project, save_project
-from vebuild.synthetic import CLICK_NOISE_PX, add_segments, projection_matrix, random_camera, write_project
-
-W, H = 1600, 1200
-DOOR_M = 2.0  # a door's height, the known length
-BOX_M = 0.9  # the height measured
-
-
-@dataclass
-class OnePhoto:
-    """A generated photo of a room: the camera, the clicks a careful user makes, and the truth in the
-    frame calibration puts it in (origin at the floor point O)."""
-
-    cam: Any
-    origin: np.ndarray  # the origin's floor point in the generator's frame
-    points: dict[str, np.ndarray]  # named world points (generator's frame)
-    clicks: dict[str, np.ndarray] = field(default_factory=dict)
-
-    def truth(self, name: str) -> np.ndarray:
-        return self.points[name] - self.origin
-
-    @property
-    def C(self) -> np.ndarray:
-        return self.cam.C - self.origin
-
-
-def _pixels(cam: Any, X: np.ndarray) -> np.ndarray:
-    h = projection_matrix(cam.K, cam.R, cam.C) @ np.r_[X, 1.0]
-    assert h[2] > 0.5, "a point behind the camera"
-    return h[:2] / h[2]
-
-
-def one_photo(rng: np.random.Generator, noise_px: float = CLICK_NOISE_PX, level: bool = False) -> OnePhoto:
-    """A camera 1.2–1.9 m above the floor looking 12–35° down (or level, a 2vp view) at a room's
-    corner region, with a door's foot and top, a box's foot and top, and three floor markers ahead."""
-    for _ in range(200):
-        cam = random_camera(rng, "2vp" if level else "3vp", W, H)
-        yaw = rng.uniform(0, 2 * np.pi)
-        pitch = -np.radians(rng.uniform(1.0, 2.5) if level else rng.uniform(12, 35))
-        cam.R = rotation_from_ypr(yaw, pitch, np.radians(rng.normal(0, 2)))
-        fwd = np.array([np.cos(yaw), np.sin(yaw), 0.0])
-        side = np.array([-np.sin(yaw), np.cos(yaw), 0.0])
-        base = cam.C * [1, 1, 0]
-
-        def ahead(d: float, s: float, base: np.ndarray = base, fwd: np.ndarray = fwd,
-                  side: np.ndarray = side) -> np.ndarray:
-            return base + d * fwd + s * side
-
-        pts = {"O": ahead(rng.uniform(2.5, 4.0), rng.uniform(-0.8, 0.8))}
-        door = ahead(rng.uniform(3.0, 5.0), rng.uniform(-1.2, 1.2))
-        box = ahead(rng.uniform(2.5, 4.5), rng.uniform(-1.2, 1.2))
-        pts.update({"door_foot": door, "door_top": door + [0, 0, DOOR_M], "box_foot": box,
-                    "box_top": box + [0, 0, BOX_M]})
-        for k in range(1, 4):
-            pts[f"F{k}"] = ahead(rng.uniform(2.0, 5.0), rng.uniform(-1.5, 1.5))
-        try:
-            uv = {n: _pixels(cam, X) for n, X in pts.items()}
-        except AssertionError:
-            continue
-        if not all(5 < u < W - 5 and 5 < v < H - 5 for u, v in uv.values()):
-            continue
-        add_segments(cam, rng, noise_px)
-        ph = OnePhoto(cam, pts["O"], pts)
-        ph.clicks = {n: p + rng.normal(0.0, noise_px, 2) for n, p in uv.items()}
-        return ph
-    raise RuntimeError("no camera sees the whole scene")
-
-
-def box_on_the_floor(ph: OnePhoto, rng: np.random.Generator) -> tuple[dict[str, Any], list[dict[str, Any]]]:
-    """A 0.6 × 0.4 × BOX_M box resting on the floor at the photo's box foot, yawed 20°, and its
-    corners pinned in the photo (the farthest floor corner hidden), with click noise."""
-    from vebuild.model.scene import model_from_dict
-
-    foot = ph.truth("box_foot")
-    node = {"name": "box", "primitive": {"type": "box", "params": {"width": 0.6, "depth": 0.4, "height": BOX_M}},
-            "joint": {"type": "rests_on", "face": "top", "position": [float(foot[0]), float(foot[1])],
-                      "yaw_deg": 20.0}}
-    m = model_from_dict([node], {"O": np.zeros(3)})
-    prim = m.node("box").primitive
-    T = m.world_transforms()["box"]
-    world = prim.handles() @ T[:3, :3].T + T[:3, 3]
-    hidden = int(np.argmax(np.linalg.norm(world[:4] - ph.C, axis=1)))
-    pins = [{"photo": "p", "node": "box", "handle": h, "fixed": True,
-             "uv": [float(v) for v in _pixels(ph.cam, X + ph.origin) + rng.normal(0, CLICK_NOISE_PX, 2)]}
-            for k, (h, X) in enumerate(zip(prim.handle_names(), world, strict=True)) if k != hidden]
-    return node, pins
-
-
-def write_one_photo(folder: Path, ph: OnePhoto, *, known_length: bool = True, camera_height: float | None = None,
-                    floor_distance: bool = False, origin: bool = True) -> Path:
-    """A one-photo project of ``ph``: O (the origin) and F1–F3 on the floor marked; the door's height
-    as a known length (foot first); optionally the camera's height and a tape between F1 and F2.
-    ``origin=False``: no marker at all."""
-    path = write_project(folder, [ph.cam], {n: ph.points[n] for n in ("O", "F1")})
-    project = load_project(path)
-    d = project.data
-    names = ["O", "F1", "F2", "F3"] if origin else []
-    d["photos"][0]["marker_observations"] = {n: [float(v) for v in ph.clicks[n]] for n in names}
-    d["markers"] = [{"name": n, "on_floor": True} for n in names]
-    if origin:
-        d["origin_marker"] = "O"
-    else:
-        d.pop("origin_marker", None)
-    d["reference_distances"] = []
-    if floor_distance:
-        dist = float(np.linalg.norm(ph.points["F1"] - ph.points["F2"]))
-        d["reference_distances"].append({"a": "F1", "b": "F2", "distance": round(dist, 4), "sigma": 0.002,
-                                         "role": "scale"})
-    if known_length:
-        d["known_lengths"] = [{"photo": ph.cam.id, "axis": "z", "floor_end": 0, "length": DOOR_M, "sigma": 0.002,
-                               "ends": [[float(v) for v in ph.clicks["door_foot"]],
-                                        [float(v) for v in ph.clicks["door_top"]]]}]
-    if camera_height is not None:
-        d["photos"][0]["camera_height"] = {"value": camera_height, "sigma": 0.01}
-    save_project(project)
-    return path
+from vebuild.synthetic import CLICK_NOISE_PX, write_project
 
 
 def _z(value: np.ndarray, truth: np.ndarray, sigma: np.ndarray) -> np.ndarray:
@@ -307,33 +193,17 @@ def test_metrology_sigma_includes_the_scale() -> None:
     assert 0.0225 <= sigmas[1] < 0.0225 * 1.1 and sigmas[0] < 0.2 * sigmas[1]
 
 
-@dataclass
-class _Run:
-    returncode: int
-    stdout: str
-    stderr: str
-
-
-def _cli(capsys: pytest.CaptureFixture, *args: str) -> _Run:
-    from vebuild.cli import main
-
-    capsys.readouterr()
-    code = main(list(args))
-    out = capsys.readouterr()
-    return _Run(code, out.out, out.err)
-
-
 def test_calibrate_and_measure_one_photo_from_the_command_line(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
     ph = one_photo(np.random.default_rng(41))
     path = write_one_photo(tmp_path, ph)
-    r = _cli(capsys, "calibrate", str(path), "--quiet")
+    r = run_cli(capsys, "calibrate", str(path), "--quiet")
     assert r.returncode == 0, r.stderr
     assert "placed alone     scale from the known length 2 ± 0.002 m along z" in r.stdout
-    r = _cli(capsys, "check", str(path))  # what every later command decodes, decoded
+    r = run_cli(capsys, "check", str(path))  # what every later command decodes, decoded
     assert r.returncode == 0, r.stderr
     c = ph.clicks
     out = tmp_path / "h.json"
-    r = _cli(capsys, "analyse", str(path), "photo-height", "--photo", "p", *map(str, c["box_foot"]),
+    r = run_cli(capsys, "analyse", str(path), "photo-height", "--photo", "p", *map(str, c["box_foot"]),
              *map(str, c["box_top"]), *map(str, c["door_foot"]), *map(str, c["door_top"]), "--json", str(out))
     assert r.returncode == 0, r.stderr
     doc = json.loads(out.read_text())
@@ -344,7 +214,7 @@ def test_calibrate_and_measure_one_photo_from_the_command_line(tmp_path: Path, c
     assert box["source"] == "single view (photo 'p')" and box["rests_on"]["photos"] == ["p"]
     assert "measured on photo 'p' alone, against the floor (z = 0)" in r.stdout
     out2 = tmp_path / "d.json"
-    r = _cli(capsys, "analyse", str(path), "floor-distance", "--photo", "p", *map(str, c["F1"]), *map(str, c["F2"]),
+    r = run_cli(capsys, "analyse", str(path), "floor-distance", "--photo", "p", *map(str, c["F1"]), *map(str, c["F2"]),
              "--json", str(out2))
     assert r.returncode == 0, r.stderr
     truth = np.linalg.norm(ph.points["F1"] - ph.points["F2"])
@@ -356,21 +226,21 @@ def test_calibrate_and_measure_one_photo_from_the_command_line(tmp_path: Path, c
 def test_metrology_refusals_name_the_photo_and_the_click(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
     ph = one_photo(np.random.default_rng(42))
     path = write_one_photo(tmp_path, ph)
-    assert _cli(capsys, "calibrate", str(path), "--quiet").returncode == 0
+    assert run_cli(capsys, "calibrate", str(path), "--quiet").returncode == 0
     c = ph.clicks
-    r = _cli(capsys, "analyse", str(path), "photo-height", "--photo", "p", "10", "20", "30")
+    r = run_cli(capsys, "analyse", str(path), "photo-height", "--photo", "p", "10", "20", "30")
     assert r.returncode == 2 and "photo-height: expected pixels in fours, U1 V1 U2 V2 for each measurement " \
         "(foot, then top), got 3 numbers" in r.stderr
-    r = _cli(capsys, "analyse", str(path), "floor-distance", "--photo", "p", "-5000", "20", *map(str, c["F2"]))
+    r = run_cli(capsys, "analyse", str(path), "floor-distance", "--photo", "p", "-5000", "20", *map(str, c["F2"]))
     assert r.returncode == 2 and "photo 'p': the first point: pixel (-5000, 20) lies outside the 1600×1200 photo; " \
         "expected a pixel on it" in r.stderr
-    r = _cli(capsys, "analyse", str(path), "photo-height", "--photo", "nope", "1", "2", "3", "4")
+    r = run_cli(capsys, "analyse", str(path), "photo-height", "--photo", "nope", "1", "2", "3", "4")
     assert r.returncode == 2 and "no photo has the id 'nope'" in r.stderr
     # A camera record moved below the floor (hand-edited): nothing can be measured against it.
     project = load_project(path)
     project.data["calibration"]["cameras"]["p"]["position"]["value"][2] = -1.0
     save_project(project)
-    r = _cli(capsys, "analyse", str(path), "photo-height", "--photo", "p", *map(str, c["box_foot"]),
+    r = run_cli(capsys, "analyse", str(path), "photo-height", "--photo", "p", *map(str, c["box_foot"]),
              *map(str, c["box_top"]))
     assert r.returncode == 2 and "photo 'p': its camera is not above the floor (z = -1), so nothing in it can be " \
         "measured against the floor; calibrate it with the floor at z = 0" in r.stderr
@@ -413,10 +283,10 @@ def test_metrology_refusals_of_clicks_that_cannot_be_measured() -> None:
 def test_relative_metrology_says_the_lengths_are_relative(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
     ph = one_photo(np.random.default_rng(43))
     path = write_one_photo(tmp_path, ph, known_length=False)
-    assert _cli(capsys, "calibrate", str(path), "--quiet").returncode == 0
+    assert run_cli(capsys, "calibrate", str(path), "--quiet").returncode == 0
     c = ph.clicks
     out = tmp_path / "h.json"
-    r = _cli(capsys, "analyse", str(path), "photo-height", "--photo", "p", *map(str, c["box_foot"]),
+    r = run_cli(capsys, "analyse", str(path), "photo-height", "--photo", "p", *map(str, c["box_foot"]),
              *map(str, c["box_top"]), "--json", str(out))
     assert r.returncode == 0, r.stderr
     assert "lengths are RELATIVE (relative units: the camera height is 1: no scale was given" in r.stdout
@@ -450,7 +320,7 @@ def test_several_scale_sources_combine_and_a_contradiction_is_named(tmp_path: Pa
 def test_a_known_length_on_the_floor_along_x_gives_the_scale() -> None:
     ph = one_photo(np.random.default_rng(52))
     a, b = ph.points["F1"], ph.points["F1"] + [1.2, 0.0, 0.0]
-    ends = np.array([_pixels(ph.cam, a), _pixels(ph.cam, b)]) + np.random.default_rng(1).normal(0, 0.7, (2, 2))
+    ends = np.array([pixels(ph.cam, a), pixels(ph.cam, b)]) + np.random.default_rng(1).normal(0, 0.7, (2, 2))
     cal = calibrate_photo(ph.cam.segments, W, H, photo="p", click_sigma_px=CLICK_NOISE_PX)
     pl = place_single_photo("p", cal.K, cal.R, cal.covariance, Origin("O", ph.clicks["O"]),
                             [KnownLength("x", ends, 1.2, 0.001)], click_sigma_px=CLICK_NOISE_PX)
@@ -891,7 +761,7 @@ def test_a_known_length_in_one_photo_scales_the_photos_that_join_it(tmp_path: Pa
     for _ in range(500):  # a cabinet's corner in view of p1 (aimed at the origin's corner region)
         foot = np.r_[rng.uniform(0.5, 3.0), rng.uniform(0.5, 2.5), 0.0]
         try:
-            ends = [_pixels(p1, foot), _pixels(p1, foot + [0, 0, 1.0])]
+            ends = [pixels(p1, foot), pixels(p1, foot + [0, 0, 1.0])]
         except AssertionError:
             continue
         if all(20 < u < W - 20 and 20 < v < H - 20 for u, v in ends):
@@ -935,7 +805,7 @@ def test_a_floor_marker_one_photo_of_a_joint_placement_shows_is_placed_from_it(t
     for _ in range(500):
         spot = np.r_[rng.uniform(0.5, 3.0), rng.uniform(0.5, 2.5), 0.0]
         try:
-            uv = _pixels(p1, spot)
+            uv = pixels(p1, spot)
         except AssertionError:
             continue
         if 20 < uv[0] < W - 20 and 20 < uv[1] < H - 20:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_render import _camera, box_on_floor_model
+from render_scenes import box_on_floor_model, off_centre_camera
 
 from vebuild.errors import VebuildError
 from vebuild.gl import headless_context
@@ -26,7 +26,7 @@ def _screen(window, w, h):
 @pytest.mark.parametrize("stereo", [None, Stereo("tb", 0.1, 2.0), Stereo("sbs", 0.1, 2.0), Stereo("anaglyph")])
 def test_a_window_shows_what_the_headless_renderer_draws(stereo):
     scene = scene_from_model(box_on_floor_model())
-    cam = _camera([2.3, -1.2, 1.9], [2.1, 1.4, 0.2], w=240, h=180)
+    cam = off_centre_camera([2.3, -1.2, 1.9], [2.1, 1.4, 0.2], w=240, h=180)
     off = Renderer(headless_context(), scene, OPTIONS)
     want = off.render(cam, stereo)
     off.release()
@@ -50,7 +50,7 @@ def test_a_window_shows_what_the_headless_renderer_draws(stereo):
 
 def test_quad_buffered_stereo_is_asked_for_and_its_absence_reported():
     scene = scene_from_model(box_on_floor_model())
-    cam = _camera([2.3, -1.2, 1.9], [2.1, 1.4, 0.2], w=160, h=120)
+    cam = off_centre_camera([2.3, -1.2, 1.9], [2.1, 1.4, 0.2], w=160, h=120)
     with Window(160, 120, visible=False, stereo=True) as window:
         # A virtual X server (and software GL) offers no stereo visual: the window opens without it.
         assert window.stereo is False
@@ -75,7 +75,7 @@ def test_each_renderer_draws_and_picks_in_its_own_context_whichever_is_current()
     # between a window's frames (an in-process render, whose headless context is made current on
     # first use) left the window's picks reading another context's buffers (garbage ids).
     scene = scene_from_model(box_on_floor_model())
-    cam = _camera([2.3, -1.2, 1.9], [2.1, 1.4, 0.2], w=240, h=180)
+    cam = off_centre_camera([2.3, -1.2, 1.9], [2.1, 1.4, 0.2], w=240, h=180)
     off = Renderer(headless_context(), scene, OPTIONS)
     want = off.render(cam)
     faces, _ = off.id_buffer(cam)
