@@ -89,8 +89,11 @@ def auto_x_axes(project: Project, grouped: dict[str, Grouped], given: dict[str, 
     k = {pid: d.turn for pid, d in decided.items() if d.turn is not None}
     g_all = 0  # the turn applied to every photo after the choice
     if ref is not None:
-        sees = ", the origin marker among them)" if origin in rays[ref] else ")"
-        notes[ref] = "the reference photo (it sees the most markers" + sees
+        if rays[ref]:
+            sees = ", the origin marker among them)" if origin in rays[ref] else ")"
+            notes[ref] = "the reference photo (it sees the most markers" + sees
+        else:
+            notes[ref] = "the reference photo (the first: no photo has markers to choose another by)"
         far = next((r["b"] if r["a"] == origin else r["a"] for r in project.data.get("reference_distances") or []
                     if origin in (r.get("a"), r.get("b"))), None)
         g = direction_turn(rotations, rays, k, origin, far) if origin and far else None

@@ -31,8 +31,9 @@ def _figure(vs: dict[str, Any], fmt: str, unit: str = "") -> str:
             return f"{format(vs['value'], fmt)}{u} (entered)"
         shown = f"{1000 * s:.1f} mm" if unit == "m" else f"{s:g}"
         return f"{_pm(vs, fmt)}{u} (entered ± {shown})"
-    if unit and vs["sigma"] == 0:
-        return f"{format(vs['value'], fmt)}{u} (held)"
+    if vs["sigma"] == 0 and not isinstance(vs["value"], list):
+        # Not a solve's unknown: held by its joint or a relation, never "± 0" (nor "-0.000").
+        return f"{format(vs['value'] + 0.0, fmt)}{u} (held)"
     return f"{_pm(vs, fmt)}{u}"
 
 
