@@ -419,3 +419,16 @@ def model_scene(rng: np.random.Generator, n_boxes: int = 3, n_photos: int = 8, n
                     pins.append({"photo": cam.id, "node": mnode.name, "handle": h,
                                  "uv": [float(v) for v in p + rng.normal(0, noise_px, 2)], "fixed": True})
     return {"nodes": truth}, {"nodes": start}, pins, photos
+
+
+def longest_run(flags: Any) -> tuple[int, int]:
+    """The longest run of true values in ``flags`` as (start, end), end exclusive; (0, 0) for none:
+    the stretch of an edge's samples a photo sees whole, where the generators mark a segment."""
+    best, run, start = (0, 0), 0, 0
+    for j, v in enumerate(flags):
+        run = run + 1 if v else 0
+        if run == 1:
+            start = j
+        if run > best[1] - best[0]:
+            best = (start, start + run)
+    return best

@@ -45,7 +45,15 @@ from vebuild.model.joints import ModelError
 from vebuild.model.scene import model_from_dict
 from vebuild.project import new_photo_entry, new_project, save_project
 
-from . import CLICK_NOISE_PX, SyntheticPhoto, project_points, projection_matrix, realistic_camera, rotation
+from . import (
+    CLICK_NOISE_PX,
+    SyntheticPhoto,
+    longest_run,
+    project_points,
+    projection_matrix,
+    realistic_camera,
+    rotation,
+)
 from .room_photos import placeable
 
 Array = NDArray[np.float64]
@@ -274,13 +282,7 @@ def _seen_stretch(house: House, photo: SyntheticPhoto,
     out = []
     for k in range(len(edges)):
         s = seen[k * EDGE_SAMPLES:(k + 1) * EDGE_SAMPLES]
-        best, run, start = (0, 0), 0, 0
-        for j, v in enumerate(s):
-            run = run + 1 if v else 0
-            if run == 1:
-                start = j
-            if run > best[1] - best[0]:
-                best = (start, start + run)
+        best = longest_run(s)
         if best[1] - best[0] < 3:
             continue
         i, j = k * EDGE_SAMPLES + best[0], k * EDGE_SAMPLES + best[1] - 1

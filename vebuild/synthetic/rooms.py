@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from . import SyntheticPhoto, distort, project_points, projection_matrix
+from . import SyntheticPhoto, distort, longest_run, project_points, projection_matrix
 
 Array = NDArray[np.float64]
 Mask = NDArray[np.bool_]
@@ -331,13 +331,7 @@ class RoomScene:
         for k, e in enumerate(edges):
             rows = slice(k * EDGE_SAMPLES, (k + 1) * EDGE_SAMPLES)
             seen, uv, pts = seen_all[rows], uv_all[rows], X[rows]
-            best, run, start = (0, 0), 0, 0
-            for j, v in enumerate(seen):
-                run = run + 1 if v else 0
-                if run == 1:
-                    start = j
-                if run > best[1] - best[0]:
-                    best = (start, start + run)
+            best = longest_run(seen)
             i, j = best[0], best[1] - 1
             ok = best[1] - best[0] >= 3 and np.linalg.norm(uv[j] - uv[i]) >= MIN_STRETCH_PX
             out[e] = (pts[i], pts[j]) if ok else None
