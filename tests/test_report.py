@@ -47,7 +47,7 @@ def test_the_report_holds_every_section_and_is_reproducible(analysed_room, tmp_p
     for p in project.data["photos"]:
         assert p["sha256"] in page  # every photo with its hash
     for title in ("Photographs", "Calibration (vanishing points)", "Final cameras (re-calibrated with the model)",
-                  "Reference and check distances", "Model", "Limitations", "Plan view", "Evidence views",
+                  "Reference and check distances", "Model", "Limitations", "Plan", "Evidence views",
                   "The photos as marked", "How well the model explains each photo", "Analyses", "Hypotheses"):
         assert f">{title}<" in page, title
     for k, rec in enumerate(json.loads(analysed_room.read_text())["analyses"], start=1):

@@ -19,6 +19,7 @@ from vebuild.analysis.solved import SolvedModel
 from vebuild.cli import main
 from vebuild.project import Project, load_project, sha256_file
 from vebuild.project.provenance import inputs_sha256
+from vebuild.report.findings import PLAN_HEIGHT_MM
 from vebuild.report.limitations import entered_values, limitations
 from vebuild.report.marked_photos import marked_photo
 from vebuild.report.plan import plan_svg
@@ -116,7 +117,7 @@ def test_each_stage_labelled_and_entered_values_marked(court):
         r = data["model_solution"]["cameras"][pid]
         assert f">{r['focal_px']['value']:.1f} ± {r['focal_px']['sigma']:.1f}<" in final
     # No entered value reads as a perfect measurement.
-    model = page[page.index(">Model<"):page.index(">Reference and check distances<")]
+    model = page[page.index(">Model<"):page.index(">How well the model explains each photo<")]
     assert "± 0.0000" not in model and "4.0000 – 4.0000" not in model and "0.7200 – 0.7200" not in model
     leg = re.findall(r"<tr><td>table\.leg1</td><td>height</td>.*?</tr>", model)
     assert len(leg) == 1 and "entered" in leg[0] and "taken as exact" in leg[0]
@@ -183,7 +184,9 @@ def test_limitations_come_from_the_project(court):
 def test_title_page_plan_view_and_marked_photos(court):
     proj, out, page = court
     project = load_project(proj)
-    title = page[page.index("<div class='title'>"):page.index("<h2>")]
+    title = page[page.index("<div class='findings'>"):page.index(">Evidence views<")]
+    title += page[page.index(">Identification<"):page.index(">Photographs<")]
+    title += page[page.index(">Declaration<"):page.index("class='annex'")]  # closing the body
     for value in CASE.values():
         assert value in title
     # The state the report was made from, by the digest every output names it by (not the file's own
@@ -192,11 +195,11 @@ def test_title_page_plan_view_and_marked_photos(court):
     assert "vebuild 0." in title and ">6 (each listed" in title
     # The plan: written deterministically, in the page and in the digest.
     svg = (out / "images" / "plan.svg").read_text()
-    assert svg == plan_svg(project)[0] and svg.startswith("<svg ")
+    assert svg == plan_svg(project, max_height_mm=PLAN_HEIGHT_MM)[0] and svg.startswith("<svg ")
     assert "<img class='plan' src='images/plan.svg'>" in page
     for pid in project.data["calibration"]["cameras"]:
         assert f">{pid}</text>" in svg
-    assert "1 : 50 as printed" in svg and "+x</text>" in svg and "origin" in svg
+    assert "1 : 100 as printed" in svg and "+x</text>" in svg and "origin" in svg
     before = digest(out)
     (out / "images" / "plan.svg").write_text(svg.replace("#2060c0", "#2060c1"))
     assert digest(out) != before

@@ -74,11 +74,11 @@ def test_the_report_of_one_photo_has_its_sections_and_leaves_out_the_model_s(one
     for title in ("Photographs", "Calibration (vanishing points)", "Reference and check distances", "Limitations",
                   "The photos as marked", "Measurements on the photos", "Analyses", "Processing record"):
         assert f"<h2>{title}</h2>" in page, title
-    title = page[page.index("<div class='title'>"):page.index("<h2>")]
+    title = page[page.index("<div class='findings'>"):page.index("<h2>")]
     assert all(v in title for v in CASE.values())
     assert project.data["photos"][0]["sha256"] in page
     # Each section that needs a model: one line saying why, no table, no image.
-    for title in ("Final cameras", "Model", "Plan view", "Evidence views", "How well the model explains each photo"):
+    for title in ("Final cameras", "Model", "Plan", "Evidence views", "How well the model explains each photo"):
         body = _section(page, title)
         assert html.escape(NO_MODEL) in body, title
         assert "<table" not in body and "<img" not in body and body.count("<p") == 1, title

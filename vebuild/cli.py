@@ -112,7 +112,8 @@ def _cmd_report(args: argparse.Namespace) -> int:
         bar.set_postfix_str(shown(what))
         bar.update(1)
     try:
-        page = write_report(project, Path(args.out), pdf=not args.no_pdf, progress=step)
+        page = write_report(project, Path(args.out), pdf=not args.no_pdf, progress=step, summary=args.summary,
+                            paper=args.paper)
     finally:
         bar.close()
     print(f"report written to {page}" + ("" if args.no_pdf else f" and {page.with_suffix('.pdf')}"))
@@ -433,6 +434,10 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
                        help="the folder to write: new, empty, or an earlier report (replaced); never the project's "
                             "folder")
         p.add_argument("--no-pdf", action="store_true", help="only the HTML and its images")
+        p.add_argument("--summary", action="store_true",
+                       help="a short report for a briefing (at most 4 pages): the case, the question, the answers, "
+                            "the plan, the evidence views and the limitations; no annex")
+        p.add_argument("--paper", choices=("A4", "letter"), default="A4", help="the PDF's paper size (default A4)")
         p.add_argument("--quiet", action="store_true", help="no progress bar")
         p.set_defaults(func=_cmd_report)
 

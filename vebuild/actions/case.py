@@ -22,6 +22,7 @@ CASE_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("examiner", "examiner", "--examiner"),
     ("organisation", "organisation", "--organisation"),
     ("photo_dates", "date(s) of the photos", "--photo-dates"),
+    ("question", "the question", "--question"),
     ("declaration", "declaration", "--declaration"),
 )
 
@@ -65,7 +66,8 @@ def _cmd_case(args: argparse.Namespace) -> int:
     for label, text in rows:
         print(f"  {label + ':':<24} {text}")
     if not rows:
-        print("  no case details (give --number, --examiner, --organisation, --photo-dates or --declaration)")
+        print("  no case details (give --number, --examiner, --organisation, --photo-dates, --question or "
+              "--declaration)")
     return 0
 
 
@@ -76,6 +78,8 @@ def add_case_parser(sub: Any) -> None:
     helps = {"number": "the case (or file) number", "examiner": "who made the reconstruction",
              "organisation": "the examiner's organisation",
              "photo_dates": "when the photos were taken (one date or several, in words or ISO 8601)",
+             "question": "what the reconstruction was asked to answer, in the words of the request "
+                         "(the report's first page answers it)",
              "declaration": "the examiner's declaration, printed on the title page"}
     for key, _, option in CASE_FIELDS:
         p.add_argument(option, dest=key, metavar="TEXT", help=helps[key] + " (\"\" removes it)")

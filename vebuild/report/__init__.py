@@ -9,10 +9,12 @@ evidence markers), each photo's camera against its photo, the analyses the proje
 re-computed), and the hypotheses, each clearly labelled as one. It carries no time stamp: running
 it twice on the same project gives the same HTML and the same images, byte for byte.
 
-Modules (imports point one way: write → sections → analyses → page):
+Modules (imports point one way: write → findings, sections → analyses → page):
 
 - :mod:`vebuild.report.page` — the HTML pieces, the report being built, the page.
-- :mod:`vebuild.report.sections` — the sections, in the order the page shows them.
+- :mod:`vebuild.report.findings` — the first page: the case, the question, the answers in words, the plan.
+- :mod:`vebuild.report.sections` — the sections (their order: :func:`vebuild.report.write.report_steps`).
+- :mod:`vebuild.report.glossary` — the annex's technical terms in plain words.
 - :mod:`vebuild.report.analyses` — the recorded analyses, each re-run as its typed request.
 - :mod:`vebuild.report.single_view` — the measurements made on single photos, drawn on their photo
   and tabled with their intervals.

@@ -21,6 +21,21 @@ if TYPE_CHECKING:
     from vebuild.project import Project
 
 
+#: The width a line of the page's text may take on the narrower paper (A4: 595 pt less the 15 mm page
+#: margins and the body's 2 em margins), in points; and a monospaced character's width in ems
+#: (DejaVu Sans Mono).
+TEXT_WIDTH_PT, MONO_EM = 468.0, 0.602
+#: The analyses' tables are set at 7.5 pt, smaller where their longest line would not fit, never below 4.5 pt.
+PRE_PT, PRE_MIN_PT = 7.5, 4.5
+
+
+def pre_points(text: str) -> float:
+    """The type size (points) at which ``text``'s longest line fits the page's width, so that no
+    number is cut at the margin or wrapped (at the least size a longer line wraps between words)."""
+    longest = max((len(line) for line in text.splitlines()), default=1)
+    return max(PRE_MIN_PT, min(PRE_PT, TEXT_WIDTH_PT / (MONO_EM * max(longest, 1))))
+
+
 def analyses_html(project: Project, rep: Report, records: list[dict[str, Any]]) -> str:
     from vebuild.analysis.recorded import run_recorded
     from vebuild.analysis.single_view import SINGLE_VIEW_CLICKS
@@ -44,7 +59,7 @@ def analyses_html(project: Project, rep: Report, records: list[dict[str, Any]]) 
             parts.append(f"<p>{esc(rec['description'])}</p>")
         command = "vebuild analyse " + shlex.quote(project.path.name) + " " + " ".join(shlex.quote(w) for w in words)
         parts.append(f"<p class='small'>{esc(command)} &nbsp; (figures: <a href='{fig_name}'>{fig_name}</a>)</p>")
-        parts.append(f"<pre class='small'>{esc(text)}</pre>")
+        parts.append(f"<pre class='small' style='font-size: {pre_points(text):.2f}pt'>{esc(text)}</pre>")
         if words and words[0] in SINGLE_VIEW_CLICKS:  # drawn by vebuild.report.single_view
             parts.append("<p class='small'>Drawn on its photo under “Measurements on the photos”.</p>")
         if result.image is not None and result.image.is_file():

@@ -140,6 +140,10 @@ def _not_photographed(data: Mapping[str, Any], entered: Mapping[tuple[str, str],
                        "from their joints and the values entered for them, not from the photos.", tuple(items))]
 
 
+#: A calibration mode (FORMAT.md ``calibration.cameras[].mode``) in words.
+MODE_WORDS = {"3vp": "three vanishing points", "2vp": "two vanishing points", "1vp": "one vanishing point"}
+
+
 def limitations(project: Project, checks: Sequence[CheckResult] = (), stale: Sequence[Any] = ()) -> list[Limitation]:
     """The project's limitations, in the order the report lists them (see the module).
 
@@ -190,9 +194,9 @@ def limitations(project: Project, checks: Sequence[CheckResult] = (), stale: Seq
     cams = cal.get("cameras") or {}
     if cams:
         out.append(Limitation("calibration-modes", "How each photo was calibrated",
-                              "Each photo's calibration mode and the first part of its reason (the whole reason "
-                              "under Calibration).",
-                              tuple(f"{pid}: {c.get('mode', '?')}: "
+                              "Each photo's calibration: from how many vanishing points, and the first part of its "
+                              "reason (the whole reason under Calibration, in the annex).",
+                              tuple(f"{pid}: {MODE_WORDS.get(str(c.get('mode')), str(c.get('mode', '?')))}: "
                                     + str(c.get("mode_reason", "no reason recorded")).split(";")[0]
                                     for pid, c in cams.items())))
     out += _single_view(project)

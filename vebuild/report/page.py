@@ -34,8 +34,12 @@ td.bad { color: #fff; background: #aa1414; font-weight: bold; white-space: nowra
 p.bad { color: #fff; background: #aa1414; font-weight: bold; padding: 2px 6px; }
 td.good { white-space: nowrap; } td.entered { font-style: italic; white-space: nowrap; }
 ul.lim { font-size: 9pt; margin-top: 0.2em; } ul.lim li { margin-bottom: 0.15em; }
-.title { page-break-after: always; } .title h1 { font-size: 22pt; margin-top: 3em; }
-.title table td:first-child { font-weight: bold; width: 14em; }
+.findings { page-break-after: always; } .findings h1 { font-size: 20pt; margin-top: 0.5em; }
+table.case td:first-child, table.ident td:first-child { font-weight: bold; width: 12em; }
+p.question { font-size: 12pt; border-left: 3px solid #555; padding-left: 0.6em; }
+ol.answers li { margin-bottom: 0.4em; }
+h1.annex { page-break-before: always; font-size: 16pt; }
+dl.glossary dt { font-weight: bold; margin-top: 0.4em; } dl.glossary dd { margin-left: 1.5em; }
 .declaration { white-space: pre-wrap; border: 1px solid #999; padding: 0.6em; margin-top: 1em; }
 img { max-width: 100%; border: 1px solid #888; } img.plan { max-width: none; border: none; }
 .hyp { color: #fff; background: #aa1414; padding: 2px 6px; font-weight: bold; }
@@ -55,6 +59,12 @@ class Report:
     checks: list[CheckResult] = field(default_factory=list)
     #: Recorded analyses already run for this report (``$.analyses`` index → request and result), run once.
     recorded: dict[int, tuple[Any, Any]] = field(default_factory=dict)
+    #: The paper the PDF is laid out for (CSS's name: "A4", "letter").
+    paper: str = "A4"
+    #: The first page (vebuild.report.findings), before every section.
+    first: str = ""
+    #: The index in ``sections`` where the annex (method and records) begins; None: no annex.
+    annex_from: int | None = None
 
     def add(self, title: str, body: str) -> None:
         self.sections.append(f"<h2>{esc(title)}</h2>\n{body}")
@@ -115,35 +125,35 @@ def table(header: list[str], rows: list[list[Any]], numeric: set[int] | None = N
     return "\n".join(out) + "</table>"
 
 
-def title_page(project: Project) -> str:
-    """The report's first page: the case details (FORMAT.md ``case``), the project, vebuild's
-    version, the inputs digest (FORMAT.md, "Inputs digest") and the photos' count."""
-    from vebuild.actions.case import case_rows
-
+def identification(project: Project) -> str:
+    """What identifies the work: the project, its file, the inputs digest (FORMAT.md, "Inputs
+    digest"), the photos' count, vebuild's version and the command that reproduces the report."""
     data = project.data
-    rows: list[list[Any]] = [[label, text] for label, text in case_rows(data) if label != "declaration"]
     n_photos = len(data.get("photos", []))
-    rows += [["project", data.get("name", project.path.name)], ["project file", project.path.name],
-             ["inputs SHA-256", Cell(inputs_sha256(project.data), "hash")],
-             ["photographs", f"{n_photos} (each listed with its SHA-256 under Photographs)"],
-             ["software", f"vebuild {__version__}"],
-             ["reproduce", f"vebuild report {project.path.name} --out DIR (the same project gives "
-                           "the same figures and images)"]]
-    declaration = (data.get("case") or {}).get("declaration")
-    no_case = "" if data.get("case") else ("<p class='warn'>The project records no case details (`vebuild case "
-                                           "PROJECT --number … --examiner …`).</p>")
-    return ("<div class='title'>" + f"<h1>vebuild report: {esc(data.get('name', project.path.name))}</h1>"
-            + no_case + "<table>" + "".join(f"<tr><td>{esc(a)}</td>{_cell(b, False)}</tr>" for a, b in rows)
-            + "</table>" + (f"<div class='declaration'>{esc(declaration)}</div>" if declaration else "")
-            + "</div>")
+    rows: list[list[Any]] = [
+        ["project", data.get("name", project.path.name)], ["project file", project.path.name],
+        ["inputs SHA-256", Cell(inputs_sha256(project.data), "hash")],
+        ["photographs", f"{n_photos} (each listed with its SHA-256 under Photographs)"],
+        ["software", f"vebuild {__version__}"],
+        ["reproduce", f"vebuild report {project.path.name} --out DIR (the same project gives the same figures and "
+                      "images)"]]
+    cells = "".join(f"<tr><td>{esc(a)}</td>{_cell(b, False)}</tr>" for a, b in rows)
+    return f"<table class='ident'>{cells}</table>"
 
 
 def page(project: Project, rep: Report) -> str:
+    """The whole page: the stale banner (if any), the first page, the warnings, the sections, and the
+    annex under its heading, laid out for ``rep.paper``."""
     data = project.data
-    head = [title_page(project)]
-    head.insert(0, banner_html(project))  # with its <style>; "" for a current project (vebuild.report.stale)
+    head = [banner_html(project), rep.first]  # the banner with its <style>; "" for a current project
     if rep.warnings:
         head.append("<p class='warn'>" + "<br>".join(esc(w) for w in rep.warnings) + "</p>")
+    body = list(rep.sections)
+    if rep.annex_from is not None and rep.annex_from < len(body):
+        body.insert(rep.annex_from, "<h1 class='annex'>Annex: the method, the calibration and the record of the "
+                    "work</h1><p>What a second examiner needs to check and reproduce the figures above. The "
+                    "glossary at its end explains the technical terms.</p>")
+    css = CSS.replace("size: A4;", f"size: {rep.paper};")
     return ("<!DOCTYPE html><html><head><meta charset='utf-8'>"
-            f"<title>vebuild report: {esc(data.get('name', ''))}</title><style>{CSS}</style></head><body>\n"
-            + "\n".join(head + rep.sections) + "\n</body></html>\n")
+            f"<title>vebuild report: {esc(data.get('name', ''))}</title><style>{css}</style></head><body>\n"
+            + "\n".join(h for h in head if h) + "\n" + "\n".join(body) + "\n</body></html>\n")

@@ -118,9 +118,10 @@ def _length_words(metres: float) -> str:
     return f"{metres * 100:g} cm" if metres < 1 else f"{metres:g} m"
 
 
-def plan_svg(project: Project) -> tuple[str, dict[str, Any]]:
+def plan_svg(project: Project, max_height_mm: float = MAX_HEIGHT_MM) -> tuple[str, dict[str, Any]]:
     """The plan view as SVG text, and what it shows (its scale, its extent, what it counts) for the
-    caption."""
+    caption; at most :data:`MAX_WIDTH_MM` wide and ``max_height_mm`` high on paper, at the largest
+    of :data:`SCALES` that fits."""
     from vebuild.project.units import length_unit
 
     data = project.data
@@ -134,7 +135,7 @@ def plan_svg(project: Project) -> tuple[str, dict[str, Any]]:
     P = np.concatenate(pts)
     lo, hi = P.min(axis=0), P.max(axis=0)
     span = np.maximum(hi - lo, 1e-3)
-    room_w, room_h = MAX_WIDTH_MM - 2 * MARGIN_MM, MAX_HEIGHT_MM - 2 * MARGIN_MM - 12.0
+    room_w, room_h = MAX_WIDTH_MM - 2 * MARGIN_MM, max_height_mm - 2 * MARGIN_MM - 12.0
     # Relative units have no scale on paper: the drawing is fitted and the bar reads in those units.
     fits = [n for n in SCALES if span[0] * 1000 / n <= room_w and span[1] * 1000 / n <= room_h]
     if fits and not unit.relative:
@@ -143,8 +144,12 @@ def plan_svg(project: Project) -> tuple[str, dict[str, Any]]:
     else:
         scale_n = 0
         s = min(room_w / span[0], room_h / span[1])
-    width = span[0] * s + 2 * MARGIN_MM
     height = span[1] * s + 2 * MARGIN_MM + 12.0  # room below for the scale bar
+    bar = _round_length(float(max(span)) / 5)
+    ratio = f", 1 : {scale_n} as printed" if scale_n else ""
+    legend = f"plan view, from above{ratio}"
+    # Wide enough for the scale bar's words (2.6 mm type: about 1.6 mm a character), however small the scene.
+    width = max(span[0] * s + 2 * MARGIN_MM, 2 * MARGIN_MM + bar * s + 3.0 + 1.6 * len(legend))
 
     def xy(p: Iterable[float]) -> tuple[str, str]:
         x, y = list(p)[:2]
@@ -158,7 +163,6 @@ def plan_svg(project: Project) -> tuple[str, dict[str, Any]]:
         out.append("<polyline points='" + " ".join(",".join(xy(p)) for p in ln) + "'/>")
     out.append("</g>")
     # The world axes at the origin, each as long as the scale bar.
-    bar = _round_length(float(max(span)) / 5)
     ox, oy = xy((0.0, 0.0))
     for axis, d in (("x", (bar, 0.0)), ("y", (0.0, bar))):
         ex, ey = xy(d)
@@ -195,12 +199,10 @@ def plan_svg(project: Project) -> tuple[str, dict[str, Any]]:
         out.append(f"<rect x='{_f(bx0 + k * seg)}' y='{_f(by0)}' width='{_f(seg)}' height='1.5' fill='{fill}' "
                    "stroke='#000000' stroke-width='0.2'/>")
     bar_text = f"{bar:g} {unit.symbol}" if unit.relative else _length_words(bar)
-    ratio = f", 1 : {scale_n} as printed" if scale_n else ""
     out.append(f"<text x='{_f(bx0)}' y='{_f(by0 - 1.2)}' font-size='2.6'>0</text>"
                f"<text x='{_f(bx0 + bar * s)}' y='{_f(by0 - 1.2)}' font-size='2.6' text-anchor='end'>"
                f"{esc(bar_text)}</text>"
-               f"<text x='{_f(bx0 + bar * s + 3)}' y='{_f(by0 + 1.5)}' font-size='2.6'>plan view, from above"
-               f"{esc(ratio)}</text>")
+               f"<text x='{_f(bx0 + bar * s + 3)}' y='{_f(by0 + 1.5)}' font-size='2.6'>{esc(legend)}</text>")
     out.append("</svg>")
     info = {"scale": scale_n, "bar": bar, "cameras": len(cams), "markers": len(markers), "edges": len(lines),
             "evidence_markers": len(evidence), "extent": [float(v) for v in span]}

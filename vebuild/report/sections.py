@@ -17,8 +17,8 @@ from .page import Cell, Report, esc, fmt, table
 if TYPE_CHECKING:
     from vebuild.analysis.measure import CheckResult
 
-__all__ = ["analyses", "calibration", "checks", "final_cameras", "hypotheses", "limitations", "marked_photos", "model",
-           "photos", "plan", "validation", "views"]
+__all__ = ["analyses", "calibration", "checks", "declaration", "final_cameras", "glossary", "hypotheses",
+           "identification", "limitations", "marked_photos", "model", "photos", "validation", "views"]
 
 
 def photos(project: Project, rep: Report) -> None:
@@ -153,26 +153,25 @@ def limitations(project: Project, rep: Report) -> None:
             "the figures and images of this report.</p>" + limitations_html(items(project, rep.checks, found)))
 
 
-def plan(project: Project, rep: Report) -> None:
-    """The plan view (:mod:`vebuild.report.plan`), an SVG in the report's images."""
-    from vebuild.project.atomic import write_text
+def identification(project: Project, rep: Report) -> None:
+    """What identifies the work (:func:`vebuild.report.page.identification`), first in the annex."""
+    from .page import identification as rows
 
-    from .plan import plan_svg
+    rep.add("Identification", rows(project))
 
-    if not project.data.get("model_solution"):
-        return
-    svg, info = plan_svg(project)
-    path = rep.folder / "images" / "plan.svg"
-    write_text(path, svg)
-    rep.images.append(path)
-    scale = (f"printed at 1 : {info['scale']} (a millimetre on the page is {info['scale']} mm in the scene)"
-             if info["scale"] else "fitted to the page (no scale in metres)")
-    rep.add("Plan view", "<p>The scene from above, " + esc(scale) + ": the model's edges (grey), the final "
-            f"cameras ({info['cameras']}, blue) with their horizontal fields of view, the markers "
-            f"({info['markers']}, orange), the evidence markers (red), the world axes +x (red) and +y (green) "
-            "from the origin, and a scale bar.</p>"
-            "<figure><img class='plan' src='images/plan.svg'><figcaption>plan view from the final model, cameras "
-            "and markers</figcaption></figure>")
+
+def declaration(project: Project, rep: Report) -> None:
+    """The examiner's declaration (FORMAT.md ``case.declaration``), as written, closing the body."""
+    text = (project.data.get("case") or {}).get("declaration")
+    if text:
+        rep.add("Declaration", f"<div class='declaration'>{esc(text)}</div>")
+
+
+def glossary(project: Project, rep: Report) -> None:
+    """The technical terms the annex keeps, in plain words (:mod:`vebuild.report.glossary`)."""
+    from .glossary import glossary_html
+
+    rep.add("Glossary", glossary_html())
 
 
 def marked_photos(project: Project, rep: Report) -> None:

@@ -61,10 +61,6 @@ def model(project: Project, rep: Report) -> None:
               "measurements on the photos below need none")
 
 
-def plan(project: Project, rep: Report) -> None:
-    _left_out(rep, "Plan view", "a plan is drawn from the model's edges")
-
-
 def views(project: Project, rep: Report) -> None:
     _left_out(rep, "Evidence views", "a view is a render of the model")
 

@@ -11,23 +11,63 @@ from pathlib import Path
 from vebuild.errors import VebuildError
 from vebuild.project import Project
 
-from . import deviation, sections, single_view, without_model
+from . import deviation, findings, sections, single_view, without_model
 from .page import Report, page
 from .processing import processing
 from .without_model import has_model, not_calibrated
 
-#: The steps :func:`write_report` reports to its ``progress`` (the PDF one more).
-SECTIONS = 15
+#: Where the annex begins in :func:`report_steps`' list.
+ANNEX = "annex"
+#: The paper sizes a report is laid out for (``--paper``): CSS's names.
+PAPERS = ("A4", "letter")
+
+Section = Callable[[Project, Report], None]
+
+
+def report_steps(modelled: bool, summary: bool = False) -> list[tuple[str, Section]]:
+    """The report's sections after its first page (:mod:`vebuild.report.findings`), in the order a
+    reader in court needs them: the evidence (views, the photos as marked, the measurements), the
+    checks and limitations; then, after :data:`ANNEX`, the method and the records. ``summary``: the
+    briefing's few pages (the views and the limitations), no annex."""
+    def pick(with_model: Section, without: Section) -> Section:
+        return with_model if modelled else without
+
+    body: list[tuple[str, Section]] = [
+        ("views", pick(sections.views, without_model.views)),
+        ("marked photos", sections.marked_photos), ("measurements on the photos", single_view.section),
+        ("analyses", sections.analyses), ("checks", pick(sections.checks, without_model.checks)),
+        ("limitations", sections.limitations), ("hypotheses", pick(sections.hypotheses, without_model.hypotheses)),
+        ("declaration", sections.declaration)]
+    if summary:
+        return [(n, f) for n, f in body if n in ("views", "limitations", "declaration")]
+    annex: list[tuple[str, Section]] = [
+        ("identification", sections.identification), ("photos", sections.photos),
+        ("calibration", sections.calibration),
+        ("final cameras", pick(sections.final_cameras, without_model.final_cameras)),
+        ("model", pick(sections.model, without_model.model)),
+        ("validation", pick(sections.validation, without_model.validation)),
+        ("laser scans", pick(deviation.scans, without_model.scans)), ("processing", processing),
+        ("glossary", sections.glossary)]
+    return [*body, (ANNEX, lambda project, rep: None), *annex]
+
+
+#: The steps :func:`write_report` reports to its ``progress`` at most (the first page one, the PDF one more).
+SECTIONS = len(report_steps(True))
 
 
 def write_report(project: Project, out: Path, pdf: bool = True,
-                 progress: Callable[[str], None] | None = None) -> Path:
+                 progress: Callable[[str], None] | None = None, *, summary: bool = False,
+                 paper: str = "A4") -> Path:
     """Write ``out/report.html`` (and ``out/report.pdf``) with its images in ``out/images``: of a
     project with calibrated photos, modelled or not (without a model, the sections that need one
-    are left out, each with a line saying why: :mod:`vebuild.report.without_model`)."""
+    are left out, each with a line saying why: :mod:`vebuild.report.without_model`). ``summary``:
+    the first page, the evidence views and the limitations only (a briefing's few pages);
+    ``paper``: one of :data:`PAPERS`."""
     from vebuild.project.atomic import MANIFEST, remove_tree, replace_folder, temp_path, write_text
     from vebuild.project.outputs import SOFTWARE, begin_stage, check_folder, write_manifest
 
+    if paper not in PAPERS:
+        raise VebuildError(f"--paper {paper}: expected one of {', '.join(PAPERS)}")
     given = Path(out)
     if not given.parent.is_dir():
         raise VebuildError(f"{given}: the folder {given.parent} does not exist; create it first")
@@ -44,29 +84,22 @@ def write_report(project: Project, out: Path, pdf: bool = True,
         # The manifest first (no files yet): it marks the folder as vebuild's should this run be killed.
         write_text(tmp / MANIFEST, json.dumps({"software": SOFTWARE, "kind": "report", "files": {}}) + "\n")
         (tmp / "images").mkdir()
-        rep = Report(tmp)
+        rep = Report(tmp, paper=paper)
         step = progress or (lambda what: None)
+        step("findings")
         rep.checks = sections.final_checks(project)
-        modelled = has_model(project)
-        steps = [("photos", sections.photos), ("calibration", sections.calibration),
-                 ("final cameras", sections.final_cameras if modelled else without_model.final_cameras),
-                 ("model", sections.model if modelled else without_model.model),
-                 ("checks", sections.checks if modelled else without_model.checks),
-                 ("limitations", sections.limitations), ("plan", sections.plan if modelled else without_model.plan),
-                 ("views", sections.views if modelled else without_model.views),
-                 ("marked photos", sections.marked_photos), ("measurements on the photos", single_view.section),
-                 ("validation", sections.validation if modelled else without_model.validation),
-                 ("laser scans", deviation.scans if modelled else without_model.scans),
-                 ("analyses", sections.analyses),
-                 ("hypotheses", sections.hypotheses if modelled else without_model.hypotheses),
-                 ("processing", processing)]
-        for name, fn in steps:
+        findings.run_analyses(project, rep)
+        rep.first = findings.findings(project, rep)
+        for name, fn in report_steps(has_model(project), summary):
+            if name == ANNEX:
+                rep.annex_from = len(rep.sections)
+                continue
             step(name)
             fn(project, rep)
         write_text(tmp / "report.html", page(project, rep))
         if pdf:
             step("pdf")
-            _pdf(tmp)
+            write_pdf(tmp)
         write_manifest(tmp, "report", project)
         check_folder(project, given, "report")  # again: nothing of the user's was put there meanwhile
         replace_folder(tmp, out)
@@ -80,7 +113,8 @@ def write_report(project: Project, out: Path, pdf: bool = True,
     return given / "report.html"
 
 
-def _pdf(folder: Path) -> None:
+def write_pdf(folder: Path) -> None:
+    """``folder/report.pdf`` from ``folder/report.html`` and its images (weasyprint)."""
     try:
         import weasyprint
     except ImportError as e:  # weasyprint needs Pango from the system
