@@ -20,6 +20,9 @@ demo` does); then each screen is opened in a real window and its frame saved:
   photo at its camera with the floor grid and the axes over it, and the box's height measured on the
   photo alone (T, two clicks).
 
+- ``demo-summary.png``: the last screen of `vebuild demo` (its check distance explained, its
+  five-line summary), drawn as a terminal shows it.
+
 ``--only NAME`` (repeatable) makes only those images, e.g. ``--only one-photo-measure.png``.
 
 Windows need a display: without one the script runs itself again under ``xvfb-run`` (Debian's
@@ -53,7 +56,10 @@ SHOTS = {
     "report-pages.png": (None, 960),
     "one-photo-measure.png": ((1280, 800), 960),
     "one-photo-view.png": ((1280, 960), 960),
+    "demo-summary.png": (None, 960),
 }
+#: The demo's last screen is drawn as a terminal of this many columns shows it.
+TERMINAL_COLUMNS, TERMINAL_ROWS = 110, 30
 #: The photo shown in the modelling screen, and the view and door opening in the walk-through.
 PHOTO = "p3"
 VIEW = "overview"
@@ -219,6 +225,35 @@ def shoot_report(project: Path, out: Path) -> list[Path]:
     return [save(sheet, out / "report-pages.png", width)]
 
 
+def shoot_demo(folder: Path, out: Path) -> list[Path]:
+    """`vebuild demo` run into ``folder``; its last screen (the last :data:`TERMINAL_ROWS` lines, wrapped
+    at :data:`TERMINAL_COLUMNS`) drawn as white text on a dark terminal."""
+    import contextlib
+    import io
+    import textwrap
+
+    from PIL import ImageDraw, ImageFont
+
+    from vebuild.cli import main
+
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed):
+        rc = main(["demo", "--out", str(folder / "demo"), "--quiet"])
+    if rc != 0:
+        raise SystemExit(f"screenshots: `vebuild demo` failed ({rc})")
+    text = printed.getvalue().replace(str(folder / "demo"), "vebuild-demo").splitlines()
+    lines = [w for line in text for w in (textwrap.wrap(line, TERMINAL_COLUMNS, subsequent_indent="    ")
+                                          or [""])][-TERMINAL_ROWS:]
+    font = ImageFont.truetype("DejaVuSansMono.ttf", 18)
+    cw, ch = font.getbbox("M")[2], 24
+    img = Image.new("RGB", (cw * TERMINAL_COLUMNS + 40, ch * len(lines) + 40), (30, 30, 30))
+    draw = ImageDraw.Draw(img)
+    for k, line in enumerate(lines):
+        draw.text((20, 20 + k * ch), line, font=font, fill=(235, 235, 235))
+    _, width = SHOTS["demo-summary.png"]
+    return [save(img, out / "demo-summary.png", width)]
+
+
 def _one_photo_project(folder: Path) -> tuple[Path, dict]:
     """A project of the example's photo PHOTO alone, its lines detected and accepted, the door's
     height (2.045 m, the hinge edge from the floor to its top) as its known length, calibrated;
@@ -364,6 +399,8 @@ def main(argv: list[str] | None = None) -> int:
                 written += shoot_report(project, args.out)
         if "one-photo-measure.png" in want:
             written += shoot_one_photo(Path(tmp) / "one-photo", args.out)
+        if "demo-summary.png" in want:
+            written += shoot_demo(Path(tmp), args.out)
         if "one-photo-view.png" in want:
             written += shoot_one_photo_view(Path(tmp) / "one-photo-view", args.out)
     for p in written:

@@ -166,8 +166,6 @@ def run_demo(out: Path, progress: bool = True) -> int:
     model = solve_project(project, recalibrate=True)
     save_project(project)
     print(model_table(model))
-    if truth:
-        print("\n".join(check_explanations(project, model.get("check_distances") or [], truth)))
     if truth and "model" in truth:
         print()
         print(model_comparison(model, truth))
@@ -190,6 +188,9 @@ def run_demo(out: Path, progress: bool = True) -> int:
     print(render_views(project, out / "renders"))
     print(f"\nresults written to {project_file}; textures in {out / 'textures'}; renders in {out / 'renders'}")
     seen = sum(1 for f in record["faces"] if f["seen_fraction"] > 0)
+    why = check_explanations(project, model.get("check_distances") or [], truth) if truth else []
+    if why:  # just above the summary, which points to it: the last screen says it
+        print("\n" + "\n".join(line.strip() for line in why))
     print("\n" + summary(project, model, truth, out, seen))
     from vebuild.project.outputs import write_manifest
 
