@@ -11,13 +11,14 @@ import argparse
 import contextlib
 import io
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any, NoReturn
+from typing import TYPE_CHECKING, Any
 
 from vebuild.errors import VebuildError
 
 if TYPE_CHECKING:
     from vebuild.project import Project
 
+from .quiet_parser import QuietParser
 from .requests import AnalysisResult, Request
 from .requests_geometry import TrajectoryRequest
 from .single_view import single_view_command
@@ -26,28 +27,6 @@ from .single_view import single_view_command
 _HELP_WORDS = ("-h", "--help")
 _EXPECTED = ("expected the words of a `vebuild analyse` command after the project, such as "
              "[\"distance\", \"cabinet:v4\", \"table.top@top\"]")
-
-
-class _Parser(argparse.ArgumentParser):
-    """An argparse parser that never prints or exits: every complaint is a :class:`VebuildError`
-    (the stored words are data in a project file, not a command line a person is typing)."""
-
-    def __init__(self, *args: Any, **kwargs: Any) -> None:
-        kwargs["add_help"] = False  # -h/--help would print and exit; refused in :func:`parse_recorded`
-        kwargs["exit_on_error"] = False
-        super().__init__(*args, **kwargs)
-
-    def error(self, message: str) -> NoReturn:
-        raise VebuildError(message)
-
-    def exit(self, status: int = 0, message: str | None = None) -> NoReturn:
-        raise VebuildError(message.strip() if message else f"the command would exit (status {status})")
-
-    def print_help(self, file: Any = None) -> None:
-        raise VebuildError("the command asks for help (-h/--help); expected the words of an analysis")
-
-    def print_usage(self, file: Any = None) -> None:
-        raise VebuildError("the command asks for its usage; expected the words of an analysis")
 
 
 def parse_recorded(words: Any, where: str | None = None) -> Request:
@@ -63,8 +42,8 @@ def parse_recorded(words: Any, where: str | None = None) -> Request:
     asks = [w for w in words if w in _HELP_WORDS or (len(w) >= 3 and "--help".startswith(w))]
     if asks:
         raise VebuildError(f"{at}the command asks for help ({asks[0]!r}), which is not an analysis; {_EXPECTED}")
-    parser = _Parser(prog="vebuild")
-    add_analyse_parsers(parser.add_subparsers(dest="command", parser_class=_Parser))
+    parser = QuietParser(prog="vebuild")
+    add_analyse_parsers(parser.add_subparsers(dest="command", parser_class=QuietParser))
     try:
         with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
             args = parser.parse_args(["analyse", "PROJECT", *words])
