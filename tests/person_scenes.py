@@ -43,3 +43,18 @@ def person_scene(rng: np.random.Generator, noise_px: float) -> PersonScene:
         if all(5 < u < W - 5 and 5 < v < H - 5 for u, v in px):
             return PersonScene(sc, float(h), foot, px[0], px[1], (px[2], px[3]))
     raise RuntimeError("no figure on the photo")
+
+
+def binomial_acceptance(n: int, p: float = 0.95, alpha: float = 0.01) -> tuple[int, int]:
+    """The counts (lo, hi) of successes out of ``n`` trials of probability ``p`` outside which a
+    count falls with probability at most ``alpha`` / 2 on each side."""
+    from math import comb
+
+    pmf = [comb(n, k) * p**k * (1 - p) ** (n - k) for k in range(n + 1)]
+    lo, tail = 0, 0.0
+    while tail + pmf[lo] <= alpha / 2:
+        tail, lo = tail + pmf[lo], lo + 1
+    hi, tail = n, 0.0
+    while tail + pmf[hi] <= alpha / 2:
+        tail, hi = tail + pmf[hi], hi - 1
+    return lo, hi

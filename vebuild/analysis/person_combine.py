@@ -30,7 +30,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.special import stdtrit
 
 from vebuild.constants import Z95
 from vebuild.errors import VebuildError
@@ -50,7 +49,7 @@ class Combined:
     person: str
     frames: tuple[PersonFrame, ...]
     frames_value: float
-    frames_sigma: float  # the 1σ the interval rests on: sqrt(q / 1ᵀW1)
+    frames_sigma: float  # the 1σ the interval rests on
     frames_half95: float
     tau: float
     dof: int
@@ -90,14 +89,16 @@ METHOD = ("random effects: DerSimonian–Laird between-frame variance, Hartung�
           "(Student's t, n − 1 degrees of freedom); footwear and head covering added once")
 
 
-def random_effects(y: Array, V: Array) -> tuple[float, float, float, float, int]:
-    """The random-effects mean of ``y`` (n,) with known covariance ``V`` (n, n): (mean, its 1σ,
-    its 95 % half-width, τ, degrees of freedom) (module docstring). One value: itself, its σ, the
-    Gaussian's 95 %."""
+def random_effects(y: Array, V: Array, shared: Array | None = None) -> tuple[float, float, float, float, int]:
+    """The random-effects mean of ``y`` (n,) with known covariance ``V`` (n, n), of which ``shared``
+    (n, n) is common to frames measured on one photo (its calibration's error, which their spread
+    cannot show): (mean, its 1σ, its 95 % half-width, τ, degrees of freedom) (module docstring). One
+    value: itself, its σ, the Gaussian's 95 %."""
     n = len(y)
     if n == 1:
         s = float(np.sqrt(V[0, 0]))
         return float(y[0]), s, Z95 * s, 0.0, 0
+    C = np.zeros((n, n)) if shared is None else shared
     one = np.ones(n)
     W0 = np.linalg.inv(V)
     a0 = float(one @ W0 @ one)
@@ -106,12 +107,16 @@ def random_effects(y: Array, V: Array) -> tuple[float, float, float, float, int]
     P = W0 - np.outer(W0 @ one, one @ W0) / a0
     tau2 = max(0.0, (Q - (n - 1)) / float(np.trace(P)))
     W = np.linalg.inv(V + tau2 * np.eye(n))
-    a = float(one @ W @ one)
-    mean = float(one @ W @ y) / a
+    w = W @ one / float(one @ W @ one)  # the frames' weights in the mean
+    mean = float(w @ y)
     r = y - mean
     q = float(r @ W @ r) / (n - 1)
-    s = float(np.sqrt(q / a))
-    return mean, s, float(stdtrit(n - 1, 0.975)) * s, float(np.sqrt(tau2)), n - 1
+    var_seen = float(w @ (V - C + tau2 * np.eye(n)) @ w)  # what the frames' spread shows: scaled by q, t's
+    var_shared = float(w @ C @ w)  # known, not shown by the spread: the Gaussian's
+    from scipy.special import stdtrit  # imported at first use: docs/start-up.md (one frame needs none)
+
+    half = float(np.hypot(float(stdtrit(n - 1, 0.975)) * np.sqrt(q * var_seen), Z95 * np.sqrt(var_shared)))
+    return mean, float(np.sqrt(q * var_seen + var_shared)), half, float(np.sqrt(tau2)), n - 1
 
 
 def _person_terms(person: str, frames: Sequence[PersonFrame]) -> tuple[Term, ...]:
@@ -136,13 +141,15 @@ def combine(person: str, frames: Sequence[PersonFrame]) -> Combined:
     n = len(frames)
     y = np.array([f.image_height + sum(t.signed for t in f.terms if not t.kind.per_person) for f in frames])
     V = np.zeros((n, n))
+    shared = np.zeros((n, n))
     for i, fi in enumerate(frames):
         V[i, i] = fi.sigma_image**2 + sum(t.sigma**2 for t in fi.terms if not t.kind.per_person)
         for j, fj in enumerate(frames):
             if i != j and fi.photo == fj.photo:
-                V[i, j] = fi.sigma_calibration * fj.sigma_calibration
+                V[i, j] = shared[i, j] = fi.sigma_calibration * fj.sigma_calibration
+                shared[i, i] = fi.sigma_calibration**2
     if np.linalg.matrix_rank(V) < n:
         raise VebuildError(f"person '{person}': two frames are the same measurement on one photo with no click "
                            "uncertainty; record each frame once")
-    mean, s, half, tau, dof = random_effects(y, V)
+    mean, s, half, tau, dof = random_effects(y, V, shared)
     return Combined(person, tuple(frames), mean, s, half, tau, dof, _person_terms(person, frames))

@@ -143,8 +143,6 @@ class PersonHeightRequest(_NoImage):
                               click_sigma_px=project.settings["click_sigma_px"], k1_sigma=k1_sigma)
 
     def run(self, project: Project) -> AnalysisResult:
-        from .person_combine import combine
-
         frames = recorded_frames(project, self.person) if self.person else []
         mine = None
         if self.photo is not None or self.head is not None or self.foot is not None or self.feet is not None:
@@ -158,7 +156,11 @@ class PersonHeightRequest(_NoImage):
             raise VebuildError(f"person-height: the project records no person-height of a person called "
                                f"{self.person!r}; " + (f"it records: {', '.join(known)}" if known else
                                                        "it records none with --person"))
-        combined = combine(self.person, frames) if self.person else None
+        combined = None
+        if self.person:
+            from .person_combine import combine  # imported at first use: docs/start-up.md (scipy's t)
+
+            combined = combine(self.person, frames)
         figures: dict[str, Any] = {"lengths": "metres",
                                    "click_sigma_px": project.settings["click_sigma_px"]}
         if mine is not None:
@@ -176,6 +178,12 @@ def _same(a: PersonFrame, b: PersonFrame) -> bool:
 def recorded_frames(project: Project, person: str | None) -> list[PersonFrame]:
     """The frames of every person-height the project records with a photo (of ``person``; None:
     all), each measured again. A record that no longer measures is a ProjectError naming it."""
+    return [f for _, f in recorded_person_frames(project) if person is None or f.person == person]
+
+
+def recorded_person_frames(project: Project) -> list[tuple[int, PersonFrame]]:
+    """Every person-height the project records with a photo, measured again, with its index in
+    ``analyses``. A record that no longer measures is a ProjectError naming it."""
     out = []
     for i, rec in enumerate(project.data.get("analyses") or []):
         words = rec.get("command")
@@ -183,11 +191,8 @@ def recorded_frames(project: Project, person: str | None) -> list[PersonFrame]:
             continue
         try:
             request = parse_words(words)
-            if request.photo is None:
-                continue
-            if person is not None and request.person != person:
-                continue
-            out.append(request.frame(project))
+            if request.photo is not None:
+                out.append((i, request.frame(project)))
         except VebuildError as e:
             raise ProjectError(project.path, f"$.analyses[{i}].command", str(e)) from None
     return out
@@ -226,8 +231,8 @@ def table(mine: PersonFrame | None, combined: Combined | None) -> str:
                      f"{', '.join(sorted({f.photo for f in c.frames}))}")
         if len(c.frames) > 1:
             lines.append(f"  frames combined {c.frames_value:.4f} m (between-frame spread {1000 * c.tau:.1f} mm, "
-                         f"{c.dof} degrees of freedom)")
+                         f"{c.dof} degree{'s' if c.dof != 1 else ''} of freedom)")
         lines += [f"  {t.words()}, once for the person" for t in c.person_terms]
         lines.append(f"  height {c.value:.4f} m, {c.words()}")
-    lines.append(f"This is {WHAT_IT_IS}.")
+    lines.append(f"Each height is {WHAT_IT_IS}.")
     return "\n".join(lines)

@@ -11,13 +11,13 @@ from pathlib import Path
 from vebuild.errors import VebuildError
 from vebuild.project import Project
 
-from . import deviation, sections, single_view, without_model
+from . import deviation, person, sections, single_view, without_model
 from .page import Report, page
 from .processing import processing
 from .without_model import has_model, not_calibrated
 
 #: The steps :func:`write_report` reports to its ``progress`` (the PDF one more).
-SECTIONS = 15
+SECTIONS = 16
 
 
 def write_report(project: Project, out: Path, pdf: bool = True,
@@ -55,6 +55,7 @@ def write_report(project: Project, out: Path, pdf: bool = True,
                  ("limitations", sections.limitations), ("plan", sections.plan if modelled else without_model.plan),
                  ("views", sections.views if modelled else without_model.views),
                  ("marked photos", sections.marked_photos), ("measurements on the photos", single_view.section),
+                 ("person heights", person.section),
                  ("validation", sections.validation if modelled else without_model.validation),
                  ("laser scans", deviation.scans if modelled else without_model.scans),
                  ("analyses", sections.analyses),
