@@ -25,8 +25,10 @@ class PersonScene:
     feet_px: tuple[np.ndarray, np.ndarray]
 
 
-def person_scene(rng: np.random.Generator, noise_px: float) -> PersonScene:
-    """One scene whose figure (head, feet) lies wholly on the photo, at least 5 px inside."""
+def person_scene(rng: np.random.Generator, noise_px: float, extra: float = 0.0) -> PersonScene:
+    """One scene whose figure (head, feet) lies wholly on the photo, at least 5 px inside;
+    ``extra``: what the figure's shoes add, so that its head-top is imaged ``extra`` higher
+    (``height`` stays the standing height)."""
     for _ in range(200):
         sc = scene(rng, noise_px)
         cam = sc.cam
@@ -37,7 +39,7 @@ def person_scene(rng: np.random.Generator, noise_px: float) -> PersonScene:
         h = rng.uniform(*HEIGHTS_M)
         half = rng.uniform(0.05, 0.15) * (np.cos(a := rng.uniform(0, np.pi)) * fwd + np.sin(a) * side)
         try:
-            px = [pixel(cam, X) for X in (foot + [0, 0, h], foot, foot - half, foot + half)]
+            px = [pixel(cam, X) for X in (foot + [0, 0, h + extra], foot, foot - half, foot + half)]
         except ValueError:
             continue
         if all(5 < u < W - 5 and 5 < v < H - 5 for u, v in px):
