@@ -248,3 +248,28 @@ def test_a_recorded_person_height_that_no_longer_measures_names_its_record(perso
         recorded_frames(project, "A")
     with pytest.raises(SingleViewError):
         measure_person(_true_camera(ps), ps.head_px, [])  # type: ignore[attr-defined]
+
+
+def test_a_person_height_clicked_is_the_saved_words_on_the_command_line(person_project: tuple[Path, object],
+                                                                        capsys: pytest.CaptureFixture) -> None:
+    """Clicked on the photo (the T tool's person-height: the top of the head, then the point
+    between the feet), the figure is the one the saved words give on the command line, to the last
+    digit, and the saved words give back the pixels to draw."""
+    from vebuild.actions import click_single_view as sv
+    from vebuild.analysis.requests_person import person_command
+    from vebuild.project import load_project
+
+    path, ps = person_project
+    clicks = [ps.head_px + [0.123, -0.456], ps.foot_px + [0.004, 0.006]]  # type: ignore[attr-defined]
+    assert sv.prompts("person-height") == ("the top of the head", "the point between the feet on the floor")
+    m = sv.measure_on_photo(load_project(path), "person-height", "p", clicks)
+    assert m.command == person_command("p", clicks[0], [clicks[1]])
+    assert m.command[:5] == ["person-height", "--photo", "p", "--head", f"{clicks[0][0]:.2f},{clicks[0][1]:.2f}"]
+    assert np.allclose(m.pixels, clicks, atol=0.005 + 1e-9)
+    assert sv.saved_clicks(m.command) == ("p", [tuple(p) for p in np.round(clicks, 2)])
+    code, text, _ = _cli(capsys, "analyse", str(path), *m.command)
+    assert code == 0 and text.strip() == m.result.table.strip()
+    f = m.result.figures["frame"]
+    assert m.label.startswith(f"person's height {f['value_m']:.4f} m ± {1000 * f['sigma_m']:.1f} mm (1σ)")
+    with pytest.raises(sv.ClickError, match="takes the top of the head and the foot point"):
+        sv.measure_on_photo(load_project(path), "person-height", "p", clicks[:1])

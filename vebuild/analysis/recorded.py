@@ -21,6 +21,8 @@ if TYPE_CHECKING:
 from .quiet_parser import QuietParser
 from .requests import AnalysisResult, Request
 from .requests_geometry import TrajectoryRequest
+from .requests_person import WORD as PERSON_HEIGHT
+from .requests_person import person_command
 from .single_view import single_view_command
 
 #: Words that ask for help rather than an analysis.
@@ -84,12 +86,19 @@ def run_recorded(project: Any, index: int, record: dict[str, Any],
 
 def measure_clicked(project: Project, kind: str, photo: str,
                     clicks: Sequence[Sequence[float]]) -> tuple[list[str], AnalysisResult]:
-    """One single-view measurement clicked on ``photo``: the words saved for it
+    """One single-view measurement clicked on ``photo`` (or a person-height:
+    :func:`~.requests_person.person_command`): the words saved for it
     (:func:`~.single_view.single_view_command`; record them as ``{"name", "description", "command": words}``)
     and the result of the request parsed from those words, as ``vebuild analyse PROJECT *words``
     runs it: its ``table`` is the text the command line prints, its ``figures["measurements"][0]``
     the value, 1σ and 95 % interval. A click that cannot be measured is a :class:`VebuildError`
     (a :class:`~.single_view.SingleViewError` naming the photo and the click) whose text is a sentence for the
     screen."""
-    words = single_view_command(kind, photo, clicks)
+    if kind == PERSON_HEIGHT:  # the top of the head, then the foot point (or the two feet)
+        if len(clicks) not in (2, 3):
+            raise VebuildError(f"a {kind} takes the top of the head and the foot point (or the two feet), got "
+                               f"{len(clicks)} clicked points")
+        words = person_command(photo, clicks[0], list(clicks[1:]))
+    else:
+        words = single_view_command(kind, photo, clicks)
     return words, parse_recorded(words).run(project)
