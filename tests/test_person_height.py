@@ -177,6 +177,13 @@ def test_the_command_line_measures_combines_and_writes_figures(person_project: t
     fig = json.loads(out.read_text())["frame"]
     assert fig["image_height_m"] == pytest.approx(ps.height, abs=4 * fig["sigma_image_m"])  # type: ignore[attr-defined]
     assert fig["value_m"] == pytest.approx(fig["image_height_m"] - 0.025)
+    code, _, err = _cli(capsys, "analyse", str(path), "person-height", "--photo", "p", "--head", head, "--foot", foot,
+                        "--click-sigma", "3", "--json", str(out))
+    blurred = json.loads(out.read_text())["frame"]  # a click 1σ of 3 px: the clicks' share scales with it
+    assert code == 0, err
+    assert fig["click_sigma_px"] == 0.7 and blurred["click_sigma_px"] == 3.0  # the project's, then the one given
+    assert blurred["sigma_clicks_m"] == pytest.approx(3 / 0.7 * fig["sigma_clicks_m"], rel=1e-6)
+    assert blurred["sigma_calibration_m"] == fig["sigma_calibration_m"]
     data = json.loads(path.read_text())
     feet = [_px(p) for p in ps.feet_px]  # type: ignore[attr-defined]
     data["analyses"] = [
@@ -215,6 +222,8 @@ def test_the_command_line_measures_combines_and_writes_figures(person_project: t
     (["--photo", "p", "--head", "{head}", "--feet", "{foot}"], "--feet takes the two feet"),
     (["--photo", "p", "--head", "{head}", "--foot", "{foot}", "--term", "footwear=0.025"],
      "expected NAME=VALUE±SIGMA:SOURCE"),
+    (["--photo", "p", "--head", "{head}", "--foot", "{foot}", "--click-sigma", "-1"],
+     "expected a click's 1σ in pixels"),
     (["--person", "Nobody"], "records no person-height of a person called 'Nobody'"),
     (["--photo", "nope", "--head", "{head}", "--foot", "{foot}"], "nope"),
 ])

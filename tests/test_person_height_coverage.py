@@ -24,7 +24,7 @@ def test_person_heights_95_intervals_hold_the_truth_and_the_median_error_is_smal
     """200 generated photos (the single-view scenes: a camera 1.2–1.9 m up, 12–35° down, calibrated
     as `vebuild calibrate` does from two floor markers and a 2 m door in view, its clicks 0.7 px
     1σ), each with an upright figure 1.50–1.95 m tall 2.5–5 m ahead, in shoes whose soles are
-    drawn N(25 mm, 8 mm); its head-top and foot point clicked with the project's click 1σ (1 px)
+    drawn N(25 mm, 8 mm); its head-top and foot point clicked with the project's click 1σ (0.7 px)
     as noise. The height in the image's 95 % interval holds the imaged height (standing + sole)
     in 181–197 of 200 (the two-sided binomial 1 % region: neither too narrow nor too wide;
     measured: 194), and with the footwear entered as 0.025 ± 0.008 m the height's interval holds

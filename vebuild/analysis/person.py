@@ -56,6 +56,7 @@ class PersonFrame:
     terms: tuple[Term, ...]
     foot: Array  # (3,) the foot point on the floor
     top: Array  # (3,) the top of the vertical through it
+    click_sigma_px: float = 1.0  # each click's 1σ, per coordinate
 
     @property
     def sigma_image(self) -> float:
@@ -80,7 +81,8 @@ class PersonFrame:
         return {"photo": self.photo, "person": self.person, "clicks_px": self.clicks.tolist(),
                 "floor_height_m": self.floor_height, "image_height_m": self.image_height,
                 "sigma_image_m": self.sigma_image, "sigma_calibration_m": self.sigma_calibration,
-                "sigma_clicks_m": self.sigma_clicks, "terms": [t.to_json() for t in self.terms],
+                "sigma_clicks_m": self.sigma_clicks, "click_sigma_px": self.click_sigma_px,
+                "terms": [t.to_json() for t in self.terms],
                 "no_allowance_for": not_entered(self.terms), "value_m": self.value, "sigma_m": self.sigma,
                 "ci95_m": [lo, hi], "foot_m": self.foot.tolist(), "top_m": self.top.tolist(), "what": WHAT_IT_IS}
 
@@ -137,4 +139,4 @@ def measure_person(cam: ImageCamera, head: Sequence[float], feet: Sequence[Seque
     p0 = np.r_[K[0, 0], K[0, 2], K[1, 2], 0.0, 0.0, 0.0, np.asarray(cam.C, float), cam.k1]
     _, foot = _line(_camera(cam, p0), uv, floor_height)
     return PersonFrame(cam.id, person, uv, floor_height, h, s_cal, s_clicks, tuple(terms), foot,
-                       foot + np.array([0.0, 0.0, h]))
+                       foot + np.array([0.0, 0.0, h]), click_sigma_px)

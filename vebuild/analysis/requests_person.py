@@ -67,6 +67,9 @@ def add_person_arguments(q: argparse.ArgumentParser) -> None:
                    help="an allowance, once per allowance: " + TERM_SYNTAX.replace("%", "%%") + ". The names: "
                    + "; ".join(f"{n}: {k.words}, {k.says}" for n, k in TERMS.items()) + ". None entered: none "
                    "allowed for, and the result says so")
+    q.add_argument("--click-sigma", type=float, metavar="PX", help="the 1σ of these clicks in pixels, where the "
+                   "head-top or the feet are harder to place than the project's click 1σ says (a blurred or "
+                   "low-resolution frame; default: the project's settings.click_sigma_px)")
     q.add_argument("--person", metavar="NAME", help="who this is: the frames of one person are combined (their "
                    "spread counted; footwear and head covering added once)")
 
@@ -74,7 +77,7 @@ def add_person_arguments(q: argparse.ArgumentParser) -> None:
 def person_request(a: argparse.Namespace) -> PersonHeightRequest:
     """The request of parsed ``person-height`` words."""
     return PersonHeightRequest(a.photo, a.head, a.foot, tuple(a.feet) if a.feet is not None else None,
-                               a.floor_height, tuple(a.terms), a.person)
+                               a.floor_height, tuple(a.terms), a.person, a.click_sigma)
 
 
 def parse_words(words: list[str]) -> PersonHeightRequest:
@@ -115,6 +118,7 @@ class PersonHeightRequest(_NoImage):
     floor_height: float = 0.0
     terms: tuple[str, ...] = ()
     person: str | None = None
+    click_sigma: float | None = None  # px; None: the project's click_sigma_px
 
     def frame(self, project: Project) -> PersonFrame:
         """The frame this request measures."""
@@ -139,8 +143,11 @@ class PersonHeightRequest(_NoImage):
             raise VebuildError(f"person-height: photo '{cam.id}' has no scale (its lengths are relative), so a "
                                "person's height cannot be measured on it; give it a known length or the camera's "
                                "height and calibrate again")
+        click = project.settings["click_sigma_px"] if self.click_sigma is None else self.click_sigma
+        if not (np.isfinite(click) and click >= 0):
+            raise VebuildError(f"person-height: --click-sigma {click:g}: expected a click's 1σ in pixels, 0 or more")
         return measure_person(cam, head, feet, floor_height=self.floor_height, terms=terms, person=self.person,
-                              click_sigma_px=project.settings["click_sigma_px"], k1_sigma=k1_sigma)
+                              click_sigma_px=click, k1_sigma=k1_sigma)
 
     def run(self, project: Project) -> AnalysisResult:
         frames = recorded_frames(project, self.person) if self.person else []
@@ -161,8 +168,8 @@ class PersonHeightRequest(_NoImage):
             from .person_combine import combine  # imported at first use: docs/start-up.md (scipy's t)
 
             combined = combine(self.person, frames)
-        figures: dict[str, Any] = {"lengths": "metres",
-                                   "click_sigma_px": project.settings["click_sigma_px"]}
+        figures: dict[str, Any] = {"lengths": "metres", "click_sigma_px": project.settings["click_sigma_px"]
+                                   if self.click_sigma is None else self.click_sigma}
         if mine is not None:
             figures["frame"] = mine.to_json()
         if combined is not None:
@@ -210,7 +217,8 @@ def frame_lines(f: PersonFrame) -> list[str]:
     lines = [f"photo '{f.photo}'{f' (person {f.person})' if f.person else ''}: the top of the head {head} above "
              f"{foot} on {floor}",
              f"  height in the image (sole to head-top) {f.image_height:.4f} m ± {1000 * f.sigma_image:.1f} mm (1σ: "
-             f"calibration {1000 * f.sigma_calibration:.1f}, clicks {1000 * f.sigma_clicks:.1f})"]
+             f"calibration {1000 * f.sigma_calibration:.1f}, clicks {1000 * f.sigma_clicks:.1f} at "
+             f"{f.click_sigma_px:g} px)"]
     lines += [f"  {t.words()}" for t in f.terms]
     missing = not_entered(f.terms)
     if missing:

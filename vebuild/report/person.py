@@ -85,7 +85,7 @@ def _person_html(person: str | None, frames: Sequence[tuple[int, PersonFrame]]) 
     for number, f in frames:
         rows.append([number, f.photo, "height in the image", fmt(f.image_height),
                      f"{1000 * f.sigma_image:.1f} (calibration {1000 * f.sigma_calibration:.1f}, clicks "
-                     f"{1000 * f.sigma_clicks:.1f})", "sole to head-top, as clicked"])
+                     f"{1000 * f.sigma_clicks:.1f} at {f.click_sigma_px:g} px)", "sole to head-top, as clicked"])
         shown = f.terms if person is None else tuple(t for t in f.terms if not t.kind.per_person)
         for t in shown:
             w, v, sg, src = _term_cells(t)
@@ -139,13 +139,13 @@ def section(project: Project, rep: Report) -> None:
     alone = [(n, f) for n, f, _ in numbered if not f.person]
     if alone:
         parts.append(_person_html(None, alone))
-    clicks = project.settings["click_sigma_px"]
     commands = ", ".join(f"{n}: analysis {i + 1}" for n, _, i in numbered)
     body = (f"<p>Each figure's height is {esc(WHAT_IT_IS)}. The photo measures the line from the floor under the "
             "feet to the top of the head shown, in the posture of that frame; the allowances the examiner entered "
             "(each with its value, 1σ and source) turn it into a height, and where none is entered the table says "
             f"so. Each frame's 1σ comes from its photo's calibration (camera and lens, with their correlations), "
-            f"each click's 1σ of {clicks:g} px and the allowances' 1σ. Frames of one person are combined by "
+            "each click's 1σ (the project's, or the one entered for the frame) and the allowances' 1σ. Frames of "
+            "one person are combined by "
             f"{esc(METHOD)}. Each is reproduced by its command under Analyses ({esc(commands)}).</p>"
             + "".join(parts) + "".join(figs))
     rep.add(TITLE, body)
