@@ -90,9 +90,15 @@ def _person_html(person: str | None, frames: Sequence[tuple[int, PersonFrame]]) 
         for t in shown:
             w, v, sg, src = _term_cells(t)
             rows.append(["", "", w, v, sg, src])
-        lo, hi = f.ci95
-        rows.append(["", "", "height in this frame", fmt(f.value), f"{1000 * f.sigma:.1f}",
-                     f"between {lo:.3f} and {hi:.3f} m (95 %)"])
+        if person is None:
+            lo, hi = f.ci95
+            rows.append(["", "", "height in this frame", fmt(f.value), f"{1000 * f.sigma:.1f}",
+                         f"between {lo:.3f} and {hi:.3f} m (95 %)"])
+        else:  # the person's footwear and head covering come once, below
+            y = f.image_height + sum(t.signed for t in shown)
+            s = float(np.sqrt(f.sigma_image**2 + sum(t.sigma**2 for t in shown)))
+            rows.append(["", "", "this frame, before footwear and head covering", fmt(y), f"{1000 * s:.1f}",
+                         "combined with the other frames below"])
     head = ["#", "photo", "", "m", "1σ mm", "source or note"]
     if person is None:
         return ("<h3>Not named as a person</h3><p>Each measured on its own (no <code>--person</code>).</p>"
@@ -109,7 +115,7 @@ def _person_html(person: str | None, frames: Sequence[tuple[int, PersonFrame]]) 
     combined = (f"{len(frames)} frames combined: {c.frames_value:.4f} m, the spread between frames "
                 f"{1000 * c.tau:.1f} mm beyond their 1σ ({dof})" if len(frames) > 1 else "one frame")
     return (f"<h3>Person {esc(person)}</h3>" + table(head, rows, {0, 3, 4}, wide=True)
-            + f"<p><b>{esc(person)}: between {lo:.2f} and {hi:.2f} m (95 %)</b>, {c.value:.3f} m; "
+            + f"<p><b>{esc(person)}: between {lo:.2f} and {hi:.2f} m (95 %)</b>; the estimate {c.value:.3f} m; "
             f"{esc(combined)}; footwear and head covering added once for the person, as they are the same in "
             f"every frame. " + (f"No allowance entered for {esc(', '.join(missing))}. " if missing else "")
             + "</p>")
