@@ -282,3 +282,28 @@ def test_a_person_height_clicked_is_the_saved_words_on_the_command_line(person_p
     assert m.label.startswith(f"person's height {f['value_m']:.4f} m ± {1000 * f['sigma_m']:.1f} mm (1σ)")
     with pytest.raises(sv.ClickError, match="takes the top of the head and the foot point"):
         sv.measure_on_photo(load_project(path), "person-height", "p", clicks[:1])
+
+
+def test_the_html_viewer_and_the_camera_hand_off_draw_the_vertical(person_project: tuple[Path, object],
+                                                                   tmp_path: Path) -> None:
+    """A recorded person-height is drawn in the hand-offs of its photo (the web viewer, the
+    camera-only glTF) as the vertical it measured, from the foot point on the floor up by the
+    height in the image, labelled with it and with the height the allowances make of it."""
+    from vebuild.actions.export_html import export_html
+    from vebuild.actions.handoff import measurement_items
+    from vebuild.project import load_project
+
+    path, ps = person_project
+    project = load_project(path)
+    project.data["analyses"] = [{"name": "B", "command": ["person-height", "--photo", "p", "--head",
+                                                          _px(ps.head_px), "--foot", _px(ps.foot_px),  # type: ignore
+                                                          "--term", "footwear=0.02±0.01:shoes"]}]
+    (item,) = measurement_items(project, "p")
+    foot, top = np.asarray(item["ends"])
+    assert abs(foot[2]) < 1e-12  # on the floor (the calibration's world, whose origin is its marker O)
+    assert top[2] - foot[2] == pytest.approx(item["value"]) and np.allclose(top[:2], foot[:2])
+    assert item["value"] == pytest.approx(ps.height, abs=4 * item["sigma"])  # type: ignore[attr-defined]
+    assert f"with the allowances entered {item['value'] - 0.02:.3f} m" in item["label"]
+    export_html(project, tmp_path / "html")
+    assert "B: " + item["label"].split(": ", 1)[1] in (tmp_path / "html" / "data.js").read_text(encoding="utf-8") \
+        .encode().decode("unicode_escape")
