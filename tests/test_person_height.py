@@ -307,3 +307,20 @@ def test_the_html_viewer_and_the_camera_hand_off_draw_the_vertical(person_projec
     export_html(project, tmp_path / "html")
     assert "B: " + item["label"].split(": ", 1)[1] in (tmp_path / "html" / "data.js").read_text(encoding="utf-8") \
         .encode().decode("unicode_escape")
+
+
+def test_a_photo_with_no_scale_measures_no_person(person_project: tuple[Path, object], tmp_path: Path,
+                                                   capsys: pytest.CaptureFixture) -> None:
+    """A photo placed with no length given measures in relative units: a person's height in metres
+    (and allowances in metres) cannot be had from it, and it says so."""
+    path, ps = person_project
+    data = json.loads(path.read_text())
+    data["analyses"] = []
+    data["calibration"]["cameras"]["p"]["placement"]["lengths"] = "relative"
+    rel = path.parent / "relative.vebuild.json"
+    rel.write_text(json.dumps(data))
+    out = tmp_path / "h.json"
+    code, _, err = _cli(capsys, "analyse", str(rel), "person-height", "--photo", "p", "--head",
+                        _px(ps.head_px), "--foot", _px(ps.foot_px), "--json", str(out))  # type: ignore[attr-defined]
+    assert code == 2 and "has no scale (its lengths are relative)" in err, err
+    assert not out.exists()

@@ -122,7 +122,8 @@ def measure_person(cam: ImageCamera, head: Sequence[float], feet: Sequence[Seque
     for p, name in zip(uv, names, strict=True):
         _check_on_photo(cam, p, name)
     if not np.isfinite(floor_height):
-        raise SingleViewError(f"photo '{cam.id}': the floor height must be a number of metres")
+        raise SingleViewError(f"photo '{cam.id}': --floor-height {floor_height}: expected the floor's height in "
+                              "metres, a number")
     total = _measure(cam, uv, lambda c, p: _line(c, p, floor_height)[0], click_sigma_px, k1_sigma)
     h, s_total = total
     if not h > 0:
