@@ -70,9 +70,12 @@ def scaled(tmp_path_factory) -> Path:
 def test_the_kinds_are_those_the_command_line_takes_in_order():
     kinds = sv.kinds()
     assert kinds[:2] == ("photo-height", "floor-distance")
-    assert list(kinds) == [k for k in SINGLE_VIEW_CLICKS if k in kinds]  # the shared order
+    assert list(kinds[:-1]) == [k for k in SINGLE_VIEW_CLICKS if k in kinds]  # the shared order
+    assert kinds[-1] == "person-height"  # its own command, clicked as a height
     for kind in kinds:
-        assert sv.prompt(kind, 0).endswith(f"(point 1 of {len(SINGLE_VIEW_CLICKS[kind])})")
+        assert sv.prompt(kind, 0).endswith(f"(point 1 of {len(sv.prompts(kind))})")
+    assert sv.prompt("person-height", 1) == ("person's height: click the point between the feet on the floor "
+                                             "(point 2 of 2)")
     assert sv.prompt("photo-height", 1) == "height: click its top (point 2 of 2)"
 
 

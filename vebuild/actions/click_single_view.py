@@ -28,7 +28,11 @@ if TYPE_CHECKING:
 
 #: The quantity each kind measures, as its label begins.
 WHAT = {"photo-height": "height", "floor-distance": "floor distance", "wall-length": "length on the wall",
-        "raised-height": "height above the raised surface", "plane-length": "length on the plane"}
+        "raised-height": "height above the raised surface", "plane-length": "length on the plane",
+        "person-height": "person's height"}
+#: A person's height: its own command (:mod:`vebuild.analysis.requests_person`), clicked as the top
+#: of the head then the point between the feet.
+PERSON_HEIGHT = "person-height"
 
 
 #: How a relative length is said on the photo: no scale was given.
@@ -57,13 +61,16 @@ def kinds() -> tuple[str, ...]:
         except VebuildError:
             continue
         out.append(kind)
-    return tuple(out)
+    return (*out, PERSON_HEIGHT)
 
 
 def prompts(kind: str) -> tuple[str, ...]:
     """The points to click for one measurement of ``kind``, in order, in words."""
+    from vebuild.analysis.person import PERSON_CLICKS
     from vebuild.analysis.single_view import SINGLE_VIEW_CLICKS
 
+    if kind == PERSON_HEIGHT:
+        return PERSON_CLICKS
     if kind not in SINGLE_VIEW_CLICKS:
         raise ClickError(f"no single-view measurement '{kind}'; they are {', '.join(kinds())}")
     return SINGLE_VIEW_CLICKS[kind]
@@ -102,11 +109,35 @@ def measure_on_photo(project: Project, kind: str, photo: str, clicks: list[Any])
         request = parse_recorded(words)
     except VebuildError as e:
         raise ClickError(str(e)) from None
-    rows = result.figures["measurements"]
-    unit = result.figures.get("lengths", "metres")
-    label = f"{WHAT.get(kind, kind)} {figure_words(rows[0], unit)}"
-    pixels = [np.array([float(words[k]), float(words[k + 1])]) for k in range(3, len(words), 2)]
+    if kind == PERSON_HEIGHT:  # the frame's height with the allowances entered (none by clicking)
+        row = result.figures["frame"]
+        label = f"{WHAT[kind]} {figure_words(row, 'metres')} (no allowance entered: footwear, posture…)"
+    else:
+        rows = result.figures["measurements"]
+        label = f"{WHAT.get(kind, kind)} {figure_words(rows[0], result.figures.get('lengths', 'metres'))}"
+    _, saved = saved_clicks(words)
+    pixels = [np.array(p) for p in saved]
     return Measured(kind, request, result, words, label, [], photo=photo, pixels=pixels)
+
+
+def saved_clicks(words: list[str]) -> tuple[str, list[tuple[float, float]]]:
+    """The photo and the pixels clicked (in :func:`prompts` order) of a saved single-view command or
+    person-height; ValueError where its pixels are not numbers."""
+    if words[:1] == [PERSON_HEIGHT]:
+        from vebuild.analysis.requests_person import parse_pixel, parse_words
+
+        try:
+            r = parse_words(words)
+            if r.photo is None or r.head is None:
+                raise ValueError("no photo or no head-top")
+            feet = [r.foot] if r.foot is not None else list(r.feet or ())
+            return r.photo, [parse_pixel(p, "pixel") for p in [r.head, *feet]]
+        except VebuildError as e:
+            raise ValueError(str(e)) from None
+    nums = [float(w) for w in words[3:]]
+    if len(nums) % 2:
+        raise ValueError("an odd count of pixel numbers")
+    return words[2], list(zip(nums[::2], nums[1::2], strict=True))
 
 
 def drawn_pairs(kind: str, pixels: list[Any]) -> list[tuple[Any, Any]]:

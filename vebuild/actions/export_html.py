@@ -34,6 +34,13 @@ def _sigma(s: float | None, unit: Any) -> str:
 
 
 def _measurement_items(rec: dict[str, Any], figures: dict[str, Any], unit: Any) -> list[dict[str, Any]]:
+    if figures.get("frame") is not None:  # a person-height: its vertical, foot point to head-top
+        from .handoff import person_item
+
+        it = person_item(rec, figures["frame"])
+        ends = it["ends"]
+        return [{"kind": it["kind"], "label": it["label"], "anchor": [(a + b) / 2 for a, b in zip(*ends, strict=True)],
+                 "paths": [ends], "cone": []}]
     out = []
     for m in figures.get("measurements") or []:
         value, sigma, ci = m.get(unit.key("value")), m.get(unit.key("sigma")), m.get(unit.key("ci95"))

@@ -90,6 +90,14 @@ def measurement_items(project: Project, photo: str) -> list[dict[str, Any]]:
     out: list[dict[str, Any]] = []
     for i, rec in enumerate(project.data.get("analyses") or []):
         words = list(rec.get("command") or [])
+        if words[:1] == ["person-height"]:
+            request, result = run_recorded(project, i, rec)
+            frame = result.figures.get("frame")
+            if frame is not None and frame["photo"] == photo:
+                out.append({"name": rec["name"], "record": rec["name"], "description": rec.get("description", ""),
+                            "analysis": request.name, "command": words, "table": result.table,
+                            "lengths": "metres", "clicks": frame["clicks_px"], **person_item(rec, frame)})
+            continue
         kind = single_view_kind(words)
         if kind is None:
             continue
@@ -129,6 +137,17 @@ def measurement_items(project: Project, photo: str) -> list[dict[str, Any]]:
                         "lengths": "relative" if relative else "metres",
                         "ends": line.ends.tolist(), "clicks": line.clicks.tolist()})
     return out
+
+
+def person_item(rec: dict[str, Any], frame: dict[str, Any]) -> dict[str, Any]:
+    """A recorded person-height's frame (:meth:`vebuild.analysis.person.PersonFrame.to_json`) as a
+    line to draw: the vertical measured, from the foot point on the floor to the height in the
+    image, labelled with it and with the height the allowances make of it."""
+    lo, hi = frame["ci95_m"]
+    label = (f"{rec['name']}: {frame['image_height_m']:.3f} m ± {1000 * frame['sigma_image_m']:.1f} mm (1σ) in the "
+             f"image; with the allowances entered {frame['value_m']:.3f} m, 95 % [{lo:.3f}, {hi:.3f}]")
+    return {"kind": "height", "label": label, "value": float(frame["image_height_m"]),
+            "sigma": float(frame["sigma_image_m"]), "ci95": [lo, hi], "ends": [frame["foot_m"], frame["top_m"]]}
 
 
 def camera_scene(project: Project, cam: ImageCamera,

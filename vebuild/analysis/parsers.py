@@ -32,6 +32,7 @@ from .requests import (
     WallLengthRequest,
 )
 from .requests_geometry import SightlineRequest, TrajectoryRequest, ViewshedRequest
+from .requests_person import PERSON_HELP, add_person_arguments, person_request
 from .sightline import SITTING_EYE_M, STANDING_EYE_M
 
 ToRequest = Callable[[argparse.Namespace], Request]
@@ -79,6 +80,7 @@ def add_analyse_parsers(sub: Any) -> Any:
         q.add_argument("--photo", required=True, metavar="ID", help="the calibrated photo")
         q.add_argument("pixels", nargs="+", type=float, metavar="U V",
                        help=f"pixel coordinates, {pixels} per measurement")
+    _add_person(asub)
     _add_geometry(asub)
     q = _subcommand(asub, "lighting", "one view under several lighting presets side by side, with the target's "
                     "luminance under each",
@@ -98,6 +100,12 @@ def _single_view(request: type[PhotoHeightRequest]) -> ToRequest:
         return request(a.photo, tuple(a.pixels))
 
     return to_request
+
+
+def _add_person(asub: Any) -> None:
+    """person-height (:mod:`vebuild.analysis.requests_person`)."""
+    q = _subcommand(asub, "person-height", PERSON_HELP, person_request)
+    add_person_arguments(q)
 
 
 def _add_geometry(asub: Any) -> None:

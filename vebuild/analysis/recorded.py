@@ -11,43 +11,24 @@ import argparse
 import contextlib
 import io
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any, NoReturn
+from typing import TYPE_CHECKING, Any
 
 from vebuild.errors import VebuildError
 
 if TYPE_CHECKING:
     from vebuild.project import Project
 
+from .quiet_parser import QuietParser
 from .requests import AnalysisResult, Request
 from .requests_geometry import TrajectoryRequest
+from .requests_person import WORD as PERSON_HEIGHT
+from .requests_person import person_command
 from .single_view import single_view_command
 
 #: Words that ask for help rather than an analysis.
 _HELP_WORDS = ("-h", "--help")
 _EXPECTED = ("expected the words of a `vebuild analyse` command after the project, such as "
              "[\"distance\", \"cabinet:v4\", \"table.top@top\"]")
-
-
-class _Parser(argparse.ArgumentParser):
-    """An argparse parser that never prints or exits: every complaint is a :class:`VebuildError`
-    (the stored words are data in a project file, not a command line a person is typing)."""
-
-    def __init__(self, *args: Any, **kwargs: Any) -> None:
-        kwargs["add_help"] = False  # -h/--help would print and exit; refused in :func:`parse_recorded`
-        kwargs["exit_on_error"] = False
-        super().__init__(*args, **kwargs)
-
-    def error(self, message: str) -> NoReturn:
-        raise VebuildError(message)
-
-    def exit(self, status: int = 0, message: str | None = None) -> NoReturn:
-        raise VebuildError(message.strip() if message else f"the command would exit (status {status})")
-
-    def print_help(self, file: Any = None) -> None:
-        raise VebuildError("the command asks for help (-h/--help); expected the words of an analysis")
-
-    def print_usage(self, file: Any = None) -> None:
-        raise VebuildError("the command asks for its usage; expected the words of an analysis")
 
 
 def parse_recorded(words: Any, where: str | None = None) -> Request:
@@ -63,8 +44,8 @@ def parse_recorded(words: Any, where: str | None = None) -> Request:
     asks = [w for w in words if w in _HELP_WORDS or (len(w) >= 3 and "--help".startswith(w))]
     if asks:
         raise VebuildError(f"{at}the command asks for help ({asks[0]!r}), which is not an analysis; {_EXPECTED}")
-    parser = _Parser(prog="vebuild")
-    add_analyse_parsers(parser.add_subparsers(dest="command", parser_class=_Parser))
+    parser = QuietParser(prog="vebuild")
+    add_analyse_parsers(parser.add_subparsers(dest="command", parser_class=QuietParser))
     try:
         with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
             args = parser.parse_args(["analyse", "PROJECT", *words])
@@ -105,12 +86,19 @@ def run_recorded(project: Any, index: int, record: dict[str, Any],
 
 def measure_clicked(project: Project, kind: str, photo: str,
                     clicks: Sequence[Sequence[float]]) -> tuple[list[str], AnalysisResult]:
-    """One single-view measurement clicked on ``photo``: the words saved for it
+    """One single-view measurement clicked on ``photo`` (or a person-height:
+    :func:`~.requests_person.person_command`): the words saved for it
     (:func:`~.single_view.single_view_command`; record them as ``{"name", "description", "command": words}``)
     and the result of the request parsed from those words, as ``vebuild analyse PROJECT *words``
     runs it: its ``table`` is the text the command line prints, its ``figures["measurements"][0]``
     the value, 1σ and 95 % interval. A click that cannot be measured is a :class:`VebuildError`
     (a :class:`~.single_view.SingleViewError` naming the photo and the click) whose text is a sentence for the
     screen."""
-    words = single_view_command(kind, photo, clicks)
+    if kind == PERSON_HEIGHT:  # the top of the head, then the foot point (or the two feet)
+        if len(clicks) not in (2, 3):
+            raise VebuildError(f"a {kind} takes the top of the head and the foot point (or the two feet), got "
+                               f"{len(clicks)} clicked points")
+        words = person_command(photo, clicks[0], list(clicks[1:]))
+    else:
+        words = single_view_command(kind, photo, clicks)
     return words, parse_recorded(words).run(project)

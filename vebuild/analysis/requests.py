@@ -198,6 +198,17 @@ class ChecksRequest(_NoImage):
         return AnalysisResult(text, {**_solution_figures(project, solved), "checks": [c.to_json() for c in checks]})
 
 
+def single_view_camera(project: Project, photo: str) -> tuple[Any, float, bool]:
+    """The camera of a calibrated ``photo`` for a single-view measurement, its lens' 1σ, and
+    whether its lengths are relative (no scale was given)."""
+    from vebuild.project.decode import camera_records, photo_camera
+
+    cam = photo_camera(project, photo)
+    cal = camera_records(project.data)[cam.id]  # the final record, as photo_camera's
+    k1_sigma = float(((cal.get("distortion") or {}).get("k1") or {}).get("sigma") or 0.0)
+    return cam, k1_sigma, (cal.get("placement") or {}).get("lengths") == "relative"
+
+
 @dataclass(frozen=True)
 class PhotoHeightRequest(_NoImage):
     """Heights above the floor measured on one calibrated photo (:mod:`vebuild.analysis.single_view`);
@@ -211,7 +222,6 @@ class PhotoHeightRequest(_NoImage):
 
     def run(self, project: Project) -> AnalysisResult:
         from vebuild.errors import VebuildError
-        from vebuild.project.decode import camera_records, photo_camera
 
         from .single_view import SINGLE_VIEW_CLICKS, measure_on_photo
 
@@ -226,13 +236,11 @@ class PhotoHeightRequest(_NoImage):
                                    f"{got}")
             raise VebuildError(f"{word}: expected {each} numbers for each measurement, the pixel U V of each of its "
                                f"{len(prompts)} points in turn ({'; '.join(prompts)}), {got}")
-        cam = photo_camera(project, self.photo)
-        cal = camera_records(project.data)[cam.id]  # the final record, as photo_camera's
-        k1_sigma = float(((cal.get("distortion") or {}).get("k1") or {}).get("sigma") or 0.0)
+        cam, k1_sigma, relative = single_view_camera(project, self.photo)
         click = project.settings["click_sigma_px"]
         rows = [measure_on_photo(cam, word, [self.pixels[i : i + 2] for i in range(k, k + each, 2)],
                                  click_sigma_px=click, k1_sigma=k1_sigma) for k in range(0, len(self.pixels), each)]
-        unit = RELATIVE if (cal.get("placement") or {}).get("lengths") == "relative" else length_unit(project.data)
+        unit = RELATIVE if relative else length_unit(project.data)
         text = _table(rows, unit)
         against = "the floor (z = 0)" if word in ("photo-height", "floor-distance") else \
             "the floor (z = 0) and the plane its clicks mark"

@@ -62,6 +62,8 @@ def analyses_html(project: Project, rep: Report, records: list[dict[str, Any]]) 
         parts.append(f"<pre class='small' style='font-size: {pre_points(text):.2f}pt'>{esc(text)}</pre>")
         if words and words[0] in SINGLE_VIEW_CLICKS:  # drawn by vebuild.report.single_view
             parts.append("<p class='small'>Drawn on its photo under “Measurements on the photos”.</p>")
+        if words[:1] == ["person-height"]:  # drawn and combined by vebuild.report.person
+            parts.append("<p class='small'>Drawn on its photo and combined per person under “Person heights”.</p>")
         if result.image is not None and result.image.is_file():
             rep.images.append(result.image)
             parts.append(f"<figure><img src='{image}'></figure>")

@@ -47,7 +47,8 @@ def run_analyses(project: Project, rep: Report) -> None:
 def answers(project: Project, rep: Report) -> list[str]:
     """One sentence per result the recorded analyses give, in the order the project records them."""
     unit = length_unit(project.data)
-    out = []
+    out: list[str] = []
+    people: set[str] = set()  # each person's combined height said once, however many frames record it
     for i, rec in enumerate(project.data.get("analyses") or []):
         if i not in rep.recorded:
             continue
@@ -55,7 +56,16 @@ def answers(project: Project, rep: Report) -> list[str]:
         name = str(rec["name"]) + (f" ({rec['description']})" if rec.get("description") else "")
         rows = list(result.figures.get("measurements") or [])
         sight = result.figures.get("sightline")
-        if sight is not None:
+        person, frame = result.figures.get("combined"), result.figures.get("frame")
+        if person is not None:
+            if person["person"] not in people:
+                people.add(person["person"])
+                n = person["frames"]
+                out.append(f"the height of {person['person']}, from {n} frame{'s' if n > 1 else ''}: "
+                           f"{_interval(unit, person)}.")
+        elif frame is not None:
+            out.append(f"{name}: the height of the person in photo {frame['photo']}: {_interval(unit, frame)}.")
+        elif sight is not None:
             out.append(f"{name}: {_seen(sight)}.")
         elif rows:
             for fig in rows:

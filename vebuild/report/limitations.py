@@ -234,7 +234,8 @@ def _single_view(project: Project) -> list[Limitation]:
     cams = (data.get("calibration") or {}).get("cameras") or {}
     alone = [pid for pid, c in cams.items() if (c.get("placement") or {}).get("how") == "alone"]
     measured = [a for a in data.get("analyses") or [] if isinstance(a.get("command"), list) and a["command"]
-                and a["command"][0] in SINGLE_VIEW_CLICKS]
+                and a["command"][0] in (*SINGLE_VIEW_CLICKS, "person-height")]
+    people = any(a["command"][0] == "person-height" for a in measured)
     if not alone and not measured:
         return []
     click = project.settings["click_sigma_px"]
@@ -265,6 +266,16 @@ def _single_view(project: Project) -> list[Limitation]:
         if not cams[pid].get("distortion"):
             items.append(f"{pid}: no lens distortion was estimated (no marked line had middle points): a lens that "
                          "bends straight lines shifts points near the photo's edges.")
+    if people:
+        items += [
+            "A person's height is that of the figure in its frame as imaged, from the floor under the feet to the "
+            "top of the head clicked: the allowances for footwear, head covering, posture and a hidden crown are "
+            "the examiner's entries, each with its stated 1σ and source, and the result is only as good as they "
+            "are. It is not the person's documented standing height.",
+            "Frames of one person on different photos are taken as independently calibrated; frames that share one "
+            "calibration (one fixed camera calibrated once) share its error, which no number of frames averages "
+            "down. A figure that is not upright (leaning, on a slope) is measured as if it were.",
+        ]
     return [Limitation("single-view", "What a single photo cannot tell",
                        "Measurements on a single photo rest on assumptions that the photo itself cannot check:",
                        tuple(items))]

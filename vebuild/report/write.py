@@ -11,7 +11,7 @@ from pathlib import Path
 from vebuild.errors import VebuildError
 from vebuild.project import Project
 
-from . import deviation, findings, sections, single_view, without_model
+from . import deviation, findings, person, sections, single_view, without_model
 from .page import Report, page
 from .processing import processing
 from .without_model import has_model, not_calibrated
@@ -35,11 +35,12 @@ def report_steps(modelled: bool, summary: bool = False) -> list[tuple[str, Secti
     body: list[tuple[str, Section]] = [
         ("views", pick(sections.views, without_model.views)),
         ("marked photos", sections.marked_photos), ("measurements on the photos", single_view.section),
-        ("analyses", sections.analyses), ("checks", pick(sections.checks, without_model.checks)),
+        ("person heights", person.section), ("analyses", sections.analyses),
+        ("checks", pick(sections.checks, without_model.checks)),
         ("limitations", sections.limitations), ("hypotheses", pick(sections.hypotheses, without_model.hypotheses)),
         ("declaration", sections.declaration)]
     if summary:
-        return [(n, f) for n, f in body if n in ("views", "limitations", "declaration")]
+        return [(n, f) for n, f in body if n in ("views", "person heights", "limitations", "declaration")]
     annex: list[tuple[str, Section]] = [
         ("identification", sections.identification), ("photos", sections.photos),
         ("calibration", sections.calibration),

@@ -114,9 +114,8 @@ class ViewerMeasure:
             if not words or words[0] not in sv.kinds() or len(words) < 3 or words[1] != "--photo":
                 continue
             try:
-                nums = [float(w) for w in words[3:]]
-                measured = sv.measure_on_photo(v.project, words[0], words[2], list(zip(nums[::2], nums[1::2],
-                                                                                        strict=True)))
+                photo, clicks = sv.saved_clicks(list(words))
+                measured = sv.measure_on_photo(v.project, words[0], photo, clicks)
             except (ValueError, VebuildError) as e:
                 reason = str(e) if isinstance(e, VebuildError) else "its pixels are not pairs of numbers"
                 v.say(f"saved measurement {rec.get('name')!r} not drawn: {reason}")
