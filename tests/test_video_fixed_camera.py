@@ -82,3 +82,23 @@ def test_frames_released_from_the_fixed_camera_calibrate_each_alone(tmp_path: Pa
     for cam in result["cameras"].values():
         assert "fixed_camera" not in cam
         assert cam["focal_px"]["sigma"] > one["focal_px"]["sigma"]
+
+
+def test_the_report_and_the_html_viewer_name_each_stills_video_frame_time_and_field(tmp_path: Path) -> None:
+    from vebuild.actions.export_html import export_html
+    from vebuild.report.page import Report
+    from vebuild.report.sections import photos
+
+    ph = one_photo(np.random.default_rng(3))
+    split = load_project(_split_over_two_frames(write_one_photo(tmp_path, ph)))
+    split.data["photos"][1]["origin"].update(field="top", interlaced=True)
+    calibrate_project(split)
+    save_project(split)
+    rep = Report(tmp_path / "report")
+    photos(split, rep)
+    html = "".join(rep.sections)
+    for text in ("cctv.mp4", "ab" * 32, ">10<", ">40<", "0.400", "1.600", ">top<", "both (whole frame)"):
+        assert text in html, text
+    export_html(split, tmp_path / "web", photo="cctv.f000040")
+    written = "".join(p.read_text(errors="replace") for p in (tmp_path / "web").rglob("*.js*"))
+    assert "frame 40 at 1.6 s of cctv.mp4 (SHA-256 " + "ab" * 32 + "), top field only (interlaced" in written

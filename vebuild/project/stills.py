@@ -249,3 +249,22 @@ def check_videos(project: Any) -> tuple[list[str], bool]:
         else:
             lines.append(f"video {origin['video']!r}: SHA-256 verified (the source of its stills)")
     return lines, changed
+
+
+def origin_summary(photo: dict[str, Any]) -> dict[str, Any] | None:
+    """What the report and the HTML viewer say of a still's source (None for a photo): the video
+    file, its SHA-256, the frame's index and time, the field used and whether it is interlaced."""
+    origin = photo.get("origin")
+    if not origin:
+        return None
+    return {"video": origin["video"], "sha256": origin["sha256"], "frame": origin["frame"], "time": origin["time"],
+            "field": origin["field"], "interlaced": origin["interlaced"], "decoder": origin["decoder"],
+            "words": f"frame {origin['frame']} at {origin['time']:g} s of {origin['video']} (SHA-256 "
+                     f"{origin['sha256']}), {_field_words(origin)}"}
+
+
+def _field_words(origin: dict[str, Any]) -> str:
+    interlaced = "interlaced" if origin["interlaced"] else "progressive"
+    if origin["field"] == "both":
+        return f"whole frame ({interlaced})"
+    return f"{origin['field']} field only ({interlaced}; the other field's rows interpolated)"
