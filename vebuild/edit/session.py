@@ -30,6 +30,7 @@ from vebuild.model.undo import UndoStack
 from vebuild.project import Project, load_project, new_photo_entry
 from vebuild.project.images import RAW_SUFFIXES
 from vebuild.project.provenance import Stale, stale
+from vebuild.project.stills import fixed_camera_groups, prepare_photos, write_stills
 
 from .assist import Assist, Proposal
 from .history import UNDO_DEPTH, EditError, PackedDocument
@@ -118,6 +119,24 @@ class EditSession(Assist, Rooms, SessionOverlays):
         self.say(f"added photo '{entry['id']}' ({entry['width']}×{entry['height']}, "
                  f"SHA-256 {entry['sha256'][:12]}…)")
         return entry["id"]
+
+    def add_video_still(self, video: str | Path, frame: int, field: str | None = None) -> str:
+        """Add frame ``frame`` (from 0) of a video from the project's folder as a still: a lossless
+        PNG beside it, its origin recorded, in the video's camera group (docs/video-stills.md)."""
+        try:
+            (prepared,) = prepare_photos(self.project.folder, [str(video)], frames=[frame], field=field,
+                                         taken=self.photo_ids)
+            write_stills([prepared])
+        except VebuildError as e:
+            raise EditError(str(e)) from None
+        entry = prepared.entry
+        with self._edit(f"add photo {entry['id']}"):
+            self.data["photos"].append(entry)
+            fixed_camera_groups(self.data)
+        o = entry["origin"]
+        self.say(f"added photo '{entry['id']}': frame {o['frame']} at {o['time']:g} s of {o['video']} "
+                 f"({entry['width']}×{entry['height']}, SHA-256 {entry['sha256'][:12]}…)")
+        return str(entry["id"])
 
     def folder_photos(self) -> list[Path]:
         """The image files (:data:`PHOTO_SUFFIXES`) in the project's folder and the folders inside it
