@@ -59,6 +59,10 @@ def test_a_frame_chosen_by_stepping_in_the_browser_is_added_as_a_still(tmp_path,
     d.send("key", "ctrl+o")
     assert e.browser is not None and e.browser.folder == plan.folder
     d.click("browser:cctv.mp4")
+    assert e.browser.video is not None
+    d.send("key", "Escape")  # back to the folder, the browser still open
+    assert e.browser is not None and e.browser.video is None
+    d.click("browser:cctv.mp4")
     v = e.browser.video
     assert v is not None and v.index == 0 and "frame label" in e.widget_rects
     d.send("key", "period", "key", "period", "key", "period")

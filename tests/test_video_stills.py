@@ -130,6 +130,8 @@ def test_new_writes_lossless_stills_with_their_origin_and_one_camera_group(tmp_p
     assert _run("add", project, tmp_path / "cctv.mp4", "--frame", "10", "--field", "top") == 0
     p = load_project(project)
     assert p.data["photos"][2]["origin"]["field"] == "top"
+    top = np.asarray(Image.open(tmp_path / "cctv.f000010-top.png"))
+    assert np.array_equal(top[0::2], frames[10][0::2])  # the top field's rows, exactly
     assert p.data["camera_groups"][0]["photos"][-1] == p.data["photos"][2]["id"]
     capsys.readouterr()
     assert _run("check", project) == 0
