@@ -12,6 +12,7 @@ from PIL import Image
 from video_clips import random_frames, write_clip
 
 from vebuild.edit.browser import FileBrowser
+from vebuild.edit.history import EditError
 from vebuild.edit.session import EditSession
 from vebuild.edit.video_frames import VideoFrames
 from vebuild.project import load_project
@@ -77,6 +78,13 @@ def test_a_frame_chosen_by_stepping_in_the_browser_is_added_as_a_still(tmp_path,
     assert v.index == 4
     d.click("frame add")
     assert e.browser is None and s.photo_ids == ["cctv.f000004"] and e.photo == "cctv.f000004"
+    # A video dropped onto the window opens its frames in the browser (as glfw's drop callback does).
+    e.on_drop([str(plan.folder / "cctv.mp4")])
+    d.frames(2)
+    assert e.browser is not None and e.browser.video is not None and e.browser.video.index == 0
+    d.send("key", "Escape")
+    d.send("key", "Escape")
+    assert e.browser is None
     s.save()
     p = load_project(plan.project)
     (photo,) = p.data["photos"]
@@ -92,3 +100,16 @@ def test_the_session_adds_frames_of_one_video_to_one_camera_group(tmp_path) -> N
     assert s.data["camera_groups"] == [{"id": "video cctv.mp4", "photos": [a, b]}]
     s.undo()
     assert s.photo_ids == [a] and not s.data.get("camera_groups")
+
+
+def test_a_video_frame_named_on_the_command_line_is_added_as_the_screen_opens(tmp_path) -> None:
+    """`vebuild edit --add-photo CLIP@frame=N` goes through the session's add_photo."""
+    plan = make_plan(tmp_path / "room")
+    frames = random_frames(6, 32, 24, seed=4)
+    write_clip(plan.folder / "cctv.mp4", frames)
+    s = EditSession.open(plan.project)
+    pid = s.add_photo("cctv.mp4@time=0.1")  # relative to the project's folder; 0.1 s: frame 2 at 25 fps
+    assert pid == "cctv.f000002" and s.photo(pid)["origin"]["frame"] == 2
+    with pytest.raises(EditError, match="a video file needs the frame to take"):
+        s.add_photo("cctv.mp4")
+    assert s.photo_ids == [pid]

@@ -406,7 +406,8 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
                          help="take the edits an earlier session left in the side file PROJECT.autosave")
         rec.add_argument("--discard-autosave", action="store_true", help="discard the autosave side file's edits")
         p.add_argument("--add-photo", action="append", metavar="FILE",
-                       help="add this image (in the project's folder) to the project first; repeat for more")
+                       help="add this image (in the project's folder) to the project first, or a video's frame as "
+                            "CLIP@frame=N or CLIP@time=SECONDS; repeat for more")
         p.set_defaults(func=_cmd_edit)
 
     if p := command_parser("mark", help="place (or remove) a labelled evidence marker on a surface of the model"):

@@ -190,6 +190,15 @@ class PhotoBrowser(EditorPart):
         """Files dropped onto the window: each added as a photo (a folder: the images in it)."""
         if self._busy:
             return
+        videos = [p for p in paths if is_video(p) and Path(p).is_file()]
+        if videos:  # a video dropped: its frames shown in the browser, to choose one
+            self.open_browser()
+            assert self.browser is not None
+            if self.browser.go(Path(videos[0]).parent):
+                self.browser.open_video(Path(videos[0]).name, self.session.project.folder)
+            paths = [p for p in paths if p not in videos]
+            if not paths:
+                return
         self.add_dropped_or_picked(paths)
 
     def add_dropped_or_picked(self, paths: list[Any], from_browser: bool = False) -> list[str]:
