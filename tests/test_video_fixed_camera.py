@@ -102,3 +102,31 @@ def test_the_report_and_the_html_viewer_name_each_stills_video_frame_time_and_fi
     export_html(split, tmp_path / "web", photo="cctv.f000040")
     written = "".join(p.read_text(errors="replace") for p in (tmp_path / "web").rglob("*.js*"))
     assert "frame 40 at 1.6 s of cctv.mp4 (SHA-256 " + "ab" * 32 + "), top field only (interlaced" in written
+
+
+def test_the_html_viewer_shows_each_stills_video_and_frame_in_its_camera_list(tmp_path: Path) -> None:
+    """In a real headless Chromium (tests/chromium_cdp.py): the panel's camera list names the video,
+    its SHA-256, the frame, its time and the field beside the still's camera."""
+    from chromium_cdp import Browser, find_chromium
+
+    from vebuild.actions.export_html import export_html
+
+    chromium = find_chromium()
+    if chromium is None:
+        pytest.skip("the HTML viewer's tests need a headless Chromium: `apt-get install chromium`")
+    split = load_project(_split_over_two_frames(write_one_photo(tmp_path, one_photo(np.random.default_rng(3)))))
+    split.data["photos"][1]["origin"].update(field="bottom", interlaced=True)
+    calibrate_project(split)
+    save_project(split)
+    export_html(split, tmp_path / "web", photo="cctv.f000040")
+    browser = Browser(chromium, 800, 600)
+    try:
+        browser.open((tmp_path / "web" / "index.html").as_uri())
+        state = "JSON.parse(document.getElementById('vebuild-state').textContent)"
+        browser.wait_for(f"(function(){{var s={state};return s.errors.length>0||s.stage==='running';}})()", 60)
+        assert browser.evaluate(f"{state}.errors") == []
+        shown = browser.evaluate("document.getElementById('cameras').textContent")
+    finally:
+        browser.close()
+    assert ("cctv.f000040: frame 40 at 1.6 s of cctv.mp4 (SHA-256 " + "ab" * 32 + "), bottom field only (interlaced"
+            in shown)
