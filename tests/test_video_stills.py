@@ -191,3 +191,20 @@ def test_a_still_is_never_written_over_a_different_file(tmp_path: Path, capsys) 
     Image.fromarray(frames[1]).save(other)  # the same pixels: taken as the still, not rewritten
     assert _run("new", tmp_path / "p.vebuild.json", tmp_path / "v.mp4@frame=1") == 0
     assert json.loads((tmp_path / "p.vebuild.json").read_text())["photos"][0]["sha256"] == sha256_file(other)
+
+
+def test_a_frame_past_damaged_data_is_refused_as_damaged(tmp_path: Path) -> None:
+    """A packet's bytes garbled in the file: decoding through it is refused, naming the frame."""
+    path = write_clip(tmp_path / "cctv.mkv", [smooth_scene(128, 96, i) for i in range(20)], codec="libx264",
+                      options={"crf": "20", "g": "100"})
+    import av
+
+    with av.open(str(path)) as c:
+        packets = [(p.pos, p.size) for p in c.demux(c.streams.video[0]) if p.size]
+    data = bytearray(path.read_bytes())
+    pos, size = packets[8]
+    for i in range(pos + size // 3, pos + size - 4):
+        data[i] = (data[i] * 7 + 13) % 256
+    path.write_bytes(bytes(data))
+    with pytest.raises(ProjectError, match=r"cannot decode frame 15 of cctv.mkv \(--frame 15\): the file is damaged"):
+        decode_still(path, tmp_path, frame=15)

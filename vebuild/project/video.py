@@ -168,6 +168,10 @@ def decode_still(video: str | os.PathLike[str], folder: str | os.PathLike[str], 
         if decoded is None or _pts(decoded) != target:
             raise ProjectError(video, "", f"cannot decode frame {index} of {video.name} ({arg}): the decoder "
                                f"gave no frame at its time ({times.time(index):g} s); the file may be damaged")
+        if getattr(decoded, "is_corrupt", False):
+            raise ProjectError(video, "", f"frame {index} of {video.name} ({arg}) decodes damaged (the decoder marks "
+                               "it corrupt: its data is missing or broken in the file); expected a whole frame, so "
+                               "choose another one")
         rgb = np.ascontiguousarray(decoded.to_ndarray(format="rgb24"), dtype=np.uint8)
         ctx = stream.codec_context
         order = _FIELD_ORDER.get(int(getattr(ctx, "field_order", 0) or 0), "unknown")
