@@ -9,10 +9,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from chromium_cdp import Browser, find_chromium
 from one_photo_scene import one_photo, write_one_photo
 
 from vebuild.actions.calibrate import calibrate_project
+from vebuild.actions.export_html import export_html
+from vebuild.console.tables import calibration_table
 from vebuild.project import load_project, save_project, sha256_file
+from vebuild.report.page import Report
+from vebuild.report.sections import photos
 
 ORIGIN = {"video": "cctv.mp4", "sha256": "ab" * 32, "container": "mov,mp4,m4a,3gp,3g2,mj2", "stream": 0,
           "decoder": "h264 (FFmpeg libavcodec 62.28.103)", "frames": 100, "time_base": "1/12800",
@@ -69,6 +74,8 @@ def test_lines_split_over_two_frames_calibrate_as_all_on_one(tmp_path: Path, see
     C, sig = np.array(cams["cctv.f000010"]["position"]["value"]), np.array(cams["cctv.f000010"]["position"]["sigma"])
     assert np.all(np.abs(C - ph.C) < 4 * sig + 1e-9)
     save_project(split)  # the record is valid against the schema: written and read back
+    said = calibration_table(load_project(split.path).data["calibration"])
+    assert "fixed camera     one camera with cctv.f000040 (stills of one video" in said
     assert load_project(split.path).data["calibration"]["cameras"]["cctv.f000040"]["fixed_camera"]
 
 
@@ -85,10 +92,6 @@ def test_frames_released_from_the_fixed_camera_calibrate_each_alone(tmp_path: Pa
 
 
 def test_the_report_and_the_html_viewer_name_each_stills_video_frame_time_and_field(tmp_path: Path) -> None:
-    from vebuild.actions.export_html import export_html
-    from vebuild.report.page import Report
-    from vebuild.report.sections import photos
-
     ph = one_photo(np.random.default_rng(3))
     split = load_project(_split_over_two_frames(write_one_photo(tmp_path, ph)))
     split.data["photos"][1]["origin"].update(field="top", interlaced=True)
@@ -104,13 +107,10 @@ def test_the_report_and_the_html_viewer_name_each_stills_video_frame_time_and_fi
     assert "frame 40 at 1.6 s of cctv.mp4 (SHA-256 " + "ab" * 32 + "), top field only (interlaced" in written
 
 
+@pytest.mark.slow  # a headless Chromium
 def test_the_html_viewer_shows_each_stills_video_and_frame_in_its_camera_list(tmp_path: Path) -> None:
     """In a real headless Chromium (tests/chromium_cdp.py): the panel's camera list names the video,
     its SHA-256, the frame, its time and the field beside the still's camera."""
-    from chromium_cdp import Browser, find_chromium
-
-    from vebuild.actions.export_html import export_html
-
     chromium = find_chromium()
     if chromium is None:
         pytest.skip("the HTML viewer's tests need a headless Chromium: `apt-get install chromium`")
