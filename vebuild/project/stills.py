@@ -31,8 +31,8 @@ from vebuild import __version__
 from vebuild.errors import ProjectError
 
 from .atomic import write_bytes
-from .file import new_photo_entry
-from .images import sha256_bytes
+from .file import Project, new_photo_entry
+from .images import sha256_bytes, sha256_file
 from .video import FIELDS, decode_still, frame_times, is_video
 
 _AT = re.compile(r"^(?P<file>.+)@(?P<key>frame|time)=(?P<value>[^@=]*)$")
@@ -145,8 +145,6 @@ def prepare_photos(folder: str | os.PathLike[str], words: Sequence[str], frames:
                                    "that folder (or a folder inside it) so that the project, its stills and the "
                                    "video they came from move together")
             if str(video) not in hashes:
-                from .images import sha256_file
-
                 known = frame_times(video, f"--{kind} {value:g}")
                 hashes[str(video)] = (known, sha256_file(video))
             known, digest = hashes[str(video)]
@@ -219,12 +217,10 @@ def fixed_camera_groups(data: dict[str, Any]) -> None:
         del data["camera_groups"]
 
 
-def check_videos(project: Any) -> tuple[list[str], bool]:
+def check_videos(project: Project) -> tuple[list[str], bool]:
     """``vebuild check``'s lines on the videos the stills came from, and whether one has changed:
     each present video's SHA-256 is verified; a missing one is said (the still, whose own hash is
     verified with the photos, remains the evidence)."""
-    from .images import sha256_file
-
     lines: list[str] = []
     changed = False
     seen: dict[str, str] = {}
