@@ -9,11 +9,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from camera_group_scene import with_box
 from chromium_cdp import Browser, find_chromium
 from one_photo_scene import one_photo, write_one_photo
 
 from vebuild.actions.calibrate import calibrate_project
 from vebuild.actions.export_html import export_html
+from vebuild.actions.solve import solve_project
 from vebuild.console.tables import calibration_table
 from vebuild.project import load_project, save_project, sha256_file
 from vebuild.report.page import Report
@@ -130,3 +132,16 @@ def test_the_html_viewer_shows_each_stills_video_and_frame_in_its_camera_list(tm
         browser.close()
     assert ("cctv.f000040: frame 40 at 1.6 s of cctv.mp4 (SHA-256 " + "ab" * 32 + "), bottom field only (interlaced"
             in shown)
+
+
+def test_a_recalibrating_solve_warns_that_it_does_not_hold_the_fixed_camera_as_one(tmp_path: Path) -> None:
+    split = load_project(_split_over_two_frames(write_one_photo(tmp_path, one_photo(np.random.default_rng(3)))))
+    calibrate_project(split)
+    save_project(split)
+    with_box(split.path)
+    project = load_project(split.path)
+    plain = solve_project(project)
+    assert not any("fixed camera" in w for w in plain["warnings"])
+    result = solve_project(project, recalibrate=True)
+    assert any("are one fixed camera, but the re-calibration refines each still's camera on its own" in w
+               and "by up to √2" in w for w in result["warnings"])

@@ -117,3 +117,13 @@ def spread(result: dict[str, Any], sets: list[list[str]]) -> None:
     if cameras:
         order = list(cameras)
         result["cameras"] = {pid: cameras[pid] for pid in order}
+
+
+def recalibration_warnings(data: dict[str, Any]) -> list[str]:
+    """What a re-calibrating solve says of the stills of a fixed camera: it refines each still's
+    camera on its own, each held by the prior of the one camera calibrated from all their marks, so
+    that prior counts once per still and the re-calibrated σ can be optimistic (up to √n for n stills)."""
+    return [f"stills {', '.join(repr(p) for p in ids)} are one fixed camera, but the re-calibration refines each "
+            f"still's camera on its own, each held by that camera's calibration (counted {len(ids)} times): the "
+            f"re-calibrated uncertainties of what they show may be too small, by up to √{len(ids)}; a solve without "
+            "--recalibrate keeps the fixed camera's calibration" for ids in fixed_sets(data)]
