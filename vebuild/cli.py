@@ -279,6 +279,9 @@ def _cmd_check(args: argparse.Namespace) -> int:
     details = check_project(project)
     photos = project.data["photos"]
     status = project_status(project)
+    from .project.stills import check_videos
+
+    videos, video_changed = check_videos(project)
     outside = "; changed outside vebuild (see the audit trail below)" if status.audit else ""
     print(f"{project.path}: {'stale' if status.stale else 'valid'} vebuild project (format version "
           f"{project.data['version']}), {len(photos)} photo(s), hashes verified{outside}")
@@ -286,21 +289,9 @@ def _cmd_check(args: argparse.Namespace) -> int:
         n_seg = sum(len(v) for v in (p.get("vanishing_segments") or {}).values())
         print(f"  {p['id']:<10} {p['file']:<28} {p['width']}×{p['height']}  sha256 {p['sha256'][:16]}…  "
               f"{n_seg} segments, {len(p.get('marker_observations') or {})} markers")
-    for line in details + status.lines:
+    for line in details + videos + status.lines:
         print(f"  {line}")
-    return 0 if status.clean else 1
-
-
-def _cmd_new(args: argparse.Namespace) -> int:
-    from .project import new_photo_entry, new_project, save_project
-    from .project.outputs import check_new_project
-
-    path = check_new_project(args.project, args.force)
-    data = new_project(args.name or path.name.split(".")[0])
-    data["photos"] = [new_photo_entry(path.parent, img) for img in args.photos]
-    save_project(path, data)
-    print(f"created {path} with {len(data['photos'])} photo(s)")
-    return 0
+    return 0 if status.clean and not video_changed else 1
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
@@ -416,7 +407,8 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
                          help="take the edits an earlier session left in the side file PROJECT.autosave")
         rec.add_argument("--discard-autosave", action="store_true", help="discard the autosave side file's edits")
         p.add_argument("--add-photo", action="append", metavar="FILE",
-                       help="add this image (in the project's folder) to the project first; repeat for more")
+                       help="add this image (in the project's folder) to the project first, or a video's frame as "
+                            "CLIP@frame=N or CLIP@time=SECONDS; repeat for more")
         p.set_defaults(func=_cmd_edit)
 
     if p := command_parser("mark", help="place (or remove) a labelled evidence marker on a surface of the model"):
@@ -519,15 +511,6 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
         p.add_argument("project")
         p.set_defaults(func=_cmd_check)
 
-    if p := command_parser("new", help="start a project from photos (records their size, SHA-256 and EXIF)"):
-        p.add_argument("project", help="the project file to create (NAME.vebuild.json), next to the photos")
-        p.add_argument("photos", nargs="*", help="image files inside the project's folder (or none: add them in "
-                       "`vebuild edit`)")
-        p.add_argument("--name", help="title of the project (default: from the file name)")
-        p.add_argument("--force", action="store_true",
-                       help="replace an existing vebuild project file (never another file)")
-        p.set_defaults(func=_cmd_new)
-
     if p := command_parser("bench", help="measure accuracy and speed (prints a table; --json writes the figures)"):
         from .bench import BENCHES
 
@@ -560,6 +543,9 @@ _PARSERS_BESIDE_ACTIONS = (
     ("scan", "laser scans (E57, PLY, LAS, LAZ): register one from targets; check the model against them",
      ".actions.scan", "add_scan_parsers"),
     ("case", "set (or show) the case details on the report's title page", ".actions.case", "add_case_parser"),
+    ("new", "start a project from photos or video stills (records their size, SHA-256 and EXIF or video frame)",
+     ".actions.photos_command", "add_new_parser"),
+    ("add", "add photos or video stills to a project", ".actions.photos_command", "add_add_parser"),
 )
 
 

@@ -30,6 +30,7 @@ from vebuild.errors import CalibrationError
 from vebuild.project import Project, decode, provenance
 from vebuild.project.decode import check_reference_handles
 
+from . import fixed_camera
 from .calibration_results import (
     checked_after_solve,
     distortion_prior,
@@ -112,10 +113,18 @@ def calibrate_project(project: Project, progress: Callable[[Iterable], Iterable]
 
     Raises CalibrationError naming the photo (or marker) whose marks are insufficient.
     """
+    # Stills of one fixed camera (frames of one video) are calibrated as one photo (fixed_camera.py).
+    data, sets = fixed_camera.merged(project.data)
     try:
-        return _calibrate(project, progress)
+        if not sets:
+            return _calibrate(project, progress)
+        result = _calibrate(Project(project.path, data, project.loaded_sha256), progress)
     except CalibrationError as e:
         raise _located(project, e) from None
+    fixed_camera.spread(result, sets)
+    project.data["calibration"] = result
+    provenance.stamp(project.data, "calibration")  # of the document itself, not of the merged one
+    return result
 
 
 def _located(project: Project, e: CalibrationError) -> CalibrationError:

@@ -47,6 +47,7 @@ from vebuild.project.decode import cameras_from_calibration, load_model
 from vebuild.project.records import camera_record, distortion_record, json_values, value_sigma
 from vebuild.project.units import length_unit
 
+from . import fixed_camera
 from .camera_group_records import solved_group_records
 from .register import recalibration_cameras, recalibration_k1_sigmas
 
@@ -146,6 +147,8 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
         if problem.layout.groups:  # one focal length, principal point and k1 per camera group
             result["camera_groups"] = solved_group_records(problem, solution)
     result["warnings"] = uncalibrated_pin_warnings(data, cameras)
+    if recalibrate:
+        result["warnings"] += fixed_camera.recalibration_warnings(data)
     result["refined_intrinsics"] = bool(recalibrate and refine_intrinsics)
     if before is not None and reproduces(before[1], result):
         # The same inputs, the same figures: the recorded solution stands, so that nothing computed

@@ -82,6 +82,10 @@ def calibration_table(result: dict[str, Any]) -> str:
         ]
         if cam.get("placement", {}).get("how") == "alone":
             lines.append(f"  placed alone     scale from {cam['placement']['scale']}")
+        if fixed := cam.get("fixed_camera"):
+            others = ", ".join(p for p in fixed["stills"] if p != pid)
+            lines.append(f"  fixed camera     one camera with {others} (stills of one video: calibrated as one photo, "
+                         "the residuals are of all their marks)")
         vp = "  ".join(f"{a}: {v['rms_px']:.2f} px ({len(v['residuals_px'])} segments"
                        + (f", {len(v['rejected'])} rejected" if v.get("rejected") else "") + ")"
                        for a, v in cam["vanishing_points"].items())

@@ -22,9 +22,11 @@ from typing import Any
 from imgui_bundle import imgui
 
 from vebuild.errors import VebuildError
+from vebuild.project.video import is_video
 
 from .layout import EditorPart
 from .session import PHOTO_SUFFIXES
+from .video_frames import VideoFrames
 
 #: The browser window's title (ImGui's popup id).
 BROWSER_TITLE = "Add photos"
@@ -40,7 +42,8 @@ def is_photo_name(path: str | os.PathLike[str]) -> bool:
 
 def endings_text() -> str:
     plain = sorted(s for s in PHOTO_SUFFIXES if s in (".jpg", ".jpeg", ".png", ".tif", ".tiff"))
-    return ", ".join(plain) + f" and camera RAW ({len(PHOTO_SUFFIXES) - len(plain)} kinds: .nef, .cr2, .dng, …)"
+    return (", ".join(plain) + f", camera RAW ({len(PHOTO_SUFFIXES) - len(plain)} kinds: .nef, .cr2, .dng, …) and "
+            "video files (.mp4, .mov, .avi, .mkv, …: a frame of them)")
 
 
 @dataclass
@@ -52,6 +55,7 @@ class FileBrowser:
     picked: set[str] = field(default_factory=set)
     error: str = ""
     typed: str = ""
+    video: VideoFrames | None = None  # a video file opened to choose a frame of it
     _listing: tuple[list[str], list[str]] | None = None
 
     def __post_init__(self) -> None:
@@ -71,7 +75,7 @@ class FileBrowser:
                         try:
                             if e.is_dir():
                                 dirs.append(e.name)
-                            elif e.is_file() and is_photo_name(e.name):
+                            elif e.is_file() and (is_photo_name(e.name) or is_video(e.name)):
                                 files.append(e.name)
                         except OSError:
                             continue
@@ -105,6 +109,17 @@ class FileBrowser:
     def in_project(self, name: str) -> bool:
         return Path(os.path.abspath(self.folder / name)) in self.have
 
+    def open_video(self, name: str, project_folder: str | os.PathLike[str]) -> bool:
+        """Show the frames of a video file of the folder shown, to choose one; False, with the error
+        said, where it cannot be read as a video."""
+        try:
+            self.video = VideoFrames.open(self.folder / name, project_folder)
+        except VebuildError as e:
+            self.error = str(e)
+            return False
+        self.error = ""
+        return True
+
     def toggle(self, name: str) -> None:
         """Pick a file, or unpick it (a photo the project has already is not picked)."""
         if name in self.picked:
@@ -113,7 +128,7 @@ class FileBrowser:
             self.picked.add(name)
 
     def pick_all(self) -> None:
-        self.picked = {f for f in self.listing()[1] if not self.in_project(f)}
+        self.picked = {f for f in self.listing()[1] if not self.in_project(f) and not is_video(f)}
 
     def chosen(self) -> list[Path]:
         """The picked files, in name order."""
@@ -175,6 +190,15 @@ class PhotoBrowser(EditorPart):
         """Files dropped onto the window: each added as a photo (a folder: the images in it)."""
         if self._busy:
             return
+        videos = [p for p in paths if is_video(p) and Path(p).is_file()]
+        if videos:  # a video dropped: its frames shown in the browser, to choose one
+            self.open_browser()
+            assert self.browser is not None
+            if self.browser.go(Path(videos[0]).parent):
+                self.browser.open_video(Path(videos[0]).name, self.session.project.folder)
+            paths = [p for p in paths if p not in videos]
+            if not paths:
+                return
         self.add_dropped_or_picked(paths)
 
     def add_dropped_or_picked(self, paths: list[Any], from_browser: bool = False) -> list[str]:
@@ -219,6 +243,12 @@ class PhotoBrowser(EditorPart):
             return
         pos = imgui.get_window_pos()
         self._rects["browser"] = (pos.x, pos.y, pos.x + size[0], pos.y + size[1])
+        if b.video is not None:
+            self._draw_frame_chooser(b, b.video, size)
+            if self.browser is None:
+                imgui.close_current_popup()
+            imgui.end_popup()
+            return
         if self.button("Up", tip="the folder that holds this one"):
             b.up()
         imgui.same_line()
@@ -244,8 +274,12 @@ class PhotoBrowser(EditorPart):
             for f in files:
                 there = b.in_project(f)
                 imgui.begin_disabled(there)
-                if imgui.selectable(f"{f}{'   (in the project)' if there else ''}##file:{f}", f in b.picked)[0]:
-                    b.toggle(f)
+                video = "   (video: choose a frame)" if is_video(f) else ""
+                if imgui.selectable(f"{f}{'   (in the project)' if there else video}##file:{f}", f in b.picked)[0]:
+                    if video:
+                        b.open_video(f, self.session.project.folder)
+                    else:
+                        b.toggle(f)
                 imgui.end_disabled()
                 self.rect(f"browser:{f}")
             if not dirs and not files and not b.error:
@@ -272,3 +306,76 @@ class PhotoBrowser(EditorPart):
         if self.browser is None:
             imgui.close_current_popup()
         imgui.end_popup()
+
+    # -- a video's frames ---------------------------------------------------------------------------
+
+    _video_tex: Any = None
+    _video_tex_key: Any = None
+
+    def _frame_texture(self, v: VideoFrames) -> Any:
+        """The frame shown as a texture (made anew when the frame changes)."""
+        key = (str(v.path), v.index)
+        if self._video_tex_key != key:
+            self._release_frame_texture()
+            still = v.still()
+            if still is None:
+                return None
+            h, w = still.rgb.shape[:2]
+            self._video_tex = self.ctx.texture((w, h), 3, still.rgb.tobytes(), alignment=1)
+            self._video_tex_key = key
+        return self._video_tex
+
+    def _release_frame_texture(self) -> None:
+        if self._video_tex is not None:
+            self.gui.forget_texture(self._video_tex)
+            self._video_tex.release()
+        self._video_tex = self._video_tex_key = None
+
+    def step_video_frame(self, by: int) -> None:
+        """, and . (or Left and Right) in the frame chooser: a frame back or on."""
+        if self.browser is not None and self.browser.video is not None:
+            self.browser.video.step(by)
+
+    def _draw_frame_chooser(self, b: FileBrowser, v: VideoFrames, size: tuple[float, float]) -> None:
+        imgui.text(v.label())
+        self.rect("frame label")
+        tex = self._frame_texture(v)
+        avail_h = max(60.0, size[1] - imgui.get_cursor_pos_y() - 90)
+        if tex is not None:
+            w, h = tex.size
+            scale = min((size[0] - 20) / w, avail_h / h)
+            imgui.image(self.gui.texture_ref(tex), (w * scale, h * scale))
+        else:
+            imgui.push_text_wrap_pos(0.0)
+            imgui.text_colored(imgui.ImVec4(*ERROR_COLOUR), v.error)
+            imgui.pop_text_wrap_pos()
+        if self.button("< frame##video back", tip="one frame back (, or Left)"):
+            v.step(-1)
+        self.rect("frame back")
+        imgui.same_line()
+        if self.button("frame >##video on", tip="one frame on (. or Right)"):
+            v.step(1)
+        self.rect("frame on")
+        imgui.same_line()
+        imgui.begin_disabled(tex is None)
+        if self.button("Add this frame##video add", tip="add the frame shown as a photo: a lossless PNG beside the "
+                       "video, with the video's SHA-256, the frame's number and time recorded"):
+            try:
+                added = v.add(self.session)
+            except VebuildError as e:
+                v.error = str(e)
+                self.say(str(e))
+            else:
+                self._release_frame_texture()
+                self.browser = None
+                self.guard(self.set_photo, added)
+        self.rect("frame add")
+        imgui.end_disabled()
+        imgui.same_line()
+        if self.button("Back##video", tip="back to the folder (Esc)"):
+            self._release_frame_texture()
+            b.video = None
+        if v.error and tex is not None:
+            imgui.push_text_wrap_pos(0.0)
+            imgui.text_colored(imgui.ImVec4(*ERROR_COLOUR), v.error)
+            imgui.pop_text_wrap_pos()

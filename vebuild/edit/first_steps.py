@@ -18,6 +18,9 @@ from .help import HelpOverlay
 from .layout import inside, u32
 from .overlay import AXIS_COLOURS
 
+#: In the browser's frame chooser: , and Left a frame back, . and Right a frame on.
+_FRAME_STEPS = {glfw.KEY_COMMA: -1, glfw.KEY_LEFT: -1, glfw.KEY_PERIOD: 1, glfw.KEY_RIGHT: 1}
+
 #: The card's width and its gap from the photo view's top-right corner, window pixels.
 GUIDE_W = 340.0
 GUIDE_GAP = 8.0
@@ -85,6 +88,10 @@ class FirstSteps(HelpOverlay, PhotoBrowser):
         if self.help_open:
             if key == glfw.KEY_ESCAPE or (chord is not None and chord.command == "toggle_help"):
                 self.help_open = False
+        elif self.browser is not None and self.browser.video is not None and key in _FRAME_STEPS:
+            self.step_video_frame(_FRAME_STEPS[key])  # the frame chooser: a frame back or on
+        elif key == glfw.KEY_ESCAPE and self.browser is not None and self.browser.video is not None:
+            self.browser.video = None  # back to the folder
         elif key == glfw.KEY_ESCAPE or (chord is not None and chord.command == "open_browser"):
             self.browser = None
 

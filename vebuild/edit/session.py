@@ -30,6 +30,8 @@ from vebuild.model.undo import UndoStack
 from vebuild.project import Project, load_project, new_photo_entry
 from vebuild.project.images import RAW_SUFFIXES
 from vebuild.project.provenance import Stale, stale
+from vebuild.project.stills import fixed_camera_groups, prepare_photos, split_word, write_stills
+from vebuild.project.video import is_video
 
 from .assist import Assist, Proposal
 from .history import UNDO_DEPTH, EditError, PackedDocument
@@ -101,7 +103,12 @@ class EditSession(Assist, Rooms, SessionOverlays):
         return [p["id"] for p in self.data["photos"]]
 
     def add_photo(self, path: str | Path, photo_id: str | None = None) -> str:
-        """Add an image from the project's folder, its size, SHA-256 and EXIF recorded."""
+        """Add an image from the project's folder, its size, SHA-256 and EXIF recorded; a video
+        file named with its frame (``clip.mp4@frame=N`` or ``@time=T``) adds that frame as a still."""
+        file, key, value = split_word(str(path))
+        if key is not None or is_video(file):
+            video = Path(file) if Path(file).is_absolute() or Path(file).exists() else self.project.folder / file
+            return self._add_still(video, {key: value} if key is not None and value is not None else {})
         path = Path(path)
         if not path.is_absolute() and not path.exists():
             path = self.project.folder / path
@@ -118,6 +125,28 @@ class EditSession(Assist, Rooms, SessionOverlays):
         self.say(f"added photo '{entry['id']}' ({entry['width']}×{entry['height']}, "
                  f"SHA-256 {entry['sha256'][:12]}…)")
         return entry["id"]
+
+    def add_video_still(self, video: str | Path, frame: int, field: str | None = None) -> str:
+        """Add frame ``frame`` (from 0) of a video from the project's folder as a still: a lossless
+        PNG beside it, its origin recorded, in the video's camera group (docs/video-stills.md)."""
+        return self._add_still(Path(video), {"frame": str(frame)}, field)
+
+    def _add_still(self, video: Path, which: dict[str, str], field: str | None = None) -> str:
+        """Add the frame of ``video`` that ``which`` names ({"frame": N} or {"time": T}, as typed)."""
+        words = [f"{video}@{k}={v}" for k, v in which.items()] or [str(video)]
+        try:
+            (prepared,) = prepare_photos(self.project.folder, words, field=field, taken=self.photo_ids)
+            write_stills([prepared])
+        except VebuildError as e:
+            raise EditError(str(e)) from None
+        entry = prepared.entry
+        with self._edit(f"add photo {entry['id']}"):
+            self.data["photos"].append(entry)
+            fixed_camera_groups(self.data)
+        o = entry["origin"]
+        self.say(f"added photo '{entry['id']}': frame {o['frame']} at {o['time']:g} s of {o['video']} "
+                 f"({entry['width']}×{entry['height']}, SHA-256 {entry['sha256'][:12]}…)")
+        return str(entry["id"])
 
     def folder_photos(self) -> list[Path]:
         """The image files (:data:`PHOTO_SUFFIXES`) in the project's folder and the folders inside it

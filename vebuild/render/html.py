@@ -38,6 +38,7 @@ from vebuild import __version__
 from vebuild.errors import VebuildError
 from vebuild.project import Project
 from vebuild.project.outputs import begin_stage, check_file, check_no_links
+from vebuild.project.stills import origin_summary
 from vebuild.render.export import ROOT_NAME, _collect, glb_bytes, gltf_document
 
 #: The folder of the viewer's committed web files (three.js bundle, viewer script, page template).
@@ -208,6 +209,8 @@ def write_html(project: Project, folder: str | os.PathLike[str], analyses: list[
             photos[cid] = {"id": pid, "file": rel, "source": photo["file"], "sha256": photo.get("sha256"),
                            "width": size[0], "height": size[1], "camera_width": int(cam.width),
                            "camera_height": int(cam.height)}
+            if (video := origin_summary(photo)) is not None:  # a still: its video, hash, frame, time, field
+                photos[cid]["video"] = video
 
     from vebuild.project.units import length_unit
 

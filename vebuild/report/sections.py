@@ -30,7 +30,27 @@ def photos(project: Project, rep: Report) -> None:
                      fmt(exif.get("focal_length_mm"), 1) if exif.get("focal_length_mm") else "—"])
     rep.add("Photographs", "<p>Each photo as added to the project; vebuild refuses any photo whose bytes no longer "
             "hash to this SHA-256.</p>" + table(["id", "file", "pixels", "SHA-256", "camera", "focal mm"], rows,
-                                                {2, 5}, wide=True))
+                                                {2, 5}, wide=True) + _stills(project))
+
+
+def _stills(project: Project) -> str:
+    """The photos that are stills from video: the video, its SHA-256, the frame's index and time, the field."""
+    from vebuild.project.stills import origin_summary
+
+    rows = []
+    for p in project.data["photos"]:
+        if (o := origin_summary(p)) is not None:
+            field = o["field"] if o["field"] != "both" else "both (whole frame)"
+            rows.append([p["id"], o["video"], Cell(o["sha256"], "hash"), str(o["frame"]), fmt(o["time"], 3),
+                         field, "yes" if o["interlaced"] else "no", o["decoder"]])
+    if not rows:
+        return ""
+    return ("<p>Stills from video: each decoded exactly from the frame named (its index from 0 in presentation "
+            "order, and its presentation time) and written as a lossless PNG, whose hash is the one above; the "
+            "video's own SHA-256 traces it to its source. One field of an interlaced frame keeps that field's rows "
+            "exactly and interpolates the others.</p>"
+            + table(["id", "video", "video SHA-256", "frame", "time s", "field", "interlaced", "decoder"], rows,
+                    {3, 4}, wide=True))
 
 
 def model(project: Project, rep: Report) -> None:

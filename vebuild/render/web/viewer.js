@@ -420,9 +420,12 @@
     var cams = document.getElementById("cameras");
     data.cameras.forEach(function (id) {
       if (!cameraDefs[id]) return;
-      var b = el("button", { "data-id": id }, id.replace(/^photo-/, "photo ").replace(/^view-/, "view "));
+      var still = data.photos[id] && data.photos[id].video;  // a still from video: its source, frame and field
+      var b = el("button", { "data-id": id, title: still ? still.words : "" },
+        id.replace(/^photo-/, "photo ").replace(/^view-/, "view "));
       b.addEventListener("click", function () { location.hash = "camera=" + encodeURIComponent(id); });
       cams.appendChild(b);
+      if (still) cams.appendChild(el("div", { "class": "small still" }, id.replace(/^photo-/, "") + ": " + still.words));
     });
     var hyp = document.getElementById("hypotheses");
     var measured = el("button", { "class": "on" }, "measured scene");
