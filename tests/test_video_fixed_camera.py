@@ -104,6 +104,17 @@ def test_the_report_and_the_html_viewer_name_each_stills_video_frame_time_and_fi
     html = "".join(rep.sections)
     for text in ("cctv.mp4", "ab" * 32, ">10<", ">40<", "0.400", "1.600", ">top<", "both (whole frame)"):
         assert text in html, text
+    # A measurement on a still is drawn on its frame, the caption naming the video, frame, time and field.
+    from vebuild.analysis.single_view import single_view_command
+    from vebuild.report.single_view import section
+
+    split.data["analyses"] = [{"name": "box", "command": single_view_command(
+        "photo-height", "cctv.f000040", [ph.clicks["box_foot"], ph.clicks["box_top"]])}]
+    (tmp_path / "report" / "images").mkdir(parents=True, exist_ok=True)
+    rep = Report(tmp_path / "report")
+    section(split, rep)
+    (measured,) = rep.sections
+    assert ("a still: frame 40 at 1.6 s of cctv.mp4 (SHA-256 " + "ab" * 32 + "), top field only") in measured
     export_html(split, tmp_path / "web", photo="cctv.f000040")
     written = "".join(p.read_text(errors="replace") for p in (tmp_path / "web").rglob("*.js*"))
     assert "frame 40 at 1.6 s of cctv.mp4 (SHA-256 " + "ab" * 32 + "), top field only (interlaced" in written

@@ -125,6 +125,15 @@ def table(header: list[str], rows: list[list[Any]], numeric: set[int] | None = N
     return "\n".join(out) + "</table>"
 
 
+def still_words(photo: dict[str, Any]) -> str:
+    """For a figure's caption: "; a still: frame 123 at 4.92 s of clip.mp4 (SHA-256 …), top field
+    kept" where the photo is a still from video (FORMAT.md, "Stills from video"), else ""."""
+    from vebuild.project.stills import origin_summary
+
+    summary = origin_summary(photo)
+    return "" if summary is None else f"; a still: {summary['words']}"
+
+
 def identification(project: Project) -> str:
     """What identifies the work: the project, its file, the inputs digest (FORMAT.md, "Inputs
     digest"), the photos' count, vebuild's version and the command that reproduces the report."""

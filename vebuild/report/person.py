@@ -21,7 +21,7 @@ from vebuild.analysis.person import WHAT_IT_IS, PersonFrame
 from vebuild.analysis.person_terms import Term, not_entered
 from vebuild.render.sizes import IMAGE_WIDTH
 
-from .page import Report, esc, fmt, table
+from .page import Report, esc, fmt, still_words, table
 
 if TYPE_CHECKING:
     from vebuild.project import Project
@@ -139,7 +139,8 @@ def section(project: Project, rep: Report) -> None:
                         {"Software": "vebuild", "Source": photo["file"], "Source SHA-256": photo["sha256"]})
         figs.append(f"<figure><img src='{src}'><figcaption>photo {esc(photo['id'])}: person-height "
                     f"{', '.join(str(n) for n, _ in on)}; the vertical measured in magenta from the foot point on "
-                    "the floor to the height in the image, the clicks as white rings</figcaption></figure>")
+                    "the floor to the height in the image, the clicks as white rings"
+                    f"{esc(still_words(photo))}</figcaption></figure>")
     people = sorted({f.person for _, f, _ in numbered if f.person})
     parts = [_person_html(p, [(n, f) for n, f, _ in numbered if f.person == p]) for p in people]
     alone = [(n, f) for n, f, _ in numbered if not f.person]

@@ -12,7 +12,7 @@ from vebuild.project.units import RELATIVE_UNITS, length_unit
 from vebuild.render.sizes import IMAGE_WIDTH, image_size
 
 from .cameras import calibration, final_cameras
-from .page import Cell, Report, esc, fmt, table
+from .page import Cell, Report, esc, fmt, still_words, table
 
 if TYPE_CHECKING:
     from vebuild.analysis.measure import CheckResult
@@ -209,7 +209,7 @@ def marked_photos(project: Project, rep: Report) -> None:
         figs.append(f"<figure><img src='{src}'><figcaption>photo {esc(p['id'])} ({esc(p['file'])}) as marked: "
                     f"{n['segments']} vanishing segments (x red, y green, z blue, arrow at the positive end)"
                     f"{esc(extra)}, {n['markers']} marker observations (orange rings), {n['pins']} pins (yellow "
-                    f"crosses), {n['edges']} edge observations (magenta)</figcaption></figure>")
+                    f"crosses), {n['edges']} edge observations (magenta){esc(still_words(p))}</figcaption></figure>")
     rep.add("The photos as marked", "<p>Each original photo, reduced to this page, with every mark the operator "
             "made on it: what the calibration and the solve were given.</p>" + "".join(figs))
 

@@ -24,7 +24,7 @@ from vebuild.analysis.single_view import SINGLE_VIEW_CLICKS
 from vebuild.errors import VebuildError
 from vebuild.render.sizes import IMAGE_WIDTH
 
-from .page import Report, esc, fmt, table
+from .page import Report, esc, fmt, still_words, table
 
 if TYPE_CHECKING:
     from vebuild.project import Project
@@ -190,7 +190,8 @@ def section(project: Project, rep: Report) -> None:
                          "Source SHA-256": project.data["photos"][index]["sha256"]})
         figs.append(f"<figure><img src='{src}'><figcaption>photo {esc(pid)}: "
                     f"{', '.join(f'{d.number} {d.name}' for d in on)}; each measured line in cyan, numbered, with "
-                    "its value and 95 % interval; the reference clicks as white rings</figcaption></figure>")
+                    "its value and 95 % interval; the reference clicks as white rings"
+                    f"{esc(still_words(project.data['photos'][index]))}</figcaption></figure>")
     rows = []
     unit = "rel." if relative else "m"
     sigma_unit = "rel." if relative else "mm"  # as `vebuild analyse` prints them: 1σ in mm beside metres
