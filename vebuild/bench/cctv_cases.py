@@ -47,7 +47,7 @@ from vebuild.synthetic.cctv_video import decode, encode, frames, place_frames
 Array = NDArray[np.float64]
 
 #: Bump when the generated scenes or their encoding change: old caches are then not reused.
-GENERATOR_VERSION = 1
+GENERATOR_VERSION = 2
 SEED = 20261208
 #: Every VIDEO_EVERY-th case is rendered, encoded both ways and decoded; the others are measured
 #: from their marks alone (calibration and the measurements read the marks, not the pixels), on

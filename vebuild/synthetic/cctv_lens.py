@@ -54,7 +54,9 @@ class TrueLens:
         if self.kind == "equisolid":
             return 2.0 * self.f * np.sin(theta / 2.0)
         ru = np.tan(np.minimum(theta, np.radians(89.9)))
-        return self.f * ru * (1.0 + self.barrel * ru**2)
+        r = self.f * ru * (1.0 + self.barrel * ru**2)
+        # Beyond r_u² = 1 / (3 |a|) the polynomial turns back: no ray there reaches the sensor.
+        return np.where(3.0 * self.barrel * ru**2 > -1.0, r, np.nan) if self.barrel < 0 else r
 
     def angle(self, r: Array) -> Array:
         """The ray's angle θ off the axis of image radius r (px): :meth:`radius` inverted."""
@@ -71,7 +73,8 @@ class TrueLens:
         return np.arctan(ru)
 
     def pixels(self, d_cam: Array) -> Array:
-        """Pixels (n, 2) of camera-frame directions (n, 3) (x right, y down, z forward)."""
+        """Pixels (n, 2) of camera-frame directions (n, 3) (x right, y down, z forward); NaN for
+        rays the lens does not image (beyond the rectilinear lens's field)."""
         d = np.asarray(d_cam, float).reshape(-1, 3)
         rho = np.hypot(d[:, 0], d[:, 1])
         theta = np.arctan2(rho, d[:, 2])

@@ -100,17 +100,25 @@ def finish(case: CctvCase, img: Array, rng: np.random.Generator) -> Frame:
     return np.clip(np.rint(noisy), 0, 255).astype(np.uint8)
 
 
+def empty_scene(case: CctvCase) -> Array:
+    """The scene without the figure, cast (before blur and noise)."""
+    return render(case.layout, case.lens, case.R, case.C, case.width, case.height, None, case.tex_seed)[0]
+
+
+def cast_frame(case: CctvCase, empty: Array, at: Array, u: Array) -> Array:
+    """A frame cast (before blur and noise) with the figure at ``at`` walking along ``u``; woven
+    from two fields where the case is interlaced (module docstring)."""
+    img = _with_figure(case, empty, at)
+    if case.interlaced:
+        later = _with_figure(case, empty, at + WALK_M_S * FIELD_S * u)
+        img[1::2] = later[1::2]
+    return img
+
+
 def frames(case: CctvCase, rng: np.random.Generator) -> list[Frame]:
     """The clip's frames (module docstring), RGB (height, width, 3)."""
-    empty = render(case.layout, case.lens, case.R, case.C, case.width, case.height, None, case.tex_seed)[0]
-    out = []
-    for at, u in positions(case):
-        img = _with_figure(case, empty, at)
-        if case.interlaced:
-            later = _with_figure(case, empty, at + WALK_M_S * FIELD_S * u)
-            img[1::2] = later[1::2]
-        out.append(finish(case, img, rng))
-    return out
+    empty = empty_scene(case)
+    return [finish(case, cast_frame(case, empty, at, u), rng) for at, u in positions(case)]
 
 
 def encode(frames_: list[Frame], path: Path, lossless: bool, interlaced: bool) -> None:
