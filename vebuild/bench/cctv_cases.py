@@ -107,7 +107,7 @@ def cached_clip(i: int, case: CctvCase) -> Clip:
     encode(got, lossy, lossless=False, interlaced=case.interlaced)
     clip = Clip(lossless, lossy, [frame_digest(f) for f in got], place_frames(case))
     write_bytes(meta, json.dumps({"digests": clip.digests, "place_frames": clip.place_frames,
-                                  "truth": truth_record(case)}).encode())
+                                  "truth": truth_record(case, edge_candidates(case))}).encode())
     return clip
 
 
