@@ -15,8 +15,8 @@ from typing import Any
 
 from vebuild.errors import VebuildError
 
-_NAMES = ("calibration", "cli", "detect", "edit", "house", "orient", "real", "render", "rooms", "single-view", "solver",
-          "texture")
+_NAMES = ("calibration", "cctv", "cli", "detect", "edit", "house", "orient", "real", "render", "rooms", "single-view",
+          "solver", "texture")
 #: The benchmarks that measure data the user gives (``--data DIR``), not data of their own.
 _WITH_DATA = ("real",)
 
