@@ -25,11 +25,13 @@ def test_round_trip_counts_exact_frames_by_the_generators_digests(tmp_path) -> N
     clip = cc.Clip(tmp_path / "a.mp4", tmp_path / "b.mp4", [cc.frame_digest(f) for f in got], place_frames(case))
     fig, lossy = cc.round_trip(clip)
     assert fig["frames"] == fig["exact"] == len(got) == len(lossy)
+    assert fig["stills_checked"] == len({0, len(got) - 1, *clip.place_frames}) == fig["stills_exact"]
     assert len(fig["psnr_db"]) == len(got) and min(fig["psnr_db"]) > 30.0
     assert all(0 < e <= 255 for e in fig["max_error_grey"])
     other = replace(clip, digests=[cc.frame_digest(got[0][::-1])] + clip.digests[1:])
     fig, _ = cc.round_trip(other)
     assert fig["exact"] == len(got) - 1 and len(fig["psnr_db"]) == len(got) - 1
+    assert fig["stills_exact"] == fig["stills_checked"] - 1  # frame 0, taken as a still, is not the generator's
 
 
 def test_a_case_is_calibrated_and_its_heights_measured(tmp_path) -> None:

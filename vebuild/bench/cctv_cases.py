@@ -2,21 +2,22 @@
 (:mod:`vebuild.synthetic.cctv`), their clips encoded and cached, and the one-photo project a user
 makes of each, calibrated and measured through vebuild's API.
 
-The three steps that other work will change are one function each:
+Three steps, one function each:
 
-- :func:`add_still`: the still becomes a photo of the project (today a PNG of the decoded frame,
-  added as a photo; later the import of a frame from the video file, with its provenance);
-- :func:`calibrated_lens`: what calibration says of the lens (today the division model's one
-  term k1; later a two-term lens);
-- :func:`measure_height`: a person's height from the head-top and foot clicks (today the
-  single-view ``photo-height`` measurement, whose foot and top points are exactly those; later
-  the ``person-height`` analysis kind).
+- :func:`add_still`: the still becomes a photo of the project: the frame taken from the video
+  file as ``vebuild add clip.mp4@frame=N`` takes it (decoded exactly, written as a lossless PNG,
+  the video's SHA-256 and the frame's index and time recorded); a case with no clip gets a plain
+  photo of the frame's size, since calibration and measurement read only the marks;
+- :func:`calibrated_lens`: what calibration says of the lens;
+- :func:`measure_height`: a person's height from the head-top and foot clicks: the
+  ``person-height`` analysis kind, no allowance entered (the figure stands upright, barefoot).
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import shutil
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -126,21 +127,46 @@ def round_trip(clip: Clip) -> tuple[dict[str, Any], list[NDArray[np.uint8]]]:
             mse = float(np.mean(diff**2))
             psnr.append(float("inf") if mse == 0 else 10.0 * np.log10(255.0**2 / mse))
             max_err.append(float(np.abs(diff).max()))
+    # The stills vebuild takes (vebuild.project.video.decode_still, one frame at a time by its
+    # index, as `vebuild add clip.mp4@frame=N` does): the first, the last and each place's frame.
+    from vebuild.project.video import decode_still, frame_times
+
+    known = frame_times(clip.lossless)
+    picks = sorted({0, len(clip.digests) - 1, *clip.place_frames} & set(range(len(clip.digests))))
+    stills = sum(frame_digest(decode_still(clip.lossless, clip.lossless.parent, frame=j, times=known).rgb)
+                 == clip.digests[j] for j in picks)
     return {"frames": len(clip.digests), "exact": int(sum(same)), "decoded_lossless": len(exact),
-            "decoded_lossy": len(lossy), "psnr_db": psnr, "max_error_grey": max_err}, lossy
+            "decoded_lossy": len(lossy), "psnr_db": psnr, "max_error_grey": max_err,
+            "stills_checked": len(picks), "stills_exact": int(stills)}, lossy
 
 
 # -- the project a user makes ------------------------------------------------------------------
 
 
-def add_still(folder: Path, photo_id: str, still: NDArray[np.uint8] | None, size: tuple[int, int]) -> dict[str, Any]:
-    """The photo entry of the still (a PNG of the decoded frame, or a plain one of the frame's
-    size where the case has no video), written inside the project folder."""
+@dataclass(frozen=True)
+class Still:
+    """The frame of a video file a case is measured on."""
+
+    video: Path
+    frame: int
+
+
+def add_still(folder: Path, photo_id: str, still: Still | None, size: tuple[int, int]) -> dict[str, Any]:
+    """The photo entry of the still: frame ``still.frame`` of the video, copied into the project
+    folder and imported as ``vebuild add`` imports it; or a plain PNG of the frame's size where the
+    case has no video. The photo is called ``photo_id``."""
+    from vebuild.project.stills import prepare_photos, write_stills
+
     (folder / "photos").mkdir(parents=True, exist_ok=True)
-    path = folder / "photos" / f"{photo_id}.png"
-    img = Image.fromarray(still) if still is not None else Image.new("RGB", size, (128, 128, 128))
-    img.save(path)
-    return new_photo_entry(folder, path, photo_id)
+    if still is None:
+        path = folder / "photos" / f"{photo_id}.png"
+        Image.new("RGB", size, (128, 128, 128)).save(path)
+        return new_photo_entry(folder, path, photo_id)
+    video = folder / "photos" / f"{photo_id}{still.video.suffix}"
+    shutil.copyfile(still.video, video)
+    (prepared,) = prepare_photos(folder, [f"{video}@frame={still.frame}"])
+    write_stills([prepared])
+    return {**prepared.entry, "id": photo_id}
 
 
 def calibrated_lens(project: Any, photo_id: str) -> dict[str, float]:
@@ -152,14 +178,13 @@ def calibrated_lens(project: Any, photo_id: str) -> dict[str, float]:
 
 
 def measure_height(project: Any, photo_id: str, foot: list[float], top: list[float]) -> tuple[float, float | None]:
-    """A person's height (m) and its 1σ from the clicks on the feet and the head's top."""
+    """A person's height (m) and its 1σ from the clicks on the point between the feet and the
+    head's top: ``vebuild analyse P person-height --photo ID --head U,V --foot U,V``."""
     from vebuild.analysis.recorded import parse_recorded
-    from vebuild.analysis.single_view import single_view_command
 
-    (m,) = parse_recorded(single_view_command("photo-height", photo_id, [foot, top])).run(project).figures[
-        "measurements"]
-    if "value_m" not in m:
-        raise ValueError("the known length did not scale the photo")
+    words = ["person-height", "--photo", photo_id, "--head", f"{top[0]:.2f},{top[1]:.2f}",
+             "--foot", f"{foot[0]:.2f},{foot[1]:.2f}"]
+    m = parse_recorded(words).run(project).figures["frame"]
     return float(m["value_m"]), m["sigma_m"]
 
 
@@ -230,7 +255,7 @@ def user_marks(case: CctvCase, rng: np.random.Generator) -> Marks | None:
     return Marks(segs, click(ground[0], HEIGHT_CLICK_PX), kn, heights)
 
 
-def write_case_project(folder: Path, case: CctvCase, marks: Marks, still: NDArray[np.uint8] | None) -> Path:
+def write_case_project(folder: Path, case: CctvCase, marks: Marks, still: Still | None) -> Path:
     """The one-photo project of a case: its still, the edges marked, the origin marker O on the
     ground, the taped length."""
     folder.mkdir(parents=True, exist_ok=True)
@@ -249,7 +274,7 @@ def write_case_project(folder: Path, case: CctvCase, marks: Marks, still: NDArra
     return path
 
 
-def measure_case(folder: Path, case: CctvCase, marks: Marks, still: NDArray[np.uint8] | None) -> dict[str, Any]:
+def measure_case(folder: Path, case: CctvCase, marks: Marks, still: Still | None) -> dict[str, Any]:
     """Calibrate the case's project (through the API, as ``vebuild calibrate`` does) and measure
     each height: ``{"refused": why}`` or the lens found and the heights."""
     from vebuild.actions.calibrate import calibrate_project
