@@ -173,6 +173,8 @@ def _common(q: argparse.ArgumentParser, samples: int) -> None:
 def _subcommand(asub: Any, name: str, help: str, to_request: ToRequest) -> argparse.ArgumentParser:
     q = asub.add_parser(name, help=help, description=help)
     q.add_argument("--json", metavar="OUT", help="write the figures to OUT as JSON")
+    q.add_argument("--save", metavar="NAME", help="also save it among the project's analyses under NAME, so that "
+                   "the report states it (as the screens' measuring tools save theirs)")
     q.set_defaults(to_request=to_request, analysis_name=name)
     return q
 
