@@ -172,24 +172,31 @@ def test_too_few_observations_says_what_would_determine_each_parameter(example: 
     box = next(n for n in project.data["model"]["nodes"] if n["name"] == "box")
     with pytest.raises(VebuildError) as e:
         solve_project(project)
-    msg = str(e.value)
-    assert "too few observations: the pins and edges do not determine box." in msg
-    undetermined = msg.split("do not determine ")[1].split(". What would:")[0].split(", ")
-    assert undetermined and all(u.startswith("box.") for u in undetermined), msg
+    first, details = str(e.value).split("\n")
+    # The first line in the window's words: the parameters by name, the Model tab's fields, F.
+    assert "too few observations: the pins and edges do not fix box's " in first
+    assert "$." not in first and '"' not in first and "hold" not in first and "sigma" not in first
+    assert "untick 'solve'" in first and "press F" in first
+    for param in ("width", "depth", "height"):
+        assert (f"box.{param}" in details) == (f"'{param} (m)'" in first)
+    # The details line, for the expert: the file's fields.
+    assert details.startswith("details: $.model: undetermined box.")
+    undetermined = details.split("undetermined ")[1].split("; ")[0].split(", ")
+    assert undetermined and all(u.startswith("box.") for u in undetermined), details
     assert e.value.names == undetermined  # the same names for a caller (UndeterminedError)
     for u in undetermined:
         param = u.split(".", 1)[1]
         unit, sigma = ("°", 1) if param == "yaw" else (" m", 0.005)
-        clause = msg.split(f"{u} (now ")[1].split("; box.")[0]
+        clause = details.split(f"{u} (now ")[1].split("; box.")[0]
         assert f'{{"name": "{param}", "sigma": {sigma:g}, "value": <measured>}}' in clause
-        assert "to the \"hold\" list of node 'box'" in clause
+        assert "in the \"hold\" list of node 'box'" in clause
         now = float(clause.split(unit)[0])
         if param in box["primitive"]["params"]:
             # (the value the solve left it at: its start, for a direction no photo fixes)
             assert now == pytest.approx(box["primitive"]["params"][param], rel=0.2)
         pins = clause.split("; or pin ")[1].split(" (now in")
         assert pins[0].startswith("box:v") and "photo" in clause
-    assert "solve: false" in msg
+    assert '"solve": false' in details
 
 
 def _normal_matrix(rng: np.random.Generator, n_rest: int, cameras: int, join: bool = False) -> tuple[Any, list[slice]]:

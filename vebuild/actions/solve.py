@@ -33,10 +33,11 @@ from vebuild.calibration.lsq import is_numeric_failure
 from vebuild.calibration.positions import ReferenceDistance, check_scale_distances
 from vebuild.camera import ImageCamera
 from vebuild.constants import Z95
-from vebuild.errors import CalibrationError, ProjectError, UndeterminedError, VebuildError
+from vebuild.errors import CalibrationError, ProjectError, VebuildError
 from vebuild.model.constraints import conflict_message, conflicts, relation_records
-from vebuild.model.determination import axis_records, too_few_observations
+from vebuild.model.determination import axis_records
 from vebuild.model.residuals import MarkerObservation
+from vebuild.model.restart import restart_nodes, troubled_nodes
 from vebuild.model.scan_fit import ScanProblem
 from vebuild.model.scene import Model
 from vebuild.model.solution import handle_covariances, solution_at
@@ -49,6 +50,7 @@ from vebuild.project.units import length_unit
 
 from .camera_group_records import solved_group_records
 from .register import recalibration_cameras, recalibration_k1_sigmas
+from .solve_words import refusal
 
 #: The solve from the first guess gives up after this many iterations and the staged start takes
 #: over: where it found the minimum it took 9 (the generated house) to 27 (the generated rooms of
@@ -113,28 +115,38 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
         problem.check_finite(sol.x, "at the end of the solve")
         return problem, sol
 
-    try:
+    def solve_once() -> tuple[Problem, Any, Any]:
         # From the first guess at once, kept where it plainly found the minimum (Problem.plausible);
         # else (and always with scans, whose faces are matched on the start) from the staged start.
         direct = None if scans else _attempt(lambda: final_solve(staged=False))
         problem, sol = direct if direct is not None and direct[0].plausible(direct[1]) else final_solve(staged=True)
-        solution = solution_at(problem, sol.x, sol.iterations)
+        return problem, sol, solution_at(problem, sol.x, sol.iterations)
+
+    try:
+        problem, sol, solution = solve_once()
+        found = conflicts(model, problem.model_vector(sol.x))
+        if solution.undetermined or found:
+            # Before anything is called undetermined or contradictory, the nodes in doubt are
+            # re-started from their own pins (vebuild/model/restart.py) and the model solved again.
+            doubt = troubled_nodes(problem, sol.x, solution.undetermined, [n for _, r, _ in found for n in r.nodes()])
+            if doubt and restart_nodes(model, cameras, fixed_pins, edges, project.settings["click_sigma_px"], doubt):
+                again = _attempt(solve_once)
+                if again is not None and _better(model, again, solution, found):
+                    problem, sol, solution = again
+                    found = conflicts(model, problem.model_vector(sol.x))
     except VebuildError as e:
         raise VebuildError(f"{project.path}: $.model: {e}") from None
     except (ValueError, np.linalg.LinAlgError) as e:
         if not is_numeric_failure(e):  # LinAlgError is a ValueError: a singular matrix is numeric too
             raise
-        raise VebuildError(f"{project.path}: $.model: the solve failed numerically ({e}); an observation or a "
-                           "node's dimensions make it degenerate: check the pins of the nodes last edited") from None
+        raise VebuildError(f"{project.path}: the solve failed numerically ({e}): an observation or a node's "
+                           "dimensions make it degenerate; check the pins of the nodes last edited\n"
+                           "details: $.model") from None
     xm = problem.model_vector(sol.x)
-    if found := conflicts(model, xm):
-        raise VebuildError(f"{project.path}: $.model.relations: {conflict_message(found)}")
+    if found:
+        raise VebuildError(f"{project.path}: {conflict_message(found)}")
     if solution.undetermined:
-        raise UndeterminedError(
-            f"{project.path}: $.model: too few observations: the pins and edges do not determine "
-            f"{', '.join(solution.undetermined[:12])}{' …' if len(solution.undetermined) > 12 else ''}. "
-            f"What would: {too_few_observations(problem, solution)} (FORMAT.md \"entered value\"; pins in a "
-            "photo, or a second one); or mark those nodes solve: false", solution.undetermined)
+        raise refusal(project, problem, sol, solution)
     _check_visible(project, problem, xm, solution.cameras)
     model.set_vector(xm)
     data["model"]["nodes"] = model.to_dict()
@@ -156,6 +168,14 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
     result["check_distances"] = final_check_distances(project)
     provenance.stamp(data, "model_solution")  # what it was computed from (vebuild.project.provenance)
     return result
+
+
+def _better(model: Model, again: tuple[Problem, Any, Any], solution: Any, found: list[Any]) -> bool:
+    """Whether a solve after a re-start is kept: it leaves fewer relations missing, or as few and
+    fewer parameters undetermined."""
+    problem, sol, sol2 = again
+    found2 = conflicts(model, problem.model_vector(sol.x))
+    return (len(found2), len(sol2.undetermined)) < (len(found), len(solution.undetermined))
 
 
 def _attempt(solve: Any) -> Any:
