@@ -134,9 +134,10 @@ def test_every_parameter_of_the_example_room_stays_determined(example: Path) -> 
 
 def test_a_dimension_only_an_entered_value_determines_is_reported_as_such(tmp_path: Path) -> None:
     """The floor's pins removed, its size entered with a 1σ: its record says "determined_by":
-    "entered value", the console table and the report say so; so do the boxes' positions on it
-    (measured from its centre, which only its entered size places); the boxes' sizes and turns
-    come from the photos."""
+    "entered value", the console table and the report say so; the boxes' positions on it are
+    measured in the photos from its centre, which only its entered size places: "observations and
+    entered values", printed as from the photos, measured from entered values (not as entered
+    values only); the boxes' sizes and turns come from the photos."""
     project, _ = entered_project(tmp_path / "a", 3, [])
     data = project.data
     data["model"]["pins"] = [p for p in data["model"]["pins"] if p["node"] != "floor"]
@@ -144,18 +145,24 @@ def test_a_dimension_only_an_entered_value_determines_is_reported_as_such(tmp_pa
     result = solve_project(project)
     floor = result["nodes"]["floor"]["params"]
     assert floor["width"]["determined_by"] == floor["depth"]["determined_by"] == "entered value"
-    by_entered = {f"{n}.{k}" for n, rec in result["nodes"].items() for g in ("params", "dofs")
-                  for k, v in rec[g].items() if v.get("determined_by") == "entered value"}
+
+    def by(source: str) -> set[str]:
+        return {f"{n}.{k}" for n, rec in result["nodes"].items() for g in ("params", "dofs")
+                for k, v in rec[g].items() if v.get("determined_by") == source}
+
     boxes = [n for n in result["nodes"] if n.startswith("box")]
-    assert by_entered == {"floor.width", "floor.depth"} | {f"{b}.{k}" for b in boxes for k in ("s", "t")}
+    assert by("entered value") == {"floor.width", "floor.depth"}
+    assert by("observations and entered values") == {f"{b}.{k}" for b in boxes for k in ("s", "t")}
     assert all(result["nodes"][b][g][k]["determined_by"] == "observations" for b in boxes
                for g, k in (("params", "width"), ("params", "height"), ("dofs", "yaw_deg")))
     assert "determined_by" not in result["nodes"]["floor"]["dofs"]["yaw_deg"]  # held exactly: not solved
     table = model_table({**result, "lengths": "metres"})
-    assert table.count("[entered value only]") == len(by_entered), table
+    assert table.count("(entered value only: no photo shows it)") == 2, table
+    assert table.count("(from the photos, measured from entered values)") == 2 * len(boxes), table
     rep = Report(tmp_path)
     report_model(project, rep)
-    assert rep.sections[0].count("entered value only (no photo shows it)") == len(by_entered)
+    assert rep.sections[0].count("entered value only (no photo shows it)") == 2
+    assert rep.sections[0].count("from the photos, measured from entered values") == 2 * len(boxes)
 
 
 def test_too_few_observations_says_what_would_determine_each_parameter(example: Path, tmp_path: Path) -> None:

@@ -109,3 +109,26 @@ def test_a_refusal_at_a_far_minimum_says_the_start_was_bad(tmp_path: Path) -> No
     assert "could not find door from where the model starts" in first and "door 30.00 m" in first
     assert "press Solve again" in first and "too few" not in first
     assert details.startswith("details: $.model.nodes")
+
+
+def test_a_turn_a_relation_holds_says_so(tmp_path: Path) -> None:
+    """The wall held as it stands (not solved), the door flush with it: the door's turn is held
+    by the relation, not measured; its record says which relation, and the console table and the
+    report print that, never '-0.000 ± 0.000'. Its sizes stay from the photos."""
+    from vebuild.console.tables import model_table
+    from vebuild.report.page import Report
+    from vebuild.report.sections import model as report_model
+
+    project = door_project(tmp_path, 1)
+    wall = next(n for n in project.data["model"]["nodes"] if n["name"] == "wall")
+    wall["solve"] = False
+    result = solve_project(project)
+    yaw = _door(result)["dofs"]["yaw_deg"]
+    assert yaw["determined_by"] == "relation" and yaw["held_by"] == "flush door:back – wall:front"
+    assert all(v["determined_by"] == "observations" for v in _door(result)["params"].values())
+    table = model_table(result)
+    assert "yaw_deg 0.000 (held by relation flush door:back – wall:front)" in table, table
+    assert "-0.000" not in table and "0.000 ± 0.000" not in table
+    rep = Report(tmp_path)
+    report_model(project, rep)
+    assert "held by relation flush door:back – wall:front" in rep.sections[0]

@@ -34,7 +34,7 @@ from vebuild.calibration.positions import ReferenceDistance, check_scale_distanc
 from vebuild.camera import ImageCamera
 from vebuild.constants import Z95
 from vebuild.errors import CalibrationError, ProjectError, VebuildError
-from vebuild.model.constraints import conflict_message, conflicts, relation_records
+from vebuild.model.constraints import CONFLICT_TOL_M, conflict_message, conflicts, relation_records
 from vebuild.model.determination import axis_records
 from vebuild.model.residuals import MarkerObservation
 from vebuild.model.restart import restart_nodes, troubled_nodes
@@ -392,12 +392,20 @@ def _results(problem: Problem, solution: Any, model: Model, xm: np.ndarray, reca
     by_name.update({m: by_name[rep] for m, rep in problem.alias.items() if rep in by_name})  # equal: shared
     axes = axis_records(problem, solution)
     prior_only = set(solution.prior_only)
+    held = held_by_relations(problem, sig)
 
-    def determined_by(full: str) -> dict[str, str]:
-        """Where a solved parameter's value comes from (FORMAT.md ``determined_by``)."""
+    def determined_by(full: str, entered: bool) -> dict[str, str]:
+        """Where a solved parameter's value comes from (FORMAT.md ``determined_by``): a relation
+        that holds it (``held_by``: which), the photos, only its own entered value, or the photos
+        measuring from what only entered values place (a box's position on a floor whose size was
+        entered)."""
         if full not in by_name:
             return {}
-        return {"determined_by": "entered value" if full in prior_only else "observations"}
+        if full in held:
+            return {"determined_by": "relation", "held_by": held[full]}
+        if full not in prior_only:
+            return {"determined_by": "observations"}
+        return {"determined_by": "entered value" if entered else "observations and entered values"}
 
     nodes = {}
     for n in model.nodes:
@@ -409,13 +417,14 @@ def _results(problem: Problem, solution: Any, model: Model, xm: np.ndarray, reca
             if n.joint.dof_kinds[k] == "angle":
                 value, s, dof = np.degrees(value), np.degrees(s), dof + "_deg"
             entry["dofs"][dof] = {**_vs(value, s), **n.entered_record(n.joint.dof_names[k]),  # entered: FORMAT.md
-                                  **determined_by(f"{n.name}.{n.joint.dof_names[k]}")}
+                                  **determined_by(f"{n.name}.{n.joint.dof_names[k]}",
+                                                  n.entered_sigma(n.joint.dof_names[k]) is not None)}
         if n.primitive is not None:
             for k, pname in enumerate(n.primitive.PARAMS):
                 j = by_name.get(f"{n.name}.{pname}")
                 entry["params"][pname] = {**_vs(xm[sp][k], sig[j] if j is not None else 0.0),
                                           **n.entered_record(pname),  # entered values: FORMAT.md
-                                          **determined_by(f"{n.name}.{pname}")}
+                                          **determined_by(f"{n.name}.{pname}", n.entered_sigma(pname) is not None)}
             for h in n.primitive.handle_names():
                 pos, cov = handles[f"{n.name}:{h}"]
                 entry["handles"][h] = _vs(pos, np.sqrt(np.maximum(np.diag(cov), 0.0)))
@@ -440,6 +449,27 @@ def _results(problem: Problem, solution: Any, model: Model, xm: np.ndarray, reca
         "iterations": solution.iterations,
         "covariance": covariance_record(problem, solution),
     }
+
+
+#: A solved parameter whose 1σ (metres, radians) is at most this is held by the flush or aligned
+#: relations its column moves, not measured: their hard rows, whitened by HARD_SIGMA_M (1 µm),
+#: leave it a σ of that order over the lever, while no photo measures anything to better than a
+#: fraction of a pixel's footprint (tenths of a millimetre in a room). The tenth of a millimetre
+#: to which a relation is reported to hold (CONFLICT_TOL_M) parts the two.
+RELATION_HELD_SIGMA = CONFLICT_TOL_M
+
+
+def held_by_relations(problem: Problem, sig: np.ndarray) -> dict[str, str]:
+    """``node.param`` → the relations (as the Model tab lists them) that hold it: every solved model
+    parameter with a 1σ of at most RELATION_HELD_SIGMA whose column moves a flush or aligned
+    relation."""
+    out = {}
+    for j, name in enumerate(problem.names):
+        rels = [problem.hard[k].label() for k in problem.column_hard[j]]
+        if rels and sig[j] <= RELATION_HELD_SIGMA:
+            out[name] = ", ".join(rels)
+    out.update({m: out[rep] for m, rep in problem.alias.items() if rep in out})
+    return out
 
 
 def covariance_record(problem: Problem, solution: Any) -> dict[str, Any]:
