@@ -135,7 +135,8 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
                     problem, sol, solution = again
                     found = conflicts(model, problem.model_vector(sol.x))
     except VebuildError as e:
-        raise VebuildError(f"{project.path}: $.model: {e}") from None
+        first, _, details = str(e).partition("\n")
+        raise VebuildError(f"{project.path}: {first}\n{details or 'details: $.model'}") from None
     except (ValueError, np.linalg.LinAlgError) as e:
         if not is_numeric_failure(e):  # LinAlgError is a ValueError: a singular matrix is numeric too
             raise
@@ -259,11 +260,11 @@ def uncalibrated_pin_warnings(data: dict[str, Any], cameras: dict[str, ImageCame
                             ((pins, "pin"), (edges, "edge observation")) if n)
         seg = any(p["id"] == pid and p.get("vanishing_segments") for p in data["photos"])
         if pid in left_out:
-            fix = (f"`vebuild calibrate` once what the calibration left it out for is fixed "
-                   f"({json_path(['calibration', 'left_out', pid, 'reason'])})")
+            fix = ("Calibrate (`vebuild calibrate`) once what the calibration left it out for is fixed (the "
+                   "calibration's warnings say what)")
         elif pid in unplaced:
-            fix = (f"`vebuild register PROJECT {pid}` (the calibration could not place it: "
-                   f"{json_path(['calibration', 'unplaced', pid, 'reason'])})")
+            fix = (f"Register this photo (`vebuild register PROJECT {pid}`): the calibration could not place it "
+                   "(its warnings say why)")
         elif seg:
             fix = "`vebuild calibrate` (it has vanishing segments)"
         else:
@@ -371,10 +372,11 @@ def _check_visible(project: Project, problem: Problem, xm: np.ndarray, cameras: 
         if uv is None or not (-VISIBLE_MARGIN * w <= uv[0] <= (1 + VISIBLE_MARGIN) * w
                               and -VISIBLE_MARGIN * hgt <= uv[1] <= (1 + VISIBLE_MARGIN) * hgt):
             where = "behind the camera" if uv is None else f"at ({uv[0]:.0f}, {uv[1]:.0f}), outside the image"
-            raise ProjectError(project.path, f"$.model.pins[{i}]",
-                               f"pins {p['node']}:{p['handle']} in photo '{p['photo']}', but the solved model puts "
-                               f"that vertex {where}: the pin is on a vertex this camera cannot see (wrong handle "
-                               "or wrong photo?)")
+            raise VebuildError(f"{project.path}: a pin on {p['node']}'s corner {p['handle']} in photo '{p['photo']}' "
+                               f"is one the solved model puts {where}: the pin is on a corner this camera cannot "
+                               "see (the wrong corner, or the wrong photo?); drag it onto the right corner, or "
+                               "remove it (F over it unfixes it)\n"
+                               f"details: $.model.pins[{i}] ({p['node']}:{p['handle']})")
 
 
 def _vs(v: Any, s: Any) -> dict[str, Any]:
