@@ -122,6 +122,7 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
         problem, sol = direct if direct is not None and direct[0].plausible(direct[1]) else final_solve(staged=True)
         return problem, sol, solution_at(problem, sol.x, sol.iterations)
 
+    repaired = None  # the problem re-started from the pins of the nodes in doubt, where one was
     try:
         problem, sol, solution = solve_once()
         found = conflicts(model, problem.model_vector(sol.x))
@@ -131,6 +132,7 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
             doubt = troubled_nodes(problem, sol.x, solution.undetermined, [n for _, r, _ in found for n in r.nodes()])
             if doubt and restart_nodes(model, cameras, fixed_pins, edges, project.settings["click_sigma_px"], doubt):
                 again = _attempt(solve_once)
+                repaired = None if again is None else again[0]
                 if again is not None and _better(model, again, solution, found):
                     problem, sol, solution = again
                     found = conflicts(model, problem.model_vector(sol.x))
@@ -147,7 +149,9 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
     if found:
         raise VebuildError(f"{project.path}: {conflict_message(found)}")
     if solution.undetermined:
-        raise refusal(project, problem, sol, solution)
+        # The rank is judged at the best start there was: the repaired one where a repair ran.
+        start = problem if repaired is None or len(repaired.names) != len(problem.names) else repaired
+        raise refusal(project, problem, sol, solution, start.clip(start.x0()))
     _check_visible(project, problem, xm, solution.cameras)
     model.set_vector(xm)
     data["model"]["nodes"] = model.to_dict()

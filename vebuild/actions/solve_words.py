@@ -25,12 +25,12 @@ def _listed(items: list[str]) -> str:
     return ", ".join(items[:NAMES_SHOWN]) + (" …" if len(items) > NAMES_SHOWN else "")
 
 
-def refusal(project: Project, problem: Problem, sol: Any, solution: Any) -> VebuildError:
+def refusal(project: Project, problem: Problem, sol: Any, solution: Any, x_start: Any = None) -> VebuildError:
     """The error for a solve that leaves ``solution.undetermined``: an UndeterminedError where the
-    observations leave those parameters undetermined at the solve's start too, else a VebuildError
-    that says the start was bad (how far the solve carried the nodes, which corners end behind
-    their camera) and how to give it a better one in the window."""
-    x_start = problem.clip(problem.x0())
+    observations leave those parameters undetermined at the start ``x_start`` too (default: the
+    problem's own), else a VebuildError that says the start was bad (how far the solve carried the
+    nodes, which corners end behind their camera) and how to give it a better one in the window."""
+    x_start = problem.clip(problem.x0()) if x_start is None else x_start
     report = start_report(problem, x_start, sol.x, solution.undetermined)
     if report.bad_start:
         nodes = list(dict.fromkeys([u.rsplit(".", 1)[0] for u in solution.undetermined]
