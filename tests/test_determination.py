@@ -134,9 +134,10 @@ def test_every_parameter_of_the_example_room_stays_determined(example: Path) -> 
 
 def test_a_dimension_only_an_entered_value_determines_is_reported_as_such(tmp_path: Path) -> None:
     """The floor's pins removed, its size entered with a 1σ: its record says "determined_by":
-    "entered value", the console table and the report say so; so do the boxes' positions on it
-    (measured from its centre, which only its entered size places); the boxes' sizes and turns
-    come from the photos."""
+    "entered value", the console table and the report say so; the boxes' positions on it are
+    measured in the photos from its centre, which only its entered size places: "observations and
+    entered values", printed as from the photos, measured from entered values (not as entered
+    values only); the boxes' sizes and turns come from the photos."""
     project, _ = entered_project(tmp_path / "a", 3, [])
     data = project.data
     data["model"]["pins"] = [p for p in data["model"]["pins"] if p["node"] != "floor"]
@@ -144,18 +145,24 @@ def test_a_dimension_only_an_entered_value_determines_is_reported_as_such(tmp_pa
     result = solve_project(project)
     floor = result["nodes"]["floor"]["params"]
     assert floor["width"]["determined_by"] == floor["depth"]["determined_by"] == "entered value"
-    by_entered = {f"{n}.{k}" for n, rec in result["nodes"].items() for g in ("params", "dofs")
-                  for k, v in rec[g].items() if v.get("determined_by") == "entered value"}
+
+    def by(source: str) -> set[str]:
+        return {f"{n}.{k}" for n, rec in result["nodes"].items() for g in ("params", "dofs")
+                for k, v in rec[g].items() if v.get("determined_by") == source}
+
     boxes = [n for n in result["nodes"] if n.startswith("box")]
-    assert by_entered == {"floor.width", "floor.depth"} | {f"{b}.{k}" for b in boxes for k in ("s", "t")}
+    assert by("entered value") == {"floor.width", "floor.depth"}
+    assert by("observations and entered values") == {f"{b}.{k}" for b in boxes for k in ("s", "t")}
     assert all(result["nodes"][b][g][k]["determined_by"] == "observations" for b in boxes
                for g, k in (("params", "width"), ("params", "height"), ("dofs", "yaw_deg")))
     assert "determined_by" not in result["nodes"]["floor"]["dofs"]["yaw_deg"]  # held exactly: not solved
     table = model_table({**result, "lengths": "metres"})
-    assert table.count("[entered value only]") == len(by_entered), table
+    assert table.count("(entered value only: no photo shows it)") == 2, table
+    assert table.count("(from the photos, measured from entered values)") == 2 * len(boxes), table
     rep = Report(tmp_path)
     report_model(project, rep)
-    assert rep.sections[0].count("entered value only (no photo shows it)") == len(by_entered)
+    assert rep.sections[0].count("entered value only (no photo shows it)") == 2
+    assert rep.sections[0].count("from the photos, measured from entered values") == 2 * len(boxes)
 
 
 def test_too_few_observations_says_what_would_determine_each_parameter(example: Path, tmp_path: Path) -> None:
@@ -172,24 +179,31 @@ def test_too_few_observations_says_what_would_determine_each_parameter(example: 
     box = next(n for n in project.data["model"]["nodes"] if n["name"] == "box")
     with pytest.raises(VebuildError) as e:
         solve_project(project)
-    msg = str(e.value)
-    assert "too few observations: the pins and edges do not determine box." in msg
-    undetermined = msg.split("do not determine ")[1].split(". What would:")[0].split(", ")
-    assert undetermined and all(u.startswith("box.") for u in undetermined), msg
+    first, details = str(e.value).split("\n")
+    # The first line in the window's words: the parameters by name, the Model tab's fields, F.
+    assert "too few observations: the pins and edges do not fix box's " in first
+    assert "$." not in first and '"' not in first and "hold" not in first and "sigma" not in first
+    assert "untick 'solve'" in first and "press F" in first
+    for param in ("width", "depth", "height"):
+        assert (f"box.{param}" in details) == (f"'{param} (m)'" in first)
+    # The details line, for the expert: the file's fields.
+    assert details.startswith("details: $.model: undetermined box.")
+    undetermined = details.split("undetermined ")[1].split("; ")[0].split(", ")
+    assert undetermined and all(u.startswith("box.") for u in undetermined), details
     assert e.value.names == undetermined  # the same names for a caller (UndeterminedError)
     for u in undetermined:
         param = u.split(".", 1)[1]
         unit, sigma = ("°", 1) if param == "yaw" else (" m", 0.005)
-        clause = msg.split(f"{u} (now ")[1].split("; box.")[0]
+        clause = details.split(f"{u} (now ")[1].split("; box.")[0]
         assert f'{{"name": "{param}", "sigma": {sigma:g}, "value": <measured>}}' in clause
-        assert "to the \"hold\" list of node 'box'" in clause
+        assert "in the \"hold\" list of node 'box'" in clause
         now = float(clause.split(unit)[0])
         if param in box["primitive"]["params"]:
             # (the value the solve left it at: its start, for a direction no photo fixes)
             assert now == pytest.approx(box["primitive"]["params"][param], rel=0.2)
         pins = clause.split("; or pin ")[1].split(" (now in")
         assert pins[0].startswith("box:v") and "photo" in clause
-    assert "solve: false" in msg
+    assert '"solve": false' in details
 
 
 def _normal_matrix(rng: np.random.Generator, n_rest: int, cameras: int, join: bool = False) -> tuple[Any, list[slice]]:

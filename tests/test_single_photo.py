@@ -417,7 +417,8 @@ def test_a_marker_off_the_floor_in_one_photo_is_named_not_placed(tmp_path: Path)
     result = calibrate_project(project)
     assert "lamp" not in result["markers"]
     assert result["warnings"] == ["photo 'p': marker 'lamp' is not placed: one photo places only markers on the "
-                                  "floor; mark it on_floor if it lies on the floor, or mark it in a second photo"]
+                                  "floor; if it lies on the floor, tick its 'on the floor' box in the Calibration "
+                                  "tab, or else mark it in a second photo"]
 
 
 # -- mixed projects ------------------------------------------------------------------------------
@@ -510,7 +511,7 @@ def test_a_marker_in_one_photo_of_a_joint_placement_is_named(tmp_path: Path) -> 
     result = calibrate_project(project)
     assert "lamp" not in result["markers"]
     assert "photo 'p2': marker 'lamp' is marked in this photo only, so it is not placed; mark it in a second photo " \
-        "(or mark it on_floor if it lies on the floor)" in result["warnings"]
+        "(or, if it lies on the floor, tick its 'on the floor' box in the Calibration tab)" in result["warnings"]
 
 
 def test_two_photos_sharing_nothing_and_no_scale_are_refused_naming_the_fix(tmp_path: Path) -> None:

@@ -224,8 +224,8 @@ def _calibrate(project: Project, progress: Callable[[Iterable], Iterable]) -> di
             for n in sorted(obs_of[pid]):
                 if n != origin.marker and n not in floor and n not in placed_jointly and ":" not in n:
                     warnings.append(f"photo '{pid}': marker '{n}' is not placed: one photo places only markers on "
-                                    "the floor; mark it on_floor if it lies on the floor, or mark it in a second "
-                                    "photo")
+                                    "the floor; if it lies on the floor, tick its 'on the floor' box in the "
+                                    "Calibration tab, or else mark it in a second photo")
         except CalibrationError as e:
             unplaced[pid] = e.detail  # calibrated, not placed: what it determines is kept, and the fix said
     if not jointly and not alone and not single:
@@ -243,8 +243,8 @@ def _calibrate(project: Project, progress: Callable[[Iterable], Iterable]) -> di
     ids = [p["id"] for p in data["photos"]]
     for pid, err in left_out.items():
         result.setdefault("left_out", {})[pid] = {"reason": err.detail}
-        result["warnings"].append(f"photo '{pid}' is left out of the calibration ($.photos[{ids.index(pid)}]), the "
-                                  f"other photos calibrated without it: {err.detail}")
+        result["warnings"].append(f"photo '{pid}' is left out of the calibration, the other photos calibrated "
+                                  f"without it: {err.detail}\ndetails: $.photos[{ids.index(pid)}]")
     add_group_records(result, groups, exif_check_record)
     for pid in missing:
         result["warnings"].append(f"photo '{pid}' has no vanishing segments and is not calibrated: mark segments, "
@@ -286,7 +286,8 @@ def _place_jointly(project: Project, photos: dict[str, PhotoCalibration], joint:
                 marks[n] = uv
             elif n not in floor and ":" not in n:
                 warnings.append(f"photo '{pid}': marker '{n}' is marked in this photo only, so it is not placed; "
-                                "mark it in a second photo (or mark it on_floor if it lies on the floor)")
+                                "mark it in a second photo (or, if it lies on the floor, tick its 'on the floor' "
+                                "box in the Calibration tab)")
         cov, k1, k1_sigma = distortion_prior(cal)
         inputs.append(PhotoInput(pid, cal.K, cal.R, cov, marks, k1, k1_sigma,
                                  corner_px=0.5 * float(np.hypot(cal.width, cal.height))))

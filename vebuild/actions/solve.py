@@ -33,10 +33,11 @@ from vebuild.calibration.lsq import is_numeric_failure
 from vebuild.calibration.positions import ReferenceDistance, check_scale_distances
 from vebuild.camera import ImageCamera
 from vebuild.constants import Z95
-from vebuild.errors import CalibrationError, ProjectError, UndeterminedError, VebuildError
-from vebuild.model.constraints import conflict_message, conflicts, relation_records
-from vebuild.model.determination import axis_records, too_few_observations
+from vebuild.errors import CalibrationError, ProjectError, VebuildError
+from vebuild.model.constraints import CONFLICT_TOL_M, conflict_message, conflicts, relation_records
+from vebuild.model.determination import axis_records
 from vebuild.model.residuals import MarkerObservation
+from vebuild.model.restart import restart_nodes, troubled_nodes
 from vebuild.model.scan_fit import ScanProblem
 from vebuild.model.scene import Model
 from vebuild.model.solution import handle_covariances, solution_at
@@ -50,6 +51,7 @@ from vebuild.project.units import length_unit
 from . import fixed_camera
 from .camera_group_records import solved_group_records
 from .register import recalibration_cameras, recalibration_k1_sigmas
+from .solve_words import refusal
 
 #: The solve from the first guess gives up after this many iterations and the staged start takes
 #: over: where it found the minimum it took 9 (the generated house) to 27 (the generated rooms of
@@ -114,28 +116,43 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
         problem.check_finite(sol.x, "at the end of the solve")
         return problem, sol
 
-    try:
+    def solve_once() -> tuple[Problem, Any, Any]:
         # From the first guess at once, kept where it plainly found the minimum (Problem.plausible);
         # else (and always with scans, whose faces are matched on the start) from the staged start.
         direct = None if scans else _attempt(lambda: final_solve(staged=False))
         problem, sol = direct if direct is not None and direct[0].plausible(direct[1]) else final_solve(staged=True)
-        solution = solution_at(problem, sol.x, sol.iterations)
+        return problem, sol, solution_at(problem, sol.x, sol.iterations)
+
+    repaired = None  # the problem re-started from the pins of the nodes in doubt, where one was
+    try:
+        problem, sol, solution = solve_once()
+        found = conflicts(model, problem.model_vector(sol.x))
+        if solution.undetermined or found:
+            # Before anything is called undetermined or contradictory, the nodes in doubt are
+            # re-started from their own pins (vebuild/model/restart.py) and the model solved again.
+            doubt = troubled_nodes(problem, sol.x, solution.undetermined, [n for _, r, _ in found for n in r.nodes()])
+            if doubt and restart_nodes(model, cameras, fixed_pins, edges, project.settings["click_sigma_px"], doubt):
+                again = _attempt(solve_once)
+                repaired = None if again is None else again[0]
+                if again is not None and _better(model, again, solution, found):
+                    problem, sol, solution = again
+                    found = conflicts(model, problem.model_vector(sol.x))
     except VebuildError as e:
-        raise VebuildError(f"{project.path}: $.model: {e}") from None
+        first, _, details = str(e).partition("\n")
+        raise VebuildError(f"{project.path}: {first}\n{details or 'details: $.model'}") from None
     except (ValueError, np.linalg.LinAlgError) as e:
         if not is_numeric_failure(e):  # LinAlgError is a ValueError: a singular matrix is numeric too
             raise
-        raise VebuildError(f"{project.path}: $.model: the solve failed numerically ({e}); an observation or a "
-                           "node's dimensions make it degenerate: check the pins of the nodes last edited") from None
+        raise VebuildError(f"{project.path}: the solve failed numerically ({e}): an observation or a node's "
+                           "dimensions make it degenerate; check the pins of the nodes last edited\n"
+                           "details: $.model") from None
     xm = problem.model_vector(sol.x)
-    if found := conflicts(model, xm):
-        raise VebuildError(f"{project.path}: $.model.relations: {conflict_message(found)}")
+    if found:
+        raise VebuildError(f"{project.path}: {conflict_message(found)}")
     if solution.undetermined:
-        raise UndeterminedError(
-            f"{project.path}: $.model: too few observations: the pins and edges do not determine "
-            f"{', '.join(solution.undetermined[:12])}{' …' if len(solution.undetermined) > 12 else ''}. "
-            f"What would: {too_few_observations(problem, solution)} (FORMAT.md \"entered value\"; pins in a "
-            "photo, or a second one); or mark those nodes solve: false", solution.undetermined)
+        # The rank is judged at the best start there was: the repaired one where a repair ran.
+        start = problem if repaired is None or len(repaired.names) != len(problem.names) else repaired
+        raise refusal(project, problem, sol, solution, start.clip(start.x0()))
     _check_visible(project, problem, xm, solution.cameras)
     model.set_vector(xm)
     data["model"]["nodes"] = model.to_dict()
@@ -159,6 +176,14 @@ def solve_project(project: Project, recalibrate: bool = False, refine_intrinsics
     result["check_distances"] = final_check_distances(project)
     provenance.stamp(data, "model_solution")  # what it was computed from (vebuild.project.provenance)
     return result
+
+
+def _better(model: Model, again: tuple[Problem, Any, Any], solution: Any, found: list[Any]) -> bool:
+    """Whether a solve after a re-start is kept: it leaves fewer relations missing, or as few and
+    fewer parameters undetermined."""
+    problem, sol, sol2 = again
+    found2 = conflicts(model, problem.model_vector(sol.x))
+    return (len(found2), len(sol2.undetermined)) < (len(found), len(solution.undetermined))
 
 
 def _attempt(solve: Any) -> Any:
@@ -242,11 +267,11 @@ def uncalibrated_pin_warnings(data: dict[str, Any], cameras: dict[str, ImageCame
                             ((pins, "pin"), (edges, "edge observation")) if n)
         seg = any(p["id"] == pid and p.get("vanishing_segments") for p in data["photos"])
         if pid in left_out:
-            fix = (f"`vebuild calibrate` once what the calibration left it out for is fixed "
-                   f"({json_path(['calibration', 'left_out', pid, 'reason'])})")
+            fix = ("Calibrate (`vebuild calibrate`) once what the calibration left it out for is fixed (the "
+                   "calibration's warnings say what)")
         elif pid in unplaced:
-            fix = (f"`vebuild register PROJECT {pid}` (the calibration could not place it: "
-                   f"{json_path(['calibration', 'unplaced', pid, 'reason'])})")
+            fix = (f"Register this photo (`vebuild register PROJECT {pid}`): the calibration could not place it "
+                   "(its warnings say why)")
         elif seg:
             fix = "`vebuild calibrate` (it has vanishing segments)"
         else:
@@ -354,10 +379,11 @@ def _check_visible(project: Project, problem: Problem, xm: np.ndarray, cameras: 
         if uv is None or not (-VISIBLE_MARGIN * w <= uv[0] <= (1 + VISIBLE_MARGIN) * w
                               and -VISIBLE_MARGIN * hgt <= uv[1] <= (1 + VISIBLE_MARGIN) * hgt):
             where = "behind the camera" if uv is None else f"at ({uv[0]:.0f}, {uv[1]:.0f}), outside the image"
-            raise ProjectError(project.path, f"$.model.pins[{i}]",
-                               f"pins {p['node']}:{p['handle']} in photo '{p['photo']}', but the solved model puts "
-                               f"that vertex {where}: the pin is on a vertex this camera cannot see (wrong handle "
-                               "or wrong photo?)")
+            raise VebuildError(f"{project.path}: a pin on {p['node']}'s corner {p['handle']} in photo '{p['photo']}' "
+                               f"is one the solved model puts {where}: the pin is on a corner this camera cannot "
+                               "see (the wrong corner, or the wrong photo?); drag it onto the right corner, or "
+                               "remove it (F over it unfixes it)\n"
+                               f"details: $.model.pins[{i}] ({p['node']}:{p['handle']})")
 
 
 def _vs(v: Any, s: Any) -> dict[str, Any]:
@@ -375,12 +401,20 @@ def _results(problem: Problem, solution: Any, model: Model, xm: np.ndarray, reca
     by_name.update({m: by_name[rep] for m, rep in problem.alias.items() if rep in by_name})  # equal: shared
     axes = axis_records(problem, solution)
     prior_only = set(solution.prior_only)
+    held = held_by_relations(problem, sig)
 
-    def determined_by(full: str) -> dict[str, str]:
-        """Where a solved parameter's value comes from (FORMAT.md ``determined_by``)."""
+    def determined_by(full: str, entered: bool) -> dict[str, str]:
+        """Where a solved parameter's value comes from (FORMAT.md ``determined_by``): a relation
+        that holds it (``held_by``: which), the photos, only its own entered value, or the photos
+        measuring from what only entered values place (a box's position on a floor whose size was
+        entered)."""
         if full not in by_name:
             return {}
-        return {"determined_by": "entered value" if full in prior_only else "observations"}
+        if full in held:
+            return {"determined_by": "relation", "held_by": held[full]}
+        if full not in prior_only:
+            return {"determined_by": "observations"}
+        return {"determined_by": "entered value" if entered else "observations and entered values"}
 
     nodes = {}
     for n in model.nodes:
@@ -392,13 +426,14 @@ def _results(problem: Problem, solution: Any, model: Model, xm: np.ndarray, reca
             if n.joint.dof_kinds[k] == "angle":
                 value, s, dof = np.degrees(value), np.degrees(s), dof + "_deg"
             entry["dofs"][dof] = {**_vs(value, s), **n.entered_record(n.joint.dof_names[k]),  # entered: FORMAT.md
-                                  **determined_by(f"{n.name}.{n.joint.dof_names[k]}")}
+                                  **determined_by(f"{n.name}.{n.joint.dof_names[k]}",
+                                                  n.entered_sigma(n.joint.dof_names[k]) is not None)}
         if n.primitive is not None:
             for k, pname in enumerate(n.primitive.PARAMS):
                 j = by_name.get(f"{n.name}.{pname}")
                 entry["params"][pname] = {**_vs(xm[sp][k], sig[j] if j is not None else 0.0),
                                           **n.entered_record(pname),  # entered values: FORMAT.md
-                                          **determined_by(f"{n.name}.{pname}")}
+                                          **determined_by(f"{n.name}.{pname}", n.entered_sigma(pname) is not None)}
             for h in n.primitive.handle_names():
                 pos, cov = handles[f"{n.name}:{h}"]
                 entry["handles"][h] = _vs(pos, np.sqrt(np.maximum(np.diag(cov), 0.0)))
@@ -423,6 +458,27 @@ def _results(problem: Problem, solution: Any, model: Model, xm: np.ndarray, reca
         "iterations": solution.iterations,
         "covariance": covariance_record(problem, solution),
     }
+
+
+#: A solved parameter whose 1σ (metres, radians) is at most this is held by the flush or aligned
+#: relations its column moves, not measured: their hard rows, whitened by HARD_SIGMA_M (1 µm),
+#: leave it a σ of that order over the lever, while no photo measures anything to better than a
+#: fraction of a pixel's footprint (tenths of a millimetre in a room). The tenth of a millimetre
+#: to which a relation is reported to hold (CONFLICT_TOL_M) parts the two.
+RELATION_HELD_SIGMA = CONFLICT_TOL_M
+
+
+def held_by_relations(problem: Problem, sig: np.ndarray) -> dict[str, str]:
+    """``node.param`` → the relations (as the Model tab lists them) that hold it: every solved model
+    parameter with a 1σ of at most RELATION_HELD_SIGMA whose column moves a flush or aligned
+    relation."""
+    out = {}
+    for j, name in enumerate(problem.names):
+        rels = [problem.hard[k].label() for k in problem.column_hard[j]]
+        if rels and sig[j] <= RELATION_HELD_SIGMA:
+            out[name] = ", ".join(rels)
+    out.update({m: out[rep] for m, rep in problem.alias.items() if rep in out})
+    return out
 
 
 def covariance_record(problem: Problem, solution: Any) -> dict[str, Any]:

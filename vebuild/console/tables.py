@@ -18,13 +18,20 @@ def _pm(vs: dict[str, Any], fmt: str, scale: float = 1.0) -> str:
 
 
 def _figure(vs: dict[str, Any], fmt: str, unit: str = "") -> str:
-    """A solved value ± 1σ (with ``unit``); an entered one (FORMAT.md ``hold``) says so: held
-    exactly it reads 'entered' (never '± 0'), entered with a 1σ it shows that 1σ beside the
-    solved one; another held value reads 'held'. A value that only entered values determine (no
-    photo shows it: FORMAT.md ``determined_by``) says so."""
+    """A solved value ± 1σ (with ``unit``), with where it comes from where that is not the photos
+    alone (FORMAT.md ``determined_by``): entered (held exactly it reads 'entered', never '± 0';
+    entered with a 1σ it shows that 1σ beside the solved one), held by a relation (which; never
+    '± 0.000' nor '-0.000'), only its own entered value (no photo shows it), or measured in the
+    photos from what only entered values place; another held value reads 'held'."""
     u = f" {unit}" if unit else ""
-    if vs.get("determined_by") == "entered value":
-        return _figure({k: v for k, v in vs.items() if k != "determined_by"}, fmt, unit) + " [entered value only]"
+    source = vs.get("determined_by")
+    if source == "relation":
+        return f"{format(vs['value'] + 0.0, fmt)}{u} (held by relation {vs.get('held_by', '')})".replace(" )", ")")
+    if source == "entered value":
+        return _figure({k: v for k, v in vs.items() if k != "determined_by"}, fmt, unit) + \
+            " (entered value only: no photo shows it)"
+    if source == "observations and entered values":
+        return f"{_pm(vs, fmt)}{u} (from the photos, measured from entered values)"
     if vs.get("entered"):
         s = vs.get("entered_sigma") or 0.0
         if s == 0:
@@ -134,7 +141,8 @@ def calibration_table(result: dict[str, Any]) -> str:
 def model_table(result: dict[str, Any]) -> str:
     """Per node: its joint's degrees of freedom and its dimensions, ± 1σ, then the residuals."""
     unit = record_unit(result)
-    lines = [f"model ({result['software']}{', re-calibrated' if result['recalibrated'] else ''}); values ± 1σ"
+    lines = [f"model ({result['software']}{', re-calibrated' if result['recalibrated'] else ''}); values ± 1σ, "
+             "from the photos unless marked"
              + ("; lengths are RELATIVE (no scale given: the camera's height is 1)" if unit.relative else ""), ""]
     m = "(relative units)" if unit.relative else "m"
     for name, node in result["nodes"].items():

@@ -412,7 +412,8 @@ class Modelling(Marks):
         free = drag_nodes(model, node)
         movable = [n for n in free if model.node(n).solve]
         if not movable:
-            raise EditError(f"'{node}' cannot be dragged: it is held (solve: false); untick 'hold' in its properties")
+            raise EditError(f"'{node}' cannot be dragged: it is held as it is; tick 'solve' in its properties (the "
+                            "Model tab) to let the solver move it")
         pins, edges = self._observations(model)
         try:
             ds = DragSession(model, self.cameras, pins, edges, photo, node, handle,

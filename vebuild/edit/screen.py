@@ -179,7 +179,7 @@ class Editor(FirstSteps, EntryKeys, AssistKeys, OverlayLayers, MessageArea, Scre
 
     def _check_photo(self, photo: str | None) -> None:
         if photo is not None and photo != self.photo:
-            raise VebuildError(f"photo '{photo}' is not the one shown ('{self.photo}'); show it first (set_photo)")
+            raise VebuildError(f"photo '{photo}' is not the one shown ('{self.photo}'); show it first")
 
     def image_to_window(self, photo: str | None, uv: Any) -> tuple[float, float]:
         """Window coordinates of photo pixel coordinates (u, v) (photo: the one shown, or None)."""

@@ -167,8 +167,12 @@ def conflicts(model: Model, x: Array | None = None, tol: float = CONFLICT_TOL_M)
 
 
 def conflict_message(found: list[tuple[int, Relation, float]]) -> str:
-    """What :func:`conflicts` found, for the user: the relations named, each with its miss."""
-    parts = [f"$.model.relations[{i}] ({r.label()}) misses by "
-             + (f"{miss * 1000:.3g} mm" if miss < 1.0 else f"{miss:.3g} m") for i, r, miss in found]
+    """What :func:`conflicts` found, for the user: the relations named as the Model tab lists them,
+    each with its miss, what to do in the window; then, on a ``details:`` line, where they are in
+    the project file."""
+    parts = [f"{r.label()} misses by " + (f"{miss * 1000:.3g} mm" if miss < 1.0 else f"{miss:.3g} m")
+             for _, r, miss in found]
     return ("the relations cannot all hold together with the joints: " + "; ".join(parts) + "; correct or remove "
-            "one of them (an offset, a face turned the wrong way, or a joint that keeps a node from reaching it)")
+            "one of them in the Model tab's list of relations (an offset, a face turned the wrong way, or a joint "
+            "that keeps a node from reaching it)\ndetails: "
+            + ", ".join(f"$.model.relations[{i}]" for i, _, _ in found))

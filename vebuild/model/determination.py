@@ -103,11 +103,25 @@ def _file_value(value: float, kind: str) -> float:
     return float(np.degrees(value)) if kind == "angle" else float(value)
 
 
-def too_few_observations(problem: Problem, solution: Solution, limit: int = 12) -> str:
-    """What would determine each undetermined parameter (at most ``limit`` of them), one clause
-    each: its value now, the ``hold`` entry that enters a measured value, and the handles that
-    move most along the direction the observations leave open and are pinned in fewer than two
-    photos (so that a pin in a first or second photo would fix them)."""
+#: A parameter as the window's Model tab and an investigator name it (the file's own name else).
+PARAM_WORDS = {"s": "position across", "t": "position front to back", "yaw": "turn", "angle": "hinge angle",
+               "offset": "slide", "axis_u": "hinge axis", "axis_v": "hinge axis", "axis_a": "slide direction",
+               "axis_b": "slide direction"}
+
+
+def param_words(full: str) -> str:
+    """``door.depth`` → "door's depth"; ``door.yaw`` → "door's turn" (:data:`PARAM_WORDS`)."""
+    node, param = full.rsplit(".", 1)
+    return f"{node}'s {PARAM_WORDS.get(param, param)}"
+
+
+def too_few_observations(problem: Problem, solution: Solution, limit: int = 12) -> tuple[str, str]:
+    """What would determine each undetermined parameter (at most ``limit`` of them), in two
+    parts: the user's words (the window's controls: a size typed in the Model tab and the node
+    held, or a corner dragged onto a second photo and fixed with F) and the details for the
+    expert (each parameter's value now, the ``hold`` entry that enters a measured value, the
+    handles that move most along the direction the observations leave open and are pinned in
+    fewer than two photos, so that a pin in a first or second photo would fix them)."""
     layout = problem.layout
     names, kinds = layout.model.names, layout.model.kinds
     index = {nm: j for j, nm in enumerate(names)}
@@ -118,7 +132,8 @@ def too_few_observations(problem: Problem, solution: Solution, limit: int = 12) 
     photos: dict[str, set[str]] = {}
     for p in problem.pins:
         photos.setdefault(f"{p.node}:{p.handle}", set()).add(p.photo)
-    clauses = []
+    details: list[str] = []
+    per_node: dict[str, dict[str, list[str]]] = {}  # node → sizes typed, joint values typed, corners
     for full in solution.undetermined[:limit]:
         j = index[full]
         node, param = full.rsplit(".", 1)
@@ -126,16 +141,32 @@ def too_few_observations(problem: Problem, solution: Solution, limit: int = 12) 
         unit = "°" if kind == "angle" else " m"
         value = _file_value(xmodel[j], kind)
         hold = f'{{"name": "{param}", "sigma": {SUGGESTED_SIGMA[kind]:g}, "value": <measured>}}'
-        text = (f"{full} (now {value:.4g}{unit}): enter a measured value by adding {hold} to the \"hold\" list "
-                f"of node '{node}'")
+        detail = f"{full} (now {value:.4g}{unit}): {hold} in the \"hold\" list of node '{node}'"
         pins = _pins_that_determine(G, cov_obs, j, layout.model.slice, handle_names, photos) \
             if G is not None and cov_obs is not None else []
+        mine = per_node.setdefault(node, {"sizes": [], "joint": [], "corners": []})
+        mine["sizes" if kind == "size" else "joint"].append(f"'{param} (m)'" if kind == "size" else param)
+        mine["corners"] += [h.split(":", 1)[1] for h in pins if h.split(":", 1)[1] not in mine["corners"]]
         if pins:
-            text += "; or pin " + ", ".join(f"{h} (now in {len(photos.get(h, ()))} photo"
-                                           f"{'' if len(photos.get(h, ())) == 1 else 's'})" for h in pins)
-        clauses.append(text)
+            detail += "; or pin " + ", ".join(f"{h} (now in {len(photos.get(h, ()))} photo"
+                                             f"{'' if len(photos.get(h, ())) == 1 else 's'})" for h in pins)
+        details.append(detail)
+    words = []
+    for node, mine in per_node.items():
+        typed = []
+        if mine["sizes"]:
+            typed.append(f"the field{'s' if len(mine['sizes']) > 1 else ''} {', '.join(mine['sizes'])}")
+        if mine["joint"]:
+            typed.append("the joint fields")
+        text = (f"for {node}, type what was measured on the spot into {' and '.join(typed)} of the Model tab "
+                "and untick 'solve' to keep it as typed")
+        if mine["corners"]:
+            c = mine["corners"]
+            text += (f", or, in another photo, drag {node}'s corner{'s' if len(c) > 1 else ''} {', '.join(c)} "
+                     "onto where that photo shows them and press F over each to fix it")
+        words.append(text)
     more = f"; and {len(solution.undetermined) - limit} more" if len(solution.undetermined) > limit else ""
-    return "; ".join(clauses) + more
+    return "; ".join(words), "; ".join(details) + more
 
 
 def _pins_that_determine(G: Array, cov_obs: Array, j: int, model_slice: slice, handle_names: list[str],

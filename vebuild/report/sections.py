@@ -70,7 +70,14 @@ def model(project: Project, rep: Report) -> None:
         for group in ("params", "dofs"):
             for name, v in (rec.get(group) or {}).items():
                 e = entered.get((node, name))
-                if v.get("determined_by") == "entered value":
+                if v.get("determined_by") == "relation":
+                    rows.append([node, name, fmt(v["value"] + 0.0), Cell(f"held by relation {v.get('held_by', '')}",
+                                                                        "entered"), "—", "—"])
+                elif v.get("determined_by") == "observations and entered values":
+                    ci = v.get("ci95") or [None, None]
+                    rows.append([node, name, fmt(v["value"]), "from the photos, measured from entered values",
+                                 fmt(v["sigma"]), f"{fmt(ci[0])} – {fmt(ci[1])}"])
+                elif v.get("determined_by") == "entered value":
                     # No photo shows it: its value and σ are the entered values' (FORMAT.md determined_by).
                     ci = v.get("ci95") or [None, None]
                     rows.append([node, name, fmt(v["value"]), Cell("entered value only (no photo shows it)",
@@ -85,7 +92,7 @@ def model(project: Project, rep: Report) -> None:
                                  "—", "—"])
                 else:
                     ci = v.get("ci95") or [None, None]
-                    rows.append([node, name, fmt(v["value"]), "solved", fmt(v["sigma"]),
+                    rows.append([node, name, fmt(v["value"]), "from the photos", fmt(v["sigma"]),
                                  f"{fmt(ci[0])} – {fmt(ci[1])}"])
     how = "with" if sol.get("recalibrated") else "without"
     body = (f"<p>Primitives fitted to the pins and edges (paper §3), {how} "
@@ -94,8 +101,10 @@ def model(project: Project, rep: Report) -> None:
             + (f"Lengths in {RELATIVE_UNITS} (no scale was given), " if unit.relative else "Lengths in metres, ")
             + "angles in degrees; 1σ and 95 % interval from the solve's covariance. A value marked 'entered' was "
             "entered (a tape, a plan, an assumption), not measured in the photos: its σ is the entered one; "
-            "one 'held by its joint' is no measurement either; one 'entered value only' is solved, but only "
-            "entered values determine it (no photo shows it).</p>"
+            "one 'held by its joint' or 'held by relation' is no measurement either; one 'entered value only' is "
+            "solved, but only entered values determine it (no photo shows it); one 'measured from entered values' "
+            "is measured in the photos from what only entered values place (a position on a floor whose size was "
+            "entered).</p>"
             + table(["node", "parameter", "value", "from", "1σ", "95 % interval"], rows, {2, 4, 5}, wide=True))
     outliers = sol.get("outliers") or []
     body += f"<p>Observations flagged as outliers (> 4σ): {len(outliers)}.</p>"
