@@ -32,7 +32,7 @@ from texture_tolerances import (
     WEIGHT_RTOL,
 )
 
-from vebuild.camera import ImageCamera, look_rotation, project
+from vebuild.camera import ImageCamera, Lens, look_rotation, project
 from vebuild.errors import VebuildError
 from vebuild.gl import headless_context
 from vebuild.render.renderer import Renderer, RenderOptions
@@ -142,14 +142,14 @@ def _camera(k1: float = K1) -> ImageCamera:
     background near the top, the principal point off centre."""
     C = np.array([2.0, -1.4, 1.1])
     K = np.array([[F, 0.0, W / 2 + 4.2], [0.0, F, H / 2 - 3.1], [0.0, 0.0, 1.0]])
-    return ImageCamera("p", K, look_rotation(np.subtract([2.2, 1.3, 0.35], C)), C, W, H, k1=k1)
+    return ImageCamera("p", K, look_rotation(np.subtract([2.2, 1.3, 0.35], C)), C, W, H, lens=Lens(k1))
 
 
 def _second_camera(k1: float = 0.6 * K1) -> ImageCamera:
     """Another photo from the right, higher, with a milder lens and its own focal length."""
     C = np.array([4.3, -0.6, 1.6])
     K = np.array([[240.0, 0.0, W / 2 - 2.5], [0.0, 240.0, H / 2 + 1.5], [0.0, 0.0, 1.0]])
-    return ImageCamera("q", K, look_rotation(np.subtract([2.0, 1.4, 0.3], C)), C, W, H, k1=k1)
+    return ImageCamera("q", K, look_rotation(np.subtract([2.0, 1.4, 0.3], C)), C, W, H, lens=Lens(k1))
 
 
 @pytest.fixture(scope="module")
@@ -202,7 +202,7 @@ def photos(renderer, tmp_path_factory):
     out = {}
     for name, cam in (("lens", _camera()), ("pinhole", _camera(0.0)), ("lens2", _second_camera()),
                       ("pinhole2", _second_camera(0.0))):
-        rgb, alpha = _through_lens(renderer, cam, cam.k1)
+        rgb, alpha = _through_lens(renderer, cam, cam.lens.k1)
         Image.fromarray(rgb).save(folder / f"{name}.png")
         out[name] = {"path": folder / f"{name}.png", "rgb": rgb, "alpha": alpha}
     return out
@@ -221,7 +221,7 @@ def test_a_pinhole_is_its_own_cover():
 def test_the_cover_holds_every_pixel_the_lens_shows(rng, k1):
     cam = _camera(k1)
     cover, (ox, oy) = pinhole_cover(cam)
-    assert cover.k1 == 0.0 and np.array_equal(cover.R, cam.R) and np.array_equal(cover.C, cam.C)
+    assert cover.lens.is_pinhole and np.array_equal(cover.R, cam.R) and np.array_equal(cover.C, cam.C)
     np.testing.assert_array_equal(cover.K[:2, 2], cam.K[:2, 2] - [ox, oy])
     # every point of the photo (border and inside), undistorted by the formula written out here
     uv = np.concatenate([border_pixels(W, H), rng.uniform([0, 0], [W, H], (5000, 2))])
@@ -241,7 +241,7 @@ def test_the_cover_holds_every_pixel_the_lens_shows(rng, k1):
 def test_a_lens_that_is_no_lens_is_refused():
     # k1 = −1.5: at the farthest corner, (0, 240), |x_d|² = (164.2² + 123.1²) / 260² = 0.623 and
     # 1 + k1 |x_d|² = 0.065, under the least allowed: 15.3 times as far out
-    cam = dataclasses.replace(_camera(), k1=-1.5)
+    cam = dataclasses.replace(_camera(), lens=Lens(-1.5))
     assert 1 - 1.5 * (164.2**2 + 123.1**2) / F**2 < MIN_CORNER_DENOMINATOR
     with pytest.raises(VebuildError, match=r"photo p: its lens distortion k1 = -1.5 \(division model\) puts the "
                                            r"corners of the 320×240 photo 15.3 times farther out than a pinhole "
@@ -274,7 +274,7 @@ def test_a_photo_cameras_render_lines_up_with_its_distorted_photo(renderer, phot
     shifts = _edge_shifts(rgba[..., 3] / 255.0, truth)
     assert len(shifts) >= 20  # the floor's far edge, the box's top and sides
     assert np.abs(shifts).max() <= EDGE_SHIFT_PX, np.sort(np.abs(shifts))[-5:]
-    ignored = renderer.render_rgba(dataclasses.replace(cam, k1=0.0))
+    ignored = renderer.render_rgba(dataclasses.replace(cam, lens=Lens(0.0)))
     assert np.abs(_edge_shifts(ignored[..., 3] / 255.0, truth)).max() >= IGNORED_EDGE_SHIFT_PX
     # Colours too, where the model covers the pixel and its neighbours: measured 4.7 sRGB levels
     # mean difference (the render filters the texture once at the pinhole's pixels, then
@@ -315,7 +315,7 @@ def test_the_id_buffer_and_picks_of_a_photo_camera_follow_its_lens(renderer, pho
         u, v = i + rng.uniform(0.1, 0.9), j + rng.uniform(0.1, 0.9)
         node, X = renderer.pick(cam, u, v)
         assert node == names[ids[j, i] - 1] and X is not None
-        np.testing.assert_allclose(project(cam.K, cam.R, cam.C, X, cam.k1), [u, v], atol=1e-3)
+        np.testing.assert_allclose(project(cam.K, cam.R, cam.C, X, cam.lens), [u, v], atol=1e-3)
 
 
 # -- texture extraction ------------------------------------------------------------------------------
@@ -427,7 +427,7 @@ def test_gpu_texels_through_the_lens_agree_with_the_reference(extractor, photos)
     # through vebuild.camera.project with k1, is in the photo; ignoring the lens it often is not.
     tx = ref.page_texels(mesh, 0)
     rows = np.flatnonzero(c.ravel()[tx.index])
-    uv = project(cam.K, cam.R, cam.C, tx.position[rows], cam.k1)
+    uv = project(cam.K, cam.R, cam.C, tx.position[rows], cam.lens)
     assert ((uv >= 0) & (uv < [W, H])).all()
     assert not ((project(cam.K, cam.R, cam.C, tx.position[rows]) >= 0)
                 & (project(cam.K, cam.R, cam.C, tx.position[rows]) < [W, H])).all()

@@ -229,9 +229,12 @@ class PhotoHeightRequest(_NoImage):
         cam = photo_camera(project, self.photo)
         cal = camera_records(project.data)[cam.id]  # the final record, as photo_camera's
         k1_sigma = float(((cal.get("distortion") or {}).get("k1") or {}).get("sigma") or 0.0)
+        k2_rec = (cal.get("distortion") or {}).get("k2") or {}
+        k2_sigma, k12 = float(k2_rec.get("sigma") or 0.0), float(k2_rec.get("k1_correlation") or 0.0)
         click = project.settings["click_sigma_px"]
         rows = [measure_on_photo(cam, word, [self.pixels[i : i + 2] for i in range(k, k + each, 2)],
-                                 click_sigma_px=click, k1_sigma=k1_sigma) for k in range(0, len(self.pixels), each)]
+                                 click_sigma_px=click, k1_sigma=k1_sigma, k2_sigma=k2_sigma,
+                                 k1_k2_correlation=k12) for k in range(0, len(self.pixels), each)]
         unit = RELATIVE if (cal.get("placement") or {}).get("lengths") == "relative" else length_unit(project.data)
         text = _table(rows, unit)
         against = "the floor (z = 0)" if word in ("photo-height", "floor-distance") else \

@@ -187,7 +187,7 @@ class Problem(Residuals):
             at[o : o + 3] = cam.C
             if blk.distortion:  # its own k1 (a group's photo's is the group's)
                 L[-1, -1] = 1.0 / options.k1_sigma[cid]
-                at[-1] = cam.k1
+                at[-1] = cam.lens.k1
             self._prior_L[cid], self._prior_at[cid] = L, at
         self._group_L, self._group_at = {}, {}
         for gid, blk in self.layout.groups.items():
