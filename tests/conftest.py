@@ -127,6 +127,7 @@ SLOW_MODULES = frozenset({
     "test_bench_real", "test_bench_detect", "test_bench_render", "test_bench_house", "test_bench_cli",
     "test_detect_clutter", "test_camera_groups", "test_placement_honest", "test_orientation", "test_outputs",
     "test_report", "test_report_court", "test_report_single", "test_measure", "test_relations",
+    "test_lens_second_term",
 })
 _gl_modules: dict[str, bool] = {}
 

@@ -372,14 +372,17 @@ def measure_on_photo(cam: ImageCamera, kind: str, clicks: Sequence[Sequence[floa
 
 
 def height_on_photo(cam: ImageCamera, foot: Sequence[float], top: Sequence[float], *, click_sigma_px: float = 1.0,
-                    k1_sigma: float = 0.0) -> Measurement:
+                    k1_sigma: float = 0.0, k2_sigma: float = 0.0, k1_k2_correlation: float = 0.0) -> Measurement:
     """The height above the floor of the point clicked at ``top``, standing over the floor point
     clicked at ``foot``, with its first-order 1σ (module docstring)."""
-    return measure_on_photo(cam, "photo-height", [foot, top], click_sigma_px=click_sigma_px, k1_sigma=k1_sigma)
+    return measure_on_photo(cam, "photo-height", [foot, top], click_sigma_px=click_sigma_px, k1_sigma=k1_sigma,
+                            k2_sigma=k2_sigma, k1_k2_correlation=k1_k2_correlation)
 
 
 def floor_distance_on_photo(cam: ImageCamera, a: Sequence[float], b: Sequence[float], *, click_sigma_px: float = 1.0,
-                            k1_sigma: float = 0.0) -> Measurement:
+                            k1_sigma: float = 0.0, k2_sigma: float = 0.0,
+                            k1_k2_correlation: float = 0.0) -> Measurement:
     """The distance between the two floor points clicked at ``a`` and ``b``, with its first-order
     1σ (module docstring)."""
-    return measure_on_photo(cam, "floor-distance", [a, b], click_sigma_px=click_sigma_px, k1_sigma=k1_sigma)
+    return measure_on_photo(cam, "floor-distance", [a, b], click_sigma_px=click_sigma_px, k1_sigma=k1_sigma,
+                            k2_sigma=k2_sigma, k1_k2_correlation=k1_k2_correlation)
