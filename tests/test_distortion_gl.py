@@ -433,6 +433,32 @@ def test_gpu_texels_through_the_lens_agree_with_the_reference(extractor, photos)
                 & (project(cam.K, cam.R, cam.C, tx.position[rows]) < [W, H])).all()
 
 
+def test_gpu_texels_through_a_two_term_lens_agree_with_the_reference(extractor, photos):
+    """The shader's second term (Newton's inversion in GLSL, in floats) against the reference's
+    (vebuild.camera in doubles): the 150° fisheye's two-term fit (docs/lenses.md) on this frame's
+    f, moving its corners by a quarter of the half diagonal."""
+    cam = dataclasses.replace(_camera(), lens=Lens(-0.3276, -0.0291))
+    mesh = extractor.mesh
+    pixels = photos["lens"]["rgb"]
+    gpu, buf = _gpu_view(extractor, cam, pixels)
+    ids, depth = ref.rasterise_ids(mesh, cam, 0.0)
+    assert np.mean(buf[..., 0].astype(np.int32) != ids) <= ID_MISMATCH
+    cpu = ref.texel_view(mesh, cam, ref.pyramid(pixels), ids, depth, 0, OPTIONS.detail_levels)
+    g, c = gpu["seen"] > 0, cpu["seen"]
+    assert (g != c).sum() / (g | c).sum() <= SEEN_MISMATCH
+    both = g & c
+    assert both.sum() > 20_000
+    assert np.abs(gpu["colour"] - cpu["colour"])[both].max() <= COLOUR_ATOL
+    np.testing.assert_allclose(gpu["weight"][both], cpu["weight"][both], rtol=WEIGHT_RTOL)
+    # the second term moves the seen texels by over a pixel at the corners (1.25 px at most on
+    # this 320×240 frame), more than the colour tolerance lets a misplaced sample through
+    tx = ref.page_texels(mesh, 0)
+    rows = np.flatnonzero(c.ravel()[tx.index])
+    two = project(cam.K, cam.R, cam.C, tx.position[rows], cam.lens)
+    one = project(cam.K, cam.R, cam.C, tx.position[rows], Lens(cam.lens.k1))
+    assert ((two >= 0) & (two < [W, H])).all() and np.max(np.linalg.norm(two - one, axis=1)) > 1.0
+
+
 def test_gpu_sums_over_two_lenses_agree_with_the_reference(ctx, photos):
     # The best-weight pre-pass (at half resolution: the cover of the scaled camera) and the sums,
     # without erosion (whose two implementations differ near silhouettes, a large share of these
