@@ -165,3 +165,15 @@ def test_the_record_carries_k2_beside_k1() -> None:
     # a one-term lens's record is as it was: no k2
     assert "k2" not in distortion_record(K, W, H, -0.05, 0.002, "user")
     assert distortion_displacement_px(K, W, H, PINHOLE) == 0.0
+
+
+def test_the_report_shows_k2_only_where_the_lens_has_one() -> None:
+    from vebuild.report.cameras import lens
+
+    one = {"distortion": distortion_record(K, W, H, -0.05, 0.002, "user")}
+    assert "k2" not in lens(one) and lens(one).startswith("k1 -0.0500 ± 0.0020, corners ")
+    held = {"distortion": distortion_record(K, W, H, -0.3, 0.004, "segments", k2_source="k2 held at 0: …")}
+    assert "k2" not in lens(held)
+    two = {"distortion": distortion_record(K, W, H, FISHEYE.k1, 0.003, "segments", k2=FISHEYE.k2, k2_sigma=0.002,
+                                           k2_source="segments")}
+    assert "k1 -0.3276 ± 0.0030, k2 -0.0291 ± 0.0020, corners " in lens(two)
