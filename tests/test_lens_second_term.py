@@ -142,3 +142,20 @@ def test_the_record_is_read_back_and_a_lens_no_camera_has_is_refused(tmp_path) -
     project, p = _project_with_k2(tmp_path / "short", 0.9)
     with pytest.raises(ProjectError, match=r"distortion\.k2\.value.*field reaches the photo's corners"):
         cameras_from_calibration(project)
+
+
+def test_a_held_second_term_stays_in_the_uncertainty(monkeypatch) -> None:
+    """A 90° lens whose lines do not ask for k2 (measured: T = 1.70, p = 0.19) holds it at 0 as a
+    consider parameter: the corner displacement's 1σ is 9.0 px, not the 4.0 px of a k2 fixed at 0
+    exactly (the same photo with the second test switched off), and still covers the truth."""
+    view = fisheye_view(np.random.default_rng(9), fov_deg=90.0, noise_px=NOISE_PX)
+    held = _calibrate_view(view)
+    assert held.second_term_test is not None and not held.second_term_test.needed
+    assert (held.k2, held.k2_sigma) == (0.0, 0.0)
+    monkeypatch.setattr(bending, "SECOND_TERM_MIN_CORNER_REL", 1.0)  # no second test: k2 = 0 exactly
+    exact = _calibrate_view(view)
+    assert exact.second_term_test is None and exact.distortion_corner_px == held.distortion_corner_px
+    assert held.distortion_corner_px_sigma > 1.5 * exact.distortion_corner_px_sigma
+    truth = view.corner_displacement_px()
+    err = held.distortion_corner_px - truth
+    assert abs(err) < CORNER_REL * truth and abs(err) <= COVER_SIGMAS * held.distortion_corner_px_sigma

@@ -147,9 +147,10 @@ def wide_lens(problem: JointProblem, y: Array, scale: float, width: int, height:
 def second_term_test(problem: JointProblem, y: Array, R: Array, prior_f: FocalPrior | None,
                      polys: Mapping[str, list], axes: list[str], sigmas: Mapping[str, Array], scale: float,
                      c0: Array, sigma_c: float, photo: str, width: int, height: int
-                     ) -> tuple[SecondTermTest, JointProblem, Array, Array]:
+                     ) -> tuple[SecondTermTest, JointProblem, Array, Array, JointProblem]:
     """The test of k2 at ``problem``'s solution (y, R), k1 estimated there, and the problem and
-    solution to go on with: with k2 free where the test asks for it, else ``problem``'s.
+    solution to go on with: with k2 free where the test asks for it, else ``problem``'s; and the
+    problem with k2 free (for :func:`consider_second_term` where k2 is held).
 
     Raises CalibrationError where the test asks for k2 but the lines cannot determine the lens
     (:data:`LENS_UNDETERMINED_REL_SIGMA`)."""
@@ -162,7 +163,7 @@ def second_term_test(problem: JointProblem, y: Array, R: Array, prior_f: FocalPr
     t = max(problem.cost(y, R, prior_f) - free.cost(y2, R2, prior_f), 0.0) / max(vf, 1.0)
     test = SecondTermTest(float(t), float(chi2.sf(t, 1)), free.k2_of(y2))
     if not test.needed:
-        return test, problem, y, R
+        return test, problem, y, R, free
     cov = free.covariance(J, max(vf, 1.0))
     corner, sigma = corner_displacement_sigma(cov, y2, scale, width, height)
     if not (np.isfinite(sigma) and sigma <= LENS_UNDETERMINED_REL_SIGMA * corner):
@@ -172,7 +173,20 @@ def second_term_test(problem: JointProblem, y: Array, R: Array, prior_f: FocalPr
             f"but the lines cannot determine a second term: the lens would move the photo's corners by "
             f"{corner:.0f} ± {sigma:.0f} px. Mark more long lines near the photo's edges, where a wide lens "
             "bends them most, each with middle points along its curve")
-    return test, free, y2, R2
+    return test, free, y2, R2, free
+
+
+def consider_second_term(free: JointProblem, y: Array, R: Array, prior_f: FocalPrior | None, held_cov: Array,
+                         test: SecondTermTest, vf: float) -> Array:
+    """(8, 8) covariance of a solution with k2 held at 0, k2's row and column 0: k2 as a consider
+    parameter, as :func:`consider_covariance` does for k1. With P the covariance with k2 held
+    (``held_cov``) and M that with k2 free at the held point, the covariance is P + (1 + T)(M − P),
+    T the second test's statistic: the uncertainty of a k2 the test could not tell from 0 stays in
+    f's, c's, R's and k1's (and so in the corner displacement's)."""
+    z = np.r_[np.asarray(y, float)[:7], 0.0]
+    M = free.covariance(free.jacobian(z, R, prior_f), vf)
+    M[7, :] = M[:, 7] = 0.0
+    return held_cov + (1.0 + test.statistic) * (M - held_cov)
 
 
 def corner_displacement_sigma(cov: Array, y: Array, scale: float, width: int, height: int) -> tuple[float, float]:

@@ -44,6 +44,7 @@ from .bending import (
     SecondTermTest,
     bending_test,
     consider_covariance,
+    consider_second_term,
     distortion_clause,
     held_problem,
     k1_source,
@@ -393,8 +394,8 @@ def calibrate_photo(
         if not bend.bends:
             problem, y, R, estimate_k1 = held, y_h, R_h, False
         elif wide_lens(problem, y, scale, width, height):  # nested: is one term enough?
-            second, problem, y, R = second_term_test(problem, y, R, prior_f, kept, live, kept_sigmas, scale, c0,
-                                                     sigma_c, photo, width, height)
+            second, problem, y, R, free2 = second_term_test(problem, y, R, prior_f, kept, live, kept_sigmas, scale,
+                                                            c0, sigma_c, photo, width, height)
             estimate_k2 = second.needed
     sigma_f_seg, sigma_c_seg = problem.segment_information(y, R)
     rel_seg = sigma_f_seg / (y[0] * scale)
@@ -451,6 +452,8 @@ def calibrate_photo(
     cov_y = problem.covariance(J, vf_intervals)
     if bend is not None and not bend.bends:  # k1 held, as uncertain as the lines leave it
         cov_y = consider_covariance(free, y, R, prior_f, problem.k1_fixed, cov_y, bend, vf_intervals)
+    elif second is not None and not second.needed:  # k2 held at 0, as uncertain as the lines leave it
+        cov_y = consider_second_term(free2, y, R, prior_f, cov_y, second, vf_intervals)
     S = np.diag([scale, scale, scale, 1.0, 1.0, 1.0, 1.0, 1.0])
     cov8 = S @ cov_y @ S
     cov7 = cov8[:7, :7].copy()
