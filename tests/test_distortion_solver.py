@@ -46,7 +46,8 @@ def test_the_scene_is_visibly_distorted() -> None:
         assert distortion_displacement_px(cam.K, cam.width, cam.height, cam.lens) > 20.0
 
 
-def test_the_jacobian_through_the_lens_agrees_with_central_differences() -> None:
+@pytest.mark.parametrize("k2", [0.0, -0.02])  # one term; a second, held (a wide lens's)
+def test_the_jacobian_through_the_lens_agrees_with_central_differences(k2: float) -> None:
     """Pins, edges and marker sightings projected through each camera's k1, with k1 itself an
     unknown (re-calibration with intrinsics): the analytic columns (pose, f, c, k1, markers) and
     the differenced ones (the model's, and the cameras' effect on edges) against an independent
@@ -56,7 +57,7 @@ def test_the_jacobian_through_the_lens_agrees_with_central_differences() -> None
     cov = np.diag([25.0] * 3 + [np.radians(0.2) ** 2] * 3 + [0.02**2] * 3)
     sightings, edges, cams_cov = [], [], {}
     for cid, c in cams.items():
-        cam = ImageCamera(cid, c.K, c.R, c.C, c.width, c.height, covariance=cov, lens=Lens(c.lens.k1))
+        cam = ImageCamera(cid, c.K, c.R, c.C, c.width, c.height, covariance=cov, lens=Lens(c.lens.k1, k2))
         cams_cov[cid] = cam
         sightings += [MarkerObservation(cid, m, project(cam.K, cam.R, cam.C, X, cam.lens)) for m, X in markers.items()]
         a, b = truth.handle_world("box0", "v4"), truth.handle_world("box0", "v5")

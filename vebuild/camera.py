@@ -155,12 +155,21 @@ def _invert_radial(r_u: Array, k1: float, k2: float, rim: float) -> Array:
         lo, hi = np.where(below, rho, lo), np.where(below, hi, rho)
         with np.errstate(invalid="ignore", divide="ignore"):
             new = rho - (g - r_u) / gp
-        bad = ~np.isfinite(new) | (new <= lo) | (new >= hi)
+        bad = ~np.isfinite(new) | (new < lo) | (new > hi)
         new = np.where(bad, 0.5 * (lo + hi), new)
         done = np.abs(new - rho) <= NEWTON_RTOL * np.maximum(rho, 1.0)
         rho = new
         if np.all(done):
             break
+    # Two more Newton steps from there: the root to the rounding of g itself, so that r_d is as
+    # smooth a function of r_u as the closed form (a solver differencing it sees no steps).
+    for _ in range(2):
+        r2 = rho * rho
+        D = 1.0 + k1 * r2 + k2 * r2 * r2
+        gp = (1.0 - k1 * r2 - 3.0 * k2 * r2 * r2) / (D * D)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            new = rho - (rho / D - r_u) / gp
+        rho = np.where(np.isfinite(new) & (new >= lo) & (new <= hi), new, rho)
     return rho
 
 
