@@ -6,7 +6,7 @@ projected edges) and :meth:`DragSession.release` (the vertex becomes a fixed pin
 does not change during a drag (the least-squares problem, which observations a parameter moves)
 is built once at the start; each move warm-starts from the previous one.
 
-Through a photo's lens (its :attr:`~vebuild.camera.ImageCamera.k1`) the mouse, the pins and the
+Through a photo's lens (its :attr:`~vebuild.camera.ImageCamera.lens`) the mouse, the pins and the
 projected handles are all in the photo's own (distorted) pixels, as the solver's residuals are; a
 straight model edge is a curve there, drawn as a polyline (:func:`lens_polyline`).
 """

@@ -12,7 +12,7 @@ aligned relations (:mod:`.constraints`: metres whitened by a micrometre, constra
 observations). An ``equal`` relation is no row: its members share one unknown (``model_vector``).
 
 Every projection goes through each photo's lens distortion (the division model of
-vebuild/camera.py, :attr:`ImageCamera.k1`): a pin or a marker sighting is compared with the
+vebuild/camera.py, :attr:`ImageCamera.lens`): a pin or a marker sighting is compared with the
 distorted projection of its point; an edge observation's clicked points, as the lens put them, are
 undistorted onto the pinhole image, where the model edge is a straight line, and their distance
 from it is converted back to the photo's pixels by the undistortion's local scale across the line

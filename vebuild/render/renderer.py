@@ -16,7 +16,7 @@ Shadow maps are rendered when the scene or the lighting changes, not every frame
 program is compiled per lighting preset and mode (:mod:`vebuild.render.variants`), and each view
 draws closed primitives' back faces culled, nearest blocks first (:mod:`vebuild.render.draworder`).
 
-A photo's camera with lens distortion (``ImageCamera.k1`` ≠ 0) is drawn as the lens shows it, so
+A photo's camera with lens distortion (``ImageCamera.lens`` not the pinhole) is drawn as the lens shows it, so
 that the render lies on the photo: the scene is drawn as the pinhole image over the photo's
 undistorted bounds (:func:`vebuild.texture.lens.pinhole_cover`), then resampled onto the photo's
 pixels through the division model (``shaders/lens.frag``: each pixel undistorted in closed form,
@@ -387,7 +387,7 @@ class Renderer:
 
     def _draw_through_lens(self, cam: ImageCamera, target: moderngl.Framebuffer, origin: tuple[int, int],
                            flip: bool) -> None:
-        """``cam``'s view as its lens shows it (``cam.k1`` ≠ 0): the pinhole cover drawn off-screen,
+        """``cam``'s view as its lens shows it (``cam.lens`` not the pinhole): the pinhole cover drawn off-screen,
         then resampled through the lens into ``target``'s viewport at ``origin``."""
         cover, corner = pinhole_cover(cam)
         draw, resolve, image = self._target(cover.width, cover.height, "lens")
