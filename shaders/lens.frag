@@ -2,12 +2,13 @@
 // A photo camera's render through its lens (renderer.py): the scene drawn as the pinhole image
 // that covers the photo's undistorted bounds (vebuild/texture/lens.py) is resampled onto the
 // photo's pixels. Each pixel centre, as the lens put it, is undistorted in closed form by the
-// division model of vebuild/camera.py, x_u = x_d / (1 + k1 |x_d|^2) with x_d = (u - c) / f, and the
+// division model of vebuild/camera.py, x_u = x_d / (1 + k1 r^2 + k2 r^4) with x_d = (u - c) / f, r = |x_d|, and the
 // pinhole image is sampled there bilinearly, in linear light (its texels hold sRGB codes).
 uniform sampler2D pinhole;  // RGBA8: sRGB-encoded colour, coverage in alpha; image order (row 0 at the top)
 uniform float focal;        // f of the photo's K, pixels
 uniform vec2 principal;     // c of the photo's K, pixels
 uniform float k1;
+uniform float k2;
 uniform vec2 cover_origin;  // the pinhole image's pixel corner (0, 0) in the photo's pinhole pixels
 uniform vec2 size;          // the photo's size, pixels (the viewport's)
 uniform vec2 origin;        // lower-left corner of the viewport in the target
@@ -32,7 +33,8 @@ void main() {
     vec2 p = gl_FragCoord.xy - origin;  // the pixel's centre, rows counted from the viewport's first
     if (flip == 1) p.y = size.y - p.y;
     vec2 xd = (p - principal) / focal;
-    vec2 q = principal + focal * xd / (1.0 + k1 * dot(xd, xd)) - cover_origin;
+    float r2 = dot(xd, xd);
+    vec2 q = principal + focal * xd / (1.0 + k1 * r2 + k2 * r2 * r2) - cover_origin;
     vec2 t = q - 0.5;  // texel centres at half-integers
     ivec2 i = ivec2(floor(t));
     vec2 w = t - vec2(i);

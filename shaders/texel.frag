@@ -23,7 +23,8 @@ uniform mat3 K;
 uniform mat3 R;
 uniform vec3 C;
 uniform vec2 image_size;     // the photo's size in pixels
-uniform float k1;            // the photo's lens distortion; 0: a pinhole
+uniform float k1;            // the photo's lens distortion (k1, k2); 0, 0: a pinhole
+uniform float k2;
 uniform vec2 id_origin;      // the ID buffer's pixel corner (0, 0) in the photo's pinhole pixels
 uniform vec2 id_size;        // the ID buffer's size in pixels (the photo's for a pinhole)
 uniform float weight_scale;   // photo pixels per ID-buffer pixel (2 for a half-size pre-pass)
@@ -106,18 +107,37 @@ void main() {
     vec2 a = (vec2(dot(ju, du), dot(jv, du)) - p * du.z) / x.z;
     vec2 b = (vec2(dot(ju, dv), dot(jv, dv)) - p * dv.z) / x.z;
     if (!(same_face(q + a + b) && same_face(q + a - b) && same_face(q - a + b) && same_face(q - a - b))) discard;
-    if (k1 != 0.0) {
+    if (k1 != 0.0 || k2 != 0.0) {
         // Where the lens put the pinhole's pixel, and the footprint there: x_d = s x_u with
-        // s = 2 / (1 + sqrt(1 - 4 k1 |x_u|^2)); its Jacobian is s I + (2 k1 s^2 / sqrt(..)) x_u x_u^T
+        // s = 2 / (1 + sqrt(1 - 4 k1 |x_u|^2)) for one term; with two, s solves
+        // s = 1 + k1 s^2 r^2 + k2 s^4 r^4 (r = |x_u|; Newton's method from s = 1, as
+        // vebuild/camera.py's distortion_derivatives). Its Jacobian is s I + g x_u x_u^T with
+        // g = 2 ds/dr^2 = 2 (k1 s^2 + 2 k2 s^4 r^2) / F_s, F_s = 1 - 2 k1 s r^2 - 4 k2 s^3 r^4
         // (the same on pixels, as both sides are divided by f).
         float f = Kc[0][0];
         vec2 c = vec2(Kc[2][0], Kc[2][1]);
         vec2 xu = (p - c) / f;
-        float disc = 1.0 - 4.0 * k1 * dot(xu, xu);
-        if (disc <= 0.0) discard;  // beyond the field of a pincushion lens: in no photo
-        float root = sqrt(disc);
-        float s = 2.0 / (1.0 + root);
-        float g = 2.0 * k1 * s * s / root;
+        float r2 = dot(xu, xu);
+        float s;
+        float g;
+        if (k2 == 0.0) {
+            float disc = 1.0 - 4.0 * k1 * r2;
+            if (disc <= 0.0) discard;  // beyond the field of a pincushion lens: in no photo
+            float root = sqrt(disc);
+            s = 2.0 / (1.0 + root);
+            g = 2.0 * k1 * s * s / root;
+        } else {
+            s = 1.0;
+            float Fs = 1.0;
+            for (int it = 0; it < 40; ++it) {
+                Fs = 1.0 - 2.0 * k1 * s * r2 - 4.0 * k2 * s * s * s * r2 * r2;
+                if (Fs <= 0.0) discard;  // past the rim, where the lens stops opening out: in no photo
+                s -= (s - 1.0 - k1 * s * s * r2 - k2 * s * s * s * s * r2 * r2) / Fs;
+            }
+            Fs = 1.0 - 2.0 * k1 * s * r2 - 4.0 * k2 * s * s * s * r2 * r2;
+            if (Fs <= 0.0 || s <= 0.0) discard;
+            g = 2.0 * (k1 * s * s + 2.0 * k2 * s * s * s * s * r2) / Fs;
+        }
         p = c + f * s * xu;
         a = s * a + g * dot(xu, a) * xu;
         b = s * b + g * dot(xu, b) * xu;

@@ -51,7 +51,7 @@ def with_box(path: Path) -> None:
         for h in model.node("box").primitive.handle_names():
             X = model.handle_world("box", h)
             if (cam.R @ (X - cam.C))[2] > 0:
-                uv = project_point(cam.K, cam.R, cam.C, X, cam.k1)
+                uv = project_point(cam.K, cam.R, cam.C, X, cam.lens)
                 pins.append({"photo": pid, "node": "box", "handle": h, "uv": [float(v) for v in uv], "fixed": True})
     data["model"] = {"nodes": [node], "edge_observations": [], "pins": pins}
     save_project(project)

@@ -128,6 +128,7 @@ SLOW_MODULES = frozenset({
     "test_detect_clutter", "test_camera_groups", "test_placement_honest", "test_orientation", "test_outputs",
     "test_report", "test_report_court", "test_report_single", "test_measure", "test_relations",
     "test_person_height_coverage",
+    "test_lens_second_term",
 })
 _gl_modules: dict[str, bool] = {}
 

@@ -37,7 +37,7 @@ class HandoffProject:
 def _dot_photo(cam: ImageCamera, dots: np.ndarray) -> bytes:
     """A black PNG of the camera's size with a red dot where the lens puts each floor point."""
     img = Image.new("RGB", (cam.width, cam.height), (0, 0, 0))
-    uv = project_points(cam.K, cam.R, cam.C, dots, cam.k1)
+    uv = project_points(cam.K, cam.R, cam.C, dots, cam.lens)
     big = 8  # drawn 8× larger and reduced, so that each dot's centroid lies where it should to 1/100 px
     hi = Image.new("L", (cam.width * big, cam.height * big), 0)
     dh = ImageDraw.Draw(hi)
@@ -82,7 +82,7 @@ def make_project(folder: Path, seed: int = 11, k1: float = 0.0, dots: bool = Fal
         X = np.c_[xs.ravel(), ys.ravel(), np.zeros(xs.size)]
         depth = (X - cam.C) @ np.asarray(cam.R)[2]
         X = X[depth > 0.5]
-        uv = project_points(cam.K, cam.R, cam.C, X, cam.k1)
+        uv = project_points(cam.K, cam.R, cam.C, X, cam.lens)
         inside = (uv[:, 0] > 20) & (uv[:, 0] < cam.width - 20) & (uv[:, 1] > 20) & (uv[:, 1] < cam.height - 20)
         drawn = X[inside & (depth[depth > 0.5] < 12.0)]
         data = _dot_photo(cam, drawn)

@@ -16,7 +16,7 @@ import pytest
 from scipy.stats import chi2
 
 from vebuild.calibration.photo import DistortionPrior, FocalPrior, calibrate_photo
-from vebuild.camera import distortion_displacement_px
+from vebuild.camera import Lens, distortion_displacement_px
 from vebuild.errors import CalibrationError
 from vebuild.synthetic import (
     CLICK_NOISE_PX,
@@ -165,7 +165,7 @@ def test_lens_distortion_recovered_from_polylines(rng: np.random.Generator) -> N
                      min_length_rel=0.3)
         cal = _calibrate(ph)
         assert cal.k1_source == "segments" and cal.k1_sigma > 0
-        true = distortion_displacement_px(ph.K, ph.width, ph.height, ph.k1)
+        true = distortion_displacement_px(ph.K, ph.width, ph.height, Lens(ph.k1))
         rel.append(abs(cal.distortion_corner_px - true) / true)
         z.append((cal.k1 - ph.k1) / cal.k1_sigma)
         assert cal.distortion_corner_px_sigma > 0

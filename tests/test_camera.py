@@ -7,6 +7,7 @@ import pytest
 
 from vebuild.camera import (
     ImageCamera,
+    Lens,
     exp_so3,
     intrinsic_matrix,
     log_so3,
@@ -80,19 +81,19 @@ def test_division_model_round_trips_and_bends_the_way_its_sign_says():
     K = intrinsic_matrix(1000.0, 655.0, 470.0)
     uv = np.random.default_rng(3).uniform([0, 0], [1280, 960], (200, 2))
     for k1 in (-0.25, -0.05, 0.05):
-        back = distort_pixels(K, undistort_pixels(K, uv, k1), k1)
+        back = distort_pixels(K, undistort_pixels(K, uv, Lens(k1)), Lens(k1))
         assert np.abs(back - uv).max() < 1e-9
     # Barrel (k1 < 0): a corner's undistorted place lies farther from the principal point.
     corner = np.array([[0.0, 0.0]])
     r_d = np.linalg.norm(corner - K[:2, 2])
-    assert np.linalg.norm(undistort_pixels(K, corner, -0.1) - K[:2, 2]) > r_d
-    assert np.linalg.norm(undistort_pixels(K, corner, 0.1) - K[:2, 2]) < r_d
+    assert np.linalg.norm(undistort_pixels(K, corner, Lens(-0.1)) - K[:2, 2]) > r_d
+    assert np.linalg.norm(undistort_pixels(K, corner, Lens(0.1)) - K[:2, 2]) < r_d
     # At the corner (|x_d|² = (655² + 490²)/1000² = 0.669), k1 = −0.05 moves it by
     # r_d · (1 / (1 − 0.05 · 0.669) − 1) = 818.0 · 0.03462 = 28.3 px.
     x2 = (655.0**2 + 490.0**2) / 1e6
     expected = np.sqrt(x2) * 1000.0 * (1.0 / (1.0 - 0.05 * x2) - 1.0)
-    assert distortion_displacement_px(K, 1280, 960, -0.05) == pytest.approx(expected, rel=1e-12)
-    assert distortion_displacement_px(K, 1280, 960, 0.0) == 0.0
+    assert distortion_displacement_px(K, 1280, 960, Lens(-0.05)) == pytest.approx(expected, rel=1e-12)
+    assert distortion_displacement_px(K, 1280, 960, Lens(0.0)) == 0.0
 
 
 def test_every_projection_agrees_on_the_distortion():
@@ -104,14 +105,14 @@ def test_every_projection_agrees_on_the_distortion():
     C = np.array([0.5, -1.0, 1.6])
     X = C + (R.T @ np.c_[rng.uniform(-0.6, 0.6, (30, 2)), np.ones(30)].T).T * rng.uniform(1, 6, (30, 1))
     k1 = -0.08
-    uv = project(K, R, C, X, k1)
-    assert np.abs(project_each([K] * 30, [R] * 30, [C] * 30, X, [k1] * 30) - uv).max() < 1e-9
+    uv = project(K, R, C, X, Lens(k1))
+    assert np.abs(project_each([K] * 30, [R] * 30, [C] * 30, X, [(k1, 0.0)] * 30) - uv).max() < 1e-9
     # Undistorting the lens's pixels gives the pinhole's projection; the rays go back to X.
-    assert np.abs(undistort_pixels(K, uv, k1) - project(K, R, C, X)).max() < 1e-9
+    assert np.abs(undistort_pixels(K, uv, Lens(k1)) - project(K, R, C, X)).max() < 1e-9
     d = (X - C) / np.linalg.norm(X - C, axis=1)[:, None]
-    assert np.abs(pixel_rays_world(K, R, uv, k1) - d).max() < 1e-12
+    assert np.abs(pixel_rays_world(K, R, uv, Lens(k1)) - d).max() < 1e-12
     # A scaled camera keeps k1 and puts the point at the scaled pixel.
-    cam = ImageCamera("p", K, R, C, 1280, 960, k1=k1)
+    cam = ImageCamera("p", K, R, C, 1280, 960, lens=Lens(k1))
     half = cam.scaled(0.5)
-    assert half.k1 == k1
-    assert np.abs(project(half.K, R, C, X, half.k1) - uv * 0.5).max() < 1e-9
+    assert half.lens == Lens(k1)
+    assert np.abs(project(half.K, R, C, X, half.lens) - uv * 0.5).max() < 1e-9

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from vebuild.actions.demo_summary import check_explanations, summary
+from vebuild.camera import Lens
 from vebuild.camera import project as project_points
 from vebuild.project import load_project
 
@@ -51,7 +52,7 @@ def test_exact_clicks_do_not_explain_a_check_outside() -> None:
         k1 = t["distortion"]["k1"]
         obs = photo.get("marker_observations") or {}
         for n in obs:
-            obs[n] = list(project_points(t["K"], t["R"], t["C"], np.asarray(TRUTH["markers"][n], float), k1))
+            obs[n] = list(project_points(t["K"], t["R"], t["C"], np.asarray(TRUTH["markers"][n], float), Lens(k1)))
     (line,) = check_explanations(project, [CHECK], TRUTH)
     assert "its click in p" in line and "lies 0.0 px" in line
     assert line.endswith("no click lies far out, so the clicks' noise does not explain it")

@@ -16,7 +16,7 @@ from vebuild.calibration.clutter import curved, short, weak_direction
 from vebuild.calibration.lines import _distances
 from vebuild.calibration.photo import calibrate_photo
 from vebuild.calibration.priors import FocalPrior
-from vebuild.camera import undistort_pixels
+from vebuild.camera import Lens, undistort_pixels
 
 #: A detected segment belongs to a true direction where its end points lie within this distance of
 #: the line through its midpoint and the true vanishing point (px, undistorted by the true lens):
@@ -55,7 +55,7 @@ def _true_distances(props, truth, directions=None) -> dict[str, np.ndarray]:
         ss = [p for p in props.segments if p.axis == a]
         if ss:
             seg = np.array([np.r_[p.points[:2], p.points[-2:]] for p in ss])
-            u = undistort_pixels(K, seg.reshape(-1, 2), truth["k1"]).reshape(-1, 4)
+            u = undistort_pixels(K, seg.reshape(-1, 2), Lens(truth["k1"])).reshape(-1, 4)
             out[a] = _distances(u, V)
     return out
 

@@ -15,7 +15,7 @@ from lens_distortion import barrel_k1
 from scipy.stats import chi2
 
 from vebuild.calibration.positions import ReferenceDistance
-from vebuild.camera import ImageCamera, distort_pixels, distortion_displacement_px, project
+from vebuild.camera import ImageCamera, Lens, distort_pixels, distortion_displacement_px, project
 from vebuild.model.residuals import EdgeObservation, MarkerObservation, Pin
 from vebuild.model.scene import model_from_dict
 from vebuild.model.solution import solution_at
@@ -30,11 +30,11 @@ def distorted_scene(seed: int, n_boxes: int = 2, n_photos: int = 3, noise_px: fl
     truth, start, pins, photos = model_scene(rng, n_boxes=n_boxes, n_photos=n_photos, noise_px=0.0)
     cams = {}
     for p in photos.values():
-        cams[p.id] = ImageCamera(p.id, p.K, p.R, p.C, p.width, p.height, k1=barrel_k1(p.K, p.width, p.height))
+        cams[p.id] = ImageCamera(p.id, p.K, p.R, p.C, p.width, p.height, lens=Lens(barrel_k1(p.K, p.width, p.height)))
     out = []
     for p in pins:
         cam = cams[p["photo"]]
-        uv = distort_pixels(cam.K, np.array(p["uv"]), cam.k1) + rng.normal(0.0, noise_px, 2)
+        uv = distort_pixels(cam.K, np.array(p["uv"]), cam.lens) + rng.normal(0.0, noise_px, 2)
         out.append(Pin(p["photo"], p["node"], p["handle"], uv))
     return (model_from_dict(truth["nodes"], MARKERS), model_from_dict(start["nodes"], MARKERS), cams, out, rng)
 
@@ -43,10 +43,11 @@ def test_the_scene_is_visibly_distorted() -> None:
     """The tests' lenses move the corners by tens of pixels: a pinhole model could not hide it."""
     _, _, cams, _, _ = distorted_scene(3)
     for cam in cams.values():
-        assert distortion_displacement_px(cam.K, cam.width, cam.height, cam.k1) > 20.0
+        assert distortion_displacement_px(cam.K, cam.width, cam.height, cam.lens) > 20.0
 
 
-def test_the_jacobian_through_the_lens_agrees_with_central_differences() -> None:
+@pytest.mark.parametrize("k2", [0.0, -0.02])  # one term; a second, held (a wide lens's)
+def test_the_jacobian_through_the_lens_agrees_with_central_differences(k2: float) -> None:
     """Pins, edges and marker sightings projected through each camera's k1, with k1 itself an
     unknown (re-calibration with intrinsics): the analytic columns (pose, f, c, k1, markers) and
     the differenced ones (the model's, and the cameras' effect on edges) against an independent
@@ -56,13 +57,13 @@ def test_the_jacobian_through_the_lens_agrees_with_central_differences() -> None
     cov = np.diag([25.0] * 3 + [np.radians(0.2) ** 2] * 3 + [0.02**2] * 3)
     sightings, edges, cams_cov = [], [], {}
     for cid, c in cams.items():
-        cam = ImageCamera(cid, c.K, c.R, c.C, c.width, c.height, covariance=cov, k1=c.k1)
+        cam = ImageCamera(cid, c.K, c.R, c.C, c.width, c.height, covariance=cov, lens=Lens(c.lens.k1, k2))
         cams_cov[cid] = cam
-        sightings += [MarkerObservation(cid, m, project(cam.K, cam.R, cam.C, X, cam.k1)) for m, X in markers.items()]
+        sightings += [MarkerObservation(cid, m, project(cam.K, cam.R, cam.C, X, cam.lens)) for m, X in markers.items()]
         a, b = truth.handle_world("box0", "v4"), truth.handle_world("box0", "v5")
         edges.append(EdgeObservation(cid, "box0", "e4", project(cam.K, cam.R, cam.C,
                                                                   np.array([a + 0.3 * (b - a), a + 0.7 * (b - a)]),
-                                                                  cam.k1) + rng.normal(0, 2.0, (2, 2))))
+                                                                  cam.lens) + rng.normal(0, 2.0, (2, 2))))
     distances = [ReferenceDistance("A", "B", 2.5, 0.002), ReferenceDistance("O", "box0:v1", 2.0, 0.01)]
     problem = Problem(truth, cams_cov, pins, edges,
                       options=ProblemOptions(click_sigma_px=0.7, recalibrate=True, refine_intrinsics=True,
@@ -71,7 +72,7 @@ def test_the_jacobian_through_the_lens_agrees_with_central_differences() -> None
     layout = problem.layout
     assert all(b.k1_index is not None and b.names[-1].endswith(".k1") for b in layout.cameras.values())
     x = problem.x0()
-    assert [x[b.k1_index] for b in layout.cameras.values()] == [c.k1 for c in cams.values()]
+    assert [x[b.k1_index] for b in layout.cameras.values()] == [c.lens.k1 for c in cams.values()]
     # Away from the start, where errors could hide.
     x[layout.model.slice] += rng.normal(0.0, 0.02, len(layout.model))
     for b in layout.cameras.values():
@@ -149,24 +150,24 @@ def test_recalibration_refines_a_wrong_k1_toward_the_truth() -> None:
     the pins move it to within 3σ (the refined 1σ) of the truth, narrower than its prior, and
     closer to the truth over the photos than it started."""
     truth, start, cams, pins, _ = distorted_scene(2, n_boxes=3, n_photos=4)
-    wrong = {k: ImageCamera(c.id, c.K, c.R, c.C, c.width, c.height, covariance=CAL_COV, k1=0.5 * c.k1)
+    wrong = {k: ImageCamera(c.id, c.K, c.R, c.C, c.width, c.height, covariance=CAL_COV, lens=Lens(0.5 * c.lens.k1))
              for k, c in cams.items()}
-    prior = {k: 0.5 * abs(c.k1) for k, c in cams.items()}
+    prior = {k: 0.5 * abs(c.lens.k1) for k, c in cams.items()}
     _, _, sol = _solve(start, wrong, pins, recalibrate=True, refine_intrinsics=True, k1_sigma=prior)
     before, after, z = [], [], []
     for k, c in cams.items():
-        k1, s = sol.cameras[k].k1, sol.k1_sigma[k]
-        assert abs(k1 - c.k1) <= 3 * s, f"photo {k}: k1 {k1:.4f}, truth {c.k1:.4f}, 1σ {s:.4f}"
-        z.append((k1 - c.k1) / s)
+        k1, s = sol.cameras[k].lens.k1, sol.k1_sigma[k]
+        assert abs(k1 - c.lens.k1) <= 3 * s, f"photo {k}: k1 {k1:.4f}, truth {c.lens.k1:.4f}, 1σ {s:.4f}"
+        z.append((k1 - c.lens.k1) / s)
         assert s < 0.5 * prior[k]
-        before.append((wrong[k].k1 - c.k1) / c.k1)
-        after.append((k1 - c.k1) / c.k1)
+        before.append((wrong[k].lens.k1 - c.lens.k1) / c.lens.k1)
+        after.append((k1 - c.lens.k1) / c.lens.k1)
     assert np.sqrt(np.mean(np.square(after))) < 0.5 * np.sqrt(np.mean(np.square(before)))
     lo, hi = rms_band(len(z))
     assert lo < np.sqrt(np.mean(np.square(z))) < hi, "the refined 1σ of k1 is honest both ways"
     # Held: no prior 1σ, the k1 stays as calibrated.
     _, _, held = _solve(start, wrong, pins, recalibrate=True, refine_intrinsics=True)
-    assert all(held.cameras[k].k1 == wrong[k].k1 for k in cams) and not held.k1_sigma
+    assert all(held.cameras[k].lens.k1 == wrong[k].lens.k1 for k in cams) and not held.k1_sigma
 
 
 def _project_file(tmp_path, seed: int, k1_scale: float, k1_sigma):
@@ -186,10 +187,10 @@ def _project_file(tmp_path, seed: int, k1_scale: float, k1_sigma):
     data["calibration"] = {"cameras": {}, "origin_marker": "O",
                            "markers": {"O": {"position": [0.0, 0.0, 0.0], "sigma": [0.0] * 3}}}
     for c in cams.values():
-        k1 = k1_scale * c.k1
+        k1 = k1_scale * c.lens.k1
         rec = camera_record(c.K, c.R, c.C, CAL_COV,
-                            distortion_record(c.K, c.width, c.height, k1, k1_sigma(c.k1) or 0.0, "user"))
-        if k1_sigma(c.k1) is None:
+                            distortion_record(c.K, c.width, c.height, k1, k1_sigma(c.lens.k1) or 0.0, "user"))
+        if k1_sigma(c.lens.k1) is None:
             rec["distortion"]["k1"]["sigma"] = None
         data["calibration"]["cameras"][c.id] = rec
     data["model"] = {"nodes": start.to_dict(), "edge_observations": [],
@@ -209,20 +210,20 @@ def test_solve_recalibrate_writes_the_refined_distortion_into_the_record(tmp_pat
     for cid, c in cams.items():
         d = recal[cid]["distortion"]
         k1, s = d["k1"]["value"], d["k1"]["sigma"]
-        assert abs(k1 - c.k1) <= 3 * s < 1.5 * abs(c.k1), cid
+        assert abs(k1 - c.lens.k1) <= 3 * s < 1.5 * abs(c.lens.k1), cid
         assert d["source"] == f"user; {REFINED_SOURCE}"
         K = np.array(recal[cid]["K"])
         assert d["corner_displacement_px"]["value"] == pytest.approx(
-            distortion_displacement_px(K, c.width, c.height, k1), rel=1e-12)
+            distortion_displacement_px(K, c.width, c.height, Lens(k1)), rel=1e-12)
         assert d["corner_displacement_px"]["sigma"] > 0
         # The calibration's record, the next re-calibration's prior, keeps its own k1.
         assert project.data["calibration"]["cameras"][cid]["distortion"]["source"] == "user"
-        assert project.data["calibration"]["cameras"][cid]["distortion"]["k1"]["value"] == 0.5 * c.k1
+        assert project.data["calibration"]["cameras"][cid]["distortion"]["k1"]["value"] == 0.5 * c.lens.k1
     # Read back, the final cameras carry the refined k1, the calibration's the prior's.
     from vebuild.project.decode import cameras, cameras_from_calibration
     back, prior = cameras(project), cameras_from_calibration(project)
-    assert all(back[cid].k1 == recal[cid]["distortion"]["k1"]["value"] for cid in cams)
-    assert all(prior[cid].k1 == 0.5 * cams[cid].k1 for cid in cams)
+    assert all(back[cid].lens.k1 == recal[cid]["distortion"]["k1"]["value"] for cid in cams)
+    assert all(prior[cid].lens.k1 == 0.5 * cams[cid].lens.k1 for cid in cams)
     # The solved sizes through the refined lens: within the claimed dimension tolerance.
     from claims import dimension_tolerance
     for node in truth.nodes:
@@ -240,7 +241,7 @@ def test_a_k1_without_a_prior_sigma_stays_as_calibrated(tmp_path, sigma) -> None
     solve_project(project, recalibrate=True)
     for cid, c in cams.items():
         d = project.data["model_solution"]["cameras"][cid]["distortion"]
-        assert d["k1"] == {"value": c.k1, "sigma": sigma} and d["source"] == "user"
+        assert d["k1"] == {"value": c.lens.k1, "sigma": sigma} and d["source"] == "user"
 
 
 def test_a_negative_k1_sigma_is_refused_naming_its_field(tmp_path) -> None:
@@ -286,7 +287,7 @@ def test_a_ray_from_a_distorted_click_passes_through_the_point_seen(solved_disto
             X = solved.world(parse_point(f"{node}@top", solved))
             if world_to_camera(cam.R, cam.C, X)[2] <= 0:
                 continue
-            project_uv = project(cam.K, cam.R, cam.C, X, cam.k1)
+            project_uv = project(cam.K, cam.R, cam.C, X, cam.lens)
             u, v = float(project_uv[0]), float(project_uv[1])
             if not (0 <= u <= cam.width and 0 <= v <= cam.height):
                 continue
@@ -297,7 +298,7 @@ def test_a_ray_from_a_distorted_click_passes_through_the_point_seen(solved_disto
             # Undistortion is closed-form and the ray meets the face's triangles exactly: a
             # micrometre is rounding (the division model inverted at 1e-16, times metres).
             assert np.linalg.norm(Y - X) < 1e-6, (cid, node)
-            pin = {cid: dataclasses.replace(cam, k1=0.0)}
+            pin = {cid: dataclasses.replace(cam, lens=Lens(0.0))}
             Z = solved.world(parse_point(f"photo:{cid}@{u!r},{v!r}", solved,
                                          resolve_camera=lambda h, n, pin=pin: pin[n]))
             # How far the lens moves that pixel, at the point's depth: the pinhole reading's miss.
@@ -331,7 +332,7 @@ def test_the_overlay_draws_edges_axes_and_horizon_through_the_lens(solved_distor
     s = EditSession.open(proj.path, autosave=False)
     worst, chord_worst, n_edges = 0.0, 0.0, 0
     for cid, cam in s.cameras.items():
-        assert cam.k1 != 0.0
+        assert not cam.lens.is_pinhole
         ov = s.overlay(cid)
         chains: dict = {}
         for ln in ov.of_kind("edge")[0]:
@@ -343,7 +344,7 @@ def test_the_overlay_draws_edges_axes_and_horizon_through_the_lens(solved_distor
             t = np.linspace(0.0, 1.0, 2001)[:, None]
             P = A + t * (B - A)
             assert np.all(world_to_camera(cam.R, cam.C, P)[:, 2] > 0)
-            true = project(cam.K, cam.R, cam.C, P, cam.k1)
+            true = project(cam.K, cam.R, cam.C, P, cam.lens)
             poly = np.array([p[:2] for p in pieces] + [pieces[-1][2:]])
             assert all(np.allclose(p[2:], q[:2]) for p, q in zip(pieces[:-1], pieces[1:], strict=True)), "a chain"
             worst = max(worst, float(_polyline_distance(true, poly).max()))
@@ -351,12 +352,12 @@ def test_the_overlay_draws_edges_axes_and_horizon_through_the_lens(solved_distor
                 chord_worst = max(chord_worst, float(_polyline_distance(true, poly[[0, -1]]).max()))
             n_edges += 1
         for n, h, uv, _ in s.handles(cid):
-            assert uv == pytest.approx(project(cam.K, cam.R, cam.C, model.handle_world(n, h), cam.k1), abs=1e-9)
+            assert uv == pytest.approx(project(cam.K, cam.R, cam.C, model.handle_world(n, h), cam.lens), abs=1e-9)
         horizon = ov.of_kind("horizon")[0]
         if horizon:
             q = np.array([ln.p[:2] for ln in horizon] + [horizon[-1].p[2:]])
             line = np.linalg.inv(cam.K).T @ cam.R[:, 2]
-            und = undistort_pixels(cam.K, q, cam.k1)
+            und = undistort_pixels(cam.K, q, cam.lens)
             assert np.all(np.abs(und @ line[:2] + line[2]) / np.linalg.norm(line[:2]) < 1e-6)
     assert n_edges > 20
     assert worst <= CURVE_TOL_PX, f"a drawn edge strays {worst:.3f} px from its curve"
@@ -380,7 +381,7 @@ def test_a_drag_in_a_distorted_photo_puts_the_handle_under_the_mouse(solved_dist
     assert fb.ok and np.hypot(fb.handle_px[0] - target[0], fb.handle_px[1] - target[1]) < FOLLOW_TOL_PX
     s.end_drag()
     X = s.model.handle_world(node, handle)
-    assert np.hypot(*(project(cam.K, cam.R, cam.C, X, cam.k1) - target)) < FOLLOW_TOL_PX
+    assert np.hypot(*(project(cam.K, cam.R, cam.C, X, cam.lens) - target)) < FOLLOW_TOL_PX
     pin = next(p for p in s.data["model"]["pins"] if (p["photo"], p["node"], p["handle"]) == (cid, node, handle))
     assert pin["uv"] == pytest.approx(target)
 
@@ -424,9 +425,9 @@ def test_an_edge_observation_through_the_lens_measures_the_photos_pixels() -> No
     a, b = truth.handle_world("box0", "v4"), truth.handle_world("box0", "v5")
     edge = next(e for e, p, q in truth.node("box0").primitive.edges() if (p, q) == ("v4", "v5"))
     for cid, cam in cams.items():
-        on = project(cam.K, cam.R, cam.C, np.array([a + 0.2 * (b - a), a + 0.8 * (b - a)]), cam.k1)
+        on = project(cam.K, cam.R, cam.C, np.array([a + 0.2 * (b - a), a + 0.8 * (b - a)]), cam.lens)
         # The curve's normal at each point, from its neighbours along the edge.
-        nb = project(cam.K, cam.R, cam.C, np.array([a + 0.2001 * (b - a), a + 0.8001 * (b - a)]), cam.k1) - on
+        nb = project(cam.K, cam.R, cam.C, np.array([a + 0.2001 * (b - a), a + 0.8001 * (b - a)]), cam.lens) - on
         normal = np.stack([-nb[:, 1], nb[:, 0]], axis=1) / np.linalg.norm(nb, axis=1, keepdims=True)
         for delta in (0.0, 2.0):
             obs = EdgeObservation(cid, "box0", edge, on + delta * normal)
@@ -445,7 +446,7 @@ def test_a_new_primitive_placed_at_a_distorted_pixel_lands_on_the_floor_point_se
     s = EditSession.open(proj.path, autosave=False)
     cid, cam = "p1", s.cameras["p1"]
     P = np.array([ROOM[0] * 0.5 + 0.6, ROOM[1] * 0.5 - 0.4, 0.0])  # on the floor, off the photo's centre
-    uv = project(cam.K, cam.R, cam.C, P, cam.k1)
+    uv = project(cam.K, cam.R, cam.C, P, cam.lens)
     assert 0 <= uv[0] <= cam.width and 0 <= uv[1] <= cam.height
     name = s.add_primitive("box", at=(cid, (float(uv[0]), float(uv[1]))))
     origin = s.model.world_transforms()[name][:3, 3]

@@ -126,7 +126,7 @@ def test_an_evidence_marker_clicked_on_the_photo_appears_in_a_render(room, drive
     assert main(["render", str(room), "--photo", "p1", "--out", str(out), "--size", "800x600", "--samples", "1"]) == 0
     img = np.asarray(Image.open(out).convert("RGB")).astype(int)
     cam = photo_camera(load_project(room), "p1").resized(800, 600)
-    u, v = project_points(cam.K, cam.R, cam.C, np.asarray(rec["position"]), cam.k1)
+    u, v = project_points(cam.K, cam.R, cam.C, np.asarray(rec["position"]), cam.lens)
     patch = img[int(v) - 2:int(v) + 3, int(u) - 2:int(u) + 3].reshape(-1, 3)
     assert any(np.abs(p - MARKER_COLOUR).max() < 40 for p in patch)
     # A click on the marker removes it.

@@ -118,7 +118,7 @@ def test_hidden_edges_are_dashed_where_the_id_buffer_hides_them(driver):
             continue
         X = a + np.linspace(0, 1, 2 * n)[:, None] * (b - a)
         z = cam_math.world_to_camera(cam.R, cam.C, X)[:, 2]
-        uv = cam_math.project(cam.K, cam.R, cam.C, X, cam.k1)
+        uv = cam_math.project(cam.K, cam.R, cam.C, X, cam.lens)
         for q, zi in zip(uv, z, strict=True):
             c, r = int(q[0]), int(q[1])
             if not (2 <= c < cam.width - 2 and 2 <= r < cam.height - 2):

@@ -49,7 +49,7 @@ def _face_centre(s, node, corners, along=0.5):
 
 def _pixel(s, photo, X):
     cam = s.cameras[photo]
-    return cam_math.project(cam.K, cam.R, cam.C, np.asarray(X, float), cam.k1)
+    return cam_math.project(cam.K, cam.R, cam.C, np.asarray(X, float), cam.lens)
 
 
 def test_a_face_is_picked_by_the_ray_through_its_pixel(session):

@@ -57,7 +57,7 @@ def _face_pixel(s, photo, node, face):
     for a in np.linspace(0.1, 0.9, 9):
         for b in (0.5, 0.3, 0.7):
             X = (1 - b) * ((1 - a) * c[0] + a * c[1]) + b * ((1 - a) * c[3] + a * c[2])
-            uv = cam_math.project(cam.K, cam.R, cam.C, X, cam.k1)
+            uv = cam_math.project(cam.K, cam.R, cam.C, X, cam.lens)
             hit = s.face_at(photo, uv)
             w, h = s.photo(photo)["width"], s.photo(photo)["height"]
             if hit is not None and hit.ref == f"{node}:{face}" and 0 < uv[0] < w and 0 < uv[1] < h:

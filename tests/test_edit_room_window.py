@@ -156,7 +156,7 @@ def test_a_box_on_the_room_floor_made_flush_against_a_wall_by_its_joint(driver):
     cam = s.cameras["p6"]
 
     def pixel(X):
-        return cam_math.project(cam.K, cam.R, cam.C, np.asarray(X, float), cam.k1)
+        return cam_math.project(cam.K, cam.R, cam.C, np.asarray(X, float), cam.lens)
 
     d.click("kind")
     d.frames(2)

@@ -116,11 +116,11 @@ def test_each_photo_pixel_lies_on_its_own_ray(exported):
     tris = _accessor(doc, binary, prim["indices"]).astype(int).reshape(-1, 3)
     T = _world(doc)["photo p plane"]
     P = pos @ T[:3, :3].T + T[:3, 3]
-    got = project_points(cam.K, cam.R, cam.C, P, cam.k1)
+    got = project_points(cam.K, cam.R, cam.C, P, cam.lens)
     assert np.max(np.linalg.norm(got - uv, axis=1)) < FLOAT32_PX
     err = node["extras"]["texture_error_px"]
-    assert (err == 0.0) == (cam.k1 == 0.0) and err <= PLANE_ERROR_PX
-    assert len(tris) == 2 if cam.k1 == 0 else len(tris) > 2
+    assert (err == 0.0) == (cam.lens.is_pinhole) and err <= PLANE_ERROR_PX
+    assert len(tris) == 2 if cam.lens.is_pinhole else len(tris) > 2
     # Floor points through the plane: the ray from the camera to X meets the plane at Q; the texel the
     # plane shows at Q is where vebuild's camera (with its lens) puts X.
     x = (P - cam.C) @ np.asarray(cam.R).T  # vebuild camera frame
@@ -136,7 +136,7 @@ def test_each_photo_pixel_lies_on_its_own_ray(exported):
         k = int(np.argmax(np.all(w >= -1e-9, axis=1)))
         assert np.all(w[k] >= -1e-9)
         texel = w[k] @ uv[tris[k]]
-        want = project_points(cam.K, cam.R, cam.C, Xw[None], cam.k1)[0]
+        want = project_points(cam.K, cam.R, cam.C, Xw[None], cam.lens)[0]
         assert np.linalg.norm(texel - want) <= PLANE_ERROR_PX + FLOAT32_PX, (texel, want)
 
 
@@ -173,14 +173,14 @@ def test_floor_grid_axes_and_measurements(exported):
         ends = _accessor(doc, binary, prim["attributes"]["POSITION"])
         ends = ends @ world[name][:3, :3].T + world[name][:3, 3]
         clicks = np.asarray(ex["clicks"])
-        foot = project_points(h.cam.K, h.cam.R, h.cam.C, ends[:1], h.cam.k1)[0]
+        foot = project_points(h.cam.K, h.cam.R, h.cam.C, ends[:1], h.cam.lens)[0]
         assert np.linalg.norm(foot - clicks[0]) < FLOAT32_PX  # the foot (first floor point) on its click
         if m["quantity"] == "height":
             assert ends[1][2] - ends[0][2] == pytest.approx(m["value_m"], abs=1e-5)
             assert np.allclose(ends[1][:2], ends[0][:2], atol=1e-6)
         else:
             assert np.linalg.norm(ends[1] - ends[0]) == pytest.approx(m["value_m"], abs=1e-5)
-            assert np.linalg.norm(project_points(h.cam.K, h.cam.R, h.cam.C, ends[1:], h.cam.k1)[0] - clicks[1]) \
+            assert np.linalg.norm(project_points(h.cam.K, h.cam.R, h.cam.C, ends[1:], h.cam.lens)[0] - clicks[1]) \
                 < FLOAT32_PX
 
 

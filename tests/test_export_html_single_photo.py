@@ -21,6 +21,7 @@ from handoff_project import DOT_PX, make_project
 from PIL import Image
 from scipy import ndimage
 
+from vebuild.camera import Lens
 from vebuild.camera import project as project_points
 from vebuild.cli import main
 
@@ -153,7 +154,7 @@ def test_the_photo_lines_up_with_the_camera_within_1px(page):
     assert clear.sum() >= 40, clear.sum()
     assert np.max(err) < ALIGN_PX, (np.max(err), np.median(err))
     # Had the plane ignored the lens, the dots near the corners would be off by many pixels.
-    lens = project_points(h.cam.K, h.cam.R, h.cam.C, h.dots[clear], K1)
+    lens = project_points(h.cam.K, h.cam.R, h.cam.C, h.dots[clear], Lens(K1))
     assert np.max(np.linalg.norm(lens - want[clear], axis=1)) > 5 * ALIGN_PX
 
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from claims import FOCAL_TOL_REL, POSITION_TOL_REL, ROTATION_TOL_DEG
 
-from vebuild.camera import log_so3
+from vebuild.camera import Lens, log_so3
 from vebuild.cli import main
 from vebuild.errors import VebuildError
 
@@ -94,7 +94,7 @@ def test_register_from_points_through_a_known_lens_and_a_pinhole_is_biased() -> 
     uv0 = rng.uniform([50, 50], [1550, 1150], (16, 2))
     rays = np.linalg.solve(cam.K, np.c_[uv0, np.ones(16)].T).T * rng.uniform(1.5, 5.0, (16, 1))
     X = cam.C + rays @ cam.R  # the points the pinhole sees at uv0, 1.5–5 m away
-    uv = project(cam.K, cam.R, cam.C, X, k1) + rng.normal(0.0, CLICK_NOISE_PX, (16, 2))
+    uv = project(cam.K, cam.R, cam.C, X, Lens(k1)) + rng.normal(0.0, CLICK_NOISE_PX, (16, 2))
     known = register_from_points(X, uv, 1600, 1200, click_sigma_px=CLICK_NOISE_PX, principal_point_sigma_rel=0.03,
                                  distortion=DistortionPrior(k1, 0.0, "lens profile: test"))
     assert (known.k1, known.k1_source) == (k1, "lens profile: test")

@@ -353,7 +353,7 @@ def test_a_photo_is_rendered_through_its_recorded_lens(textured_room, tmp_path):
     lens = render_evidence(project, RenderRequest(out=tmp_path / "p1-lens.png", photo="p1", size=(800, 600),
                                                   validate=True))
     assert json.loads(Image.open(lens.out).text["vebuild:camera"])["distortion"] == {"model": "division", "k1": -0.05}
-    assert lens.camera.k1 == -0.05 and lens.size == (800, 600)
+    assert lens.camera.lens.k1 == -0.05 and lens.size == (800, 600)
     # measured 13.9 against 8.1 sRGB levels
     assert lens.rms_colour_difference > 1.3 * good.rms_colour_difference
     # Near the principal point the lens moves the image under 0.01 px: the renders agree there

@@ -15,6 +15,7 @@ from viewer_scene import nodes, write_project
 from vebuild.analysis import sightline as sl
 from vebuild.analysis import viewshed as vsh
 from vebuild.analysis.rays import END_EPS_M, Occluders
+from vebuild.camera import Lens
 from vebuild.cli import main
 from vebuild.errors import VebuildError
 from vebuild.model.scene import model_from_dict
@@ -201,9 +202,9 @@ def test_a_point_marker_is_drawn_where_the_photos_lens_puts_it():
 
     C = np.array([0.0, 0.0, 1.5])
     cam = ImageCamera("p", intrinsic_matrix(1000.0, 800.0, 600.0), look_rotation([1.0, 0.0, 0.0]), C, 1600, 1200,
-                      k1=-0.03)
+                      lens=Lens(-0.03))
     X = C + np.array([4.0, -2.8, -2.0])  # toward the lower right corner
-    lens, pinhole = project(cam.K, cam.R, cam.C, X, cam.k1), project(cam.K, cam.R, cam.C, X)
+    lens, pinhole = project(cam.K, cam.R, cam.C, X, cam.lens), project(cam.K, cam.R, cam.C, X)
     assert np.linalg.norm(lens - pinhole) > 15.0
     img = sl.draw_point_marker(np.zeros((1200, 1600, 3), np.uint8), cam, X, visible=True)
     v, u = np.nonzero(img.any(axis=2))

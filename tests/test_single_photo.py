@@ -22,6 +22,7 @@ from vebuild.calibration.single_photo import (
     Origin,
     place_single_photo,
 )
+from vebuild.camera import Lens
 from vebuild.console.tables import calibration_table
 from vebuild.errors import CalibrationError, ProjectError
 from vebuild.project import load_project, save_project
@@ -585,7 +586,7 @@ def test_placement_projects_markers_through_each_photo_s_k1_and_refines_it() -> 
     for k, p in enumerate(photos):
         cal = calibrate_photo(p.segments, p.width, p.height, photo=p.id, click_sigma_px=CLICK_NOISE_PX)
         if k == 0:
-            obs = {n: distort_pixels(p.K, uv, -0.08) for n, uv in p.markers.items()}
+            obs = {n: distort_pixels(p.K, uv, Lens(-0.08)) for n, uv in p.markers.items()}
             inputs.append(PhotoInput(p.id, cal.K, cal.R, block_diag(cal.covariance, [[0.01**2]]), obs, -0.075))
         else:
             inputs.append(PhotoInput(p.id, cal.K, cal.R, cal.covariance, p.markers))
@@ -708,7 +709,7 @@ def test_calibrate_writes_the_distortion_a_photo_s_calibration_estimated(tmp_pat
     path = write_project(tmp_path, photos, markers)
     project = load_project(path)
     p1 = project.data["photos"][0]
-    p1["marker_observations"] = {n: [float(v) for v in distort_pixels(photos[0].K, uv, truth_k1)]
+    p1["marker_observations"] = {n: [float(v) for v in distort_pixels(photos[0].K, uv, Lens(truth_k1))]
                                  for n, uv in photos[0].markers.items()}
     save_project(project)
     real = action.calibrate_photos
@@ -731,7 +732,7 @@ def test_calibrate_writes_the_distortion_a_photo_s_calibration_estimated(tmp_pat
     assert "distortion" not in result["cameras"]["p2"]
     project = load_project(path)
     project.data["calibration"] = result
-    assert cameras_from_calibration(project)["p1"].k1 == pytest.approx(d["k1"]["value"])
+    assert cameras_from_calibration(project)["p1"].lens.k1 == pytest.approx(d["k1"]["value"])
     for p in photos:
         cam = result["cameras"][p.id]
         assert np.all(np.abs(_z(cam["position"]["value"], p.C, cam["position"]["sigma"])) < 4)
@@ -875,14 +876,14 @@ def test_one_photo_with_lens_distortion_is_placed_and_measured_through_it() -> N
     for seed in range(118, 138):
         ph = one_photo(np.random.default_rng(seed))
         cal = calibrate_photo(ph.cam.segments, W, H, photo="p", click_sigma_px=CLICK_NOISE_PX)
-        clicks = {n: distort_pixels(ph.cam.K, uv, k1) for n, uv in ph.clicks.items()}
+        clicks = {n: distort_pixels(ph.cam.K, uv, Lens(k1)) for n, uv in ph.clicks.items()}
         door = KnownLength("z", np.array([clicks["door_foot"], clicks["door_top"]]), DOOR_M, 0.002, 0)
         cov7 = block_diag(cal.covariance, [[0.005**2]])
         pl = place_single_photo("p", cal.K, cal.R, cov7, Origin("O", clicks["O"]), [door], k1=k1 + 0.002,
                                 click_sigma_px=CLICK_NOISE_PX)
         assert pl.k1 == pytest.approx(k1 + 0.002) and pl.k1_sigma == pytest.approx(0.005)
         assert np.all(np.abs(_z(pl.C, ph.C, np.sqrt(np.diag(pl.covariance)[6:9]))) < 4)
-        cam = ImageCamera("p", pl.K, pl.R, pl.C, W, H, covariance=pl.covariance, k1=pl.k1)
+        cam = ImageCamera("p", pl.K, pl.R, pl.C, W, H, covariance=pl.covariance, lens=Lens(pl.k1))
         m = height_on_photo(cam, clicks["box_foot"], clicks["box_top"], click_sigma_px=CLICK_NOISE_PX,
                             k1_sigma=0.005)
         assert abs(m.value - BOX_M) < 4 * m.sigma

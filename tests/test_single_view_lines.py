@@ -16,7 +16,7 @@ from vebuild.analysis.single_view_lines import (
     measured_lines,
     single_view_kind,
 )
-from vebuild.camera import ImageCamera, rotation_from_ypr
+from vebuild.camera import ImageCamera, Lens, rotation_from_ypr
 from vebuild.camera import project as project_points
 
 #: Exact clicks (to double precision) must give the points back to rounding (metres).
@@ -26,11 +26,11 @@ EXACT_M = 1e-9
 def _camera(k1: float) -> ImageCamera:
     R = rotation_from_ypr(math.radians(75.0), math.radians(-22.0), math.radians(1.5))
     K = np.array([[1150.0, 0, 815.0], [0, 1150.0, 588.0], [0, 0, 1]])
-    return ImageCamera("p", K, R, np.array([1.5, -1.0, 1.7]), 1600, 1200, k1=k1)
+    return ImageCamera("p", K, R, np.array([1.5, -1.0, 1.7]), 1600, 1200, lens=Lens(k1))
 
 
 def _clicks(cam: ImageCamera, points: list[np.ndarray]) -> list[float]:
-    uv = project_points(cam.K, cam.R, cam.C, np.array(points, float), cam.k1)
+    uv = project_points(cam.K, cam.R, cam.C, np.array(points, float), cam.lens)
     assert np.all((uv > 0) & (uv < [cam.width, cam.height])), uv
     return [float(v) for v in uv.ravel()]
 

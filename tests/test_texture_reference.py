@@ -34,7 +34,7 @@ from texture_tolerances import (
     WEIGHT_RTOL,
 )
 
-from vebuild.camera import project
+from vebuild.camera import PINHOLE, project
 from vebuild.texture import layout as lay
 from vebuild.texture import reference as ref
 from vebuild.texture.layout import SceneMesh
@@ -171,7 +171,7 @@ def _test_camera(w: int = 64, h: int = 48):
     from types import SimpleNamespace
 
     K = np.array([[40.0, 0, 30.3], [0, 40.0, 25.1], [0, 0, 1]])
-    return SimpleNamespace(id="t", K=K, R=np.eye(3), C=np.zeros(3), width=w, height=h, k1=0.0)
+    return SimpleNamespace(id="t", K=K, R=np.eye(3), C=np.zeros(3), width=w, height=h, lens=PINHOLE)
 
 
 def test_rasterise_clips_a_triangle_behind_the_camera_and_interpolates_depth_in_perspective():

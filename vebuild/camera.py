@@ -6,17 +6,23 @@ along +z_cam and image v grows along +y_cam; ``u ~ K x_cam``. Pixel (u, v) has i
 top-left corner of the image, so pixel column i, row j has its centre at (i + 0.5, j + 0.5).
 
 **Lens distortion** (the one convention; every projection in vebuild goes through it): the
-one-parameter division model (Fitzgibbon, CVPR 2001) on normalised image coordinates, centred on
-the principal point and divided by f. A photo's pixel u (as the lens put it) has the distorted
-normalised coordinate x_d = (u − c) / f; the pinhole's (undistorted) coordinate is
+division model (Fitzgibbon, CVPR 2001) with up to two terms, on normalised image coordinates
+centred on the principal point and divided by f. A photo's pixel u (as the lens put it) has the
+distorted normalised coordinate x_d = (u − c) / f, r_d = |x_d|; the pinhole's (undistorted)
+coordinate is
 
-    x_u = x_d / (1 + k1 |x_d|²)
+    x_u = x_d / (1 + k1 r_d² + k2 r_d⁴)
 
-so undistorting a pixel is closed-form, and so is distorting a pinhole point (a quadratic in
-|x_d|): x_d = x_u · 2 / (1 + √(1 − 4 k1 |x_u|²)). k1 < 0 is barrel distortion (wide lenses:
-lines bow outward, the corners are pulled in), k1 > 0 pincushion; k1 = 0 is the pinhole. Since
-x is divided by f, k1 does not change when the image is scaled. A camera's distortion is
-:attr:`ImageCamera.k1`; the free functions take ``k1`` (default 0, the pinhole).
+so undistorting a pixel is closed-form. Distorting a pinhole point inverts the radial map
+g(r_d) = r_d / (1 + k1 r_d² + k2 r_d⁴) = |x_u|: with k2 = 0 a quadratic, x_d = x_u · 2 / (1 +
+√(1 − 4 k1 |x_u|²)); with k2 ≠ 0 a monotone 1-D inversion per radius (safeguarded Newton, to
+1e-13 relative). Where g stops increasing (a pincushion lens's rim, g'(r_d) = 0) a farther
+pinhole point is put on the rim, where it lies outside any real image. k1 < 0 is barrel
+distortion (wide lenses: lines bow outward, the corners are pulled in), k1 > 0 pincushion; k2
+bends the outer field further (a fisheye's, docs/lenses.md); k1 = k2 = 0 is the pinhole. Since x
+is divided by f, k1 and k2 do not change when the image is scaled. A camera's distortion is
+:attr:`ImageCamera.lens`, a :class:`Lens`; the free functions take a :class:`Lens`
+(:data:`PINHOLE` for none).
 
 Free functions over numpy arrays; nothing here does I/O or GL.
 """
@@ -43,51 +49,178 @@ def intrinsic_matrix(f: float, cx: float, cy: float) -> Array:
     return np.array([[f, 0.0, cx], [0.0, f, cy], [0.0, 0.0, 1.0]])
 
 
-def project(K: ArrayLike, R: ArrayLike, C: ArrayLike, X_world: ArrayLike, k1: float = 0.0) -> Array:
-    """Pixel coordinates u = K·D(π(R (X - C))) of world points, D the lens distortion ``k1``.
+@dataclass(frozen=True)
+class Lens:
+    """A photo's lens distortion: the division model's k1 and k2 (module docstring).
+
+    ``Lens()`` (:data:`PINHOLE`) is the pinhole; ``Lens(k1)`` is the one-term model.
+    """
+
+    k1: float = 0.0
+    k2: float = 0.0
+
+    @property
+    def is_pinhole(self) -> bool:
+        return self.k1 == 0.0 and self.k2 == 0.0
+
+    def rim(self) -> float:
+        """The distorted normalised radius r_d beyond which the lens shows nothing: where
+        g(r_d) = r_d / (1 + k1 r_d² + k2 r_d⁴) stops increasing (g' = 0: 1 − k1 t − 3 k2 t² = 0,
+        t = r_d²) or, first, where its denominator vanishes (g → ∞ there: the whole pinhole plane
+        is within the field). ∞ where neither happens (the pinhole, a barrel one-term lens)."""
+        t = min(_least_positive_root(3.0 * self.k2, self.k1, -1.0),
+                _least_positive_root(self.k2, self.k1, 1.0))
+        return float(np.sqrt(t))
+
+    def rim_is_field_edge(self) -> bool:
+        """Whether :meth:`rim` is where g stops increasing (pinhole points beyond it are put on
+        it) rather than a pole of g (every pinhole point has its place inside it)."""
+        return _least_positive_root(3.0 * self.k2, self.k1, -1.0) < _least_positive_root(self.k2, self.k1, 1.0)
+
+
+#: No distortion.
+PINHOLE = Lens()
+
+
+def _least_positive_root(a: float, b: float, c: float) -> float:
+    """The least positive root of a t² + b t + c (∞ where none)."""
+    if a == 0.0:
+        return -c / b if b != 0.0 and -c / b > 0.0 else float("inf")
+    disc = b * b - 4.0 * a * c
+    if disc < 0.0:
+        return float("inf")
+    q = -0.5 * (b + np.copysign(np.sqrt(disc), b))  # the stable pair of roots
+    roots = [r for r in ((q / a), (c / q if q != 0.0 else float("inf"))) if r > 0.0]
+    return min(roots, default=float("inf"))
+
+
+def project(K: ArrayLike, R: ArrayLike, C: ArrayLike, X_world: ArrayLike, lens: Lens = PINHOLE) -> Array:
+    """Pixel coordinates u = K·D(π(R (X - C))) of world points, D the ``lens``'s distortion.
 
     Parameters
     ----------
     K, R : (3, 3) intrinsics and world→camera rotation.
     C : (3,) camera centre.
     X_world : (..., 3) points.
-    k1 : the division model's coefficient (module docstring); 0 for a pinhole.
+    lens : the division model's coefficients (module docstring); :data:`PINHOLE` for none.
 
     Returns
     -------
     (..., 2) pixel coordinates (u, v), origin at the image's top-left corner.
     """
     x = world_to_camera(R, C, X_world)
-    if k1 == 0.0:
+    if lens.is_pinhole:
         h = x @ np.asarray(K, float).T
         return h[..., :2] / h[..., 2:3]
-    return normalised_to_pixels(K, distort_normalised(x[..., :2] / x[..., 2:3], k1))
+    return normalised_to_pixels(K, distort_normalised(x[..., :2] / x[..., 2:3], lens))
 
 
-def distortion_scale(r2_undistorted: ArrayLike, k1: float) -> Array:
+#: Newton's stopping step, relative to the radius: the inversion is exact to about 1e-13.
+NEWTON_RTOL = 1e-13
+NEWTON_MAX_ITER = 100
+
+
+def distortion_scale(r2_undistorted: ArrayLike, lens: Lens) -> Array:
     """s with x_d = s · x_u, from |x_u|² (division model, module docstring).
 
-    Beyond the field a pincushion lens (k1 > 0) can show (4 k1 |x_u|² > 1), the square root is
-    taken at 0: the point is put on the field's rim, where it lies outside any real image.
+    With k2 = 0, s = 2 / (1 + √(1 − 4 k1 |x_u|²)); beyond the field a pincushion lens (k1 > 0)
+    can show (4 k1 |x_u|² > 1) the square root is taken at 0. With k2 ≠ 0, r_d solves
+    g(r_d) = |x_u| by Newton's method kept inside a bisection bracket; beyond the rim (g' = 0) the
+    point is put on the rim. Either way such a point lies outside any real image.
     """
     r2 = np.asarray(r2_undistorted, float)
-    return np.asarray(2.0 / (1.0 + np.sqrt(np.maximum(1.0 - 4.0 * k1 * r2, 0.0))), float)
+    k1, k2 = lens.k1, lens.k2
+    if k2 == 0.0:
+        return np.asarray(2.0 / (1.0 + np.sqrt(np.maximum(1.0 - 4.0 * k1 * r2, 0.0))), float)
+    r_u = np.sqrt(np.maximum(r2, 0.0))
+    rim = lens.rim()  # finite for k2 ≠ 0: one of the two quadratics has a positive root
+    rho = _invert_radial(r_u, k1, k2, rim)
+    if lens.rim_is_field_edge():
+        rho = np.where(r_u >= rim / (1.0 + k1 * rim**2 + k2 * rim**4), rim, rho)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        s = np.where(r_u > 0.0, rho / np.where(r_u > 0.0, r_u, 1.0), 1.0)
+    return np.asarray(s, float)
 
 
-def distort_normalised(x_u: ArrayLike, k1: float) -> Array:
+def _invert_radial(r_u: Array, k1: float, k2: float, rim: float) -> Array:
+    """r_d ∈ [0, rim] with r_d / (1 + k1 r_d² + k2 r_d⁴) = r_u (g increasing on [0, rim))."""
+    lo, hi = np.zeros_like(r_u), np.full_like(r_u, rim)
+    rho = np.minimum(r_u, 0.5 * rim)  # g(r) ≈ r near the centre
+    for _ in range(NEWTON_MAX_ITER):
+        r2 = rho * rho
+        D = 1.0 + k1 * r2 + k2 * r2 * r2
+        g = rho / D
+        gp = (1.0 - k1 * r2 - 3.0 * k2 * r2 * r2) / (D * D)
+        below = g < r_u
+        lo, hi = np.where(below, rho, lo), np.where(below, hi, rho)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            new = rho - (g - r_u) / gp
+        bad = ~np.isfinite(new) | (new < lo) | (new > hi)
+        new = np.where(bad, 0.5 * (lo + hi), new)
+        done = np.abs(new - rho) <= NEWTON_RTOL * np.maximum(rho, 1.0)
+        rho = new
+        if np.all(done):
+            break
+    # Two more Newton steps from there: the root to the rounding of g itself, so that r_d is as
+    # smooth a function of r_u as the closed form (a solver differencing it sees no steps).
+    for _ in range(2):
+        r2 = rho * rho
+        D = 1.0 + k1 * r2 + k2 * r2 * r2
+        gp = (1.0 - k1 * r2 - 3.0 * k2 * r2 * r2) / (D * D)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            new = rho - (rho / D - r_u) / gp
+        rho = np.where(np.isfinite(new) & (new >= lo) & (new <= hi), new, rho)
+    return rho
+
+
+def distortion_derivatives(r2_undistorted: ArrayLike, lens: Lens) -> tuple[Array, Array, Array, Array]:
+    """s (as :func:`distortion_scale`) and its derivatives ∂s/∂|x_u|², ∂s/∂k1, ∂s/∂k2.
+
+    s solves s = 1 + k1 s² r² + k2 s⁴ r⁴ (r = |x_u|), so with F_s = 1 − 2 k1 s r² − 4 k2 s³ r⁴:
+    ∂s/∂r² = (k1 s² + 2 k2 s⁴ r²) / F_s, ∂s/∂k1 = s² r² / F_s, ∂s/∂k2 = s⁴ r⁴ / F_s. F_s is
+    floored at 1e-12 (at the rim the map has no derivative).
+    """
+    r2 = np.asarray(r2_undistorted, float)
+    s = distortion_scale(r2, lens)
+    Fs = np.maximum(1.0 - 2.0 * lens.k1 * s * r2 - 4.0 * lens.k2 * s**3 * r2**2, 1e-12)
+    return s, (lens.k1 * s**2 + 2.0 * lens.k2 * s**4 * r2) / Fs, s**2 * r2 / Fs, s**4 * r2**2 / Fs
+
+
+def distortion_derivatives_each(r2_undistorted: ArrayLike, lenses: ArrayLike) -> tuple[Array, Array, Array, Array]:
+    """:func:`distortion_derivatives` of n points, point i through lens i: |x_u|² (n,), lenses (n, 2)
+    (k1, k2) → s, ∂s/∂|x_u|², ∂s/∂k1, ∂s/∂k2, each (n,). Pinholes give 1, 0, |x_u|², |x_u|⁴."""
+    r2 = np.asarray(r2_undistorted, float).reshape(-1)
+    k = np.asarray(lenses, float).reshape(-1, 2)
+    s, ds_dr2, ds_dk1, ds_dk2 = np.ones(len(r2)), np.zeros(len(r2)), r2.copy(), r2 * r2
+    if not np.any(k):
+        return s, ds_dr2, ds_dk1, ds_dk2
+    pairs, which = np.unique(k, axis=0, return_inverse=True)
+    which = np.asarray(which).reshape(-1)
+    for i, (k1, k2) in enumerate(pairs):
+        if k1 == 0.0 and k2 == 0.0:
+            continue
+        sel = which == i
+        s[sel], ds_dr2[sel], ds_dk1[sel], ds_dk2[sel] = distortion_derivatives(r2[sel], Lens(float(k1), float(k2)))
+    return s, ds_dr2, ds_dk1, ds_dk2
+
+
+def distort_normalised(x_u: ArrayLike, lens: Lens) -> Array:
     """Pinhole normalised coordinates (..., 2) → the lens's (distorted) ones."""
     x_u = np.asarray(x_u, float)
-    if k1 == 0.0:
+    if lens.is_pinhole:
         return x_u.copy()
-    return x_u * distortion_scale(np.sum(x_u**2, axis=-1), k1)[..., None]
+    return x_u * distortion_scale(np.sum(x_u**2, axis=-1), lens)[..., None]
 
 
-def undistort_normalised(x_d: ArrayLike, k1: float) -> Array:
-    """The lens's normalised coordinates (..., 2) → the pinhole's: x_u = x_d / (1 + k1 |x_d|²)."""
+def undistort_normalised(x_d: ArrayLike, lens: Lens) -> Array:
+    """The lens's normalised coordinates (..., 2) → the pinhole's: x_u = x_d / (1 + k1 r_d² + k2 r_d⁴)."""
     x_d = np.asarray(x_d, float)
-    if k1 == 0.0:
+    if lens.is_pinhole:
         return x_d.copy()
-    return x_d / (1.0 + k1 * np.sum(x_d**2, axis=-1))[..., None]
+    r2 = np.sum(x_d**2, axis=-1)
+    if lens.k2 == 0.0:
+        return x_d / (1.0 + lens.k1 * r2)[..., None]
+    return x_d / (1.0 + lens.k1 * r2 + lens.k2 * r2 * r2)[..., None]
 
 
 def pixels_to_normalised(K: ArrayLike, uv: ArrayLike) -> Array:
@@ -102,25 +235,25 @@ def normalised_to_pixels(K: ArrayLike, x: ArrayLike) -> Array:
     return np.asarray(x, float) * K[0, 0] + K[:2, 2]
 
 
-def undistort_pixels(K: ArrayLike, uv: ArrayLike, k1: float) -> Array:
+def undistort_pixels(K: ArrayLike, uv: ArrayLike, lens: Lens) -> Array:
     """Where the pinhole camera K would have put what the lens put at pixels uv (..., 2)."""
-    if k1 == 0.0:
+    if lens.is_pinhole:
         return np.asarray(uv, float).copy()
-    return normalised_to_pixels(K, undistort_normalised(pixels_to_normalised(K, uv), k1))
+    return normalised_to_pixels(K, undistort_normalised(pixels_to_normalised(K, uv), lens))
 
 
-def distort_pixels(K: ArrayLike, uv: ArrayLike, k1: float) -> Array:
+def distort_pixels(K: ArrayLike, uv: ArrayLike, lens: Lens) -> Array:
     """Where the lens puts what the pinhole camera K puts at pixels uv (..., 2)."""
-    if k1 == 0.0:
+    if lens.is_pinhole:
         return np.asarray(uv, float).copy()
-    return normalised_to_pixels(K, distort_normalised(pixels_to_normalised(K, uv), k1))
+    return normalised_to_pixels(K, distort_normalised(pixels_to_normalised(K, uv), lens))
 
 
-def distortion_displacement_px(K: ArrayLike, width: int, height: int, k1: float) -> float:
+def distortion_displacement_px(K: ArrayLike, width: int, height: int, lens: Lens) -> float:
     """The largest distance (pixels) between a corner of the photo and where a pinhole camera K
     would have put what it shows: how far the lens moves the image at its corners."""
     corners = np.array([[0.0, 0.0], [width, 0.0], [0.0, height], [width, height]])
-    return float(np.max(np.linalg.norm(undistort_pixels(K, corners, k1) - corners, axis=-1)))
+    return float(np.max(np.linalg.norm(undistort_pixels(K, corners, lens) - corners, axis=-1)))
 
 
 def world_to_camera(R: ArrayLike, C: ArrayLike, X_world: ArrayLike) -> Array:
@@ -129,29 +262,26 @@ def world_to_camera(R: ArrayLike, C: ArrayLike, X_world: ArrayLike) -> Array:
 
 
 def project_each(Ks: ArrayLike, Rs: ArrayLike, Cs: ArrayLike, X_world: ArrayLike,
-                 k1s: ArrayLike | None = None) -> Array:
+                 lenses: ArrayLike | None = None) -> Array:
     """Pixels of n world points, point i seen by camera i: Ks, Rs (n, 3, 3), Cs, X (n, 3) → (n, 2);
-    ``k1s`` (n,): each camera's lens distortion (None: all pinholes).
+    ``lenses`` (n, 2): each camera's lens distortion (k1, k2) (None: all pinholes).
 
     The same projection as :func:`project`, batched over many cameras (a solve's observations).
     """
     x_cam = np.einsum("nij,nj->ni", np.asarray(Rs, float), np.asarray(X_world, float) - np.asarray(Cs, float))
     Ks = np.asarray(Ks, float)
     x = x_cam[:, :2] / x_cam[:, 2:3]
-    if k1s is not None:
-        k1 = np.asarray(k1s, float)
-        if np.any(k1 != 0.0):
-            r2 = np.sum(x**2, axis=-1)
-            x = x * (2.0 / (1.0 + np.sqrt(np.maximum(1.0 - 4.0 * k1 * r2, 0.0))))[:, None]
+    if lenses is not None:
+        x = x * distortion_derivatives_each(np.sum(x**2, axis=-1), lenses)[0][:, None]
     return x * Ks[:, 0, 0, None] + Ks[:, :2, 2]
 
 
-def pixel_rays_world(K: ArrayLike, R: ArrayLike, uv: ArrayLike, k1: float = 0.0) -> Array:
+def pixel_rays_world(K: ArrayLike, R: ArrayLike, uv: ArrayLike, lens: Lens = PINHOLE) -> Array:
     """Unit viewing directions in the world of pixels uv, shape (..., 2) → (..., 3).
 
-    d_world = Rᵀ K⁻¹ [u, v, 1]ᵀ, normalised (paper eq. 5), after undistorting uv by ``k1``.
+    d_world = Rᵀ K⁻¹ [u, v, 1]ᵀ, normalised (paper eq. 5), after undistorting uv by ``lens``.
     """
-    uv = undistort_pixels(K, uv, k1)
+    uv = undistort_pixels(K, uv, lens)
     h = np.concatenate([uv, np.ones(uv.shape[:-1] + (1,))], axis=-1)
     d_cam = np.linalg.solve(np.asarray(K, float), h.reshape(-1, 3).T).T.reshape(h.shape)
     d = d_cam @ np.asarray(R, float)  # row-vector form of Rᵀ d_cam
@@ -321,9 +451,9 @@ class ImageCamera:
     ``covariance``: a calibrated photo's (9, 9) covariance over (f, cx, cy, ω, C) (ω the rotation
     vector of a small turn, left-multiplied: R' = exp([ω]×) R), or None for a camera given
     exactly (an evidence view, an eye). A derived camera (scaled, resized, an eye) carries none.
-    ``k1``: the lens distortion of the photo (the division model of the module docstring; 0 for a
-    pinhole, as every rendered view and eye is). A scaled or resized camera keeps it (x is
-    divided by f).
+    ``lens``: the lens distortion of the photo (the division model of the module docstring;
+    :data:`PINHOLE` for a pinhole, as every rendered view and eye is). A scaled or resized camera
+    keeps it (x is divided by f).
     """
 
     id: str
@@ -334,14 +464,14 @@ class ImageCamera:
     height: int
     source: str = field(default="", compare=False, repr=False, kw_only=True)
     covariance: Array | None = field(default=None, compare=False, repr=False, kw_only=True)
-    k1: float = field(default=0.0, kw_only=True)
+    lens: Lens = field(default=PINHOLE, kw_only=True)
 
     def scaled(self, s: float) -> ImageCamera:
         """The same camera for an image scaled by s (pixel corners stay at corners)."""
         K = np.array(self.K, float)
         K[:2] *= s
         return ImageCamera(self.id, K, self.R, self.C, max(1, round(self.width * s)), max(1, round(self.height * s)),
-                           source=self.source, k1=self.k1)
+                           source=self.source, lens=self.lens)
 
     def resized(self, width: int, height: int, source: str | None = None) -> ImageCamera:
         """The same view at another image size: the horizontal field of view is kept, and the
@@ -354,7 +484,7 @@ class ImageCamera:
         K[0, 2] *= s
         K[1, 2] = (K[1, 2] / self.height) * height
         return ImageCamera(self.id, K, self.R, self.C, int(width), int(height),
-                           source=self.source if source is None else source, k1=self.k1)
+                           source=self.source if source is None else source, lens=self.lens)
 
 
 def look_rotation(direction: ArrayLike, roll: float = 0.0) -> Array:

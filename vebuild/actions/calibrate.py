@@ -289,11 +289,12 @@ def _place_jointly(project: Project, photos: dict[str, PhotoCalibration], joint:
                                 "mark it in a second photo (or, if it lies on the floor, tick its 'on the floor' "
                                 "box in the Calibration tab)")
         cov, k1, k1_sigma = distortion_prior(cal)
-        inputs.append(PhotoInput(pid, cal.K, cal.R, cov, marks, k1, k1_sigma,
+        inputs.append(PhotoInput(pid, cal.K, cal.R, cov, marks, k1, k1_sigma, k2=cal.k2,
                                  corner_px=0.5 * float(np.hypot(cal.width, cal.height))))
         sources = _scale_sources(data, pid, obs_of[pid], refs, floor, with_floor_distances=False)
         if sources:
-            h, sigma, _ = camera_height_estimate(pid, cal.K, cal.R, cov, sources, k1=k1, click_sigma_px=click)
+            h, sigma, _ = camera_height_estimate(pid, cal.K, cal.R, cov, sources, k1=k1, k2=cal.k2,
+                                                  click_sigma_px=click)
             heights[pid] = (h, sigma)
     seen = {n for p in inputs for n in p.markers} | set(known)
     usable = [d for d in refs if d.a in seen and d.b in seen]
@@ -355,7 +356,7 @@ def _place_alone(project: Project, cal: PhotoCalibration, pid: str, origin: Orig
                  obs: dict[str, np.ndarray], floor: set[str]) -> SinglePhotoPlacement:
     cov, k1, _ = distortion_prior(cal)
     on_floor = {n: uv for n, uv in obs.items() if n in floor and n != origin.marker}
-    return place_single_photo(pid, cal.K, cal.R, cov, origin, sources, on_floor, k1=k1,
+    return place_single_photo(pid, cal.K, cal.R, cov, origin, sources, on_floor, k1=k1, k2=cal.k2,
                               click_sigma_px=project.settings["click_sigma_px"])
 
 

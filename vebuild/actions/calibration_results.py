@@ -105,7 +105,13 @@ def results_record(data: dict[str, Any], photos: dict[str, PhotoCalibration], pl
         # A photo whose lens was neither estimated nor given is a pinhole: no record (FORMAT.md).
         distortion = None
         if cal.k1_source != "none" or cam.k1 != 0.0:
-            distortion = distortion_record(cam.K, cal.width, cal.height, cam.k1, cam.k1_sigma, cal.k1_source)
+            tested = cal.second_term_test is not None
+            distortion = distortion_record(
+                cam.K, cal.width, cal.height, cam.k1, cam.k1_sigma, cal.k1_source, k2=cal.k2,
+                k2_sigma=cal.k2_sigma, k2_source=cal.k2_source if tested else None,
+                corner_sigma=cal.distortion_corner_px_sigma if cal.k2_sigma > 0.0 else None,
+                k1_correlation=(float(cal.covariance_lens[6, 7] / (cal.k1_sigma * cal.k2_sigma))
+                                if cal.k1_sigma > 0.0 and cal.k2_sigma > 0.0 else None))
         cameras[pid] = {
             "mode": cal.mode,
             "mode_reason": cal.mode_reason,
@@ -149,7 +155,7 @@ def results_record(data: dict[str, Any], photos: dict[str, PhotoCalibration], pl
         if pc is not None and n not in all_markers:
             # One photo of the joint placement shows it: placed from that photo alone, on the floor.
             try:
-                all_markers[n] = floor_point(pid, pc.K, pc.R, pc.C, pc.covariance, uv, k1=pc.k1,
+                all_markers[n] = floor_point(pid, pc.K, pc.R, pc.C, pc.covariance, uv, k1=pc.k1, k2=pc.k2,
                                              click_sigma_px=click, what=f"marker '{n}' (on the floor)")
             except CalibrationError as e:
                 warnings.append(f"{e} (it is not placed)")

@@ -155,7 +155,8 @@ def solved_group_records(problem: Any, solution: Any) -> list[dict[str, Any]]:
         rec: dict[str, Any] = {"id": gid, "photos": photos,
                                "focal_px": value_sigma(float(cam.K[0, 0]), float(sig[0])),
                                "principal_point": value_sigma(cam.K[:2, 2], sig[1:3]),
-                               "distortion": {"k1": float(cam.k1), "sigma": float(sig[3]) if len(sig) > 3 else None,
+                               "distortion": {"k1": float(cam.lens.k1),
+                                              "sigma": float(sig[3]) if len(sig) > 3 else None,
                                               "refined": len(sig) > 3}}
         out.append(rec)
     return out

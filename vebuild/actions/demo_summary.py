@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from vebuild.camera import log_so3
+from vebuild.camera import Lens, log_so3
 from vebuild.camera import project as project_points
 
 #: A click at least this many σ from its true place (its 2-D distance over σ; a χ₂ draw beyond it
@@ -35,7 +35,8 @@ def _farthest_click(project: Any, name: str, truth: dict) -> tuple[str, float, f
         if t is None or name not in obs or name not in (truth.get("markers") or {}):
             continue
         k1 = float((t.get("distortion") or {}).get("k1", 0.0))
-        uv = project_points(t["K"], t["R"], t["C"], np.asarray(truth["markers"][name], float), k1)
+        uv = project_points(t["K"], t["R"], t["C"], np.asarray(truth["markers"][name], float),
+                            Lens(k1, float((t.get("distortion") or {}).get("k2", 0.0))))
         d = float(np.linalg.norm(np.asarray(obs[name], float) - uv))
         if best is None or d > best[1]:
             best = (photo["id"], d, d / sigma)

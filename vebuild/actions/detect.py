@@ -32,7 +32,7 @@ from vebuild.calibration.lines import (
     to_grey,
 )
 from vebuild.calibration.vanishing import fit_vanishing_point
-from vebuild.camera import AXES, distort_pixels, intrinsic_matrix, undistort_pixels
+from vebuild.camera import AXES, Lens, distort_pixels, intrinsic_matrix, undistort_pixels
 from vebuild.errors import ProjectError, VebuildError
 from vebuild.project import Project
 from vebuild.project.images import decode_photo
@@ -134,7 +134,7 @@ def group(pixels: np.ndarray, photo: dict[str, Any], *, seed: int = 0) -> Groupe
         else:
             segs = found.segments
             if k1 != 0.0 and len(segs):
-                segs = undistort_pixels(intrinsic_matrix(f0, *c), segs.reshape(-1, 2), k1).reshape(-1, 4)
+                segs = undistort_pixels(intrinsic_matrix(f0, *c), segs.reshape(-1, 2), Lens(k1)).reshape(-1, 4)
             one = _one_direction(pid, segs, w, h, k1, f0 if prior is not None else None, seed, t0)
             if one.message.startswith("one direction only"):  # 3 edges meeting at one point
                 return Grouped(pid, w, h, found, segs, k1, f0, None, time.perf_counter() - t0, one)
@@ -147,7 +147,7 @@ def group(pixels: np.ndarray, photo: dict[str, Any], *, seed: int = 0) -> Groupe
         # that a wide lens's long edges are grouped too (the calibration estimates k1 itself).
         k1 = plumb_line_k1(found.polylines, found.polyline_sigma_px, f0, c, w, h)
     if k1 != 0.0:
-        segs = undistort_pixels(intrinsic_matrix(f0, *c), found.segments.reshape(-1, 2), k1).reshape(-1, 4)
+        segs = undistort_pixels(intrinsic_matrix(f0, *c), found.segments.reshape(-1, 2), Lens(k1)).reshape(-1, 4)
     # Short edges, texture (cobbles, leaves) and curves (wires, branches) are not grouped
     # (calibration.clutter): they agree with any vanishing point within a wide angle.
     small = short(segs, w, h)
@@ -213,7 +213,7 @@ def _point_text(v: np.ndarray, K: np.ndarray, k1: float) -> str:
     if abs(v[2]) > 1e-9 * np.linalg.norm(v[:2]):
         p = v[:2] / v[2]
         if k1 != 0.0:
-            p = distort_pixels(K, p, k1)
+            p = distort_pixels(K, p, Lens(k1))
         return f"at ({p[0]:.0f}, {p[1]:.0f})"
     return f"at infinity ({np.degrees(np.arctan2(v[1], v[0])):.1f}° in the image)"
 

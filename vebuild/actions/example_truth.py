@@ -17,7 +17,7 @@ from types import ModuleType
 
 import numpy as np
 
-from vebuild.camera import ImageCamera
+from vebuild.camera import ImageCamera, Lens
 from vebuild.model.scene import Model, model_from_dict
 from vebuild.resources import data_dir, example_project_dir
 
@@ -52,7 +52,8 @@ def true_cameras() -> list[ImageCamera]:
     """The photos' true cameras, each with its lens's true distortion (k1 = 0: a pinhole)."""
     gt = ground_truth()
     return [ImageCamera(pid, np.asarray(p["K"], float), np.asarray(p["R"], float), np.asarray(p["C"], float),
-                        int(p["width"]), int(p["height"]), k1=float(true_k1(p)))
+                        int(p["width"]), int(p["height"]),
+                        lens=Lens(float(true_k1(p)), float((p.get("distortion") or {}).get("k2", 0.0))))
             for pid, p in gt["photos"].items()]
 
 

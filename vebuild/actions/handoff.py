@@ -198,9 +198,10 @@ def export_camera(project: Project, photo: str | None, path: str | os.PathLike[s
                    f"aspect {cam.width}:{cam.height}, principal point offset "
                    f"({cam.K[0][2] - cam.width / 2:+.1f}, {cam.K[1][2] - cam.height / 2:+.1f}) px)",
                    f"photo plane {info.plane_distance:.3g} {unit} in front of the camera, "
-                   + (f"{info.plane_grid[0]}×{info.plane_grid[1]} cells" if cam.k1 != 0 else "one quad")
-                   + (f", lens undistorted (k1 {cam.k1:+.4g}) to within {info.plane_error_px:.3f} px"
-                      if cam.k1 != 0 else ""),
+                   + (f"{info.plane_grid[0]}×{info.plane_grid[1]} cells" if not cam.lens.is_pinhole else "one quad")
+                   + (f", lens undistorted (k1 {cam.lens.k1:+.4g}{_k2_words(cam.lens.k2)}) to within "
+                      f"{info.plane_error_px:.3f} px"
+                      if not cam.lens.is_pinhole else ""),
                    f"floor grid every {info.grid_spacing:g} over x {info.grid_bounds[0]:g}…{info.grid_bounds[1]:g}, "
                    f"y {info.grid_bounds[2]:g}…{info.grid_bounds[3]:g}; axes; {info.lines} measurement line(s)",
                    f"photo: {image.note}"]
@@ -228,3 +229,8 @@ def export_camera_command(project: Project, photo: str | None, out: str) -> int:
     for w in r.warnings:
         print(f"warning: {w}")
     return 0
+
+
+def _k2_words(k2: float) -> str:
+    """", k2 +0.0123" for a two-term lens, nothing for one term."""
+    return f", k2 {k2:+.4g}" if k2 != 0.0 else ""

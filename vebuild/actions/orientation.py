@@ -42,7 +42,7 @@ def leave_out_unoriented(project: Project, photos: dict[str, PhotoCalibration],
             names = sorted(obs)
             uv = np.array([obs[n] for n in names])
             if cal.k1 != 0.0:
-                uv = undistort_pixels(cal.K, uv, cal.k1)
+                uv = undistort_pixels(cal.K, uv, cal.lens)
             xy = (uv - cal.K[:2, 2]) / cal.K[0, 0]
             rays[pid] = {n: np.array([x, y, 1.0]) for n, (x, y) in zip(names, xy, strict=True)}
     found = check_orientation({pid: cal.R for pid, cal in photos.items()}, rays, unresolved,

@@ -35,7 +35,7 @@ from vebuild.analysis.solved import Point, SolvedModel
 from vebuild.calibration.photo import calibrate_photo
 from vebuild.calibration.priors import DistortionPrior
 from vebuild.calibration.register import Registered, register_from_points, register_with_vanishing_points
-from vebuild.camera import ImageCamera
+from vebuild.camera import ImageCamera, Lens
 from vebuild.errors import CalibrationError, VebuildError
 from vebuild.project import Project, decode, provenance
 from vebuild.project.decode import known_points
@@ -174,9 +174,9 @@ def recalibration_cameras(project: Project, cameras: dict[str, ImageCamera], ref
             K = cam.K
             P[:3, :] = P[:, :3] = 0.0
             P[:3, :3] = np.asarray(cam.covariance, float)[:3, :3]
-        k1 = float(prior["k1"]["value"]) if "k1" in prior else cam.k1
+        k1 = float(prior["k1"]["value"]) if "k1" in prior else cam.lens.k1
         out[pid] = ImageCamera(pid, K, np.asarray(prior["R"], float), cam.C, cam.width, cam.height,
-                               covariance=P, k1=k1)
+                               covariance=P, lens=Lens(k1, cam.lens.k2))
     return out
 
 
@@ -203,7 +203,7 @@ def _known_distortion(cal: dict[str, Any], pid: str) -> DistortionPrior | None:
 
 
 def _record(reg: Registered, names: list[str], reason: str, width: int, height: int) -> dict[str, Any]:
-    distortion = distortion_record(reg.K, width, height, reg.k1, reg.k1_sigma, reg.k1_source) \
+    distortion = distortion_record(reg.K, width, height, reg.k1, reg.k1_sigma, reg.k1_source, k2=reg.k2) \
         if reg.k1_source else None
     return {
         "mode": "registered",

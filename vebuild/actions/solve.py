@@ -360,7 +360,8 @@ def _maybe_unseen(problem: Problem, pins: list[dict[str, Any]], xm: np.ndarray, 
     Rs, Cs = np.array([c.R for c in cams]), np.array([c.C for c in cams])
     z = np.einsum("nj,nj->n", Rs[:, 2], X - Cs)
     with np.errstate(all="ignore"):
-        uv = camera.project_each(np.array([c.K for c in cams]), Rs, Cs, X, np.array([c.k1 for c in cams]))
+        uv = camera.project_each(np.array([c.K for c in cams]), Rs, Cs, X,
+                                 np.array([(c.lens.k1, c.lens.k2) for c in cams]))
     size = np.array([[c.width, c.height] for c in cams], float)
     inside = np.all((uv >= -VISIBLE_MARGIN * size + 1.0) & (uv <= (1 + VISIBLE_MARGIN) * size - 1.0), axis=1)
     return [i for i, ok in zip(idx, (z > 1e-9) & inside, strict=True) if not ok]
@@ -374,7 +375,7 @@ def _check_visible(project: Project, problem: Problem, xm: np.ndarray, cameras: 
         cam = cameras[p["photo"]]
         X = problem.model.handle_world(p["node"], p["handle"], xm, T)
         in_front = camera.world_to_camera(cam.R, cam.C, X)[2] > 0
-        uv = camera.project(cam.K, cam.R, cam.C, X, cam.k1) if in_front else None
+        uv = camera.project(cam.K, cam.R, cam.C, X, cam.lens) if in_front else None
         w, hgt = cam.width, cam.height
         if uv is None or not (-VISIBLE_MARGIN * w <= uv[0] <= (1 + VISIBLE_MARGIN) * w
                               and -VISIBLE_MARGIN * hgt <= uv[1] <= (1 + VISIBLE_MARGIN) * hgt):
@@ -531,14 +532,20 @@ def recalibrated_records(data: dict[str, Any], solution: Any, problem: Problem
         rec["marker_residuals_px"] = marker_res.get(cid, {})
         old = rec.get("distortion")
         distortion = None
+        # k2 is held as calibrated: its record is kept as it was
+        k2_rec = (old or {}).get("k2") or {}
+        held_k2 = {"k2": cam.lens.k2, "k2_sigma": float(k2_rec.get("sigma") or 0.0),
+                   "k2_source": k2_rec.get("source")}
         if cid in solution.k1_sigma:
             source = str(old.get("source", "")) if old else ""
             if REFINED_SOURCE not in source:
                 source = f"{source}; {REFINED_SOURCE}" if source else REFINED_SOURCE
-            distortion = distortion_record(cam.K, cam.width, cam.height, cam.k1, solution.k1_sigma[cid], source)
+            distortion = distortion_record(cam.K, cam.width, cam.height, cam.lens.k1, solution.k1_sigma[cid], source,
+                                           **held_k2)
         elif old is not None:
             k1_sig = problem.options.k1_sigma.get(cid, 0.0)
-            distortion = distortion_record(cam.K, cam.width, cam.height, cam.k1, k1_sig, str(old.get("source", "")))
+            distortion = distortion_record(cam.K, cam.width, cam.height, cam.lens.k1, k1_sig,
+                                           str(old.get("source", "")), **held_k2)
             if old.get("k1", {}).get("sigma") is None:
                 distortion["k1"]["sigma"] = distortion["corner_displacement_px"]["sigma"] = None
         rec.update(camera_record(cam.K, cam.R, cam.C, cam.covariance, distortion), recalibrated=True)

@@ -12,7 +12,7 @@ import numpy as np
 
 from vebuild.calibration.axes_choice import MIN_SHARED_MARKERS_TO_PROPOSE, choose_turns, direction_turn, turn_between
 from vebuild.calibration.lines import X_AXIS_CHOICES
-from vebuild.camera import intrinsic_matrix, undistort_pixels
+from vebuild.camera import Lens, intrinsic_matrix, undistort_pixels
 from vebuild.project import Project
 
 if TYPE_CHECKING:
@@ -27,7 +27,7 @@ def marker_rays(project: Project, g: Grouped) -> dict[str, np.ndarray]:
     names = sorted(obs)
     uv = np.array([obs[m][:2] for m in names], float)
     if g.k1 != 0.0:
-        uv = undistort_pixels(intrinsic_matrix(g.f0, *c), uv, g.k1)
+        uv = undistort_pixels(intrinsic_matrix(g.f0, *c), uv, Lens(g.k1))
     f = float(g.frame.focal_px)
     return {m: np.array([(u - c[0]) / f, (v - c[1]) / f, 1.0]) for m, (u, v) in zip(names, uv, strict=True)}
 

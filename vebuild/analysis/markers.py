@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 from PIL import Image, ImageDraw, ImageFont
 
-from vebuild.camera import ImageCamera, project, world_to_camera
+from vebuild.camera import PINHOLE, ImageCamera, project, world_to_camera
 from vebuild.errors import VebuildError
 from vebuild.render.renderer import Renderer
 from vebuild.render.scene import RenderScene
@@ -122,17 +122,17 @@ def visible_markers(renderer: Renderer, cam: ImageCamera,
     it is seen (not hidden). Each is tested through a one-pixel ID buffer on its own ray (the
     pinhole pixel of that ray, asked of the pinhole camera, whatever the lens), so a frame loop
     can afford it."""
-    pinhole = dataclasses.replace(cam, k1=0.0)
+    pinhole = dataclasses.replace(cam, lens=PINHOLE)
     out = []
     for m in markers:
         X = np.asarray(m["position"], float)
         z = float(world_to_camera(cam.R, cam.C, X)[2])
         if z <= 0:
             continue
-        uv = project(cam.K, cam.R, cam.C, X, cam.k1)
+        uv = project(cam.K, cam.R, cam.C, X, cam.lens)
         if not (0 <= uv[0] < cam.width and 0 <= uv[1] < cam.height):
             continue
-        ray = project(cam.K, cam.R, cam.C, X) if cam.k1 != 0.0 else uv
+        ray = project(cam.K, cam.R, cam.C, X) if not cam.lens.is_pinhole else uv
         _, seen = renderer.pick(pinhole, float(ray[0]), float(ray[1]))
         seen_depth = float(world_to_camera(cam.R, cam.C, seen)[2]) if seen is not None else np.inf
         out.append((m, uv, z <= seen_depth + OCCLUSION_MARGIN_M))

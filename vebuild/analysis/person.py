@@ -109,7 +109,8 @@ def _line(c: _Cam, uv: Array, floor_height: float) -> tuple[float, Array]:
 
 def measure_person(cam: ImageCamera, head: Sequence[float], feet: Sequence[Sequence[float]], *,
                    floor_height: float = 0.0, terms: Sequence[Term] = (), person: str | None = None,
-                   click_sigma_px: float = 1.0, k1_sigma: float = 0.0) -> PersonFrame:
+                   click_sigma_px: float = 1.0, k1_sigma: float = 0.0, k2_sigma: float = 0.0,
+                   k1_k2_correlation: float = 0.0) -> PersonFrame:
     """A person's height clicked on the photo of ``cam``: ``head`` the top of the head, ``feet``
     the foot point (one pixel) or the two feet (two), with the allowances ``terms`` (module
     docstring). Refusals (a click off the photo or above the horizon, the head below the feet, an
@@ -124,7 +125,8 @@ def measure_person(cam: ImageCamera, head: Sequence[float], feet: Sequence[Seque
     if not np.isfinite(floor_height):
         raise SingleViewError(f"photo '{cam.id}': --floor-height {floor_height}: expected the floor's height in "
                               "metres, a number")
-    total = _measure(cam, uv, lambda c, p: _line(c, p, floor_height)[0], click_sigma_px, k1_sigma)
+    lens_sigma = (k1_sigma, k2_sigma, k1_k2_correlation)
+    total = _measure(cam, uv, lambda c, p: _line(c, p, floor_height)[0], click_sigma_px, *lens_sigma)
     h, s_total = total
     if not h > 0:
         raise SingleViewError(f"photo '{cam.id}': the top of the head ({uv[0][0]:g}, {uv[0][1]:g}) lies "
@@ -134,10 +136,10 @@ def measure_person(cam: ImageCamera, head: Sequence[float], feet: Sequence[Seque
         raise SingleViewError(f"photo '{cam.id}': its calibration leaves the scale undetermined, so no height "
                               "measured on it has an uncertainty; give the photo a known length or the camera's "
                               "height and calibrate again")
-    _, s_cal = _measure(cam, uv, lambda c, p: _line(c, p, floor_height)[0], 0.0, k1_sigma)
+    _, s_cal = _measure(cam, uv, lambda c, p: _line(c, p, floor_height)[0], 0.0, *lens_sigma)
     s_clicks = float(np.sqrt(max(s_total**2 - s_cal**2, 0.0)))
     K = np.asarray(cam.K, float)
-    p0 = np.r_[K[0, 0], K[0, 2], K[1, 2], 0.0, 0.0, 0.0, np.asarray(cam.C, float), cam.k1]
+    p0 = np.r_[K[0, 0], K[0, 2], K[1, 2], 0.0, 0.0, 0.0, np.asarray(cam.C, float), cam.lens.k1, cam.lens.k2]
     _, foot = _line(_camera(cam, p0), uv, floor_height)
     return PersonFrame(cam.id, person, uv, floor_height, h, s_cal, s_clicks, tuple(terms), foot,
                        foot + np.array([0.0, 0.0, h]), click_sigma_px)

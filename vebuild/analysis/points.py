@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from vebuild.camera import pixel_rays_world
+from vebuild.camera import PINHOLE, Lens, pixel_rays_world
 from vebuild.errors import VebuildError
 from vebuild.model.primitives import Primitive, Sphere, _Round
 from vebuild.model.scene import ModelError
@@ -86,7 +86,7 @@ def parse_point(text: str, solved: SolvedModel, cameras: Mapping[str, Any] | Non
         if not (0 <= u <= cam.width and 0 <= v <= cam.height):
             raise MeasureError(f"point '{text}': pixel ({u:g}, {v:g}) lies outside the {head}'s "
                                f"{cam.width}×{cam.height} image")
-        return pick(solved, cam.K, cam.R, cam.C, (u, v), text, cam.k1)
+        return pick(solved, cam.K, cam.R, cam.C, (u, v), text, cam.lens)
     if "@" in text:
         node, rest = text.split("@", 1)
         face, _, st = rest.partition(":")
@@ -187,10 +187,10 @@ def ray_hit(solved: SolvedModel, origin: Array, direction: Array) -> tuple[str, 
 
 
 def pick(solved: SolvedModel, K: Array, R: Array, C: Array, uv: Sequence[float], label: str,
-         k1: float = 0.0) -> Point:
-    """The point of the model seen at pixel ``uv`` by the camera K, R, C with lens distortion ``k1``
+         lens: Lens = PINHOLE) -> Point:
+    """The point of the model seen at pixel ``uv`` by the camera K, R, C with lens distortion ``lens``
     (the pixel as the lens put it, undistorted onto its ray); an error if its ray meets nothing."""
-    d = pixel_rays_world(K, R, np.asarray(uv, float), k1)
+    d = pixel_rays_world(K, R, np.asarray(uv, float), lens)
     hit = ray_hit(solved, np.asarray(C, float), d)
     if hit is None:
         raise MeasureError(f"point '{label}': the ray through pixel ({uv[0]:g}, {uv[1]:g}) meets no surface of the "

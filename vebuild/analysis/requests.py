@@ -198,15 +198,21 @@ class ChecksRequest(_NoImage):
         return AnalysisResult(text, {**_solution_figures(project, solved), "checks": [c.to_json() for c in checks]})
 
 
-def single_view_camera(project: Project, photo: str) -> tuple[Any, float, bool]:
-    """The camera of a calibrated ``photo`` for a single-view measurement, its lens' 1σ, and
-    whether its lengths are relative (no scale was given)."""
+def single_view_camera(project: Project, photo: str) -> tuple[Any, dict[str, float], bool]:
+    """The camera of a calibrated ``photo`` for a single-view measurement, its lens' uncertainty
+    (``k1_sigma``, ``k2_sigma``, ``k1_k2_correlation``: the keywords of
+    :func:`~vebuild.analysis.single_view.measure_on_photo`), and whether its lengths are relative
+    (no scale was given)."""
     from vebuild.project.decode import camera_records, photo_camera
 
     cam = photo_camera(project, photo)
     cal = camera_records(project.data)[cam.id]  # the final record, as photo_camera's
-    k1_sigma = float(((cal.get("distortion") or {}).get("k1") or {}).get("sigma") or 0.0)
-    return cam, k1_sigma, (cal.get("placement") or {}).get("lengths") == "relative"
+    distortion = cal.get("distortion") or {}
+    k2 = distortion.get("k2") or {}
+    lens_sigma = {"k1_sigma": float((distortion.get("k1") or {}).get("sigma") or 0.0),
+                  "k2_sigma": float(k2.get("sigma") or 0.0),
+                  "k1_k2_correlation": float(k2.get("k1_correlation") or 0.0)}
+    return cam, lens_sigma, (cal.get("placement") or {}).get("lengths") == "relative"
 
 
 @dataclass(frozen=True)
@@ -236,10 +242,10 @@ class PhotoHeightRequest(_NoImage):
                                    f"{got}")
             raise VebuildError(f"{word}: expected {each} numbers for each measurement, the pixel U V of each of its "
                                f"{len(prompts)} points in turn ({'; '.join(prompts)}), {got}")
-        cam, k1_sigma, relative = single_view_camera(project, self.photo)
+        cam, lens_sigma, relative = single_view_camera(project, self.photo)
         click = project.settings["click_sigma_px"]
         rows = [measure_on_photo(cam, word, [self.pixels[i : i + 2] for i in range(k, k + each, 2)],
-                                 click_sigma_px=click, k1_sigma=k1_sigma) for k in range(0, len(self.pixels), each)]
+                                 click_sigma_px=click, **lens_sigma) for k in range(0, len(self.pixels), each)]
         unit = RELATIVE if relative else length_unit(project.data)
         text = _table(rows, unit)
         against = "the floor (z = 0)" if word in ("photo-height", "floor-distance") else \

@@ -138,7 +138,7 @@ class PersonHeightRequest(_NoImage):
         feet = [parse_pixel(self.foot, "--foot")] if self.foot is not None else \
             [parse_pixel(f, "--feet") for f in self.feet or ()]
         terms = parse_terms(self.terms)
-        cam, k1_sigma, relative = single_view_camera(project, self.photo)
+        cam, lens_sigma, relative = single_view_camera(project, self.photo)
         if relative:
             raise VebuildError(f"person-height: photo '{cam.id}' has no scale (its lengths are relative), so a "
                                "person's height cannot be measured on it; give it a known length or the camera's "
@@ -147,7 +147,7 @@ class PersonHeightRequest(_NoImage):
         if not (np.isfinite(click) and click >= 0):
             raise VebuildError(f"person-height: --click-sigma {click:g}: expected a click's 1σ in pixels, 0 or more")
         return measure_person(cam, head, feet, floor_height=self.floor_height, terms=terms, person=self.person,
-                              click_sigma_px=click, k1_sigma=k1_sigma)
+                              click_sigma_px=click, **lens_sigma)
 
     def run(self, project: Project) -> AnalysisResult:
         frames = recorded_frames(project, self.person) if self.person else []

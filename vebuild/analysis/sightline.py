@@ -334,7 +334,7 @@ def draw_point_marker(image: NDArray[np.uint8], cam: ImageCamera, point: Array, 
 
     if world_to_camera(cam.R, cam.C, point)[2] <= 0:
         return image
-    u, v = project(cam.K, cam.R, cam.C, point, cam.k1)
+    u, v = project(cam.K, cam.R, cam.C, point, cam.lens)
     img = Image.fromarray(image)
     d = ImageDraw.Draw(img)
     r = max(6, cam.width // 80)

@@ -23,16 +23,16 @@ from it.
   upper corner over the floor point below it (where a handrail post or a side wall shows it). A
   **table top**: three of its corners, each over the foot of the leg beneath it.
 
-No model and no solve are needed: only the photo's camera (K, R, C and its lens distortion k1),
+No model and no solve are needed: only the photo's camera (K, R, C and its lens distortion k1, k2),
 whose 9×9 covariance over (f, cx, cy, ω, C) carries the calibration's uncertainty and, for a photo
 placed alone, its scale's (the camera's height came from a known length, a camera height or a
 floor distance; vebuild/calibration/single_photo.py), with their correlations.
 
 Uncertainty: first order over every input at once, σ² = J Σ Jᵀ, with J by central differences over
-(f, cx, cy, ω, C), k1 and the clicks; Σ the camera's covariance, k1's 1σ (the distortion record's,
-independent of the rest) and each click's 1σ per coordinate (``settings.click_sigma_px``): the
-clicks that fix a plane count as fully as the ends measured on it. Several measurements on one
-photo are correlated through the camera; each is reported with its own 1σ.
+(f, cx, cy, ω, C), k1, k2 and the clicks; Σ the camera's covariance, k1's and k2's 1σ and their
+correlation (the distortion record's, independent of the rest) and each click's 1σ per coordinate
+(``settings.click_sigma_px``): the clicks that fix a plane count as fully as the ends measured on
+it. Several measurements on one photo are correlated through the camera; each is reported with its own 1σ.
 
 A measurement made by clicking is the command line's: :func:`vebuild.analysis.recorded.measure_clicked`
 makes the saved words (:func:`single_view_command`) and runs the request parsed from them.
@@ -47,7 +47,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vebuild.calibration.lsq import numeric_jacobian
-from vebuild.camera import ImageCamera, intrinsic_matrix, pixel_rays_world, skew
+from vebuild.camera import ImageCamera, Lens, intrinsic_matrix, pixel_rays_world, skew
 from vebuild.errors import VebuildError
 
 from .measure import Measurement
@@ -61,8 +61,10 @@ MIN_FLOOR_SLOPE = 1e-3
 #: Two points that fix a plane closer together than this fraction of their distance from the
 #: camera (three: spanning an angle whose sine is below it) fix no plane.
 MIN_PLANE_SPAN = 1e-3
-#: Finite-difference steps: pixels, radians, metres, k1.
+#: Finite-difference steps: pixels, radians, metres, k1 and k2.
 STEPS = {"px": 1e-3, "rad": 1e-7, "m": 1e-6, "k1": 1e-7}
+#: Where the clicks start in the parameter vector (f, cx, cy, ω, C, k1, k2, clicks).
+CLICKS_AT = 11
 
 
 class SingleViewError(VebuildError):
@@ -110,11 +112,11 @@ class _Cam:
     K: Array
     R: Array
     C: Array
-    k1: float
+    lens: Lens
     photo: str
 
     def ray(self, uv: Array) -> Array:
-        return pixel_rays_world(self.K, self.R, uv, self.k1)
+        return pixel_rays_world(self.K, self.R, uv, self.lens)
 
     def _at(self, uv: Array) -> str:
         return f"pixel ({uv[0]:.1f}, {uv[1]:.1f})"
@@ -297,7 +299,7 @@ def _exp_so3(w: Array) -> Array:
 
 def _camera(cam: ImageCamera, p: Array) -> _Cam:
     return _Cam(intrinsic_matrix(p[0], p[1], p[2]), _exp_so3(p[3:6]) @ np.asarray(cam.R, float),
-                np.asarray(p[6:9], float), float(p[9]), cam.id)
+                np.asarray(p[6:9], float), Lens(float(p[9]), float(p[10])), cam.id)
 
 
 def _check_on_photo(cam: ImageCamera, uv: Array, what: str) -> None:
@@ -307,23 +309,26 @@ def _check_on_photo(cam: ImageCamera, uv: Array, what: str) -> None:
 
 
 def _measure(cam: ImageCamera, clicks: Array, fn: Callable[[_Cam, Array], float], click_sigma_px: float,
-             k1_sigma: float) -> tuple[float, float]:
-    """Value and first-order 1σ of ``fn(camera, clicks)`` over the camera, k1 and the clicks."""
+             k1_sigma: float, k2_sigma: float = 0.0, k1_k2_correlation: float = 0.0) -> tuple[float, float]:
+    """Value and first-order 1σ of ``fn(camera, clicks)`` over the camera, k1, k2 and the clicks."""
     if cam.covariance is None:
         raise SingleViewError(f"photo '{cam.id}': its camera has no covariance; run `vebuild calibrate` again")
     K = np.asarray(cam.K, float)
-    p0 = np.r_[K[0, 0], K[0, 2], K[1, 2], 0.0, 0.0, 0.0, np.asarray(cam.C, float), cam.k1, clicks.ravel()]
+    p0 = np.r_[K[0, 0], K[0, 2], K[1, 2], 0.0, 0.0, 0.0, np.asarray(cam.C, float), cam.lens.k1, cam.lens.k2,
+                 clicks.ravel()]
     n_c = clicks.size
     cov = np.zeros((len(p0), len(p0)))
     c9 = np.asarray(cam.covariance, float)
     determined = bool(np.all(np.isfinite(c9)))  # else a quantity the data left undetermined: σ infinite
     cov[:9, :9] = np.where(np.isfinite(c9), c9, 0.0)
-    cov[9, 9] = k1_sigma**2
-    cov[10:, 10:] = np.eye(n_c) * click_sigma_px**2
-    steps = np.r_[[STEPS["px"]] * 3, [STEPS["rad"]] * 3, [STEPS["m"]] * 3, STEPS["k1"], [STEPS["px"]] * n_c]
+    cov[9, 9], cov[10, 10] = k1_sigma**2, k2_sigma**2
+    cov[9, 10] = cov[10, 9] = k1_k2_correlation * k1_sigma * k2_sigma
+    cov[CLICKS_AT:, CLICKS_AT:] = np.eye(n_c) * click_sigma_px**2
+    steps = np.r_[[STEPS["px"]] * 3, [STEPS["rad"]] * 3, [STEPS["m"]] * 3, STEPS["k1"], STEPS["k1"],
+                  [STEPS["px"]] * n_c]
 
     def f(p: Array) -> Array:
-        return np.array([fn(_camera(cam, p), p[10:].reshape(clicks.shape))])
+        return np.array([fn(_camera(cam, p), p[CLICKS_AT:].reshape(clicks.shape))])
 
     value = float(f(p0)[0])
     J = numeric_jacobian(f, p0, steps)
@@ -349,16 +354,16 @@ def measured_line(cam: ImageCamera, kind: str, clicks: Sequence[Sequence[float]]
     refusals as :func:`measure_on_photo`'s."""
     k, uv = _checked(cam, kind, clicks)
     K = np.asarray(cam.K, float)
-    p = np.r_[K[0, 0], K[0, 2], K[1, 2], 0.0, 0.0, 0.0, np.asarray(cam.C, float), cam.k1]
+    p = np.r_[K[0, 0], K[0, 2], K[1, 2], 0.0, 0.0, 0.0, np.asarray(cam.C, float), cam.lens.k1, cam.lens.k2]
     return k.line(_camera(cam, p), uv)[1]
 
 
 def measure_on_photo(cam: ImageCamera, kind: str, clicks: Sequence[Sequence[float]], *, click_sigma_px: float = 1.0,
-                     k1_sigma: float = 0.0) -> Measurement:
+                     k1_sigma: float = 0.0, k2_sigma: float = 0.0, k1_k2_correlation: float = 0.0) -> Measurement:
     """The single-view measurement ``kind`` (:data:`SINGLE_VIEW_CLICKS`) clicked at ``clicks``
     (pixels, in that order) on the photo of ``cam``, with its first-order 1σ (module docstring)."""
     k, uv = _checked(cam, kind, clicks)
-    v, s = _measure(cam, uv, lambda c, p: k.line(c, p)[0], click_sigma_px, k1_sigma)
+    v, s = _measure(cam, uv, lambda c, p: k.line(c, p)[0], click_sigma_px, k1_sigma, k2_sigma, k1_k2_correlation)
     pts = [{"point": f"photo {cam.id} pixel ({p[0]:g}, {p[1]:g})", "kind": name}
            for p, name in zip(uv, SINGLE_VIEW_CLICKS[kind], strict=True)]
     what = k.what.format(**{f"p{i}": f"({p[0]:g}, {p[1]:g})" for i, p in enumerate(uv)})
@@ -367,14 +372,17 @@ def measure_on_photo(cam: ImageCamera, kind: str, clicks: Sequence[Sequence[floa
 
 
 def height_on_photo(cam: ImageCamera, foot: Sequence[float], top: Sequence[float], *, click_sigma_px: float = 1.0,
-                    k1_sigma: float = 0.0) -> Measurement:
+                    k1_sigma: float = 0.0, k2_sigma: float = 0.0, k1_k2_correlation: float = 0.0) -> Measurement:
     """The height above the floor of the point clicked at ``top``, standing over the floor point
     clicked at ``foot``, with its first-order 1σ (module docstring)."""
-    return measure_on_photo(cam, "photo-height", [foot, top], click_sigma_px=click_sigma_px, k1_sigma=k1_sigma)
+    return measure_on_photo(cam, "photo-height", [foot, top], click_sigma_px=click_sigma_px, k1_sigma=k1_sigma,
+                            k2_sigma=k2_sigma, k1_k2_correlation=k1_k2_correlation)
 
 
 def floor_distance_on_photo(cam: ImageCamera, a: Sequence[float], b: Sequence[float], *, click_sigma_px: float = 1.0,
-                            k1_sigma: float = 0.0) -> Measurement:
+                            k1_sigma: float = 0.0, k2_sigma: float = 0.0,
+                            k1_k2_correlation: float = 0.0) -> Measurement:
     """The distance between the two floor points clicked at ``a`` and ``b``, with its first-order
     1σ (module docstring)."""
-    return measure_on_photo(cam, "floor-distance", [a, b], click_sigma_px=click_sigma_px, k1_sigma=k1_sigma)
+    return measure_on_photo(cam, "floor-distance", [a, b], click_sigma_px=click_sigma_px, k1_sigma=k1_sigma,
+                            k2_sigma=k2_sigma, k1_k2_correlation=k1_k2_correlation)

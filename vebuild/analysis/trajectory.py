@@ -299,7 +299,7 @@ def _draw_polyline(draw: Any, cam: ImageCamera, occ: Occluders, P: Array, colour
         blocked, _, _ = occ.segments_blocked(np.broadcast_to(cam.C, (int(front.sum()), 3)), P[front], end_eps=0.005)
         seen[front] = ~blocked
     uv = np.full((len(P), 2), np.nan)
-    uv[front] = project(cam.K, cam.R, cam.C, P[front], cam.k1)  # through the lens: the path's polyline bends
+    uv[front] = project(cam.K, cam.R, cam.C, P[front], cam.lens)  # through the lens: the path's polyline bends
     lim = 4 * max(cam.width, cam.height)
     for i in range(len(P) - 1):
         if not (front[i] and front[i + 1]) or np.any(np.abs(uv[i:i + 2]) > lim):
@@ -330,7 +330,7 @@ def draw_trajectory(image: NDArray[np.uint8], cam: ImageCamera, tr: Trajectory, 
         marks.append((tr.stop.point, (230, 20, 20)))
     for X, colour in marks:
         if world_to_camera(cam.R, cam.C, X)[2] > 0.01:
-            u, v = project(cam.K, cam.R, cam.C, X, cam.k1)
+            u, v = project(cam.K, cam.R, cam.C, X, cam.lens)
             r = 2 * w + 2
             d.ellipse((u - r, v - r, u + r, v + r), outline=colour, width=w)
     return np.asarray(img)

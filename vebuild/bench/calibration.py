@@ -31,7 +31,7 @@ import numpy as np
 
 from vebuild.calibration.photo import FocalPrior, calibrate_photo, closed_form_calibration
 from vebuild.calibration.positions import PhotoInput, ReferenceDistance, place_cameras
-from vebuild.camera import distortion_displacement_px, log_so3
+from vebuild.camera import Lens, distortion_displacement_px, log_so3
 from vebuild.console.bars import Bar
 from vebuild.errors import CalibrationError
 from vebuild.synthetic import (
@@ -194,7 +194,8 @@ def run_case(name: str, n: int, seed: int) -> dict[str, Any]:
         d = cal.principal_point - ph.K[:2, 2]
         pp_ok.append(float(d @ np.linalg.solve(cal.covariance[1:3, 1:3], d)) <= 5.991465)
         if ph.k1 != 0.0:
-            corner.append(abs(cal.distortion_corner_px - distortion_displacement_px(ph.K, ph.width, ph.height, ph.k1)))
+            corner.append(abs(cal.distortion_corner_px
+                              - distortion_displacement_px(ph.K, ph.width, ph.height, Lens(ph.k1))))
     errs = np.array(focal)
     fig: dict[str, Any] = {
         "photos": n,

@@ -173,8 +173,9 @@ def calibrated_lens(project: Any, photo_id: str) -> dict[str, float]:
     """What calibration says of the photo's lens: its focal length and principal point (px) and
     how far it moves the photo's farthest corner (px)."""
     cam = photo_camera(project, photo_id)
-    return {"f_px": float(cam.K[0, 0]), "cx": float(cam.K[0, 2]), "cy": float(cam.K[1, 2]), "k1": float(cam.k1),
-            "corner_displacement_px": distortion_displacement_px(cam.K, cam.width, cam.height, cam.k1)}
+    return {"f_px": float(cam.K[0, 0]), "cx": float(cam.K[0, 2]), "cy": float(cam.K[1, 2]), "k1": cam.lens.k1,
+            "k2": cam.lens.k2, "corner_displacement_px": distortion_displacement_px(cam.K, cam.width, cam.height,
+                                                                                    cam.lens)}
 
 
 def measure_height(project: Any, photo_id: str, foot: list[float], top: list[float]) -> tuple[float, float | None]:

@@ -263,7 +263,7 @@ def photograph(rng: np.random.Generator, kind: str, clutter: tuple[str, ...], wi
     """The JPEG bytes of one photo and its truth."""
     import cv2
 
-    from vebuild.camera import undistort_pixels
+    from vebuild.camera import Lens, undistort_pixels
 
     K, R, C = camera(rng, kind, width, height)
     polys = _facade(rng, C)
@@ -278,7 +278,7 @@ def photograph(rng: np.random.Generator, kind: str, clutter: tuple[str, ...], wi
     img = render(Km, R, C, width + 2 * m, height + 2 * m, polys)
     if distortion:
         uu, vv = np.meshgrid(np.arange(width) + 0.5, np.arange(height) + 0.5)
-        src = undistort_pixels(K, np.stack([uu, vv], -1).reshape(-1, 2), k1).reshape(height, width, 2) + m - 0.5
+        src = undistort_pixels(K, np.stack([uu, vv], -1).reshape(-1, 2), Lens(k1)).reshape(height, width, 2) + m - 0.5
         img = np.asarray(cv2.remap(img, src[..., 0].astype(np.float32), src[..., 1].astype(np.float32),
                                    cv2.INTER_LINEAR), np.float32)
     blur, noise, quality = float(rng.uniform(0.5, 1.2)), float(rng.uniform(1.5, 3.5)), int(rng.integers(82, 96))

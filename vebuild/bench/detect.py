@@ -130,12 +130,12 @@ def _visible(segments: np.ndarray, truth: dict[str, Any]) -> bool:
     two edges each, by the true camera: end points within 3 px of the true vanishing line (an
     oracle that tells a photo with too little in it from a grouping that failed)."""
     from vebuild.calibration.lines import _distances
-    from vebuild.camera import undistort_pixels
+    from vebuild.camera import Lens, undistort_pixels
 
     if len(segments) == 0:
         return False
     K, R = np.array(truth["K"]), np.array(truth["R"])
-    u = undistort_pixels(K, segments.reshape(-1, 2), truth["k1"]).reshape(-1, 4)
+    u = undistort_pixels(K, segments.reshape(-1, 2), Lens(float(truth["k1"]))).reshape(-1, 4)
     d = _distances(u, K @ R)
     lab = np.argmin(d, axis=1)
     ok = d[np.arange(len(d)), lab] < 3.0
@@ -154,12 +154,12 @@ def _shown(segments: np.ndarray, truth: dict[str, Any]) -> list[bool]:
     """Which of the three true vanishing directions the photo shows (:data:`SHOWN_MIN_EDGES`,
     :data:`SHOWN_MIN_LENGTH_DIAG`): the same oracle as :func:`_visible`, per direction."""
     from vebuild.calibration.lines import _distances
-    from vebuild.camera import undistort_pixels
+    from vebuild.camera import Lens, undistort_pixels
 
     if len(segments) == 0:
         return [False] * 3
     K, R = np.array(truth["K"]), np.array(truth["R"])
-    u = undistort_pixels(K, segments.reshape(-1, 2), truth["k1"]).reshape(-1, 4)
+    u = undistort_pixels(K, segments.reshape(-1, 2), Lens(float(truth["k1"]))).reshape(-1, 4)
     d = _distances(u, K @ R)
     lab = np.argmin(d, axis=1)
     ok = d[np.arange(len(d)), lab] < 3.0

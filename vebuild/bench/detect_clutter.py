@@ -20,7 +20,7 @@ from vebuild.actions.detect import propose
 from vebuild.calibration.lines import _distances
 from vebuild.calibration.photo import calibrate_photo
 from vebuild.calibration.priors import FocalPrior
-from vebuild.camera import undistort_pixels
+from vebuild.camera import Lens, undistort_pixels
 from vebuild.errors import VebuildError
 
 from .clutter_photos import clutter_photo, load, photo_record
@@ -45,7 +45,7 @@ def clutter_row(i: int) -> dict[str, Any]:
         sig.setdefault(p.axis, []).append(p.sigma_px)
     if props.segments:
         ends = np.array([np.r_[p.points[:2], p.points[-2:]] for p in props.segments])
-        u = undistort_pixels(K, ends.reshape(-1, 2), t["k1"]).reshape(-1, 4)
+        u = undistort_pixels(K, ends.reshape(-1, 2), Lens(float(t["k1"]))).reshape(-1, 4)
         row["clutter_in_axes"] = int(np.sum(_distances(u, K @ R).min(axis=1) > OFF_LINE_PX))
     if len(segs) < 2:
         return row

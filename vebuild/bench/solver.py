@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 from scipy.optimize import least_squares
 
-from vebuild.camera import ImageCamera, distortion_displacement_px, exp_so3, project
+from vebuild.camera import ImageCamera, Lens, distortion_displacement_px, exp_so3, project
 from vebuild.console.bars import Bar
 from vebuild.model.drag import DragSession
 from vebuild.model.residuals import Pin
@@ -61,17 +61,17 @@ def drags(seed: int = 7, lens: bool = False) -> dict[str, Any]:
     truth_nodes, start_nodes, _, photos = model_scene(rng, n_boxes=1, n_photos=2)
     truth = model_from_dict(truth_nodes["nodes"], MARKERS)
     cams = {p.id: ImageCamera(p.id, p.K, p.R, p.C, p.width, p.height,
-                              k1=barrel_k1(p.K, p.width, p.height) if lens else 0.0) for p in photos.values()}
+                              lens=Lens(barrel_k1(p.K, p.width, p.height) if lens else 0.0)) for p in photos.values()}
     out: dict[str, Any] = {}
     if lens:
-        out["lens_corner_displacement_px"] = max(distortion_displacement_px(c.K, c.width, c.height, c.k1)
+        out["lens_corner_displacement_px"] = max(distortion_displacement_px(c.K, c.width, c.height, c.lens)
                                                  for c in cams.values())
     for solver in ("vebuild",) if lens else ("vebuild", "reference"):
         model = model_from_dict(start_nodes["nodes"], MARKERS)
         fixed: list[Pin] = []
         for n_fixed, handle in ((0, "v0"), (1, "v6"), (2, "v1")):
             cam = cams["p1"]
-            target = project(cam.K, cam.R, cam.C, truth.handle_world("box0", handle), cam.k1)
+            target = project(cam.K, cam.R, cam.C, truth.handle_world("box0", handle), cam.lens)
             s = DragSession(model, cams, fixed, [], "p1", "box0", handle, click_sigma_px=0.7)
             start = s.pin.uv.copy()
             times, worst = [], 0.0

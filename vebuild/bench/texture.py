@@ -49,7 +49,7 @@ import numpy as np
 from PIL import Image
 
 from vebuild.actions import example_truth as truth
-from vebuild.camera import ImageCamera, distortion_displacement_px
+from vebuild.camera import ImageCamera, Lens, distortion_displacement_px
 from vebuild.console.bars import Bar
 from vebuild.gl.context import headless_context, renderer_name
 from vebuild.model.scene import Model, model_from_dict
@@ -154,10 +154,10 @@ def speed(n_photos: int, progress: bool) -> dict[str, Any]:
             fig[f"{st}_ms_per_photo"] = 1e3 * timings.seconds.get(st, 0.0) / n_photos
         fig["total_ms_per_photo"] = 1e3 * total / n_photos
         # The same photos through a lens.
-        lens = [dataclasses.replace(c, k1=LENS_K1) for c in cams]
+        lens = [dataclasses.replace(c, lens=Lens(LENS_K1)) for c in cams]
         fig["lens_k1"] = LENS_K1
         fig["lens_corner_displacement_px"] = distortion_displacement_px(lens[0].K, lens[0].width, lens[0].height,
-                                                                        LENS_K1)
+                                                                        Lens(LENS_K1))
         fig["lens_cover_growth"] = cover_growth(lens[0])
         # Pinhole and lens runs in turns, each stage's least time over LENS_REPEATS runs (a run is
         # slowed, never sped up, by other work on the machine), every stage waited for.

@@ -23,6 +23,14 @@ ask for it:
 - **reported either way**: the mode reason's distortion clause and the record's ``source`` give
   T and its p-value.
 
+**The second term** (nested: only where k1 is estimated): one term cannot straighten a wide
+(90°) to fisheye (150° diagonal) lens's lines (docs/lenses.md). A second likelihood-ratio test, the
+joint solve with k2 free against k2 held at 0 (both with k1 free, the same priors, the same level),
+decides whether k2 is estimated (:func:`second_term_test`); it is reported as the first is. Where the
+test asks for k2 but the lines cannot determine the lens (the corner displacement's 95 % interval
+with k2 free reaches 0, or the solve's information is singular: too few bent lines, or none near
+the edges, where k2 acts), the photo is refused rather than given a wild lens.
+
 What the test costs: a lens that bends less than the test detects is held at 0 and moves f and c;
 its power is measured in docs/accuracy.md ("Lens distortion: estimated only where the lines bend")
 and tests/test_bending.py.
@@ -36,9 +44,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from vebuild.camera import distortion_displacement_px
+from vebuild.camera import Lens, distortion_displacement_px, intrinsic_matrix
+from vebuild.errors import CalibrationError
 
 from .joint import JointProblem
+from .lsq import numeric_jacobian
 from .priors import DistortionPrior, FocalPrior
 
 Array = NDArray[np.float64]
@@ -91,6 +101,111 @@ class DistortionTest:
                 f"({self.words})")
 
 
+#: k2 is tested only where one term moves the photo's corners by more than this share of the half
+#: diagonal (a wide lens). Below it one term fits a true fisheye's mapping to within a fraction of
+#: a pixel (scripts/lens_models.py: at 10 %, 0.24 px worst over a 1280×720 frame for an equidistant
+#: lens, 0.41 px for an equisolid one), less than the clicks' noise: the second test could only
+#: add false positives (5 % of ordinary photos, each moving k1 by trading it against k2).
+SECOND_TERM_MIN_CORNER_REL = 0.10
+#: The lens is undetermined where the 1σ of its corner displacement exceeds this share of it: its
+#: 95 % interval (± 1.96σ) then reaches a straight lens (as FOCAL_UNDETERMINED_REL_SIGMA for f).
+LENS_UNDETERMINED_REL_SIGMA = 1.0 / 1.96
+
+
+@dataclass(frozen=True)
+class SecondTermTest:
+    """The likelihood-ratio test of k2 free against k2 held at 0, k1 free in both.
+
+    statistic, p_value : as :class:`DistortionTest`'s; free_k2 : the k2 the lines give.
+    """
+
+    statistic: float
+    p_value: float
+    free_k2: float
+    level: float = DISTORTION_TEST_LEVEL
+
+    @property
+    def needed(self) -> bool:
+        """Whether one term leaves the lines bent: k2 is then estimated."""
+        return self.p_value < self.level
+
+    @property
+    def words(self) -> str:
+        p = f"{self.p_value:.2g}" if self.p_value >= 1e-4 else "< 0.0001"
+        eq = "" if p.startswith("<") else "= "
+        return f"LR test: Δχ² = {self.statistic:.2f}, p {eq}{p}, level {self.level:g}"
+
+
+def wide_lens(problem: JointProblem, y: Array, scale: float, width: int, height: int) -> bool:
+    """Whether the lens of ``problem``'s solution y moves the corners by more than
+    :data:`SECOND_TERM_MIN_CORNER_REL` of the half diagonal: where its second term is tested."""
+    K = intrinsic_matrix(*(np.asarray(y[:3], float) * scale))
+    corner = distortion_displacement_px(K, width, height, problem.lens_of(y))
+    return corner > SECOND_TERM_MIN_CORNER_REL * 0.5 * float(np.hypot(width, height))
+
+
+def second_term_test(problem: JointProblem, y: Array, R: Array, prior_f: FocalPrior | None,
+                     polys: Mapping[str, list], axes: list[str], sigmas: Mapping[str, Array], scale: float,
+                     c0: Array, sigma_c: float, photo: str, width: int, height: int
+                     ) -> tuple[SecondTermTest, JointProblem, Array, Array, JointProblem]:
+    """The test of k2 at ``problem``'s solution (y, R), k1 estimated there, and the problem and
+    solution to go on with: with k2 free where the test asks for it, else ``problem``'s; and the
+    problem with k2 free (for :func:`consider_second_term` where k2 is held).
+
+    Raises CalibrationError where the test asks for k2 but the lines cannot determine the lens
+    (:data:`LENS_UNDETERMINED_REL_SIGMA`)."""
+    from scipy.stats import chi2  # imported at first use: docs/start-up.md
+
+    free = JointProblem(polys, axes, sigmas, scale, c0, sigma_c, problem.k1_prior, True, estimate_k2=True)
+    y2, R2 = free.solve(np.r_[y[:7], 0.0], R, prior_f)
+    J = free.jacobian(y2, R2, prior_f)
+    vf = free.variance_factor(J, free.residuals(free.at_rotation(y2), R2, prior_f))
+    t = max(problem.cost(y, R, prior_f) - free.cost(y2, R2, prior_f), 0.0) / max(vf, 1.0)
+    test = SecondTermTest(float(t), float(chi2.sf(t, 1)), free.k2_of(y2))
+    if not test.needed:
+        return test, problem, y, R, free
+    cov = free.covariance(J, max(vf, 1.0))
+    corner, sigma = corner_displacement_sigma(cov, y2, scale, width, height)
+    if not (np.isfinite(sigma) and sigma <= LENS_UNDETERMINED_REL_SIGMA * corner):
+        raise CalibrationError(
+            photo,
+            f"the lens bends the marked lines more than one distortion term can straighten ({test.words}), "
+            f"but the lines cannot determine a second term: the lens would move the photo's corners by "
+            f"{corner:.0f} ± {sigma:.0f} px. Mark more long lines near the photo's edges, where a wide lens "
+            "bends them most, each with middle points along its curve")
+    return test, free, y2, R2, free
+
+
+def consider_second_term(free: JointProblem, y: Array, R: Array, prior_f: FocalPrior | None, held_cov: Array,
+                         test: SecondTermTest, vf: float) -> Array:
+    """(8, 8) covariance of a solution with k2 held at 0, k2's row and column 0: k2 as a consider
+    parameter, as :func:`consider_covariance` does for k1. With P the covariance with k2 held
+    (``held_cov``) and M that with k2 free at the held point, the covariance is P + (1 + T)(M − P),
+    T the second test's statistic: the uncertainty of a k2 the test could not tell from 0 stays in
+    f's, c's, R's and k1's (and so in the corner displacement's)."""
+    z = np.r_[np.asarray(y, float)[:7], 0.0]
+    M = free.covariance(free.jacobian(z, R, prior_f), vf)
+    M[7, :] = M[:, 7] = 0.0
+    return held_cov + (1.0 + test.statistic) * (M - held_cov)
+
+
+def corner_displacement_sigma(cov: Array, y: Array, scale: float, width: int, height: int) -> tuple[float, float]:
+    """The corner displacement (px) of the joint solve's y and its 1σ from the (8, 8) covariance of
+    y (f/s, cx/s, cy/s, ω, k1, k2), first order."""
+    idx = [0, 1, 2, 6, 7]
+
+    def disp(z: Array) -> Array:
+        return np.array([distortion_displacement_px(intrinsic_matrix(*(z[:3] * scale)), width, height,
+                                                    Lens(float(z[3]), float(z[4])))])
+
+    z0 = np.asarray(y, float)[idx]
+    J = numeric_jacobian(disp, z0, np.r_[1e-6, 1e-6, 1e-6, 1e-7, 1e-7])
+    C = cov[np.ix_(idx, idx)]
+    if not np.all(np.isfinite(C)):
+        return float(disp(z0)[0]), float("inf")
+    return float(disp(z0)[0]), float(np.sqrt(max(float((J @ C @ J.T)[0, 0]), 0.0)))
+
+
 def held_problem(polys: Mapping[str, list], axes: list[str], sigmas: Mapping[str, Array], scale: float,
                  c0: Array, sigma_c: float, profile: DistortionPrior | None) -> JointProblem:
     """The joint problem with k1 held at 0, or at the lens profile's k1."""
@@ -125,7 +240,7 @@ def bending_test(problem: JointProblem, y: Array, R: Array, prior_f: FocalPrior 
 
 def consider_covariance(free: JointProblem, y: Array, R: Array, prior_f: FocalPrior | None, k1: float,
                         held_cov: Array, test: DistortionTest, vf: float) -> Array:
-    """(7, 7) covariance of the held solution (y, R), k1's own row and column 0 since it is held.
+    """(8, 8) covariance of the held solution (y, R), k1's own row and column 0 since it is held.
 
     k1 is a *consider* parameter: held, not estimated, but as uncertain as the lines (and the lens
     profile) leave it. With P the covariance of (f, c, ω) with k1 fixed (``held_cov``) and M their
@@ -145,18 +260,25 @@ def consider_covariance(free: JointProblem, y: Array, R: Array, prior_f: FocalPr
 
 
 def distortion_clause(k1: float, k1_sigma: float, straightness: bool, prior: DistortionPrior | None,
-                      test: DistortionTest | None, K: Array, width: int, height: int) -> str:
-    """The mode reason's clause on the lens distortion."""
+                      test: DistortionTest | None, K: Array, width: int, height: int,
+                      second: SecondTermTest | None = None, k2: float = 0.0, k2_sigma: float = 0.0) -> str:
+    """The mode reason's clause on the lens distortion (and its second term, where it was tested)."""
     if not straightness and prior is None:
         return "no lens distortion modelled (no segment has middle points, no lens profile)"
-    corner = distortion_displacement_px(K, width, height, k1)
+    corner = distortion_displacement_px(K, width, height, Lens(k1, k2))
     if test is not None and not test.bends:
         return f"lens distortion k1 {test.held_words}"
     src = "the segments' straightness" if straightness else prior.source  # type: ignore[union-attr]
     if straightness and prior is not None:
         src += f" combined with {prior.source} (k1 {prior.k1:+.4f} ± {prior.sigma:.4f})"
     text = f"lens distortion k1 = {k1:+.4f} ± {k1_sigma:.4f} from {src}, moving the corners by {corner:.1f} px"
-    return text + (f"; estimated: the lines bend ({test.words})" if test is not None else "")
+    text += f"; estimated: the lines bend ({test.words})" if test is not None else ""
+    if second is not None and second.needed:
+        text += (f"; second term k2 = {k2:+.4f} ± {k2_sigma:.4f} estimated: one term leaves the lines bent "
+                 f"({second.words})")
+    elif second is not None:
+        text += f"; second term k2 held at 0: one term straightens the lines ({second.words})"
+    return text
 
 
 def k1_source(straightness: bool, prior: DistortionPrior | None, test: DistortionTest | None) -> str:

@@ -124,14 +124,14 @@ def textured(segments: Array, width: int, height: int) -> NDArray[np.bool_]:
 def curved(polylines: Array, sigma_px: Array, K: Array, k1: float) -> NDArray[np.bool_]:
     """Which polylines (n, 8), four points each, bend beyond their 1σ (n,) once undistorted by
     K and k1 (module docstring)."""
-    from vebuild.camera import undistort_pixels
+    from vebuild.camera import Lens, undistort_pixels
 
     n = len(polylines)
     if n == 0:
         return np.zeros(0, bool)
     P = polylines.reshape(n, -1, 2)
     if k1 != 0.0:
-        P = undistort_pixels(K, P.reshape(-1, 2), k1).reshape(P.shape)
+        P = undistort_pixels(K, P.reshape(-1, 2), Lens(k1)).reshape(P.shape)
     a, b = P[:, 0], P[:, -1]
     d = b - a
     nrm = np.stack([-d[:, 1], d[:, 0]], axis=1) / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-12)

@@ -1,9 +1,10 @@
 """The joint least-squares problem of one photo's calibration, and the test of a mislabelled axis.
 
 :func:`vebuild.calibration.photo.calibrate_photo` states the problem (:class:`JointProblem`: f, c,
-the rotation and the lens distortion k1 against every clicked point of every vanishing segment,
-with the priors) and decides from its answers; :func:`check_orthogonal_pairs` is the refusal of
-two vanishing points that no real focal length makes orthogonal.
+the rotation and the lens distortion (k1, and k2 where one term is not enough) against every clicked
+point of every vanishing segment, with the priors) and decides from its answers;
+:func:`check_orthogonal_pairs` is the refusal of two vanishing points that no real focal length
+makes orthogonal.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ from itertools import combinations
 import numpy as np
 from numpy.typing import NDArray
 
-from vebuild.camera import exp_so3, intrinsic_matrix, undistort_pixels
+from vebuild.camera import Lens, exp_so3, intrinsic_matrix, undistort_pixels
 from vebuild.errors import CalibrationError
 
 from .intrinsics import focal_squared
@@ -112,21 +113,26 @@ def check_orthogonal_pairs(fits: Mapping[str, VanishingPointFit], segs: Mapping[
 
 
 class JointProblem:
-    """The joint least-squares problem over y = (f/s, cx/s, cy/s, ω, [k1]), R = exp([ω]×) R̂.
+    """The joint least-squares problem over y = (f/s, cx/s, cy/s, ω, [k1, [k2]]), R = exp([ω]×) R̂.
 
-    Every clicked point is undistorted (division model, closed form) with the current f, c, k1;
+    Every clicked point is undistorted (division model, closed form) with the current f, c, k1, k2;
     its residual is its distance to the line joining the vanishing point K R eₐ to the centroid of
     its polyline's undistorted points, weighted by 1/σ (a polyline of m points has m − 1
     independent residuals: they sum to zero).
     """
 
     def __init__(self, polys: Mapping[str, list[Array]], axes: list[str], sigma_px: float | Mapping[str, Array],
-                 scale: float, c0: Array, sigma_c: float, k1_prior: DistortionPrior | None, estimate_k1: bool):
+                 scale: float, c0: Array, sigma_c: float, k1_prior: DistortionPrior | None, estimate_k1: bool,
+                 estimate_k2: bool = False):
         """sigma_px: 1σ of every point, or axis → one 1σ per polyline (a detected segment's own)."""
         self.axes, self.scale, self.c0, self.sigma_c = axes, scale, c0, sigma_c
         self.k1_prior, self.estimate_k1 = k1_prior, estimate_k1
         #: k1 where it is not estimated: 0, or the value it is held at (.bending).
         self.k1_fixed = 0.0
+        #: k2 (the second term, estimated only with k1, where one term does not straighten the lines:
+        #: .bending) where it is not estimated: 0.
+        self.estimate_k2 = estimate_k2 and estimate_k1
+        self.k2_fixed = 0.0
         pts: list[Array] = []
         pid: list[Array] = []
         axis_of: list[int] = []
@@ -146,7 +152,7 @@ class JointProblem:
         self.counts = np.bincount(self.pid).astype(float)
         self.n_data = len(self.P)
         self.n_independent = int(self.n_data - len(self.counts))
-        self.n_params = 7 if estimate_k1 else 6
+        self.n_params = 6 + int(estimate_k1) + int(self.estimate_k2)
         if isinstance(sigma_px, Mapping):
             per_poly = np.concatenate([np.asarray(sigma_px[a], float).reshape(-1) for a in axes])
             self.weight = 1.0 / per_poly[self.pid]
@@ -155,10 +161,17 @@ class JointProblem:
 
     def start(self, f0: float, c: Array) -> Array:
         k1 = self.k1_prior.k1 if self.k1_prior is not None else self.k1_fixed
-        return np.r_[f0 / self.scale, np.asarray(c) / self.scale, 0.0, 0.0, 0.0, [k1] if self.estimate_k1 else []]
+        return np.r_[f0 / self.scale, np.asarray(c) / self.scale, 0.0, 0.0, 0.0, [k1] if self.estimate_k1 else [],
+                     [self.k2_fixed] if self.estimate_k2 else []]
 
     def k1_of(self, y: Array) -> float:
         return float(y[6]) if self.estimate_k1 else self.k1_fixed
+
+    def k2_of(self, y: Array) -> float:
+        return float(y[7]) if self.estimate_k2 else self.k2_fixed
+
+    def lens_of(self, y: Array) -> Lens:
+        return Lens(self.k1_of(y), self.k2_of(y))
 
     def at_rotation(self, y: Array) -> Array:
         """y with ω = 0: the rotation is then the R it was solved to."""
@@ -167,10 +180,10 @@ class JointProblem:
         return z
 
     def undistorted(self, y: Array) -> Array:
-        k1 = self.k1_of(y)
-        if k1 == 0.0:
+        lens = self.lens_of(y)
+        if lens.is_pinhole:
             return self.P
-        return undistort_pixels(intrinsic_matrix(*(y[:3] * self.scale)), self.P, k1)
+        return undistort_pixels(intrinsic_matrix(*(y[:3] * self.scale)), self.P, lens)
 
     def _point_residuals(self, U: Array, V: Array) -> Array:
         """Distance of each undistorted point to its polyline's line centroid–vanishing point.
@@ -188,23 +201,24 @@ class JointProblem:
 
     def _noise_scale(self, y: Array, U: Array, V: Array) -> Array:
         """How much undistorting a point stretches its click noise across its line: |Jᵀn| with J
-        the Jacobian of x_u = x_d / (1 + k1 |x_d|²), n the line's unit normal (1 for a pinhole).
+        the Jacobian of x_u = x_d / (1 + k1 r² + k2 r⁴), n the line's unit normal (1 for a pinhole).
         A barrel lens's undistortion stretches the corners by a few per cent; weighting those
         residuals by 1/σ alone would claim that much more certainty than the clicks have."""
-        k1 = self.k1_of(y)
-        if k1 == 0.0:
+        k1, k2 = self.k1_of(y), self.k2_of(y)
+        if k1 == 0.0 and k2 == 0.0:
             return np.ones(len(U))
         f, cx, cy = y[:3] * self.scale
         xd = (self.P - np.array([cx, cy])) / f
-        d = 1.0 + k1 * np.sum(xd**2, axis=1)
+        r2 = np.sum(xd**2, axis=1)
+        d = 1.0 + k1 * r2 + k2 * r2**2
         mx = np.bincount(self.pid, U[:, 0]) / self.counts
         my = np.bincount(self.pid, U[:, 1]) / self.counts
         v = V[:, self.axis_of]
         n = np.stack([my * v[2] - v[1], v[0] - mx * v[2]], axis=1)
         n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
         n = n[self.pid]
-        # Jᵀn = (n − 2 k1 x (x·n) / d) / d  (J is symmetric)
-        jn = (n - 2.0 * k1 * xd * np.sum(xd * n, axis=1)[:, None] / d[:, None]) / d[:, None]
+        # Jᵀn = (n − (2 k1 + 4 k2 r²) x (x·n) / d) / d  (J is symmetric)
+        jn = (n - ((2.0 * k1 + 4.0 * k2 * r2) / d)[:, None] * xd * np.sum(xd * n, axis=1)[:, None]) / d[:, None]
         return np.asarray(np.linalg.norm(jn, axis=1), float)
 
     def residuals(self, y: Array, R0: Array, prior_f: FocalPrior | None) -> Array:
@@ -230,8 +244,9 @@ class JointProblem:
         from scipy.optimize import least_squares  # imported at first use: docs/start-up.md
 
         y0 = self.at_rotation(y0)
-        lower = np.r_[1e-3, -np.inf, -np.inf, -np.pi, -np.pi, -np.pi, [-np.inf] if self.estimate_k1 else []]
-        upper = np.r_[1e3, np.inf, np.inf, np.pi, np.pi, np.pi, [np.inf] if self.estimate_k1 else []]
+        lens = [np.inf] * (self.n_params - 6)
+        lower = np.r_[1e-3, -np.inf, -np.inf, -np.pi, -np.pi, -np.pi, np.negative(lens)]
+        upper = np.r_[1e3, np.inf, np.inf, np.pi, np.pi, np.pi, lens]
         sol = least_squares(
             self.residuals, y0, args=(R0, prior_f), bounds=(lower, upper), method="trf", x_scale="jac",
             xtol=1e-12, ftol=1e-12, gtol=1e-12,
@@ -283,12 +298,12 @@ class JointProblem:
         return x2 / dof * (float(t.ppf(0.975, dof) / norm.ppf(0.975)) ** 2 if intervals else 1.0)
 
     def covariance(self, J: Array, vf: float) -> Array:
-        """(7, 7) covariance of y with the data rows' noise widened by vf (the priors' σ are stated,
-        not scaled); k1's row and column 0 where it is fixed."""
+        """(8, 8) covariance of y with the data rows' noise widened by vf (the priors' σ are stated,
+        not scaled); k1's and k2's rows and columns 0 where they are fixed."""
         Jw = np.array(J, float)
         Jw[: self.n_data] /= np.sqrt(vf)
         cov = covariance_from_jacobian(Jw)
-        out = np.zeros((7, 7))
+        out = np.zeros((8, 8))
         out[: self.n_params, : self.n_params] = cov
         return out
 

@@ -35,14 +35,32 @@ from itertools import combinations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vebuild.camera import AXES, distortion_displacement_px, exp_so3, intrinsic_matrix, ypr_from_rotation
+from vebuild.camera import AXES, Lens, distortion_displacement_px, exp_so3, intrinsic_matrix, ypr_from_rotation
 from vebuild.determinism import deterministic
 from vebuild.errors import CalibrationError
 
-from .bending import DistortionTest, bending_test, consider_covariance, distortion_clause, held_problem, k1_source
+from .bending import (
+    DistortionTest,
+    SecondTermTest,
+    bending_test,
+    consider_covariance,
+    consider_second_term,
+    distortion_clause,
+    held_problem,
+    k1_source,
+    second_term_test,
+    wide_lens,
+)
 from .intrinsics import focal_squared, orthocentre, rotation_from_vanishing_points
 from .joint import JointProblem, check_orthogonal_pairs, lines_alone
 from .lsq import numeric_jacobian, photo_numeric_failures
+from .photo_reasons import (
+    EXIF_DISAGREEMENT_SIGMAS,
+    FOCAL_UNDETERMINED_REL_SIGMA,
+    _pct,
+    focal_reason,
+    principal_point_reason,
+)
 from .priors import (
     PRINCIPAL_POINT_SIGMA_REL,
     DistortionPrior,
@@ -65,10 +83,6 @@ __all__ = ["PRINCIPAL_POINT_SIGMA_REL", "DistortionPrior", "FocalPrior", "PhotoC
 
 Array = NDArray[np.float64]
 
-#: The segments say nothing usable about f when their own 1σ on it exceeds this share of f: the
-#: 95 % interval f ± 1.96σ then reaches f ≤ 0. Only then, with no focal length from the user or
-#: EXIF, is a photo refused; below it, however wide, the result is given with its 1σ.
-FOCAL_UNDETERMINED_REL_SIGMA = 1.0 / 1.96
 #: EXIF's focal length is combined with the segments' where the segments' own 1σ on f is at least
 #: this share of EXIF's: EXIF then carries at least 20 % of the weight (σs²/(σs² + σe²) at
 #: σs = σe/2). Where the segments are surer still, EXIF would move f by under a fifth of its own
@@ -76,18 +90,6 @@ FOCAL_UNDETERMINED_REL_SIGMA = 1.0 / 1.96
 #: Gaussian σ describes (a fixed-lens camera reporting one focal length at every zoom step, a
 #: crop, digital zoom): it is then a cross-check only, reported in the mode reason.
 EXIF_COMBINE_MIN_SIGMA_RATIO = 0.5
-#: The limit of EXIF as evidence: where EXIF's focal length and the segments' alone are more than
-#: this many σ apart, EXIF is not combined and the photo is calibrated from its segments alone, the
-#: disagreement said in the mode reason and as a warning. The σ count (.priors.ExifCheck) is the
-#: smaller of the likelihood ratio's and |f_EXIF − f_segments| / √(σ_EXIF² + σ_segments²), with
-#: σ_segments the wider of the segments' linearised 1σ at their own estimate and at EXIF's: the two
-#: agree for Gaussian estimates, and where weak segments' likelihood is skewed (a frontal view's f
-#: grows far more readily than it shrinks) neither alone is to be trusted to call EXIF wrong. Two
-#: honest estimates of one focal length are more than 3σ apart in 0.27 % of photos; EXIF's 1σ
-#: already holds its nominal errors (vebuild/calibration/exif.py), so beyond that it describes
-#: another focal length (a crop, a digital zoom, a fixed-lens camera writing one value at every zoom
-#: step), and their weighted mean would be neither, with a 1σ narrower than either's.
-EXIF_DISAGREEMENT_SIGMAS = 3.0
 #: Two axes whose vanishing points are closer than this (degrees, seen from a nominal camera with
 #: f = the image's longer side) are the same direction: the user has mislabelled a set.
 SAME_VANISHING_POINT_DEG = 3.0
@@ -116,6 +118,11 @@ class PhotoCalibration:
         held) and what gave it: ``"segments"``, ``"segments + <prior>"``, ``"<prior>"`` (a lens
         profile or the user), ``"k1 held at 0: …"`` / ``"k1 held at <profile>'s k1 …"`` (the lines
         do not bend, :mod:`.bending`), ``"none"``.
+    k2, k2_sigma, k2_source : the division model's second term, its 1σ (0 when held) and what gave
+        it: ``"segments"`` where the second test (:func:`.bending.second_term_test`) found one term
+        not enough, ``"k2 held at 0: …"`` where it did not, ``"none"`` where it was not tested.
+    covariance_lens : (8, 8) over (f, cx, cy, ω, k1, k2); ``covariance_k1`` is its (7, 7) corner.
+    second_term_test : that test, where k1 was estimated from segments.
     distortion_test : the test of whether the lines bend (:class:`.bending.DistortionTest`), where
         segments have middle points.
     exif_check : EXIF's focal length against the vanishing points' alone (one sign convention:
@@ -145,6 +152,11 @@ class PhotoCalibration:
     covariance_k1: Array = field(default_factory=lambda: np.zeros((7, 7)))
     exif_check: ExifCheck | None = None
     distortion_test: DistortionTest | None = None
+    k2: float = 0.0
+    k2_sigma: float = 0.0
+    k2_source: str = "none"
+    covariance_lens: Array = field(default_factory=lambda: np.zeros((8, 8)))
+    second_term_test: SecondTermTest | None = None
     rejected_segments: dict[str, tuple[RejectedSegment, ...]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -152,6 +164,15 @@ class PhotoCalibration:
             cov = np.zeros((7, 7))
             cov[:6, :6] = self.covariance
             object.__setattr__(self, "covariance_k1", cov)
+        if not np.any(self.covariance_lens):  # built with k2 held at 0
+            cov8 = np.zeros((8, 8))
+            cov8[:7, :7] = self.covariance_k1
+            object.__setattr__(self, "covariance_lens", cov8)
+
+    @property
+    def lens(self) -> Lens:
+        """The lens distortion (camera.Lens) as calibrated."""
+        return Lens(self.k1, self.k2)
 
     @property
     def f(self) -> float:
@@ -192,21 +213,22 @@ class PhotoCalibration:
     @property
     def distortion_corner_px(self) -> float:
         """How far the lens moves the photo's corners, pixels (camera.distortion_displacement_px)."""
-        return distortion_displacement_px(self.K, self.width, self.height, self.k1)
+        return distortion_displacement_px(self.K, self.width, self.height, self.lens)
 
     @property
     def distortion_corner_px_sigma(self) -> float:
-        """1σ of :attr:`distortion_corner_px`, propagated from the covariance of (f, c, k1)."""
-        if self.k1_sigma == 0.0:
+        """1σ of :attr:`distortion_corner_px`, propagated from the covariance of (f, c, k1, k2)."""
+        if self.k1_sigma == 0.0 and self.k2_sigma == 0.0:
             return 0.0
 
         def disp(y: Array) -> Array:
-            return np.array([distortion_displacement_px(intrinsic_matrix(*y[:3]), self.width, self.height, y[3])])
+            return np.array([distortion_displacement_px(intrinsic_matrix(*y[:3]), self.width, self.height,
+                                                        Lens(float(y[3]), float(y[4])))])
 
-        y0 = np.r_[self.f, self.principal_point, self.k1]
-        J = numeric_jacobian(disp, y0, np.r_[1e-3, 1e-3, 1e-3, 1e-7])
-        idx = [0, 1, 2, 6]
-        cov = self.covariance_k1[np.ix_(idx, idx)]
+        y0 = np.r_[self.f, self.principal_point, self.k1, self.k2]
+        J = numeric_jacobian(disp, y0, np.r_[1e-3, 1e-3, 1e-3, 1e-7, 1e-7])
+        idx = [0, 1, 2, 6, 7]
+        cov = self.covariance_lens[np.ix_(idx, idx)]
         return float(np.sqrt(max(float((J @ cov @ J.T)[0, 0]), 0.0)))
 
 
@@ -220,14 +242,6 @@ def ypr_with_sigma(R: Array, cov_omega: Array) -> tuple[Array, Array]:
 
     J = numeric_jacobian(f, np.zeros(3), 1e-7)
     return ypr0, np.sqrt(np.maximum(np.diag(J @ cov_omega @ J.T), 0.0))
-
-
-def _pct(rel: float) -> str:
-    """A relative 1σ as a percentage with two significant figures ("0.84 %", "5.0 %", "37 %")."""
-    v = 100.0 * rel
-    if not np.isfinite(v):
-        return "∞ %"
-    return f"{v:.0f} %" if v >= 10 else f"{v:.1f} %" if v >= 1 else f"{v:.2f} %"
 
 
 #: World +z may point down the photo by this much (the sine of its angle below the image plane's
@@ -345,8 +359,10 @@ def calibrate_photo(
 
     straightness = any(len(p) > 2 for a in axes for p in polys[a])
     estimate_k1 = straightness or distortion is not None
+    estimate_k2 = False  # only where the second test asks for it (.bending)
     def make(p: Mapping[str, list], ax: list[str], s: Mapping[str, Array]) -> JointProblem:
-        return JointProblem(p, ax, s, scale, c0, sigma_c, distortion if estimate_k1 else None, estimate_k1)
+        return JointProblem(p, ax, s, scale, c0, sigma_c, distortion if estimate_k1 else None, estimate_k1,
+                            estimate_k2)
 
     # Solve with every prior first (a focal prior keeps a weakly determined f from wandering), then
     # judge what the segments alone say about f there, and drop EXIF where it is not wanted; the
@@ -368,6 +384,7 @@ def calibrate_photo(
         raise
     problem, y, R = screened.problem, screened.y, screened.R
     bend = None
+    second = None
     if straightness:  # k1 estimated only where the kept segments bend (.bending)
         live = [a for a in axes if a not in screened.dropped]
         kept = {a: [p for p, k in zip(polys[a], screened.keep[a], strict=True) if k] for a in live}
@@ -376,6 +393,10 @@ def calibrate_photo(
                                                   sigma_c, distortion)
         if not bend.bends:
             problem, y, R, estimate_k1 = held, y_h, R_h, False
+        elif wide_lens(problem, y, scale, width, height):  # nested: is one term enough?
+            second, problem, y, R, free2 = second_term_test(problem, y, R, prior_f, kept, live, kept_sigmas, scale,
+                                                            c0, sigma_c, photo, width, height)
+            estimate_k2 = second.needed
     sigma_f_seg, sigma_c_seg = problem.segment_information(y, R)
     rel_seg = sigma_f_seg / (y[0] * scale)
     if not_orthogonal is not None:
@@ -431,12 +452,17 @@ def calibrate_photo(
     cov_y = problem.covariance(J, vf_intervals)
     if bend is not None and not bend.bends:  # k1 held, as uncertain as the lines leave it
         cov_y = consider_covariance(free, y, R, prior_f, problem.k1_fixed, cov_y, bend, vf_intervals)
-    S = np.diag([scale, scale, scale, 1.0, 1.0, 1.0, 1.0])
-    cov7 = S @ cov_y @ S
+    elif second is not None and not second.needed:  # k2 held at 0, as uncertain as the lines leave it
+        cov_y = consider_second_term(free2, y, R, prior_f, cov_y, second, vf_intervals)
+    S = np.diag([scale, scale, scale, 1.0, 1.0, 1.0, 1.0, 1.0])
+    cov8 = S @ cov_y @ S
+    cov7 = cov8[:7, :7].copy()
     f, cx, cy = y[:3] * scale
     k1 = problem.k1_of(y)
     K = intrinsic_matrix(f, cx, cy)
     k1_sigma = float(np.sqrt(max(cov7[6, 6], 0.0))) if estimate_k1 else 0.0
+    k2 = problem.k2_of(y)
+    k2_sigma = float(np.sqrt(max(cov8[7, 7], 0.0))) if estimate_k2 else 0.0
 
     # What determined what, said exactly.
     prior_dominates = prior_f is not None and not sigma_f_seg <= prior_f.sigma
@@ -453,9 +479,9 @@ def calibrate_photo(
     else:
         mode = "2vp"
     reason = "; ".join([
-        _focal_reason(rel_seg, focal, exif_focal, exif_check, exif_combined, exif_rejected, prior_dominates),
-        _principal_point_reason(mode, sigma_c_seg, sigma_c, c_where, vf),
-        distortion_clause(k1, k1_sigma, straightness, distortion, bend, K, width, height),
+        focal_reason(rel_seg, focal, exif_focal, exif_check, exif_combined, exif_rejected, prior_dominates),
+        principal_point_reason(mode, sigma_c_seg, sigma_c, c_where, vf),
+        distortion_clause(k1, k1_sigma, straightness, distortion, bend, K, width, height, second, k2, k2_sigma),
     ] + ([screened.describe()] if screened.rejected else []))
     # residuals of every segment, index for index with the marks (k1 as solved, or as held)
     every = (held_problem(polys, axes, sigmas, scale, c0, sigma_c, distortion) if bend is not None and not bend.bends
@@ -480,6 +506,12 @@ def calibrate_photo(
         covariance_k1=cov7,
         exif_check=exif_check,
         distortion_test=bend,
+        k2=float(k2),
+        k2_sigma=k2_sigma,
+        k2_source=("none" if second is None else "segments" if second.needed
+                   else f"k2 held at 0: one term straightens the lines ({second.words})"),
+        covariance_lens=cov8,
+        second_term_test=second,
         rejected_segments={a: tuple(r) for a, r in screened.rejected.items()},
     )
 
@@ -500,48 +532,6 @@ def _flat(s: ArrayLike) -> list:
     if isinstance(s, np.ndarray):
         return list(s.reshape(-1))
     return [v for row in s for v in np.asarray(row, float).reshape(-1)]  # type: ignore[union-attr]
-
-
-def _focal_reason(rel_seg: float, focal: FocalPrior | None, exif: FocalPrior | None, check: ExifCheck | None,
-                  exif_combined: bool, exif_rejected: bool, prior_dominates: bool) -> str:
-    seg = (f"the vanishing points (1σ {_pct(rel_seg)})" if rel_seg <= FOCAL_UNDETERMINED_REL_SIGMA
-           else f"the vanishing points, which barely determine it (1σ {_pct(rel_seg)})")
-    cross = ""
-    if check is not None:
-        cross = (f"EXIF's f = {check.exif.value:.1f} px differs from the vanishing points' by "
-                 f"{100 * check.difference_rel:+.1f} % ({check.sigmas:.1f}σ)")
-        if check.sigmas > EXIF_DISAGREEMENT_SIGMAS:
-            cross += ": probably not this photo's focal length (cropped, or a zoom EXIF does not record)"
-    if focal is not None:
-        what = (f"f from the user's focal length (1σ {_pct(focal.sigma / focal.value)}) combined with {seg}"
-                if prior_dominates else
-                f"f from {seg} combined with the user's focal length (1σ {_pct(focal.sigma / focal.value)})")
-        if exif is not None:
-            what += f"; EXIF not used ({cross})" if cross else "; EXIF not used"
-        return what
-    if exif is None:
-        return f"f from {seg}; no EXIF focal length to cross-check"
-    e = f"EXIF (1σ {_pct(exif.sigma / exif.value)})"
-    if exif_combined:
-        what = f"f from {e} combined with {seg}" if prior_dominates else f"f from {seg} combined with {e}"
-        return what + (f"; {cross}" if cross else "; the vanishing points cannot cross-check EXIF")
-    if exif_rejected:
-        return (f"f from {seg} alone; {e} not combined, the vanishing points contradicting it by more than "
-                f"{EXIF_DISAGREEMENT_SIGMAS:g}σ: {cross}")
-    return f"f from {seg}; {e} not combined, the vanishing points being surer, only a cross-check: {cross}"
-
-
-def _principal_point_reason(mode: str, sigma_c_seg: float, sigma_c: float, where: str, vf: float) -> str:
-    prior = f"its prior (1σ {sigma_c:.0f} px at {where})"
-    if mode == "3vp":
-        text = f"the principal point from three vanishing points (1σ {sigma_c_seg:.0f} px) combined with {prior}"
-    elif np.isfinite(sigma_c_seg):
-        text = f"the principal point from {prior}, the vanishing points fixing it only to {sigma_c_seg:.0f} px"
-    else:
-        text = f"the principal point from {prior}, which the vanishing points do not fix"
-    if vf > 1.0:
-        text += f"; the marks fit {np.sqrt(vf):.2f}× worse than the stated click noise, so every 1σ is widened as much"
-    return text
 
 
 @deterministic

@@ -33,6 +33,8 @@ class PhotoInput:
     markers: Mapping[str, Array]
     k1: float = 0.0
     k1_sigma: float = 0.0
+    #: the lens's second term (camera.Lens; 0 for the one-term model): held as calibrated
+    k2: float = 0.0
     #: the half diagonal of the photo in pixels (0: not known), for the range of real lenses' k1
     corner_px: float = 0.0
 
@@ -77,6 +79,8 @@ class PlacedCamera:
     outliers: list[str] = field(default_factory=list)
     k1: float = 0.0
     k1_sigma: float = 0.0
+    #: the lens's second term, as calibrated (placement holds it)
+    k2: float = 0.0
     #: each outlier's offset (px) from where the other observations put it (its deleted residual)
     outlier_offsets_px: dict[str, float] = field(default_factory=dict)
 

@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from vebuild.camera import distortion_scale, intrinsic_matrix, project, skew_batch, so3_left_jacobian
+from vebuild.camera import Lens, distortion_derivatives_each, intrinsic_matrix, project, skew_batch, so3_left_jacobian
 from vebuild.constants import OUTLIER_SIGMAS, ROBUST_SCALE
 from vebuild.determinism import deterministic
 from vebuild.errors import CalibrationError
@@ -339,6 +339,7 @@ def _refine(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mappi
     h_sig = np.array([heights[ids[k]][1] for k in height_ids])
     R0 = np.array([photos[i].R for i in ids])
     k1_0 = np.array([photos[i].k1 for i in ids], float)
+    k2_0 = np.array([photos[i].k2 for i in ids], float)  # held: placement refines k1 only
     q0_stack = np.array([q0[i] for i in ids])
     free_rows = np.array([m_index[n] for n in free_markers], dtype=int)
     X_fixed = np.zeros((len(all_markers), 3))
@@ -382,7 +383,8 @@ def _refine(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mappi
         fc, R, C, k1, X = unpack(x)
         xc = np.einsum("nij,nj->ni", R[obs_cam], X[obs_mark] - C[obs_cam])
         xn = xc[:, :2] / xc[:, 2:3]
-        s = distortion_scale(np.sum(xn**2, axis=1), k1[obs_cam]) if np.any(k1 != 0.0) else 1.0
+        s = (distortion_derivatives_each(np.sum(xn**2, axis=1), np.stack([k1, k2_0], 1)[obs_cam])[0]
+             if np.any(k1 != 0.0) or np.any(k2_0 != 0.0) else 1.0)
         uv = fc[obs_cam, 0:1] * xn * np.reshape(s, (-1, 1)) + fc[obs_cam, 1:3]
         reproj = ((uv - obs_uv) / click_sigma).ravel()
         prior = np.concatenate([L_inv[i] @ prior_delta(x, k) for k, i in enumerate(ids) if n_prior[k]] or [np.zeros(0)])
@@ -423,11 +425,7 @@ def _refine(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mappi
         f = fc[obs_cam, 0]
         xn = xc[:, :2] / z[:, None]
         r2 = np.sum(xn**2, axis=1)
-        kk = k1[obs_cam]
-        w = np.sqrt(np.maximum(1.0 - 4.0 * kk * r2, 1e-12))
-        s = 2.0 / (1.0 + w)
-        ds_dr2 = 4.0 * kk / (w * (1.0 + w) ** 2)
-        ds_dk = 4.0 * r2 / (w * (1.0 + w) ** 2)
+        s, ds_dr2, ds_dk, _ = distortion_derivatives_each(r2, np.stack([k1, k2_0], 1)[obs_cam])
         # u = f s(|xn|²) xn + c, xn = (x/z, y/z): ∂u/∂xn = f (s I + 2 s' xn xnᵀ), then ∂xn/∂x_cam.
         B = np.zeros((n_obs, 2, 3))
         B[:, 0, 0] = B[:, 1, 1] = 1.0 / z
@@ -545,7 +543,8 @@ def _refine(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mappi
     # residual) by more than OUTLIER_SIGMAS of the stated click noise, with the placement's own
     # uncertainty there: rᵀ (I − H)⁻¹ r > OUTLIER_SIGMAS², χ²(2) tail e⁻⁸ for an honest click.
     r_obs = np.array([project(intrinsic_matrix(*fc[ids.index(j)]), R[ids.index(j)], C[ids.index(j)], X[n],
-                              float(k1[ids.index(j)])) - uv for j, n, uv in obs]).reshape(-1, 2)
+                              Lens(float(k1[ids.index(j)]), float(k2_0[ids.index(j)]))) - uv
+                      for j, n, uv in obs]).reshape(-1, 2)
     offsets, stat = offsets_from_the_others(J[: 2 * n_obs], cov_unscaled, r_obs / click_sigma)
     cameras = {}
     for k, i in enumerate(ids):
@@ -558,7 +557,7 @@ def _refine(photos: Mapping[str, PhotoInput], C0: Mapping[str, Array], X0: Mappi
         k1_sigma = (float(np.sqrt(max(cov[k1_col[k], k1_col[k]] * widen[k], 0.0))) if k in k1_col
                     else photos[i].k1_sigma)
         cameras[i] = PlacedCamera(i, K, R[k].copy(), C[k].copy(), cov[np.ix_(sl, sl)] * widen[k], resid, outl,
-                                  float(k1[k]), k1_sigma, away)
+                                  float(k1[k]), k1_sigma, float(k2_0[k]), away)
     markers = {}
     for n in sorted(X):
         c3 = cov[col[n] : col[n] + 3, col[n] : col[n] + 3].copy() if n in col else np.zeros((3, 3))

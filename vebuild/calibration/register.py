@@ -37,7 +37,16 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 
-from vebuild.camera import exp_so3, intrinsic_matrix, pixel_rays_world, project, rotation_from_ypr, world_to_camera
+from vebuild.camera import (
+    PINHOLE,
+    Lens,
+    exp_so3,
+    intrinsic_matrix,
+    pixel_rays_world,
+    project,
+    rotation_from_ypr,
+    world_to_camera,
+)
 from vebuild.determinism import deterministic
 from vebuild.errors import CalibrationError
 
@@ -81,6 +90,8 @@ class Registered:
     k1: float = 0.0
     k1_sigma: float = 0.0
     k1_source: str = ""
+    #: the lens's second term, held as calibrated (0: the one-term model)
+    k2: float = 0.0
 
 
 def _whitener(cov: Array) -> Array:
@@ -101,11 +112,11 @@ def _points_covariance(points: Array, point_covariance: ArrayLike | None) -> Arr
 
 
 def _refine(points: Array, pixels: Array, K0: Array, R0: Array, C0: Array, click_sigma: float,
-            prior: Array, prior_cov: Array, k1: float = 0.0,
+            prior: Array, prior_cov: Array, lens: Lens = PINHOLE,
             point_cov: Array | None = None) -> tuple[Array, Array, Array, Array, Array]:
     """Least squares over x = (f, cx, cy, ω, C), R = exp([ω]×) R0, with a Gaussian prior on the
     first six (intrinsics and rotation): mean ``prior``, covariance ``prior_cov`` (∞ = free); the
-    pixels projected through the lens distortion ``k1`` (held).
+    pixels projected through the lens distortion ``lens`` (held).
 
     The covariance, to first order, of x̂(pixels, points): (JᵀJ)⁻¹ from the pixels, plus
     A Σ_X Aᵀ with A = −(JᵀJ)⁻¹ Jᵀ ∂r/∂X from the points' joint covariance ``point_cov`` (None:
@@ -117,7 +128,7 @@ def _refine(points: Array, pixels: Array, K0: Array, R0: Array, C0: Array, click
 
     def residuals(x: Array) -> Array:
         K = intrinsic_matrix(*x[:3])
-        r = ((project(K, exp_so3(x[3:6]) @ R0, x[6:9], points, k1) - pixels) / click_sigma).ravel()
+        r = ((project(K, exp_so3(x[3:6]) @ R0, x[6:9], points, lens) - pixels) / click_sigma).ravel()
         return np.concatenate([r, L @ (x[held] - prior[held])])
 
     x0 = np.r_[K0[0, 0], K0[0, 2], K0[1, 2], 0.0, 0.0, 0.0, C0]
@@ -130,7 +141,7 @@ def _refine(points: Array, pixels: Array, K0: Array, R0: Array, C0: Array, click
 
     def res_at(x: Array) -> Array:
         K = intrinsic_matrix(*x[:3])
-        r = ((project(K, exp_so3(x[3:6]) @ R, x[6:9], points, k1) - pixels) / click_sigma).ravel()
+        r = ((project(K, exp_so3(x[3:6]) @ R, x[6:9], points, lens) - pixels) / click_sigma).ravel()
         return np.concatenate([r, L @ (x[held] - prior_at[held])])
 
     r = res_at(x_at)
@@ -141,7 +152,7 @@ def _refine(points: Array, pixels: Array, K0: Array, R0: Array, C0: Array, click
         K_at, R_at = intrinsic_matrix(*x_at[:3]), R
 
         def pix_of_points(Xf: Array) -> Array:
-            return (project(K_at, R_at, x_at[6:9], Xf.reshape(-1, 3), k1) / click_sigma).ravel()
+            return (project(K_at, R_at, x_at[6:9], Xf.reshape(-1, 3), lens) / click_sigma).ravel()
 
         # ∂r/∂X of the whitened pixel rows (the priors do not depend on the points).
         Jx = numeric_jacobian(pix_of_points, points.ravel(), 1e-6)
@@ -155,7 +166,7 @@ def _refine(points: Array, pixels: Array, K0: Array, R0: Array, C0: Array, click
         rw = r
     cov = cov * variance_factor(rw, 9)
     K = intrinsic_matrix(*sol.x[:3])
-    return K, R, sol.x[6:9].copy(), cov, project(K, R, sol.x[6:9], points, k1) - pixels
+    return K, R, sol.x[6:9].copy(), cov, project(K, R, sol.x[6:9], points, lens) - pixels
 
 
 @deterministic
@@ -178,6 +189,7 @@ def register_from_points(points: ArrayLike, pixels: ArrayLike, width: int, heigh
     check_focal_prior(photo, "focal_px", focal)
     check_principal_point(photo, principal_point)
     k1 = 0.0 if distortion is None else float(distortion.k1)
+    lens = Lens(k1)
     X = np.asarray(points, float).reshape(-1, 3)
     uv = np.asarray(pixels, float).reshape(-1, 2)
     S = _points_covariance(X, point_covariance)
@@ -198,12 +210,12 @@ def register_from_points(points: ArrayLike, pixels: ArrayLike, width: int, heigh
         for yaw in SEARCH_YAW_DEG:
             for pitch in SEARCH_PITCH_DEG:
                 R = rotation_from_ypr(np.radians(yaw), np.radians(pitch), 0.0)
-                d = pixel_rays_world(K, R, uv, k1)
+                d = pixel_rays_world(K, R, uv, lens)
                 C = intersect_lines(X, d)
                 depth = world_to_camera(R, C, X)[:, 2]
                 if np.any(depth <= 0):
                     continue
-                err = float(np.sqrt(np.mean((project(K, R, C, X, k1) - uv) ** 2)))
+                err = float(np.sqrt(np.mean((project(K, R, C, X, lens) - uv) ** 2)))
                 best.append((err, K, R, C))
     if not best:
         raise CalibrationError(photo, "no camera in front of all the marked points explains them; check that "
@@ -217,14 +229,14 @@ def register_from_points(points: ArrayLike, pixels: ArrayLike, width: int, heigh
         prior[0], prior_cov[0, 0] = focal.value, focal.sigma**2
     candidates: list[tuple[float, Array, Array, Array, Array, Array]] = []
     for _, K, R, C in best[:5]:
-        Kr, Rr, Cr, cov, res = _refine(X, uv, K, R, C, click_sigma_px, prior, prior_cov, k1, S)
+        Kr, Rr, Cr, cov, res = _refine(X, uv, K, R, C, click_sigma_px, prior, prior_cov, lens, S)
         candidates.append((float(np.sqrt(np.mean(res**2))), Kr, Rr, Cr, cov, res))
     rms, K, R, C, cov, res = min(candidates, key=lambda t: t[0])
     held = np.diag(np.full(9, np.inf))
     held[:6, :6] = prior_cov
     Kp = intrinsic_matrix(prior[0] if focal is not None else K[0, 0], *c)
-    lens = (k1, float(distortion.sigma), distortion.source) if distortion is not None else (0.0, 0.0, "")
-    return Registered(K, R, C, cov, res, "points", held, Kp, R, *lens)
+    used = (k1, float(distortion.sigma), distortion.source) if distortion is not None else (0.0, 0.0, "")
+    return Registered(K, R, C, cov, res, "points", held, Kp, R, *used)
 
 
 @deterministic
@@ -236,21 +248,22 @@ def register_with_vanishing_points(cal: PhotoCalibration, points: ArrayLike, pix
     ``point_covariance``: the points' joint (3n, 3n) covariance, in the order given (None: exact)."""
     # The calibration's k1 where it estimated one (its k1, k1_sigma, k1_source; 0 for a pinhole).
     k1, k1_sigma, k1_source = float(cal.k1), float(cal.k1_sigma), cal.k1_source
+    lens = cal.lens  # with its k2, held as calibrated
     X = np.asarray(points, float).reshape(-1, 3)
     uv = np.asarray(pixels, float).reshape(-1, 2)
     S = _points_covariance(X, point_covariance)
     if len(X) < 2:
         raise CalibrationError(cal.photo, f"placing the camera needs at least 2 marked points of known position "
                                f"(model vertices or markers); this photo has {len(X)}")
-    C0 = intersect_lines(X, pixel_rays_world(cal.K, cal.R, uv, k1))
+    C0 = intersect_lines(X, pixel_rays_world(cal.K, cal.R, uv, lens))
     # Intrinsics and rotation held by their vanishing-point estimate and covariance.
     prior = np.r_[cal.f, cal.principal_point, 0.0, 0.0, 0.0]
     with numeric_failures(cal.photo, "placing the camera from its known points", "check the marked points "
                           "(not all on one line through the camera) and their known positions"):
-        K, R, C, cov, res = _refine(X, uv, cal.K, cal.R, C0, click_sigma_px, prior, cal.covariance, k1, S)
+        K, R, C, cov, res = _refine(X, uv, cal.K, cal.R, C0, click_sigma_px, prior, cal.covariance, lens, S)
     held = np.diag(np.full(9, np.inf))
     held[:6, :6] = cal.covariance
-    if k1 == 0.0:
+    if lens.is_pinhole:
         return Registered(K, R, C, cov, res, "vanishing points + points", held, cal.K, cal.R)
     return Registered(K, R, C, cov, res, "vanishing points + points", held, cal.K, cal.R, k1, k1_sigma,
-                      k1_source if k1_source not in ("", "none") else "vanishing-point calibration")
+                      k1_source if k1_source not in ("", "none") else "vanishing-point calibration", lens.k2)

@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vebuild.camera import exp_so3, intrinsic_matrix, pixel_rays_world
+from vebuild.camera import Lens, exp_so3, intrinsic_matrix, pixel_rays_world
 from vebuild.errors import CalibrationError
 
 from .lsq import numeric_jacobian
@@ -191,14 +191,15 @@ class _Camera:
     """The calibrated camera of parameters q = (f, cx, cy, ω[, k1]), R = exp([ω]×) R̂, standing at
     (0, 0, 1): one unit above the floor point below it."""
 
-    def __init__(self, q: Array, R0: Array, k1: float, photo: str):
+    def __init__(self, q: Array, R0: Array, k1: float, photo: str, k2: float = 0.0):
         self.K = intrinsic_matrix(q[0], q[1], q[2])
         self.R = exp_so3(q[3:6]) @ R0
         self.k1 = float(q[6]) if len(q) > 6 else k1
+        self.lens = Lens(self.k1, k2)  # k2 held as calibrated
         self.photo = photo
 
     def ray(self, uv: Array) -> Array:
-        return pixel_rays_world(self.K, self.R, np.asarray(uv, float), self.k1)
+        return pixel_rays_world(self.K, self.R, np.asarray(uv, float), self.lens)
 
     def floor(self, uv: Array, what: str) -> Array:
         """The floor point (z = 0) seen at pixel uv, the camera at (0, 0, 1)."""
@@ -322,12 +323,13 @@ def _calibration(K: ArrayLike, covariance: ArrayLike, k1: float) -> tuple[Array,
 
 
 def scale_estimates(photo: str, K: ArrayLike, R: ArrayLike, scales: Sequence[ScaleSource], *, k1: float = 0.0,
+                    k2: float = 0.0,
                     click_sigma_px: float = 1.0) -> list[ScaleEstimate]:
     """What each scale source alone says the camera's height is, with its 1σ from its own clicks
     and length (not the calibration's, which all share): the weights that combine them."""
     K, R0 = np.asarray(K, float), np.asarray(R, float)
     q0 = np.r_[K[0, 0], K[0, 2], K[1, 2], 0.0, 0.0, 0.0]
-    cam0 = _Camera(q0, R0, k1, photo)
+    cam0 = _Camera(q0, R0, k1, photo, k2)
     out = []
     for s in scales:
         h = _height(cam0, s)
@@ -347,19 +349,19 @@ def scale_estimates(photo: str, K: ArrayLike, R: ArrayLike, scales: Sequence[Sca
 
 def camera_height_estimate(
     photo: str, K: ArrayLike, R: ArrayLike, covariance: ArrayLike, scales: Sequence[ScaleSource], *,
-    k1: float = 0.0, click_sigma_px: float = 1.0,
+    k1: float = 0.0, k2: float = 0.0, click_sigma_px: float = 1.0,
 ) -> tuple[float, float, list[ScaleEstimate]]:
     """The camera's height above the floor from the photo's own scale sources (at least one), its
     1σ first order over the calibration, the clicks and the lengths, and each source's estimate:
     how a photo placed with others brings its own scale to the joint placement (no origin needed)."""
     q0, cov_q = _calibration(K, covariance, k1)
     R0 = np.asarray(R, float)
-    estimates = scale_estimates(photo, K, R0, scales, k1=k1, click_sigma_px=click_sigma_px)
+    estimates = scale_estimates(photo, K, R0, scales, k1=k1, k2=k2, click_sigma_px=click_sigma_px)
     w = np.array([1.0 / e.sigma**2 for e in estimates])
     inp = _Inputs(q0, cov_q, np.zeros(0), scales, np.zeros(0), click_sigma_px)
 
     def h(z: Array) -> Array:
-        return np.array([w @ inp.heights(z, _Camera(z[: inp.n_q], R0, k1, photo), scales) / w.sum()])
+        return np.array([w @ inp.heights(z, _Camera(z[: inp.n_q], R0, k1, photo, k2), scales) / w.sum()])
 
     J = numeric_jacobian(h, inp.z0, inp.steps)
     return float(h(inp.z0)[0]), float(np.sqrt(max(float((J @ inp.cov @ J.T)[0, 0]), 0.0))), estimates
@@ -374,7 +376,7 @@ def place_single_photo(
     scales: Sequence[ScaleSource] = (),
     floor_markers: Mapping[str, ArrayLike] | None = None,
     *,
-    k1: float = 0.0,
+    k1: float = 0.0, k2: float = 0.0,
     click_sigma_px: float = 1.0,
 ) -> SinglePhotoPlacement:
     """Place one calibrated photo alone (module docstring).
@@ -389,18 +391,18 @@ def place_single_photo(
     skipped = []
     for n in list(markers_px):  # a floor marker clicked above the horizon is named, not placed
         try:
-            _Camera(q0, R0, k1, photo).floor(markers_px[n], f"marker '{n}' (on the floor)")
+            _Camera(q0, R0, k1, photo, k2).floor(markers_px[n], f"marker '{n}' (on the floor)")
         except CalibrationError as err:
             skipped.append(f"{err} (it is not placed)")
             del markers_px[n]
-    estimates = scale_estimates(photo, K, R0, scales, k1=k1, click_sigma_px=click_sigma_px)
+    estimates = scale_estimates(photo, K, R0, scales, k1=k1, k2=k2, click_sigma_px=click_sigma_px)
     w = np.array([1.0 / e.sigma**2 for e in estimates])
     o_px = np.asarray(origin.pixels, float).ravel()
     m_px = np.concatenate([markers_px[n] for n in markers_px] or [np.zeros(0)])
     inp = _Inputs(q0, cov_q, o_px, scales, m_px, click_sigma_px)
 
     def solve(z: Array) -> Array:
-        cam = _Camera(z[: inp.n_q], R0, k1, photo)
+        cam = _Camera(z[: inp.n_q], R0, k1, photo, k2)
         h = float(w @ inp.heights(z, cam, scales) / w.sum()) if len(w) else 1.0
         O1 = (cam.floor(z[inp.origin], f"the origin ({origin.describe()})") if origin.marker is not None
               else np.zeros(3))
@@ -420,7 +422,7 @@ def place_single_photo(
         sl = slice(10 + 3 * m, 13 + 3 * m)
         markers[n] = (out0[sl].copy(), cov[sl, sl].copy())
     warnings = skipped
-    cam0 = _Camera(q0, R0, k1, photo)
+    cam0 = _Camera(q0, R0, k1, photo, k2)
     for src in scales:
         if isinstance(src, KnownLength) and src.axis in ("x", "y"):
             ends = np.asarray(src.ends, float).reshape(2, 2)
@@ -437,7 +439,7 @@ def place_single_photo(
                 warnings.append(f"photo '{photo}': {e.describe()} puts the camera {e.height:.3f} m above the floor, "
                                 f"{abs(e.height - h) / e.sigma:.1f}σ from the {h:.3f} m of all its scale sources "
                                 "together: check its value, its units (m) and its clicks")
-    cam = _Camera(q0, R0, k1, photo)
+    cam = _Camera(q0, R0, k1, photo, k2)
     k1_sigma = float(np.sqrt(cov_q[6, 6])) if len(q0) == 7 else 0.0
     return SinglePhotoPlacement(photo, cam.K, cam.R, cam.k1, k1_sigma, out0[6:9].copy(), cov[:9, :9].copy(), h,
                                 0.0 if relative else float(np.sqrt(max(cov[9, 9], 0.0))), relative, origin,
@@ -445,7 +447,8 @@ def place_single_photo(
 
 
 def floor_point(photo: str, K: ArrayLike, R: ArrayLike, C: ArrayLike, covariance: ArrayLike, uv: ArrayLike, *,
-                k1: float = 0.0, click_sigma_px: float = 1.0, what: str = "the point") -> tuple[Array, Array]:
+                k1: float = 0.0, k2: float = 0.0, click_sigma_px: float = 1.0,
+                what: str = "the point") -> tuple[Array, Array]:
     """The floor point (z = 0) a placed camera sees at pixel uv, and its 3×3 covariance, first order
     over the camera's 9×9 covariance (f, cx, cy, ω, C) and the click: how a floor marker that one
     photo of a joint placement shows is placed from that photo alone."""
@@ -458,7 +461,7 @@ def floor_point(photo: str, K: ArrayLike, R: ArrayLike, C: ArrayLike, covariance
     steps = np.r_[[STEP_PX] * 3, [STEP_RAD] * 3, [STEP_M] * 3, [STEP_PX] * 2]
 
     def X(z: Array) -> Array:
-        cam = _Camera(z[:6], R0, k1, photo)
+        cam = _Camera(z[:6], R0, k1, photo, k2)
         c = z[6:9]
         if not c[2] > 0:
             raise CalibrationError(photo, f"{what}: the camera is not above the floor (z = {c[2]:.3g}), so it cannot "

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from vebuild.camera import pixel_rays_world
+from vebuild.camera import Lens, pixel_rays_world
 from vebuild.errors import CalibrationError
 
 if TYPE_CHECKING:
@@ -63,7 +63,7 @@ def unit_baseline(rays_j: Array, rays_k: Array) -> Array:
 
 
 def _rays(p: PhotoInput, names: Sequence[str]) -> Array:
-    return pixel_rays_world(p.K, p.R, np.array([p.markers[n] for n in names]), p.k1)
+    return pixel_rays_world(p.K, p.R, np.array([p.markers[n] for n in names]), Lens(p.k1, p.k2))
 
 
 def initial_positions(

@@ -346,7 +346,7 @@ class Assist(MarkerRename):
             depth = float(world_to_camera(cam.R, cam.C, X)[0, 2])
             if depth <= 0:
                 return None
-            uv = project(cam.K, cam.R, cam.C, X, cam.k1)[0]
+            uv = project(cam.K, cam.R, cam.C, X, cam.lens)[0]
             if not (0 <= uv[0] < cam.width and 0 <= uv[1] < cam.height):
                 return None
             # Looked for about the prediction, as far as this camera's own uncertainty allows.

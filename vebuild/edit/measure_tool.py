@@ -215,7 +215,7 @@ class MeasureTool(EditorPart):
         for m in markers:
             X = np.asarray(m["position"], float)
             if world_to_camera(cam.R, cam.C, X)[2] > 0:
-                u, v = project_points(cam.K, cam.R, cam.C, X, cam.k1)
+                u, v = project_points(cam.K, cam.R, cam.C, X, cam.lens)
                 pins.append((m["label"], float(u), float(v)))
         return cm.marker_near(self.session.data, pins, uv, cm.MARKER_PICK_PX / self.zoom)
 
@@ -228,7 +228,7 @@ class MeasureTool(EditorPart):
             if cam is None or world_to_camera(cam.R, cam.C, X)[2] <= 0.05:
                 out.append(None)
                 continue
-            out.append(self.image_to_window(None, project_points(cam.K, cam.R, cam.C, X, cam.k1)))
+            out.append(self.image_to_window(None, project_points(cam.K, cam.R, cam.C, X, cam.lens)))
         return out
 
     def _draw_measures(self) -> None:

@@ -194,7 +194,7 @@ class Modelling(Marks):
         photo, uv = at
         cam = self._camera(photo)
         C = np.asarray(cam.C, float)
-        d = cam_math.pixel_rays_world(cam.K, cam.R, np.asarray(uv, float), cam.k1)
+        d = cam_math.pixel_rays_world(cam.K, cam.R, np.asarray(uv, float), cam.lens)
         o, x, y, n = np.zeros(3), np.eye(3)[0], np.eye(3)[1], np.eye(3)[2]
         if parent is not None:
             model = self.model
@@ -357,7 +357,7 @@ class Modelling(Marks):
             hs = node.primitive.handles(x[model.slices[node.name][1]])
             W = hs @ T[node.name][:3, :3].T + T[node.name][:3, 3]
             front = cam_math.world_to_camera(cam.R, cam.C, W)[:, 2] > 0
-            uv = cam_math.project(cam.K, cam.R, cam.C, W, cam.k1)
+            uv = cam_math.project(cam.K, cam.R, cam.C, W, cam.lens)
             for h, ok, p in zip(node.primitive.handle_names(), front, uv, strict=True):
                 if ok:
                     out.append((node.name, h, (float(p[0]), float(p[1])), (node.name, h) in fixed))
@@ -464,7 +464,7 @@ class Modelling(Marks):
         cam = self.cameras[ds.photo]
         # the transforms as last shown (those of x_good): the whole house's would be recomputed
         hp = cam_math.project(cam.K, cam.R, cam.C, d.model.handle_world(ds.node, ds.handle, d.x_good,
-                                                                        self._transforms()), cam.k1)
+                                                                        self._transforms()), cam.lens)
         return DragFeedback(False, reason, (float(hp[0]), float(hp[1])), 1e3 * (time.perf_counter() - t0))
 
     def _why_stuck(self, d: _Drag, fixed_shift: float | None) -> str:

@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from vebuild.camera import project, undistort_pixels, world_to_camera
+from vebuild.camera import PINHOLE, Lens, project, undistort_pixels, world_to_camera
 from vebuild.model.drag import lens_polyline
 
 RGBA = tuple[float, float, float, float]
@@ -129,12 +129,12 @@ def vanishing_rays(ov: Overlay, vs: Any, width: float, height: float, skip: set[
                                    vs.axis, f"VP {vs.axis}  rms {vs.rms_px:.2f} px"))
 
 
-def curve_lines(ov: Overlay, K: Any, k1: float, a: Any, b: Any, colour: RGBA, width: float, kind: str,
+def curve_lines(ov: Overlay, K: Any, lens: Lens, a: Any, b: Any, colour: RGBA, width: float, kind: str,
                 key: object = None, label: str | None = None, arrow: bool = False) -> None:
     """The straight segment a–b of the pinhole image, drawn through the lens k1: one line for a
     pinhole, else the pieces of :func:`~vebuild.model.drag.lens_polyline`, the label and arrow on
     the last."""
-    q = lens_polyline(K, k1, a, b)
+    q = lens_polyline(K, lens, a, b)
     for i in range(len(q) - 1):
         last = i == len(q) - 2
         ov.lines.append(Line((float(q[i, 0]), float(q[i, 1]), float(q[i + 1, 0]), float(q[i + 1, 1])), colour,
@@ -162,18 +162,18 @@ def polyline_points(ov: Overlay, vs: Any) -> None:
 def horizon_and_axes(ov: Overlay, cam: Any, width: float, height: float) -> None:
     """The calibrated camera's horizon (the image of the horizontal planes' line at infinity) and
     the world axes, 1 m long from the origin, through the camera's lens (its ``k1``, 0 if none)."""
-    k1 = float(getattr(cam, "k1", 0.0))
+    lens = getattr(cam, "lens", PINHOLE)
     horizon = np.linalg.inv(cam.K).T @ cam.R[:, 2]
     # The horizon is straight in the pinhole image: clip it there, to the box of what the photo
     # shows (the photo's rim undistorted), then bend it through the lens.
     s = np.linspace(0.0, 1.0, RIM_SAMPLES)[:, None]
     rim = np.concatenate([s * [width, 0.0], [width, 0.0] + s * [0.0, height], s * [width, 0.0] + [0.0, height],
                           s * [0.0, height]])
-    und = undistort_pixels(cam.K, rim, k1)
+    und = undistort_pixels(cam.K, rim, lens)
     lo, hi = und.min(axis=0), und.max(axis=0)
     seg = _clip_line(horizon + np.r_[0.0, 0.0, horizon[:2] @ lo], *(hi - lo))  # shifted by lo
     if seg is not None:
-        curve_lines(ov, cam.K, k1, np.add(seg[:2], lo), np.add(seg[2:], lo), CYAN, 1.0, "horizon", None, "horizon")
+        curve_lines(ov, cam.K, lens, np.add(seg[:2], lo), np.add(seg[2:], lo), CYAN, 1.0, "horizon", None, "horizon")
     origin = np.zeros(3)
     if world_to_camera(cam.R, cam.C, origin)[2] <= 0:
         return
@@ -183,6 +183,6 @@ def horizon_and_axes(ov: Overlay, cam: Any, width: float, height: float) -> None
         if world_to_camera(cam.R, cam.C, E)[2] <= 0:
             continue
         e = project(cam.K, cam.R, cam.C, E)
-        curve_lines(ov, cam.K, k1, o, e, AXIS_COLOURS[axis], 3.0, "axis", axis, f"+{axis} 1 m", arrow=True)
-    od = project(cam.K, cam.R, cam.C, origin, k1)
+        curve_lines(ov, cam.K, lens, o, e, AXIS_COLOURS[axis], 3.0, "axis", axis, f"+{axis} 1 m", arrow=True)
+    od = project(cam.K, cam.R, cam.C, origin, lens)
     ov.points.append(Point((float(od[0]), float(od[1])), WHITE, 4.0, True, "origin", None, "origin"))

@@ -194,7 +194,7 @@ class SessionOverlays(Modelling, LeftOut):
             if cam is not None and name in placed:
                 X = placed[name]
                 if cam_math.world_to_camera(cam.R, cam.C, X)[2] > 0:
-                    q = cam_math.project(cam.K, cam.R, cam.C, X, cam.k1)
+                    q = cam_math.project(cam.K, cam.R, cam.C, X, cam.lens)
                     ov.points.append(Point((float(q[0]), float(q[1])), GREY, 2.5, True, "marker-projected", name))
                     ov.lines.append(Line((float(uv[0]), float(uv[1]), float(q[0]), float(q[1])), MAGENTA, 1.0,
                                          "residual", ("marker", name)))

@@ -393,7 +393,7 @@ class PhotoView(EditorPart):
                 from vebuild import camera as cam_math
 
                 if cam_math.world_to_camera(cam.R, cam.C, X)[2] > 0:
-                    c = self.image_to_window(None, cam_math.project(cam.K, cam.R, cam.C, X, cam.k1))
+                    c = self.image_to_window(None, cam_math.project(cam.K, cam.R, cam.C, X, cam.lens))
                     dl.add_circle(c, 9.0, col, 0, 2.0)
                     dl.add_text((c[0] + 12, c[1] + 4), col, f"{pk['node']}: {pk['shown']}")
 

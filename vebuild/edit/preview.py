@@ -255,6 +255,6 @@ def draw_points_over_frame(renderer: Any, cam: ImageCamera, layer: Any) -> None:
     draw, resolve, _ = renderer._target(cam.width, cam.height, "output")  # the frame's own targets (cached)
     draw.use()
     draw.viewport = (0, 0, cam.width, cam.height)
-    layer.draw(cam, near, far, flip=False, depth_test=cam.k1 == 0.0)
+    layer.draw(cam, near, far, flip=False, depth_test=cam.lens.is_pinhole)
     if draw is not resolve:
         renderer.ctx.copy_framebuffer(resolve, draw)

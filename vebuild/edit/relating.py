@@ -99,7 +99,7 @@ class Relating(Modelling):
         logical face, whose name is its plane's), or None where the ray meets no primitive."""
         cam = self._camera(photo)
         C = np.asarray(cam.C, float)
-        d = cam_math.pixel_rays_world(cam.K, cam.R, np.asarray(uv, float), cam.k1)
+        d = cam_math.pixel_rays_world(cam.K, cam.R, np.asarray(uv, float), cam.lens)
         best: tuple[float, str, str] | None = None
         for node, tri, face_ids, _, names in self._world_meshes():
             t = _ray_triangles(C, d, tri)
@@ -132,7 +132,7 @@ class Relating(Modelling):
             P = tri[ids == names.index(pick.name) + 1].reshape(-1, 3)
         if np.any(cam_math.world_to_camera(cam.R, cam.C, P)[:, 2] <= 0):
             return []
-        uv = cam_math.project(cam.K, cam.R, cam.C, P, cam.k1)
+        uv = cam_math.project(cam.K, cam.R, cam.C, P, cam.lens)
         k = 2 if pick.what == "edge" else 3
         return [[(float(q[0]), float(q[1])) for q in uv[i:i + k]] for i in range(0, len(uv), k)]
 

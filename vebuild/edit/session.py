@@ -336,7 +336,10 @@ def placement_text(camera: dict[str, Any]) -> str:
     lens = camera.get("distortion")
     if lens:
         k1, corner = lens["k1"], lens["corner_displacement_px"]
-        out += (f"; lens k1 {k1['value']:+.4f} ± {k1['sigma'] or 0.0:.4f} ({lens['source']}), corners moved "
+        k2 = lens.get("k2") or {}
+        second = (f", k2 {k2['value']:+.4f} ± {k2.get('sigma') or 0.0:.4f}"
+                  if k2 and (k2.get("value") or k2.get("sigma")) else "")
+        out += (f"; lens k1 {k1['value']:+.4f} ± {k1['sigma'] or 0.0:.4f}{second} ({lens['source']}), corners moved "
                 f"{corner['value']:.1f} ± {corner['sigma'] or 0.0:.1f} px")
     where = camera.get("placement") or {}
     if where.get("how") != "alone":

@@ -84,8 +84,8 @@ def sampson(F: Array, uv_a: Array, uv_b: Array) -> Array:
 
 def triangulate(a: ImageCamera, b: ImageCamera, uv_a: Array, uv_b: Array) -> Array:
     """World points (n, 3) nearest both rays (the midpoint of their common perpendicular)."""
-    da = pixel_rays_world(a.K, a.R, np.asarray(uv_a, float).reshape(-1, 2), a.k1)
-    db = pixel_rays_world(b.K, b.R, np.asarray(uv_b, float).reshape(-1, 2), b.k1)
+    da = pixel_rays_world(a.K, a.R, np.asarray(uv_a, float).reshape(-1, 2), a.lens)
+    db = pixel_rays_world(b.K, b.R, np.asarray(uv_b, float).reshape(-1, 2), b.lens)
     Ca, Cb = np.asarray(a.C, float), np.asarray(b.C, float)
     w = Ca - Cb
     A = np.sum(da * da, 1)
@@ -201,7 +201,7 @@ def check_matches(a: ImageCamera, b: ImageCamera, uv_a: Array, uv_b: Array, rati
     if len(uv_a) == 0:
         return [], 0
     F = fundamental(a, b)
-    ua, ub = undistort_pixels(a.K, uv_a, a.k1), undistort_pixels(b.K, uv_b, b.k1)
+    ua, ub = undistort_pixels(a.K, uv_a, a.lens), undistort_pixels(b.K, uv_b, b.lens)
     d = sampson(F, ua, ub)
     X = triangulate(a, b, uv_a, uv_b)
     za = world_to_camera(a.R, a.C, X)[:, 2]
@@ -228,14 +228,14 @@ def epipolar_curve(a: ImageCamera, uv_a: Sequence[float], b: ImageCamera,
     """Where the ray through uv_a in photo a projects into photo b between the two depths (along a's
     ray): (n, 2) pixels of b (through b's lens) and the depths, the points behind b or off its photo
     left out."""
-    ray = pixel_rays_world(a.K, a.R, np.asarray(uv_a, float).reshape(1, 2), a.k1)[0]
+    ray = pixel_rays_world(a.K, a.R, np.asarray(uv_a, float).reshape(1, 2), a.lens)[0]
     ray = ray / np.linalg.norm(ray)
     z_per_unit = float((a.R @ ray)[2])
     lo, hi = depths
     ds = np.geomspace(lo, hi, n) / max(z_per_unit, 1e-9)
     Xs = np.asarray(a.C, float)[None, :] + ds[:, None] * ray[None, :]
     front = world_to_camera(b.R, b.C, Xs)[:, 2] > 1e-6
-    uv = project(b.K, b.R, b.C, Xs, b.k1)
+    uv = project(b.K, b.R, b.C, Xs, b.lens)
     inside = front & (uv[:, 0] >= 0) & (uv[:, 1] >= 0) & (uv[:, 0] < b.width) & (uv[:, 1] < b.height)
     return uv[inside], ds[inside]
 

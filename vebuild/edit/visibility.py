@@ -84,7 +84,7 @@ def seen(X: Array, cam: ImageCamera, ids: NDArray[np.int32], depth: NDArray[np.f
     module docstring."""
     X = np.asarray(X, float).reshape(-1, 3)
     z = cam_math.world_to_camera(cam.R, cam.C, X)[:, 2]
-    uv = cam_math.project(cam.K, cam.R, cam.C, X, cam.k1).reshape(-1, 2)
+    uv = cam_math.project(cam.K, cam.R, cam.C, X, cam.lens).reshape(-1, 2)
     col, row = np.floor(uv[:, 0]).astype(np.intp), np.floor(uv[:, 1]).astype(np.intp)
     h, w = ids.shape
     inside = (col >= 0) & (row >= 0) & (col < w) & (row < h) & (z > 0)
@@ -101,7 +101,7 @@ def runs(X: Array, visible: NDArray[np.bool_], photo_cam: ImageCamera, uv: Array
     """The samples X (n, 3) of one edge as runs of equal visibility, in the photo's pixels (``uv``:
     their places there, when already projected)."""
     if uv is None:
-        uv = cam_math.project(photo_cam.K, photo_cam.R, photo_cam.C, X, photo_cam.k1).reshape(-1, 2)
+        uv = cam_math.project(photo_cam.K, photo_cam.R, photo_cam.C, X, photo_cam.lens).reshape(-1, 2)
     cuts = np.flatnonzero(np.diff(visible.astype(np.int8))) + 1  # the first sample of each new run
     starts, stops = np.r_[0, cuts], np.r_[cuts, len(X) - 1]  # a run reaches the next one's first sample
     return [EdgeRun(uv[a:b + 1].copy(), bool(visible[a])) for a, b in zip(starts, stops, strict=True) if b > a]
@@ -116,7 +116,7 @@ def edge_runs(ends: Mapping[object, tuple[Array, Array]], photo_cam: ImageCamera
         return {}
     X = np.concatenate(list(samples.values()))
     vis = seen(X, id_cam, ids, depth)
-    uv = cam_math.project(photo_cam.K, photo_cam.R, photo_cam.C, X, photo_cam.k1).reshape(-1, 2)
+    uv = cam_math.project(photo_cam.K, photo_cam.R, photo_cam.C, X, photo_cam.lens).reshape(-1, 2)
     out = {}
     at = 0
     for key, Xe in samples.items():

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from vebuild.camera import ImageCamera, exp_so3
+from vebuild.camera import ImageCamera, Lens, exp_so3
 
 from .layout import ParameterLayout
 
@@ -73,8 +73,13 @@ class CameraBlocks:
         for cid in self.cam_ids:
             blk = self.layout.cameras.get(cid)
             k = None if blk is None else blk.k1_index
-            out[cid] = float(self.cameras[cid].k1) if k is None else float(x[k])
+            out[cid] = float(self.cameras[cid].lens.k1) if k is None else float(x[k])
         return out
+
+    def camera_lenses(self, x: Array) -> dict[str, Lens]:
+        """Every photo's lens at x: k1 as :meth:`camera_k1`, k2 always as calibrated (never refined)."""
+        k1 = self.camera_k1(x)
+        return {cid: Lens(k1[cid], self.cameras[cid].lens.k2) for cid in self.cam_ids}
 
     def _prior_rows(self, start: int) -> int:
         """Lay out the cameras' then the groups' prior rows from row ``start``; the next free row."""
@@ -140,5 +145,5 @@ def shared_cameras(cameras: Mapping[str, ImageCamera], groups: Mapping[str, Shar
         for cid in g.photos:
             c = out[cid]
             out[cid] = ImageCamera(cid, np.asarray(g.K, float).copy(), c.R, c.C, c.width, c.height,
-                                   covariance=c.covariance, k1=float(g.k1))
+                                   covariance=c.covariance, lens=Lens(float(g.k1), c.lens.k2))
     return out

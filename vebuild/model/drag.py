@@ -6,7 +6,7 @@ projected edges) and :meth:`DragSession.release` (the vertex becomes a fixed pin
 does not change during a drag (the least-squares problem, which observations a parameter moves)
 is built once at the start; each move warm-starts from the previous one.
 
-Through a photo's lens (its :attr:`~vebuild.camera.ImageCamera.k1`) the mouse, the pins and the
+Through a photo's lens (its :attr:`~vebuild.camera.ImageCamera.lens`) the mouse, the pins and the
 projected handles are all in the photo's own (distorted) pixels, as the solver's residuals are; a
 straight model edge is a curve there, drawn as a polyline (:func:`lens_polyline`).
 """
@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vebuild.camera import ImageCamera, distort_pixels, project, world_to_camera
+from vebuild.camera import PINHOLE, ImageCamera, Lens, distort_pixels, project, world_to_camera
 
 from .residuals import EdgeObservation, Pin
 from .scene import Model
@@ -39,13 +39,13 @@ CURVE_TOL_PX = 0.5
 CURVE_MAX_DEPTH = 12
 
 
-def lens_polyline(K: ArrayLike, k1: float, a: ArrayLike, b: ArrayLike, tol: float = CURVE_TOL_PX) -> Array:
+def lens_polyline(K: ArrayLike, lens: Lens, a: ArrayLike, b: ArrayLike, tol: float = CURVE_TOL_PX) -> Array:
     """(n, 2) pixels along the curve the lens ``k1`` makes of the straight segment a–b of the
     pinhole image (pixels where the pinhole K puts its ends): :func:`lens_polylines` of one."""
-    return lens_polylines(K, k1, np.asarray(a, float)[None], np.asarray(b, float)[None], tol)[0]
+    return lens_polylines(K, lens, np.asarray(a, float)[None], np.asarray(b, float)[None], tol)[0]
 
 
-def lens_polylines(K: ArrayLike, k1: float, a: ArrayLike, b: ArrayLike, tol: float = CURVE_TOL_PX) -> list[Array]:
+def lens_polylines(K: ArrayLike, lens: Lens, a: ArrayLike, b: ArrayLike, tol: float = CURVE_TOL_PX) -> list[Array]:
     """For each straight segment a[i]–b[i] of the pinhole image ((n, 2) pixels where the pinhole K
     puts the ends), the (m, 2) pixels along the curve the lens ``k1`` makes of it: the distorted
     ends and, between them, as many points of the curve as keep each chord within ``tol`` of it.
@@ -57,7 +57,7 @@ def lens_polylines(K: ArrayLike, k1: float, a: ArrayLike, b: ArrayLike, tol: flo
     All segments are refined together, one level at a time (a drag redraws dozens per move).
     """
     a, b = np.asarray(a, float).reshape(-1, 2), np.asarray(b, float).reshape(-1, 2)
-    if k1 == 0.0 or not len(a):  # (np.split of nothing would give one empty piece)
+    if lens.is_pinhole or not len(a):  # (np.split of nothing would give one empty piece)
         return [np.array([p, q]) for p, q in zip(a, b, strict=True)]
     K = np.asarray(K, float)
     ticks = np.array([0.0, 0.25, 0.5, 0.75, 1.0])
@@ -66,7 +66,7 @@ def lens_polylines(K: ArrayLike, k1: float, a: ArrayLike, b: ArrayLike, tol: flo
     done_seg, done_lo = [], []
     for depth in range(CURVE_MAX_DEPTH + 1):
         t = lo[:, None] + (hi - lo)[:, None] * ticks
-        q = distort_pixels(K, a[seg, None] + t[..., None] * (b - a)[seg, None], k1)  # (m, 5, 2)
+        q = distort_pixels(K, a[seg, None] + t[..., None] * (b - a)[seg, None], lens)  # (m, 5, 2)
         chord = q[:, 4] - q[:, 0]
         L = np.maximum(np.linalg.norm(chord, axis=-1), 1e-12)[:, None]
         rel = q[:, 1:4] - q[:, :1]
@@ -86,7 +86,7 @@ def lens_polylines(K: ArrayLike, k1: float, a: ArrayLike, b: ArrayLike, tol: flo
     all_t = np.concatenate([los, np.ones(len(a))])
     order = np.lexsort((all_t, all_seg))
     all_seg, all_t = all_seg[order], all_t[order]
-    q = distort_pixels(K, a[all_seg] + all_t[:, None] * (b - a)[all_seg], k1)
+    q = distort_pixels(K, a[all_seg] + all_t[:, None] * (b - a)[all_seg], lens)
     return np.split(q, np.searchsorted(all_seg, np.arange(1, len(a))))
 
 
@@ -108,7 +108,7 @@ class DragResult:
 
 
 def _edge_ends(model: Model, camera: ImageCamera, nodes: Sequence[str], x: Array | None,
-               transforms: Mapping[str, Array] | None, k1: float) -> dict[str, list[tuple[str, Array, Array]]]:
+               transforms: Mapping[str, Array] | None, lens: Lens) -> dict[str, list[tuple[str, Array, Array]]]:
     x = model.vector() if x is None else x
     T = transforms if transforms is not None else model.world_transforms(x)
     out = {}
@@ -119,7 +119,7 @@ def _edge_ends(model: Model, camera: ImageCamera, nodes: Sequence[str], x: Array
         hs = node.primitive.handles(x[model.slices[name][1]])
         world = hs @ T[name][:3, :3].T + T[name][:3, 3]
         depth = world_to_camera(camera.R, camera.C, world)[:, 2]
-        uv = project(camera.K, camera.R, camera.C, world, k1)
+        uv = project(camera.K, camera.R, camera.C, world, lens)
         idx = {h: i for i, h in enumerate(node.primitive.handle_names())}
         out[name] = [(e, uv[idx[a]], uv[idx[b]]) for e, a, b in node.primitive.edges()
                      if depth[idx[a]] > 0 and depth[idx[b]] > 0]
@@ -133,7 +133,7 @@ def project_edges(model: Model, camera: ImageCamera, nodes: Sequence[str], x: Ar
     of the camera only). Through a distorting lens the edge between them is a curve:
     :func:`project_edge_curves` draws it."""
     return {n: [(e, (*pa, *pb)) for e, pa, pb in edges]
-            for n, edges in _edge_ends(model, camera, nodes, x, transforms, camera.k1).items()}
+            for n, edges in _edge_ends(model, camera, nodes, x, transforms, camera.lens).items()}
 
 
 def project_edge_curves(model: Model, camera: ImageCamera, nodes: Sequence[str], x: Array | None = None,
@@ -141,9 +141,9 @@ def project_edge_curves(model: Model, camera: ImageCamera, nodes: Sequence[str],
                         tol: float = CURVE_TOL_PX) -> dict[str, list[tuple[str, Array]]]:
     """As :func:`project_edges`, each edge as the (n, 2) polyline of its image through the photo's
     lens (:func:`lens_polyline`, within ``tol`` pixels of the true curve; two points for a pinhole)."""
-    ends = _edge_ends(model, camera, nodes, x, transforms, 0.0)  # the pinhole's: straight lines
+    ends = _edge_ends(model, camera, nodes, x, transforms, PINHOLE)  # the pinhole's: straight lines
     flat = [(n, e, pa, pb) for n, edges in ends.items() for e, pa, pb in edges]
-    curves = lens_polylines(camera.K, camera.k1, np.array([f[2] for f in flat]).reshape(-1, 2),
+    curves = lens_polylines(camera.K, camera.lens, np.array([f[2] for f in flat]).reshape(-1, 2),
                             np.array([f[3] for f in flat]).reshape(-1, 2), tol)
     out: dict[str, list[tuple[str, Array]]] = {n: [] for n in ends}
     for (n, e, _, _), q in zip(flat, curves, strict=True):
@@ -187,7 +187,7 @@ class DragSession:
         # subtree (fixed vertices) and its edge observations stay in the problem.
         self.other_pins = [p for p in pins if not (p.photo == photo and p.node == node and p.handle == handle)]
         cam = cameras[photo]
-        self.pin = Pin(photo, node, handle, project(cam.K, cam.R, cam.C, model.handle_world(node, handle), cam.k1),
+        self.pin = Pin(photo, node, handle, project(cam.K, cam.R, cam.C, model.handle_world(node, handle), cam.lens),
                        fixed=False)
         obs = [p for p in self.other_pins if p.node in moved and p.fixed] + [self.pin]
         # Paper Figure 7: until a vertex of the node is fixed, a drag moves the node as a whole
@@ -216,7 +216,7 @@ class DragSession:
         fixed = [np.linalg.norm(r[self.problem.rows_pin[i]]) for i, p in enumerate(self.problem.pins)
                  if p is not self.pin]
         cam = self.cameras[self.photo]
-        handle_px = project(cam.K, cam.R, cam.C, self.model.handle_world(self.node, self.handle, xm, T), cam.k1)
+        handle_px = project(cam.K, cam.R, cam.C, self.model.handle_world(self.node, self.handle, xm, T), cam.lens)
         return DragResult(xm, self.moved, edges, handle_px, float(max(fixed, default=0.0)))
 
     def release(self) -> Pin:

@@ -12,7 +12,7 @@ aligned relations (:mod:`.constraints`: metres whitened by a micrometre, constra
 observations). An ``equal`` relation is no row: its members share one unknown (``model_vector``).
 
 Every projection goes through each photo's lens distortion (the division model of
-vebuild/camera.py, :attr:`ImageCamera.k1`): a pin or a marker sighting is compared with the
+vebuild/camera.py, :attr:`ImageCamera.lens`): a pin or a marker sighting is compared with the
 distorted projection of its point; an edge observation's clicked points, as the lens put them, are
 undistorted onto the pinhole image, where the model edge is a straight line, and their distance
 from it is converted back to the photo's pixels by the undistortion's local scale across the line
@@ -36,7 +36,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from vebuild.calibration.lm import SPARSE_SOLVE_ABOVE
 from vebuild.calibration.positions import ReferenceDistance  # ends: marker names or 'node:handle'
-from vebuild.camera import ImageCamera, project_each, skew_batch, so3_left_jacobian
+from vebuild.camera import ImageCamera, distortion_derivatives_each, project_each, skew_batch, so3_left_jacobian
 
 from .camera_blocks import CameraBlocks
 from .column_groups import column_groups
@@ -245,7 +245,7 @@ class Residuals(CameraBlocks):
 
     def _difference_column(self, j: int, h: float, dHg: Array, Hp: Array, H: Array, M: Array,
                            Tp: Mapping[str, Array], xmp: Array, hard0: list[Array], MR_p: Any, Ks: Array, Rs: Array,
-                           Cs: Array, k1s: Array, put: Any) -> None:
+                           Cs: Array, lens_k: Array, put: Any) -> None:
         """Model parameter j's column from its group's difference (:func:`.column_groups.column_groups`): the
         handles j moves (and no other parameter of the group does) moved by ``dHg`` for a step h."""
         pin_sel, edge_sel, dist_sel = self.column_rows[j]
@@ -257,8 +257,8 @@ class Residuals(CameraBlocks):
             put(self.rows_pin[pin_sel], j, np.einsum("nij,nj->ni", MR_p[pin_sel], dH[self.pin_row[pin_sel]]))
         if len(edge_sel):
             a, b = self.edge_rows[edge_sel, 0], self.edge_rows[edge_sel, 1]
-            r0 = self._edge_residuals(H[a], H[b], Ks, Rs, Cs, k1s, edge_sel)
-            r1 = self._edge_residuals(Hp[a], Hp[b], Ks, Rs, Cs, k1s, edge_sel)
+            r0 = self._edge_residuals(H[a], H[b], Ks, Rs, Cs, lens_k, edge_sel)
+            r1 = self._edge_residuals(Hp[a], Hp[b], Ks, Rs, Cs, lens_k, edge_sel)
             put(self.rows_edge[edge_sel], j, (r1 - r0) / h)
         if len(dist_sel):
             e = self.dist_ends[dist_sel]
@@ -320,19 +320,19 @@ class Residuals(CameraBlocks):
         Ks = np.array([cams[c][0] for c in self.cam_ids]).reshape(-1, 3, 3)
         Rs = np.array([cams[c][1] for c in self.cam_ids]).reshape(-1, 3, 3)
         Cs = np.array([cams[c][2] for c in self.cam_ids]).reshape(-1, 3)
-        k1 = self.camera_k1(x)
-        return Ks, Rs, Cs, np.array([k1[c] for c in self.cam_ids], float)
+        lens = self.camera_lenses(x)
+        return Ks, Rs, Cs, np.array([(lens[c].k1, lens[c].k2) for c in self.cam_ids], float).reshape(-1, 2)
 
     def _marker_array(self, x: Array) -> Array:
         pos = self.marker_positions(x)
         return np.array([pos[m] for m in self.marker_names], float).reshape(-1, 3)
 
-    def _edge_residuals(self, Xa: Array, Xb: Array, Ks: Array, Rs: Array, Cs: Array, k1s: Array,
+    def _edge_residuals(self, Xa: Array, Xb: Array, Ks: Array, Rs: Array, Cs: Array, lens_k: Array,
                         idx: Index) -> Array:
         """Edge observations ``idx``: each clicked point's distance from the model edge's image
         (:func:`.edge_distance.edge_distances`), whitened by the click noise."""
         cam = self.edge_cam[idx]
-        return edge_distances(Xa, Xb, Ks[cam], Rs[cam], Cs[cam], k1s[cam], self.edge_pts[idx]) / self.sigma
+        return edge_distances(Xa, Xb, Ks[cam], Rs[cam], Cs[cam], lens_k[cam], self.edge_pts[idx]) / self.sigma
 
     @staticmethod
     def _ends(ends: Index, H: Array, M: Array) -> Array:
@@ -356,20 +356,20 @@ class Residuals(CameraBlocks):
         """The whitened residual vector."""
         xm = self.model_vector(x)
         T, H = self._posed(xm)
-        Ks, Rs, Cs, k1s = self._camera_arrays(x)
+        Ks, Rs, Cs, lens_k = self._camera_arrays(x)
         M = self._marker_array(x)
         r = np.zeros(self.m)
         if len(self.pins):
             c = self.pin_cam
-            uv = project_each(Ks[c], Rs[c], Cs[c], H[self.pin_row], k1s[c])
+            uv = project_each(Ks[c], Rs[c], Cs[c], H[self.pin_row], lens_k[c])
             r[self.rows_pin.ravel()] = ((uv - self.pin_uv) / self.sigma).ravel()
         if len(self.edges):
             idx = np.arange(len(self.edges))
             r[self.rows_edge.ravel()] = self._edge_residuals(H[self.edge_rows[:, 0]], H[self.edge_rows[:, 1]],
-                                                             Ks, Rs, Cs, k1s, idx).ravel()
+                                                             Ks, Rs, Cs, lens_k, idx).ravel()
         if len(self.marker_obs):
             c = self.mo_cam
-            uv = project_each(Ks[c], Rs[c], Cs[c], M[self.mo_marker], k1s[c])
+            uv = project_each(Ks[c], Rs[c], Cs[c], M[self.mo_marker], lens_k[c])
             r[self.rows_marker.ravel()] = ((uv - self.mo_uv) / self.sigma).ravel()
         if len(self.distances):
             pa = self._ends(self.dist_ends[:, 0], H, M)
@@ -391,7 +391,7 @@ class Residuals(CameraBlocks):
 
         xm = self.model_vector(x)
         T, H = self._posed(xm)
-        Ks, Rs, Cs, k1s = self._camera_arrays(x)
+        Ks, Rs, Cs, lens_k = self._camera_arrays(x)
         M = self._marker_array(x)
         R_, C_, V_ = [], [], []
         # A drag has a handful of unknowns: a dense matrix is cheaper than sparse bookkeeping.
@@ -417,21 +417,19 @@ class Residuals(CameraBlocks):
             f = Ks[cam, 0, 0]
             z = xc[:, 2]
             p = xc[:, :2] / z[:, None]
-            k1 = k1s[cam]
+            lens = lens_k[cam]
             r2 = np.sum(p**2, axis=1)
-            q = np.sqrt(np.maximum(1.0 - 4.0 * k1 * r2, 1e-12))
-            s = 2.0 / (1.0 + q)
-            g = 4.0 / (q * (1.0 + q) ** 2)  # ∂s/∂(k1 r2)
+            s, ds_dr2, ds_dk1, _ = distortion_derivatives_each(r2, lens)
             A = np.zeros((len(cam), 2, 3))
             A[:, 0, 0] = A[:, 1, 1] = f / z
             A[:, 0, 2] = -f * xc[:, 0] / z**2
             A[:, 1, 2] = -f * xc[:, 1] / z**2
-            if np.any(k1 != 0.0):  # through the lens: ∂u/∂p = f (s I + 2 s' p pᵀ); a pinhole's is f I
-                D = s[:, None, None] * np.eye(2) + (2.0 * g * k1)[:, None, None] * p[:, :, None] * p[:, None, :]
+            if np.any(lens != 0.0):  # through the lens: ∂u/∂p = f (s I + 2 s' p pᵀ); a pinhole's is f I
+                D = s[:, None, None] * np.eye(2) + (2.0 * ds_dr2)[:, None, None] * p[:, :, None] * p[:, None, :]
                 A = np.einsum("nij,njk->nik", D, A)
             A /= self.sigma
             return (A, np.einsum("nij,njk->nik", A, Rs[cam]), xc, s[:, None] * p,
-                    (f * g * r2)[:, None] * p / self.sigma)
+                    (f * ds_dk1)[:, None] * p / self.sigma)
 
         none: tuple[Any, Any, Any, Any, Any] = (None, None, None, None, None)  # no such observations
         A_p, MR_p, xc_p, pd_p, dk_p = proj_parts(self.pin_cam, H[self.pin_row]) if len(self.pins) else none
@@ -447,7 +445,7 @@ class Residuals(CameraBlocks):
             Tp, Hp = apply_plan(self.move_plan(group), self.model, xmp, T, H, self.handle_positions)
             dHg = Hp - H
             for j, h in zip(group, steps, strict=True):
-                self._difference_column(j, float(h), dHg, Hp, H, M, Tp, xmp, hard0, MR_p, Ks, Rs, Cs, k1s, put)
+                self._difference_column(j, float(h), dHg, Hp, H, M, Tp, xmp, hard0, MR_p, Ks, Rs, Cs, lens_k, put)
 
         if self.layout.cameras or self.layout.markers:
             for k, cid in enumerate(self.cam_ids):
@@ -480,12 +478,12 @@ class Residuals(CameraBlocks):
                 if len(sel):  # few edges: difference them
                     Xa, Xb = H[self.edge_rows[sel, 0]], H[self.edge_rows[sel, 1]]
                     x1 = x.copy()
-                    r0 = self._edge_residuals(Xa, Xb, Ks, Rs, Cs, k1s, sel)
+                    r0 = self._edge_residuals(Xa, Xb, Ks, Rs, Cs, lens_k, sel)
                     for c in blk.columns:
                         x1[c] += FD_STEP
-                        K1, R1, C1, k11 = self._camera_arrays(x1)
+                        K1, R1, C1, lens_k1 = self._camera_arrays(x1)
                         put(self.rows_edge[sel], c,
-                            (self._edge_residuals(Xa, Xb, K1, R1, C1, k11, sel) - r0) / FD_STEP)
+                            (self._edge_residuals(Xa, Xb, K1, R1, C1, lens_k1, sel) - r0) / FD_STEP)
                         x1[c] = x[c]
             m_index = {m: i for i, m in enumerate(self.marker_names)}
             for name, mblk in self.layout.markers.items():

@@ -13,7 +13,7 @@ from numpy.typing import NDArray
 from scipy import sparse
 
 from vebuild.calibration.lsq import variance_factor
-from vebuild.camera import ImageCamera
+from vebuild.camera import ImageCamera, Lens
 from vebuild.constants import OUTLIER_SIGMAS
 from vebuild.determinism import deterministic
 
@@ -155,7 +155,7 @@ def solution_at(problem: Problem, x: Array, iterations: int = 0) -> Solution:
             if blk.k1_index is not None:
                 k1_sigma[cid] = float(np.sqrt(max(cov[blk.k1_index, blk.k1_index], 0.0)))
         cams[cid] = ImageCamera(cid, K, R, np.asarray(C, float).copy(), old.width, old.height, covariance=cov_c,
-                                k1=k1[cid])
+                                lens=Lens(k1[cid], old.lens.k2))
     markers = problem.marker_positions(x)
     mcov = {k: cov[blk.slice, blk.slice] for k, blk in layout.markers.items()}
     n_model = len(layout.model)

@@ -5,7 +5,7 @@ solved; with ``recalibrate`` also every camera's rotation and position (and foca
 principal point if asked, and, with them, the lens distortion k1 of each photo whose calibration
 gives k1 a finite 1σ) and every free marker's position, each camera held by a prior equal to its
 calibration and covariance, as in :mod:`vebuild.calibration.positions`, its k1 by its own prior.
-Every projection goes through each photo's lens (:attr:`~vebuild.camera.ImageCamera.k1`). Their layout in the
+Every projection goes through each photo's lens (:attr:`~vebuild.camera.ImageCamera.lens`). Their layout in the
 vector is a :class:`~vebuild.model.layout.ParameterLayout`; the residuals and their Jacobian are
 in :mod:`.residuals`, the iteration in :mod:`.lm`, what a solve found in :mod:`.solution`.
 
@@ -187,7 +187,7 @@ class Problem(Residuals):
             at[o : o + 3] = cam.C
             if blk.distortion:  # its own k1 (a group's photo's is the group's)
                 L[-1, -1] = 1.0 / options.k1_sigma[cid]
-                at[-1] = cam.k1
+                at[-1] = cam.lens.k1
             self._prior_L[cid], self._prior_at[cid] = L, at
         self._group_L, self._group_at = {}, {}
         for gid, blk in self.layout.groups.items():

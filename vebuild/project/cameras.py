@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from vebuild.camera import ImageCamera, fov_to_focal, intrinsic_matrix, look_rotation
+from vebuild.camera import ImageCamera, Lens, fov_to_focal, intrinsic_matrix, look_rotation
 from vebuild.errors import ProjectError, VebuildError
 
 from .camera_records import recalibrated_cameras
@@ -87,13 +87,42 @@ def _cameras_from_records(project: Project, records: Mapping[str, Any], key: str
         cov = np.array([[np.inf if v is None else v for v in row] for row in c["covariance"]], float)
         C = np.asarray(c["position"]["value"], float)
         out[p["id"]] = ImageCamera(p["id"], K, R, C, p["width"], p["height"], covariance=cov,
-                                   k1=_distortion_k1(project, where, c))
+                                   lens=_distortion_lens(project, where, c, K, int(p["width"]), int(p["height"])))
     return out
 
 
 #: The division model's k1 (camera.py) beyond which no photographic lens lies: at k1 = −1 a
 #: point at 45° off axis (|x_d| = 1) would be undistorted to infinity.
 MAX_ABS_K1 = 1.0
+
+
+#: The division model's k2 beyond which no photographic lens lies: a 150° fisheye's is some −0.06
+#: (docs/lenses.md); at |k2| = 1 the term alone would halve a point's radius at 45° off axis.
+MAX_ABS_K2 = 1.0
+
+
+def _distortion_lens(project: Project, where: str, record: Mapping[str, Any], K: Array, width: int,
+                     height: int) -> Lens:
+    """The lens (k1, and k2 where the record has one) of a camera record's ``distortion``, checked:
+    each within the range of real lenses, and the photo's corners within the lens's field (where the
+    model still opens out and stays finite: past it the lens would show one point twice, or none)."""
+    k1 = _distortion_k1(project, where, record)
+    k2_record = (record.get("distortion") or {}).get("k2")
+    if k2_record is None:
+        return Lens(k1)
+    k2 = k2_record["value"]
+    if not (isinstance(k2, (int, float)) and np.isfinite(k2) and abs(k2) < MAX_ABS_K2):
+        raise ProjectError(project.path, f"{where}.distortion.k2.value",
+                           f"expected the division model's second term k2 as a number between −{MAX_ABS_K2:g} "
+                           f"and {MAX_ABS_K2:g}, got {k2!r}")
+    lens = Lens(k1, float(k2))
+    corner = float(np.max(np.hypot(np.array([0.0, width]) - K[0, 2], np.array([[0.0], [height]]) - K[1, 2])))
+    if not corner / K[0, 0] < lens.rim():
+        raise ProjectError(project.path, f"{where}.distortion.k2.value",
+                           f"expected a lens whose field reaches the photo's corners; k1 = {k1:g} with k2 = {k2:g} "
+                           f"ends {lens.rim() * K[0, 0]:.0f} px from the principal point, short of the corners "
+                           f"({corner:.0f} px): calibrate the photo again")
+    return lens
 
 
 def _distortion_k1(project: Project, where: str, record: Mapping[str, Any]) -> float:

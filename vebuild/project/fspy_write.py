@@ -217,9 +217,10 @@ def fspy_state(cam: ImageCamera, relative_units: bool) -> tuple[dict[str, Any], 
                     f"placed by hand at ({pp[0]:.2f}, {pp[1]:.2f}) px")
     if relative_units:
         notes.append("lengths are relative (the camera height is 1): fSpy's unit is 'No unit'")
-    if cam.k1 != 0.0:
-        warnings.append(f"the photo's lens distortion (k1 {cam.k1:+.4g}, moving its corners by "
-                        f"{distortion_displacement_px(K, W, H, cam.k1):.1f} px) has no place in fSpy or Blender: the "
+    if not cam.lens.is_pinhole:
+        second = f", k2 {cam.lens.k2:+.4g}" if cam.lens.k2 != 0.0 else ""
+        warnings.append(f"the photo's lens distortion (k1 {cam.lens.k1:+.4g}{second}, moving its corners by "
+                        f"{distortion_displacement_px(K, W, H, cam.lens):.1f} px) has no place in fSpy or Blender: the "
                         "camera written is its pinhole part, so lines drift from the photo toward its corners by up "
                         "to that much")
     return state, notes, warnings

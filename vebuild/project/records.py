@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from vebuild.calibration.photo import ypr_with_sigma
-from vebuild.camera import ImageCamera, distortion_displacement_px, focal_to_fov, ypr_from_rotation
+from vebuild.camera import ImageCamera, Lens, distortion_displacement_px, focal_to_fov, ypr_from_rotation
 
 
 def json_values(x: Any) -> Any:
@@ -53,14 +53,28 @@ def camera_record(K: np.ndarray, R: np.ndarray, C: np.ndarray, covariance: np.nd
 
 
 def distortion_record(K: np.ndarray, width: int, height: int, k1: float, k1_sigma: float,
-                      source: str) -> dict[str, Any]:
+                      source: str, *, k2: float = 0.0, k2_sigma: float = 0.0, k2_source: str | None = None,
+                      corner_sigma: float | None = None, k1_correlation: float | None = None) -> dict[str, Any]:
     """A lens distortion as FORMAT.md's ``distortion`` object: the division model's k1 with its 1σ,
-    how far it moves the photo's corners (pixels, and the 1σ of that), and where k1 came from."""
-    corner = distortion_displacement_px(K, width, height, k1)
-    step = max(abs(k1_sigma), 1e-12)
-    slope = abs(distortion_displacement_px(K, width, height, k1 + step) - corner) / step
-    return {"model": "division", "k1": value_sigma(k1, k1_sigma),
-            "corner_displacement_px": value_sigma(corner, slope * k1_sigma), "source": source}
+    how far it moves the photo's corners (pixels, and the 1σ of that), and where k1 came from; the
+    second term ``k2`` {value, sigma, source} beside k1 where it was tested (``k2_source``) or is
+    not 0. ``corner_sigma``: the corner displacement's 1σ where the caller has it from the joint
+    covariance of f, c, k1 and k2 (else from k1's 1σ alone); ``k1_correlation``: that of k1 and k2
+    where both were estimated (written in k2's record, for the single-view measurements' 1σ)."""
+    lens = Lens(k1, k2)
+    corner = distortion_displacement_px(K, width, height, lens)
+    if corner_sigma is None:
+        step = max(abs(k1_sigma), 1e-12)
+        slope = abs(distortion_displacement_px(K, width, height, Lens(k1 + step, k2)) - corner) / step
+        corner_sigma = slope * k1_sigma
+    out: dict[str, Any] = {"model": "division", "k1": value_sigma(k1, k1_sigma),
+           "corner_displacement_px": value_sigma(corner, corner_sigma), "source": source}
+    if k2_source is not None or k2 != 0.0:
+        k2_record: dict[str, Any] = {**value_sigma(k2, k2_sigma), "source": k2_source or source}
+        if k1_correlation is not None:
+            k2_record["k1_correlation"] = float(k1_correlation)
+        out["k2"] = k2_record
+    return out
 
 
 def view_record(cam: ImageCamera, name: str, description: str | None = None) -> dict[str, Any]:

@@ -361,7 +361,7 @@ def gltf_document(contents: _Contents) -> tuple[dict[str, Any], bytes]:
         offset = [float(cam.K[0, 2] - cam.width / 2), float(cam.K[1, 2] - cam.height / 2)]
         extras: dict[str, Any] = {"source": kind, "K": np.asarray(cam.K, float).tolist(), "width": int(cam.width),
                                   "height": int(cam.height), "principal_point_offset_px": offset}
-        if cam.k1 != 0.0:
+        if not cam.lens.is_pinhole:
             extras["distortion"] = distortion_extras(cam)
         cameras.append({"name": name, "type": "perspective",
                         "perspective": {"yfov": focal_to_fov(f, cam.height),
@@ -387,13 +387,17 @@ def gltf_document(contents: _Contents) -> tuple[dict[str, Any], bytes]:
 #: How ``extras.distortion`` defines the lens (vebuild/camera.py), for a reader with no vebuild.
 DIVISION_MODEL = ("division model (Fitzgibbon 2001): with x_d = (u - c) / f the normalised coordinate of a pixel u "
                   "as the lens put it (c the principal point and f the focal length of K, in pixels), the pinhole's "
-                  "is x_u = x_d / (1 + k1 |x_d|^2); k1 < 0 is barrel distortion")
+                  "is x_u = x_d / (1 + k1 r^2 + k2 r^4), r = |x_d|; k1 < 0 is barrel distortion; k2 is 0 (absent) "
+                  "for the one-term model")
 
 
 def distortion_extras(cam: ImageCamera) -> dict[str, Any]:
     """A photo camera's lens distortion for its glTF ``extras`` (glTF has no lens model)."""
-    return {"model": "division", "k1": float(cam.k1), "definition": DIVISION_MODEL,
-            "corner_displacement_px": distortion_displacement_px(cam.K, cam.width, cam.height, cam.k1)}
+    out = {"model": "division", "k1": float(cam.lens.k1), "definition": DIVISION_MODEL,
+           "corner_displacement_px": distortion_displacement_px(cam.K, cam.width, cam.height, cam.lens)}
+    if cam.lens.k2 != 0.0:
+        out["k2"] = float(cam.lens.k2)
+    return out
 
 
 def _unit(v: Array) -> Array:

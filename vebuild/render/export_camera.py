@@ -105,7 +105,7 @@ def floor_extent(cam: ImageCamera, points: list[Array]) -> tuple[float, tuple[fl
     C = np.asarray(cam.C, float)
     h = abs(float(C[2])) or 1.0
     u, v = np.meshgrid(np.linspace(0, cam.width, 17), np.linspace(0, cam.height, 13))
-    d = pixel_rays_world(cam.K, cam.R, np.stack([u.ravel(), v.ravel()], axis=1), cam.k1)
+    d = pixel_rays_world(cam.K, cam.R, np.stack([u.ravel(), v.ravel()], axis=1), cam.lens)
     xy = [np.zeros(2), C[:2]] + [np.asarray(p, float)[:2] for p in points]
     if C[2] > 0:
         down = d[:, 2] < -1e-3
@@ -143,7 +143,7 @@ def _plane_mesh(cam: ImageCamera, n: int) -> tuple[Array, Array, NDArray[np.int6
     u, v = np.meshgrid(np.linspace(0.0, W, nu + 1), np.linspace(0.0, H, nv + 1))
     uv = np.stack([u.ravel(), v.ravel()], axis=1)
     K = np.asarray(cam.K, float)
-    x = undistort_normalised((uv - K[:2, 2]) / K[0, 0], cam.k1)
+    x = undistort_normalised((uv - K[:2, 2]) / K[0, 0], cam.lens)
     pos = np.c_[x, np.ones(len(x))]
     tex = uv / np.array([W, H], float)
     idx = np.arange(len(uv)).reshape(nv + 1, nu + 1)
@@ -162,7 +162,7 @@ def plane_error_px(cam: ImageCamera, pos: Array, tex: Array, tris: NDArray[np.in
         wa = np.asarray(w)
         p = np.einsum("k,tkj->tj", wa, pos[tris])  # on the plane at depth 1: normalised pinhole coordinates
         t = np.einsum("k,tkj->tj", wa, tex[tris]) * scale
-        exact = distort_pixels(K, p[:, :2] * K[0, 0] + K[:2, 2], cam.k1)
+        exact = distort_pixels(K, p[:, :2] * K[0, 0] + K[:2, 2], cam.lens)
         worst = max(worst, float(np.max(np.linalg.norm(exact - t, axis=1))))
     return worst
 
@@ -172,7 +172,7 @@ def photo_plane(cam: ImageCamera) -> tuple[Array, Array, NDArray[np.int64], floa
     n = 1
     while True:
         pos, tex, tris = _plane_mesh(cam, n)
-        err = 0.0 if cam.k1 == 0.0 else plane_error_px(cam, pos, tex, tris)
+        err = 0.0 if cam.lens.is_pinhole else plane_error_px(cam, pos, tex, tris)
         if err <= PLANE_ERROR_PX or n >= 512:
             return pos, tex, tris, err
         n *= 2
@@ -253,7 +253,7 @@ def camera_document(project: Project, cam: ImageCamera, image: HandoffImage,
                               "principal_point_offset_px": [float(K[0, 2] - cam.width / 2),
                                                             float(K[1, 2] - cam.height / 2)],
                               "photo_plane": f"{name} plane"}
-    if cam.k1 != 0.0:
+    if not cam.lens.is_pinhole:
         extras["distortion"] = distortion_extras(cam)
     doc["cameras"] = [{"name": name, "type": "perspective",
                        "perspective": {"yfov": focal_to_fov(f, cam.height),
@@ -276,7 +276,7 @@ def camera_document(project: Project, cam: ImageCamera, image: HandoffImage,
                     "how": "each vertex lies on the ray of the photo pixel its texture coordinate names, at depth "
                            "'distance' in front of the camera: the pinhole image plane scaled by distance / f" +
                            (", the pixels undistorted by the division model's k1 (the texture is the photo "
-                            "undistorted)" if cam.k1 != 0.0 else ""),
+                            "undistorted)" if not cam.lens.is_pinhole else ""),
                     "texture_error_px": float(err), "image": image.note}
     add({"name": f"{name} plane", "extras": plane_extras},
         {"name": f"{name} plane", "primitives": [plane]}, parent=cam_node)

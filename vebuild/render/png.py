@@ -89,8 +89,10 @@ def _camera_record(cam: ImageCamera, kind: str) -> dict[str, Any]:
     out: dict[str, Any] = {"kind": kind, "name": cam.id, "width": cam.width, "height": cam.height,
                            "K": np.round(cam.K, 9).tolist(), "R": np.round(cam.R, 12).tolist(),
                            "C": np.round(cam.C, 9).tolist()}
-    if cam.k1 != 0.0:
-        out["distortion"] = {"model": "division", "k1": float(np.round(cam.k1, 12))}
+    if not cam.lens.is_pinhole:
+        out["distortion"] = {"model": "division", "k1": float(np.round(cam.lens.k1, 12))}
+        if cam.lens.k2 != 0.0:
+            out["distortion"]["k2"] = float(np.round(cam.lens.k2, 12))
     return out
 
 

@@ -16,7 +16,7 @@ Shadow maps are rendered when the scene or the lighting changes, not every frame
 program is compiled per lighting preset and mode (:mod:`vebuild.render.variants`), and each view
 draws closed primitives' back faces culled, nearest blocks first (:mod:`vebuild.render.draworder`).
 
-A photo's camera with lens distortion (``ImageCamera.k1`` ≠ 0) is drawn as the lens shows it, so
+A photo's camera with lens distortion (``ImageCamera.lens`` not the pinhole) is drawn as the lens shows it, so
 that the render lies on the photo: the scene is drawn as the pinhole image over the photo's
 undistorted bounds (:func:`vebuild.texture.lens.pinhole_cover`), then resampled onto the photo's
 pixels through the division model (``shaders/lens.frag``: each pixel undistorted in closed form,
@@ -387,7 +387,7 @@ class Renderer:
 
     def _draw_through_lens(self, cam: ImageCamera, target: moderngl.Framebuffer, origin: tuple[int, int],
                            flip: bool) -> None:
-        """``cam``'s view as its lens shows it (``cam.k1`` ≠ 0): the pinhole cover drawn off-screen,
+        """``cam``'s view as its lens shows it (``cam.lens`` not the pinhole): the pinhole cover drawn off-screen,
         then resampled through the lens into ``target``'s viewport at ``origin``."""
         cover, corner = pinhole_cover(cam)
         draw, resolve, image = self._target(cover.width, cover.height, "lens")
@@ -401,7 +401,7 @@ class Renderer:
         image.use(location=0)
         K = np.asarray(cam.K, float)
         set_uniforms(prog, pinhole=0, focal=float(K[0, 0]), principal=(float(K[0, 2]), float(K[1, 2])),
-                     k1=float(cam.k1), cover_origin=(float(corner[0]), float(corner[1])),
+                     k1=float(cam.lens.k1), k2=float(cam.lens.k2), cover_origin=(float(corner[0]), float(corner[1])),
                      size=(float(cam.width), float(cam.height)), origin=(float(origin[0]), float(origin[1])),
                      flip=int(flip))
         self._lens_fullscreen.render(moderngl.TRIANGLES, vertices=3)
@@ -413,7 +413,7 @@ class Renderer:
         a camera with lens distortion, its pinhole cover too (drawn before the lens's resampling)."""
         limits = gl_limits(self.ctx)
         size = check_camera(cam, stereo.mode if stereo else None, **limits)
-        if stereo is None and cam.k1 != 0.0:
+        if stereo is None and not cam.lens.is_pinhole:
             check_camera(pinhole_cover(cam)[0], None, **limits)
         return size
 
@@ -448,7 +448,7 @@ class Renderer:
         w, h = cam.width, cam.height
         x, y = origin
         mode = stereo.mode if stereo else None
-        if mode is None and cam.k1 != 0.0:
+        if mode is None and not cam.lens.is_pinhole:
             self._draw_through_lens(cam, target, origin, flip)
         elif mode is None:
             self._draw_scene(cam, target, origin, flip)
@@ -500,12 +500,12 @@ class Renderer:
         and looked up (nearest pixel) in the ID buffer of the camera's pinhole cover."""
         make_current(self.ctx)
         self.check_size(cam)
-        if cam.k1 == 0.0:
+        if cam.lens.is_pinhole:
             return self._pinhole_id_buffer(cam)
         cover, corner = pinhole_cover(cam)
         ids, depth = self._pinhole_id_buffer(cover)
         j, i = np.mgrid[0:cam.height, 0:cam.width]
-        uv = undistort_pixels(cam.K, np.stack([i + 0.5, j + 0.5], axis=-1), cam.k1) - np.array(corner, float)
+        uv = undistort_pixels(cam.K, np.stack([i + 0.5, j + 0.5], axis=-1), cam.lens) - np.array(corner, float)
         col, row = np.floor(uv[..., 0]).astype(np.intp), np.floor(uv[..., 1]).astype(np.intp)
         inside = (col >= 0) & (row >= 0) & (col < cover.width) & (row < cover.height)
         col, row = np.where(inside, col, 0), np.where(inside, row, 0)
@@ -550,8 +550,8 @@ class Renderer:
         background."""
         if not (0 <= u < cam.width and 0 <= v < cam.height):
             return None, None
-        if cam.k1 != 0.0:  # where the pinhole of the same K shows what the lens put at (u, v)
-            u, v = (float(t) for t in undistort_pixels(cam.K, np.array([u, v], float), cam.k1))
+        if not cam.lens.is_pinhole:  # where the pinhole of the same K shows what the lens put at (u, v)
+            u, v = (float(t) for t in undistort_pixels(cam.K, np.array([u, v], float), cam.lens))
         near, far = self._near_far(cam)
         K = np.array(cam.K, float)  # (u, v) at the centre of a 1 × 1 image, same near and far planes
         K[0, 2] -= u - 0.5

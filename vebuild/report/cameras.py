@@ -14,18 +14,23 @@ from vebuild.project.units import length_unit
 
 from .page import Report, esc, fmt, table
 
-LENS_NOTE = ("The lens is the division model's k1 (x_u = x_d / (1 + k1 |x_d|²) on f-normalised coordinates; "
-             "k1 &lt; 0 barrel) and how far it moves the photo's farthest corner; a pinhole where no distortion "
-             "was estimated or given.")
+LENS_NOTE = ("The lens is the division model's k1 (x_u = x_d / (1 + k1 r² + k2 r⁴) on f-normalised coordinates, "
+             "r = |x_d|; k1 &lt; 0 barrel; k2, the second term of a wide or fisheye lens, shown where it was "
+             "estimated or is not 0) and how far it moves the photo's farthest corner; a pinhole where no "
+             "distortion was estimated or given.")
 
 
 def lens(camera: Mapping[str, Any]) -> str:
-    """A camera record's lens distortion in words: k1 ± 1σ and the corner displacement, or pinhole."""
+    """A camera record's lens distortion in words: k1 ± 1σ (and k2 ± 1σ where it was estimated or is
+    not 0) and the corner displacement, or pinhole."""
     d = camera.get("distortion")
     if not d:
         return "pinhole"
     k1, corner = d["k1"], d.get("corner_displacement_px") or {}
     text = f"k1 {k1['value']:+.4f} ± {k1['sigma'] or 0:.4f}"
+    k2 = d.get("k2") or {}
+    if k2 and (k2.get("value") or k2.get("sigma")):  # a second term estimated or given
+        text += f", k2 {k2['value']:+.4f} ± {k2.get('sigma') or 0:.4f}"
     if corner:
         text += f", corners {corner['value']:.1f} ± {corner.get('sigma') or 0:.1f} px"
     return text + f" ({d.get('source', '')})"

@@ -51,7 +51,7 @@ def drawn_frame(project: Project, index: int, frames: Sequence[tuple[int, Person
     taken: list[tuple[float, float]] = []
     for number, f in frames:
         cam = photo_camera(project, f.photo)
-        ends = project_points(cam.K, cam.R, cam.C, np.array([f.foot, f.top]), cam.k1)
+        ends = project_points(cam.K, cam.R, cam.C, np.array([f.foot, f.top]), cam.lens)
         a, b = (on_image(float(u), float(v), s) for u, v in ends)
         pts = [on_image(float(u), float(v), s) for u, v in f.clicks]
         if len(pts) == 3:

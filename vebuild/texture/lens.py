@@ -1,6 +1,6 @@
 """A lens seen through a pinhole: the pinhole image that covers everything a distorted photo shows.
 
-A photo taken through a lens with distortion ``k1`` (the division model of :mod:`vebuild.camera`)
+A photo taken through a lens with distortion ``k1``, ``k2`` (the division model of :mod:`vebuild.camera`)
 shows, at its corners, what the pinhole camera of the same K puts outside its own frame (barrel
 distortion, k1 < 0) or inside it (pincushion, k1 > 0). GL rasterises pinholes only, so every pass
 that needs to know what a distorted photo sees draws a pinhole image over the photo's *undistorted
@@ -32,7 +32,7 @@ from vebuild.errors import VebuildError
 #: a small fraction of a pixel at the edges' middles, where pincushion has them), and a texel at
 #: the photo's very border has its footprint's corners (± ½ px) tested in the ID buffer too.
 COVER_MARGIN_PX = 1
-#: The least 1 + k1 |x_d|² at the photo's corners: the pinhole puts a corner 1 / (1 + k1 |x_d|²)
+#: The least 1 + k1 r² + k2 r⁴ (r = |x_d|) at the photo's border: the pinhole puts a corner 1 / (1 + k1 r² + k2 r⁴)
 #: times farther from the principal point than the lens, so 0.25 covers a barrel lens whose pinhole
 #: image is four times the photo's size per side (sixteen times its pixels). A real lens is far
 #: inside this (a 2–3 % corner displacement is 0.97); a value past it is a wrong calibration, and
@@ -57,19 +57,21 @@ def pinhole_cover(cam: ImageCamera) -> tuple[ImageCamera, tuple[int, int]]:
     A pinhole camera (k1 = 0) is its own cover, with origin (0, 0): the very object, so that
     every pass given a pinhole does exactly what it did before lenses were modelled.
     """
-    if cam.k1 == 0.0:
+    if cam.lens.is_pinhole:
         return cam, (0, 0)
     border = border_pixels(cam.width, cam.height)
     r2 = np.sum(pixels_to_normalised(cam.K, border) ** 2, axis=-1)
-    least = float(np.min(1.0 + cam.k1 * r2))
+    k1, k2 = cam.lens.k1, cam.lens.k2
+    least = float(np.min(1.0 + k1 * r2 + k2 * r2**2))
     if not least >= MIN_CORNER_DENOMINATOR:
         raise VebuildError(
-            f"photo {cam.id}: its lens distortion k1 = {cam.k1:g} (division model) puts the corners of the "
-            f"{cam.width}×{cam.height} photo {1.0 / max(least, 1e-12):.1f} times farther out than a pinhole "
-            f"would; expected at most {1.0 / MIN_CORNER_DENOMINATOR:g} times (1 + k1·|x|² ≥ "
+            f"photo {cam.id}: its lens distortion k1 = {k1:g}{f', k2 = {k2:g}' if k2 else ''} (division model) "
+            "puts the corners "
+            f"of the {cam.width}×{cam.height} photo {1.0 / max(least, 1e-12):.1f} times farther out than a pinhole "
+            f"would; expected at most {1.0 / MIN_CORNER_DENOMINATOR:g} times (1 + k1·r² + k2·r⁴ ≥ "
             f"{MIN_CORNER_DENOMINATOR:g} at the corners): the calibration's distortion is not a real lens; "
             "calibrate the photo again")
-    uv = undistort_pixels(cam.K, border, cam.k1)
+    uv = undistort_pixels(cam.K, border, cam.lens)
     lo = np.floor(uv.min(axis=0)).astype(int) - COVER_MARGIN_PX
     hi = np.ceil(uv.max(axis=0)).astype(int) + COVER_MARGIN_PX
     K = np.array(cam.K, float)
@@ -87,9 +89,9 @@ def cover_growth(cam: ImageCamera) -> float:
 
 
 def lens_uniforms(cam: ImageCamera) -> dict[str, object]:
-    """The lens's uniforms of the GLSL passes: ``k1``, the cover's ``id_origin`` (its corner in the
+    """The lens's uniforms of the GLSL passes: ``k1``, ``k2``, the cover's ``id_origin`` (its corner in the
     photo's pinhole pixels) and ``id_size``."""
     cover, origin = pinhole_cover(cam)
-    return {"k1": float(cam.k1), "id_origin": (float(origin[0]), float(origin[1])),
+    return {"k1": float(cam.lens.k1), "k2": float(cam.lens.k2), "id_origin": (float(origin[0]), float(origin[1])),
             "id_size": (float(cover.width), float(cover.height))}
 

@@ -152,7 +152,7 @@ def rasterise_ids(mesh: SceneMesh, cam: ImageCamera, erode_px: float = 0.0) -> t
     edge (two faces passing through each other), where the morphological mask erodes regardless;
     the GPU also erodes next to edges just outside the image, which this mask cannot see.
 
-    For a photo with lens distortion (``cam.k1`` ≠ 0) the ID buffer is that of its
+    For a photo with lens distortion (``cam.lens`` not the pinhole) the ID buffer is that of its
     :func:`~vebuild.texture.lens.pinhole_cover` (the pinhole image over the photo's undistorted
     bounds), as on the GPU.
     """

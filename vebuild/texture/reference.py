@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from vebuild.camera import Lens, distortion_derivatives
 from vebuild.texture import BEST_WEIGHT_SCALE, DEPTH_TOLERANCE, MAX_LEVELS, pre_pass_erosion
 from vebuild.texture.layout import SceneMesh
 from vebuild.texture.lens import pinhole_cover
@@ -264,29 +265,38 @@ def _project(tx: PageTexels, lo: int, hi: int, cam: ImageCamera, ids: NDArray[np
             c = np.where(inside[:, None], c, 0.0)
             ok &= inside & (ids_flat[np.floor(c[:, 1]).astype(np.intp) * width
                                      + np.floor(c[:, 0]).astype(np.intp)] == F)
-    if cam.k1 != 0.0:
-        p, a, b, inside = _distort(K, float(cam.k1), p, a, b, int(cam.width), int(cam.height))
+    if not cam.lens.is_pinhole:
+        p, a, b, inside = _distort(K, cam.lens, p, a, b, int(cam.width), int(cam.height))
         ok &= inside
     w = np.sqrt(np.abs(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])) * cos * weight_scale
     return _Projected(sel[ok], p[ok], a[ok], b[ok], w[ok])
 
 
-def _distort(K: Array, k1: float, p: Array, a: Array, b: Array, width: int,
+def _distort(K: Array, lens: Lens, p: Array, a: Array, b: Array, width: int,
              height: int) -> tuple[Array, Array, Array, NDArray[np.bool_]]:
-    """Pinhole pixels p (n, 2) and footprints a, b → where the lens ``k1`` puts them, and whether
+    """Pinhole pixels p (n, 2) and footprints a, b → where the ``lens`` puts them, and whether
     the footprint's corners p ± a ± b lie in the width × height photo (and in the lens's field).
 
-    x_d = s x_u with s = 2 / (1 + √(1 − 4 k1 |x_u|²)) (:func:`vebuild.camera.distort_normalised`);
-    its Jacobian s I + (2 k1 s² / √(1 − 4 k1 |x_u|²)) x_u x_uᵀ maps the footprint (in pixels too,
-    as x is divided by f on both sides).
+    x_d = s x_u with s = 2 / (1 + √(1 − 4 k1 |x_u|²)) for one term
+    (:func:`vebuild.camera.distort_normalised`); its Jacobian s I + (2 k1 s² / √(1 − 4 k1 |x_u|²))
+    x_u x_uᵀ maps the footprint (in pixels too, as x is divided by f on both sides). With two terms,
+    s and g = 2 ∂s/∂|x_u|² from :func:`vebuild.camera.distortion_derivatives`, the field ending
+    where the map stops opening out (shaders/texel.frag does the same).
     """
     f, c = K[0, 0], K[:2, 2]
     xu = (p - c) / f
-    disc = 1.0 - 4.0 * k1 * np.einsum("ij,ij->i", xu, xu)
-    field = disc > 0.0  # beyond it (a pincushion lens only) no photo shows anything
-    root = np.sqrt(np.where(field, disc, 1.0))
-    s = 2.0 / (1.0 + root)
-    g = 2.0 * k1 * s * s / root
+    k1 = lens.k1
+    r2 = np.einsum("ij,ij->i", xu, xu)
+    if lens.k2 == 0.0:
+        disc = 1.0 - 4.0 * k1 * r2
+        field = disc > 0.0  # beyond it (a pincushion lens only) no photo shows anything
+        root = np.sqrt(np.where(field, disc, 1.0))
+        s = 2.0 / (1.0 + root)
+        g = 2.0 * k1 * s * s / root
+    else:
+        s, ds_dr2, _, _ = distortion_derivatives(r2, lens)
+        field = 1.0 - 2.0 * k1 * s * r2 - 4.0 * lens.k2 * s**3 * r2**2 > 0.0
+        g = 2.0 * ds_dr2
     pd = c + f * s[:, None] * xu
     ad = s[:, None] * a + (g * np.einsum("ij,ij->i", xu, a))[:, None] * xu
     bd = s[:, None] * b + (g * np.einsum("ij,ij->i", xu, b))[:, None] * xu

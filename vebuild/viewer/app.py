@@ -21,7 +21,7 @@ import moderngl
 import numpy as np
 from numpy.typing import NDArray
 
-from vebuild.camera import ImageCamera, focal_to_fov, pixel_rays_world, undistort_pixels
+from vebuild.camera import PINHOLE, ImageCamera, focal_to_fov, pixel_rays_world, undistort_pixels
 from vebuild.errors import VebuildError
 from vebuild.gl import load_program
 from vebuild.gl.app import WindowApp
@@ -258,15 +258,15 @@ class Viewer(ViewerMeasure, FloorOverlay, ViewerScans, PresentationCommands, Win
         if uv is None or not self.has_model:
             return None, None
         cam = self.camera()  # a photo's camera has its lens: ask the renderer for the cursor's ray
-        pin = undistort_pixels(cam.K, np.array(uv, float), cam.k1)
-        return self.renderer.pick(dataclasses.replace(cam, k1=0.0), float(pin[0]), float(pin[1]))
+        pin = undistort_pixels(cam.K, np.array(uv, float), cam.lens)
+        return self.renderer.pick(dataclasses.replace(cam, lens=PINHOLE), float(pin[0]), float(pin[1]))
 
     def ray(self) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
         uv = self.cursor_image()
         if uv is None:
             return None
         cam = self.camera()
-        return np.asarray(cam.C, float), pixel_rays_world(cam.K, cam.R, np.array(uv), cam.k1)
+        return np.asarray(cam.C, float), pixel_rays_world(cam.K, cam.R, np.array(uv), cam.lens)
 
     def select(self, node: str | None) -> None:
         self.selection = node

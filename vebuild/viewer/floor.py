@@ -103,13 +103,13 @@ def polyline_points(cam: ImageCamera, a: Array, b: Array, pieces: int = 1) -> tu
         return None
     a, b = front
     t = np.linspace(0.0, 1.0, pieces + 1)
-    uv: Array = project(cam.K, cam.R, cam.C, a[None, :] + t[:, None] * (b - a)[None, :], cam.k1)
-    if cam.k1 != 0.0:
+    uv: Array = project(cam.K, cam.R, cam.C, a[None, :] + t[:, None] * (b - a)[None, :], cam.lens)
+    if not cam.lens.is_pinhole:
         with np.errstate(invalid="ignore"):
             cuts = np.clip(np.ceil(np.linalg.norm(np.diff(uv, axis=0), axis=1) / MAX_PIECE_PX), 1, MAX_CUTS)
         cuts = np.where(np.isfinite(cuts), cuts, 1).astype(int)
         t = np.concatenate([np.linspace(t[k], t[k + 1], n, endpoint=False) for k, n in enumerate(cuts)] + [t[-1:]])
-        uv = project(cam.K, cam.R, cam.C, a[None, :] + t[:, None] * (b - a)[None, :], cam.k1)
+        uv = project(cam.K, cam.R, cam.C, a[None, :] + t[:, None] * (b - a)[None, :], cam.lens)
     pts = a[None, :] + t[:, None] * (b - a)[None, :]
     return pts, uv
 
@@ -147,7 +147,7 @@ def frustum_segments(cam: ImageCamera) -> list[tuple[Array, Array]]:
     depth = max(0.05, FRUSTUM_DEPTH_SHARE * abs(float(cam.C[2])))
     w, h = float(cam.width), float(cam.height)
     corners_px = np.array([[0.0, 0.0], [w, 0.0], [w, h], [0.0, h]])
-    pin = undistort_pixels(cam.K, corners_px, cam.k1)
+    pin = undistort_pixels(cam.K, corners_px, cam.lens)
     x = np.linalg.solve(cam.K, np.c_[pin, np.ones(4)].T).T  # camera coordinates at depth 1
     corners = cam.C[None, :] + depth * x @ cam.R  # Rᵀ x for each row
     C = np.asarray(cam.C, float)
@@ -243,7 +243,7 @@ class FloorOverlay:
                 for a, b in frustum_segments(pc):
                     self._line(imgui, dl, cam, a, b, FRUSTUM_RGBA, 1.5, 8)
                 if world_to_camera(cam.R, cam.C, pc.C[None, :])[0, 2] > NEAR_M:
-                    (p,) = self._window(project(cam.K, cam.R, cam.C, pc.C[None, :], cam.k1))
+                    (p,) = self._window(project(cam.K, cam.R, cam.C, pc.C[None, :], cam.lens))
                     dl.add_text(imgui.ImVec2(p[0] + 6, p[1] - 16), orange, f"photo {pc.id}")
         for k, axis in enumerate("xyz"):
             colour = imgui.get_color_u32(imgui.ImVec4(*AXIS_RGBA[axis]))

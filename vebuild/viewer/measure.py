@@ -282,7 +282,7 @@ class ViewerMeasure:
             if world_to_camera(cam.R, cam.C, p)[2] <= 0.05:
                 out.append(None)
                 continue
-            u, w = project_points(cam.K, cam.R, cam.C, p, cam.k1)
+            u, w = project_points(cam.K, cam.R, cam.C, p, cam.lens)
             out.append(imgui.ImVec2((vx + u) / sx, (H - vy - vh + w) / sy))
         return out
 

@@ -330,7 +330,7 @@ class ViewerPanel:
                 for P in lines:
                     P = np.asarray(P, float)
                     ok = world_to_camera(cam.R, cam.C, P)[:, 2] > 0.05  # in front of the camera
-                    uv = project(cam.K, cam.R, cam.C, P[ok], cam.k1)  # a photo's camera: through its lens
+                    uv = project(cam.K, cam.R, cam.C, P[ok], cam.lens)  # a photo's camera: through its lens
                     pts = [imgui.ImVec2((vx + u) / sx, (H - vy - vh + v) / sy) for u, v in uv]
                     for a, b in zip(pts[:-1], pts[1:], strict=True):
                         dl.add_line(a, b, colours.get(kind, colours["cone"]), 2.0 if kind == "path" else 1.0)

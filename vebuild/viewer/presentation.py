@@ -20,7 +20,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from vebuild.camera import ImageCamera, world_to_camera
+from vebuild.camera import PINHOLE, ImageCamera, world_to_camera
 from vebuild.gl.window import Window
 from vebuild.render.renderer import Renderer
 
@@ -62,7 +62,7 @@ def floor_point(cam: ImageCamera, u: float, v: float) -> Any:
     """Where the ray through pixel (u, v) meets the floor (z = 0), or None if it does not ahead."""
     from vebuild.camera import pixel_rays_world
 
-    d = pixel_rays_world(cam.K, cam.R, np.array([u, v]), cam.k1)
+    d = pixel_rays_world(cam.K, cam.R, np.array([u, v]), cam.lens)
     if d[2] >= -1e-6:
         return None
     return np.asarray(cam.C, float) - float(cam.C[2]) / float(d[2]) * d
@@ -149,7 +149,7 @@ class Presentation:
         if key != self._centre_key:
             self._centre_key = key
             # the principal point: the same pixel through the lens and without it
-            pin = dataclasses.replace(cam, k1=0.0)
+            pin = dataclasses.replace(cam, lens=PINHOLE)
             _, self._centre = self.v.renderer.pick(pin, float(cam.K[0, 2]), float(cam.K[1, 2]))
         return self._centre
 

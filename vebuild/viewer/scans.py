@@ -61,4 +61,4 @@ class ViewerScans:
         v.ctx.screen.viewport = (x, y, cam.width, cam.height)
         near, far = v.renderer._near_far(cam)
         # The scene's depth is on the screen only for a mono pinhole view drawn straight into it.
-        layer.draw(cam, near, far, flip=True, depth_test=v.stereo is None and cam.k1 == 0.0)
+        layer.draw(cam, near, far, flip=True, depth_test=v.stereo is None and cam.lens.is_pinhole)
