@@ -64,7 +64,8 @@ def answers(project: Project, rep: Report) -> list[str]:
                 out.append(f"the height of {person['person']}, from {n} frame{'s' if n > 1 else ''}: "
                            f"{_interval(unit, person)}.")
         elif frame is not None:
-            out.append(f"{name}: the height of the person in photo {frame['photo']}: {_interval(unit, frame)}.")
+            out.append(f"{rec['name']}: the height of the person in photo {frame['photo']}: "
+                       f"{_interval(unit, frame)}.")
         elif sight is not None:
             out.append(f"{name}: {_seen(sight)}.")
         elif rows:
