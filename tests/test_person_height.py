@@ -333,3 +333,16 @@ def test_a_photo_with_no_scale_measures_no_person(person_project: tuple[Path, ob
                         _px(ps.head_px), "--foot", _px(ps.foot_px), "--json", str(out))  # type: ignore[attr-defined]
     assert code == 2 and "has no scale (its lengths are relative)" in err, err
     assert not out.exists()
+
+
+def test_stills_of_one_fixed_camera_share_its_calibration_error_when_combined() -> None:
+    """Frames on two stills of one fixed camera (calibrated as one: the same ``camera``) do not
+    average its calibration's error down, as frames on independently calibrated photos do."""
+    from dataclasses import replace
+
+    apart = [_frame(f"s{i}", 1.80 + 0.002 * (i % 2), 0.010, 0.002) for i in range(6)]
+    fixed = [replace(f, camera="s0") for f in apart]
+    one, other = combine("A", apart), combine("A", fixed)
+    assert other.value == pytest.approx(one.value, abs=1e-9)
+    # The shared 1 cm stays whole (×1.96) in the fixed camera's interval; apart, it shrinks by √6.
+    assert other.half95 >= Z95 * 0.010 > one.half95

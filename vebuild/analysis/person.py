@@ -57,6 +57,14 @@ class PersonFrame:
     foot: Array  # (3,) the foot point on the floor
     top: Array  # (3,) the top of the vertical through it
     click_sigma_px: float = 1.0  # each click's 1σ, per coordinate
+    #: The calibration the frame's camera shares with other frames' (the photo's own, or the first
+    #: still of a fixed camera whose stills are calibrated as one): "" for the photo's own.
+    camera: str = ""
+
+    @property
+    def calibrated_as(self) -> str:
+        """Frames with the same ``calibrated_as`` share one calibration's error."""
+        return self.camera or self.photo
 
     @property
     def sigma_image(self) -> float:

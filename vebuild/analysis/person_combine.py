@@ -3,8 +3,9 @@
 Each frame gives y_i = its height in the image + its own allowances (stance and stride, head-top
 visibility: the posture and the view of that frame), with covariance V: on the diagonal the frame's
 σ² (calibration, clicks, its allowances), off it the calibration's share common to two frames
-measured on the same photo (σ_cal,i σ_cal,j: the same camera's error moves both alike; frames on
-different photos are taken as independently calibrated).
+measured on the same photo, or on stills of one fixed camera calibrated as one (σ_cal,i σ_cal,j:
+the same camera's error moves both alike; frames on photos calibrated apart are taken as
+independently calibrated).
 
 The frames of a person also differ by more than their σ says (the head bobs over a stride, the
 posture changes): a **random-effects** combination. The between-frame variance τ² is estimated by
@@ -145,7 +146,7 @@ def combine(person: str, frames: Sequence[PersonFrame]) -> Combined:
     for i, fi in enumerate(frames):
         V[i, i] = fi.sigma_image**2 + sum(t.sigma**2 for t in fi.terms if not t.kind.per_person)
         for j, fj in enumerate(frames):
-            if i != j and fi.photo == fj.photo:
+            if i != j and fi.calibrated_as == fj.calibrated_as:
                 V[i, j] = shared[i, j] = fi.sigma_calibration * fj.sigma_calibration
                 shared[i, i] = fi.sigma_calibration**2
     if np.linalg.matrix_rank(V) < n:

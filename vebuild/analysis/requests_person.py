@@ -11,12 +11,13 @@ the recorded frames only.
 from __future__ import annotations
 
 import argparse
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
 from vebuild.errors import ProjectError, VebuildError
+from vebuild.project.decode import camera_records
 
 from .quiet_parser import QuietParser
 from .requests import AnalysisResult, _NoImage, single_view_camera
@@ -146,8 +147,11 @@ class PersonHeightRequest(_NoImage):
         click = project.settings["click_sigma_px"] if self.click_sigma is None else self.click_sigma
         if not (np.isfinite(click) and click >= 0):
             raise VebuildError(f"person-height: --click-sigma {click:g}: expected a click's 1σ in pixels, 0 or more")
-        return measure_person(cam, head, feet, floor_height=self.floor_height, terms=terms, person=self.person,
-                              click_sigma_px=click, **lens_sigma)
+        frame = measure_person(cam, head, feet, floor_height=self.floor_height, terms=terms, person=self.person,
+                               click_sigma_px=click, **lens_sigma)
+        fixed = camera_records(project.data)[cam.id].get("fixed_camera") or {}
+        stills = list(fixed.get("stills") or [])
+        return replace(frame, camera=stills[0]) if stills else frame
 
     def run(self, project: Project) -> AnalysisResult:
         frames = recorded_frames(project, self.person) if self.person else []
