@@ -14,7 +14,7 @@ import pytest
 from click_room_scene import PHOTO, TOL_PER_M, calibrated_room, table_clicks, true_pixels, worst_error_per_m
 
 from vebuild.edit.history import EditError
-from vebuild.edit.room_clicks import plan_room
+from vebuild.edit.room_clicks import LINE_MEET_RADIUS_PX, line_meet, plan_room
 from vebuild.edit.session import EditSession
 from vebuild.errors import ProjectError
 from vebuild.model.primitives import primitive_from_dict
@@ -139,3 +139,17 @@ def test_a_drag_a_marker_joint_refuses_says_so_in_words_first(clicked):
     fb = s.drag_to((uv[0] + 40.0, uv[1] + 150.0))
     s.cancel_drag()
     assert not fb.ok and fb.reason.startswith("This corner sits on marker M2 and cannot leave it. Choose the joint")
+
+
+def test_a_corner_click_snaps_to_where_two_marked_lines_meet_near_it():
+    """A wall's foot marked along x and a vertical marked along z meet at (400, 300): a click 3 px
+    off lands on the meet; one farther than the radius, or near the meet of two lines of one axis,
+    or where the lines' extensions meet far beyond their ends, stays where it was."""
+    segs = {"x": [[100.0, 310.0, 385.0, 300.5]], "z": [[400.0, 600.0, 400.0, 320.0]],
+            "y": [[700.0, 900.0, 710.0, 700.0]]}
+    got = line_meet(segs, (402.0, 302.0))
+    assert got is not None and np.allclose(got, (400.0, 300.0), atol=1e-9)
+    assert line_meet(segs, (400.0 + LINE_MEET_RADIUS_PX + 0.5, 300.0)) is None
+    assert line_meet({"x": segs["x"] + [[400.0, 600.0, 400.0, 320.0]]}, (402.0, 302.0)) is None
+    far = {"x": [[100.0, 310.0, 200.0, 306.55]], "z": [[400.0, 600.0, 400.0, 500.0]]}  # both ends 100+ px away
+    assert line_meet(far, (400.0, 300.0)) is None

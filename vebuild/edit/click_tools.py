@@ -2,8 +2,8 @@
 close the outline by clicking the first corner again or Enter, then click a wall's top above a
 corner or type the height), Opening (O: a doorway's or window's two bottom corners, then its top,
 on a wall of the selected room) and Box (B: three corners of its footprint on the floor, then its
-top above a corner, or type the height). Each click is snapped to the image corner within a few
-pixels (Alt: exactly where clicked); the session makes the primitive from the clicks
+top above a corner, or type the height). Each click is snapped to the meet of two marked lines, or
+else the image corner, within a few pixels (Alt: exactly where clicked); the session makes the primitive from the clicks
 (:mod:`vebuild.edit.room_clicks`)."""
 
 from __future__ import annotations
@@ -73,7 +73,7 @@ class ClickTools(EditorPart):
                 s.box_height_from_click(node, photo, uv)
             self.select(node)
             return
-        uv, _ = s.snap_vertex(photo, uv, exact=self.alt_held())
+        uv = s.snap_corner_click(photo, uv, exact=self.alt_held())
         clicks = st["clicks"]
         if self.tool == "room" and len(clicks) >= 3:
             fx, fy = self.image_to_window(None, clicks[0])

@@ -59,8 +59,9 @@ EDITOR_KEYS = KeyTable([
     Binding("J", "Trajectory: click the entry hole, then the exit hole: the path and its uncertainty cone (from the "
             "holes' 1σ in the solve), drawn and added to the analyses",
             (Chord(glfw.KEY_J, "set_tool", ("trajectory",)),)),
-    Binding("H", "Room: click the floor's corners in turn where they meet the walls (each snaps to the image corner "
-            "within 3 px; Alt: exactly where clicked), then the first corner again or Enter to close the floor; then "
+    Binding("H", "Room: click the floor's corners in turn where they meet the walls (each snaps to where two marked "
+            "lines meet, or else to the image corner, within a few px; Alt: exactly where clicked), then the first "
+            "corner again or Enter to close the floor; then "
             "click a wall's top straight above a corner, or type the height in the Model tab. The room appears with "
             "its corners fixed where clicked; untick in the Model tab (walls) each wall the photos do not show",
             (Chord(glfw.KEY_H, "set_tool", ("room",)),)),

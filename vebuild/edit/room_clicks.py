@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -37,6 +37,12 @@ CLICKED_THICKNESS_M = 0.1
 #: An opening whose clicked bottom lies lower than this above the floor (metres) is a doorway (its
 #: sill on the floor); higher, a window.
 DOOR_SILL_MAX_M = 0.15
+#: A click snaps to where two marked lines of different axes meet (their segments extended) when
+#: that meet lies within this many photo pixels of it, and within LINE_MEET_REACH_PX of both
+#: segments' ends: a corner where a wall's foot and a vertical were marked. As snap.SNAP_RADIUS_PX
+#: for an image corner, a few click σ.
+LINE_MEET_RADIUS_PX = 4.0
+LINE_MEET_REACH_PX = 30.0
 #: Nearest a click's ray may come to running along the surface it must meet (the sine of the
 #: angle between them): a grazing ray's meeting point is too uncertain to place a corner.
 GRAZING_SIN = 0.02
@@ -89,8 +95,53 @@ def plan_room(points: Array) -> tuple[Array, float, Array, bool, list[int]]:
     return p[0] + np.array([[c, -s], [s, c]]) @ origin, yaw, corners, True, order
 
 
+def line_meet(segments: dict[str, list[Sequence[float]]], uv: Sequence[float],
+              radius: float = LINE_MEET_RADIUS_PX) -> tuple[float, float] | None:
+    """The meet of two marked lines of different axes (``segments``: axis → [u1, v1, …, u2, v2],
+    a polyline's first and last points taken) nearest ``uv`` within ``radius`` pixels, lying
+    within LINE_MEET_REACH_PX of both segments' spans; None if there is none."""
+    q = np.asarray(uv, float)
+    lines = [(axis, np.asarray(s[:2], float), np.asarray(s[-2:], float)) for axis, segs in segments.items()
+             for s in segs if len(s) >= 4]
+    best: tuple[float, tuple[float, float]] | None = None
+    for i, (ax_a, a0, a1) in enumerate(lines):
+        for ax_b, b0, b1 in lines[i + 1:]:
+            if ax_a == ax_b:
+                continue
+            da, db = a1 - a0, b1 - b0
+            den = da[0] * db[1] - da[1] * db[0]
+            if abs(den) < 1e-9 * max(float(da @ da), 1e-12) * 1e3:
+                continue  # parallel in the photo
+            w = b0 - a0
+            t = (w[0] * db[1] - w[1] * db[0]) / den
+            s = (w[0] * da[1] - w[1] * da[0]) / den
+            la, lb = float(np.linalg.norm(da)), float(np.linalg.norm(db))
+            reach_a, reach_b = LINE_MEET_REACH_PX / max(la, 1e-9), LINE_MEET_REACH_PX / max(lb, 1e-9)
+            if not (-reach_a <= t <= 1 + reach_a and -reach_b <= s <= 1 + reach_b):
+                continue
+            p = a0 + t * da
+            d = float(np.linalg.norm(p - q))
+            if d <= radius and (best is None or d < best[0]):
+                best = (d, (float(p[0]), float(p[1])))
+    return best[1] if best else None
+
+
 class ClickBuild(Rooms):
     """Rooms, openings and boxes from clicks on a calibrated photo (mixed into the session)."""
+
+    if TYPE_CHECKING:  # the session's snapping (assist.py), mixed in beside this
+        def snap_vertex(self, photo: str, uv: Sequence[float], exact: bool = False) -> tuple[tuple[float, float],
+                                                                                              Any]: ...
+
+    def snap_corner_click(self, photo: str, uv: Sequence[float], exact: bool = False) -> tuple[float, float]:
+        """Where a corner clicked at uv lands: on the meet of two marked lines near it
+        (:func:`line_meet`), else on the image corner near it (snap_vertex), else at uv."""
+        if exact:
+            return float(uv[0]), float(uv[1])
+        meet = line_meet(self.photo(photo).get("vanishing_segments") or {}, uv)
+        if meet is not None:
+            return meet
+        return self.snap_vertex(photo, uv)[0]
 
     # -- rays --------------------------------------------------------------------------------------
 
