@@ -153,3 +153,18 @@ def test_a_corner_click_snaps_to_where_two_marked_lines_meet_near_it():
     assert line_meet({"x": segs["x"] + [[400.0, 600.0, 400.0, 320.0]]}, (402.0, 302.0)) is None
     far = {"x": [[100.0, 310.0, 200.0, 306.55]], "z": [[400.0, 600.0, 400.0, 500.0]]}  # both ends 100+ px away
     assert line_meet(far, (400.0, 300.0)) is None
+
+
+def test_a_box_clicked_on_the_table_top_stands_on_the_table(clicked):
+    """A box (a book) whose footprint is clicked on the table's top rests on the table's top where
+    it was clicked, not on the floor below it."""
+    room, s, _, table = clicked
+    a = np.radians(room.table_yaw_deg)
+    ex, ey = np.array([np.cos(a), np.sin(a), 0.0]), np.array([-np.sin(a), np.cos(a), 0.0])
+    top = np.r_[room.table_centre, room.table_size[2]]
+    feet = np.array([top, top + 0.3 * ex, top + 0.3 * ex + 0.2 * ey])  # 0.3 × 0.2 m on the top
+    book = s.box_from_clicks(PHOTO, list(true_pixels(room, feet, np.random.default_rng(9))))
+    doc = next(n for n in s.data["model"]["nodes"] if n["name"] == book)
+    assert doc["parent"] == table and doc["joint"]["face"] == "top", doc
+    got = np.array([s.model.handle_world(book, f"v{k}") for k in range(3)])
+    assert np.abs(got - feet).max() <= TOL_PER_M * 2.0, got - feet

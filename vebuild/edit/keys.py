@@ -68,8 +68,8 @@ EDITOR_KEYS = KeyTable([
     Binding("O", "Opening: on a wall of the selected room, click a doorway's or a window's two bottom corners, then "
             "its top: its place, width, height and sill (a bottom on the floor makes a doorway)",
             (Chord(glfw.KEY_O, "set_tool", ("opening",)),)),
-    Binding("B", "Box: click three corners of its footprint in turn round it, on the floor or a room's floor (it "
-            "stands on what it was clicked on), then its top straight above a corner, or type the height",
+    Binding("B", "Box: click three corners of its footprint in turn round it, on the floor, a room's floor or a "
+            "box's top (it stands on what it was clicked on), then its top straight above a corner, or type the height",
             (Chord(glfw.KEY_B, "set_tool", ("box",)),)),
     Binding("U", "clear the measurements drawn over the photo (the analyses stay in the project)",
             (Chord(glfw.KEY_U, "clear_measures"),)),

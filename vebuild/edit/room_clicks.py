@@ -387,34 +387,49 @@ class ClickBuild(Rooms):
 
     # -- boxes -------------------------------------------------------------------------------------
 
-    def _support_under(self, photo: str, uv: Sequence[float]) -> tuple[str | None, Array, Array, Array]:
-        """What a click lands on: the floor of the room it falls inside (the room, the floor's
-        world origin, x and y axes), else the world's floor z = 0 (None)."""
+    def _support_under(self, photo: str, uv: Sequence[float]) -> tuple[str | None, str | None, Array, Array, Array]:
+        """What a click lands on, nearest the camera: a room's floor inside its polygon, or the
+        top of a box or a quad inside its rectangle (the node, its face, the face's world origin,
+        x and y axes); else the world's floor z = 0 (None, None, …)."""
         model = self.model
+        best: tuple[float, str | None, str | None, Array, Array, Array] | None = None
+        C = self._ray(photo, uv)[0]
         if model is not None:
+            transforms = model.world_transforms()
             for n in model.nodes:
                 prim = n.primitive
-                if not isinstance(prim, Room):
+                params = prim.to_dict()["params"] if prim is not None else {}
+                if isinstance(prim, Room):
+                    face = "floor"
+                elif prim is not None and "top" in prim.faces() and {"width", "depth"} <= set(params):
+                    face = "top"
+                else:
                     continue
-                T = model.world_transforms()[n.name]
-                o, x, y = T[:3, 3], T[:3, 0], T[:3, 1]
+                T = transforms[n.name]
+                fo, fx, fy, fn = prim.face_frame(face)
+                o, x, y, nrm = T[:3, :3] @ fo + T[:3, 3], T[:3, :3] @ fx, T[:3, :3] @ fy, T[:3, :3] @ fn
                 try:
-                    P = self._meet_plane(photo, uv, o, T[:3, 2], "the floor")
+                    P = self._meet_plane(photo, uv, o, nrm, "the floor")
                 except EditError:
                     continue
                 q = np.array([(P - o) @ x, (P - o) @ y])
-                if isinstance(prim, Room) and _inside(q, prim.corners()):
-                    return n.name, o, x, y
-        return None, np.zeros(3), np.eye(3)[0], np.eye(3)[1]
+                inside = (_inside(q, prim.corners()) if isinstance(prim, Room) else
+                          abs(q[0]) <= params["width"] / 2 and abs(q[1]) <= params["depth"] / 2)
+                dist = float(np.linalg.norm(P - C))
+                if inside and (best is None or dist < best[0]):
+                    best = (dist, n.name, face, o, x, y)
+        if best is not None:
+            return best[1:]
+        return None, None, np.zeros(3), np.eye(3)[0], np.eye(3)[1]
 
     def box_from_clicks(self, photo: str, uvs: Sequence[Sequence[float]], name: str | None = None,
                         height: float | None = None) -> str:
-        """A box standing on what the first click lands on (a room's floor, else the floor), its
-        footprint from three corners clicked round it (the fourth follows) or all four; its height
-        ``height`` (default the usual box's) until its top is clicked or typed."""
+        """A box standing on what the first click lands on (a room's floor, a box's top, else the
+        floor), its footprint from three corners clicked round it (the fourth follows) or all four;
+        its height ``height`` (default the usual box's) until its top is clicked or typed."""
         if len(uvs) not in (3, 4):
             raise EditError(f"a box's footprint takes 3 of its corners (or all 4); {len(uvs)} clicked")
-        parent, o, x, y = self._support_under(photo, uvs[0])
+        parent, face, o, x, y = self._support_under(photo, uvs[0])
         n = np.cross(x, y)
         pts = [self._meet_plane(photo, uv, o, n, "the floor") for uv in uvs]
         q = np.array([[(P - o) @ x, (P - o) @ y] for P in pts])
@@ -445,11 +460,12 @@ class ClickBuild(Rooms):
         joint: dict[str, Any] = {"type": "rests_on", "position": [float(v) for v in centre],
                                  "yaw_deg": math.degrees(math.atan2(ex[1], ex[0]))}
         if parent is not None:
-            joint["face"] = "floor"
+            joint["face"] = face
         name = fresh_name(name, "box", {nd["name"] for nd in self._nodes()})
         self._add_clicked(name, prim, joint, parent, photo, list(zip(handles, uvs, strict=False)),
                           f"box {name} by clicks")
-        self.say(f"box '{name}' on {repr(parent) + ' floor' if parent else 'the floor'}: {width:.2f} × {depth:.2f} m; "
+        on = f"the {face} of {parent!r}" if parent else "the floor"
+        self.say(f"box '{name}' on {on}: {width:.2f} × {depth:.2f} m; "
                  "now click its top above a corner, or type its height")
         return name
 
