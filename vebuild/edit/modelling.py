@@ -22,6 +22,7 @@ from vebuild.model.residuals import EdgeObservation, Pin
 from vebuild.model.scene import Model, ModelError
 from vebuild.project import decode
 
+from .drag_words import stuck_words
 from .history import EditError
 from .marks import Marks
 from .model_doc import drop_relations_of, merge_nodes, param_kinds, resting_face
@@ -489,7 +490,7 @@ class Modelling(Marks):
                  if fixed and fixed_shift and fixed_shift > FOLLOW_TOL_PX else "")
         # The first line in words, offering the one change that lets it go there; the second the detail.
         on_marker = j.type == "marker" and root.name == ds.node and getattr(j, "handle", None) == ds.handle
-        return (_stuck_words(j, len(fixed), on_marker)
+        return (stuck_words(j, len(fixed), on_marker, _at_limit(j))
                 + f"\n{what} cannot go there: {how}{held}{shift}; it stays where it was. Unfix a vertex (F), "
                 "or change the joint")
 
@@ -564,30 +565,6 @@ def _shape_problem(d: _Drag, x: Array) -> str | None:
             return (f"{d.session.node}:{d.session.handle} cannot go there: {name} would not be a valid "
                     f"{prim.TYPE} ({e}); it stays where it was")
     return None
-
-
-def _stuck_words(j: Any, n_fixed: int, on_marker: bool) -> str:
-    """A refused drag in words (no names from the project file): what holds the corner and the one
-    change in the window that lets it move there (``on_marker``: the corner is the one on the marker)."""
-    if on_marker:
-        return (f"This corner sits on marker {getattr(j, 'marker', '?')} and cannot leave it. Choose the joint "
-                "\"rests_on\" in the Model tab (joint) to move the object off the marker.")
-    if n_fixed:
-        many = f"{n_fixed} fixed corners hold" if n_fixed > 1 else "a fixed corner holds"
-        them = "them" if n_fixed > 1 else "it"
-        return (f"This corner cannot go there: {many} the object where the photos show {them}. "
-                "Press F over a fixed corner (a filled square on the photo) to free it, then drag again.")
-    where = {"marker": f"turns about marker {getattr(j, 'marker', '?')} only",
-             "rests_on": "slides and turns on what it stands on only",
-             "hinge": "turns on its hinge only", "slider": "slides along its runner only",
-             "fixed": "is fixed to what it hangs on"}.get(j.type, "moves only as its joint lets it")
-    if j.type in ("hinge", "slider") and _at_limit(j):
-        return (f"This corner {where} and is at the end of its travel. Widen its limits (Model tab, limits) to let "
-                "it go further.")
-    if j.type in ("marker", "rests_on"):
-        return (f"This corner {where}. Press F over another of its corners to fix it where the photo shows it: a "
-                "drag then changes its size as well.")
-    return f"This corner {where}. Choose the joint \"free\" in the Model tab (joint) to let it go there."
 
 
 def _at_limit(j: Any) -> bool:
