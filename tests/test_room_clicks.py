@@ -168,3 +168,17 @@ def test_a_box_clicked_on_the_table_top_stands_on_the_table(clicked):
     assert doc["parent"] == table and doc["joint"]["face"] == "top", doc
     got = np.array([s.model.handle_world(book, f"v{k}") for k in range(3)])
     assert np.abs(got - feet).max() <= TOL_PER_M * 2.0, got - feet
+
+
+def test_a_wall_unticked_takes_the_lines_marked_along_its_top_with_it(clicked):
+    """A line marked along the top of a wall that is then said not to be there goes with it (the
+    model would otherwise name an edge it no longer has), and the message says so."""
+    s = EditSession.open(clicked[1].project.path)  # the calibrated project as written: no model
+    node = s.room_from_clicks(PHOTO, [(400.0, 900.0), (1200.0, 900.0), (1100.0, 650.0), (500.0, 650.0)])
+    line = {"photo": PHOTO, "node": node, "edge": "top2", "points": [[600.0, 500.0], [1000.0, 500.0]]}
+    s.data["model"]["edge_observations"].append(line)
+    s.set_room_walls(node, [True, True, False, True])
+    assert line not in s.data["model"]["edge_observations"]
+    assert "removed with them: 1 line marked along them (in p1)" in s.messages[-1]
+    s.undo()
+    assert line in s.data["model"]["edge_observations"] and all(s.model.node(node).primitive.walls_present)

@@ -286,9 +286,17 @@ class ClickBuild(Rooms):
         except ValueError as e:
             raise EditError(f"'{node}': {e}") from None
         gone = [str(i) for i, w in enumerate(walls) if not w]
-        self._set_room(node, new, f"walls of {node}")
+        edges = {e[0] for e in new.edges()}
+        dropped = [e for e in self._edge_docs() if e["node"] == node and e["edge"] not in edges]
+        with self._edit(f"walls of {node}"):
+            self._node_doc(node)["primitive"] = new.to_dict()
+            # A line marked along a wall that is not there any more goes with it (its top, its outer face).
+            self._model_doc()["edge_observations"] = [e for e in self._edge_docs() if e not in dropped]
+            self._rebuild_check()
         self.say(f"'{node}' has {sum(map(bool, walls))} of its {room.n_corners} walls"
-                 + (f" (no wall {', '.join(gone)})" if gone else ""))
+                 + (f" (no wall {', '.join(gone)})" if gone else "")
+                 + (f"; removed with them: {len(dropped)} line{'s' if len(dropped) > 1 else ''} marked along them "
+                    f"(in {', '.join(sorted({e['photo'] for e in dropped}))})" if dropped else ""))
 
     # -- openings ----------------------------------------------------------------------------------
 
