@@ -28,6 +28,18 @@ def driver(tmp_path, xdotool):
     d.close()
 
 
+def _zoom_on(d, X) -> None:
+    """Home (the whole photo), then three wheel steps in about world point X's pixel: the photo at
+    about one window pixel a photo pixel there, as a user zooms to click small things."""
+    d.send("key", "Home")
+    x, y = d.editor.image_to_window(None, true_pixels_of(d, X))
+    d.send(*d.move_to(x, y), "click", "4", "sleep", "0.05", "click", "4", "sleep", "0.05", "click", "4")
+
+
+def true_pixels_of(d, X):
+    return true_pixels(d.room, np.atleast_2d(X))[0]
+
+
 def _click_at(d, uv) -> None:
     x, y = d.editor.image_to_window(None, uv)
     d.send(*d.move_to(x, y), "sleep", "0.05", "click", "1")
@@ -35,9 +47,11 @@ def _click_at(d, uv) -> None:
 
 def test_an_l_shaped_room_with_two_walls_missing_a_doorway_and_a_table_by_clicks(driver):
     """Clicks and keys, counted: H, 6 floor corners, Enter, 1 wall top, Esc; 2 ticks off (walls 4
-    and 5); O, 3 doorway corners; B, 3 table corners, 1 table top, Esc; Solve; Extract textures;
-    Ctrl+S. That is 17 clicks on the photo, 4 clicks on the panel and 6 keys."""
+    and 5); O, Home, 3 wheel steps, 3 doorway corners; B, Home, 3 wheel steps, 3 table corners, 1
+    table top, Esc; Solve; Extract textures; Ctrl+S. That is 17 clicks on the photo, 6 wheel
+    steps, 4 clicks on the panel and 8 keys."""
     room, d = driver
+    d.room = room
     e, s = d.editor, d.session
     assert e.photo == PHOTO
     rng = np.random.default_rng(5)
@@ -60,15 +74,17 @@ def test_an_l_shaped_room_with_two_walls_missing_a_doorway_and_a_table_by_clicks
         d.click(f"wall there {i}")
         d.frames(1)
     assert s.model.node(node).primitive.walls_present == WALLS
-    # The doorway: its two feet, then its top.
+    # The doorway: its two feet, then its top, zoomed in on it.
     d.send("key", "o")
     door = room.door_points()
+    _zoom_on(d, 0.5 * (door["sb"] + door["et"]))
     for uv in true_pixels(room, np.array([door[k] for k in ("sb", "eb", "st")]), rng):
         _click_at(d, uv)
     assert s.model.node(node).primitive.opening_names() == ["door1"], s.messages[-3:]
-    # The table: three corners of its footprint on the room's floor, then its top.
+    # The table: three corners of its footprint on the room's floor, then its top, zoomed in on it.
     d.send("key", "b")
     corners = room.table_corners()
+    _zoom_on(d, corners.mean(axis=0))
     feet, top = table_clicks(room)
     for uv in true_pixels(room, corners[feet], rng):
         _click_at(d, uv)
