@@ -96,9 +96,8 @@ class ClickTools(EditorPart):
         if self.tool != "room" or self.photo is None:
             return
         st = self._build()
-        clicks, st["clicks"] = st["clicks"], []
-        node = self.session.room_from_clicks(self.photo, clicks)
-        st["stage"], st["node"] = "height", node
+        node = self.session.room_from_clicks(self.photo, st["clicks"])  # refused: the clicks stay (Esc drops them)
+        st["clicks"], st["stage"], st["node"] = [], "height", node
         self.select(node)
         self.panels.show_tab("Model")
 
