@@ -185,11 +185,19 @@ class FirstSteps(HelpOverlay, PhotoBrowser):
             if self.button("Calibrate##guide", tip="calibrate every photo from its segments and markers"):
                 self.later(self.calibrate)
         elif step.key == "floor":
-            if self.button("Add the floor##guide", tip="a quad named floor (Model tab's Add); then click in the "
-                                                       "photo where it lies"):
+            if self.button("Click the floor's corners##guide", tip=f"the Room tool (key {self._tool_key('room')}): "
+                                                                   "the floor's corners, then the wall's height"):
+                self.set_tool("room")
+            imgui.same_line()
+            if self.button("A floor quad##guide", tip="a quad named floor (Model tab's Add); then click in the photo "
+                                                      "where it lies, and drag its corners onto the floor's"):
                 self.panels.prepare_add("quad", "floor", None)
                 self.panels.arm_placement()
         elif step.key == "object":
+            if self.button("Box by its corners##guide", tip=f"the Box tool (key {self._tool_key('box')}): three "
+                                                            "corners of its footprint, then its top"):
+                self.set_tool("box")
+            imgui.same_line()
             if self.button("Add a box##guide", tip="a box on the floor (Model tab's Add); then click in the photo "
                                                    "where it stands"):
                 self.panels.prepare_add("box", "", floor_node(s))

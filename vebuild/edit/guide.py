@@ -125,13 +125,15 @@ STEPS: tuple[Step, ...] = (
          "from its lines and markers. Then T measures on the photo alone: a height (its foot on the floor, then "
          "its top), a distance on the floor, a length on a wall.",
          "this photo is calibrated", is_calibrated),
-    Step("floor", "Add the floor",
-         "Model tab: kind quad, name floor, Add, then click in the photo; drag its far corners onto the floor's "
-         "corners in the photos.",
+    Step("floor", "Click the floor's corners",
+         "Key H (Room): click the floor's corners in the photo in turn, where the walls meet it, then the first "
+         "corner again (or Enter); then click a wall's top straight above a corner, or type the height. The room "
+         "appears on the corners you clicked; in the Model tab, untick each wall the photos do not show. (No "
+         "corners in sight: A floor quad, then click where it lies.)",
          "the model has a floor (a quad or a room at its root)", lambda s, p: floor_node(s) is not None),
     Step("object", "Add a first object",
-         "Model tab: kind box, parent floor, Add, click where it stands; then drag its corners onto the photo "
-         "(Select tool, Esc) and Solve.",
+         "Key B (Box): click three corners of its footprint on the floor in turn round it, then its top straight "
+         "above a corner (or type the height); then Solve (Model tab). Or Add a box, then click where it stands.",
          "the model has a primitive besides the floor", lambda s, p: has_object(s)),
 )
 

@@ -59,6 +59,18 @@ EDITOR_KEYS = KeyTable([
     Binding("J", "Trajectory: click the entry hole, then the exit hole: the path and its uncertainty cone (from the "
             "holes' 1σ in the solve), drawn and added to the analyses",
             (Chord(glfw.KEY_J, "set_tool", ("trajectory",)),)),
+    Binding("H", "Room: click the floor's corners in turn where they meet the walls (each snaps to where two marked "
+            "lines meet, or else to the image corner, within a few px; Alt: exactly where clicked), then the first "
+            "corner again or Enter to close the floor; then "
+            "click a wall's top straight above a corner, or type the height in the Model tab. The room appears with "
+            "its corners fixed where clicked; untick in the Model tab (walls) each wall the photos do not show",
+            (Chord(glfw.KEY_H, "set_tool", ("room",)),)),
+    Binding("O", "Opening: on a wall of the selected room, click a doorway's or a window's two bottom corners, then "
+            "its top: its place, width, height and sill (a bottom on the floor makes a doorway)",
+            (Chord(glfw.KEY_O, "set_tool", ("opening",)),)),
+    Binding("B", "Box: click three corners of its footprint in turn round it, on the floor, a room's floor or a "
+            "box's top (it stands on what it was clicked on), then its top straight above a corner, or type the height",
+            (Chord(glfw.KEY_B, "set_tool", ("box",)),)),
     Binding("U", "clear the measurements drawn over the photo (the analyses stay in the project)",
             (Chord(glfw.KEY_U, "clear_measures"),)),
     Binding("Delete", "Delete: click a segment, a middle point, a marker, a known length or a drawn edge to remove it",
@@ -102,7 +114,8 @@ EDITOR_KEYS = KeyTable([
     Binding("P", "propose pins: the image corner near each model vertex in view (dashed squares)",
             (Chord(glfw.KEY_P, "suggest_pins_here"),)),
     Binding("Enter; click (Select); click (Delete); C", "accept every proposal on the photo (one undoable "
-            "edit); accept the one clicked; reject the one clicked; drop them all",
+            "edit; with the Room tool, close the floor's outline); accept the one clicked; reject the one "
+            "clicked; drop them all",
             (Chord(glfw.KEY_ENTER, "accept_all_here"),
              Chord(glfw.KEY_C, "clear_proposals_here"))),
     Binding("PageUp / PageDown", "previous / next photo (or click its thumbnail)",

@@ -37,7 +37,8 @@ PREVIEW_FOV_DEG = 50.0
 
 TOOLS = {"select": "Select", "x": "Segment X", "y": "Segment Y", "z": "Segment Z", "marker": "Marker",
          "edge": "Edge", "length": "Known length", "relate": "Relate", "delete": "Delete",
-         "measure": "Measure", "evidence": "Evidence marker", "trajectory": "Trajectory"}
+         "measure": "Measure", "evidence": "Evidence marker", "trajectory": "Trajectory", "room": "Room",
+         "opening": "Opening", "box": "Box"}
 TOOL_HINTS = {"select": "drag a vertex; click an edge to select its primitive",
               "x": "press, drag along an edge toward +x, release", "y": "press, drag along an edge toward +y, release",
               "z": "press, drag along an edge toward +z (up), release", "marker": "click where the marker is",
@@ -51,7 +52,12 @@ TOOL_HINTS = {"select": "drag a vertex; click an edge to select its primitive",
                          "with no solved model, on a calibrated photo alone: the points the message line names; "
                          "T again: the next measurement",
               "evidence": "click a surface to place an evidence marker, click a marker to remove it",
-              "trajectory": "click the entry hole, then the exit hole: the path with its cone"}
+              "trajectory": "click the entry hole, then the exit hole: the path with its cone",
+              "room": "click the floor's corners in turn, then the first again (or Enter); then a wall's top above a "
+                      "corner, or type the height; untick the walls the photos do not show in the Model tab",
+              "opening": "click a doorway's or window's two bottom corners on the wall, then its top",
+              "box": "click three corners of its footprint on the floor in turn, then its top above a corner (or "
+                     "type the height)"}
 #: Ctrl+click with a Segment tool adds a middle point to the segment of that axis whose path passes
 #: within this many window pixels (more than the picking radius: a lens bends an edge away from the
 #: straight line between the segment's ends).

@@ -54,7 +54,7 @@ class MessageArea(EditorPart):
         if self._placing is not None:
             lines.append((f"click in the photo where the new {self._placing['kind']} stands (Esc cancels)",
                           (1.0, 0.8, 0.2, 1.0)))
-        prompt = self.measure_prompt()  # the next point of a measurement on the photo alone
+        prompt = self.measure_prompt() or self.build_prompt()  # the next point to click
         if prompt:
             lines.append((prompt, (1.0, 0.8, 0.2, 1.0)))
         lines += [(m, (1.0, 1.0, 1.0, 1.0)) for m, _ in reversed(timed) if m != self.drag_problem]

@@ -82,6 +82,17 @@ def room_section(p: PanelFields, name: str, prim: dict[str, Any]) -> None:
     imgui.set_item_tooltip("the room has a ceiling at its walls' height (its faces are textured too)")
     if changed:
         p.ed.guard(s.room_set_ceiling, name, bool(on))
+    walls = list(prim.get("walls") or [True] * n)
+    imgui.text("walls:")
+    for i in range(n):
+        imgui.same_line()
+        changed, on = imgui.checkbox(f"{i}##wall there", bool(walls[i]) if i < len(walls) else True)
+        p.ed.rect(f"wall there {i}")
+        imgui.set_item_tooltip(f"wall {i} (from corner {i} to corner {(i + 1) % n}) is there; untick a wall the photos "
+                               "do not show: it then has no faces, is not textured and hides nothing")
+        if changed:
+            walls[i] = bool(on)
+            p.ed.guard(s.set_room_walls, name, walls)
     imgui.set_next_item_width(80)
     _, p.room_corner = imgui.input_int("corner##room", p.room_corner)
     p.ed.rect("room corner")

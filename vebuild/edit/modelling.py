@@ -22,6 +22,7 @@ from vebuild.model.residuals import EdgeObservation, Pin
 from vebuild.model.scene import Model, ModelError
 from vebuild.project import decode
 
+from .drag_words import stuck_words
 from .history import EditError
 from .marks import Marks
 from .model_doc import drop_relations_of, merge_nodes, param_kinds, resting_face
@@ -488,7 +489,10 @@ class Modelling(Marks):
             held += f"; {what} itself is fixed in photo {', '.join(itself)}"
         shift = (f" (they would move {fixed_shift:.1f} px)"
                  if fixed and fixed_shift and fixed_shift > FOLLOW_TOL_PX else "")
-        return (f"{what} cannot go there: {how}{held}{shift}; it stays where it was. Unfix a vertex (F), "
+        # The first line in words, offering the one change that lets it go there; the second the detail.
+        on_marker = j.type == "marker" and root.name == ds.node and getattr(j, "handle", None) == ds.handle
+        return (stuck_words(j, len(fixed), on_marker, _at_limit(j))
+                + f"\n{what} cannot go there: {how}{held}{shift}; it stays where it was. Unfix a vertex (F), "
                 "or change the joint")
 
     def end_drag(self) -> None:

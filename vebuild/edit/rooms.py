@@ -186,8 +186,10 @@ class Rooms(Relating):
         openings = [{**o, "wall": o["wall"] - (k if o["wall"] > corner else 0)} for o in d.get("openings", [])]
         params = d["params"]
         try:
+            walls = [w for j, w in enumerate(room.walls_present) if j not in gone]
             new = type(room).from_corners(kept, params["height"], params["thickness"], rectilinear=rect,
-                                          ceiling=bool(d.get("ceiling", False)), openings=())
+                                          ceiling=bool(d.get("ceiling", False)), openings=(),
+                                          walls=walls if any(walls) else None)
             for o in openings:
                 nm = o["name"]
                 new = new.with_opening(nm, o["wall"], o["kind"], params[f"{nm}_offset"], params[f"{nm}_width"],

@@ -35,6 +35,7 @@ from vebuild.gl.surface import OffscreenSurface, WindowSurface
 
 from .assist_keys import AssistKeys
 from .bars import Bars
+from .click_tools import ClickTools
 from .entry_keys import EntryKeys
 from .first_steps import FirstSteps
 from .keys import EDITOR_KEYS
@@ -51,7 +52,7 @@ from .tools import ScreenTools
 
 
 class Editor(FirstSteps, EntryKeys, AssistKeys, OverlayLayers, MessageArea, ScreenTools, MeasureTool, RelateTool,
-             PhotoView, Bars, Preview, WindowApp):
+             ClickTools, PhotoView, Bars, Preview, WindowApp):
     """The modelling screen over one :class:`~vebuild.edit.session.EditSession`, drawing into one
     surface (:class:`~vebuild.gl.surface.WindowSurface` or :class:`~vebuild.gl.surface.OffscreenSurface`).
     :meth:`frame` polls, draws and runs what a button asked for; :meth:`draw` only draws."""
@@ -343,6 +344,7 @@ class Editor(FirstSteps, EntryKeys, AssistKeys, OverlayLayers, MessageArea, Scre
         self._draw_photo_view("moving" if live else "all")
         if not live:
             self._draw_measures()  # what was measured by clicking (measure_tool.py)
+            self._draw_build()  # the corners clicked so far with Room, Opening or Box (click_tools.py)
         self._draw_toolbar()
         if not live:
             self._draw_strip()

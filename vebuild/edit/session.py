@@ -38,7 +38,7 @@ from .history import UNDO_DEPTH, EditError, PackedDocument
 from .marks import AXES, VanishingState
 from .modelling import ANCHOR_HANDLE, DEFAULT_PARAMS, FOLLOW_TOL_PX, DragFeedback
 from .photo_overlay import SessionOverlays
-from .rooms import Rooms
+from .room_clicks import ClickBuild
 
 #: The file name endings of the images "Add all photos" adds (what vebuild reads: camera RAW too).
 PHOTO_SUFFIXES = frozenset({".jpg", ".jpeg", ".png", ".tif", ".tiff"}) | RAW_SUFFIXES
@@ -49,7 +49,7 @@ __all__ = ["ANCHOR_HANDLE", "AXES", "DEFAULT_PARAMS", "FOLLOW_TOL_PX", "UNDO_DEP
            "EditSession", "Proposal", "VanishingState"]
 
 
-class EditSession(Assist, Rooms, SessionOverlays):
+class EditSession(Assist, ClickBuild, SessionOverlays):
     """One project being edited; see the module's docstring. Its parts, by concern: the history
     (:mod:`.history`: edits, undo, autosave), the marks (:mod:`.marks`), the modelling
     (:mod:`.modelling`: primitives, drags, fixes, joints), the relations between faces and sizes

@@ -14,6 +14,7 @@ from imgui_bundle import imgui
 
 from vebuild.errors import VebuildError
 
+from .click_tools import BUILD_TOOLS
 from .layout import CLICK_SLOP_PX, MIDDLE_PICK_PX, PICK_RADIUS_PX, TOOLS, WHEEL_STEP, EditorPart, inside
 from .marks import check_length_ends
 from .measure_tool import MEASURE_TOOLS
@@ -86,6 +87,7 @@ class ScreenTools(EditorPart):
         """Cancel what is under way (a drag, a stroke, a placement); if nothing, the Select tool."""
         busy = self.session.dragging or self._press is not None or self._placing is not None \
             or self.pending_length is not None or self.open_polyline is not None or bool(self.relate_picks)
+        busy = self.build_reset() or busy
         if self.session.dragging:
             self.session.cancel_drag()
             self.say("drag cancelled")
@@ -209,6 +211,9 @@ class ScreenTools(EditorPart):
                 raise VebuildError(f"Ctrl+click on an {self.tool} segment adds a middle point where the edge runs: "
                                    f"no {self.tool} segment passes within {MIDDLE_PICK_PX:g} px of the click")
             self._press = {**base, "kind": "insert-point", "axis": self.tool, "index": index}
+            return
+        if self.tool in BUILD_TOOLS:
+            self.build_click(x, y)
             return
         if self.tool in ("x", "y", "z", "edge", "marker", "delete", "length", "relate", *MEASURE_TOOLS):
             self._press = {**base, "kind": self.tool}
@@ -432,8 +437,11 @@ class ScreenTools(EditorPart):
             self.session.suggest_pins(self.photo)
 
     def accept_all_here(self) -> None:
-        """Enter: accept every proposal shown on the photo (one undoable edit)."""
-        if self.photo is not None:
+        """Enter: accept every proposal shown on the photo (one undoable edit); with the Room tool,
+        close the floor's outline."""
+        if self.tool in BUILD_TOOLS:
+            self.build_enter()
+        elif self.photo is not None:
             self.session.accept_all(self.photo)
 
     def clear_proposals_here(self) -> None:

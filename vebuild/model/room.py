@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .mesh import Patch
 from .primitives import MIN_SIZE_M, Frame, Primitive
-from .room_checks import OPENING_KINDS, Opening, RoomError, check_room, structure
+from .room_checks import OPENING_KINDS, Opening, RoomError, check_room, structure, wall_presence
 from .room_mesh import room_patches
 
 __all__ = ["OPENING_KINDS", "Opening", "Room", "RoomError", "corner_param_names"]
@@ -89,13 +89,16 @@ class Room(Primitive):
     rectilinear: bool
     ceiling: bool
     openings: tuple[Opening, ...]
+    walls_present: tuple[bool, ...]
     _handle_names: tuple[str, ...]
     _edges: tuple[tuple[str, str, str], ...]
 
     def __init__(self, *args: float, corners: int = 4, rectilinear: bool = True, ceiling: bool = False,
-                 openings: Iterable[Opening | Mapping[str, Any] | Sequence[Any]] = (), **params: float) -> None:
+                 openings: Iterable[Opening | Mapping[str, Any] | Sequence[Any]] = (),
+                 walls: Sequence[bool] | None = None, **params: float) -> None:
         structure_ = structure(corners, rectilinear, ceiling, openings)
         n, rect, ops = structure_
+        present = wall_presence(walls, n, ops)
         names = corner_param_names(n, rect) + ("height", "thickness") + tuple(
             f"{o.name}_{s}" for o in ops for s in _OPENING_SUFFIXES)
         set_ = object.__setattr__
@@ -103,6 +106,7 @@ class Room(Primitive):
         set_(self, "rectilinear", rect)
         set_(self, "ceiling", bool(ceiling))
         set_(self, "openings", ops)
+        set_(self, "walls_present", present)
         set_(self, "PARAMS", names)
         handles = tuple(f"{k}{i}" for k in ("f", "t", "fo", "to") for i in range(n)) + tuple(
             f"{o.name}_{h}" for o in ops for h in _OPENING_HANDLES)
@@ -110,7 +114,10 @@ class Room(Primitive):
         edges = []
         for kind, a, b, step in (("floor", "f", "f", 1), ("top", "t", "t", 1), ("corner", "f", "t", 0),
                                  ("ofloor", "fo", "fo", 1), ("otop", "to", "to", 1), ("ocorner", "fo", "to", 0)):
-            edges += [(f"{kind}{i}", f"{a}{i}", f"{b}{(i + step) % n}") for i in range(n)]
+            # An absent wall has no top nor outer face: only its floor edge (the floor's side) is
+            # drawn, and a corner's vertical where a wall meets it.
+            edges += [(f"{kind}{i}", f"{a}{i}", f"{b}{(i + step) % n}") for i in range(n)
+                      if kind == "floor" or (present[i] if step else present[i] or present[i - 1])]
         for o in ops:
             m = o.name
             edges += [(f"{m}_start", f"{m}_sb", f"{m}_st"), (f"{m}_end", f"{m}_eb", f"{m}_et"),
@@ -192,13 +199,14 @@ class Room(Primitive):
 
     def _structure_kwargs(self) -> dict[str, Any]:
         return {"corners": self.n_corners, "rectilinear": self.rectilinear, "ceiling": self.ceiling,
-                "openings": self.openings}
+                "openings": self.openings, "walls": self.walls_present}
 
     # -- construction --------------------------------------------------------------------------
 
     @classmethod
     def from_corners(cls, corners: ArrayLike, height: float, thickness: float, *, rectilinear: bool = True,
-                     ceiling: bool = False, openings: Iterable[Mapping[str, Any]] = ()) -> Room:
+                     ceiling: bool = False, openings: Iterable[Mapping[str, Any]] = (),
+                     walls: Sequence[bool] | None = None) -> Room:
         """A room from its inner floor corners (N, 2) in room coordinates (corner 0 at the origin,
         corner 1 on +x, counter-clockwise); ``openings`` are dicts name, wall, kind, offset, width,
         height, sill."""
@@ -222,7 +230,12 @@ class Room(Primitive):
         for o in ops:
             params |= {f"{o['name']}_{s}": float(o[s]) for s in _OPENING_SUFFIXES}
         return cls(corners=n, rectilinear=rectilinear, ceiling=ceiling,
-                   openings=[{"name": o["name"], "wall": o["wall"], "kind": o["kind"]} for o in ops], **params)
+                   openings=[{"name": o["name"], "wall": o["wall"], "kind": o["kind"]} for o in ops], walls=walls,
+                   **params)
+
+    def with_walls(self, walls: Sequence[bool]) -> Room:
+        """This room with the walls ``walls`` (one true or false per wall) present."""
+        return Room(*self._p, **{**self._structure_kwargs(), "walls": tuple(walls)})
 
     def with_opening(self, name: str, wall: int, kind: str, offset: float, width: float, height: float,
                      sill: float) -> Room:
@@ -230,7 +243,7 @@ class Room(Primitive):
         params = {**self.to_dict()["params"], f"{name}_offset": offset, f"{name}_width": width,
                   f"{name}_height": height, f"{name}_sill": sill}
         return Room(corners=self.n_corners, rectilinear=self.rectilinear, ceiling=self.ceiling,
-                    openings=[*self.openings, Opening(name, wall, kind)], **params)
+                    openings=[*self.openings, Opening(name, wall, kind)], walls=self.walls_present, **params)
 
     def with_corner(self, after_corner: int, depth: float | None = None) -> Room:
         """This room with wall ``after_corner`` split: a general room gets a corner at the wall's
@@ -277,8 +290,10 @@ class Room(Primitive):
         for op in ops:
             for suffix in _OPENING_SUFFIXES:
                 params.pop(f"{op['name']}_{suffix}")
+        walls = list(self.walls_present)
+        walls[i + 1:i + 1] = [walls[i]] * extra  # the split wall's parts are there where it was
         return Room.from_corners(np.array(pts), params["height"], params["thickness"], rectilinear=self.rectilinear,
-                                 ceiling=self.ceiling, openings=ops)
+                                 ceiling=self.ceiling, openings=ops, walls=walls)
 
     def opening_names(self) -> list[str]:
         return [o.name for o in self.openings]
@@ -480,18 +495,21 @@ class Room(Primitive):
                              "params": {n: float(v) for n, v in zip(self.PARAMS, self._p, strict=True)}}
         if self.openings:
             d["openings"] = [o.to_dict() for o in self.openings]
+        if not all(self.walls_present):
+            d["walls"] = list(self.walls_present)
         return d
 
     @classmethod
     def _from_file(cls, d: Mapping[str, Any], params: Mapping[str, Any]) -> Room:
         """The room a project-file dict describes: ``corners``, ``rectilinear``, ``ceiling``,
         ``openings`` besides ``params``; RoomError.at names the field."""
-        unknown = [k for k in d if k not in ("type", "params", "corners", "rectilinear", "ceiling", "openings")]
+        unknown = [k for k in d if k not in ("type", "params", "corners", "rectilinear", "ceiling", "openings",
+                                             "walls")]
         if unknown:
             raise RoomError(f"room: unknown field {unknown[0]!r}; expected type, corners, rectilinear, ceiling, "
-                            "params, openings", unknown[0])
+                            "params, openings, walls", unknown[0])
         return cls(corners=d.get("corners", 4), rectilinear=d.get("rectilinear", True), ceiling=d.get("ceiling", False),
-                   openings=d.get("openings", ()), **params)
+                   openings=d.get("openings", ()), walls=d.get("walls"), **params)
 
     def __reduce__(self) -> tuple[Any, ...]:
         return _room_from_dict, (self.to_dict(),)
@@ -501,7 +519,8 @@ class Room(Primitive):
                 and self._structure_kwargs() == other._structure_kwargs())
 
     def __hash__(self) -> int:
-        return hash((self.TYPE, self.n_corners, self.rectilinear, self.ceiling, self.openings, tuple(self._p.tolist())))
+        return hash((self.TYPE, self.n_corners, self.rectilinear, self.ceiling, self.openings, self.walls_present,
+                     tuple(self._p.tolist())))
 
     def __repr__(self) -> str:
         ops = ", ".join(f"{o.name}@{o.wall}" for o in self.openings)

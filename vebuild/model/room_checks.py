@@ -66,6 +66,8 @@ class RoomShape(Protocol):
     def ceiling(self) -> bool: ...
     @property
     def openings(self) -> tuple[Opening, ...]: ...
+    @property
+    def walls_present(self) -> tuple[bool, ...]: ...
     def param(self, name: str) -> float: ...
     def corners(self, params: Any = None) -> Array: ...
     def walls(self, params: Any = None) -> dict[str, Array]: ...
@@ -162,6 +164,28 @@ def check_room(room: RoomShape) -> None:
             if a1 < b0:
                 raise RoomError(f"room: openings '{n0}' and '{n1}' overlap on wall {wall} ('{n0}' ends at "
                                 f"{b0:g} m, '{n1}' starts at {a1:g} m)", f"params.{n1}_offset")
+
+
+def wall_presence(walls: Any, corners: int, openings: Iterable[Opening]) -> tuple[bool, ...]:
+    """Which walls the room has (``walls``: N true or false, wall i from corner i; None: all of
+    them); RoomError names ``walls`` where it is not that list, or where an opening is in a wall
+    that is not there."""
+    if walls is None:
+        return (True,) * corners
+    if isinstance(walls, str | bytes | Mapping) or not isinstance(walls, Iterable):
+        raise RoomError(f"room: walls must be a list of {corners} true or false (one per wall, wall i from corner i), "
+                        f"got {walls!r}", "walls")
+    out = tuple(walls)
+    if len(out) != corners or not all(isinstance(w, bool) for w in out):
+        raise RoomError(f"room: walls must be a list of {corners} true or false (one per wall, wall i from corner i), "
+                        f"got {list(out)!r}", "walls")
+    if not any(out):
+        raise RoomError("room: walls are all false: a room has at least one wall (a floor alone is a quad)", "walls")
+    for k, o in enumerate(openings):
+        if not out[o.wall]:
+            raise RoomError(f"room: opening '{o.name}' is in wall {o.wall}, which the room does not have "
+                            f"(walls[{o.wall}] is false)", f"openings[{k}].wall")
+    return out
 
 
 def structure(corners: Any, rectilinear: Any, ceiling: Any,

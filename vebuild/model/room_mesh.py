@@ -138,7 +138,7 @@ def _reveal(name: str, a3: Array, d: Array, n: Array, t: float, width: float, z0
 
 def room_patches(room: RoomShape, p: Array) -> list[Patch | None]:
     """Every logical face of ``room`` at params p, in the order floor, ceiling, wall{i}, outer{i},
-    wtop{i}, then each opening's reveal."""
+    wtop{i}, then each opening's reveal; None for each face of a wall the room does not have."""
     w = room.walls(p)
     h = float(p[room.PARAMS.index("height")])
     t = float(p[room.PARAMS.index("thickness")])
@@ -152,10 +152,14 @@ def room_patches(room: RoomShape, p: Array) -> list[Patch | None]:
         off, width, oh, sill = (float(p[room.PARAMS.index(f"{o.name}_{s}")]) for s in ("offset", "width", "height",
                                                                                          "sill"))
         holes[o.wall].append((off, off + width, sill, sill + oh))
+    there = room.walls_present  # an absent wall has no faces: neither textured nor an occluder
     for i in range(n):
         out.append(_holed_face(f"wall{i}", np.r_[c[i], 0.0], w["dir"][i], (0.0, float(w["length"][i])), h, holes[i],
-                               False))
+                               False) if there[i] else None)
     for i in range(n):
+        if not there[i]:
+            out.append(None)
+            continue
         start = np.r_[c[i] + t * w["normal"][i], 0.0]
         u0, u1 = (float(v) for v in w["outer_u"][i])
         out.append(_holed_face(f"outer{i}", start, w["dir"][i], (u0, u1), h, holes[i], True))
@@ -164,7 +168,7 @@ def room_patches(room: RoomShape, p: Array) -> list[Patch | None]:
         for i in range(n):
             j = (i + 1) % n
             quad = np.array([[*c[i], h], [*o_[i], h], [*o_[j], h], [*c[j], h]])
-            out.append(polygon_patch(f"wtop{i}", quad, np.r_[w["dir"][i], 0.0]))
+            out.append(polygon_patch(f"wtop{i}", quad, np.r_[w["dir"][i], 0.0]) if there[i] else None)
     for o in room.openings:
         off, width, oh, sill = (float(p[room.PARAMS.index(f"{o.name}_{s}")]) for s in ("offset", "width", "height",
                                                                                          "sill"))
