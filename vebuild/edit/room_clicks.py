@@ -149,7 +149,7 @@ class ClickBuild(Rooms):
         if photo not in self.cameras:
             raise EditError(f"photo {photo} is not calibrated: calibrate it first, then click on it")
         cam = self._camera(photo)
-        d = cam_math.pixel_rays_world(cam.K, cam.R, np.asarray(uv, float), cam.k1)
+        d = cam_math.pixel_rays_world(cam.K, cam.R, np.asarray(uv, float), cam.lens)
         return np.asarray(cam.C, float), np.asarray(d, float)
 
     def _meet_plane(self, photo: str, uv: Sequence[float], o: Array, n: Array, what: str) -> Array:
