@@ -190,7 +190,7 @@ def run_demo(out: Path, progress: bool = True) -> int:
     seen = sum(1 for f in record["faces"] if f["seen_fraction"] > 0)
     why = check_explanations(project, model.get("check_distances") or [], truth) if truth else []
     if why:  # just above the summary, which points to it: the last screen says it
-        print("\n" + "\n".join(line.strip() for line in why))
+        print("\n" + "\n".join(why))
     print("\n" + summary(project, model, truth, out, seen))
     from vebuild.project.outputs import write_manifest
 
