@@ -63,6 +63,13 @@ Array = NDArray[np.float64]
 DISTORTION_TEST_LEVEL = 0.05
 
 
+def lr_words(statistic: float, p_value: float, level: float) -> str:
+    """A likelihood-ratio test's figures in words: "LR test: Δχ² = 0.42, p = 0.52, level 0.05"."""
+    p = f"{p_value:.2g}" if p_value >= 1e-4 else "< 0.0001"
+    eq = "" if p.startswith("<") else "= "
+    return f"LR test: Δχ² = {statistic:.2f}, p {eq}{p}, level {level:g}"
+
+
 @dataclass(frozen=True)
 class DistortionTest:
     """The likelihood-ratio test of bending lines against k1 held at ``held_k1``.
@@ -88,9 +95,7 @@ class DistortionTest:
     @property
     def words(self) -> str:
         """The test's figures: "LR test: Δχ² = 0.42, p = 0.52, level 0.05"."""
-        p = f"{self.p_value:.2g}" if self.p_value >= 1e-4 else "< 0.0001"
-        eq = "" if p.startswith("<") else "= "
-        return f"LR test: Δχ² = {self.statistic:.2f}, p {eq}{p}, level {self.level:g}"
+        return lr_words(self.statistic, self.p_value, self.level)
 
     @property
     def held_words(self) -> str:
@@ -131,9 +136,8 @@ class SecondTermTest:
 
     @property
     def words(self) -> str:
-        p = f"{self.p_value:.2g}" if self.p_value >= 1e-4 else "< 0.0001"
-        eq = "" if p.startswith("<") else "= "
-        return f"LR test: Δχ² = {self.statistic:.2f}, p {eq}{p}, level {self.level:g}"
+        """The test's figures, as :class:`DistortionTest`'s."""
+        return lr_words(self.statistic, self.p_value, self.level)
 
 
 def wide_lens(problem: JointProblem, y: Array, scale: float, width: int, height: int) -> bool:

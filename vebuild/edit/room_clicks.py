@@ -126,6 +126,17 @@ def line_meet(segments: dict[str, list[Sequence[float]]], uv: Sequence[float],
     return best[1] if best else None
 
 
+def along_line(f: Array, u: Array, C: Array, d: Array) -> float | None:
+    """How far along the line f + s u (u a unit vector) lies its point nearest the ray C + t d (d a
+    unit vector): s; None where the two run within :data:`GRAZING_SIN` of parallel."""
+    b = float(d @ u)
+    w = f - C
+    den = 1.0 - b * b
+    if den < GRAZING_SIN ** 2:
+        return None
+    return (b * float(w @ d) - float(w @ u)) / den
+
+
 class ClickBuild(Rooms):
     """Rooms, openings and boxes from clicks on a calibrated photo (mixed into the session)."""
 
@@ -169,16 +180,10 @@ class ClickBuild(Rooms):
         """The height above ``foot`` (world) of the point of the vertical through it nearest the
         click's ray: a click on a wall's top above a corner."""
         C, d = self._ray(photo, uv)
-        f = np.asarray(foot, float)
-        z = np.array([0.0, 0.0, 1.0])
-        # The closest points of the lines f + s z and C + t d.
-        b = float(d @ z)
-        w = f - C
-        den = 1.0 - b * b
-        if den < GRAZING_SIN ** 2:
+        s = along_line(np.asarray(foot, float), np.array([0.0, 0.0, 1.0]), C, d)
+        if s is None:
             raise EditError("the click's ray runs along the vertical through the corner: click the top from a photo "
                             "that sees the wall from the side")
-        s = (b * float(w @ d) - float(w @ z)) / den
         if not s > 0:
             raise EditError(f"the click at ({uv[0]:.0f}, {uv[1]:.0f}) is not above the corner: click the wall's top "
                             "straight above it")
@@ -487,13 +492,10 @@ class ClickBuild(Rooms):
         C, d = self._ray(photo, uv)
         up = T[:3, 2]
         # The vertical of the box's own frame through the corner (its support may be tilted).
-        b = float(d @ up)
-        w = foot - C
-        den = 1.0 - b * b
-        if den < GRAZING_SIN ** 2:
+        h = along_line(foot, up, C, d)
+        if h is None:
             raise EditError("the click's ray runs along the box's corner: click its top from a photo that sees it from "
                             "the side")
-        h = (b * float(w @ d) - float(w @ up)) / den
         if not h > 0.001:
             raise EditError(f"the click at ({uv[0]:.0f}, {uv[1]:.0f}) is not above the box's corner: click its top")
         self._set_sizes_and_pins(node, {"height": h}, photo, [(f"v{int(corner[1:]) + 4}", uv)],

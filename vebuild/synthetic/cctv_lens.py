@@ -18,6 +18,7 @@ Pixel coordinates put a pixel's centre at (column + ½, row + ½), as the ray-ca
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -25,6 +26,33 @@ from numpy.typing import NDArray
 Array = NDArray[np.float64]
 
 LENS_KINDS = ("rectilinear", "equidistant", "equisolid")
+
+
+class _Lens(Protocol):
+    """What the two lenses share: a principal point, a focal length and the rays of pixels."""
+
+    @property
+    def c(self) -> tuple[float, float]: ...
+
+    @property
+    def f(self) -> float: ...
+
+    def rays(self, uv: Array) -> Array: ...
+
+
+def corner_displacement_px(lens: _Lens, width: int, height: int) -> float:
+    """The largest distance from a corner of the photo to where the K-equivalent pinhole puts that
+    corner's ray (module docstring)."""
+    corners = np.array([[0.0, 0.0], [width, 0.0], [0.0, height], [width, height]])
+    d = lens.rays(corners)
+    pin = np.asarray(lens.c) + lens.f * d[:, :2] / d[:, 2:3]
+    return float(np.max(np.linalg.norm(pin - corners, axis=1)))
+
+
+def diagonal_fov_deg(lens: _Lens, width: int, height: int) -> float:
+    """The field across the photo's diagonal: the angle between its two opposite corners' rays."""
+    d = lens.rays(np.array([[0.0, 0.0], [width, height]]))
+    return float(np.degrees(np.arccos(np.clip(d[0] @ d[1], -1.0, 1.0))))
 
 
 @dataclass(frozen=True)
@@ -96,15 +124,11 @@ class TrueLens:
     def corner_displacement_px(self, width: int, height: int) -> float:
         """The largest distance from a corner of the photo to where the K-equivalent pinhole puts
         that corner's ray (module docstring)."""
-        corners = np.array([[0.0, 0.0], [width, 0.0], [0.0, height], [width, height]])
-        d = self.rays(corners)
-        pin = np.asarray(self.c) + self.f * d[:, :2] / d[:, 2:3]
-        return float(np.max(np.linalg.norm(pin - corners, axis=1)))
+        return corner_displacement_px(self, width, height)
 
     def diagonal_fov_deg(self, width: int, height: int) -> float:
         """The field across the photo's diagonal: the angle between its two opposite corners' rays."""
-        d = self.rays(np.array([[0.0, 0.0], [width, height]]))
-        return float(np.degrees(np.arccos(np.clip(d[0] @ d[1], -1.0, 1.0))))
+        return diagonal_fov_deg(self, width, height)
 
 
 def lens_for_field(kind: str, fov_deg: float, width: int, height: int, c: tuple[float, float],
@@ -151,14 +175,10 @@ class DivisionLens:
         return d / np.linalg.norm(d, axis=-1, keepdims=True)
 
     def corner_displacement_px(self, width: int, height: int) -> float:
-        corners = np.array([[0.0, 0.0], [width, 0.0], [0.0, height], [width, height]])
-        d = self.rays(corners)
-        pin = np.asarray(self.c) + self.f * d[:, :2] / d[:, 2:3]
-        return float(np.max(np.linalg.norm(pin - corners, axis=1)))
+        return corner_displacement_px(self, width, height)
 
     def diagonal_fov_deg(self, width: int, height: int) -> float:
-        d = self.rays(np.array([[0.0, 0.0], [width, height]]))
-        return float(np.degrees(np.arccos(np.clip(d[0] @ d[1], -1.0, 1.0))))
+        return diagonal_fov_deg(self, width, height)
 
 
 def matching_division_lens(lens: TrueLens, width: int, height: int) -> DivisionLens:
