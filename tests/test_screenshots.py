@@ -29,7 +29,9 @@ def test_the_script_writes_each_screen_of_the_example(tmp_path, capsys):
     for name, (window, width) in shots.SHOTS.items():
         im = Image.open(out / name)
         assert im.format == "PNG" and im.mode == "P"  # a palette: small files to commit
-        if window is None:  # the report's first two A4 pages side by side, on grey
+        if name == "demo-summary.png":  # the demo's last screen: 30 rows of a 110-column terminal
+            assert im.width == width and 0.4 * width < im.height < 0.8 * width
+        elif window is None:  # the report's first two A4 pages side by side, on grey
             a4 = 297 / 210
             assert im.width == width and im.height == pytest.approx(width / 2 * a4, rel=0.05)
         else:

@@ -15,14 +15,14 @@ Both are flagged interlaced (x264's ``interlaced=1``, top field first) where the
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import av
 import cv2
 import numpy as np
 from numpy.typing import NDArray
+
+from vebuild.project.atomic import write_via_path
 
 from .cctv import CctvCase
 from .cctv_render import BODY_RADIUS_M, render
@@ -125,10 +125,9 @@ def encode(frames_: list[Frame], path: Path, lossless: bool, interlaced: bool) -
     """Write the frames to ``path`` (an MP4) as H.264 (module docstring), atomically."""
     h, w = frames_[0].shape[:2]
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(suffix=".mp4", dir=path.parent)
-    os.close(fd)
-    try:
-        with av.open(tmp, "w", format="mp4") as out:
+
+    def write(tmp: Path) -> None:
+        with av.open(str(tmp), "w", format="mp4") as out:
             stream = out.add_stream("libx264rgb" if lossless else "libx264", rate=FPS)
             stream.width, stream.height = w, h
             stream.pix_fmt = "rgb24" if lossless else "yuv420p"
@@ -141,10 +140,8 @@ def encode(frames_: list[Frame], path: Path, lossless: bool, interlaced: bool) -
                     out.mux(packet)
             for packet in stream.encode():
                 out.mux(packet)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+
+    write_via_path(path, write)
 
 
 def decode(path: Path) -> list[Frame]:
